@@ -1,0 +1,74 @@
+//! Baking: from a scene to the specular probe A and the dense probe grid. Pure computation;
+//! writing files is `format::bake_io`.
+
+pub mod grid;
+pub mod probe;
+
+pub use grid::{GridGeometry, ProbeGrid};
+pub use probe::SpecularProbe;
+
+use crate::format::manifest::BakeStats;
+use crate::progress::Progress;
+use crate::scene::Scene;
+use crate::trace::{Renderer, Tracer};
+use glam::{UVec3, Vec3};
+use std::time::Instant;
+
+/// Everything a bake produces.
+#[derive(Clone, Debug)]
+pub struct Bake {
+    pub probe: SpecularProbe,
+    pub grid: ProbeGrid,
+    pub stats: BakeStats,
+}
+
+/// Bakes the scene's probe and grid with the settings of its scene file.
+pub fn bake(scene: &Scene, tracer: &Tracer, progress: &Progress) -> Bake {
+    let t0 = Instant::now();
+    let cfg = &scene.config;
+    let renderer = Renderer::new(scene, tracer);
+    let (probe, probe_rays) = probe::bake_probe(
+        &renderer,
+        &probe::ProbeSettings {
+            position: Vec3::from_array(cfg.probe.position),
+            resolution: cfg.probe.resolution,
+            samples_per_texel: cfg.probe.samples_per_texel,
+            ggx_samples: cfg.probe.ggx_samples,
+            min_mip_resolution: cfg.probe.min_mip_resolution,
+            seed: cfg.seed,
+        },
+        progress,
+    );
+    let probe_s = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let (grid, grid_rays) = grid::bake_grid(
+        &renderer,
+        &grid::GridSettings {
+            geometry: GridGeometry {
+                min: Vec3::from_array(cfg.grid.min),
+                max: Vec3::from_array(cfg.grid.max),
+                counts: UVec3::from_array(cfg.grid.counts),
+            },
+            irradiance_resolution: cfg.grid.irradiance_resolution,
+            depth_resolution: cfg.grid.depth_resolution,
+            depth_samples: cfg.grid.depth_samples,
+            inside_backface_fraction: cfg.grid.inside_backface_fraction,
+            far_distance: 4.0 * scene.extent(),
+            seed: cfg.seed,
+        },
+        progress,
+    );
+    let grid_s = t1.elapsed().as_secs_f64();
+    let total_s = t0.elapsed().as_secs_f64();
+    let stats = BakeStats {
+        probe_rays,
+        grid_rays,
+        bvh_build_s: tracer.build_time.as_secs_f64(),
+        probe_s,
+        grid_s,
+        total_s,
+        rays_per_s: (probe_rays + grid_rays) as f64 / total_s.max(1e-9),
+        threads: rayon::current_num_threads(),
+    };
+    Bake { probe, grid, stats }
+}

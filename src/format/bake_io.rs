@@ -1,0 +1,286 @@
+//! The bake folder: `probe.exr`, `grid.exr`, `manifest.json` and PNG previews.
+//!
+//! `probe.exr` layers: `radiance_mip{m}` (R, G, B; GGX-prefiltered, roughness in the
+//! manifest), `depth_mip{m}` (Z; distance, +inf on miss; mip 0 = texel-centre distances).
+//! `grid.exr` layers: `irradiance` (R, G, B) and `depth_moments` (mean, mean_sq, hit) atlases;
+//! cell (x, y, z) occupies tile column x, tile row y + ny·z, tiles of the map's resolution.
+
+use super::exr_io::{ExrLayer, read_exr, write_exr};
+use super::manifest::*;
+use super::{FormatError, write_atomic};
+use crate::bake::{Bake, GridGeometry, ProbeGrid, SpecularProbe};
+use crate::octa::{CONVENTION, OctMap, OctMips};
+use crate::preview;
+use crate::scene::Scene;
+use glam::{UVec3, Vec3};
+use std::path::Path;
+
+pub const PROBE_FILE: &str = "probe.exr";
+pub const GRID_FILE: &str = "grid.exr";
+pub const MANIFEST_FILE: &str = "manifest.json";
+
+fn vec3_channels(texels: &[Vec3]) -> Vec<(String, Vec<f32>)> {
+    vec![
+        ("R".into(), texels.iter().map(|v| v.x).collect()),
+        ("G".into(), texels.iter().map(|v| v.y).collect()),
+        ("B".into(), texels.iter().map(|v| v.z).collect()),
+    ]
+}
+
+/// Rearranges cell-major per-cell maps into an atlas (row-major, see module docs).
+fn to_atlas<T: Copy + Default>(g: &GridGeometry, res: u32, per_cell: &[T]) -> (usize, usize, Vec<T>) {
+    let (nx, ny, nz) = (g.counts.x as usize, g.counts.y as usize, g.counts.z as usize);
+    let r = res as usize;
+    let (w, h) = (nx * r, ny * nz * r);
+    let mut atlas = vec![T::default(); w * h];
+    for cell in 0..g.cell_count() {
+        let c = g.cell_coords(cell);
+        let (tx, ty) = (c.x as usize, c.y as usize + ny * c.z as usize);
+        for j in 0..r {
+            for i in 0..r {
+                atlas[(ty * r + j) * w + tx * r + i] = per_cell[cell * r * r + j * r + i];
+            }
+        }
+    }
+    (w, h, atlas)
+}
+
+fn from_atlas<T: Copy + Default>(g: &GridGeometry, res: u32, atlas: &[T]) -> Vec<T> {
+    let ny = g.counts.y as usize;
+    let r = res as usize;
+    let w = g.counts.x as usize * r;
+    let mut out = vec![T::default(); g.cell_count() * r * r];
+    for cell in 0..g.cell_count() {
+        let c = g.cell_coords(cell);
+        let (tx, ty) = (c.x as usize, c.y as usize + ny * c.z as usize);
+        for j in 0..r {
+            for i in 0..r {
+                out[cell * r * r + j * r + i] = atlas[(ty * r + j) * w + tx * r + i];
+            }
+        }
+    }
+    out
+}
+
+pub fn probe_layers(p: &SpecularProbe) -> Vec<ExrLayer> {
+    let mut layers = Vec::new();
+    for (m, level) in p.radiance.levels.iter().enumerate() {
+        let n = level.res as usize;
+        layers.push(ExrLayer { name: format!("radiance_mip{m}"), width: n, height: n, channels: vec3_channels(&level.texels) });
+    }
+    for (m, level) in p.depth.levels.iter().enumerate() {
+        let n = level.res as usize;
+        layers.push(ExrLayer { name: format!("depth_mip{m}"), width: n, height: n, channels: vec![("Z".into(), level.texels.clone())] });
+    }
+    layers
+}
+
+pub fn grid_layers(g: &ProbeGrid) -> Vec<ExrLayer> {
+    let (w, h, irr) = to_atlas(&g.geometry, g.irradiance_resolution, &g.irradiance);
+    let (dw, dh, mean) = to_atlas(&g.geometry, g.depth_resolution, &g.depth_mean);
+    let (_, _, mean_sq) = to_atlas(&g.geometry, g.depth_resolution, &g.depth_mean_sq);
+    let (_, _, hit) = to_atlas(&g.geometry, g.depth_resolution, &g.hit_fraction);
+    vec![
+        ExrLayer { name: "irradiance".into(), width: w, height: h, channels: vec3_channels(&irr) },
+        ExrLayer {
+            name: "depth_moments".into(),
+            width: dw,
+            height: dh,
+            channels: vec![("mean".into(), mean), ("mean_sq".into(), mean_sq), ("hit".into(), hit)],
+        },
+    ]
+}
+
+pub fn build_manifest(scene: &Scene, bake: &Bake) -> BakeManifest {
+    let p = &bake.probe;
+    let g = &bake.grid;
+    let (lo, hi) = scene.bounds();
+    BakeManifest {
+        format: BAKE_FORMAT.into(),
+        version: BAKE_VERSION,
+        generator: format!("warpfit {}", env!("CARGO_PKG_VERSION")),
+        conventions: Conventions {
+            octahedral: CONVENTION.into(),
+            up_axis: "+Y".into(),
+            handedness: "right".into(),
+            units: "scene units (metres in the built-in scenes)".into(),
+            distance: "Euclidean distance from the probe/cell centre along the texel direction; \
+                       +inf in EXR depth layers where the ray missed; the grid's moments count a \
+                       miss as far_distance"
+                .into(),
+            radiance: "linear RGB, view-independent (Lambertian) outgoing radiance".into(),
+        },
+        scene: SceneSummary {
+            name: scene.name.clone(),
+            file: scene.source.display().to_string(),
+            triangles: scene.triangles.len(),
+            spheres: scene.spheres.len(),
+            degenerate_triangles_skipped: scene.degenerate_skipped,
+            bounds_min: lo.to_array(),
+            bounds_max: hi.to_array(),
+        },
+        probe: ProbeManifest {
+            file: PROBE_FILE.into(),
+            position: p.position.to_array(),
+            resolution: p.resolution(),
+            samples_per_texel: scene.config.probe.samples_per_texel,
+            ggx_samples: scene.config.probe.ggx_samples,
+            radiance_mips: p
+                .radiance
+                .levels
+                .iter()
+                .enumerate()
+                .map(|(m, l)| MipInfo {
+                    level: m as u32,
+                    layer: format!("radiance_mip{m}"),
+                    resolution: l.res,
+                    perceptual_roughness: p.roughness[m],
+                    alpha: p.roughness[m] * p.roughness[m],
+                })
+                .collect(),
+            depth_mips: (0..p.depth.levels.len()).map(|m| format!("depth_mip{m}")).collect(),
+            depth_mip_filter: "solid-angle-weighted 2x2 mean of inverse distance (1/inf = 0)".into(),
+        },
+        grid: GridManifest {
+            file: GRID_FILE.into(),
+            min: g.geometry.min.to_array(),
+            max: g.geometry.max.to_array(),
+            counts: g.geometry.counts.to_array(),
+            cell_size: g.geometry.cell_size().to_array(),
+            cell_index: "x + nx*(y + ny*z); probe at the cell centre".into(),
+            irradiance_resolution: g.irradiance_resolution,
+            depth_resolution: g.depth_resolution,
+            depth_samples: g.depth_samples,
+            atlas_layout: "cell (x,y,z) at tile column x, tile row y + ny*z; tile = one octahedral map".into(),
+            far_distance: g.far_distance,
+            active_cells: g.active_cells(),
+            inside_cells: g.inside.iter().enumerate().filter(|(_, x)| **x).map(|(k, _)| k as u32).collect(),
+        },
+        stats: bake.stats.clone(),
+        settings: scene.config.clone(),
+    }
+}
+
+/// Writes the whole bake folder (each file atomically) and its previews.
+pub fn write_bake(dir: &Path, scene: &Scene, bake: &Bake) -> Result<(), FormatError> {
+    std::fs::create_dir_all(dir).map_err(|source| FormatError::Io { path: dir.to_path_buf(), source })?;
+    write_exr(&dir.join(PROBE_FILE), &probe_layers(&bake.probe))?;
+    write_exr(&dir.join(GRID_FILE), &grid_layers(&bake.grid))?;
+    let manifest = build_manifest(scene, bake);
+    let path = dir.join(MANIFEST_FILE);
+    let json = serde_json::to_vec_pretty(&manifest).map_err(|e| FormatError::Json { path: path.clone(), message: e.to_string() })?;
+    write_atomic(&path, &json).map_err(|source| FormatError::Io { path: path.clone(), source })?;
+    preview::write_bake_previews(dir, bake)?;
+    Ok(())
+}
+
+fn find<'a>(layers: &'a [ExrLayer], path: &Path, name: &str, res: (usize, usize)) -> Result<&'a ExrLayer, FormatError> {
+    let l = layers.iter().find(|l| l.name == name).ok_or_else(|| FormatError::Invalid {
+        path: path.to_path_buf(),
+        field: name.into(),
+        message: "layer missing".into(),
+    })?;
+    if (l.width, l.height) != res {
+        return Err(FormatError::Invalid {
+            path: path.to_path_buf(),
+            field: name.into(),
+            message: format!("size {}x{}, expected {}x{}", l.width, l.height, res.0, res.1),
+        });
+    }
+    Ok(l)
+}
+
+fn channel<'a>(l: &'a ExrLayer, path: &Path, name: &str) -> Result<&'a [f32], FormatError> {
+    l.channel(name).ok_or_else(|| FormatError::Invalid {
+        path: path.to_path_buf(),
+        field: format!("{}.{name}", l.name),
+        message: "channel missing".into(),
+    })
+}
+
+fn finite_rgb(l: &ExrLayer, path: &Path) -> Result<Vec<Vec3>, FormatError> {
+    let (r, g, b) = (channel(l, path, "R")?, channel(l, path, "G")?, channel(l, path, "B")?);
+    let v: Vec<Vec3> = (0..r.len()).map(|k| Vec3::new(r[k], g[k], b[k])).collect();
+    if let Some(k) = v.iter().position(|x| !x.is_finite()) {
+        return Err(FormatError::Invalid { path: path.to_path_buf(), field: l.name.clone(), message: format!("texel {k} is not finite") });
+    }
+    Ok(v)
+}
+
+/// Reads a bake folder back, validating versions, sizes and values.
+pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid), FormatError> {
+    let mpath = dir.join(MANIFEST_FILE);
+    let text = std::fs::read_to_string(&mpath).map_err(|source| FormatError::Io { path: mpath.clone(), source })?;
+    let probe_format: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| FormatError::Json { path: mpath.clone(), message: e.to_string() })?;
+    let found = probe_format.get("format").and_then(|v| v.as_str()).unwrap_or("").to_string();
+    let version = probe_format.get("version").and_then(|v| v.as_u64()).unwrap_or(0) as u32;
+    if found != BAKE_FORMAT || version != BAKE_VERSION {
+        return Err(FormatError::Version { path: mpath, found, version, expected: BAKE_FORMAT.into(), supported: BAKE_VERSION });
+    }
+    let m: BakeManifest =
+        serde_json::from_value(probe_format).map_err(|e| FormatError::Json { path: mpath.clone(), message: e.to_string() })?;
+
+    let ppath = dir.join(&m.probe.file);
+    let layers = read_exr(&ppath)?;
+    let mut radiance = Vec::new();
+    for mip in &m.probe.radiance_mips {
+        let n = mip.resolution as usize;
+        let l = find(&layers, &ppath, &mip.layer, (n, n))?;
+        radiance.push(OctMap::new(mip.resolution, finite_rgb(l, &ppath)?));
+    }
+    let mut depth = Vec::new();
+    for (k, name) in m.probe.depth_mips.iter().enumerate() {
+        let n = (m.probe.resolution >> k) as usize;
+        let l = find(&layers, &ppath, name, (n, n))?;
+        let z = channel(l, &ppath, "Z")?;
+        if let Some(t) = z.iter().position(|d| d.is_nan() || *d < 0.0) {
+            return Err(FormatError::Invalid { path: ppath.clone(), field: name.clone(), message: format!("texel {t} is NaN or negative") });
+        }
+        depth.push(OctMap::new(n as u32, z.to_vec()));
+    }
+    if radiance.is_empty() || depth.is_empty() {
+        return Err(FormatError::Invalid { path: mpath, field: "probe".into(), message: "no mips listed".into() });
+    }
+    let probe = SpecularProbe {
+        position: Vec3::from_array(m.probe.position),
+        roughness: m.probe.radiance_mips.iter().map(|x| x.perceptual_roughness).collect(),
+        radiance: OctMips { levels: radiance },
+        depth: OctMips { levels: depth },
+    };
+
+    let gpath = dir.join(&m.grid.file);
+    let layers = read_exr(&gpath)?;
+    let geometry = GridGeometry {
+        min: Vec3::from_array(m.grid.min),
+        max: Vec3::from_array(m.grid.max),
+        counts: UVec3::from_array(m.grid.counts),
+    };
+    let (ir, dr) = (m.grid.irradiance_resolution, m.grid.depth_resolution);
+    let c = geometry.counts;
+    let irr_size = ((c.x * ir) as usize, (c.y * c.z * ir) as usize);
+    let dep_size = ((c.x * dr) as usize, (c.y * c.z * dr) as usize);
+    let irr = finite_rgb(find(&layers, &gpath, "irradiance", irr_size)?, &gpath)?;
+    let dm = find(&layers, &gpath, "depth_moments", dep_size)?;
+    let mut inside = vec![false; geometry.cell_count()];
+    for &k in &m.grid.inside_cells {
+        *inside.get_mut(k as usize).ok_or_else(|| FormatError::Invalid {
+            path: mpath.clone(),
+            field: "grid.inside_cells".into(),
+            message: format!("cell {k} out of range"),
+        })? = true;
+    }
+    let grid = ProbeGrid {
+        geometry,
+        irradiance_resolution: ir,
+        depth_resolution: dr,
+        depth_samples: m.grid.depth_samples,
+        irradiance: from_atlas(&geometry, ir, &irr),
+        depth_mean: from_atlas(&geometry, dr, channel(dm, &gpath, "mean")?),
+        depth_mean_sq: from_atlas(&geometry, dr, channel(dm, &gpath, "mean_sq")?),
+        hit_fraction: from_atlas(&geometry, dr, channel(dm, &gpath, "hit")?),
+        inside,
+        far_distance: m.grid.far_distance,
+    };
+    Ok((m, probe, grid))
+}

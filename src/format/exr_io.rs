@@ -1,0 +1,105 @@
+//! Multi-layer f32 EXR payloads: named layers of named channels, ZIP compressed (lossless, so
+//! distances survive bit-exactly), written through [`write_atomic`](super::write_atomic).
+//!
+//! The exr crate panics when a channel's sample count does not match its layer size, so sizes
+//! are validated here first; reading validates the same on the way in.
+
+use super::FormatError;
+use exr::prelude::*;
+use std::path::Path;
+
+/// One layer: `width × height` pixels, row 0 first, each channel a flat row-major array.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExrLayer {
+    pub name: String,
+    pub width: usize,
+    pub height: usize,
+    pub channels: Vec<(String, Vec<f32>)>,
+}
+
+impl ExrLayer {
+    pub fn channel(&self, name: &str) -> Option<&[f32]> {
+        self.channels.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_slice())
+    }
+}
+
+/// Encodes layers into EXR bytes.
+pub fn encode_exr(path: &Path, layers: &[ExrLayer]) -> std::result::Result<Vec<u8>, FormatError> {
+    let bad = |m: String| FormatError::Invalid { path: path.to_path_buf(), field: "layers".into(), message: m };
+    if layers.is_empty() {
+        return Err(bad("no layers to write".into()));
+    }
+    let mut exr_layers = Vec::with_capacity(layers.len());
+    let (mut max_w, mut max_h) = (1usize, 1usize);
+    for l in layers {
+        if l.width == 0 || l.height == 0 || l.channels.is_empty() {
+            return Err(bad(format!("layer {:?} is empty", l.name)));
+        }
+        for (c, v) in &l.channels {
+            if v.len() != l.width * l.height {
+                return Err(bad(format!("layer {:?} channel {c:?} has {} samples, expected {}", l.name, v.len(), l.width * l.height)));
+            }
+        }
+        max_w = max_w.max(l.width);
+        max_h = max_h.max(l.height);
+        let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = l
+            .channels
+            .iter()
+            .map(|(name, v)| AnyChannel::new(name.as_str(), FlatSamples::F32(v.clone())))
+            .collect();
+        exr_layers.push(Layer::new(
+            (l.width, l.height),
+            LayerAttributes::named(l.name.as_str()),
+            Encoding::SMALL_LOSSLESS,
+            AnyChannels::sort(channels),
+        ));
+    }
+    let image = Image::from_layers(ImageAttributes::new(IntegerBounds::from_dimensions((max_w, max_h))), exr_layers);
+    let mut bytes = Vec::new();
+    image
+        .write()
+        .to_buffered(std::io::Cursor::new(&mut bytes))
+        .map_err(|e| FormatError::Exr { path: path.to_path_buf(), message: e.to_string() })?;
+    Ok(bytes)
+}
+
+/// Writes layers to `path` atomically.
+pub fn write_exr(path: &Path, layers: &[ExrLayer]) -> std::result::Result<u64, FormatError> {
+    let bytes = encode_exr(path, layers)?;
+    super::write_atomic(path, &bytes).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })?;
+    Ok(bytes.len() as u64)
+}
+
+/// Reads every layer of an EXR file as f32 channels.
+pub fn read_exr(path: &Path) -> std::result::Result<Vec<ExrLayer>, FormatError> {
+    let bytes = std::fs::read(path).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })?;
+    decode_exr(path, &bytes)
+}
+
+/// Decodes EXR bytes (the path only names the file in errors).
+pub fn decode_exr(path: &Path, bytes: &[u8]) -> std::result::Result<Vec<ExrLayer>, FormatError> {
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .non_parallel()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(|e| FormatError::Exr { path: path.to_path_buf(), message: e.to_string() })?;
+    let mut out = Vec::new();
+    for layer in image.layer_data {
+        let name = layer.attributes.layer_name.as_ref().map(|n| n.to_string()).unwrap_or_default();
+        let (w, h) = (layer.size.0, layer.size.1);
+        let mut channels = Vec::new();
+        for ch in layer.channel_data.list {
+            let v: Vec<f32> = ch.sample_data.values_as_f32().collect();
+            if v.len() != w * h {
+                return Err(FormatError::Invalid { path: path.to_path_buf(), field: format!("{name}.{}", ch.name), message: "wrong sample count".into() });
+            }
+            channels.push((ch.name.to_string(), v));
+        }
+        out.push(ExrLayer { name, width: w, height: h, channels });
+    }
+    Ok(out)
+}

@@ -1,0 +1,97 @@
+//! `manifest.json` of a bake folder: what was baked, how, with which conventions, and how
+//! long it took. Infinite distances never appear in JSON (serde_json would write `null`):
+//! misses are described in words and stored as +inf only inside EXR distance layers.
+
+use crate::scene::SceneFile;
+use serde::{Deserialize, Serialize};
+
+pub const BAKE_FORMAT: &str = "warpfit-bake";
+pub const BAKE_VERSION: u32 = 1;
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct BakeManifest {
+    pub format: String,
+    pub version: u32,
+    pub generator: String,
+    pub conventions: Conventions,
+    pub scene: SceneSummary,
+    pub probe: ProbeManifest,
+    pub grid: GridManifest,
+    pub stats: BakeStats,
+    /// The scene file exactly as parsed (every setting that made this bake).
+    pub settings: SceneFile,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Conventions {
+    pub octahedral: String,
+    pub up_axis: String,
+    pub handedness: String,
+    pub units: String,
+    pub distance: String,
+    pub radiance: String,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct SceneSummary {
+    pub name: String,
+    pub file: String,
+    pub triangles: usize,
+    pub spheres: usize,
+    pub degenerate_triangles_skipped: usize,
+    pub bounds_min: [f32; 3],
+    pub bounds_max: [f32; 3],
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct MipInfo {
+    pub level: u32,
+    pub layer: String,
+    pub resolution: u32,
+    /// Perceptual roughness r; GGX alpha = r².
+    pub perceptual_roughness: f32,
+    pub alpha: f32,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ProbeManifest {
+    pub file: String,
+    pub position: [f32; 3],
+    pub resolution: u32,
+    pub samples_per_texel: u32,
+    pub ggx_samples: u32,
+    pub radiance_mips: Vec<MipInfo>,
+    /// Distance layer names, level 0 first (level 0 = texel-centre distances).
+    pub depth_mips: Vec<String>,
+    pub depth_mip_filter: String,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct GridManifest {
+    pub file: String,
+    pub min: [f32; 3],
+    pub max: [f32; 3],
+    pub counts: [u32; 3],
+    pub cell_size: [f32; 3],
+    pub cell_index: String,
+    pub irradiance_resolution: u32,
+    pub depth_resolution: u32,
+    pub depth_samples: u32,
+    pub atlas_layout: String,
+    pub far_distance: f32,
+    pub active_cells: usize,
+    /// Linear indices of cells whose centre is inside geometry.
+    pub inside_cells: Vec<u32>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, Default)]
+pub struct BakeStats {
+    pub probe_rays: u64,
+    pub grid_rays: u64,
+    pub bvh_build_s: f64,
+    pub probe_s: f64,
+    pub grid_s: f64,
+    pub total_s: f64,
+    pub rays_per_s: f64,
+    pub threads: usize,
+}

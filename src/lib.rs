@@ -1,0 +1,26 @@
+//! # warpfit
+//!
+//! Offline parallax correction for reflection probes. warpfit raytraces a scene, bakes a
+//! specular probe (radiance + distance on an octahedral map, GGX mip chain) and a dense
+//! probe grid, and measures and fits warps that let probe A be used anywhere in the level.
+//!
+//! ```
+//! use warpfit::{scene::Scene, trace::Tracer, bake, progress::Progress};
+//! let scene = Scene::load(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/data/scenes/sphere.toml"))).unwrap();
+//! let tracer = Tracer::new(&scene);
+//! // A ray from the sphere's centre hits the inward-facing sphere at its radius.
+//! let hit = tracer.closest_hit(glam::Vec3::new(0.0, 1.0, 0.0), glam::Vec3::X, f32::INFINITY).unwrap();
+//! assert!((hit.t - 2.0).abs() < 1e-5);
+//! # let _ = (bake::bake, Progress::quiet());
+//! ```
+//!
+//! Pipeline: `scene` → `trace` → `bake` → `format`. See ARCHITECTURE.md.
+
+pub mod bake;
+pub mod format;
+pub mod octa;
+pub mod preview;
+pub mod progress;
+pub mod sampling;
+pub mod scene;
+pub mod trace;

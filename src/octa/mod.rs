@@ -1,0 +1,363 @@
+//! Full-sphere octahedral maps: the direction ↔ uv mapping, images over it with seam-aware
+//! bilinear lookup, exact per-texel solid angles and mip chains that respect the topology.
+//!
+//! Convention (written into every manifest as [`CONVENTION`]): for a unit vector `v`,
+//! `p = v.xy / (|x|+|y|+|z|)`; if `v.z < 0` then `p = (1 - |p.yx|) * sign(p.xy)` with
+//! `sign(0) = +1`; `uv = p * 0.5 + 0.5`. An N×N image stores texel (i = column, j = row) at
+//! `uv = ((i+0.5)/N, (j+0.5)/N)`, row 0 first, in `texels[j * N + i]`. Directions are world
+//! directions (no rotation): +Z is the centre of the map, −Z its four corners.
+//!
+//! Seams: the map's outer edge folds onto itself mirrored about its midpoint, so a texel just
+//! outside the left edge at row j is texel (0, N−1−j) (pbrt-v4 `WrapMode::OctahedralSphere`).
+//! Bilinear lookups use that wrap, which makes them continuous across the seams.
+//!
+//! Mips: for even N every texel of level k+1 covers exactly a 2×2 block of level k in uv, so a
+//! solid-angle-weighted 2×2 reduction is a true box filter over the sphere.
+
+use glam::{Vec2, Vec3};
+use std::ops::{Add, Mul};
+
+/// Human-readable statement of the mapping, stored in manifests. Must match [`encode`].
+pub const CONVENTION: &str = "octahedral full sphere: p = v.xy/(|x|+|y|+|z|); if v.z<0 then \
+p = (1-|p.yx|)*sign(p.xy), sign(0)=+1; uv = p*0.5+0.5; texel (i=column, j=row) centre at \
+uv=((i+0.5)/N,(j+0.5)/N), row 0 first, index j*N+i; world axes, +Z at the map centre";
+
+#[inline]
+fn sign_not_zero(x: f32) -> f32 {
+    if x >= 0.0 { 1.0 } else { -1.0 }
+}
+
+/// Direction → uv in [0,1]². `dir` need not be normalised; a zero or non-finite vector maps
+/// to the map centre (+Z), so no NaN ever leaves this function.
+#[inline]
+pub fn encode(dir: Vec3) -> Vec2 {
+    let l1 = dir.x.abs() + dir.y.abs() + dir.z.abs();
+    if !(l1 > 0.0 && l1.is_finite()) {
+        return Vec2::splat(0.5);
+    }
+    let mut p = Vec2::new(dir.x, dir.y) / l1;
+    if dir.z < 0.0 {
+        p = Vec2::new(
+            (1.0 - p.y.abs()) * sign_not_zero(p.x),
+            (1.0 - p.x.abs()) * sign_not_zero(p.y),
+        );
+    }
+    (p * 0.5 + 0.5).clamp(Vec2::ZERO, Vec2::ONE)
+}
+
+/// uv → unit direction. uv outside [0,1]² is clamped.
+#[inline]
+pub fn decode(uv: Vec2) -> Vec3 {
+    let p = uv.clamp(Vec2::ZERO, Vec2::ONE) * 2.0 - 1.0;
+    decode_p(p).normalize()
+}
+
+/// Point on the octahedron |x|+|y|+|z| = 1 for p in [-1,1]² (not normalised).
+#[inline]
+fn decode_p(p: Vec2) -> Vec3 {
+    let z = 1.0 - p.x.abs() - p.y.abs();
+    if z < 0.0 {
+        Vec3::new(
+            (1.0 - p.y.abs()) * sign_not_zero(p.x),
+            (1.0 - p.x.abs()) * sign_not_zero(p.y),
+            z,
+        )
+    } else {
+        Vec3::new(p.x, p.y, z)
+    }
+}
+
+/// Unit direction through the centre of texel (i, j) of an N×N map.
+#[inline]
+pub fn texel_dir(res: u32, i: u32, j: u32) -> Vec3 {
+    decode(texel_uv(res, i, j))
+}
+
+/// uv of the centre of texel (i, j).
+#[inline]
+pub fn texel_uv(res: u32, i: u32, j: u32) -> Vec2 {
+    Vec2::new((i as f32 + 0.5) / res as f32, (j as f32 + 0.5) / res as f32)
+}
+
+/// Texel (i, j) containing `uv`.
+#[inline]
+pub fn texel_of_uv(res: u32, uv: Vec2) -> (u32, u32) {
+    let n = res as f32;
+    let i = ((uv.x * n) as i64).clamp(0, res as i64 - 1) as u32;
+    let j = ((uv.y * n) as i64).clamp(0, res as i64 - 1) as u32;
+    (i, j)
+}
+
+/// Maps integer texel coordinates that may lie one texel outside the map back inside,
+/// following the octahedral seam fold (pbrt-v4 `WrapMode::OctahedralSphere`).
+#[inline]
+pub fn wrap_texel(res: u32, mut i: i64, mut j: i64) -> (u32, u32) {
+    let n = res as i64;
+    if i < 0 {
+        i = -i - 1;
+        j = n - 1 - j;
+    } else if i >= n {
+        i = 2 * n - 1 - i;
+        j = n - 1 - j;
+    }
+    if j < 0 {
+        i = n - 1 - i;
+        j = -j - 1;
+    } else if j >= n {
+        i = n - 1 - i;
+        j = 2 * n - 1 - j;
+    }
+    (i.clamp(0, n - 1) as u32, j.clamp(0, n - 1) as u32)
+}
+
+/// A value stored per texel: radiance (`Vec3`), distance (`f32`), …
+pub trait Texel: Copy + Default + Add<Output = Self> + Mul<f32, Output = Self> + Send + Sync {}
+impl<T> Texel for T where T: Copy + Default + Add<Output = T> + Mul<f32, Output = T> + Send + Sync {}
+
+/// A square octahedral image: plain data, `texels[j * res + i]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OctMap<T> {
+    pub res: u32,
+    pub texels: Vec<T>,
+}
+
+impl<T: Texel> OctMap<T> {
+    pub fn new(res: u32, texels: Vec<T>) -> Self {
+        assert_eq!(texels.len(), (res * res) as usize, "octahedral map size");
+        Self { res, texels }
+    }
+
+    /// Builds a map by evaluating `f(i, j, dir)` at every texel centre.
+    pub fn from_fn(res: u32, mut f: impl FnMut(u32, u32, Vec3) -> T) -> Self {
+        let mut texels = Vec::with_capacity((res * res) as usize);
+        for j in 0..res {
+            for i in 0..res {
+                texels.push(f(i, j, texel_dir(res, i, j)));
+            }
+        }
+        Self { res, texels }
+    }
+
+    #[inline]
+    pub fn get(&self, i: u32, j: u32) -> T {
+        self.texels[(j * self.res + i) as usize]
+    }
+
+    /// Texel lookup with the octahedral seam wrap for coordinates just outside the map.
+    #[inline]
+    pub fn get_wrapped(&self, i: i64, j: i64) -> T {
+        let (i, j) = wrap_texel(self.res, i, j);
+        self.get(i, j)
+    }
+
+    /// Nearest-texel lookup.
+    #[inline]
+    pub fn nearest(&self, dir: Vec3) -> T {
+        let (i, j) = texel_of_uv(self.res, encode(dir));
+        self.get(i, j)
+    }
+
+    /// Bilinear lookup at `uv`, continuous across the octahedral seams.
+    #[inline]
+    pub fn bilinear_uv(&self, uv: Vec2) -> T {
+        let n = self.res as f32;
+        let x = uv.x.clamp(0.0, 1.0) * n - 0.5;
+        let y = uv.y.clamp(0.0, 1.0) * n - 0.5;
+        let x0 = x.floor();
+        let y0 = y.floor();
+        let fx = x - x0;
+        let fy = y - y0;
+        let (i0, j0) = (x0 as i64, y0 as i64);
+        let t00 = self.get_wrapped(i0, j0);
+        let t10 = self.get_wrapped(i0 + 1, j0);
+        let t01 = self.get_wrapped(i0, j0 + 1);
+        let t11 = self.get_wrapped(i0 + 1, j0 + 1);
+        (t00 * (1.0 - fx) + t10 * fx) * (1.0 - fy) + (t01 * (1.0 - fx) + t11 * fx) * fy
+    }
+
+    /// Bilinear lookup towards `dir`.
+    #[inline]
+    pub fn bilinear(&self, dir: Vec3) -> T {
+        self.bilinear_uv(encode(dir))
+    }
+
+    /// Solid-angle-weighted 2×2 reduction to the next mip (box filter over the sphere).
+    /// `res` must be even.
+    pub fn downsample(&self) -> Self {
+        let weights = texel_solid_angles(self.res);
+        self.downsample_weighted(&weights, |t| t, |t| t)
+    }
+
+    /// 2×2 reduction in a transformed domain: averages `to(t)` weighted by solid angle and maps
+    /// the mean back with `from`. Used for distances, which are averaged as inverse distance
+    /// so that misses (+inf) contribute 0 and parallax (linear in 1/d) is averaged correctly.
+    pub fn downsample_weighted(
+        &self,
+        solid_angles: &[f32],
+        to: impl Fn(T) -> T,
+        from: impl Fn(T) -> T,
+    ) -> Self {
+        assert!(self.res >= 2 && self.res % 2 == 0, "mip reduction needs an even resolution");
+        let half = self.res / 2;
+        Self::from_fn(half, |i, j, _| {
+            let mut sum = T::default();
+            let mut wsum = 0.0f32;
+            for (di, dj) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                let (si, sj) = (2 * i + di, 2 * j + dj);
+                let w = solid_angles[(sj * self.res + si) as usize];
+                sum = sum + to(self.get(si, sj)) * w;
+                wsum += w;
+            }
+            from(sum * (1.0 / wsum))
+        })
+    }
+}
+
+/// Exact solid angle of every texel of an N×N map (N even), in steradians; sums to 4π.
+///
+/// The mapping is linear on each octahedron face, and straight segments on a face project to
+/// great-circle arcs, so a texel split along the diagonal parallel to its quadrant's fold line
+/// is two spherical triangles whose areas are exact (Van Oosterom & Strackee 1983). For even N
+/// the fold lines run through texel corners, so no triangle straddles a fold.
+pub fn texel_solid_angles(res: u32) -> Vec<f32> {
+    let n = res as f64;
+    let corner = |i: u32, j: u32| -> [f64; 3] {
+        let p = Vec2::new((2.0 * i as f64 / n - 1.0) as f32, (2.0 * j as f64 / n - 1.0) as f32);
+        let v = decode_p(p);
+        let (x, y, z) = (v.x as f64, v.y as f64, v.z as f64);
+        let l = (x * x + y * y + z * z).sqrt();
+        [x / l, y / l, z / l]
+    };
+    let mut out = Vec::with_capacity((res * res) as usize);
+    for j in 0..res {
+        for i in 0..res {
+            let a = corner(i, j);
+            let b = corner(i + 1, j);
+            let c = corner(i + 1, j + 1);
+            let d = corner(i, j + 1);
+            // Quadrant of the texel centre decides which diagonal is parallel to the fold.
+            let px = (i as f64 + 0.5) / n * 2.0 - 1.0;
+            let py = (j as f64 + 0.5) / n * 2.0 - 1.0;
+            let omega = if (px >= 0.0) == (py >= 0.0) {
+                // fold |px|+|py|=1 runs along (1,-1): split along the b-d diagonal
+                spherical_triangle_area(a, b, d) + spherical_triangle_area(b, c, d)
+            } else {
+                spherical_triangle_area(a, b, c) + spherical_triangle_area(a, c, d)
+            };
+            out.push(omega as f32);
+        }
+    }
+    out
+}
+
+/// Area of the spherical triangle with unit-vector corners a, b, c (Van Oosterom & Strackee).
+fn spherical_triangle_area(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
+    let dot = |u: [f64; 3], v: [f64; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    let cross = |u: [f64; 3], v: [f64; 3]| {
+        [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+    };
+    let triple = dot(a, cross(b, c)).abs();
+    let denom = 1.0 + dot(a, b) + dot(b, c) + dot(c, a);
+    2.0 * triple.atan2(denom)
+}
+
+/// A mip chain of octahedral maps, level 0 first, each half the resolution of the previous.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OctMips<T> {
+    pub levels: Vec<OctMap<T>>,
+}
+
+impl<T: Texel> OctMips<T> {
+    /// Trilinear lookup at fractional `lod` (clamped to the chain).
+    #[inline]
+    pub fn sample_lod(&self, dir: Vec3, lod: f32) -> T {
+        let uv = encode(dir);
+        self.sample_lod_uv(uv, lod)
+    }
+
+    #[inline]
+    pub fn sample_lod_uv(&self, uv: Vec2, lod: f32) -> T {
+        let max = (self.levels.len() - 1) as f32;
+        let lod = if lod.is_finite() { lod.clamp(0.0, max) } else { 0.0 };
+        let l0 = lod.floor() as usize;
+        let f = lod - l0 as f32;
+        let a = self.levels[l0].bilinear_uv(uv);
+        if f == 0.0 || l0 + 1 >= self.levels.len() {
+            return a;
+        }
+        let b = self.levels[l0 + 1].bilinear_uv(uv);
+        a * (1.0 - f) + b * f
+    }
+}
+
+/// Box mip chain of `base` down to `min_res` (inclusive), solid-angle weighted.
+pub fn build_mips<T: Texel>(base: OctMap<T>, min_res: u32) -> OctMips<T> {
+    let mut levels = vec![base];
+    while let Some(last) = levels.last() {
+        if last.res / 2 < min_res.max(1) || last.res % 2 != 0 {
+            break;
+        }
+        let next = last.downsample();
+        levels.push(next);
+    }
+    OctMips { levels }
+}
+
+/// Distance mip chain: each level averages inverse distance (misses, +inf, count as 0), so
+/// a blurred depth keeps sky as sky and averages parallax linearly.
+pub fn build_distance_mips(base: OctMap<f32>, min_res: u32) -> OctMips<f32> {
+    let mut levels = vec![base];
+    while let Some(last) = levels.last() {
+        if last.res / 2 < min_res.max(1) || last.res % 2 != 0 {
+            break;
+        }
+        let w = texel_solid_angles(last.res);
+        let next = last.downsample_weighted(&w, inverse_distance, inverse_distance);
+        levels.push(next);
+    }
+    OctMips { levels }
+}
+
+/// 1/d with 1/inf = 0 and 1/0 = +inf mapped to a huge finite value (never NaN).
+#[inline]
+fn inverse_distance(d: f32) -> f32 {
+    if d <= 0.0 {
+        f32::INFINITY
+    } else {
+        1.0 / d
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn poles_and_axes() {
+        assert_eq!(encode(Vec3::Z), Vec2::splat(0.5));
+        assert_eq!(encode(Vec3::X), Vec2::new(1.0, 0.5));
+        assert_eq!(encode(Vec3::Y), Vec2::new(0.5, 1.0));
+        // -Z folds onto the four corners; sign(0)=+1 picks (1,1).
+        assert_eq!(encode(-Vec3::Z), Vec2::new(1.0, 1.0));
+        assert!((decode(Vec2::ZERO) - -Vec3::Z).length() < 1e-6);
+        assert_eq!(encode(Vec3::ZERO), Vec2::splat(0.5));
+        assert_eq!(encode(Vec3::NAN), Vec2::splat(0.5));
+    }
+
+    #[test]
+    fn wrap_is_involution_on_border() {
+        let n = 8;
+        for j in 0..n as i64 {
+            assert_eq!(wrap_texel(n, -1, j), (0, (n as i64 - 1 - j) as u32));
+            assert_eq!(wrap_texel(n, n as i64, j), (n - 1, (n as i64 - 1 - j) as u32));
+        }
+    }
+
+    #[test]
+    fn solid_angles_sum_to_4pi() {
+        for res in [2u32, 4, 8, 16, 64, 256] {
+            let sum: f64 = texel_solid_angles(res).iter().map(|&w| w as f64).sum();
+            assert!((sum - 4.0 * std::f64::consts::PI).abs() < 1e-4, "res {res}: {sum}");
+        }
+    }
+}

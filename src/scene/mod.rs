@@ -1,0 +1,443 @@
+//! Scenes: geometry (triangles and exact spheres), Lambertian materials, lights and the bake
+//! settings, loaded from a TOML scene file that may reference glTF and OBJ meshes.
+//!
+//! Owns validation of everything a user writes: a bad scene is a [`SceneError`] naming the
+//! file and the key, line or element, never a panic. Does not trace rays (see `trace`).
+
+pub mod config;
+mod mesh_io;
+mod procedural;
+
+pub use config::SceneFile;
+use config::{GeometryConfig, MaterialConfig, V3};
+use glam::{Mat4, Vec3};
+use std::path::{Path, PathBuf};
+
+/// Lambertian surface description.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    pub albedo: Vec3,
+    pub emission: Vec3,
+    pub two_sided: bool,
+}
+
+/// Triangle soup as a struct of arrays. Front faces are counter-clockwise: the geometric
+/// normal is `(v1 − v0) × (v2 − v0)`.
+#[derive(Clone, Debug, Default)]
+pub struct Triangles {
+    pub v0: Vec<Vec3>,
+    pub v1: Vec<Vec3>,
+    pub v2: Vec<Vec3>,
+    pub material: Vec<u32>,
+}
+
+impl Triangles {
+    pub fn len(&self) -> usize {
+        self.v0.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.v0.is_empty()
+    }
+}
+
+/// Exact spheres as a struct of arrays. `inward` spheres face their centre.
+#[derive(Clone, Debug, Default)]
+pub struct Spheres {
+    pub center: Vec<Vec3>,
+    pub radius: Vec<f32>,
+    pub inward: Vec<bool>,
+    pub material: Vec<u32>,
+}
+
+impl Spheres {
+    pub fn len(&self) -> usize {
+        self.center.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.center.is_empty()
+    }
+}
+
+/// Sky radiance on rays that miss: horizon→zenith gradient above the horizon, `ground` below.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sky {
+    pub zenith: Vec3,
+    pub horizon: Vec3,
+    pub ground: Vec3,
+}
+
+impl Sky {
+    #[inline]
+    pub fn radiance(&self, dir: Vec3) -> Vec3 {
+        let up = dir.y;
+        if up >= 0.0 {
+            self.horizon.lerp(self.zenith, up.min(1.0))
+        } else {
+            self.ground
+        }
+    }
+}
+
+/// Directional light of finite angular size.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sun {
+    /// Unit direction towards the sun.
+    pub direction: Vec3,
+    /// cos of the angular radius.
+    pub cos_angular_radius: f32,
+    pub irradiance: Vec3,
+}
+
+/// Spherical area light (not part of the BVH; camera rays see it analytically).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SphereLight {
+    pub position: Vec3,
+    pub radius: f32,
+    pub radiance: Vec3,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Lights {
+    pub sphere_lights: Vec<SphereLight>,
+    pub sun: Option<Sun>,
+}
+
+/// A loaded, validated scene.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub name: String,
+    /// The scene file it came from (empty for scenes built in code).
+    pub source: PathBuf,
+    pub config: SceneFile,
+    pub triangles: Triangles,
+    pub spheres: Spheres,
+    pub materials: Vec<Material>,
+    pub sky: Sky,
+    pub lights: Lights,
+    /// Degenerate (zero-area) triangles skipped while loading.
+    pub degenerate_skipped: usize,
+}
+
+/// Everything that can be wrong with a scene.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("{path}: cannot read: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("{path}: {message}")]
+    Parse { path: PathBuf, message: String },
+    #[error("{path}: {field}: {message}")]
+    Invalid { path: PathBuf, field: String, message: String },
+    #[error("{path}: {message}")]
+    Mesh { path: PathBuf, message: String },
+    #[error("{path}: the scene has no geometry (no triangles or spheres after loading)")]
+    Empty { path: PathBuf },
+}
+
+impl Scene {
+    /// Loads and validates a scene file.
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| SceneError::Io { path: path.to_path_buf(), source })?;
+        let file: SceneFile = toml::from_str(&text)
+            .map_err(|e| SceneError::Parse { path: path.to_path_buf(), message: e.to_string() })?;
+        let name = file.name.clone().unwrap_or_else(|| {
+            path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+        });
+        Scene::from_config(file, &name, path)
+    }
+
+    /// Builds a scene from an already parsed file; `path` names it in errors and resolves
+    /// relative mesh paths.
+    pub fn from_config(file: SceneFile, name: &str, path: &Path) -> Result<Scene, SceneError> {
+        validate_settings(&file, path)?;
+        let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let mut builder = procedural::Builder::default();
+        for (k, geom) in file.geometry.iter().enumerate() {
+            let field = format!("geometry[{k}]");
+            add_geometry(&mut builder, geom, &base_dir, path, &field)?;
+        }
+        if builder.triangles.is_empty() && builder.spheres.is_empty() {
+            return Err(SceneError::Empty { path: path.to_path_buf() });
+        }
+        if builder.degenerate_skipped > 0 {
+            tracing::warn!(
+                "{}: skipped {} degenerate triangle(s)",
+                path.display(),
+                builder.degenerate_skipped
+            );
+        }
+        let sky = sky_from(&file, path)?;
+        let lights = lights_from(&file, path)?;
+        Ok(Scene {
+            name: name.to_string(),
+            source: path.to_path_buf(),
+            triangles: builder.triangles,
+            spheres: builder.spheres,
+            materials: builder.materials,
+            degenerate_skipped: builder.degenerate_skipped,
+            sky,
+            lights,
+            config: file,
+        })
+    }
+
+    /// Axis-aligned bounds of all geometry (min, max).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for v in self.triangles.v0.iter().chain(&self.triangles.v1).chain(&self.triangles.v2) {
+            lo = lo.min(*v);
+            hi = hi.max(*v);
+        }
+        for (c, r) in self.spheres.center.iter().zip(&self.spheres.radius) {
+            lo = lo.min(*c - Vec3::splat(*r));
+            hi = hi.max(*c + Vec3::splat(*r));
+        }
+        (lo, hi)
+    }
+
+    /// Length of the bounds' diagonal: the scene's natural length scale.
+    pub fn extent(&self) -> f32 {
+        let (lo, hi) = self.bounds();
+        (hi - lo).length().max(f32::MIN_POSITIVE)
+    }
+
+    /// Uniformly scales the whole scene (geometry, lights, probe and grid placement) about
+    /// the origin. Radiances are unchanged, so a correct pipeline gives the same relative
+    /// results at any scale.
+    pub fn scaled(&self, factor: f32) -> Scene {
+        let mut s = self.clone();
+        for v in s.triangles.v0.iter_mut().chain(&mut s.triangles.v1).chain(&mut s.triangles.v2)
+        {
+            *v *= factor;
+        }
+        for (c, r) in s.spheres.center.iter_mut().zip(&mut s.spheres.radius) {
+            *c *= factor;
+            *r *= factor;
+        }
+        for l in &mut s.lights.sphere_lights {
+            l.position *= factor;
+            l.radius *= factor;
+        }
+        let scale3 = |v: &mut V3| v.iter_mut().for_each(|x| *x *= factor);
+        scale3(&mut s.config.probe.position);
+        scale3(&mut s.config.grid.min);
+        scale3(&mut s.config.grid.max);
+        s
+    }
+}
+
+fn invalid(path: &Path, field: &str, message: impl Into<String>) -> SceneError {
+    SceneError::Invalid { path: path.to_path_buf(), field: field.to_string(), message: message.into() }
+}
+
+fn finite3(path: &Path, field: &str, v: V3) -> Result<Vec3, SceneError> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(Vec3::from_array(v))
+    } else {
+        Err(invalid(path, field, format!("must be finite, got {v:?}")))
+    }
+}
+
+fn nonneg3(path: &Path, field: &str, v: V3) -> Result<Vec3, SceneError> {
+    let out = finite3(path, field, v)?;
+    if out.min_element() < 0.0 {
+        return Err(invalid(path, field, format!("must be ≥ 0, got {v:?}")));
+    }
+    Ok(out)
+}
+
+fn positive(path: &Path, field: &str, x: f32) -> Result<f32, SceneError> {
+    if x.is_finite() && x > 0.0 {
+        Ok(x)
+    } else {
+        Err(invalid(path, field, format!("must be a finite number > 0, got {x}")))
+    }
+}
+
+fn validate_settings(f: &SceneFile, path: &Path) -> Result<(), SceneError> {
+    finite3(path, "probe.position", f.probe.position)?;
+    let r = f.probe.resolution;
+    if !(16..=2048).contains(&r) || !r.is_power_of_two() {
+        return Err(invalid(path, "probe.resolution", format!("must be a power of two in 16..=2048, got {r}")));
+    }
+    if f.probe.samples_per_texel == 0 || f.probe.ggx_samples == 0 {
+        return Err(invalid(path, "probe.samples_per_texel/ggx_samples", "must be ≥ 1"));
+    }
+    let m = f.probe.min_mip_resolution;
+    if !m.is_power_of_two() || m < 2 || m > r {
+        return Err(invalid(path, "probe.min_mip_resolution", format!("must be a power of two in 2..=resolution, got {m}")));
+    }
+    let lo = finite3(path, "grid.min", f.grid.min)?;
+    let hi = finite3(path, "grid.max", f.grid.max)?;
+    if !(hi.cmpgt(lo).all()) {
+        return Err(invalid(path, "grid", "max must exceed min on every axis"));
+    }
+    if f.grid.counts.contains(&0) || f.grid.counts.iter().map(|&c| c as u64).product::<u64>() > 4_000_000 {
+        return Err(invalid(path, "grid.counts", format!("each count must be ≥ 1 and the total ≤ 4e6, got {:?}", f.grid.counts)));
+    }
+    let ir = f.grid.irradiance_resolution;
+    if !(2..=64).contains(&ir) || ir % 2 != 0 {
+        return Err(invalid(path, "grid.irradiance_resolution", format!("must be even in 2..=64, got {ir}")));
+    }
+    let dr = f.grid.depth_resolution;
+    if !(8..=16).contains(&dr) || dr % 2 != 0 {
+        return Err(invalid(path, "grid.depth_resolution", format!("must be even in 8..=16, got {dr}")));
+    }
+    if f.grid.depth_samples == 0 {
+        return Err(invalid(path, "grid.depth_samples", "must be ≥ 1"));
+    }
+    let bf = f.grid.inside_backface_fraction;
+    if !(bf > 0.0 && bf < 1.0) {
+        return Err(invalid(path, "grid.inside_backface_fraction", format!("must be in (0,1), got {bf}")));
+    }
+    if f.bounces > 8 {
+        return Err(invalid(path, "bounces", format!("must be ≤ 8, got {}", f.bounces)));
+    }
+    Ok(())
+}
+
+fn sky_from(f: &SceneFile, path: &Path) -> Result<Sky, SceneError> {
+    let s = &f.sky;
+    let base = s.color.unwrap_or([0.0; 3]);
+    let zenith = nonneg3(path, "sky.zenith", s.zenith.unwrap_or(base))?;
+    let horizon = nonneg3(path, "sky.horizon", s.horizon.unwrap_or(base))?;
+    let ground = nonneg3(path, "sky.ground", s.ground.unwrap_or(base))?;
+    nonneg3(path, "sky.color", base)?;
+    Ok(Sky { zenith, horizon, ground })
+}
+
+fn lights_from(f: &SceneFile, path: &Path) -> Result<Lights, SceneError> {
+    let mut lights = Lights::default();
+    if let Some(sun) = &f.sun {
+        let d = finite3(path, "sun.direction", sun.direction)?;
+        if d.length_squared() == 0.0 {
+            return Err(invalid(path, "sun.direction", "must not be zero"));
+        }
+        let radius = sun.angular_radius_deg;
+        if !(radius > 0.0 && radius < 45.0) {
+            return Err(invalid(path, "sun.angular_radius_deg", format!("must be in (0,45), got {radius}")));
+        }
+        lights.sun = Some(Sun {
+            direction: d.normalize(),
+            cos_angular_radius: radius.to_radians().cos(),
+            irradiance: nonneg3(path, "sun.irradiance", sun.irradiance)?,
+        });
+    }
+    for (k, l) in f.sphere_lights.iter().enumerate() {
+        let field = format!("sphere_lights[{k}]");
+        lights.sphere_lights.push(SphereLight {
+            position: finite3(path, &format!("{field}.position"), l.position)?,
+            radius: positive(path, &format!("{field}.radius"), l.radius)?,
+            radiance: nonneg3(path, &format!("{field}.radiance"), l.radiance)?,
+        });
+    }
+    Ok(lights)
+}
+
+fn material_from(m: &MaterialConfig, default_two_sided: bool, path: &Path, field: &str) -> Result<Material, SceneError> {
+    let albedo = nonneg3(path, &format!("{field}.material.albedo"), m.albedo)?;
+    if albedo.max_element() > 1.0 {
+        return Err(invalid(path, &format!("{field}.material.albedo"), "must be ≤ 1 (energy conserving)"));
+    }
+    Ok(Material {
+        albedo,
+        emission: nonneg3(path, &format!("{field}.material.emission"), m.emission)?,
+        two_sided: m.two_sided.unwrap_or(default_two_sided),
+    })
+}
+
+fn add_geometry(
+    b: &mut procedural::Builder,
+    geom: &GeometryConfig,
+    base_dir: &Path,
+    path: &Path,
+    field: &str,
+) -> Result<(), SceneError> {
+    match geom {
+        GeometryConfig::Box { min, max, material } => {
+            let (lo, hi) = box_bounds(path, field, *min, *max)?;
+            let m = b.material(material_from(material, false, path, field)?);
+            b.add_box(lo, hi, m, false, &[]);
+        }
+        GeometryConfig::Room { min, max, material, open } => {
+            let (lo, hi) = box_bounds(path, field, *min, *max)?;
+            for face in open {
+                if !procedural::FACE_NAMES.contains(&face.as_str()) {
+                    return Err(invalid(path, &format!("{field}.open"), format!("unknown face {face:?}; use -x,+x,-y,+y,-z,+z")));
+                }
+            }
+            let m = b.material(material_from(material, false, path, field)?);
+            b.add_box(lo, hi, m, true, open);
+        }
+        GeometryConfig::Sphere { center, radius, inward, material } => {
+            let c = finite3(path, &format!("{field}.center"), *center)?;
+            let r = positive(path, &format!("{field}.radius"), *radius)?;
+            let m = b.material(material_from(material, false, path, field)?);
+            b.add_sphere(c, r, *inward, m);
+        }
+        GeometryConfig::Quad { corner, edge_u, edge_v, material } => {
+            let c = finite3(path, &format!("{field}.corner"), *corner)?;
+            let u = finite3(path, &format!("{field}.edge_u"), *edge_u)?;
+            let v = finite3(path, &format!("{field}.edge_v"), *edge_v)?;
+            let m = b.material(material_from(material, true, path, field)?);
+            b.add_quad(c, c + u, c + u + v, c + v, m);
+        }
+        GeometryConfig::Column { base, radius, height, segments, material } => {
+            let p = finite3(path, &format!("{field}.base"), *base)?;
+            let r = positive(path, &format!("{field}.radius"), *radius)?;
+            let h = positive(path, &format!("{field}.height"), *height)?;
+            if !(3..=1024).contains(segments) {
+                return Err(invalid(path, &format!("{field}.segments"), "must be in 3..=1024"));
+            }
+            let m = b.material(material_from(material, false, path, field)?);
+            b.add_column(p, r, h, *segments, m);
+        }
+        GeometryConfig::Arch { base, span, pier_height, thickness, depth, axis, segments, material } => {
+            let p = finite3(path, &format!("{field}.base"), *base)?;
+            let span = positive(path, &format!("{field}.span"), *span)?;
+            let ph = positive(path, &format!("{field}.pier_height"), *pier_height)?;
+            let t = positive(path, &format!("{field}.thickness"), *thickness)?;
+            let d = positive(path, &format!("{field}.depth"), *depth)?;
+            let along_x = match axis.as_str() {
+                "x" => true,
+                "z" => false,
+                other => return Err(invalid(path, &format!("{field}.axis"), format!("must be \"x\" or \"z\", got {other:?}"))),
+            };
+            if !(2..=256).contains(segments) {
+                return Err(invalid(path, &format!("{field}.segments"), "must be in 2..=256"));
+            }
+            let m = b.material(material_from(material, false, path, field)?);
+            b.add_arch(p, span, ph, t, d, along_x, *segments, m);
+        }
+        GeometryConfig::Gltf { path: rel, transform } => {
+            let xf = transform_matrix(path, &format!("{field}.transform"), transform)?;
+            mesh_io::load_gltf(b, &base_dir.join(rel), xf)?;
+        }
+        GeometryConfig::Obj { path: rel, transform } => {
+            let xf = transform_matrix(path, &format!("{field}.transform"), transform)?;
+            mesh_io::load_obj(b, &base_dir.join(rel), xf)?;
+        }
+    }
+    Ok(())
+}
+
+fn box_bounds(path: &Path, field: &str, min: V3, max: V3) -> Result<(Vec3, Vec3), SceneError> {
+    let lo = finite3(path, &format!("{field}.min"), min)?;
+    let hi = finite3(path, &format!("{field}.max"), max)?;
+    if !hi.cmpgt(lo).all() {
+        return Err(invalid(path, field, "max must exceed min on every axis"));
+    }
+    Ok((lo, hi))
+}
+
+fn transform_matrix(path: &Path, field: &str, t: &config::TransformConfig) -> Result<Mat4, SceneError> {
+    let tr = finite3(path, &format!("{field}.translate"), t.translate.unwrap_or([0.0; 3]))?;
+    let rot = finite3(path, &format!("{field}.rotate_deg"), t.rotate_deg.unwrap_or([0.0; 3]))?;
+    let sc = finite3(path, &format!("{field}.scale"), t.scale.unwrap_or([1.0; 3]))?;
+    if sc.abs().min_element() == 0.0 {
+        return Err(invalid(path, &format!("{field}.scale"), "must be non-zero"));
+    }
+    let q = glam::Quat::from_euler(glam::EulerRot::XYZ, rot.x.to_radians(), rot.y.to_radians(), rot.z.to_radians());
+    Ok(Mat4::from_scale_rotation_translation(sc, q, tr))
+}

@@ -1,0 +1,322 @@
+//! Closest-hit and occlusion queries over a scene's triangles and exact spheres, on an obvhs
+//! CWBVH.
+//!
+//! Three guards against pitfalls of obvhs 0.4 live here:
+//! - **Scale.** The CWBVH node test clamps ray entry at a fixed 1e-4, and PLOC's Morton codes
+//!   depend on absolute bounds. Geometry is therefore stored in a normalised frame:
+//!   `(p − centre) · scale` with `scale` a power of two chosen so the scene's extent is in
+//!   [512, 1024). Power-of-two scaling is exact in floating point, so a scene scaled by any
+//!   factor is traced in (nearly) the same normalised frame: no absolute epsilon leaks out.
+//! - **Morton wrap.** A primitive whose centroid lies exactly on the build bounds' max face
+//!   wraps to Morton code 0, which wrecks the tree of a closed room (walls on the bounds). The
+//!   build list gets one tiny padding box beyond the max corner; it is never reported as hit.
+//! - **Watertightness.** `Triangle::intersect` lets rays escape through shared edges, so
+//!   triangles use the watertight test of Woop, Benthin & Wald (JCGT 2013).
+
+use crate::scene::Scene;
+use glam::{Vec3, Vec3A};
+use obvhs::{BvhBuildParams, aabb::Aabb, cwbvh::CwBvh, ray::Ray, ray::RayHit};
+use std::time::Duration;
+
+/// What a closest-hit query found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Distance along the (unit) ray direction, in world units.
+    pub t: f32,
+    /// World position of the hit.
+    pub position: Vec3,
+    /// Geometric normal of the front side (unit).
+    pub normal: Vec3,
+    /// Material index.
+    pub material: u32,
+    /// The ray arrived at the back side of the surface.
+    pub backface: bool,
+    /// The primitive is an exact sphere (not a triangle).
+    pub sphere: bool,
+}
+
+/// Which BVH builder preset to use (measured in `benches/trace.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum BuildQuality {
+    Fast,
+    #[default]
+    Medium,
+    Slow,
+}
+
+impl BuildQuality {
+    fn params(self) -> BvhBuildParams {
+        match self {
+            BuildQuality::Fast => BvhBuildParams::fast_build(),
+            BuildQuality::Medium => BvhBuildParams::medium_build(),
+            BuildQuality::Slow => BvhBuildParams::slow_build(),
+        }
+    }
+}
+
+/// Acceleration structure plus primitives in the normalised frame.
+pub struct Tracer {
+    bvh: CwBvh,
+    /// Triangle vertex 0 and edges, normalised frame.
+    tri_v0: Vec<Vec3A>,
+    tri_v1: Vec<Vec3A>,
+    tri_v2: Vec<Vec3A>,
+    tri_material: Vec<u32>,
+    sphere_center: Vec<Vec3A>,
+    sphere_radius: Vec<f32>,
+    sphere_inward: Vec<bool>,
+    sphere_material: Vec<u32>,
+    /// World → normalised: `(p − centre) · scale`.
+    centre: Vec3,
+    scale: f32,
+    /// Time spent building the BVH.
+    pub build_time: Duration,
+}
+
+/// Per-ray constants of the watertight test.
+#[derive(Clone, Copy)]
+struct Shear {
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: f32,
+    sy: f32,
+    sz: f32,
+}
+
+impl Shear {
+    #[inline]
+    fn new(dir: Vec3A) -> Self {
+        let a = dir.abs();
+        let kz = if a.x > a.y { if a.x > a.z { 0 } else { 2 } } else if a.y > a.z { 1 } else { 2 };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if dir[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        Shear { kx, ky, kz, sx: dir[kx] / dir[kz], sy: dir[ky] / dir[kz], sz: 1.0 / dir[kz] }
+    }
+}
+
+/// Watertight ray/triangle test (Woop, Benthin & Wald 2013). Returns t or +inf.
+#[inline]
+fn intersect_watertight(s: &Shear, org: Vec3A, v0: Vec3A, v1: Vec3A, v2: Vec3A, tmin: f32, tmax: f32) -> f32 {
+    let a = v0 - org;
+    let b = v1 - org;
+    let c = v2 - org;
+    let ax = a[s.kx] - s.sx * a[s.kz];
+    let ay = a[s.ky] - s.sy * a[s.kz];
+    let bx = b[s.kx] - s.sx * b[s.kz];
+    let by = b[s.ky] - s.sy * b[s.kz];
+    let cx = c[s.kx] - s.sx * c[s.kz];
+    let cy = c[s.ky] - s.sy * c[s.kz];
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    if u == 0.0 || v == 0.0 || w == 0.0 {
+        // Edge cases: redo the edge functions in double precision so shared edges are exact.
+        u = (cx as f64 * by as f64 - cy as f64 * bx as f64) as f32;
+        v = (ax as f64 * cy as f64 - ay as f64 * cx as f64) as f32;
+        w = (bx as f64 * ay as f64 - by as f64 * ax as f64) as f32;
+    }
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return f32::INFINITY;
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return f32::INFINITY;
+    }
+    let az = s.sz * a[s.kz];
+    let bz = s.sz * b[s.kz];
+    let cz = s.sz * c[s.kz];
+    let t = (u * az + v * bz + w * cz) / det;
+    if t > tmin && t < tmax { t } else { f32::INFINITY }
+}
+
+/// Ray/sphere distance (nearest root beyond `tmin`), with the precision improvements of
+/// Haines et al., "Precision Improvements for Ray/Sphere Intersection" (Ray Tracing Gems 7).
+#[inline]
+pub fn intersect_sphere(org: Vec3A, dir: Vec3A, center: Vec3A, radius: f32, tmin: f32, tmax: f32) -> f32 {
+    let f = org - center;
+    let b = -f.dot(dir);
+    let perp = f + dir * b;
+    let r2 = radius * radius;
+    let disc = r2 - perp.length_squared();
+    if disc < 0.0 {
+        return f32::INFINITY;
+    }
+    let c = f.length_squared() - r2;
+    let q = b + b.signum() * disc.sqrt();
+    let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (c / q, q) };
+    let (near, far) = if t0 < t1 { (t0, t1) } else { (t1, t0) };
+    if near > tmin && near < tmax {
+        near
+    } else if far > tmin && far < tmax {
+        far
+    } else {
+        f32::INFINITY
+    }
+}
+
+impl Tracer {
+    pub fn new(scene: &Scene) -> Tracer {
+        Self::with_quality(scene, BuildQuality::default())
+    }
+
+    pub fn with_quality(scene: &Scene, quality: BuildQuality) -> Tracer {
+        let (lo, hi) = scene.bounds();
+        let centre = (lo + hi) * 0.5;
+        let extent = (hi - lo).max_element().max(f32::MIN_POSITIVE);
+        // Power of two so that normalising is exact: extent·scale ∈ [512, 1024).
+        let scale = 2f32.powi(9 - extent.log2().floor() as i32);
+        let to_n = |p: Vec3| Vec3A::from((p - centre) * scale);
+        let tri_v0: Vec<Vec3A> = scene.triangles.v0.iter().map(|&p| to_n(p)).collect();
+        let tri_v1: Vec<Vec3A> = scene.triangles.v1.iter().map(|&p| to_n(p)).collect();
+        let tri_v2: Vec<Vec3A> = scene.triangles.v2.iter().map(|&p| to_n(p)).collect();
+        let sphere_center: Vec<Vec3A> = scene.spheres.center.iter().map(|&p| to_n(p)).collect();
+        let sphere_radius: Vec<f32> = scene.spheres.radius.iter().map(|r| r * scale).collect();
+
+        let mut aabbs: Vec<Aabb> = Vec::with_capacity(tri_v0.len() + sphere_center.len() + 1);
+        let mut build_hi = Vec3A::splat(f32::NEG_INFINITY);
+        for k in 0..tri_v0.len() {
+            let b = Aabb::from_points(&[tri_v0[k], tri_v1[k], tri_v2[k]]);
+            build_hi = build_hi.max(b.max);
+            aabbs.push(b);
+        }
+        for (c, r) in sphere_center.iter().zip(&sphere_radius) {
+            let b = Aabb { min: *c - Vec3A::splat(*r), max: *c + Vec3A::splat(*r) };
+            build_hi = build_hi.max(b.max);
+            aabbs.push(b);
+        }
+        // Padding primitive beyond the max corner (see module docs).
+        let pad = build_hi + Vec3A::splat(8.0);
+        aabbs.push(Aabb { min: pad, max: pad + Vec3A::splat(1e-3) });
+
+        let mut build_time = Duration::default();
+        let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, quality.params(), &mut build_time);
+        Tracer {
+            bvh,
+            tri_v0,
+            tri_v1,
+            tri_v2,
+            tri_material: scene.triangles.material.clone(),
+            sphere_center,
+            sphere_radius,
+            sphere_inward: scene.spheres.inward.clone(),
+            sphere_material: scene.spheres.material.clone(),
+            centre,
+            scale,
+            build_time,
+        }
+    }
+
+    /// Number of real primitives (triangles + spheres).
+    pub fn primitive_count(&self) -> usize {
+        self.tri_v0.len() + self.sphere_center.len()
+    }
+
+    /// Scene units per normalised unit, times a small factor: the offset applied to
+    /// secondary-ray origins to leave the surface they start on.
+    #[inline]
+    pub fn surface_offset(&self, p: Vec3) -> f32 {
+        let pn = (p - self.centre) * self.scale;
+        (pn.abs().max_element() + 1.0) * 2e-5 / self.scale
+    }
+
+    #[inline]
+    fn intersect_prim(&self, shear: &Shear, ray: &Ray, prim: usize) -> f32 {
+        let nt = self.tri_v0.len();
+        if prim < nt {
+            intersect_watertight(shear, ray.origin, self.tri_v0[prim], self.tri_v1[prim], self.tri_v2[prim], ray.tmin, ray.tmax)
+        } else if prim - nt < self.sphere_center.len() {
+            let k = prim - nt;
+            intersect_sphere(ray.origin, ray.direction, self.sphere_center[k], self.sphere_radius[k], ray.tmin, ray.tmax)
+        } else {
+            f32::INFINITY // padding primitive
+        }
+    }
+
+    #[inline]
+    fn normalised_ray(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Ray {
+        let o = Vec3A::from((origin - self.centre) * self.scale);
+        let tmax_n = if tmax.is_finite() { tmax * self.scale } else { f32::INFINITY };
+        Ray::new(o, Vec3A::from(dir), 0.0, tmax_n)
+    }
+
+    /// Closest hit along the unit direction `dir` from `origin`, up to `tmax` (world units).
+    /// Non-finite inputs return `None`.
+    #[inline]
+    pub fn closest_hit(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
+        if !origin.is_finite() || !dir.is_finite() || dir == Vec3::ZERO {
+            return None;
+        }
+        let ray = self.normalised_ray(origin, dir, tmax);
+        let shear = Shear::new(ray.direction);
+        let mut hit = RayHit::none();
+        let found = self.bvh.ray_traverse(ray, &mut hit, |r, id| {
+            let prim = self.bvh.primitive_indices[id] as usize;
+            self.intersect_prim(&shear, r, prim)
+        });
+        if !found || !hit.t.is_finite() {
+            return None;
+        }
+        let prim = self.bvh.primitive_indices[hit.primitive_id as usize] as usize;
+        let t_world = hit.t / self.scale;
+        let position = origin + dir * t_world;
+        let nt = self.tri_v0.len();
+        let (normal, material) = if prim < nt {
+            let n = (self.tri_v1[prim] - self.tri_v0[prim]).cross(self.tri_v2[prim] - self.tri_v0[prim]);
+            (Vec3::from(n.normalize_or_zero()), self.tri_material[prim])
+        } else {
+            let k = prim - nt;
+            let p = ray.origin + ray.direction * hit.t;
+            let out = Vec3::from((p - self.sphere_center[k]).normalize_or_zero());
+            (if self.sphere_inward[k] { -out } else { out }, self.sphere_material[k])
+        };
+        Some(Hit { t: t_world, position, normal, material, backface: normal.dot(dir) > 0.0, sphere: prim >= nt })
+    }
+
+    /// True when something lies along `dir` from `origin` closer than `tmax` (world units).
+    #[inline]
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
+        if !origin.is_finite() || !dir.is_finite() {
+            return true;
+        }
+        let ray = self.normalised_ray(origin, dir, tmax);
+        let shear = Shear::new(ray.direction);
+        !self.bvh.ray_traverse_miss(ray, |r, id| {
+            let prim = self.bvh.primitive_indices[id] as usize;
+            self.intersect_prim(&shear, r, prim)
+        })
+    }
+
+    /// The bare obvhs path on the same BVH: `Triangle::intersect` (not watertight) and no
+    /// normalisation of inputs. Exists only so benchmarks can compare against it.
+    #[doc(hidden)]
+    pub fn bare_closest_t(&self, tris: &[obvhs::triangle::Triangle], origin: Vec3A, dir: Vec3A) -> f32 {
+        let ray = Ray::new_inf(origin, dir);
+        let mut hit = RayHit::none();
+        self.bvh.ray_traverse(ray, &mut hit, |r, id| {
+            let prim = self.bvh.primitive_indices[id] as usize;
+            match tris.get(prim) {
+                Some(t) => t.intersect(r),
+                None => f32::INFINITY,
+            }
+        });
+        hit.t
+    }
+
+    /// Triangles in the normalised frame as obvhs `Triangle`s, for the bare benchmark path.
+    #[doc(hidden)]
+    pub fn normalised_triangles(&self) -> Vec<obvhs::triangle::Triangle> {
+        (0..self.tri_v0.len())
+            .map(|k| obvhs::triangle::Triangle { v0: self.tri_v0[k], v1: self.tri_v1[k], v2: self.tri_v2[k] })
+            .collect()
+    }
+
+    /// World → normalised point (benchmarks feed the bare path in this frame).
+    #[doc(hidden)]
+    pub fn to_normalised(&self, p: Vec3) -> Vec3A {
+        Vec3A::from((p - self.centre) * self.scale)
+    }
+}
