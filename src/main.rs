@@ -36,7 +36,9 @@ fn main() {
     let cli = Cli::parse();
     let level = if cli.quiet { "warn" } else { "info" };
     tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| level.into()))
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| level.into()),
+        )
         .with_writer(std::io::stderr)
         .init();
     if let Err(e) = run(cli) {
@@ -47,14 +49,22 @@ fn main() {
 
 fn run(cli: Cli) -> Result<()> {
     if let Some(n) = cli.threads {
-        rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build_global().context("setting up threads")?;
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n.max(1))
+            .build_global()
+            .context("setting up threads")?;
     }
     let progress = Progress { quiet: cli.quiet };
     match cli.command {
         Command::Bake { scene, out } => {
             let scene = Scene::load(&scene)?;
             let out = out.unwrap_or_else(|| PathBuf::from("fits").join(&scene.name));
-            tracing::info!("scene {}: {} triangles, {} spheres", scene.name, scene.triangles.len(), scene.spheres.len());
+            tracing::info!(
+                "scene {}: {} triangles, {} spheres",
+                scene.name,
+                scene.triangles.len(),
+                scene.spheres.len()
+            );
             let tracer = Tracer::new(&scene);
             let baked = bake::bake(&scene, &tracer, &progress);
             bake_io::write_bake(&out, &scene, &baked)?;

@@ -48,7 +48,11 @@ pub struct Sampler {
 
 impl Sampler {
     pub fn new(seed: u64, stream: u64, index: u32) -> Self {
-        Self { stream: hash_pair(seed, stream), index: index as u64, dim: 0 }
+        Self {
+            stream: hash_pair(seed, stream),
+            index: index as u64,
+            dim: 0,
+        }
     }
 
     #[inline]
@@ -185,7 +189,11 @@ mod tests {
             for k in 0..steps {
                 let t = (k as f64 + 0.5) / steps as f64 * std::f64::consts::FRAC_PI_2;
                 let d = ggx_d(t.cos() as f32, alpha) as f64;
-                sum += d * t.cos() * t.sin() * 2.0 * std::f64::consts::PI
+                sum += d
+                    * t.cos()
+                    * t.sin()
+                    * 2.0
+                    * std::f64::consts::PI
                     * (std::f64::consts::FRAC_PI_2 / steps as f64);
             }
             assert!((sum - 1.0).abs() < 2e-3, "alpha {alpha}: {sum}");

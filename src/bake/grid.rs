@@ -33,7 +33,11 @@ impl GridGeometry {
     }
     pub fn cell_coords(&self, index: usize) -> UVec3 {
         let i = index as u32;
-        UVec3::new(i % self.counts.x, (i / self.counts.x) % self.counts.y, i / (self.counts.x * self.counts.y))
+        UVec3::new(
+            i % self.counts.x,
+            (i / self.counts.x) % self.counts.y,
+            i / (self.counts.x * self.counts.y),
+        )
     }
     pub fn cell_index(&self, c: UVec3) -> usize {
         (c.x + self.counts.x * (c.y + self.counts.y * c.z)) as usize
@@ -45,7 +49,11 @@ impl GridGeometry {
     pub fn cell_of(&self, p: Vec3) -> UVec3 {
         let f = ((p - self.min) / self.cell_size()).floor();
         let hi = (self.counts - UVec3::ONE).as_vec3();
-        let f = if f.is_finite() { f.clamp(Vec3::ZERO, hi) } else { Vec3::ZERO };
+        let f = if f.is_finite() {
+            f.clamp(Vec3::ZERO, hi)
+        } else {
+            Vec3::ZERO
+        };
         f.as_uvec3()
     }
 }
@@ -102,7 +110,9 @@ pub fn bake_grid(renderer: &Renderer, s: &GridSettings, progress: &Progress) -> 
     let dres = s.depth_resolution;
     let ires = s.irradiance_resolution;
     let depth_omega = texel_solid_angles(dres);
-    let irr_normals: Vec<Vec3> = (0..ires * ires).map(|t| octa::texel_dir(ires, t % ires, t / ires)).collect();
+    let irr_normals: Vec<Vec3> = (0..ires * ires)
+        .map(|t| octa::texel_dir(ires, t % ires, t / ires))
+        .collect();
     let bar = progress.bar(cells as u64, "grid cells");
     let baked: Vec<CellBake> = (0..cells)
         .into_par_iter()
@@ -137,12 +147,19 @@ pub fn bake_grid(renderer: &Renderer, s: &GridSettings, progress: &Progress) -> 
     (grid, rays)
 }
 
-fn bake_cell(renderer: &Renderer, s: &GridSettings, cell: usize, depth_omega: &[f32], irr_normals: &[Vec3]) -> CellBake {
+fn bake_cell(
+    renderer: &Renderer,
+    s: &GridSettings,
+    cell: usize,
+    depth_omega: &[f32],
+    irr_normals: &[Vec3],
+) -> CellBake {
     let dres = s.depth_resolution;
     let centre = s.geometry.cell_centre(cell);
     let cell_stream = hash_pair(DOMAIN_GRID, cell as u64);
     let mut rays = 0u64;
     let mut irradiance = vec![Vec3::ZERO; irr_normals.len()];
+    let mut cosine_sum = vec![0.0f32; irr_normals.len()];
     let mut mean = Vec::with_capacity((dres * dres) as usize);
     let mut mean_sq = Vec::with_capacity((dres * dres) as usize);
     let mut hit = Vec::with_capacity((dres * dres) as usize);
@@ -158,20 +175,35 @@ fn bake_cell(renderer: &Renderer, s: &GridSettings, cell: usize, depth_omega: &[
             let uv = (Vec2::new(i as f32, j as f32) + sampler.next_2d()) / dres as f32;
             let dir = octa::decode(uv);
             let r = renderer.sample(centre, dir, &mut sampler, &mut rays);
-            let d = if r.distance.is_finite() { hits += 1; r.distance.min(s.far_distance) } else { s.far_distance };
+            let d = if r.distance.is_finite() {
+                hits += 1;
+                r.distance.min(s.far_distance)
+            } else {
+                s.far_distance
+            };
             d1 += d as f64;
             d2 += (d as f64) * (d as f64);
             backfaces += r.backface as u32;
-            for (e, n) in irradiance.iter_mut().zip(irr_normals) {
+            for ((e, cs), n) in irradiance.iter_mut().zip(&mut cosine_sum).zip(irr_normals) {
                 let c = n.dot(dir);
                 if c > 0.0 {
                     *e += r.radiance * (c * weight);
+                    *cs += c * weight;
                 }
             }
         }
         mean.push((d1 / spp as f64) as f32);
         mean_sq.push((d2 / spp as f64) as f32);
         hit.push(hits as f32 / spp as f32);
+    }
+    // Ratio estimator: normalise by the quadrature of ∫cos = π itself, which makes a constant
+    // environment exact and removes the quadrature's bias elsewhere.
+    for (e, cs) in irradiance.iter_mut().zip(&cosine_sum) {
+        *e = if *cs > 0.0 {
+            *e * (std::f32::consts::PI / *cs)
+        } else {
+            Vec3::ZERO
+        };
     }
     let total = (dres * dres * spp) as f32;
     CellBake {

@@ -49,7 +49,11 @@ impl SpecularProbe {
 
 /// Perceptual roughness of mip `m` of a chain of `levels` mips: r = m / (levels − 1).
 pub fn mip_roughness(m: usize, levels: usize) -> f32 {
-    if levels <= 1 { 0.0 } else { m as f32 / (levels - 1) as f32 }
+    if levels <= 1 {
+        0.0
+    } else {
+        m as f32 / (levels - 1) as f32
+    }
 }
 
 pub struct ProbeSettings {
@@ -62,7 +66,11 @@ pub struct ProbeSettings {
 }
 
 /// Bakes the probe; returns it and the number of rays traced.
-pub fn bake_probe(renderer: &Renderer, s: &ProbeSettings, progress: &Progress) -> (SpecularProbe, u64) {
+pub fn bake_probe(
+    renderer: &Renderer,
+    s: &ProbeSettings,
+    progress: &Progress,
+) -> (SpecularProbe, u64) {
     let n = s.resolution;
     let texels = (n * n) as usize;
     let bar = progress.bar(texels as u64, "probe radiance");
@@ -81,13 +89,19 @@ pub fn bake_probe(renderer: &Renderer, s: &ProbeSettings, progress: &Progress) -
                     let jitter = sampler.next_2d();
                     let uv = (Vec2::new(i as f32, j as f32) + jitter) / n as f32;
                     let d = octa::decode(uv);
-                    sum += renderer.sample(s.position, d, &mut sampler, &mut rays).radiance;
+                    sum += renderer
+                        .sample(s.position, d, &mut sampler, &mut rays)
+                        .radiance;
                 }
                 rad.push(sum / s.samples_per_texel as f32);
                 // Distance of the texel-centre ray (geometry only matters, no shading needed).
                 let centre = octa::texel_dir(n, i, j);
                 let mut sampler = Sampler::new(s.seed, stream, u32::MAX);
-                dist.push(renderer.sample(s.position, centre, &mut sampler, &mut rays).distance);
+                dist.push(
+                    renderer
+                        .sample(s.position, centre, &mut sampler, &mut rays)
+                        .distance,
+                );
             }
             bar.inc(n as u64);
             (rad, dist, rays)
@@ -111,14 +125,23 @@ pub fn bake_probe(renderer: &Renderer, s: &ProbeSettings, progress: &Progress) -
     for m in 1..levels {
         let alpha = roughness[m] * roughness[m];
         let res = box_chain.levels[m].res;
-        radiance_levels.push(prefilter_ggx(&box_chain, res, alpha, s.ggx_samples, s.seed, m as u64));
+        radiance_levels.push(prefilter_ggx(
+            &box_chain,
+            res,
+            alpha,
+            s.ggx_samples,
+            s.seed,
+            m as u64,
+        ));
         bar.inc(1);
     }
     bar.finish_and_clear();
     let depth = build_distance_mips(OctMap::new(n, distance), s.min_mip_resolution);
     let probe = SpecularProbe {
         position: s.position,
-        radiance: OctMips { levels: radiance_levels },
+        radiance: OctMips {
+            levels: radiance_levels,
+        },
         roughness,
         depth,
     };
@@ -126,7 +149,14 @@ pub fn bake_probe(renderer: &Renderer, s: &ProbeSettings, progress: &Progress) -
 }
 
 /// GGX-prefiltered map of resolution `res` from a box mip chain (split-sum, N = V = R).
-pub fn prefilter_ggx(source: &OctMips<Vec3>, res: u32, alpha: f32, samples: u32, seed: u64, level: u64) -> OctMap<Vec3> {
+pub fn prefilter_ggx(
+    source: &OctMips<Vec3>,
+    res: u32,
+    alpha: f32,
+    samples: u32,
+    seed: u64,
+    level: u64,
+) -> OctMap<Vec3> {
     let n0 = source.levels[0].res;
     let texel_solid_angle = 4.0 * std::f32::consts::PI / (n0 * n0) as f32;
     let texels: Vec<Vec3> = (0..res * res)
@@ -157,7 +187,11 @@ pub fn prefilter_ggx(source: &OctMips<Vec3>, res: u32, alpha: f32, samples: u32,
                 sum += source.sample_lod(l, lod) * nl;
                 wsum += nl;
             }
-            if wsum > 0.0 { sum / wsum } else { source.sample_lod(n, 0.0) }
+            if wsum > 0.0 {
+                sum / wsum
+            } else {
+                source.sample_lod(n, 0.0)
+            }
         })
         .collect();
     OctMap::new(res, texels)

@@ -111,7 +111,10 @@ pub fn wrap_texel(res: u32, mut i: i64, mut j: i64) -> (u32, u32) {
 }
 
 /// A value stored per texel: radiance (`Vec3`), distance (`f32`), …
-pub trait Texel: Copy + Default + Add<Output = Self> + Mul<f32, Output = Self> + Send + Sync {}
+pub trait Texel:
+    Copy + Default + Add<Output = Self> + Mul<f32, Output = Self> + Send + Sync
+{
+}
 impl<T> Texel for T where T: Copy + Default + Add<Output = T> + Mul<f32, Output = T> + Send + Sync {}
 
 /// A square octahedral image: plain data, `texels[j * res + i]`.
@@ -197,7 +200,10 @@ impl<T: Texel> OctMap<T> {
         to: impl Fn(T) -> T,
         from: impl Fn(T) -> T,
     ) -> Self {
-        assert!(self.res >= 2 && self.res % 2 == 0, "mip reduction needs an even resolution");
+        assert!(
+            self.res >= 2 && self.res % 2 == 0,
+            "mip reduction needs an even resolution"
+        );
         let half = self.res / 2;
         Self::from_fn(half, |i, j, _| {
             let mut sum = T::default();
@@ -222,7 +228,10 @@ impl<T: Texel> OctMap<T> {
 pub fn texel_solid_angles(res: u32) -> Vec<f32> {
     let n = res as f64;
     let corner = |i: u32, j: u32| -> [f64; 3] {
-        let p = Vec2::new((2.0 * i as f64 / n - 1.0) as f32, (2.0 * j as f64 / n - 1.0) as f32);
+        let p = Vec2::new(
+            (2.0 * i as f64 / n - 1.0) as f32,
+            (2.0 * j as f64 / n - 1.0) as f32,
+        );
         let v = decode_p(p);
         let (x, y, z) = (v.x as f64, v.y as f64, v.z as f64);
         let l = (x * x + y * y + z * z).sqrt();
@@ -254,7 +263,11 @@ pub fn texel_solid_angles(res: u32) -> Vec<f32> {
 fn spherical_triangle_area(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
     let dot = |u: [f64; 3], v: [f64; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
     let cross = |u: [f64; 3], v: [f64; 3]| {
-        [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+        [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ]
     };
     let triple = dot(a, cross(b, c)).abs();
     let denom = 1.0 + dot(a, b) + dot(b, c) + dot(c, a);
@@ -278,7 +291,11 @@ impl<T: Texel> OctMips<T> {
     #[inline]
     pub fn sample_lod_uv(&self, uv: Vec2, lod: f32) -> T {
         let max = (self.levels.len() - 1) as f32;
-        let lod = if lod.is_finite() { lod.clamp(0.0, max) } else { 0.0 };
+        let lod = if lod.is_finite() {
+            lod.clamp(0.0, max)
+        } else {
+            0.0
+        };
         let l0 = lod.floor() as usize;
         let f = lod - l0 as f32;
         let a = self.levels[l0].bilinear_uv(uv);
@@ -321,11 +338,7 @@ pub fn build_distance_mips(base: OctMap<f32>, min_res: u32) -> OctMips<f32> {
 /// 1/d with 1/inf = 0 and 1/0 = +inf mapped to a huge finite value (never NaN).
 #[inline]
 fn inverse_distance(d: f32) -> f32 {
-    if d <= 0.0 {
-        f32::INFINITY
-    } else {
-        1.0 / d
-    }
+    if d <= 0.0 { f32::INFINITY } else { 1.0 / d }
 }
 
 #[cfg(test)]
@@ -349,7 +362,10 @@ mod tests {
         let n = 8;
         for j in 0..n as i64 {
             assert_eq!(wrap_texel(n, -1, j), (0, (n as i64 - 1 - j) as u32));
-            assert_eq!(wrap_texel(n, n as i64, j), (n - 1, (n as i64 - 1 - j) as u32));
+            assert_eq!(
+                wrap_texel(n, n as i64, j),
+                (n - 1, (n as i64 - 1 - j) as u32)
+            );
         }
     }
 
@@ -357,7 +373,10 @@ mod tests {
     fn solid_angles_sum_to_4pi() {
         for res in [2u32, 4, 8, 16, 64, 256] {
             let sum: f64 = texel_solid_angles(res).iter().map(|&w| w as f64).sum();
-            assert!((sum - 4.0 * std::f64::consts::PI).abs() < 1e-4, "res {res}: {sum}");
+            assert!(
+                (sum - 4.0 * std::f64::consts::PI).abs() < 1e-4,
+                "res {res}: {sum}"
+            );
         }
     }
 }

@@ -32,7 +32,10 @@ impl Builder {
         let e1 = v1 - v0;
         let e2 = v2 - v0;
         let n = e1.cross(e2);
-        let scale = e1.length_squared().max(e2.length_squared()).max((v2 - v1).length_squared());
+        let scale = e1
+            .length_squared()
+            .max(e2.length_squared())
+            .max((v2 - v1).length_squared());
         if !(n.length() > 1e-7 * scale) {
             self.degenerate_skipped += 1;
             return;
@@ -71,8 +74,14 @@ impl Builder {
             )
         };
         // Counter-clockwise seen from outside (normals −x, +x, −y, +y, −z, +z).
-        const FACES: [[usize; 4]; 6] =
-            [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]];
+        const FACES: [[usize; 4]; 6] = [
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+        ];
         for (face, name) in FACES.iter().zip(FACE_NAMES) {
             if open.iter().any(|o| o == name) {
                 continue;
@@ -160,11 +169,39 @@ impl Builder {
             let mid_s = (s0 + s1) * 0.5;
             let radial = facing(mid_c, mid_s, 0.0);
             // inner surface faces the opening (towards the centre)
-            self.add_quad_facing(p(r_in, c0, s0, -hd), p(r_in, c1, s1, -hd), p(r_in, c1, s1, hd), p(r_in, c0, s0, hd), -radial, m);
-            self.add_quad_facing(p(r_out, c0, s0, -hd), p(r_out, c1, s1, -hd), p(r_out, c1, s1, hd), p(r_out, c0, s0, hd), radial, m);
+            self.add_quad_facing(
+                p(r_in, c0, s0, -hd),
+                p(r_in, c1, s1, -hd),
+                p(r_in, c1, s1, hd),
+                p(r_in, c0, s0, hd),
+                -radial,
+                m,
+            );
+            self.add_quad_facing(
+                p(r_out, c0, s0, -hd),
+                p(r_out, c1, s1, -hd),
+                p(r_out, c1, s1, hd),
+                p(r_out, c0, s0, hd),
+                radial,
+                m,
+            );
             let front = facing(0.0, 0.0, 1.0);
-            self.add_quad_facing(p(r_in, c0, s0, hd), p(r_out, c0, s0, hd), p(r_out, c1, s1, hd), p(r_in, c1, s1, hd), front, m);
-            self.add_quad_facing(p(r_in, c0, s0, -hd), p(r_out, c0, s0, -hd), p(r_out, c1, s1, -hd), p(r_in, c1, s1, -hd), -front, m);
+            self.add_quad_facing(
+                p(r_in, c0, s0, hd),
+                p(r_out, c0, s0, hd),
+                p(r_out, c1, s1, hd),
+                p(r_in, c1, s1, hd),
+                front,
+                m,
+            );
+            self.add_quad_facing(
+                p(r_in, c0, s0, -hd),
+                p(r_out, c0, s0, -hd),
+                p(r_out, c1, s1, -hd),
+                p(r_in, c1, s1, -hd),
+                -front,
+                m,
+            );
         }
     }
 }

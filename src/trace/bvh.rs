@@ -10,6 +10,8 @@
 //! - **Morton wrap.** A primitive whose centroid lies exactly on the build bounds' max face
 //!   wraps to Morton code 0, which wrecks the tree of a closed room (walls on the bounds). The
 //!   build list gets one tiny padding box beyond the max corner; it is never reported as hit.
+//! - **Conservative boxes.** The node slab test is exact-or-miss, so primitive boxes are
+//!   padded by `BOX_PAD` (about 1e-6 of the scene) before building.
 //! - **Watertightness.** `Triangle::intersect` lets rays escape through shared edges, so
 //!   triangles use the watertight test of Woop, Benthin & Wald (JCGT 2013).
 
@@ -17,6 +19,9 @@ use crate::scene::Scene;
 use glam::{Vec3, Vec3A};
 use obvhs::{BvhBuildParams, aabb::Aabb, cwbvh::CwBvh, ray::Ray, ray::RayHit};
 use std::time::Duration;
+
+/// AABB padding in the normalised frame (extent 512..1024): ~16 ulps at the frame's edge.
+const BOX_PAD: f32 = 1e-3;
 
 /// What a closest-hit query found.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -88,19 +93,40 @@ impl Shear {
     #[inline]
     fn new(dir: Vec3A) -> Self {
         let a = dir.abs();
-        let kz = if a.x > a.y { if a.x > a.z { 0 } else { 2 } } else if a.y > a.z { 1 } else { 2 };
+        let kz = if a.x > a.y {
+            if a.x > a.z { 0 } else { 2 }
+        } else if a.y > a.z {
+            1
+        } else {
+            2
+        };
         let mut kx = (kz + 1) % 3;
         let mut ky = (kx + 1) % 3;
         if dir[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        Shear { kx, ky, kz, sx: dir[kx] / dir[kz], sy: dir[ky] / dir[kz], sz: 1.0 / dir[kz] }
+        Shear {
+            kx,
+            ky,
+            kz,
+            sx: dir[kx] / dir[kz],
+            sy: dir[ky] / dir[kz],
+            sz: 1.0 / dir[kz],
+        }
     }
 }
 
 /// Watertight ray/triangle test (Woop, Benthin & Wald 2013). Returns t or +inf.
 #[inline]
-fn intersect_watertight(s: &Shear, org: Vec3A, v0: Vec3A, v1: Vec3A, v2: Vec3A, tmin: f32, tmax: f32) -> f32 {
+fn intersect_watertight(
+    s: &Shear,
+    org: Vec3A,
+    v0: Vec3A,
+    v1: Vec3A,
+    v2: Vec3A,
+    tmin: f32,
+    tmax: f32,
+) -> f32 {
     let a = v0 - org;
     let b = v1 - org;
     let c = v2 - org;
@@ -130,13 +156,24 @@ fn intersect_watertight(s: &Shear, org: Vec3A, v0: Vec3A, v1: Vec3A, v2: Vec3A, 
     let bz = s.sz * b[s.kz];
     let cz = s.sz * c[s.kz];
     let t = (u * az + v * bz + w * cz) / det;
-    if t > tmin && t < tmax { t } else { f32::INFINITY }
+    if t > tmin && t < tmax {
+        t
+    } else {
+        f32::INFINITY
+    }
 }
 
 /// Ray/sphere distance (nearest root beyond `tmin`), with the precision improvements of
 /// Haines et al., "Precision Improvements for Ray/Sphere Intersection" (Ray Tracing Gems 7).
 #[inline]
-pub fn intersect_sphere(org: Vec3A, dir: Vec3A, center: Vec3A, radius: f32, tmin: f32, tmax: f32) -> f32 {
+pub fn intersect_sphere(
+    org: Vec3A,
+    dir: Vec3A,
+    center: Vec3A,
+    radius: f32,
+    tmin: f32,
+    tmax: f32,
+) -> f32 {
     let f = org - center;
     let b = -f.dot(dir);
     let perp = f + dir * b;
@@ -178,19 +215,33 @@ impl Tracer {
 
         let mut aabbs: Vec<Aabb> = Vec::with_capacity(tri_v0.len() + sphere_center.len() + 1);
         let mut build_hi = Vec3A::splat(f32::NEG_INFINITY);
+        // Boxes are padded by a few ulps of the normalised frame: obvhs's slab test is not
+        // conservative, so a ray aimed exactly at a crease between two flat boxes (a room's
+        // corner) could miss both.
+        let pad = Vec3A::splat(BOX_PAD);
         for k in 0..tri_v0.len() {
             let b = Aabb::from_points(&[tri_v0[k], tri_v1[k], tri_v2[k]]);
+            let b = Aabb {
+                min: b.min - pad,
+                max: b.max + pad,
+            };
             build_hi = build_hi.max(b.max);
             aabbs.push(b);
         }
         for (c, r) in sphere_center.iter().zip(&sphere_radius) {
-            let b = Aabb { min: *c - Vec3A::splat(*r), max: *c + Vec3A::splat(*r) };
+            let b = Aabb {
+                min: *c - Vec3A::splat(*r) - pad,
+                max: *c + Vec3A::splat(*r) + pad,
+            };
             build_hi = build_hi.max(b.max);
             aabbs.push(b);
         }
         // Padding primitive beyond the max corner (see module docs).
         let pad = build_hi + Vec3A::splat(8.0);
-        aabbs.push(Aabb { min: pad, max: pad + Vec3A::splat(1e-3) });
+        aabbs.push(Aabb {
+            min: pad,
+            max: pad + Vec3A::splat(1e-3),
+        });
 
         let mut build_time = Duration::default();
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, quality.params(), &mut build_time);
@@ -227,10 +278,25 @@ impl Tracer {
     fn intersect_prim(&self, shear: &Shear, ray: &Ray, prim: usize) -> f32 {
         let nt = self.tri_v0.len();
         if prim < nt {
-            intersect_watertight(shear, ray.origin, self.tri_v0[prim], self.tri_v1[prim], self.tri_v2[prim], ray.tmin, ray.tmax)
+            intersect_watertight(
+                shear,
+                ray.origin,
+                self.tri_v0[prim],
+                self.tri_v1[prim],
+                self.tri_v2[prim],
+                ray.tmin,
+                ray.tmax,
+            )
         } else if prim - nt < self.sphere_center.len() {
             let k = prim - nt;
-            intersect_sphere(ray.origin, ray.direction, self.sphere_center[k], self.sphere_radius[k], ray.tmin, ray.tmax)
+            intersect_sphere(
+                ray.origin,
+                ray.direction,
+                self.sphere_center[k],
+                self.sphere_radius[k],
+                ray.tmin,
+                ray.tmax,
+            )
         } else {
             f32::INFINITY // padding primitive
         }
@@ -239,7 +305,11 @@ impl Tracer {
     #[inline]
     fn normalised_ray(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Ray {
         let o = Vec3A::from((origin - self.centre) * self.scale);
-        let tmax_n = if tmax.is_finite() { tmax * self.scale } else { f32::INFINITY };
+        let tmax_n = if tmax.is_finite() {
+            tmax * self.scale
+        } else {
+            f32::INFINITY
+        };
         Ray::new(o, Vec3A::from(dir), 0.0, tmax_n)
     }
 
@@ -265,15 +335,26 @@ impl Tracer {
         let position = origin + dir * t_world;
         let nt = self.tri_v0.len();
         let (normal, material) = if prim < nt {
-            let n = (self.tri_v1[prim] - self.tri_v0[prim]).cross(self.tri_v2[prim] - self.tri_v0[prim]);
+            let n = (self.tri_v1[prim] - self.tri_v0[prim])
+                .cross(self.tri_v2[prim] - self.tri_v0[prim]);
             (Vec3::from(n.normalize_or_zero()), self.tri_material[prim])
         } else {
             let k = prim - nt;
             let p = ray.origin + ray.direction * hit.t;
             let out = Vec3::from((p - self.sphere_center[k]).normalize_or_zero());
-            (if self.sphere_inward[k] { -out } else { out }, self.sphere_material[k])
+            (
+                if self.sphere_inward[k] { -out } else { out },
+                self.sphere_material[k],
+            )
         };
-        Some(Hit { t: t_world, position, normal, material, backface: normal.dot(dir) > 0.0, sphere: prim >= nt })
+        Some(Hit {
+            t: t_world,
+            position,
+            normal,
+            material,
+            backface: normal.dot(dir) > 0.0,
+            sphere: prim >= nt,
+        })
     }
 
     /// True when something lies along `dir` from `origin` closer than `tmax` (world units).
@@ -293,7 +374,12 @@ impl Tracer {
     /// The bare obvhs path on the same BVH: `Triangle::intersect` (not watertight) and no
     /// normalisation of inputs. Exists only so benchmarks can compare against it.
     #[doc(hidden)]
-    pub fn bare_closest_t(&self, tris: &[obvhs::triangle::Triangle], origin: Vec3A, dir: Vec3A) -> f32 {
+    pub fn bare_closest_t(
+        &self,
+        tris: &[obvhs::triangle::Triangle],
+        origin: Vec3A,
+        dir: Vec3A,
+    ) -> f32 {
         let ray = Ray::new_inf(origin, dir);
         let mut hit = RayHit::none();
         self.bvh.ray_traverse(ray, &mut hit, |r, id| {
@@ -310,7 +396,11 @@ impl Tracer {
     #[doc(hidden)]
     pub fn normalised_triangles(&self) -> Vec<obvhs::triangle::Triangle> {
         (0..self.tri_v0.len())
-            .map(|k| obvhs::triangle::Triangle { v0: self.tri_v0[k], v1: self.tri_v1[k], v2: self.tri_v2[k] })
+            .map(|k| obvhs::triangle::Triangle {
+                v0: self.tri_v0[k],
+                v1: self.tri_v1[k],
+                v2: self.tri_v2[k],
+            })
             .collect()
     }
 

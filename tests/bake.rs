@@ -1,0 +1,193 @@
+//! Bakes: closed-form distances, inside-geometry flags, bit-identical results at any thread
+//! count, and files that read back exactly.
+
+mod common;
+use common::*;
+use glam::{Vec3, Vec3A};
+use warpfit::bake::{self, Bake};
+use warpfit::format::bake_io;
+use warpfit::octa;
+use warpfit::progress::Progress;
+use warpfit::scene::Scene;
+use warpfit::trace::{Tracer, bvh::intersect_sphere};
+
+/// The torture scene at test resolution.
+fn small_torture() -> Scene {
+    let mut s = load("torture");
+    s.config.probe.resolution = 64;
+    s.config.probe.samples_per_texel = 2;
+    s.config.probe.ggx_samples = 16;
+    s.config.grid.counts = [6, 3, 6];
+    s.config.grid.depth_resolution = 8;
+    s.config.grid.depth_samples = 2;
+    s
+}
+
+fn bake_with_threads(scene: &Scene, threads: usize) -> Bake {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        let tracer = Tracer::new(scene);
+        bake::bake(scene, &tracer, &Progress::quiet())
+    })
+}
+
+#[test]
+fn bake_is_bit_identical_at_any_thread_count() {
+    let scene = small_torture();
+    let a = bake_with_threads(&scene, 1);
+    let b = bake_with_threads(&scene, 2);
+    let c = bake_with_threads(&scene, 3);
+    assert!(
+        a.probe == b.probe && a.probe == c.probe,
+        "probe differs between thread counts"
+    );
+    assert!(
+        a.grid == b.grid && a.grid == c.grid,
+        "grid differs between thread counts"
+    );
+    // and so are the encoded files
+    let p = std::path::Path::new("probe.exr");
+    let ea = warpfit::format::exr_io::encode_exr(p, &bake_io::probe_layers(&a.probe)).unwrap();
+    let eb = warpfit::format::exr_io::encode_exr(p, &bake_io::probe_layers(&b.probe)).unwrap();
+    assert!(ea == eb, "probe.exr bytes differ");
+}
+
+#[test]
+fn bake_folder_reads_back_exactly() {
+    let scene = small_torture();
+    let baked = bake_with_threads(&scene, 2);
+    let dir = tmp_dir("roundtrip");
+    bake_io::write_bake(&dir, &scene, &baked).unwrap();
+    for f in [
+        "probe.exr",
+        "grid.exr",
+        "manifest.json",
+        "probe_radiance.png",
+        "probe_distance.png",
+        "grid_irradiance.png",
+    ] {
+        assert!(dir.join(f).is_file(), "{f} missing");
+    }
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().contains(".tmp-"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left behind");
+    let (manifest, probe, grid) = bake_io::read_bake(&dir).unwrap();
+    assert_eq!(probe, baked.probe);
+    assert_eq!(grid, baked.grid);
+    assert_eq!(
+        manifest.probe.radiance_mips.len(),
+        probe.radiance.levels.len()
+    );
+    assert_eq!(manifest.probe.radiance_mips[0].perceptual_roughness, 0.0);
+    assert_eq!(
+        manifest
+            .probe
+            .radiance_mips
+            .last()
+            .unwrap()
+            .perceptual_roughness,
+        1.0
+    );
+    assert!(manifest.conventions.octahedral.contains("sign(0)=+1"));
+    // the sky is visible through the skylight: some probe distances are +inf and survive
+    assert!(probe.distance().texels.iter().any(|d| d.is_infinite()));
+}
+
+#[test]
+fn foreign_and_damaged_bakes_are_errors() {
+    let scene = small_torture();
+    let baked = bake_with_threads(&scene, 2);
+    let dir = tmp_dir("damaged");
+    bake_io::write_bake(&dir, &scene, &baked).unwrap();
+    // truncated EXR
+    let probe = std::fs::read(dir.join("probe.exr")).unwrap();
+    std::fs::write(dir.join("probe.exr"), &probe[..probe.len() / 2]).unwrap();
+    let e = bake_io::read_bake(&dir).unwrap_err().to_string();
+    assert!(e.contains("probe.exr"), "{e}");
+    // a PNG where the EXR should be
+    std::fs::copy(dir.join("probe_distance.png"), dir.join("probe.exr")).unwrap();
+    let e = bake_io::read_bake(&dir).unwrap_err().to_string();
+    assert!(e.contains("probe.exr"), "{e}");
+    // wrong version
+    let m = std::fs::read_to_string(dir.join("manifest.json")).unwrap();
+    std::fs::write(
+        dir.join("manifest.json"),
+        m.replace("\"version\": 1", "\"version\": 99"),
+    )
+    .unwrap();
+    let e = bake_io::read_bake(&dir).unwrap_err().to_string();
+    assert!(e.contains("manifest.json") && e.contains("99"), "{e}");
+    // not JSON at all
+    std::fs::write(dir.join("manifest.json"), "{ nope").unwrap();
+    let e = bake_io::read_bake(&dir).unwrap_err().to_string();
+    assert!(e.contains("manifest.json"), "{e}");
+}
+
+#[test]
+fn sphere_probe_distances_are_closed_form() {
+    let scene = load("sphere");
+    let tracer = Tracer::new(&scene);
+    let baked = bake::bake(&scene, &tracer, &Progress::quiet());
+    let centre = Vec3::new(0.0, 1.0, 0.0);
+    let light = scene.lights.sphere_lights[0];
+    let dist = baked.probe.distance();
+    let n = dist.res;
+    let mut light_texels = 0;
+    for j in 0..n {
+        for i in 0..n {
+            let d = octa::texel_dir(n, i, j);
+            let to_light = intersect_sphere(
+                Vec3A::from(centre),
+                Vec3A::from(d),
+                Vec3A::from(light.position),
+                light.radius,
+                0.0,
+                f32::INFINITY,
+            );
+            let want = to_light.min(2.0);
+            light_texels += (to_light < 2.0) as u32;
+            let got = dist.get(i, j);
+            assert!(
+                (got - want).abs() / want < 1e-5,
+                "texel ({i},{j}): {got} vs {want}"
+            );
+        }
+    }
+    assert!(light_texels > 0, "the light should cover some texels");
+    assert!(
+        baked.grid.inside.iter().all(|x| !x),
+        "no cell of the sphere is inside geometry"
+    );
+}
+
+#[test]
+fn cells_inside_solid_geometry_are_flagged() {
+    // A solid box filling the lower half of the grid: cells with centre y < 1 are inside.
+    let scene = parse("[[geometry]]\ntype = \"room\"\nmin = [-3.0, -3.0, -3.0]\nmax = [3.0, 3.0, 3.0]\n[[geometry]]\ntype = \"box\"\nmin = [-2.0, -1.0, -2.0]\nmax = [2.0, 1.0, 2.0]\n").unwrap();
+    let tracer = Tracer::new(&scene);
+    let baked = bake::bake(&scene, &tracer, &Progress::quiet());
+    let g = &baked.grid;
+    for cell in 0..g.geometry.cell_count() {
+        let c = g.geometry.cell_centre(cell);
+        assert_eq!(g.inside[cell], c.y < 1.0, "cell {cell} at {c}");
+    }
+    assert_eq!(g.active_cells(), 4);
+}
+
+#[test]
+fn irradiance_of_uniform_sky_is_pi_times_radiance() {
+    // No geometry near the probe: a constant sky L gives E(n) = π L for every normal.
+    let scene = parse("[sky]\ncolor = [1.0, 0.5, 0.25]\n[[geometry]]\ntype = \"sphere\"\ncenter = [50.0, 50.0, 50.0]\nradius = 0.001\n").unwrap();
+    let tracer = Tracer::new(&scene);
+    let baked = bake::bake(&scene, &tracer, &Progress::quiet());
+    let want = Vec3::new(1.0, 0.5, 0.25) * std::f32::consts::PI;
+    for e in &baked.grid.irradiance {
+        assert!((*e - want).length() < 1e-5 * want.length(), "{e} vs {want}");
+    }
+}

@@ -1,0 +1,144 @@
+//! Octahedral mapping: round trips, seam continuity, exact solid angles, mip topology.
+
+use glam::{Vec2, Vec3};
+use proptest::prelude::*;
+use warpfit::octa::{self, OctMap, build_mips, texel_solid_angles};
+
+fn unit(x: f32, y: f32, z: f32) -> Option<Vec3> {
+    let v = Vec3::new(x, y, z);
+    (v.length() > 1e-3).then(|| v.normalize())
+}
+
+proptest! {
+    #[test]
+    fn round_trip(x in -1.0f32..1.0, y in -1.0f32..1.0, z in -1.0f32..1.0) {
+        if let Some(v) = unit(x, y, z) {
+            let back = octa::decode(octa::encode(v));
+            prop_assert!((back - v).length() < 2e-6, "{v} -> {back}");
+        }
+    }
+
+    #[test]
+    fn uv_round_trip(u in 0.0f32..1.0, v in 0.0f32..1.0) {
+        let uv = Vec2::new(u, v);
+        let back = octa::encode(octa::decode(uv));
+        // The outer edge folds onto itself; compare directions there instead of uv.
+        let same_dir = (octa::decode(back) - octa::decode(uv)).length() < 2e-6;
+        prop_assert!((back - uv).length() < 2e-6 || same_dir, "{uv} -> {back}");
+    }
+
+    /// A smooth function of direction, sampled bilinearly, stays continuous across the seams:
+    /// two directions a hair apart on opposite sides of a fold give nearly the same value.
+    #[test]
+    fn bilinear_is_continuous_across_seams(t in -0.99f32..0.99, side in 0usize..4) {
+        let f = |d: Vec3| d.x * 0.3 + d.y * 0.5 - d.z * 0.7 + 2.0;
+        let map = OctMap::from_fn(64, |_, _, d| f(d));
+        // points on the lower hemisphere's outer edge: u=0, u=1, v=0, v=1
+        let edge = match side {
+            0 => Vec2::new(0.0, t * 0.5 + 0.5),
+            1 => Vec2::new(1.0, t * 0.5 + 0.5),
+            2 => Vec2::new(t * 0.5 + 0.5, 0.0),
+            _ => Vec2::new(t * 0.5 + 0.5, 1.0),
+        };
+        let d = octa::decode(edge);
+        let eps = 1e-3;
+        // step slightly to either side of the seam (in 3-D, normal to the fold)
+        let across = Vec3::new(if side < 2 { 0.0 } else { 1.0 }, if side < 2 { 1.0 } else { 0.0 }, 0.0);
+        let (a, b) = ((d + across * eps).normalize(), (d - across * eps).normalize());
+        let (va, vb) = (map.bilinear(a), map.bilinear(b));
+        prop_assert!((va - vb).abs() < 0.05, "seam jump {va} vs {vb} at {d}");
+        prop_assert!((map.bilinear(d) - f(d)).abs() < 0.05);
+    }
+}
+
+#[test]
+fn bilinear_reproduces_smooth_function() {
+    let f = |d: Vec3| 1.0 + d.x * 0.5 + d.y * d.y - d.z * 0.25;
+    let map = OctMap::from_fn(128, |_, _, d| f(d));
+    let mut worst = 0.0f32;
+    for k in 0..2000 {
+        let u = Vec2::new(
+            (k as f32 * 0.618_034).fract(),
+            (k as f32 * 0.754_878).fract(),
+        );
+        let d = octa::decode(u);
+        worst = worst.max((map.bilinear(d) - f(d)).abs());
+    }
+    assert!(worst < 0.02, "worst bilinear error {worst}");
+}
+
+#[test]
+fn solid_angles_sum_to_4pi_and_are_positive() {
+    for res in [8u32, 16, 32, 128] {
+        let w = texel_solid_angles(res);
+        assert!(w.iter().all(|&x| x > 0.0));
+        let sum: f64 = w.iter().map(|&x| x as f64).sum();
+        assert!(
+            (sum - 4.0 * std::f64::consts::PI).abs() < 1e-4,
+            "{res}: {sum}"
+        );
+    }
+}
+
+#[test]
+fn solid_angles_match_numerical_integration() {
+    // Compare against a dense Monte-Carlo-free count: uniform sphere points binned per texel.
+    let res = 8u32;
+    let w = texel_solid_angles(res);
+    let n = 400_000u32;
+    let mut counts = vec![0u32; (res * res) as usize];
+    for k in 0..n {
+        // Fibonacci sphere
+        let z = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
+        let r = (1.0 - z * z).sqrt();
+        let phi = k as f64 * 2.399_963_229_728_653;
+        let d = Vec3::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32);
+        let (i, j) = octa::texel_of_uv(res, octa::encode(d));
+        counts[(j * res + i) as usize] += 1;
+    }
+    for (t, &c) in counts.iter().enumerate() {
+        let est = c as f64 / n as f64 * 4.0 * std::f64::consts::PI;
+        assert!(
+            (est - w[t] as f64).abs() / (w[t] as f64) < 0.01,
+            "texel {t}: {est} vs {}",
+            w[t]
+        );
+    }
+}
+
+#[test]
+fn mips_preserve_the_solid_angle_weighted_mean() {
+    let map = OctMap::from_fn(64, |_, _, d| 1.0 + d.x + 2.0 * d.z * d.z);
+    let mips = build_mips(map, 4);
+    assert_eq!(
+        mips.levels.iter().map(|l| l.res).collect::<Vec<_>>(),
+        vec![64, 32, 16, 8, 4]
+    );
+    let mean = |m: &OctMap<f32>| {
+        let w = texel_solid_angles(m.res);
+        m.texels
+            .iter()
+            .zip(&w)
+            .map(|(v, w)| (*v * *w) as f64)
+            .sum::<f64>()
+            / (4.0 * std::f64::consts::PI)
+    };
+    let m0 = mean(&mips.levels[0]);
+    for l in &mips.levels {
+        assert!(
+            (mean(l) - m0).abs() < 1e-4,
+            "res {}: {} vs {m0}",
+            l.res,
+            mean(l)
+        );
+    }
+}
+
+#[test]
+fn seam_convention_pinned() {
+    // The spec in the manifest: texel (i, j) centre at ((i+.5)/N, (j+.5)/N), row 0 first.
+    let d = octa::texel_dir(4, 0, 0);
+    assert!(d.z < 0.0 && d.x < 0.0 && d.y < 0.0, "{d}");
+    let d = octa::texel_dir(4, 1, 1);
+    assert!(d.z > 0.0 && d.x < 0.0 && d.y < 0.0, "{d}");
+}

@@ -1,0 +1,251 @@
+//! The tracer against closed forms: a sphere seen from its centre, a box room, a furnace,
+//! watertightness in a closed tessellated room, scale invariance.
+
+mod common;
+use common::*;
+use glam::Vec3;
+use warpfit::sampling::{Sampler, uniform_sphere};
+use warpfit::scene::Scene;
+use warpfit::trace::{Renderer, Tracer, trace_batch};
+
+fn dirs(n: u32, seed: u64) -> Vec<Vec3> {
+    (0..n)
+        .map(|k| uniform_sphere(Sampler::new(seed, 0, k).next_2d()))
+        .collect()
+}
+
+#[test]
+fn sphere_from_centre_hits_at_radius() {
+    let scene = load("sphere");
+    let tracer = Tracer::new(&scene);
+    let c = Vec3::new(0.0, 1.0, 0.0);
+    for d in dirs(20_000, 3) {
+        let h = tracer
+            .closest_hit(c, d, f32::INFINITY)
+            .expect("closed sphere: every ray hits");
+        assert!((h.t - 2.0).abs() / 2.0 < 1e-5, "t = {}", h.t);
+        assert!(!h.backface, "inward sphere is seen from its front");
+        assert!((h.normal + d).length() < 1e-4, "normal faces the centre");
+    }
+}
+
+/// Exact distance from `p` (inside) to the walls of the box [lo, hi] along unit `d`.
+fn box_exit(p: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> f32 {
+    let mut t = f32::INFINITY;
+    for a in 0..3 {
+        if d[a] > 0.0 {
+            t = t.min((hi[a] - p[a]) / d[a]);
+        } else if d[a] < 0.0 {
+            t = t.min((lo[a] - p[a]) / d[a]);
+        }
+    }
+    t
+}
+
+#[test]
+fn box_room_distances_match_closed_form() {
+    let scene =
+        parse("[[geometry]]\ntype = \"room\"\nmin = [-1.0, 0.0, -2.0]\nmax = [3.0, 2.5, 1.0]\n")
+            .unwrap();
+    let tracer = Tracer::new(&scene);
+    let (lo, hi) = (Vec3::new(-1.0, 0.0, -2.0), Vec3::new(3.0, 2.5, 1.0));
+    for (k, d) in dirs(20_000, 5).into_iter().enumerate() {
+        let f = Vec3::new(
+            (k as f32 * 0.618).fract(),
+            (k as f32 * 0.754).fract(),
+            (k as f32 * 0.569).fract(),
+        );
+        let p = lo + (hi - lo) * (0.05 + 0.9 * f);
+        let h = tracer
+            .closest_hit(p, d, f32::INFINITY)
+            .expect("closed room");
+        let want = box_exit(p, d, lo, hi);
+        assert!(
+            (h.t - want).abs() <= 1e-5 * want.max(1e-3) + 2e-6,
+            "p {p} d {d}: {} vs {want}",
+            h.t
+        );
+        assert!(!h.backface);
+    }
+}
+
+#[test]
+fn occlusion_agrees_with_closest_hit() {
+    let scene = load("torture");
+    let tracer = Tracer::new(&scene);
+    let p = Vec3::new(0.35, 1.7, -2.6);
+    for d in dirs(5_000, 9) {
+        match tracer.closest_hit(p, d, f32::INFINITY) {
+            Some(h) => {
+                assert!(tracer.occluded(p, d, h.t * 1.001));
+                assert!(!tracer.occluded(p, d, h.t * 0.999));
+            }
+            None => assert!(!tracer.occluded(p, d, f32::INFINITY)),
+        }
+    }
+}
+
+/// A room whose faces are tessellated into n×n quads, written as OBJ. Returns the
+/// tessellation's vertices, edge midpoints and quad centres: the adversarial ray targets.
+fn tessellated_room_obj(n: usize, path: &std::path::Path) -> Vec<Vec3> {
+    let mut s = String::new();
+    let mut targets = Vec::new();
+    let mut vcount = 0;
+    let (lo, hi) = (Vec3::new(-1.0, -1.0, -1.0), Vec3::new(1.3, 0.7, 1.9));
+    // each face: origin, u axis, v axis (u × v points into the room)
+    let faces = [
+        (Vec3::new(lo.x, lo.y, lo.z), Vec3::Y, Vec3::Z),
+        (Vec3::new(hi.x, lo.y, lo.z), Vec3::Z, Vec3::Y),
+        (Vec3::new(lo.x, lo.y, lo.z), Vec3::Z, Vec3::X),
+        (Vec3::new(lo.x, hi.y, lo.z), Vec3::X, Vec3::Z),
+        (Vec3::new(lo.x, lo.y, lo.z), Vec3::X, Vec3::Y),
+        (Vec3::new(lo.x, lo.y, hi.z), Vec3::Y, Vec3::X),
+    ];
+    let size = hi - lo;
+    for (o, u, v) in faces {
+        let (su, sv) = (u * size.dot(u), v * size.dot(v));
+        let at = |a: f32, b: f32| o + su * (a / n as f32) + sv * (b / n as f32);
+        let base = vcount;
+        for j in 0..=n {
+            for i in 0..=n {
+                let p = at(i as f32, j as f32);
+                targets.extend([
+                    p,
+                    at(i as f32 + 0.5, j as f32),
+                    at(i as f32 + 0.5, j as f32 + 0.5),
+                ]);
+                s += &format!("v {} {} {}\n", p.x, p.y, p.z);
+                vcount += 1;
+            }
+        }
+        for j in 0..n {
+            for i in 0..n {
+                let a = base + j * (n + 1) + i + 1;
+                s += &format!("f {} {} {} {}\n", a, a + 1, a + n + 2, a + n + 1);
+            }
+        }
+    }
+    std::fs::write(path, s).unwrap();
+    targets
+}
+
+/// Rays aimed exactly at shared vertices and edges (including the room's creases) from
+/// many interior points: none may escape. The bare obvhs path escapes on these very rays,
+/// so this test catches a regression to it.
+#[test]
+fn closed_tessellated_room_is_watertight() {
+    let dir = tmp_dir("watertight");
+    let obj = dir.join("room.obj");
+    let targets = tessellated_room_obj(48, &obj);
+    let text = format!("{HEADER}\n[[geometry]]\ntype = \"obj\"\npath = \"room.obj\"\n");
+    let scene = Scene::parse(&text, &dir.join("room.toml")).unwrap();
+    assert_eq!(scene.triangles.len(), 6 * 48 * 48 * 2);
+    let tracer = Tracer::new(&scene);
+    let tris = tracer.normalised_triangles();
+    let (mut escaped, mut bare_escaped, mut total) = (0, 0, 0);
+    for (k, target) in targets.iter().enumerate() {
+        for q in 0..4 {
+            let p = Vec3::new(
+                ((k * 3 + q) % 7) as f32 * 0.173 - 0.5,
+                ((k + q) % 5) as f32 * 0.11 - 0.3,
+                ((k + 2 * q) % 11) as f32 * 0.09 - 0.4,
+            );
+            let d = (*target - p).normalize();
+            total += 1;
+            escaped += tracer.closest_hit(p, d, f32::INFINITY).is_none() as u32;
+            bare_escaped += !tracer
+                .bare_closest_t(&tris, tracer.to_normalised(p), d.into())
+                .is_finite() as u32;
+        }
+    }
+    assert_eq!(
+        escaped, 0,
+        "{escaped} of {total} rays escaped a closed room"
+    );
+    assert!(
+        bare_escaped > 0,
+        "the adversarial rays no longer stress the intersection test"
+    );
+}
+
+#[test]
+fn furnace_sphere_radiance_is_closed_form() {
+    // Inward emissive sphere, albedo a, emission E, no lights: L = E (1 + a + … + a^bounces).
+    for bounces in [0u32, 1, 2] {
+        let scene = Scene::parse(&format!(
+            "bounces = {bounces}\n{HEADER}\n[[geometry]]\ntype = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 3.0\ninward = true\nmaterial = {{ albedo = [0.5, 0.5, 0.5], emission = [2.0, 1.0, 0.5] }}\n"
+        ), &fixture("furnace.toml"))
+        .unwrap();
+        let tracer = Tracer::new(&scene);
+        let r = Renderer::new(&scene, &tracer);
+        let d = dirs(512, 1);
+        let o = vec![Vec3::new(0.3, 1.2, -0.4); d.len()];
+        let (samples, _) = trace_batch(&r, &o, &d, 1, 0, 2);
+        let gain: f32 = (0..=bounces).map(|k| 0.5f32.powi(k as i32)).sum();
+        for s in samples {
+            let want = Vec3::new(2.0, 1.0, 0.5) * gain;
+            assert!(
+                (s.radiance - want).length() < 1e-5 * want.length(),
+                "bounces {bounces}: {} vs {want}",
+                s.radiance
+            );
+        }
+    }
+}
+
+#[test]
+fn scaled_scenes_give_scaled_distances() {
+    let base = load("torture");
+    let p = Vec3::from_array(base.config.probe.position);
+    let t0 = Tracer::new(&base);
+    let ref_t: Vec<Option<f32>> = dirs(4_000, 13)
+        .iter()
+        .map(|&d| t0.closest_hit(p, d, f32::INFINITY).map(|h| h.t))
+        .collect();
+    for factor in [1e-4f32, 1e4] {
+        let s = base.scaled(factor);
+        let t = Tracer::new(&s);
+        let mut mismatched = 0;
+        for (d, want) in dirs(4_000, 13).iter().zip(&ref_t) {
+            let got = t
+                .closest_hit(p * factor, *d, f32::INFINITY)
+                .map(|h| h.t / factor);
+            match (got, want) {
+                (Some(g), Some(w)) => {
+                    if (g - w).abs() > 1e-4 * w {
+                        mismatched += 1;
+                    }
+                }
+                (None, None) => {}
+                _ => mismatched += 1,
+            }
+        }
+        // Rays grazing an edge may legitimately flip; nothing else may change.
+        assert!(
+            mismatched <= 4,
+            "scale {factor}: {mismatched} of 4000 rays differ"
+        );
+    }
+}
+
+#[test]
+fn degenerate_queries_never_produce_nan() {
+    let scene = load("torture");
+    let tracer = Tracer::new(&scene);
+    let r = Renderer::new(&scene, &tracer);
+    let mut rays = 0;
+    for (o, d) in [
+        (Vec3::NAN, Vec3::X),
+        (Vec3::ZERO, Vec3::ZERO),
+        (Vec3::ZERO, Vec3::INFINITY),
+        (Vec3::splat(1e30), Vec3::X),
+        (
+            Vec3::new(0.0, 1e-7, 0.0),
+            Vec3::new(1.0, -1e-9, 0.0).normalize(),
+        ), // grazing the floor
+    ] {
+        let s = r.sample(o, d, &mut Sampler::new(1, 0, 0), &mut rays);
+        assert!(s.radiance.is_finite(), "{o} {d}");
+        assert!(!s.distance.is_nan(), "{o} {d}");
+    }
+}
