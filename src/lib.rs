@@ -16,6 +16,10 @@
 //!
 //! Pipeline: `scene` → `trace` → `bake` → `format`. See ARCHITECTURE.md.
 
+// `!(x > 0.0)` is how this crate rejects NaN together with out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+#![allow(clippy::needless_range_loop)]
+
 pub mod bake;
 pub mod format;
 pub mod octa;

@@ -201,7 +201,7 @@ impl<T: Texel> OctMap<T> {
         from: impl Fn(T) -> T,
     ) -> Self {
         assert!(
-            self.res >= 2 && self.res % 2 == 0,
+            self.res >= 2 && self.res.is_multiple_of(2),
             "mip reduction needs an even resolution"
         );
         let half = self.res / 2;

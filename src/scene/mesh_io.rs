@@ -37,7 +37,7 @@ fn add_indexed(
             format!("{what}: vertex {k} is not finite ({})", positions[k]),
         ));
     }
-    if indices.len() % 3 != 0 {
+    if !indices.len().is_multiple_of(3) {
         return Err(mesh_err(
             path,
             format!(

@@ -337,7 +337,7 @@ fn validate_settings(f: &SceneFile, path: &Path) -> Result<(), SceneError> {
         ));
     }
     let ir = f.grid.irradiance_resolution;
-    if !(2..=64).contains(&ir) || ir % 2 != 0 {
+    if !(2..=64).contains(&ir) || !ir.is_multiple_of(2) {
         return Err(invalid(
             path,
             "grid.irradiance_resolution",
@@ -345,7 +345,7 @@ fn validate_settings(f: &SceneFile, path: &Path) -> Result<(), SceneError> {
         ));
     }
     let dr = f.grid.depth_resolution;
-    if !(8..=16).contains(&dr) || dr % 2 != 0 {
+    if !(8..=16).contains(&dr) || !dr.is_multiple_of(2) {
         return Err(invalid(
             path,
             "grid.depth_resolution",
