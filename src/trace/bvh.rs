@@ -78,15 +78,29 @@ pub struct Tracer {
     pub build_time: Duration,
 }
 
-/// Per-ray constants of the watertight test.
+/// Per-ray constants of the watertight test: the axis permutation that makes z the
+/// dominant direction axis (as a swizzle id, so the per-triangle code has no dynamic
+/// indexing) and the shear.
 #[derive(Clone, Copy)]
 struct Shear {
-    kx: usize,
-    ky: usize,
-    kz: usize,
+    perm: u8,
     sx: f32,
     sy: f32,
     sz: f32,
+}
+
+/// Reorders (x, y, z) to (kx, ky, kz).
+#[inline(always)]
+fn permute(v: Vec3A, perm: u8) -> Vec3A {
+    use glam::Vec3Swizzles;
+    match perm {
+        0 => v.yzx(), // kz = x: (y, z, x)
+        1 => v.zyx(), // kz = x, swapped
+        2 => v.zxy(), // kz = y: (z, x, y)
+        3 => v.xzy(), // kz = y, swapped
+        4 => v,       // kz = z: (x, y, z)
+        _ => v.yxz(), // kz = z, swapped
+    }
 }
 
 impl Shear {
@@ -100,18 +114,14 @@ impl Shear {
         } else {
             2
         };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if dir[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        // Swap kx and ky when the dominant component is negative, to keep winding.
+        let perm = (kz * 2 + (dir[kz as usize] < 0.0) as u8) as u8;
+        let d = permute(dir, perm);
         Shear {
-            kx,
-            ky,
-            kz,
-            sx: dir[kx] / dir[kz],
-            sy: dir[ky] / dir[kz],
-            sz: 1.0 / dir[kz],
+            perm,
+            sx: d.x / d.z,
+            sy: d.y / d.z,
+            sz: 1.0 / d.z,
         }
     }
 }
@@ -127,15 +137,15 @@ fn intersect_watertight(
     tmin: f32,
     tmax: f32,
 ) -> f32 {
-    let a = v0 - org;
-    let b = v1 - org;
-    let c = v2 - org;
-    let ax = a[s.kx] - s.sx * a[s.kz];
-    let ay = a[s.ky] - s.sy * a[s.kz];
-    let bx = b[s.kx] - s.sx * b[s.kz];
-    let by = b[s.ky] - s.sy * b[s.kz];
-    let cx = c[s.kx] - s.sx * c[s.kz];
-    let cy = c[s.ky] - s.sy * c[s.kz];
+    let a = permute(v0 - org, s.perm);
+    let b = permute(v1 - org, s.perm);
+    let c = permute(v2 - org, s.perm);
+    let ax = a.x - s.sx * a.z;
+    let ay = a.y - s.sy * a.z;
+    let bx = b.x - s.sx * b.z;
+    let by = b.y - s.sy * b.z;
+    let cx = c.x - s.sx * c.z;
+    let cy = c.y - s.sy * c.z;
     let mut u = cx * by - cy * bx;
     let mut v = ax * cy - ay * cx;
     let mut w = bx * ay - by * ax;
@@ -152,10 +162,7 @@ fn intersect_watertight(
     if det == 0.0 {
         return f32::INFINITY;
     }
-    let az = s.sz * a[s.kz];
-    let bz = s.sz * b[s.kz];
-    let cz = s.sz * c[s.kz];
-    let t = (u * az + v * bz + w * cz) / det;
+    let t = (u * a.z + v * b.z + w * c.z) * s.sz / det;
     if t > tmin && t < tmax {
         t
     } else {
