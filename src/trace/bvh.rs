@@ -115,7 +115,7 @@ impl Shear {
             2
         };
         // Swap kx and ky when the dominant component is negative, to keep winding.
-        let perm = (kz * 2 + (dir[kz as usize] < 0.0) as u8) as u8;
+        let perm = kz * 2 + (dir[kz as usize] < 0.0) as u8;
         let d = permute(dir, perm);
         Shear {
             perm,
