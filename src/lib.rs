@@ -14,17 +14,22 @@
 //! # let _ = (bake::bake, Progress::quiet());
 //! ```
 //!
-//! Pipeline: `scene` → `trace` → `bake` → `format`. See ARCHITECTURE.md.
+//! Pipeline: `scene` → `trace` → `bake` → `format`, then `warp` + `eval` → `report`.
+//! See ARCHITECTURE.md.
 
 // `!(x > 0.0)` is how this crate rejects NaN together with out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 #![allow(clippy::needless_range_loop)]
 
 pub mod bake;
+pub mod eval;
 pub mod format;
 pub mod octa;
+pub mod pipeline;
 pub mod preview;
 pub mod progress;
+pub mod report;
 pub mod sampling;
 pub mod scene;
 pub mod trace;
+pub mod warp;

@@ -3,7 +3,11 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
-use warpfit::{bake, format::bake_io, progress::Progress, scene::Scene, trace::Tracer};
+use warpfit::eval::EvalSettings;
+use warpfit::warp::{Method, WarpOptions};
+use warpfit::{
+    bake, format::bake_io, pipeline, progress::Progress, report, scene::Scene, trace::Tracer,
+};
 
 /// Offline parallax correction for reflection probes.
 #[derive(Parser)]
@@ -30,6 +34,132 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Measure every warp method against raytraced references on held-out positions and
+    /// directions; writes eval.json, eval.md and an error-against-cost plot.
+    Eval {
+        #[arg(long, default_value = "data/scenes/torture.toml")]
+        scene: PathBuf,
+        /// Bake folder to reuse (baked there first if missing or stale) and where reports go.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Comma-separated methods, or "all".
+        #[arg(long, default_value = "all")]
+        methods: String,
+        #[command(flatten)]
+        eval: EvalArgs,
+    },
+    /// The main job: bake (or reuse a matching bake) and evaluate, on the default scene
+    /// unless one is given.
+    Run {
+        #[arg(long, default_value = "data/scenes/torture.toml")]
+        scene: PathBuf,
+        #[arg(long)]
+        out: Option<PathBuf>,
+        #[command(flatten)]
+        eval: EvalArgs,
+    },
+}
+
+#[derive(clap::Args)]
+struct EvalArgs {
+    /// Validation positions.
+    #[arg(long, default_value_t = 256)]
+    positions: u32,
+    /// Validation directions per position.
+    #[arg(long, default_value_t = 256)]
+    dirs: u32,
+    /// Samples per reference ray.
+    #[arg(long, default_value_t = 16)]
+    reference_spp: u32,
+    /// Depth mip the depth-based warps read.
+    #[arg(long, default_value_t = 2.0)]
+    depth_mip: f32,
+    /// UV relaxation radius in probe texels (0 = off).
+    #[arg(long, default_value_t = 0.0)]
+    relax: f32,
+    /// Seed of the validation set.
+    #[arg(long, default_value_t = 0xE7A1)]
+    eval_seed: u64,
+}
+
+impl EvalArgs {
+    fn settings(&self) -> EvalSettings {
+        EvalSettings {
+            positions: self.positions.max(1),
+            dirs_per_position: self.dirs.max(1),
+            reference_spp: self.reference_spp.max(1),
+            seed: self.eval_seed,
+            options: WarpOptions {
+                depth_lod: self.depth_mip,
+                relax_texels: self.relax,
+                ..WarpOptions::default()
+            },
+            ..EvalSettings::default()
+        }
+    }
+}
+
+fn parse_methods(list: &str) -> Result<Vec<Method>> {
+    if list == "all" {
+        return Ok(Method::ALL.to_vec());
+    }
+    list.split(',')
+        .map(|n| {
+            Method::parse(n.trim()).with_context(|| {
+                let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+                format!("unknown method {n:?}; known: {}", names.join(", "))
+            })
+        })
+        .collect()
+}
+
+fn command_line() -> String {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    format!("warpfit {}", args.join(" "))
+}
+
+fn eval_and_print(
+    scene_path: &std::path::Path,
+    out: Option<PathBuf>,
+    methods: &[Method],
+    args: &EvalArgs,
+    progress: &Progress,
+) -> Result<()> {
+    let scene = Scene::load(scene_path)?;
+    let out = out.unwrap_or_else(|| PathBuf::from("fits").join(&scene.name));
+    let tracer = Tracer::new(&scene);
+    let (probe, grid, fresh) = pipeline::load_or_bake(&scene, &tracer, &out, progress)?;
+    if fresh {
+        println!("baked {} → {}", scene.name, out.display());
+    }
+    let baked = pipeline::Baked {
+        scene: &scene,
+        tracer: &tracer,
+        probe: &probe,
+        grid: &grid,
+    };
+    let r = pipeline::evaluate(
+        baked,
+        &args.settings(),
+        methods,
+        &out,
+        &command_line(),
+        progress,
+    )?;
+    println!(
+        "{}: {} lookups at {} positions, hidden fraction {:.1}%, reference ray {:.0} ns",
+        r.scene,
+        r.lookups,
+        r.positions,
+        100.0 * r.hidden_fraction,
+        r.reference_ns_per_ray
+    );
+    print!("{}", report::methods_table(&r));
+    println!(
+        "wrote {}/eval.json, eval.md, eval_error_vs_cost.png",
+        out.display()
+    );
+    Ok(())
 }
 
 fn main() {
@@ -82,6 +212,18 @@ fn run(cli: Cli) -> Result<()> {
                 s.rays_per_s / 1e6,
                 s.threads
             );
+        }
+        Command::Eval {
+            scene,
+            out,
+            methods,
+            eval,
+        } => {
+            let methods = parse_methods(&methods)?;
+            eval_and_print(&scene, out, &methods, &eval, &progress)?;
+        }
+        Command::Run { scene, out, eval } => {
+            eval_and_print(&scene, out, &Method::ALL, &eval, &progress)?;
         }
     }
     Ok(())

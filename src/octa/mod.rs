@@ -166,15 +166,31 @@ impl<T: Texel> OctMap<T> {
         let n = self.res as f32;
         let x = uv.x.clamp(0.0, 1.0) * n - 0.5;
         let y = uv.y.clamp(0.0, 1.0) * n - 0.5;
-        let x0 = x.floor();
-        let y0 = y.floor();
-        let fx = x - x0;
-        let fy = y - y0;
-        let (i0, j0) = (x0 as i64, y0 as i64);
-        let t00 = self.get_wrapped(i0, j0);
-        let t10 = self.get_wrapped(i0 + 1, j0);
-        let t01 = self.get_wrapped(i0, j0 + 1);
-        let t11 = self.get_wrapped(i0 + 1, j0 + 1);
+        // x, y ≥ −0.5, so truncating x + 1 is floor(x) + 1 without a libm `floorf` call
+        // (the x86-64 baseline has no SSE4.1 round instruction).
+        let i0 = (x + 1.0) as i64 - 1;
+        let j0 = (y + 1.0) as i64 - 1;
+        let fx = x - i0 as f32;
+        let fy = y - j0 as f32;
+        let last = self.res as i64 - 1;
+        let (t00, t10, t01, t11) = if i0 >= 0 && j0 >= 0 && i0 < last && j0 < last {
+            // interior: no seam handling needed
+            let k = (j0 * self.res as i64 + i0) as usize;
+            let r = self.res as usize;
+            (
+                self.texels[k],
+                self.texels[k + 1],
+                self.texels[k + r],
+                self.texels[k + r + 1],
+            )
+        } else {
+            (
+                self.get_wrapped(i0, j0),
+                self.get_wrapped(i0 + 1, j0),
+                self.get_wrapped(i0, j0 + 1),
+                self.get_wrapped(i0 + 1, j0 + 1),
+            )
+        };
         (t00 * (1.0 - fx) + t10 * fx) * (1.0 - fy) + (t01 * (1.0 - fx) + t11 * fx) * fy
     }
 
@@ -296,7 +312,7 @@ impl<T: Texel> OctMips<T> {
         } else {
             0.0
         };
-        let l0 = lod.floor() as usize;
+        let l0 = lod as usize; // lod ≥ 0: truncation is floor
         let f = lod - l0 as f32;
         let a = self.levels[l0].bilinear_uv(uv);
         if f == 0.0 || l0 + 1 >= self.levels.len() {

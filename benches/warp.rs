@@ -1,0 +1,68 @@
+//! ns per lookup of each per-lookup warp method on the default scene's probe (fetch
+//! direction + bilinear radiance), single-threaded, over the validation set's queries.
+//!
+//! Run: `cargo bench --bench warp`
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use glam::Vec3;
+use std::hint::black_box;
+use std::path::Path;
+use warpfit::eval::{self, EvalSettings, MethodContext};
+use warpfit::progress::Progress;
+use warpfit::scene::Scene;
+use warpfit::trace::Tracer;
+use warpfit::warp::{self, Method, WarpOptions};
+
+fn methods(c: &mut Criterion) {
+    let scene = Scene::load(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/data/scenes/torture.toml"
+    )))
+    .unwrap();
+    let tracer = Tracer::new(&scene);
+    let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
+    let settings = EvalSettings {
+        positions: 64,
+        dirs_per_position: 256,
+        reference_spp: 1,
+        ..EvalSettings::default()
+    };
+    let set = eval::validation_set(
+        &scene,
+        &tracer,
+        &baked.grid,
+        baked.probe.position,
+        &settings,
+    );
+    let ctx = MethodContext::new(&scene, &baked.probe);
+    let opts = WarpOptions::default();
+    let n = set.dirs.len();
+    let queries: Vec<(Vec3, Vec3)> = (0..n).map(|k| (set.position_of(k), set.dirs[k])).collect();
+    let mut g = c.benchmark_group("lookup/torture");
+    g.throughput(Throughput::Elements(n as u64));
+    g.sample_size(20);
+    for m in [
+        Method::None,
+        Method::Box,
+        Method::Kdop,
+        Method::Warp1,
+        Method::Warp2Fixed,
+        Method::Warp2New,
+        Method::Secant,
+        Method::Raymarch,
+    ] {
+        g.bench_function(m.name(), |b| {
+            b.iter(|| {
+                let mut acc = Vec3::ZERO;
+                for &(p, d) in &queries {
+                    acc += warp::lookup(m, &ctx.probe, &ctx.proxies, &opts, p, d);
+                }
+                black_box(acc)
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, methods);
+criterion_main!(benches);

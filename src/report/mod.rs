@@ -1,0 +1,142 @@
+//! Reports: the evaluation as `eval.json` (machine-readable), `eval.md` (for people) and an
+//! error-against-cost plot. Reads what other stages produce; computes nothing of its own.
+
+pub mod plot;
+
+use crate::eval::{EvalSettings, MethodResult};
+use crate::format::{FormatError, write_atomic};
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// One row of the warp1 option sweep.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SweepRow {
+    pub depth_lod: f32,
+    pub relax_texels: f32,
+    pub rel_rmse: f64,
+}
+
+/// Everything `eval.json` holds.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct EvalReport {
+    pub scene: String,
+    pub positions: usize,
+    pub lookups: usize,
+    /// Fraction of validation lookups whose true hit is hidden from probe A.
+    pub hidden_fraction: f64,
+    /// Cost of tracing one reference ray (one radiance sample), single-threaded.
+    pub reference_ns_per_ray: f64,
+    pub methods: Vec<MethodResult>,
+    pub warp1_sweep: Vec<SweepRow>,
+    pub settings: EvalSettings,
+    pub command: String,
+}
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> FormatError + '_ {
+    move |source| FormatError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Markdown table of the methods, sorted as given.
+pub fn methods_table(r: &EvalReport) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| method | rel RMSE | MAE | p95 | max | angular ° | ns/lookup | ns/lookup (random order) | × cheaper than a reference ray | note |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|");
+    for m in &r.methods {
+        let ang = m.angular_deg.map_or("–".to_string(), |a| format!("{a:.2}"));
+        let cheaper = if m.name == "oracle" {
+            "–".to_string()
+        } else {
+            format!("{:.0}", r.reference_ns_per_ray / m.ns_per_lookup.max(1e-9))
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {:.4} | {:.4} | {:.4} | {:.3} | {} | {:.1} | {:.1} | {} | {} |",
+            m.name,
+            m.rel_rmse,
+            m.mae,
+            m.p95,
+            m.max,
+            ang,
+            m.ns_per_lookup,
+            m.ns_per_lookup_random,
+            cheaper,
+            m.note
+        );
+    }
+    s
+}
+
+/// Writes eval.json, eval.md and eval_error_vs_cost.png into `dir`.
+pub fn write_eval(dir: &Path, r: &EvalReport) -> Result<(), FormatError> {
+    std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+    let jpath = dir.join("eval.json");
+    let json = serde_json::to_vec_pretty(r).map_err(|e| FormatError::Json {
+        path: jpath.clone(),
+        message: e.to_string(),
+    })?;
+    write_atomic(&jpath, &json).map_err(io_err(&jpath))?;
+
+    let mut md = String::new();
+    let _ = writeln!(md, "# Warp evaluation: {}\n", r.scene);
+    let _ = writeln!(md, "Produced by `{}`.\n", r.command);
+    let _ = writeln!(
+        md,
+        "Validation set: {} positions uniformly random inside grid cells that are not inside geometry, {} uniformly random directions each ({} lookups), references traced with {} samples. Seed {:#x}, independent of any fitting data.\n",
+        r.positions,
+        r.settings.dirs_per_position,
+        r.lookups,
+        r.settings.reference_spp,
+        r.settings.seed
+    );
+    let _ = writeln!(
+        md,
+        "Hidden fraction (true hit not visible from probe A; no single fetch of A can fix these): **{:.1}%**.\n",
+        100.0 * r.hidden_fraction
+    );
+    let _ = writeln!(
+        md,
+        "A reference ray (one radiance sample, with shadow and bounce rays) costs {:.0} ns single-threaded.\n",
+        r.reference_ns_per_ray
+    );
+    md += &methods_table(r);
+    let _ = writeln!(
+        md,
+        "\nrel RMSE = RMSE of linear RGB radiance / mean reference radiance; MAE, p95, max: per-lookup mean absolute RGB error. Angular error: fetch direction against the oracle's. Costs: single-threaded warm loop, fetch + bilinear radiance lookup; queries issued per position in Morton order of their octahedral uv (coherent, as neighbouring pixels query a probe), and in random order (cache-hostile).\n"
+    );
+    let _ = writeln!(
+        md,
+        "## warp1 options (depth mip the warp reads, UV relaxation)\n"
+    );
+    let _ = writeln!(
+        md,
+        "| depth mip | relax (texels) | rel RMSE |\n|---:|---:|---:|"
+    );
+    for row in &r.warp1_sweep {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.4} |",
+            row.depth_lod, row.relax_texels, row.rel_rmse
+        );
+    }
+    let _ = writeln!(md, "\n![error against cost](eval_error_vs_cost.png)");
+    let mpath = dir.join("eval.md");
+    write_atomic(&mpath, md.as_bytes()).map_err(io_err(&mpath))?;
+
+    let points: Vec<(String, f64, f64)> = r
+        .methods
+        .iter()
+        .map(|m| (m.name.clone(), m.ns_per_lookup, m.rel_rmse))
+        .collect();
+    plot::error_vs_cost(
+        &dir.join("eval_error_vs_cost.png"),
+        &format!("{}: error against cost", r.scene),
+        &points,
+    )
+}

@@ -1,0 +1,286 @@
+//! Warps: given a query position B and a direction, where to fetch probe A. Every technique
+//! of the source articles is here as a baseline, plus the oracle bound.
+//!
+//! Each method is a pure function returning the unit direction towards which probe A is
+//! fetched. Conventions shared by all of them:
+//! - the probe's depth is read as *inverse* distance `w = 1/d` (bilinear, seam-aware,
+//!   from the chosen depth mip); sky is `w = 0`, so no infinity ever enters arithmetic;
+//! - a query exactly at the probe (`B == A`) returns the query direction unchanged: the
+//!   probe's own data is exact there;
+//! - when a construction degenerates (sky, a plane parallel to the ray, a point behind B),
+//!   the method falls back to the query direction, which is what a miss to the sky needs;
+//! - results are always finite, non-zero vectors (`fetch_vector`); `fetch_dir` normalises.
+
+pub mod depth;
+pub mod proxy;
+pub mod reproject;
+
+use crate::bake::SpecularProbe;
+use crate::octa::{OctMap, OctMips};
+use glam::Vec3;
+
+/// The probe data warps read: position, inverse-distance mips and radiance mips.
+#[derive(Clone, Debug)]
+pub struct WarpProbe {
+    pub position: Vec3,
+    /// 1/distance per depth mip (0 where the probe saw sky).
+    pub inv_depth: OctMips<f32>,
+    pub radiance: OctMips<Vec3>,
+    /// Largest finite distance the probe saw (bounds ray marching).
+    pub max_distance: f32,
+}
+
+impl WarpProbe {
+    pub fn new(probe: &SpecularProbe) -> Self {
+        let inv_depth = OctMips {
+            levels: probe
+                .depth
+                .levels
+                .iter()
+                .map(|l| OctMap::new(l.res, l.texels.iter().map(|&d| inverse(d)).collect()))
+                .collect(),
+        };
+        let max_distance = probe
+            .distance()
+            .texels
+            .iter()
+            .copied()
+            .filter(|d| d.is_finite())
+            .fold(0.0f32, f32::max);
+        WarpProbe {
+            position: probe.position,
+            inv_depth,
+            radiance: probe.radiance.clone(),
+            max_distance,
+        }
+    }
+
+    /// Inverse distance seen by the probe towards `dir` at depth mip `lod`.
+    #[inline]
+    pub fn inv_dist(&self, dir: Vec3, lod: f32) -> f32 {
+        let w = self.inv_depth.sample_lod(dir, lod);
+        if w.is_finite() && w > 0.0 { w } else { 0.0 }
+    }
+
+    /// Mirror (roughness 0) radiance of the probe towards `dir`.
+    #[inline]
+    pub fn radiance(&self, dir: Vec3) -> Vec3 {
+        self.radiance.levels[0].bilinear(dir)
+    }
+}
+
+/// 1/d with 1/inf = 0; zero distance (probe touching geometry) maps to the largest finite
+/// value so the arithmetic stays finite.
+#[inline]
+pub fn inverse(d: f32) -> f32 {
+    if d.is_nan() || d.is_infinite() {
+        0.0
+    } else if d <= 0.0 {
+        f32::MAX
+    } else {
+        (1.0 / d).min(f32::MAX)
+    }
+}
+
+/// Unit direction from `from` to `to`, or `fallback` when they coincide or overflow.
+#[inline]
+pub fn toward(from: Vec3, to: Vec3, fallback: Vec3) -> Vec3 {
+    let v = to - from;
+    let l2 = v.length_squared();
+    if l2 > 0.0 && l2.is_finite() {
+        v / l2.sqrt()
+    } else {
+        fallback
+    }
+}
+
+/// Tunable options shared by the depth-based methods.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct WarpOptions {
+    /// Depth mip (blur) the warp reads; fractional values blend mips.
+    pub depth_lod: f32,
+    /// UV relaxation: the fetch direction is averaged over a 4-tap stencil of query
+    /// directions this many probe texels around the query (0 = off).
+    pub relax_texels: f32,
+    /// Iterations of `secant`.
+    pub secant_steps: u32,
+    /// Linear steps of `raymarch` before binary refinement.
+    pub march_steps: u32,
+}
+
+impl Default for WarpOptions {
+    fn default() -> Self {
+        // Depth mip 2 (a 4×-downsampled, inverse-distance-filtered depth): the seed's "blurry
+        // depth" advice, better than mip 0 in the eval sweep, and cache-resident.
+        WarpOptions {
+            depth_lod: 2.0,
+            relax_texels: 0.0,
+            secant_steps: 6,
+            march_steps: 64,
+        }
+    }
+}
+
+/// The per-lookup methods (reprojection and the oracle need more context; see
+/// `reproject` and `eval`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+pub enum Method {
+    None,
+    Box,
+    Kdop,
+    Warp1,
+    Warp2Fixed,
+    Warp2New,
+    Secant,
+    Raymarch,
+    Reproject,
+    Oracle,
+}
+
+impl Method {
+    pub const ALL: [Method; 10] = [
+        Method::None,
+        Method::Box,
+        Method::Kdop,
+        Method::Warp1,
+        Method::Warp2Fixed,
+        Method::Warp2New,
+        Method::Secant,
+        Method::Raymarch,
+        Method::Reproject,
+        Method::Oracle,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::None => "none",
+            Method::Box => "box",
+            Method::Kdop => "kdop",
+            Method::Warp1 => "warp1",
+            Method::Warp2Fixed => "warp2-fixed",
+            Method::Warp2New => "warp2-new",
+            Method::Secant => "secant",
+            Method::Raymarch => "raymarch",
+            Method::Reproject => "reproject",
+            Method::Oracle => "oracle",
+        }
+    }
+
+    pub fn parse(name: &str) -> Option<Method> {
+        Method::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
+/// Everything the per-lookup methods need besides the probe.
+#[derive(Clone, Debug)]
+pub struct Proxies {
+    pub aabb: proxy::BoxProxy,
+    pub kdop: proxy::Kdop,
+}
+
+/// Unit fetch direction of a per-lookup method (`Reproject`/`Oracle` return `dir`).
+#[inline]
+pub fn fetch_dir(
+    method: Method,
+    probe: &WarpProbe,
+    proxies: &Proxies,
+    opts: &WarpOptions,
+    b: Vec3,
+    dir: Vec3,
+) -> Vec3 {
+    let v = fetch_vector(method, probe, proxies, opts, b, dir);
+    if v == dir {
+        return dir; // the query direction itself, bit for bit (normalising could change it)
+    }
+    let l2 = v.length_squared();
+    if l2 > 0.0 && l2.is_finite() {
+        v / l2.sqrt()
+    } else {
+        dir
+    }
+}
+
+/// Fetch vector: a positive multiple of the fetch direction (finite, non-zero). Probe
+/// lookups take it as is; normalise it only where a unit vector is needed.
+#[inline]
+pub fn fetch_vector(
+    method: Method,
+    probe: &WarpProbe,
+    proxies: &Proxies,
+    opts: &WarpOptions,
+    b: Vec3,
+    dir: Vec3,
+) -> Vec3 {
+    if b == probe.position {
+        return dir;
+    }
+    if opts.relax_texels > 0.0
+        && !matches!(method, Method::None | Method::Reproject | Method::Oracle)
+    {
+        return relaxed(method, probe, proxies, opts, b, dir);
+    }
+    fetch_dir_plain(method, probe, proxies, opts, b, dir)
+}
+
+/// Mirror radiance the method returns for the query (B, dir).
+#[inline]
+pub fn lookup(
+    method: Method,
+    probe: &WarpProbe,
+    proxies: &Proxies,
+    opts: &WarpOptions,
+    b: Vec3,
+    dir: Vec3,
+) -> Vec3 {
+    probe.radiance(fetch_vector(method, probe, proxies, opts, b, dir))
+}
+
+#[inline]
+fn fetch_dir_plain(
+    method: Method,
+    probe: &WarpProbe,
+    proxies: &Proxies,
+    opts: &WarpOptions,
+    b: Vec3,
+    dir: Vec3,
+) -> Vec3 {
+    let a = probe.position;
+    match method {
+        Method::None | Method::Reproject | Method::Oracle => dir,
+        Method::Box => proxies.aabb.fetch_dir(a, b, dir),
+        Method::Kdop => proxies.kdop.fetch_dir(a, b, dir),
+        Method::Warp1 => depth::plane_warp(probe, b, dir, opts.depth_lod, 1, false),
+        Method::Warp2Fixed => depth::plane_warp(probe, b, dir, opts.depth_lod, 2, false),
+        Method::Warp2New => depth::plane_warp(probe, b, dir, opts.depth_lod, 2, true),
+        Method::Secant => depth::secant(probe, b, dir, opts.depth_lod, opts.secant_steps),
+        Method::Raymarch => depth::raymarch(probe, b, dir, opts.depth_lod, opts.march_steps),
+    }
+}
+
+/// UV relaxation (seed 000: "store the warped UVs, then relax them"): the warped direction
+/// field is box-filtered over a small stencil of neighbouring query directions.
+fn relaxed(
+    method: Method,
+    probe: &WarpProbe,
+    proxies: &Proxies,
+    opts: &WarpOptions,
+    b: Vec3,
+    dir: Vec3,
+) -> Vec3 {
+    let res = probe.radiance.levels[0].res as f32;
+    // one texel of an N×N octahedral map spans about 2π/N... use the mean: sqrt(4π/N²)
+    let angle = opts.relax_texels * (4.0 * std::f32::consts::PI).sqrt() / res;
+    let (t, bt) = crate::sampling::orthonormal_basis(dir);
+    let unit = |v: Vec3| v.normalize_or(dir);
+    let mut sum = unit(fetch_dir_plain(method, probe, proxies, opts, b, dir));
+    for off in [t, -t, bt, -bt] {
+        let d = (dir + off * angle).normalize();
+        sum += unit(fetch_dir_plain(method, probe, proxies, opts, b, d));
+    }
+    let l = sum.length();
+    if l > 0.0 && l.is_finite() {
+        sum / l
+    } else {
+        dir
+    }
+}

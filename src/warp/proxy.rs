@@ -1,0 +1,155 @@
+//! Proxy-geometry parallax correction (seed 001, Lagarde 2012): intersect the ray from B
+//! with a convex proxy from inside, then fetch A towards the intersection.
+//!
+//! - `BoxProxy`: an oriented box (centre, rotation, half extents); by default the scene's
+//!   bounds.
+//! - `Kdop`: an 18-DOP (the 3 axes and 6 face diagonals, both signs) whose planes touch the
+//!   farthest point probe A saw in each direction (Black Ops 3 style fit to the probe's
+//!   depth samples).
+//!
+//! Fallback (documented): when B lies outside the proxy, or the ray does not leave it
+//! (degenerate), the query direction is returned unchanged, i.e. no correction. Seed 001
+//! returns black there; a direction keeps the lookup finite and plausible.
+
+use crate::octa;
+use glam::{Mat3, Quat, Vec3};
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct BoxProxy {
+    pub centre: Vec3,
+    pub rotation: Quat,
+    pub half_extents: Vec3,
+    /// Inverse rotation, precomputed for lookups.
+    world_to_local: Mat3,
+}
+
+impl BoxProxy {
+    /// Axis-aligned box [lo, hi].
+    pub fn aabb(lo: Vec3, hi: Vec3) -> Self {
+        Self::oriented((lo + hi) * 0.5, Quat::IDENTITY, (hi - lo) * 0.5)
+    }
+
+    /// Oriented box: centre, rotation (local → world) and half extents.
+    pub fn oriented(centre: Vec3, rotation: Quat, half_extents: Vec3) -> Self {
+        let rotation = rotation.normalize();
+        BoxProxy {
+            centre,
+            rotation,
+            half_extents: half_extents.abs().max(Vec3::splat(f32::MIN_POSITIVE)),
+            world_to_local: Mat3::from_quat(rotation.conjugate()),
+        }
+    }
+
+    /// Distance along `dir` from `b` (inside) to the box's boundary, if `b` is inside.
+    #[inline]
+    pub fn exit_distance(&self, b: Vec3, dir: Vec3) -> Option<f32> {
+        let inv = self.world_to_local;
+        let o = inv * (b - self.centre);
+        if o.abs().cmpgt(self.half_extents).any() {
+            return None;
+        }
+        let d = inv * dir;
+        let mut t = f32::INFINITY;
+        for k in 0..3 {
+            if d[k] > 0.0 {
+                t = t.min((self.half_extents[k] - o[k]) / d[k]);
+            } else if d[k] < 0.0 {
+                t = t.min((-self.half_extents[k] - o[k]) / d[k]);
+            }
+        }
+        t.is_finite().then_some(t.max(0.0))
+    }
+
+    #[inline]
+    pub fn fetch_dir(&self, a: Vec3, b: Vec3, dir: Vec3) -> Vec3 {
+        if a == b {
+            return dir;
+        }
+        match self.exit_distance(b, dir) {
+            Some(t) => super::depth::fetch_vector(a, b + dir * t, dir),
+            None => dir,
+        }
+    }
+}
+
+/// 18-DOP: planes `n_k · x ≤ h_k`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Kdop {
+    pub normals: Vec<Vec3>,
+    /// Plane offsets; +inf when the probe saw nothing in that direction (open side).
+    pub offsets: Vec<f32>,
+}
+
+/// The 18 plane normals: ±x, ±y, ±z and ±(x±y), ±(y±z), ±(x±z), normalised.
+pub fn kdop18_normals() -> Vec<Vec3> {
+    let s = std::f32::consts::FRAC_1_SQRT_2;
+    let base = [
+        Vec3::X,
+        Vec3::Y,
+        Vec3::Z,
+        Vec3::new(s, s, 0.0),
+        Vec3::new(s, -s, 0.0),
+        Vec3::new(0.0, s, s),
+        Vec3::new(0.0, s, -s),
+        Vec3::new(s, 0.0, s),
+        Vec3::new(s, 0.0, -s),
+    ];
+    base.iter().flat_map(|&n| [n, -n]).collect()
+}
+
+impl Kdop {
+    /// Fits the planes to the probe's depth samples (texel-centre hit points).
+    pub fn fit(a: Vec3, distance: &octa::OctMap<f32>) -> Self {
+        let normals = kdop18_normals();
+        let mut offsets = vec![f32::NEG_INFINITY; normals.len()];
+        let mut open = vec![false; normals.len()];
+        for j in 0..distance.res {
+            for i in 0..distance.res {
+                let d = distance.get(i, j);
+                let dir = octa::texel_dir(distance.res, i, j);
+                if !d.is_finite() {
+                    // sky: any plane this direction leans towards is open
+                    for (k, n) in normals.iter().enumerate() {
+                        if n.dot(dir) > 0.9 {
+                            open[k] = true;
+                        }
+                    }
+                    continue;
+                }
+                let p = a + dir * d;
+                for (k, n) in normals.iter().enumerate() {
+                    offsets[k] = offsets[k].max(n.dot(p));
+                }
+            }
+        }
+        for (o, open) in offsets.iter_mut().zip(open) {
+            if open || !o.is_finite() {
+                *o = f32::INFINITY;
+            }
+        }
+        Kdop { normals, offsets }
+    }
+
+    #[inline]
+    pub fn fetch_dir(&self, a: Vec3, b: Vec3, dir: Vec3) -> Vec3 {
+        if a == b {
+            return dir;
+        }
+        let mut t = f32::INFINITY;
+        for (n, &h) in self.normals.iter().zip(&self.offsets) {
+            let nb = n.dot(b);
+            if nb > h {
+                return dir; // B outside the proxy
+            }
+            let nd = n.dot(dir);
+            if nd > 0.0 && h.is_finite() {
+                t = t.min((h - nb) / nd);
+            }
+        }
+        if t.is_finite() {
+            super::depth::fetch_vector(a, b + dir * t, dir)
+        } else {
+            dir
+        }
+    }
+}
