@@ -16,11 +16,7 @@ use warpfit::trace::{BuildQuality, Tracer};
 const RAYS: u32 = 65_536;
 
 fn torture() -> Scene {
-    Scene::load(Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/data/scenes/torture.toml"
-    )))
-    .unwrap()
+    Scene::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/data/scenes/torture.toml"))).unwrap()
 }
 
 /// A closed box room with each face tessellated into n×n quads (12·n² triangles).
@@ -64,68 +60,40 @@ fn tessellated_room(n: usize) -> Scene {
 }
 
 fn probe_rays(origin: Vec3) -> Vec<(Vec3, Vec3)> {
-    (0..RAYS)
-        .map(|k| (origin, uniform_sphere(Sampler::new(7, 0, k).next_2d())))
-        .collect()
+    (0..RAYS).map(|k| (origin, uniform_sphere(Sampler::new(7, 0, k).next_2d()))).collect()
 }
 
 fn bench_scene(c: &mut Criterion, name: &str, scene: &Scene, origin: Vec3) {
     let tracer = Tracer::new(scene);
     let rays = probe_rays(origin);
     let tris = tracer.normalised_triangles();
-    let bare_rays: Vec<(Vec3A, Vec3A)> = rays
-        .iter()
-        .map(|(o, d)| (tracer.to_normalised(*o), Vec3A::from(*d)))
-        .collect();
+    let bare_rays: Vec<(Vec3A, Vec3A)> =
+        rays.iter().map(|(o, d)| (tracer.to_normalised(*o), Vec3A::from(*d))).collect();
     let mut g = c.benchmark_group(format!("rays/{name}"));
     g.throughput(Throughput::Elements(RAYS as u64));
     g.sample_size(20);
     g.bench_function("closest_hit/ours/1t", |b| {
-        b.iter(|| {
-            rays.iter()
-                .filter(|(o, d)| tracer.closest_hit(*o, *d, f32::INFINITY).is_some())
-                .count()
-        })
+        b.iter(|| rays.iter().filter(|(o, d)| tracer.closest_hit(*o, *d, f32::INFINITY).is_some()).count())
     });
     g.bench_function("closest_hit/bare_obvhs/1t", |b| {
-        b.iter(|| {
-            bare_rays
-                .iter()
-                .filter(|(o, d)| tracer.bare_closest_t(&tris, *o, *d).is_finite())
-                .count()
-        })
+        b.iter(|| bare_rays.iter().filter(|(o, d)| tracer.bare_closest_t(&tris, *o, *d).is_finite()).count())
     });
     g.bench_function("occluded/ours/1t", |b| {
-        b.iter(|| {
-            rays.iter()
-                .filter(|(o, d)| tracer.occluded(*o, *d, f32::INFINITY))
-                .count()
-        })
+        b.iter(|| rays.iter().filter(|(o, d)| tracer.occluded(*o, *d, f32::INFINITY)).count())
     });
     for threads in [1usize, 2] {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        g.bench_with_input(
-            BenchmarkId::new("closest_hit/ours/rayon", threads),
-            &threads,
-            |b, _| {
-                b.iter(|| {
-                    pool.install(|| {
-                        rays.par_chunks(256)
-                            .map(|ch| {
-                                ch.iter()
-                                    .filter(|(o, d)| {
-                                        tracer.closest_hit(*o, *d, f32::INFINITY).is_some()
-                                    })
-                                    .count()
-                            })
-                            .sum::<usize>()
-                    })
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        g.bench_with_input(BenchmarkId::new("closest_hit/ours/rayon", threads), &threads, |b, _| {
+            b.iter(|| {
+                pool.install(|| {
+                    rays.par_chunks(256)
+                        .map(|ch| {
+                            ch.iter().filter(|(o, d)| tracer.closest_hit(*o, *d, f32::INFINITY).is_some()).count()
+                        })
+                        .sum::<usize>()
                 })
-            },
-        );
+            })
+        });
     }
     g.finish();
 }
@@ -145,18 +113,10 @@ fn builders(c: &mut Criterion) {
     let mut g = c.benchmark_group("bvh_preset/torture");
     g.throughput(Throughput::Elements(RAYS as u64));
     g.sample_size(20);
-    for (name, q) in [
-        ("fast", BuildQuality::Fast),
-        ("medium", BuildQuality::Medium),
-        ("slow", BuildQuality::Slow),
-    ] {
+    for (name, q) in [("fast", BuildQuality::Fast), ("medium", BuildQuality::Medium), ("slow", BuildQuality::Slow)] {
         let tracer = Tracer::with_quality(&t, q);
         g.bench_function(name, |b| {
-            b.iter(|| {
-                rays.iter()
-                    .filter(|(o, d)| tracer.closest_hit(*o, *d, f32::INFINITY).is_some())
-                    .count()
-            })
+            b.iter(|| rays.iter().filter(|(o, d)| tracer.closest_hit(*o, *d, f32::INFINITY).is_some()).count())
         });
     }
     g.finish();
@@ -169,11 +129,7 @@ fn bake_default(c: &mut Criterion) {
     g.bench_function("torture/default", |b| {
         b.iter(|| {
             let tracer = Tracer::new(&scene);
-            black_box(warpfit::bake::bake(
-                &scene,
-                &tracer,
-                &warpfit::progress::Progress::quiet(),
-            ))
+            black_box(warpfit::bake::bake(&scene, &tracer, &warpfit::progress::Progress::quiet()))
         })
     });
     g.finish();

@@ -14,26 +14,11 @@ use warpfit::trace::Tracer;
 use warpfit::warp::{self, Method, WarpOptions};
 
 fn methods(c: &mut Criterion) {
-    let scene = Scene::load(Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/data/scenes/torture.toml"
-    )))
-    .unwrap();
+    let scene = Scene::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/data/scenes/torture.toml"))).unwrap();
     let tracer = Tracer::new(&scene);
     let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
-    let settings = EvalSettings {
-        positions: 64,
-        dirs_per_position: 256,
-        reference_spp: 1,
-        ..EvalSettings::default()
-    };
-    let set = eval::validation_set(
-        &scene,
-        &tracer,
-        &baked.grid,
-        baked.probe.position,
-        &settings,
-    );
+    let settings = EvalSettings { positions: 64, dirs_per_position: 256, reference_spp: 1, ..EvalSettings::default() };
+    let set = eval::validation_set(&scene, &tracer, &baked.grid, baked.probe.position, &settings);
     let ctx = MethodContext::new(&scene, &baked.probe);
     let opts = WarpOptions::default();
     let n = set.dirs.len();

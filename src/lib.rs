@@ -23,6 +23,7 @@
 
 pub mod bake;
 pub mod eval;
+pub mod fit;
 pub mod format;
 pub mod octa;
 pub mod pipeline;

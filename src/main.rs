@@ -4,10 +4,9 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use warpfit::eval::EvalSettings;
+use warpfit::fit::{Blend, FitSettings, Solver};
 use warpfit::warp::{Method, WarpOptions};
-use warpfit::{
-    bake, format::bake_io, pipeline, progress::Progress, report, scene::Scene, trace::Tracer,
-};
+use warpfit::{bake, format::bake_io, pipeline, progress::Progress, report, scene::Scene, trace::Tracer};
 
 /// Offline parallax correction for reflection probes.
 #[derive(Parser)]
@@ -48,8 +47,17 @@ enum Command {
         #[command(flatten)]
         eval: EvalArgs,
     },
-    /// The main job: bake (or reuse a matching bake) and evaluate, on the default scene
-    /// unless one is given.
+    /// Fit per-cell correctives (baking first if needed) and write the fit files.
+    Fit {
+        #[arg(long, default_value = "data/scenes/torture.toml")]
+        scene: PathBuf,
+        #[arg(long)]
+        out: Option<PathBuf>,
+        #[command(flatten)]
+        fit: FitArgs,
+    },
+    /// The main job: bake (or reuse a matching bake), fit, evaluate every method including
+    /// the fitted correctives, and report; on the default scene unless one is given.
     Run {
         #[arg(long, default_value = "data/scenes/torture.toml")]
         scene: PathBuf,
@@ -57,7 +65,49 @@ enum Command {
         out: Option<PathBuf>,
         #[command(flatten)]
         eval: EvalArgs,
+        #[command(flatten)]
+        fit: FitArgs,
     },
+}
+
+#[derive(clap::Args)]
+struct FitArgs {
+    /// N of each cell's N×N warp map (8..=16).
+    #[arg(long, default_value_t = 8)]
+    map_res: u32,
+    /// Relative error at or below which a cell keeps the plain warp.
+    #[arg(long, default_value_t = 0.02)]
+    tol: f32,
+    /// Solver refining the warp maps.
+    #[arg(long, value_enum, default_value_t = Solver::Brent)]
+    solver: Solver,
+    /// Sweeps (Brent) or iteration budget multiplier (L-BFGS, Nelder-Mead).
+    #[arg(long, default_value_t = 2)]
+    iterations: u32,
+    /// Training positions per cell.
+    #[arg(long, default_value_t = 8)]
+    train_positions: u32,
+    /// Training directions per position.
+    #[arg(long, default_value_t = 128)]
+    train_dirs: u32,
+}
+
+impl FitArgs {
+    fn settings(&self) -> Result<FitSettings> {
+        anyhow::ensure!(
+            (8..=16).contains(&self.map_res) && self.map_res.is_power_of_two(),
+            "--map-res must be 8 or 16"
+        );
+        Ok(FitSettings {
+            map_res: self.map_res,
+            tol: self.tol.max(0.0),
+            solver: self.solver,
+            iterations: self.iterations.max(1),
+            train_positions: self.train_positions.max(1),
+            train_dirs: self.train_dirs.max(1),
+            ..FitSettings::default()
+        })
+    }
 }
 
 #[derive(clap::Args)]
@@ -89,11 +139,7 @@ impl EvalArgs {
             dirs_per_position: self.dirs.max(1),
             reference_spp: self.reference_spp.max(1),
             seed: self.eval_seed,
-            options: WarpOptions {
-                depth_lod: self.depth_mip,
-                relax_texels: self.relax,
-                ..WarpOptions::default()
-            },
+            options: WarpOptions { depth_lod: self.depth_mip, relax_texels: self.relax, ..WarpOptions::default() },
             ..EvalSettings::default()
         }
     }
@@ -113,6 +159,30 @@ fn parse_methods(list: &str) -> Result<Vec<Method>> {
         .collect()
 }
 
+fn fit_and_print(
+    baked: pipeline::Baked,
+    settings: &FitSettings,
+    out: &std::path::Path,
+    progress: &Progress,
+) -> Result<warpfit::fit::Fit> {
+    let f = pipeline::fit(baked, settings, out, progress)?;
+    let s = warpfit::fit::output::summary(&f);
+    println!(
+        "fitted {} active cells in {:.1} s ({} threads): {} store a warp map ({} bytes), {} keep the plain warp ({} fallbacks); held-out relative error warp1 {:.4} → celldepth {:.4} → stored {:.4}",
+        s.active_cells,
+        s.fit_seconds,
+        rayon::current_num_threads(),
+        s.cells_level2,
+        s.bytes_level2,
+        s.cells_level0,
+        s.fallbacks,
+        s.mean_check_err_warp1,
+        s.mean_check_err_celldepth,
+        s.mean_check_err_stored
+    );
+    Ok(f)
+}
+
 fn command_line() -> String {
     let args: Vec<String> = std::env::args().skip(1).collect();
     format!("warpfit {}", args.join(" "))
@@ -123,6 +193,7 @@ fn eval_and_print(
     out: Option<PathBuf>,
     methods: &[Method],
     args: &EvalArgs,
+    fit_args: Option<&FitArgs>,
     progress: &Progress,
 ) -> Result<()> {
     let scene = Scene::load(scene_path)?;
@@ -132,20 +203,35 @@ fn eval_and_print(
     if fresh {
         println!("baked {} → {}", scene.name, out.display());
     }
-    let baked = pipeline::Baked {
-        scene: &scene,
-        tracer: &tracer,
-        probe: &probe,
-        grid: &grid,
+    let baked = pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
+    let fitted = match fit_args {
+        Some(f) => Some(fit_and_print(baked, &f.settings()?, &out, progress)?),
+        None => None,
     };
-    let r = pipeline::evaluate(
-        baked,
-        &args.settings(),
-        methods,
-        &out,
-        &command_line(),
-        progress,
-    )?;
+    let rows: Vec<pipeline::CorrectiveRow> = match &fitted {
+        Some(f) => vec![
+            pipeline::CorrectiveRow {
+                name: "celldepth",
+                note: "unfitted warp maps from the grid's raytraced distances, containing cell",
+                correctives: &f.celldepth,
+                blend: Blend::Cell,
+            },
+            pipeline::CorrectiveRow {
+                name: "fitted-cell",
+                note: "fitted warp maps (levels as stored), containing cell",
+                correctives: &f.correctives,
+                blend: Blend::Cell,
+            },
+            pipeline::CorrectiveRow {
+                name: "fitted",
+                note: "fitted warp maps (levels as stored), trilinear blend of 8 cells",
+                correctives: &f.correctives,
+                blend: Blend::Trilinear,
+            },
+        ],
+        None => Vec::new(),
+    };
+    let r = pipeline::evaluate(baked, &args.settings(), methods, &rows, &out, &command_line(), progress)?;
     println!(
         "{}: {} lookups at {} positions, hidden fraction {:.1}%, reference ray {:.0} ns",
         r.scene,
@@ -155,10 +241,7 @@ fn eval_and_print(
         r.reference_ns_per_ray
     );
     print!("{}", report::methods_table(&r));
-    println!(
-        "wrote {}/eval.json, eval.md, eval_error_vs_cost.png",
-        out.display()
-    );
+    println!("wrote {}/eval.json, eval.md, eval_error_vs_cost.png", out.display());
     Ok(())
 }
 
@@ -166,9 +249,7 @@ fn main() {
     let cli = Cli::parse();
     let level = if cli.quiet { "warn" } else { "info" };
     tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| level.into()),
-        )
+        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| level.into()))
         .with_writer(std::io::stderr)
         .init();
     if let Err(e) = run(cli) {
@@ -179,10 +260,7 @@ fn main() {
 
 fn run(cli: Cli) -> Result<()> {
     if let Some(n) = cli.threads {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n.max(1))
-            .build_global()
-            .context("setting up threads")?;
+        rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build_global().context("setting up threads")?;
     }
     let progress = Progress { quiet: cli.quiet };
     match cli.command {
@@ -213,17 +291,20 @@ fn run(cli: Cli) -> Result<()> {
                 s.threads
             );
         }
-        Command::Eval {
-            scene,
-            out,
-            methods,
-            eval,
-        } => {
+        Command::Eval { scene, out, methods, eval } => {
             let methods = parse_methods(&methods)?;
-            eval_and_print(&scene, out, &methods, &eval, &progress)?;
+            eval_and_print(&scene, out, &methods, &eval, None, &progress)?;
         }
-        Command::Run { scene, out, eval } => {
-            eval_and_print(&scene, out, &Method::ALL, &eval, &progress)?;
+        Command::Fit { scene, out, fit } => {
+            let scene = Scene::load(&scene)?;
+            let out = out.unwrap_or_else(|| PathBuf::from("fits").join(&scene.name));
+            let tracer = Tracer::new(&scene);
+            let (probe, grid, _) = pipeline::load_or_bake(&scene, &tracer, &out, &progress)?;
+            let baked = pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
+            fit_and_print(baked, &fit.settings()?, &out, &progress)?;
+        }
+        Command::Run { scene, out, eval, fit } => {
+            eval_and_print(&scene, out, &Method::ALL, &eval, Some(&fit), &progress)?;
         }
     }
     Ok(())

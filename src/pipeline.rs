@@ -3,6 +3,7 @@
 
 use crate::bake::{self, ProbeGrid, SpecularProbe};
 use crate::eval::{self, EvalSettings, MethodContext};
+use crate::fit::{Blend, Correctives, Fit, FitSettings};
 use crate::format::{FormatError, bake_io};
 use crate::progress::Progress;
 use crate::report::{self, EvalReport, SweepRow};
@@ -22,16 +23,12 @@ pub fn load_or_bake(
     if dir.join(bake_io::MANIFEST_FILE).is_file() {
         match bake_io::read_bake(dir) {
             Ok((m, probe, grid))
-                if serde_json::to_value(&m.settings).ok()
-                    == serde_json::to_value(&scene.config).ok() =>
+                if serde_json::to_value(&m.settings).ok() == serde_json::to_value(&scene.config).ok() =>
             {
                 tracing::info!("reusing bake in {}", dir.display());
                 return Ok((probe, grid, false));
             }
-            Ok(_) => tracing::info!(
-                "bake in {} was made with other settings; baking again",
-                dir.display()
-            ),
+            Ok(_) => tracing::info!("bake in {} was made with other settings; baking again", dir.display()),
             Err(e) => tracing::warn!("ignoring unreadable bake: {e}"),
         }
     }
@@ -49,45 +46,62 @@ pub struct Baked<'a> {
     pub grid: &'a ProbeGrid,
 }
 
-/// Evaluates `methods` on the scene's validation set and writes eval.json/.md/.png to `dir`.
+/// A corrective grid to evaluate beside the warp methods.
+pub struct CorrectiveRow<'a> {
+    pub name: &'a str,
+    pub note: &'a str,
+    pub correctives: &'a Correctives,
+    pub blend: Blend,
+}
+
+/// Fits the correctives of every active cell and writes the provisional fit files.
+pub fn fit(baked: Baked, settings: &FitSettings, dir: &Path, progress: &Progress) -> Result<Fit, FormatError> {
+    let ctx = MethodContext::new(baked.scene, baked.probe);
+    let fitted = crate::fit::fit(baked.scene, baked.tracer, baked.probe, baked.grid, &ctx.proxies, settings, progress);
+    crate::fit::output::write_fit(dir, &fitted)?;
+    Ok(fitted)
+}
+
+/// Evaluates `methods` (and corrective grids) on the scene's validation set and writes
+/// eval.json/.md/.png to `dir`.
+#[allow(clippy::too_many_arguments)]
 pub fn evaluate(
     baked: Baked,
     settings: &EvalSettings,
     methods: &[Method],
+    corrective_rows: &[CorrectiveRow],
     dir: &Path,
     command: &str,
     progress: &Progress,
 ) -> Result<EvalReport, FormatError> {
-    let Baked {
-        scene,
-        tracer,
-        probe,
-        grid,
-    } = baked;
+    let Baked { scene, tracer, probe, grid } = baked;
     let bar = progress.bar(3, "eval");
     bar.set_message("eval: references");
     let set = eval::validation_set(scene, tracer, grid, probe.position, settings);
     bar.inc(1);
     bar.set_message("eval: methods");
     let ctx = MethodContext::new(scene, probe);
-    let rows = eval::evaluate_methods(
-        &ctx,
-        &set,
-        methods,
-        &settings.options,
-        settings.timing_lookups as usize,
-    );
+    let lookups = settings.timing_lookups as usize;
+    let mut rows = eval::evaluate_methods(&ctx, &set, methods, &settings.options, lookups);
+    for r in corrective_rows {
+        rows.push(eval::evaluate_correctives(
+            &ctx,
+            &set,
+            r.name,
+            r.note,
+            r.correctives,
+            r.blend,
+            &settings.options,
+            lookups,
+        ));
+    }
     bar.inc(1);
     bar.set_message("eval: warp1 sweep");
     let mut sweep = Vec::new();
     let max_lod = (probe.depth.levels.len() - 1).min(4);
     for lod in 0..=max_lod {
         for relax in [0.0f32, 1.0, 2.0] {
-            let opts = WarpOptions {
-                depth_lod: lod as f32,
-                relax_texels: relax,
-                ..settings.options
-            };
+            let opts = WarpOptions { depth_lod: lod as f32, relax_texels: relax, ..settings.options };
             let dirs = eval::fetch_dirs(&ctx, &set, Method::Warp1, &opts);
             let est: Vec<glam::Vec3> = dirs.iter().map(|&d| ctx.probe.radiance(d)).collect();
             sweep.push(SweepRow {
@@ -104,8 +118,7 @@ pub fn evaluate(
         scene: scene.name.clone(),
         positions: set.positions.len(),
         lookups: set.dirs.len(),
-        hidden_fraction: set.hidden.iter().filter(|h| **h).count() as f64
-            / set.hidden.len().max(1) as f64,
+        hidden_fraction: set.hidden.iter().filter(|h| **h).count() as f64 / set.hidden.len().max(1) as f64,
         reference_ns_per_ray: eval::time_reference(&renderer, &set, 4096),
         methods: rows,
         warp1_sweep: sweep,

@@ -12,11 +12,7 @@ fn luminance(c: Vec3) -> f32 {
 
 fn srgb_encode(x: f32) -> u8 {
     let x = x.clamp(0.0, 1.0);
-    let s = if x <= 0.003_130_8 {
-        12.92 * x
-    } else {
-        1.055 * x.powf(1.0 / 2.4) - 0.055
-    };
+    let s = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
     (s * 255.0 + 0.5) as u8
 }
 
@@ -50,11 +46,7 @@ pub fn tonemap(texels: &[Vec3], exposure: f32) -> Vec<u8> {
 
 /// Log-scaled distance preview: near is white, far is dark, misses are sky blue.
 pub fn distance_pixels(dist: &[f32]) -> Vec<u8> {
-    let finite: Vec<f32> = dist
-        .iter()
-        .copied()
-        .filter(|d| d.is_finite() && *d > 0.0)
-        .collect();
+    let finite: Vec<f32> = dist.iter().copied().filter(|d| d.is_finite() && *d > 0.0).collect();
     let lo = finite.iter().copied().fold(f32::INFINITY, f32::min);
     let hi = finite.iter().copied().fold(0.0f32, f32::max);
     let span = (hi / lo.max(1e-30)).ln().max(1e-6);
@@ -76,15 +68,8 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<(),
     let mut bytes = Vec::new();
     let enc = image::codecs::png::PngEncoder::new(&mut bytes);
     image::ImageEncoder::write_image(enc, rgb, width, height, image::ExtendedColorType::Rgb8)
-        .map_err(|e| FormatError::Invalid {
-            path: path.to_path_buf(),
-            field: "png".into(),
-            message: e.to_string(),
-        })?;
-    write_atomic(path, &bytes).map_err(|source| FormatError::Io {
-        path: path.to_path_buf(),
-        source,
-    })
+        .map_err(|e| FormatError::Invalid { path: path.to_path_buf(), field: "png".into(), message: e.to_string() })?;
+    write_atomic(path, &bytes).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })
 }
 
 /// `probe_radiance.png` (mips side by side), `probe_distance.png`, `grid_irradiance.png`.
@@ -103,26 +88,12 @@ pub fn write_bake_previews(dir: &Path, bake: &Bake) -> Result<(), FormatError> {
             }
         }
     }
-    write_png(
-        &dir.join("probe_radiance.png"),
-        width as u32,
-        n as u32,
-        &tonemap(&strip, exposure),
-    )?;
+    write_png(&dir.join("probe_radiance.png"), width as u32, n as u32, &tonemap(&strip, exposure))?;
     let d = &bake.probe.depth.levels[0];
-    write_png(
-        &dir.join("probe_distance.png"),
-        d.res,
-        d.res,
-        &distance_pixels(&d.texels),
-    )?;
+    write_png(&dir.join("probe_distance.png"), d.res, d.res, &distance_pixels(&d.texels))?;
     let g = &bake.grid;
     let r = g.irradiance_resolution as usize;
-    let (nx, ny, nz) = (
-        g.geometry.counts.x as usize,
-        g.geometry.counts.y as usize,
-        g.geometry.counts.z as usize,
-    );
+    let (nx, ny, nz) = (g.geometry.counts.x as usize, g.geometry.counts.y as usize, g.geometry.counts.z as usize);
     let (w, h) = (nx * r, ny * nz * r);
     let mut atlas = vec![Vec3::ZERO; w * h];
     for cell in 0..g.geometry.cell_count() {
@@ -135,10 +106,5 @@ pub fn write_bake_previews(dir: &Path, bake: &Bake) -> Result<(), FormatError> {
         }
     }
     let e = auto_exposure(&atlas);
-    write_png(
-        &dir.join("grid_irradiance.png"),
-        w as u32,
-        h as u32,
-        &tonemap(&atlas, e),
-    )
+    write_png(&dir.join("grid_irradiance.png"), w as u32, h as u32, &tonemap(&atlas, e))
 }

@@ -48,11 +48,7 @@ pub struct Sampler {
 
 impl Sampler {
     pub fn new(seed: u64, stream: u64, index: u32) -> Self {
-        Self {
-            stream: hash_pair(seed, stream),
-            index: index as u64,
-            dim: 0,
-        }
+        Self { stream: hash_pair(seed, stream), index: index as u64, dim: 0 }
     }
 
     #[inline]
@@ -94,10 +90,7 @@ pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
     let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
-    (
-        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        Vec3::new(b, sign + n.y * n.y * a, -n.y),
-    )
+    (Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3::new(b, sign + n.y * n.y * a, -n.y))
 }
 
 /// Local (x, y, z) with z along `n` to world.
@@ -189,12 +182,8 @@ mod tests {
             for k in 0..steps {
                 let t = (k as f64 + 0.5) / steps as f64 * std::f64::consts::FRAC_PI_2;
                 let d = ggx_d(t.cos() as f32, alpha) as f64;
-                sum += d
-                    * t.cos()
-                    * t.sin()
-                    * 2.0
-                    * std::f64::consts::PI
-                    * (std::f64::consts::FRAC_PI_2 / steps as f64);
+                sum +=
+                    d * t.cos() * t.sin() * 2.0 * std::f64::consts::PI * (std::f64::consts::FRAC_PI_2 / steps as f64);
             }
             assert!((sum - 1.0).abs() < 2e-3, "alpha {alpha}: {sum}");
         }

@@ -24,10 +24,7 @@ fn small_torture() -> Scene {
 }
 
 fn bake_with_threads(scene: &Scene, threads: usize) -> Bake {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     pool.install(|| {
         let tracer = Tracer::new(scene);
         bake::bake(scene, &tracer, &Progress::quiet())
@@ -40,14 +37,8 @@ fn bake_is_bit_identical_at_any_thread_count() {
     let a = bake_with_threads(&scene, 1);
     let b = bake_with_threads(&scene, 2);
     let c = bake_with_threads(&scene, 3);
-    assert!(
-        a.probe == b.probe && a.probe == c.probe,
-        "probe differs between thread counts"
-    );
-    assert!(
-        a.grid == b.grid && a.grid == c.grid,
-        "grid differs between thread counts"
-    );
+    assert!(a.probe == b.probe && a.probe == c.probe, "probe differs between thread counts");
+    assert!(a.grid == b.grid && a.grid == c.grid, "grid differs between thread counts");
     // and so are the encoded files
     let p = std::path::Path::new("probe.exr");
     let ea = warpfit::format::exr_io::encode_exr(p, &bake_io::probe_layers(&a.probe)).unwrap();
@@ -61,14 +52,9 @@ fn bake_folder_reads_back_exactly() {
     let baked = bake_with_threads(&scene, 2);
     let dir = tmp_dir("roundtrip");
     bake_io::write_bake(&dir, &scene, &baked).unwrap();
-    for f in [
-        "probe.exr",
-        "grid.exr",
-        "manifest.json",
-        "probe_radiance.png",
-        "probe_distance.png",
-        "grid_irradiance.png",
-    ] {
+    for f in
+        ["probe.exr", "grid.exr", "manifest.json", "probe_radiance.png", "probe_distance.png", "grid_irradiance.png"]
+    {
         assert!(dir.join(f).is_file(), "{f} missing");
     }
     let leftovers: Vec<_> = std::fs::read_dir(&dir)
@@ -80,20 +66,9 @@ fn bake_folder_reads_back_exactly() {
     let (manifest, probe, grid) = bake_io::read_bake(&dir).unwrap();
     assert_eq!(probe, baked.probe);
     assert_eq!(grid, baked.grid);
-    assert_eq!(
-        manifest.probe.radiance_mips.len(),
-        probe.radiance.levels.len()
-    );
+    assert_eq!(manifest.probe.radiance_mips.len(), probe.radiance.levels.len());
     assert_eq!(manifest.probe.radiance_mips[0].perceptual_roughness, 0.0);
-    assert_eq!(
-        manifest
-            .probe
-            .radiance_mips
-            .last()
-            .unwrap()
-            .perceptual_roughness,
-        1.0
-    );
+    assert_eq!(manifest.probe.radiance_mips.last().unwrap().perceptual_roughness, 1.0);
     assert!(manifest.conventions.octahedral.contains("sign(0)=+1"));
     // the sky is visible through the skylight: some probe distances are +inf and survive
     assert!(probe.distance().texels.iter().any(|d| d.is_infinite()));
@@ -116,11 +91,7 @@ fn foreign_and_damaged_bakes_are_errors() {
     assert!(e.contains("probe.exr"), "{e}");
     // wrong version
     let m = std::fs::read_to_string(dir.join("manifest.json")).unwrap();
-    std::fs::write(
-        dir.join("manifest.json"),
-        m.replace("\"version\": 1", "\"version\": 99"),
-    )
-    .unwrap();
+    std::fs::write(dir.join("manifest.json"), m.replace("\"version\": 1", "\"version\": 99")).unwrap();
     let e = bake_io::read_bake(&dir).unwrap_err().to_string();
     assert!(e.contains("manifest.json") && e.contains("99"), "{e}");
     // not JSON at all
@@ -153,17 +124,11 @@ fn sphere_probe_distances_are_closed_form() {
             let want = to_light.min(2.0);
             light_texels += (to_light < 2.0) as u32;
             let got = dist.get(i, j);
-            assert!(
-                (got - want).abs() / want < 1e-5,
-                "texel ({i},{j}): {got} vs {want}"
-            );
+            assert!((got - want).abs() / want < 1e-5, "texel ({i},{j}): {got} vs {want}");
         }
     }
     assert!(light_texels > 0, "the light should cover some texels");
-    assert!(
-        baked.grid.inside.iter().all(|x| !x),
-        "no cell of the sphere is inside geometry"
-    );
+    assert!(baked.grid.inside.iter().all(|x| !x), "no cell of the sphere is inside geometry");
 }
 
 #[test]

@@ -17,12 +17,10 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
     scene.config.grid.counts = [4, 4, 4];
     let tracer = Tracer::new(&scene);
     let dir = tmp_dir("eval");
-    let (probe, grid, baked) =
-        pipeline::load_or_bake(&scene, &tracer, &dir, &Progress::quiet()).unwrap();
+    let (probe, grid, baked) = pipeline::load_or_bake(&scene, &tracer, &dir, &Progress::quiet()).unwrap();
     assert!(baked);
     // a second call reuses the bake
-    let (_, _, baked_again) =
-        pipeline::load_or_bake(&scene, &tracer, &dir, &Progress::quiet()).unwrap();
+    let (_, _, baked_again) = pipeline::load_or_bake(&scene, &tracer, &dir, &Progress::quiet()).unwrap();
     assert!(!baked_again);
     let settings = EvalSettings {
         positions: 16,
@@ -31,21 +29,8 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
         timing_lookups: 512,
         ..EvalSettings::default()
     };
-    let baked = pipeline::Baked {
-        scene: &scene,
-        tracer: &tracer,
-        probe: &probe,
-        grid: &grid,
-    };
-    let report = pipeline::evaluate(
-        baked,
-        &settings,
-        &Method::ALL,
-        &dir,
-        "test",
-        &Progress::quiet(),
-    )
-    .unwrap();
+    let baked = pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
+    let report = pipeline::evaluate(baked, &settings, &Method::ALL, &dir, "test", &Progress::quiet()).unwrap();
     assert_eq!(report.positions, 16);
     assert_eq!(report.lookups, 16 * 64);
     for f in ["eval.json", "eval.md", "eval_error_vs_cost.png"] {
@@ -57,28 +42,13 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
     let methods = json["methods"].as_array().unwrap();
     assert_eq!(methods.len(), Method::ALL.len());
     for m in methods {
-        for key in [
-            "name",
-            "rel_rmse",
-            "mae",
-            "p95",
-            "max",
-            "angular_deg",
-            "ns_per_lookup",
-        ] {
+        for key in ["name", "rel_rmse", "mae", "p95", "max", "angular_deg", "ns_per_lookup"] {
             assert!(m.get(key).is_some(), "{key} missing in {m}");
         }
         assert!(m["rel_rmse"].as_f64().unwrap().is_finite());
         assert!(m["ns_per_lookup"].as_f64().unwrap() > 0.0);
     }
-    let get = |name: &str| {
-        report
-            .methods
-            .iter()
-            .find(|m| m.name == name)
-            .unwrap()
-            .rel_rmse
-    };
+    let get = |name: &str| report.methods.iter().find(|m| m.name == name).unwrap().rel_rmse;
     // In a closed box room the box proxy (scene bounds) is near the oracle, and both beat
     // no correction at all.
     assert!(get("oracle") < get("none"));
@@ -94,27 +64,17 @@ fn validation_positions_avoid_cell_centres_and_geometry() {
     s.config.probe.samples_per_texel = 1;
     let tracer = Tracer::new(&s);
     let baked = warpfit::bake::bake(&s, &tracer, &Progress::quiet());
-    let settings = EvalSettings {
-        positions: 64,
-        dirs_per_position: 4,
-        reference_spp: 1,
-        ..EvalSettings::default()
-    };
-    let set =
-        warpfit::eval::validation_set(&s, &tracer, &baked.grid, baked.probe.position, &settings);
+    let settings = EvalSettings { positions: 64, dirs_per_position: 4, reference_spp: 1, ..EvalSettings::default() };
+    let set = warpfit::eval::validation_set(&s, &tracer, &baked.grid, baked.probe.position, &settings);
     assert_eq!(set.positions.len(), 64);
     let g = &baked.grid.geometry;
     for p in &set.positions {
         let cell = g.cell_index(g.cell_of(*p));
         assert!(!baked.grid.inside[cell], "{p} is in a cell inside geometry");
-        assert!(
-            (*p - g.cell_centre(cell)).length() > 1e-4,
-            "{p} sits on a cell centre"
-        );
+        assert!((*p - g.cell_centre(cell)).length() > 1e-4, "{p} sits on a cell centre");
     }
     // seeded: the same settings give the same set
-    let again =
-        warpfit::eval::validation_set(&s, &tracer, &baked.grid, baked.probe.position, &settings);
+    let again = warpfit::eval::validation_set(&s, &tracer, &baked.grid, baked.probe.position, &settings);
     assert_eq!(set.positions, again.positions);
     assert_eq!(set.reference, again.reference);
 }

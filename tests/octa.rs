@@ -57,10 +57,7 @@ fn bilinear_reproduces_smooth_function() {
     let map = OctMap::from_fn(128, |_, _, d| f(d));
     let mut worst = 0.0f32;
     for k in 0..2000 {
-        let u = Vec2::new(
-            (k as f32 * 0.618_034).fract(),
-            (k as f32 * 0.754_878).fract(),
-        );
+        let u = Vec2::new((k as f32 * 0.618_034).fract(), (k as f32 * 0.754_878).fract());
         let d = octa::decode(u);
         worst = worst.max((map.bilinear(d) - f(d)).abs());
     }
@@ -73,10 +70,7 @@ fn solid_angles_sum_to_4pi_and_are_positive() {
         let w = texel_solid_angles(res);
         assert!(w.iter().all(|&x| x > 0.0));
         let sum: f64 = w.iter().map(|&x| x as f64).sum();
-        assert!(
-            (sum - 4.0 * std::f64::consts::PI).abs() < 1e-4,
-            "{res}: {sum}"
-        );
+        assert!((sum - 4.0 * std::f64::consts::PI).abs() < 1e-4, "{res}: {sum}");
     }
 }
 
@@ -98,11 +92,7 @@ fn solid_angles_match_numerical_integration() {
     }
     for (t, &c) in counts.iter().enumerate() {
         let est = c as f64 / n as f64 * 4.0 * std::f64::consts::PI;
-        assert!(
-            (est - w[t] as f64).abs() / (w[t] as f64) < 0.01,
-            "texel {t}: {est} vs {}",
-            w[t]
-        );
+        assert!((est - w[t] as f64).abs() / (w[t] as f64) < 0.01, "texel {t}: {est} vs {}", w[t]);
     }
 }
 
@@ -110,27 +100,14 @@ fn solid_angles_match_numerical_integration() {
 fn mips_preserve_the_solid_angle_weighted_mean() {
     let map = OctMap::from_fn(64, |_, _, d| 1.0 + d.x + 2.0 * d.z * d.z);
     let mips = build_mips(map, 4);
-    assert_eq!(
-        mips.levels.iter().map(|l| l.res).collect::<Vec<_>>(),
-        vec![64, 32, 16, 8, 4]
-    );
+    assert_eq!(mips.levels.iter().map(|l| l.res).collect::<Vec<_>>(), vec![64, 32, 16, 8, 4]);
     let mean = |m: &OctMap<f32>| {
         let w = texel_solid_angles(m.res);
-        m.texels
-            .iter()
-            .zip(&w)
-            .map(|(v, w)| (*v * *w) as f64)
-            .sum::<f64>()
-            / (4.0 * std::f64::consts::PI)
+        m.texels.iter().zip(&w).map(|(v, w)| (*v * *w) as f64).sum::<f64>() / (4.0 * std::f64::consts::PI)
     };
     let m0 = mean(&mips.levels[0]);
     for l in &mips.levels {
-        assert!(
-            (mean(l) - m0).abs() < 1e-4,
-            "res {}: {} vs {m0}",
-            l.res,
-            mean(l)
-        );
+        assert!((mean(l) - m0).abs() < 1e-4, "res {}: {} vs {m0}", l.res, mean(l));
     }
 }
 

@@ -79,76 +79,48 @@ fn missing_scene_file() {
 
 #[test]
 fn unknown_key_is_named_with_its_line() {
-    let e = err_text(parse(
-        "[[geometry]]\ntype = \"box\"\nmin = [0.0,0.0,0.0]\nmax = [1.0,1.0,1.0]\ncolour = 3\n",
-    ));
-    assert!(
-        e.contains("inline.toml") && e.contains("colour") && e.contains("line"),
-        "{e}"
-    );
-    let e = err_text(parse(
-        "bouncez = 2\n[[geometry]]\ntype = \"box\"\nmin = [0.0,0.0,0.0]\nmax = [1.0,1.0,1.0]\n",
-    ));
+    let e = err_text(parse("[[geometry]]\ntype = \"box\"\nmin = [0.0,0.0,0.0]\nmax = [1.0,1.0,1.0]\ncolour = 3\n"));
+    assert!(e.contains("inline.toml") && e.contains("colour") && e.contains("line"), "{e}");
+    let e = err_text(parse("bouncez = 2\n[[geometry]]\ntype = \"box\"\nmin = [0.0,0.0,0.0]\nmax = [1.0,1.0,1.0]\n"));
     assert!(e.contains("bouncez"), "{e}");
 }
 
 #[test]
 fn missing_mesh_file() {
-    let e = err_text(parse(
-        "[[geometry]]\ntype = \"obj\"\npath = \"missing.obj\"\n",
-    ));
+    let e = err_text(parse("[[geometry]]\ntype = \"obj\"\npath = \"missing.obj\"\n"));
     assert!(e.contains("missing.obj"), "{e}");
 }
 
 #[test]
 fn nan_vertex_is_rejected() {
-    let e = err_text(parse(
-        "[[geometry]]\ntype = \"obj\"\npath = \"nan_vertex.obj\"\n",
-    ));
-    assert!(
-        e.contains("nan_vertex.obj") && e.contains("not finite"),
-        "{e}"
-    );
+    let e = err_text(parse("[[geometry]]\ntype = \"obj\"\npath = \"nan_vertex.obj\"\n"));
+    assert!(e.contains("nan_vertex.obj") && e.contains("not finite"), "{e}");
 }
 
 #[test]
 fn nan_in_scene_file_is_rejected() {
-    let e = err_text(parse(
-        "[[geometry]]\ntype = \"sphere\"\ncenter = [0.0, nan, 0.0]\nradius = 1.0\n",
-    ));
-    assert!(
-        e.contains("geometry[0].center") && e.contains("finite"),
-        "{e}"
-    );
-    let e = err_text(parse(
-        "[[geometry]]\ntype = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = inf\n",
-    ));
+    let e = err_text(parse("[[geometry]]\ntype = \"sphere\"\ncenter = [0.0, nan, 0.0]\nradius = 1.0\n"));
+    assert!(e.contains("geometry[0].center") && e.contains("finite"), "{e}");
+    let e = err_text(parse("[[geometry]]\ntype = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = inf\n"));
     assert!(e.contains("geometry[0].radius"), "{e}");
 }
 
 #[test]
 fn out_of_range_index_is_rejected() {
-    let e = err_text(parse(
-        "[[geometry]]\ntype = \"obj\"\npath = \"bad_index.obj\"\n",
-    ));
+    let e = err_text(parse("[[geometry]]\ntype = \"obj\"\npath = \"bad_index.obj\"\n"));
     assert!(e.contains("bad_index.obj"), "{e}");
 }
 
 #[test]
 fn truncated_gltf_is_rejected() {
-    let e = err_text(parse(
-        "[[geometry]]\ntype = \"gltf\"\npath = \"truncated.gltf\"\n",
-    ));
+    let e = err_text(parse("[[geometry]]\ntype = \"gltf\"\npath = \"truncated.gltf\"\n"));
     assert!(e.contains("truncated.gltf") && e.contains("glTF"), "{e}");
 }
 
 #[test]
 fn empty_scene_is_rejected() {
     let e = err_text(parse(""));
-    assert!(
-        e.contains("no geometry") && e.contains("inline.toml"),
-        "{e}"
-    );
+    assert!(e.contains("no geometry") && e.contains("inline.toml"), "{e}");
 }
 
 #[test]
@@ -164,15 +136,9 @@ fn bad_settings_are_named() {
     let text = HEADER.replace("resolution = 16", "resolution = 17");
     let e = err_text(Scene::parse(&format!("{text}\n{body}"), &fixture("x.toml")));
     assert!(e.contains("probe.resolution"), "{e}");
-    let e = err_text(parse(
-        "[[geometry]]\ntype = \"box\"\nmin = [1.0,0.0,0.0]\nmax = [0.0,1.0,1.0]\n",
-    ));
-    assert!(
-        e.contains("geometry[0]") && e.contains("max must exceed min"),
-        "{e}"
-    );
-    let e = err_text(parse(
-        "[[geometry]]\ntype = \"room\"\nmin = [0.0,0.0,0.0]\nmax = [1.0,1.0,1.0]\nopen = [\"top\"]\n",
-    ));
+    let e = err_text(parse("[[geometry]]\ntype = \"box\"\nmin = [1.0,0.0,0.0]\nmax = [0.0,1.0,1.0]\n"));
+    assert!(e.contains("geometry[0]") && e.contains("max must exceed min"), "{e}");
+    let e =
+        err_text(parse("[[geometry]]\ntype = \"room\"\nmin = [0.0,0.0,0.0]\nmax = [1.0,1.0,1.0]\nopen = [\"top\"]\n"));
     assert!(e.contains("geometry[0].open"), "{e}");
 }

@@ -9,9 +9,7 @@ use warpfit::scene::Scene;
 use warpfit::trace::{Renderer, Tracer, trace_batch};
 
 fn dirs(n: u32, seed: u64) -> Vec<Vec3> {
-    (0..n)
-        .map(|k| uniform_sphere(Sampler::new(seed, 0, k).next_2d()))
-        .collect()
+    (0..n).map(|k| uniform_sphere(Sampler::new(seed, 0, k).next_2d())).collect()
 }
 
 #[test]
@@ -20,9 +18,7 @@ fn sphere_from_centre_hits_at_radius() {
     let tracer = Tracer::new(&scene);
     let c = Vec3::new(0.0, 1.0, 0.0);
     for d in dirs(20_000, 3) {
-        let h = tracer
-            .closest_hit(c, d, f32::INFINITY)
-            .expect("closed sphere: every ray hits");
+        let h = tracer.closest_hit(c, d, f32::INFINITY).expect("closed sphere: every ray hits");
         assert!((h.t - 2.0).abs() / 2.0 < 1e-5, "t = {}", h.t);
         assert!(!h.backface, "inward sphere is seen from its front");
         assert!((h.normal + d).length() < 1e-4, "normal faces the centre");
@@ -44,27 +40,15 @@ fn box_exit(p: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> f32 {
 
 #[test]
 fn box_room_distances_match_closed_form() {
-    let scene =
-        parse("[[geometry]]\ntype = \"room\"\nmin = [-1.0, 0.0, -2.0]\nmax = [3.0, 2.5, 1.0]\n")
-            .unwrap();
+    let scene = parse("[[geometry]]\ntype = \"room\"\nmin = [-1.0, 0.0, -2.0]\nmax = [3.0, 2.5, 1.0]\n").unwrap();
     let tracer = Tracer::new(&scene);
     let (lo, hi) = (Vec3::new(-1.0, 0.0, -2.0), Vec3::new(3.0, 2.5, 1.0));
     for (k, d) in dirs(20_000, 5).into_iter().enumerate() {
-        let f = Vec3::new(
-            (k as f32 * 0.618).fract(),
-            (k as f32 * 0.754).fract(),
-            (k as f32 * 0.569).fract(),
-        );
+        let f = Vec3::new((k as f32 * 0.618).fract(), (k as f32 * 0.754).fract(), (k as f32 * 0.569).fract());
         let p = lo + (hi - lo) * (0.05 + 0.9 * f);
-        let h = tracer
-            .closest_hit(p, d, f32::INFINITY)
-            .expect("closed room");
+        let h = tracer.closest_hit(p, d, f32::INFINITY).expect("closed room");
         let want = box_exit(p, d, lo, hi);
-        assert!(
-            (h.t - want).abs() <= 1e-5 * want.max(1e-3) + 2e-6,
-            "p {p} d {d}: {} vs {want}",
-            h.t
-        );
+        assert!((h.t - want).abs() <= 1e-5 * want.max(1e-3) + 2e-6, "p {p} d {d}: {} vs {want}", h.t);
         assert!(!h.backface);
     }
 }
@@ -109,11 +93,7 @@ fn tessellated_room_obj(n: usize, path: &std::path::Path) -> Vec<Vec3> {
         for j in 0..=n {
             for i in 0..=n {
                 let p = at(i as f32, j as f32);
-                targets.extend([
-                    p,
-                    at(i as f32 + 0.5, j as f32),
-                    at(i as f32 + 0.5, j as f32 + 0.5),
-                ]);
+                targets.extend([p, at(i as f32 + 0.5, j as f32), at(i as f32 + 0.5, j as f32 + 0.5)]);
                 s += &format!("v {} {} {}\n", p.x, p.y, p.z);
                 vcount += 1;
             }
@@ -153,19 +133,11 @@ fn closed_tessellated_room_is_watertight() {
             let d = (*target - p).normalize();
             total += 1;
             escaped += tracer.closest_hit(p, d, f32::INFINITY).is_none() as u32;
-            bare_escaped += !tracer
-                .bare_closest_t(&tris, tracer.to_normalised(p), d.into())
-                .is_finite() as u32;
+            bare_escaped += !tracer.bare_closest_t(&tris, tracer.to_normalised(p), d.into()).is_finite() as u32;
         }
     }
-    assert_eq!(
-        escaped, 0,
-        "{escaped} of {total} rays escaped a closed room"
-    );
-    assert!(
-        bare_escaped > 0,
-        "the adversarial rays no longer stress the intersection test"
-    );
+    assert_eq!(escaped, 0, "{escaped} of {total} rays escaped a closed room");
+    assert!(bare_escaped > 0, "the adversarial rays no longer stress the intersection test");
 }
 
 #[test]
@@ -184,11 +156,7 @@ fn furnace_sphere_radiance_is_closed_form() {
         let gain: f32 = (0..=bounces).map(|k| 0.5f32.powi(k as i32)).sum();
         for s in samples {
             let want = Vec3::new(2.0, 1.0, 0.5) * gain;
-            assert!(
-                (s.radiance - want).length() < 1e-5 * want.length(),
-                "bounces {bounces}: {} vs {want}",
-                s.radiance
-            );
+            assert!((s.radiance - want).length() < 1e-5 * want.length(), "bounces {bounces}: {} vs {want}", s.radiance);
         }
     }
 }
@@ -198,18 +166,14 @@ fn scaled_scenes_give_scaled_distances() {
     let base = load("torture");
     let p = Vec3::from_array(base.config.probe.position);
     let t0 = Tracer::new(&base);
-    let ref_t: Vec<Option<f32>> = dirs(4_000, 13)
-        .iter()
-        .map(|&d| t0.closest_hit(p, d, f32::INFINITY).map(|h| h.t))
-        .collect();
+    let ref_t: Vec<Option<f32>> =
+        dirs(4_000, 13).iter().map(|&d| t0.closest_hit(p, d, f32::INFINITY).map(|h| h.t)).collect();
     for factor in [1e-4f32, 1e4] {
         let s = base.scaled(factor);
         let t = Tracer::new(&s);
         let mut mismatched = 0;
         for (d, want) in dirs(4_000, 13).iter().zip(&ref_t) {
-            let got = t
-                .closest_hit(p * factor, *d, f32::INFINITY)
-                .map(|h| h.t / factor);
+            let got = t.closest_hit(p * factor, *d, f32::INFINITY).map(|h| h.t / factor);
             match (got, want) {
                 (Some(g), Some(w)) => {
                     if (g - w).abs() > 1e-4 * w {
@@ -221,10 +185,7 @@ fn scaled_scenes_give_scaled_distances() {
             }
         }
         // Rays grazing an edge may legitimately flip; nothing else may change.
-        assert!(
-            mismatched <= 4,
-            "scale {factor}: {mismatched} of 4000 rays differ"
-        );
+        assert!(mismatched <= 4, "scale {factor}: {mismatched} of 4000 rays differ");
     }
 }
 
@@ -239,10 +200,7 @@ fn degenerate_queries_never_produce_nan() {
         (Vec3::ZERO, Vec3::ZERO),
         (Vec3::ZERO, Vec3::INFINITY),
         (Vec3::splat(1e30), Vec3::X),
-        (
-            Vec3::new(0.0, 1e-7, 0.0),
-            Vec3::new(1.0, -1e-9, 0.0).normalize(),
-        ), // grazing the floor
+        (Vec3::new(0.0, 1e-7, 0.0), Vec3::new(1.0, -1e-9, 0.0).normalize()), // grazing the floor
     ] {
         let s = r.sample(o, d, &mut Sampler::new(1, 0, 0), &mut rays);
         assert!(s.radiance.is_finite(), "{o} {d}");

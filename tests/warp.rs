@@ -37,19 +37,12 @@ fn synthetic_probe(a: Vec3, res: u32, dist: impl Fn(Vec3) -> f32) -> SpecularPro
 
 fn context(p: &SpecularProbe, lo: Vec3, hi: Vec3) -> (WarpProbe, Proxies) {
     let wp = WarpProbe::new(p);
-    let proxies = Proxies {
-        aabb: proxy::BoxProxy::aabb(lo, hi),
-        kdop: proxy::Kdop::fit(p.position, p.distance()),
-    };
+    let proxies = Proxies { aabb: proxy::BoxProxy::aabb(lo, hi), kdop: proxy::Kdop::fit(p.position, p.distance()) };
     (wp, proxies)
 }
 
 fn dirs(n: u32) -> Vec<Vec3> {
-    (0..n)
-        .map(|k| {
-            warpfit::sampling::uniform_sphere(warpfit::sampling::Sampler::new(3, 1, k).next_2d())
-        })
-        .collect()
+    (0..n).map(|k| warpfit::sampling::uniform_sphere(warpfit::sampling::Sampler::new(3, 1, k).next_2d())).collect()
 }
 
 #[test]
@@ -63,14 +56,7 @@ fn query_at_the_probe_returns_the_query_direction_exactly() {
     let baked = warpfit::bake::bake(&s, &tracer, &Progress::quiet());
     let ctx = MethodContext::new(&s, &baked.probe);
     let a = baked.probe.position;
-    for opts in [
-        WarpOptions::default(),
-        WarpOptions {
-            relax_texels: 2.0,
-            depth_lod: 0.0,
-            ..WarpOptions::default()
-        },
-    ] {
+    for opts in [WarpOptions::default(), WarpOptions { relax_texels: 2.0, depth_lod: 0.0, ..WarpOptions::default() }] {
         for d in dirs(2000) {
             for m in PER_LOOKUP {
                 let f = warp::fetch_dir(m, &ctx.probe, &ctx.proxies, &opts, a, d);
@@ -90,29 +76,13 @@ fn query_at_the_probe_returns_the_query_direction_exactly() {
 fn sky_returns_the_query_direction() {
     // Probe sees sky above the horizontal plane (y > 0), a floor 1 below it elsewhere.
     let a = Vec3::new(0.0, 1.0, 0.0);
-    let p = synthetic_probe(a, 64, |d| {
-        if d.y > -0.05 {
-            f32::INFINITY
-        } else {
-            1.0 / -d.y
-        }
-    });
+    let p = synthetic_probe(a, 64, |d| if d.y > -0.05 { f32::INFINITY } else { 1.0 / -d.y });
     let (wp, proxies) = context(&p, Vec3::splat(-10.0), Vec3::splat(10.0));
-    let opts = WarpOptions {
-        depth_lod: 0.0,
-        ..WarpOptions::default()
-    };
+    let opts = WarpOptions { depth_lod: 0.0, ..WarpOptions::default() };
     let b = Vec3::new(0.4, 1.3, -0.2);
     for d in dirs(3000).into_iter().filter(|d| d.y > 0.3) {
         // Proxies (box, k-DOP) close the scene by construction and are not expected to.
-        for m in [
-            Method::None,
-            Method::Warp1,
-            Method::Warp2Fixed,
-            Method::Warp2New,
-            Method::Secant,
-            Method::Raymarch,
-        ] {
+        for m in [Method::None, Method::Warp1, Method::Warp2Fixed, Method::Warp2New, Method::Secant, Method::Raymarch] {
             let f = warp::fetch_dir(m, &wp, &proxies, &opts, b, d);
             assert!((f - d).length() < 1e-6, "{}: {f} vs {d}", m.name());
         }
@@ -126,79 +96,39 @@ fn sphere_centre_probe_secant_and_two_steps_converge() {
     let r = 2.0f32;
     let p = synthetic_probe(a, 128, |_| r);
     let (wp, proxies) = context(&p, Vec3::splat(-3.0), Vec3::splat(3.0));
-    let opts = WarpOptions {
-        depth_lod: 0.0,
-        secant_steps: 8,
-        ..WarpOptions::default()
-    };
+    let opts = WarpOptions { depth_lod: 0.0, secant_steps: 8, ..WarpOptions::default() };
     let mut err = [0.0f64; 4];
     let ds = dirs(2000);
     for (k, d) in ds.iter().enumerate() {
-        let b = a + Vec3::new(
-            0.9 * ((k % 7) as f32 / 6.0 - 0.5),
-            0.6 * ((k % 5) as f32 / 4.0 - 0.5),
-            0.5,
-        );
+        let b = a + Vec3::new(0.9 * ((k % 7) as f32 / 6.0 - 0.5), 0.6 * ((k % 5) as f32 / 4.0 - 0.5), 0.5);
         // closed-form hit: |b + t d − a| = r
         let o = b - a;
         let t = -o.dot(*d) + (o.dot(*d).powi(2) - o.length_squared() + r * r).sqrt();
         let truth = (b + *d * t - a).normalize();
-        for (slot, m) in [
-            Method::Warp1,
-            Method::Warp2Fixed,
-            Method::Warp2New,
-            Method::Secant,
-        ]
-        .iter()
-        .enumerate()
-        {
+        for (slot, m) in [Method::Warp1, Method::Warp2Fixed, Method::Warp2New, Method::Secant].iter().enumerate() {
             let f = warp::fetch_dir(*m, &wp, &proxies, &opts, b, *d);
             err[slot] += f.dot(truth).clamp(-1.0, 1.0).acos() as f64;
         }
     }
-    let mean: Vec<f64> = err
-        .iter()
-        .map(|e| e.to_degrees() / ds.len() as f64)
-        .collect();
-    assert!(
-        mean[3] < 0.01,
-        "secant must converge to the exact hit: {:?}",
-        mean
-    );
-    assert!(
-        mean[1] < mean[0] && mean[2] < mean[0],
-        "two steps must beat one on a sphere: {:?}",
-        mean
-    );
-    assert!(
-        mean[0] < 5.0,
-        "one step must be close on a sphere: {:?}",
-        mean
-    );
+    let mean: Vec<f64> = err.iter().map(|e| e.to_degrees() / ds.len() as f64).collect();
+    assert!(mean[3] < 0.01, "secant must converge to the exact hit: {:?}", mean);
+    assert!(mean[1] < mean[0] && mean[2] < mean[0], "two steps must beat one on a sphere: {:?}", mean);
+    assert!(mean[0] < 5.0, "one step must be close on a sphere: {:?}", mean);
 }
 
 #[test]
 fn box_proxy_is_exact_in_a_box_room() {
-    let scene =
-        parse("[[geometry]]\ntype = \"room\"\nmin = [-2.0, 0.0, -3.0]\nmax = [3.0, 2.5, 1.0]\n")
-            .unwrap();
+    let scene = parse("[[geometry]]\ntype = \"room\"\nmin = [-2.0, 0.0, -3.0]\nmax = [3.0, 2.5, 1.0]\n").unwrap();
     let tracer = Tracer::new(&scene);
     let a = Vec3::new(0.2, 1.1, -0.7);
     let p = synthetic_probe(a, 32, |_| 1.0);
     let (wp, proxies) = context(&p, Vec3::new(-2.0, 0.0, -3.0), Vec3::new(3.0, 2.5, 1.0));
     let opts = WarpOptions::default();
     for (k, d) in dirs(3000).into_iter().enumerate() {
-        let b = Vec3::new(
-            -1.5 + (k % 9) as f32 * 0.5,
-            0.2 + (k % 4) as f32 * 0.6,
-            -2.5 + (k % 7) as f32 * 0.5,
-        );
+        let b = Vec3::new(-1.5 + (k % 9) as f32 * 0.5, 0.2 + (k % 4) as f32 * 0.6, -2.5 + (k % 7) as f32 * 0.5);
         let f = warp::fetch_dir(Method::Box, &wp, &proxies, &opts, b, d);
         let (o, _) = eval::oracle(&scene, &tracer, a, b, d);
-        assert!(
-            (f - o).length() < 2e-6,
-            "box fetch {f} vs oracle {o} from {b} along {d}"
-        );
+        assert!((f - o).length() < 2e-6, "box fetch {f} vs oracle {o} from {b} along {d}");
     }
 }
 
@@ -243,11 +173,7 @@ fn methods_on_the_default_scene_are_finite_and_unit() {
         for d in special.iter().chain(dirs(500).iter()) {
             for m in PER_LOOKUP {
                 let f = warp::fetch_dir(m, &ctx.probe, &ctx.proxies, &opts, b, *d);
-                assert!(
-                    f.is_finite() && (f.length() - 1.0).abs() < 1e-4,
-                    "{} from {b} along {d}: {f}",
-                    m.name()
-                );
+                assert!(f.is_finite() && (f.length() - 1.0).abs() < 1e-4, "{} from {b} along {d}: {f}", m.name());
                 let l = warp::lookup(m, &ctx.probe, &ctx.proxies, &opts, b, *d);
                 assert!(l.is_finite(), "{} radiance", m.name());
             }

@@ -33,11 +33,7 @@ impl GridGeometry {
     }
     pub fn cell_coords(&self, index: usize) -> UVec3 {
         let i = index as u32;
-        UVec3::new(
-            i % self.counts.x,
-            (i / self.counts.x) % self.counts.y,
-            i / (self.counts.x * self.counts.y),
-        )
+        UVec3::new(i % self.counts.x, (i / self.counts.x) % self.counts.y, i / (self.counts.x * self.counts.y))
     }
     pub fn cell_index(&self, c: UVec3) -> usize {
         (c.x + self.counts.x * (c.y + self.counts.y * c.z)) as usize
@@ -49,11 +45,7 @@ impl GridGeometry {
     pub fn cell_of(&self, p: Vec3) -> UVec3 {
         let f = ((p - self.min) / self.cell_size()).floor();
         let hi = (self.counts - UVec3::ONE).as_vec3();
-        let f = if f.is_finite() {
-            f.clamp(Vec3::ZERO, hi)
-        } else {
-            Vec3::ZERO
-        };
+        let f = if f.is_finite() { f.clamp(Vec3::ZERO, hi) } else { Vec3::ZERO };
         f.as_uvec3()
     }
 }
@@ -110,9 +102,7 @@ pub fn bake_grid(renderer: &Renderer, s: &GridSettings, progress: &Progress) -> 
     let dres = s.depth_resolution;
     let ires = s.irradiance_resolution;
     let depth_omega = texel_solid_angles(dres);
-    let irr_normals: Vec<Vec3> = (0..ires * ires)
-        .map(|t| octa::texel_dir(ires, t % ires, t / ires))
-        .collect();
+    let irr_normals: Vec<Vec3> = (0..ires * ires).map(|t| octa::texel_dir(ires, t % ires, t / ires)).collect();
     let bar = progress.bar(cells as u64, "grid cells");
     let baked: Vec<CellBake> = (0..cells)
         .into_par_iter()
@@ -199,19 +189,8 @@ fn bake_cell(
     // Ratio estimator: normalise by the quadrature of ∫cos = π itself, which makes a constant
     // environment exact and removes the quadrature's bias elsewhere.
     for (e, cs) in irradiance.iter_mut().zip(&cosine_sum) {
-        *e = if *cs > 0.0 {
-            *e * (std::f32::consts::PI / *cs)
-        } else {
-            Vec3::ZERO
-        };
+        *e = if *cs > 0.0 { *e * (std::f32::consts::PI / *cs) } else { Vec3::ZERO };
     }
     let total = (dres * dres * spp) as f32;
-    CellBake {
-        irradiance,
-        mean,
-        mean_sq,
-        hit,
-        inside: backfaces as f32 / total > s.inside_backface_fraction,
-        rays,
-    }
+    CellBake { irradiance, mean, mean_sq, hit, inside: backfaces as f32 / total > s.inside_backface_fraction, rays }
 }

@@ -49,11 +49,7 @@ impl SpecularProbe {
 
 /// Perceptual roughness of mip `m` of a chain of `levels` mips: r = m / (levels − 1).
 pub fn mip_roughness(m: usize, levels: usize) -> f32 {
-    if levels <= 1 {
-        0.0
-    } else {
-        m as f32 / (levels - 1) as f32
-    }
+    if levels <= 1 { 0.0 } else { m as f32 / (levels - 1) as f32 }
 }
 
 pub struct ProbeSettings {
@@ -66,11 +62,7 @@ pub struct ProbeSettings {
 }
 
 /// Bakes the probe; returns it and the number of rays traced.
-pub fn bake_probe(
-    renderer: &Renderer,
-    s: &ProbeSettings,
-    progress: &Progress,
-) -> (SpecularProbe, u64) {
+pub fn bake_probe(renderer: &Renderer, s: &ProbeSettings, progress: &Progress) -> (SpecularProbe, u64) {
     let n = s.resolution;
     let texels = (n * n) as usize;
     let bar = progress.bar(texels as u64, "probe radiance");
@@ -89,19 +81,13 @@ pub fn bake_probe(
                     let jitter = sampler.next_2d();
                     let uv = (Vec2::new(i as f32, j as f32) + jitter) / n as f32;
                     let d = octa::decode(uv);
-                    sum += renderer
-                        .sample(s.position, d, &mut sampler, &mut rays)
-                        .radiance;
+                    sum += renderer.sample(s.position, d, &mut sampler, &mut rays).radiance;
                 }
                 rad.push(sum / s.samples_per_texel as f32);
                 // Distance of the texel-centre ray (geometry only matters, no shading needed).
                 let centre = octa::texel_dir(n, i, j);
                 let mut sampler = Sampler::new(s.seed, stream, u32::MAX);
-                dist.push(
-                    renderer
-                        .sample(s.position, centre, &mut sampler, &mut rays)
-                        .distance,
-                );
+                dist.push(renderer.sample(s.position, centre, &mut sampler, &mut rays).distance);
             }
             bar.inc(n as u64);
             (rad, dist, rays)
@@ -125,26 +111,12 @@ pub fn bake_probe(
     for m in 1..levels {
         let alpha = roughness[m] * roughness[m];
         let res = box_chain.levels[m].res;
-        radiance_levels.push(prefilter_ggx(
-            &box_chain,
-            res,
-            alpha,
-            s.ggx_samples,
-            s.seed,
-            m as u64,
-        ));
+        radiance_levels.push(prefilter_ggx(&box_chain, res, alpha, s.ggx_samples, s.seed, m as u64));
         bar.inc(1);
     }
     bar.finish_and_clear();
     let depth = build_distance_mips(OctMap::new(n, distance), s.min_mip_resolution);
-    let probe = SpecularProbe {
-        position: s.position,
-        radiance: OctMips {
-            levels: radiance_levels,
-        },
-        roughness,
-        depth,
-    };
+    let probe = SpecularProbe { position: s.position, radiance: OctMips { levels: radiance_levels }, roughness, depth };
     (probe, rays)
 }
 
@@ -187,11 +159,7 @@ pub fn prefilter_ggx(
                 sum += source.sample_lod(l, lod) * nl;
                 wsum += nl;
             }
-            if wsum > 0.0 {
-                sum / wsum
-            } else {
-                source.sample_lod(n, 0.0)
-            }
+            if wsum > 0.0 { sum / wsum } else { source.sample_lod(n, 0.0) }
         })
         .collect();
     OctMap::new(res, texels)

@@ -11,9 +11,7 @@ use crate::bake::{ProbeGrid, SpecularProbe};
 use crate::sampling::{Sampler, hash_pair, uniform_sphere};
 use crate::scene::Scene;
 use crate::trace::{Renderer, Tracer, bvh::intersect_sphere, trace_batch};
-use crate::warp::{
-    self, Method, Proxies, WarpOptions, WarpProbe, proxy, reproject::reproject, toward,
-};
+use crate::warp::{self, Method, Proxies, WarpOptions, WarpProbe, proxy, reproject::reproject, toward};
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -77,17 +75,13 @@ pub fn validation_set(
     s: &EvalSettings,
 ) -> ValidationSet {
     let renderer = Renderer::new(scene, tracer);
-    let active: Vec<usize> = (0..grid.geometry.cell_count())
-        .filter(|&c| !grid.inside[c])
-        .collect();
+    let active: Vec<usize> = (0..grid.geometry.cell_count()).filter(|&c| !grid.inside[c]).collect();
     let mut positions = Vec::with_capacity(s.positions as usize);
     let mut attempt = 0u32;
-    while positions.len() < s.positions as usize && !active.is_empty() && attempt < s.positions * 64
-    {
+    while positions.len() < s.positions as usize && !active.is_empty() && attempt < s.positions * 64 {
         let mut sampler = Sampler::new(s.seed, hash_pair(DOMAIN_EVAL, 1), attempt);
         attempt += 1;
-        let cell =
-            active[((sampler.next_1d() * active.len() as f32) as usize).min(active.len() - 1)];
+        let cell = active[((sampler.next_1d() * active.len() as f32) as usize).min(active.len() - 1)];
         let c = grid.geometry.cell_coords(cell).as_vec3();
         let u = Vec3::new(sampler.next_1d(), sampler.next_1d(), sampler.next_1d());
         let p = grid.geometry.min + (c + u) * grid.geometry.cell_size();
@@ -105,18 +99,10 @@ pub fn validation_set(
         }
     }
     let origins: Vec<Vec3> = (0..dirs.len()).map(|k| positions[k / dpp]).collect();
-    let (samples, reference_rays) = trace_batch(
-        &renderer,
-        &origins,
-        &dirs,
-        s.seed,
-        hash_pair(DOMAIN_EVAL, 0),
-        s.reference_spp,
-    );
-    let (oracle_dir, hidden): (Vec<Vec3>, Vec<bool>) = (0..dirs.len())
-        .into_par_iter()
-        .map(|k| oracle(scene, tracer, probe_pos, origins[k], dirs[k]))
-        .unzip();
+    let (samples, reference_rays) =
+        trace_batch(&renderer, &origins, &dirs, s.seed, hash_pair(DOMAIN_EVAL, 0), s.reference_spp);
+    let (oracle_dir, hidden): (Vec<Vec3>, Vec<bool>) =
+        (0..dirs.len()).into_par_iter().map(|k| oracle(scene, tracer, probe_pos, origins[k], dirs[k])).unzip();
     ValidationSet {
         positions,
         dirs,
@@ -134,18 +120,9 @@ pub fn oracle(scene: &Scene, tracer: &Tracer, a: Vec3, b: Vec3, dir: Vec3) -> (V
     if a == b {
         return (dir, false); // A's own data is exact at A
     }
-    let mut t = tracer
-        .closest_hit(b, dir, f32::INFINITY)
-        .map_or(f32::INFINITY, |h| h.t);
+    let mut t = tracer.closest_hit(b, dir, f32::INFINITY).map_or(f32::INFINITY, |h| h.t);
     for l in &scene.lights.sphere_lights {
-        t = t.min(intersect_sphere(
-            b.into(),
-            dir.into(),
-            l.position.into(),
-            l.radius,
-            0.0,
-            t,
-        ));
+        t = t.min(intersect_sphere(b.into(), dir.into(), l.position.into(), l.radius, 0.0, t));
     }
     if !t.is_finite() {
         return (dir, false);
@@ -155,15 +132,8 @@ pub fn oracle(scene: &Scene, tracer: &Tracer, a: Vec3, b: Vec3, dir: Vec3) -> (V
     let dist = (p - a).length();
     let mut hidden = dist > 0.0 && tracer.occluded(a, d, dist * (1.0 - 1e-3));
     for l in &scene.lights.sphere_lights {
-        hidden |= intersect_sphere(
-            a.into(),
-            d.into(),
-            l.position.into(),
-            l.radius,
-            0.0,
-            dist * (1.0 - 1e-3),
-        )
-        .is_finite();
+        hidden |=
+            intersect_sphere(a.into(), d.into(), l.position.into(), l.radius, 0.0, dist * (1.0 - 1e-3)).is_finite();
     }
     (d, hidden)
 }
@@ -171,13 +141,8 @@ pub fn oracle(scene: &Scene, tracer: &Tracer, a: Vec3, b: Vec3, dir: Vec3) -> (V
 fn is_inside_geometry(tracer: &Tracer, p: Vec3, seed: u64, attempt: u32) -> bool {
     let mut back = 0;
     for k in 0..16 {
-        let d = uniform_sphere(
-            Sampler::new(seed, hash_pair(DOMAIN_EVAL, 0xB ^ attempt as u64), k).next_2d(),
-        );
-        if tracer
-            .closest_hit(p, d, f32::INFINITY)
-            .is_some_and(|h| h.backface)
-        {
+        let d = uniform_sphere(Sampler::new(seed, hash_pair(DOMAIN_EVAL, 0xB ^ attempt as u64), k).next_2d());
+        if tracer.closest_hit(p, d, f32::INFINITY).is_some_and(|h| h.backface) {
             back += 1;
         }
     }
@@ -222,20 +187,13 @@ pub fn error_stats(estimate: &[Vec3], reference: &[Vec3]) -> (f64, f64, f64, f64
     let mean_ref = (ref_sum / n).max(1e-30);
     let mae = abs.iter().sum::<f64>() / n;
     abs.sort_by(f64::total_cmp);
-    let p95 = abs
-        .get(((abs.len() as f64 * 0.95) as usize).min(abs.len().saturating_sub(1)))
-        .copied()
-        .unwrap_or(0.0);
+    let p95 = abs.get(((abs.len() as f64 * 0.95) as usize).min(abs.len().saturating_sub(1))).copied().unwrap_or(0.0);
     let max = abs.last().copied().unwrap_or(0.0);
     (rmse / mean_ref, mae, p95, max)
 }
 
 fn mean_angle_deg(a: &[Vec3], b: &[Vec3]) -> f64 {
-    let sum: f64 = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| (x.dot(*y).clamp(-1.0, 1.0) as f64).acos().to_degrees())
-        .sum();
+    let sum: f64 = a.iter().zip(b).map(|(x, y)| (x.dot(*y).clamp(-1.0, 1.0) as f64).acos().to_degrees()).sum();
     sum / a.len().max(1) as f64
 }
 
@@ -250,38 +208,18 @@ impl MethodContext {
         let (lo, hi) = scene.bounds();
         let wp = WarpProbe::new(probe);
         let kdop = proxy::Kdop::fit(probe.position, probe.distance());
-        MethodContext {
-            probe: wp,
-            proxies: Proxies {
-                aabb: proxy::BoxProxy::aabb(lo, hi),
-                kdop,
-            },
-        }
+        MethodContext { probe: wp, proxies: Proxies { aabb: proxy::BoxProxy::aabb(lo, hi), kdop } }
     }
 }
 
 /// Fetch directions of a per-lookup method for the whole set (parallel, deterministic).
-pub fn fetch_dirs(
-    ctx: &MethodContext,
-    set: &ValidationSet,
-    method: Method,
-    opts: &WarpOptions,
-) -> Vec<Vec3> {
+pub fn fetch_dirs(ctx: &MethodContext, set: &ValidationSet, method: Method, opts: &WarpOptions) -> Vec<Vec3> {
     if method == Method::Oracle {
         return set.oracle_dir.clone();
     }
     (0..set.dirs.len())
         .into_par_iter()
-        .map(|k| {
-            warp::fetch_dir(
-                method,
-                &ctx.probe,
-                &ctx.proxies,
-                opts,
-                set.position_of(k),
-                set.dirs[k],
-            )
-        })
+        .map(|k| warp::fetch_dir(method, &ctx.probe, &ctx.proxies, opts, set.position_of(k), set.dirs[k]))
         .collect()
 }
 
@@ -294,9 +232,7 @@ pub fn reproject_estimates(ctx: &MethodContext, set: &ValidationSet) -> Vec<Vec3
         .enumerate()
         .map(|(k, &b)| {
             let map = reproject(&ctx.probe, b, res);
-            (0..set.dirs_per_position)
-                .map(|d| map.bilinear(set.dirs[k * set.dirs_per_position + d]))
-                .collect()
+            (0..set.dirs_per_position).map(|d| map.bilinear(set.dirs[k * set.dirs_per_position + d])).collect()
         })
         .collect();
     per_pos.into_iter().flatten().collect()
@@ -317,39 +253,30 @@ pub fn timing_order(set: &ValidationSet, random: bool) -> Vec<usize> {
         };
         order.sort_by_key(|&k| {
             let uv = crate::octa::encode(set.dirs[k]) * 65535.0;
-            ((k / set.dirs_per_position) as u64) << 32
-                | spread(uv.x as u64)
-                | spread(uv.y as u64) << 1
+            ((k / set.dirs_per_position) as u64) << 32 | spread(uv.x as u64) | spread(uv.y as u64) << 1
         });
     }
     order
 }
 
-/// Single-threaded warm-loop ns per lookup of a per-lookup method (fetch + radiance).
-pub fn time_method(
+/// Single-threaded warm-loop ns per lookup of `fetch` (query B, dir, oracle dir → fetch
+/// vector) followed by the probe's radiance lookup.
+pub fn time_lookups(
     ctx: &MethodContext,
     set: &ValidationSet,
-    method: Method,
-    opts: &WarpOptions,
     lookups: usize,
     random: bool,
+    fetch: impl Fn(Vec3, Vec3, Vec3) -> Vec3,
 ) -> f64 {
     let order = timing_order(set, random);
     let n = lookups.min(set.dirs.len()).max(1);
     // (B, query dir, oracle dir) laid out in issue order, so the loop times only the lookup.
-    let queries: Vec<(Vec3, Vec3, Vec3)> = order[..n]
-        .iter()
-        .map(|&k| (set.position_of(k), set.dirs[k], set.oracle_dir[k]))
-        .collect();
+    let queries: Vec<(Vec3, Vec3, Vec3)> =
+        order[..n].iter().map(|&k| (set.position_of(k), set.dirs[k], set.oracle_dir[k])).collect();
     let run = || {
         let mut acc = Vec3::ZERO;
         for &(b, dir, oracle) in &queries {
-            let d = if method == Method::Oracle {
-                oracle
-            } else {
-                warp::fetch_vector(method, &ctx.probe, &ctx.proxies, opts, b, dir)
-            };
-            acc += ctx.probe.radiance(black_box(d));
+            acc += ctx.probe.radiance(black_box(fetch(b, dir, oracle)));
         }
         black_box(acc);
     };
@@ -361,6 +288,55 @@ pub fn time_method(
             t.elapsed().as_nanos() as f64 / n as f64
         })
         .fold(f64::INFINITY, f64::min)
+}
+
+/// Timing of a per-lookup method.
+pub fn time_method(
+    ctx: &MethodContext,
+    set: &ValidationSet,
+    method: Method,
+    opts: &WarpOptions,
+    lookups: usize,
+    random: bool,
+) -> f64 {
+    time_lookups(ctx, set, lookups, random, |b, dir, oracle| {
+        if method == Method::Oracle {
+            oracle
+        } else {
+            warp::fetch_vector(method, &ctx.probe, &ctx.proxies, opts, b, dir)
+        }
+    })
+}
+
+/// Error and cost of a fitted (or unfitted) corrective grid, as one table row.
+#[allow(clippy::too_many_arguments)]
+pub fn evaluate_correctives(
+    ctx: &MethodContext,
+    set: &ValidationSet,
+    name: &str,
+    note: &str,
+    correctives: &crate::fit::Correctives,
+    blend: crate::fit::Blend,
+    opts: &WarpOptions,
+    timing_lookups: usize,
+) -> MethodResult {
+    let fetch = |b: Vec3, dir: Vec3| correctives.fetch_vector(blend, &ctx.probe, &ctx.proxies, opts, b, dir);
+    let vectors: Vec<Vec3> =
+        (0..set.dirs.len()).into_par_iter().map(|k| fetch(set.position_of(k), set.dirs[k])).collect();
+    let est: Vec<Vec3> = vectors.par_iter().map(|&v| ctx.probe.radiance(v)).collect();
+    let dirs: Vec<Vec3> = vectors.iter().zip(&set.dirs).map(|(v, d)| v.try_normalize().unwrap_or(*d)).collect();
+    let (rel_rmse, mae, p95, max) = error_stats(&est, &set.reference);
+    MethodResult {
+        name: name.into(),
+        rel_rmse,
+        mae,
+        p95,
+        max,
+        angular_deg: Some(mean_angle_deg(&dirs, &set.oracle_dir)),
+        ns_per_lookup: time_lookups(ctx, set, timing_lookups, false, |b, d, _| fetch(b, d)),
+        ns_per_lookup_random: time_lookups(ctx, set, timing_lookups, true, |b, d, _| fetch(b, d)),
+        note: note.into(),
+    }
 }
 
 /// Amortised ns per lookup of `reproject`: the per-location build spread over the lookups
@@ -388,9 +364,7 @@ pub fn time_reference(renderer: &Renderer, set: &ValidationSet, rays: usize) -> 
     let mut acc = Vec3::ZERO;
     for k in 0..n {
         let mut s = Sampler::new(1, k as u64, 0);
-        acc += renderer
-            .sample(set.position_of(k), set.dirs[k], &mut s, &mut count)
-            .radiance;
+        acc += renderer.sample(set.position_of(k), set.dirs[k], &mut s, &mut count).radiance;
     }
     black_box(acc);
     t.elapsed().as_nanos() as f64 / n as f64
@@ -429,10 +403,7 @@ pub fn evaluate_methods(
             let est: Vec<Vec3> = dirs.par_iter().map(|&d| ctx.probe.radiance(d)).collect();
             let (rel_rmse, mae, p95, max) = error_stats(&est, &set.reference);
             let note = match m {
-                Method::Oracle => {
-                    "bound: fetch towards the true hit traced from B (tracing cost not counted)"
-                        .into()
-                }
+                Method::Oracle => "bound: fetch towards the true hit traced from B (tracing cost not counted)".into(),
                 Method::Box => "scene bounds as the box; query direction outside it".into(),
                 Method::Kdop => "18-DOP fitted to the probe's depth samples".into(),
                 _ => String::new(),

@@ -28,16 +28,8 @@ fn vec3_channels(texels: &[Vec3]) -> Vec<(String, Vec<f32>)> {
 }
 
 /// Rearranges cell-major per-cell maps into an atlas (row-major, see module docs).
-fn to_atlas<T: Copy + Default>(
-    g: &GridGeometry,
-    res: u32,
-    per_cell: &[T],
-) -> (usize, usize, Vec<T>) {
-    let (nx, ny, nz) = (
-        g.counts.x as usize,
-        g.counts.y as usize,
-        g.counts.z as usize,
-    );
+fn to_atlas<T: Copy + Default>(g: &GridGeometry, res: u32, per_cell: &[T]) -> (usize, usize, Vec<T>) {
+    let (nx, ny, nz) = (g.counts.x as usize, g.counts.y as usize, g.counts.z as usize);
     let r = res as usize;
     let (w, h) = (nx * r, ny * nz * r);
     let mut atlas = vec![T::default(); w * h];
@@ -99,21 +91,12 @@ pub fn grid_layers(g: &ProbeGrid) -> Vec<ExrLayer> {
     let (_, _, mean_sq) = to_atlas(&g.geometry, g.depth_resolution, &g.depth_mean_sq);
     let (_, _, hit) = to_atlas(&g.geometry, g.depth_resolution, &g.hit_fraction);
     vec![
-        ExrLayer {
-            name: "irradiance".into(),
-            width: w,
-            height: h,
-            channels: vec3_channels(&irr),
-        },
+        ExrLayer { name: "irradiance".into(), width: w, height: h, channels: vec3_channels(&irr) },
         ExrLayer {
             name: "depth_moments".into(),
             width: dw,
             height: dh,
-            channels: vec![
-                ("mean".into(), mean),
-                ("mean_sq".into(), mean_sq),
-                ("hit".into(), hit),
-            ],
+            channels: vec![("mean".into(), mean), ("mean_sq".into(), mean_sq), ("hit".into(), hit)],
         },
     ]
 }
@@ -165,11 +148,8 @@ pub fn build_manifest(scene: &Scene, bake: &Bake) -> BakeManifest {
                     alpha: p.roughness[m] * p.roughness[m],
                 })
                 .collect(),
-            depth_mips: (0..p.depth.levels.len())
-                .map(|m| format!("depth_mip{m}"))
-                .collect(),
-            depth_mip_filter: "solid-angle-weighted 2x2 mean of inverse distance (1/inf = 0)"
-                .into(),
+            depth_mips: (0..p.depth.levels.len()).map(|m| format!("depth_mip{m}")).collect(),
+            depth_mip_filter: "solid-angle-weighted 2x2 mean of inverse distance (1/inf = 0)".into(),
         },
         grid: GridManifest {
             file: GRID_FILE.into(),
@@ -181,17 +161,10 @@ pub fn build_manifest(scene: &Scene, bake: &Bake) -> BakeManifest {
             irradiance_resolution: g.irradiance_resolution,
             depth_resolution: g.depth_resolution,
             depth_samples: g.depth_samples,
-            atlas_layout:
-                "cell (x,y,z) at tile column x, tile row y + ny*z; tile = one octahedral map".into(),
+            atlas_layout: "cell (x,y,z) at tile column x, tile row y + ny*z; tile = one octahedral map".into(),
             far_distance: g.far_distance,
             active_cells: g.active_cells(),
-            inside_cells: g
-                .inside
-                .iter()
-                .enumerate()
-                .filter(|(_, x)| **x)
-                .map(|(k, _)| k as u32)
-                .collect(),
+            inside_cells: g.inside.iter().enumerate().filter(|(_, x)| **x).map(|(k, _)| k as u32).collect(),
         },
         stats: bake.stats.clone(),
         settings: scene.config.clone(),
@@ -200,48 +173,29 @@ pub fn build_manifest(scene: &Scene, bake: &Bake) -> BakeManifest {
 
 /// Writes the whole bake folder (each file atomically) and its previews.
 pub fn write_bake(dir: &Path, scene: &Scene, bake: &Bake) -> Result<(), FormatError> {
-    std::fs::create_dir_all(dir).map_err(|source| FormatError::Io {
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    std::fs::create_dir_all(dir).map_err(|source| FormatError::Io { path: dir.to_path_buf(), source })?;
     write_exr(&dir.join(PROBE_FILE), &probe_layers(&bake.probe))?;
     write_exr(&dir.join(GRID_FILE), &grid_layers(&bake.grid))?;
     let manifest = build_manifest(scene, bake);
     let path = dir.join(MANIFEST_FILE);
-    let json = serde_json::to_vec_pretty(&manifest).map_err(|e| FormatError::Json {
-        path: path.clone(),
-        message: e.to_string(),
-    })?;
-    write_atomic(&path, &json).map_err(|source| FormatError::Io {
-        path: path.clone(),
-        source,
-    })?;
+    let json = serde_json::to_vec_pretty(&manifest)
+        .map_err(|e| FormatError::Json { path: path.clone(), message: e.to_string() })?;
+    write_atomic(&path, &json).map_err(|source| FormatError::Io { path: path.clone(), source })?;
     preview::write_bake_previews(dir, bake)?;
     Ok(())
 }
 
-fn find<'a>(
-    layers: &'a [ExrLayer],
-    path: &Path,
-    name: &str,
-    res: (usize, usize),
-) -> Result<&'a ExrLayer, FormatError> {
-    let l = layers
-        .iter()
-        .find(|l| l.name == name)
-        .ok_or_else(|| FormatError::Invalid {
-            path: path.to_path_buf(),
-            field: name.into(),
-            message: "layer missing".into(),
-        })?;
+fn find<'a>(layers: &'a [ExrLayer], path: &Path, name: &str, res: (usize, usize)) -> Result<&'a ExrLayer, FormatError> {
+    let l = layers.iter().find(|l| l.name == name).ok_or_else(|| FormatError::Invalid {
+        path: path.to_path_buf(),
+        field: name.into(),
+        message: "layer missing".into(),
+    })?;
     if (l.width, l.height) != res {
         return Err(FormatError::Invalid {
             path: path.to_path_buf(),
             field: name.into(),
-            message: format!(
-                "size {}x{}, expected {}x{}",
-                l.width, l.height, res.0, res.1
-            ),
+            message: format!("size {}x{}, expected {}x{}", l.width, l.height, res.0, res.1),
         });
     }
     Ok(l)
@@ -256,11 +210,7 @@ fn channel<'a>(l: &'a ExrLayer, path: &Path, name: &str) -> Result<&'a [f32], Fo
 }
 
 fn finite_rgb(l: &ExrLayer, path: &Path) -> Result<Vec<Vec3>, FormatError> {
-    let (r, g, b) = (
-        channel(l, path, "R")?,
-        channel(l, path, "G")?,
-        channel(l, path, "B")?,
-    );
+    let (r, g, b) = (channel(l, path, "R")?, channel(l, path, "G")?, channel(l, path, "B")?);
     let v: Vec<Vec3> = (0..r.len()).map(|k| Vec3::new(r[k], g[k], b[k])).collect();
     if let Some(k) = v.iter().position(|x| !x.is_finite()) {
         return Err(FormatError::Invalid {
@@ -275,24 +225,11 @@ fn finite_rgb(l: &ExrLayer, path: &Path) -> Result<Vec<Vec3>, FormatError> {
 /// Reads a bake folder back, validating versions, sizes and values.
 pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid), FormatError> {
     let mpath = dir.join(MANIFEST_FILE);
-    let text = std::fs::read_to_string(&mpath).map_err(|source| FormatError::Io {
-        path: mpath.clone(),
-        source,
-    })?;
+    let text = std::fs::read_to_string(&mpath).map_err(|source| FormatError::Io { path: mpath.clone(), source })?;
     let probe_format: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| FormatError::Json {
-            path: mpath.clone(),
-            message: e.to_string(),
-        })?;
-    let found = probe_format
-        .get("format")
-        .and_then(|v| v.as_str())
-        .unwrap_or("")
-        .to_string();
-    let version = probe_format
-        .get("version")
-        .and_then(|v| v.as_u64())
-        .unwrap_or(0) as u32;
+        serde_json::from_str(&text).map_err(|e| FormatError::Json { path: mpath.clone(), message: e.to_string() })?;
+    let found = probe_format.get("format").and_then(|v| v.as_str()).unwrap_or("").to_string();
+    let version = probe_format.get("version").and_then(|v| v.as_u64()).unwrap_or(0) as u32;
     if found != BAKE_FORMAT || version != BAKE_VERSION {
         return Err(FormatError::Version {
             path: mpath,
@@ -302,10 +239,8 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
             supported: BAKE_VERSION,
         });
     }
-    let m: BakeManifest = serde_json::from_value(probe_format).map_err(|e| FormatError::Json {
-        path: mpath.clone(),
-        message: e.to_string(),
-    })?;
+    let m: BakeManifest = serde_json::from_value(probe_format)
+        .map_err(|e| FormatError::Json { path: mpath.clone(), message: e.to_string() })?;
 
     let ppath = dir.join(&m.probe.file);
     let layers = read_exr(&ppath)?;
@@ -330,20 +265,11 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
         depth.push(OctMap::new(n as u32, z.to_vec()));
     }
     if radiance.is_empty() || depth.is_empty() {
-        return Err(FormatError::Invalid {
-            path: mpath,
-            field: "probe".into(),
-            message: "no mips listed".into(),
-        });
+        return Err(FormatError::Invalid { path: mpath, field: "probe".into(), message: "no mips listed".into() });
     }
     let probe = SpecularProbe {
         position: Vec3::from_array(m.probe.position),
-        roughness: m
-            .probe
-            .radiance_mips
-            .iter()
-            .map(|x| x.perceptual_roughness)
-            .collect(),
+        roughness: m.probe.radiance_mips.iter().map(|x| x.perceptual_roughness).collect(),
         radiance: OctMips { levels: radiance },
         depth: OctMips { levels: depth },
     };
@@ -363,13 +289,11 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
     let dm = find(&layers, &gpath, "depth_moments", dep_size)?;
     let mut inside = vec![false; geometry.cell_count()];
     for &k in &m.grid.inside_cells {
-        *inside
-            .get_mut(k as usize)
-            .ok_or_else(|| FormatError::Invalid {
-                path: mpath.clone(),
-                field: "grid.inside_cells".into(),
-                message: format!("cell {k} out of range"),
-            })? = true;
+        *inside.get_mut(k as usize).ok_or_else(|| FormatError::Invalid {
+            path: mpath.clone(),
+            field: "grid.inside_cells".into(),
+            message: format!("cell {k} out of range"),
+        })? = true;
     }
     let grid = ProbeGrid {
         geometry,

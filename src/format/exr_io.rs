@@ -19,20 +19,13 @@ pub struct ExrLayer {
 
 impl ExrLayer {
     pub fn channel(&self, name: &str) -> Option<&[f32]> {
-        self.channels
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, v)| v.as_slice())
+        self.channels.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_slice())
     }
 }
 
 /// Encodes layers into EXR bytes.
 pub fn encode_exr(path: &Path, layers: &[ExrLayer]) -> std::result::Result<Vec<u8>, FormatError> {
-    let bad = |m: String| FormatError::Invalid {
-        path: path.to_path_buf(),
-        field: "layers".into(),
-        message: m,
-    };
+    let bad = |m: String| FormatError::Invalid { path: path.to_path_buf(), field: "layers".into(), message: m };
     if layers.is_empty() {
         return Err(bad("no layers to write".into()));
     }
@@ -54,11 +47,8 @@ pub fn encode_exr(path: &Path, layers: &[ExrLayer]) -> std::result::Result<Vec<u
         }
         max_w = max_w.max(l.width);
         max_h = max_h.max(l.height);
-        let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = l
-            .channels
-            .iter()
-            .map(|(name, v)| AnyChannel::new(name.as_str(), FlatSamples::F32(v.clone())))
-            .collect();
+        let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> =
+            l.channels.iter().map(|(name, v)| AnyChannel::new(name.as_str(), FlatSamples::F32(v.clone()))).collect();
         exr_layers.push(Layer::new(
             (l.width, l.height),
             LayerAttributes::named(l.name.as_str()),
@@ -66,37 +56,25 @@ pub fn encode_exr(path: &Path, layers: &[ExrLayer]) -> std::result::Result<Vec<u
             AnyChannels::sort(channels),
         ));
     }
-    let image = Image::from_layers(
-        ImageAttributes::new(IntegerBounds::from_dimensions((max_w, max_h))),
-        exr_layers,
-    );
+    let image = Image::from_layers(ImageAttributes::new(IntegerBounds::from_dimensions((max_w, max_h))), exr_layers);
     let mut bytes = Vec::new();
     image
         .write()
         .to_buffered(std::io::Cursor::new(&mut bytes))
-        .map_err(|e| FormatError::Exr {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
+        .map_err(|e| FormatError::Exr { path: path.to_path_buf(), message: e.to_string() })?;
     Ok(bytes)
 }
 
 /// Writes layers to `path` atomically.
 pub fn write_exr(path: &Path, layers: &[ExrLayer]) -> std::result::Result<u64, FormatError> {
     let bytes = encode_exr(path, layers)?;
-    super::write_atomic(path, &bytes).map_err(|source| FormatError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    super::write_atomic(path, &bytes).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })?;
     Ok(bytes.len() as u64)
 }
 
 /// Reads every layer of an EXR file as f32 channels.
 pub fn read_exr(path: &Path) -> std::result::Result<Vec<ExrLayer>, FormatError> {
-    let bytes = std::fs::read(path).map_err(|source| FormatError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = std::fs::read(path).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })?;
     decode_exr(path, &bytes)
 }
 
@@ -110,18 +88,10 @@ pub fn decode_exr(path: &Path, bytes: &[u8]) -> std::result::Result<Vec<ExrLayer
         .all_attributes()
         .non_parallel()
         .from_buffered(std::io::Cursor::new(bytes))
-        .map_err(|e| FormatError::Exr {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
+        .map_err(|e| FormatError::Exr { path: path.to_path_buf(), message: e.to_string() })?;
     let mut out = Vec::new();
     for layer in image.layer_data {
-        let name = layer
-            .attributes
-            .layer_name
-            .as_ref()
-            .map(|n| n.to_string())
-            .unwrap_or_default();
+        let name = layer.attributes.layer_name.as_ref().map(|n| n.to_string()).unwrap_or_default();
         let (w, h) = (layer.size.0, layer.size.1);
         let mut channels = Vec::new();
         for ch in layer.channel_data.list {
@@ -135,12 +105,7 @@ pub fn decode_exr(path: &Path, bytes: &[u8]) -> std::result::Result<Vec<ExrLayer
             }
             channels.push((ch.name.to_string(), v));
         }
-        out.push(ExrLayer {
-            name,
-            width: w,
-            height: h,
-            channels,
-        });
+        out.push(ExrLayer { name, width: w, height: h, channels });
     }
     Ok(out)
 }

@@ -14,28 +14,13 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum FormatError {
     #[error("{path}: {source}")]
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    Io { path: PathBuf, source: std::io::Error },
     #[error("{path}: not a readable EXR: {message}")]
     Exr { path: PathBuf, message: String },
     #[error("{path}: invalid JSON: {message}")]
     Json { path: PathBuf, message: String },
     #[error("{path}: {field}: {message}")]
-    Invalid {
-        path: PathBuf,
-        field: String,
-        message: String,
-    },
-    #[error(
-        "{path}: format {found:?} version {version} is not supported (expected {expected:?} version {supported})"
-    )]
-    Version {
-        path: PathBuf,
-        found: String,
-        version: u32,
-        expected: String,
-        supported: u32,
-    },
+    Invalid { path: PathBuf, field: String, message: String },
+    #[error("{path}: format {found:?} version {version} is not supported (expected {expected:?} version {supported})")]
+    Version { path: PathBuf, found: String, version: u32, expected: String, supported: u32 },
 }

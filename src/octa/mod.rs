@@ -37,10 +37,7 @@ pub fn encode(dir: Vec3) -> Vec2 {
     }
     let mut p = Vec2::new(dir.x, dir.y) / l1;
     if dir.z < 0.0 {
-        p = Vec2::new(
-            (1.0 - p.y.abs()) * sign_not_zero(p.x),
-            (1.0 - p.x.abs()) * sign_not_zero(p.y),
-        );
+        p = Vec2::new((1.0 - p.y.abs()) * sign_not_zero(p.x), (1.0 - p.x.abs()) * sign_not_zero(p.y));
     }
     (p * 0.5 + 0.5).clamp(Vec2::ZERO, Vec2::ONE)
 }
@@ -57,11 +54,7 @@ pub fn decode(uv: Vec2) -> Vec3 {
 fn decode_p(p: Vec2) -> Vec3 {
     let z = 1.0 - p.x.abs() - p.y.abs();
     if z < 0.0 {
-        Vec3::new(
-            (1.0 - p.y.abs()) * sign_not_zero(p.x),
-            (1.0 - p.x.abs()) * sign_not_zero(p.y),
-            z,
-        )
+        Vec3::new((1.0 - p.y.abs()) * sign_not_zero(p.x), (1.0 - p.x.abs()) * sign_not_zero(p.y), z)
     } else {
         Vec3::new(p.x, p.y, z)
     }
@@ -110,11 +103,31 @@ pub fn wrap_texel(res: u32, mut i: i64, mut j: i64) -> (u32, u32) {
     (i.clamp(0, n - 1) as u32, j.clamp(0, n - 1) as u32)
 }
 
-/// A value stored per texel: radiance (`Vec3`), distance (`f32`), …
-pub trait Texel:
-    Copy + Default + Add<Output = Self> + Mul<f32, Output = Self> + Send + Sync
-{
+/// The four texels (linear indices, row-major) and weights a bilinear lookup at `uv` blends,
+/// with the seam wrap applied. Weights sum to 1.
+#[inline]
+pub fn bilinear_taps(res: u32, uv: Vec2) -> [(u32, f32); 4] {
+    let n = res as f32;
+    let x = uv.x.clamp(0.0, 1.0) * n - 0.5;
+    let y = uv.y.clamp(0.0, 1.0) * n - 0.5;
+    let i0 = (x + 1.0) as i64 - 1;
+    let j0 = (y + 1.0) as i64 - 1;
+    let fx = x - i0 as f32;
+    let fy = y - j0 as f32;
+    let idx = |i: i64, j: i64| {
+        let (i, j) = wrap_texel(res, i, j);
+        j * res + i
+    };
+    [
+        (idx(i0, j0), (1.0 - fx) * (1.0 - fy)),
+        (idx(i0 + 1, j0), fx * (1.0 - fy)),
+        (idx(i0, j0 + 1), (1.0 - fx) * fy),
+        (idx(i0 + 1, j0 + 1), fx * fy),
+    ]
 }
+
+/// A value stored per texel: radiance (`Vec3`), distance (`f32`), …
+pub trait Texel: Copy + Default + Add<Output = Self> + Mul<f32, Output = Self> + Send + Sync {}
 impl<T> Texel for T where T: Copy + Default + Add<Output = T> + Mul<f32, Output = T> + Send + Sync {}
 
 /// A square octahedral image: plain data, `texels[j * res + i]`.
@@ -177,12 +190,7 @@ impl<T: Texel> OctMap<T> {
             // interior: no seam handling needed
             let k = (j0 * self.res as i64 + i0) as usize;
             let r = self.res as usize;
-            (
-                self.texels[k],
-                self.texels[k + 1],
-                self.texels[k + r],
-                self.texels[k + r + 1],
-            )
+            (self.texels[k], self.texels[k + 1], self.texels[k + r], self.texels[k + r + 1])
         } else {
             (
                 self.get_wrapped(i0, j0),
@@ -210,16 +218,8 @@ impl<T: Texel> OctMap<T> {
     /// 2×2 reduction in a transformed domain: averages `to(t)` weighted by solid angle and maps
     /// the mean back with `from`. Used for distances, which are averaged as inverse distance
     /// so that misses (+inf) contribute 0 and parallax (linear in 1/d) is averaged correctly.
-    pub fn downsample_weighted(
-        &self,
-        solid_angles: &[f32],
-        to: impl Fn(T) -> T,
-        from: impl Fn(T) -> T,
-    ) -> Self {
-        assert!(
-            self.res >= 2 && self.res.is_multiple_of(2),
-            "mip reduction needs an even resolution"
-        );
+    pub fn downsample_weighted(&self, solid_angles: &[f32], to: impl Fn(T) -> T, from: impl Fn(T) -> T) -> Self {
+        assert!(self.res >= 2 && self.res.is_multiple_of(2), "mip reduction needs an even resolution");
         let half = self.res / 2;
         Self::from_fn(half, |i, j, _| {
             let mut sum = T::default();
@@ -244,10 +244,7 @@ impl<T: Texel> OctMap<T> {
 pub fn texel_solid_angles(res: u32) -> Vec<f32> {
     let n = res as f64;
     let corner = |i: u32, j: u32| -> [f64; 3] {
-        let p = Vec2::new(
-            (2.0 * i as f64 / n - 1.0) as f32,
-            (2.0 * j as f64 / n - 1.0) as f32,
-        );
+        let p = Vec2::new((2.0 * i as f64 / n - 1.0) as f32, (2.0 * j as f64 / n - 1.0) as f32);
         let v = decode_p(p);
         let (x, y, z) = (v.x as f64, v.y as f64, v.z as f64);
         let l = (x * x + y * y + z * z).sqrt();
@@ -278,13 +275,8 @@ pub fn texel_solid_angles(res: u32) -> Vec<f32> {
 /// Area of the spherical triangle with unit-vector corners a, b, c (Van Oosterom & Strackee).
 fn spherical_triangle_area(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
     let dot = |u: [f64; 3], v: [f64; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-    let cross = |u: [f64; 3], v: [f64; 3]| {
-        [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ]
-    };
+    let cross =
+        |u: [f64; 3], v: [f64; 3]| [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
     let triple = dot(a, cross(b, c)).abs();
     let denom = 1.0 + dot(a, b) + dot(b, c) + dot(c, a);
     2.0 * triple.atan2(denom)
@@ -307,11 +299,7 @@ impl<T: Texel> OctMips<T> {
     #[inline]
     pub fn sample_lod_uv(&self, uv: Vec2, lod: f32) -> T {
         let max = (self.levels.len() - 1) as f32;
-        let lod = if lod.is_finite() {
-            lod.clamp(0.0, max)
-        } else {
-            0.0
-        };
+        let lod = if lod.is_finite() { lod.clamp(0.0, max) } else { 0.0 };
         let l0 = lod as usize; // lod ≥ 0: truncation is floor
         let f = lod - l0 as f32;
         let a = self.levels[l0].bilinear_uv(uv);
@@ -378,10 +366,7 @@ mod tests {
         let n = 8;
         for j in 0..n as i64 {
             assert_eq!(wrap_texel(n, -1, j), (0, (n as i64 - 1 - j) as u32));
-            assert_eq!(
-                wrap_texel(n, n as i64, j),
-                (n - 1, (n as i64 - 1 - j) as u32)
-            );
+            assert_eq!(wrap_texel(n, n as i64, j), (n - 1, (n as i64 - 1 - j) as u32));
         }
     }
 
@@ -389,10 +374,7 @@ mod tests {
     fn solid_angles_sum_to_4pi() {
         for res in [2u32, 4, 8, 16, 64, 256] {
             let sum: f64 = texel_solid_angles(res).iter().map(|&w| w as f64).sum();
-            assert!(
-                (sum - 4.0 * std::f64::consts::PI).abs() < 1e-4,
-                "res {res}: {sum}"
-            );
+            assert!((sum - 4.0 * std::f64::consts::PI).abs() < 1e-4, "res {res}: {sum}");
         }
     }
 }

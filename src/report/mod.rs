@@ -34,10 +34,7 @@ pub struct EvalReport {
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> FormatError + '_ {
-    move |source| FormatError::Io {
-        path: path.to_path_buf(),
-        source,
-    }
+    move |source| FormatError::Io { path: path.to_path_buf(), source }
 }
 
 /// Markdown table of the methods, sorted as given.
@@ -58,16 +55,7 @@ pub fn methods_table(r: &EvalReport) -> String {
         let _ = writeln!(
             s,
             "| {} | {:.4} | {:.4} | {:.4} | {:.3} | {} | {:.1} | {:.1} | {} | {} |",
-            m.name,
-            m.rel_rmse,
-            m.mae,
-            m.p95,
-            m.max,
-            ang,
-            m.ns_per_lookup,
-            m.ns_per_lookup_random,
-            cheaper,
-            m.note
+            m.name, m.rel_rmse, m.mae, m.p95, m.max, ang, m.ns_per_lookup, m.ns_per_lookup_random, cheaper, m.note
         );
     }
     s
@@ -77,10 +65,8 @@ pub fn methods_table(r: &EvalReport) -> String {
 pub fn write_eval(dir: &Path, r: &EvalReport) -> Result<(), FormatError> {
     std::fs::create_dir_all(dir).map_err(io_err(dir))?;
     let jpath = dir.join("eval.json");
-    let json = serde_json::to_vec_pretty(r).map_err(|e| FormatError::Json {
-        path: jpath.clone(),
-        message: e.to_string(),
-    })?;
+    let json =
+        serde_json::to_vec_pretty(r).map_err(|e| FormatError::Json { path: jpath.clone(), message: e.to_string() })?;
     write_atomic(&jpath, &json).map_err(io_err(&jpath))?;
 
     let mut md = String::new();
@@ -89,11 +75,7 @@ pub fn write_eval(dir: &Path, r: &EvalReport) -> Result<(), FormatError> {
     let _ = writeln!(
         md,
         "Validation set: {} positions uniformly random inside grid cells that are not inside geometry, {} uniformly random directions each ({} lookups), references traced with {} samples. Seed {:#x}, independent of any fitting data.\n",
-        r.positions,
-        r.settings.dirs_per_position,
-        r.lookups,
-        r.settings.reference_spp,
-        r.settings.seed
+        r.positions, r.settings.dirs_per_position, r.lookups, r.settings.reference_spp, r.settings.seed
     );
     let _ = writeln!(
         md,
@@ -110,33 +92,16 @@ pub fn write_eval(dir: &Path, r: &EvalReport) -> Result<(), FormatError> {
         md,
         "\nrel RMSE = RMSE of linear RGB radiance / mean reference radiance; MAE, p95, max: per-lookup mean absolute RGB error. Angular error: fetch direction against the oracle's. Costs: single-threaded warm loop, fetch + bilinear radiance lookup; queries issued per position in Morton order of their octahedral uv (coherent, as neighbouring pixels query a probe), and in random order (cache-hostile).\n"
     );
-    let _ = writeln!(
-        md,
-        "## warp1 options (depth mip the warp reads, UV relaxation)\n"
-    );
-    let _ = writeln!(
-        md,
-        "| depth mip | relax (texels) | rel RMSE |\n|---:|---:|---:|"
-    );
+    let _ = writeln!(md, "## warp1 options (depth mip the warp reads, UV relaxation)\n");
+    let _ = writeln!(md, "| depth mip | relax (texels) | rel RMSE |\n|---:|---:|---:|");
     for row in &r.warp1_sweep {
-        let _ = writeln!(
-            md,
-            "| {} | {} | {:.4} |",
-            row.depth_lod, row.relax_texels, row.rel_rmse
-        );
+        let _ = writeln!(md, "| {} | {} | {:.4} |", row.depth_lod, row.relax_texels, row.rel_rmse);
     }
     let _ = writeln!(md, "\n![error against cost](eval_error_vs_cost.png)");
     let mpath = dir.join("eval.md");
     write_atomic(&mpath, md.as_bytes()).map_err(io_err(&mpath))?;
 
-    let points: Vec<(String, f64, f64)> = r
-        .methods
-        .iter()
-        .map(|m| (m.name.clone(), m.ns_per_lookup, m.rel_rmse))
-        .collect();
-    plot::error_vs_cost(
-        &dir.join("eval_error_vs_cost.png"),
-        &format!("{}: error against cost", r.scene),
-        &points,
-    )
+    let points: Vec<(String, f64, f64)> =
+        r.methods.iter().map(|m| (m.name.clone(), m.ns_per_lookup, m.rel_rmse)).collect();
+    plot::error_vs_cost(&dir.join("eval_error_vs_cost.png"), &format!("{}: error against cost", r.scene), &points)
 }

@@ -18,11 +18,7 @@ fn register_font() {
 }
 
 fn plot_err(path: &Path, e: impl std::fmt::Display) -> FormatError {
-    FormatError::Invalid {
-        path: path.to_path_buf(),
-        field: "plot".into(),
-        message: e.to_string(),
-    }
+    FormatError::Invalid { path: path.to_path_buf(), field: "plot".into(), message: e.to_string() }
 }
 
 /// Points on the Pareto front (no other point is both cheaper and more accurate). The
@@ -33,10 +29,7 @@ pub fn pareto_front(points: &[(String, f64, f64)]) -> Vec<bool> {
     points
         .iter()
         .map(|(n, c, e)| {
-            real(n)
-                && !points
-                    .iter()
-                    .any(|(n2, c2, e2)| real(n2) && ((c2 <= c && e2 < e) || (c2 < c && e2 <= e)))
+            real(n) && !points.iter().any(|(n2, c2, e2)| real(n2) && ((c2 <= c && e2 < e) || (c2 < c && e2 <= e)))
         })
         .collect()
 }
@@ -56,60 +49,33 @@ fn ticks_125(lo: f64, hi: f64) -> Vec<f64> {
     }
     if out.len() < 3 {
         // narrow range: 6 evenly spaced (in log) ticks
-        out = (0..6)
-            .map(|k| lo * (hi / lo).powf(k as f64 / 5.0))
-            .collect();
+        out = (0..6).map(|k| lo * (hi / lo).powf(k as f64 / 5.0)).collect();
     }
     out
 }
 
 /// Log-log scatter of (cost ns/lookup, relative RMSE) per method, Pareto front marked.
-pub fn error_vs_cost(
-    path: &Path,
-    title: &str,
-    points: &[(String, f64, f64)],
-) -> Result<(), FormatError> {
+pub fn error_vs_cost(path: &Path, title: &str, points: &[(String, f64, f64)]) -> Result<(), FormatError> {
     register_font();
     let (w, h) = (960u32, 640u32);
     let mut buf = vec![255u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| plot_err(path, e))?;
-        let finite: Vec<&(String, f64, f64)> = points
-            .iter()
-            .filter(|p| p.1 > 0.0 && p.2 > 0.0 && p.1.is_finite() && p.2.is_finite())
-            .collect();
-        let (cmin, cmax) = finite.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
-            (a.min(p.1), b.max(p.1))
-        });
-        let (emin, emax) = finite.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
-            (a.min(p.2), b.max(p.2))
-        });
-        let (cmin, cmax) = if finite.is_empty() {
-            (1.0, 10.0)
-        } else {
-            (cmin / 1.6, cmax * 1.6)
-        };
-        let (emin, emax) = if finite.is_empty() {
-            (0.01, 1.0)
-        } else {
-            (emin / 1.3, emax * 1.3)
-        };
+        let finite: Vec<&(String, f64, f64)> =
+            points.iter().filter(|p| p.1 > 0.0 && p.2 > 0.0 && p.1.is_finite() && p.2.is_finite()).collect();
+        let (cmin, cmax) = finite.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
+        let (emin, emax) = finite.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.2), b.max(p.2)));
+        let (cmin, cmax) = if finite.is_empty() { (1.0, 10.0) } else { (cmin / 1.6, cmax * 1.6) };
+        let (emin, emax) = if finite.is_empty() { (0.01, 1.0) } else { (emin / 1.3, emax * 1.3) };
         let mut chart = ChartBuilder::on(&root)
-            .caption(
-                format!("{title} (red: Pareto front; hollow: oracle bound)"),
-                ("sans-serif", 22),
-            )
+            .caption(format!("{title} (red: Pareto front; hollow: oracle bound)"), ("sans-serif", 22))
             .margin(16)
             .x_label_area_size(48)
             .y_label_area_size(72)
             .build_cartesian_2d(
-                (cmin..cmax)
-                    .log_scale()
-                    .with_key_points(ticks_125(cmin, cmax)),
-                (emin..emax)
-                    .log_scale()
-                    .with_key_points(ticks_125(emin, emax)),
+                (cmin..cmax).log_scale().with_key_points(ticks_125(cmin, cmax)),
+                (emin..emax).log_scale().with_key_points(ticks_125(emin, emax)),
             )
             .map_err(|e| plot_err(path, e))?;
         chart
@@ -119,45 +85,24 @@ pub fn error_vs_cost(
             .label_style(("sans-serif", 15))
             .x_label_formatter(&|v| format!("{v:.0}"))
             .y_label_formatter(&|v| {
-                if *v >= 1.0 {
-                    format!("{v:.2}")
-                } else {
-                    format!("{v:.3}")
-                }
+                if *v >= 1.0 { format!("{v:.2}") } else { format!("{v:.3}") }
             })
             .draw()
             .map_err(|e| plot_err(path, e))?;
         let front = pareto_front(points);
-        let mut front_pts: Vec<(f64, f64)> = points
-            .iter()
-            .zip(&front)
-            .filter(|(_, f)| **f)
-            .map(|(p, _)| (p.1, p.2))
-            .collect();
+        let mut front_pts: Vec<(f64, f64)> =
+            points.iter().zip(&front).filter(|(_, f)| **f).map(|(p, _)| (p.1, p.2)).collect();
         front_pts.sort_by(|a, b| a.0.total_cmp(&b.0));
         chart
-            .draw_series(LineSeries::new(
-                front_pts,
-                RGBColor(200, 60, 60).stroke_width(2),
-            ))
+            .draw_series(LineSeries::new(front_pts, RGBColor(200, 60, 60).stroke_width(2)))
             .map_err(|e| plot_err(path, e))?;
         for ((name, c, e), on_front) in points.iter().zip(&front) {
             if !(*c > 0.0 && *e > 0.0) {
                 continue;
             }
-            let color = if *on_front {
-                RGBColor(200, 40, 40)
-            } else {
-                RGBColor(40, 70, 160)
-            };
-            let style = if name == "oracle" {
-                RGBColor(120, 120, 120).stroke_width(2)
-            } else {
-                color.filled()
-            };
-            chart
-                .draw_series(std::iter::once(Circle::new((*c, *e), 5, style)))
-                .map_err(|e| plot_err(path, e))?;
+            let color = if *on_front { RGBColor(200, 40, 40) } else { RGBColor(40, 70, 160) };
+            let style = if name == "oracle" { RGBColor(120, 120, 120).stroke_width(2) } else { color.filled() };
+            chart.draw_series(std::iter::once(Circle::new((*c, *e), 5, style))).map_err(|e| plot_err(path, e))?;
             chart
                 .draw_series(std::iter::once(Text::new(
                     name.clone(),
@@ -177,8 +122,5 @@ pub fn error_vs_cost(
         image::ExtendedColorType::Rgb8,
     )
     .map_err(|e| plot_err(path, e))?;
-    write_atomic(path, &png).map_err(|source| FormatError::Io {
-        path: path.to_path_buf(),
-        source,
-    })
+    write_atomic(path, &png).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })
 }

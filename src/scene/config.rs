@@ -123,12 +123,7 @@ pub struct SkyConfig {
 
 impl Default for SkyConfig {
     fn default() -> Self {
-        Self {
-            color: Some([0.0; 3]),
-            zenith: None,
-            horizon: None,
-            ground: None,
-        }
+        Self { color: Some([0.0; 3]), zenith: None, horizon: None, ground: None }
     }
 }
 
@@ -177,11 +172,7 @@ fn default_albedo() -> V3 {
 
 impl Default for MaterialConfig {
     fn default() -> Self {
-        Self {
-            albedo: default_albedo(),
-            emission: [0.0; 3],
-            two_sided: None,
-        }
+        Self { albedo: default_albedo(), emission: [0.0; 3], two_sided: None }
     }
 }
 

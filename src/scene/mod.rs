@@ -70,11 +70,7 @@ impl Sky {
     #[inline]
     pub fn radiance(&self, dir: Vec3) -> Vec3 {
         let up = dir.y;
-        if up >= 0.0 {
-            self.horizon.lerp(self.zenith, up.min(1.0))
-        } else {
-            self.ground
-        }
+        if up >= 0.0 { self.horizon.lerp(self.zenith, up.min(1.0)) } else { self.ground }
     }
 }
 
@@ -122,18 +118,11 @@ pub struct Scene {
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
     #[error("{path}: cannot read: {source}")]
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
-    },
+    Io { path: PathBuf, source: std::io::Error },
     #[error("{path}: {message}")]
     Parse { path: PathBuf, message: String },
     #[error("{path}: {field}: {message}")]
-    Invalid {
-        path: PathBuf,
-        field: String,
-        message: String,
-    },
+    Invalid { path: PathBuf, field: String, message: String },
     #[error("{path}: {message}")]
     Mesh { path: PathBuf, message: String },
     #[error("{path}: the scene has no geometry (no triangles or spheres after loading)")]
@@ -143,24 +132,19 @@ pub enum SceneError {
 impl Scene {
     /// Loads and validates a scene file.
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text =
+            std::fs::read_to_string(path).map_err(|source| SceneError::Io { path: path.to_path_buf(), source })?;
         Scene::parse(&text, path)
     }
 
     /// Parses scene-file text; `path` names it in errors and anchors relative mesh paths.
     pub fn parse(text: &str, path: &Path) -> Result<Scene, SceneError> {
-        let file: SceneFile = toml::from_str(text).map_err(|e| SceneError::Parse {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
-        let name = file.name.clone().unwrap_or_else(|| {
-            path.file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default()
-        });
+        let file: SceneFile =
+            toml::from_str(text).map_err(|e| SceneError::Parse { path: path.to_path_buf(), message: e.to_string() })?;
+        let name = file
+            .name
+            .clone()
+            .unwrap_or_else(|| path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default());
         Scene::from_config(file, &name, path)
     }
 
@@ -175,16 +159,10 @@ impl Scene {
             add_geometry(&mut builder, geom, &base_dir, path, &field)?;
         }
         if builder.triangles.is_empty() && builder.spheres.is_empty() {
-            return Err(SceneError::Empty {
-                path: path.to_path_buf(),
-            });
+            return Err(SceneError::Empty { path: path.to_path_buf() });
         }
         if builder.degenerate_skipped > 0 {
-            tracing::warn!(
-                "{}: skipped {} degenerate triangle(s)",
-                path.display(),
-                builder.degenerate_skipped
-            );
+            tracing::warn!("{}: skipped {} degenerate triangle(s)", path.display(), builder.degenerate_skipped);
         }
         let sky = sky_from(&file, path)?;
         let lights = lights_from(&file, path)?;
@@ -205,13 +183,7 @@ impl Scene {
     pub fn bounds(&self) -> (Vec3, Vec3) {
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
-        for v in self
-            .triangles
-            .v0
-            .iter()
-            .chain(&self.triangles.v1)
-            .chain(&self.triangles.v2)
-        {
+        for v in self.triangles.v0.iter().chain(&self.triangles.v1).chain(&self.triangles.v2) {
             lo = lo.min(*v);
             hi = hi.max(*v);
         }
@@ -233,13 +205,7 @@ impl Scene {
     /// results at any scale.
     pub fn scaled(&self, factor: f32) -> Scene {
         let mut s = self.clone();
-        for v in s
-            .triangles
-            .v0
-            .iter_mut()
-            .chain(&mut s.triangles.v1)
-            .chain(&mut s.triangles.v2)
-        {
+        for v in s.triangles.v0.iter_mut().chain(&mut s.triangles.v1).chain(&mut s.triangles.v2) {
             *v *= factor;
         }
         for (c, r) in s.spheres.center.iter_mut().zip(&mut s.spheres.radius) {
@@ -259,11 +225,7 @@ impl Scene {
 }
 
 fn invalid(path: &Path, field: &str, message: impl Into<String>) -> SceneError {
-    SceneError::Invalid {
-        path: path.to_path_buf(),
-        field: field.to_string(),
-        message: message.into(),
-    }
+    SceneError::Invalid { path: path.to_path_buf(), field: field.to_string(), message: message.into() }
 }
 
 fn finite3(path: &Path, field: &str, v: V3) -> Result<Vec3, SceneError> {
@@ -286,11 +248,7 @@ fn positive(path: &Path, field: &str, x: f32) -> Result<f32, SceneError> {
     if x.is_finite() && x > 0.0 {
         Ok(x)
     } else {
-        Err(invalid(
-            path,
-            field,
-            format!("must be a finite number > 0, got {x}"),
-        ))
+        Err(invalid(path, field, format!("must be a finite number > 0, got {x}")))
     }
 }
 
@@ -298,18 +256,10 @@ fn validate_settings(f: &SceneFile, path: &Path) -> Result<(), SceneError> {
     finite3(path, "probe.position", f.probe.position)?;
     let r = f.probe.resolution;
     if !(16..=2048).contains(&r) || !r.is_power_of_two() {
-        return Err(invalid(
-            path,
-            "probe.resolution",
-            format!("must be a power of two in 16..=2048, got {r}"),
-        ));
+        return Err(invalid(path, "probe.resolution", format!("must be a power of two in 16..=2048, got {r}")));
     }
     if f.probe.samples_per_texel == 0 || f.probe.ggx_samples == 0 {
-        return Err(invalid(
-            path,
-            "probe.samples_per_texel/ggx_samples",
-            "must be ≥ 1",
-        ));
+        return Err(invalid(path, "probe.samples_per_texel/ggx_samples", "must be ≥ 1"));
     }
     let m = f.probe.min_mip_resolution;
     if !m.is_power_of_two() || m < 2 || m > r {
@@ -324,51 +274,30 @@ fn validate_settings(f: &SceneFile, path: &Path) -> Result<(), SceneError> {
     if !(hi.cmpgt(lo).all()) {
         return Err(invalid(path, "grid", "max must exceed min on every axis"));
     }
-    if f.grid.counts.contains(&0)
-        || f.grid.counts.iter().map(|&c| c as u64).product::<u64>() > 4_000_000
-    {
+    if f.grid.counts.contains(&0) || f.grid.counts.iter().map(|&c| c as u64).product::<u64>() > 4_000_000 {
         return Err(invalid(
             path,
             "grid.counts",
-            format!(
-                "each count must be ≥ 1 and the total ≤ 4e6, got {:?}",
-                f.grid.counts
-            ),
+            format!("each count must be ≥ 1 and the total ≤ 4e6, got {:?}", f.grid.counts),
         ));
     }
     let ir = f.grid.irradiance_resolution;
     if !(2..=64).contains(&ir) || !ir.is_multiple_of(2) {
-        return Err(invalid(
-            path,
-            "grid.irradiance_resolution",
-            format!("must be even in 2..=64, got {ir}"),
-        ));
+        return Err(invalid(path, "grid.irradiance_resolution", format!("must be even in 2..=64, got {ir}")));
     }
     let dr = f.grid.depth_resolution;
     if !(8..=16).contains(&dr) || !dr.is_multiple_of(2) {
-        return Err(invalid(
-            path,
-            "grid.depth_resolution",
-            format!("must be even in 8..=16, got {dr}"),
-        ));
+        return Err(invalid(path, "grid.depth_resolution", format!("must be even in 8..=16, got {dr}")));
     }
     if f.grid.depth_samples == 0 {
         return Err(invalid(path, "grid.depth_samples", "must be ≥ 1"));
     }
     let bf = f.grid.inside_backface_fraction;
     if !(bf > 0.0 && bf < 1.0) {
-        return Err(invalid(
-            path,
-            "grid.inside_backface_fraction",
-            format!("must be in (0,1), got {bf}"),
-        ));
+        return Err(invalid(path, "grid.inside_backface_fraction", format!("must be in (0,1), got {bf}")));
     }
     if f.bounces > 8 {
-        return Err(invalid(
-            path,
-            "bounces",
-            format!("must be ≤ 8, got {}", f.bounces),
-        ));
+        return Err(invalid(path, "bounces", format!("must be ≤ 8, got {}", f.bounces)));
     }
     Ok(())
 }
@@ -380,11 +309,7 @@ fn sky_from(f: &SceneFile, path: &Path) -> Result<Sky, SceneError> {
     let horizon = nonneg3(path, "sky.horizon", s.horizon.unwrap_or(base))?;
     let ground = nonneg3(path, "sky.ground", s.ground.unwrap_or(base))?;
     nonneg3(path, "sky.color", base)?;
-    Ok(Sky {
-        zenith,
-        horizon,
-        ground,
-    })
+    Ok(Sky { zenith, horizon, ground })
 }
 
 fn lights_from(f: &SceneFile, path: &Path) -> Result<Lights, SceneError> {
@@ -396,11 +321,7 @@ fn lights_from(f: &SceneFile, path: &Path) -> Result<Lights, SceneError> {
         }
         let radius = sun.angular_radius_deg;
         if !(radius > 0.0 && radius < 45.0) {
-            return Err(invalid(
-                path,
-                "sun.angular_radius_deg",
-                format!("must be in (0,45), got {radius}"),
-            ));
+            return Err(invalid(path, "sun.angular_radius_deg", format!("must be in (0,45), got {radius}")));
         }
         lights.sun = Some(Sun {
             direction: d.normalize(),
@@ -427,11 +348,7 @@ fn material_from(
 ) -> Result<Material, SceneError> {
     let albedo = nonneg3(path, &format!("{field}.material.albedo"), m.albedo)?;
     if albedo.max_element() > 1.0 {
-        return Err(invalid(
-            path,
-            &format!("{field}.material.albedo"),
-            "must be ≤ 1 (energy conserving)",
-        ));
+        return Err(invalid(path, &format!("{field}.material.albedo"), "must be ≤ 1 (energy conserving)"));
     }
     Ok(Material {
         albedo,
@@ -453,12 +370,7 @@ fn add_geometry(
             let m = b.material(material_from(material, false, path, field)?);
             b.add_box(lo, hi, m, false, &[]);
         }
-        GeometryConfig::Room {
-            min,
-            max,
-            material,
-            open,
-        } => {
+        GeometryConfig::Room { min, max, material, open } => {
             let (lo, hi) = box_bounds(path, field, *min, *max)?;
             for face in open {
                 if !procedural::FACE_NAMES.contains(&face.as_str()) {
@@ -472,59 +384,30 @@ fn add_geometry(
             let m = b.material(material_from(material, false, path, field)?);
             b.add_box(lo, hi, m, true, open);
         }
-        GeometryConfig::Sphere {
-            center,
-            radius,
-            inward,
-            material,
-        } => {
+        GeometryConfig::Sphere { center, radius, inward, material } => {
             let c = finite3(path, &format!("{field}.center"), *center)?;
             let r = positive(path, &format!("{field}.radius"), *radius)?;
             let m = b.material(material_from(material, false, path, field)?);
             b.add_sphere(c, r, *inward, m);
         }
-        GeometryConfig::Quad {
-            corner,
-            edge_u,
-            edge_v,
-            material,
-        } => {
+        GeometryConfig::Quad { corner, edge_u, edge_v, material } => {
             let c = finite3(path, &format!("{field}.corner"), *corner)?;
             let u = finite3(path, &format!("{field}.edge_u"), *edge_u)?;
             let v = finite3(path, &format!("{field}.edge_v"), *edge_v)?;
             let m = b.material(material_from(material, true, path, field)?);
             b.add_quad(c, c + u, c + u + v, c + v, m);
         }
-        GeometryConfig::Column {
-            base,
-            radius,
-            height,
-            segments,
-            material,
-        } => {
+        GeometryConfig::Column { base, radius, height, segments, material } => {
             let p = finite3(path, &format!("{field}.base"), *base)?;
             let r = positive(path, &format!("{field}.radius"), *radius)?;
             let h = positive(path, &format!("{field}.height"), *height)?;
             if !(3..=1024).contains(segments) {
-                return Err(invalid(
-                    path,
-                    &format!("{field}.segments"),
-                    "must be in 3..=1024",
-                ));
+                return Err(invalid(path, &format!("{field}.segments"), "must be in 3..=1024"));
             }
             let m = b.material(material_from(material, false, path, field)?);
             b.add_column(p, r, h, *segments, m);
         }
-        GeometryConfig::Arch {
-            base,
-            span,
-            pier_height,
-            thickness,
-            depth,
-            axis,
-            segments,
-            material,
-        } => {
+        GeometryConfig::Arch { base, span, pier_height, thickness, depth, axis, segments, material } => {
             let p = finite3(path, &format!("{field}.base"), *base)?;
             let span = positive(path, &format!("{field}.span"), *span)?;
             let ph = positive(path, &format!("{field}.pier_height"), *pier_height)?;
@@ -542,26 +425,16 @@ fn add_geometry(
                 }
             };
             if !(2..=256).contains(segments) {
-                return Err(invalid(
-                    path,
-                    &format!("{field}.segments"),
-                    "must be in 2..=256",
-                ));
+                return Err(invalid(path, &format!("{field}.segments"), "must be in 2..=256"));
             }
             let m = b.material(material_from(material, false, path, field)?);
             b.add_arch(p, span, ph, t, d, along_x, *segments, m);
         }
-        GeometryConfig::Gltf {
-            path: rel,
-            transform,
-        } => {
+        GeometryConfig::Gltf { path: rel, transform } => {
             let xf = transform_matrix(path, &format!("{field}.transform"), transform)?;
             mesh_io::load_gltf(b, &base_dir.join(rel), xf)?;
         }
-        GeometryConfig::Obj {
-            path: rel,
-            transform,
-        } => {
+        GeometryConfig::Obj { path: rel, transform } => {
             let xf = transform_matrix(path, &format!("{field}.transform"), transform)?;
             mesh_io::load_obj(b, &base_dir.join(rel), xf)?;
         }
@@ -578,30 +451,13 @@ fn box_bounds(path: &Path, field: &str, min: V3, max: V3) -> Result<(Vec3, Vec3)
     Ok((lo, hi))
 }
 
-fn transform_matrix(
-    path: &Path,
-    field: &str,
-    t: &config::TransformConfig,
-) -> Result<Mat4, SceneError> {
-    let tr = finite3(
-        path,
-        &format!("{field}.translate"),
-        t.translate.unwrap_or([0.0; 3]),
-    )?;
-    let rot = finite3(
-        path,
-        &format!("{field}.rotate_deg"),
-        t.rotate_deg.unwrap_or([0.0; 3]),
-    )?;
+fn transform_matrix(path: &Path, field: &str, t: &config::TransformConfig) -> Result<Mat4, SceneError> {
+    let tr = finite3(path, &format!("{field}.translate"), t.translate.unwrap_or([0.0; 3]))?;
+    let rot = finite3(path, &format!("{field}.rotate_deg"), t.rotate_deg.unwrap_or([0.0; 3]))?;
     let sc = finite3(path, &format!("{field}.scale"), t.scale.unwrap_or([1.0; 3]))?;
     if sc.abs().min_element() == 0.0 {
         return Err(invalid(path, &format!("{field}.scale"), "must be non-zero"));
     }
-    let q = glam::Quat::from_euler(
-        glam::EulerRot::XYZ,
-        rot.x.to_radians(),
-        rot.y.to_radians(),
-        rot.z.to_radians(),
-    );
+    let q = glam::Quat::from_euler(glam::EulerRot::XYZ, rot.x.to_radians(), rot.y.to_radians(), rot.z.to_radians());
     Ok(Mat4::from_scale_rotation_translation(sc, q, tr))
 }

@@ -32,10 +32,7 @@ impl Builder {
         let e1 = v1 - v0;
         let e2 = v2 - v0;
         let n = e1.cross(e2);
-        let scale = e1
-            .length_squared()
-            .max(e2.length_squared())
-            .max((v2 - v1).length_squared());
+        let scale = e1.length_squared().max(e2.length_squared()).max((v2 - v1).length_squared());
         if !(n.length() > 1e-7 * scale) {
             self.degenerate_skipped += 1;
             return;
@@ -74,14 +71,8 @@ impl Builder {
             )
         };
         // Counter-clockwise seen from outside (normals −x, +x, −y, +y, −z, +z).
-        const FACES: [[usize; 4]; 6] = [
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-        ];
+        const FACES: [[usize; 4]; 6] =
+            [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]];
         for (face, name) in FACES.iter().zip(FACE_NAMES) {
             if open.iter().any(|o| o == name) {
                 continue;
@@ -141,11 +132,7 @@ impl Builder {
         m: u32,
     ) {
         let to_world = |across: f32, up: f32, along: f32| {
-            if along_x {
-                base + Vec3::new(along, up, across)
-            } else {
-                base + Vec3::new(across, up, along)
-            }
+            if along_x { base + Vec3::new(along, up, across) } else { base + Vec3::new(across, up, along) }
         };
         let half = span * 0.5;
         let hd = depth * 0.5;

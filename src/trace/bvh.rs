@@ -117,26 +117,13 @@ impl Shear {
         // Swap kx and ky when the dominant component is negative, to keep winding.
         let perm = kz * 2 + (dir[kz as usize] < 0.0) as u8;
         let d = permute(dir, perm);
-        Shear {
-            perm,
-            sx: d.x / d.z,
-            sy: d.y / d.z,
-            sz: 1.0 / d.z,
-        }
+        Shear { perm, sx: d.x / d.z, sy: d.y / d.z, sz: 1.0 / d.z }
     }
 }
 
 /// Watertight ray/triangle test (Woop, Benthin & Wald 2013). Returns t or +inf.
 #[inline]
-fn intersect_watertight(
-    s: &Shear,
-    org: Vec3A,
-    v0: Vec3A,
-    v1: Vec3A,
-    v2: Vec3A,
-    tmin: f32,
-    tmax: f32,
-) -> f32 {
+fn intersect_watertight(s: &Shear, org: Vec3A, v0: Vec3A, v1: Vec3A, v2: Vec3A, tmin: f32, tmax: f32) -> f32 {
     let a = permute(v0 - org, s.perm);
     let b = permute(v1 - org, s.perm);
     let c = permute(v2 - org, s.perm);
@@ -163,24 +150,13 @@ fn intersect_watertight(
         return f32::INFINITY;
     }
     let t = (u * a.z + v * b.z + w * c.z) * s.sz / det;
-    if t > tmin && t < tmax {
-        t
-    } else {
-        f32::INFINITY
-    }
+    if t > tmin && t < tmax { t } else { f32::INFINITY }
 }
 
 /// Ray/sphere distance (nearest root beyond `tmin`), with the precision improvements of
 /// Haines et al., "Precision Improvements for Ray/Sphere Intersection" (Ray Tracing Gems 7).
 #[inline]
-pub fn intersect_sphere(
-    org: Vec3A,
-    dir: Vec3A,
-    center: Vec3A,
-    radius: f32,
-    tmin: f32,
-    tmax: f32,
-) -> f32 {
+pub fn intersect_sphere(org: Vec3A, dir: Vec3A, center: Vec3A, radius: f32, tmin: f32, tmax: f32) -> f32 {
     let f = org - center;
     let b = -f.dot(dir);
     let perp = f + dir * b;
@@ -228,27 +204,18 @@ impl Tracer {
         let pad = Vec3A::splat(BOX_PAD);
         for k in 0..tri_v0.len() {
             let b = Aabb::from_points(&[tri_v0[k], tri_v1[k], tri_v2[k]]);
-            let b = Aabb {
-                min: b.min - pad,
-                max: b.max + pad,
-            };
+            let b = Aabb { min: b.min - pad, max: b.max + pad };
             build_hi = build_hi.max(b.max);
             aabbs.push(b);
         }
         for (c, r) in sphere_center.iter().zip(&sphere_radius) {
-            let b = Aabb {
-                min: *c - Vec3A::splat(*r) - pad,
-                max: *c + Vec3A::splat(*r) + pad,
-            };
+            let b = Aabb { min: *c - Vec3A::splat(*r) - pad, max: *c + Vec3A::splat(*r) + pad };
             build_hi = build_hi.max(b.max);
             aabbs.push(b);
         }
         // Padding primitive beyond the max corner (see module docs).
         let pad = build_hi + Vec3A::splat(8.0);
-        aabbs.push(Aabb {
-            min: pad,
-            max: pad + Vec3A::splat(1e-3),
-        });
+        aabbs.push(Aabb { min: pad, max: pad + Vec3A::splat(1e-3) });
 
         let mut build_time = Duration::default();
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, quality.params(), &mut build_time);
@@ -312,11 +279,7 @@ impl Tracer {
     #[inline]
     fn normalised_ray(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Ray {
         let o = Vec3A::from((origin - self.centre) * self.scale);
-        let tmax_n = if tmax.is_finite() {
-            tmax * self.scale
-        } else {
-            f32::INFINITY
-        };
+        let tmax_n = if tmax.is_finite() { tmax * self.scale } else { f32::INFINITY };
         Ray::new(o, Vec3A::from(dir), 0.0, tmax_n)
     }
 
@@ -342,26 +305,15 @@ impl Tracer {
         let position = origin + dir * t_world;
         let nt = self.tri_v0.len();
         let (normal, material) = if prim < nt {
-            let n = (self.tri_v1[prim] - self.tri_v0[prim])
-                .cross(self.tri_v2[prim] - self.tri_v0[prim]);
+            let n = (self.tri_v1[prim] - self.tri_v0[prim]).cross(self.tri_v2[prim] - self.tri_v0[prim]);
             (Vec3::from(n.normalize_or_zero()), self.tri_material[prim])
         } else {
             let k = prim - nt;
             let p = ray.origin + ray.direction * hit.t;
             let out = Vec3::from((p - self.sphere_center[k]).normalize_or_zero());
-            (
-                if self.sphere_inward[k] { -out } else { out },
-                self.sphere_material[k],
-            )
+            (if self.sphere_inward[k] { -out } else { out }, self.sphere_material[k])
         };
-        Some(Hit {
-            t: t_world,
-            position,
-            normal,
-            material,
-            backface: normal.dot(dir) > 0.0,
-            sphere: prim >= nt,
-        })
+        Some(Hit { t: t_world, position, normal, material, backface: normal.dot(dir) > 0.0, sphere: prim >= nt })
     }
 
     /// True when something lies along `dir` from `origin` closer than `tmax` (world units).
@@ -381,12 +333,7 @@ impl Tracer {
     /// The bare obvhs path on the same BVH: `Triangle::intersect` (not watertight) and no
     /// normalisation of inputs. Exists only so benchmarks can compare against it.
     #[doc(hidden)]
-    pub fn bare_closest_t(
-        &self,
-        tris: &[obvhs::triangle::Triangle],
-        origin: Vec3A,
-        dir: Vec3A,
-    ) -> f32 {
+    pub fn bare_closest_t(&self, tris: &[obvhs::triangle::Triangle], origin: Vec3A, dir: Vec3A) -> f32 {
         let ray = Ray::new_inf(origin, dir);
         let mut hit = RayHit::none();
         self.bvh.ray_traverse(ray, &mut hit, |r, id| {
@@ -403,11 +350,7 @@ impl Tracer {
     #[doc(hidden)]
     pub fn normalised_triangles(&self) -> Vec<obvhs::triangle::Triangle> {
         (0..self.tri_v0.len())
-            .map(|k| obvhs::triangle::Triangle {
-                v0: self.tri_v0[k],
-                v1: self.tri_v1[k],
-                v2: self.tri_v2[k],
-            })
+            .map(|k| obvhs::triangle::Triangle { v0: self.tri_v0[k], v1: self.tri_v1[k], v2: self.tri_v2[k] })
             .collect()
     }
 

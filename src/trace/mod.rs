@@ -45,10 +45,7 @@ pub fn trace_batch(
                     }
                     sum += r.radiance;
                 }
-                *slot = RaySample {
-                    radiance: sum / spp as f32,
-                    ..first
-                };
+                *slot = RaySample { radiance: sum / spp as f32, ..first };
             }
             rays
         })

@@ -43,46 +43,24 @@ impl<'a> Renderer<'a> {
         let mut emitter_cdf = Vec::new();
         let mut total = 0.0f32;
         for k in 0..tris.len() {
-            if scene.materials[tris.material[k] as usize]
-                .emission
-                .max_element()
-                > 0.0
-            {
-                total += 0.5
-                    * (tris.v1[k] - tris.v0[k])
-                        .cross(tris.v2[k] - tris.v0[k])
-                        .length();
+            if scene.materials[tris.material[k] as usize].emission.max_element() > 0.0 {
+                total += 0.5 * (tris.v1[k] - tris.v0[k]).cross(tris.v2[k] - tris.v0[k]).length();
                 emitters.push(k as u32);
                 emitter_cdf.push(total);
             }
         }
-        Renderer {
-            scene,
-            tracer,
-            bounces: scene.config.bounces,
-            emitters,
-            emitter_cdf,
-        }
+        Renderer { scene, tracer, bounces: scene.config.bounces, emitters, emitter_cdf }
     }
 
     /// Next-event estimate from the emissive triangles (picked by area, uniform point on the
     /// picked triangle): radiance-weighted cosine term, divided by π by the caller's albedo/π.
-    fn emitter_irradiance(
-        &self,
-        origin: Vec3,
-        n: Vec3,
-        sampler: &mut Sampler,
-        rays: &mut u64,
-    ) -> Vec3 {
+    fn emitter_irradiance(&self, origin: Vec3, n: Vec3, sampler: &mut Sampler, rays: &mut u64) -> Vec3 {
         let Some(&total) = self.emitter_cdf.last() else {
             return Vec3::ZERO;
         };
         let u = sampler.next_2d();
         let pick = sampler.next_1d() * total;
-        let slot = self
-            .emitter_cdf
-            .partition_point(|&c| c <= pick)
-            .min(self.emitters.len() - 1);
+        let slot = self.emitter_cdf.partition_point(|&c| c <= pick).min(self.emitters.len() - 1);
         let k = self.emitters[slot] as usize;
         let tris = &self.scene.triangles;
         let (v0, v1, v2) = (tris.v0[k], tris.v1[k], tris.v2[k]);
@@ -99,11 +77,7 @@ impl<'a> Renderer<'a> {
         let cos_s = n.dot(l);
         let mat = self.scene.materials[tris.material[k] as usize];
         let nl = (v1 - v0).cross(v2 - v0).normalize_or_zero();
-        let cos_l = if mat.two_sided {
-            nl.dot(l).abs()
-        } else {
-            -nl.dot(l)
-        };
+        let cos_l = if mat.two_sided { nl.dot(l).abs() } else { -nl.dot(l) };
         if cos_s <= 0.0 || cos_l <= 0.0 {
             return Vec3::ZERO;
         }
@@ -117,19 +91,9 @@ impl<'a> Renderer<'a> {
 
     /// Radiance and distance along one ray (unit `dir`). `sampler` drives light and bounce
     /// sampling; `rays` counts every ray traced (primary, shadow and bounce).
-    pub fn sample(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        sampler: &mut Sampler,
-        rays: &mut u64,
-    ) -> RaySample {
+    pub fn sample(&self, origin: Vec3, dir: Vec3, sampler: &mut Sampler, rays: &mut u64) -> RaySample {
         if !origin.is_finite() || !dir.is_finite() || dir.length_squared() == 0.0 {
-            return RaySample {
-                radiance: Vec3::ZERO,
-                distance: f32::INFINITY,
-                backface: false,
-            };
+            return RaySample { radiance: Vec3::ZERO, distance: f32::INFINITY, backface: false };
         }
         let dir = dir.normalize();
         *rays += 1;
@@ -153,51 +117,22 @@ impl<'a> Renderer<'a> {
             }
         }
         if let Some(radiance) = light_radiance {
-            return RaySample {
-                radiance,
-                distance: t_light,
-                backface: false,
-            };
+            return RaySample { radiance, distance: t_light, backface: false };
         }
         let Some(hit) = hit else {
-            return RaySample {
-                radiance: self.scene.sky.radiance(dir),
-                distance: f32::INFINITY,
-                backface: false,
-            };
+            return RaySample { radiance: self.scene.sky.radiance(dir), distance: f32::INFINITY, backface: false };
         };
         let mat = self.scene.materials[hit.material as usize];
         if hit.backface && !mat.two_sided {
-            return RaySample {
-                radiance: Vec3::ZERO,
-                distance: hit.t,
-                backface: true,
-            };
+            return RaySample { radiance: Vec3::ZERO, distance: hit.t, backface: true };
         }
-        let n = if hit.backface {
-            -hit.normal
-        } else {
-            hit.normal
-        };
-        let radiance =
-            mat.emission + self.shade(hit.position, n, mat.albedo, self.bounces, sampler, rays);
-        RaySample {
-            radiance: sanitize(radiance),
-            distance: hit.t,
-            backface: false,
-        }
+        let n = if hit.backface { -hit.normal } else { hit.normal };
+        let radiance = mat.emission + self.shade(hit.position, n, mat.albedo, self.bounces, sampler, rays);
+        RaySample { radiance: sanitize(radiance), distance: hit.t, backface: false }
     }
 
     /// Outgoing Lambertian radiance (without emission) at `p` with front normal `n`.
-    fn shade(
-        &self,
-        p: Vec3,
-        n: Vec3,
-        albedo: Vec3,
-        bounces_left: u32,
-        sampler: &mut Sampler,
-        rays: &mut u64,
-    ) -> Vec3 {
+    fn shade(&self, p: Vec3, n: Vec3, albedo: Vec3, bounces_left: u32, sampler: &mut Sampler, rays: &mut u64) -> Vec3 {
         let origin = p + n * self.tracer.surface_offset(p);
         let mut irradiance_over_pi = Vec3::ZERO;
         if let Some(sun) = self.scene.lights.sun {
@@ -260,8 +195,7 @@ impl<'a> Renderer<'a> {
                         let hn = if h.backface { -h.normal } else { h.normal };
                         // Emissive triangles already arrived by next-event estimation.
                         let emission = if h.sphere { m.emission } else { Vec3::ZERO };
-                        emission
-                            + self.shade(h.position, hn, m.albedo, bounces_left - 1, sampler, rays)
+                        emission + self.shade(h.position, hn, m.albedo, bounces_left - 1, sampler, rays)
                     }
                 }
             };
@@ -274,11 +208,7 @@ impl<'a> Renderer<'a> {
 /// Replaces NaN/Inf components by 0 (radiance is never allowed to carry them out).
 #[inline]
 pub fn sanitize(v: Vec3) -> Vec3 {
-    Vec3::new(
-        finite_or_zero(v.x),
-        finite_or_zero(v.y),
-        finite_or_zero(v.z),
-    )
+    Vec3::new(finite_or_zero(v.x), finite_or_zero(v.y), finite_or_zero(v.z))
 }
 
 #[inline]

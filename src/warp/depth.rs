@@ -33,14 +33,7 @@ fn ray_plane(b: Vec3, dir: Vec3, s: Vec3, n: Vec3) -> Option<f32> {
 /// multiple of the fetch direction): the octahedral lookup does not need it normalised, and
 /// skipping the normalisations shortens the dependent chain of divisions.
 #[inline]
-pub fn plane_warp(
-    p: &WarpProbe,
-    b: Vec3,
-    dir: Vec3,
-    lod: f32,
-    steps: u32,
-    new_plane: bool,
-) -> Vec3 {
+pub fn plane_warp(p: &WarpProbe, b: Vec3, dir: Vec3, lod: f32, steps: u32, new_plane: bool) -> Vec3 {
     let a = p.position;
     if b == a {
         return dir;
@@ -81,11 +74,7 @@ pub fn plane_warp(
 pub fn fetch_vector(from: Vec3, to: Vec3, fallback: Vec3) -> Vec3 {
     let v = to - from;
     let l2 = v.length_squared();
-    if l2 > 0.0 && l2.is_finite() {
-        v
-    } else {
-        fallback
-    }
+    if l2 > 0.0 && l2.is_finite() { v } else { fallback }
 }
 
 /// `g(t) = l/d − 1`: negative in front of the probe's surface, positive behind, −1 where

@@ -40,19 +40,8 @@ impl WarpProbe {
                 .map(|l| OctMap::new(l.res, l.texels.iter().map(|&d| inverse(d)).collect()))
                 .collect(),
         };
-        let max_distance = probe
-            .distance()
-            .texels
-            .iter()
-            .copied()
-            .filter(|d| d.is_finite())
-            .fold(0.0f32, f32::max);
-        WarpProbe {
-            position: probe.position,
-            inv_depth,
-            radiance: probe.radiance.clone(),
-            max_distance,
-        }
+        let max_distance = probe.distance().texels.iter().copied().filter(|d| d.is_finite()).fold(0.0f32, f32::max);
+        WarpProbe { position: probe.position, inv_depth, radiance: probe.radiance.clone(), max_distance }
     }
 
     /// Inverse distance seen by the probe towards `dir` at depth mip `lod`.
@@ -87,11 +76,7 @@ pub fn inverse(d: f32) -> f32 {
 pub fn toward(from: Vec3, to: Vec3, fallback: Vec3) -> Vec3 {
     let v = to - from;
     let l2 = v.length_squared();
-    if l2 > 0.0 && l2.is_finite() {
-        v / l2.sqrt()
-    } else {
-        fallback
-    }
+    if l2 > 0.0 && l2.is_finite() { v / l2.sqrt() } else { fallback }
 }
 
 /// Tunable options shared by the depth-based methods.
@@ -112,12 +97,7 @@ impl Default for WarpOptions {
     fn default() -> Self {
         // Depth mip 2 (a 4×-downsampled, inverse-distance-filtered depth): the seed's "blurry
         // depth" advice, better than mip 0 in the eval sweep, and cache-resident.
-        WarpOptions {
-            depth_lod: 2.0,
-            relax_texels: 0.0,
-            secant_steps: 6,
-            march_steps: 64,
-        }
+        WarpOptions { depth_lod: 2.0, relax_texels: 0.0, secant_steps: 6, march_steps: 64 }
     }
 }
 
@@ -180,24 +160,13 @@ pub struct Proxies {
 
 /// Unit fetch direction of a per-lookup method (`Reproject`/`Oracle` return `dir`).
 #[inline]
-pub fn fetch_dir(
-    method: Method,
-    probe: &WarpProbe,
-    proxies: &Proxies,
-    opts: &WarpOptions,
-    b: Vec3,
-    dir: Vec3,
-) -> Vec3 {
+pub fn fetch_dir(method: Method, probe: &WarpProbe, proxies: &Proxies, opts: &WarpOptions, b: Vec3, dir: Vec3) -> Vec3 {
     let v = fetch_vector(method, probe, proxies, opts, b, dir);
     if v == dir {
         return dir; // the query direction itself, bit for bit (normalising could change it)
     }
     let l2 = v.length_squared();
-    if l2 > 0.0 && l2.is_finite() {
-        v / l2.sqrt()
-    } else {
-        dir
-    }
+    if l2 > 0.0 && l2.is_finite() { v / l2.sqrt() } else { dir }
 }
 
 /// Fetch vector: a positive multiple of the fetch direction (finite, non-zero). Probe
@@ -214,9 +183,7 @@ pub fn fetch_vector(
     if b == probe.position {
         return dir;
     }
-    if opts.relax_texels > 0.0
-        && !matches!(method, Method::None | Method::Reproject | Method::Oracle)
-    {
+    if opts.relax_texels > 0.0 && !matches!(method, Method::None | Method::Reproject | Method::Oracle) {
         return relaxed(method, probe, proxies, opts, b, dir);
     }
     fetch_dir_plain(method, probe, proxies, opts, b, dir)
@@ -224,14 +191,7 @@ pub fn fetch_vector(
 
 /// Mirror radiance the method returns for the query (B, dir).
 #[inline]
-pub fn lookup(
-    method: Method,
-    probe: &WarpProbe,
-    proxies: &Proxies,
-    opts: &WarpOptions,
-    b: Vec3,
-    dir: Vec3,
-) -> Vec3 {
+pub fn lookup(method: Method, probe: &WarpProbe, proxies: &Proxies, opts: &WarpOptions, b: Vec3, dir: Vec3) -> Vec3 {
     probe.radiance(fetch_vector(method, probe, proxies, opts, b, dir))
 }
 
@@ -259,14 +219,7 @@ fn fetch_dir_plain(
 
 /// UV relaxation (seed 000: "store the warped UVs, then relax them"): the warped direction
 /// field is box-filtered over a small stencil of neighbouring query directions.
-fn relaxed(
-    method: Method,
-    probe: &WarpProbe,
-    proxies: &Proxies,
-    opts: &WarpOptions,
-    b: Vec3,
-    dir: Vec3,
-) -> Vec3 {
+fn relaxed(method: Method, probe: &WarpProbe, proxies: &Proxies, opts: &WarpOptions, b: Vec3, dir: Vec3) -> Vec3 {
     let res = probe.radiance.levels[0].res as f32;
     // one texel of an N×N octahedral map spans about 2π/N... use the mean: sqrt(4π/N²)
     let angle = opts.relax_texels * (4.0 * std::f32::consts::PI).sqrt() / res;
@@ -278,9 +231,5 @@ fn relaxed(
         sum += unit(fetch_dir_plain(method, probe, proxies, opts, b, d));
     }
     let l = sum.length();
-    if l > 0.0 && l.is_finite() {
-        sum / l
-    } else {
-        dir
-    }
+    if l > 0.0 && l.is_finite() { sum / l } else { dir }
 }

@@ -146,10 +146,6 @@ impl Kdop {
                 t = t.min((h - nb) / nd);
             }
         }
-        if t.is_finite() {
-            super::depth::fetch_vector(a, b + dir * t, dir)
-        } else {
-            dir
-        }
+        if t.is_finite() { super::depth::fetch_vector(a, b + dir * t, dir) } else { dir }
     }
 }

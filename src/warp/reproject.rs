@@ -23,11 +23,7 @@ pub fn reproject(p: &WarpProbe, b: Vec3, res: u32) -> OctMap<Vec3> {
             let (dir_b, dist_b) = if w > 0.0 {
                 let q = p.position + dir_a / w - b;
                 let l = q.length();
-                if l > 0.0 && l.is_finite() {
-                    (q / l, l)
-                } else {
-                    (dir_a, 0.0)
-                }
+                if l > 0.0 && l.is_finite() { (q / l, l) } else { (dir_a, 0.0) }
             } else {
                 (dir_a, f32::INFINITY)
             };
@@ -39,13 +35,7 @@ pub fn reproject(p: &WarpProbe, b: Vec3, res: u32) -> OctMap<Vec3> {
     }
     let base: Vec<Vec4> = keys
         .iter()
-        .map(|&k| {
-            if k == u64::MAX {
-                Vec4::ZERO
-            } else {
-                src_rad.texels[(k & 0xFFFF_FFFF) as usize].extend(1.0)
-            }
-        })
+        .map(|&k| if k == u64::MAX { Vec4::ZERO } else { src_rad.texels[(k & 0xFFFF_FFFF) as usize].extend(1.0) })
         .collect();
     push_pull(OctMap::new(res, base))
 }
@@ -74,15 +64,8 @@ fn push_pull(base: OctMap<Vec4>) -> OctMap<Vec3> {
         let coarse = filled;
         filled = OctMap::from_fn(level.res, |i, j, _| {
             let v = level.get(i, j);
-            if v.w > 0.0 {
-                normalise(v)
-            } else {
-                coarse.bilinear_uv(octa::texel_uv(level.res, i, j))
-            }
+            if v.w > 0.0 { normalise(v) } else { coarse.bilinear_uv(octa::texel_uv(level.res, i, j)) }
         });
     }
-    OctMap::new(
-        filled.res,
-        filled.texels.iter().map(|v| v.truncate()).collect(),
-    )
+    OctMap::new(filled.res, filled.texels.iter().map(|v| v.truncate()).collect())
 }

@@ -1,0 +1,266 @@
+//! Fitting per-cell correctives against raytraced references with argmin.
+//!
+//! For every cell that is not inside geometry: draw training queries (positions uniform in
+//! the cell, never its centre; directions uniform; their own sampler domain, independent of
+//! `eval`'s validation set) and a separate held-out check set, trace references, start the
+//! cell's warp map from the grid's raytraced distances (`celldepth`), refine it against the
+//! radiance error, fit the UV relaxation strength, and keep it only if it beats the plain
+//! warp on the held-out check set (otherwise level 0). Cells are independent: rayon runs
+//! them in parallel and every random choice is seeded per cell, so results are bit-identical
+//! at any thread count.
+
+pub mod model;
+pub mod objective;
+pub mod output;
+
+use crate::bake::{ProbeGrid, SpecularProbe};
+use crate::progress::Progress;
+use crate::sampling::{Sampler, hash_pair, uniform_sphere};
+use crate::scene::Scene;
+use crate::trace::{Renderer, Tracer};
+use crate::warp::{Proxies, WarpOptions, WarpProbe};
+use glam::Vec3;
+pub use model::{Blend, Correctives};
+use objective::{CellProblem, Sample};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+pub const DOMAIN_FIT: u64 = 0x4649_5431; // "FIT1"
+
+/// Which argmin solver refines a cell's warp map.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+pub enum Solver {
+    /// Coordinate descent: Brent's method on one texel at a time (the default, by measurement).
+    Brent,
+    /// L-BFGS on all texels with More-Thuente line search; gradient by central differences.
+    Lbfgs,
+    /// Nelder-Mead on all texels.
+    NelderMead,
+}
+
+/// Fit settings, recorded in every fit's output.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct FitSettings {
+    /// N of each cell's N×N warp map (8..=16).
+    pub map_res: u32,
+    pub train_positions: u32,
+    pub train_dirs: u32,
+    pub check_positions: u32,
+    pub check_dirs: u32,
+    pub reference_spp: u32,
+    pub seed: u64,
+    /// Relative error (mean absolute RGB error / mean reference radiance, on the check set)
+    /// at or below which the plain warp is kept and nothing is stored.
+    pub tol: f32,
+    pub solver: Solver,
+    /// Coordinate-descent sweeps (Brent) or iterations (L-BFGS, Nelder-Mead).
+    pub iterations: u32,
+    /// Weight of the tile-smoothness term (squared differences of neighbouring log-scales).
+    pub smooth_weight: f64,
+    /// Weight of the size term (squared log-scales: stay near the raytraced start).
+    pub size_weight: f64,
+    /// Options of the plain warp used by level-0 cells.
+    pub options: WarpOptions,
+}
+
+impl Default for FitSettings {
+    fn default() -> Self {
+        FitSettings {
+            map_res: 8,
+            train_positions: 8,
+            train_dirs: 128,
+            check_positions: 4,
+            check_dirs: 64,
+            reference_spp: 4,
+            seed: 0xF17,
+            tol: 0.02,
+            solver: Solver::Brent,
+            iterations: 2,
+            smooth_weight: 1e-3,
+            size_weight: 1e-4,
+            options: WarpOptions::default(),
+        }
+    }
+}
+
+/// Outcome of one cell's fit.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CellFit {
+    pub cell: u32,
+    /// 0 = plain warp (nothing stored), 2 = warp map stored.
+    pub level: u8,
+    pub reason: String,
+    /// Held-out relative errors (mean abs RGB error / mean reference).
+    pub check_err_warp1: f64,
+    pub check_err_celldepth: f64,
+    pub check_err_fitted: f64,
+    /// Training objective before and after.
+    pub train_cost_start: f64,
+    pub train_cost_end: f64,
+    pub relax: f64,
+    pub iterations: u64,
+    pub evaluations: u64,
+    pub termination: String,
+    pub seconds: f64,
+    /// Fraction of the cell's check queries whose true hit is hidden from the probe.
+    pub hidden_fraction: f64,
+}
+
+/// A fitted grid: the correctives plus what happened in every cell.
+pub struct Fit {
+    pub correctives: Correctives,
+    /// The same maps unfitted (raytraced start) for every active cell: `celldepth`.
+    pub celldepth: Correctives,
+    pub cells: Vec<CellFit>,
+    pub settings: FitSettings,
+    pub seconds: f64,
+    pub reference_rays: u64,
+}
+
+/// Training or check queries of one cell, with references.
+#[allow(clippy::too_many_arguments)]
+fn cell_samples(
+    renderer: &Renderer,
+    grid: &ProbeGrid,
+    cell: usize,
+    positions: u32,
+    dirs: u32,
+    spp: u32,
+    seed: u64,
+    tag: u64,
+    rays: &mut u64,
+) -> Vec<Sample> {
+    let g = &grid.geometry;
+    let lo = g.min + g.cell_coords(cell).as_vec3() * g.cell_size();
+    let stream = hash_pair(hash_pair(DOMAIN_FIT, tag), cell as u64);
+    let mut out = Vec::with_capacity((positions * dirs) as usize);
+    for p in 0..positions {
+        let mut s = Sampler::new(seed, stream, p);
+        let u = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
+        let b = lo + u * g.cell_size();
+        for d in 0..dirs {
+            let mut sd = Sampler::new(seed, hash_pair(stream, 1 + p as u64), d);
+            let dir = uniform_sphere(sd.next_2d());
+            let mut sum = Vec3::ZERO;
+            for k in 0..spp {
+                let mut sr = Sampler::new(seed, hash_pair(hash_pair(stream, 0xABC + p as u64), d as u64), k);
+                sum += renderer.sample(b, dir, &mut sr, rays).radiance;
+            }
+            out.push(Sample { b, dir, reference: sum / spp as f32, taps: [(0, 0.0); 4] });
+        }
+    }
+    out
+}
+
+/// Fits every active cell.
+pub fn fit(
+    scene: &Scene,
+    tracer: &Tracer,
+    probe: &SpecularProbe,
+    grid: &ProbeGrid,
+    proxies: &Proxies,
+    s: &FitSettings,
+    progress: &Progress,
+) -> Fit {
+    let t0 = Instant::now();
+    let wp = WarpProbe::new(probe);
+    let renderer = Renderer::new(scene, tracer);
+    let g = grid.geometry;
+    let n2 = (s.map_res * s.map_res) as usize;
+    let d2 = (grid.depth_resolution * grid.depth_resolution) as usize;
+    let active: Vec<usize> = (0..g.cell_count()).filter(|&c| !grid.inside[c]).collect();
+    let bar = progress.bar(active.len() as u64, "fit cells");
+    let results: Vec<(CellFit, Vec<f32>, Vec<f32>, u64)> = active
+        .par_iter()
+        .map(|&cell| {
+            let tc = Instant::now();
+            let mut rays = 0u64;
+            let init = model::initial_map(
+                grid.depth_resolution,
+                &grid.depth_mean[cell * d2..(cell + 1) * d2],
+                &grid.hit_fraction[cell * d2..(cell + 1) * d2],
+                grid.far_distance,
+                s.map_res,
+            );
+            let train = cell_samples(
+                &renderer,
+                grid,
+                cell,
+                s.train_positions,
+                s.train_dirs,
+                s.reference_spp,
+                s.seed,
+                1,
+                &mut rays,
+            );
+            let check = cell_samples(
+                &renderer,
+                grid,
+                cell,
+                s.check_positions,
+                s.check_dirs,
+                s.reference_spp,
+                s.seed,
+                2,
+                &mut rays,
+            );
+            let hidden =
+                check.iter().filter(|q| crate::eval::oracle(scene, tracer, probe.position, q.b, q.dir).1).count()
+                    as f64
+                    / check.len().max(1) as f64;
+            let centre = g.cell_centre(cell);
+            let mut problem =
+                CellProblem::new(&wp, centre, s.map_res, init.clone(), train, s.smooth_weight, s.size_weight);
+            let outcome = problem.solve(s.solver, s.iterations);
+            let fitted = problem.map_with_relax(&outcome.params, outcome.relax);
+            let check_problem = CellProblem::new(&wp, centre, s.map_res, init.clone(), check, 0.0, 0.0);
+            let warp1 = check_problem.relative_error_warp1(proxies, &s.options);
+            let celldepth = check_problem.relative_error_map(&init);
+            let fitted_err = check_problem.relative_error_map(&fitted);
+            let (level, reason) = if warp1 <= s.tol as f64 {
+                (0, "plain warp meets the tolerance".to_string())
+            } else if fitted_err < warp1 {
+                (2, "fitted map beats the plain warp on held-out queries".to_string())
+            } else {
+                (0, "fallback: the fitted map is not better than the plain warp on held-out queries".to_string())
+            };
+            bar.inc(1);
+            let fit = CellFit {
+                cell: cell as u32,
+                level,
+                reason,
+                check_err_warp1: warp1,
+                check_err_celldepth: celldepth,
+                check_err_fitted: fitted_err,
+                train_cost_start: outcome.cost_start,
+                train_cost_end: outcome.cost_end,
+                relax: outcome.relax,
+                iterations: outcome.iterations,
+                evaluations: outcome.evaluations,
+                termination: outcome.termination,
+                seconds: tc.elapsed().as_secs_f64(),
+                hidden_fraction: hidden,
+            };
+            (fit, fitted, init, rays)
+        })
+        .collect();
+    bar.finish_and_clear();
+    let mut correctives =
+        Correctives { geometry: g, map_res: s.map_res, slot: vec![u32::MAX; g.cell_count()], maps: Vec::new() };
+    let mut celldepth = correctives.clone();
+    let mut cells = Vec::with_capacity(results.len());
+    let mut reference_rays = 0;
+    for (fit, fitted, init, rays) in results {
+        let cell = fit.cell as usize;
+        celldepth.slot[cell] = (celldepth.maps.len() / n2) as u32;
+        celldepth.maps.extend_from_slice(&init);
+        if fit.level == 2 {
+            correctives.slot[cell] = (correctives.maps.len() / n2) as u32;
+            correctives.maps.extend_from_slice(&fitted);
+        }
+        reference_rays += rays;
+        cells.push(fit);
+    }
+    Fit { correctives, celldepth, cells, settings: s.clone(), seconds: t0.elapsed().as_secs_f64(), reference_rays }
+}

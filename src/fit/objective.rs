@@ -1,0 +1,429 @@
+//! The fit objective of one cell as argmin problems.
+//!
+//! Parameters: one log-scale `s_k` per warp-map texel that saw geometry; the texel's inverse
+//! distance is `w0_k · exp(s_k)`, so parameters are order 1 whatever the scene's scale (a
+//! scene scaled by 1e4 has the same objective). Texels that saw sky keep w = 0.
+//!
+//! Cost = data + regularisation:
+//! - data: mean Charbonnier loss `√(e² + ε²) − ε` of the per-query error `e` (mean absolute
+//!   RGB difference between the warped probe lookup and the reference), divided by the
+//!   mean reference radiance; ε = 5% of that mean (robust to the sampling noise of the
+//!   references and to the queries no single fetch can fix);
+//! - `smooth_weight` × mean squared difference of neighbouring texels' `s` (tile smoothness);
+//! - `size_weight` × mean `s²` (stay near the raytraced start).
+//!
+//! Solvers (chosen by measurement, see ARCHITECTURE.md): Brent's method per texel in
+//! coordinate-descent sweeps (each texel only touches the queries in its bilinear
+//! footprint, so a 1-D step is cheap), L-BFGS on all texels (gradient by central differences
+//! with step 1e-3 in log-scale: 0.1% of a distance, far above f32 noise, far below the scale
+//! at which the piecewise-smooth radiance changes), or Nelder-Mead.
+
+use super::Solver;
+use super::model::inv_t_from_map;
+use crate::octa::{self, wrap_texel};
+use crate::warp::{Method, Proxies, WarpOptions, WarpProbe, fetch_vector};
+use argmin::core::{CostFunction, Error, Executor, Gradient, State};
+use argmin::solver::brent::BrentOpt;
+use argmin::solver::linesearch::MoreThuenteLineSearch;
+use argmin::solver::neldermead::NelderMead;
+use argmin::solver::quasinewton::LBFGS;
+use glam::Vec3;
+use std::cell::Cell;
+
+/// One training or check query.
+#[derive(Clone, Copy, Debug)]
+pub struct Sample {
+    pub b: Vec3,
+    pub dir: Vec3,
+    pub reference: Vec3,
+    /// Bilinear taps of `dir` in the cell's warp map.
+    pub taps: [(u32, f32); 4],
+}
+
+/// Result of a solve.
+pub struct Outcome {
+    pub params: Vec<f64>,
+    pub relax: f64,
+    pub cost_start: f64,
+    pub cost_end: f64,
+    pub iterations: u64,
+    pub evaluations: u64,
+    pub termination: String,
+}
+
+/// A cell's fit problem.
+pub struct CellProblem<'a> {
+    probe: &'a WarpProbe,
+    centre: Vec3,
+    res: u32,
+    init: Vec<f32>,
+    samples: Vec<Sample>,
+    /// Per texel, the samples whose bilinear footprint includes it.
+    touching: Vec<Vec<u32>>,
+    /// Neighbouring texel pairs (right and down, seam-wrapped).
+    pairs: Vec<(u32, u32)>,
+    mean_reference: f64,
+    eps: f64,
+    smooth_weight: f64,
+    size_weight: f64,
+    evaluations: Cell<u64>,
+}
+
+impl<'a> CellProblem<'a> {
+    pub fn new(
+        probe: &'a WarpProbe,
+        centre: Vec3,
+        res: u32,
+        init: Vec<f32>,
+        mut samples: Vec<Sample>,
+        smooth_weight: f64,
+        size_weight: f64,
+    ) -> Self {
+        let n2 = (res * res) as usize;
+        let mut touching = vec![Vec::new(); n2];
+        for (i, s) in samples.iter_mut().enumerate() {
+            s.taps = octa::bilinear_taps(res, octa::encode(s.dir));
+            for &(k, w) in &s.taps {
+                if w > 0.0 && !touching[k as usize].contains(&(i as u32)) {
+                    touching[k as usize].push(i as u32);
+                }
+            }
+        }
+        let mut pairs = Vec::new();
+        for j in 0..res as i64 {
+            for i in 0..res as i64 {
+                let k = (j * res as i64 + i) as u32;
+                for (di, dj) in [(1, 0), (0, 1)] {
+                    let (ni, nj) = wrap_texel(res, i + di, j + dj);
+                    pairs.push((k, nj * res + ni));
+                }
+            }
+        }
+        let mean_reference =
+            samples.iter().map(|s| ((s.reference.x + s.reference.y + s.reference.z) / 3.0) as f64).sum::<f64>()
+                / samples.len().max(1) as f64;
+        let mean_reference = mean_reference.max(1e-12);
+        CellProblem {
+            probe,
+            centre,
+            res,
+            init,
+            samples,
+            touching,
+            pairs,
+            mean_reference,
+            eps: 0.05 * mean_reference,
+            smooth_weight,
+            size_weight,
+            evaluations: Cell::new(0),
+        }
+    }
+
+    /// Texels whose parameter matters (saw geometry and are touched by some query).
+    fn free_texels(&self) -> Vec<usize> {
+        (0..self.init.len()).filter(|&k| self.init[k] > 0.0 && !self.touching[k].is_empty()).collect()
+    }
+
+    /// Warp map for log-scales `s` (full length).
+    fn map(&self, s: &[f64]) -> Vec<f32> {
+        self.init.iter().zip(s).map(|(&w0, &sk)| w0 * (sk.clamp(-3.0, 3.0).exp() as f32)).collect()
+    }
+
+    /// Map with UV relaxation of strength `relax` ∈ [0,1]: blend towards its seam-aware 3×3
+    /// box blur (in inverse distance).
+    pub fn map_with_relax(&self, s: &[f64], relax: f64) -> Vec<f32> {
+        let map = self.map(s);
+        if relax <= 0.0 {
+            return map;
+        }
+        let res = self.res as i64;
+        let mut out = map.clone();
+        for j in 0..res {
+            for i in 0..res {
+                let mut sum = 0.0f32;
+                for dj in -1..=1 {
+                    for di in -1..=1 {
+                        let (ni, nj) = wrap_texel(self.res, i + di, j + dj);
+                        sum += map[(nj * self.res + ni) as usize];
+                    }
+                }
+                let k = (j * res + i) as usize;
+                out[k] = ((1.0 - relax) as f32) * map[k] + (relax as f32) * sum / 9.0;
+            }
+        }
+        out
+    }
+
+    /// Absolute error of sample `i` under `map`.
+    #[inline]
+    fn sample_error(&self, i: usize, map: &[f32]) -> f64 {
+        let q = &self.samples[i];
+        let w: f32 = q.taps.iter().map(|&(k, wt)| map[k as usize] * wt).sum();
+        let u = inv_t_from_map(self.centre, w, q.b, q.dir);
+        let v = if u > 0.0 { q.b + q.dir / u - self.probe.position } else { q.dir };
+        let v = if v.is_finite() && v != Vec3::ZERO { v } else { q.dir };
+        let d = self.probe.radiance(v) - q.reference;
+        ((d.x.abs() + d.y.abs() + d.z.abs()) / 3.0) as f64
+    }
+
+    #[inline]
+    fn rho(&self, e: f64) -> f64 {
+        (e * e + self.eps * self.eps).sqrt() - self.eps
+    }
+
+    fn data_over(&self, idx: impl Iterator<Item = usize>, map: &[f32]) -> f64 {
+        let n = self.samples.len().max(1) as f64;
+        idx.map(|i| self.rho(self.sample_error(i, map))).sum::<f64>() / (n * self.mean_reference)
+    }
+
+    fn regulariser(&self, s: &[f64]) -> f64 {
+        let smooth = self.pairs.iter().map(|&(a, b)| (s[a as usize] - s[b as usize]).powi(2)).sum::<f64>()
+            / self.pairs.len().max(1) as f64;
+        let size = s.iter().map(|x| x * x).sum::<f64>() / s.len().max(1) as f64;
+        self.smooth_weight * smooth + self.size_weight * size
+    }
+
+    /// Full objective at log-scales `s`.
+    pub fn cost(&self, s: &[f64]) -> f64 {
+        self.evaluations.set(self.evaluations.get() + 1);
+        let map = self.map(s);
+        self.data_over(0..self.samples.len(), &map) + self.regulariser(s)
+    }
+
+    /// Mean absolute error of `map` over the samples, relative to the mean reference.
+    pub fn relative_error_map(&self, map: &[f32]) -> f64 {
+        let sum: f64 = (0..self.samples.len()).map(|i| self.sample_error(i, map)).sum();
+        sum / (self.samples.len().max(1) as f64 * self.mean_reference)
+    }
+
+    /// The same error for the plain global warp.
+    pub fn relative_error_warp1(&self, proxies: &Proxies, opts: &WarpOptions) -> f64 {
+        let sum: f64 = self
+            .samples
+            .iter()
+            .map(|q| {
+                let d = self.probe.radiance(fetch_vector(Method::Warp1, self.probe, proxies, opts, q.b, q.dir))
+                    - q.reference;
+                ((d.x.abs() + d.y.abs() + d.z.abs()) / 3.0) as f64
+            })
+            .sum();
+        sum / (self.samples.len().max(1) as f64 * self.mean_reference)
+    }
+
+    /// Refines the map with `solver`, then fits the relaxation strength with Brent.
+    pub fn solve(&mut self, solver: Solver, iterations: u32) -> Outcome {
+        let n = self.init.len();
+        let mut s = vec![0.0f64; n];
+        let cost_start = self.cost(&s);
+        let free = self.free_texels();
+        let (mut iters, mut termination) = (0u64, String::from("nothing to fit (no texel saw geometry)"));
+        if !free.is_empty() {
+            let r = match solver {
+                Solver::Brent => self.coordinate_descent(&mut s, &free, iterations),
+                Solver::Lbfgs => self.lbfgs(&mut s, &free, iterations),
+                Solver::NelderMead => self.nelder_mead(&mut s, &free, iterations),
+            };
+            match r {
+                Ok((i, t)) => (iters, termination) = (i, t),
+                Err(e) => termination = format!("solver error: {e}; kept the start"),
+            }
+            if self.cost(&s) > cost_start || s.iter().any(|x| !x.is_finite()) {
+                s = vec![0.0; n];
+                termination += "; no improvement, kept the start";
+            }
+        }
+        let relax = self.fit_relax(&s);
+        let cost_end = {
+            let map = self.map_with_relax(&s, relax);
+            self.data_over(0..self.samples.len(), &map) + self.regulariser(&s)
+        };
+        Outcome {
+            params: s,
+            relax,
+            cost_start,
+            cost_end,
+            iterations: iters,
+            evaluations: self.evaluations.get(),
+            termination,
+        }
+    }
+
+    fn coordinate_descent(&self, s: &mut [f64], free: &[usize], sweeps: u32) -> Result<(u64, String), Error> {
+        let mut iters = 0u64;
+        for _ in 0..sweeps.max(1) {
+            for &k in free {
+                let current = (TexelProblem { cell: self, s, k }).cost(&s[k])?;
+                let solver = BrentOpt::new(-2.0, 2.0).set_tolerance(1e-3, 1e-4);
+                let res = Executor::new(TexelProblem { cell: self, s, k }, solver)
+                    .configure(|st| st.param(s[k]).max_iters(24))
+                    .run()?;
+                let st = res.state();
+                iters += st.get_iter();
+                let best = st.get_best_param().copied();
+                let best_cost = st.get_best_cost();
+                if let Some(best) = best
+                    && best.is_finite()
+                    && best_cost <= current
+                {
+                    s[k] = best;
+                }
+            }
+        }
+        Ok((iters, format!("{} Brent sweeps over {} texels", sweeps.max(1), free.len())))
+    }
+
+    fn lbfgs(&self, s: &mut [f64], free: &[usize], iterations: u32) -> Result<(u64, String), Error> {
+        let problem = FullProblem { cell: self, free, base: s.to_vec() };
+        let x0: Vec<f64> = free.iter().map(|&k| s[k]).collect();
+        let solver =
+            LBFGS::new(MoreThuenteLineSearch::new(), 7).with_tolerance_grad(1e-6)?.with_tolerance_cost(1e-9)?;
+        let res = Executor::new(problem, solver)
+            .configure(|st| st.param(x0).max_iters(10 * iterations.max(1) as u64).target_cost(0.0))
+            .run()?;
+        let st = res.state();
+        if let Some(best) = st.get_best_param() {
+            for (i, &k) in free.iter().enumerate() {
+                s[k] = best[i];
+            }
+        }
+        Ok((
+            st.get_iter(),
+            format!("L-BFGS: {}", st.get_termination_reason().map_or("unknown".into(), |r| r.to_string())),
+        ))
+    }
+
+    fn nelder_mead(&self, s: &mut [f64], free: &[usize], iterations: u32) -> Result<(u64, String), Error> {
+        let problem = FullProblem { cell: self, free, base: s.to_vec() };
+        let x0: Vec<f64> = free.iter().map(|&k| s[k]).collect();
+        let mut simplex = vec![x0.clone()];
+        for i in 0..x0.len() {
+            let mut v = x0.clone();
+            v[i] += 0.3;
+            simplex.push(v);
+        }
+        let solver = NelderMead::new(simplex).with_sd_tolerance(1e-7)?;
+        let res = Executor::new(problem, solver)
+            .configure(|st| st.max_iters(100 * iterations.max(1) as u64).target_cost(0.0))
+            .run()?;
+        let st = res.state();
+        if let Some(best) = st.get_best_param() {
+            for (i, &k) in free.iter().enumerate() {
+                s[k] = best[i];
+            }
+        }
+        Ok((
+            st.get_iter(),
+            format!("Nelder-Mead: {}", st.get_termination_reason().map_or("unknown".into(), |r| r.to_string())),
+        ))
+    }
+
+    /// UV relaxation strength in [0, 1] minimising the data term (Brent).
+    fn fit_relax(&self, s: &[f64]) -> f64 {
+        let problem = RelaxProblem { cell: self, s };
+        let at_zero = problem.cost(&0.0).unwrap_or(f64::INFINITY);
+        let res = Executor::new(RelaxProblem { cell: self, s }, BrentOpt::new(0.0, 1.0).set_tolerance(1e-3, 1e-4))
+            .configure(|st| st.param(0.0).max_iters(20))
+            .run();
+        match res {
+            Ok(r) => {
+                let st = r.state();
+                match st.get_best_param() {
+                    Some(&x) if x.is_finite() && st.get_best_cost() < at_zero => x.clamp(0.0, 1.0),
+                    _ => 0.0,
+                }
+            }
+            Err(_) => 0.0,
+        }
+    }
+}
+
+/// One texel's 1-D problem: only the queries it touches and its regularisation terms change.
+struct TexelProblem<'p, 'a> {
+    cell: &'p CellProblem<'a>,
+    s: &'p [f64],
+    k: usize,
+}
+
+impl CostFunction for TexelProblem<'_, '_> {
+    type Param = f64;
+    type Output = f64;
+    fn cost(&self, x: &f64) -> Result<f64, Error> {
+        let c = self.cell;
+        c.evaluations.set(c.evaluations.get() + 1);
+        let mut map = c.map(self.s);
+        map[self.k] = c.init[self.k] * (x.clamp(-3.0, 3.0).exp() as f32);
+        let data = c.data_over(c.touching[self.k].iter().map(|&i| i as usize), &map);
+        let mut smooth = 0.0;
+        for &(a, b) in &c.pairs {
+            if a as usize == self.k || b as usize == self.k {
+                let sa = if a as usize == self.k { *x } else { self.s[a as usize] };
+                let sb = if b as usize == self.k { *x } else { self.s[b as usize] };
+                smooth += (sa - sb).powi(2);
+            }
+        }
+        let n = self.s.len().max(1) as f64;
+        let cost = data + c.smooth_weight * smooth / c.pairs.len().max(1) as f64 + c.size_weight * x * x / n;
+        Ok(if cost.is_finite() { cost } else { f64::MAX })
+    }
+}
+
+/// All free texels at once (L-BFGS, Nelder-Mead).
+struct FullProblem<'p, 'a> {
+    cell: &'p CellProblem<'a>,
+    free: &'p [usize],
+    base: Vec<f64>,
+}
+
+impl FullProblem<'_, '_> {
+    fn full(&self, x: &[f64]) -> Vec<f64> {
+        let mut s = self.base.clone();
+        for (i, &k) in self.free.iter().enumerate() {
+            s[k] = x[i];
+        }
+        s
+    }
+}
+
+impl CostFunction for FullProblem<'_, '_> {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, x: &Vec<f64>) -> Result<f64, Error> {
+        let c = self.cell.cost(&self.full(x));
+        Ok(if c.is_finite() { c } else { f64::MAX })
+    }
+}
+
+impl Gradient for FullProblem<'_, '_> {
+    type Param = Vec<f64>;
+    type Gradient = Vec<f64>;
+    /// Central differences per texel, evaluating only the queries the texel touches.
+    fn gradient(&self, x: &Vec<f64>) -> Result<Vec<f64>, Error> {
+        const H: f64 = 1e-3;
+        let s = self.full(x);
+        let mut g = vec![0.0; x.len()];
+        for (i, &k) in self.free.iter().enumerate() {
+            let tp = TexelProblem { cell: self.cell, s: &s, k };
+            let (up, down) = (tp.cost(&(x[i] + H))?, tp.cost(&(x[i] - H))?);
+            g[i] = (up - down) / (2.0 * H);
+        }
+        Ok(g)
+    }
+}
+
+/// Relaxation strength (1-D).
+struct RelaxProblem<'p, 'a> {
+    cell: &'p CellProblem<'a>,
+    s: &'p [f64],
+}
+
+impl CostFunction for RelaxProblem<'_, '_> {
+    type Param = f64;
+    type Output = f64;
+    fn cost(&self, x: &f64) -> Result<f64, Error> {
+        let c = self.cell;
+        c.evaluations.set(c.evaluations.get() + 1);
+        let map = c.map_with_relax(self.s, x.clamp(0.0, 1.0));
+        let v = c.data_over(0..c.samples.len(), &map);
+        Ok(if v.is_finite() { v } else { f64::MAX })
+    }
+}
