@@ -153,6 +153,18 @@ fn cell_samples(
     out
 }
 
+/// Model selection on held-out errors: nothing is stored when the plain warp meets the
+/// tolerance, and a fitted map is stored only if it beats the plain warp (never worse).
+pub fn choose_level(check_err_warp1: f64, check_err_fitted: f64, tol: f64) -> (u8, String) {
+    if check_err_warp1 <= tol {
+        (0, "plain warp meets the tolerance".to_string())
+    } else if check_err_fitted < check_err_warp1 {
+        (2, "fitted map beats the plain warp on held-out queries".to_string())
+    } else {
+        (0, "fallback: the fitted map is not better than the plain warp on held-out queries".to_string())
+    }
+}
+
 /// Fits every active cell.
 pub fn fit(
     scene: &Scene,
@@ -218,12 +230,10 @@ pub fn fit(
             let warp1 = check_problem.relative_error_warp1(proxies, &s.options);
             let celldepth = check_problem.relative_error_map(&init);
             let fitted_err = check_problem.relative_error_map(&fitted);
-            let (level, reason) = if warp1 <= s.tol as f64 {
-                (0, "plain warp meets the tolerance".to_string())
-            } else if fitted_err < warp1 {
-                (2, "fitted map beats the plain warp on held-out queries".to_string())
+            let (level, reason) = if init.iter().all(|w| *w == 0.0) {
+                (0, "sees only sky: the plain warp fetches the query direction, nothing to store".to_string())
             } else {
-                (0, "fallback: the fitted map is not better than the plain warp on held-out queries".to_string())
+                choose_level(warp1, fitted_err, s.tol as f64)
             };
             bar.inc(1);
             let fit = CellFit {

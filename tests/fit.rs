@@ -1,0 +1,191 @@
+//! The fitter: recovers a known correction, is scale-invariant (stiff scales converge the
+//! same), stores nothing where the plain warp is exact, never keeps a worse map, and is
+//! bit-identical at any thread count.
+
+mod common;
+use common::*;
+use glam::Vec3;
+use warpfit::bake::SpecularProbe;
+use warpfit::eval::MethodContext;
+use warpfit::fit::objective::{CellProblem, Sample};
+use warpfit::fit::{self, FitSettings, Solver};
+use warpfit::octa::{self, OctMap, OctMips, build_distance_mips};
+use warpfit::progress::Progress;
+use warpfit::sampling::{Sampler, uniform_sphere};
+use warpfit::trace::Tracer;
+use warpfit::warp::WarpProbe;
+
+/// Texture on the wall z = `wall` (in units of `scale`).
+fn wall_radiance(p: Vec3, scale: f32) -> Vec3 {
+    let (x, y) = (p.x / scale, p.y / scale);
+    Vec3::new(0.5 + 0.4 * (1.3 * x).sin() * (1.1 * y).cos(), 0.5 + 0.3 * (0.9 * x + 0.4 * y).sin(), 0.4)
+}
+
+/// Probe at the origin in front of an infinite textured wall at z = 5·scale; a cell centred at
+/// `c` whose map starts `wrong` times too near; references from the exact wall.
+fn wall_problem(probe: &WarpProbe, scale: f32, samples: usize) -> (Vec<f32>, Vec<Sample>, Vec3, Vec<f32>) {
+    let z = 5.0 * scale;
+    let c = Vec3::new(0.8, -0.5, 1.0) * scale;
+    let res = 8;
+    let truth: Vec<f32> = (0..res * res)
+        .map(|t| {
+            let d = octa::texel_dir(res, t % res, t / res);
+            if d.z > 0.0 { d.z / (z - c.z) } else { 0.0 }
+        })
+        .collect();
+    let init: Vec<f32> = truth.iter().map(|w| w * 1.3).collect();
+    let mut qs = Vec::new();
+    for k in 0..samples as u32 {
+        let mut s = Sampler::new(5, 7, k);
+        let b = c + (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5) * scale;
+        let mut d = uniform_sphere(s.next_2d());
+        d.z = d.z.abs().max(0.2);
+        let d = d.normalize();
+        let hit = b + d * ((z - b.z) / d.z);
+        qs.push(Sample { b, dir: d, reference: wall_radiance(hit, scale), taps: [(0, 0.0); 4] });
+    }
+    let _ = probe;
+    (init, qs, c, truth)
+}
+
+fn wall_probe(scale: f32) -> WarpProbe {
+    let z = 5.0 * scale;
+    let res = 256;
+    let rad = OctMap::from_fn(res, |_, _, d| if d.z > 0.0 { wall_radiance(d * (z / d.z), scale) } else { Vec3::ZERO });
+    let dist = OctMap::from_fn(res, |_, _, d| if d.z > 0.0 { z / d.z } else { f32::INFINITY });
+    let p = SpecularProbe {
+        position: Vec3::ZERO,
+        radiance: OctMips { levels: vec![rad] },
+        roughness: vec![0.0],
+        depth: build_distance_mips(dist, 8),
+    };
+    WarpProbe::new(&p)
+}
+
+fn fit_wall(scale: f32, solver: Solver) -> (Vec<f64>, f64, f64, Vec<f32>, Vec<f32>) {
+    let probe = wall_probe(scale);
+    let (init, qs, c, truth) = wall_problem(&probe, scale, 4000);
+    let mut problem = CellProblem::new(&probe, c, 8, init.clone(), qs, 1e-4, 0.0);
+    let before = problem.relative_error_map(&init);
+    let out = problem.solve(solver, 4);
+    let fitted = problem.map_with_relax(&out.params, 0.0);
+    let after = problem.relative_error_map(&fitted);
+    (out.params, before, after, fitted, truth)
+}
+
+#[test]
+fn flat_wall_correction_is_recovered() {
+    let (_, before, after, fitted, truth) = fit_wall(1.0, Solver::Brent);
+    assert!(after < 0.5 * before, "error {before} → {after}");
+    // Texels looking at the wall head-on come back to their true inverse distance.
+    let res = 8;
+    let mut checked = 0;
+    for t in 0..(res * res) as usize {
+        let d = octa::texel_dir(res, t as u32 % res, t as u32 / res);
+        if d.z > 0.8 {
+            let rel = (fitted[t] / truth[t] - 1.0).abs();
+            assert!(rel < 0.08, "texel {t} ({d}): fitted {} vs true {} ({rel})", fitted[t], truth[t]);
+            checked += 1;
+        }
+    }
+    assert!(checked >= 4);
+}
+
+#[test]
+fn stiff_scales_converge_to_the_same_answer() {
+    // The same wall at scales 1e-3 and 1e3 (natural scales of distances 1e6 apart): the
+    // log-scale parameters and the relative errors must agree.
+    let (s_small, _, e_small, _, _) = fit_wall(1e-3, Solver::Brent);
+    let (s_large, _, e_large, _, _) = fit_wall(1e3, Solver::Brent);
+    assert!((e_small - e_large).abs() < 0.02 * e_small.max(1e-3), "{e_small} vs {e_large}");
+    let max_diff = s_small.iter().zip(&s_large).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    assert!(max_diff < 0.05, "log-scales differ by {max_diff}");
+}
+
+#[test]
+fn gradient_and_simplex_solvers_also_improve_the_wall() {
+    for solver in [Solver::Lbfgs, Solver::NelderMead] {
+        let (_, before, after, _, _) = fit_wall(1.0, solver);
+        assert!(after < before, "{solver:?}: {before} → {after}");
+    }
+}
+
+#[test]
+fn fallback_never_keeps_a_worse_map() {
+    assert_eq!(fit::choose_level(0.3, 0.31, 0.02).0, 0);
+    assert!(fit::choose_level(0.3, 0.31, 0.02).1.starts_with("fallback"));
+    assert_eq!(fit::choose_level(0.3, 0.3, 0.02).0, 0);
+    assert_eq!(fit::choose_level(0.3, 0.2, 0.02).0, 2);
+    assert_eq!(fit::choose_level(0.01, 0.001, 0.02).0, 0);
+}
+
+fn small_torture() -> warpfit::scene::Scene {
+    let mut s = load("torture");
+    s.config.probe.resolution = 64;
+    s.config.probe.samples_per_texel = 2;
+    s.config.grid.counts = [5, 2, 5];
+    s
+}
+
+fn quick_settings() -> FitSettings {
+    FitSettings {
+        train_positions: 3,
+        train_dirs: 48,
+        check_positions: 2,
+        check_dirs: 32,
+        reference_spp: 1,
+        iterations: 1,
+        ..FitSettings::default()
+    }
+}
+
+#[test]
+fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
+    let scene = small_torture();
+    let tracer = Tracer::new(&scene);
+    let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
+    let ctx = MethodContext::new(&scene, &baked.probe);
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            fit::fit(&scene, &tracer, &baked.probe, &baked.grid, &ctx.proxies, &quick_settings(), &Progress::quiet())
+        })
+    };
+    let (a, b) = (run(1), run(2));
+    assert_eq!(a.correctives, b.correctives);
+    assert_eq!(a.celldepth, b.celldepth);
+    let strip = |f: &fit::Fit| {
+        f.cells.iter().map(|c| (c.cell, c.level, c.check_err_fitted.to_bits(), c.evaluations)).collect::<Vec<_>>()
+    };
+    assert_eq!(strip(&a), strip(&b));
+    assert!(a.correctives.maps.iter().all(|w| w.is_finite() && *w >= 0.0));
+    for c in &a.cells {
+        if c.level == 2 {
+            assert!(c.check_err_fitted < c.check_err_warp1, "cell {} stored but not better", c.cell);
+        }
+    }
+    assert!(a.correctives.stored_cells() > 0, "some torture cell should need a map");
+    // cells inside geometry are left out entirely
+    for (cell, inside) in baked.grid.inside.iter().enumerate() {
+        if *inside {
+            assert_eq!(a.correctives.slot[cell], u32::MAX);
+            assert!(a.cells.iter().all(|c| c.cell as usize != cell));
+        }
+    }
+}
+
+#[test]
+fn a_cell_seeing_only_sky_stores_nothing() {
+    let scene = parse("[sky]\nzenith = [0.3, 0.5, 1.0]\nhorizon = [0.9, 0.9, 1.0]\nground = [0.2, 0.2, 0.2]\n[[geometry]]\ntype = \"sphere\"\ncenter = [500.0, 500.0, 500.0]\nradius = 0.01\n").unwrap();
+    let tracer = Tracer::new(&scene);
+    let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
+    let ctx = MethodContext::new(&scene, &baked.probe);
+    let f = fit::fit(&scene, &tracer, &baked.probe, &baked.grid, &ctx.proxies, &quick_settings(), &Progress::quiet());
+    assert_eq!(f.correctives.stored_cells(), 0);
+    assert!(f.correctives.maps.is_empty());
+    for c in &f.cells {
+        assert_eq!(c.level, 0);
+        assert!(c.reason.starts_with("sees only sky"), "{}", c.reason);
+        assert_eq!(c.check_err_fitted, c.check_err_warp1, "sky: the map changes nothing");
+    }
+}
