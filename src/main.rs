@@ -168,15 +168,17 @@ fn fit_and_print(
     let f = pipeline::fit(baked, settings, out, progress)?;
     let s = warpfit::fit::output::summary(&f);
     println!(
-        "fitted {} active cells in {:.1} s ({} threads): {} store a warp map ({} bytes), {} keep the plain warp ({} fallbacks); held-out relative error warp1 {:.4} → celldepth {:.4} → stored {:.4}",
+        "fitted {} active cells in {:.1} s ({} threads): {} store a warp map ({} bytes), {} use the fallback {} ({} after a failed fit); held-out relative error warp1 {:.4}, fallback {:.4}, celldepth {:.4}, stored {:.4}",
         s.active_cells,
         s.fit_seconds,
         rayon::current_num_threads(),
         s.cells_level2,
         s.bytes_level2,
         s.cells_level0,
+        s.fallback_method,
         s.fallbacks,
         s.mean_check_err_warp1,
+        s.mean_check_err_fallback,
         s.mean_check_err_celldepth,
         s.mean_check_err_stored
     );
@@ -217,13 +219,13 @@ fn eval_and_print(
                 blend: Blend::Cell,
             },
             pipeline::CorrectiveRow {
-                name: "fitted-cell",
+                name: "fitted",
                 note: "fitted warp maps (levels as stored), containing cell",
                 correctives: &f.correctives,
                 blend: Blend::Cell,
             },
             pipeline::CorrectiveRow {
-                name: "fitted",
+                name: "fitted-trilinear",
                 note: "fitted warp maps (levels as stored), trilinear blend of 8 cells",
                 correctives: &f.correctives,
                 blend: Blend::Trilinear,

@@ -88,11 +88,18 @@ impl Default for FitSettings {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct CellFit {
     pub cell: u32,
-    /// 0 = plain warp (nothing stored), 2 = warp map stored.
+    /// 0 = fallback method (nothing stored), 2 = warp map stored.
     pub level: u8,
     pub reason: String,
-    /// Held-out relative errors (mean abs RGB error / mean reference).
+    /// Which map the refinement started from: "celldepth" or "box".
+    pub start: String,
+    /// Held-out relative errors (mean abs RGB error / mean reference) of the unfitted
+    /// methods and of the fitted map.
     pub check_err_warp1: f64,
+    pub check_err_box: f64,
+    pub check_err_kdop: f64,
+    /// Error of the grid's fallback method (one of the three above).
+    pub check_err_fallback: f64,
     pub check_err_celldepth: f64,
     pub check_err_fitted: f64,
     /// Training objective before and after.
@@ -153,17 +160,22 @@ fn cell_samples(
     out
 }
 
-/// Model selection on held-out errors: nothing is stored when the plain warp meets the
-/// tolerance, and a fitted map is stored only if it beats the plain warp (never worse).
-pub fn choose_level(check_err_warp1: f64, check_err_fitted: f64, tol: f64) -> (u8, String) {
-    if check_err_warp1 <= tol {
-        (0, "plain warp meets the tolerance".to_string())
-    } else if check_err_fitted < check_err_warp1 {
-        (2, "fitted map beats the plain warp on held-out queries".to_string())
+/// Model selection on held-out errors: nothing is stored when the fallback method meets the
+/// tolerance, and a fitted map is stored only if it beats the fallback (never worse).
+pub fn choose_level(check_err_fallback: f64, check_err_fitted: f64, tol: f64) -> (u8, String) {
+    if check_err_fallback <= tol {
+        (0, "the fallback method meets the tolerance".to_string())
+    } else if check_err_fitted < check_err_fallback {
+        (2, "fitted map beats the fallback method on held-out queries".to_string())
     } else {
-        (0, "fallback: the fitted map is not better than the plain warp on held-out queries".to_string())
+        (0, "fallback: the fitted map is not better than the fallback method on held-out queries".to_string())
     }
 }
+
+/// Unfitted methods a level-0 cell may use; the grid keeps the one with the lowest mean
+/// held-out error over its active cells.
+pub const FALLBACK_CANDIDATES: [crate::warp::Method; 3] =
+    [crate::warp::Method::Warp1, crate::warp::Method::Box, crate::warp::Method::Kdop];
 
 /// Fits every active cell.
 pub fn fit(
@@ -222,25 +234,30 @@ pub fn fit(
                     as f64
                     / check.len().max(1) as f64;
             let centre = g.cell_centre(cell);
-            let mut problem =
-                CellProblem::new(&wp, centre, s.map_res, init.clone(), train, s.smooth_weight, s.size_weight);
+            // Two starts: the grid's raytraced distances and the box proxy seen from the cell
+            // centre; refine whichever explains the training queries better.
+            let boxed = model::box_map(centre, &proxies.aabb, s.map_res);
+            let judge = CellProblem::new(&wp, centre, s.map_res, init.clone(), train.clone(), 0.0, 0.0);
+            let box_better = init.iter().any(|w| *w > 0.0) && judge.data_cost_map(&boxed) < judge.data_cost_map(&init);
+            let (start, start_name) = if box_better { (boxed, "box") } else { (init.clone(), "celldepth") };
+            let mut problem = CellProblem::new(&wp, centre, s.map_res, start, train, s.smooth_weight, s.size_weight);
             let outcome = problem.solve(s.solver, s.iterations);
             let fitted = problem.map_with_relax(&outcome.params, outcome.relax);
             let check_problem = CellProblem::new(&wp, centre, s.map_res, init.clone(), check, 0.0, 0.0);
-            let warp1 = check_problem.relative_error_warp1(proxies, &s.options);
+            let [warp1, boxed_err, kdop] =
+                FALLBACK_CANDIDATES.map(|m| check_problem.relative_error_method(m, proxies, &s.options));
             let celldepth = check_problem.relative_error_map(&init);
             let fitted_err = check_problem.relative_error_map(&fitted);
-            let (level, reason) = if init.iter().all(|w| *w == 0.0) {
-                (0, "sees only sky: the plain warp fetches the query direction, nothing to store".to_string())
-            } else {
-                choose_level(warp1, fitted_err, s.tol as f64)
-            };
             bar.inc(1);
             let fit = CellFit {
                 cell: cell as u32,
-                level,
-                reason,
+                level: 0,
+                reason: String::new(),
+                start: start_name.to_string(),
                 check_err_warp1: warp1,
+                check_err_box: boxed_err,
+                check_err_kdop: kdop,
+                check_err_fallback: warp1,
                 check_err_celldepth: celldepth,
                 check_err_fitted: fitted_err,
                 train_cost_start: outcome.cost_start,
@@ -256,13 +273,29 @@ pub fn fit(
         })
         .collect();
     bar.finish_and_clear();
-    let mut correctives =
-        Correctives { geometry: g, map_res: s.map_res, slot: vec![u32::MAX; g.cell_count()], maps: Vec::new() };
+    // The grid's fallback: the unfitted method with the lowest mean held-out error.
+    let total = |f: fn(&CellFit) -> f64| results.iter().map(|r| f(&r.0)).sum::<f64>();
+    let errs = [total(|c| c.check_err_warp1), total(|c| c.check_err_box), total(|c| c.check_err_kdop)];
+    let best = (0..3).min_by(|&a, &b| errs[a].total_cmp(&errs[b])).unwrap_or(0);
+    let fallback = FALLBACK_CANDIDATES[best];
+    let mut correctives = Correctives {
+        geometry: g,
+        map_res: s.map_res,
+        slot: vec![u32::MAX; g.cell_count()],
+        maps: Vec::new(),
+        fallback,
+    };
     let mut celldepth = correctives.clone();
     let mut cells = Vec::with_capacity(results.len());
     let mut reference_rays = 0;
-    for (fit, fitted, init, rays) in results {
+    for (mut fit, fitted, init, rays) in results {
         let cell = fit.cell as usize;
+        fit.check_err_fallback = [fit.check_err_warp1, fit.check_err_box, fit.check_err_kdop][best];
+        (fit.level, fit.reason) = if init.iter().all(|w| *w == 0.0) {
+            (0, "sees only sky: the fallback fetches the query direction, nothing to store".to_string())
+        } else {
+            choose_level(fit.check_err_fallback, fit.check_err_fitted, s.tol as f64)
+        };
         celldepth.slot[cell] = (celldepth.maps.len() / n2) as u32;
         celldepth.maps.extend_from_slice(&init);
         if fit.level == 2 {

@@ -1,6 +1,7 @@
 //! The corrective model and how it is evaluated at runtime.
 //!
-//! Level 0: nothing stored; the cell uses the plain global warp (`warp1`).
+//! Level 0: nothing stored; the cell uses the grid's fallback method, the unfitted warp
+//! (`warp1`, `box` or `kdop`) that the fit measured best on its held-out queries.
 //! Level 2: a per-cell octahedral *warp map*: per texel, the inverse distance from the cell
 //! centre to what that direction hits (0 = sky). A lookup makes one warp step against the
 //! map of the cell (plane perpendicular to Dir at the cell's hit estimate, intersected with
@@ -37,6 +38,8 @@ pub struct Correctives {
     pub slot: Vec<u32>,
     /// Warp maps, `slot · N² + texel`: inverse distance from the cell centre (0 = sky).
     pub maps: Vec<f32>,
+    /// Method of level-0 cells.
+    pub fallback: Method,
 }
 
 impl Correctives {
@@ -63,7 +66,7 @@ impl Correctives {
         Some(inv_t_from_map(self.geometry.cell_centre(cell), w, b, dir))
     }
 
-    /// Fetch vector for query (B, dir); falls back to `warp1` where no map applies.
+    /// Fetch vector for query (B, dir); the fallback method where no map applies.
     #[inline]
     pub fn fetch_vector(
         &self,
@@ -84,7 +87,7 @@ impl Correctives {
             Blend::Trilinear => self.trilinear_inv_t(&taps, b, dir),
         };
         match inv_t {
-            None => fetch_vector(Method::Warp1, probe, proxies, opts, b, dir),
+            None => fetch_vector(self.fallback, probe, proxies, opts, b, dir),
             Some(u) if u > 0.0 => {
                 let v = b + dir / u - a;
                 if v.is_finite() && v != Vec3::ZERO { v } else { dir }
@@ -131,6 +134,20 @@ pub fn inv_t_from_map(c: Vec3, w: f32, b: Vec3, dir: Vec3) -> f32 {
     }
     let t = dir.dot(c - b) + 1.0 / w;
     if t > 0.0 { (1.0 / t).min(1e30) } else { 1e30 }
+}
+
+/// Warp map of a cell from a box proxy: inverse distance from the cell centre to the box's
+/// boundary along each texel direction (0 where the centre is outside the box).
+pub fn box_map(centre: Vec3, proxy: &crate::warp::proxy::BoxProxy, map_res: u32) -> Vec<f32> {
+    (0..map_res * map_res)
+        .map(|t| {
+            let d = octa::texel_dir(map_res, t % map_res, t / map_res);
+            match proxy.exit_distance(centre, d) {
+                Some(t) if t > 0.0 => (1.0 / t).min(1e30),
+                _ => 0.0,
+            }
+        })
+        .collect()
 }
 
 /// Initial warp map of a cell from the grid's distance moments: inverse of the mean hit

@@ -183,6 +183,11 @@ impl<'a> CellProblem<'a> {
         self.smooth_weight * smooth + self.size_weight * size
     }
 
+    /// Data term of a whole map (no regularisation): compares candidate starting maps.
+    pub fn data_cost_map(&self, map: &[f32]) -> f64 {
+        self.data_over(0..self.samples.len(), map)
+    }
+
     /// Full objective at log-scales `s`.
     pub fn cost(&self, s: &[f64]) -> f64 {
         self.evaluations.set(self.evaluations.get() + 1);
@@ -196,14 +201,13 @@ impl<'a> CellProblem<'a> {
         sum / (self.samples.len().max(1) as f64 * self.mean_reference)
     }
 
-    /// The same error for the plain global warp.
-    pub fn relative_error_warp1(&self, proxies: &Proxies, opts: &WarpOptions) -> f64 {
+    /// The same error for an unfitted per-lookup method.
+    pub fn relative_error_method(&self, method: Method, proxies: &Proxies, opts: &WarpOptions) -> f64 {
         let sum: f64 = self
             .samples
             .iter()
             .map(|q| {
-                let d = self.probe.radiance(fetch_vector(Method::Warp1, self.probe, proxies, opts, q.b, q.dir))
-                    - q.reference;
+                let d = self.probe.radiance(fetch_vector(method, self.probe, proxies, opts, q.b, q.dir)) - q.reference;
                 ((d.x.abs() + d.y.abs() + d.z.abs()) / 3.0) as f64
             })
             .sum();

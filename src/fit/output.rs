@@ -24,7 +24,9 @@ pub struct FitSummary {
     pub fit_seconds: f64,
     pub reference_rays: u64,
     pub evaluations: u64,
+    pub fallback_method: String,
     pub mean_check_err_warp1: f64,
+    pub mean_check_err_fallback: f64,
     pub mean_check_err_celldepth: f64,
     pub mean_check_err_stored: f64,
 }
@@ -46,7 +48,7 @@ pub struct FitManifest {
 
 pub fn summary(fit: &Fit) -> FitSummary {
     let n = fit.cells.len().max(1) as f64;
-    let stored = |c: &CellFit| if c.level == 2 { c.check_err_fitted } else { c.check_err_warp1 };
+    let stored = |c: &CellFit| if c.level == 2 { c.check_err_fitted } else { c.check_err_fallback };
     FitSummary {
         active_cells: fit.cells.len(),
         cells_level0: fit.cells.iter().filter(|c| c.level == 0).count(),
@@ -56,7 +58,9 @@ pub fn summary(fit: &Fit) -> FitSummary {
         fit_seconds: fit.seconds,
         reference_rays: fit.reference_rays,
         evaluations: fit.cells.iter().map(|c| c.evaluations).sum(),
+        fallback_method: fit.correctives.fallback.name().to_string(),
         mean_check_err_warp1: fit.cells.iter().map(|c| c.check_err_warp1).sum::<f64>() / n,
+        mean_check_err_fallback: fit.cells.iter().map(|c| c.check_err_fallback).sum::<f64>() / n,
         mean_check_err_celldepth: fit.cells.iter().map(|c| c.check_err_celldepth).sum::<f64>() / n,
         mean_check_err_stored: fit.cells.iter().map(stored).sum::<f64>() / n,
     }
