@@ -14,7 +14,7 @@
 //! # let _ = (bake::bake, Progress::quiet());
 //! ```
 //!
-//! Pipeline: `scene` → `trace` → `bake` → `format`, then `warp` + `eval` → `report`.
+//! Pipeline: `scene` → `trace` → `bake` → `format`, then `warp`, `fit` and `eval` → `report`.
 //! See ARCHITECTURE.md.
 
 // `!(x > 0.0)` is how this crate rejects NaN together with out-of-range values.

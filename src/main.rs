@@ -165,7 +165,7 @@ fn fit_and_print(
     out: &std::path::Path,
     progress: &Progress,
 ) -> Result<warpfit::fit::Fit> {
-    let f = pipeline::fit(baked, settings, out, progress)?;
+    let f = pipeline::fit(baked, settings, out, &command_line(), progress)?;
     let s = warpfit::fit::output::summary(&f);
     println!(
         "fitted {} active cells in {:.1} s ({} threads): {} store a warp map ({} bytes), {} use the fallback {} ({} after a failed fit); held-out relative error warp1 {:.4}, fallback {:.4}, celldepth {:.4}, stored {:.4}",
@@ -222,6 +222,12 @@ fn eval_and_print(
                 name: "fitted",
                 note: "fitted warp maps (levels as stored), containing cell",
                 correctives: &f.correctives,
+                blend: Blend::Cell,
+            },
+            pipeline::CorrectiveRow {
+                name: "fitted-L2-all",
+                note: "level 2 in every active cell (fitted maps before model selection), containing cell",
+                correctives: &f.fitted_all,
                 blend: Blend::Cell,
             },
             pipeline::CorrectiveRow {

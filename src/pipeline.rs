@@ -55,10 +55,17 @@ pub struct CorrectiveRow<'a> {
 }
 
 /// Fits the correctives of every active cell and writes the provisional fit files.
-pub fn fit(baked: Baked, settings: &FitSettings, dir: &Path, progress: &Progress) -> Result<Fit, FormatError> {
+pub fn fit(
+    baked: Baked,
+    settings: &FitSettings,
+    dir: &Path,
+    command: &str,
+    progress: &Progress,
+) -> Result<Fit, FormatError> {
     let ctx = MethodContext::new(baked.scene, baked.probe);
     let fitted = crate::fit::fit(baked.scene, baked.tracer, baked.probe, baked.grid, &ctx.proxies, settings, progress);
     crate::fit::output::write_fit(dir, &fitted)?;
+    crate::fit::output::write_fit_report(&dir.join("fit.md"), &fitted, command)?;
     Ok(fitted)
 }
 

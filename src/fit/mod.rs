@@ -119,6 +119,8 @@ pub struct Fit {
     pub correctives: Correctives,
     /// The same maps unfitted (raytraced start) for every active cell: `celldepth`.
     pub celldepth: Correctives,
+    /// The fitted map of every active cell, before model selection (level 2 everywhere).
+    pub fitted_all: Correctives,
     pub cells: Vec<CellFit>,
     pub settings: FitSettings,
     pub seconds: f64,
@@ -286,6 +288,7 @@ pub fn fit(
         fallback,
     };
     let mut celldepth = correctives.clone();
+    let mut fitted_all = correctives.clone();
     let mut cells = Vec::with_capacity(results.len());
     let mut reference_rays = 0;
     for (mut fit, fitted, init, rays) in results {
@@ -298,6 +301,8 @@ pub fn fit(
         };
         celldepth.slot[cell] = (celldepth.maps.len() / n2) as u32;
         celldepth.maps.extend_from_slice(&init);
+        fitted_all.slot[cell] = (fitted_all.maps.len() / n2) as u32;
+        fitted_all.maps.extend_from_slice(&fitted);
         if fit.level == 2 {
             correctives.slot[cell] = (correctives.maps.len() / n2) as u32;
             correctives.maps.extend_from_slice(&fitted);
@@ -305,5 +310,13 @@ pub fn fit(
         reference_rays += rays;
         cells.push(fit);
     }
-    Fit { correctives, celldepth, cells, settings: s.clone(), seconds: t0.elapsed().as_secs_f64(), reference_rays }
+    Fit {
+        correctives,
+        celldepth,
+        fitted_all,
+        cells,
+        settings: s.clone(),
+        seconds: t0.elapsed().as_secs_f64(),
+        reference_rays,
+    }
 }
