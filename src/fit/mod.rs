@@ -60,6 +60,9 @@ pub struct FitSettings {
     pub smooth_weight: f64,
     /// Weight of the size term (squared log-scales: stay near the raytraced start).
     pub size_weight: f64,
+    /// Charbonnier ε as a fraction of the cell's mean reference radiance: errors far above
+    /// it are penalised linearly (robust), errors below it quadratically.
+    pub robust_scale: f64,
     /// Options of the plain warp used by level-0 cells.
     pub options: WarpOptions,
 }
@@ -70,7 +73,7 @@ impl Default for FitSettings {
             map_res: 8,
             train_positions: 8,
             train_dirs: 128,
-            check_positions: 4,
+            check_positions: 8,
             check_dirs: 64,
             reference_spp: 4,
             seed: 0xF17,
@@ -79,9 +82,14 @@ impl Default for FitSettings {
             iterations: 2,
             smooth_weight: 1e-3,
             size_weight: 1e-4,
+            robust_scale: robust_scale_default(),
             options: WarpOptions::default(),
         }
     }
+}
+
+fn robust_scale_default() -> f64 {
+    std::env::var("WARPFIT_ROBUST").ok().and_then(|v| v.parse().ok()).unwrap_or(0.05)
 }
 
 /// Outcome of one cell's fit.
@@ -162,12 +170,16 @@ fn cell_samples(
     out
 }
 
+/// A stored map must beat the fallback by this factor on held-out queries: a cell's check
+/// set is small, and a map that wins by noise loses elsewhere.
+pub const SELECTION_MARGIN: f64 = 0.95;
+
 /// Model selection on held-out errors: nothing is stored when the fallback method meets the
 /// tolerance, and a fitted map is stored only if it beats the fallback (never worse).
 pub fn choose_level(check_err_fallback: f64, check_err_fitted: f64, tol: f64) -> (u8, String) {
     if check_err_fallback <= tol {
         (0, "the fallback method meets the tolerance".to_string())
-    } else if check_err_fitted < check_err_fallback {
+    } else if check_err_fitted < SELECTION_MARGIN * check_err_fallback {
         (2, "fitted map beats the fallback method on held-out queries".to_string())
     } else {
         (0, "fallback: the fitted map is not better than the fallback method on held-out queries".to_string())
@@ -242,7 +254,8 @@ pub fn fit(
             let judge = CellProblem::new(&wp, centre, s.map_res, init.clone(), train.clone(), 0.0, 0.0);
             let box_better = init.iter().any(|w| *w > 0.0) && judge.data_cost_map(&boxed) < judge.data_cost_map(&init);
             let (start, start_name) = if box_better { (boxed, "box") } else { (init.clone(), "celldepth") };
-            let mut problem = CellProblem::new(&wp, centre, s.map_res, start, train, s.smooth_weight, s.size_weight);
+            let mut problem = CellProblem::new(&wp, centre, s.map_res, start, train, s.smooth_weight, s.size_weight)
+                .with_robust_scale(s.robust_scale);
             let outcome = problem.solve(s.solver, s.iterations);
             let fitted = problem.map_with_relax(&outcome.params, outcome.relax);
             let check_problem = CellProblem::new(&wp, centre, s.map_res, init.clone(), check, 0.0, 0.0);

@@ -119,6 +119,12 @@ impl<'a> CellProblem<'a> {
         }
     }
 
+    /// Sets the Charbonnier ε to `scale` × the mean reference radiance.
+    pub fn with_robust_scale(mut self, scale: f64) -> Self {
+        self.eps = scale.max(1e-6) * self.mean_reference;
+        self
+    }
+
     /// Texels whose parameter matters (saw geometry and are touched by some query).
     fn free_texels(&self) -> Vec<usize> {
         (0..self.init.len()).filter(|&k| self.init[k] > 0.0 && !self.touching[k].is_empty()).collect()
@@ -195,23 +201,25 @@ impl<'a> CellProblem<'a> {
         self.data_over(0..self.samples.len(), &map) + self.regulariser(s)
     }
 
-    /// Mean absolute error of `map` over the samples, relative to the mean reference.
+    /// Root-mean-square of the per-query errors of `map`, relative to the mean reference: the
+    /// held-out criterion of model selection (the same emphasis as eval's relative RMSE, so
+    /// a map that misplaces a few bright edges loses to a method that does not).
     pub fn relative_error_map(&self, map: &[f32]) -> f64 {
-        let sum: f64 = (0..self.samples.len()).map(|i| self.sample_error(i, map)).sum();
-        sum / (self.samples.len().max(1) as f64 * self.mean_reference)
+        let sq: f64 = (0..self.samples.len()).map(|i| self.sample_error(i, map).powi(2)).sum();
+        (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
     }
 
     /// The same error for an unfitted per-lookup method.
     pub fn relative_error_method(&self, method: Method, proxies: &Proxies, opts: &WarpOptions) -> f64 {
-        let sum: f64 = self
+        let sq: f64 = self
             .samples
             .iter()
             .map(|q| {
                 let d = self.probe.radiance(fetch_vector(method, self.probe, proxies, opts, q.b, q.dir)) - q.reference;
-                ((d.x.abs() + d.y.abs() + d.z.abs()) / 3.0) as f64
+                (((d.x.abs() + d.y.abs() + d.z.abs()) / 3.0) as f64).powi(2)
             })
             .sum();
-        sum / (self.samples.len().max(1) as f64 * self.mean_reference)
+        (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
     }
 
     /// Refines the map with `solver`, then fits the relaxation strength with Brent.
