@@ -118,6 +118,8 @@ pub struct CellFit {
     pub evaluations: u64,
     pub termination: String,
     pub seconds: f64,
+    /// Training objective against solve time (see `objective::Outcome::curve`).
+    pub curve: Vec<(f64, f64)>,
     /// Fraction of the cell's check queries whose true hit is hidden from the probe.
     pub hidden_fraction: f64,
 }
@@ -282,6 +284,7 @@ pub fn fit(
                 evaluations: outcome.evaluations,
                 termination: outcome.termination,
                 seconds: tc.elapsed().as_secs_f64(),
+                curve: outcome.curve.clone(),
                 hidden_fraction: hidden,
             };
             (fit, fitted, init, rays)

@@ -43,6 +43,9 @@ pub struct Sample {
 /// Result of a solve.
 pub struct Outcome {
     pub params: Vec<f64>,
+    /// (seconds since the solve started, training objective): start, after each Brent
+    /// sweep (or the whole gradient/simplex solve), after relaxation.
+    pub curve: Vec<(f64, f64)>,
     pub relax: f64,
     pub cost_start: f64,
     pub cost_end: f64,
@@ -226,18 +229,38 @@ impl<'a> CellProblem<'a> {
     pub fn solve(&mut self, solver: Solver, iterations: u32) -> Outcome {
         let n = self.init.len();
         let mut s = vec![0.0f64; n];
+        let clock = std::time::Instant::now();
         let cost_start = self.cost(&s);
+        let mut curve = vec![(0.0, cost_start)];
         let free = self.free_texels();
         let (mut iters, mut termination) = (0u64, String::from("nothing to fit (no texel saw geometry)"));
         if !free.is_empty() {
             let r = match solver {
-                Solver::Brent => self.coordinate_descent(&mut s, &free, iterations),
+                Solver::Brent => {
+                    // one sweep at a time, so the convergence curve has a point per sweep
+                    let mut total = 0;
+                    let mut result = Ok((0, String::new()));
+                    for _ in 0..iterations.max(1) {
+                        match self.coordinate_descent(&mut s, &free, 1) {
+                            Ok((i, _)) => total += i,
+                            Err(e) => {
+                                result = Err(e);
+                                break;
+                            }
+                        }
+                        curve.push((clock.elapsed().as_secs_f64(), self.cost(&s)));
+                    }
+                    result.map(|_| (total, format!("{} Brent sweeps over {} texels", iterations.max(1), free.len())))
+                }
                 Solver::Lbfgs => self.lbfgs(&mut s, &free, iterations),
                 Solver::NelderMead => self.nelder_mead(&mut s, &free, iterations),
             };
             match r {
                 Ok((i, t)) => (iters, termination) = (i, t),
                 Err(e) => termination = format!("solver error: {e}; kept the start"),
+            }
+            if solver != Solver::Brent {
+                curve.push((clock.elapsed().as_secs_f64(), self.cost(&s)));
             }
             if self.cost(&s) > cost_start || s.iter().any(|x| !x.is_finite()) {
                 s = vec![0.0; n];
@@ -249,7 +272,9 @@ impl<'a> CellProblem<'a> {
             let map = self.map_with_relax(&s, relax);
             self.data_over(0..self.samples.len(), &map) + self.regulariser(&s)
         };
+        curve.push((clock.elapsed().as_secs_f64(), cost_end));
         Outcome {
+            curve,
             params: s,
             relax,
             cost_start,

@@ -4,7 +4,7 @@
 //! distance from the cell centre, side by side in slot order; absent when no cell stores
 //! anything) and `residuals.json` (every cell's held-out errors before and after, solver
 //! iterations, evaluations, termination and time), plus `residual_slices.png` (per grid
-//! layer, how much each cell's fit improved on its fallback).
+//! layer, how much each cell's fit improved on its fallback) and `fit_convergence.png`.
 
 use super::{CellFit, Fit, FitSettings};
 use crate::format::exr_io::{ExrLayer, write_exr};
@@ -105,6 +105,7 @@ pub fn write_fit(dir: &Path, fit: &Fit) -> Result<FitManifest, FormatError> {
     write_json(&dir.join("fit.json"), &manifest)?;
     write_json(&dir.join("residuals.json"), &fit.cells)?;
     write_residual_slices(&dir.join("residual_slices.png"), fit)?;
+    write_convergence(&dir.join("fit_convergence.png"), fit, rayon::current_num_threads())?;
     Ok(manifest)
 }
 
@@ -223,9 +224,45 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), For
             why
         );
     }
+    let _ = writeln!(md, "\n## Convergence\n\n| fit time (s) | mean training objective |\n|---:|---:|");
+    for (t, c) in convergence(fit, rayon::current_num_threads()) {
+        let _ = writeln!(md, "| {t:.2} | {c:.4} |");
+    }
+    let _ = writeln!(md, "\n![convergence](fit_convergence.png)");
     let _ = writeln!(
         md,
         "\n![residual slices](residual_slices.png)\n\nSlices: one tile per grid layer (bottom layer left), x to the right, z up; green = the stored map improves on the fallback (saturated: error → 0), grey = fallback, black = inside geometry."
     );
     write_atomic(path, md.as_bytes()).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })
+}
+
+/// Convergence of the fit: the mean training objective over active cells after each stage
+/// (start, each Brent sweep or the whole solve, relaxation) against the wall-clock time the
+/// whole grid takes to reach that stage (mean per-cell time × cells / threads).
+pub fn convergence(fit: &Fit, threads: usize) -> Vec<(f64, f64)> {
+    let stages = fit.cells.iter().map(|c| c.curve.len()).max().unwrap_or(0);
+    let n = fit.cells.len().max(1) as f64;
+    (0..stages)
+        .map(|k| {
+            let (mut t, mut cost) = (0.0, 0.0);
+            for c in &fit.cells {
+                let p = c.curve.get(k).or(c.curve.last()).copied().unwrap_or((0.0, 0.0));
+                t += p.0;
+                cost += p.1;
+            }
+            (t / threads.max(1) as f64, cost / n)
+        })
+        .collect()
+}
+
+/// `fit_convergence.png`.
+pub fn write_convergence(path: &Path, fit: &Fit, threads: usize) -> Result<(), FormatError> {
+    let series = vec![(format!("{:?}", fit.settings.solver), convergence(fit, threads))];
+    crate::report::plot::line_plot(
+        path,
+        "Fit convergence: mean training objective per cell",
+        "fit time on this machine (s, references excluded)",
+        "training objective",
+        &series,
+    )
 }

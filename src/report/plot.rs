@@ -124,3 +124,77 @@ pub fn error_vs_cost(path: &Path, title: &str, points: &[(String, f64, f64)]) ->
     .map_err(|e| plot_err(path, e))?;
     write_atomic(path, &png).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })
 }
+
+/// Line plot of named series (linear axes), for convergence curves.
+pub fn line_plot(
+    path: &Path,
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    series: &[(String, Vec<(f64, f64)>)],
+) -> Result<(), FormatError> {
+    register_font();
+    let (w, h) = (900u32, 560u32);
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| plot_err(path, e))?;
+        let pts = series.iter().flat_map(|(_, p)| p.iter()).filter(|p| p.0.is_finite() && p.1.is_finite());
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        for p in pts {
+            x0 = x0.min(p.0);
+            x1 = x1.max(p.0);
+            y0 = y0.min(p.1);
+            y1 = y1.max(p.1);
+        }
+        if !(x1 > x0) {
+            (x0, x1) = (0.0, 1.0);
+        }
+        if !(y1 > y0) {
+            (y0, y1) = (y0.min(0.0), y0.max(0.0) + 1.0);
+        }
+        let pad = (y1 - y0) * 0.08;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 22))
+            .margin(16)
+            .x_label_area_size(48)
+            .y_label_area_size(72)
+            .build_cartesian_2d(x0..x1 * 1.02, (y0 - pad)..(y1 + pad))
+            .map_err(|e| plot_err(path, e))?;
+        chart
+            .configure_mesh()
+            .x_desc(x_desc)
+            .y_desc(y_desc)
+            .label_style(("sans-serif", 15))
+            .draw()
+            .map_err(|e| plot_err(path, e))?;
+        let colours = [RGBColor(200, 40, 40), RGBColor(40, 70, 160), RGBColor(40, 140, 60), RGBColor(140, 90, 20)];
+        for (k, (name, points)) in series.iter().enumerate() {
+            let c = colours[k % colours.len()];
+            chart
+                .draw_series(LineSeries::new(points.clone(), c.stroke_width(2)))
+                .map_err(|e| plot_err(path, e))?
+                .label(name.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
+            chart.draw_series(points.iter().map(|p| Circle::new(*p, 4, c.filled()))).map_err(|e| plot_err(path, e))?;
+        }
+        chart
+            .configure_series_labels()
+            .label_font(("sans-serif", 15))
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| plot_err(path, e))?;
+        root.present().map_err(|e| plot_err(path, e))?;
+    }
+    let mut png = Vec::new();
+    image::ImageEncoder::write_image(
+        image::codecs::png::PngEncoder::new(&mut png),
+        &buf,
+        w,
+        h,
+        image::ExtendedColorType::Rgb8,
+    )
+    .map_err(|e| plot_err(path, e))?;
+    write_atomic(path, &png).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })
+}
