@@ -26,16 +26,7 @@ fn methods(c: &mut Criterion) {
     let mut g = c.benchmark_group("lookup/torture");
     g.throughput(Throughput::Elements(n as u64));
     g.sample_size(20);
-    for m in [
-        Method::None,
-        Method::Box,
-        Method::Kdop,
-        Method::Warp1,
-        Method::Warp2Fixed,
-        Method::Warp2New,
-        Method::Secant,
-        Method::Raymarch,
-    ] {
+    for m in Method::PER_LOOKUP {
         g.bench_function(m.name(), |b| {
             b.iter(|| {
                 let mut acc = Vec3::ZERO;

@@ -12,16 +12,7 @@ use warpfit::progress::Progress;
 use warpfit::trace::Tracer;
 use warpfit::warp::{self, Method, Proxies, WarpOptions, WarpProbe, proxy, reproject::reproject};
 
-const PER_LOOKUP: [Method; 8] = [
-    Method::None,
-    Method::Box,
-    Method::Kdop,
-    Method::Warp1,
-    Method::Warp2Fixed,
-    Method::Warp2New,
-    Method::Secant,
-    Method::Raymarch,
-];
+const PER_LOOKUP: [Method; 8] = Method::PER_LOOKUP;
 
 /// A probe at `a` whose distance is given per direction, with radiance = direction colour.
 fn synthetic_probe(a: Vec3, res: u32, dist: impl Fn(Vec3) -> f32) -> SpecularProbe {

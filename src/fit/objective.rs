@@ -318,11 +318,7 @@ impl<'a> CellProblem<'a> {
             .configure(|st| st.param(x0).max_iters(10 * iterations.max(1) as u64).target_cost(0.0))
             .run()?;
         let st = res.state();
-        if let Some(best) = st.get_best_param() {
-            for (i, &k) in free.iter().enumerate() {
-                s[k] = best[i];
-            }
-        }
+        scatter_best(s, free, st.get_best_param());
         Ok((
             st.get_iter(),
             format!("L-BFGS: {}", st.get_termination_reason().map_or("unknown".into(), |r| r.to_string())),
@@ -343,11 +339,7 @@ impl<'a> CellProblem<'a> {
             .configure(|st| st.max_iters(100 * iterations.max(1) as u64).target_cost(0.0))
             .run()?;
         let st = res.state();
-        if let Some(best) = st.get_best_param() {
-            for (i, &k) in free.iter().enumerate() {
-                s[k] = best[i];
-            }
-        }
+        scatter_best(s, free, st.get_best_param());
         Ok((
             st.get_iter(),
             format!("Nelder-Mead: {}", st.get_termination_reason().map_or("unknown".into(), |r| r.to_string())),
@@ -370,6 +362,15 @@ impl<'a> CellProblem<'a> {
                 }
             }
             Err(_) => 0.0,
+        }
+    }
+}
+
+/// Writes the best reduced parameter vector of a solve back into the full one.
+fn scatter_best(s: &mut [f64], free: &[usize], best: Option<&Vec<f64>>) {
+    if let Some(best) = best {
+        for (i, &k) in free.iter().enumerate() {
+            s[k] = best[i];
         }
     }
 }

@@ -1,7 +1,7 @@
 //! Plots (plotters, bitmap backend, pure-Rust text with a shipped font). Without a
 //! registered font plotters silently draws no text, so the font is registered here once.
 
-use crate::format::{FormatError, write_atomic};
+use crate::format::FormatError;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 use std::path::Path;
@@ -113,16 +113,7 @@ pub fn error_vs_cost(path: &Path, title: &str, points: &[(String, f64, f64)]) ->
         }
         root.present().map_err(|e| plot_err(path, e))?;
     }
-    let mut png = Vec::new();
-    image::ImageEncoder::write_image(
-        image::codecs::png::PngEncoder::new(&mut png),
-        &buf,
-        w,
-        h,
-        image::ExtendedColorType::Rgb8,
-    )
-    .map_err(|e| plot_err(path, e))?;
-    write_atomic(path, &png).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })
+    crate::preview::write_png(path, w, h, &buf)
 }
 
 /// Line plot of named series (linear axes), for convergence curves.
@@ -187,14 +178,5 @@ pub fn line_plot(
             .map_err(|e| plot_err(path, e))?;
         root.present().map_err(|e| plot_err(path, e))?;
     }
-    let mut png = Vec::new();
-    image::ImageEncoder::write_image(
-        image::codecs::png::PngEncoder::new(&mut png),
-        &buf,
-        w,
-        h,
-        image::ExtendedColorType::Rgb8,
-    )
-    .map_err(|e| plot_err(path, e))?;
-    write_atomic(path, &png).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })
+    crate::preview::write_png(path, w, h, &buf)
 }

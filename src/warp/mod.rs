@@ -131,6 +131,19 @@ impl Method {
         Method::Oracle,
     ];
 
+    /// Methods that answer one lookup on their own (everything but `reproject`, which
+    /// needs a per-location pass, and the `oracle`, which traces).
+    pub const PER_LOOKUP: [Method; 8] = [
+        Method::None,
+        Method::Box,
+        Method::Kdop,
+        Method::Warp1,
+        Method::Warp2Fixed,
+        Method::Warp2New,
+        Method::Secant,
+        Method::Raymarch,
+    ];
+
     pub fn name(self) -> &'static str {
         match self {
             Method::None => "none",
@@ -186,7 +199,7 @@ pub fn fetch_vector(
     if opts.relax_texels > 0.0 && !matches!(method, Method::None | Method::Reproject | Method::Oracle) {
         return relaxed(method, probe, proxies, opts, b, dir);
     }
-    fetch_dir_plain(method, probe, proxies, opts, b, dir)
+    fetch_vector_plain(method, probe, proxies, opts, b, dir)
 }
 
 /// Mirror radiance the method returns for the query (B, dir).
@@ -196,7 +209,7 @@ pub fn lookup(method: Method, probe: &WarpProbe, proxies: &Proxies, opts: &WarpO
 }
 
 #[inline]
-fn fetch_dir_plain(
+fn fetch_vector_plain(
     method: Method,
     probe: &WarpProbe,
     proxies: &Proxies,
@@ -225,10 +238,10 @@ fn relaxed(method: Method, probe: &WarpProbe, proxies: &Proxies, opts: &WarpOpti
     let angle = opts.relax_texels * (4.0 * std::f32::consts::PI).sqrt() / res;
     let (t, bt) = crate::sampling::orthonormal_basis(dir);
     let unit = |v: Vec3| v.normalize_or(dir);
-    let mut sum = unit(fetch_dir_plain(method, probe, proxies, opts, b, dir));
+    let mut sum = unit(fetch_vector_plain(method, probe, proxies, opts, b, dir));
     for off in [t, -t, bt, -bt] {
         let d = (dir + off * angle).normalize();
-        sum += unit(fetch_dir_plain(method, probe, proxies, opts, b, d));
+        sum += unit(fetch_vector_plain(method, probe, proxies, opts, b, d));
     }
     let l = sum.length();
     if l > 0.0 && l.is_finite() { sum / l } else { dir }
