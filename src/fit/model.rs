@@ -7,7 +7,7 @@
 //! map of the cell (plane perpendicular to Dir at the cell's hit estimate, intersected with
 //! the ray from B) and fetches probe A towards the estimated hit.
 //!
-//! The level 1 (one origin offset per cell) is not offered: see ARCHITECTURE.md.
+//! Level 1 (one origin offset per cell) is not implemented: see ARCHITECTURE.md.
 //!
 //! Two ways to combine cells at runtime, both measured in `eval`:
 //! - `Blend::Cell`: the containing cell alone (one map lookup);
