@@ -30,6 +30,7 @@ pub mod pipeline;
 pub mod preview;
 pub mod progress;
 pub mod report;
+pub mod roughness;
 pub mod sampling;
 pub mod scene;
 pub mod trace;

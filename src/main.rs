@@ -56,6 +56,12 @@ enum Command {
         #[command(flatten)]
         fit: FitArgs,
     },
+    /// Fit the GGX distance-ratio roughness correction (seed 002) and write
+    /// roughness.json and roughness.png.
+    Roughness {
+        #[arg(long, default_value = "fits/roughness")]
+        out: PathBuf,
+    },
     /// The main job: bake (or reuse a matching bake), fit, evaluate every method including
     /// the fitted correctives, and report; on the default scene unless one is given.
     Run {
@@ -310,6 +316,19 @@ fn run(cli: Cli) -> Result<()> {
             let (probe, grid, _) = pipeline::load_or_bake(&scene, &tracer, &out, &progress)?;
             let baked = pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
             fit_and_print(baked, &fit.settings()?, &out, &progress)?;
+        }
+        Command::Roughness { out } => {
+            let c = warpfit::roughness::fit_correction();
+            warpfit::roughness::write_report(&out, &c)?;
+            println!(
+                "roughness correction: analytic α' = min(1, {:.4}·α·k^-{:.4}); held-out RMS error in α': table {:.5}, analytic {:.5} → {} (wrote {}/roughness.json, roughness.png)",
+                c.c0,
+                c.c1,
+                c.heldout_rms_table,
+                c.heldout_rms_analytic,
+                c.chosen,
+                out.display()
+            );
         }
         Command::Run { scene, out, eval, fit } => {
             eval_and_print(&scene, out, &Method::ALL, &eval, Some(&fit), &progress)?;

@@ -159,7 +159,16 @@ pub fn line_plot(
             .label_style(("sans-serif", 15))
             .draw()
             .map_err(|e| plot_err(path, e))?;
-        let colours = [RGBColor(200, 40, 40), RGBColor(40, 70, 160), RGBColor(40, 140, 60), RGBColor(140, 90, 20)];
+        let colours = [
+            RGBColor(200, 40, 40),
+            RGBColor(240, 140, 130),
+            RGBColor(40, 70, 160),
+            RGBColor(130, 160, 230),
+            RGBColor(40, 140, 60),
+            RGBColor(140, 210, 140),
+            RGBColor(140, 90, 20),
+            RGBColor(220, 180, 110),
+        ];
         for (k, (name, points)) in series.iter().enumerate() {
             let c = colours[k % colours.len()];
             chart

@@ -1,0 +1,260 @@
+//! GGX distance-ratio roughness correction (seed 002, "Notes on GGX parallax correction").
+//!
+//! A prefiltered probe stores, per direction, the GGX lobe as seen from the probe centre; a
+//! parallax-corrected lookup from a surface point wants the lobe as seen from the surface.
+//! Projected on a plane perpendicular to the lobe at the hit (distance `d_probe` from the
+//! probe, `d_surface` from the surface), the two footprints differ: a lobe farther away
+//! covers more of the plane. With `k = d_probe / d_surface`, for each (α, k) we fit the
+//! probe-side roughness α' whose projected footprint, up to a scale and an additive offset
+//! (the seed's fitting aid; only α' is used at runtime, a single prefiltered fetch cannot
+//! apply the offset), best matches the surface's footprint. Two representations of
+//! α'(α, k) are fitted and measured on held-out (α, k): a small 2-D table (bilinear in α and
+//! log k) and the analytic `α' = min(1, c0 · α · k^−c1)` (Nelder-Mead).
+//!
+//! Footprint of a lobe of roughness α at distance d on the plane, at radius r = d·tanθ:
+//! `D_α(θ) · cos³θ / d²` (GGX D of Walter et al. 2007; cos³θ/d² converts solid angle to plane
+//! area). In probe units x = r / d_probe the surface footprint is `D_α(atan(k·x)) ·
+//! cos³(atan(k·x)) · k²` (up to the common 1/d_probe²).
+
+use crate::sampling::ggx_d;
+use argmin::core::{CostFunction, Error, Executor, State};
+use argmin::solver::brent::BrentOpt;
+use argmin::solver::neldermead::NelderMead;
+use serde::{Deserialize, Serialize};
+
+/// Samples of the plane radius (in units of the probe distance) used by the fit: up to
+/// tan θ = 4 (76°), area-weighted.
+const X_MAX: f64 = 4.0;
+const X_SAMPLES: usize = 256;
+
+fn footprint(alpha: f64, x: f64) -> f64 {
+    let cos = 1.0 / (1.0 + x * x).sqrt();
+    ggx_d(cos as f32, alpha as f32) as f64 * cos.powi(3)
+}
+
+/// Weighted least-squares residual of `s·C + o ≈ T` with the best s, o in closed form,
+/// relative to Σ w T².
+fn scale_offset_residual(target: &[f64], candidate: &[f64], weight: &[f64]) -> f64 {
+    let (mut sw, mut sc, mut st, mut scc, mut sct, mut stt) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    for ((t, c), w) in target.iter().zip(candidate).zip(weight) {
+        sw += w;
+        sc += w * c;
+        st += w * t;
+        scc += w * c * c;
+        sct += w * c * t;
+        stt += w * t * t;
+    }
+    let det = sw * scc - sc * sc;
+    let (s, o) = if det.abs() > 1e-300 {
+        ((sw * sct - sc * st) / det, (scc * st - sc * sct) / det)
+    } else {
+        (0.0, st / sw.max(1e-300))
+    };
+    let resid = stt - 2.0 * s * sct - 2.0 * o * st + s * s * scc + 2.0 * s * o * sc + o * o * sw;
+    (resid.max(0.0) / stt.max(1e-300)).sqrt()
+}
+
+struct LobeProblem {
+    target: Vec<f64>,
+    xs: Vec<f64>,
+    weight: Vec<f64>,
+}
+
+impl CostFunction for LobeProblem {
+    type Param = f64;
+    type Output = f64;
+    fn cost(&self, alpha: &f64) -> Result<f64, Error> {
+        let a = alpha.clamp(1e-3, 1.0);
+        let cand: Vec<f64> = self.xs.iter().map(|&x| footprint(a, x)).collect();
+        Ok(scale_offset_residual(&self.target, &cand, &self.weight))
+    }
+}
+
+/// Best α' (and its relative residual) for surface roughness `alpha` and ratio `k`.
+pub fn fit_alpha(alpha: f64, k: f64) -> (f64, f64) {
+    let xs: Vec<f64> = (0..X_SAMPLES).map(|i| (i as f64 + 0.5) / X_SAMPLES as f64 * X_MAX).collect();
+    let weight: Vec<f64> = xs.iter().map(|x| x * (X_MAX / X_SAMPLES as f64)).collect();
+    let target: Vec<f64> = xs.iter().map(|&x| footprint(alpha, k * x) * k * k).collect();
+    let problem = LobeProblem { target, xs, weight };
+    let guess = (alpha / k).clamp(1e-3, 1.0);
+    let res = Executor::new(problem, BrentOpt::new(1e-3, 1.0).set_tolerance(1e-6, 1e-8))
+        .configure(|s| s.param(guess).max_iters(100))
+        .run();
+    match res {
+        Ok(r) => {
+            let st = r.state();
+            (st.get_best_param().copied().unwrap_or(guess).clamp(1e-3, 1.0), st.get_best_cost())
+        }
+        Err(_) => (guess, f64::NAN),
+    }
+}
+
+/// The fitted correction, both representations, and their measured residuals.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct RoughnessCorrection {
+    /// Table axes: α (GGX alpha = perceptual²) and k = d_probe / d_surface (log-spaced).
+    pub alphas: Vec<f32>,
+    pub ratios: Vec<f32>,
+    /// α' per (α row, k column), row-major.
+    pub table: Vec<f32>,
+    /// Relative lobe residual of each table entry (scale+offset fit).
+    pub lobe_residual: Vec<f32>,
+    /// Analytic model α' = min(1, c0 · α · k^−c1).
+    pub c0: f32,
+    pub c1: f32,
+    /// RMS error in α' on held-out (α, k) pairs: table (bilinear) and analytic.
+    pub heldout_rms_table: f64,
+    pub heldout_rms_analytic: f64,
+    /// Which representation the sampler should use (the lower held-out error).
+    pub chosen: String,
+}
+
+impl RoughnessCorrection {
+    /// α' from the table, bilinear in α and log k, clamped to the table's range.
+    pub fn from_table(&self, alpha: f32, k: f32) -> f32 {
+        let (na, nk) = (self.alphas.len(), self.ratios.len());
+        let locate = |axis: &[f32], v: f32| -> (usize, f32) {
+            let v = v.clamp(axis[0], axis[axis.len() - 1]);
+            let i = axis.partition_point(|&a| a <= v).clamp(1, axis.len() - 1) - 1;
+            (i, ((v - axis[i]) / (axis[i + 1] - axis[i])).clamp(0.0, 1.0))
+        };
+        let log_r: Vec<f32> = self.ratios.iter().map(|r| r.ln()).collect();
+        let (i, fa) = locate(&self.alphas, alpha);
+        let (j, fk) = locate(&log_r, if k > 0.0 { k.ln() } else { log_r[0] });
+        let at = |i: usize, j: usize| self.table[i.min(na - 1) * nk + j.min(nk - 1)];
+        let v = (at(i, j) * (1.0 - fk) + at(i, j + 1) * fk) * (1.0 - fa)
+            + (at(i + 1, j) * (1.0 - fk) + at(i + 1, j + 1) * fk) * fa;
+        if v.is_finite() { v.clamp(1e-3, 1.0) } else { alpha.clamp(1e-3, 1.0) }
+    }
+
+    pub fn analytic(&self, alpha: f32, k: f32) -> f32 {
+        analytic(self.c0 as f64, self.c1 as f64, alpha as f64, k as f64) as f32
+    }
+
+    /// The chosen representation.
+    pub fn corrected_alpha(&self, alpha: f32, k: f32) -> f32 {
+        if !(alpha.is_finite() && k.is_finite() && k > 0.0) {
+            return alpha.clamp(1e-3, 1.0);
+        }
+        if self.chosen == "table" { self.from_table(alpha, k) } else { self.analytic(alpha, k) }
+    }
+}
+
+fn analytic(c0: f64, c1: f64, alpha: f64, k: f64) -> f64 {
+    (c0 * alpha * k.powf(-c1)).clamp(1e-3, 1.0)
+}
+
+struct ModelProblem<'a> {
+    samples: &'a [(f64, f64, f64)],
+}
+
+impl CostFunction for ModelProblem<'_> {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, p: &Vec<f64>) -> Result<f64, Error> {
+        let e: f64 = self.samples.iter().map(|&(a, k, target)| (analytic(p[0], p[1], a, k) - target).powi(2)).sum();
+        Ok((e / self.samples.len().max(1) as f64).sqrt())
+    }
+}
+
+/// Fits the table over α ∈ [0.02, 1] × k ∈ [1/8, 8] and the analytic model, and measures
+/// both on held-out (α, k) between the grid points.
+pub fn fit_correction() -> RoughnessCorrection {
+    let alphas: Vec<f32> = (0..12).map(|i| 0.02 + 0.98 * (i as f32 / 11.0).powi(2)).collect();
+    let ratios: Vec<f32> = (0..13).map(|j| 2f32.powf(-3.0 + 6.0 * j as f32 / 12.0)).collect();
+    let mut table = Vec::new();
+    let mut lobe_residual = Vec::new();
+    let mut samples = Vec::new();
+    for &a in &alphas {
+        for &k in &ratios {
+            let (ap, r) = fit_alpha(a as f64, k as f64);
+            table.push(ap as f32);
+            lobe_residual.push(r as f32);
+            samples.push((a as f64, k as f64, ap));
+        }
+    }
+    let simplex = vec![vec![1.0, 1.0], vec![1.2, 1.0], vec![1.0, 0.8]];
+    let (c0, c1) = NelderMead::new(simplex)
+        .with_sd_tolerance(1e-10)
+        .ok()
+        .and_then(|nm| Executor::new(ModelProblem { samples: &samples }, nm).configure(|s| s.max_iters(400)).run().ok())
+        .and_then(|r| r.state().get_best_param().cloned())
+        .map_or((1.0, 1.0), |p| (p[0], p[1]));
+    let mut corr = RoughnessCorrection {
+        alphas,
+        ratios,
+        table,
+        lobe_residual,
+        c0: c0 as f32,
+        c1: c1 as f32,
+        heldout_rms_table: 0.0,
+        heldout_rms_analytic: 0.0,
+        chosen: String::new(),
+    };
+    // Held-out points: midway between table nodes (in α and log k).
+    let (mut et, mut ea, mut n) = (0.0, 0.0, 0.0);
+    for i in 0..corr.alphas.len() - 1 {
+        for j in 0..corr.ratios.len() - 1 {
+            let a = 0.5 * (corr.alphas[i] + corr.alphas[i + 1]);
+            let k = (corr.ratios[j] * corr.ratios[j + 1]).sqrt();
+            let (truth, _) = fit_alpha(a as f64, k as f64);
+            et += (corr.from_table(a, k) as f64 - truth).powi(2);
+            ea += (corr.analytic(a, k) as f64 - truth).powi(2);
+            n += 1.0;
+        }
+    }
+    corr.heldout_rms_table = (et / n).sqrt();
+    corr.heldout_rms_analytic = (ea / n).sqrt();
+    corr.chosen = if corr.heldout_rms_table <= corr.heldout_rms_analytic { "table" } else { "analytic" }.into();
+    corr
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn equal_distances_need_no_correction() {
+        for a in [0.05, 0.2, 0.5, 0.9] {
+            let (ap, r) = fit_alpha(a, 1.0);
+            assert!((ap - a).abs() < 2e-3 * a.max(0.1), "{a} → {ap}");
+            assert!(r < 1e-3, "residual {r}");
+        }
+    }
+
+    #[test]
+    fn narrow_lobes_scale_with_the_distance_ratio() {
+        // For small α the footprint depends on tanθ/α only, so α' = α / k.
+        for k in [0.5, 2.0, 4.0] {
+            let a = 0.04;
+            let (ap, _) = fit_alpha(a, k);
+            assert!((ap - a / k).abs() < 0.05 * a / k, "k {k}: {ap} vs {}", a / k);
+        }
+    }
+}
+
+/// Writes `roughness.json` and `roughness.png` (α' against k for several α: table points as
+/// dots on lines, the analytic model dashed-equivalent as a second series per α).
+pub fn write_report(dir: &std::path::Path, c: &RoughnessCorrection) -> Result<(), crate::format::FormatError> {
+    std::fs::create_dir_all(dir)
+        .map_err(|source| crate::format::FormatError::Io { path: dir.to_path_buf(), source })?;
+    crate::fit::output::write_json(&dir.join("roughness.json"), c)?;
+    let nk = c.ratios.len();
+    let mut series = Vec::new();
+    for i in [1usize, 4, 7, 11] {
+        let a = c.alphas[i];
+        let fitted: Vec<(f64, f64)> =
+            (0..nk).map(|j| ((c.ratios[j] as f64).log2(), c.table[i * nk + j] as f64)).collect();
+        let model: Vec<(f64, f64)> =
+            (0..nk).map(|j| ((c.ratios[j] as f64).log2(), c.analytic(a, c.ratios[j]) as f64)).collect();
+        series.push((format!("fit α={a:.2}"), fitted));
+        series.push((format!("c0·α·k^-c1, α={a:.2}"), model));
+    }
+    crate::report::plot::line_plot(
+        &dir.join("roughness.png"),
+        "GGX roughness correction: probe-side α' against distance ratio",
+        "log2 k = log2(d_probe / d_surface)",
+        "α'",
+        &series,
+    )
+}
