@@ -209,30 +209,6 @@ pub fn fit_correction() -> RoughnessCorrection {
     corr
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn equal_distances_need_no_correction() {
-        for a in [0.05, 0.2, 0.5, 0.9] {
-            let (ap, r) = fit_alpha(a, 1.0);
-            assert!((ap - a).abs() < 2e-3 * a.max(0.1), "{a} → {ap}");
-            assert!(r < 1e-3, "residual {r}");
-        }
-    }
-
-    #[test]
-    fn narrow_lobes_scale_with_the_distance_ratio() {
-        // For small α the footprint depends on tanθ/α only, so α' = α / k.
-        for k in [0.5, 2.0, 4.0] {
-            let a = 0.04;
-            let (ap, _) = fit_alpha(a, k);
-            assert!((ap - a / k).abs() < 0.05 * a / k, "k {k}: {ap} vs {}", a / k);
-        }
-    }
-}
-
 /// Writes `roughness.json` and `roughness.png` (α' against k for several α: table points as
 /// dots on lines, the analytic model dashed-equivalent as a second series per α).
 pub fn write_report(dir: &std::path::Path, c: &RoughnessCorrection) -> Result<(), crate::format::FormatError> {
@@ -257,4 +233,28 @@ pub fn write_report(dir: &std::path::Path, c: &RoughnessCorrection) -> Result<()
         "α'",
         &series,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn equal_distances_need_no_correction() {
+        for a in [0.05, 0.2, 0.5, 0.9] {
+            let (ap, r) = fit_alpha(a, 1.0);
+            assert!((ap - a).abs() < 2e-3 * a.max(0.1), "{a} → {ap}");
+            assert!(r < 1e-3, "residual {r}");
+        }
+    }
+
+    #[test]
+    fn narrow_lobes_scale_with_the_distance_ratio() {
+        // For small α the footprint depends on tanθ/α only, so α' = α / k.
+        for k in [0.5, 2.0, 4.0] {
+            let a = 0.04;
+            let (ap, _) = fit_alpha(a, k);
+            assert!((ap - a / k).abs() < 0.05 * a / k, "k {k}: {ap} vs {}", a / k);
+        }
+    }
 }
