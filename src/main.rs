@@ -201,7 +201,7 @@ fn eval_and_print(
     out: Option<PathBuf>,
     methods: &[Method],
     args: &EvalArgs,
-    fit_args: Option<&FitArgs>,
+    fit_settings: Option<FitSettings>,
     progress: &Progress,
 ) -> Result<()> {
     let scene = Scene::load(scene_path)?;
@@ -212,8 +212,8 @@ fn eval_and_print(
         println!("baked {} → {}", scene.name, out.display());
     }
     let baked = pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
-    let fitted = match fit_args {
-        Some(f) => Some(fit_and_print(baked, &f.settings()?, &out, progress)?),
+    let fitted = match &fit_settings {
+        Some(f) => Some(fit_and_print(baked, f, &out, progress)?),
         None => None,
     };
     let rows: Vec<pipeline::CorrectiveRow> = match &fitted {
@@ -267,7 +267,15 @@ fn main() {
         .with_writer(std::io::stderr)
         .init();
     if let Err(e) = run(cli) {
-        eprintln!("error: {e:#}");
+        // The library's errors already quote their source; print each cause only once.
+        let mut text = e.to_string();
+        for cause in e.chain().skip(1) {
+            let c = cause.to_string();
+            if !text.contains(&c) {
+                text = format!("{text}: {c}");
+            }
+        }
+        eprintln!("error: {text}");
         std::process::exit(1);
     }
 }
@@ -310,12 +318,13 @@ fn run(cli: Cli) -> Result<()> {
             eval_and_print(&scene, out, &methods, &eval, None, &progress)?;
         }
         Command::Fit { scene, out, fit } => {
+            let settings = fit.settings()?;
             let scene = Scene::load(&scene)?;
             let out = out.unwrap_or_else(|| PathBuf::from("fits").join(&scene.name));
             let tracer = Tracer::new(&scene);
             let (probe, grid, _) = pipeline::load_or_bake(&scene, &tracer, &out, &progress)?;
             let baked = pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
-            fit_and_print(baked, &fit.settings()?, &out, &progress)?;
+            fit_and_print(baked, &settings, &out, &progress)?;
         }
         Command::Roughness { out } => {
             let c = warpfit::roughness::fit_correction();
@@ -331,7 +340,7 @@ fn run(cli: Cli) -> Result<()> {
             );
         }
         Command::Run { scene, out, eval, fit } => {
-            eval_and_print(&scene, out, &Method::ALL, &eval, Some(&fit), &progress)?;
+            eval_and_print(&scene, out, &Method::ALL, &eval, Some(fit.settings()?), &progress)?;
         }
     }
     Ok(())
