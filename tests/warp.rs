@@ -36,17 +36,22 @@ fn dirs(n: u32) -> Vec<Vec3> {
     (0..n).map(|k| warpfit::sampling::uniform_sphere(warpfit::sampling::Sampler::new(3, 1, k).next_2d())).collect()
 }
 
-#[test]
-fn query_at_the_probe_returns_the_query_direction_exactly() {
-    let scene = load("torture");
-    let tracer = Tracer::new(&scene);
-    let mut s = scene.clone();
+/// The default scene with a 64² probe: scene, tracer, probe and method context.
+fn torture_at_test_resolution() -> (warpfit::scene::Scene, Tracer, SpecularProbe, MethodContext) {
+    let mut s = load("torture");
     s.config.probe.resolution = 64;
     s.config.probe.samples_per_texel = 1;
     s.config.grid.counts = [2, 2, 2];
+    let tracer = Tracer::new(&s);
     let baked = warpfit::bake::bake(&s, &tracer, &Progress::quiet());
     let ctx = MethodContext::new(&s, &baked.probe);
-    let a = baked.probe.position;
+    (s, tracer, baked.probe, ctx)
+}
+
+#[test]
+fn query_at_the_probe_returns_the_query_direction_exactly() {
+    let (s, tracer, probe, ctx) = torture_at_test_resolution();
+    let a = probe.position;
     for opts in [WarpOptions::default(), WarpOptions { relax_texels: 2.0, depth_lod: 0.0, ..WarpOptions::default() }] {
         for d in dirs(2000) {
             for m in PER_LOOKUP {
@@ -125,15 +130,8 @@ fn box_proxy_is_exact_in_a_box_room() {
 
 #[test]
 fn methods_on_the_default_scene_are_finite_and_unit() {
-    let scene = load("torture");
-    let tracer = Tracer::new(&scene);
-    let mut s = scene.clone();
-    s.config.probe.resolution = 64;
-    s.config.probe.samples_per_texel = 1;
-    s.config.grid.counts = [2, 2, 2];
-    let baked = warpfit::bake::bake(&s, &tracer, &Progress::quiet());
-    let ctx = MethodContext::new(&s, &baked.probe);
-    let a = baked.probe.position;
+    let (s, tracer, probe, ctx) = torture_at_test_resolution();
+    let a = probe.position;
     let opts = WarpOptions::default();
     let special: Vec<Vec3> = [
         Vec3::X,
