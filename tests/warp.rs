@@ -130,7 +130,7 @@ fn box_proxy_is_exact_in_a_box_room() {
 
 #[test]
 fn methods_on_the_default_scene_are_finite_and_unit() {
-    let (s, tracer, probe, ctx) = torture_at_test_resolution();
+    let (_, _, probe, ctx) = torture_at_test_resolution();
     let a = probe.position;
     let opts = WarpOptions::default();
     let special: Vec<Vec3> = [
