@@ -135,5 +135,11 @@ fn bake_default(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, rays, builders, bake_default);
+// Criterion's own plots need a system font that a fresh machine lacks (plotters would
+// panic); the figures that matter are the printed estimates.
+criterion_group! {
+    name = benches;
+    config = Criterion::default().without_plots();
+    targets = rays, builders, bake_default
+}
 criterion_main!(benches);

@@ -38,7 +38,62 @@ fn methods(c: &mut Criterion) {
         });
     }
     g.finish();
+
+    // Coherent bundles: per position, a 16×16 fan of directions inside a 20° cone, as
+    // neighbouring pixels of a reflective surface query a probe.
+    let bundles: Vec<(Vec3, Vec3)> = set
+        .positions
+        .iter()
+        .enumerate()
+        .flat_map(|(k, &p)| {
+            let axis = set.dirs[k * set.dirs_per_position];
+            let (t, b) = warpfit::sampling::orthonormal_basis(axis);
+            (0..256).map(move |i| {
+                let (u, v) = ((i % 16) as f32 / 15.0 - 0.5, (i / 16) as f32 / 15.0 - 0.5);
+                let half = 20f32.to_radians().tan();
+                (p, (axis + (t * u + b * v) * half).normalize())
+            })
+        })
+        .collect();
+    // Batched warp1: the same lookups, 8 in lockstep.
+    let mut g = c.benchmark_group("lookup_batch/torture");
+    g.throughput(Throughput::Elements(n as u64));
+    g.sample_size(20);
+    let mut vectors = vec![Vec3::ZERO; n];
+    g.bench_function("warp1", |b| {
+        b.iter(|| {
+            warpfit::warp::depth::warp1_batch(&ctx.probe, &queries, opts.depth_lod, &mut vectors);
+            let mut acc = Vec3::ZERO;
+            for v in &vectors {
+                acc += ctx.probe.radiance(*v);
+            }
+            black_box(acc)
+        })
+    });
+    g.finish();
+
+    let mut g = c.benchmark_group("lookup_coherent/torture");
+    g.throughput(Throughput::Elements(bundles.len() as u64));
+    g.sample_size(20);
+    for m in Method::PER_LOOKUP {
+        g.bench_function(m.name(), |b| {
+            b.iter(|| {
+                let mut acc = Vec3::ZERO;
+                for &(p, d) in &bundles {
+                    acc += warp::lookup(m, &ctx.probe, &ctx.proxies, &opts, p, d);
+                }
+                black_box(acc)
+            })
+        });
+    }
+    g.finish();
 }
 
-criterion_group!(benches, methods);
+// Criterion's own plots need a system font that a fresh machine lacks (plotters would
+// panic); the figures that matter are the printed estimates.
+criterion_group! {
+    name = benches;
+    config = Criterion::default().without_plots();
+    targets = methods
+}
 criterion_main!(benches);

@@ -193,3 +193,22 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn batched_warp1_equals_the_per_lookup_warp1() {
+    let (_, _, probe, ctx) = torture_at_test_resolution();
+    let opts = WarpOptions::default();
+    let mut queries: Vec<(Vec3, Vec3)> = dirs(1000)
+        .into_iter()
+        .enumerate()
+        .map(|(k, d)| (Vec3::new(-4.0 + (k % 9) as f32, 0.5 + (k % 4) as f32, -4.0 + (k % 7) as f32), d))
+        .collect();
+    queries.push((probe.position, Vec3::X)); // query at the probe
+    queries.push((Vec3::new(1.5, 3.0, 1.5), Vec3::Y)); // towards the skylight
+    let mut out = vec![Vec3::ZERO; queries.len()];
+    warp::depth::warp1_batch(&ctx.probe, &queries, opts.depth_lod, &mut out);
+    for (q, v) in queries.iter().zip(&out) {
+        let single = warp::fetch_vector(Method::Warp1, &ctx.probe, &ctx.proxies, &opts, q.0, q.1);
+        assert_eq!(*v, single, "query {q:?}");
+    }
+}

@@ -35,7 +35,8 @@ pub fn encode(dir: Vec3) -> Vec2 {
     if !(l1 > 0.0 && l1.is_finite()) {
         return Vec2::splat(0.5);
     }
-    let mut p = Vec2::new(dir.x, dir.y) / l1;
+    let inv_l1 = 1.0 / l1; // one division, two multiplies
+    let mut p = Vec2::new(dir.x * inv_l1, dir.y * inv_l1);
     if dir.z < 0.0 {
         p = Vec2::new((1.0 - p.y.abs()) * sign_not_zero(p.x), (1.0 - p.x.abs()) * sign_not_zero(p.y));
     }

@@ -52,7 +52,7 @@ pub fn plane_warp(p: &WarpProbe, b: Vec3, dir: Vec3, lod: f32, steps: u32, new_p
         if !(len_w > 0.0) {
             return dir; // sky towards I (or I at A)
         }
-        let s = a + v / len_w; // S = A + dir(A→I) · distance
+        let s = a + v * (1.0 / len_w); // S = A + dir(A→I) · distance
         if step + 1 < steps {
             if new_plane {
                 normal = v;
@@ -161,4 +161,41 @@ pub fn raymarch(p: &WarpProbe, b: Vec3, dir: Vec3, lod: f32, steps: u32) -> Vec3
         prev = t;
     }
     dir
+}
+
+/// `plane_warp` (one step) for a batch of queries, returning fetch vectors. Identical results
+/// to the per-lookup function; the queries advance in lockstep groups of 8 so the processor
+/// overlaps their independent dependency chains (one lookup alone is latency-bound: three
+/// dependent texture reads and a chain of divisions).
+pub fn warp1_batch(p: &WarpProbe, queries: &[(Vec3, Vec3)], lod: f32, out: &mut [Vec3]) {
+    const LANES: usize = 8;
+    let a = p.position;
+    for (qs, os) in queries.chunks(LANES).zip(out.chunks_mut(LANES)) {
+        let n = qs.len();
+        let mut w1 = [0.0f32; LANES];
+        for i in 0..n {
+            w1[i] = p.inv_dist(qs[i].1, lod);
+        }
+        let mut v = [Vec3::ZERO; LANES];
+        for i in 0..n {
+            let (b, dir) = qs[i];
+            let t = if w1[i] > 0.0 { (dir.dot(a - b) + 1.0 / w1[i]).max(0.0) } else { 0.0 };
+            v[i] = b + dir * t - a;
+        }
+        let mut w = [0.0f32; LANES];
+        for i in 0..n {
+            w[i] = if w1[i] > 0.0 { p.inv_dist(v[i], lod) } else { 0.0 };
+        }
+        for i in 0..n {
+            let (b, dir) = qs[i];
+            let len_w = v[i].length() * w[i];
+            os[i] = if b == a || !(w1[i] > 0.0) || !(len_w > 0.0) {
+                dir
+            } else {
+                let s = a + v[i] * (1.0 / len_w);
+                let t = dir.dot(s - b).max(0.0);
+                fetch_vector(a, b + dir * t, dir)
+            };
+        }
+    }
 }
