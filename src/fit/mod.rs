@@ -73,7 +73,7 @@ impl Default for FitSettings {
             map_res: 8,
             train_positions: 8,
             train_dirs: 128,
-            check_positions: 8,
+            check_positions: 16,
             check_dirs: 64,
             reference_spp: 4,
             seed: 0xF17,
