@@ -91,7 +91,7 @@ struct FitArgs {
     #[arg(long, default_value_t = 2)]
     iterations: u32,
     /// Training positions per cell.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 16)]
     train_positions: u32,
     /// Training directions per position.
     #[arg(long, default_value_t = 128)]

@@ -71,7 +71,7 @@ impl Default for FitSettings {
     fn default() -> Self {
         FitSettings {
             map_res: 8,
-            train_positions: 8,
+            train_positions: 16,
             train_dirs: 128,
             check_positions: 16,
             check_dirs: 64,
