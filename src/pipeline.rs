@@ -133,5 +133,74 @@ pub fn evaluate(
         command: command.to_string(),
     };
     report::write_eval(dir, &report)?;
+    write_views(baked, &ctx, &set, settings, corrective_rows, &dir.join("eval_views.png"))?;
     Ok(report)
+}
+
+/// `eval_views.png`: what a reflection sees from an open validation position, as
+/// octahedral maps: the raytraced reference, then the probe warped by each method.
+fn write_views(
+    baked: Baked,
+    ctx: &MethodContext,
+    set: &eval::ValidationSet,
+    settings: &EvalSettings,
+    corrective_rows: &[CorrectiveRow],
+    path: &Path,
+) -> Result<(), FormatError> {
+    use crate::octa::{self, OctMap};
+    // The most open of the first 32 validation positions (largest nearest-hit distance over
+    // 64 directions): a view hugging a column shows mostly that column.
+    let openness = |b: glam::Vec3| {
+        (0..64u32)
+            .map(|k| crate::sampling::uniform_sphere(crate::sampling::Sampler::new(5, 0, k).next_2d()))
+            .map(|d| baked.tracer.closest_hit(b, d, f32::INFINITY).map_or(f32::INFINITY, |h| h.t))
+            .fold(f32::INFINITY, f32::min)
+    };
+    let Some(&b) = set.positions.iter().take(32).max_by(|p, q| openness(**p).total_cmp(&openness(**q))) else {
+        return Ok(());
+    };
+    let res = 128u32;
+    let dirs: Vec<glam::Vec3> = (0..res * res).map(|t| octa::texel_dir(res, t % res, t / res)).collect();
+    let renderer = crate::trace::Renderer::new(baked.scene, baked.tracer);
+    let origins = vec![b; dirs.len()];
+    let (reference, _) =
+        crate::trace::trace_batch(&renderer, &origins, &dirs, settings.seed, 0x7E5, settings.reference_spp);
+    let mut tiles = vec![("reference".to_string(), OctMap::new(res, reference.iter().map(|r| r.radiance).collect()))];
+    for m in [Method::None, Method::Box, Method::Warp1, Method::Raymarch] {
+        let map = OctMap::new(
+            res,
+            dirs.iter().map(|&d| crate::warp::lookup(m, &ctx.probe, &ctx.proxies, &settings.options, b, d)).collect(),
+        );
+        tiles.push((m.name().to_string(), map));
+    }
+    for r in corrective_rows.iter().filter(|r| r.name == "fitted") {
+        let map = OctMap::new(
+            res,
+            dirs.iter()
+                .map(|&d| {
+                    ctx.probe.radiance(r.correctives.fetch_vector(
+                        r.blend,
+                        &ctx.probe,
+                        &ctx.proxies,
+                        &settings.options,
+                        b,
+                        d,
+                    ))
+                })
+                .collect(),
+        );
+        tiles.push((r.name.to_string(), map));
+    }
+    let oracle = OctMap::new(
+        res,
+        dirs.iter()
+            .map(|&d| ctx.probe.radiance(eval::oracle(baked.scene, baked.tracer, baked.probe.position, b, d).0))
+            .collect(),
+    );
+    tiles.push(("oracle".to_string(), oracle));
+    let title = format!(
+        "{}: seen from validation position ({:.2}, {:.2}, {:.2}); octahedral maps, +Z at the centre",
+        baked.scene.name, b.x, b.y, b.z
+    );
+    crate::report::plot::views(path, &title, &tiles)
 }

@@ -189,3 +189,39 @@ pub fn line_plot(
     }
     crate::preview::write_png(path, w, h, &buf)
 }
+
+/// Side-by-side octahedral views (one labelled tile per entry), tone-mapped with one
+/// common exposure so brightness compares across tiles.
+pub fn views(path: &Path, title: &str, tiles: &[(String, crate::octa::OctMap<glam::Vec3>)]) -> Result<(), FormatError> {
+    register_font();
+    let Some(res) = tiles.first().map(|t| t.1.res as usize) else { return Ok(()) };
+    let (pad, label_h, title_h) = (8usize, 22usize, 30usize);
+    let (w, h) = (tiles.len() * (res + pad) + pad, title_h + label_h + res + pad);
+    let mut buf = vec![255u8; w * h * 3];
+    let all: Vec<glam::Vec3> = tiles.iter().flat_map(|t| t.1.texels.iter().copied()).collect();
+    let exposure = crate::preview::auto_exposure(&all);
+    for (k, (_, map)) in tiles.iter().enumerate() {
+        let rgb = crate::preview::tonemap(&map.texels, exposure);
+        let x0 = pad + k * (res + pad);
+        for j in 0..res {
+            for i in 0..res {
+                let src = (j * res + i) * 3;
+                let dst = ((title_h + label_h + j) * w + x0 + i) * 3;
+                buf[dst..dst + 3].copy_from_slice(&rgb[src..src + 3]);
+            }
+        }
+    }
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w as u32, h as u32)).into_drawing_area();
+        let style = ("sans-serif", 16).into_font().color(&BLACK);
+        root.draw(&Text::new(title.to_string(), (pad as i32, 6), ("sans-serif", 18).into_font().color(&BLACK)))
+            .map_err(|e| plot_err(path, e))?;
+        for (k, (name, _)) in tiles.iter().enumerate() {
+            let x0 = (pad + k * (res + pad)) as i32;
+            root.draw(&Text::new(name.clone(), (x0, (title_h + 2) as i32), style.clone()))
+                .map_err(|e| plot_err(path, e))?;
+        }
+        root.present().map_err(|e| plot_err(path, e))?;
+    }
+    crate::preview::write_png(path, w as u32, h as u32, &buf)
+}
