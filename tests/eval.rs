@@ -1,5 +1,5 @@
 //! `warpfit eval` end to end on a small configuration: the files, their keys, the ordering
-//! the issue promises (oracle is the bound), and a validation set that is held out.
+//! the report promises (oracle is the bound), and a validation set that is held out.
 
 mod common;
 use common::*;
