@@ -28,7 +28,7 @@ use argmin::solver::linesearch::MoreThuenteLineSearch;
 use argmin::solver::neldermead::NelderMead;
 use argmin::solver::quasinewton::LBFGS;
 use glam::Vec3;
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 
 /// One training or check query.
 #[derive(Clone, Copy, Debug)]
@@ -289,9 +289,9 @@ impl<'a> CellProblem<'a> {
         let mut iters = 0u64;
         for _ in 0..sweeps.max(1) {
             for &k in free {
-                let current = (TexelProblem { cell: self, s, k }).cost(&s[k])?;
+                let current = TexelProblem::new(self, s, k).cost(&s[k])?;
                 let solver = BrentOpt::new(-2.0, 2.0).set_tolerance(1e-3, 1e-4);
-                let res = Executor::new(TexelProblem { cell: self, s, k }, solver)
+                let res = Executor::new(TexelProblem::new(self, s, k), solver)
                     .configure(|st| st.param(s[k]).max_iters(24))
                     .run()?;
                 let st = res.state();
@@ -380,6 +380,14 @@ struct TexelProblem<'p, 'a> {
     cell: &'p CellProblem<'a>,
     s: &'p [f64],
     k: usize,
+    /// The map at `s`, built once per texel step; evaluations only rewrite texel `k`.
+    map: RefCell<Vec<f32>>,
+}
+
+impl<'p, 'a> TexelProblem<'p, 'a> {
+    fn new(cell: &'p CellProblem<'a>, s: &'p [f64], k: usize) -> Self {
+        TexelProblem { cell, s, k, map: RefCell::new(cell.map(s)) }
+    }
 }
 
 impl CostFunction for TexelProblem<'_, '_> {
@@ -388,7 +396,7 @@ impl CostFunction for TexelProblem<'_, '_> {
     fn cost(&self, x: &f64) -> Result<f64, Error> {
         let c = self.cell;
         c.evaluations.set(c.evaluations.get() + 1);
-        let mut map = c.map(self.s);
+        let mut map = self.map.borrow_mut();
         map[self.k] = c.init[self.k] * (x.clamp(-3.0, 3.0).exp() as f32);
         let data = c.data_over(c.touching[self.k].iter().map(|&i| i as usize), &map);
         let mut smooth = 0.0;
@@ -440,7 +448,7 @@ impl Gradient for FullProblem<'_, '_> {
         let s = self.full(x);
         let mut g = vec![0.0; x.len()];
         for (i, &k) in self.free.iter().enumerate() {
-            let tp = TexelProblem { cell: self.cell, s: &s, k };
+            let tp = TexelProblem::new(self.cell, &s, k);
             let (up, down) = (tp.cost(&(x[i] + H))?, tp.cost(&(x[i] - H))?);
             g[i] = (up - down) / (2.0 * H);
         }
