@@ -21,17 +21,32 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 #![allow(clippy::needless_range_loop)]
 
-pub mod bake;
-pub mod eval;
-pub mod fit;
-pub mod format;
+// Always built: the math and the runtime sampler (glam, serde, exr only).
+pub mod grid;
 pub mod octa;
-pub mod pipeline;
-pub mod preview;
-pub mod progress;
-pub mod report;
 pub mod roughness;
+pub mod runtime;
 pub mod sampling;
-pub mod scene;
-pub mod trace;
 pub mod warp;
+
+// The offline tool: scenes, raytracing, bake, fit, eval and reports (feature `bake`).
+#[cfg(feature = "bake")]
+pub mod bake;
+#[cfg(feature = "bake")]
+pub mod eval;
+#[cfg(feature = "bake")]
+pub mod fit;
+#[cfg(feature = "bake")]
+pub mod format;
+#[cfg(feature = "bake")]
+pub mod pipeline;
+#[cfg(feature = "bake")]
+pub mod preview;
+#[cfg(feature = "bake")]
+pub mod progress;
+#[cfg(feature = "bake")]
+pub mod report;
+#[cfg(feature = "bake")]
+pub mod scene;
+#[cfg(feature = "bake")]
+pub mod trace;

@@ -10,45 +10,12 @@ use crate::octa::{self, texel_solid_angles};
 use crate::progress::Progress;
 use crate::sampling::{Sampler, hash_pair};
 use crate::trace::Renderer;
-use glam::{UVec3, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 pub const DOMAIN_GRID: u64 = 0x4752_4944; // "GRID"
 
-/// Grid geometry: an axis-aligned box split into `counts` cells; probes at cell centres.
-/// Cell (x, y, z) has linear index `x + nx·(y + ny·z)`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct GridGeometry {
-    pub min: Vec3,
-    pub max: Vec3,
-    pub counts: UVec3,
-}
-
-impl GridGeometry {
-    pub fn cell_count(&self) -> usize {
-        (self.counts.x * self.counts.y * self.counts.z) as usize
-    }
-    pub fn cell_size(&self) -> Vec3 {
-        (self.max - self.min) / self.counts.as_vec3()
-    }
-    pub fn cell_coords(&self, index: usize) -> UVec3 {
-        let i = index as u32;
-        UVec3::new(i % self.counts.x, (i / self.counts.x) % self.counts.y, i / (self.counts.x * self.counts.y))
-    }
-    pub fn cell_index(&self, c: UVec3) -> usize {
-        (c.x + self.counts.x * (c.y + self.counts.y * c.z)) as usize
-    }
-    pub fn cell_centre(&self, index: usize) -> Vec3 {
-        self.min + (self.cell_coords(index).as_vec3() + 0.5) * self.cell_size()
-    }
-    /// Cell containing `p` (clamped to the grid).
-    pub fn cell_of(&self, p: Vec3) -> UVec3 {
-        let f = ((p - self.min) / self.cell_size()).floor();
-        let hi = (self.counts - UVec3::ONE).as_vec3();
-        let f = if f.is_finite() { f.clamp(Vec3::ZERO, hi) } else { Vec3::ZERO };
-        f.as_uvec3()
-    }
-}
+pub use crate::grid::GridGeometry;
 
 /// Baked grid as plain arrays, cell-major (`cell · res² + texel`).
 #[derive(Clone, Debug, PartialEq)]

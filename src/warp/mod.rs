@@ -11,11 +11,11 @@
 //!   the method falls back to the query direction, which is what a miss to the sky needs;
 //! - results are always finite, non-zero vectors (`fetch_vector`); `fetch_dir` normalises.
 
+pub mod corrective;
 pub mod depth;
 pub mod proxy;
 pub mod reproject;
 
-use crate::bake::SpecularProbe;
 use crate::octa::{OctMap, OctMips};
 use glam::Vec3;
 
@@ -31,17 +31,25 @@ pub struct WarpProbe {
 }
 
 impl WarpProbe {
-    pub fn new(probe: &SpecularProbe) -> Self {
+    #[cfg(feature = "bake")]
+    pub fn new(probe: &crate::bake::SpecularProbe) -> Self {
+        Self::from_distance_mips(probe.position, &probe.depth, probe.radiance.clone())
+    }
+
+    /// From distance mips (+inf = sky; mip 0 = texel-centre distances) and radiance mips.
+    pub fn from_distance_mips(position: Vec3, distance: &OctMips<f32>, radiance: OctMips<Vec3>) -> Self {
         let inv_depth = OctMips {
-            levels: probe
-                .depth
+            levels: distance
                 .levels
                 .iter()
                 .map(|l| OctMap::new(l.res, l.texels.iter().map(|&d| inverse(d)).collect()))
                 .collect(),
         };
-        let max_distance = probe.distance().texels.iter().copied().filter(|d| d.is_finite()).fold(0.0f32, f32::max);
-        WarpProbe { position: probe.position, inv_depth, radiance: probe.radiance.clone(), max_distance }
+        let max_distance = distance
+            .levels
+            .first()
+            .map_or(0.0, |l| l.texels.iter().copied().filter(|d| d.is_finite()).fold(0.0f32, f32::max));
+        WarpProbe { position, inv_depth, radiance, max_distance }
     }
 
     /// Inverse distance seen by the probe towards `dir` at depth mip `lod`.

@@ -1,26 +1,10 @@
-//! GGX distance-ratio roughness correction (seed 002, "Notes on GGX parallax correction").
-//!
-//! A prefiltered probe stores, per direction, the GGX lobe as seen from the probe centre; a
-//! parallax-corrected lookup from a surface point wants the lobe as seen from the surface.
-//! Projected on a plane perpendicular to the lobe at the hit (distance `d_probe` from the
-//! probe, `d_surface` from the surface), the two footprints differ: a lobe farther away
-//! covers more of the plane. With `k = d_probe / d_surface`, for each (α, k) we fit the
-//! probe-side roughness α' whose projected footprint, up to a scale and an additive offset
-//! (the seed's fitting aid; only α' is used at runtime, a single prefiltered fetch cannot
-//! apply the offset), best matches the surface's footprint. Two representations of
-//! α'(α, k) are fitted and measured on held-out (α, k): a small 2-D table (bilinear in α and
-//! log k) and the analytic `α' = min(1, c0 · α · k^−c1)` (Nelder-Mead).
-//!
-//! Footprint of a lobe of roughness α at distance d on the plane, at radius r = d·tanθ:
-//! `D_α(θ) · cos³θ / d²` (GGX D of Walter et al. 2007; cos³θ/d² converts solid angle to plane
-//! area). In probe units x = r / d_probe the surface footprint is `D_α(atan(k·x)) ·
-//! cos³(atan(k·x)) · k²` (up to the common 1/d_probe²).
+//! Fitting the roughness correction with argmin (bake-side; the runtime only reads it).
 
+use super::{RoughnessCorrection, analytic};
 use crate::sampling::ggx_d;
 use argmin::core::{CostFunction, Error, Executor, State};
 use argmin::solver::brent::BrentOpt;
 use argmin::solver::neldermead::NelderMead;
-use serde::{Deserialize, Serialize};
 
 /// Samples of the plane radius (in units of the probe distance) used by the fit: up to
 /// tan θ = 4 (76°), area-weighted.
@@ -87,61 +71,6 @@ pub fn fit_alpha(alpha: f64, k: f64) -> (f64, f64) {
         }
         Err(_) => (guess, f64::NAN),
     }
-}
-
-/// The fitted correction, both representations, and their measured residuals.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct RoughnessCorrection {
-    /// Table axes: α (GGX alpha = perceptual²) and k = d_probe / d_surface (log-spaced).
-    pub alphas: Vec<f32>,
-    pub ratios: Vec<f32>,
-    /// α' per (α row, k column), row-major.
-    pub table: Vec<f32>,
-    /// Relative lobe residual of each table entry (scale+offset fit).
-    pub lobe_residual: Vec<f32>,
-    /// Analytic model α' = min(1, c0 · α · k^−c1).
-    pub c0: f32,
-    pub c1: f32,
-    /// RMS error in α' on held-out (α, k) pairs: table (bilinear) and analytic.
-    pub heldout_rms_table: f64,
-    pub heldout_rms_analytic: f64,
-    /// Which representation the sampler should use (the lower held-out error).
-    pub chosen: String,
-}
-
-impl RoughnessCorrection {
-    /// α' from the table, bilinear in α and log k, clamped to the table's range.
-    pub fn from_table(&self, alpha: f32, k: f32) -> f32 {
-        let (na, nk) = (self.alphas.len(), self.ratios.len());
-        let locate = |axis: &[f32], v: f32| -> (usize, f32) {
-            let v = v.clamp(axis[0], axis[axis.len() - 1]);
-            let i = axis.partition_point(|&a| a <= v).clamp(1, axis.len() - 1) - 1;
-            (i, ((v - axis[i]) / (axis[i + 1] - axis[i])).clamp(0.0, 1.0))
-        };
-        let log_r: Vec<f32> = self.ratios.iter().map(|r| r.ln()).collect();
-        let (i, fa) = locate(&self.alphas, alpha);
-        let (j, fk) = locate(&log_r, if k > 0.0 { k.ln() } else { log_r[0] });
-        let at = |i: usize, j: usize| self.table[i.min(na - 1) * nk + j.min(nk - 1)];
-        let v = (at(i, j) * (1.0 - fk) + at(i, j + 1) * fk) * (1.0 - fa)
-            + (at(i + 1, j) * (1.0 - fk) + at(i + 1, j + 1) * fk) * fa;
-        if v.is_finite() { v.clamp(1e-3, 1.0) } else { alpha.clamp(1e-3, 1.0) }
-    }
-
-    pub fn analytic(&self, alpha: f32, k: f32) -> f32 {
-        analytic(self.c0 as f64, self.c1 as f64, alpha as f64, k as f64) as f32
-    }
-
-    /// The chosen representation.
-    pub fn corrected_alpha(&self, alpha: f32, k: f32) -> f32 {
-        if !(alpha.is_finite() && k.is_finite() && k > 0.0) {
-            return alpha.clamp(1e-3, 1.0);
-        }
-        if self.chosen == "table" { self.from_table(alpha, k) } else { self.analytic(alpha, k) }
-    }
-}
-
-fn analytic(c0: f64, c1: f64, alpha: f64, k: f64) -> f64 {
-    (c0 * alpha * k.powf(-c1)).clamp(1e-3, 1.0)
 }
 
 struct ModelProblem<'a> {

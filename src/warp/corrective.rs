@@ -1,0 +1,151 @@
+//! The corrective model and how it is evaluated at runtime.
+//!
+//! Level 0: nothing stored; the cell uses the grid's fallback method, the unfitted warp
+//! (`warp1`, `box` or `kdop`) that the fit measured best on its held-out queries.
+//! Level 2: a per-cell octahedral *warp map*: per texel, the inverse distance from the cell
+//! centre to what that direction hits (0 = sky). A lookup makes one warp step against the
+//! map of the cell (plane perpendicular to Dir at the cell's hit estimate, intersected with
+//! the ray from B) and fetches probe A towards the estimated hit.
+//!
+//! Level 1 (one origin offset per cell) is not implemented: see ARCHITECTURE.md.
+//!
+//! Two ways to combine cells at runtime, both measured in `eval`:
+//! - `Blend::Cell`: the containing cell alone (one map lookup);
+//! - `Blend::Trilinear`: the eight cells around B (cell-centre lattice), each giving a hit
+//!   distance along the ray; blended as inverse distance with trilinear weights, cells
+//!   without a map dropped and the weights renormalised.
+
+use super::{Method, Proxies, WarpOptions, WarpProbe, fetch_vector};
+use crate::grid::GridGeometry;
+use crate::octa;
+use glam::{UVec3, Vec3};
+use serde::{Deserialize, Serialize};
+
+/// How neighbouring cells' correctives combine at runtime.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Blend {
+    Cell,
+    Trilinear,
+}
+
+/// Correctives of a whole grid, sparse: only cells at level 2 own a map.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Correctives {
+    pub geometry: GridGeometry,
+    /// N of each N×N warp map.
+    pub map_res: u32,
+    /// Per grid cell: index into `maps` (`u32::MAX` = level 0, nothing stored).
+    pub slot: Vec<u32>,
+    /// Warp maps, `slot · N² + texel`: inverse distance from the cell centre (0 = sky).
+    pub maps: Vec<f32>,
+    /// Method of level-0 cells.
+    pub fallback: Method,
+}
+
+impl Correctives {
+    pub fn stored_cells(&self) -> usize {
+        self.slot.iter().filter(|s| **s != u32::MAX).count()
+    }
+
+    #[inline]
+    fn map(&self, slot: u32) -> &[f32] {
+        let n2 = (self.map_res * self.map_res) as usize;
+        &self.maps[slot as usize * n2..(slot as usize + 1) * n2]
+    }
+
+    /// Distance along the ray (B, dir) to the hit estimated from cell `cell`'s map, as
+    /// inverse distance (0 = at infinity); `None` when the cell stores no map.
+    #[inline]
+    fn cell_inv_t(&self, cell: usize, taps: &[(u32, f32); 4], b: Vec3, dir: Vec3) -> Option<f32> {
+        let slot = self.slot[cell];
+        if slot == u32::MAX {
+            return None;
+        }
+        let map = self.map(slot);
+        let w: f32 = taps.iter().map(|&(k, wt)| map[k as usize] * wt).sum();
+        Some(inv_t_from_map(self.geometry.cell_centre(cell), w, b, dir))
+    }
+
+    /// Fetch vector for query (B, dir); the fallback method where no map applies.
+    #[inline]
+    pub fn fetch_vector(
+        &self,
+        blend: Blend,
+        probe: &WarpProbe,
+        proxies: &Proxies,
+        opts: &WarpOptions,
+        b: Vec3,
+        dir: Vec3,
+    ) -> Vec3 {
+        let a = probe.position;
+        if b == a {
+            return dir;
+        }
+        let taps = octa::bilinear_taps(self.map_res, octa::encode(dir));
+        let inv_t = match blend {
+            Blend::Cell => self.cell_inv_t(self.geometry.cell_index(self.geometry.cell_of(b)), &taps, b, dir),
+            Blend::Trilinear => self.trilinear_inv_t(&taps, b, dir),
+        };
+        match inv_t {
+            None => fetch_vector(self.fallback, probe, proxies, opts, b, dir),
+            Some(u) if u > 0.0 => {
+                let v = b + dir / u - a;
+                if v.is_finite() && v != Vec3::ZERO { v } else { dir }
+            }
+            Some(_) => dir, // hit at infinity: sky along Dir
+        }
+    }
+
+    fn trilinear_inv_t(&self, taps: &[(u32, f32); 4], b: Vec3, dir: Vec3) -> Option<f32> {
+        let g = &self.geometry;
+        // position in the lattice of cell centres
+        let f = (b - g.min) / g.cell_size() - 0.5;
+        let hi = (g.counts - UVec3::ONE).as_vec3();
+        let f = if f.is_finite() { f.clamp(Vec3::ZERO, hi) } else { Vec3::ZERO };
+        let base = f.floor();
+        let frac = f - base;
+        let base = base.as_uvec3();
+        let (mut sum, mut wsum) = (0.0f32, 0.0f32);
+        for corner in 0..8u32 {
+            let o = UVec3::new(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+            let c = (base + o).min(g.counts - UVec3::ONE);
+            let w = (if o.x == 1 { frac.x } else { 1.0 - frac.x })
+                * (if o.y == 1 { frac.y } else { 1.0 - frac.y })
+                * (if o.z == 1 { frac.z } else { 1.0 - frac.z });
+            if w <= 0.0 {
+                continue;
+            }
+            if let Some(u) = self.cell_inv_t(g.cell_index(c), taps, b, dir) {
+                sum += w * u;
+                wsum += w;
+            }
+        }
+        (wsum > 0.0).then(|| sum / wsum)
+    }
+}
+
+/// One warp step against a cell map: the cell (centre `c`) sees its hit at inverse distance
+/// `w` along `dir`; the plane perpendicular to `dir` there is crossed by the ray from `b` at
+/// distance `t`. Returns 1/t (0 for sky; 1e30, i.e. the hit at B, if the plane is behind B).
+#[inline]
+pub fn inv_t_from_map(c: Vec3, w: f32, b: Vec3, dir: Vec3) -> f32 {
+    if !(w > 0.0) {
+        return 0.0;
+    }
+    let t = dir.dot(c - b) + 1.0 / w;
+    if t > 0.0 { (1.0 / t).min(1e30) } else { 1e30 }
+}
+
+/// Warp map of a cell from a box proxy: inverse distance from the cell centre to the box's
+/// boundary along each texel direction (0 where the centre is outside the box).
+pub fn box_map(centre: Vec3, proxy: &crate::warp::proxy::BoxProxy, map_res: u32) -> Vec<f32> {
+    (0..map_res * map_res)
+        .map(|t| {
+            let d = octa::texel_dir(map_res, t % map_res, t / map_res);
+            match proxy.exit_distance(centre, d) {
+                Some(t) if t > 0.0 => (1.0 / t).min(1e30),
+                _ => 0.0,
+            }
+        })
+        .collect()
+}
