@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use warpfit::eval::EvalSettings;
 use warpfit::fit::{Blend, FitSettings, Solver};
 use warpfit::warp::{Method, WarpOptions};
+use warpfit::runtime::{FittedGrid, Precision};
 use warpfit::{bake, format::bake_io, pipeline, progress::Progress, report, scene::Scene, trace::Tracer};
 
 /// Offline parallax correction for reflection probes.
@@ -64,6 +65,28 @@ enum Command {
     },
     /// The main job: bake (or reuse a matching bake), fit, evaluate every method including
     /// the fitted correctives, and report; on the default scene unless one is given.
+    /// Sample a fitted grid at one position and direction, as the runtime does.
+    Sample {
+        #[arg(long, default_value = "fits/torture")]
+        fit: PathBuf,
+        /// Shading position x,y,z.
+        #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+        pos: glam::Vec3,
+        /// Reflected direction x,y,z (need not be unit length).
+        #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+        dir: glam::Vec3,
+        /// Perceptual roughness in [0, 1].
+        #[arg(long, default_value_t = 0.0)]
+        roughness: f32,
+        /// Surface normal x,y,z for the irradiance (default: the direction).
+        #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+        normal: Option<glam::Vec3>,
+    },
+    /// Summarise a fitted grid: contents, bytes per layer, residuals, what was left out.
+    Inspect {
+        #[arg(default_value = "fits/torture")]
+        fit: PathBuf,
+    },
     Run {
         #[arg(long, default_value = "data/scenes/torture.toml")]
         scene: PathBuf,
@@ -96,9 +119,22 @@ struct FitArgs {
     /// Training directions per position.
     #[arg(long, default_value_t = 128)]
     train_dirs: u32,
+    /// Storage of the radiance layers of the fitted grid (distances and warp maps are f32).
+    #[arg(long, default_value = "f32", value_parser = ["f32", "f16"])]
+    precision: String,
+    /// Leave the GGX roughness correction out of the fitted grid.
+    #[arg(long)]
+    no_roughness: bool,
 }
 
 impl FitArgs {
+    fn store(&self) -> pipeline::StoreOptions {
+        pipeline::StoreOptions {
+            precision: if self.precision == "f16" { Precision::F16 } else { Precision::F32 },
+            roughness: !self.no_roughness,
+        }
+    }
+
     fn settings(&self) -> Result<FitSettings> {
         anyhow::ensure!(
             (8..=16).contains(&self.map_res) && self.map_res.is_power_of_two(),
@@ -168,10 +204,12 @@ fn parse_methods(list: &str) -> Result<Vec<Method>> {
 fn fit_and_print(
     baked: pipeline::Baked,
     settings: &FitSettings,
+    store: pipeline::StoreOptions,
     out: &std::path::Path,
     progress: &Progress,
 ) -> Result<warpfit::fit::Fit> {
-    let f = pipeline::fit(baked, settings, out, &command_line(), progress)?;
+    let (f, manifest) = pipeline::fit(baked, settings, store, out, &command_line(), progress)?;
+    let bytes: u64 = manifest.payloads.iter().map(|p| p.bytes).sum();
     let s = warpfit::fit::output::summary(&f);
     println!(
         "fitted {} active cells in {:.1} s ({} threads): {} store a warp map ({} bytes), {} use the fallback {} ({} after a failed fit); held-out relative error warp1 {:.4}, fallback {:.4}, celldepth {:.4}, stored {:.4}",
@@ -188,7 +226,19 @@ fn fit_and_print(
         s.mean_check_err_celldepth,
         s.mean_check_err_stored
     );
+    println!("wrote the fitted grid {} ({} bytes of payloads; `warpfit inspect {}`)", out.display(), bytes, out.display());
     Ok(f)
+}
+
+fn parse_vec3(text: &str) -> std::result::Result<glam::Vec3, String> {
+    let v: Vec<f32> = text
+        .split(',')
+        .map(|x| x.trim().parse::<f32>().map_err(|e| format!("{x:?}: {e}")))
+        .collect::<std::result::Result<_, _>>()?;
+    match v.as_slice() {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(glam::Vec3::new(*x, *y, *z)),
+        _ => Err(format!("expected three finite numbers x,y,z, got {text:?}")),
+    }
 }
 
 fn command_line() -> String {
@@ -201,19 +251,20 @@ fn eval_and_print(
     out: Option<PathBuf>,
     methods: &[Method],
     args: &EvalArgs,
-    fit_settings: Option<FitSettings>,
+    fit_settings: Option<(FitSettings, pipeline::StoreOptions)>,
     progress: &Progress,
 ) -> Result<()> {
     let scene = Scene::load(scene_path)?;
     let out = out.unwrap_or_else(|| PathBuf::from("fits").join(&scene.name));
     let tracer = Tracer::new(&scene);
-    let (probe, grid, fresh) = pipeline::load_or_bake(&scene, &tracer, &out, progress)?;
+    let bake_dir = pipeline::bake_dir(&out);
+    let (probe, grid, fresh) = pipeline::load_or_bake(&scene, &tracer, &bake_dir, progress)?;
     if fresh {
-        println!("baked {} → {}", scene.name, out.display());
+        println!("baked {} → {}", scene.name, bake_dir.display());
     }
     let baked = pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
     let fitted = match &fit_settings {
-        Some(f) => Some(fit_and_print(baked, f, &out, progress)?),
+        Some((f, store)) => Some(fit_and_print(baked, f, *store, &out, progress)?),
         None => None,
     };
     let rows: Vec<pipeline::CorrectiveRow> = match &fitted {
@@ -245,7 +296,20 @@ fn eval_and_print(
         ],
         None => Vec::new(),
     };
-    let r = pipeline::evaluate(baked, &args.settings(), methods, &rows, &out, &command_line(), progress)?;
+    let runtime = match &fitted {
+        Some(_) => Some(FittedGrid::load(&out)?),
+        None => None,
+    };
+    let r = pipeline::evaluate(
+        baked,
+        &args.settings(),
+        methods,
+        &rows,
+        runtime.as_ref(),
+        &out,
+        &command_line(),
+        progress,
+    )?;
     println!(
         "{}: {} lookups at {} positions, hidden fraction {:.1}%, reference ray {:.0} ns",
         r.scene,
@@ -297,6 +361,7 @@ fn run(cli: Cli) -> Result<()> {
             );
             let tracer = Tracer::new(&scene);
             let baked = bake::bake(&scene, &tracer, &progress);
+            let out = pipeline::bake_dir(&out);
             bake_io::write_bake(&out, &scene, &baked)?;
             let s = &baked.stats;
             println!(
@@ -322,9 +387,9 @@ fn run(cli: Cli) -> Result<()> {
             let scene = Scene::load(&scene)?;
             let out = out.unwrap_or_else(|| PathBuf::from("fits").join(&scene.name));
             let tracer = Tracer::new(&scene);
-            let (probe, grid, _) = pipeline::load_or_bake(&scene, &tracer, &out, &progress)?;
+            let (probe, grid, _) = pipeline::load_or_bake(&scene, &tracer, &pipeline::bake_dir(&out), &progress)?;
             let baked = pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
-            fit_and_print(baked, &settings, &out, &progress)?;
+            fit_and_print(baked, &settings, fit.store(), &out, &progress)?;
         }
         Command::Roughness { out } => {
             let c = warpfit::roughness::fit_correction();
@@ -339,8 +404,31 @@ fn run(cli: Cli) -> Result<()> {
                 out.display()
             );
         }
+        Command::Sample { fit, pos, dir, roughness, normal } => {
+            let grid = FittedGrid::load(&fit)?;
+            let spec = grid.specular(pos, dir, roughness);
+            let unit = dir.normalize_or_zero();
+            let v = grid.fetch_vector(pos, unit);
+            let g = &grid.correctives.geometry;
+            let cell = g.cell_index(g.cell_of(pos));
+            let stored = grid.correctives.slot[cell] != u32::MAX;
+            let n = normal.unwrap_or(dir);
+            let irr = grid.irradiance(pos, n);
+            println!("specular {:.6} {:.6} {:.6}", spec.x, spec.y, spec.z);
+            println!("irradiance {:.6} {:.6} {:.6} (normal {:?})", irr.x, irr.y, irr.z, n.normalize_or_zero().to_array());
+            println!(
+                "fetch direction {:?}; cell {cell} {}",
+                v.normalize_or_zero().to_array(),
+                if stored { "stores a warp map".to_string() } else { format!("uses the fallback {}", grid.correctives.fallback.name()) }
+            );
+        }
+        Command::Inspect { fit } => {
+            let grid = FittedGrid::load(&fit)?;
+            print!("{}", grid.manifest.describe());
+            println!("loaded in memory: {} bytes", grid.memory_bytes());
+        }
         Command::Run { scene, out, eval, fit } => {
-            eval_and_print(&scene, out, &Method::ALL, &eval, Some(fit.settings()?), &progress)?;
+            eval_and_print(&scene, out, &Method::ALL, &eval, Some((fit.settings()?, fit.store())), &progress)?;
         }
     }
     Ok(())

@@ -4,7 +4,8 @@
 use crate::bake::{self, ProbeGrid, SpecularProbe};
 use crate::eval::{self, EvalSettings, MethodContext};
 use crate::fit::{Blend, Correctives, Fit, FitSettings};
-use crate::format::{FormatError, bake_io};
+use crate::format::{FormatError, bake_io, grid_io};
+use crate::runtime::{FittedGrid, GridManifest, Precision};
 use crate::progress::Progress;
 use crate::report::{self, EvalReport, SweepRow};
 use crate::scene::Scene;
@@ -54,19 +55,56 @@ pub struct CorrectiveRow<'a> {
     pub blend: Blend,
 }
 
-/// Fits the correctives of every active cell and writes the provisional fit files.
+/// How a fitted grid is stored.
+#[derive(Clone, Copy, Debug)]
+pub struct StoreOptions {
+    pub precision: Precision,
+    /// Store the GGX roughness correction (left out anyway when the probe has no rough mips).
+    pub roughness: bool,
+}
+
+impl Default for StoreOptions {
+    fn default() -> Self {
+        StoreOptions { precision: Precision::F32, roughness: true }
+    }
+}
+
+/// Fits the correctives of every active cell, writes the fitted grid folder to `dir`
+/// (manifest.json + EXR payloads) with the fit's diagnostics, and returns the fit and the
+/// grid's manifest.
 pub fn fit(
     baked: Baked,
     settings: &FitSettings,
+    store: StoreOptions,
     dir: &Path,
     command: &str,
     progress: &Progress,
-) -> Result<Fit, FormatError> {
+) -> Result<(Fit, GridManifest), FormatError> {
     let ctx = MethodContext::new(baked.scene, baked.probe);
     let fitted = crate::fit::fit(baked.scene, baked.tracer, baked.probe, baked.grid, &ctx.proxies, settings, progress);
-    crate::fit::output::write_fit(dir, &fitted)?;
+    let roughness =
+        (store.roughness && baked.probe.radiance.levels.len() > 1).then(crate::roughness::fit_correction);
+    let manifest = grid_io::write_grid(
+        dir,
+        &grid_io::GridInputs {
+            scene: &baked.scene.name,
+            probe: baked.probe,
+            grid: baked.grid,
+            proxies: &ctx.proxies,
+            fit: &fitted,
+            blend: Blend::Cell,
+            roughness: roughness.as_ref(),
+            precision: store.precision,
+        },
+    )?;
+    crate::fit::output::write_fit_diagnostics(dir, &fitted)?;
     crate::fit::output::write_fit_report(&dir.join("fit.md"), &fitted, command)?;
-    Ok(fitted)
+    Ok((fitted, manifest))
+}
+
+/// Where the bake of a scene's output folder lives.
+pub fn bake_dir(out: &Path) -> std::path::PathBuf {
+    out.join("bake")
 }
 
 /// Evaluates `methods` (and corrective grids) on the scene's validation set and writes
@@ -77,6 +115,7 @@ pub fn evaluate(
     settings: &EvalSettings,
     methods: &[Method],
     corrective_rows: &[CorrectiveRow],
+    runtime: Option<&FittedGrid>,
     dir: &Path,
     command: &str,
     progress: &Progress,
@@ -101,6 +140,15 @@ pub fn evaluate(
             &settings.options,
             lookups,
         ));
+    }
+    if let Some(g) = runtime {
+        let precision = g.manifest.payloads.iter().flat_map(|p| &p.layers).any(|l| l.precision == Precision::F16);
+        let note = if precision {
+            "the fitted grid loaded from disk (f16 radiance), runtime::FittedGrid::specular at roughness 0"
+        } else {
+            "the fitted grid loaded from disk (f32), runtime::FittedGrid::specular at roughness 0"
+        };
+        rows.push(eval::evaluate_runtime(&set, "runtime", note, g, lookups));
     }
     bar.inc(1);
     bar.set_message("eval: warp1 sweep");

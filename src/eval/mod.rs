@@ -268,6 +268,17 @@ pub fn time_lookups(
     random: bool,
     fetch: impl Fn(Vec3, Vec3, Vec3) -> Vec3,
 ) -> f64 {
+    time_queries(set, lookups, random, |b, dir, oracle| ctx.probe.radiance(fetch(b, dir, oracle)))
+}
+
+/// ns per call of `radiance(B, query dir, oracle dir)` over the first `lookups` queries in
+/// coherent or shuffled order; best of three warm runs.
+pub fn time_queries(
+    set: &ValidationSet,
+    lookups: usize,
+    random: bool,
+    radiance: impl Fn(Vec3, Vec3, Vec3) -> Vec3,
+) -> f64 {
     let order = timing_order(set, random);
     let n = lookups.min(set.dirs.len()).max(1);
     // (B, query dir, oracle dir) laid out in issue order, so the loop times only the lookup.
@@ -276,7 +287,7 @@ pub fn time_lookups(
     let run = || {
         let mut acc = Vec3::ZERO;
         for &(b, dir, oracle) in &queries {
-            acc += ctx.probe.radiance(black_box(fetch(b, dir, oracle)));
+            acc += black_box(radiance(b, dir, oracle));
         }
         black_box(acc);
     };
@@ -288,6 +299,34 @@ pub fn time_lookups(
             t.elapsed().as_nanos() as f64 / n as f64
         })
         .fold(f64::INFINITY, f64::min)
+}
+
+/// A loaded fitted grid (`runtime::FittedGrid`) on the validation set: mirror queries
+/// (roughness 0), timed through `specular` itself.
+pub fn evaluate_runtime(
+    set: &ValidationSet,
+    name: &str,
+    note: &str,
+    grid: &crate::runtime::FittedGrid,
+    timing_lookups: usize,
+) -> MethodResult {
+    let est: Vec<Vec3> =
+        (0..set.dirs.len()).into_par_iter().map(|k| grid.specular(set.position_of(k), set.dirs[k], 0.0)).collect();
+    let dirs: Vec<Vec3> = (0..set.dirs.len())
+        .map(|k| grid.fetch_vector(set.position_of(k), set.dirs[k]).try_normalize().unwrap_or(set.dirs[k]))
+        .collect();
+    let (rel_rmse, mae, p95, max) = error_stats(&est, &set.reference);
+    MethodResult {
+        name: name.into(),
+        rel_rmse,
+        mae,
+        p95,
+        max,
+        angular_deg: Some(mean_angle_deg(&dirs, &set.oracle_dir)),
+        ns_per_lookup: time_queries(set, timing_lookups, false, |b, d, _| grid.specular(b, d, 0.0)),
+        ns_per_lookup_random: time_queries(set, timing_lookups, true, |b, d, _| grid.specular(b, d, 0.0)),
+        note: note.into(),
+    }
 }
 
 /// Timing of a per-lookup method.

@@ -1,19 +1,12 @@
-//! Provisional on-disk form of a fit (until the fitted-grid format is defined): `fit.json`
-//! (grid geometry, map resolution, the sparse list of stored cells, settings and summary),
-//! `correctives.exr` (layer `warp_maps`, channel `W`: each stored cell's N×N map of inverse
-//! distance from the cell centre, side by side in slot order; absent when no cell stores
-//! anything) and `residuals.json` (every cell's held-out errors before and after, solver
-//! iterations, evaluations, termination and time), plus `residual_slices.png` (per grid
-//! layer, how much each cell's fit improved on its fallback) and `fit_convergence.png`.
+//! What a fit reports besides the fitted grid (`format::grid_io`): `residuals.json` (every
+//! cell's held-out errors before and after, solver iterations, evaluations, termination and
+//! time), `fit.md`, `residual_slices.png` (per grid layer, how much each cell's fit improved
+//! on its fallback) and `fit_convergence.png`; and the summary stored in the manifest.
 
-use super::{CellFit, Fit, FitSettings};
-use crate::format::exr_io::{ExrLayer, write_exr};
+use super::{CellFit, Fit};
 use crate::format::{FormatError, write_atomic};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
-
-pub const FIT_FORMAT: &str = "warpfit-fit-provisional";
-pub const FIT_VERSION: u32 = 0;
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct FitSummary {
@@ -30,21 +23,6 @@ pub struct FitSummary {
     pub mean_check_err_fallback: f64,
     pub mean_check_err_celldepth: f64,
     pub mean_check_err_stored: f64,
-}
-
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct FitManifest {
-    pub format: String,
-    pub version: u32,
-    pub grid_min: [f32; 3],
-    pub grid_max: [f32; 3],
-    pub grid_counts: [u32; 3],
-    pub map_res: u32,
-    pub map_encoding: String,
-    /// Grid cell index of each stored map, in slot order.
-    pub stored_cells: Vec<u32>,
-    pub summary: FitSummary,
-    pub settings: FitSettings,
 }
 
 pub fn summary(fit: &Fit) -> FitSummary {
@@ -67,46 +45,12 @@ pub fn summary(fit: &Fit) -> FitSummary {
     }
 }
 
-/// Writes fit.json, correctives.exr and residuals.json into `dir`, each atomically.
-pub fn write_fit(dir: &Path, fit: &Fit) -> Result<FitManifest, FormatError> {
-    let c = &fit.correctives;
-    let n = c.map_res as usize;
-    let mut stored: Vec<(u32, u32)> =
-        c.slot.iter().enumerate().filter(|(_, s)| **s != u32::MAX).map(|(cell, s)| (*s, cell as u32)).collect();
-    stored.sort();
-    let manifest = FitManifest {
-        format: FIT_FORMAT.into(),
-        version: FIT_VERSION,
-        grid_min: c.geometry.min.to_array(),
-        grid_max: c.geometry.max.to_array(),
-        grid_counts: c.geometry.counts.to_array(),
-        map_res: c.map_res,
-        map_encoding: "per stored cell, an N×N octahedral map (crate convention) of inverse distance from the cell centre; 0 = sky".into(),
-        stored_cells: stored.iter().map(|(_, cell)| *cell).collect(),
-        summary: summary(fit),
-        settings: fit.settings.clone(),
-    };
-    if !stored.is_empty() {
-        let count = stored.len();
-        let mut atlas = vec![0.0f32; n * n * count];
-        for (slot, _) in &stored {
-            let src = &c.maps[*slot as usize * n * n..(*slot as usize + 1) * n * n];
-            for j in 0..n {
-                for i in 0..n {
-                    atlas[j * n * count + *slot as usize * n + i] = src[j * n + i];
-                }
-            }
-        }
-        write_exr(
-            &dir.join("correctives.exr"),
-            &[ExrLayer { name: "warp_maps".into(), width: n * count, height: n, channels: vec![("W".into(), atlas)] }],
-        )?;
-    }
-    write_json(&dir.join("fit.json"), &manifest)?;
+/// Writes `residuals.json`, `residual_slices.png` and `fit_convergence.png` into `dir`
+/// (the fitted grid itself is written by `format::grid_io`).
+pub fn write_fit_diagnostics(dir: &Path, fit: &Fit) -> Result<(), FormatError> {
     write_json(&dir.join("residuals.json"), &fit.cells)?;
     write_residual_slices(&dir.join("residual_slices.png"), fit)?;
-    write_convergence(&dir.join("fit_convergence.png"), fit, rayon::current_num_threads())?;
-    Ok(manifest)
+    write_convergence(&dir.join("fit_convergence.png"), fit, rayon::current_num_threads())
 }
 
 /// Pretty JSON, written atomically.
@@ -155,7 +99,7 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), For
     let s = summary(fit);
     let mut md = String::new();
     let _ =
-        writeln!(md, "# Fit report\n\nProduced by `{command}`. Provisional format `{FIT_FORMAT}` v{FIT_VERSION}.\n");
+        writeln!(md, "# Fit report\n\nProduced by `{command}`. The fitted grid is `manifest.json` beside this file (`warpfit inspect` summarises it).\n");
     let _ = writeln!(
         md,
         "Solver {:?}, {} s, {} reference rays, {} objective evaluations.\n",

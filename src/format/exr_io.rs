@@ -23,8 +23,18 @@ impl ExrLayer {
     }
 }
 
-/// Encodes layers into EXR bytes.
+/// Encodes layers into EXR bytes (all f32).
 pub fn encode_exr(path: &Path, layers: &[ExrLayer]) -> std::result::Result<Vec<u8>, FormatError> {
+    encode_exr_with(path, layers, |_| false)
+}
+
+/// Encodes layers into EXR bytes; layers for which `half(name)` holds are stored as f16
+/// (values clamped to ±65504 first, so a bright sun saturates instead of becoming +inf).
+pub fn encode_exr_with(
+    path: &Path,
+    layers: &[ExrLayer],
+    half: impl Fn(&str) -> bool,
+) -> std::result::Result<Vec<u8>, FormatError> {
     let bad = |m: String| FormatError::Invalid { path: path.to_path_buf(), field: "layers".into(), message: m };
     if layers.is_empty() {
         return Err(bad("no layers to write".into()));
@@ -47,8 +57,16 @@ pub fn encode_exr(path: &Path, layers: &[ExrLayer]) -> std::result::Result<Vec<u
         }
         max_w = max_w.max(l.width);
         max_h = max_h.max(l.height);
+        let to_half = half(&l.name);
+        let samples = |v: &Vec<f32>| {
+            if to_half {
+                FlatSamples::F16(v.iter().map(|&x| f16::from_f32(x.clamp(-65504.0, 65504.0))).collect())
+            } else {
+                FlatSamples::F32(v.clone())
+            }
+        };
         let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> =
-            l.channels.iter().map(|(name, v)| AnyChannel::new(name.as_str(), FlatSamples::F32(v.clone()))).collect();
+            l.channels.iter().map(|(name, v)| AnyChannel::new(name.as_str(), samples(v))).collect();
         exr_layers.push(Layer::new(
             (l.width, l.height),
             LayerAttributes::named(l.name.as_str()),

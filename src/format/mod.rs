@@ -5,6 +5,7 @@
 mod atomic;
 pub mod bake_io;
 pub mod exr_io;
+pub mod grid_io;
 pub mod manifest;
 
 pub use atomic::write_atomic;

@@ -24,7 +24,7 @@ pub use fit::*;
 use serde::{Deserialize, Serialize};
 
 /// The fitted correction, both representations, and their measured residuals.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RoughnessCorrection {
     /// Table axes: α (GGX alpha = perceptual²) and k = d_probe / d_surface (log-spaced).
     pub alphas: Vec<f32>,

@@ -1,1 +1,307 @@
-//! placeholder
+//! The runtime sampler: load a fitted grid folder and answer specular and irradiance queries.
+//!
+//! This module (with `octa`, `warp`, `grid` and `roughness`) is all a game or tool needs at
+//! runtime; it builds without the offline tool (`cargo build --lib --no-default-features`
+//! depends only on glam, serde, serde_json and exr).
+//!
+//! ```no_run
+//! use warpfit::runtime::FittedGrid;
+//! use glam::Vec3;
+//! let grid = FittedGrid::load("fits/torture")?;
+//! let reflected = grid.specular(Vec3::new(1.0, 1.2, 0.5), Vec3::new(0.0, 0.3, -1.0), 0.25);
+//! let diffuse = grid.irradiance(Vec3::new(1.0, 1.2, 0.5), Vec3::Y);
+//! # Ok::<(), warpfit::runtime::LoadError>(())
+//! ```
+//!
+//! Conventions (all documented behaviour, all tested):
+//! - `specular(p, dir, r)`: the direction need not be unit length; a zero or non-finite
+//!   direction returns black. A non-finite position is treated as the probe's own position
+//!   (no parallax). Roughness is perceptual (GGX α = r²), clamped to [0, 1]; NaN reads as 0.
+//! - Positions outside the grid use the nearest cell's corrective (the cell lookup clamps),
+//!   while the warp itself still starts from the true position; the irradiance blend clamps
+//!   the position into the lattice of cell centres.
+//! - Results are always finite and ≥ 0 (the payloads are validated on load).
+//! - `FittedGrid` is `Send + Sync` and immutable; sampling never allocates.
+
+mod load;
+pub mod manifest;
+
+pub use load::{LoadError, read_manifest};
+pub use manifest::{GridManifest, Precision};
+
+use crate::grid::GridGeometry;
+use crate::octa;
+use crate::roughness::RoughnessCorrection;
+use crate::warp::corrective::{Blend, Correctives};
+use crate::warp::{Proxies, WarpOptions, WarpProbe};
+use glam::{UVec3, Vec3};
+use std::path::Path;
+
+/// A loaded fitted grid. Immutable; share it between threads freely.
+#[derive(Clone, Debug)]
+pub struct FittedGrid {
+    pub probe: WarpProbe,
+    /// Perceptual roughness of each radiance mip (increasing, mip 0 = 0).
+    pub mip_roughness: Vec<f32>,
+    pub proxies: Proxies,
+    pub options: WarpOptions,
+    pub blend: Blend,
+    pub correctives: Correctives,
+    pub irradiance: IrradianceGrid,
+    pub roughness: Option<RoughnessLut>,
+    pub manifest: GridManifest,
+}
+
+/// Irradiance and distance moments of the stored (not inside geometry) cells.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IrradianceGrid {
+    pub geometry: GridGeometry,
+    pub resolution: u32,
+    pub depth_resolution: u32,
+    /// Per grid cell: slot in the arrays below (`u32::MAX` = not stored).
+    pub slot: Vec<u32>,
+    /// `slot · resolution² + texel`.
+    pub irradiance: Vec<Vec3>,
+    /// `slot · depth_resolution² + texel`: mean and mean square of the hit distance.
+    pub depth_mean: Vec<f32>,
+    pub depth_mean_sq: Vec<f32>,
+}
+
+/// The roughness correction, validated for lookups.
+#[derive(Clone, Debug)]
+pub struct RoughnessLut {
+    correction: RoughnessCorrection,
+}
+
+impl RoughnessLut {
+    /// `None` when the table's axes are not finite and increasing or its size is wrong.
+    pub fn new(c: &RoughnessCorrection) -> Option<Self> {
+        let increasing = |a: &[f32]| a.len() >= 2 && a.iter().all(|x| x.is_finite()) && a.windows(2).all(|w| w[0] < w[1]);
+        let ok = increasing(&c.alphas)
+            && increasing(&c.ratios)
+            && c.ratios[0] > 0.0
+            && c.table.len() == c.alphas.len() * c.ratios.len()
+            && c.table.iter().all(|x| x.is_finite())
+            && c.c0.is_finite()
+            && c.c1.is_finite()
+            && (c.chosen == "table" || c.chosen == "analytic");
+        ok.then(|| RoughnessLut { correction: c.clone() })
+    }
+
+    /// Probe-side α' for surface α and distance ratio k = d_probe / d_surface.
+    #[inline]
+    pub fn corrected_alpha(&self, alpha: f32, k: f32) -> f32 {
+        self.correction.corrected_alpha(alpha, k)
+    }
+}
+
+impl FittedGrid {
+    /// Loads a fitted grid folder (`manifest.json` + EXR payloads), verifying versions,
+    /// checksums, sizes and values.
+    pub fn load(dir: impl AsRef<Path>) -> Result<FittedGrid, LoadError> {
+        load::load(dir.as_ref())
+    }
+
+    /// Fetch vector of probe A for the query (unit `dir`): exactly what the fit evaluated.
+    #[inline]
+    pub fn fetch_vector(&self, position: Vec3, dir: Vec3) -> Vec3 {
+        let b = if position.is_finite() { position } else { self.probe.position };
+        self.correctives.fetch_vector(self.blend, &self.probe, &self.proxies, &self.options, b, dir)
+    }
+
+    /// Distance ratio k = d_probe / d_surface of the point probe A sees along `v`.
+    #[inline]
+    fn distance_ratio(&self, b: Vec3, v: Vec3) -> f32 {
+        let a = self.probe.position;
+        let l = v.length();
+        if !(l > 0.0 && l.is_finite()) {
+            return 1.0;
+        }
+        let u = v / l;
+        let w = self.probe.inv_dist(u, self.options.depth_lod);
+        if !(w > 0.0) {
+            return 1.0; // sky: both distances infinite
+        }
+        let d_probe = 1.0 / w;
+        let d_surface = (a + u * d_probe - b).length();
+        let k = d_probe / d_surface;
+        if k.is_finite() && k > 0.0 { k } else { 1.0 }
+    }
+
+    /// Fractional radiance mip of perceptual roughness `r` (linear between the mips' values).
+    #[inline]
+    fn lod(&self, r: f32) -> f32 {
+        let m = &self.mip_roughness;
+        if m.len() < 2 || !(r > m[0]) {
+            return 0.0;
+        }
+        let last = m.len() - 1;
+        if r >= m[last] {
+            return last as f32;
+        }
+        let i = m.partition_point(|&x| x <= r).clamp(1, last) - 1;
+        let span = m[i + 1] - m[i];
+        let f = if span > 0.0 { (r - m[i]) / span } else { 0.0 };
+        i as f32 + f.clamp(0.0, 1.0)
+    }
+
+    /// Radiance reflected towards `dir` from `position` for perceptual roughness `roughness`:
+    /// the fitted warp picks where to read probe A, the roughness correction picks the mip.
+    #[inline]
+    pub fn specular(&self, position: Vec3, direction: Vec3, roughness: f32) -> Vec3 {
+        let l2 = direction.length_squared();
+        if !(l2 > 0.0 && l2.is_finite()) {
+            return Vec3::ZERO;
+        }
+        let dir = if l2 == 1.0 { direction } else { direction / l2.sqrt() };
+        let v = self.fetch_vector(position, dir);
+        let r = if roughness.is_finite() { roughness.clamp(0.0, 1.0) } else { 0.0 };
+        if r == 0.0 {
+            return self.probe.radiance(v);
+        }
+        let r = match &self.roughness {
+            Some(lut) => {
+                let b = if position.is_finite() { position } else { self.probe.position };
+                let k = self.distance_ratio(b, v);
+                lut.corrected_alpha(r * r, k).sqrt()
+            }
+            None => r,
+        };
+        self.probe.radiance.sample_lod(v, self.lod(r))
+    }
+
+    /// Irradiance at `position` for surface normal `normal`: the eight cells around the
+    /// position, weighted trilinearly, by a smooth back-face term and by Chebyshev visibility
+    /// from the cells' distance moments (DDGI, Majercik et al. 2019); cells inside geometry
+    /// are skipped and the weights renormalised. Black when no stored cell is near.
+    pub fn irradiance(&self, position: Vec3, normal: Vec3) -> Vec3 {
+        let n = normal.normalize_or(Vec3::ZERO);
+        if n == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let g = &self.irradiance;
+        let geo = &g.geometry;
+        let p = if position.is_finite() { position } else { geo.min + (geo.max - geo.min) * 0.5 };
+        let f = (p - geo.min) / geo.cell_size() - 0.5;
+        let hi = (geo.counts - UVec3::ONE).as_vec3();
+        let f = if f.is_finite() { f.clamp(Vec3::ZERO, hi) } else { Vec3::ZERO };
+        let base = f.floor();
+        let frac = f - base;
+        let base = base.as_uvec3();
+        let uv_n = octa::encode(n);
+        let (ir, dr) = (g.resolution, g.depth_resolution);
+        let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
+        for corner in 0..8u32 {
+            let o = UVec3::new(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+            let c = (base + o).min(geo.counts - UVec3::ONE);
+            let tri = (if o.x == 1 { frac.x } else { 1.0 - frac.x })
+                * (if o.y == 1 { frac.y } else { 1.0 - frac.y })
+                * (if o.z == 1 { frac.z } else { 1.0 - frac.z });
+            if tri <= 0.0 {
+                continue;
+            }
+            let cell = geo.cell_index(c);
+            let slot = g.slot[cell];
+            if slot == u32::MAX {
+                continue;
+            }
+            let slot = slot as usize;
+            let to_point = p - geo.cell_centre(cell);
+            let dist = to_point.length();
+            let mut w = tri;
+            if dist > 0.0 && dist.is_finite() {
+                let u = to_point / dist;
+                // smooth back face: cells behind the surface count less
+                let facing = (n.dot(-u) + 1.0) * 0.5;
+                w *= facing * facing + 0.2;
+                // Chebyshev visibility of the point from the cell
+                let taps = octa::bilinear_taps(dr, octa::encode(u));
+                let (mut mean, mut mean_sq) = (0.0f32, 0.0f32);
+                let base = slot * (dr * dr) as usize;
+                for (t, wt) in taps {
+                    mean += g.depth_mean[base + t as usize] * wt;
+                    mean_sq += g.depth_mean_sq[base + t as usize] * wt;
+                }
+                if dist > mean {
+                    let var = (mean_sq - mean * mean).abs().max(1e-12 * mean * mean);
+                    let d = dist - mean;
+                    let cheb = var / (var + d * d);
+                    w *= (cheb * cheb * cheb).max(0.0);
+                }
+            }
+            // keep a trace of every stored neighbour so a fully occluded blend stays defined
+            let w = w.max(1e-6 * tri);
+            let taps = octa::bilinear_taps(ir, uv_n);
+            let base = slot * (ir * ir) as usize;
+            let e: Vec3 = taps.iter().map(|&(t, wt)| g.irradiance[base + t as usize] * wt).sum();
+            sum += e * w;
+            wsum += w;
+        }
+        if wsum > 0.0 {
+            let e = sum / wsum;
+            if e.is_finite() { e.max(Vec3::ZERO) } else { Vec3::ZERO }
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    /// `specular` over slices; every slice must have `out.len()` elements.
+    pub fn specular_batch(
+        &self,
+        positions: &[Vec3],
+        directions: &[Vec3],
+        roughness: &[f32],
+        out: &mut [Vec3],
+    ) -> Result<(), BatchError> {
+        let n = out.len();
+        if positions.len() != n || directions.len() != n || roughness.len() != n {
+            return Err(BatchError { expected: n, found: [positions.len(), directions.len(), roughness.len()] });
+        }
+        for k in 0..n {
+            out[k] = self.specular(positions[k], directions[k], roughness[k]);
+        }
+        Ok(())
+    }
+
+    /// `irradiance` over slices; every slice must have `out.len()` elements.
+    pub fn irradiance_batch(&self, positions: &[Vec3], normals: &[Vec3], out: &mut [Vec3]) -> Result<(), BatchError> {
+        let n = out.len();
+        if positions.len() != n || normals.len() != n {
+            return Err(BatchError { expected: n, found: [positions.len(), normals.len(), n] });
+        }
+        for k in 0..n {
+            out[k] = self.irradiance(positions[k], normals[k]);
+        }
+        Ok(())
+    }
+
+    /// Bytes of the loaded data (probe, correctives, irradiance).
+    pub fn memory_bytes(&self) -> usize {
+        let p = &self.probe;
+        let probe: usize = p.radiance.levels.iter().map(|l| l.texels.len() * 12).sum::<usize>()
+            + p.inv_depth.levels.iter().map(|l| l.texels.len() * 4).sum::<usize>();
+        let c = &self.correctives;
+        let g = &self.irradiance;
+        probe
+            + c.maps.len() * 4
+            + c.slot.len() * 4
+            + g.irradiance.len() * 12
+            + (g.depth_mean.len() + g.depth_mean_sq.len()) * 4
+            + g.slot.len() * 4
+    }
+}
+
+/// Slices of a batch call with different lengths.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BatchError {
+    pub expected: usize,
+    pub found: [usize; 3],
+}
+
+impl std::fmt::Display for BatchError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "batch slices must all hold {} elements, found {:?}", self.expected, self.found)
+    }
+}
+
+impl std::error::Error for BatchError {}

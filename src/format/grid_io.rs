@@ -1,0 +1,249 @@
+//! Writing a fitted grid folder (`runtime::manifest` describes it; `runtime::FittedGrid`
+//! loads it): `probe.exr`, `correctives.exr` (only if some cell stores a warp map),
+//! `irradiance.exr` and `manifest.json`, each written atomically. The manifest is written
+//! last and carries every payload's checksum, so an interrupted rewrite is reported as a
+//! checksum mismatch on load, never read as a silently mixed grid.
+
+use super::exr_io::{ExrLayer, encode_exr_with};
+use super::{FormatError, write_atomic};
+use crate::bake::{ProbeGrid, SpecularProbe};
+use crate::fit::Fit;
+use crate::fit::output::summary;
+use crate::octa;
+use crate::roughness::RoughnessCorrection;
+use crate::runtime::manifest::*;
+use crate::warp::Proxies;
+use crate::warp::corrective::Blend;
+use glam::Vec3;
+use std::path::Path;
+
+/// What goes into a fitted grid besides the fit itself.
+pub struct GridInputs<'a> {
+    pub scene: &'a str,
+    pub probe: &'a SpecularProbe,
+    pub grid: &'a ProbeGrid,
+    pub proxies: &'a Proxies,
+    pub fit: &'a Fit,
+    pub blend: Blend,
+    pub roughness: Option<&'a RoughnessCorrection>,
+    pub precision: Precision,
+}
+
+fn rgb_channels(v: &[Vec3]) -> Vec<(String, Vec<f32>)> {
+    vec![
+        ("R".into(), v.iter().map(|x| x.x).collect()),
+        ("G".into(), v.iter().map(|x| x.y).collect()),
+        ("B".into(), v.iter().map(|x| x.z).collect()),
+    ]
+}
+
+/// Packs per-cell tiles (`cell · res² + texel` in `src`) of the listed cells into an atlas.
+fn pack<T: Copy + Default>(src: &[T], cells: &[u32], res: u32, columns: u32) -> (usize, usize, Vec<T>) {
+    let (w, h) = atlas_size(cells.len(), res, columns);
+    let n2 = (res * res) as usize;
+    let mut atlas = vec![T::default(); w * h];
+    for (k, &cell) in cells.iter().enumerate() {
+        for t in 0..n2 {
+            atlas[atlas_index(k, t, res, columns)] = src[cell as usize * n2 + t];
+        }
+    }
+    (w, h, atlas)
+}
+
+/// Encodes `layers` into `file` in `dir` and returns its manifest entry.
+fn payload(dir: &Path, file: &str, layers: &[ExrLayer], precision: Precision) -> Result<Payload, FormatError> {
+    let path = dir.join(file);
+    let half = |name: &str| precision == Precision::F16 && is_radiance(name);
+    let bytes = encode_exr_with(&path, layers, half)?;
+    write_atomic(&path, &bytes).map_err(|source| FormatError::Io { path: path.clone(), source })?;
+    Ok(Payload {
+        file: file.into(),
+        bytes: bytes.len() as u64,
+        checksum: checksum(&bytes),
+        layers: layers
+            .iter()
+            .map(|l| LayerEntry {
+                name: l.name.clone(),
+                width: l.width as u32,
+                height: l.height as u32,
+                channels: l.channels.iter().map(|(c, _)| c.clone()).collect(),
+                precision: if half(&l.name) { Precision::F16 } else { Precision::F32 },
+            })
+            .collect(),
+    })
+}
+
+/// Radiance layers may be stored as f16; distances and warp maps never are.
+fn is_radiance(layer: &str) -> bool {
+    layer.starts_with("radiance_mip") || layer == "irradiance"
+}
+
+/// Writes the fitted grid folder and returns its manifest.
+pub fn write_grid(dir: &Path, g: &GridInputs) -> Result<GridManifest, FormatError> {
+    let fit = g.fit;
+    let c = &fit.correctives;
+    let geo = c.geometry;
+    let cells = geo.cell_count();
+    let mut payloads = Vec::new();
+    let mut left_out = Vec::new();
+
+    // probe: GGX chain and distance chain
+    let mut layers = Vec::new();
+    let mut radiance_mips = Vec::new();
+    for (m, level) in g.probe.radiance.levels.iter().enumerate() {
+        let name = format!("radiance_mip{m}");
+        layers.push(ExrLayer {
+            name: name.clone(),
+            width: level.res as usize,
+            height: level.res as usize,
+            channels: rgb_channels(&level.texels),
+        });
+        radiance_mips.push(RadianceMip { layer: name, resolution: level.res, perceptual_roughness: g.probe.roughness[m] });
+    }
+    let mut distance_mips = Vec::new();
+    for (m, level) in g.probe.depth.levels.iter().enumerate() {
+        let name = format!("distance_mip{m}");
+        layers.push(ExrLayer {
+            name: name.clone(),
+            width: level.res as usize,
+            height: level.res as usize,
+            channels: vec![("Z".into(), level.texels.clone())],
+        });
+        distance_mips.push(name);
+    }
+    payloads.push(payload(dir, PROBE_FILE, &layers, g.precision)?);
+
+    // correctives: warp maps of level-2 cells, in slot order
+    let mut stored: Vec<(u32, u32)> =
+        c.slot.iter().enumerate().filter(|(_, s)| **s != u32::MAX).map(|(cell, s)| (*s, cell as u32)).collect();
+    stored.sort();
+    let stored_cells: Vec<u32> = stored.iter().map(|(_, cell)| *cell).collect();
+    let n2 = (c.map_res * c.map_res) as u64;
+    let level0 = fit.cells.iter().filter(|x| x.level == 0).count() as u64;
+    left_out.push(LeftOut {
+        what: format!("warp maps of {level0} level-0 cells"),
+        reason: format!("the fallback `{}` is as good on held-out queries (within the selection margin)", c.fallback.name()),
+        bytes_saved: level0 * n2 * 4,
+    });
+    let correctives = if stored_cells.is_empty() {
+        let _ = std::fs::remove_file(dir.join(CORRECTIVES_FILE));
+        left_out.push(LeftOut {
+            what: CORRECTIVES_FILE.into(),
+            reason: "no cell stores a warp map".into(),
+            bytes_saved: 0,
+        });
+        None
+    } else {
+        let columns = atlas_columns(stored_cells.len());
+        // the maps are already in slot order: slot k = tile k
+        let slots: Vec<u32> = (0..stored_cells.len() as u32).collect();
+        let (w, h, atlas) = pack(&c.maps, &slots, c.map_res, columns);
+        let layers = [ExrLayer { name: "warp_maps".into(), width: w, height: h, channels: vec![("W".into(), atlas)] }];
+        payloads.push(payload(dir, CORRECTIVES_FILE, &layers, g.precision)?);
+        Some(CorrectiveSection {
+            map_res: c.map_res,
+            stored_cells,
+            atlas_columns: columns,
+            encoding: "per stored cell, an N×N octahedral map of inverse distance (1/scene units) from the cell centre to what each direction hits; 0 = sky".into(),
+        })
+    };
+
+    // irradiance and distance moments of cells not inside geometry
+    let grid = g.grid;
+    let active: Vec<u32> = (0..cells as u32).filter(|&k| !grid.inside[k as usize]).collect();
+    let inside = (cells - active.len()) as u64;
+    let (ir, dr) = (grid.irradiance_resolution, grid.depth_resolution);
+    let per_cell = (ir * ir) as u64 * 3 * g.precision.bytes() + (dr * dr) as u64 * 2 * 4;
+    left_out.push(LeftOut {
+        what: format!("irradiance and distance moments of {inside} cells inside geometry"),
+        reason: "their centre is inside geometry: nothing is ever shaded from there".into(),
+        bytes_saved: inside * per_cell,
+    });
+    left_out.push(LeftOut {
+        what: "hit-fraction channel of the distance moments".into(),
+        reason: "not read at runtime (misses are already in the moments as the far distance)".into(),
+        bytes_saved: active.len() as u64 * (dr * dr) as u64 * 4,
+    });
+    let columns = atlas_columns(active.len());
+    if !active.is_empty() {
+        let (w, h, e) = pack(&grid.irradiance, &active, ir, columns);
+        let (dw, dh, mean) = pack(&grid.depth_mean, &active, dr, columns);
+        let (_, _, mean_sq) = pack(&grid.depth_mean_sq, &active, dr, columns);
+        let layers = [
+            ExrLayer { name: "irradiance".into(), width: w, height: h, channels: rgb_channels(&e) },
+            ExrLayer {
+                name: "depth_moments".into(),
+                width: dw,
+                height: dh,
+                channels: vec![("mean".into(), mean), ("mean_sq".into(), mean_sq)],
+            },
+        ];
+        payloads.push(payload(dir, IRRADIANCE_FILE, &layers, g.precision)?);
+    }
+
+    if g.roughness.is_none() {
+        left_out.push(LeftOut {
+            what: "roughness correction table".into(),
+            reason: if g.probe.radiance.levels.len() < 2 {
+                "the probe has no rough mips".into()
+            } else {
+                "disabled for this fit".into()
+            },
+            bytes_saved: 0,
+        });
+    }
+
+    let aabb = &g.proxies.aabb;
+    let s = summary(fit);
+    let manifest = GridManifest {
+        format: GRID_FORMAT.into(),
+        version: GRID_VERSION,
+        octahedral_convention: octa::CONVENTION.into(),
+        units: "scene units (positions, distances); radiance in the scene's linear RGB units".into(),
+        up_axis: "+Y".into(),
+        scene: g.scene.into(),
+        grid: GridSection { min: geo.min.to_array(), max: geo.max.to_array(), counts: geo.counts.to_array() },
+        probe: ProbeSection {
+            position: g.probe.position.to_array(),
+            resolution: g.probe.resolution(),
+            radiance_mips,
+            distance_mips,
+        },
+        warp: WarpSection {
+            fallback: c.fallback.name().into(),
+            options: fit.settings.options,
+            blend: g.blend,
+            box_proxy: BoxSection {
+                centre: aabb.centre.to_array(),
+                rotation: aabb.rotation.to_array(),
+                half_extents: aabb.half_extents.to_array(),
+            },
+            kdop: g
+                .proxies
+                .kdop
+                .normals
+                .iter()
+                .zip(&g.proxies.kdop.offsets)
+                .map(|(n, h)| KdopPlane { normal: n.to_array(), offset: h.is_finite().then_some(*h) })
+                .collect(),
+        },
+        correctives,
+        irradiance: IrradianceSection {
+            resolution: ir,
+            depth_resolution: dr,
+            stored_cells: active,
+            atlas_columns: columns,
+            encoding: "per stored cell: irradiance (R, G, B) on an octahedral map of normals; distance moments (mean, mean_sq; misses count as the bake's far distance) on an octahedral map of directions".into(),
+        },
+        roughness: g.roughness.cloned(),
+        payloads,
+        left_out,
+        fit_settings: serde_json::to_value(&fit.settings).unwrap_or_default(),
+        residuals: serde_json::to_value(&s).unwrap_or_default(),
+    };
+    let path = dir.join(MANIFEST_FILE);
+    let json = serde_json::to_vec_pretty(&manifest)
+        .map_err(|e| FormatError::Json { path: path.clone(), message: e.to_string() })?;
+    write_atomic(&path, &json).map_err(|source| FormatError::Io { path, source })?;
+    Ok(manifest)
+}

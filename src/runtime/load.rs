@@ -1,0 +1,369 @@
+//! Loading a fitted grid folder: read and check the manifest, verify each payload's size
+//! and checksum before decoding it, then validate every layer's presence, size and values.
+//! Every failure is a `LoadError` naming the file and the field.
+
+use super::manifest::*;
+use super::{FittedGrid, IrradianceGrid, RoughnessLut};
+use crate::grid::GridGeometry;
+use crate::octa::{self, OctMap, OctMips};
+use crate::warp::corrective::Correctives;
+use crate::warp::proxy::{BoxProxy, Kdop};
+use crate::warp::{Method, Proxies, WarpProbe};
+use glam::{Quat, UVec3, Vec3};
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// Why a fitted grid could not be loaded.
+#[derive(Debug)]
+pub enum LoadError {
+    Io { path: PathBuf, message: String },
+    Json { path: PathBuf, message: String },
+    Version { path: PathBuf, found: String, version: u64 },
+    Checksum { path: PathBuf, expected: String, found: String },
+    Exr { path: PathBuf, message: String },
+    Invalid { path: PathBuf, field: String, message: String },
+}
+
+impl fmt::Display for LoadError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            LoadError::Io { path, message } => write!(f, "{}: {message}", path.display()),
+            LoadError::Json { path, message } => write!(f, "{}: invalid manifest JSON: {message}", path.display()),
+            LoadError::Version { path, found, version } => write!(
+                f,
+                "{}: format {found:?} version {version} is not supported (this reader reads {GRID_FORMAT:?} version {GRID_VERSION})",
+                path.display()
+            ),
+            LoadError::Checksum { path, expected, found } => write!(
+                f,
+                "{}: checksum {found} does not match the manifest's {expected} (truncated or modified file)",
+                path.display()
+            ),
+            LoadError::Exr { path, message } => write!(f, "{}: not a readable EXR: {message}", path.display()),
+            LoadError::Invalid { path, field, message } => write!(f, "{}: {field}: {message}", path.display()),
+        }
+    }
+}
+
+impl std::error::Error for LoadError {}
+
+fn invalid(path: &Path, field: impl Into<String>, message: impl Into<String>) -> LoadError {
+    LoadError::Invalid { path: path.to_path_buf(), field: field.into(), message: message.into() }
+}
+
+/// Reads and checks `manifest.json` (format, version, structure).
+pub fn read_manifest(dir: &Path) -> Result<GridManifest, LoadError> {
+    let path = dir.join(MANIFEST_FILE);
+    let bytes = std::fs::read(&path).map_err(|e| LoadError::Io { path: path.clone(), message: e.to_string() })?;
+    let value: serde_json::Value =
+        serde_json::from_slice(&bytes).map_err(|e| LoadError::Json { path: path.clone(), message: e.to_string() })?;
+    let found = value.get("format").and_then(|v| v.as_str()).unwrap_or("").to_string();
+    let version = value.get("version").and_then(|v| v.as_u64()).unwrap_or(0);
+    if found != GRID_FORMAT || version != GRID_VERSION as u64 {
+        return Err(LoadError::Version { path, found, version });
+    }
+    serde_json::from_value(value).map_err(|e| LoadError::Json { path, message: e.to_string() })
+}
+
+/// One decoded EXR layer: f32 channels, row-major.
+struct Layer {
+    name: String,
+    width: usize,
+    height: usize,
+    channels: Vec<(String, Vec<f32>)>,
+}
+
+/// Reads a payload, checking its size and checksum against the manifest before decoding.
+fn read_payload(dir: &Path, m: &GridManifest, file: &str) -> Result<Vec<Layer>, LoadError> {
+    let mpath = dir.join(MANIFEST_FILE);
+    let entry =
+        m.payloads.iter().find(|p| p.file == file).ok_or_else(|| invalid(&mpath, "payloads", format!("no entry for {file}")))?;
+    if file.contains(['/', '\\']) || file.starts_with('.') {
+        return Err(invalid(&mpath, "payloads.file", format!("{file:?} is not a file name in the folder")));
+    }
+    let path = dir.join(file);
+    let bytes = std::fs::read(&path).map_err(|e| LoadError::Io { path: path.clone(), message: e.to_string() })?;
+    if bytes.len() as u64 != entry.bytes {
+        return Err(invalid(&path, "size", format!("{} bytes, the manifest says {}", bytes.len(), entry.bytes)));
+    }
+    let found = checksum(&bytes);
+    if found != entry.checksum {
+        return Err(LoadError::Checksum { path, expected: entry.checksum.clone(), found });
+    }
+    let layers = decode_exr(&path, &bytes)?;
+    // every layer the manifest lists must be there with its size and channels
+    for l in &entry.layers {
+        let got = layers
+            .iter()
+            .find(|x| x.name == l.name)
+            .ok_or_else(|| invalid(&path, &l.name, "layer listed in the manifest is missing"))?;
+        if (got.width, got.height) != (l.width as usize, l.height as usize) {
+            return Err(invalid(
+                &path,
+                &l.name,
+                format!("size {}x{}, the manifest says {}x{}", got.width, got.height, l.width, l.height),
+            ));
+        }
+        for c in &l.channels {
+            if !got.channels.iter().any(|(n, _)| n == c) {
+                return Err(invalid(&path, format!("{}.{c}", l.name), "channel missing"));
+            }
+        }
+    }
+    Ok(layers)
+}
+
+fn decode_exr(path: &Path, bytes: &[u8]) -> Result<Vec<Layer>, LoadError> {
+    use exr::prelude::{ReadChannels, ReadLayers, read};
+    let exr_err = |e: exr::error::Error| LoadError::Exr { path: path.to_path_buf(), message: e.to_string() };
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .non_parallel()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(exr_err)?;
+    let mut out = Vec::new();
+    for layer in image.layer_data {
+        let name = layer.attributes.layer_name.as_ref().map(|n| n.to_string()).unwrap_or_default();
+        let (width, height) = (layer.size.0, layer.size.1);
+        let mut channels = Vec::new();
+        for ch in layer.channel_data.list {
+            let v: Vec<f32> = ch.sample_data.values_as_f32().collect();
+            if v.len() != width * height {
+                return Err(invalid(path, format!("{name}.{}", ch.name), "wrong sample count"));
+            }
+            channels.push((ch.name.to_string(), v));
+        }
+        out.push(Layer { name, width, height, channels });
+    }
+    Ok(out)
+}
+
+fn layer<'a>(layers: &'a [Layer], path: &Path, name: &str, size: (usize, usize)) -> Result<&'a Layer, LoadError> {
+    let l = layers.iter().find(|l| l.name == name).ok_or_else(|| invalid(path, name, "layer missing"))?;
+    if (l.width, l.height) != size {
+        return Err(invalid(path, name, format!("size {}x{}, expected {}x{}", l.width, l.height, size.0, size.1)));
+    }
+    Ok(l)
+}
+
+fn channel<'a>(l: &'a Layer, path: &Path, name: &str) -> Result<&'a [f32], LoadError> {
+    l.channels
+        .iter()
+        .find(|(n, _)| n == name)
+        .map(|(_, v)| v.as_slice())
+        .ok_or_else(|| invalid(path, format!("{}.{name}", l.name), "channel missing"))
+}
+
+/// Checks every value with `ok`; names the first offender.
+fn check(path: &Path, field: &str, values: &[f32], what: &str, ok: impl Fn(f32) -> bool) -> Result<(), LoadError> {
+    match values.iter().position(|&v| !ok(v)) {
+        Some(k) => Err(invalid(path, field, format!("sample {k} is {}: expected {what}", values[k]))),
+        None => Ok(()),
+    }
+}
+
+fn rgb(l: &Layer, path: &Path) -> Result<Vec<Vec3>, LoadError> {
+    let (r, g, b) = (channel(l, path, "R")?, channel(l, path, "G")?, channel(l, path, "B")?);
+    for (c, v) in [("R", r), ("G", g), ("B", b)] {
+        check(path, &format!("{}.{c}", l.name), v, "finite and ≥ 0", |x| x.is_finite() && x >= 0.0)?;
+    }
+    Ok((0..r.len()).map(|k| Vec3::new(r[k], g[k], b[k])).collect())
+}
+
+fn finite3(v: [f32; 3], path: &Path, field: &str) -> Result<Vec3, LoadError> {
+    let v = Vec3::from_array(v);
+    if v.is_finite() { Ok(v) } else { Err(invalid(path, field, "not finite")) }
+}
+
+/// Gathers tile `k` (res × res) of an atlas channel.
+fn tile(atlas: &[f32], k: usize, res: u32, columns: u32) -> impl Iterator<Item = f32> + '_ {
+    (0..(res * res) as usize).map(move |t| atlas[atlas_index(k, t, res, columns)])
+}
+
+/// Sparse cell list → per-cell slot (`u32::MAX` = not stored), validated.
+fn slots(cells: &[u32], count: usize, path: &Path, field: &str) -> Result<Vec<u32>, LoadError> {
+    let mut slot = vec![u32::MAX; count];
+    for (k, &c) in cells.iter().enumerate() {
+        let s = slot.get_mut(c as usize).ok_or_else(|| invalid(path, field, format!("cell {c} out of range")))?;
+        if *s != u32::MAX {
+            return Err(invalid(path, field, format!("cell {c} listed twice")));
+        }
+        *s = k as u32;
+    }
+    Ok(slot)
+}
+
+pub(super) fn load(dir: &Path) -> Result<FittedGrid, LoadError> {
+    let m = read_manifest(dir)?;
+    let mpath = dir.join(MANIFEST_FILE);
+    let mp = mpath.as_path();
+    if m.octahedral_convention != octa::CONVENTION {
+        return Err(invalid(mp, "octahedral_convention", "differs from this reader's octahedral mapping"));
+    }
+
+    // grid
+    let geometry = GridGeometry {
+        min: finite3(m.grid.min, mp, "grid.min")?,
+        max: finite3(m.grid.max, mp, "grid.max")?,
+        counts: UVec3::from_array(m.grid.counts),
+    };
+    if !(geometry.max.cmpgt(geometry.min).all()) {
+        return Err(invalid(mp, "grid", "max must exceed min on every axis"));
+    }
+    let cells = m.grid.counts.iter().try_fold(1u64, |a, &c| (c > 0).then(|| a * c as u64));
+    let cells = match cells {
+        Some(n) if n <= 1 << 24 => n as usize,
+        _ => return Err(invalid(mp, "grid.counts", "each count must be ≥ 1 and the grid ≤ 2^24 cells")),
+    };
+
+    // probe
+    let p = &m.probe;
+    let res_ok = |r: u32| (2..=8192).contains(&r) && r % 2 == 0;
+    if !res_ok(p.resolution) {
+        return Err(invalid(mp, "probe.resolution", format!("{} is not an even size in 2..=8192", p.resolution)));
+    }
+    if p.radiance_mips.is_empty() || p.distance_mips.is_empty() {
+        return Err(invalid(mp, "probe", "needs at least one radiance and one distance mip"));
+    }
+    let ppath = dir.join(PROBE_FILE);
+    let layers = read_payload(dir, &m, PROBE_FILE)?;
+    let mut radiance = Vec::new();
+    let mut roughness = Vec::new();
+    for (k, mip) in p.radiance_mips.iter().enumerate() {
+        if mip.resolution != p.resolution >> k || mip.resolution == 0 {
+            return Err(invalid(mp, format!("probe.radiance_mips[{k}].resolution"), "must halve at every mip"));
+        }
+        if !(0.0..=1.0).contains(&mip.perceptual_roughness) {
+            return Err(invalid(mp, format!("probe.radiance_mips[{k}].perceptual_roughness"), "must lie in [0, 1]"));
+        }
+        let n = mip.resolution as usize;
+        let l = layer(&layers, &ppath, &mip.layer, (n, n))?;
+        radiance.push(OctMap::new(mip.resolution, rgb(l, &ppath)?));
+        roughness.push(mip.perceptual_roughness);
+    }
+    let mut distance = Vec::new();
+    for (k, name) in p.distance_mips.iter().enumerate() {
+        let n = (p.resolution >> k) as usize;
+        if n == 0 {
+            return Err(invalid(mp, "probe.distance_mips", "more mips than the resolution allows"));
+        }
+        let z = channel(layer(&layers, &ppath, name, (n, n))?, &ppath, "Z")?;
+        check(&ppath, &format!("{name}.Z"), z, "a distance ≥ 0 or +inf", |d| d >= 0.0)?;
+        distance.push(OctMap::new(n as u32, z.to_vec()));
+    }
+    let position = finite3(p.position, mp, "probe.position")?;
+    let probe = WarpProbe::from_distance_mips(position, &OctMips { levels: distance }, OctMips { levels: radiance });
+
+    // warp
+    let w = &m.warp;
+    let fallback = match Method::parse(&w.fallback) {
+        Some(f) if Method::PER_LOOKUP.contains(&f) => f,
+        _ => return Err(invalid(mp, "warp.fallback", format!("{:?} is not a per-lookup method", w.fallback))),
+    };
+    let o = &w.options;
+    if !(o.depth_lod.is_finite() && o.depth_lod >= 0.0 && o.relax_texels.is_finite() && o.relax_texels >= 0.0)
+        || o.secant_steps > 64
+        || o.march_steps > 4096
+    {
+        return Err(invalid(mp, "warp.options", "depth_lod and relax_texels must be finite and ≥ 0, steps bounded"));
+    }
+    let b = &w.box_proxy;
+    let rotation = Quat::from_array(b.rotation);
+    if !rotation.is_finite() || rotation.length() < 1e-3 {
+        return Err(invalid(mp, "warp.box_proxy.rotation", "not a finite non-zero quaternion"));
+    }
+    let aabb = BoxProxy::oriented(
+        finite3(b.centre, mp, "warp.box_proxy.centre")?,
+        rotation,
+        finite3(b.half_extents, mp, "warp.box_proxy.half_extents")?,
+    );
+    let mut kdop = Kdop { normals: Vec::new(), offsets: Vec::new() };
+    for (k, plane) in w.kdop.iter().enumerate() {
+        let n = finite3(plane.normal, mp, &format!("warp.kdop[{k}].normal"))?;
+        let h = match plane.offset {
+            Some(h) if h.is_finite() => h,
+            Some(_) => return Err(invalid(mp, format!("warp.kdop[{k}].offset"), "not finite")),
+            None => f32::INFINITY,
+        };
+        kdop.normals.push(n);
+        kdop.offsets.push(h);
+    }
+    let proxies = Proxies { aabb, kdop };
+
+    // correctives
+    let (map_res, slot, maps) = match &m.correctives {
+        None => (8, vec![u32::MAX; cells], Vec::new()),
+        Some(c) => {
+            if !(2..=64).contains(&c.map_res) {
+                return Err(invalid(mp, "correctives.map_res", "must lie in 2..=64"));
+            }
+            let slot = slots(&c.stored_cells, cells, mp, "correctives.stored_cells")?;
+            let cpath = dir.join(CORRECTIVES_FILE);
+            let layers = read_payload(dir, &m, CORRECTIVES_FILE)?;
+            let size = atlas_size(c.stored_cells.len(), c.map_res, c.atlas_columns);
+            let atlas = channel(layer(&layers, &cpath, "warp_maps", size)?, &cpath, "W")?;
+            check(&cpath, "warp_maps.W", atlas, "a finite inverse distance ≥ 0", |x| x.is_finite() && x >= 0.0)?;
+            let maps: Vec<f32> =
+                (0..c.stored_cells.len()).flat_map(|k| tile(atlas, k, c.map_res, c.atlas_columns)).collect();
+            (c.map_res, slot, maps)
+        }
+    };
+    let correctives = Correctives { geometry, map_res, slot, maps, fallback };
+
+    // irradiance
+    let ir = &m.irradiance;
+    if !res_ok(ir.resolution) || !res_ok(ir.depth_resolution) {
+        return Err(invalid(mp, "irradiance", "resolutions must be even sizes in 2..=8192"));
+    }
+    let islot = slots(&ir.stored_cells, cells, mp, "irradiance.stored_cells")?;
+    let (irradiance, depth_mean, depth_mean_sq) = if ir.stored_cells.is_empty() {
+        (Vec::new(), Vec::new(), Vec::new())
+    } else {
+        let ipath = dir.join(IRRADIANCE_FILE);
+        let layers = read_payload(dir, &m, IRRADIANCE_FILE)?;
+        let n = ir.stored_cells.len();
+        let e = rgb(layer(&layers, &ipath, "irradiance", atlas_size(n, ir.resolution, ir.atlas_columns))?, &ipath)?;
+        let dm = layer(&layers, &ipath, "depth_moments", atlas_size(n, ir.depth_resolution, ir.atlas_columns))?;
+        let (mean, mean_sq) = (channel(dm, &ipath, "mean")?, channel(dm, &ipath, "mean_sq")?);
+        check(&ipath, "depth_moments.mean", mean, "finite and ≥ 0", |x| x.is_finite() && x >= 0.0)?;
+        check(&ipath, "depth_moments.mean_sq", mean_sq, "finite and ≥ 0", |x| x.is_finite() && x >= 0.0)?;
+        let (r, dr, cols) = (ir.resolution, ir.depth_resolution, ir.atlas_columns);
+        let e = &e;
+        let irr: Vec<Vec3> =
+            (0..n).flat_map(|k| (0..(r * r) as usize).map(move |t| e[atlas_index(k, t, r, cols)])).collect();
+        (
+            irr,
+            (0..n).flat_map(|k| tile(mean, k, dr, cols)).collect(),
+            (0..n).flat_map(|k| tile(mean_sq, k, dr, cols)).collect(),
+        )
+    };
+    let irradiance = IrradianceGrid {
+        geometry,
+        resolution: ir.resolution,
+        depth_resolution: ir.depth_resolution,
+        slot: islot,
+        irradiance,
+        depth_mean,
+        depth_mean_sq,
+    };
+
+    let roughness_lut = match &m.roughness {
+        None => None,
+        Some(r) => Some(RoughnessLut::new(r).ok_or_else(|| invalid(mp, "roughness", "malformed table"))?),
+    };
+    Ok(FittedGrid {
+        probe,
+        mip_roughness: roughness,
+        proxies,
+        options: *o,
+        blend: w.blend,
+        correctives,
+        irradiance,
+        roughness: roughness_lut,
+        manifest: m,
+    })
+}

@@ -1,0 +1,319 @@
+//! `manifest.json` of a fitted grid: what the folder holds, how to read it, and what the fit
+//! measured. Plain serde types; the writer (`format::grid_io`, feature `bake`) and the loader
+//! share them.
+
+use crate::roughness::RoughnessCorrection;
+use crate::warp::WarpOptions;
+use crate::warp::corrective::Blend;
+use serde::{Deserialize, Serialize};
+
+pub const GRID_FORMAT: &str = "warpfit-grid";
+/// Bumped on any change a version-1 reader cannot read correctly.
+pub const GRID_VERSION: u32 = 1;
+pub const MANIFEST_FILE: &str = "manifest.json";
+pub const PROBE_FILE: &str = "probe.exr";
+pub const CORRECTIVES_FILE: &str = "correctives.exr";
+pub const IRRADIANCE_FILE: &str = "irradiance.exr";
+
+/// Storage precision of a radiance layer. Distances and warp maps are always f32: f16's
+/// range (6.5e4) and precision cannot hold the distances of a level scaled by 1e4.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Precision {
+    F32,
+    F16,
+}
+
+impl Precision {
+    pub fn bytes(self) -> u64 {
+        match self {
+            Precision::F32 => 4,
+            Precision::F16 => 2,
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridManifest {
+    pub format: String,
+    pub version: u32,
+    /// The octahedral mapping every map in the folder uses (`octa::CONVENTION`).
+    pub octahedral_convention: String,
+    pub units: String,
+    pub up_axis: String,
+    pub scene: String,
+    pub grid: GridSection,
+    pub probe: ProbeSection,
+    pub warp: WarpSection,
+    /// Absent when no cell stores a warp map.
+    pub correctives: Option<CorrectiveSection>,
+    pub irradiance: IrradianceSection,
+    /// GGX distance-ratio roughness correction; absent when the probe has no rough mips or
+    /// the fit was asked for none.
+    pub roughness: Option<RoughnessCorrection>,
+    pub payloads: Vec<Payload>,
+    /// What the fit did not store, why, and the bytes that saved.
+    pub left_out: Vec<LeftOut>,
+    /// The fit settings and the per-level residual summary, as the fitter wrote them.
+    pub fit_settings: serde_json::Value,
+    pub residuals: serde_json::Value,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridSection {
+    pub min: [f32; 3],
+    pub max: [f32; 3],
+    pub counts: [u32; 3],
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProbeSection {
+    pub position: [f32; 3],
+    pub resolution: u32,
+    /// `probe.exr` layers of the GGX chain (R, G, B), level 0 = mirror.
+    pub radiance_mips: Vec<RadianceMip>,
+    /// `probe.exr` layers of the distance chain (Z; +inf = sky), level 0 = texel centres.
+    pub distance_mips: Vec<String>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RadianceMip {
+    pub layer: String,
+    pub resolution: u32,
+    pub perceptual_roughness: f32,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WarpSection {
+    /// Method of cells without a warp map (`warp1`, `box` or `kdop`).
+    pub fallback: String,
+    pub options: WarpOptions,
+    pub blend: Blend,
+    pub box_proxy: BoxSection,
+    /// 18-DOP planes `normal · x ≤ offset`; `null` offset = open side.
+    pub kdop: Vec<KdopPlane>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxSection {
+    pub centre: [f32; 3],
+    /// Local → world rotation quaternion (x, y, z, w).
+    pub rotation: [f32; 4],
+    pub half_extents: [f32; 3],
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KdopPlane {
+    pub normal: [f32; 3],
+    pub offset: Option<f32>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CorrectiveSection {
+    /// N of each N×N warp map.
+    pub map_res: u32,
+    /// Grid cell index of each stored map, in atlas tile order.
+    pub stored_cells: Vec<u32>,
+    /// `correctives.exr` layer `warp_maps`, channel `W`: tiles in rows of `atlas_columns`.
+    pub atlas_columns: u32,
+    pub encoding: String,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IrradianceSection {
+    pub resolution: u32,
+    pub depth_resolution: u32,
+    /// Grid cell index of each stored cell (cells inside geometry are left out).
+    pub stored_cells: Vec<u32>,
+    pub atlas_columns: u32,
+    /// `irradiance.exr` layers `irradiance` (R, G, B) and `depth_moments` (mean, mean_sq).
+    pub encoding: String,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Payload {
+    pub file: String,
+    pub bytes: u64,
+    /// `fnv1a64:` + 16 hex digits of the file's bytes.
+    pub checksum: String,
+    pub layers: Vec<LayerEntry>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LayerEntry {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    pub channels: Vec<String>,
+    pub precision: Precision,
+}
+
+impl LayerEntry {
+    /// Uncompressed bytes of the layer's samples.
+    pub fn raw_bytes(&self) -> u64 {
+        self.width as u64 * self.height as u64 * self.channels.len() as u64 * self.precision.bytes()
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LeftOut {
+    pub what: String,
+    pub reason: String,
+    pub bytes_saved: u64,
+}
+
+/// FNV-1a (64 bit) of `bytes`, as written in `Payload::checksum`. Detects truncation and
+/// corruption; it is not a cryptographic hash.
+pub fn checksum(bytes: &[u8]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("fnv1a64:{h:016x}")
+}
+
+/// Tiles of `res × res` in rows of `columns`: the atlas size for `count` tiles.
+pub fn atlas_size(count: usize, res: u32, columns: u32) -> (usize, usize) {
+    let cols = columns.max(1) as usize;
+    let rows = count.div_ceil(cols).max(1);
+    (cols * res as usize, rows * res as usize)
+}
+
+/// Columns of a near-square atlas of `count` tiles.
+pub fn atlas_columns(count: usize) -> u32 {
+    ((count as f64).sqrt().ceil() as u32).max(1)
+}
+
+/// Linear index in the atlas of texel `t` (row-major in its tile) of tile `k`.
+#[inline]
+pub fn atlas_index(k: usize, t: usize, res: u32, columns: u32) -> usize {
+    let (r, cols) = (res as usize, columns.max(1) as usize);
+    let (tx, ty) = (k % cols, k / cols);
+    let (i, j) = (t % r, t / r);
+    (ty * r + j) * (cols * r) + tx * r + i
+}
+
+impl GridManifest {
+    /// Human-readable summary: what the grid holds, the bytes of each layer, the fit's
+    /// residuals and what was left out (`warpfit inspect`).
+    pub fn describe(&self) -> String {
+        use std::fmt::Write as _;
+        let mut s = String::new();
+        let c = self.grid.counts;
+        let cells = c[0] as u64 * c[1] as u64 * c[2] as u64;
+        let _ = writeln!(s, "{} fitted grid of scene {:?} ({} v{})", GRID_FORMAT, self.scene, self.format, self.version);
+        let _ = writeln!(
+            s,
+            "grid: {}×{}×{} cells over {:?}..{:?} ({}, up {})",
+            c[0], c[1], c[2], self.grid.min, self.grid.max, self.units, self.up_axis
+        );
+        let _ = writeln!(
+            s,
+            "probe: at {:?}, {}² radiance, {} GGX mips (roughness {}), {} distance mips",
+            self.probe.position,
+            self.probe.resolution,
+            self.probe.radiance_mips.len(),
+            self.probe.radiance_mips.iter().map(|m| format!("{:.2}", m.perceptual_roughness)).collect::<Vec<_>>().join("/"),
+            self.probe.distance_mips.len()
+        );
+        let stored = self.correctives.as_ref().map_or(0, |c| c.stored_cells.len());
+        let map_res = self.correctives.as_ref().map_or(0, |c| c.map_res);
+        let _ = writeln!(
+            s,
+            "correctives: {stored} of {cells} cells store a {map_res}×{map_res} warp map; the others use `{}` (depth mip {}, blend {:?})",
+            self.warp.fallback, self.warp.options.depth_lod, self.warp.blend
+        );
+        let _ = writeln!(s, "irradiance: {} cells stored", self.irradiance.stored_cells.len());
+        match &self.roughness {
+            Some(r) => {
+                let _ = writeln!(
+                    s,
+                    "roughness correction: {} ({}×{} table, held-out RMS in α' {:.4}; analytic c0 {:.4} c1 {:.4}, {:.4})",
+                    r.chosen,
+                    r.alphas.len(),
+                    r.ratios.len(),
+                    r.heldout_rms_table,
+                    r.c0,
+                    r.c1,
+                    r.heldout_rms_analytic
+                );
+            }
+            None => {
+                let _ = writeln!(s, "roughness correction: none");
+            }
+        }
+        let _ = writeln!(s, "\nlayers:\n  {:<18} {:<16} {:>10} {:>9} {:>12}", "file", "layer", "size", "precision", "raw bytes");
+        let mut total_file = 0;
+        for p in &self.payloads {
+            total_file += p.bytes;
+            for l in &p.layers {
+                let _ = writeln!(
+                    s,
+                    "  {:<18} {:<16} {:>10} {:>9} {:>12}",
+                    p.file,
+                    l.name,
+                    format!("{}×{}", l.width, l.height),
+                    format!("{:?}", l.precision).to_lowercase(),
+                    l.raw_bytes()
+                );
+            }
+            let _ = writeln!(s, "  {:<18} {:<16} {:>10} {:>9} {:>12} (on disk, ZIP)", p.file, "", "", "", p.bytes);
+        }
+        let _ = writeln!(s, "  total on disk: {total_file} bytes");
+        if let Some(c) = &self.correctives {
+            let _ = writeln!(
+                s,
+                "  bytes per stored cell: {} (warp map) + {} (irradiance and moments)",
+                c.map_res as u64 * c.map_res as u64 * 4,
+                {
+                    let ir = self.irradiance.resolution as u64;
+                    let dr = self.irradiance.depth_resolution as u64;
+                    let radiance = self
+                        .payloads
+                        .iter()
+                        .flat_map(|p| &p.layers)
+                        .find(|l| l.name == "irradiance")
+                        .map_or(4, |l| l.precision.bytes());
+                    ir * ir * 3 * radiance + dr * dr * 2 * 4
+                }
+            );
+        }
+        let _ = writeln!(s, "\nleft out:");
+        let mut saved = 0;
+        for l in &self.left_out {
+            saved += l.bytes_saved;
+            let _ = writeln!(s, "  {} — {} (saves {} bytes)", l.what, l.reason, l.bytes_saved);
+        }
+        let _ = writeln!(s, "  total saved: {saved} bytes (uncompressed)");
+        if let Some(r) = self.residuals.as_object() {
+            let _ = writeln!(s, "\nfit residuals (mean held-out relative error per active cell):");
+            for key in [
+                "mean_check_err_warp1",
+                "mean_check_err_fallback",
+                "mean_check_err_celldepth",
+                "mean_check_err_stored",
+                "cells_level0",
+                "cells_level2",
+                "fit_seconds",
+            ] {
+                if let Some(v) = r.get(key) {
+                    let _ = writeln!(s, "  {key}: {v}");
+                }
+            }
+        }
+        s
+    }
+}
