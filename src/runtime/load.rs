@@ -73,13 +73,14 @@ struct Layer {
     channels: Vec<(String, Vec<f32>)>,
 }
 
-/// Reads a payload, checking its size and checksum against the manifest before decoding.
+/// Reads a payload (one of the fixed file names), checking its size and checksum against the
+/// manifest before decoding.
 fn read_payload(dir: &Path, m: &GridManifest, file: &str) -> Result<Vec<Layer>, LoadError> {
     let mpath = dir.join(MANIFEST_FILE);
     let entry =
         m.payloads.iter().find(|p| p.file == file).ok_or_else(|| invalid(&mpath, "payloads", format!("no entry for {file}")))?;
-    if file.contains(['/', '\\']) || file.starts_with('.') {
-        return Err(invalid(&mpath, "payloads.file", format!("{file:?} is not a file name in the folder")));
+    if let Some(l) = entry.layers.iter().find(|l| l.width as u64 * l.height as u64 > MAX_LAYER_PIXELS) {
+        return Err(invalid(&mpath, format!("payloads.{}", l.name), "layer too large"));
     }
     let path = dir.join(file);
     let bytes = std::fs::read(&path).map_err(|e| LoadError::Io { path: path.clone(), message: e.to_string() })?;
@@ -90,6 +91,9 @@ fn read_payload(dir: &Path, m: &GridManifest, file: &str) -> Result<Vec<Layer>, 
     if found != entry.checksum {
         return Err(LoadError::Checksum { path, expected: entry.checksum.clone(), found });
     }
+    // Check the headers against the manifest before decoding: a damaged header can claim
+    // a layer of any size, and decoding would try to allocate it.
+    check_headers(&path, &bytes, entry)?;
     let layers = decode_exr(&path, &bytes)?;
     // every layer the manifest lists must be there with its size and channels
     for l in &entry.layers {
@@ -111,6 +115,32 @@ fn read_payload(dir: &Path, m: &GridManifest, file: &str) -> Result<Vec<Layer>, 
         }
     }
     Ok(layers)
+}
+
+/// Largest layer a fitted grid may hold (pixels); far above any real grid.
+const MAX_LAYER_PIXELS: u64 = 1 << 28;
+
+fn check_headers(path: &Path, bytes: &[u8], entry: &Payload) -> Result<(), LoadError> {
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+        .map_err(|e| LoadError::Exr { path: path.to_path_buf(), message: e.to_string() })?;
+    for h in &meta.headers {
+        let name = h.own_attributes.layer_name.as_ref().map(|n| n.to_string()).unwrap_or_default();
+        let listed = entry.layers.iter().find(|l| l.name == name).ok_or_else(|| {
+            invalid(path, &name, "layer in the file is not listed in the manifest")
+        })?;
+        let (w, h_) = (h.layer_size.0 as u64, h.layer_size.1 as u64);
+        if (w, h_) != (listed.width as u64, listed.height as u64) || w * h_ > MAX_LAYER_PIXELS {
+            return Err(invalid(
+                path,
+                &name,
+                format!("header says {w}x{h_}, the manifest says {}x{}", listed.width, listed.height),
+            ));
+        }
+        if h.deep || h.channels.list.len() > 8 {
+            return Err(invalid(path, &name, "deep data or more than 8 channels: not a warpfit layer"));
+        }
+    }
+    Ok(())
 }
 
 fn decode_exr(path: &Path, bytes: &[u8]) -> Result<Vec<Layer>, LoadError> {

@@ -153,7 +153,8 @@ impl FittedGrid {
         if !(l2 > 0.0 && l2.is_finite()) {
             return Vec3::ZERO;
         }
-        let dir = if l2 == 1.0 { direction } else { direction / l2.sqrt() };
+        // unit to rounding: used as is (as the fit used it); otherwise normalised
+        let dir = if (l2 - 1.0).abs() <= 4.0 * f32::EPSILON { direction } else { direction / l2.sqrt() };
         let v = self.fetch_vector(position, dir);
         let r = if roughness.is_finite() { roughness.clamp(0.0, 1.0) } else { 0.0 };
         if r == 0.0 {

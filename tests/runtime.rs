@@ -1,0 +1,391 @@
+//! The fitted-grid file and the runtime sampler: equality with the fitter's own evaluation,
+//! the committed grid under fits/ keeps loading with the same answers, every malformed input
+//! is an error naming file and field (never a panic, including under byte-level fuzzing), and
+//! the sampler's documented edge cases.
+
+mod common;
+use common::*;
+use glam::Vec3;
+use proptest::prelude::*;
+use std::path::{Path, PathBuf};
+use warpfit::eval::{self, EvalSettings, MethodContext};
+use warpfit::fit::{Blend, FitSettings};
+use warpfit::format::grid_io;
+use warpfit::pipeline::{self, Baked, StoreOptions};
+use warpfit::progress::Progress;
+use warpfit::runtime::manifest::{self, GRID_VERSION, MANIFEST_FILE};
+use warpfit::runtime::{FittedGrid, LoadError, Precision};
+use warpfit::trace::Tracer;
+
+fn tiny() -> PathBuf {
+    repo().join("fits/tiny")
+}
+
+fn quick_settings() -> FitSettings {
+    FitSettings {
+        train_positions: 3,
+        train_dirs: 48,
+        check_positions: 2,
+        check_dirs: 32,
+        reference_spp: 1,
+        iterations: 1,
+        ..FitSettings::default()
+    }
+}
+
+/// Fixed queries spread over the tiny room (inside, on a wall, outside the grid).
+fn tiny_queries() -> Vec<(Vec3, Vec3, f32)> {
+    let mut q = Vec::new();
+    for k in 0..24u32 {
+        let mut s = warpfit::sampling::Sampler::new(11, 0, k);
+        let p = Vec3::new(s.next_1d() * 4.4 - 2.2, s.next_1d() * 2.6, s.next_1d() * 4.4 - 2.2);
+        let d = warpfit::sampling::uniform_sphere(s.next_2d());
+        q.push((p, d, [0.0, 0.15, 0.5, 1.0][k as usize % 4]));
+    }
+    q
+}
+
+#[test]
+fn the_committed_fit_keeps_loading_with_the_same_answers() {
+    // A format change that breaks this grid must bump GRID_VERSION knowingly and re-fit
+    // fits/tiny (`warpfit fit --scene data/scenes/tiny.toml --out fits/tiny --train-positions 8
+    // --train-dirs 64`, then WARPFIT_BLESS=1 cargo test --test runtime).
+    let g = FittedGrid::load(tiny()).expect("fits/tiny loads");
+    assert_eq!(g.manifest.version, GRID_VERSION);
+    let got: Vec<[f32; 6]> = tiny_queries()
+        .iter()
+        .map(|&(p, d, r)| {
+            let s = g.specular(p, d, r);
+            let e = g.irradiance(p, d);
+            [s.x, s.y, s.z, e.x, e.y, e.z]
+        })
+        .collect();
+    let expected_path = tiny().join("expected_samples.json");
+    if std::env::var("WARPFIT_BLESS").is_ok() {
+        std::fs::write(&expected_path, serde_json::to_vec_pretty(&got).unwrap()).unwrap();
+    }
+    let expected: Vec<[f32; 6]> = serde_json::from_slice(&std::fs::read(&expected_path).unwrap()).unwrap();
+    assert_eq!(got.len(), expected.len());
+    for (k, (a, b)) in got.iter().zip(&expected).enumerate() {
+        for c in 0..6 {
+            assert!((a[c] - b[c]).abs() <= 1e-6 * b[c].abs().max(1e-3), "query {k} component {c}: {} vs {}", a[c], b[c]);
+        }
+    }
+    assert!(got.iter().flatten().all(|x| x.is_finite() && *x >= 0.0));
+}
+
+/// Fits a small torture grid, writes it (f32 and f16) and loads both back.
+struct Fixture {
+    scene: warpfit::scene::Scene,
+    tracer: Tracer,
+    probe: warpfit::bake::SpecularProbe,
+    grid: warpfit::bake::ProbeGrid,
+    fit: warpfit::fit::Fit,
+    f32_dir: PathBuf,
+    f16_dir: PathBuf,
+}
+
+fn fixture() -> &'static Fixture {
+    static F: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
+    F.get_or_init(|| {
+        let mut scene = load("torture");
+        scene.config.probe.resolution = 64;
+        scene.config.probe.samples_per_texel = 2;
+        scene.config.grid.counts = [5, 2, 5];
+        let tracer = Tracer::new(&scene);
+        let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
+        let f32_dir = tmp_dir("runtime-f32");
+        let b = Baked { scene: &scene, tracer: &tracer, probe: &baked.probe, grid: &baked.grid };
+        let (fit, _) =
+            pipeline::fit(b, &quick_settings(), StoreOptions::default(), &f32_dir, "test", &Progress::quiet()).unwrap();
+        let f16_dir = tmp_dir("runtime-f16");
+        let ctx = MethodContext::new(&scene, &baked.probe);
+        let rough = warpfit::roughness::fit_correction();
+        grid_io::write_grid(
+            &f16_dir,
+            &grid_io::GridInputs {
+                scene: "torture",
+                probe: &baked.probe,
+                grid: &baked.grid,
+                proxies: &ctx.proxies,
+                fit: &fit,
+                blend: Blend::Cell,
+                roughness: Some(&rough),
+                precision: Precision::F16,
+            },
+        )
+        .unwrap();
+        Fixture { scene, tracer, probe: baked.probe, grid: baked.grid, fit, f32_dir, f16_dir }
+    })
+}
+
+#[test]
+fn runtime_equals_the_fitters_evaluation_on_the_validation_set() {
+    let f = fixture();
+    let g = FittedGrid::load(&f.f32_dir).unwrap();
+    let settings = EvalSettings { positions: 48, dirs_per_position: 32, reference_spp: 2, ..EvalSettings::default() };
+    let set = eval::validation_set(&f.scene, &f.tracer, &f.grid, f.probe.position, &settings);
+    let ctx = MethodContext::new(&f.scene, &f.probe);
+    assert!(f.fit.correctives.stored_cells() > 0, "the test needs stored maps");
+    let mut worst = 0.0f32;
+    for k in 0..set.dirs.len() {
+        let (b, d) = (set.position_of(k), set.dirs[k]);
+        let fitter = ctx.probe.radiance(f.fit.correctives.fetch_vector(
+            Blend::Cell,
+            &ctx.probe,
+            &ctx.proxies,
+            &f.fit.settings.options,
+            b,
+            d,
+        ));
+        let runtime = g.specular(b, d, 0.0);
+        let rel = (runtime - fitter).abs().max_element() / fitter.abs().max_element().max(1e-6);
+        worst = worst.max(rel);
+    }
+    assert!(worst <= 1e-5, "worst relative difference {worst}");
+
+    // f16 radiance: measured, small against the fit's own error
+    let h = FittedGrid::load(&f.f16_dir).unwrap();
+    let est32: Vec<Vec3> = (0..set.dirs.len()).map(|k| g.specular(set.position_of(k), set.dirs[k], 0.0)).collect();
+    let est16: Vec<Vec3> = (0..set.dirs.len()).map(|k| h.specular(set.position_of(k), set.dirs[k], 0.0)).collect();
+    let (e32, ..) = eval::error_stats(&est32, &set.reference);
+    let (e16, ..) = eval::error_stats(&est16, &set.reference);
+    assert!((e16 - e32).abs() < 1e-3 * e32, "f16 changes rel RMSE {e32} → {e16}");
+    let p32 = std::fs::metadata(f.f32_dir.join("probe.exr")).unwrap().len();
+    let p16 = std::fs::metadata(f.f16_dir.join("probe.exr")).unwrap().len();
+    assert!(p16 < p32, "f16 probe {p16} bytes vs f32 {p32}");
+}
+
+#[test]
+fn roughness_selects_blurrier_mips_and_the_correction_applies() {
+    let g = FittedGrid::load(tiny()).unwrap();
+    let a = g.probe.position;
+    // at the probe (k = 1 everywhere) roughness r reads mip r·(mips−1) exactly
+    let d = Vec3::new(0.3, 0.2, -0.9).normalize();
+    let last = (g.probe.radiance.levels.len() - 1) as f32;
+    let (got, want) = (g.specular(a, d, 1.0), g.probe.radiance.sample_lod(d, last));
+    assert!((got - want).abs().max_element() <= 1e-4 * want.max_element(), "{got} vs {want}");
+    assert_eq!(g.specular(a, d, 0.0), g.probe.radiance(d));
+    // the correction: a shading point nearer the hit than the probe (k > 1) reads a sharper mip
+    let lut = g.roughness.as_ref().expect("tiny stores the correction");
+    assert!(lut.corrected_alpha(0.25, 4.0) < 0.25);
+    assert!(lut.corrected_alpha(0.25, 0.25) > 0.25);
+    assert!((lut.corrected_alpha(0.25, 1.0) - 0.25).abs() < 0.02);
+}
+
+#[test]
+fn documented_edge_cases_stay_finite() {
+    fn assert_send_sync<T: Send + Sync>() {}
+    assert_send_sync::<FittedGrid>();
+    let g = FittedGrid::load(tiny()).unwrap();
+    let a = g.probe.position;
+    // zero / non-finite direction: black
+    assert_eq!(g.specular(a, Vec3::ZERO, 0.0), Vec3::ZERO);
+    assert_eq!(g.specular(a, Vec3::NAN, 0.0), Vec3::ZERO);
+    assert_eq!(g.irradiance(a, Vec3::ZERO), Vec3::ZERO);
+    // non-finite position: the probe's own view
+    let d = Vec3::new(0.1, -0.3, 0.8).normalize();
+    assert_eq!(g.specular(Vec3::NAN, d, 0.0), g.specular(a, d, 0.0));
+    // the direction need not be unit length
+    assert_eq!(g.specular(a, d * 7.0, 0.0), g.specular(a, d, 0.0));
+    // far outside the grid, huge and tiny values, NaN roughness
+    for p in [Vec3::splat(1e6), Vec3::splat(-1e30), Vec3::new(0.0, 1e-30, 0.0), Vec3::new(2.0, 1.2, 0.0)] {
+        for r in [0.0, 0.5, 1.0, f32::NAN, -3.0, 9.0] {
+            for d in [Vec3::X, -Vec3::Z, Vec3::new(1.0, 1.0, 0.0), Vec3::new(1e-30, 1.0, 0.0)] {
+                let s = g.specular(p, d, r);
+                assert!(s.is_finite() && s.cmpge(Vec3::ZERO).all(), "{p} {d} {r}: {s}");
+                let e = g.irradiance(p, d);
+                assert!(e.is_finite() && e.cmpge(Vec3::ZERO).all(), "{p} {d}: {e}");
+            }
+        }
+    }
+    // batch versions agree with single calls and reject mismatched slices
+    let q = tiny_queries();
+    let (p, d, r): (Vec<Vec3>, Vec<Vec3>, Vec<f32>) =
+        (q.iter().map(|x| x.0).collect(), q.iter().map(|x| x.1).collect(), q.iter().map(|x| x.2).collect());
+    let mut out = vec![Vec3::ZERO; q.len()];
+    g.specular_batch(&p, &d, &r, &mut out).unwrap();
+    for k in 0..q.len() {
+        assert_eq!(out[k], g.specular(p[k], d[k], r[k]));
+    }
+    g.irradiance_batch(&p, &d, &mut out).unwrap();
+    assert_eq!(out[3], g.irradiance(p[3], d[3]));
+    assert!(g.specular_batch(&p[1..], &d, &r, &mut out).is_err());
+}
+
+#[test]
+fn irradiance_at_a_cell_centre_is_that_cells_bake() {
+    let g = FittedGrid::load(tiny()).unwrap();
+    let ig = &g.irradiance;
+    let res = ig.resolution;
+    for cell in 0..ig.geometry.cell_count() {
+        let Some(slot) = (ig.slot[cell] != u32::MAX).then_some(ig.slot[cell] as usize) else { continue };
+        let c = ig.geometry.cell_centre(cell);
+        for t in [0u32, 5, 9] {
+            let n = warpfit::octa::texel_dir(res, t % res, t / res);
+            let want = ig.irradiance[slot * (res * res) as usize + t as usize];
+            let got = g.irradiance(c, n);
+            assert!((got - want).abs().max_element() <= 1e-5 * want.max_element().max(1e-3), "cell {cell}: {got} vs {want}");
+        }
+    }
+}
+
+// ---- malformed input ---------------------------------------------------------------------
+
+/// Copies fits/tiny's grid files to a fresh folder.
+fn copy_tiny(tag: &str) -> PathBuf {
+    let dir = tmp_dir(tag);
+    for f in ["manifest.json", "probe.exr", "correctives.exr", "irradiance.exr"] {
+        std::fs::copy(tiny().join(f), dir.join(f)).unwrap();
+    }
+    dir
+}
+
+fn edit_manifest(dir: &Path, edit: impl FnOnce(&mut serde_json::Value)) {
+    let p = dir.join(MANIFEST_FILE);
+    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(&p).unwrap()).unwrap();
+    edit(&mut v);
+    std::fs::write(&p, serde_json::to_vec_pretty(&v).unwrap()).unwrap();
+}
+
+/// Re-records size and checksum of `file` in the manifest (so the loader gets past them).
+fn reseal(dir: &Path, file: &str) {
+    let bytes = std::fs::read(dir.join(file)).unwrap();
+    edit_manifest(dir, |v| {
+        for p in v["payloads"].as_array_mut().unwrap() {
+            if p["file"] == file {
+                p["bytes"] = bytes.len().into();
+                p["checksum"] = manifest::checksum(&bytes).into();
+            }
+        }
+    });
+}
+
+fn load_err(dir: &Path) -> String {
+    match FittedGrid::load(dir) {
+        Ok(_) => panic!("{} should not load", dir.display()),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn every_malformed_input_is_an_error_naming_file_and_field() {
+    // missing folder / manifest
+    let e = load_err(&repo().join("fits/no-such-fit"));
+    assert!(e.contains("manifest.json"), "{e}");
+
+    // wrong version and foreign format
+    let d = copy_tiny("bad-version");
+    edit_manifest(&d, |v| v["version"] = 99.into());
+    let e = load_err(&d);
+    assert!(e.contains("manifest.json") && e.contains("version 99"), "{e}");
+    let d = copy_tiny("foreign");
+    std::fs::write(d.join(MANIFEST_FILE), br#"{"format": "something-else", "version": 1}"#).unwrap();
+    assert!(load_err(&d).contains("\"something-else\""));
+
+    // checksum mismatch: one flipped byte in a payload
+    let d = copy_tiny("checksum");
+    let mut bytes = std::fs::read(d.join("probe.exr")).unwrap();
+    let k = bytes.len() / 2;
+    bytes[k] ^= 0x40;
+    std::fs::write(d.join("probe.exr"), &bytes).unwrap();
+    let e = load_err(&d);
+    assert!(e.contains("probe.exr") && e.contains("checksum"), "{e}");
+
+    // truncated EXR (resealed, so the EXR decoder itself must notice)
+    let d = copy_tiny("truncated");
+    let bytes = std::fs::read(d.join("irradiance.exr")).unwrap();
+    std::fs::write(d.join("irradiance.exr"), &bytes[..bytes.len() * 2 / 3]).unwrap();
+    let e = load_err(&d);
+    assert!(e.contains("irradiance.exr") && e.contains("size"), "{e}");
+    reseal(&d, "irradiance.exr");
+    let e = load_err(&d);
+    assert!(e.contains("irradiance.exr"), "{e}");
+
+    // foreign payload (the manifest as EXR)
+    let d = copy_tiny("foreign-payload");
+    std::fs::copy(d.join(MANIFEST_FILE), d.join("correctives.exr")).unwrap();
+    reseal(&d, "correctives.exr");
+    let e = load_err(&d);
+    assert!(e.contains("correctives.exr") && e.contains("not a readable EXR"), "{e}");
+
+    // wrong sizes
+    let d = copy_tiny("sizes");
+    edit_manifest(&d, |v| v["correctives"]["map_res"] = 4.into());
+    let e = load_err(&d);
+    assert!(e.contains("correctives.exr") && e.contains("warp_maps"), "{e}");
+    let d = copy_tiny("cells");
+    edit_manifest(&d, |v| v["irradiance"]["stored_cells"][0] = 4096.into());
+    let e = load_err(&d);
+    assert!(e.contains("irradiance.stored_cells") && e.contains("out of range"), "{e}");
+    let d = copy_tiny("grid");
+    edit_manifest(&d, |v| v["grid"]["counts"][1] = 0.into());
+    assert!(load_err(&d).contains("grid.counts"));
+
+    // NaN values inside a payload (re-encoded, resealed)
+    let d = copy_tiny("nan");
+    let path = d.join("probe.exr");
+    let mut layers = warpfit::format::exr_io::read_exr(&path).unwrap();
+    let l = layers.iter_mut().find(|l| l.name == "radiance_mip1").unwrap();
+    l.channels[1].1[7] = f32::NAN;
+    warpfit::format::exr_io::write_exr(&path, &layers).unwrap();
+    reseal(&d, "probe.exr");
+    let e = load_err(&d);
+    assert!(e.contains("probe.exr") && e.contains("radiance_mip1.G") && e.contains("sample 7"), "{e}");
+
+    // unknown fields are refused (a newer writer's manifest is not silently misread)
+    let d = copy_tiny("unknown-field");
+    edit_manifest(&d, |v| v["warp"]["new_knob"] = 1.into());
+    let e = load_err(&d);
+    assert!(e.contains("manifest.json") && e.contains("new_knob"), "{e}");
+
+    // payload file names cannot leave the folder
+    let d = copy_tiny("escape");
+    edit_manifest(&d, |v| v["payloads"][0]["file"] = "../probe.exr".into());
+    assert!(matches!(FittedGrid::load(&d), Err(LoadError::Invalid { .. })));
+}
+
+/// Loads `dir`, turning a panic into a test failure that names the mutation.
+fn load_never_panics(dir: &Path, what: &str) {
+    let r = std::panic::catch_unwind(|| FittedGrid::load(dir).map(|g| g.specular(Vec3::ONE, Vec3::X, 0.3)));
+    match r {
+        Err(_) => panic!("loader panicked on {what}"),
+        Ok(Ok(s)) => assert!(s.is_finite(), "{what}: loaded but returned {s}"),
+        Ok(Err(e)) => assert!(!e.to_string().is_empty()),
+    }
+}
+
+proptest! {
+    // Byte-level mutation of the real committed grid: random bytes overwritten, inserted or
+    // cut, in the manifest or a payload, with the payload's checksum re-sealed half of the
+    // time so the EXR decoder and the value checks see the damage too.
+    // WARPFIT_FUZZ_CASES=20000 runs a longer campaign.
+    #![proptest_config(ProptestConfig {
+        cases: std::env::var("WARPFIT_FUZZ_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(96),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+    #[test]
+    fn the_loader_never_panics_on_mutated_grids(
+        file in 0usize..4,
+        edits in proptest::collection::vec((any::<u32>(), any::<u8>(), 0u8..3), 1..6),
+        reseal_it in any::<bool>(),
+    ) {
+        let name = ["manifest.json", "probe.exr", "correctives.exr", "irradiance.exr"][file];
+        let d = copy_tiny("fuzz");
+        let mut bytes = std::fs::read(d.join(name)).unwrap();
+        for (pos, val, op) in &edits {
+            let k = *pos as usize % bytes.len().max(1);
+            match op {
+                0 => bytes[k] = *val,
+                1 => bytes.insert(k, *val),
+                _ => bytes.truncate(k.max(1)),
+            }
+        }
+        std::fs::write(d.join(name), &bytes).unwrap();
+        if reseal_it && name != "manifest.json" {
+            reseal(&d, name);
+        }
+        load_never_panics(&d, &format!("{name} with {edits:?}"));
+    }
+}
