@@ -5,8 +5,8 @@ use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use warpfit::eval::EvalSettings;
 use warpfit::fit::{Blend, FitSettings, Solver};
-use warpfit::warp::{Method, WarpOptions};
 use warpfit::runtime::{FittedGrid, Precision};
+use warpfit::warp::{Method, WarpOptions};
 use warpfit::{bake, format::bake_io, pipeline, progress::Progress, report, scene::Scene, trace::Tracer};
 
 /// Offline parallax correction for reflection probes.
@@ -226,7 +226,12 @@ fn fit_and_print(
         s.mean_check_err_celldepth,
         s.mean_check_err_stored
     );
-    println!("wrote the fitted grid {} ({} bytes of payloads; `warpfit inspect {}`)", out.display(), bytes, out.display());
+    println!(
+        "wrote the fitted grid {} ({} bytes of payloads; `warpfit inspect {}`)",
+        out.display(),
+        bytes,
+        out.display()
+    );
     Ok(f)
 }
 
@@ -300,16 +305,8 @@ fn eval_and_print(
         Some(_) => Some(FittedGrid::load(&out)?),
         None => None,
     };
-    let r = pipeline::evaluate(
-        baked,
-        &args.settings(),
-        methods,
-        &rows,
-        runtime.as_ref(),
-        &out,
-        &command_line(),
-        progress,
-    )?;
+    let r =
+        pipeline::evaluate(baked, &args.settings(), methods, &rows, runtime.as_ref(), &out, &command_line(), progress)?;
     println!(
         "{}: {} lookups at {} positions, hidden fraction {:.1}%, reference ray {:.0} ns",
         r.scene,
@@ -415,11 +412,21 @@ fn run(cli: Cli) -> Result<()> {
             let n = normal.unwrap_or(dir);
             let irr = grid.irradiance(pos, n);
             println!("specular {:.6} {:.6} {:.6}", spec.x, spec.y, spec.z);
-            println!("irradiance {:.6} {:.6} {:.6} (normal {:?})", irr.x, irr.y, irr.z, n.normalize_or_zero().to_array());
+            println!(
+                "irradiance {:.6} {:.6} {:.6} (normal {:?})",
+                irr.x,
+                irr.y,
+                irr.z,
+                n.normalize_or_zero().to_array()
+            );
             println!(
                 "fetch direction {:?}; cell {cell} {}",
                 v.normalize_or_zero().to_array(),
-                if stored { "stores a warp map".to_string() } else { format!("uses the fallback {}", grid.correctives.fallback.name()) }
+                if stored {
+                    "stores a warp map".to_string()
+                } else {
+                    format!("uses the fallback {}", grid.correctives.fallback.name())
+                }
             );
         }
         Command::Inspect { fit } => {

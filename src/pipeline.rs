@@ -5,9 +5,9 @@ use crate::bake::{self, ProbeGrid, SpecularProbe};
 use crate::eval::{self, EvalSettings, MethodContext};
 use crate::fit::{Blend, Correctives, Fit, FitSettings};
 use crate::format::{FormatError, bake_io, grid_io};
-use crate::runtime::{FittedGrid, GridManifest, Precision};
 use crate::progress::Progress;
 use crate::report::{self, EvalReport, SweepRow};
+use crate::runtime::{FittedGrid, GridManifest, Precision};
 use crate::scene::Scene;
 use crate::trace::{Renderer, Tracer};
 use crate::warp::{Method, WarpOptions};
@@ -82,8 +82,7 @@ pub fn fit(
 ) -> Result<(Fit, GridManifest), FormatError> {
     let ctx = MethodContext::new(baked.scene, baked.probe);
     let fitted = crate::fit::fit(baked.scene, baked.tracer, baked.probe, baked.grid, &ctx.proxies, settings, progress);
-    let roughness =
-        (store.roughness && baked.probe.radiance.levels.len() > 1).then(crate::roughness::fit_correction);
+    let roughness = (store.roughness && baked.probe.radiance.levels.len() > 1).then(crate::roughness::fit_correction);
     let manifest = grid_io::write_grid(
         dir,
         &grid_io::GridInputs {

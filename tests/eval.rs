@@ -30,7 +30,8 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
         ..EvalSettings::default()
     };
     let baked = pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
-    let report = pipeline::evaluate(baked, &settings, &Method::ALL, &[], &dir, "test", &Progress::quiet()).unwrap();
+    let report =
+        pipeline::evaluate(baked, &settings, &Method::ALL, &[], None, &dir, "test", &Progress::quiet()).unwrap();
     assert_eq!(report.positions, 16);
     assert_eq!(report.lookups, 16 * 64);
     for f in ["eval.json", "eval.md", "eval_error_vs_cost.png"] {

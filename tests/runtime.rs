@@ -68,7 +68,12 @@ fn the_committed_fit_keeps_loading_with_the_same_answers() {
     assert_eq!(got.len(), expected.len());
     for (k, (a, b)) in got.iter().zip(&expected).enumerate() {
         for c in 0..6 {
-            assert!((a[c] - b[c]).abs() <= 1e-6 * b[c].abs().max(1e-3), "query {k} component {c}: {} vs {}", a[c], b[c]);
+            assert!(
+                (a[c] - b[c]).abs() <= 1e-6 * b[c].abs().max(1e-3),
+                "query {k} component {c}: {} vs {}",
+                a[c],
+                b[c]
+            );
         }
     }
     assert!(got.iter().flatten().all(|x| x.is_finite() && *x >= 0.0));
@@ -171,6 +176,14 @@ fn roughness_selects_blurrier_mips_and_the_correction_applies() {
     assert!(lut.corrected_alpha(0.25, 4.0) < 0.25);
     assert!(lut.corrected_alpha(0.25, 0.25) > 0.25);
     assert!((lut.corrected_alpha(0.25, 1.0) - 0.25).abs() < 0.02);
+    // the runtime lookup is the stored correction's own
+    let stored = g.manifest.roughness.as_ref().unwrap();
+    for a in [0.0, 0.01, 0.1, 0.33, 0.7, 1.0, 2.0] {
+        for k in [0.01, 0.2, 0.9, 1.0, 1.7, 5.0, 100.0] {
+            let (x, y) = (lut.corrected_alpha(a, k), stored.corrected_alpha(a, k));
+            assert!((x - y).abs() <= 1e-5, "α {a} k {k}: {x} vs {y}");
+        }
+    }
 }
 
 #[test]
@@ -225,7 +238,10 @@ fn irradiance_at_a_cell_centre_is_that_cells_bake() {
             let n = warpfit::octa::texel_dir(res, t % res, t / res);
             let want = ig.irradiance[slot * (res * res) as usize + t as usize];
             let got = g.irradiance(c, n);
-            assert!((got - want).abs().max_element() <= 1e-5 * want.max_element().max(1e-3), "cell {cell}: {got} vs {want}");
+            assert!(
+                (got - want).abs().max_element() <= 1e-5 * want.max_element().max(1e-3),
+                "cell {cell}: {got} vs {want}"
+            );
         }
     }
 }

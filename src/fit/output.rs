@@ -98,8 +98,10 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), For
     use std::fmt::Write as _;
     let s = summary(fit);
     let mut md = String::new();
-    let _ =
-        writeln!(md, "# Fit report\n\nProduced by `{command}`. The fitted grid is `manifest.json` beside this file (`warpfit inspect` summarises it).\n");
+    let _ = writeln!(
+        md,
+        "# Fit report\n\nProduced by `{command}`. The fitted grid is `manifest.json` beside this file (`warpfit inspect` summarises it).\n"
+    );
     let _ = writeln!(
         md,
         "Solver {:?}, {} s, {} reference rays, {} objective evaluations.\n",

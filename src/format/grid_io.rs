@@ -98,7 +98,11 @@ pub fn write_grid(dir: &Path, g: &GridInputs) -> Result<GridManifest, FormatErro
             height: level.res as usize,
             channels: rgb_channels(&level.texels),
         });
-        radiance_mips.push(RadianceMip { layer: name, resolution: level.res, perceptual_roughness: g.probe.roughness[m] });
+        radiance_mips.push(RadianceMip {
+            layer: name,
+            resolution: level.res,
+            perceptual_roughness: g.probe.roughness[m],
+        });
     }
     let mut distance_mips = Vec::new();
     for (m, level) in g.probe.depth.levels.iter().enumerate() {
@@ -122,7 +126,10 @@ pub fn write_grid(dir: &Path, g: &GridInputs) -> Result<GridManifest, FormatErro
     let level0 = fit.cells.iter().filter(|x| x.level == 0).count() as u64;
     left_out.push(LeftOut {
         what: format!("warp maps of {level0} level-0 cells"),
-        reason: format!("the fallback `{}` is as good on held-out queries (within the selection margin)", c.fallback.name()),
+        reason: format!(
+            "the fallback `{}` is as good on held-out queries (within the selection margin)",
+            c.fallback.name()
+        ),
         bytes_saved: level0 * n2 * 4,
     });
     let correctives = if stored_cells.is_empty() {

@@ -77,8 +77,11 @@ struct Layer {
 /// manifest before decoding.
 fn read_payload(dir: &Path, m: &GridManifest, file: &str) -> Result<Vec<Layer>, LoadError> {
     let mpath = dir.join(MANIFEST_FILE);
-    let entry =
-        m.payloads.iter().find(|p| p.file == file).ok_or_else(|| invalid(&mpath, "payloads", format!("no entry for {file}")))?;
+    let entry = m
+        .payloads
+        .iter()
+        .find(|p| p.file == file)
+        .ok_or_else(|| invalid(&mpath, "payloads", format!("no entry for {file}")))?;
     if let Some(l) = entry.layers.iter().find(|l| l.width as u64 * l.height as u64 > MAX_LAYER_PIXELS) {
         return Err(invalid(&mpath, format!("payloads.{}", l.name), "layer too large"));
     }
@@ -125,9 +128,11 @@ fn check_headers(path: &Path, bytes: &[u8], entry: &Payload) -> Result<(), LoadE
         .map_err(|e| LoadError::Exr { path: path.to_path_buf(), message: e.to_string() })?;
     for h in &meta.headers {
         let name = h.own_attributes.layer_name.as_ref().map(|n| n.to_string()).unwrap_or_default();
-        let listed = entry.layers.iter().find(|l| l.name == name).ok_or_else(|| {
-            invalid(path, &name, "layer in the file is not listed in the manifest")
-        })?;
+        let listed = entry
+            .layers
+            .iter()
+            .find(|l| l.name == name)
+            .ok_or_else(|| invalid(path, &name, "layer in the file is not listed in the manifest"))?;
         let (w, h_) = (h.layer_size.0 as u64, h.layer_size.1 as u64);
         if (w, h_) != (listed.width as u64, listed.height as u64) || w * h_ > MAX_LAYER_PIXELS {
             return Err(invalid(
@@ -252,7 +257,7 @@ pub(super) fn load(dir: &Path) -> Result<FittedGrid, LoadError> {
 
     // probe
     let p = &m.probe;
-    let res_ok = |r: u32| (2..=8192).contains(&r) && r % 2 == 0;
+    let res_ok = |r: u32| (2..=8192).contains(&r) && r.is_multiple_of(2);
     if !res_ok(p.resolution) {
         return Err(invalid(mp, "probe.resolution", format!("{} is not an even size in 2..=8192", p.resolution)));
     }

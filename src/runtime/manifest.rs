@@ -214,7 +214,8 @@ impl GridManifest {
         let mut s = String::new();
         let c = self.grid.counts;
         let cells = c[0] as u64 * c[1] as u64 * c[2] as u64;
-        let _ = writeln!(s, "{} fitted grid of scene {:?} ({} v{})", GRID_FORMAT, self.scene, self.format, self.version);
+        let _ =
+            writeln!(s, "{} fitted grid of scene {:?} ({} v{})", GRID_FORMAT, self.scene, self.format, self.version);
         let _ = writeln!(
             s,
             "grid: {}×{}×{} cells over {:?}..{:?} ({}, up {})",
@@ -226,7 +227,12 @@ impl GridManifest {
             self.probe.position,
             self.probe.resolution,
             self.probe.radiance_mips.len(),
-            self.probe.radiance_mips.iter().map(|m| format!("{:.2}", m.perceptual_roughness)).collect::<Vec<_>>().join("/"),
+            self.probe
+                .radiance_mips
+                .iter()
+                .map(|m| format!("{:.2}", m.perceptual_roughness))
+                .collect::<Vec<_>>()
+                .join("/"),
             self.probe.distance_mips.len()
         );
         let stored = self.correctives.as_ref().map_or(0, |c| c.stored_cells.len());
@@ -255,7 +261,11 @@ impl GridManifest {
                 let _ = writeln!(s, "roughness correction: none");
             }
         }
-        let _ = writeln!(s, "\nlayers:\n  {:<18} {:<16} {:>10} {:>9} {:>12}", "file", "layer", "size", "precision", "raw bytes");
+        let _ = writeln!(
+            s,
+            "\nlayers:\n  {:<18} {:<16} {:>10} {:>9} {:>12}",
+            "file", "layer", "size", "precision", "raw bytes"
+        );
         let mut total_file = 0;
         for p in &self.payloads {
             total_file += p.bytes;

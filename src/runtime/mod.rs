@@ -67,16 +67,22 @@ pub struct IrradianceGrid {
     pub depth_mean_sq: Vec<f32>,
 }
 
-/// The roughness correction, validated for lookups.
+/// The roughness correction, validated, with the table's log-k axis precomputed: the same
+/// α' as `RoughnessCorrection::corrected_alpha`, without a logarithm per axis node.
 #[derive(Clone, Debug)]
 pub struct RoughnessLut {
-    correction: RoughnessCorrection,
+    alphas: Vec<f32>,
+    log_ratios: Vec<f32>,
+    table: Vec<f32>,
+    /// `Some((c0, c1))` when the analytic model was chosen over the table.
+    analytic: Option<(f32, f32)>,
 }
 
 impl RoughnessLut {
     /// `None` when the table's axes are not finite and increasing or its size is wrong.
     pub fn new(c: &RoughnessCorrection) -> Option<Self> {
-        let increasing = |a: &[f32]| a.len() >= 2 && a.iter().all(|x| x.is_finite()) && a.windows(2).all(|w| w[0] < w[1]);
+        let increasing =
+            |a: &[f32]| a.len() >= 2 && a.iter().all(|x| x.is_finite()) && a.windows(2).all(|w| w[0] < w[1]);
         let ok = increasing(&c.alphas)
             && increasing(&c.ratios)
             && c.ratios[0] > 0.0
@@ -85,13 +91,40 @@ impl RoughnessLut {
             && c.c0.is_finite()
             && c.c1.is_finite()
             && (c.chosen == "table" || c.chosen == "analytic");
-        ok.then(|| RoughnessLut { correction: c.clone() })
+        ok.then(|| RoughnessLut {
+            alphas: c.alphas.clone(),
+            log_ratios: c.ratios.iter().map(|r| r.ln()).collect(),
+            table: c.table.clone(),
+            analytic: (c.chosen == "analytic").then_some((c.c0, c.c1)),
+        })
     }
 
-    /// Probe-side α' for surface α and distance ratio k = d_probe / d_surface.
+    /// Probe-side α' for surface α and distance ratio k = d_probe / d_surface (clamped to
+    /// the fitted range); always finite, in [1e-3, 1].
     #[inline]
     pub fn corrected_alpha(&self, alpha: f32, k: f32) -> f32 {
-        self.correction.corrected_alpha(alpha, k)
+        if !alpha.is_finite() {
+            return 1e-3;
+        }
+        if !(k.is_finite() && k > 0.0) {
+            return alpha.clamp(1e-3, 1.0);
+        }
+        if let Some((c0, c1)) = self.analytic {
+            let v = c0 * alpha * k.powf(-c1);
+            return if v.is_finite() { v.clamp(1e-3, 1.0) } else { alpha.clamp(1e-3, 1.0) };
+        }
+        let locate = |axis: &[f32], v: f32| {
+            let v = v.clamp(axis[0], axis[axis.len() - 1]);
+            let i = axis.partition_point(|&a| a <= v).clamp(1, axis.len() - 1) - 1;
+            (i, ((v - axis[i]) / (axis[i + 1] - axis[i])).clamp(0.0, 1.0))
+        };
+        let nk = self.log_ratios.len();
+        let (i, fa) = locate(&self.alphas, alpha);
+        let (j, fk) = locate(&self.log_ratios, k.ln());
+        let t = |i: usize, j: usize| self.table[i * nk + j];
+        let v = (t(i, j) * (1.0 - fk) + t(i, j + 1) * fk) * (1.0 - fa)
+            + (t(i + 1, j) * (1.0 - fk) + t(i + 1, j + 1) * fk) * fa;
+        if v.is_finite() { v.clamp(1e-3, 1.0) } else { alpha.clamp(1e-3, 1.0) }
     }
 }
 
@@ -189,7 +222,8 @@ impl FittedGrid {
         let base = f.floor();
         let frac = f - base;
         let base = base.as_uvec3();
-        let uv_n = octa::encode(n);
+        let taps_n = octa::bilinear_taps(g.resolution, octa::encode(n));
+        let cell_size = geo.cell_size();
         let (ir, dr) = (g.resolution, g.depth_resolution);
         let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
         for corner in 0..8u32 {
@@ -207,7 +241,7 @@ impl FittedGrid {
                 continue;
             }
             let slot = slot as usize;
-            let to_point = p - geo.cell_centre(cell);
+            let to_point = p - (geo.min + (c.as_vec3() + 0.5) * cell_size);
             let dist = to_point.length();
             let mut w = tri;
             if dist > 0.0 && dist.is_finite() {
@@ -232,9 +266,8 @@ impl FittedGrid {
             }
             // keep a trace of every stored neighbour so a fully occluded blend stays defined
             let w = w.max(1e-6 * tri);
-            let taps = octa::bilinear_taps(ir, uv_n);
             let base = slot * (ir * ir) as usize;
-            let e: Vec3 = taps.iter().map(|&(t, wt)| g.irradiance[base + t as usize] * wt).sum();
+            let e: Vec3 = taps_n.iter().map(|&(t, wt)| g.irradiance[base + t as usize] * wt).sum();
             sum += e * w;
             wsum += w;
         }

@@ -1,0 +1,113 @@
+//! The runtime sampler, single-threaded: ns per `specular` sample (mirror and rough) and per
+//! `irradiance` sample, next to `warp1` on the same probe and queries; the load time of the
+//! fitted grid; and its bytes per stored cell (printed).
+//!
+//! Uses `fits/torture` (written by `cargo run --release -- run`); if it is missing or
+//! unreadable, fits the torture scene first into a temporary folder (about a minute).
+//!
+//! Run: `cargo bench --bench runtime`
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use glam::Vec3;
+use std::hint::black_box;
+use std::path::{Path, PathBuf};
+use warpfit::runtime::FittedGrid;
+use warpfit::sampling::{Sampler, uniform_sphere};
+use warpfit::warp::{self, Method};
+
+fn fitted_torture() -> PathBuf {
+    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/fits/torture"));
+    if FittedGrid::load(&dir).is_ok() {
+        return dir;
+    }
+    let out = std::env::temp_dir().join(format!("warpfit-bench-runtime-{}", std::process::id()));
+    let scene =
+        warpfit::scene::Scene::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/data/scenes/torture.toml")))
+            .expect("torture scene");
+    let tracer = warpfit::trace::Tracer::new(&scene);
+    let quiet = warpfit::progress::Progress::quiet();
+    let (probe, grid, _) = warpfit::pipeline::load_or_bake(&scene, &tracer, &out.join("bake"), &quiet).unwrap();
+    let baked = warpfit::pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
+    let settings = warpfit::fit::FitSettings::default();
+    warpfit::pipeline::fit(baked, &settings, Default::default(), &out, "bench", &quiet).unwrap();
+    out
+}
+
+/// 64 positions uniform in stored cells × 256 uniform directions, position-major (as eval).
+fn queries(g: &FittedGrid) -> Vec<(Vec3, Vec3)> {
+    let geo = &g.irradiance.geometry;
+    let cells: Vec<usize> = (0..geo.cell_count()).filter(|&c| g.irradiance.slot[c] != u32::MAX).collect();
+    let mut q = Vec::new();
+    for p in 0..64u32 {
+        let mut s = Sampler::new(0xBE7C, 1, p);
+        let cell = cells[(s.next_1d() * cells.len() as f32) as usize % cells.len()];
+        let lo = geo.min + geo.cell_coords(cell).as_vec3() * geo.cell_size();
+        let b = lo + geo.cell_size() * Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
+        for k in 0..256u32 {
+            q.push((b, uniform_sphere(Sampler::new(0xBE7C, 2 + p as u64, k).next_2d())));
+        }
+    }
+    q
+}
+
+fn runtime(c: &mut Criterion) {
+    let dir = fitted_torture();
+    let grid = FittedGrid::load(&dir).unwrap();
+    let m = &grid.manifest;
+    let stored = m.correctives.as_ref().map_or(0, |c| c.stored_cells.len());
+    let disk: u64 = m.payloads.iter().map(|p| p.bytes).sum();
+    println!(
+        "{}: {} stored warp maps, {} stored irradiance cells, {} bytes on disk, {} bytes in memory; {} bytes per stored warp map",
+        dir.display(),
+        stored,
+        m.irradiance.stored_cells.len(),
+        disk,
+        grid.memory_bytes(),
+        m.correctives.as_ref().map_or(0, |c| c.map_res * c.map_res * 4)
+    );
+    let q = queries(&grid);
+    let mut g = c.benchmark_group("runtime/torture");
+    g.throughput(Throughput::Elements(q.len() as u64));
+    g.sample_size(20);
+    g.bench_function("warp1", |b| {
+        b.iter(|| {
+            let mut acc = Vec3::ZERO;
+            for &(p, d) in &q {
+                acc += warp::lookup(Method::Warp1, &grid.probe, &grid.proxies, &grid.options, p, d);
+            }
+            black_box(acc)
+        })
+    });
+    for r in [0.0f32, 0.5] {
+        g.bench_function(format!("specular_r{r}"), |b| {
+            b.iter(|| {
+                let mut acc = Vec3::ZERO;
+                for &(p, d) in &q {
+                    acc += grid.specular(p, d, r);
+                }
+                black_box(acc)
+            })
+        });
+    }
+    g.bench_function("irradiance", |b| {
+        b.iter(|| {
+            let mut acc = Vec3::ZERO;
+            for &(p, d) in &q {
+                acc += grid.irradiance(p, d);
+            }
+            black_box(acc)
+        })
+    });
+    g.finish();
+    let mut g = c.benchmark_group("load");
+    g.sample_size(10);
+    g.bench_function("fits/torture", |b| b.iter(|| black_box(FittedGrid::load(&dir).unwrap().memory_bytes())));
+    g.finish();
+}
+
+fn config() -> Criterion {
+    Criterion::default().without_plots()
+}
+
+criterion_group! { name = benches; config = config(); targets = runtime }
+criterion_main!(benches);
