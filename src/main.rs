@@ -63,8 +63,6 @@ enum Command {
         #[arg(long, default_value = "fits/roughness")]
         out: PathBuf,
     },
-    /// The main job: bake (or reuse a matching bake), fit, evaluate every method including
-    /// the fitted correctives, and report; on the default scene unless one is given.
     /// Sample a fitted grid at one position and direction, as the runtime does.
     Sample {
         #[arg(long, default_value = "fits/torture")]
@@ -87,6 +85,8 @@ enum Command {
         #[arg(default_value = "fits/torture")]
         fit: PathBuf,
     },
+    /// The main job: bake (or reuse a matching bake), fit, evaluate every method including
+    /// the fitted correctives, and report; on the default scene unless one is given.
     Run {
         #[arg(long, default_value = "data/scenes/torture.toml")]
         scene: PathBuf,

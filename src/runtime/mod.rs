@@ -115,7 +115,7 @@ impl RoughnessLut {
         }
         let locate = |axis: &[f32], v: f32| {
             let v = v.clamp(axis[0], axis[axis.len() - 1]);
-            let i = axis.partition_point(|&a| a <= v).clamp(1, axis.len() - 1) - 1;
+            let i = axis.iter().map(|&a| (a <= v) as usize).sum::<usize>().clamp(1, axis.len() - 1) - 1;
             (i, ((v - axis[i]) / (axis[i + 1] - axis[i])).clamp(0.0, 1.0))
         };
         let nk = self.log_ratios.len();
@@ -142,21 +142,17 @@ impl FittedGrid {
         self.correctives.fetch_vector(self.blend, &self.probe, &self.proxies, &self.options, b, dir)
     }
 
-    /// Distance ratio k = d_probe / d_surface of the point probe A sees along `v`.
+    /// Distance ratio k = d_probe / d_surface of the point probe A sees along `v` (whose
+    /// octahedral coordinate is `uv`, shared with the radiance fetch).
     #[inline]
-    fn distance_ratio(&self, b: Vec3, v: Vec3) -> f32 {
-        let a = self.probe.position;
+    fn distance_ratio(&self, b: Vec3, v: Vec3, uv: glam::Vec2) -> f32 {
         let l = v.length();
-        if !(l > 0.0 && l.is_finite()) {
-            return 1.0;
-        }
-        let u = v / l;
-        let w = self.probe.inv_dist(u, self.options.depth_lod);
-        if !(w > 0.0) {
+        let w = self.probe.inv_depth.sample_lod_uv(uv, self.options.depth_lod);
+        if !(l > 0.0 && l.is_finite() && w > 0.0 && w.is_finite()) {
             return 1.0; // sky: both distances infinite
         }
         let d_probe = 1.0 / w;
-        let d_surface = (a + u * d_probe - b).length();
+        let d_surface = (self.probe.position + v * (d_probe / l) - b).length();
         let k = d_probe / d_surface;
         if k.is_finite() && k > 0.0 { k } else { 1.0 }
     }
@@ -172,7 +168,7 @@ impl FittedGrid {
         if r >= m[last] {
             return last as f32;
         }
-        let i = m.partition_point(|&x| x <= r).clamp(1, last) - 1;
+        let i = m.iter().map(|&x| (x <= r) as usize).sum::<usize>().clamp(1, last) - 1;
         let span = m[i + 1] - m[i];
         let f = if span > 0.0 { (r - m[i]) / span } else { 0.0 };
         i as f32 + f.clamp(0.0, 1.0)
@@ -193,15 +189,16 @@ impl FittedGrid {
         if r == 0.0 {
             return self.probe.radiance(v);
         }
+        let uv = octa::encode(v);
         let r = match &self.roughness {
             Some(lut) => {
                 let b = if position.is_finite() { position } else { self.probe.position };
-                let k = self.distance_ratio(b, v);
+                let k = self.distance_ratio(b, v, uv);
                 lut.corrected_alpha(r * r, k).sqrt()
             }
             None => r,
         };
-        self.probe.radiance.sample_lod(v, self.lod(r))
+        self.probe.radiance.sample_lod_uv(uv, self.lod(r))
     }
 
     /// Irradiance at `position` for surface normal `normal`: the eight cells around the
