@@ -49,4 +49,6 @@ pub mod report;
 #[cfg(feature = "bake")]
 pub mod scene;
 #[cfg(feature = "bake")]
+pub mod stability;
+#[cfg(feature = "bake")]
 pub mod trace;

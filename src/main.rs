@@ -80,6 +80,15 @@ enum Command {
         #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
         normal: Option<glam::Vec3>,
     },
+    /// Run the stability suite of stiff and extreme cases; exits non-zero on any failure.
+    Stability {
+        /// Smaller bakes and fewer queries (the mode the tests run).
+        #[arg(long)]
+        quick: bool,
+        /// Where stability.json and stability.md go.
+        #[arg(long, default_value = "fits/stability")]
+        out: PathBuf,
+    },
     /// Summarise a fitted grid: contents, bytes per layer, residuals, what was left out.
     Inspect {
         #[arg(default_value = "fits/torture")]
@@ -428,6 +437,24 @@ fn run(cli: Cli) -> Result<()> {
                     format!("uses the fallback {}", grid.correctives.fallback.name())
                 }
             );
+        }
+        Command::Stability { quick, out } => {
+            let mode = if quick { warpfit::stability::Mode::Quick } else { warpfit::stability::Mode::Full };
+            let rows = warpfit::stability::run(mode, |r| {
+                println!(
+                    "{} {:<38} {:>6.2} s  {}\n       expected: {}",
+                    if r.pass { "pass" } else { "FAIL" },
+                    r.case,
+                    r.seconds,
+                    r.measured,
+                    r.expectation
+                );
+            });
+            warpfit::stability::write(&out, &rows, mode, &command_line())?;
+            let failed = rows.iter().filter(|r| !r.pass).count();
+            println!("wrote {}/stability.json, stability.md", out.display());
+            anyhow::ensure!(failed == 0, "{failed} of {} stability cases failed", rows.len());
+            println!("all {} stability cases pass", rows.len());
         }
         Command::Inspect { fit } => {
             let grid = FittedGrid::load(&fit)?;

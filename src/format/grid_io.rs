@@ -53,7 +53,18 @@ fn pack<T: Copy + Default>(src: &[T], cells: &[u32], res: u32, columns: u32) -> 
 /// Encodes `layers` into `file` in `dir` and returns its manifest entry.
 fn payload(dir: &Path, file: &str, layers: &[ExrLayer], precision: Precision) -> Result<Payload, FormatError> {
     let path = dir.join(file);
-    let half = |name: &str| precision == Precision::F16 && is_radiance(name);
+    // f16 only where every value fits: a sun brighter than 65504 keeps its layer in f32
+    // rather than saturating (the manifest records each layer's actual precision).
+    let fits_f16 = |l: &ExrLayer| l.channels.iter().all(|(_, v)| v.iter().all(|x| x.abs() <= F16_MAX));
+    let kept: Vec<&str> = layers
+        .iter()
+        .filter(|l| precision == Precision::F16 && is_radiance(&l.name) && !fits_f16(l))
+        .map(|l| l.name.as_str())
+        .collect();
+    if !kept.is_empty() {
+        tracing::warn!("{}: layers {kept:?} exceed the f16 range (65504); stored as f32", path.display());
+    }
+    let half = |name: &str| precision == Precision::F16 && is_radiance(name) && !kept.contains(&name);
     let bytes = encode_exr_with(&path, layers, half)?;
     write_atomic(&path, &bytes).map_err(|source| FormatError::Io { path: path.clone(), source })?;
     Ok(Payload {
@@ -72,6 +83,9 @@ fn payload(dir: &Path, file: &str, layers: &[ExrLayer], precision: Precision) ->
             .collect(),
     })
 }
+
+/// Largest finite f16.
+pub const F16_MAX: f32 = 65504.0;
 
 /// Radiance layers may be stored as f16; distances and warp maps never are.
 fn is_radiance(layer: &str) -> bool {
