@@ -51,4 +51,6 @@ pub mod scene;
 #[cfg(feature = "bake")]
 pub mod stability;
 #[cfg(feature = "bake")]
+pub mod sweep;
+#[cfg(feature = "bake")]
 pub mod trace;

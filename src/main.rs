@@ -89,6 +89,23 @@ enum Command {
         #[arg(long, default_value = "fits/stability")]
         out: PathBuf,
     },
+    /// Write report.json, report.md and a self-contained report.html from a run's folder.
+    Report {
+        #[arg(long, default_value = "fits/torture")]
+        out: PathBuf,
+    },
+    /// Error against fit effort: refit with one knob changed at a time (probe resolution,
+    /// training directions, iterations, solver); writes sweep.json, sweep.png.
+    Sweep {
+        #[arg(long, default_value = "data/scenes/torture.toml")]
+        scene: PathBuf,
+        #[arg(long)]
+        out: Option<PathBuf>,
+        #[command(flatten)]
+        eval: EvalArgs,
+        #[command(flatten)]
+        fit: FitArgs,
+    },
     /// Summarise a fitted grid: contents, bytes per layer, residuals, what was left out.
     Inspect {
         #[arg(default_value = "fits/torture")]
@@ -326,6 +343,10 @@ fn eval_and_print(
     );
     print!("{}", report::methods_table(&r));
     println!("wrote {}/eval.json, eval.md, eval_error_vs_cost.png", out.display());
+    if fitted.is_some() {
+        report::page::write_report(&out, &command_line())?;
+        println!("wrote {}/report.json, report.md, report.html", out.display());
+    }
     Ok(())
 }
 
@@ -455,6 +476,33 @@ fn run(cli: Cli) -> Result<()> {
             println!("wrote {}/stability.json, stability.md", out.display());
             anyhow::ensure!(failed == 0, "{failed} of {} stability cases failed", rows.len());
             println!("all {} stability cases pass", rows.len());
+        }
+        Command::Report { out } => {
+            let r = report::page::write_report(&out, &command_line())?;
+            println!(
+                "wrote {0}/report.json, report.md, report.html ({1} methods, {2} images)",
+                out.display(),
+                r.methods.len(),
+                r.images.len()
+            );
+        }
+        Command::Sweep { scene, out, eval, fit } => {
+            let scene = Scene::load(&scene)?;
+            let out = out.unwrap_or_else(|| PathBuf::from("fits").join(&scene.name));
+            let sw = warpfit::sweep::run(&scene, &fit.settings()?, &eval.settings(), &out, &command_line(), &progress)?;
+            println!(
+                "| knob | value | fit s | runtime rel RMSE | stored cells | payload bytes |\n|---|---|---:|---:|---:|---:|"
+            );
+            for r in &sw.rows {
+                println!(
+                    "| {} | {} | {:.2} | {:.4} | {} | {} |",
+                    r.knob, r.value, r.fit_seconds, r.rel_rmse, r.stored_cells, r.payload_bytes
+                );
+            }
+            println!(
+                "wrote {0}/sweep.json, sweep.png, sweep_convergence.png; `warpfit report --out {0}` includes them",
+                out.display()
+            );
         }
         Command::Inspect { fit } => {
             let grid = FittedGrid::load(&fit)?;

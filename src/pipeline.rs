@@ -120,6 +120,7 @@ pub fn evaluate(
     progress: &Progress,
 ) -> Result<EvalReport, FormatError> {
     let Baked { scene, tracer, probe, grid } = baked;
+    let t0 = std::time::Instant::now();
     let bar = progress.bar(3, "eval");
     bar.set_message("eval: references");
     let set = eval::validation_set(scene, tracer, grid, probe.position, settings);
@@ -140,6 +141,11 @@ pub fn evaluate(
             lookups,
         ));
     }
+    let fitted_levels = corrective_rows
+        .iter()
+        .find(|r| r.name == "fitted")
+        .map(|r| level_errors(&ctx, &set, r.correctives, &settings.options))
+        .unwrap_or_default();
     if let Some(g) = runtime {
         let precision = g.manifest.payloads.iter().flat_map(|p| &p.layers).any(|l| l.precision == Precision::F16);
         let note = if precision {
@@ -178,10 +184,48 @@ pub fn evaluate(
         warp1_sweep: sweep,
         settings: settings.clone(),
         command: command.to_string(),
+        fitted_levels,
+        seconds: t0.elapsed().as_secs_f64(),
+        reference_rays: set.reference_rays,
     };
     report::write_eval(dir, &report)?;
     write_views(baked, &ctx, &set, settings, corrective_rows, &dir.join("eval_views.png"))?;
     Ok(report)
+}
+
+/// `fitted` on the validation lookups split by the level of their position's cell.
+fn level_errors(
+    ctx: &MethodContext,
+    set: &eval::ValidationSet,
+    c: &Correctives,
+    opts: &WarpOptions,
+) -> Vec<report::LevelEval> {
+    let mut out = Vec::new();
+    for level in [0u8, 2] {
+        let (mut fit_est, mut fb_est, mut refs) = (Vec::new(), Vec::new(), Vec::new());
+        for k in 0..set.dirs.len() {
+            let b = set.position_of(k);
+            let cell = c.geometry.cell_index(c.geometry.cell_of(b));
+            let l = if c.slot[cell] == u32::MAX { 0 } else { 2 };
+            if l != level {
+                continue;
+            }
+            let d = set.dirs[k];
+            fit_est.push(ctx.probe.radiance(c.fetch_vector(Blend::Cell, &ctx.probe, &ctx.proxies, opts, b, d)));
+            fb_est.push(crate::warp::lookup(c.fallback, &ctx.probe, &ctx.proxies, opts, b, d));
+            refs.push(set.reference[k]);
+        }
+        if !refs.is_empty() {
+            out.push(report::LevelEval {
+                level,
+                lookups: refs.len(),
+                fitted_rel_rmse: eval::error_stats(&fit_est, &refs).0,
+                fallback: c.fallback.name().to_string(),
+                fallback_rel_rmse: eval::error_stats(&fb_est, &refs).0,
+            });
+        }
+    }
+    out
 }
 
 /// `eval_views.png`: what a reflection sees from an open validation position, as

@@ -1,6 +1,7 @@
 //! Reports: the evaluation as `eval.json` (machine-readable), `eval.md` (for people) and an
 //! error-against-cost plot. Reads what other stages produce; computes nothing of its own.
 
+pub mod page;
 pub mod plot;
 
 use crate::eval::{EvalSettings, MethodResult};
@@ -17,6 +18,17 @@ pub struct SweepRow {
     pub rel_rmse: f64,
 }
 
+/// The fitted grid's error on the validation lookups whose position lies in cells of one
+/// level, next to the grid's fallback method on the same lookups.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct LevelEval {
+    pub level: u8,
+    pub lookups: usize,
+    pub fitted_rel_rmse: f64,
+    pub fallback: String,
+    pub fallback_rel_rmse: f64,
+}
+
 /// Everything `eval.json` holds.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct EvalReport {
@@ -31,6 +43,14 @@ pub struct EvalReport {
     pub warp1_sweep: Vec<SweepRow>,
     pub settings: EvalSettings,
     pub command: String,
+    /// `fitted` split by the level of the cell containing each validation position.
+    #[serde(default)]
+    pub fitted_levels: Vec<LevelEval>,
+    /// Wall time of the evaluation (references, methods, timings) and its traced rays.
+    #[serde(default)]
+    pub seconds: f64,
+    #[serde(default)]
+    pub reference_rays: u64,
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> FormatError + '_ {
@@ -88,6 +108,20 @@ pub fn write_eval(dir: &Path, r: &EvalReport) -> Result<(), FormatError> {
         r.reference_ns_per_ray
     );
     md += &methods_table(r);
+    if !r.fitted_levels.is_empty() {
+        let _ = writeln!(
+            md,
+            "\n`fitted` by the level of the cell containing the query position (rel RMSE over each subset):\n"
+        );
+        let _ = writeln!(md, "| level | lookups | fitted | fallback on the same lookups |\n|---|---:|---:|---:|");
+        for l in &r.fitted_levels {
+            let _ = writeln!(
+                md,
+                "| {} | {} | {:.4} | {:.4} ({}) |",
+                l.level, l.lookups, l.fitted_rel_rmse, l.fallback_rel_rmse, l.fallback
+            );
+        }
+    }
     let _ = writeln!(
         md,
         "\nrel RMSE = RMSE of linear RGB radiance / mean reference radiance; MAE, p95, max: per-lookup mean absolute RGB error. Angular error: fetch direction against the oracle's. Costs: single-threaded warm loop, fetch + bilinear radiance lookup; queries issued per position in Morton order of their octahedral uv (coherent, as neighbouring pixels query a probe), and in random order (cache-hostile).\n"

@@ -1,0 +1,464 @@
+//! The run report: `report.json`, `report.md` and a self-contained `report.html` (images
+//! inlined as data URIs, no scripts, no external resources) assembled from what the stages
+//! left in a scene's output folder: `eval.json`, the fitted grid's `manifest.json`,
+//! `residuals.json`, `bake/manifest.json`, and `sweep.json` / `stability.json` when present.
+//! Computes nothing but summaries of those files.
+
+use super::EvalReport;
+use super::plot::pareto_front;
+use crate::fit::CellFit;
+use crate::format::manifest::BakeManifest;
+use crate::format::{FormatError, write_atomic};
+use crate::runtime::GridManifest;
+use base64::Engine as _;
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// One eval row with its place on the error-against-cost Pareto front.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct MethodRow {
+    pub name: String,
+    pub rel_rmse: f64,
+    pub mae: f64,
+    pub p95: f64,
+    pub ns_per_lookup: f64,
+    pub pareto: bool,
+    pub note: String,
+}
+
+/// Held-out errors of the fit's cells grouped by stored level.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct LevelRow {
+    pub level: u8,
+    pub cells: usize,
+    pub mean_err_fallback: f64,
+    pub mean_err_celldepth: f64,
+    pub mean_err_stored: f64,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct WorstCell {
+    pub cell: u32,
+    pub level: u8,
+    pub err_stored: f64,
+    pub err_fallback: f64,
+    pub hidden_fraction: f64,
+    pub reason: String,
+}
+
+/// Time and rays of one pipeline stage.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct StageRow {
+    pub stage: String,
+    pub seconds: f64,
+    pub rays: u64,
+    pub rays_per_s: f64,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct LayerRow {
+    pub file: String,
+    pub layer: String,
+    pub size: String,
+    pub precision: String,
+    pub raw_bytes: u64,
+}
+
+/// Everything `report.json` holds.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct RunReport {
+    pub scene: String,
+    pub command: String,
+    pub hidden_fraction: f64,
+    pub reference_ns_per_ray: f64,
+    pub validation: String,
+    pub methods: Vec<MethodRow>,
+    pub levels: Vec<LevelRow>,
+    /// `fitted` on the validation set split by cell level (from eval.json).
+    pub eval_levels: Vec<super::LevelEval>,
+    pub worst_cells: Vec<WorstCell>,
+    pub stages: Vec<StageRow>,
+    pub layers: Vec<LayerRow>,
+    pub payload_bytes: Vec<(String, u64)>,
+    pub left_out: Vec<(String, String, u64)>,
+    /// `sweep.json` when `warpfit sweep` wrote one into the folder.
+    pub sweep: Option<serde_json::Value>,
+    /// `stability.json` when one is in the folder.
+    pub stability: Option<serde_json::Value>,
+    /// Images shown, by file name.
+    pub images: Vec<String>,
+}
+
+fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, FormatError> {
+    let bytes = std::fs::read(path).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })?;
+    serde_json::from_slice(&bytes).map_err(|e| FormatError::Json { path: path.to_path_buf(), message: e.to_string() })
+}
+
+fn optional_json(path: &Path) -> Result<Option<serde_json::Value>, FormatError> {
+    if path.is_file() { read_json(path).map(Some) } else { Ok(None) }
+}
+
+/// Builds the report from the files in `dir` (a `warpfit run` output folder).
+pub fn build(dir: &Path, command: &str) -> Result<RunReport, FormatError> {
+    let eval: EvalReport = read_json(&dir.join("eval.json"))?;
+    let grid: GridManifest = read_json(&dir.join("manifest.json"))?;
+    let cells: Vec<CellFit> = read_json(&dir.join("residuals.json"))?;
+    let bake_path = dir.join("bake").join(crate::format::bake_io::MANIFEST_FILE);
+    let bake: Option<BakeManifest> = if bake_path.is_file() { Some(read_json(&bake_path)?) } else { None };
+
+    let points: Vec<(String, f64, f64)> =
+        eval.methods.iter().map(|m| (m.name.clone(), m.ns_per_lookup, m.rel_rmse)).collect();
+    let front = pareto_front(&points);
+    let methods = eval
+        .methods
+        .iter()
+        .zip(&front)
+        .map(|(m, &pareto)| MethodRow {
+            name: m.name.clone(),
+            rel_rmse: m.rel_rmse,
+            mae: m.mae,
+            p95: m.p95,
+            ns_per_lookup: m.ns_per_lookup,
+            pareto,
+            note: m.note.clone(),
+        })
+        .collect();
+
+    let stored = |c: &CellFit| if c.level == 2 { c.check_err_fitted } else { c.check_err_fallback };
+    let mut levels = Vec::new();
+    for level in [0u8, 2] {
+        let of: Vec<&CellFit> = cells.iter().filter(|c| c.level == level).collect();
+        if of.is_empty() {
+            continue;
+        }
+        let mean = |f: &dyn Fn(&CellFit) -> f64| of.iter().map(|c| f(c)).sum::<f64>() / of.len() as f64;
+        levels.push(LevelRow {
+            level,
+            cells: of.len(),
+            mean_err_fallback: mean(&|c| c.check_err_fallback),
+            mean_err_celldepth: mean(&|c| c.check_err_celldepth),
+            mean_err_stored: mean(&|c| stored(c)),
+        });
+    }
+    let mut worst: Vec<&CellFit> = cells.iter().collect();
+    worst.sort_by(|a, b| stored(b).total_cmp(&stored(a)).then(a.cell.cmp(&b.cell)));
+    let worst_cells = worst
+        .iter()
+        .take(10)
+        .map(|c| WorstCell {
+            cell: c.cell,
+            level: c.level,
+            err_stored: stored(c),
+            err_fallback: c.check_err_fallback,
+            hidden_fraction: c.hidden_fraction,
+            reason: c.reason.clone(),
+        })
+        .collect();
+
+    let mut stages = Vec::new();
+    if let Some(b) = &bake {
+        let s = &b.stats;
+        let rate = |rays: u64, sec: f64| if sec > 0.0 { rays as f64 / sec } else { 0.0 };
+        stages.push(StageRow { stage: "bake: BVH build".into(), seconds: s.bvh_build_s, rays: 0, rays_per_s: 0.0 });
+        stages.push(StageRow {
+            stage: "bake: specular probe".into(),
+            seconds: s.probe_s,
+            rays: s.probe_rays,
+            rays_per_s: rate(s.probe_rays, s.probe_s),
+        });
+        stages.push(StageRow {
+            stage: "bake: probe grid".into(),
+            seconds: s.grid_s,
+            rays: s.grid_rays,
+            rays_per_s: rate(s.grid_rays, s.grid_s),
+        });
+    }
+    let fit_s = grid.residuals.get("fit_seconds").and_then(|v| v.as_f64()).unwrap_or(0.0);
+    let fit_rays = grid.residuals.get("reference_rays").and_then(|v| v.as_u64()).unwrap_or(0);
+    stages.push(StageRow {
+        stage: "fit (references + solver)".into(),
+        seconds: fit_s,
+        rays: fit_rays,
+        rays_per_s: if fit_s > 0.0 { fit_rays as f64 / fit_s } else { 0.0 },
+    });
+    stages.push(StageRow {
+        stage: "eval (references, methods, timings)".into(),
+        seconds: eval.seconds,
+        rays: eval.reference_rays,
+        rays_per_s: if eval.seconds > 0.0 { eval.reference_rays as f64 / eval.seconds } else { 0.0 },
+    });
+
+    let mut layers = Vec::new();
+    let mut payload_bytes = Vec::new();
+    for p in &grid.payloads {
+        payload_bytes.push((p.file.clone(), p.bytes));
+        for l in &p.layers {
+            let per = if l.precision == crate::runtime::Precision::F16 { 2 } else { 4 };
+            layers.push(LayerRow {
+                file: p.file.clone(),
+                layer: l.name.clone(),
+                size: format!("{}×{}", l.width, l.height),
+                precision: format!("{:?}", l.precision).to_lowercase(),
+                raw_bytes: l.width as u64 * l.height as u64 * l.channels.len() as u64 * per,
+            });
+        }
+    }
+    let left_out = grid.left_out.iter().map(|l| (l.what.clone(), l.reason.clone(), l.bytes_saved)).collect();
+    let images = [
+        "eval_error_vs_cost.png",
+        "eval_views.png",
+        "fit_convergence.png",
+        "residual_slices.png",
+        "sweep.png",
+        "sweep_convergence.png",
+    ]
+    .iter()
+    .filter(|f| dir.join(f).is_file())
+    .map(|f| f.to_string())
+    .collect();
+    Ok(RunReport {
+        scene: eval.scene.clone(),
+        command: command.to_string(),
+        hidden_fraction: eval.hidden_fraction,
+        reference_ns_per_ray: eval.reference_ns_per_ray,
+        validation: format!(
+            "{} positions × {} directions ({} lookups), references with {} samples, seed {:#x}",
+            eval.positions,
+            eval.settings.dirs_per_position,
+            eval.lookups,
+            eval.settings.reference_spp,
+            eval.settings.seed
+        ),
+        methods,
+        levels,
+        eval_levels: eval.fitted_levels.clone(),
+        worst_cells,
+        stages,
+        layers,
+        payload_bytes,
+        left_out,
+        sweep: optional_json(&dir.join("sweep.json"))?,
+        stability: optional_json(&dir.join("stability.json"))?,
+        images,
+    })
+}
+
+/// The report as Markdown tables; images referenced by file name.
+pub fn markdown(r: &RunReport) -> String {
+    let mut md = String::new();
+    let _ = writeln!(md, "# warpfit report: {}\n\nProduced by `{}`.\n", r.scene, r.command);
+    let _ = writeln!(
+        md,
+        "Validation: {}; hidden fraction {:.1}%; a reference ray costs {:.0} ns.\n",
+        r.validation,
+        100.0 * r.hidden_fraction,
+        r.reference_ns_per_ray
+    );
+    for (title, rows) in sections(r) {
+        let _ = writeln!(md, "## {title}\n");
+        md += &md_table(&rows);
+        md.push('\n');
+    }
+    let _ = writeln!(md, "## Figures\n");
+    for img in &r.images {
+        let _ = writeln!(md, "![{img}]({img})\n");
+    }
+    md
+}
+
+fn md_table(rows: &[Vec<String>]) -> String {
+    let mut s = String::new();
+    for (k, row) in rows.iter().enumerate() {
+        let _ = writeln!(s, "| {} |", row.join(" | "));
+        if k == 0 {
+            let _ = writeln!(s, "|{}", "---|".repeat(row.len()));
+        }
+    }
+    s
+}
+
+/// Titled tables (first row = header), shared by the Markdown and HTML renderings.
+fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
+    let mut out = Vec::new();
+    let mut t = vec![
+        vec!["method", "rel RMSE", "MAE", "p95", "ns/lookup", "Pareto front", "note"]
+            .into_iter()
+            .map(String::from)
+            .collect::<Vec<_>>(),
+    ];
+    for m in &r.methods {
+        t.push(vec![
+            m.name.clone(),
+            format!("{:.4}", m.rel_rmse),
+            format!("{:.4}", m.mae),
+            format!("{:.4}", m.p95),
+            format!("{:.1}", m.ns_per_lookup),
+            if m.pareto { "yes".into() } else { String::new() },
+            m.note.clone(),
+        ]);
+    }
+    out.push(("Every method on held-out positions and directions".to_string(), t));
+
+    if !r.eval_levels.is_empty() {
+        let mut t = vec![
+            ["cell level", "validation lookups", "fitted rel RMSE", "fallback rel RMSE (same lookups)"]
+                .iter()
+                .map(|s| s.to_string())
+                .collect::<Vec<_>>(),
+        ];
+        for l in &r.eval_levels {
+            t.push(vec![
+                l.level.to_string(),
+                l.lookups.to_string(),
+                format!("{:.4}", l.fitted_rel_rmse),
+                format!("{:.4} ({})", l.fallback_rel_rmse, l.fallback),
+            ]);
+        }
+        out.push(("Fitted per level, on the validation set".to_string(), t));
+    }
+
+    let mut t = vec![
+        ["level", "cells", "fallback", "celldepth", "stored model"].iter().map(|s| s.to_string()).collect::<Vec<_>>(),
+    ];
+    for l in &r.levels {
+        t.push(vec![
+            if l.level == 0 { "0 (fallback, nothing stored)".into() } else { "2 (fitted warp map)".into() },
+            l.cells.to_string(),
+            format!("{:.4}", l.mean_err_fallback),
+            format!("{:.4}", l.mean_err_celldepth),
+            format!("{:.4}", l.mean_err_stored),
+        ]);
+    }
+    out.push(("Fitted per level, on the fit's own held-out check set (mean relative error per cell)".to_string(), t));
+
+    let mut t = vec![
+        ["cell", "level", "stored error", "fallback error", "hidden", "why"].iter().map(|s| s.to_string()).collect(),
+    ];
+    for c in &r.worst_cells {
+        t.push(vec![
+            c.cell.to_string(),
+            c.level.to_string(),
+            format!("{:.3}", c.err_stored),
+            format!("{:.3}", c.err_fallback),
+            format!("{:.0}%", 100.0 * c.hidden_fraction),
+            c.reason.clone(),
+        ]);
+    }
+    out.push(("Worst cells".to_string(), t));
+
+    let mut t = vec![["stage", "seconds", "rays", "rays/s"].iter().map(|s| s.to_string()).collect::<Vec<_>>()];
+    for s in &r.stages {
+        t.push(vec![
+            s.stage.clone(),
+            format!("{:.2}", s.seconds),
+            s.rays.to_string(),
+            if s.rays > 0 { format!("{:.2} M", s.rays_per_s / 1e6) } else { "–".into() },
+        ]);
+    }
+    out.push(("Stages".to_string(), t));
+
+    let mut t =
+        vec![["file", "layer", "size", "precision", "raw bytes"].iter().map(|s| s.to_string()).collect::<Vec<_>>()];
+    for l in &r.layers {
+        t.push(vec![l.file.clone(), l.layer.clone(), l.size.clone(), l.precision.clone(), l.raw_bytes.to_string()]);
+    }
+    for (f, b) in &r.payload_bytes {
+        t.push(vec![f.clone(), "(file on disk, compressed)".into(), String::new(), String::new(), b.to_string()]);
+    }
+    out.push(("Bytes of each stored layer".to_string(), t));
+
+    let mut t = vec![["left out", "why", "bytes saved"].iter().map(|s| s.to_string()).collect::<Vec<_>>()];
+    for (w, why, b) in &r.left_out {
+        t.push(vec![w.clone(), why.clone(), b.to_string()]);
+    }
+    out.push(("What this scene does not need".to_string(), t));
+
+    if let Some(rows) = r.sweep.as_ref().and_then(|s| s.get("rows")).and_then(|v| v.as_array()) {
+        let mut t = vec![
+            ["knob", "value", "fit seconds", "rel RMSE (held out)"].iter().map(|s| s.to_string()).collect::<Vec<_>>(),
+        ];
+        for row in rows {
+            let f = |k: &str| row.get(k).map(|v| v.to_string().trim_matches('"').to_string()).unwrap_or_default();
+            t.push(vec![f("knob"), f("value"), f("fit_seconds"), f("rel_rmse")]);
+        }
+        out.push(("Error against fit effort (warpfit sweep)".to_string(), t));
+    }
+    if let Some(cases) = r.stability.as_ref().and_then(|s| s.get("cases")).and_then(|v| v.as_array()) {
+        let mut t = vec![["case", "expectation", "measured", "result"].iter().map(|s| s.to_string()).collect()];
+        for c in cases {
+            let f = |k: &str| c.get(k).and_then(|v| v.as_str()).unwrap_or_default().to_string();
+            let pass = c.get("pass").and_then(|v| v.as_bool()).unwrap_or(false);
+            t.push(vec![f("case"), f("expectation"), f("measured"), if pass { "pass" } else { "FAIL" }.into()]);
+        }
+        out.push(("Stability suite".to_string(), t));
+    }
+    out
+}
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+}
+
+/// The report as one HTML file with every image inlined.
+pub fn html(r: &RunReport, dir: &Path) -> Result<String, FormatError> {
+    let mut h = String::new();
+    let _ = write!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>warpfit report: {}</title>\n<style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}}table{{border-collapse:collapse;margin:0 0 1.5em;font-size:13px}}td,th{{border:1px solid #ccc;padding:3px 7px;text-align:left}}th{{background:#eee}}tr.front td:first-child{{font-weight:bold;color:#b22}}img{{max-width:100%;border:1px solid #ddd;margin:0.5em 0}}code{{background:#f4f4f4;padding:1px 4px}}</style></head><body>\n",
+        escape(&r.scene)
+    );
+    let _ = writeln!(h, "<h1>warpfit report: {}</h1>", escape(&r.scene));
+    let _ = writeln!(h, "<p>Produced by <code>{}</code>.</p>", escape(&r.command));
+    let _ = writeln!(
+        h,
+        "<p>Validation: {}; hidden fraction {:.1}%; a reference ray costs {:.0} ns.</p>",
+        escape(&r.validation),
+        100.0 * r.hidden_fraction,
+        r.reference_ns_per_ray
+    );
+    for (k, (title, rows)) in sections(r).iter().enumerate() {
+        let _ = writeln!(h, "<h2>{}</h2>\n<table>", escape(title));
+        for (i, row) in rows.iter().enumerate() {
+            let front = k == 0 && i > 0 && r.methods.get(i - 1).is_some_and(|m| m.pareto);
+            let _ = write!(h, "<tr{}>", if front { " class=\"front\"" } else { "" });
+            let tag = if i == 0 { "th" } else { "td" };
+            for cell in row {
+                let _ = write!(h, "<{tag}>{}</{tag}>", escape(cell));
+            }
+            h += "</tr>\n";
+        }
+        h += "</table>\n";
+    }
+    h += "<h2>Figures</h2>\n";
+    for img in &r.images {
+        let path = dir.join(img);
+        let bytes = std::fs::read(&path).map_err(|source| FormatError::Io { path: path.clone(), source })?;
+        let b64 = base64::engine::general_purpose::STANDARD.encode(&bytes);
+        let _ = writeln!(
+            h,
+            "<figure><img alt=\"{0}\" src=\"data:image/png;base64,{b64}\"><figcaption>{0}</figcaption></figure>",
+            escape(img)
+        );
+    }
+    h += "</body></html>\n";
+    Ok(h)
+}
+
+/// Builds the report from `dir` and writes report.json, report.md and report.html there.
+pub fn write_report(dir: &Path, command: &str) -> Result<RunReport, FormatError> {
+    let r = build(dir, command)?;
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| FormatError::Io { path, source }
+    };
+    let jpath = dir.join("report.json");
+    let json =
+        serde_json::to_vec_pretty(&r).map_err(|e| FormatError::Json { path: jpath.clone(), message: e.to_string() })?;
+    write_atomic(&jpath, &json).map_err(io(&jpath))?;
+    let mpath = dir.join("report.md");
+    write_atomic(&mpath, markdown(&r).as_bytes()).map_err(io(&mpath))?;
+    let hpath = dir.join("report.html");
+    write_atomic(&hpath, html(&r, dir)?.as_bytes()).map_err(io(&hpath))?;
+    Ok(r)
+}

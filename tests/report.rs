@@ -1,0 +1,118 @@
+//! The run report: built from a real (small) bake + fit + eval, it is self-contained HTML
+//! (every image inlined, nothing fetched), its JSON has every section, and, where Chromium is
+//! installed (`apt-get install chromium`, or `WARPFIT_CHROMIUM=/path/to/chrome`), the page
+//! loads headless without console errors. Without Chromium that last check prints a note and
+//! is skipped.
+
+mod common;
+use common::*;
+use std::path::{Path, PathBuf};
+use warpfit::eval::EvalSettings;
+use warpfit::fit::{Blend, FitSettings};
+use warpfit::pipeline::{self, Baked, CorrectiveRow};
+use warpfit::progress::Progress;
+use warpfit::runtime::FittedGrid;
+use warpfit::trace::Tracer;
+use warpfit::warp::Method;
+
+fn small_run(dir: &Path) {
+    let scene = load("tiny");
+    let tracer = Tracer::new(&scene);
+    let quiet = Progress::quiet();
+    let (probe, grid, _) = pipeline::load_or_bake(&scene, &tracer, &pipeline::bake_dir(dir), &quiet).unwrap();
+    let baked = Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
+    let fs = FitSettings {
+        train_positions: 4,
+        train_dirs: 32,
+        check_positions: 4,
+        check_dirs: 16,
+        reference_spp: 1,
+        iterations: 1,
+        ..FitSettings::default()
+    };
+    let (fit, _) = pipeline::fit(baked, &fs, Default::default(), dir, "test", &quiet).unwrap();
+    let rows = [CorrectiveRow { name: "fitted", note: "", correctives: &fit.correctives, blend: Blend::Cell }];
+    let es = EvalSettings {
+        positions: 16,
+        dirs_per_position: 32,
+        reference_spp: 1,
+        timing_lookups: 512,
+        ..Default::default()
+    };
+    let g = FittedGrid::load(dir).unwrap();
+    pipeline::evaluate(baked, &es, &Method::ALL, &rows, Some(&g), dir, "test", &quiet).unwrap();
+}
+
+fn chromium() -> Option<PathBuf> {
+    if let Ok(p) = std::env::var("WARPFIT_CHROMIUM") {
+        return Some(PathBuf::from(p));
+    }
+    ["/usr/bin/chromium", "/usr/bin/chromium-browser", "/usr/bin/google-chrome"]
+        .iter()
+        .map(PathBuf::from)
+        .find(|p| p.is_file())
+}
+
+#[test]
+fn report_is_self_contained_complete_and_opens_in_chromium() {
+    let dir = std::env::temp_dir().join(format!("warpfit-report-test-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    small_run(&dir);
+    let r = warpfit::report::page::write_report(&dir, "test").unwrap();
+
+    // every section present, the Pareto front marked, fitted per level on the validation set
+    assert!(r.methods.iter().any(|m| m.name == "fitted") && r.methods.iter().any(|m| m.pareto));
+    assert!(!r.methods.iter().any(|m| m.name == "oracle" && m.pareto), "the oracle is a bound, not a method");
+    assert!(!r.eval_levels.is_empty() && r.eval_levels.iter().all(|l| l.fitted_rel_rmse.is_finite()));
+    assert!(r.stages.iter().any(|s| s.stage.starts_with("bake") && s.rays > 0));
+    assert!(r.stages.iter().any(|s| s.stage.starts_with("eval") && s.rays > 0 && s.seconds > 0.0));
+    assert!(r.layers.iter().any(|l| l.layer == "radiance_mip0" && l.raw_bytes > 0));
+    assert!(
+        r.images.iter().any(|i| i == "eval_error_vs_cost.png") && r.images.iter().any(|i| i == "residual_slices.png")
+    );
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("report.json")).unwrap()).unwrap();
+    for key in ["methods", "levels", "eval_levels", "worst_cells", "stages", "layers", "left_out", "images"] {
+        assert!(json.get(key).is_some(), "report.json lacks {key}");
+    }
+
+    // self-contained: images inlined, nothing external
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert_eq!(html.matches("<img ").count(), r.images.len());
+    assert_eq!(html.matches("src=\"data:image/png;base64,").count(), r.images.len());
+    assert!(!html.contains("http://") && !html.contains("https://") && !html.contains("<script"));
+    let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    assert!(md.contains("| method | rel RMSE |"));
+
+    match chromium() {
+        None => eprintln!("note: Chromium not found; the headless console check is skipped"),
+        Some(exe) => {
+            let profile = dir.join("chromium-profile");
+            let out = std::process::Command::new(&exe)
+                .args([
+                    "--headless",
+                    "--no-sandbox",
+                    "--disable-gpu",
+                    "--disable-quic",
+                    "--no-first-run",
+                    "--disable-background-networking",
+                    "--disable-component-update",
+                    "--disable-sync",
+                    "--enable-logging=stderr",
+                    "--v=0",
+                    "--dump-dom",
+                ])
+                .arg(format!("--user-data-dir={}", profile.display()))
+                .arg(format!("file://{}", dir.join("report.html").display()))
+                .output()
+                .expect("chromium starts");
+            let stdout = String::from_utf8_lossy(&out.stdout);
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert!(out.status.success(), "chromium failed: {stderr}");
+            assert!(stdout.contains("<h1>warpfit report: tiny</h1>"), "page did not render: {stdout:.500}");
+            let console: Vec<&str> =
+                stderr.lines().filter(|l| l.contains("CONSOLE") || l.contains("Uncaught")).collect();
+            assert!(console.is_empty(), "console messages: {console:?}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
