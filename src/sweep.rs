@@ -135,29 +135,39 @@ pub fn run(
         convergence,
     };
     crate::fit::output::write_json(&dir.join("sweep.json"), &sweep)?;
+    plot(dir, &sweep)?;
+    Ok(sweep)
+}
+
+/// Renders `sweep.png` and `sweep_convergence.png` from a sweep.
+pub fn plot(dir: &Path, sw: &Sweep) -> Result<(), FormatError> {
     let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
-    for r in &sweep.rows {
-        match series.iter_mut().find(|(k, _)| *k == r.knob) {
-            Some((_, pts)) => pts.push((r.fit_seconds, r.rel_rmse)),
-            None => series.push((r.knob.clone(), vec![(r.fit_seconds, r.rel_rmse)])),
+    // one line per knob, through its values in sweep order (named in the legend)
+    let mut knobs: Vec<&str> = Vec::new();
+    for r in &sw.rows {
+        if !knobs.contains(&r.knob.as_str()) {
+            knobs.push(&r.knob);
         }
     }
-    for (_, pts) in &mut series {
-        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for k in knobs {
+        let rows: Vec<&SweepRow> = sw.rows.iter().filter(|r| r.knob == k).collect();
+        let values: Vec<&str> = rows.iter().map(|r| r.value.as_str()).collect();
+        series
+            .push((format!("{k}: {}", values.join(" → ")), rows.iter().map(|r| (r.fit_seconds, r.rel_rmse)).collect()));
     }
     crate::report::plot::line_plot(
         &dir.join("sweep.png"),
-        &format!("{}: held-out error against fit time, one knob at a time", sweep.scene),
+        &format!("{}: held-out error against fit time, one knob at a time", sw.scene),
         "fit time (s)",
         "runtime rel RMSE (held out)",
         &series,
     )?;
     crate::report::plot::line_plot(
         &dir.join("sweep_convergence.png"),
-        &format!("{}: fit convergence per solver", sweep.scene),
+        &format!("{}: fit convergence per solver", sw.scene),
         "fit time on this machine (s, references excluded)",
         "mean training objective per cell",
-        &sweep.convergence,
+        &sw.convergence,
     )?;
-    Ok(sweep)
+    Ok(())
 }

@@ -379,8 +379,11 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
             ["knob", "value", "fit seconds", "rel RMSE (held out)"].iter().map(|s| s.to_string()).collect::<Vec<_>>(),
         ];
         for row in rows {
-            let f = |k: &str| row.get(k).map(|v| v.to_string().trim_matches('"').to_string()).unwrap_or_default();
-            t.push(vec![f("knob"), f("value"), f("fit_seconds"), f("rel_rmse")]);
+            let f = |k: &str| row.get(k).and_then(|v| v.as_str()).unwrap_or_default().to_string();
+            let num = |k: &str, digits: usize| {
+                row.get(k).and_then(|v| v.as_f64()).map(|x| format!("{x:.digits$}")).unwrap_or_default()
+            };
+            t.push(vec![f("knob"), f("value"), num("fit_seconds", 1), num("rel_rmse", 4)]);
         }
         out.push(("Error against fit effort (warpfit sweep)".to_string(), t));
     }
@@ -447,6 +450,12 @@ pub fn html(r: &RunReport, dir: &Path) -> Result<String, FormatError> {
 
 /// Builds the report from `dir` and writes report.json, report.md and report.html there.
 pub fn write_report(dir: &Path, command: &str) -> Result<RunReport, FormatError> {
+    // figures of a sweep are rendered from its data, so a report always shows the current style
+    let sweep_path = dir.join("sweep.json");
+    if sweep_path.is_file() {
+        let sw: crate::sweep::Sweep = read_json(&sweep_path)?;
+        crate::sweep::plot(dir, &sw)?;
+    }
     let r = build(dir, command)?;
     let io = |path: &Path| {
         let path = path.to_path_buf();
