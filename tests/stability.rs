@@ -39,3 +39,20 @@ fn seam_directions_are_unit_and_cover_poles_and_diagonals() {
     assert!(d.contains(&glam::Vec3::Z) && d.contains(&glam::Vec3::NEG_Z));
     assert!(d.iter().any(|v| (v.x - v.y).abs() < 1e-7 && (v.y - v.z).abs() < 1e-7 && v.x > 0.0));
 }
+
+#[test]
+fn the_command_prints_every_row_and_writes_its_files() {
+    let out = std::env::temp_dir().join(format!("warpfit-stability-cli-{}", std::process::id()));
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_warpfit"))
+        .args(["--quiet", "stability", "--quick", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&run.stderr));
+    assert_eq!(stdout.lines().filter(|l| l.starts_with("pass ")).count(), 17, "{stdout}");
+    assert!(stdout.contains("all 17 stability cases pass"));
+    let md = std::fs::read_to_string(out.join("stability.md")).unwrap();
+    assert!(md.contains("| query at the probe centre |"));
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -351,7 +351,7 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
     for s in &r.stages {
         t.push(vec![
             s.stage.clone(),
-            format!("{:.2}", s.seconds),
+            format!("{:.3}", s.seconds),
             s.rays.to_string(),
             if s.rays > 0 { format!("{:.2} M", s.rays_per_s / 1e6) } else { "–".into() },
         ]);
