@@ -8,14 +8,7 @@ use super::FormatError;
 use exr::prelude::*;
 use std::path::Path;
 
-/// One layer: `width × height` pixels, row 0 first, each channel a flat row-major array.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ExrLayer {
-    pub name: String,
-    pub width: usize,
-    pub height: usize,
-    pub channels: Vec<(String, Vec<f32>)>,
-}
+pub use crate::runtime::exr_layers::ExrLayer;
 
 impl ExrLayer {
     pub fn channel(&self, name: &str) -> Option<&[f32]> {
@@ -98,32 +91,8 @@ pub fn read_exr(path: &Path) -> std::result::Result<Vec<ExrLayer>, FormatError> 
 
 /// Decodes EXR bytes (the path only names the file in errors).
 pub fn decode_exr(path: &Path, bytes: &[u8]) -> std::result::Result<Vec<ExrLayer>, FormatError> {
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .non_parallel()
-        .from_buffered(std::io::Cursor::new(bytes))
-        .map_err(|e| FormatError::Exr { path: path.to_path_buf(), message: e.to_string() })?;
-    let mut out = Vec::new();
-    for layer in image.layer_data {
-        let name = layer.attributes.layer_name.as_ref().map(|n| n.to_string()).unwrap_or_default();
-        let (w, h) = (layer.size.0, layer.size.1);
-        let mut channels = Vec::new();
-        for ch in layer.channel_data.list {
-            let v: Vec<f32> = ch.sample_data.values_as_f32().collect();
-            if v.len() != w * h {
-                return Err(FormatError::Invalid {
-                    path: path.to_path_buf(),
-                    field: format!("{name}.{}", ch.name),
-                    message: "wrong sample count".into(),
-                });
-            }
-            channels.push((ch.name.to_string(), v));
-        }
-        out.push(ExrLayer { name, width: w, height: h, channels });
-    }
-    Ok(out)
+    crate::runtime::exr_layers::decode_layers(bytes).map_err(|e| match e.field {
+        Some(field) => FormatError::Invalid { path: path.to_path_buf(), field, message: e.message },
+        None => FormatError::Exr { path: path.to_path_buf(), message: e.message },
+    })
 }

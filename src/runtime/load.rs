@@ -2,6 +2,7 @@
 //! and checksum before decoding it, then validate every layer's presence, size and values.
 //! Every failure is a `LoadError` naming the file and the field.
 
+use super::exr_layers::{ExrLayer as Layer, decode_layers};
 use super::manifest::*;
 use super::{FittedGrid, IrradianceGrid, RoughnessLut};
 use crate::grid::GridGeometry;
@@ -63,14 +64,6 @@ pub fn read_manifest(dir: &Path) -> Result<GridManifest, LoadError> {
         return Err(LoadError::Version { path, found, version });
     }
     serde_json::from_value(value).map_err(|e| LoadError::Json { path, message: e.to_string() })
-}
-
-/// One decoded EXR layer: f32 channels, row-major.
-struct Layer {
-    name: String,
-    width: usize,
-    height: usize,
-    channels: Vec<(String, Vec<f32>)>,
 }
 
 /// Reads a payload (one of the fixed file names), checking its size and checksum against the
@@ -149,32 +142,10 @@ fn check_headers(path: &Path, bytes: &[u8], entry: &Payload) -> Result<(), LoadE
 }
 
 fn decode_exr(path: &Path, bytes: &[u8]) -> Result<Vec<Layer>, LoadError> {
-    use exr::prelude::{ReadChannels, ReadLayers, read};
-    let exr_err = |e: exr::error::Error| LoadError::Exr { path: path.to_path_buf(), message: e.to_string() };
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .non_parallel()
-        .from_buffered(std::io::Cursor::new(bytes))
-        .map_err(exr_err)?;
-    let mut out = Vec::new();
-    for layer in image.layer_data {
-        let name = layer.attributes.layer_name.as_ref().map(|n| n.to_string()).unwrap_or_default();
-        let (width, height) = (layer.size.0, layer.size.1);
-        let mut channels = Vec::new();
-        for ch in layer.channel_data.list {
-            let v: Vec<f32> = ch.sample_data.values_as_f32().collect();
-            if v.len() != width * height {
-                return Err(invalid(path, format!("{name}.{}", ch.name), "wrong sample count"));
-            }
-            channels.push((ch.name.to_string(), v));
-        }
-        out.push(Layer { name, width, height, channels });
-    }
-    Ok(out)
+    decode_layers(bytes).map_err(|e| match e.field {
+        Some(field) => invalid(path, field, e.message),
+        None => LoadError::Exr { path: path.to_path_buf(), message: e.message },
+    })
 }
 
 fn layer<'a>(layers: &'a [Layer], path: &Path, name: &str, size: (usize, usize)) -> Result<&'a Layer, LoadError> {

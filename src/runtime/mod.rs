@@ -23,6 +23,7 @@
 //! - Results are always finite and ≥ 0 (the payloads are validated on load).
 //! - `FittedGrid` is `Send + Sync` and immutable; sampling never allocates.
 
+pub mod exr_layers;
 mod load;
 pub mod manifest;
 
@@ -113,18 +114,7 @@ impl RoughnessLut {
             let v = c0 * alpha * k.powf(-c1);
             return if v.is_finite() { v.clamp(1e-3, 1.0) } else { alpha.clamp(1e-3, 1.0) };
         }
-        let locate = |axis: &[f32], v: f32| {
-            let v = v.clamp(axis[0], axis[axis.len() - 1]);
-            let i = axis.iter().map(|&a| (a <= v) as usize).sum::<usize>().clamp(1, axis.len() - 1) - 1;
-            (i, ((v - axis[i]) / (axis[i + 1] - axis[i])).clamp(0.0, 1.0))
-        };
-        let nk = self.log_ratios.len();
-        let (i, fa) = locate(&self.alphas, alpha);
-        let (j, fk) = locate(&self.log_ratios, k.ln());
-        let t = |i: usize, j: usize| self.table[i * nk + j];
-        let v = (t(i, j) * (1.0 - fk) + t(i, j + 1) * fk) * (1.0 - fa)
-            + (t(i + 1, j) * (1.0 - fk) + t(i + 1, j + 1) * fk) * fa;
-        if v.is_finite() { v.clamp(1e-3, 1.0) } else { alpha.clamp(1e-3, 1.0) }
+        crate::roughness::table_lookup(&self.alphas, &self.log_ratios, |x| x, &self.table, alpha, k.ln())
     }
 }
 
