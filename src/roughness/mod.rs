@@ -46,27 +46,8 @@ pub struct RoughnessCorrection {
 impl RoughnessCorrection {
     /// α' from the table, bilinear in α and log k, clamped to the table's range.
     pub fn from_table(&self, alpha: f32, k: f32) -> f32 {
-        let (na, nk) = (self.alphas.len(), self.ratios.len());
-        if na < 2 || nk < 2 || self.table.len() != na * nk {
-            return alpha.clamp(1e-3, 1.0);
-        }
-        // Bracket `v` on `axis`; the fraction is linear in `v` (α) or in log v (k).
-        let locate = |axis: &[f32], v: f32, log: bool| -> (usize, f32) {
-            let v = v.clamp(axis[0], axis[axis.len() - 1]);
-            let i = axis.partition_point(|&a| a <= v).clamp(1, axis.len() - 1) - 1;
-            let f = if log {
-                (v / axis[i]).ln() / (axis[i + 1] / axis[i]).ln()
-            } else {
-                (v - axis[i]) / (axis[i + 1] - axis[i])
-            };
-            (i, if f.is_finite() { f.clamp(0.0, 1.0) } else { 0.0 })
-        };
-        let (i, fa) = locate(&self.alphas, alpha, false);
-        let (j, fk) = locate(&self.ratios, if k > 0.0 { k } else { self.ratios[0] }, true);
-        let at = |i: usize, j: usize| self.table[i.min(na - 1) * nk + j.min(nk - 1)];
-        let v = (at(i, j) * (1.0 - fk) + at(i, j + 1) * fk) * (1.0 - fa)
-            + (at(i + 1, j) * (1.0 - fk) + at(i + 1, j + 1) * fk) * fa;
-        if v.is_finite() { v.clamp(1e-3, 1.0) } else { alpha.clamp(1e-3, 1.0) }
+        let k = if k > 0.0 { k } else { self.ratios.first().copied().unwrap_or(1.0) };
+        table_lookup(&self.alphas, &self.ratios, f32::ln, &self.table, alpha, k.ln())
     }
 
     pub fn analytic(&self, alpha: f32, k: f32) -> f32 {
@@ -83,6 +64,40 @@ impl RoughnessCorrection {
         }
         if self.chosen == "table" { self.from_table(alpha, k) } else { self.analytic(alpha, k) }
     }
+}
+
+/// Bilinear lookup of an α-row, k-column table, clamped to its range: linear in α, linear in
+/// ln k. `k_axis` is read through `key` (`f32::ln` for stored ratios, the identity for an
+/// axis already in logs, as the runtime keeps it). Always finite, in [1e-3, 1].
+#[inline]
+pub fn table_lookup(
+    alphas: &[f32],
+    k_axis: &[f32],
+    key: impl Fn(f32) -> f32,
+    table: &[f32],
+    alpha: f32,
+    log_k: f32,
+) -> f32 {
+    let (na, nk) = (alphas.len(), k_axis.len());
+    if na < 2 || nk < 2 || table.len() != na * nk {
+        return alpha.clamp(1e-3, 1.0);
+    }
+    let (i, fa) = bracket(na, |t| alphas[t], alpha);
+    let (j, fk) = bracket(nk, |t| key(k_axis[t]), log_k);
+    let at = |i: usize, j: usize| table[i * nk + j];
+    let v = (at(i, j) * (1.0 - fk) + at(i, j + 1) * fk) * (1.0 - fa)
+        + (at(i + 1, j) * (1.0 - fk) + at(i + 1, j + 1) * fk) * fa;
+    if v.is_finite() { v.clamp(1e-3, 1.0) } else { alpha.clamp(1e-3, 1.0) }
+}
+
+/// Node interval of `v` on an increasing axis of `n` nodes read through `node`, and the
+/// fraction within it. Branch-free: counts the nodes at or below v (axes are a dozen long).
+#[inline]
+fn bracket(n: usize, node: impl Fn(usize) -> f32, v: f32) -> (usize, f32) {
+    let v = v.clamp(node(0), node(n - 1));
+    let i = (0..n).map(|t| (node(t) <= v) as usize).sum::<usize>().clamp(1, n - 1) - 1;
+    let f = (v - node(i)) / (node(i + 1) - node(i));
+    (i, if f.is_finite() { f.clamp(0.0, 1.0) } else { 0.0 })
 }
 
 pub(crate) fn analytic(c0: f64, c1: f64, alpha: f64, k: f64) -> f64 {
