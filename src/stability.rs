@@ -650,28 +650,30 @@ fn wall_radiance(p: Vec3, scale: f32) -> Vec3 {
     Vec3::new(0.5 + 0.4 * (1.3 * x).sin() * (1.1 * y).cos(), 0.5 + 0.3 * (0.9 * x + 0.4 * y).sin(), 0.4)
 }
 
-/// Probe at the origin before an infinite textured wall at z = 5·scale.
-fn wall_probe(scale: f32) -> WarpProbe {
+/// Closed-form fixture: a probe at the origin (`res`² map) before an infinite textured wall
+/// at z = 5·scale.
+pub fn wall_probe(scale: f32, res: u32) -> WarpProbe {
     let z = 5.0 * scale;
-    let res = 128;
     let rad = OctMap::from_fn(res, |_, _, d| if d.z > 0.0 { wall_radiance(d * (z / d.z), scale) } else { Vec3::ZERO });
     let dist = OctMap::from_fn(res, |_, _, d| if d.z > 0.0 { z / d.z } else { f32::INFINITY });
     WarpProbe::from_distance_mips(Vec3::ZERO, &octa::build_distance_mips(dist, 8), OctMips { levels: vec![rad] })
 }
 
-/// Fits a cell 1·scale before the wall whose map starts 30% too near.
-fn fit_wall(scale: f32, samples: u32) -> (Vec<f64>, f64) {
-    let probe = wall_probe(scale);
+/// The wall's cell problem: a cell centred 1·scale before the probe whose 8×8 map starts 30%
+/// too near, and `samples` queries in the cell with exact references. Returns the starting
+/// map, the queries, the cell centre and the true map.
+pub fn wall_problem(scale: f32, samples: u32) -> (Vec<f32>, Vec<Sample>, Vec3, Vec<f32>) {
     let z = 5.0 * scale;
     let c = Vec3::new(0.8, -0.5, 1.0) * scale;
     let res = 8;
-    let init: Vec<f32> = (0..res * res)
+    let truth: Vec<f32> = (0..res * res)
         .map(|t| {
             let d = octa::texel_dir(res, t % res, t / res);
-            if d.z > 0.0 { 1.3 * d.z / (z - c.z) } else { 0.0 }
+            if d.z > 0.0 { d.z / (z - c.z) } else { 0.0 }
         })
         .collect();
-    let qs: Vec<Sample> = (0..samples)
+    let init = truth.iter().map(|w| w * 1.3).collect();
+    let qs = (0..samples)
         .map(|k| {
             let mut s = Sampler::new(5, 7, k);
             let b = c + (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5) * scale;
@@ -681,7 +683,14 @@ fn fit_wall(scale: f32, samples: u32) -> (Vec<f64>, f64) {
             Sample { b, dir: d, reference: wall_radiance(b + d * ((z - b.z) / d.z), scale), taps: [(0, 0.0); 4] }
         })
         .collect();
-    let mut problem = CellProblem::new(&probe, c, res, init, qs, 1e-4, 0.0);
+    (init, qs, c, truth)
+}
+
+/// Fits the wall problem with Brent: log-scale parameters and the held-in relative error.
+fn fit_wall(scale: f32, samples: u32) -> (Vec<f64>, f64) {
+    let probe = wall_probe(scale, 128);
+    let (init, qs, c, _) = wall_problem(scale, samples);
+    let mut problem = CellProblem::new(&probe, c, 8, init, qs, 1e-4, 0.0);
     let out = problem.solve(Solver::Brent, 2);
     let err = problem.relative_error_map(&problem.map_with_relax(&out.params, 0.0));
     (out.params, err)
@@ -702,7 +711,7 @@ fn stiff_fit(mode: Mode) -> Outcome {
 }
 
 fn near_singular_secant(_mode: Mode) -> Outcome {
-    let probe = wall_probe(1.0);
+    let probe = wall_probe(1.0, 128);
     let proxies = warp::Proxies {
         aabb: warp::proxy::BoxProxy::aabb(Vec3::splat(-10.0), Vec3::splat(5.0)),
         kdop: warp::proxy::Kdop::fit(Vec3::ZERO, &probe_distance(&probe)),

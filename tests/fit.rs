@@ -4,67 +4,17 @@
 
 mod common;
 use common::*;
-use glam::Vec3;
-use warpfit::bake::SpecularProbe;
 use warpfit::eval::MethodContext;
-use warpfit::fit::objective::{CellProblem, Sample};
+use warpfit::fit::objective::CellProblem;
 use warpfit::fit::{self, FitSettings, Solver};
-use warpfit::octa::{self, OctMap, OctMips, build_distance_mips};
+use warpfit::octa;
 use warpfit::progress::Progress;
-use warpfit::sampling::{Sampler, uniform_sphere};
+use warpfit::stability::{wall_probe, wall_problem};
 use warpfit::trace::Tracer;
-use warpfit::warp::WarpProbe;
-
-/// Texture on the wall z = `wall` (in units of `scale`).
-fn wall_radiance(p: Vec3, scale: f32) -> Vec3 {
-    let (x, y) = (p.x / scale, p.y / scale);
-    Vec3::new(0.5 + 0.4 * (1.3 * x).sin() * (1.1 * y).cos(), 0.5 + 0.3 * (0.9 * x + 0.4 * y).sin(), 0.4)
-}
-
-/// Probe at the origin in front of an infinite textured wall at z = 5·scale; a cell centred at
-/// `c` whose map starts `wrong` times too near; references from the exact wall.
-fn wall_problem(probe: &WarpProbe, scale: f32, samples: usize) -> (Vec<f32>, Vec<Sample>, Vec3, Vec<f32>) {
-    let z = 5.0 * scale;
-    let c = Vec3::new(0.8, -0.5, 1.0) * scale;
-    let res = 8;
-    let truth: Vec<f32> = (0..res * res)
-        .map(|t| {
-            let d = octa::texel_dir(res, t % res, t / res);
-            if d.z > 0.0 { d.z / (z - c.z) } else { 0.0 }
-        })
-        .collect();
-    let init: Vec<f32> = truth.iter().map(|w| w * 1.3).collect();
-    let mut qs = Vec::new();
-    for k in 0..samples as u32 {
-        let mut s = Sampler::new(5, 7, k);
-        let b = c + (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5) * scale;
-        let mut d = uniform_sphere(s.next_2d());
-        d.z = d.z.abs().max(0.2);
-        let d = d.normalize();
-        let hit = b + d * ((z - b.z) / d.z);
-        qs.push(Sample { b, dir: d, reference: wall_radiance(hit, scale), taps: [(0, 0.0); 4] });
-    }
-    let _ = probe;
-    (init, qs, c, truth)
-}
-
-fn wall_probe(scale: f32) -> WarpProbe {
-    let z = 5.0 * scale;
-    let res = 256;
-    let rad = OctMap::from_fn(res, |_, _, d| if d.z > 0.0 { wall_radiance(d * (z / d.z), scale) } else { Vec3::ZERO });
-    let dist = OctMap::from_fn(res, |_, _, d| if d.z > 0.0 { z / d.z } else { f32::INFINITY });
-    let p = SpecularProbe {
-        position: Vec3::ZERO,
-        radiance: OctMips { levels: vec![rad] },
-        roughness: vec![0.0],
-        depth: build_distance_mips(dist, 8),
-    };
-    WarpProbe::new(&p)
-}
 
 fn fit_wall(scale: f32, solver: Solver) -> (Vec<f64>, f64, f64, Vec<f32>, Vec<f32>) {
-    let probe = wall_probe(scale);
-    let (init, qs, c, truth) = wall_problem(&probe, scale, 4000);
+    let probe = wall_probe(scale, 256);
+    let (init, qs, c, truth) = wall_problem(scale, 4000);
     let mut problem = CellProblem::new(&probe, c, 8, init.clone(), qs, 1e-4, 0.0);
     let before = problem.relative_error_map(&init);
     let out = problem.solve(solver, 4);
