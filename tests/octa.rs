@@ -51,6 +51,44 @@ proptest! {
     }
 }
 
+proptest! {
+    /// The bilinear footprint's top-left texel is floor(uv·N − ½) and its fractions are the
+    /// remainders, for every resolution in use (the floor is computed without `floorf`).
+    #[test]
+    fn footprint_is_the_floor(u in -0.1f32..1.1, v in -0.1f32..1.1, log_res in 1u32..13) {
+        let res = 1u32 << log_res;
+        let f = octa::footprint(res, Vec2::new(u, v));
+        let x = u.clamp(0.0, 1.0) * res as f32 - 0.5;
+        let y = v.clamp(0.0, 1.0) * res as f32 - 0.5;
+        prop_assert_eq!((f.i0, f.j0), (x.floor() as i32, y.floor() as i32));
+        prop_assert_eq!((f.fx, f.fy), (x - x.floor(), y - y.floor()));
+    }
+
+    /// The lane forms of encode and of the bilinear lookup return exactly the scalar values,
+    /// seams and poles included.
+    #[test]
+    fn lanes_equal_scalar_lookups_bit_for_bit(seed in 0u32..1000) {
+        let map = OctMap::from_fn(16, |i, j, d| d * (1.0 + (i * 7 + j * 3) as f32));
+        let specials = [Vec3::Z, -Vec3::Z, Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::ZERO, Vec3::NAN,
+            Vec3::new(1.0, -1.0, 0.0), Vec3::new(-1.0, 0.0, -1e-30), Vec3::INFINITY, Vec3::new(1e-45, 0.0, -1e-45)];
+        let dirs: [Vec3; octa::LANES] = std::array::from_fn(|k| {
+            if k % 3 == 0 {
+                specials[(seed as usize + k) % specials.len()]
+            } else {
+                warpfit::sampling::uniform_sphere(warpfit::sampling::Sampler::new(5, seed as u64, k as u32).next_2d())
+            }
+        });
+        let uv = octa::encode_lanes(&dirs);
+        let values = map.bilinear_uv_lanes(&uv);
+        for k in 0..octa::LANES {
+            let e = octa::encode(dirs[k]);
+            prop_assert!(e.is_finite() && values[k].is_finite(), "{}", dirs[k]);
+            prop_assert_eq!((uv.u[k].to_bits(), uv.v[k].to_bits()), (e.x.to_bits(), e.y.to_bits()));
+            prop_assert_eq!(values[k].to_array().map(f32::to_bits), map.bilinear_uv(e).to_array().map(f32::to_bits));
+        }
+    }
+}
+
 #[test]
 fn bilinear_reproduces_smooth_function() {
     let f = |d: Vec3| 1.0 + d.x * 0.5 + d.y * d.y - d.z * 0.25;

@@ -27,20 +27,31 @@ fn sign_not_zero(x: f32) -> f32 {
     if x >= 0.0 { 1.0 } else { -1.0 }
 }
 
-/// Direction → uv in [0,1]². `dir` need not be normalised; a zero or non-finite vector maps
-/// to the map centre (+Z), so no NaN ever leaves this function.
+/// Direction → uv in [0,1]². `dir` need not be normalised; a zero, subnormal or non-finite
+/// vector maps to the map centre (+Z), so no NaN ever leaves this function.
+///
+/// Branch-free: both hemispheres' coordinates are computed and selected, because the sign
+/// of z is random for random queries (a mispredicted branch costs more than the fold) and
+/// so that loops over lanes of lookups vectorise.
 #[inline]
 pub fn encode(dir: Vec3) -> Vec2 {
-    let l1 = dir.x.abs() + dir.y.abs() + dir.z.abs();
-    if !(l1 > 0.0 && l1.is_finite()) {
-        return Vec2::splat(0.5);
-    }
+    let (u, v) = encode_xyz(dir.x, dir.y, dir.z);
+    Vec2::new(u, v)
+}
+
+/// `encode` on components: the one implementation behind `encode` and `encode_lanes`.
+#[inline(always)]
+fn encode_xyz(x: f32, y: f32, z: f32) -> (f32, f32) {
+    let l1 = x.abs() + y.abs() + z.abs();
+    // below MIN_POSITIVE, 1/l1 overflows and the products become NaN
+    let usable = l1 >= f32::MIN_POSITIVE && l1.is_finite();
     let inv_l1 = 1.0 / l1; // one division, two multiplies
-    let mut p = Vec2::new(dir.x * inv_l1, dir.y * inv_l1);
-    if dir.z < 0.0 {
-        p = Vec2::new((1.0 - p.y.abs()) * sign_not_zero(p.x), (1.0 - p.x.abs()) * sign_not_zero(p.y));
-    }
-    (p * 0.5 + 0.5).clamp(Vec2::ZERO, Vec2::ONE)
+    let (px, py) = (x * inv_l1, y * inv_l1);
+    let (fx, fy) = ((1.0 - py.abs()) * sign_not_zero(px), (1.0 - px.abs()) * sign_not_zero(py));
+    let lower = z < 0.0;
+    let (px, py) = (if lower { fx } else { px }, if lower { fy } else { py });
+    let (u, v) = ((px * 0.5 + 0.5).clamp(0.0, 1.0), (py * 0.5 + 0.5).clamp(0.0, 1.0));
+    if usable { (u, v) } else { (0.5, 0.5) }
 }
 
 /// uv → unit direction. uv outside [0,1]² is clamped.
@@ -104,28 +115,116 @@ pub fn wrap_texel(res: u32, mut i: i64, mut j: i64) -> (u32, u32) {
     (i.clamp(0, n - 1) as u32, j.clamp(0, n - 1) as u32)
 }
 
+/// Where a bilinear lookup lands: the top-left texel of its 2×2 footprint (−1 or `res − 1`
+/// at the seams, where the wrap applies) and the blend fractions.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Footprint {
+    pub i0: i32,
+    pub j0: i32,
+    pub fx: f32,
+    pub fy: f32,
+}
+
+/// The bilinear footprint of `uv` (clamped to [0,1]²) on an N×N map.
+#[inline]
+pub fn footprint(res: u32, uv: Vec2) -> Footprint {
+    let (i0, j0, fx, fy) = footprint_of(res as f32, uv.x, uv.y);
+    Footprint { i0, j0, fx, fy }
+}
+
+/// `footprint` on components: the one implementation behind `footprint` and the lane loops.
+#[inline(always)]
+fn footprint_of(n: f32, u: f32, v: f32) -> (i32, i32, f32, f32) {
+    let x = u.clamp(0.0, 1.0) * n - 0.5;
+    let y = v.clamp(0.0, 1.0) * n - 0.5;
+    let (i0, x0) = floor_small(x);
+    let (j0, y0) = floor_small(y);
+    (i0, j0, x - x0, y - y0)
+}
+
+/// `floor(x)` as an integer and as a float, for |x| < 2²² (maps up to 2²¹ texels wide): adding and removing 1.5·2²³
+/// rounds to the nearest integer in float arithmetic, one compare corrects it to the floor,
+/// and the integer is read off the bits of `floor + 1.5·2²³`. Plain float arithmetic, so a
+/// loop over lanes vectorises; `x as i32` saturates, which the x86-64 baseline cannot
+/// vectorise, and `f32::floor` is a libm call there (no SSE4.1 round instruction).
+#[inline(always)]
+fn floor_small(x: f32) -> (i32, f32) {
+    const SHIFT: f32 = 12_582_912.0; // 1.5·2²³
+    let nearest = (x + SHIFT) - SHIFT;
+    let floor = if nearest > x { nearest - 1.0 } else { nearest };
+    ((floor + SHIFT).to_bits() as i32 - SHIFT.to_bits() as i32, floor)
+}
+
+/// Linear indices (row-major) of the 2×2 texels at `(i0, j0)`, seam wrap applied.
+#[inline]
+pub fn quad_indices(res: u32, i0: i32, j0: i32) -> [u32; 4] {
+    if quad_is_interior(res, i0, j0) {
+        let k = (j0 * res as i32 + i0) as u32;
+        return [k, k + 1, k + res, k + res + 1];
+    }
+    quad_indices_at_seam(res, i0, j0)
+}
+
+/// The 2×2 block at `(i0, j0)` lies inside the map: no seam handling needed.
+#[inline(always)]
+fn quad_is_interior(res: u32, i0: i32, j0: i32) -> bool {
+    let last = res as i32 - 1;
+    i0 >= 0 && j0 >= 0 && i0 < last && j0 < last
+}
+
+/// `quad_indices` for a footprint that touches the map's edge (rare: kept out of line so
+/// the interior path stays small enough to inline).
+#[cold]
+#[inline(never)]
+fn quad_indices_at_seam(res: u32, i0: i32, j0: i32) -> [u32; 4] {
+    let idx = |i: i32, j: i32| {
+        let (i, j) = wrap_texel(res, i as i64, j as i64);
+        j * res + i
+    };
+    [idx(i0, j0), idx(i0 + 1, j0), idx(i0, j0 + 1), idx(i0 + 1, j0 + 1)]
+}
+
+/// Bilinear blend of a 2×2 quad (`[t00, t10, t01, t11]`).
+#[inline]
+pub fn blend<T: Texel>(q: [T; 4], fx: f32, fy: f32) -> T {
+    (q[0] * (1.0 - fx) + q[1] * fx) * (1.0 - fy) + (q[2] * (1.0 - fx) + q[3] * fx) * fy
+}
+
 /// The four texels (linear indices, row-major) and weights a bilinear lookup at `uv` blends,
 /// with the seam wrap applied. Weights sum to 1.
 #[inline]
 pub fn bilinear_taps(res: u32, uv: Vec2) -> [(u32, f32); 4] {
-    let n = res as f32;
-    let x = uv.x.clamp(0.0, 1.0) * n - 0.5;
-    let y = uv.y.clamp(0.0, 1.0) * n - 0.5;
-    let i0 = (x + 1.0) as i64 - 1;
-    let j0 = (y + 1.0) as i64 - 1;
-    let fx = x - i0 as f32;
-    let fy = y - j0 as f32;
-    let idx = |i: i64, j: i64| {
-        let (i, j) = wrap_texel(res, i, j);
-        j * res + i
-    };
-    [
-        (idx(i0, j0), (1.0 - fx) * (1.0 - fy)),
-        (idx(i0 + 1, j0), fx * (1.0 - fy)),
-        (idx(i0, j0 + 1), (1.0 - fx) * fy),
-        (idx(i0 + 1, j0 + 1), fx * fy),
-    ]
+    let Footprint { i0, j0, fx, fy } = footprint(res, uv);
+    let k = quad_indices(res, i0, j0);
+    [(k[0], (1.0 - fx) * (1.0 - fy)), (k[1], fx * (1.0 - fy)), (k[2], (1.0 - fx) * fy), (k[3], fx * fy)]
 }
+
+/// Octahedral coordinates of [`LANES`] lookups, as two arrays (the layout lane loops
+/// vectorise over).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct UvLanes {
+    pub u: [f32; LANES],
+    pub v: [f32; LANES],
+}
+
+/// `encode` for [`LANES`] directions, bit for bit the same.
+#[inline]
+pub fn encode_lanes(dirs: &[Vec3; LANES]) -> UvLanes {
+    let (mut x, mut y, mut z) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
+    for k in 0..LANES {
+        (x[k], y[k], z[k]) = (dirs[k].x, dirs[k].y, dirs[k].z);
+    }
+    let mut uv = UvLanes::default();
+    for k in 0..LANES {
+        (uv.u[k], uv.v[k]) = encode_xyz(x[k], y[k], z[k]);
+    }
+    uv
+}
+
+/// Lookups processed together by the `*_lanes` functions. Independent lookups advance
+/// stage by stage in lockstep, so the processor overlaps their dependency chains (a single
+/// lookup is latency-bound) and the stages vectorise.
+pub const LANES: usize = 16;
 
 /// A value stored per texel: radiance (`Vec3`), distance (`f32`), …
 pub trait Texel: Copy + Default + Add<Output = Self> + Mul<f32, Output = Self> + Send + Sync {}
@@ -177,30 +276,43 @@ impl<T: Texel> OctMap<T> {
     /// Bilinear lookup at `uv`, continuous across the octahedral seams.
     #[inline]
     pub fn bilinear_uv(&self, uv: Vec2) -> T {
+        let f = footprint(self.res, uv);
+        blend(self.quad(f.i0, f.j0), f.fx, f.fy)
+    }
+
+    /// The 2×2 texels at `(i0, j0)`, seam wrap applied.
+    #[inline]
+    pub fn quad(&self, i0: i32, j0: i32) -> [T; 4] {
+        if quad_is_interior(self.res, i0, j0) {
+            // one bounds check for the whole 2×2 block
+            let (k, r) = ((j0 * self.res as i32 + i0) as usize, self.res as usize);
+            let block = &self.texels[k..k + r + 2];
+            return [block[0], block[1], block[r], block[r + 1]];
+        }
+        quad_indices_at_seam(self.res, i0, j0).map(|k| self.texels[k as usize])
+    }
+
+    /// `bilinear_uv` for [`LANES`] lookups at once, bit for bit the same values.
+    #[inline]
+    pub fn bilinear_uv_lanes(&self, uv: &UvLanes) -> [T; LANES] {
+        // Each stage is a plain loop over lanes so that it vectorises; only the gather is
+        // per lane.
         let n = self.res as f32;
-        let x = uv.x.clamp(0.0, 1.0) * n - 0.5;
-        let y = uv.y.clamp(0.0, 1.0) * n - 0.5;
-        // x, y ≥ −0.5, so truncating x + 1 is floor(x) + 1 without a libm `floorf` call
-        // (the x86-64 baseline has no SSE4.1 round instruction).
-        let i0 = (x + 1.0) as i64 - 1;
-        let j0 = (y + 1.0) as i64 - 1;
-        let fx = x - i0 as f32;
-        let fy = y - j0 as f32;
-        let last = self.res as i64 - 1;
-        let (t00, t10, t01, t11) = if i0 >= 0 && j0 >= 0 && i0 < last && j0 < last {
-            // interior: no seam handling needed
-            let k = (j0 * self.res as i64 + i0) as usize;
-            let r = self.res as usize;
-            (self.texels[k], self.texels[k + 1], self.texels[k + r], self.texels[k + r + 1])
-        } else {
-            (
-                self.get_wrapped(i0, j0),
-                self.get_wrapped(i0 + 1, j0),
-                self.get_wrapped(i0, j0 + 1),
-                self.get_wrapped(i0 + 1, j0 + 1),
-            )
-        };
-        (t00 * (1.0 - fx) + t10 * fx) * (1.0 - fy) + (t01 * (1.0 - fx) + t11 * fx) * fy
+        let (mut i0, mut j0) = ([0i32; LANES], [0i32; LANES]);
+        let (mut fx, mut fy) = ([0f32; LANES], [0f32; LANES]);
+        for k in 0..LANES {
+            (i0[k], j0[k], fx[k], fy[k]) = footprint_of(n, uv.u[k], uv.v[k]);
+        }
+        // explicit loops: `std::array::from_fn` is not reliably inlined here
+        let mut q = [[T::default(); LANES]; 4];
+        for k in 0..LANES {
+            [q[0][k], q[1][k], q[2][k], q[3][k]] = self.quad(i0[k], j0[k]);
+        }
+        let mut out = [T::default(); LANES];
+        for k in 0..LANES {
+            out[k] = blend([q[0][k], q[1][k], q[2][k], q[3][k]], fx[k], fy[k]);
+        }
+        out
     }
 
     /// Bilinear lookup towards `dir`.
@@ -299,16 +411,38 @@ impl<T: Texel> OctMips<T> {
 
     #[inline]
     pub fn sample_lod_uv(&self, uv: Vec2, lod: f32) -> T {
-        let max = (self.levels.len() - 1) as f32;
-        let lod = if lod.is_finite() { lod.clamp(0.0, max) } else { 0.0 };
-        let l0 = lod as usize; // lod ≥ 0: truncation is floor
-        let f = lod - l0 as f32;
+        let (l0, f) = self.split_lod(lod);
         let a = self.levels[l0].bilinear_uv(uv);
         if f == 0.0 || l0 + 1 >= self.levels.len() {
             return a;
         }
         let b = self.levels[l0 + 1].bilinear_uv(uv);
         a * (1.0 - f) + b * f
+    }
+
+    /// `sample_lod_uv` for [`LANES`] lookups at one `lod`, bit for bit the same values.
+    #[inline]
+    pub fn sample_lod_uv_lanes(&self, uv: &UvLanes, lod: f32) -> [T; LANES] {
+        let (l0, f) = self.split_lod(lod);
+        let a = self.levels[l0].bilinear_uv_lanes(uv);
+        if f == 0.0 || l0 + 1 >= self.levels.len() {
+            return a;
+        }
+        let b = self.levels[l0 + 1].bilinear_uv_lanes(uv);
+        let mut out = a;
+        for k in 0..LANES {
+            out[k] = a[k] * (1.0 - f) + b[k] * f;
+        }
+        out
+    }
+
+    /// Mip index and blend fraction of `lod`, clamped to the chain (non-finite → 0).
+    #[inline]
+    fn split_lod(&self, lod: f32) -> (usize, f32) {
+        let max = self.levels.len().saturating_sub(1) as u32 as f32;
+        let lod = if lod.is_finite() { lod.max(0.0).min(max) } else { 0.0 };
+        let l0 = lod as u32; // lod ≥ 0: truncation is floor
+        (l0 as usize, lod - l0 as f32)
     }
 }
 
