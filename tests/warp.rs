@@ -194,6 +194,11 @@ proptest! {
     }
 }
 
+/// Bit patterns of a vector: batched and per-lookup results must agree bit for bit.
+fn bits(v: Vec3) -> [u32; 3] {
+    v.to_array().map(f32::to_bits)
+}
+
 #[test]
 fn batched_warp1_equals_the_per_lookup_warp1() {
     let (_, _, probe, ctx) = torture_at_test_resolution();
@@ -205,10 +210,46 @@ fn batched_warp1_equals_the_per_lookup_warp1() {
         .collect();
     queries.push((probe.position, Vec3::X)); // query at the probe
     queries.push((Vec3::new(1.5, 3.0, 1.5), Vec3::Y)); // towards the skylight
-    let mut out = vec![Vec3::ZERO; queries.len()];
-    warp::depth::warp1_batch(&ctx.probe, &queries, opts.depth_lod, &mut out);
-    for (q, v) in queries.iter().zip(&out) {
+    queries.push((Vec3::new(40.0, -30.0, 5.0), Vec3::X)); // B far outside the scene
+    for d in [Vec3::Z, -Vec3::Z, Vec3::X, -Vec3::Y, Vec3::new(1.0, -1.0, 0.0).normalize()] {
+        queries.push((Vec3::new(0.3, 1.0, 0.2), d)); // poles and seams of the octahedral map
+    }
+    queries.push((Vec3::new(0.3, 0.0, 0.2), Vec3::new(1.0, 1e-7, 0.0).normalize())); // grazing along the floor
+    assert!(!queries.len().is_multiple_of(octa::LANES), "the remainder path must be exercised too");
+    let mut vectors = vec![Vec3::ZERO; queries.len()];
+    warp::depth::warp1_batch(&ctx.probe, &queries, opts.depth_lod, &mut vectors);
+    let mut radiance = vec![Vec3::ZERO; queries.len()];
+    ctx.probe.radiance_batch(&vectors, &mut radiance);
+    for ((q, v), r) in queries.iter().zip(&vectors).zip(&radiance) {
         let single = warp::fetch_vector(Method::Warp1, &ctx.probe, &ctx.proxies, &opts, q.0, q.1);
-        assert_eq!(*v, single, "query {q:?}");
+        assert_eq!(bits(*v), bits(single), "query {q:?}: {v} vs {single}");
+        assert_eq!(bits(*r), bits(ctx.probe.radiance(single)), "query {q:?}");
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+    /// Batched warp1 equals per-lookup warp1 bit for bit on arbitrary probes (finite, zero
+    /// and infinite depths), depth mips and queries, including every degenerate early exit.
+    #[test]
+    fn batched_warp1_is_bitwise_the_per_lookup_warp1(seed in 0u64..1000, lod in 0.0f32..3.0,
+        queries in proptest::collection::vec((-20.0f32..20.0, -20.0f32..20.0, -20.0f32..20.0, 0.0f32..1.0, 0.0f32..1.0), 1..40)) {
+        let a = Vec3::new(0.5, 1.0, -0.5);
+        let p = synthetic_probe(a, 16, |d| {
+            let h = ((d.x * 12.9898 + d.y * 78.233 + d.z * 37.719 + seed as f32).sin() * 43758.547).fract().abs();
+            if h < 0.2 { f32::INFINITY } else if h < 0.25 { 0.0 } else { h * 5.0 }
+        });
+        let (wp, proxies) = context(&p, Vec3::splat(-4.0), Vec3::splat(4.0));
+        let opts = WarpOptions { depth_lod: lod, ..WarpOptions::default() };
+        let mut q: Vec<(Vec3, Vec3)> =
+            queries.iter().map(|&(x, y, z, u, v)| (Vec3::new(x, y, z), octa::decode(Vec2::new(u, v)))).collect();
+        q.push((a, q[0].1)); // at the probe: the query direction itself, not a rescaled copy
+        let mut out = vec![Vec3::ZERO; q.len()];
+        warp::depth::warp1_batch(&wp, &q, lod, &mut out);
+        for (q, v) in q.iter().zip(&out) {
+            let single = warp::fetch_vector(Method::Warp1, &wp, &proxies, &opts, q.0, q.1);
+            prop_assert_eq!(bits(*v), bits(single), "query {:?}", q);
+            prop_assert!(v.is_finite() && *v != Vec3::ZERO);
+        }
     }
 }

@@ -12,6 +12,7 @@
 //!   it passes behind A's depth, then binary refinement.
 
 use super::{WarpProbe, toward};
+use crate::octa::{LANES, encode_lanes};
 use glam::Vec3;
 #[allow(unused_imports)]
 use glam::Vec3Swizzles as _;
@@ -30,8 +31,13 @@ fn ray_plane(b: Vec3, dir: Vec3, s: Vec3, n: Vec3) -> Option<f32> {
 
 /// Seed 000's plane warp with `steps` steps; `new_plane` re-orients each further plane
 /// perpendicular to the previous sample direction. Returns a fetch *vector* (any positive
-/// multiple of the fetch direction): the octahedral lookup does not need it normalised, and
-/// skipping the normalisations shortens the dependent chain of divisions.
+/// multiple of the fetch direction): the octahedral lookup does not need it normalised.
+///
+/// Points are carried in homogeneous form, each scaled by a positive factor the next step
+/// does not need to undo: with `ab = A − B` and `w1` the probe's inverse distance along
+/// Dir, `v = w1·(I − A) = Dir·max(w1·(Dir·ab) + 1, 0) − w1·ab`; with `λ = |v|·w(v)`,
+/// `λ·(S − B) = λ·ab + v`. The textbook form divides by `w1` and by `λ`; this one needs no
+/// division besides the octahedral encode's, which shortens the dependent chain of a lookup.
 #[inline]
 pub fn plane_warp(p: &WarpProbe, b: Vec3, dir: Vec3, lod: f32, steps: u32, new_plane: bool) -> Vec3 {
     let a = p.position;
@@ -42,31 +48,45 @@ pub fn plane_warp(p: &WarpProbe, b: Vec3, dir: Vec3, lod: f32, steps: u32, new_p
     if w1 == 0.0 {
         return dir; // the probe sees sky along Dir: treat the hit as infinitely far
     }
-    // Plane perpendicular to Dir at S1 = A + Dir/w1; |Dir| = 1, so no division.
-    let mut t = (dir.dot(a - b) + 1.0 / w1).max(0.0);
+    let ab = a - b;
+    let dir_ab = dir.dot(ab);
+    // Plane perpendicular to Dir at S1 = A + Dir/w1, crossed by the ray from B at I.
+    let mut v = first_plane(dir, ab, dir_ab, w1);
     let mut normal = dir;
-    for step in 0..steps.max(1) {
-        let v = b + dir * t - a; // A → I, unnormalised
-        let w = p.inv_dist(v, lod);
-        let len_w = v.length() * w;
-        if !(len_w > 0.0) {
+    for _ in 1..steps.max(1) {
+        let lambda = v.length() * p.inv_dist(v, lod);
+        if !(lambda > 0.0) {
             return dir; // sky towards I (or I at A)
         }
-        let s = a + v * (1.0 / len_w); // S = A + dir(A→I) · distance
-        if step + 1 < steps {
-            if new_plane {
-                normal = v;
-            }
-            let denom = normal.dot(dir);
-            if denom.abs() > 1e-4 * normal.length() {
-                t = (normal.dot(s - b) / denom).max(0.0);
-            }
-        } else {
-            // project S on the ray from B
-            t = dir.dot(s - b).max(0.0);
+        let s_b = ab * lambda + v; // λ·(S − B)
+        if new_plane {
+            normal = v;
+        }
+        let denom = normal.dot(dir);
+        if denom.abs() > 1e-4 * normal.length() {
+            // next plane through S with normal `normal`, crossed by the ray from B
+            let t = (normal.dot(s_b) / denom).max(0.0); // λ·t
+            v = dir * t - ab * lambda; // λ·(I − A)
         }
     }
-    fetch_vector(a, b + dir * t, dir)
+    let lambda = v.length() * p.inv_dist(v, lod);
+    let f = project_on_ray(dir, ab, dir_ab, v, lambda);
+    if lambda > 0.0 { fetch_vector(Vec3::ZERO, f, dir) } else { dir }
+}
+
+/// `w1·(I − A)`: I is where the ray from B crosses the plane perpendicular to Dir at the
+/// probe's hit `A + Dir/w1` (`w1 > 0`; `ab = A − B`, `dir_ab = Dir·ab`).
+#[inline]
+fn first_plane(dir: Vec3, ab: Vec3, dir_ab: f32, w1: f32) -> Vec3 {
+    dir * (dir_ab * w1 + 1.0).max(0.0) - ab * w1
+}
+
+/// `λ·(P − A)` for P, the projection of the probe's hit S on the ray from B, given
+/// `v ∝ (I − A)` and `λ = |v|·w(v)` (so that `λ·(S − B) = λ·ab + v`).
+#[inline]
+fn project_on_ray(dir: Vec3, ab: Vec3, dir_ab: f32, v: Vec3, lambda: f32) -> Vec3 {
+    let t = (dir_ab * lambda + dir.dot(v)).max(0.0); // λ·t
+    dir * t - ab * lambda
 }
 
 /// `to − from` when usable as a fetch vector, else `fallback`.
@@ -163,39 +183,45 @@ pub fn raymarch(p: &WarpProbe, b: Vec3, dir: Vec3, lod: f32, steps: u32) -> Vec3
     dir
 }
 
-/// `plane_warp` (one step) for a batch of queries, returning fetch vectors. Identical results
-/// to the per-lookup function; the queries advance in lockstep groups of 8 so the processor
-/// overlaps their independent dependency chains (one lookup alone is latency-bound: three
-/// dependent texture reads and a chain of divisions).
+/// `plane_warp` (one step) for a batch of queries, returning fetch vectors bit for bit equal
+/// to the per-lookup function's. Queries advance in lockstep groups of [`LANES`] through
+/// the same stages (encode, depth fetch, plane, encode, depth fetch, projection), with the
+/// per-lookup function's early exits as selects, so the processor overlaps the lanes'
+/// dependency chains: one lookup alone is latency-bound (three dependent fetches).
+/// `out` must be as long as `queries`.
 pub fn warp1_batch(p: &WarpProbe, queries: &[(Vec3, Vec3)], lod: f32, out: &mut [Vec3]) {
-    const LANES: usize = 8;
-    let a = p.position;
-    for (qs, os) in queries.chunks(LANES).zip(out.chunks_mut(LANES)) {
-        let n = qs.len();
-        let mut w1 = [0.0f32; LANES];
-        for i in 0..n {
-            w1[i] = p.inv_dist(qs[i].1, lod);
-        }
-        let mut v = [Vec3::ZERO; LANES];
-        for i in 0..n {
-            let (b, dir) = qs[i];
-            let t = if w1[i] > 0.0 { (dir.dot(a - b) + 1.0 / w1[i]).max(0.0) } else { 0.0 };
-            v[i] = b + dir * t - a;
-        }
-        let mut w = [0.0f32; LANES];
-        for i in 0..n {
-            w[i] = if w1[i] > 0.0 { p.inv_dist(v[i], lod) } else { 0.0 };
-        }
-        for i in 0..n {
-            let (b, dir) = qs[i];
-            let len_w = v[i].length() * w[i];
-            os[i] = if b == a || !(w1[i] > 0.0) || !(len_w > 0.0) {
-                dir
-            } else {
-                let s = a + v[i] * (1.0 / len_w);
-                let t = dir.dot(s - b).max(0.0);
-                fetch_vector(a, b + dir * t, dir)
-            };
-        }
+    let mut groups = queries.chunks_exact(LANES);
+    let mut outs = out.chunks_exact_mut(LANES);
+    for (qs, os) in (&mut groups).zip(&mut outs) {
+        let qs: &[(Vec3, Vec3); LANES] = qs.try_into().expect("chunks_exact");
+        os.copy_from_slice(&warp1_lanes(p, qs, lod));
     }
+    for (q, o) in groups.remainder().iter().zip(outs.into_remainder()) {
+        *o = plane_warp(p, q.0, q.1, lod, 1, false);
+    }
+}
+
+/// [`LANES`] lookups of `plane_warp` with one step.
+#[inline]
+pub fn warp1_lanes(p: &WarpProbe, q: &[(Vec3, Vec3); LANES], lod: f32) -> [Vec3; LANES] {
+    let a = p.position;
+    let w1 = p.inv_dist_lanes(&encode_lanes(&q.map(|(_, dir)| dir)), lod);
+    // explicit loops: `std::array::from_fn` is not reliably inlined here
+    let (mut ab, mut dir_ab, mut v) = ([Vec3::ZERO; LANES], [0.0f32; LANES], [Vec3::ZERO; LANES]);
+    for k in 0..LANES {
+        let (b, dir) = q[k];
+        ab[k] = a - b;
+        dir_ab[k] = dir.dot(ab[k]);
+        v[k] = first_plane(dir, ab[k], dir_ab[k], w1[k]);
+    }
+    let w = p.inv_dist_lanes(&encode_lanes(&v), lod);
+    let mut out = [Vec3::ZERO; LANES];
+    for k in 0..LANES {
+        let (b, dir) = q[k];
+        let lambda = v[k].length() * w[k];
+        let f = project_on_ray(dir, ab[k], dir_ab[k], v[k], lambda);
+        let usable = b != a && w1[k] != 0.0 && lambda > 0.0;
+        out[k] = if usable { fetch_vector(Vec3::ZERO, f, dir) } else { dir };
+    }
+    out
 }

@@ -16,7 +16,7 @@ pub mod depth;
 pub mod proxy;
 pub mod reproject;
 
-use crate::octa::{OctMap, OctMips};
+use crate::octa::{LANES, OctMap, OctMips, UvLanes};
 use glam::Vec3;
 
 /// The probe data warps read: position, inverse-distance mips and radiance mips.
@@ -59,10 +59,39 @@ impl WarpProbe {
         if w.is_finite() && w > 0.0 { w } else { 0.0 }
     }
 
+    /// `inv_dist` for [`LANES`] lookups given their octahedral uv, bit for bit the same.
+    #[inline]
+    pub fn inv_dist_lanes(&self, uv: &UvLanes, lod: f32) -> [f32; LANES] {
+        let mut w = self.inv_depth.sample_lod_uv_lanes(uv, lod);
+        for w in &mut w {
+            *w = if w.is_finite() && *w > 0.0 { *w } else { 0.0 };
+        }
+        w
+    }
+
     /// Mirror (roughness 0) radiance of the probe towards `dir`.
     #[inline]
     pub fn radiance(&self, dir: Vec3) -> Vec3 {
         self.radiance.levels[0].bilinear(dir)
+    }
+
+    /// `radiance` for a batch of fetch vectors (`out` as long as `vectors`), bit for bit
+    /// the same values, [`LANES`] at a time.
+    pub fn radiance_batch(&self, vectors: &[Vec3], out: &mut [Vec3]) {
+        let mut groups = vectors.chunks_exact(LANES);
+        let mut outs = out.chunks_exact_mut(LANES);
+        for (vs, os) in (&mut groups).zip(&mut outs) {
+            os.copy_from_slice(&self.radiance_lanes(vs.try_into().expect("chunks_exact")));
+        }
+        for (v, o) in groups.remainder().iter().zip(outs.into_remainder()) {
+            *o = self.radiance(*v);
+        }
+    }
+
+    /// `radiance` for [`LANES`] fetch vectors, bit for bit the same.
+    #[inline]
+    pub fn radiance_lanes(&self, dirs: &[Vec3; LANES]) -> [Vec3; LANES] {
+        self.radiance.levels[0].bilinear_uv_lanes(&crate::octa::encode_lanes(dirs))
     }
 }
 
