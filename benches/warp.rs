@@ -55,19 +55,23 @@ fn methods(c: &mut Criterion) {
             })
         })
         .collect();
-    // Batched warp1: the same lookups, 8 in lockstep.
+    // Batched warp1: the same lookups through the batch API (`octa::LANES` in lockstep),
+    // bit for bit the per-lookup results.
     let mut g = c.benchmark_group("lookup_batch/torture");
     g.throughput(Throughput::Elements(n as u64));
     g.sample_size(20);
-    let mut vectors = vec![Vec3::ZERO; n];
+    let (mut vectors, mut radiance) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
     g.bench_function("warp1", |b| {
         b.iter(|| {
             warpfit::warp::depth::warp1_batch(&ctx.probe, &queries, opts.depth_lod, &mut vectors);
-            let mut acc = Vec3::ZERO;
-            for v in &vectors {
-                acc += ctx.probe.radiance(*v);
-            }
-            black_box(acc)
+            ctx.probe.radiance_batch(&vectors, &mut radiance);
+            black_box(&radiance);
+        })
+    });
+    g.bench_function("none", |b| {
+        b.iter(|| {
+            ctx.probe.radiance_batch(black_box(&set.dirs), &mut radiance);
+            black_box(&radiance);
         })
     });
     g.finish();

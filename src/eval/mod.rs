@@ -168,6 +168,10 @@ pub struct MethodResult {
     pub ns_per_lookup: f64,
     /// The same with queries in random order (cache-hostile).
     pub ns_per_lookup_random: f64,
+    /// Per lookup through the method's batch API (queries in coherent order, [`LANES`](crate::octa::LANES)
+    /// lookups in lockstep), for methods that have one.
+    #[serde(default)]
+    pub ns_per_lookup_batched: Option<f64>,
     pub note: String,
 }
 
@@ -321,6 +325,7 @@ fn method_row(
         angular_deg: dirs.map(|d| mean_angle_deg(d, &set.oracle_dir)),
         ns_per_lookup,
         ns_per_lookup_random,
+        ns_per_lookup_batched: None,
         note,
     }
 }
@@ -344,6 +349,28 @@ pub fn evaluate_runtime(
         time_queries(set, timing_lookups, true, |b, d, _| grid.specular(b, d, 0.0)),
     );
     method_row(set, name, note.into(), &est, Some(&dirs), ns)
+}
+
+/// ns per lookup of `warp1` through its batch API (`warp1_batch` then `radiance_batch`),
+/// over the first `lookups` queries in coherent order; best of three warm runs.
+pub fn time_warp1_batched(ctx: &MethodContext, set: &ValidationSet, opts: &WarpOptions, lookups: usize) -> f64 {
+    let order = timing_order(set, false);
+    let n = lookups.min(set.dirs.len()).max(1);
+    let queries: Vec<(Vec3, Vec3)> = order[..n].iter().map(|&k| (set.position_of(k), set.dirs[k])).collect();
+    let (mut vectors, mut radiance) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+    let mut run = || {
+        warp::depth::warp1_batch(&ctx.probe, &queries, opts.depth_lod, &mut vectors);
+        ctx.probe.radiance_batch(&vectors, &mut radiance);
+        black_box(&radiance);
+    };
+    run(); // warm
+    (0..3)
+        .map(|_| {
+            let t = Instant::now();
+            run();
+            t.elapsed().as_nanos() as f64 / n as f64
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// Timing of a per-lookup method.
@@ -452,7 +479,11 @@ pub fn evaluate_methods(
                 time_method(ctx, set, m, opts, timing_lookups, false),
                 time_method(ctx, set, m, opts, timing_lookups, true),
             );
-            method_row(set, m.name(), note, &est, Some(&dirs), ns)
+            let mut row = method_row(set, m.name(), note, &est, Some(&dirs), ns);
+            if m == Method::Warp1 && opts.relax_texels == 0.0 {
+                row.ns_per_lookup_batched = Some(time_warp1_batched(ctx, set, opts, timing_lookups));
+            }
+            row
         })
         .collect()
 }

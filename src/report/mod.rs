@@ -62,9 +62,9 @@ pub fn methods_table(r: &EvalReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "| method | rel RMSE | MAE | p95 | max | angular ° | ns/lookup | ns/lookup (random order) | × cheaper than a reference ray | note |"
+        "| method | rel RMSE | MAE | p95 | max | angular ° | ns/lookup | ns/lookup (random order) | ns/lookup (batch API) | × cheaper than a reference ray | note |"
     );
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|");
     for m in &r.methods {
         let ang = m.angular_deg.map_or("–".to_string(), |a| format!("{a:.2}"));
         let cheaper = if m.name == "oracle" {
@@ -72,10 +72,21 @@ pub fn methods_table(r: &EvalReport) -> String {
         } else {
             format!("{:.0}", r.reference_ns_per_ray / m.ns_per_lookup.max(1e-9))
         };
+        let batched = m.ns_per_lookup_batched.map_or("–".to_string(), |ns| format!("{ns:.1}"));
         let _ = writeln!(
             s,
-            "| {} | {:.4} | {:.4} | {:.4} | {:.3} | {} | {:.1} | {:.1} | {} | {} |",
-            m.name, m.rel_rmse, m.mae, m.p95, m.max, ang, m.ns_per_lookup, m.ns_per_lookup_random, cheaper, m.note
+            "| {} | {:.4} | {:.4} | {:.4} | {:.3} | {} | {:.1} | {:.1} | {} | {} | {} |",
+            m.name,
+            m.rel_rmse,
+            m.mae,
+            m.p95,
+            m.max,
+            ang,
+            m.ns_per_lookup,
+            m.ns_per_lookup_random,
+            batched,
+            cheaper,
+            m.note
         );
     }
     s

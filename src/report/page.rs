@@ -23,6 +23,9 @@ pub struct MethodRow {
     pub mae: f64,
     pub p95: f64,
     pub ns_per_lookup: f64,
+    /// Through the method's batch API, where it has one.
+    #[serde(default)]
+    pub ns_per_lookup_batched: Option<f64>,
     pub pareto: bool,
     pub note: String,
 }
@@ -120,6 +123,7 @@ pub fn build(dir: &Path, command: &str) -> Result<RunReport, FormatError> {
             mae: m.mae,
             p95: m.p95,
             ns_per_lookup: m.ns_per_lookup,
+            ns_per_lookup_batched: m.ns_per_lookup_batched,
             pareto,
             note: m.note.clone(),
         })
@@ -282,7 +286,7 @@ fn md_table(rows: &[Vec<String>]) -> String {
 fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
     let mut out = Vec::new();
     let mut t = vec![
-        vec!["method", "rel RMSE", "MAE", "p95", "ns/lookup", "Pareto front", "note"]
+        vec!["method", "rel RMSE", "MAE", "p95", "ns/lookup", "ns/lookup (batch API)", "Pareto front", "note"]
             .into_iter()
             .map(String::from)
             .collect::<Vec<_>>(),
@@ -294,6 +298,7 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
             format!("{:.4}", m.mae),
             format!("{:.4}", m.p95),
             format!("{:.1}", m.ns_per_lookup),
+            m.ns_per_lookup_batched.map_or("–".into(), |ns| format!("{ns:.1}")),
             if m.pareto { "yes".into() } else { String::new() },
             m.note.clone(),
         ]);
