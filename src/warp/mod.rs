@@ -55,16 +55,15 @@ impl WarpProbe {
     /// Inverse distance seen by the probe towards `dir` at depth mip `lod`.
     #[inline]
     pub fn inv_dist(&self, dir: Vec3, lod: f32) -> f32 {
-        let w = self.inv_depth.sample_lod(dir, lod);
-        if w.is_finite() && w > 0.0 { w } else { 0.0 }
+        usable_inverse(self.inv_depth.sample_lod(dir, lod))
     }
 
     /// `inv_dist` for [`LANES`] lookups given their octahedral uv, bit for bit the same.
     #[inline]
     pub fn inv_dist_lanes(&self, uv: &UvLanes, lod: f32) -> [f32; LANES] {
         let mut w = self.inv_depth.sample_lod_uv_lanes(uv, lod);
-        for w in &mut w {
-            *w = if w.is_finite() && *w > 0.0 { *w } else { 0.0 };
+        for k in 0..LANES {
+            w[k] = usable_inverse(w[k]);
         }
         w
     }
@@ -93,6 +92,13 @@ impl WarpProbe {
     pub fn radiance_lanes(&self, dirs: &[Vec3; LANES]) -> [Vec3; LANES] {
         self.radiance.levels[0].bilinear_uv_lanes(&crate::octa::encode_lanes(dirs))
     }
+}
+
+/// A sampled inverse distance as the warps use it: finite and positive, else 0 (sky).
+/// Written as two compares so that loops over lanes vectorise.
+#[inline(always)]
+fn usable_inverse(w: f32) -> f32 {
+    if w > 0.0 && w < f32::INFINITY { w } else { 0.0 }
 }
 
 /// 1/d with 1/inf = 0; zero distance (probe touching geometry) maps to the largest finite
