@@ -89,6 +89,26 @@ fn runtime(c: &mut Criterion) {
             })
         });
     }
+    // The batch APIs on the same queries (`octa::LANES` lookups in lockstep).
+    let (positions, directions): (Vec<Vec3>, Vec<Vec3>) = q.iter().copied().unzip();
+    let mut out = vec![Vec3::ZERO; q.len()];
+    let mut vectors = vec![Vec3::ZERO; q.len()];
+    g.bench_function("warp1_batch", |b| {
+        b.iter(|| {
+            warp::depth::warp1_batch(&grid.probe, &q, grid.options.depth_lod, &mut vectors);
+            grid.probe.radiance_batch(&vectors, &mut out);
+            black_box(&out);
+        })
+    });
+    for r in [0.0f32, 0.5] {
+        let roughness = vec![r; q.len()];
+        g.bench_function(format!("specular_batch_r{r}"), |b| {
+            b.iter(|| {
+                grid.specular_batch(&positions, &directions, &roughness, &mut out).unwrap();
+                black_box(&out);
+            })
+        });
+    }
     g.bench_function("irradiance", |b| {
         b.iter(|| {
             let mut acc = Vec3::ZERO;

@@ -27,11 +27,18 @@ impl GridGeometry {
         (c.x + self.counts.x * (c.y + self.counts.y * c.z)) as usize
     }
     pub fn cell_centre(&self, index: usize) -> Vec3 {
-        self.min + (self.cell_coords(index).as_vec3() + 0.5) * self.cell_size()
+        self.centre_of(self.cell_coords(index))
+    }
+    /// Centre of the cell at integer coordinates `c` (no index round trip).
+    pub fn centre_of(&self, c: UVec3) -> Vec3 {
+        self.min + (c.as_vec3() + 0.5) * self.cell_size()
     }
     /// Cell containing `p` (clamped to the grid).
     pub fn cell_of(&self, p: Vec3) -> UVec3 {
-        let f = ((p - self.min) / self.cell_size()).floor();
+        // floor without libm calls (the x86-64 baseline has no round instruction); exact for
+        // |f| < 2²², far beyond any grid, and larger values are clamped below anyway
+        let f = ((p - self.min) / self.cell_size()).to_array().map(|x| crate::octa::floor_small(x).1);
+        let f = Vec3::from_array(f);
         let hi = (self.counts - UVec3::ONE).as_vec3();
         let f = if f.is_finite() { f.clamp(Vec3::ZERO, hi) } else { Vec3::ZERO };
         f.as_uvec3()

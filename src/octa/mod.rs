@@ -148,7 +148,7 @@ fn footprint_of(n: f32, u: f32, v: f32) -> (i32, i32, f32, f32) {
 /// loop over lanes vectorises; `x as i32` saturates, which the x86-64 baseline cannot
 /// vectorise, and `f32::floor` is a libm call there (no SSE4.1 round instruction).
 #[inline(always)]
-fn floor_small(x: f32) -> (i32, f32) {
+pub(crate) fn floor_small(x: f32) -> (i32, f32) {
     const SHIFT: f32 = 12_582_912.0; // 1.5·2²³
     let nearest = (x + SHIFT) - SHIFT;
     let floor = if nearest > x { nearest - 1.0 } else { nearest };

@@ -53,6 +53,14 @@ pub struct FittedGrid {
     pub manifest: GridManifest,
 }
 
+/// A valid specular query: position (finite), unit direction, roughness in [0, 1].
+#[derive(Clone, Copy, Debug)]
+struct SpecularQuery {
+    b: Vec3,
+    dir: Vec3,
+    r: f32,
+}
+
 /// Irradiance and distance moments of the stored (not inside geometry) cells.
 #[derive(Clone, Debug, PartialEq)]
 pub struct IrradianceGrid {
@@ -168,27 +176,84 @@ impl FittedGrid {
     /// the fitted warp picks where to read probe A, the roughness correction picks the mip.
     #[inline]
     pub fn specular(&self, position: Vec3, direction: Vec3, roughness: f32) -> Vec3 {
+        let Some(q) = self.specular_query(position, direction, roughness) else {
+            return Vec3::ZERO;
+        };
+        let v = self.correctives.fetch_vector(self.blend, &self.probe, &self.proxies, &self.options, q.b, q.dir);
+        self.shade(q, v)
+    }
+
+    /// A specular query made safe (see the module conventions); `None` means black.
+    #[inline]
+    fn specular_query(&self, position: Vec3, direction: Vec3, roughness: f32) -> Option<SpecularQuery> {
         let l2 = direction.length_squared();
         if !(l2 > 0.0 && l2.is_finite()) {
-            return Vec3::ZERO;
+            return None;
         }
         // unit to rounding: used as is (as the fit used it); otherwise normalised
         let dir = if (l2 - 1.0).abs() <= 4.0 * f32::EPSILON { direction } else { direction / l2.sqrt() };
-        let v = self.fetch_vector(position, dir);
+        let b = if position.is_finite() { position } else { self.probe.position };
         let r = if roughness.is_finite() { roughness.clamp(0.0, 1.0) } else { 0.0 };
-        if r == 0.0 {
+        Some(SpecularQuery { b, dir, r })
+    }
+
+    /// Radiance of probe A along fetch vector `v` for the query's roughness.
+    #[inline]
+    fn shade(&self, q: SpecularQuery, v: Vec3) -> Vec3 {
+        if q.r == 0.0 {
             return self.probe.radiance(v);
         }
         let uv = octa::encode(v);
         let r = match &self.roughness {
             Some(lut) => {
-                let b = if position.is_finite() { position } else { self.probe.position };
-                let k = self.distance_ratio(b, v, uv);
-                lut.corrected_alpha(r * r, k).sqrt()
+                let k = self.distance_ratio(q.b, v, uv);
+                lut.corrected_alpha(q.r * q.r, k).sqrt()
             }
-            None => r,
+            None => q.r,
         };
         self.probe.radiance.sample_lod_uv(uv, self.lod(r))
+    }
+
+    /// `specular` for [`octa::LANES`] queries at once, bit for bit the same values: the
+    /// lanes' fetch vectors are found in lockstep and, when every lane is a mirror query,
+    /// the probe is read with the lane sampler.
+    #[inline]
+    fn specular_lanes(
+        &self,
+        positions: &[Vec3; octa::LANES],
+        directions: &[Vec3; octa::LANES],
+        roughness: &[f32; octa::LANES],
+    ) -> [Vec3; octa::LANES] {
+        let mut q = [SpecularQuery { b: self.probe.position, dir: Vec3::Z, r: 0.0 }; octa::LANES];
+        let mut valid = [false; octa::LANES];
+        for k in 0..octa::LANES {
+            if let Some(query) = self.specular_query(positions[k], directions[k], roughness[k]) {
+                (q[k], valid[k]) = (query, true);
+            }
+        }
+        let v = self.correctives.fetch_vector_lanes(
+            self.blend,
+            &self.probe,
+            &self.proxies,
+            &self.options,
+            &q.map(|q| q.b),
+            &q.map(|q| q.dir),
+        );
+        let mut out = [Vec3::ZERO; octa::LANES];
+        if q.iter().all(|q| q.r == 0.0) {
+            // mirror lanes (invalid lanes hold a mirror placeholder and are zeroed)
+            let radiance = self.probe.radiance_lanes(&v);
+            for k in 0..octa::LANES {
+                out[k] = if valid[k] { radiance[k] } else { Vec3::ZERO };
+            }
+            return out;
+        }
+        for k in 0..octa::LANES {
+            if valid[k] {
+                out[k] = self.shade(q[k], v[k]);
+            }
+        }
+        out
     }
 
     /// Irradiance at `position` for surface normal `normal`: the eight cells around the
@@ -278,7 +343,18 @@ impl FittedGrid {
         if positions.len() != n || directions.len() != n || roughness.len() != n {
             return Err(BatchError { expected: n, found: [positions.len(), directions.len(), roughness.len()] });
         }
-        for k in 0..n {
+        let lanes = octa::LANES;
+        let whole = n - n % lanes;
+        for k in (0..whole).step_by(lanes) {
+            let group = k..k + lanes;
+            let values = self.specular_lanes(
+                positions[group.clone()].try_into().expect("a whole group"),
+                directions[group.clone()].try_into().expect("a whole group"),
+                roughness[group.clone()].try_into().expect("a whole group"),
+            );
+            out[group].copy_from_slice(&values);
+        }
+        for k in whole..n {
             out[k] = self.specular(positions[k], directions[k], roughness[k]);
         }
         Ok(())

@@ -17,8 +17,8 @@
 
 use super::{Method, Proxies, WarpOptions, WarpProbe, fetch_vector};
 use crate::grid::GridGeometry;
-use crate::octa;
-use glam::{UVec3, Vec3};
+use crate::octa::{self, LANES};
+use glam::{UVec3, Vec2, Vec3};
 use serde::{Deserialize, Serialize};
 
 /// How neighbouring cells' correctives combine at runtime.
@@ -56,14 +56,14 @@ impl Correctives {
     /// Distance along the ray (B, dir) to the hit estimated from cell `cell`'s map, as
     /// inverse distance (0 = at infinity); `None` when the cell stores no map.
     #[inline]
-    fn cell_inv_t(&self, cell: usize, taps: &[(u32, f32); 4], b: Vec3, dir: Vec3) -> Option<f32> {
-        let slot = self.slot[cell];
+    fn cell_inv_t(&self, cell: UVec3, taps: &[(u32, f32); 4], b: Vec3, dir: Vec3) -> Option<f32> {
+        let slot = self.slot[self.geometry.cell_index(cell)];
         if slot == u32::MAX {
             return None;
         }
         let map = self.map(slot);
         let w: f32 = taps.iter().map(|&(k, wt)| map[k as usize] * wt).sum();
-        Some(inv_t_from_map(self.geometry.cell_centre(cell), w, b, dir))
+        Some(inv_t_from_map(self.geometry.centre_of(cell), w, b, dir))
     }
 
     /// Fetch vector for query (B, dir); the fallback method where no map applies.
@@ -77,19 +77,99 @@ impl Correctives {
         b: Vec3,
         dir: Vec3,
     ) -> Vec3 {
+        self.fetch_vector_at(blend, probe, proxies, opts, b, dir, octa::encode(dir))
+    }
+
+    /// `fetch_vector` for [`LANES`] queries, bit for bit the same. With `Blend::Cell` the
+    /// lanes are first sorted (without branches) into those whose cell stores a map and
+    /// those that use the fallback method, and each group then runs as its own loop: whether
+    /// a cell stores a map is random from lookup to lookup, and a mispredicted branch per
+    /// lane would serialise the lanes.
+    #[inline]
+    pub fn fetch_vector_lanes(
+        &self,
+        blend: Blend,
+        probe: &WarpProbe,
+        proxies: &Proxies,
+        opts: &WarpOptions,
+        b: &[Vec3; LANES],
+        dir: &[Vec3; LANES],
+    ) -> [Vec3; LANES] {
+        let uv = octa::encode_lanes(dir);
+        let uv_of = |k: usize| Vec2::new(uv.u[k], uv.v[k]);
+        let mut out = *dir; // lanes at the probe keep the query direction
+        if blend != Blend::Cell {
+            for k in 0..LANES {
+                out[k] = self.fetch_vector_at(blend, probe, proxies, opts, b[k], dir[k], uv_of(k));
+            }
+            return out;
+        }
+        let a = probe.position;
+        let (mut mapped, mut unmapped) = ([0u8; LANES], [0u8; LANES]);
+        let (mut n_mapped, mut n_unmapped) = (0usize, 0usize);
+        let mut cells = [UVec3::ZERO; LANES];
+        for k in 0..LANES {
+            cells[k] = self.geometry.cell_of(b[k]);
+            let has_map = self.slot[self.geometry.cell_index(cells[k])] != u32::MAX;
+            let at_probe = b[k] == a;
+            // write the lane to both lists, advance the one it belongs to
+            (mapped[n_mapped], unmapped[n_unmapped]) = (k as u8, k as u8);
+            n_mapped += (has_map && !at_probe) as usize;
+            n_unmapped += (!has_map && !at_probe) as usize;
+        }
+        for &k in &mapped[..n_mapped] {
+            let k = k as usize;
+            let taps = octa::bilinear_taps(self.map_res, uv_of(k));
+            let inv_t = self.cell_inv_t(cells[k], &taps, b[k], dir[k]);
+            out[k] = self.vector_from_inv_t(inv_t, probe, proxies, opts, b[k], dir[k]);
+        }
+        for &k in &unmapped[..n_unmapped] {
+            let k = k as usize;
+            out[k] = fetch_vector(self.fallback, probe, proxies, opts, b[k], dir[k]);
+        }
+        out
+    }
+
+    /// `fetch_vector` given `uv = encode(dir)`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn fetch_vector_at(
+        &self,
+        blend: Blend,
+        probe: &WarpProbe,
+        proxies: &Proxies,
+        opts: &WarpOptions,
+        b: Vec3,
+        dir: Vec3,
+        uv: Vec2,
+    ) -> Vec3 {
         let a = probe.position;
         if b == a {
             return dir;
         }
-        let taps = octa::bilinear_taps(self.map_res, octa::encode(dir));
+        let taps = octa::bilinear_taps(self.map_res, uv);
         let inv_t = match blend {
-            Blend::Cell => self.cell_inv_t(self.geometry.cell_index(self.geometry.cell_of(b)), &taps, b, dir),
+            Blend::Cell => self.cell_inv_t(self.geometry.cell_of(b), &taps, b, dir),
             Blend::Trilinear => self.trilinear_inv_t(&taps, b, dir),
         };
+        self.vector_from_inv_t(inv_t, probe, proxies, opts, b, dir)
+    }
+
+    /// Fetch vector from the inverse hit distance along the ray (`None`: no map applies).
+    #[inline]
+    fn vector_from_inv_t(
+        &self,
+        inv_t: Option<f32>,
+        probe: &WarpProbe,
+        proxies: &Proxies,
+        opts: &WarpOptions,
+        b: Vec3,
+        dir: Vec3,
+    ) -> Vec3 {
         match inv_t {
             None => fetch_vector(self.fallback, probe, proxies, opts, b, dir),
             Some(u) if u > 0.0 => {
-                let v = b + dir / u - a;
+                let v = b + dir / u - probe.position;
                 if v.is_finite() && v != Vec3::ZERO { v } else { dir }
             }
             Some(_) => dir, // hit at infinity: sky along Dir
@@ -115,7 +195,7 @@ impl Correctives {
             if w <= 0.0 {
                 continue;
             }
-            if let Some(u) = self.cell_inv_t(g.cell_index(c), taps, b, dir) {
+            if let Some(u) = self.cell_inv_t(c, taps, b, dir) {
                 sum += w * u;
                 wsum += w;
             }
