@@ -31,13 +31,23 @@ impl GridGeometry {
     }
     /// Centre of the cell at integer coordinates `c` (no index round trip).
     pub fn centre_of(&self, c: UVec3) -> Vec3 {
-        self.min + (c.as_vec3() + 0.5) * self.cell_size()
+        self.centre_of_sized(c, self.cell_size())
+    }
+    /// `centre_of` given `cell_size()` (hoisted out of loops: it costs three divisions).
+    #[inline]
+    pub fn centre_of_sized(&self, c: UVec3, cell_size: Vec3) -> Vec3 {
+        self.min + (c.as_vec3() + 0.5) * cell_size
     }
     /// Cell containing `p` (clamped to the grid).
     pub fn cell_of(&self, p: Vec3) -> UVec3 {
+        self.cell_of_sized(p, self.cell_size())
+    }
+    /// `cell_of` given `cell_size()`.
+    #[inline]
+    pub fn cell_of_sized(&self, p: Vec3, cell_size: Vec3) -> UVec3 {
         // floor without libm calls (the x86-64 baseline has no round instruction); exact for
         // |f| < 2²², far beyond any grid, and larger values are clamped below anyway
-        let f = ((p - self.min) / self.cell_size()).to_array().map(|x| crate::octa::floor_small(x).1);
+        let f = ((p - self.min) / cell_size).to_array().map(|x| crate::octa::floor_small(x).1);
         let f = Vec3::from_array(f);
         let hi = (self.counts - UVec3::ONE).as_vec3();
         let f = if f.is_finite() { f.clamp(Vec3::ZERO, hi) } else { Vec3::ZERO };

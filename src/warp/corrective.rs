@@ -56,14 +56,14 @@ impl Correctives {
     /// Distance along the ray (B, dir) to the hit estimated from cell `cell`'s map, as
     /// inverse distance (0 = at infinity); `None` when the cell stores no map.
     #[inline]
-    fn cell_inv_t(&self, cell: UVec3, taps: &[(u32, f32); 4], b: Vec3, dir: Vec3) -> Option<f32> {
+    fn cell_inv_t(&self, cell: UVec3, cell_size: Vec3, taps: &[(u32, f32); 4], b: Vec3, dir: Vec3) -> Option<f32> {
         let slot = self.slot[self.geometry.cell_index(cell)];
         if slot == u32::MAX {
             return None;
         }
         let map = self.map(slot);
         let w: f32 = taps.iter().map(|&(k, wt)| map[k as usize] * wt).sum();
-        Some(inv_t_from_map(self.geometry.centre_of(cell), w, b, dir))
+        Some(inv_t_from_map(self.geometry.centre_of_sized(cell, cell_size), w, b, dir))
     }
 
     /// Fetch vector for query (B, dir); the fallback method where no map applies.
@@ -108,8 +108,9 @@ impl Correctives {
         let (mut mapped, mut unmapped) = ([0u8; LANES], [0u8; LANES]);
         let (mut n_mapped, mut n_unmapped) = (0usize, 0usize);
         let mut cells = [UVec3::ZERO; LANES];
+        let size = self.geometry.cell_size();
         for k in 0..LANES {
-            cells[k] = self.geometry.cell_of(b[k]);
+            cells[k] = self.geometry.cell_of_sized(b[k], size);
             let has_map = self.slot[self.geometry.cell_index(cells[k])] != u32::MAX;
             let at_probe = b[k] == a;
             // write the lane to both lists, advance the one it belongs to
@@ -120,7 +121,7 @@ impl Correctives {
         for &k in &mapped[..n_mapped] {
             let k = k as usize;
             let taps = octa::bilinear_taps(self.map_res, uv_of(k));
-            let inv_t = self.cell_inv_t(cells[k], &taps, b[k], dir[k]);
+            let inv_t = self.cell_inv_t(cells[k], size, &taps, b[k], dir[k]);
             out[k] = self.vector_from_inv_t(inv_t, probe, proxies, opts, b[k], dir[k]);
         }
         for &k in &unmapped[..n_unmapped] {
@@ -149,7 +150,10 @@ impl Correctives {
         }
         let taps = octa::bilinear_taps(self.map_res, uv);
         let inv_t = match blend {
-            Blend::Cell => self.cell_inv_t(self.geometry.cell_of(b), &taps, b, dir),
+            Blend::Cell => {
+                let size = self.geometry.cell_size();
+                self.cell_inv_t(self.geometry.cell_of_sized(b, size), size, &taps, b, dir)
+            }
             Blend::Trilinear => self.trilinear_inv_t(&taps, b, dir),
         };
         self.vector_from_inv_t(inv_t, probe, proxies, opts, b, dir)
@@ -179,7 +183,8 @@ impl Correctives {
     fn trilinear_inv_t(&self, taps: &[(u32, f32); 4], b: Vec3, dir: Vec3) -> Option<f32> {
         let g = &self.geometry;
         // position in the lattice of cell centres
-        let f = (b - g.min) / g.cell_size() - 0.5;
+        let size = g.cell_size();
+        let f = (b - g.min) / size - 0.5;
         let hi = (g.counts - UVec3::ONE).as_vec3();
         let f = if f.is_finite() { f.clamp(Vec3::ZERO, hi) } else { Vec3::ZERO };
         let base = f.floor();
@@ -195,7 +200,7 @@ impl Correctives {
             if w <= 0.0 {
                 continue;
             }
-            if let Some(u) = self.cell_inv_t(c, taps, b, dir) {
+            if let Some(u) = self.cell_inv_t(c, size, taps, b, dir) {
                 sum += w * u;
                 wsum += w;
             }

@@ -51,11 +51,10 @@ impl BoxProxy {
         let d = inv * dir;
         let mut t = f32::INFINITY;
         for k in 0..3 {
-            if d[k] > 0.0 {
-                t = t.min((self.half_extents[k] - o[k]) / d[k]);
-            } else if d[k] < 0.0 {
-                t = t.min((-self.half_extents[k] - o[k]) / d[k]);
-            }
+            // selects, not branches: the signs of a random direction are unpredictable
+            let face = if d[k] > 0.0 { self.half_extents[k] } else { -self.half_extents[k] };
+            let t_face = (face - o[k]) / d[k];
+            t = t.min(if d[k] != 0.0 { t_face } else { f32::INFINITY }); // parallel: no exit
         }
         t.is_finite().then_some(t.max(0.0))
     }
