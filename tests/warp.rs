@@ -227,6 +227,29 @@ fn batched_warp1_equals_the_per_lookup_warp1() {
     }
 }
 
+#[test]
+fn batches_of_unequal_length_answer_the_common_prefix() {
+    let (_, _, _, ctx) = torture_at_test_resolution();
+    let lod = WarpOptions::default().depth_lod;
+    let queries: Vec<(Vec3, Vec3)> = dirs(45).into_iter().map(|d| (Vec3::new(0.3, 1.0, 0.2), d)).collect();
+    let vectors: Vec<Vec3> =
+        queries.iter().map(|q| warp::depth::plane_warp(&ctx.probe, q.0, q.1, lod, 1, false)).collect();
+    for (nq, no) in [(45, 20), (20, 45), (33, 33)] {
+        let mut out = vec![Vec3::NAN; no];
+        warp::depth::warp1_batch(&ctx.probe, &queries[..nq], lod, &mut out);
+        let mut rad = vec![Vec3::NAN; no];
+        ctx.probe.radiance_batch(&vectors[..nq], &mut rad);
+        for k in 0..no {
+            if k < nq.min(no) {
+                assert_eq!(bits(out[k]), bits(vectors[k]), "{nq} queries, {no} outputs, output {k}");
+                assert_eq!(bits(rad[k]), bits(ctx.probe.radiance(vectors[k])), "{nq}/{no}: {k}");
+            } else {
+                assert!(out[k].is_nan() && rad[k].is_nan(), "output {k} beyond the queries is left alone");
+            }
+        }
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
     /// Batched warp1 equals per-lookup warp1 bit for bit on arbitrary probes (finite, zero

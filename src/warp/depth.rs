@@ -188,8 +188,10 @@ pub fn raymarch(p: &WarpProbe, b: Vec3, dir: Vec3, lod: f32, steps: u32) -> Vec3
 /// the same stages (encode, depth fetch, plane, encode, depth fetch, projection), with the
 /// per-lookup function's early exits as selects, so the processor overlaps the lanes'
 /// dependency chains: one lookup alone is latency-bound (three dependent fetches).
-/// `out` must be as long as `queries`.
+/// Answers the first `min(queries.len(), out.len())` queries; give slices of equal length.
 pub fn warp1_batch(p: &WarpProbe, queries: &[(Vec3, Vec3)], lod: f32, out: &mut [Vec3]) {
+    let n = queries.len().min(out.len());
+    let (queries, out) = (&queries[..n], &mut out[..n]);
     let mut groups = queries.chunks_exact(LANES);
     let mut outs = out.chunks_exact_mut(LANES);
     for (qs, os) in (&mut groups).zip(&mut outs) {

@@ -74,9 +74,11 @@ impl WarpProbe {
         self.radiance.levels[0].bilinear(dir)
     }
 
-    /// `radiance` for a batch of fetch vectors (`out` as long as `vectors`), bit for bit
-    /// the same values, [`LANES`] at a time.
+    /// `radiance` for a batch of fetch vectors, bit for bit the same values, [`LANES`] at a
+    /// time. Answers the first `min(vectors.len(), out.len())`; give slices of equal length.
     pub fn radiance_batch(&self, vectors: &[Vec3], out: &mut [Vec3]) {
+        let n = vectors.len().min(out.len());
+        let (vectors, out) = (&vectors[..n], &mut out[..n]);
         let mut groups = vectors.chunks_exact(LANES);
         let mut outs = out.chunks_exact_mut(LANES);
         for (vs, os) in (&mut groups).zip(&mut outs) {
