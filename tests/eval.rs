@@ -48,6 +48,13 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
         }
         assert!(m["rel_rmse"].as_f64().unwrap().is_finite());
         assert!(m["ns_per_lookup"].as_f64().unwrap() > 0.0);
+        // warp1 is also timed through its batch API; no other method has one
+        let batched = m["ns_per_lookup_batched"].as_f64();
+        if m["name"] == "warp1" {
+            assert!(batched.is_some_and(|ns| ns > 0.0 && ns.is_finite()), "{m}");
+        } else {
+            assert!(batched.is_none(), "{m}");
+        }
     }
     let get = |name: &str| report.methods.iter().find(|m| m.name == name).unwrap().rel_rmse;
     // In a closed box room the box proxy (scene bounds) is near the oracle, and both beat
