@@ -1,6 +1,7 @@
 //! What a game does with a fitted grid: load it once at level load, then every frame shade
-//! G-buffer samples (position, normal, view direction, roughness) with the fitted specular
-//! and the grid's irradiance, from several worker threads sharing the one grid.
+//! G-buffer samples (position, normal, view direction, roughness) in tiles of 64, with the
+//! fitted specular (batch API) and the grid's irradiance, from several worker threads
+//! sharing the one grid.
 //!
 //! `cargo run --release --example runtime -- fits/torture` (defaults to the committed
 //! `fits/tiny`). Only `warpfit::runtime` is used: it builds without the offline tool.
@@ -20,14 +21,34 @@ struct Surface {
     roughness: f32,
 }
 
-/// Diffuse from the irradiance plus specular from the fitted probe along the reflection
-/// (Schlick Fresnel; a real engine would use its own split-sum DFG term).
-fn shade(grid: &FittedGrid, s: &Surface) -> Vec3 {
+/// Mirror direction and Schlick Fresnel of a sample (a real engine would use its own
+/// split-sum DFG term).
+fn reflection(s: &Surface) -> (Vec3, Vec3) {
     let n_dot_v = s.normal.dot(s.to_eye).max(1e-4);
     let reflected = 2.0 * n_dot_v * s.normal - s.to_eye;
     let fresnel = s.f0 + (Vec3::ONE - s.f0) * (1.0 - n_dot_v).powi(5);
-    let diffuse = s.albedo / std::f32::consts::PI * grid.irradiance(s.position, s.normal);
-    diffuse * (Vec3::ONE - fresnel) + fresnel * grid.specular(s.position, reflected, s.roughness)
+    (reflected, fresnel)
+}
+
+/// Shades a tile of samples: specular through the batch API (lookups advance in lockstep,
+/// bit for bit the single calls), diffuse from the irradiance per sample.
+fn shade_tile(grid: &FittedGrid, tile: &[Surface], out: &mut [Vec3]) {
+    const TILE: usize = 64;
+    let n = tile.len();
+    assert!(n <= TILE && out.len() == n);
+    let (mut positions, mut reflected, mut roughness) = ([Vec3::ZERO; TILE], [Vec3::ZERO; TILE], [0.0f32; TILE]);
+    let mut fresnel = [Vec3::ZERO; TILE];
+    for (k, s) in tile.iter().enumerate() {
+        (reflected[k], fresnel[k]) = reflection(s);
+        (positions[k], roughness[k]) = (s.position, s.roughness);
+    }
+    let mut specular = [Vec3::ZERO; TILE];
+    grid.specular_batch(&positions[..n], &reflected[..n], &roughness[..n], &mut specular[..n])
+        .expect("slices of one length");
+    for (k, s) in tile.iter().enumerate() {
+        let diffuse = s.albedo / std::f32::consts::PI * grid.irradiance(s.position, s.normal);
+        out[k] = diffuse * (Vec3::ONE - fresnel[k]) + fresnel[k] * specular[k];
+    }
 }
 
 fn main() {
@@ -73,8 +94,8 @@ fn main() {
         for (src, dst) in frame.chunks(chunk).zip(image.chunks_mut(chunk)) {
             let grid = &grid;
             scope.spawn(move || {
-                for (s, out) in src.iter().zip(dst) {
-                    *out = shade(grid, s);
+                for (tile, out) in src.chunks(64).zip(dst.chunks_mut(64)) {
+                    shade_tile(grid, tile, out);
                 }
             });
         }
