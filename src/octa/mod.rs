@@ -226,6 +226,26 @@ pub fn encode_lanes(dirs: &[Vec3; LANES]) -> UvLanes {
 /// lookup is latency-bound) and the stages vectorise.
 pub const LANES: usize = 16;
 
+/// The one driver behind every batch API: fills `out` group by group, `lanes(k)` answering
+/// the [`LANES`] items from index `k` and `single(k)` each item of the tail shorter than a
+/// group, so groups and tail can never be paired with the wrong items.
+#[inline]
+pub fn fill_in_lanes<R: Copy>(out: &mut [R], lanes: impl Fn(usize) -> [R; LANES], single: impl Fn(usize) -> R) {
+    let whole = out.len() - out.len() % LANES;
+    for k in (0..whole).step_by(LANES) {
+        out[k..k + LANES].copy_from_slice(&lanes(k));
+    }
+    for (k, o) in out.iter_mut().enumerate().skip(whole) {
+        *o = single(k);
+    }
+}
+
+/// The [`LANES`] items of `items` from index `k` (which must be a whole group).
+#[inline]
+pub fn group_at<T>(items: &[T], k: usize) -> &[T; LANES] {
+    items[k..].first_chunk().expect("a whole group of lanes")
+}
+
 /// A value stored per texel: radiance (`Vec3`), distance (`f32`), …
 pub trait Texel: Copy + Default + Add<Output = Self> + Mul<f32, Output = Self> + Send + Sync {}
 impl<T> Texel for T where T: Copy + Default + Add<Output = T> + Mul<f32, Output = T> + Send + Sync {}

@@ -343,20 +343,12 @@ impl FittedGrid {
         if positions.len() != n || directions.len() != n || roughness.len() != n {
             return Err(BatchError { expected: n, found: [positions.len(), directions.len(), roughness.len()] });
         }
-        let lanes = octa::LANES;
-        let whole = n - n % lanes;
-        for k in (0..whole).step_by(lanes) {
-            let group = k..k + lanes;
-            let values = self.specular_lanes(
-                positions[group.clone()].try_into().expect("a whole group"),
-                directions[group.clone()].try_into().expect("a whole group"),
-                roughness[group.clone()].try_into().expect("a whole group"),
-            );
-            out[group].copy_from_slice(&values);
-        }
-        for k in whole..n {
-            out[k] = self.specular(positions[k], directions[k], roughness[k]);
-        }
+        use octa::group_at;
+        octa::fill_in_lanes(
+            out,
+            |k| self.specular_lanes(group_at(positions, k), group_at(directions, k), group_at(roughness, k)),
+            |k| self.specular(positions[k], directions[k], roughness[k]),
+        );
         Ok(())
     }
 

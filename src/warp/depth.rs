@@ -12,7 +12,7 @@
 //!   it passes behind A's depth, then binary refinement.
 
 use super::{WarpProbe, toward};
-use crate::octa::{LANES, encode_lanes};
+use crate::octa::{LANES, encode_lanes, fill_in_lanes, group_at};
 use glam::Vec3;
 #[allow(unused_imports)]
 use glam::Vec3Swizzles as _;
@@ -191,16 +191,11 @@ pub fn raymarch(p: &WarpProbe, b: Vec3, dir: Vec3, lod: f32, steps: u32) -> Vec3
 /// Answers the first `min(queries.len(), out.len())` queries; give slices of equal length.
 pub fn warp1_batch(p: &WarpProbe, queries: &[(Vec3, Vec3)], lod: f32, out: &mut [Vec3]) {
     let n = queries.len().min(out.len());
-    let (queries, out) = (&queries[..n], &mut out[..n]);
-    let mut groups = queries.chunks_exact(LANES);
-    let mut outs = out.chunks_exact_mut(LANES);
-    for (qs, os) in (&mut groups).zip(&mut outs) {
-        let qs: &[(Vec3, Vec3); LANES] = qs.try_into().expect("chunks_exact");
-        os.copy_from_slice(&warp1_lanes(p, qs, lod));
-    }
-    for (q, o) in groups.remainder().iter().zip(outs.into_remainder()) {
-        *o = plane_warp(p, q.0, q.1, lod, 1, false);
-    }
+    fill_in_lanes(
+        &mut out[..n],
+        |k| warp1_lanes(p, group_at(queries, k), lod),
+        |k| plane_warp(p, queries[k].0, queries[k].1, lod, 1, false),
+    );
 }
 
 /// [`LANES`] lookups of `plane_warp` with one step.

@@ -16,7 +16,7 @@ pub mod depth;
 pub mod proxy;
 pub mod reproject;
 
-use crate::octa::{LANES, OctMap, OctMips, UvLanes};
+use crate::octa::{self, LANES, OctMap, OctMips, UvLanes};
 use glam::Vec3;
 
 /// The probe data warps read: position, inverse-distance mips and radiance mips.
@@ -78,15 +78,11 @@ impl WarpProbe {
     /// time. Answers the first `min(vectors.len(), out.len())`; give slices of equal length.
     pub fn radiance_batch(&self, vectors: &[Vec3], out: &mut [Vec3]) {
         let n = vectors.len().min(out.len());
-        let (vectors, out) = (&vectors[..n], &mut out[..n]);
-        let mut groups = vectors.chunks_exact(LANES);
-        let mut outs = out.chunks_exact_mut(LANES);
-        for (vs, os) in (&mut groups).zip(&mut outs) {
-            os.copy_from_slice(&self.radiance_lanes(vs.try_into().expect("chunks_exact")));
-        }
-        for (v, o) in groups.remainder().iter().zip(outs.into_remainder()) {
-            *o = self.radiance(*v);
-        }
+        octa::fill_in_lanes(
+            &mut out[..n],
+            |k| self.radiance_lanes(octa::group_at(vectors, k)),
+            |k| self.radiance(vectors[k]),
+        );
     }
 
     /// `radiance` for [`LANES`] fetch vectors, bit for bit the same.
