@@ -288,19 +288,24 @@ pub fn time_queries(
     // (B, query dir, oracle dir) laid out in issue order, so the loop times only the lookup.
     let queries: Vec<(Vec3, Vec3, Vec3)> =
         order[..n].iter().map(|&k| (set.position_of(k), set.dirs[k], set.oracle_dir[k])).collect();
-    let run = || {
+    best_of_three_ns(n, || {
         let mut acc = Vec3::ZERO;
         for &(b, dir, oracle) in &queries {
             acc += black_box(radiance(b, dir, oracle));
         }
         black_box(acc);
-    };
+    })
+}
+
+/// The timing harness: ns per lookup of `run` (which makes `lookups` lookups), best of
+/// three runs after one warm-up run.
+fn best_of_three_ns(lookups: usize, mut run: impl FnMut()) -> f64 {
     run(); // warm
     (0..3)
         .map(|_| {
             let t = Instant::now();
             run();
-            t.elapsed().as_nanos() as f64 / n as f64
+            t.elapsed().as_nanos() as f64 / lookups as f64
         })
         .fold(f64::INFINITY, f64::min)
 }
@@ -358,19 +363,11 @@ pub fn time_warp1_batched(ctx: &MethodContext, set: &ValidationSet, opts: &WarpO
     let n = lookups.min(set.dirs.len()).max(1);
     let queries: Vec<(Vec3, Vec3)> = order[..n].iter().map(|&k| (set.position_of(k), set.dirs[k])).collect();
     let (mut vectors, mut radiance) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
-    let mut run = || {
+    best_of_three_ns(n, || {
         warp::depth::warp1_batch(&ctx.probe, &queries, opts.depth_lod, &mut vectors);
         ctx.probe.radiance_batch(&vectors, &mut radiance);
         black_box(&radiance);
-    };
-    run(); // warm
-    (0..3)
-        .map(|_| {
-            let t = Instant::now();
-            run();
-            t.elapsed().as_nanos() as f64 / n as f64
-        })
-        .fold(f64::INFINITY, f64::min)
+    })
 }
 
 /// Timing of a per-lookup method.
