@@ -58,12 +58,15 @@ impl Correctives {
     #[inline]
     fn cell_inv_t(&self, cell: UVec3, cell_size: Vec3, taps: &[(u32, f32); 4], b: Vec3, dir: Vec3) -> Option<f32> {
         let slot = self.slot[self.geometry.cell_index(cell)];
-        if slot == u32::MAX {
-            return None;
-        }
+        (slot != u32::MAX).then(|| self.map_inv_t(slot, cell, cell_size, taps, b, dir))
+    }
+
+    /// `cell_inv_t` for a cell known to store its map in `slot`.
+    #[inline]
+    fn map_inv_t(&self, slot: u32, cell: UVec3, cell_size: Vec3, taps: &[(u32, f32); 4], b: Vec3, dir: Vec3) -> f32 {
         let map = self.map(slot);
         let w: f32 = taps.iter().map(|&(k, wt)| map[k as usize] * wt).sum();
-        Some(inv_t_from_map(self.geometry.centre_of_sized(cell, cell_size), w, b, dir))
+        inv_t_from_map(self.geometry.centre_of_sized(cell, cell_size), w, b, dir)
     }
 
     /// Fetch vector for query (B, dir); the fallback method where no map applies.
@@ -107,11 +110,12 @@ impl Correctives {
         let a = probe.position;
         let (mut mapped, mut unmapped) = ([0u8; LANES], [0u8; LANES]);
         let (mut n_mapped, mut n_unmapped) = (0usize, 0usize);
-        let mut cells = [UVec3::ZERO; LANES];
+        let (mut cells, mut slots) = ([UVec3::ZERO; LANES], [u32::MAX; LANES]);
         let size = self.geometry.cell_size();
         for k in 0..LANES {
             cells[k] = self.geometry.cell_of_sized(b[k], size);
-            let has_map = self.slot[self.geometry.cell_index(cells[k])] != u32::MAX;
+            slots[k] = self.slot[self.geometry.cell_index(cells[k])];
+            let has_map = slots[k] != u32::MAX;
             let at_probe = b[k] == a;
             // write the lane to both lists, advance the one it belongs to
             (mapped[n_mapped], unmapped[n_unmapped]) = (k as u8, k as u8);
@@ -121,8 +125,8 @@ impl Correctives {
         for &k in &mapped[..n_mapped] {
             let k = k as usize;
             let taps = octa::bilinear_taps(self.map_res, uv_of(k));
-            let inv_t = self.cell_inv_t(cells[k], size, &taps, b[k], dir[k]);
-            out[k] = self.vector_from_inv_t(inv_t, probe, proxies, opts, b[k], dir[k]);
+            let inv_t = self.map_inv_t(slots[k], cells[k], size, &taps, b[k], dir[k]);
+            out[k] = self.vector_from_inv_t(Some(inv_t), probe, proxies, opts, b[k], dir[k]);
         }
         for &k in &unmapped[..n_unmapped] {
             let k = k as usize;
