@@ -97,14 +97,8 @@ enum Command {
     /// Error against fit effort: refit with one knob changed at a time (probe resolution,
     /// training directions, iterations, solver); writes sweep.json, sweep.png.
     Sweep {
-        #[arg(long, default_value = "data/scenes/torture.toml")]
-        scene: PathBuf,
-        #[arg(long)]
-        out: Option<PathBuf>,
         #[command(flatten)]
-        eval: EvalArgs,
-        #[command(flatten)]
-        fit: FitArgs,
+        job: PipelineArgs,
     },
     /// Summarise a fitted grid: contents, bytes per layer, residuals, what was left out.
     Inspect {
@@ -114,15 +108,23 @@ enum Command {
     /// The main job: bake (or reuse a matching bake), fit, evaluate every method including
     /// the fitted correctives, and report; on the default scene unless one is given.
     Run {
-        #[arg(long, default_value = "data/scenes/torture.toml")]
-        scene: PathBuf,
-        #[arg(long)]
-        out: Option<PathBuf>,
         #[command(flatten)]
-        eval: EvalArgs,
-        #[command(flatten)]
-        fit: FitArgs,
+        job: PipelineArgs,
     },
+}
+
+/// A whole pipeline job: scene, output folder (default `fits/<scene name>`), fit and eval
+/// settings. Shared by `run` and `sweep`.
+#[derive(clap::Args)]
+struct PipelineArgs {
+    #[arg(long, default_value = "data/scenes/torture.toml")]
+    scene: PathBuf,
+    #[arg(long)]
+    out: Option<PathBuf>,
+    #[command(flatten)]
+    eval: EvalArgs,
+    #[command(flatten)]
+    fit: FitArgs,
 }
 
 #[derive(clap::Args)]
@@ -486,7 +488,7 @@ fn run(cli: Cli) -> Result<()> {
                 r.images.len()
             );
         }
-        Command::Sweep { scene, out, eval, fit } => {
+        Command::Sweep { job: PipelineArgs { scene, out, eval, fit } } => {
             let scene = Scene::load(&scene)?;
             let out = out.unwrap_or_else(|| PathBuf::from("fits").join(&scene.name));
             let sw = warpfit::sweep::run(&scene, &fit.settings()?, &eval.settings(), &out, &command_line(), &progress)?;
@@ -509,7 +511,7 @@ fn run(cli: Cli) -> Result<()> {
             print!("{}", grid.manifest.describe());
             println!("loaded in memory: {} bytes", grid.memory_bytes());
         }
-        Command::Run { scene, out, eval, fit } => {
+        Command::Run { job: PipelineArgs { scene, out, eval, fit } } => {
             eval_and_print(&scene, out, &Method::ALL, &eval, Some((fit.settings()?, fit.store())), &progress)?;
         }
     }
