@@ -29,7 +29,8 @@ fn fitted_torture() -> PathBuf {
     let (probe, grid, _) = warpfit::pipeline::load_or_bake(&scene, &tracer, &out.join("bake"), &quiet).unwrap();
     let baked = warpfit::pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
     let settings = warpfit::fit::FitSettings::default();
-    warpfit::pipeline::fit(baked, &settings, Default::default(), &out, "bench", &quiet).unwrap();
+    let warp = baked.warp(warpfit::warp::WarpOptions::standard());
+    warpfit::pipeline::fit(baked, &warp, &settings, Default::default(), &out, "bench", &quiet).unwrap();
     out
 }
 
@@ -73,7 +74,7 @@ fn runtime(c: &mut Criterion) {
         b.iter(|| {
             let mut acc = Vec3::ZERO;
             for &(p, d) in &q {
-                acc += warp::lookup(Method::Warp1, &grid.probe, &grid.proxies, &grid.options, p, d);
+                acc += grid.warp.lookup(Method::Warp1, p, d);
             }
             black_box(acc)
         })
@@ -95,8 +96,8 @@ fn runtime(c: &mut Criterion) {
     let mut vectors = vec![Vec3::ZERO; q.len()];
     g.bench_function("warp1_batch", |b| {
         b.iter(|| {
-            warp::depth::warp1_batch(&grid.probe, &q, grid.options.depth_lod, &mut vectors);
-            grid.probe.radiance_batch(&vectors, &mut out);
+            warp::depth::warp1_batch(&grid.warp.probe, &q, grid.warp.options.depth_lod, &mut vectors);
+            grid.warp.probe.radiance_batch(&vectors, &mut out);
             black_box(&out);
         })
     });

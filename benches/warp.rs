@@ -7,11 +7,11 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use std::hint::black_box;
 use std::path::Path;
-use warpfit::eval::{self, EvalSettings, MethodContext};
+use warpfit::eval::{self, EvalSettings};
 use warpfit::progress::Progress;
 use warpfit::scene::Scene;
 use warpfit::trace::Tracer;
-use warpfit::warp::{self, Method, WarpOptions};
+use warpfit::warp::{Method, WarpOptions};
 
 fn methods(c: &mut Criterion) {
     let scene = Scene::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/data/scenes/torture.toml"))).unwrap();
@@ -19,8 +19,7 @@ fn methods(c: &mut Criterion) {
     let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
     let settings = EvalSettings { positions: 64, dirs_per_position: 256, reference_spp: 1, ..EvalSettings::default() };
     let set = eval::validation_set(&scene, &tracer, &baked.grid, baked.probe.position, &settings);
-    let ctx = MethodContext::new(&scene, &baked.probe);
-    let opts = WarpOptions::default();
+    let warp = warpfit::bake::warp(&scene, &baked.probe, WarpOptions::standard());
     let n = set.dirs.len();
     let queries: Vec<(Vec3, Vec3)> = (0..n).map(|k| (set.position_of(k), set.dirs[k])).collect();
     let mut g = c.benchmark_group("lookup/torture");
@@ -31,7 +30,7 @@ fn methods(c: &mut Criterion) {
             b.iter(|| {
                 let mut acc = Vec3::ZERO;
                 for &(p, d) in &queries {
-                    acc += warp::lookup(m, &ctx.probe, &ctx.proxies, &opts, p, d);
+                    acc += warp.lookup(m, p, d);
                 }
                 black_box(acc)
             })
@@ -63,14 +62,14 @@ fn methods(c: &mut Criterion) {
     let (mut vectors, mut radiance) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
     g.bench_function("warp1", |b| {
         b.iter(|| {
-            warpfit::warp::depth::warp1_batch(&ctx.probe, &queries, opts.depth_lod, &mut vectors);
-            ctx.probe.radiance_batch(&vectors, &mut radiance);
+            warpfit::warp::depth::warp1_batch(&warp.probe, &queries, warp.options.depth_lod, &mut vectors);
+            warp.probe.radiance_batch(&vectors, &mut radiance);
             black_box(&radiance);
         })
     });
     g.bench_function("none", |b| {
         b.iter(|| {
-            ctx.probe.radiance_batch(black_box(&set.dirs), &mut radiance);
+            warp.probe.radiance_batch(black_box(&set.dirs), &mut radiance);
             black_box(&radiance);
         })
     });
@@ -84,7 +83,7 @@ fn methods(c: &mut Criterion) {
             b.iter(|| {
                 let mut acc = Vec3::ZERO;
                 for &(p, d) in &bundles {
-                    acc += warp::lookup(m, &ctx.probe, &ctx.proxies, &opts, p, d);
+                    acc += warp.lookup(m, p, d);
                 }
                 black_box(acc)
             })

@@ -4,7 +4,7 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use warpfit::eval::EvalSettings;
-use warpfit::fit::{Blend, FitSettings, Solver};
+use warpfit::fit::{FitSettings, Solver};
 use warpfit::runtime::{FittedGrid, Precision};
 use warpfit::warp::{Method, WarpOptions};
 use warpfit::{bake, format::bake_io, pipeline, progress::Progress, report, scene::Scene, trace::Tracer};
@@ -231,12 +231,13 @@ fn parse_methods(list: &str) -> Result<Vec<Method>> {
 
 fn fit_and_print(
     baked: pipeline::Baked,
+    warp: &warpfit::warp::Warp,
     settings: &FitSettings,
     store: pipeline::StoreOptions,
     out: &std::path::Path,
     progress: &Progress,
 ) -> Result<warpfit::fit::Fit> {
-    let (f, manifest) = pipeline::fit(baked, settings, store, out, &command_line(), progress)?;
+    let (f, manifest) = pipeline::fit(baked, warp, settings, store, out, &command_line(), progress)?;
     let bytes: u64 = manifest.payloads.iter().map(|p| p.bytes).sum();
     let s = warpfit::fit::output::summary(&f);
     println!(
@@ -296,45 +297,27 @@ fn eval_and_print(
         println!("baked {} → {}", scene.name, bake_dir.display());
     }
     let baked = pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
+    let settings = args.settings();
+    let warp = baked.warp(settings.options);
     let fitted = match &fit_settings {
-        Some((f, store)) => Some(fit_and_print(baked, f, *store, &out, progress)?),
+        Some((f, store)) => Some(fit_and_print(baked, &warp, f, *store, &out, progress)?),
         None => None,
     };
-    let rows: Vec<pipeline::CorrectiveRow> = match &fitted {
-        Some(f) => vec![
-            pipeline::CorrectiveRow {
-                name: "celldepth",
-                note: "unfitted warp maps from the grid's raytraced distances, containing cell",
-                correctives: &f.celldepth,
-                blend: Blend::Cell,
-            },
-            pipeline::CorrectiveRow {
-                name: "fitted",
-                note: "fitted warp maps (levels as stored), containing cell",
-                correctives: &f.correctives,
-                blend: Blend::Cell,
-            },
-            pipeline::CorrectiveRow {
-                name: "fitted-L2-all",
-                note: "level 2 in every active cell (fitted maps before model selection), containing cell",
-                correctives: &f.fitted_all,
-                blend: Blend::Cell,
-            },
-            pipeline::CorrectiveRow {
-                name: "fitted-trilinear",
-                note: "fitted warp maps (levels as stored), trilinear blend of 8 cells",
-                correctives: &f.correctives,
-                blend: Blend::Trilinear,
-            },
-        ],
-        None => Vec::new(),
-    };
+    let rows = fitted.as_ref().map(pipeline::corrective_rows).unwrap_or_default();
     let runtime = match &fitted {
         Some(_) => Some(FittedGrid::load(&out)?),
         None => None,
     };
-    let r =
-        pipeline::evaluate(baked, &args.settings(), methods, &rows, runtime.as_ref(), &out, &command_line(), progress)?;
+    let subject = warpfit::eval::Subject {
+        scene: &scene,
+        tracer: &tracer,
+        grid: &grid,
+        warp: &warp,
+        methods,
+        corrective_rows: &rows,
+        runtime: runtime.as_ref(),
+    };
+    let r = pipeline::evaluate(subject, &settings, &out, &command_line(), progress)?;
     println!(
         "{}: {} lookups at {} positions, hidden fraction {:.1}%, reference ray {:.0} ns",
         r.scene,
@@ -418,7 +401,8 @@ fn run(cli: Cli) -> Result<()> {
             let tracer = Tracer::new(&scene);
             let (probe, grid, _) = pipeline::load_or_bake(&scene, &tracer, &pipeline::bake_dir(&out), &progress)?;
             let baked = pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
-            fit_and_print(baked, &settings, fit.store(), &out, &progress)?;
+            let warp = baked.warp(warpfit::warp::WarpOptions::standard());
+            fit_and_print(baked, &warp, &settings, fit.store(), &out, &progress)?;
         }
         Command::Roughness { out } => {
             let c = warpfit::roughness::fit_correction();
@@ -440,7 +424,7 @@ fn run(cli: Cli) -> Result<()> {
             let v = grid.fetch_vector(pos, unit);
             let g = &grid.correctives.geometry;
             let cell = g.cell_index(g.cell_of(pos));
-            let stored = grid.correctives.slot[cell] != u32::MAX;
+            let stored = grid.correctives.stores_map(cell);
             let n = normal.unwrap_or(dir);
             let irr = grid.irradiance(pos, n);
             println!("specular {:.6} {:.6} {:.6}", spec.x, spec.y, spec.z);

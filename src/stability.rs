@@ -7,7 +7,7 @@
 //! panics is a failed row, not an aborted suite.
 
 use crate::bake::{self, Bake};
-use crate::eval::{self, EvalSettings, MethodContext};
+use crate::eval::{self, EvalSettings};
 use crate::fit::objective::{CellProblem, Sample};
 use crate::fit::{FitSettings, Solver};
 use crate::octa::{self, OctMap, OctMips};
@@ -17,7 +17,7 @@ use crate::runtime::{FittedGrid, Precision};
 use crate::sampling::{Sampler, uniform_sphere};
 use crate::scene::Scene;
 use crate::trace::Tracer;
-use crate::warp::{self, Method, WarpOptions, WarpProbe};
+use crate::warp::{self, Method, Warp, WarpOptions, WarpProbe};
 use glam::Vec3;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -174,12 +174,12 @@ fn directions(n: u32) -> Vec<Vec3> {
 
 /// Every per-lookup method at `b` over `dirs`: how many fetch directions are not finite unit
 /// vectors.
-fn bad_fetches(ctx: &MethodContext, opts: &WarpOptions, b: Vec3, dirs: &[Vec3]) -> usize {
+fn bad_fetches(warp: &Warp, b: Vec3, dirs: &[Vec3]) -> usize {
     let mut bad = 0;
     for m in Method::PER_LOOKUP {
         for &d in dirs {
-            let f = warp::fetch_dir(m, &ctx.probe, &ctx.proxies, opts, b, d);
-            let r = warp::lookup(m, &ctx.probe, &ctx.proxies, opts, b, d);
+            let f = warp.fetch_dir(m, b, d);
+            let r = warp.lookup(m, b, d);
             if !unit_and_finite(f) || !r.is_finite() {
                 bad += 1;
             }
@@ -211,15 +211,15 @@ struct Fixture {
     scene: Scene,
     tracer: Tracer,
     bake: Bake,
-    ctx: MethodContext,
+    warp: Warp,
 }
 
 impl Fixture {
     fn new(scene: Scene) -> Fixture {
         let tracer = Tracer::new(&scene);
         let bake = bake::bake(&scene, &tracer, &Progress::quiet());
-        let ctx = MethodContext::new(&scene, &bake.probe);
-        Fixture { scene, tracer, bake, ctx }
+        let warp = bake::warp(&scene, &bake.probe, WarpOptions::standard());
+        Fixture { scene, tracer, bake, warp }
     }
 
     fn baked(&self) -> Baked<'_> {
@@ -229,24 +229,25 @@ impl Fixture {
     /// Fits, writes the fitted grid to a fresh folder and loads it back.
     fn fit_and_load(&self, mode: Mode, store: StoreOptions) -> Result<(crate::fit::Fit, FittedGrid, TempDir), String> {
         let dir = TempDir::new(&self.scene.name);
-        let (fit, _) =
-            pipeline::fit(self.baked(), &fit_settings(mode), store, &dir.0, "warpfit stability", &Progress::quiet())
-                .map_err(|e| e.to_string())?;
+        let (fit, _) = pipeline::fit(
+            self.baked(),
+            &self.warp,
+            &fit_settings(mode),
+            store,
+            &dir.0,
+            "warpfit stability",
+            &Progress::quiet(),
+        )
+        .map_err(|e| e.to_string())?;
         let g = FittedGrid::load(&dir.0).map_err(|e| e.to_string())?;
         Ok((fit, g, dir))
     }
 }
 
 fn fit_settings(mode: Mode) -> FitSettings {
-    let q = mode == Mode::Quick;
-    FitSettings {
-        train_positions: if q { 4 } else { 8 },
-        train_dirs: if q { 32 } else { 64 },
-        check_positions: if q { 4 } else { 8 },
-        check_dirs: if q { 16 } else { 32 },
-        reference_spp: if q { 1 } else { 2 },
-        iterations: 1,
-        ..FitSettings::default()
+    match mode {
+        Mode::Quick => FitSettings::quick(),
+        Mode::Full => FitSettings::moderate(),
     }
 }
 
@@ -409,14 +410,14 @@ fn probe_centre(mode: Mode) -> Outcome {
     let (_, g, _dir) = fx.fit_and_load(mode, StoreOptions::default())?;
     let a = fx.bake.probe.position;
     let dirs = directions(if mode == Mode::Quick { 1024 } else { 8192 });
-    let opts = WarpOptions::default();
     let mut differ = 0;
     for m in Method::PER_LOOKUP {
-        differ +=
-            dirs.iter().filter(|&&d| warp::fetch_dir(m, &fx.ctx.probe, &fx.ctx.proxies, &opts, a, d) != d).count();
+        differ += dirs.iter().filter(|&&d| fx.warp.fetch_dir(m, a, d) != d).count();
     }
-    let runtime_differ =
-        dirs.iter().filter(|&&d| g.fetch_vector(a, d) != d || g.specular(a, d, 0.0) != g.probe.radiance(d)).count();
+    let runtime_differ = dirs
+        .iter()
+        .filter(|&&d| g.fetch_vector(a, d) != d || g.specular(a, d, 0.0) != g.warp.probe.radiance(d))
+        .count();
     let n = dirs.len() * Method::PER_LOOKUP.len();
     Ok((
         format!("{differ} of {n} method fetches differ; {runtime_differ} of {} runtime lookups differ", dirs.len()),
@@ -428,11 +429,10 @@ fn near_wall(mode: Mode) -> Outcome {
     let fx = Fixture::new(tiny(mode)?);
     let (_, g, _dir) = fx.fit_and_load(mode, StoreOptions::default())?;
     let dirs = directions(512);
-    let opts = WarpOptions::default();
     // the room's −x wall is at x = −2, its floor at y = 0
     let points =
         [Vec3::new(-2.0 + 1e-6, 1.2, 0.3), Vec3::new(0.5, 1e-6, -0.7), Vec3::new(-2.0 + 1e-6, 1e-6, -2.0 + 1e-6)];
-    let bad: usize = points.iter().map(|&b| bad_fetches(&fx.ctx, &opts, b, &dirs)).sum();
+    let bad: usize = points.iter().map(|&b| bad_fetches(&fx.warp, b, &dirs)).sum();
     let bad_rt: usize = points.iter().map(|&b| bad_runtime(&g, b, &dirs)).sum();
     Ok((format!("{bad} bad method fetches, {bad_rt} bad runtime answers at 3 points"), bad == 0 && bad_rt == 0))
 }
@@ -441,10 +441,9 @@ fn outside_grid(mode: Mode) -> Outcome {
     let fx = Fixture::new(tiny(mode)?);
     let (_, g, _dir) = fx.fit_and_load(mode, StoreOptions::default())?;
     let dirs = directions(256);
-    let opts = WarpOptions::default();
     let points =
         [Vec3::new(50.0, 1.0, 0.0), Vec3::new(-1e6, 0.0, 0.0), Vec3::new(0.0, 1e30, 0.0), Vec3::new(3.0, -5.0, 3.0)];
-    let bad: usize = points.iter().map(|&b| bad_fetches(&fx.ctx, &opts, b, &dirs)).sum();
+    let bad: usize = points.iter().map(|&b| bad_fetches(&fx.warp, b, &dirs)).sum();
     let mut bad_rt: usize = points.iter().map(|&b| bad_runtime(&g, b, &dirs)).sum();
     bad_rt += bad_runtime(&g, Vec3::NAN, &dirs);
     let geo = &g.correctives.geometry;
@@ -463,7 +462,7 @@ fn seams(mode: Mode) -> Outcome {
     let dirs = seam_directions();
     let worst = dirs.iter().map(|&d| octa::decode(octa::encode(d)).angle_between(d)).fold(0.0f32, f32::max);
     let b = Vec3::new(-0.9, 1.5, -1.1);
-    let bad = bad_fetches(&fx.ctx, &WarpOptions::default(), b, &dirs);
+    let bad = bad_fetches(&fx.warp, b, &dirs);
     let bad_rt = bad_runtime(&g, b, &dirs);
     Ok((
         format!(
@@ -484,12 +483,9 @@ fn sky(mode: Mode) -> Outcome {
     let mut differ = 0;
     let mut sky_texels = 0;
     for &d in &up {
-        if fx.ctx.probe.inv_dist(d, opts.depth_lod) == 0.0 {
+        if fx.warp.probe.inv_dist(d, opts.depth_lod) == 0.0 {
             sky_texels += 1;
-            differ += depth_methods
-                .iter()
-                .filter(|&&m| warp::fetch_dir(m, &fx.ctx.probe, &fx.ctx.proxies, &opts, b, d) != d)
-                .count();
+            differ += depth_methods.iter().filter(|&&m| fx.warp.fetch_dir(m, b, d) != d).count();
         }
     }
     let inf_depth = fx.bake.probe.depth.levels[0].texels.iter().filter(|d| d.is_infinite()).count();
@@ -510,9 +506,9 @@ fn zero_depth(mode: Mode) -> Outcome {
     let fx = Fixture::new(s);
     let d0 = &fx.bake.probe.depth.levels[0].texels;
     let min_d = d0.iter().copied().fold(f32::INFINITY, f32::min);
-    let max_w = fx.ctx.probe.inv_depth.levels[0].texels.iter().copied().fold(0.0f32, f32::max);
+    let max_w = fx.warp.probe.inv_depth.levels[0].texels.iter().copied().fold(0.0f32, f32::max);
     let dirs = directions(512);
-    let bad = bad_fetches(&fx.ctx, &WarpOptions::default(), Vec3::new(0.0, 0.6, 0.2), &dirs);
+    let bad = bad_fetches(&fx.warp, Vec3::new(0.0, 0.6, 0.2), &dirs);
     let (_, g, _dir) = fx.fit_and_load(mode, StoreOptions::default())?;
     let bad_rt = bad_runtime(&g, Vec3::new(0.0, 0.6, 0.2), &dirs);
     Ok((
@@ -535,11 +531,9 @@ fn method_errors(fx: &Fixture, mode: Mode) -> Vec<(String, f64)> {
     Method::PER_LOOKUP
         .iter()
         .map(|&m| {
-            let est: Vec<Vec3> = eval::fetch_dirs(&fx.ctx, &set, m, &settings.options)
-                .iter()
-                .map(|&d| fx.ctx.probe.radiance(d))
-                .collect();
-            (m.name().to_string(), eval::error_stats(&est, &set.reference).0)
+            let est: Vec<Vec3> =
+                eval::methods::fetch_dirs(&fx.warp, &set, m).iter().map(|&d| fx.warp.probe.radiance(d)).collect();
+            (m.name().to_string(), eval::error_stats(&est, &set.reference).rel_rmse)
         })
         .collect()
 }
@@ -575,8 +569,8 @@ fn grazing(_mode: Mode) -> Outcome {
     }
     // rays leaving above the plane (y ≥ 0) must not hit it
     let wrong = dirs.iter().filter(|d| d.y >= 0.0 && fx.tracer.closest_hit(b, **d, f32::INFINITY).is_some()).count();
-    let bad = bad_fetches(&fx.ctx, &WarpOptions::default(), b, &dirs);
-    let bad_far = bad_fetches(&fx.ctx, &WarpOptions::default(), Vec3::new(40.0, 1e-5, -40.0), &dirs);
+    let bad = bad_fetches(&fx.warp, b, &dirs);
+    let bad_far = bad_fetches(&fx.warp, Vec3::new(40.0, 1e-5, -40.0), &dirs);
     Ok((
         format!("{wrong} rays above the plane hit it; {} bad fetches", bad + bad_far),
         wrong == 0 && bad + bad_far == 0,
@@ -613,7 +607,7 @@ fn inside_cells(mode: Mode) -> Outcome {
         .collect();
     let flagged: Vec<usize> = (0..geo.cell_count()).filter(|&c| fx.bake.grid.inside[c]).collect();
     let (fit, g, _dir) = fx.fit_and_load(mode, StoreOptions::default())?;
-    let stored_inside = flagged.iter().filter(|&&c| fit.correctives.slot[c] != u32::MAX).count()
+    let stored_inside = flagged.iter().filter(|&&c| fit.correctives.stores_map(c)).count()
         + flagged.iter().filter(|&&c| g.irradiance.slot[c] != u32::MAX).count();
     let bad_rt = bad_runtime(&g, Vec3::new(-1.0, 1.05, -1.0), &directions(128));
     Ok((
@@ -716,7 +710,7 @@ fn near_singular_secant(_mode: Mode) -> Outcome {
         aabb: warp::proxy::BoxProxy::aabb(Vec3::splat(-10.0), Vec3::splat(5.0)),
         kdop: warp::proxy::Kdop::fit(Vec3::ZERO, &probe_distance(&probe)),
     };
-    let opts = WarpOptions::default();
+    let warp = Warp { probe, proxies, options: WarpOptions::standard() };
     let mut bad = 0;
     let mut n = 0;
     for b in [Vec3::new(0.5, 0.2, 1.0), Vec3::new(-2.0, 1.0, 4.99), Vec3::new(3.0, -1.0, 0.0)] {
@@ -725,9 +719,9 @@ fn near_singular_secant(_mode: Mode) -> Outcome {
             for dz in [1e-7f32, -1e-7, 1e-5, 1e-3, 0.0] {
                 let d = Vec3::new(phi.cos(), phi.sin(), dz).normalize();
                 for m in [Method::Secant, Method::Warp2New, Method::Warp1, Method::Raymarch] {
-                    let f = warp::fetch_dir(m, &probe, &proxies, &opts, b, d);
+                    let f = warp.fetch_dir(m, b, d);
                     n += 1;
-                    if !unit_and_finite(f) || !probe.radiance(f).is_finite() {
+                    if !unit_and_finite(f) || !warp.probe.radiance(f).is_finite() {
                         bad += 1;
                     }
                 }
@@ -761,7 +755,7 @@ fn hdr(mode: Mode) -> Outcome {
         .filter(|l| l.name.starts_with("radiance_mip") && l.precision == Precision::F32)
         .map(|l| l.name.clone())
         .collect();
-    let loaded_max = g.probe.radiance.levels[0].texels.iter().map(|v| v.max_element()).fold(0.0f32, f32::max);
+    let loaded_max = g.warp.probe.radiance.levels[0].texels.iter().map(|v| v.max_element()).fold(0.0f32, f32::max);
     let fit_finite = fit.cells.iter().all(|c| c.check_err_fitted.is_finite() && c.check_err_fallback.is_finite())
         && fit.correctives.maps.iter().all(|w| w.is_finite());
     let bad_rt = bad_runtime(&g, Vec3::new(0.5, 1.2, 0.5), &directions(256));

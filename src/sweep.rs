@@ -94,8 +94,9 @@ pub fn run(
             eval::validation_set(scene, &tracer, &bake.grid, bake.probe.position, eval_settings)
         });
         let out = dir.join("sweep").join(format!("{}-{value}", knob.replace(' ', "-")));
+        let warp = baked.warp(eval_settings.options);
         let (fit, manifest) =
-            pipeline::fit(baked, &settings, StoreOptions::default(), &out, command, &Progress::quiet())?;
+            pipeline::fit(baked, &warp, &settings, StoreOptions::default(), &out, command, &Progress::quiet())?;
         let grid = FittedGrid::load(&out).map_err(|e| FormatError::Invalid {
             path: out.clone(),
             field: "fitted grid".into(),
@@ -107,7 +108,7 @@ pub fn run(
             knob: knob.clone(),
             value: value.clone(),
             fit_seconds: fit.seconds,
-            rel_rmse: eval::error_stats(&est, &set.reference).0,
+            rel_rmse: eval::error_stats(&est, &set.reference).rel_rmse,
             stored_cells: fit.correctives.stored_cells(),
             payload_bytes: manifest.payloads.iter().map(|p| p.bytes).sum(),
         });

@@ -30,8 +30,17 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
         ..EvalSettings::default()
     };
     let baked = pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
-    let report =
-        pipeline::evaluate(baked, &settings, &Method::ALL, &[], None, &dir, "test", &Progress::quiet()).unwrap();
+    let warp = baked.warp(settings.options);
+    let subject = warpfit::eval::Subject {
+        scene: &scene,
+        tracer: &tracer,
+        grid: &grid,
+        warp: &warp,
+        methods: &Method::ALL,
+        corrective_rows: &[],
+        runtime: None,
+    };
+    let report = pipeline::evaluate(subject, &settings, &dir, "test", &Progress::quiet()).unwrap();
     assert_eq!(report.positions, 16);
     assert_eq!(report.lookups, 16 * 64);
     for f in ["eval.json", "eval.md", "eval_error_vs_cost.png"] {

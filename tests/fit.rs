@@ -4,7 +4,6 @@
 
 mod common;
 use common::*;
-use warpfit::eval::MethodContext;
 use warpfit::fit::objective::CellProblem;
 use warpfit::fit::{self, FitSettings, Solver};
 use warpfit::octa;
@@ -78,15 +77,7 @@ fn small_torture() -> warpfit::scene::Scene {
 }
 
 fn quick_settings() -> FitSettings {
-    FitSettings {
-        train_positions: 3,
-        train_dirs: 48,
-        check_positions: 2,
-        check_dirs: 32,
-        reference_spp: 1,
-        iterations: 1,
-        ..FitSettings::default()
-    }
+    FitSettings::quick()
 }
 
 #[test]
@@ -94,12 +85,11 @@ fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
     let scene = small_torture();
     let tracer = Tracer::new(&scene);
     let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
-    let ctx = MethodContext::new(&scene, &baked.probe);
+    let warp = warpfit::bake::warp(&scene, &baked.probe, warpfit::warp::WarpOptions::standard());
+    let inputs = fit::FitInputs { scene: &scene, tracer: &tracer, grid: &baked.grid, warp: &warp };
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| {
-            fit::fit(&scene, &tracer, &baked.probe, &baked.grid, &ctx.proxies, &quick_settings(), &Progress::quiet())
-        })
+        pool.install(|| fit::fit(inputs, &quick_settings(), &Progress::quiet()))
     };
     let (a, b) = (run(1), run(2));
     assert_eq!(a.correctives, b.correctives);
@@ -118,7 +108,7 @@ fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
     // cells inside geometry are left out entirely
     for (cell, inside) in baked.grid.inside.iter().enumerate() {
         if *inside {
-            assert_eq!(a.correctives.slot[cell], u32::MAX);
+            assert!(!a.correctives.stores_map(cell));
             assert!(a.cells.iter().all(|c| c.cell as usize != cell));
         }
     }
@@ -129,8 +119,9 @@ fn a_cell_seeing_only_sky_stores_nothing() {
     let scene = parse("[sky]\nzenith = [0.3, 0.5, 1.0]\nhorizon = [0.9, 0.9, 1.0]\nground = [0.2, 0.2, 0.2]\n[[geometry]]\ntype = \"sphere\"\ncenter = [500.0, 500.0, 500.0]\nradius = 0.01\n").unwrap();
     let tracer = Tracer::new(&scene);
     let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
-    let ctx = MethodContext::new(&scene, &baked.probe);
-    let f = fit::fit(&scene, &tracer, &baked.probe, &baked.grid, &ctx.proxies, &quick_settings(), &Progress::quiet());
+    let warp = warpfit::bake::warp(&scene, &baked.probe, warpfit::warp::WarpOptions::standard());
+    let inputs = fit::FitInputs { scene: &scene, tracer: &tracer, grid: &baked.grid, warp: &warp };
+    let f = fit::fit(inputs, &quick_settings(), &Progress::quiet());
     assert_eq!(f.correctives.stored_cells(), 0);
     assert!(f.correctives.maps.is_empty());
     for c in &f.cells {

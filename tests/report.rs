@@ -8,8 +8,8 @@ mod common;
 use common::*;
 use std::path::{Path, PathBuf};
 use warpfit::eval::EvalSettings;
-use warpfit::fit::{Blend, FitSettings};
-use warpfit::pipeline::{self, Baked, CorrectiveRow};
+use warpfit::fit::FitSettings;
+use warpfit::pipeline::{self, Baked};
 use warpfit::progress::Progress;
 use warpfit::runtime::FittedGrid;
 use warpfit::trace::Tracer;
@@ -21,26 +21,21 @@ fn small_run(dir: &Path) {
     let quiet = Progress::quiet();
     let (probe, grid, _) = pipeline::load_or_bake(&scene, &tracer, &pipeline::bake_dir(dir), &quiet).unwrap();
     let baked = Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
-    let fs = FitSettings {
-        train_positions: 4,
-        train_dirs: 32,
-        check_positions: 4,
-        check_dirs: 16,
-        reference_spp: 1,
-        iterations: 1,
-        ..FitSettings::default()
-    };
-    let (fit, _) = pipeline::fit(baked, &fs, Default::default(), dir, "test", &quiet).unwrap();
-    let rows = [CorrectiveRow { name: "fitted", note: "", correctives: &fit.correctives, blend: Blend::Cell }];
-    let es = EvalSettings {
-        positions: 16,
-        dirs_per_position: 32,
-        reference_spp: 1,
-        timing_lookups: 512,
-        ..Default::default()
-    };
+    let es = EvalSettings::quick();
+    let warp = baked.warp(es.options);
+    let (fit, _) = pipeline::fit(baked, &warp, &FitSettings::quick(), Default::default(), dir, "test", &quiet).unwrap();
+    let rows = pipeline::corrective_rows(&fit);
     let g = FittedGrid::load(dir).unwrap();
-    pipeline::evaluate(baked, &es, &Method::ALL, &rows, Some(&g), dir, "test", &quiet).unwrap();
+    let subject = warpfit::eval::Subject {
+        scene: &scene,
+        tracer: &tracer,
+        grid: &grid,
+        warp: &warp,
+        methods: &Method::ALL,
+        corrective_rows: &rows,
+        runtime: Some(&g),
+    };
+    pipeline::evaluate(subject, &es, dir, "test", &quiet).unwrap();
 }
 
 fn chromium() -> Option<PathBuf> {

@@ -8,29 +8,18 @@ use common::*;
 use glam::Vec3;
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
-use warpfit::eval::{self, EvalSettings, MethodContext};
-use warpfit::fit::{Blend, FitSettings};
+use warpfit::eval::{self, EvalSettings};
+use warpfit::fit::FitSettings;
 use warpfit::format::grid_io;
 use warpfit::pipeline::{self, Baked, StoreOptions};
 use warpfit::progress::Progress;
 use warpfit::runtime::manifest::{self, GRID_VERSION, MANIFEST_FILE};
 use warpfit::runtime::{FittedGrid, LoadError, Precision};
 use warpfit::trace::Tracer;
+use warpfit::warp::corrective::Blend;
 
 fn tiny() -> PathBuf {
     repo().join("fits/tiny")
-}
-
-fn quick_settings() -> FitSettings {
-    FitSettings {
-        train_positions: 3,
-        train_dirs: 48,
-        check_positions: 2,
-        check_dirs: 32,
-        reference_spp: 1,
-        iterations: 1,
-        ..FitSettings::default()
-    }
 }
 
 /// Fixed queries spread over the tiny room (inside, on a wall, outside the grid).
@@ -86,6 +75,7 @@ struct Fixture {
     probe: warpfit::bake::SpecularProbe,
     grid: warpfit::bake::ProbeGrid,
     fit: warpfit::fit::Fit,
+    warp: warpfit::warp::Warp,
     f32_dir: PathBuf,
     f16_dir: PathBuf,
 }
@@ -101,10 +91,18 @@ fn fixture() -> &'static Fixture {
         let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
         let f32_dir = tmp_dir("runtime-f32");
         let b = Baked { scene: &scene, tracer: &tracer, probe: &baked.probe, grid: &baked.grid };
-        let (fit, _) =
-            pipeline::fit(b, &quick_settings(), StoreOptions::default(), &f32_dir, "test", &Progress::quiet()).unwrap();
+        let warp = b.warp(warpfit::warp::WarpOptions::standard());
+        let (fit, _) = pipeline::fit(
+            b,
+            &warp,
+            &FitSettings::quick(),
+            StoreOptions::default(),
+            &f32_dir,
+            "test",
+            &Progress::quiet(),
+        )
+        .unwrap();
         let f16_dir = tmp_dir("runtime-f16");
-        let ctx = MethodContext::new(&scene, &baked.probe);
         let rough = warpfit::roughness::fit_correction();
         grid_io::write_grid(
             &f16_dir,
@@ -112,7 +110,7 @@ fn fixture() -> &'static Fixture {
                 scene: "torture",
                 probe: &baked.probe,
                 grid: &baked.grid,
-                proxies: &ctx.proxies,
+                warp: &warp,
                 fit: &fit,
                 blend: Blend::Cell,
                 roughness: Some(&rough),
@@ -120,7 +118,7 @@ fn fixture() -> &'static Fixture {
             },
         )
         .unwrap();
-        Fixture { scene, tracer, probe: baked.probe, grid: baked.grid, fit, f32_dir, f16_dir }
+        Fixture { scene, tracer, probe: baked.probe, grid: baked.grid, fit, warp, f32_dir, f16_dir }
     })
 }
 
@@ -130,19 +128,11 @@ fn runtime_equals_the_fitters_evaluation_on_the_validation_set() {
     let g = FittedGrid::load(&f.f32_dir).unwrap();
     let settings = EvalSettings { positions: 48, dirs_per_position: 32, reference_spp: 2, ..EvalSettings::default() };
     let set = eval::validation_set(&f.scene, &f.tracer, &f.grid, f.probe.position, &settings);
-    let ctx = MethodContext::new(&f.scene, &f.probe);
     assert!(f.fit.correctives.stored_cells() > 0, "the test needs stored maps");
     let mut worst = 0.0f32;
     for k in 0..set.dirs.len() {
         let (b, d) = (set.position_of(k), set.dirs[k]);
-        let fitter = ctx.probe.radiance(f.fit.correctives.fetch_vector(
-            Blend::Cell,
-            &ctx.probe,
-            &ctx.proxies,
-            &f.fit.settings.options,
-            b,
-            d,
-        ));
+        let fitter = f.warp.probe.radiance(f.fit.correctives.fetch_vector(Blend::Cell, &f.warp, b, d));
         let runtime = g.specular(b, d, 0.0);
         let rel = (runtime - fitter).abs().max_element() / fitter.abs().max_element().max(1e-6);
         worst = worst.max(rel);
@@ -153,8 +143,8 @@ fn runtime_equals_the_fitters_evaluation_on_the_validation_set() {
     let h = FittedGrid::load(&f.f16_dir).unwrap();
     let est32: Vec<Vec3> = (0..set.dirs.len()).map(|k| g.specular(set.position_of(k), set.dirs[k], 0.0)).collect();
     let est16: Vec<Vec3> = (0..set.dirs.len()).map(|k| h.specular(set.position_of(k), set.dirs[k], 0.0)).collect();
-    let (e32, ..) = eval::error_stats(&est32, &set.reference);
-    let (e16, ..) = eval::error_stats(&est16, &set.reference);
+    let e32 = eval::error_stats(&est32, &set.reference).rel_rmse;
+    let e16 = eval::error_stats(&est16, &set.reference).rel_rmse;
     assert!((e16 - e32).abs() < 1e-3 * e32, "f16 changes rel RMSE {e32} → {e16}");
     let p32 = std::fs::metadata(f.f32_dir.join("probe.exr")).unwrap().len();
     let p16 = std::fs::metadata(f.f16_dir.join("probe.exr")).unwrap().len();
@@ -162,15 +152,58 @@ fn runtime_equals_the_fitters_evaluation_on_the_validation_set() {
 }
 
 #[test]
+fn the_fits_per_query_error_is_the_error_through_the_runtime() {
+    // The objective the fit minimises and the lookup the runtime answers share one fetch
+    // function: for queries in stored cells, the fit's per-query error under the stored map
+    // equals the error of `FittedGrid::specular` against the same reference.
+    let f = fixture();
+    let g = FittedGrid::load(&f.f32_dir).unwrap();
+    let c = &f.fit.correctives;
+    let geo = c.geometry;
+    let n2 = (c.map_res * c.map_res) as usize;
+    let mut compared = 0;
+    for cell in (0..geo.cell_count()).filter(|&k| c.stores_map(k)) {
+        let slot = c.slot_of(cell).unwrap() as usize;
+        let lo = geo.min + geo.cell_coords(cell).as_vec3() * geo.cell_size();
+        let queries: Vec<warpfit::fit::objective::Sample> = (0..64u32)
+            .map(|k| {
+                let mut s = warpfit::sampling::Sampler::new(31, cell as u64, k);
+                let b = lo + Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * geo.cell_size();
+                let dir = warpfit::sampling::uniform_sphere(s.next_2d());
+                let reference = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
+                warpfit::fit::objective::Sample { b, dir, reference, taps: [(0, 0.0); 4] }
+            })
+            .collect();
+        let map = c.maps[slot * n2..(slot + 1) * n2].to_vec();
+        let problem = warpfit::fit::objective::CellProblem::new(
+            &f.warp.probe,
+            geo.cell_centre(cell),
+            c.map_res,
+            map.clone(),
+            queries.clone(),
+            0.0,
+            0.0,
+        );
+        for (q, fit_err) in queries.iter().zip(problem.query_errors(&map)) {
+            let d = g.specular(q.b, q.dir, 0.0) - q.reference;
+            let runtime_err = ((d.x.abs() + d.y.abs() + d.z.abs()) / 3.0) as f64;
+            assert_eq!(fit_err.to_bits(), runtime_err.to_bits(), "cell {cell} query {q:?}");
+            compared += 1;
+        }
+    }
+    assert!(compared >= 64, "no stored cell to compare");
+}
+
+#[test]
 fn roughness_selects_blurrier_mips_and_the_correction_applies() {
     let g = FittedGrid::load(tiny()).unwrap();
-    let a = g.probe.position;
+    let a = g.warp.probe.position;
     // at the probe (k = 1 everywhere) roughness r reads mip r·(mips−1) exactly
     let d = Vec3::new(0.3, 0.2, -0.9).normalize();
-    let last = (g.probe.radiance.levels.len() - 1) as f32;
-    let (got, want) = (g.specular(a, d, 1.0), g.probe.radiance.sample_lod(d, last));
+    let last = (g.warp.probe.radiance.levels.len() - 1) as f32;
+    let (got, want) = (g.specular(a, d, 1.0), g.warp.probe.radiance.sample_lod(d, last));
     assert!((got - want).abs().max_element() <= 1e-4 * want.max_element(), "{got} vs {want}");
-    assert_eq!(g.specular(a, d, 0.0), g.probe.radiance(d));
+    assert_eq!(g.specular(a, d, 0.0), g.warp.probe.radiance(d));
     // the correction: a shading point nearer the hit than the probe (k > 1) reads a sharper mip
     let lut = g.roughness.as_ref().expect("tiny stores the correction");
     assert!(lut.corrected_alpha(0.25, 4.0) < 0.25);
@@ -191,7 +224,7 @@ fn documented_edge_cases_stay_finite() {
     fn assert_send_sync<T: Send + Sync>() {}
     assert_send_sync::<FittedGrid>();
     let g = FittedGrid::load(tiny()).unwrap();
-    let a = g.probe.position;
+    let a = g.warp.probe.position;
     // zero / non-finite direction: black
     assert_eq!(g.specular(a, Vec3::ZERO, 0.0), Vec3::ZERO);
     assert_eq!(g.specular(a, Vec3::NAN, 0.0), Vec3::ZERO);
@@ -250,7 +283,7 @@ fn specular_batch_is_bitwise_the_single_call() {
             });
         }
         // degenerate queries inside a mirror group and in mixed groups
-        let a = g.probe.position;
+        let a = g.warp.probe.position;
         (p[1], p[2], d[3], d[4]) = (a, Vec3::NAN, Vec3::ZERO, Vec3::new(f32::NAN, 1.0, 0.0));
         (p[lanes * 3 + 1], d[lanes * 3 + 2], r[lanes * 3 + 3]) = (Vec3::splat(1e6), Vec3::INFINITY, f32::NAN);
         let mut out = vec![Vec3::ZERO; n];

@@ -6,11 +6,11 @@ use common::*;
 use glam::{Vec2, Vec3};
 use proptest::prelude::*;
 use warpfit::bake::SpecularProbe;
-use warpfit::eval::{self, MethodContext};
 use warpfit::octa::{self, OctMap, OctMips, build_distance_mips};
 use warpfit::progress::Progress;
 use warpfit::trace::Tracer;
-use warpfit::warp::{self, Method, Proxies, WarpOptions, WarpProbe, proxy, reproject::reproject};
+use warpfit::trace::truth;
+use warpfit::warp::{self, Method, Proxies, Warp, WarpOptions, proxy, reproject::reproject};
 
 const PER_LOOKUP: [Method; 8] = Method::PER_LOOKUP;
 
@@ -26,25 +26,30 @@ fn synthetic_probe(a: Vec3, res: u32, dist: impl Fn(Vec3) -> f32) -> SpecularPro
     }
 }
 
-fn context(p: &SpecularProbe, lo: Vec3, hi: Vec3) -> (WarpProbe, Proxies) {
-    let wp = WarpProbe::new(p);
+/// The warp context of probe `p` with a box proxy [lo, hi] and `options`.
+fn context(p: &SpecularProbe, lo: Vec3, hi: Vec3, options: WarpOptions) -> Warp {
     let proxies = Proxies { aabb: proxy::BoxProxy::aabb(lo, hi), kdop: proxy::Kdop::fit(p.position, p.distance()) };
-    (wp, proxies)
+    Warp { probe: p.warp_probe(), proxies, options }
+}
+
+/// `warp` with other options.
+fn with(warp: &Warp, options: WarpOptions) -> Warp {
+    Warp { options, ..warp.clone() }
 }
 
 fn dirs(n: u32) -> Vec<Vec3> {
     (0..n).map(|k| warpfit::sampling::uniform_sphere(warpfit::sampling::Sampler::new(3, 1, k).next_2d())).collect()
 }
 
-/// The default scene with a 64² probe: scene, tracer, probe and method context.
-fn torture_at_test_resolution() -> (warpfit::scene::Scene, Tracer, SpecularProbe, MethodContext) {
+/// The default scene with a 64² probe: scene, tracer, probe and warp context.
+fn torture_at_test_resolution() -> (warpfit::scene::Scene, Tracer, SpecularProbe, Warp) {
     let mut s = load("torture");
     s.config.probe.resolution = 64;
     s.config.probe.samples_per_texel = 1;
     s.config.grid.counts = [2, 2, 2];
     let tracer = Tracer::new(&s);
     let baked = warpfit::bake::bake(&s, &tracer, &Progress::quiet());
-    let ctx = MethodContext::new(&s, &baked.probe);
+    let ctx = warpfit::bake::warp(&s, &baked.probe, WarpOptions::standard());
     (s, tracer, baked.probe, ctx)
 }
 
@@ -53,12 +58,13 @@ fn query_at_the_probe_returns_the_query_direction_exactly() {
     let (s, tracer, probe, ctx) = torture_at_test_resolution();
     let a = probe.position;
     for opts in [WarpOptions::default(), WarpOptions { relax_texels: 2.0, depth_lod: 0.0, ..WarpOptions::default() }] {
+        let w = with(&ctx, opts);
         for d in dirs(2000) {
             for m in PER_LOOKUP {
-                let f = warp::fetch_dir(m, &ctx.probe, &ctx.proxies, &opts, a, d);
+                let f = w.fetch_dir(m, a, d);
                 assert_eq!(f, d, "{} at the probe", m.name());
             }
-            let (o, hidden) = eval::oracle(&s, &tracer, a, a, d);
+            let (o, hidden) = truth::oracle(&s, &tracer, a, a, d);
             assert_eq!(o, d);
             assert!(!hidden);
         }
@@ -73,13 +79,13 @@ fn sky_returns_the_query_direction() {
     // Probe sees sky above the horizontal plane (y > 0), a floor 1 below it elsewhere.
     let a = Vec3::new(0.0, 1.0, 0.0);
     let p = synthetic_probe(a, 64, |d| if d.y > -0.05 { f32::INFINITY } else { 1.0 / -d.y });
-    let (wp, proxies) = context(&p, Vec3::splat(-10.0), Vec3::splat(10.0));
-    let opts = WarpOptions { depth_lod: 0.0, ..WarpOptions::default() };
+    let w =
+        context(&p, Vec3::splat(-10.0), Vec3::splat(10.0), WarpOptions { depth_lod: 0.0, ..WarpOptions::default() });
     let b = Vec3::new(0.4, 1.3, -0.2);
     for d in dirs(3000).into_iter().filter(|d| d.y > 0.3) {
         // Proxies (box, k-DOP) close the scene by construction and are not expected to.
         for m in [Method::None, Method::Warp1, Method::Warp2Fixed, Method::Warp2New, Method::Secant, Method::Raymarch] {
-            let f = warp::fetch_dir(m, &wp, &proxies, &opts, b, d);
+            let f = w.fetch_dir(m, b, d);
             assert!((f - d).length() < 1e-6, "{}: {f} vs {d}", m.name());
         }
     }
@@ -91,8 +97,8 @@ fn sphere_centre_probe_secant_and_two_steps_converge() {
     let a = Vec3::new(0.0, 1.0, 0.0);
     let r = 2.0f32;
     let p = synthetic_probe(a, 128, |_| r);
-    let (wp, proxies) = context(&p, Vec3::splat(-3.0), Vec3::splat(3.0));
     let opts = WarpOptions { depth_lod: 0.0, secant_steps: 8, ..WarpOptions::default() };
+    let w = context(&p, Vec3::splat(-3.0), Vec3::splat(3.0), opts);
     let mut err = [0.0f64; 4];
     let ds = dirs(2000);
     for (k, d) in ds.iter().enumerate() {
@@ -102,7 +108,7 @@ fn sphere_centre_probe_secant_and_two_steps_converge() {
         let t = -o.dot(*d) + (o.dot(*d).powi(2) - o.length_squared() + r * r).sqrt();
         let truth = (b + *d * t - a).normalize();
         for (slot, m) in [Method::Warp1, Method::Warp2Fixed, Method::Warp2New, Method::Secant].iter().enumerate() {
-            let f = warp::fetch_dir(*m, &wp, &proxies, &opts, b, *d);
+            let f = w.fetch_dir(*m, b, *d);
             err[slot] += f.dot(truth).clamp(-1.0, 1.0).acos() as f64;
         }
     }
@@ -118,12 +124,11 @@ fn box_proxy_is_exact_in_a_box_room() {
     let tracer = Tracer::new(&scene);
     let a = Vec3::new(0.2, 1.1, -0.7);
     let p = synthetic_probe(a, 32, |_| 1.0);
-    let (wp, proxies) = context(&p, Vec3::new(-2.0, 0.0, -3.0), Vec3::new(3.0, 2.5, 1.0));
-    let opts = WarpOptions::default();
+    let w = context(&p, Vec3::new(-2.0, 0.0, -3.0), Vec3::new(3.0, 2.5, 1.0), WarpOptions::default());
     for (k, d) in dirs(3000).into_iter().enumerate() {
         let b = Vec3::new(-1.5 + (k % 9) as f32 * 0.5, 0.2 + (k % 4) as f32 * 0.6, -2.5 + (k % 7) as f32 * 0.5);
-        let f = warp::fetch_dir(Method::Box, &wp, &proxies, &opts, b, d);
-        let (o, _) = eval::oracle(&scene, &tracer, a, b, d);
+        let f = w.fetch_dir(Method::Box, b, d);
+        let (o, _) = truth::oracle(&scene, &tracer, a, b, d);
         assert!((f - o).length() < 2e-6, "box fetch {f} vs oracle {o} from {b} along {d}");
     }
 }
@@ -132,7 +137,6 @@ fn box_proxy_is_exact_in_a_box_room() {
 fn methods_on_the_default_scene_are_finite_and_unit() {
     let (_, _, probe, ctx) = torture_at_test_resolution();
     let a = probe.position;
-    let opts = WarpOptions::default();
     let special: Vec<Vec3> = [
         Vec3::X,
         -Vec3::X,
@@ -161,9 +165,9 @@ fn methods_on_the_default_scene_are_finite_and_unit() {
     for b in positions {
         for d in special.iter().chain(dirs(500).iter()) {
             for m in PER_LOOKUP {
-                let f = warp::fetch_dir(m, &ctx.probe, &ctx.proxies, &opts, b, *d);
+                let f = ctx.fetch_dir(m, b, *d);
                 assert!(f.is_finite() && (f.length() - 1.0).abs() < 1e-4, "{} from {b} along {d}: {f}", m.name());
-                let l = warp::lookup(m, &ctx.probe, &ctx.proxies, &opts, b, *d);
+                let l = ctx.lookup(m, b, *d);
                 assert!(l.is_finite(), "{} radiance", m.name());
             }
         }
@@ -183,12 +187,12 @@ proptest! {
             let h = ((d.x * 12.9898 + d.y * 78.233 + d.z * 37.719 + seed as f32).sin() * 43758.547).fract().abs();
             if h < 0.2 { f32::INFINITY } else if h < 0.25 { 0.0 } else { h * 5.0 }
         });
-        let (wp, proxies) = context(&p, Vec3::splat(-4.0), Vec3::splat(4.0));
         let opts = WarpOptions { depth_lod: lod, relax_texels: relax, ..WarpOptions::default() };
+        let w = context(&p, Vec3::splat(-4.0), Vec3::splat(4.0), opts);
         let b = Vec3::new(bx, by, bz);
         let d = octa::decode(Vec2::new(u, v));
         for m in PER_LOOKUP {
-            let f = warp::fetch_dir(m, &wp, &proxies, &opts, b, d);
+            let f = w.fetch_dir(m, b, d);
             prop_assert!(f.is_finite() && (f.length() - 1.0).abs() < 1e-3, "{} {f}", m.name());
         }
     }
@@ -202,7 +206,7 @@ fn bits(v: Vec3) -> [u32; 3] {
 #[test]
 fn batched_warp1_equals_the_per_lookup_warp1() {
     let (_, _, probe, ctx) = torture_at_test_resolution();
-    let opts = WarpOptions::default();
+    let opts = ctx.options;
     let mut queries: Vec<(Vec3, Vec3)> = dirs(1000)
         .into_iter()
         .enumerate()
@@ -221,7 +225,7 @@ fn batched_warp1_equals_the_per_lookup_warp1() {
     let mut radiance = vec![Vec3::ZERO; queries.len()];
     ctx.probe.radiance_batch(&vectors, &mut radiance);
     for ((q, v), r) in queries.iter().zip(&vectors).zip(&radiance) {
-        let single = warp::fetch_vector(Method::Warp1, &ctx.probe, &ctx.proxies, &opts, q.0, q.1);
+        let single = ctx.fetch_vector(Method::Warp1, q.0, q.1);
         assert_eq!(bits(*v), bits(single), "query {q:?}: {v} vs {single}");
         assert_eq!(bits(*r), bits(ctx.probe.radiance(single)), "query {q:?}");
     }
@@ -262,15 +266,14 @@ proptest! {
             let h = ((d.x * 12.9898 + d.y * 78.233 + d.z * 37.719 + seed as f32).sin() * 43758.547).fract().abs();
             if h < 0.2 { f32::INFINITY } else if h < 0.25 { 0.0 } else { h * 5.0 }
         });
-        let (wp, proxies) = context(&p, Vec3::splat(-4.0), Vec3::splat(4.0));
-        let opts = WarpOptions { depth_lod: lod, ..WarpOptions::default() };
+        let w = context(&p, Vec3::splat(-4.0), Vec3::splat(4.0), WarpOptions { depth_lod: lod, ..WarpOptions::default() });
         let mut q: Vec<(Vec3, Vec3)> =
             queries.iter().map(|&(x, y, z, u, v)| (Vec3::new(x, y, z), octa::decode(Vec2::new(u, v)))).collect();
         q.push((a, q[0].1)); // at the probe: the query direction itself, not a rescaled copy
         let mut out = vec![Vec3::ZERO; q.len()];
-        warp::depth::warp1_batch(&wp, &q, lod, &mut out);
+        warp::depth::warp1_batch(&w.probe, &q, lod, &mut out);
         for (q, v) in q.iter().zip(&out) {
-            let single = warp::fetch_vector(Method::Warp1, &wp, &proxies, &opts, q.0, q.1);
+            let single = w.fetch_vector(Method::Warp1, q.0, q.1);
             prop_assert_eq!(bits(*v), bits(single), "query {:?}", q);
             prop_assert!(v.is_finite() && *v != Vec3::ZERO);
         }

@@ -158,6 +158,6 @@ fn bake_cell(
     for (e, cs) in irradiance.iter_mut().zip(&cosine_sum) {
         *e = if *cs > 0.0 { *e * (std::f32::consts::PI / *cs) } else { Vec3::ZERO };
     }
-    let total = (dres * dres * spp) as f32;
-    CellBake { irradiance, mean, mean_sq, hit, inside: backfaces as f32 / total > s.inside_backface_fraction, rays }
+    let inside = crate::trace::truth::inside_by_backfaces(backfaces, dres * dres * spp, s.inside_backface_fraction);
+    CellBake { irradiance, mean, mean_sq, hit, inside, rays }
 }

@@ -7,12 +7,33 @@ pub mod probe;
 pub use grid::{GridGeometry, ProbeGrid};
 pub use probe::SpecularProbe;
 
-use crate::format::manifest::BakeStats;
 use crate::progress::Progress;
 use crate::scene::Scene;
 use crate::trace::{Renderer, Tracer};
+use crate::warp::{Proxies, Warp, WarpOptions, proxy};
 use glam::{UVec3, Vec3};
 use std::time::Instant;
+
+/// The warp context of a bake: probe A, the scene's bounds as the box proxy, an 18-DOP
+/// fitted to the probe's depth, and `options`.
+pub fn warp(scene: &Scene, probe: &SpecularProbe, options: WarpOptions) -> Warp {
+    let (lo, hi) = scene.bounds();
+    let kdop = proxy::Kdop::fit(probe.position, probe.distance());
+    Warp { probe: probe.warp_probe(), proxies: Proxies { aabb: proxy::BoxProxy::aabb(lo, hi), kdop }, options }
+}
+
+/// Rays and time of a bake's stages.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize, PartialEq, Default)]
+pub struct BakeStats {
+    pub probe_rays: u64,
+    pub grid_rays: u64,
+    pub bvh_build_s: f64,
+    pub probe_s: f64,
+    pub grid_s: f64,
+    pub total_s: f64,
+    pub rays_per_s: f64,
+    pub threads: usize,
+}
 
 /// Everything a bake produces.
 #[derive(Clone, Debug)]

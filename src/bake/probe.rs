@@ -10,6 +10,7 @@ use crate::octa::{self, OctMap, OctMips, build_distance_mips, build_mips, texel_
 use crate::progress::Progress;
 use crate::sampling::{Sampler, ggx_d, ggx_half_vector, hash_pair};
 use crate::trace::Renderer;
+use crate::warp::WarpProbe;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
@@ -35,6 +36,11 @@ impl SpecularProbe {
     }
     pub fn distance(&self) -> &OctMap<f32> {
         &self.depth.levels[0]
+    }
+
+    /// The probe as the warps read it: inverse-distance and radiance mips.
+    pub fn warp_probe(&self) -> WarpProbe {
+        WarpProbe::from_distance_mips(self.position, &self.depth, self.radiance.clone())
     }
 
     /// Fractional radiance mip for a perceptual roughness (linear in r between mips).

@@ -13,14 +13,16 @@ pub mod model;
 pub mod objective;
 pub mod output;
 
-use crate::bake::{ProbeGrid, SpecularProbe};
+use crate::bake::ProbeGrid;
+use crate::grid::GridGeometry;
 use crate::progress::Progress;
-use crate::sampling::{Sampler, hash_pair, uniform_sphere};
+use crate::sampling::{Sampler, hash_pair};
 use crate::scene::Scene;
+use crate::trace::truth::{self, QueryStreams, TracedQueries};
 use crate::trace::{Renderer, Tracer};
-use crate::warp::{Proxies, WarpOptions, WarpProbe};
+use crate::warp::Warp;
+use crate::warp::corrective::{Correctives, NO_MAP};
 use glam::Vec3;
-pub use model::{Blend, Correctives};
 use objective::{CellProblem, Sample};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -63,12 +65,11 @@ pub struct FitSettings {
     /// Charbonnier ε as a fraction of the cell's mean reference radiance: errors far above
     /// it are penalised linearly (robust), errors below it quadratically.
     pub robust_scale: f64,
-    /// Options of the plain warp used by level-0 cells.
-    pub options: WarpOptions,
 }
 
-impl Default for FitSettings {
-    fn default() -> Self {
+impl FitSettings {
+    /// The defaults of `warpfit fit` (chosen by measurement; see ARCHITECTURE.md).
+    pub const fn standard() -> Self {
         FitSettings {
             map_res: 8,
             train_positions: 16,
@@ -82,14 +83,41 @@ impl Default for FitSettings {
             iterations: 2,
             smooth_weight: 1e-3,
             size_weight: 1e-4,
-            robust_scale: robust_scale_default(),
-            options: WarpOptions::default(),
+            robust_scale: 0.05,
+        }
+    }
+
+    /// A small fit for tests and the quick stability suite: seconds, not minutes.
+    pub const fn quick() -> Self {
+        FitSettings {
+            train_positions: 4,
+            train_dirs: 32,
+            check_positions: 4,
+            check_dirs: 16,
+            reference_spp: 1,
+            iterations: 1,
+            ..Self::standard()
+        }
+    }
+
+    /// Between `quick` and `standard`: the full stability suite's fits.
+    pub const fn moderate() -> Self {
+        FitSettings {
+            train_positions: 8,
+            train_dirs: 64,
+            check_positions: 8,
+            check_dirs: 32,
+            reference_spp: 2,
+            iterations: 1,
+            ..Self::standard()
         }
     }
 }
 
-fn robust_scale_default() -> f64 {
-    std::env::var("WARPFIT_ROBUST").ok().and_then(|v| v.parse().ok()).unwrap_or(0.05)
+impl Default for FitSettings {
+    fn default() -> Self {
+        Self::standard()
+    }
 }
 
 /// Outcome of one cell's fit.
@@ -137,39 +165,55 @@ pub struct Fit {
     pub reference_rays: u64,
 }
 
-/// Training or check queries of one cell, with references.
-#[allow(clippy::too_many_arguments)]
+/// The streams of one cell's training (`tag` 1) or check (`tag` 2) queries.
+struct CellStreams {
+    seed: u64,
+    stream: u64,
+}
+
+impl QueryStreams for CellStreams {
+    fn direction(&self, p: usize, d: usize) -> Sampler {
+        Sampler::new(self.seed, hash_pair(self.stream, 1 + p as u64), d as u32)
+    }
+    fn reference(&self, p: usize, d: usize, k: u32) -> Sampler {
+        Sampler::new(self.seed, hash_pair(hash_pair(self.stream, 0xABC + p as u64), d as u64), k)
+    }
+}
+
+/// Training or check queries of one cell: positions uniform in the cell, uniform
+/// directions, references traced by `trace::truth`.
 fn cell_samples(
     renderer: &Renderer,
-    grid: &ProbeGrid,
+    geometry: &GridGeometry,
     cell: usize,
+    q: QuerySize,
+    seed: u64,
+    tag: u64,
+) -> TracedQueries {
+    let lo = geometry.min + geometry.cell_coords(cell).as_vec3() * geometry.cell_size();
+    let stream = hash_pair(hash_pair(DOMAIN_FIT, tag), cell as u64);
+    let positions: Vec<Vec3> = (0..q.positions)
+        .map(|p| {
+            let mut s = Sampler::new(seed, stream, p);
+            lo + Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * geometry.cell_size()
+        })
+        .collect();
+    truth::trace_queries(renderer, &positions, q.dirs as usize, q.spp, &CellStreams { seed, stream })
+}
+
+/// How many queries a cell set holds: positions × directions, with `spp`-sample references.
+#[derive(Clone, Copy, Debug)]
+struct QuerySize {
     positions: u32,
     dirs: u32,
     spp: u32,
-    seed: u64,
-    tag: u64,
-    rays: &mut u64,
-) -> Vec<Sample> {
-    let g = &grid.geometry;
-    let lo = g.min + g.cell_coords(cell).as_vec3() * g.cell_size();
-    let stream = hash_pair(hash_pair(DOMAIN_FIT, tag), cell as u64);
-    let mut out = Vec::with_capacity((positions * dirs) as usize);
-    for p in 0..positions {
-        let mut s = Sampler::new(seed, stream, p);
-        let u = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
-        let b = lo + u * g.cell_size();
-        for d in 0..dirs {
-            let mut sd = Sampler::new(seed, hash_pair(stream, 1 + p as u64), d);
-            let dir = uniform_sphere(sd.next_2d());
-            let mut sum = Vec3::ZERO;
-            for k in 0..spp {
-                let mut sr = Sampler::new(seed, hash_pair(hash_pair(stream, 0xABC + p as u64), d as u64), k);
-                sum += renderer.sample(b, dir, &mut sr, rays).radiance;
-            }
-            out.push(Sample { b, dir, reference: sum / spp as f32, taps: [(0, 0.0); 4] });
-        }
-    }
-    out
+}
+
+/// The queries of a set as the objective reads them.
+fn samples(q: &TracedQueries) -> Vec<Sample> {
+    (0..q.dirs.len())
+        .map(|k| Sample { b: q.position_of(k), dir: q.dirs[k], reference: q.reference[k], taps: [(0, 0.0); 4] })
+        .collect()
 }
 
 /// A stored map must beat the fallback by this factor on held-out queries: a cell's check
@@ -193,29 +237,33 @@ pub fn choose_level(check_err_fallback: f64, check_err_fitted: f64, tol: f64) ->
 pub const FALLBACK_CANDIDATES: [crate::warp::Method; 3] =
     [crate::warp::Method::Warp1, crate::warp::Method::Box, crate::warp::Method::Kdop];
 
+/// What a fit reads: the scene with its tracer, the baked grid, and the warp context (probe
+/// A, proxies and the options of the fallback methods).
+#[derive(Clone, Copy)]
+pub struct FitInputs<'a> {
+    pub scene: &'a Scene,
+    pub tracer: &'a Tracer,
+    pub grid: &'a ProbeGrid,
+    pub warp: &'a Warp,
+}
+
 /// Fits every active cell.
-pub fn fit(
-    scene: &Scene,
-    tracer: &Tracer,
-    probe: &SpecularProbe,
-    grid: &ProbeGrid,
-    proxies: &Proxies,
-    s: &FitSettings,
-    progress: &Progress,
-) -> Fit {
+pub fn fit(inputs: FitInputs, s: &FitSettings, progress: &Progress) -> Fit {
+    let FitInputs { scene, tracer, grid, warp } = inputs;
     let t0 = Instant::now();
-    let wp = WarpProbe::new(probe);
+    let wp = &warp.probe;
     let renderer = Renderer::new(scene, tracer);
     let g = grid.geometry;
     let n2 = (s.map_res * s.map_res) as usize;
     let d2 = (grid.depth_resolution * grid.depth_resolution) as usize;
     let active: Vec<usize> = (0..g.cell_count()).filter(|&c| !grid.inside[c]).collect();
     let bar = progress.bar(active.len() as u64, "fit cells");
+    let train_size = QuerySize { positions: s.train_positions, dirs: s.train_dirs, spp: s.reference_spp };
+    let check_size = QuerySize { positions: s.check_positions, dirs: s.check_dirs, spp: s.reference_spp };
     let results: Vec<(CellFit, Vec<f32>, Vec<f32>, u64)> = active
         .par_iter()
         .map(|&cell| {
             let tc = Instant::now();
-            let mut rays = 0u64;
             let init = model::initial_map(
                 grid.depth_resolution,
                 &grid.depth_mean[cell * d2..(cell + 1) * d2],
@@ -223,46 +271,27 @@ pub fn fit(
                 grid.far_distance,
                 s.map_res,
             );
-            let train = cell_samples(
-                &renderer,
-                grid,
-                cell,
-                s.train_positions,
-                s.train_dirs,
-                s.reference_spp,
-                s.seed,
-                1,
-                &mut rays,
-            );
-            let check = cell_samples(
-                &renderer,
-                grid,
-                cell,
-                s.check_positions,
-                s.check_dirs,
-                s.reference_spp,
-                s.seed,
-                2,
-                &mut rays,
-            );
-            let hidden =
-                check.iter().filter(|q| crate::eval::oracle(scene, tracer, probe.position, q.b, q.dir).1).count()
-                    as f64
-                    / check.len().max(1) as f64;
+            let train = cell_samples(&renderer, &g, cell, train_size, s.seed, 1);
+            let check = cell_samples(&renderer, &g, cell, check_size, s.seed, 2);
+            let rays = train.rays + check.rays;
+            let hidden = (0..check.dirs.len())
+                .filter(|&k| truth::oracle(scene, tracer, wp.position, check.position_of(k), check.dirs[k]).1)
+                .count() as f64
+                / check.dirs.len().max(1) as f64;
+            let (train, check) = (samples(&train), samples(&check));
             let centre = g.cell_centre(cell);
             // Two starts: the grid's raytraced distances and the box proxy seen from the cell
             // centre; refine whichever explains the training queries better.
-            let boxed = model::box_map(centre, &proxies.aabb, s.map_res);
-            let judge = CellProblem::new(&wp, centre, s.map_res, init.clone(), train.clone(), 0.0, 0.0);
+            let boxed = model::box_map(centre, &warp.proxies.aabb, s.map_res);
+            let judge = CellProblem::new(wp, centre, s.map_res, init.clone(), train.clone(), 0.0, 0.0);
             let box_better = init.iter().any(|w| *w > 0.0) && judge.data_cost_map(&boxed) < judge.data_cost_map(&init);
             let (start, start_name) = if box_better { (boxed, "box") } else { (init.clone(), "celldepth") };
-            let mut problem = CellProblem::new(&wp, centre, s.map_res, start, train, s.smooth_weight, s.size_weight)
+            let mut problem = CellProblem::new(wp, centre, s.map_res, start, train, s.smooth_weight, s.size_weight)
                 .with_robust_scale(s.robust_scale);
             let outcome = problem.solve(s.solver, s.iterations);
             let fitted = problem.map_with_relax(&outcome.params, outcome.relax);
-            let check_problem = CellProblem::new(&wp, centre, s.map_res, init.clone(), check, 0.0, 0.0);
-            let [warp1, boxed_err, kdop] =
-                FALLBACK_CANDIDATES.map(|m| check_problem.relative_error_method(m, proxies, &s.options));
+            let check_problem = CellProblem::new(wp, centre, s.map_res, init.clone(), check, 0.0, 0.0);
+            let [warp1, boxed_err, kdop] = FALLBACK_CANDIDATES.map(|m| check_problem.relative_error_method(warp, m));
             let celldepth = check_problem.relative_error_map(&init);
             let fitted_err = check_problem.relative_error_map(&fitted);
             bar.inc(1);
@@ -296,13 +325,8 @@ pub fn fit(
     let errs = [total(|c| c.check_err_warp1), total(|c| c.check_err_box), total(|c| c.check_err_kdop)];
     let best = (0..3).min_by(|&a, &b| errs[a].total_cmp(&errs[b])).unwrap_or(0);
     let fallback = FALLBACK_CANDIDATES[best];
-    let mut correctives = Correctives {
-        geometry: g,
-        map_res: s.map_res,
-        slot: vec![u32::MAX; g.cell_count()],
-        maps: Vec::new(),
-        fallback,
-    };
+    let mut correctives =
+        Correctives { geometry: g, map_res: s.map_res, slot: vec![NO_MAP; g.cell_count()], maps: Vec::new(), fallback };
     let mut celldepth = correctives.clone();
     let mut fitted_all = correctives.clone();
     let mut cells = Vec::with_capacity(results.len());

@@ -1,8 +1,9 @@
-//! Fit-side helpers of the corrective model. The model itself (`Correctives`, `Blend`) and
-//! its runtime evaluation live in `warp::corrective`, which the runtime sampler shares.
+//! Fit-side helpers of the corrective model: the maps a cell's fit starts from. The model
+//! itself (`Correctives`, `Blend`) and its runtime evaluation live in `warp::corrective`,
+//! which the runtime sampler shares.
 
 use crate::octa::OctMap;
-pub use crate::warp::corrective::*;
+pub use crate::warp::corrective::box_map;
 
 /// Initial warp map of a cell from the grid's distance moments: inverse of the mean hit
 /// distance per texel (misses removed from the mean), 0 where most rays missed; reduced to

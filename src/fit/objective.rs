@@ -19,9 +19,9 @@
 //! at which the piecewise-smooth radiance changes), or Nelder-Mead.
 
 use super::Solver;
-use super::model::inv_t_from_map;
 use crate::octa::{self, wrap_texel};
-use crate::warp::{Method, Proxies, WarpOptions, WarpProbe, fetch_vector};
+use crate::warp::corrective::{map_fetch_vector, sample_map};
+use crate::warp::{Method, Warp, WarpProbe};
 use argmin::core::{CostFunction, Error, Executor, Gradient, State};
 use argmin::solver::brent::BrentOpt;
 use argmin::solver::linesearch::MoreThuenteLineSearch;
@@ -163,16 +163,18 @@ impl<'a> CellProblem<'a> {
         out
     }
 
-    /// Absolute error of sample `i` under `map`.
+    /// Absolute error of sample `i` under `map`: the runtime's corrective lookup
+    /// (`map_fetch_vector`) against the reference.
     #[inline]
     fn sample_error(&self, i: usize, map: &[f32]) -> f64 {
         let q = &self.samples[i];
-        let w: f32 = q.taps.iter().map(|&(k, wt)| map[k as usize] * wt).sum();
-        let u = inv_t_from_map(self.centre, w, q.b, q.dir);
-        let v = if u > 0.0 { q.b + q.dir / u - self.probe.position } else { q.dir };
-        let v = if v.is_finite() && v != Vec3::ZERO { v } else { q.dir };
-        let d = self.probe.radiance(v) - q.reference;
-        ((d.x.abs() + d.y.abs() + d.z.abs()) / 3.0) as f64
+        let v = map_fetch_vector(self.probe.position, self.centre, sample_map(map, &q.taps), q.b, q.dir);
+        abs_error(self.probe.radiance(v), q.reference)
+    }
+
+    /// Each query's absolute error (mean over RGB) under `map`, in query order.
+    pub fn query_errors(&self, map: &[f32]) -> Vec<f64> {
+        (0..self.samples.len()).map(|i| self.sample_error(i, map)).collect()
     }
 
     #[inline]
@@ -212,16 +214,11 @@ impl<'a> CellProblem<'a> {
         (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
     }
 
-    /// The same error for an unfitted per-lookup method.
-    pub fn relative_error_method(&self, method: Method, proxies: &Proxies, opts: &WarpOptions) -> f64 {
-        let sq: f64 = self
-            .samples
-            .iter()
-            .map(|q| {
-                let d = self.probe.radiance(fetch_vector(method, self.probe, proxies, opts, q.b, q.dir)) - q.reference;
-                (((d.x.abs() + d.y.abs() + d.z.abs()) / 3.0) as f64).powi(2)
-            })
-            .sum();
+    /// The same error for an unfitted per-lookup method of `warp` (whose probe is this
+    /// problem's).
+    pub fn relative_error_method(&self, warp: &Warp, method: Method) -> f64 {
+        let sq: f64 =
+            self.samples.iter().map(|q| abs_error(warp.lookup(method, q.b, q.dir), q.reference).powi(2)).sum();
         (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
     }
 
@@ -364,6 +361,13 @@ impl<'a> CellProblem<'a> {
             Err(_) => 0.0,
         }
     }
+}
+
+/// Absolute error of an estimate, mean over RGB.
+#[inline]
+fn abs_error(estimate: Vec3, reference: Vec3) -> f64 {
+    let d = estimate - reference;
+    ((d.x.abs() + d.y.abs() + d.z.abs()) / 3.0) as f64
 }
 
 /// Writes the best reduced parameter vector of a solve back into the full one.

@@ -12,7 +12,7 @@ use crate::fit::output::summary;
 use crate::octa;
 use crate::roughness::RoughnessCorrection;
 use crate::runtime::manifest::*;
-use crate::warp::Proxies;
+use crate::warp::Warp;
 use crate::warp::corrective::Blend;
 use glam::Vec3;
 use std::path::Path;
@@ -22,7 +22,7 @@ pub struct GridInputs<'a> {
     pub scene: &'a str,
     pub probe: &'a SpecularProbe,
     pub grid: &'a ProbeGrid,
-    pub proxies: &'a Proxies,
+    pub warp: &'a Warp,
     pub fit: &'a Fit,
     pub blend: Blend,
     pub roughness: Option<&'a RoughnessCorrection>,
@@ -132,8 +132,13 @@ pub fn write_grid(dir: &Path, g: &GridInputs) -> Result<GridManifest, FormatErro
     payloads.push(payload(dir, PROBE_FILE, &layers, g.precision)?);
 
     // correctives: warp maps of level-2 cells, in slot order
-    let mut stored: Vec<(u32, u32)> =
-        c.slot.iter().enumerate().filter(|(_, s)| **s != u32::MAX).map(|(cell, s)| (*s, cell as u32)).collect();
+    let mut stored: Vec<(u32, u32)> = c
+        .slot
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| **s != crate::warp::corrective::NO_MAP)
+        .map(|(cell, s)| (*s, cell as u32))
+        .collect();
     stored.sort();
     let stored_cells: Vec<u32> = stored.iter().map(|(_, cell)| *cell).collect();
     let n2 = (c.map_res * c.map_res) as u64;
@@ -214,7 +219,7 @@ pub fn write_grid(dir: &Path, g: &GridInputs) -> Result<GridManifest, FormatErro
         });
     }
 
-    let aabb = &g.proxies.aabb;
+    let aabb = &g.warp.proxies.aabb;
     let s = summary(fit);
     let manifest = GridManifest {
         format: GRID_FORMAT.into(),
@@ -232,7 +237,7 @@ pub fn write_grid(dir: &Path, g: &GridInputs) -> Result<GridManifest, FormatErro
         },
         warp: WarpSection {
             fallback: c.fallback.name().into(),
-            options: fit.settings.options,
+            options: g.warp.options,
             blend: g.blend,
             box_proxy: BoxSection {
                 centre: aabb.centre.to_array(),
@@ -240,11 +245,12 @@ pub fn write_grid(dir: &Path, g: &GridInputs) -> Result<GridManifest, FormatErro
                 half_extents: aabb.half_extents.to_array(),
             },
             kdop: g
+                .warp
                 .proxies
                 .kdop
                 .normals
                 .iter()
-                .zip(&g.proxies.kdop.offsets)
+                .zip(&g.warp.proxies.kdop.offsets)
                 .map(|(n, h)| KdopPlane { normal: n.to_array(), offset: h.is_finite().then_some(*h) })
                 .collect(),
         },

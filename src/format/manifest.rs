@@ -2,6 +2,7 @@
 //! long it took. Infinite distances never appear in JSON (serde_json would write `null`):
 //! misses are described in words and stored as +inf only inside EXR distance layers.
 
+use crate::bake::BakeStats;
 use crate::scene::SceneFile;
 use serde::{Deserialize, Serialize};
 
@@ -82,16 +83,4 @@ pub struct GridManifest {
     pub active_cells: usize,
     /// Linear indices of cells whose centre is inside geometry.
     pub inside_cells: Vec<u32>,
-}
-
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, Default)]
-pub struct BakeStats {
-    pub probe_rays: u64,
-    pub grid_rays: u64,
-    pub bvh_build_s: f64,
-    pub probe_s: f64,
-    pub grid_s: f64,
-    pub total_s: f64,
-    pub rays_per_s: f64,
-    pub threads: usize,
 }

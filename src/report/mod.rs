@@ -4,54 +4,10 @@
 pub mod page;
 pub mod plot;
 
-use crate::eval::{EvalSettings, MethodResult};
+pub use crate::eval::{EvalReport, LevelEval};
 use crate::format::{FormatError, write_atomic};
-use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::Path;
-
-/// One row of the warp1 option sweep.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct SweepRow {
-    pub depth_lod: f32,
-    pub relax_texels: f32,
-    pub rel_rmse: f64,
-}
-
-/// The fitted grid's error on the validation lookups whose position lies in cells of one
-/// level, next to the grid's fallback method on the same lookups.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct LevelEval {
-    pub level: u8,
-    pub lookups: usize,
-    pub fitted_rel_rmse: f64,
-    pub fallback: String,
-    pub fallback_rel_rmse: f64,
-}
-
-/// Everything `eval.json` holds.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct EvalReport {
-    pub scene: String,
-    pub positions: usize,
-    pub lookups: usize,
-    /// Fraction of validation lookups whose true hit is hidden from probe A.
-    pub hidden_fraction: f64,
-    /// Cost of tracing one reference ray (one radiance sample), single-threaded.
-    pub reference_ns_per_ray: f64,
-    pub methods: Vec<MethodResult>,
-    pub warp1_sweep: Vec<SweepRow>,
-    pub settings: EvalSettings,
-    pub command: String,
-    /// `fitted` split by the level of the cell containing each validation position.
-    #[serde(default)]
-    pub fitted_levels: Vec<LevelEval>,
-    /// Wall time of the evaluation (references, methods, timings) and its traced rays.
-    #[serde(default)]
-    pub seconds: f64,
-    #[serde(default)]
-    pub reference_rays: u64,
-}
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> FormatError + '_ {
     move |source| FormatError::Io { path: path.to_path_buf(), source }

@@ -9,7 +9,7 @@ use crate::grid::GridGeometry;
 use crate::octa::{self, OctMap, OctMips};
 use crate::warp::corrective::Correctives;
 use crate::warp::proxy::{BoxProxy, Kdop};
-use crate::warp::{Method, Proxies, WarpProbe};
+use crate::warp::{Method, Proxies, Warp, WarpProbe};
 use glam::{Quat, UVec3, Vec3};
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -362,10 +362,8 @@ pub(super) fn load(dir: &Path) -> Result<FittedGrid, LoadError> {
         Some(r) => Some(RoughnessLut::new(r).ok_or_else(|| invalid(mp, "roughness", "malformed table"))?),
     };
     Ok(FittedGrid {
-        probe,
+        warp: Warp { probe, proxies, options: *o },
         mip_roughness: roughness,
-        proxies,
-        options: *o,
         blend: w.blend,
         correctives,
         irradiance,

@@ -33,19 +33,18 @@ pub use manifest::{GridManifest, Precision};
 use crate::grid::GridGeometry;
 use crate::octa;
 use crate::roughness::RoughnessCorrection;
+use crate::warp::Warp;
 use crate::warp::corrective::{Blend, Correctives};
-use crate::warp::{Proxies, WarpOptions, WarpProbe};
 use glam::{UVec3, Vec3};
 use std::path::Path;
 
 /// A loaded fitted grid. Immutable; share it between threads freely.
 #[derive(Clone, Debug)]
 pub struct FittedGrid {
-    pub probe: WarpProbe,
+    /// Probe A, the proxies and the warp options of the fallback method.
+    pub warp: Warp,
     /// Perceptual roughness of each radiance mip (increasing, mip 0 = 0).
     pub mip_roughness: Vec<f32>,
-    pub proxies: Proxies,
-    pub options: WarpOptions,
     pub blend: Blend,
     pub correctives: Correctives,
     pub irradiance: IrradianceGrid,
@@ -136,8 +135,8 @@ impl FittedGrid {
     /// Fetch vector of probe A for the query (unit `dir`): exactly what the fit evaluated.
     #[inline]
     pub fn fetch_vector(&self, position: Vec3, dir: Vec3) -> Vec3 {
-        let b = if position.is_finite() { position } else { self.probe.position };
-        self.correctives.fetch_vector(self.blend, &self.probe, &self.proxies, &self.options, b, dir)
+        let b = if position.is_finite() { position } else { self.warp.probe.position };
+        self.correctives.fetch_vector(self.blend, &self.warp, b, dir)
     }
 
     /// Distance ratio k = d_probe / d_surface of the point probe A sees along `v` (whose
@@ -145,12 +144,12 @@ impl FittedGrid {
     #[inline]
     fn distance_ratio(&self, b: Vec3, v: Vec3, uv: glam::Vec2) -> f32 {
         let l = v.length();
-        let w = self.probe.inv_depth.sample_lod_uv(uv, self.options.depth_lod);
+        let w = self.warp.probe.inv_depth.sample_lod_uv(uv, self.warp.options.depth_lod);
         if !(l > 0.0 && l.is_finite() && w > 0.0 && w.is_finite()) {
             return 1.0; // sky: both distances infinite
         }
         let d_probe = 1.0 / w;
-        let d_surface = (self.probe.position + v * (d_probe / l) - b).length();
+        let d_surface = (self.warp.probe.position + v * (d_probe / l) - b).length();
         let k = d_probe / d_surface;
         if k.is_finite() && k > 0.0 { k } else { 1.0 }
     }
@@ -179,7 +178,7 @@ impl FittedGrid {
         let Some(q) = self.specular_query(position, direction, roughness) else {
             return Vec3::ZERO;
         };
-        let v = self.correctives.fetch_vector(self.blend, &self.probe, &self.proxies, &self.options, q.b, q.dir);
+        let v = self.correctives.fetch_vector(self.blend, &self.warp, q.b, q.dir);
         self.shade(q, v)
     }
 
@@ -192,7 +191,7 @@ impl FittedGrid {
         }
         // unit to rounding: used as is (as the fit used it); otherwise normalised
         let dir = if (l2 - 1.0).abs() <= 4.0 * f32::EPSILON { direction } else { direction / l2.sqrt() };
-        let b = if position.is_finite() { position } else { self.probe.position };
+        let b = if position.is_finite() { position } else { self.warp.probe.position };
         let r = if roughness.is_finite() { roughness.clamp(0.0, 1.0) } else { 0.0 };
         Some(SpecularQuery { b, dir, r })
     }
@@ -201,7 +200,7 @@ impl FittedGrid {
     #[inline]
     fn shade(&self, q: SpecularQuery, v: Vec3) -> Vec3 {
         if q.r == 0.0 {
-            return self.probe.radiance(v);
+            return self.warp.probe.radiance(v);
         }
         let uv = octa::encode(v);
         let r = match &self.roughness {
@@ -211,7 +210,7 @@ impl FittedGrid {
             }
             None => q.r,
         };
-        self.probe.radiance.sample_lod_uv(uv, self.lod(r))
+        self.warp.probe.radiance.sample_lod_uv(uv, self.lod(r))
     }
 
     /// `specular` for [`octa::LANES`] queries at once, bit for bit the same values: the
@@ -224,25 +223,18 @@ impl FittedGrid {
         directions: &[Vec3; octa::LANES],
         roughness: &[f32; octa::LANES],
     ) -> [Vec3; octa::LANES] {
-        let mut q = [SpecularQuery { b: self.probe.position, dir: Vec3::Z, r: 0.0 }; octa::LANES];
+        let mut q = [SpecularQuery { b: self.warp.probe.position, dir: Vec3::Z, r: 0.0 }; octa::LANES];
         let mut valid = [false; octa::LANES];
         for k in 0..octa::LANES {
             if let Some(query) = self.specular_query(positions[k], directions[k], roughness[k]) {
                 (q[k], valid[k]) = (query, true);
             }
         }
-        let v = self.correctives.fetch_vector_lanes(
-            self.blend,
-            &self.probe,
-            &self.proxies,
-            &self.options,
-            &q.map(|q| q.b),
-            &q.map(|q| q.dir),
-        );
+        let v = self.correctives.fetch_vector_lanes(self.blend, &self.warp, &q.map(|q| q.b), &q.map(|q| q.dir));
         let mut out = [Vec3::ZERO; octa::LANES];
         if q.iter().all(|q| q.r == 0.0) {
             // mirror lanes (invalid lanes hold a mirror placeholder and are zeroed)
-            let radiance = self.probe.radiance_lanes(&v);
+            let radiance = self.warp.probe.radiance_lanes(&v);
             for k in 0..octa::LANES {
                 out[k] = if valid[k] { radiance[k] } else { Vec3::ZERO };
             }
@@ -366,7 +358,7 @@ impl FittedGrid {
 
     /// Bytes of the loaded data (probe, correctives, irradiance).
     pub fn memory_bytes(&self) -> usize {
-        let p = &self.probe;
+        let p = &self.warp.probe;
         let probe: usize = p.radiance.levels.iter().map(|l| l.texels.len() * 12).sum::<usize>()
             + p.inv_depth.levels.iter().map(|l| l.texels.len() * 4).sum::<usize>();
         let c = &self.correctives;

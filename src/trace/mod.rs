@@ -3,6 +3,7 @@
 
 pub mod bvh;
 pub mod radiance;
+pub mod truth;
 
 pub use bvh::{BuildQuality, Hit, Tracer};
 pub use radiance::{RaySample, Renderer};

@@ -15,7 +15,7 @@
 //!   distance along the ray; blended as inverse distance with trilinear weights, cells
 //!   without a map dropped and the weights renormalised.
 
-use super::{Method, Proxies, WarpOptions, WarpProbe, fetch_vector};
+use super::{Method, Warp};
 use crate::grid::GridGeometry;
 use crate::octa::{self, LANES};
 use glam::{UVec3, Vec2, Vec3};
@@ -34,7 +34,7 @@ pub struct Correctives {
     pub geometry: GridGeometry,
     /// N of each N×N warp map.
     pub map_res: u32,
-    /// Per grid cell: index into `maps` (`u32::MAX` = level 0, nothing stored).
+    /// Per grid cell: index into `maps` ([`NO_MAP`] = level 0, nothing stored).
     pub slot: Vec<u32>,
     /// Warp maps, `slot · N² + texel`: inverse distance from the cell centre (0 = sky).
     pub maps: Vec<f32>,
@@ -44,7 +44,7 @@ pub struct Correctives {
 
 impl Correctives {
     pub fn stored_cells(&self) -> usize {
-        self.slot.iter().filter(|s| **s != u32::MAX).count()
+        self.slot.iter().filter(|s| **s != NO_MAP).count()
     }
 
     #[inline]
@@ -53,34 +53,37 @@ impl Correctives {
         &self.maps[slot as usize * n2..(slot as usize + 1) * n2]
     }
 
+    /// Where cell `cell` keeps its map; `None` for a level-0 cell (the fallback method).
+    #[inline]
+    pub fn slot_of(&self, cell: usize) -> Option<u32> {
+        let s = self.slot[cell];
+        (s != NO_MAP).then_some(s)
+    }
+
+    /// Whether cell `cell` stores a warp map.
+    #[inline]
+    pub fn stores_map(&self, cell: usize) -> bool {
+        self.slot[cell] != NO_MAP
+    }
+
+    /// The map in `slot` sampled with bilinear `taps`: inverse distance from the cell centre.
+    #[inline]
+    fn map_w(&self, slot: u32, taps: &[(u32, f32); 4]) -> f32 {
+        sample_map(self.map(slot), taps)
+    }
+
     /// Distance along the ray (B, dir) to the hit estimated from cell `cell`'s map, as
     /// inverse distance (0 = at infinity); `None` when the cell stores no map.
     #[inline]
     fn cell_inv_t(&self, cell: UVec3, cell_size: Vec3, taps: &[(u32, f32); 4], b: Vec3, dir: Vec3) -> Option<f32> {
-        let slot = self.slot[self.geometry.cell_index(cell)];
-        (slot != u32::MAX).then(|| self.map_inv_t(slot, cell, cell_size, taps, b, dir))
-    }
-
-    /// `cell_inv_t` for a cell known to store its map in `slot`.
-    #[inline]
-    fn map_inv_t(&self, slot: u32, cell: UVec3, cell_size: Vec3, taps: &[(u32, f32); 4], b: Vec3, dir: Vec3) -> f32 {
-        let map = self.map(slot);
-        let w: f32 = taps.iter().map(|&(k, wt)| map[k as usize] * wt).sum();
-        inv_t_from_map(self.geometry.centre_of_sized(cell, cell_size), w, b, dir)
+        let slot = self.slot_of(self.geometry.cell_index(cell))?;
+        Some(inv_t_from_map(self.geometry.centre_of_sized(cell, cell_size), self.map_w(slot, taps), b, dir))
     }
 
     /// Fetch vector for query (B, dir); the fallback method where no map applies.
     #[inline]
-    pub fn fetch_vector(
-        &self,
-        blend: Blend,
-        probe: &WarpProbe,
-        proxies: &Proxies,
-        opts: &WarpOptions,
-        b: Vec3,
-        dir: Vec3,
-    ) -> Vec3 {
-        self.fetch_vector_at(blend, probe, proxies, opts, b, dir, octa::encode(dir))
+    pub fn fetch_vector(&self, blend: Blend, warp: &Warp, b: Vec3, dir: Vec3) -> Vec3 {
+        self.fetch_vector_at(blend, warp, b, dir, octa::encode(dir))
     }
 
     /// `fetch_vector` for [`LANES`] queries, bit for bit the same. With `Blend::Cell` the
@@ -92,9 +95,7 @@ impl Correctives {
     pub fn fetch_vector_lanes(
         &self,
         blend: Blend,
-        probe: &WarpProbe,
-        proxies: &Proxies,
-        opts: &WarpOptions,
+        warp: &Warp,
         b: &[Vec3; LANES],
         dir: &[Vec3; LANES],
     ) -> [Vec3; LANES] {
@@ -103,19 +104,19 @@ impl Correctives {
         let mut out = *dir; // lanes at the probe keep the query direction
         if blend != Blend::Cell {
             for k in 0..LANES {
-                out[k] = self.fetch_vector_at(blend, probe, proxies, opts, b[k], dir[k], uv_of(k));
+                out[k] = self.fetch_vector_at(blend, warp, b[k], dir[k], uv_of(k));
             }
             return out;
         }
-        let a = probe.position;
+        let a = warp.probe.position;
         let (mut mapped, mut unmapped) = ([0u8; LANES], [0u8; LANES]);
         let (mut n_mapped, mut n_unmapped) = (0usize, 0usize);
-        let (mut cells, mut slots) = ([UVec3::ZERO; LANES], [u32::MAX; LANES]);
+        let (mut cells, mut slots) = ([UVec3::ZERO; LANES], [NO_MAP; LANES]);
         let size = self.geometry.cell_size();
         for k in 0..LANES {
             cells[k] = self.geometry.cell_of_sized(b[k], size);
             slots[k] = self.slot[self.geometry.cell_index(cells[k])];
-            let has_map = slots[k] != u32::MAX;
+            let has_map = slots[k] != NO_MAP;
             let at_probe = b[k] == a;
             // write the lane to both lists, advance the one it belongs to
             (mapped[n_mapped], unmapped[n_unmapped]) = (k as u8, k as u8);
@@ -125,62 +126,40 @@ impl Correctives {
         for &k in &mapped[..n_mapped] {
             let k = k as usize;
             let taps = octa::bilinear_taps(self.map_res, uv_of(k));
-            let inv_t = self.map_inv_t(slots[k], cells[k], size, &taps, b[k], dir[k]);
-            out[k] = self.vector_from_inv_t(Some(inv_t), probe, proxies, opts, b[k], dir[k]);
+            let w = self.map_w(slots[k], &taps);
+            out[k] = map_fetch_vector(a, self.geometry.centre_of_sized(cells[k], size), w, b[k], dir[k]);
         }
         for &k in &unmapped[..n_unmapped] {
             let k = k as usize;
-            out[k] = fetch_vector(self.fallback, probe, proxies, opts, b[k], dir[k]);
+            out[k] = warp.fetch_vector(self.fallback, b[k], dir[k]);
         }
         out
     }
 
     /// `fetch_vector` given `uv = encode(dir)`.
-    #[allow(clippy::too_many_arguments)]
     #[inline]
-    fn fetch_vector_at(
-        &self,
-        blend: Blend,
-        probe: &WarpProbe,
-        proxies: &Proxies,
-        opts: &WarpOptions,
-        b: Vec3,
-        dir: Vec3,
-        uv: Vec2,
-    ) -> Vec3 {
-        let a = probe.position;
+    fn fetch_vector_at(&self, blend: Blend, warp: &Warp, b: Vec3, dir: Vec3, uv: Vec2) -> Vec3 {
+        let a = warp.probe.position;
         if b == a {
             return dir;
         }
         let taps = octa::bilinear_taps(self.map_res, uv);
-        let inv_t = match blend {
+        match blend {
             Blend::Cell => {
                 let size = self.geometry.cell_size();
-                self.cell_inv_t(self.geometry.cell_of_sized(b, size), size, &taps, b, dir)
+                let cell = self.geometry.cell_of_sized(b, size);
+                match self.slot_of(self.geometry.cell_index(cell)) {
+                    Some(slot) => {
+                        let centre = self.geometry.centre_of_sized(cell, size);
+                        map_fetch_vector(a, centre, self.map_w(slot, &taps), b, dir)
+                    }
+                    None => warp.fetch_vector(self.fallback, b, dir),
+                }
             }
-            Blend::Trilinear => self.trilinear_inv_t(&taps, b, dir),
-        };
-        self.vector_from_inv_t(inv_t, probe, proxies, opts, b, dir)
-    }
-
-    /// Fetch vector from the inverse hit distance along the ray (`None`: no map applies).
-    #[inline]
-    fn vector_from_inv_t(
-        &self,
-        inv_t: Option<f32>,
-        probe: &WarpProbe,
-        proxies: &Proxies,
-        opts: &WarpOptions,
-        b: Vec3,
-        dir: Vec3,
-    ) -> Vec3 {
-        match inv_t {
-            None => fetch_vector(self.fallback, probe, proxies, opts, b, dir),
-            Some(u) if u > 0.0 => {
-                let v = b + dir / u - probe.position;
-                if v.is_finite() && v != Vec3::ZERO { v } else { dir }
-            }
-            Some(_) => dir, // hit at infinity: sky along Dir
+            Blend::Trilinear => match self.trilinear_inv_t(&taps, b, dir) {
+                Some(u) => fetch_vector_from_inv_t(a, u, b, dir),
+                None => warp.fetch_vector(self.fallback, b, dir),
+            },
         }
     }
 
@@ -210,6 +189,35 @@ impl Correctives {
             }
         }
         (wsum > 0.0).then(|| sum / wsum)
+    }
+}
+
+/// The slot value of a cell that stores no map.
+pub const NO_MAP: u32 = u32::MAX;
+
+/// A warp map sampled with bilinear `taps`.
+#[inline]
+pub fn sample_map(map: &[f32], taps: &[(u32, f32); 4]) -> f32 {
+    taps.iter().map(|&(k, wt)| map[k as usize] * wt).sum()
+}
+
+/// The corrective lookup, shared by the fit's objective and the runtime: the cell centred at
+/// `centre` sees its hit at inverse distance `w` along `dir`; one warp step against that
+/// estimate gives the point to fetch probe A (at `a`) towards.
+#[inline]
+pub fn map_fetch_vector(a: Vec3, centre: Vec3, w: f32, b: Vec3, dir: Vec3) -> Vec3 {
+    fetch_vector_from_inv_t(a, inv_t_from_map(centre, w, b, dir), b, dir)
+}
+
+/// Fetch vector towards the point at inverse distance `u` along the ray (B, dir) (the
+/// query direction when the hit is at infinity).
+#[inline]
+fn fetch_vector_from_inv_t(a: Vec3, u: f32, b: Vec3, dir: Vec3) -> Vec3 {
+    if u > 0.0 {
+        let v = b + dir / u - a;
+        if v.is_finite() && v != Vec3::ZERO { v } else { dir }
+    } else {
+        dir // hit at infinity: sky along Dir
     }
 }
 

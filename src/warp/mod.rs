@@ -31,11 +31,6 @@ pub struct WarpProbe {
 }
 
 impl WarpProbe {
-    #[cfg(feature = "bake")]
-    pub fn new(probe: &crate::bake::SpecularProbe) -> Self {
-        Self::from_distance_mips(probe.position, &probe.depth, probe.radiance.clone())
-    }
-
     /// From distance mips (+inf = sky; mip 0 = texel-centre distances) and radiance mips.
     pub fn from_distance_mips(position: Vec3, distance: &OctMips<f32>, radiance: OctMips<Vec3>) -> Self {
         let inv_depth = OctMips {
@@ -134,11 +129,17 @@ pub struct WarpOptions {
     pub march_steps: u32,
 }
 
+impl WarpOptions {
+    /// Depth mip 2 (a 4×-downsampled, inverse-distance-filtered depth): the seed's "blurry
+    /// depth" advice, better than mip 0 in the eval sweep, and cache-resident.
+    pub const fn standard() -> Self {
+        WarpOptions { depth_lod: 2.0, relax_texels: 0.0, secant_steps: 6, march_steps: 64 }
+    }
+}
+
 impl Default for WarpOptions {
     fn default() -> Self {
-        // Depth mip 2 (a 4×-downsampled, inverse-distance-filtered depth): the seed's "blurry
-        // depth" advice, better than mip 0 in the eval sweep, and cache-resident.
-        WarpOptions { depth_lod: 2.0, relax_texels: 0.0, secant_steps: 6, march_steps: 64 }
+        Self::standard()
     }
 }
 
@@ -212,78 +213,75 @@ pub struct Proxies {
     pub kdop: proxy::Kdop,
 }
 
-/// Unit fetch direction of a per-lookup method (`Reproject`/`Oracle` return `dir`).
-#[inline]
-pub fn fetch_dir(method: Method, probe: &WarpProbe, proxies: &Proxies, opts: &WarpOptions, b: Vec3, dir: Vec3) -> Vec3 {
-    let v = fetch_vector(method, probe, proxies, opts, b, dir);
-    if v == dir {
-        return dir; // the query direction itself, bit for bit (normalising could change it)
-    }
-    let l2 = v.length_squared();
-    if l2 > 0.0 && l2.is_finite() { v / l2.sqrt() } else { dir }
+/// What every warp reads: probe A, the proxy shapes and the warp options. The evaluation,
+/// the fit and the runtime sampler each hold one, so a method answers the same everywhere.
+#[derive(Clone, Debug)]
+pub struct Warp {
+    pub probe: WarpProbe,
+    pub proxies: Proxies,
+    pub options: WarpOptions,
 }
 
-/// Fetch vector: a positive multiple of the fetch direction (finite, non-zero). Probe
-/// lookups take it as is; normalise it only where a unit vector is needed.
-#[inline]
-pub fn fetch_vector(
-    method: Method,
-    probe: &WarpProbe,
-    proxies: &Proxies,
-    opts: &WarpOptions,
-    b: Vec3,
-    dir: Vec3,
-) -> Vec3 {
-    if b == probe.position {
-        return dir;
+impl Warp {
+    /// Unit fetch direction of a per-lookup method (`Reproject`/`Oracle` return `dir`).
+    #[inline]
+    pub fn fetch_dir(&self, method: Method, b: Vec3, dir: Vec3) -> Vec3 {
+        let v = self.fetch_vector(method, b, dir);
+        if v == dir {
+            return dir; // the query direction itself, bit for bit (normalising could change it)
+        }
+        let l2 = v.length_squared();
+        if l2 > 0.0 && l2.is_finite() { v / l2.sqrt() } else { dir }
     }
-    if opts.relax_texels > 0.0 && !matches!(method, Method::None | Method::Reproject | Method::Oracle) {
-        return relaxed(method, probe, proxies, opts, b, dir);
-    }
-    fetch_vector_plain(method, probe, proxies, opts, b, dir)
-}
 
-/// Mirror radiance the method returns for the query (B, dir).
-#[inline]
-pub fn lookup(method: Method, probe: &WarpProbe, proxies: &Proxies, opts: &WarpOptions, b: Vec3, dir: Vec3) -> Vec3 {
-    probe.radiance(fetch_vector(method, probe, proxies, opts, b, dir))
-}
-
-#[inline]
-fn fetch_vector_plain(
-    method: Method,
-    probe: &WarpProbe,
-    proxies: &Proxies,
-    opts: &WarpOptions,
-    b: Vec3,
-    dir: Vec3,
-) -> Vec3 {
-    let a = probe.position;
-    match method {
-        Method::None | Method::Reproject | Method::Oracle => dir,
-        Method::Box => proxies.aabb.fetch_dir(a, b, dir),
-        Method::Kdop => proxies.kdop.fetch_dir(a, b, dir),
-        Method::Warp1 => depth::plane_warp(probe, b, dir, opts.depth_lod, 1, false),
-        Method::Warp2Fixed => depth::plane_warp(probe, b, dir, opts.depth_lod, 2, false),
-        Method::Warp2New => depth::plane_warp(probe, b, dir, opts.depth_lod, 2, true),
-        Method::Secant => depth::secant(probe, b, dir, opts.depth_lod, opts.secant_steps),
-        Method::Raymarch => depth::raymarch(probe, b, dir, opts.depth_lod, opts.march_steps),
+    /// Fetch vector: a positive multiple of the fetch direction (finite, non-zero). Probe
+    /// lookups take it as is; normalise it only where a unit vector is needed.
+    #[inline]
+    pub fn fetch_vector(&self, method: Method, b: Vec3, dir: Vec3) -> Vec3 {
+        if b == self.probe.position {
+            return dir;
+        }
+        if self.options.relax_texels > 0.0 && !matches!(method, Method::None | Method::Reproject | Method::Oracle) {
+            return self.relaxed(method, b, dir);
+        }
+        self.fetch_vector_plain(method, b, dir)
     }
-}
 
-/// UV relaxation (seed 000: "store the warped UVs, then relax them"): the warped direction
-/// field is box-filtered over a small stencil of neighbouring query directions.
-fn relaxed(method: Method, probe: &WarpProbe, proxies: &Proxies, opts: &WarpOptions, b: Vec3, dir: Vec3) -> Vec3 {
-    let res = probe.radiance.levels[0].res as f32;
-    // one texel of an N×N octahedral map spans about 2π/N... use the mean: sqrt(4π/N²)
-    let angle = opts.relax_texels * (4.0 * std::f32::consts::PI).sqrt() / res;
-    let (t, bt) = crate::sampling::orthonormal_basis(dir);
-    let unit = |v: Vec3| v.normalize_or(dir);
-    let mut sum = unit(fetch_vector_plain(method, probe, proxies, opts, b, dir));
-    for off in [t, -t, bt, -bt] {
-        let d = (dir + off * angle).normalize();
-        sum += unit(fetch_vector_plain(method, probe, proxies, opts, b, d));
+    /// Mirror radiance the method returns for the query (B, dir).
+    #[inline]
+    pub fn lookup(&self, method: Method, b: Vec3, dir: Vec3) -> Vec3 {
+        self.probe.radiance(self.fetch_vector(method, b, dir))
     }
-    let l = sum.length();
-    if l > 0.0 && l.is_finite() { sum / l } else { dir }
+
+    #[inline]
+    fn fetch_vector_plain(&self, method: Method, b: Vec3, dir: Vec3) -> Vec3 {
+        let (probe, a, lod) = (&self.probe, self.probe.position, self.options.depth_lod);
+        match method {
+            Method::None | Method::Reproject | Method::Oracle => dir,
+            Method::Box => self.proxies.aabb.fetch_dir(a, b, dir),
+            Method::Kdop => self.proxies.kdop.fetch_dir(a, b, dir),
+            Method::Warp1 => depth::plane_warp(probe, b, dir, lod, 1, false),
+            Method::Warp2Fixed => depth::plane_warp(probe, b, dir, lod, 2, false),
+            Method::Warp2New => depth::plane_warp(probe, b, dir, lod, 2, true),
+            Method::Secant => depth::secant(probe, b, dir, lod, self.options.secant_steps),
+            Method::Raymarch => depth::raymarch(probe, b, dir, lod, self.options.march_steps),
+        }
+    }
+
+    /// UV relaxation (seed 000: "store the warped UVs, then relax them"): the warped
+    /// direction field is box-filtered over a small stencil of neighbouring query directions.
+    fn relaxed(&self, method: Method, b: Vec3, dir: Vec3) -> Vec3 {
+        let res = self.probe.radiance.levels[0].res as f32;
+        // one texel of an N×N octahedral map spans about sqrt(4π/N²) radians
+        let angle = self.options.relax_texels * (4.0 * std::f32::consts::PI).sqrt() / res;
+        let (t, bt) = crate::sampling::orthonormal_basis(dir);
+        let unit = |v: Vec3| v.normalize_or(dir);
+        let mut sum = unit(self.fetch_vector_plain(method, b, dir));
+        for off in [t, -t, bt, -bt] {
+            let d = (dir + off * angle).normalize();
+            sum += unit(self.fetch_vector_plain(method, b, d));
+        }
+        let l = sum.length();
+        if l > 0.0 && l.is_finite() { sum / l } else { dir }
+    }
 }

@@ -1,0 +1,147 @@
+//! Ground truth, traced: what a ray from a query point really sees, where probe A sees the
+//! same point from, whether a point is inside geometry, and the reference radiance of a set
+//! of queries. The evaluation's validation set and the fit's training and check sets both
+//! come from here, so judging and fitting can never disagree about the truth.
+
+use super::bvh::intersect_sphere;
+use super::{Renderer, Tracer};
+use crate::sampling::{Sampler, uniform_sphere};
+use crate::scene::Scene;
+use glam::Vec3;
+
+/// Distance along the unit ray (origin, dir) to the first thing it sees, sphere lights
+/// included (primary rays see them); +inf when it escapes.
+pub fn first_visible(scene: &Scene, tracer: &Tracer, origin: Vec3, dir: Vec3) -> f32 {
+    let mut t = tracer.closest_hit(origin, dir, f32::INFINITY).map_or(f32::INFINITY, |h| h.t);
+    for l in &scene.lights.sphere_lights {
+        t = t.min(intersect_sphere(origin.into(), dir.into(), l.position.into(), l.radius, 0.0, t));
+    }
+    t
+}
+
+/// The oracle: the direction from A towards the true hit of the ray (B, dir), and whether A
+/// sees that point (`true` = hidden: no single fetch of A can be right). The query direction
+/// itself when the ray escapes or B is A.
+pub fn oracle(scene: &Scene, tracer: &Tracer, a: Vec3, b: Vec3, dir: Vec3) -> (Vec3, bool) {
+    if a == b {
+        return (dir, false); // A's own data is exact at A
+    }
+    let t = first_visible(scene, tracer, b, dir);
+    if !t.is_finite() {
+        return (dir, false);
+    }
+    let p = b + dir * t;
+    let d = crate::warp::toward(a, p, dir);
+    let dist = (p - a).length();
+    let reach = dist * (1.0 - 1e-3);
+    let mut hidden = dist > 0.0 && tracer.occluded(a, d, reach);
+    for l in &scene.lights.sphere_lights {
+        hidden |= intersect_sphere(a.into(), d.into(), l.position.into(), l.radius, 0.0, reach).is_finite();
+    }
+    (d, hidden)
+}
+
+/// The one inside-geometry rule: a point is inside when more than `threshold` of the rays
+/// leaving it hit back faces of one-sided surfaces (the scene's `grid.inside_backface_fraction`).
+/// The bake applies it to a cell's distance rays, the query sets to [`INSIDE_PROBE_RAYS`]
+/// rays of their own.
+#[must_use]
+pub fn inside_by_backfaces(backfaces: u32, rays: u32, threshold: f32) -> bool {
+    rays > 0 && backfaces as f32 / rays as f32 > threshold
+}
+
+/// Rays a query point traces to apply the inside rule.
+pub const INSIDE_PROBE_RAYS: u32 = 16;
+
+/// The inside rule at `p`, with [`INSIDE_PROBE_RAYS`] uniform rays drawn from `sampler(k)`.
+pub fn is_inside(tracer: &Tracer, p: Vec3, threshold: f32, sampler: impl Fn(u32) -> Sampler) -> bool {
+    let back = (0..INSIDE_PROBE_RAYS)
+        .filter(|&k| {
+            let d = uniform_sphere(sampler(k).next_2d());
+            tracer.closest_hit(p, d, f32::INFINITY).is_some_and(|h| h.backface)
+        })
+        .count();
+    inside_by_backfaces(back as u32, INSIDE_PROBE_RAYS, threshold)
+}
+
+/// Queries (B, dir) with traced references: `positions.len() × dirs_per_position` of them,
+/// position-major.
+#[derive(Clone, Debug, Default)]
+pub struct TracedQueries {
+    pub positions: Vec<Vec3>,
+    pub dirs: Vec<Vec3>,
+    pub dirs_per_position: usize,
+    /// Mean radiance of `spp` samples along each query ray.
+    pub reference: Vec<Vec3>,
+    /// Rays traced for the references (primary, shadow and bounce).
+    pub rays: u64,
+}
+
+/// Where a query set draws its random numbers: the direction of query (position p, d) and
+/// sample k of its reference. Each set (validation, a cell's training or check set) has its
+/// own streams, so the sets are independent.
+pub trait QueryStreams {
+    fn direction(&self, p: usize, d: usize) -> Sampler;
+    fn reference(&self, p: usize, d: usize, k: u32) -> Sampler;
+}
+
+/// Traces the references of `dirs_per_position` uniform directions at each position
+/// (sequentially: callers parallelise over positions or cells).
+pub fn trace_queries(
+    renderer: &Renderer,
+    positions: &[Vec3],
+    dirs_per_position: usize,
+    spp: u32,
+    streams: &impl QueryStreams,
+) -> TracedQueries {
+    let spp = spp.max(1);
+    let n = positions.len() * dirs_per_position;
+    let (mut dirs, mut reference, mut rays) = (Vec::with_capacity(n), Vec::with_capacity(n), 0u64);
+    for (p, &b) in positions.iter().enumerate() {
+        for d in 0..dirs_per_position {
+            let dir = uniform_sphere(streams.direction(p, d).next_2d());
+            let mut sum = Vec3::ZERO;
+            for k in 0..spp {
+                sum += renderer.sample(b, dir, &mut streams.reference(p, d, k), &mut rays).radiance;
+            }
+            dirs.push(dir);
+            reference.push(sum / spp as f32);
+        }
+    }
+    TracedQueries { positions: positions.to_vec(), dirs, dirs_per_position, reference, rays }
+}
+
+impl TracedQueries {
+    /// Position of query `k`.
+    #[inline]
+    pub fn position_of(&self, k: usize) -> Vec3 {
+        self.positions[k / self.dirs_per_position.max(1)]
+    }
+
+    /// Concatenates sets traced in parts (e.g. per position, in parallel), in order.
+    pub fn concat(parts: Vec<TracedQueries>) -> TracedQueries {
+        let dirs_per_position = parts.first().map_or(0, |p| p.dirs_per_position);
+        let mut out = TracedQueries { dirs_per_position, ..TracedQueries::default() };
+        for p in parts {
+            debug_assert_eq!(p.dirs_per_position, dirs_per_position);
+            out.positions.extend(p.positions);
+            out.dirs.extend(p.dirs);
+            out.reference.extend(p.reference);
+            out.rays += p.rays;
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_inside_rule_is_a_strict_fraction() {
+        assert!(!inside_by_backfaces(4, 16, 0.25));
+        assert!(inside_by_backfaces(5, 16, 0.25));
+        assert!(!inside_by_backfaces(0, 0, 0.0), "no rays: not inside");
+        assert!(inside_by_backfaces(1, 1, 0.999));
+    }
+}
