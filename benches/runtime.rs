@@ -24,20 +24,20 @@ fn fitted_torture() -> PathBuf {
     let scene =
         warpfit::scene::Scene::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/data/scenes/torture.toml")))
             .expect("torture scene");
-    let tracer = warpfit::trace::Tracer::new(&scene);
     let quiet = warpfit::progress::Progress::quiet();
-    let (probe, grid, _) = warpfit::pipeline::load_or_bake(&scene, &tracer, &out.join("bake"), &quiet).unwrap();
-    let baked = warpfit::pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
-    let settings = warpfit::fit::FitSettings::default();
-    let warp = baked.warp(warpfit::warp::WarpOptions::standard());
-    warpfit::pipeline::fit(baked, &warp, &settings, Default::default(), &out, "bench", &quiet).unwrap();
+    let folder = warpfit::report::folder::RunFolder::new(&out);
+    let p = warpfit::jobs::run::prepare(scene, folder.clone(), &quiet).unwrap();
+    let warp = p.baked().warp(warpfit::warp::WarpOptions::standard());
+    let o = warpfit::jobs::run::Output { folder: &folder, command: "bench", progress: &quiet };
+    warpfit::jobs::run::fit(p.baked(), &warp, &warpfit::fit::FitSettings::standard(), Default::default(), o).unwrap();
     out
 }
 
 /// 64 positions uniform in stored cells × 256 uniform directions, position-major (as eval).
 fn queries(g: &FittedGrid) -> Vec<(Vec3, Vec3)> {
     let geo = &g.irradiance.geometry;
-    let cells: Vec<usize> = (0..geo.cell_count()).filter(|&c| g.irradiance.slot[c] != u32::MAX).collect();
+    let cells: Vec<usize> =
+        (0..geo.cell_count()).filter(|&c| g.irradiance.slot[c] != warpfit::warp::corrective::NO_MAP).collect();
     let mut q = Vec::new();
     for p in 0..64u32 {
         let mut s = Sampler::new(0xBE7C, 1, p);

@@ -13,37 +13,46 @@ pub struct GridGeometry {
 }
 
 impl GridGeometry {
+    #[must_use]
     pub fn cell_count(&self) -> usize {
         (self.counts.x * self.counts.y * self.counts.z) as usize
     }
+    #[must_use]
     pub fn cell_size(&self) -> Vec3 {
         (self.max - self.min) / self.counts.as_vec3()
     }
+    #[must_use]
     pub fn cell_coords(&self, index: usize) -> UVec3 {
         let i = index as u32;
         UVec3::new(i % self.counts.x, (i / self.counts.x) % self.counts.y, i / (self.counts.x * self.counts.y))
     }
+    #[must_use]
     pub fn cell_index(&self, c: UVec3) -> usize {
         (c.x + self.counts.x * (c.y + self.counts.y * c.z)) as usize
     }
+    #[must_use]
     pub fn cell_centre(&self, index: usize) -> Vec3 {
         self.centre_of(self.cell_coords(index))
     }
     /// Centre of the cell at integer coordinates `c` (no index round trip).
+    #[must_use]
     pub fn centre_of(&self, c: UVec3) -> Vec3 {
         self.centre_of_sized(c, self.cell_size())
     }
     /// `centre_of` given `cell_size()` (hoisted out of loops: it costs three divisions).
     #[inline]
+    #[must_use]
     pub fn centre_of_sized(&self, c: UVec3, cell_size: Vec3) -> Vec3 {
         self.min + (c.as_vec3() + 0.5) * cell_size
     }
     /// Cell containing `p` (clamped to the grid).
+    #[must_use]
     pub fn cell_of(&self, p: Vec3) -> UVec3 {
         self.cell_of_sized(p, self.cell_size())
     }
     /// `cell_of` given `cell_size()`.
     #[inline]
+    #[must_use]
     pub fn cell_of_sized(&self, p: Vec3, cell_size: Vec3) -> UVec3 {
         // floor without libm calls (the x86-64 baseline has no round instruction); exact for
         // |f| < 2²², far beyond any grid, and larger values are clamped below anyway

@@ -14,32 +14,35 @@
 //! # let _ = (bake::bake, Progress::quiet());
 //! ```
 //!
-//! Pipeline: `scene` → `trace` → `bake` → `format`, then `warp`, `fit` and `eval` → `report`.
+//! Pipeline: `scene` → `trace` → `bake` → (`fit`, `eval`) → `gridfile` → `runtime`, with
+//! `report` writing what the others produce and `jobs` chaining them as the CLI runs them.
 //! See ARCHITECTURE.md.
 
 // `!(x > 0.0)` is how this crate rejects NaN together with out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 #![allow(clippy::needless_range_loop)]
 
-// Always built: the math and the runtime sampler (glam, serde, exr only).
+// Always built: the math, the grid file and the runtime sampler (glam, serde, exr only).
+pub mod files;
 pub mod grid;
+pub mod gridfile;
 pub mod octa;
 pub mod roughness;
 pub mod runtime;
 pub mod sampling;
 pub mod warp;
 
-// The offline tool: scenes, raytracing, bake, fit, eval and reports (feature `bake`).
+// The offline tool: scenes, raytracing, bake, fit, eval, reports and jobs (feature `bake`).
 #[cfg(feature = "bake")]
 pub mod bake;
+#[cfg(feature = "bake")]
+pub mod bakefile;
 #[cfg(feature = "bake")]
 pub mod eval;
 #[cfg(feature = "bake")]
 pub mod fit;
 #[cfg(feature = "bake")]
-pub mod format;
-#[cfg(feature = "bake")]
-pub mod pipeline;
+pub mod jobs;
 #[cfg(feature = "bake")]
 pub mod preview;
 #[cfg(feature = "bake")]
@@ -48,9 +51,5 @@ pub mod progress;
 pub mod report;
 #[cfg(feature = "bake")]
 pub mod scene;
-#[cfg(feature = "bake")]
-pub mod stability;
-#[cfg(feature = "bake")]
-pub mod sweep;
 #[cfg(feature = "bake")]
 pub mod trace;

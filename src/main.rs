@@ -1,13 +1,17 @@
-//! `warpfit` command line: parses arguments, calls the library, prints. No logic lives here.
+//! `warpfit` command line: argument types, dispatch to `warpfit::jobs`, printing. No logic
+//! lives here.
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use warpfit::eval::EvalSettings;
 use warpfit::fit::{FitSettings, Solver};
+use warpfit::jobs::run::{self as job, Output, RunSettings, StoreOptions};
+use warpfit::jobs::{stability, sweep};
+use warpfit::progress::Progress;
+use warpfit::report::{self, folder::RunFolder};
 use warpfit::runtime::{FittedGrid, Precision};
 use warpfit::warp::{Method, WarpOptions};
-use warpfit::{bake, format::bake_io, pipeline, progress::Progress, report, scene::Scene, trace::Tracer};
 
 /// Offline parallax correction for reflection probes.
 #[derive(Parser)]
@@ -27,33 +31,24 @@ struct Cli {
 enum Command {
     /// Raytrace the scene and write the specular probe, the probe grid and previews.
     Bake {
-        /// Scene file (TOML).
-        #[arg(long, default_value = "data/scenes/torture.toml")]
-        scene: PathBuf,
-        /// Output folder (default: fits/<scene name>).
-        #[arg(long)]
-        out: Option<PathBuf>,
+        #[command(flatten)]
+        scene: SceneArgs,
     },
     /// Measure every warp method against raytraced references on held-out positions and
     /// directions; writes eval.json, eval.md and an error-against-cost plot.
     Eval {
-        #[arg(long, default_value = "data/scenes/torture.toml")]
-        scene: PathBuf,
-        /// Bake folder to reuse (baked there first if missing or stale) and where reports go.
-        #[arg(long)]
-        out: Option<PathBuf>,
+        #[command(flatten)]
+        scene: SceneArgs,
         /// Comma-separated methods, or "all".
         #[arg(long, default_value = "all")]
         methods: String,
         #[command(flatten)]
         eval: EvalArgs,
     },
-    /// Fit per-cell correctives (baking first if needed) and write the fit files.
+    /// Fit per-cell correctives (baking first if needed) and write the fitted grid.
     Fit {
-        #[arg(long, default_value = "data/scenes/torture.toml")]
-        scene: PathBuf,
-        #[arg(long)]
-        out: Option<PathBuf>,
+        #[command(flatten)]
+        scene: SceneArgs,
         #[command(flatten)]
         fit: FitArgs,
     },
@@ -98,7 +93,7 @@ enum Command {
     /// training directions, iterations, solver); writes sweep.json, sweep.png.
     Sweep {
         #[command(flatten)]
-        job: PipelineArgs,
+        job: RunArgs,
     },
     /// Summarise a fitted grid: contents, bytes per layer, residuals, what was left out.
     Inspect {
@@ -109,18 +104,26 @@ enum Command {
     /// the fitted correctives, and report; on the default scene unless one is given.
     Run {
         #[command(flatten)]
-        job: PipelineArgs,
+        job: RunArgs,
     },
 }
 
-/// A whole pipeline job: scene, output folder (default `fits/<scene name>`), fit and eval
-/// settings. Shared by `run` and `sweep`.
+/// The scene and the run folder.
 #[derive(clap::Args)]
-struct PipelineArgs {
+struct SceneArgs {
+    /// Scene file (TOML).
     #[arg(long, default_value = "data/scenes/torture.toml")]
     scene: PathBuf,
+    /// Output folder (default: fits/<scene name>); a matching bake there is reused.
     #[arg(long)]
     out: Option<PathBuf>,
+}
+
+/// A whole job: scene, output folder, fit and eval settings. Shared by `run` and `sweep`.
+#[derive(clap::Args)]
+struct RunArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
     #[command(flatten)]
     eval: EvalArgs,
     #[command(flatten)]
@@ -130,37 +133,47 @@ struct PipelineArgs {
 #[derive(clap::Args)]
 struct FitArgs {
     /// N of each cell's N×N warp map (8..=16).
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = FitSettings::standard().map_res)]
     map_res: u32,
     /// Relative error at or below which a cell keeps the plain warp.
-    #[arg(long, default_value_t = 0.02)]
+    #[arg(long, default_value_t = FitSettings::standard().tol)]
     tol: f32,
     /// Solver refining the warp maps.
-    #[arg(long, value_enum, default_value_t = Solver::Brent)]
+    #[arg(long, value_enum, default_value_t = FitSettings::standard().solver)]
     solver: Solver,
     /// Sweeps (Brent) or iteration budget multiplier (L-BFGS, Nelder-Mead).
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = FitSettings::standard().iterations)]
     iterations: u32,
     /// Training positions per cell.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = FitSettings::standard().train_positions)]
     train_positions: u32,
     /// Training directions per position.
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = FitSettings::standard().train_dirs)]
     train_dirs: u32,
+    /// Charbonnier ε of the fit's loss as a fraction of a cell's mean reference radiance.
+    #[arg(long, default_value_t = FitSettings::standard().robust_scale)]
+    robust_scale: f64,
     /// Storage of the radiance layers of the fitted grid (distances and warp maps are f32).
-    #[arg(long, default_value = "f32", value_parser = ["f32", "f16"])]
-    precision: String,
+    #[arg(long, value_enum, default_value = "f32")]
+    precision: PrecisionArg,
     /// Leave the GGX roughness correction out of the fitted grid.
     #[arg(long)]
     no_roughness: bool,
 }
 
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum PrecisionArg {
+    F32,
+    F16,
+}
+
 impl FitArgs {
-    fn store(&self) -> pipeline::StoreOptions {
-        pipeline::StoreOptions {
-            precision: if self.precision == "f16" { Precision::F16 } else { Precision::F32 },
-            roughness: !self.no_roughness,
-        }
+    fn store(&self) -> StoreOptions {
+        let precision = match self.precision {
+            PrecisionArg::F32 => Precision::F32,
+            PrecisionArg::F16 => Precision::F16,
+        };
+        StoreOptions { precision, roughness: !self.no_roughness }
     }
 
     fn settings(&self) -> Result<FitSettings> {
@@ -168,6 +181,7 @@ impl FitArgs {
             (8..=16).contains(&self.map_res) && self.map_res.is_power_of_two(),
             "--map-res must be 8 or 16"
         );
+        anyhow::ensure!(self.robust_scale.is_finite() && self.robust_scale > 0.0, "--robust-scale must be > 0");
         Ok(FitSettings {
             map_res: self.map_res,
             tol: self.tol.max(0.0),
@@ -175,7 +189,8 @@ impl FitArgs {
             iterations: self.iterations.max(1),
             train_positions: self.train_positions.max(1),
             train_dirs: self.train_dirs.max(1),
-            ..FitSettings::default()
+            robust_scale: self.robust_scale,
+            ..FitSettings::standard()
         })
     }
 }
@@ -183,22 +198,22 @@ impl FitArgs {
 #[derive(clap::Args)]
 struct EvalArgs {
     /// Validation positions.
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = EvalSettings::standard().positions)]
     positions: u32,
     /// Validation directions per position.
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = EvalSettings::standard().dirs_per_position)]
     dirs: u32,
     /// Samples per reference ray.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = EvalSettings::standard().reference_spp)]
     reference_spp: u32,
     /// Depth mip the depth-based warps read.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = WarpOptions::standard().depth_lod)]
     depth_mip: f32,
     /// UV relaxation radius in probe texels (0 = off).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = WarpOptions::standard().relax_texels)]
     relax: f32,
     /// Seed of the validation set.
-    #[arg(long, default_value_t = 0xE7A1)]
+    #[arg(long, default_value_t = EvalSettings::standard().seed)]
     eval_seed: u64,
 }
 
@@ -209,8 +224,8 @@ impl EvalArgs {
             dirs_per_position: self.dirs.max(1),
             reference_spp: self.reference_spp.max(1),
             seed: self.eval_seed,
-            options: WarpOptions { depth_lod: self.depth_mip, relax_texels: self.relax, ..WarpOptions::default() },
-            ..EvalSettings::default()
+            options: WarpOptions { depth_lod: self.depth_mip, relax_texels: self.relax, ..WarpOptions::standard() },
+            ..EvalSettings::standard()
         }
     }
 }
@@ -229,41 +244,6 @@ fn parse_methods(list: &str) -> Result<Vec<Method>> {
         .collect()
 }
 
-fn fit_and_print(
-    baked: pipeline::Baked,
-    warp: &warpfit::warp::Warp,
-    settings: &FitSettings,
-    store: pipeline::StoreOptions,
-    out: &std::path::Path,
-    progress: &Progress,
-) -> Result<warpfit::fit::Fit> {
-    let (f, manifest) = pipeline::fit(baked, warp, settings, store, out, &command_line(), progress)?;
-    let bytes: u64 = manifest.payloads.iter().map(|p| p.bytes).sum();
-    let s = warpfit::fit::output::summary(&f);
-    println!(
-        "fitted {} active cells in {:.1} s ({} threads): {} store a warp map ({} bytes), {} use the fallback {} ({} after a failed fit); held-out relative error warp1 {:.4}, fallback {:.4}, celldepth {:.4}, stored {:.4}",
-        s.active_cells,
-        s.fit_seconds,
-        rayon::current_num_threads(),
-        s.cells_level2,
-        s.bytes_level2,
-        s.cells_level0,
-        s.fallback_method,
-        s.fallbacks,
-        s.mean_check_err_warp1,
-        s.mean_check_err_fallback,
-        s.mean_check_err_celldepth,
-        s.mean_check_err_stored
-    );
-    println!(
-        "wrote the fitted grid {} ({} bytes of payloads; `warpfit inspect {}`)",
-        out.display(),
-        bytes,
-        out.display()
-    );
-    Ok(f)
-}
-
 fn parse_vec3(text: &str) -> std::result::Result<glam::Vec3, String> {
     let v: Vec<f32> = text
         .split(',')
@@ -280,44 +260,43 @@ fn command_line() -> String {
     format!("warpfit {}", args.join(" "))
 }
 
-fn eval_and_print(
-    scene_path: &std::path::Path,
-    out: Option<PathBuf>,
-    methods: &[Method],
-    args: &EvalArgs,
-    fit_settings: Option<(FitSettings, pipeline::StoreOptions)>,
-    progress: &Progress,
-) -> Result<()> {
-    let scene = Scene::load(scene_path)?;
-    let out = out.unwrap_or_else(|| PathBuf::from("fits").join(&scene.name));
-    let tracer = Tracer::new(&scene);
-    let bake_dir = pipeline::bake_dir(&out);
-    let (probe, grid, fresh) = pipeline::load_or_bake(&scene, &tracer, &bake_dir, progress)?;
-    if fresh {
-        println!("baked {} → {}", scene.name, bake_dir.display());
+/// Loads the scene and its bake (fresh or reused), saying which.
+fn prepare(args: &SceneArgs, progress: &Progress) -> Result<job::Prepared> {
+    let (scene, folder) = job::load_scene(&args.scene, args.out.as_deref())?;
+    let p = job::prepare(scene, folder, progress)?;
+    if p.baked_now {
+        println!("baked {} → {}", p.scene.name, p.folder.bake().display());
     }
-    let baked = pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
-    let settings = args.settings();
-    let warp = baked.warp(settings.options);
-    let fitted = match &fit_settings {
-        Some((f, store)) => Some(fit_and_print(baked, &warp, f, *store, &out, progress)?),
-        None => None,
-    };
-    let rows = fitted.as_ref().map(pipeline::corrective_rows).unwrap_or_default();
-    let runtime = match &fitted {
-        Some(_) => Some(FittedGrid::load(&out)?),
-        None => None,
-    };
-    let subject = warpfit::eval::Subject {
-        scene: &scene,
-        tracer: &tracer,
-        grid: &grid,
-        warp: &warp,
-        methods,
-        corrective_rows: &rows,
-        runtime: runtime.as_ref(),
-    };
-    let r = pipeline::evaluate(subject, &settings, &out, &command_line(), progress)?;
+    Ok(p)
+}
+
+fn print_fit(f: &warpfit::fit::Fit, manifest: &warpfit::gridfile::GridManifest, folder: &RunFolder) {
+    let bytes: u64 = manifest.payloads.iter().map(|p| p.bytes).sum();
+    let s = warpfit::fit::summary::summary(f);
+    println!(
+        "fitted {} active cells in {:.1} s ({} threads): {} store a warp map ({} bytes), {} use the fallback {} ({} kept it over their fitted map); held-out relative error warp1 {:.4}, fallback {:.4}, celldepth {:.4}, stored {:.4}",
+        s.active_cells,
+        s.fit_seconds,
+        rayon::current_num_threads(),
+        s.cells_level2,
+        s.bytes_level2,
+        s.cells_level0,
+        s.fallback_method,
+        s.kept_fallback,
+        s.mean_check_err_warp1,
+        s.mean_check_err_fallback,
+        s.mean_check_err_celldepth,
+        s.mean_check_err_stored
+    );
+    println!(
+        "wrote the fitted grid {} ({} bytes of payloads; `warpfit inspect {}`)",
+        folder.dir.display(),
+        bytes,
+        folder.dir.display()
+    );
+}
+
+fn print_eval(r: &warpfit::eval::EvalReport, folder: &RunFolder) {
     println!(
         "{}: {} lookups at {} positions, hidden fraction {:.1}%, reference ray {:.0} ns",
         r.scene,
@@ -326,13 +305,8 @@ fn eval_and_print(
         100.0 * r.hidden_fraction,
         r.reference_ns_per_ray
     );
-    print!("{}", report::methods_table(&r));
-    println!("wrote {}/eval.json, eval.md, eval_error_vs_cost.png", out.display());
-    if fitted.is_some() {
-        report::page::write_report(&out, &command_line())?;
-        println!("wrote {}/report.json, report.md, report.html", out.display());
-    }
-    Ok(())
+    print!("{}", report::methods_table(r));
+    println!("wrote {}/eval.json, eval.md, eval_error_vs_cost.png", folder.dir.display());
 }
 
 fn main() {
@@ -361,25 +335,23 @@ fn run(cli: Cli) -> Result<()> {
         rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build_global().context("setting up threads")?;
     }
     let progress = Progress { quiet: cli.quiet };
+    let command = command_line();
     match cli.command {
-        Command::Bake { scene, out } => {
-            let scene = Scene::load(&scene)?;
-            let out = out.unwrap_or_else(|| PathBuf::from("fits").join(&scene.name));
+        Command::Bake { scene } => {
+            let (scene, folder) = job::load_scene(&scene.scene, scene.out.as_deref())?;
             tracing::info!(
                 "scene {}: {} triangles, {} spheres",
                 scene.name,
                 scene.triangles.len(),
                 scene.spheres.len()
             );
-            let tracer = Tracer::new(&scene);
-            let baked = bake::bake(&scene, &tracer, &progress);
-            let out = pipeline::bake_dir(&out);
-            bake_io::write_bake(&out, &scene, &baked)?;
+            let tracer = warpfit::trace::Tracer::new(&scene);
+            let baked = job::bake(&scene, &tracer, &folder, &progress)?;
             let s = &baked.stats;
             println!(
                 "baked {} → {}: probe {}² ({} mips), grid {:?} ({} active cells), {:.2} Mrays in {:.2} s ({:.2} Mrays/s, {} threads)",
                 scene.name,
-                out.display(),
+                folder.bake().display(),
                 baked.probe.resolution(),
                 baked.probe.radiance.levels.len(),
                 baked.grid.geometry.counts.to_array(),
@@ -390,41 +362,50 @@ fn run(cli: Cli) -> Result<()> {
                 s.threads
             );
         }
-        Command::Eval { scene, out, methods, eval } => {
+        Command::Eval { scene, methods, eval } => {
             let methods = parse_methods(&methods)?;
-            eval_and_print(&scene, out, &methods, &eval, None, &progress)?;
+            let p = prepare(&scene, &progress)?;
+            let settings = eval.settings();
+            let warp = p.baked().warp(settings.options);
+            let out = Output { folder: &p.folder, command: &command, progress: &progress };
+            let r = job::evaluate(p.baked(), &warp, &settings, &methods, None, out)?;
+            print_eval(&r, &p.folder);
         }
-        Command::Fit { scene, out, fit } => {
+        Command::Fit { scene, fit } => {
             let settings = fit.settings()?;
-            let scene = Scene::load(&scene)?;
-            let out = out.unwrap_or_else(|| PathBuf::from("fits").join(&scene.name));
-            let tracer = Tracer::new(&scene);
-            let (probe, grid, _) = pipeline::load_or_bake(&scene, &tracer, &pipeline::bake_dir(&out), &progress)?;
-            let baked = pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
-            let warp = baked.warp(warpfit::warp::WarpOptions::standard());
-            fit_and_print(baked, &warp, &settings, fit.store(), &out, &progress)?;
+            let p = prepare(&scene, &progress)?;
+            let warp = p.baked().warp(WarpOptions::standard());
+            let out = Output { folder: &p.folder, command: &command, progress: &progress };
+            let (f, manifest) = job::fit(p.baked(), &warp, &settings, fit.store(), out)?;
+            print_fit(&f, &manifest, &p.folder);
+        }
+        Command::Run { job: RunArgs { scene, eval, fit } } => {
+            let settings = RunSettings { eval: eval.settings(), fit: fit.settings()?, store: fit.store() };
+            let p = prepare(&scene, &progress)?;
+            let outcome = job::run(&p, &settings, &command, &progress)?;
+            print_fit(&outcome.fit, &outcome.manifest, &p.folder);
+            print_eval(&outcome.eval, &p.folder);
+            println!("wrote {}/report.json, report.md, report.html", p.folder.dir.display());
         }
         Command::Roughness { out } => {
-            let c = warpfit::roughness::fit_correction();
-            warpfit::roughness::write_report(&out, &c)?;
+            let folder = RunFolder::new(out);
+            let c = job::roughness(&folder)?;
             println!(
-                "roughness correction: analytic α' = min(1, {:.4}·α·k^-{:.4}); held-out RMS error in α': table {:.5}, analytic {:.5} → {} (wrote {}/roughness.json, roughness.png)",
+                "roughness correction: analytic α' = min(1, {:.4}·α·k^-{:.4}); held-out RMS error in α': table {:.5}, analytic {:.5} → {:?} (wrote {}/roughness.json, roughness.png)",
                 c.c0,
                 c.c1,
                 c.heldout_rms_table,
                 c.heldout_rms_analytic,
                 c.chosen,
-                out.display()
+                folder.dir.display()
             );
         }
         Command::Sample { fit, pos, dir, roughness, normal } => {
             let grid = FittedGrid::load(&fit)?;
             let spec = grid.specular(pos, dir, roughness);
-            let unit = dir.normalize_or_zero();
-            let v = grid.fetch_vector(pos, unit);
+            let v = grid.fetch_vector(pos, dir.normalize_or_zero());
             let g = &grid.correctives.geometry;
             let cell = g.cell_index(g.cell_of(pos));
-            let stored = grid.correctives.stores_map(cell);
             let n = normal.unwrap_or(dir);
             let irr = grid.irradiance(pos, n);
             println!("specular {:.6} {:.6} {:.6}", spec.x, spec.y, spec.z);
@@ -435,19 +416,16 @@ fn run(cli: Cli) -> Result<()> {
                 irr.z,
                 n.normalize_or_zero().to_array()
             );
-            println!(
-                "fetch direction {:?}; cell {cell} {}",
-                v.normalize_or_zero().to_array(),
-                if stored {
-                    "stores a warp map".to_string()
-                } else {
-                    format!("uses the fallback {}", grid.correctives.fallback.name())
-                }
-            );
+            let stores = if grid.correctives.stores_map(cell) {
+                "stores a warp map".to_string()
+            } else {
+                format!("uses the fallback {}", grid.correctives.fallback.name())
+            };
+            println!("fetch direction {:?}; cell {cell} {stores}", v.normalize_or_zero().to_array());
         }
         Command::Stability { quick, out } => {
-            let mode = if quick { warpfit::stability::Mode::Quick } else { warpfit::stability::Mode::Full };
-            let rows = warpfit::stability::run(mode, |r| {
+            let mode = if quick { stability::Mode::Quick } else { stability::Mode::Full };
+            let rows = stability::run(mode, |r| {
                 println!(
                     "{} {:<38} {:>6.2} s  {}\n       expected: {}",
                     if r.pass { "pass" } else { "FAIL" },
@@ -457,46 +435,49 @@ fn run(cli: Cli) -> Result<()> {
                     r.expectation
                 );
             });
-            warpfit::stability::write(&out, &rows, mode, &command_line())?;
+            let folder = RunFolder::new(out);
+            stability::write(&folder, &rows, mode, &command)?;
             let failed = rows.iter().filter(|r| !r.pass).count();
-            println!("wrote {}/stability.json, stability.md", out.display());
+            println!("wrote {}/stability.json, stability.md", folder.dir.display());
             anyhow::ensure!(failed == 0, "{failed} of {} stability cases failed", rows.len());
             println!("all {} stability cases pass", rows.len());
         }
         Command::Report { out } => {
-            let r = report::page::write_report(&out, &command_line())?;
+            let folder = RunFolder::new(out);
+            let r = report::page::write_report(&folder, &command)?;
             println!(
                 "wrote {0}/report.json, report.md, report.html ({1} methods, {2} images)",
-                out.display(),
+                folder.dir.display(),
                 r.methods.len(),
                 r.images.len()
             );
         }
-        Command::Sweep { job: PipelineArgs { scene, out, eval, fit } } => {
-            let scene = Scene::load(&scene)?;
-            let out = out.unwrap_or_else(|| PathBuf::from("fits").join(&scene.name));
-            let sw = warpfit::sweep::run(&scene, &fit.settings()?, &eval.settings(), &out, &command_line(), &progress)?;
+        Command::Sweep { job: RunArgs { scene, eval, fit } } => {
+            let (scene, folder) = job::load_scene(&scene.scene, scene.out.as_deref())?;
+            let sw = sweep::sweep(&scene, &fit.settings()?, &eval.settings(), &folder, &command, &progress)?;
             println!(
                 "| knob | value | fit s | runtime rel RMSE | stored cells | payload bytes |\n|---|---|---:|---:|---:|---:|"
             );
             for r in &sw.rows {
                 println!(
                     "| {} | {} | {:.2} | {:.4} | {} | {} |",
-                    r.knob, r.value, r.fit_seconds, r.rel_rmse, r.stored_cells, r.payload_bytes
+                    r.knob.name(),
+                    r.value,
+                    r.fit_seconds,
+                    r.rel_rmse,
+                    r.stored_cells,
+                    r.payload_bytes
                 );
             }
             println!(
                 "wrote {0}/sweep.json, sweep.png, sweep_convergence.png; `warpfit report --out {0}` includes them",
-                out.display()
+                folder.dir.display()
             );
         }
         Command::Inspect { fit } => {
             let grid = FittedGrid::load(&fit)?;
             print!("{}", grid.manifest.describe());
             println!("loaded in memory: {} bytes", grid.memory_bytes());
-        }
-        Command::Run { job: PipelineArgs { scene, out, eval, fit } } => {
-            eval_and_print(&scene, out, &Method::ALL, &eval, Some((fit.settings()?, fit.store())), &progress)?;
         }
     }
     Ok(())

@@ -2,7 +2,7 @@
 //! log-scaled distance (misses in sky blue). Previews are for looking, never for reading back.
 
 use crate::bake::Bake;
-use crate::format::{FormatError, write_atomic};
+use crate::files::{FileError, write_atomic};
 use glam::Vec3;
 use std::path::Path;
 
@@ -64,16 +64,16 @@ pub fn distance_pixels(dist: &[f32]) -> Vec<u8> {
 }
 
 /// Encodes RGB8 pixels as PNG and writes it atomically.
-pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<(), FormatError> {
+pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<(), FileError> {
     let mut bytes = Vec::new();
     let enc = image::codecs::png::PngEncoder::new(&mut bytes);
     image::ImageEncoder::write_image(enc, rgb, width, height, image::ExtendedColorType::Rgb8)
-        .map_err(|e| FormatError::Invalid { path: path.to_path_buf(), field: "png".into(), message: e.to_string() })?;
-    write_atomic(path, &bytes).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })
+        .map_err(|e| FileError::Invalid { path: path.to_path_buf(), field: "png".into(), message: e.to_string() })?;
+    write_atomic(path, &bytes)
 }
 
 /// `probe_radiance.png` (mips side by side), `probe_distance.png`, `grid_irradiance.png`.
-pub fn write_bake_previews(dir: &Path, bake: &Bake) -> Result<(), FormatError> {
+pub fn write_bake_previews(dir: &Path, bake: &Bake) -> Result<(), FileError> {
     let levels = &bake.probe.radiance.levels;
     let n = levels[0].res as usize;
     let exposure = auto_exposure(&levels[0].texels);

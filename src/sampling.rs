@@ -12,6 +12,7 @@ use std::f32::consts::PI;
 
 /// SplitMix64 finaliser: a well-mixed 64-bit hash.
 #[inline]
+#[must_use]
 pub fn hash64(mut x: u64) -> u64 {
     x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
     x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -21,6 +22,7 @@ pub fn hash64(mut x: u64) -> u64 {
 
 /// Combines two values into one hash (order matters).
 #[inline]
+#[must_use]
 pub fn hash_pair(a: u64, b: u64) -> u64 {
     hash64(a ^ hash64(b).rotate_left(17))
 }
@@ -47,6 +49,7 @@ pub struct Sampler {
 }
 
 impl Sampler {
+    #[must_use]
     pub fn new(seed: u64, stream: u64, index: u32) -> Self {
         Self { stream: hash_pair(seed, stream), index: index as u64, dim: 0 }
     }
@@ -86,6 +89,7 @@ fn to_unit_f32(x: f64) -> f32 {
 /// Orthonormal basis around unit `n` (Duff et al. 2017, "Building an Orthonormal Basis,
 /// Revisited"). Returns (tangent, bitangent).
 #[inline]
+#[must_use]
 pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
     let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
     let a = -1.0 / (sign + n.z);
@@ -95,6 +99,7 @@ pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
 
 /// Local (x, y, z) with z along `n` to world.
 #[inline]
+#[must_use]
 pub fn to_world(local: Vec3, n: Vec3) -> Vec3 {
     let (t, b) = orthonormal_basis(n);
     t * local.x + b * local.y + n * local.z
@@ -102,6 +107,7 @@ pub fn to_world(local: Vec3, n: Vec3) -> Vec3 {
 
 /// Cosine-weighted hemisphere direction around `n` (Malley's method); pdf = cosθ/π.
 #[inline]
+#[must_use]
 pub fn cosine_hemisphere(u: Vec2, n: Vec3) -> Vec3 {
     let r = u.x.sqrt();
     let phi = 2.0 * PI * u.y;
@@ -112,6 +118,7 @@ pub fn cosine_hemisphere(u: Vec2, n: Vec3) -> Vec3 {
 /// Uniform direction in the cone of half-angle acos(`cos_max`) around `axis`;
 /// pdf = 1 / (2π (1 − cos_max)).
 #[inline]
+#[must_use]
 pub fn uniform_cone(u: Vec2, axis: Vec3, cos_max: f32) -> Vec3 {
     let cos_t = 1.0 - u.x * (1.0 - cos_max);
     let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
@@ -121,6 +128,7 @@ pub fn uniform_cone(u: Vec2, axis: Vec3, cos_max: f32) -> Vec3 {
 
 /// Uniform direction on the sphere; pdf = 1/(4π).
 #[inline]
+#[must_use]
 pub fn uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
@@ -131,6 +139,7 @@ pub fn uniform_sphere(u: Vec2) -> Vec3 {
 /// GGX (Trowbridge–Reitz) normal distribution D(h) for `cos_h` = n·h and roughness `alpha`
 /// (Walter et al. 2007).
 #[inline]
+#[must_use]
 pub fn ggx_d(cos_h: f32, alpha: f32) -> f32 {
     let a2 = (alpha * alpha).max(1e-12);
     let c2 = cos_h * cos_h;
@@ -140,6 +149,7 @@ pub fn ggx_d(cos_h: f32, alpha: f32) -> f32 {
 
 /// Importance-samples a GGX half vector around `n`; pdf(h) = D(h) · (n·h).
 #[inline]
+#[must_use]
 pub fn ggx_half_vector(u: Vec2, n: Vec3, alpha: f32) -> Vec3 {
     let a2 = alpha * alpha;
     let cos_t = ((1.0 - u.x) / (1.0 + (a2 - 1.0) * u.x)).max(0.0).sqrt();

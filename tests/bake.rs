@@ -5,7 +5,7 @@ mod common;
 use common::*;
 use glam::{Vec3, Vec3A};
 use warpfit::bake::{self, Bake};
-use warpfit::format::bake_io;
+use warpfit::bakefile;
 use warpfit::octa;
 use warpfit::progress::Progress;
 use warpfit::scene::Scene;
@@ -41,8 +41,16 @@ fn bake_is_bit_identical_at_any_thread_count() {
     assert!(a.grid == b.grid && a.grid == c.grid, "grid differs between thread counts");
     // and so are the encoded files
     let p = std::path::Path::new("probe.exr");
-    let ea = warpfit::format::exr_io::encode_exr(p, &bake_io::probe_layers(&a.probe)).unwrap();
-    let eb = warpfit::format::exr_io::encode_exr(p, &bake_io::probe_layers(&b.probe)).unwrap();
+    let ea =
+        warpfit::gridfile::exr::encode(p, &warpfit::gridfile::probe_layers(&a.probe.radiance, &a.probe.depth), |_| {
+            false
+        })
+        .unwrap();
+    let eb =
+        warpfit::gridfile::exr::encode(p, &warpfit::gridfile::probe_layers(&b.probe.radiance, &b.probe.depth), |_| {
+            false
+        })
+        .unwrap();
     assert!(ea == eb, "probe.exr bytes differ");
 }
 
@@ -51,10 +59,8 @@ fn bake_folder_reads_back_exactly() {
     let scene = small_torture();
     let baked = bake_with_threads(&scene, 2);
     let dir = tmp_dir("roundtrip");
-    bake_io::write_bake(&dir, &scene, &baked).unwrap();
-    for f in
-        ["probe.exr", "grid.exr", "manifest.json", "probe_radiance.png", "probe_distance.png", "grid_irradiance.png"]
-    {
+    bakefile::write_bake(&dir, &scene, &baked).unwrap();
+    for f in ["probe.exr", "grid.exr", "manifest.json"] {
         assert!(dir.join(f).is_file(), "{f} missing");
     }
     let leftovers: Vec<_> = std::fs::read_dir(&dir)
@@ -63,7 +69,7 @@ fn bake_folder_reads_back_exactly() {
         .filter(|e| e.file_name().to_string_lossy().contains(".tmp-"))
         .collect();
     assert!(leftovers.is_empty(), "temporary files left behind");
-    let (manifest, probe, grid) = bake_io::read_bake(&dir).unwrap();
+    let (manifest, probe, grid) = bakefile::read_bake(&dir).unwrap();
     assert_eq!(probe, baked.probe);
     assert_eq!(grid, baked.grid);
     assert_eq!(manifest.probe.radiance_mips.len(), probe.radiance.levels.len());
@@ -79,24 +85,28 @@ fn foreign_and_damaged_bakes_are_errors() {
     let scene = small_torture();
     let baked = bake_with_threads(&scene, 2);
     let dir = tmp_dir("damaged");
-    bake_io::write_bake(&dir, &scene, &baked).unwrap();
+    bakefile::write_bake(&dir, &scene, &baked).unwrap();
     // truncated EXR
     let probe = std::fs::read(dir.join("probe.exr")).unwrap();
     std::fs::write(dir.join("probe.exr"), &probe[..probe.len() / 2]).unwrap();
-    let e = bake_io::read_bake(&dir).unwrap_err().to_string();
+    let e = bakefile::read_bake(&dir).unwrap_err().to_string();
     assert!(e.contains("probe.exr"), "{e}");
-    // a PNG where the EXR should be
-    std::fs::copy(dir.join("probe_distance.png"), dir.join("probe.exr")).unwrap();
-    let e = bake_io::read_bake(&dir).unwrap_err().to_string();
+    // a JSON file where the EXR should be
+    std::fs::copy(dir.join("manifest.json"), dir.join("probe.exr")).unwrap();
+    let e = bakefile::read_bake(&dir).unwrap_err().to_string();
     assert!(e.contains("probe.exr"), "{e}");
     // wrong version
     let m = std::fs::read_to_string(dir.join("manifest.json")).unwrap();
-    std::fs::write(dir.join("manifest.json"), m.replace("\"version\": 1", "\"version\": 99")).unwrap();
-    let e = bake_io::read_bake(&dir).unwrap_err().to_string();
+    std::fs::write(
+        dir.join("manifest.json"),
+        m.replace(&format!("\"version\": {}", bakefile::manifest::BAKE_VERSION), "\"version\": 99"),
+    )
+    .unwrap();
+    let e = bakefile::read_bake(&dir).unwrap_err().to_string();
     assert!(e.contains("manifest.json") && e.contains("99"), "{e}");
     // not JSON at all
     std::fs::write(dir.join("manifest.json"), "{ nope").unwrap();
-    let e = bake_io::read_bake(&dir).unwrap_err().to_string();
+    let e = bakefile::read_bake(&dir).unwrap_err().to_string();
     assert!(e.contains("manifest.json"), "{e}");
 }
 

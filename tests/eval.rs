@@ -4,8 +4,9 @@
 mod common;
 use common::*;
 use warpfit::eval::EvalSettings;
-use warpfit::pipeline;
+use warpfit::jobs::run::{self as job, Output};
 use warpfit::progress::Progress;
+use warpfit::report::folder::RunFolder;
 use warpfit::trace::Tracer;
 use warpfit::warp::Method;
 
@@ -17,10 +18,11 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
     scene.config.grid.counts = [4, 4, 4];
     let tracer = Tracer::new(&scene);
     let dir = tmp_dir("eval");
-    let (probe, grid, baked) = pipeline::load_or_bake(&scene, &tracer, &dir, &Progress::quiet()).unwrap();
+    let folder = RunFolder::new(&dir);
+    let (probe, grid, baked) = job::load_or_bake(&scene, &tracer, &folder, &Progress::quiet()).unwrap();
     assert!(baked);
     // a second call reuses the bake
-    let (_, _, baked_again) = pipeline::load_or_bake(&scene, &tracer, &dir, &Progress::quiet()).unwrap();
+    let (_, _, baked_again) = job::load_or_bake(&scene, &tracer, &folder, &Progress::quiet()).unwrap();
     assert!(!baked_again);
     let settings = EvalSettings {
         positions: 16,
@@ -29,18 +31,10 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
         timing_lookups: 512,
         ..EvalSettings::default()
     };
-    let baked = pipeline::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
+    let baked = job::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
     let warp = baked.warp(settings.options);
-    let subject = warpfit::eval::Subject {
-        scene: &scene,
-        tracer: &tracer,
-        grid: &grid,
-        warp: &warp,
-        methods: &Method::ALL,
-        corrective_rows: &[],
-        runtime: None,
-    };
-    let report = pipeline::evaluate(subject, &settings, &dir, "test", &Progress::quiet()).unwrap();
+    let out = Output { folder: &folder, command: "test", progress: &Progress::quiet() };
+    let report = job::evaluate(baked, &warp, &settings, &Method::ALL, None, out).unwrap();
     assert_eq!(report.positions, 16);
     assert_eq!(report.lookups, 16 * 64);
     for f in ["eval.json", "eval.md", "eval_error_vs_cost.png"] {

@@ -1,41 +1,23 @@
 //! The run report: built from a real (small) bake + fit + eval, it is self-contained HTML
 //! (every image inlined, nothing fetched), its JSON has every section, and, where Chromium is
 //! installed (`apt-get install chromium`, or `WARPFIT_CHROMIUM=/path/to/chrome`), the page
-//! loads headless without console errors. Without Chromium that last check prints a note and
-//! is skipped.
+//! loads headless without console errors. Without Chromium that last check says SKIPPED, and
+//! in CI (`WARPFIT_REQUIRE_EXTERNAL=1`, set by `.ci/run`) it fails.
 
 mod common;
 use common::*;
 use std::path::{Path, PathBuf};
 use warpfit::eval::EvalSettings;
 use warpfit::fit::FitSettings;
-use warpfit::pipeline::{self, Baked};
+use warpfit::jobs::run as job;
 use warpfit::progress::Progress;
-use warpfit::runtime::FittedGrid;
-use warpfit::trace::Tracer;
-use warpfit::warp::Method;
+use warpfit::report::folder::RunFolder;
 
 fn small_run(dir: &Path) {
     let scene = load("tiny");
-    let tracer = Tracer::new(&scene);
-    let quiet = Progress::quiet();
-    let (probe, grid, _) = pipeline::load_or_bake(&scene, &tracer, &pipeline::bake_dir(dir), &quiet).unwrap();
-    let baked = Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
-    let es = EvalSettings::quick();
-    let warp = baked.warp(es.options);
-    let (fit, _) = pipeline::fit(baked, &warp, &FitSettings::quick(), Default::default(), dir, "test", &quiet).unwrap();
-    let rows = pipeline::corrective_rows(&fit);
-    let g = FittedGrid::load(dir).unwrap();
-    let subject = warpfit::eval::Subject {
-        scene: &scene,
-        tracer: &tracer,
-        grid: &grid,
-        warp: &warp,
-        methods: &Method::ALL,
-        corrective_rows: &rows,
-        runtime: Some(&g),
-    };
-    pipeline::evaluate(subject, &es, dir, "test", &quiet).unwrap();
+    let p = job::prepare(scene, RunFolder::new(dir), &Progress::quiet()).unwrap();
+    let settings = job::RunSettings { eval: EvalSettings::quick(), fit: FitSettings::quick(), ..Default::default() };
+    job::run(&p, &settings, "test", &Progress::quiet()).unwrap();
 }
 
 fn chromium() -> Option<PathBuf> {
@@ -53,7 +35,7 @@ fn report_is_self_contained_complete_and_opens_in_chromium() {
     let dir = std::env::temp_dir().join(format!("warpfit-report-test-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     small_run(&dir);
-    let r = warpfit::report::page::write_report(&dir, "test").unwrap();
+    let r = warpfit::report::page::write_report(&RunFolder::new(&dir), "test").unwrap();
 
     // every section present, the Pareto front marked, fitted per level on the validation set
     assert!(r.methods.iter().any(|m| m.name == "fitted") && r.methods.iter().any(|m| m.pareto));
@@ -79,7 +61,9 @@ fn report_is_self_contained_complete_and_opens_in_chromium() {
     assert!(md.contains("| method | rel RMSE |"));
 
     match chromium() {
-        None => eprintln!("note: Chromium not found; the headless console check is skipped"),
+        None => {
+            tool_missing("report opens in a browser", "Chromium", "apt-get install chromium, or WARPFIT_CHROMIUM=path")
+        }
         Some(exe) => {
             let profile = dir.join("chromium-profile");
             let out = std::process::Command::new(&exe)

@@ -10,10 +10,10 @@ use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 use warpfit::eval::{self, EvalSettings};
 use warpfit::fit::FitSettings;
-use warpfit::format::grid_io;
-use warpfit::pipeline::{self, Baked, StoreOptions};
+use warpfit::gridfile::{GRID_VERSION, MANIFEST_FILE};
+use warpfit::jobs::run::{self as job, Baked, Output, StoreOptions};
 use warpfit::progress::Progress;
-use warpfit::runtime::manifest::{self, GRID_VERSION, MANIFEST_FILE};
+use warpfit::report::folder::RunFolder;
 use warpfit::runtime::{FittedGrid, LoadError, Precision};
 use warpfit::trace::Tracer;
 use warpfit::warp::corrective::Blend;
@@ -92,32 +92,12 @@ fn fixture() -> &'static Fixture {
         let f32_dir = tmp_dir("runtime-f32");
         let b = Baked { scene: &scene, tracer: &tracer, probe: &baked.probe, grid: &baked.grid };
         let warp = b.warp(warpfit::warp::WarpOptions::standard());
-        let (fit, _) = pipeline::fit(
-            b,
-            &warp,
-            &FitSettings::quick(),
-            StoreOptions::default(),
-            &f32_dir,
-            "test",
-            &Progress::quiet(),
-        )
-        .unwrap();
+        let quiet = Progress::quiet();
+        let out = Output { folder: &RunFolder::new(&f32_dir), command: "test", progress: &quiet };
+        let (fit, _) = job::fit(b, &warp, &FitSettings::quick(), StoreOptions::default(), out).unwrap();
         let f16_dir = tmp_dir("runtime-f16");
-        let rough = warpfit::roughness::fit_correction();
-        grid_io::write_grid(
-            &f16_dir,
-            &grid_io::GridInputs {
-                scene: "torture",
-                probe: &baked.probe,
-                grid: &baked.grid,
-                warp: &warp,
-                fit: &fit,
-                blend: Blend::Cell,
-                roughness: Some(&rough),
-                precision: Precision::F16,
-            },
-        )
-        .unwrap();
+        let f16 = StoreOptions { precision: Precision::F16, roughness: true };
+        job::write_grid(b, &warp, &fit, f16, &RunFolder::new(&f16_dir)).unwrap();
         Fixture { scene, tracer, probe: baked.probe, grid: baked.grid, fit, warp, f32_dir, f16_dir }
     })
 }
@@ -343,7 +323,7 @@ fn reseal(dir: &Path, file: &str) {
         for p in v["payloads"].as_array_mut().unwrap() {
             if p["file"] == file {
                 p["bytes"] = bytes.len().into();
-                p["checksum"] = manifest::checksum(&bytes).into();
+                p["checksum"] = warpfit::files::checksum(&bytes).into();
             }
         }
     });
@@ -413,10 +393,10 @@ fn every_malformed_input_is_an_error_naming_file_and_field() {
     // NaN values inside a payload (re-encoded, resealed)
     let d = copy_tiny("nan");
     let path = d.join("probe.exr");
-    let mut layers = warpfit::format::exr_io::read_exr(&path).unwrap();
+    let mut layers = warpfit::gridfile::exr::read(&path).unwrap();
     let l = layers.iter_mut().find(|l| l.name == "radiance_mip1").unwrap();
     l.channels[1].1[7] = f32::NAN;
-    warpfit::format::exr_io::write_exr(&path, &layers).unwrap();
+    warpfit::gridfile::exr::write(&path, &layers).unwrap();
     reseal(&d, "probe.exr");
     let e = load_err(&d);
     assert!(e.contains("probe.exr") && e.contains("radiance_mip1.G") && e.contains("sample 7"), "{e}");

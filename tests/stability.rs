@@ -1,7 +1,8 @@
 //! The stability suite's quick mode: every stiff and extreme case passes; failed rows are
 //! marked in the table and counted in stability.json.
 
-use warpfit::stability::{self, CaseResult, Mode};
+use warpfit::jobs::stability::{self, CaseResult, Mode};
+use warpfit::report::folder::RunFolder;
 
 #[test]
 fn quick_stability_suite_passes() {
@@ -25,7 +26,7 @@ fn the_table_marks_failures_and_the_files_are_written() {
     assert!(t.contains("| a | x | 1 / 2 | pass |"), "{t}");
     assert!(t.contains("| b | y | 3 | **FAIL** |"), "{t}");
     let dir = std::env::temp_dir().join(format!("warpfit-stability-test-{}", std::process::id()));
-    stability::write(&dir, &rows, Mode::Quick, "test").unwrap();
+    stability::write(&RunFolder::new(&dir), &rows, Mode::Quick, "test").unwrap();
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("stability.json")).unwrap()).unwrap();
     assert_eq!(v["failed"], 1);
     assert_eq!(v["cases"][1]["pass"], false);

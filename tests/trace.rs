@@ -207,3 +207,80 @@ fn degenerate_queries_never_produce_nan() {
         assert!(!s.distance.is_nan(), "{o} {d}");
     }
 }
+
+/// Closest hit of the ray over every triangle and sphere of the scene, one by one, in f64
+/// (Möller–Trumbore; the sphere's nearer positive root). Also the second-nearest hit, so
+/// rays that graze an edge or pass between two nearly equal hits can be told apart.
+fn brute_force(scene: &Scene, o: Vec3, d: Vec3) -> (f64, f64) {
+    let (o, d) = (o.as_dvec3(), d.as_dvec3());
+    let mut best = [f64::INFINITY; 2];
+    let mut push = |t: f64| {
+        if t < best[0] {
+            best = [t, best[0]];
+        } else if t < best[1] {
+            best[1] = t;
+        }
+    };
+    let tris = &scene.triangles;
+    for k in 0..tris.len() {
+        let (v0, v1, v2) = (tris.v0[k].as_dvec3(), tris.v1[k].as_dvec3(), tris.v2[k].as_dvec3());
+        let (e1, e2) = (v1 - v0, v2 - v0);
+        let p = d.cross(e2);
+        let det = e1.dot(p);
+        if det.abs() < 1e-300 {
+            continue;
+        }
+        let s = o - v0;
+        let u = s.dot(p) / det;
+        let q = s.cross(e1);
+        let v = d.dot(q) / det;
+        let t = e2.dot(q) / det;
+        if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0 {
+            push(t);
+        }
+    }
+    for (c, r) in scene.spheres.center.iter().zip(&scene.spheres.radius) {
+        let f = o - c.as_dvec3();
+        let b = f.dot(d);
+        let disc = b * b - (f.length_squared() - (*r as f64).powi(2));
+        if disc >= 0.0 {
+            for t in [-b - disc.sqrt(), -b + disc.sqrt()] {
+                if t > 0.0 {
+                    push(t);
+                }
+            }
+        }
+    }
+    (best[0], best[1])
+}
+
+#[test]
+fn the_bvh_finds_what_a_scan_of_every_primitive_finds() {
+    // Random rays from inside the torture hall and from outside it, against a linear scan of
+    // every triangle and sphere. Rays whose two nearest hits lie within 1e-4 of each other
+    // (an edge shared by two triangles, a corner) are only checked for the distance.
+    let scene = load("torture");
+    let tracer = Tracer::new(&scene);
+    let (lo, hi) = scene.bounds();
+    let mut checked = 0;
+    for k in 0..3000u32 {
+        let mut s = Sampler::new(41, 7, k);
+        let u = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
+        let o = if k % 4 == 0 { lo - (hi - lo) * 0.5 + (hi - lo) * 2.0 * u } else { lo + (hi - lo) * u };
+        let d = uniform_sphere(s.next_2d());
+        let (t, second) = brute_force(&scene, o, d);
+        let got = tracer.closest_hit(o, d, f32::INFINITY).map_or(f64::INFINITY, |h| h.t as f64);
+        if t.is_infinite() {
+            assert!(got.is_infinite(), "ray {k} from {o} along {d}: the scan finds nothing, the BVH {got}");
+            continue;
+        }
+        let tol = 1e-4 * t.max(1.0);
+        if second - t < tol {
+            assert!((got - t).abs() < tol, "ray {k}: BVH {got}, scan {t}");
+            continue;
+        }
+        assert!((got - t).abs() < tol, "ray {k} from {o} along {d}: BVH {got}, scan {t} (next {second})");
+        checked += 1;
+    }
+    assert!(checked > 2000, "only {checked} unambiguous rays");
+}

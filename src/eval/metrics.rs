@@ -41,6 +41,7 @@ pub fn error_stats(estimate: &[Vec3], reference: &[Vec3]) -> ErrorStats {
 }
 
 /// Mean angle between paired unit vectors, in degrees.
+#[must_use]
 pub fn mean_angle_deg(a: &[Vec3], b: &[Vec3]) -> f64 {
     let sum: f64 = a.iter().zip(b).map(|(x, y)| (x.dot(*y).clamp(-1.0, 1.0) as f64).acos().to_degrees()).sum();
     sum / a.len().max(1) as f64
@@ -59,6 +60,7 @@ pub struct LevelEval {
 
 /// `c` (containing-cell lookup) on the validation lookups split by the level of their
 /// position's cell.
+#[must_use]
 pub fn level_errors(warp: &Warp, set: &ValidationSet, c: &Correctives) -> Vec<LevelEval> {
     let mut out = Vec::new();
     for stores_map in [false, true] {

@@ -9,9 +9,11 @@
 //! them in parallel and every random choice is seeded per cell, so results are bit-identical
 //! at any thread count.
 
+pub mod fixtures;
 pub mod model;
 pub mod objective;
-pub mod output;
+pub mod selection;
+pub mod summary;
 
 use crate::bake::ProbeGrid;
 use crate::grid::GridGeometry;
@@ -23,8 +25,10 @@ use crate::trace::{Renderer, Tracer};
 use crate::warp::Warp;
 use crate::warp::corrective::{Correctives, NO_MAP};
 use glam::Vec3;
+use objective::Termination;
 use objective::{CellProblem, Sample};
 use rayon::prelude::*;
+pub use selection::{FALLBACK_CANDIDATES, Level, SELECTION_MARGIN, Selection, choose_level};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -124,11 +128,10 @@ impl Default for FitSettings {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct CellFit {
     pub cell: u32,
-    /// 0 = fallback method (nothing stored), 2 = warp map stored.
-    pub level: u8,
-    pub reason: String,
-    /// Which map the refinement started from: "celldepth" or "box".
-    pub start: String,
+    pub level: Level,
+    pub selection: Selection,
+    /// Which map the refinement started from.
+    pub start: Start,
     /// Held-out relative errors (mean abs RGB error / mean reference) of the unfitted
     /// methods and of the fitted map.
     pub check_err_warp1: f64,
@@ -144,12 +147,21 @@ pub struct CellFit {
     pub relax: f64,
     pub iterations: u64,
     pub evaluations: u64,
-    pub termination: String,
+    pub termination: Termination,
     pub seconds: f64,
     /// Training objective against solve time (see `objective::Outcome::curve`).
     pub curve: Vec<(f64, f64)>,
     /// Fraction of the cell's check queries whose true hit is hidden from the probe.
     pub hidden_fraction: f64,
+}
+
+/// The map a cell's refinement starts from: the grid's raytraced distances or the box
+/// proxy seen from the cell centre, whichever explains the training queries better.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Start {
+    Celldepth,
+    Box,
 }
 
 /// A fitted grid: the correctives plus what happened in every cell.
@@ -216,27 +228,6 @@ fn samples(q: &TracedQueries) -> Vec<Sample> {
         .collect()
 }
 
-/// A stored map must beat the fallback by this factor on held-out queries: a cell's check
-/// set is small, and a map that wins by noise loses elsewhere.
-pub const SELECTION_MARGIN: f64 = 0.95;
-
-/// Model selection on held-out errors: nothing is stored when the fallback method meets the
-/// tolerance, and a fitted map is stored only if it beats the fallback (never worse).
-pub fn choose_level(check_err_fallback: f64, check_err_fitted: f64, tol: f64) -> (u8, String) {
-    if check_err_fallback <= tol {
-        (0, "the fallback method meets the tolerance".to_string())
-    } else if check_err_fitted < SELECTION_MARGIN * check_err_fallback {
-        (2, "fitted map beats the fallback method on held-out queries".to_string())
-    } else {
-        (0, "fallback: the fitted map is not better than the fallback method on held-out queries".to_string())
-    }
-}
-
-/// Unfitted methods a level-0 cell may use; the grid keeps the one with the lowest mean
-/// held-out error over its active cells.
-pub const FALLBACK_CANDIDATES: [crate::warp::Method; 3] =
-    [crate::warp::Method::Warp1, crate::warp::Method::Box, crate::warp::Method::Kdop];
-
 /// What a fit reads: the scene with its tracer, the baked grid, and the warp context (probe
 /// A, proxies and the options of the fallback methods).
 #[derive(Clone, Copy)]
@@ -285,7 +276,7 @@ pub fn fit(inputs: FitInputs, s: &FitSettings, progress: &Progress) -> Fit {
             let boxed = model::box_map(centre, &warp.proxies.aabb, s.map_res);
             let judge = CellProblem::new(wp, centre, s.map_res, init.clone(), train.clone(), 0.0, 0.0);
             let box_better = init.iter().any(|w| *w > 0.0) && judge.data_cost_map(&boxed) < judge.data_cost_map(&init);
-            let (start, start_name) = if box_better { (boxed, "box") } else { (init.clone(), "celldepth") };
+            let (start, start_name) = if box_better { (boxed, Start::Box) } else { (init.clone(), Start::Celldepth) };
             let mut problem = CellProblem::new(wp, centre, s.map_res, start, train, s.smooth_weight, s.size_weight)
                 .with_robust_scale(s.robust_scale);
             let outcome = problem.solve(s.solver, s.iterations);
@@ -297,9 +288,9 @@ pub fn fit(inputs: FitInputs, s: &FitSettings, progress: &Progress) -> Fit {
             bar.inc(1);
             let fit = CellFit {
                 cell: cell as u32,
-                level: 0,
-                reason: String::new(),
-                start: start_name.to_string(),
+                level: Level::Fallback,
+                selection: Selection::KeptFallback,
+                start: start_name,
                 check_err_warp1: warp1,
                 check_err_box: boxed_err,
                 check_err_kdop: kdop,
@@ -334,16 +325,17 @@ pub fn fit(inputs: FitInputs, s: &FitSettings, progress: &Progress) -> Fit {
     for (mut fit, fitted, init, rays) in results {
         let cell = fit.cell as usize;
         fit.check_err_fallback = [fit.check_err_warp1, fit.check_err_box, fit.check_err_kdop][best];
-        (fit.level, fit.reason) = if init.iter().all(|w| *w == 0.0) {
-            (0, "sees only sky: the fallback fetches the query direction, nothing to store".to_string())
+        fit.selection = if init.iter().all(|w| *w == 0.0) {
+            Selection::SeesOnlySky
         } else {
             choose_level(fit.check_err_fallback, fit.check_err_fitted, s.tol as f64)
         };
+        fit.level = fit.selection.level();
         celldepth.slot[cell] = (celldepth.maps.len() / n2) as u32;
         celldepth.maps.extend_from_slice(&init);
         fitted_all.slot[cell] = (fitted_all.maps.len() / n2) as u32;
         fitted_all.maps.extend_from_slice(&fitted);
-        if fit.level == 2 {
+        if fit.level == Level::Map {
             correctives.slot[cell] = (correctives.maps.len() / n2) as u32;
             correctives.maps.extend_from_slice(&fitted);
         }

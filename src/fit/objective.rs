@@ -28,6 +28,7 @@ use argmin::solver::linesearch::MoreThuenteLineSearch;
 use argmin::solver::neldermead::NelderMead;
 use argmin::solver::quasinewton::LBFGS;
 use glam::Vec3;
+use serde::{Deserialize, Serialize};
 use std::cell::{Cell, RefCell};
 
 /// One training or check query.
@@ -51,7 +52,41 @@ pub struct Outcome {
     pub cost_end: f64,
     pub iterations: u64,
     pub evaluations: u64,
-    pub termination: String,
+    pub termination: Termination,
+}
+
+/// Why a cell's solve stopped.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "stop", rename_all = "snake_case")]
+pub enum Termination {
+    /// No texel saw geometry: nothing to fit.
+    NothingToFit,
+    /// The solver ran its budget or met its own criterion (`reason`, argmin's words, for the
+    /// gradient and simplex solvers). `kept_start`: the result was no better than the start,
+    /// which was kept.
+    Finished { solver: Solver, iterations: u32, texels: usize, reason: Option<String>, kept_start: bool },
+    /// The solver failed; the start was kept.
+    SolverError { message: String },
+}
+
+impl std::fmt::Display for Termination {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Termination::NothingToFit => f.write_str("nothing to fit (no texel saw geometry)"),
+            Termination::Finished { solver, iterations, texels, reason, kept_start } => {
+                match (solver, reason) {
+                    (Solver::Brent, _) => write!(f, "{iterations} Brent sweeps over {texels} texels")?,
+                    (s, Some(r)) => write!(f, "{s:?} over {texels} texels: {r}")?,
+                    (s, None) => write!(f, "{s:?} over {texels} texels")?,
+                }
+                if *kept_start {
+                    f.write_str("; no improvement, kept the start")?;
+                }
+                Ok(())
+            }
+            Termination::SolverError { message } => write!(f, "solver error: {message}; kept the start"),
+        }
+    }
 }
 
 /// A cell's fit problem.
@@ -230,16 +265,16 @@ impl<'a> CellProblem<'a> {
         let cost_start = self.cost(&s);
         let mut curve = vec![(0.0, cost_start)];
         let free = self.free_texels();
-        let (mut iters, mut termination) = (0u64, String::from("nothing to fit (no texel saw geometry)"));
+        let (mut iters, mut termination) = (0u64, Termination::NothingToFit);
         if !free.is_empty() {
             let r = match solver {
                 Solver::Brent => {
                     // one sweep at a time, so the convergence curve has a point per sweep
                     let mut total = 0;
-                    let mut result = Ok((0, String::new()));
+                    let mut result: Result<(u64, Option<String>), Error> = Ok((0, None));
                     for _ in 0..iterations.max(1) {
                         match self.coordinate_descent(&mut s, &free, 1) {
-                            Ok((i, _)) => total += i,
+                            Ok(i) => total += i,
                             Err(e) => {
                                 result = Err(e);
                                 break;
@@ -247,21 +282,32 @@ impl<'a> CellProblem<'a> {
                         }
                         curve.push((clock.elapsed().as_secs_f64(), self.cost(&s)));
                     }
-                    result.map(|_| (total, format!("{} Brent sweeps over {} texels", iterations.max(1), free.len())))
+                    result.map(|_| (total, None))
                 }
                 Solver::Lbfgs => self.lbfgs(&mut s, &free, iterations),
                 Solver::NelderMead => self.nelder_mead(&mut s, &free, iterations),
             };
             match r {
-                Ok((i, t)) => (iters, termination) = (i, t),
-                Err(e) => termination = format!("solver error: {e}; kept the start"),
+                Ok((i, reason)) => {
+                    iters = i;
+                    termination = Termination::Finished {
+                        solver,
+                        iterations: iterations.max(1),
+                        texels: free.len(),
+                        reason,
+                        kept_start: false,
+                    };
+                }
+                Err(e) => termination = Termination::SolverError { message: e.to_string() },
             }
             if solver != Solver::Brent {
                 curve.push((clock.elapsed().as_secs_f64(), self.cost(&s)));
             }
             if self.cost(&s) > cost_start || s.iter().any(|x| !x.is_finite()) {
                 s = vec![0.0; n];
-                termination += "; no improvement, kept the start";
+                if let Termination::Finished { kept_start, .. } = &mut termination {
+                    *kept_start = true;
+                }
             }
         }
         let relax = self.fit_relax(&s);
@@ -282,7 +328,8 @@ impl<'a> CellProblem<'a> {
         }
     }
 
-    fn coordinate_descent(&self, s: &mut [f64], free: &[usize], sweeps: u32) -> Result<(u64, String), Error> {
+    /// `sweeps` Brent sweeps over the free texels; returns Brent's iterations.
+    fn coordinate_descent(&self, s: &mut [f64], free: &[usize], sweeps: u32) -> Result<u64, Error> {
         let mut iters = 0u64;
         for _ in 0..sweeps.max(1) {
             for &k in free {
@@ -303,10 +350,10 @@ impl<'a> CellProblem<'a> {
                 }
             }
         }
-        Ok((iters, format!("{} Brent sweeps over {} texels", sweeps.max(1), free.len())))
+        Ok(iters)
     }
 
-    fn lbfgs(&self, s: &mut [f64], free: &[usize], iterations: u32) -> Result<(u64, String), Error> {
+    fn lbfgs(&self, s: &mut [f64], free: &[usize], iterations: u32) -> Result<(u64, Option<String>), Error> {
         let problem = FullProblem { cell: self, free, base: s.to_vec() };
         let x0: Vec<f64> = free.iter().map(|&k| s[k]).collect();
         let solver =
@@ -316,13 +363,10 @@ impl<'a> CellProblem<'a> {
             .run()?;
         let st = res.state();
         scatter_best(s, free, st.get_best_param());
-        Ok((
-            st.get_iter(),
-            format!("L-BFGS: {}", st.get_termination_reason().map_or("unknown".into(), |r| r.to_string())),
-        ))
+        Ok((st.get_iter(), st.get_termination_reason().map(|r| r.to_string())))
     }
 
-    fn nelder_mead(&self, s: &mut [f64], free: &[usize], iterations: u32) -> Result<(u64, String), Error> {
+    fn nelder_mead(&self, s: &mut [f64], free: &[usize], iterations: u32) -> Result<(u64, Option<String>), Error> {
         let problem = FullProblem { cell: self, free, base: s.to_vec() };
         let x0: Vec<f64> = free.iter().map(|&k| s[k]).collect();
         let mut simplex = vec![x0.clone()];
@@ -337,10 +381,7 @@ impl<'a> CellProblem<'a> {
             .run()?;
         let st = res.state();
         scatter_best(s, free, st.get_best_param());
-        Ok((
-            st.get_iter(),
-            format!("Nelder-Mead: {}", st.get_termination_reason().map_or("unknown".into(), |r| r.to_string())),
-        ))
+        Ok((st.get_iter(), st.get_termination_reason().map(|r| r.to_string())))
     }
 
     /// UV relaxation strength in [0, 1] minimising the data term (Brent).
@@ -475,5 +516,39 @@ impl CostFunction for RelaxProblem<'_, '_> {
         let map = c.map_with_relax(self.s, x.clamp(0.0, 1.0));
         let v = c.data_over(0..c.samples.len(), &map);
         Ok(if v.is_finite() { v } else { f64::MAX })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::fixtures::{wall_probe, wall_problem};
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+        /// Coordinate descent is only right if a texel's 1-D problem changes exactly as the
+        /// whole cell objective does when that one texel moves: the Brent step minimises a
+        /// slice of the real objective, not an approximation of it.
+        #[test]
+        fn a_texel_problem_is_an_exact_slice_of_the_cell_objective(
+            seed in 0u32..1000, k in 0usize..64, x1 in -3.5f64..3.5, x2 in -3.5f64..3.5,
+        ) {
+            let probe = wall_probe(1.0, 64);
+            let (init, qs, c, _) = wall_problem(1.0, 300);
+            let cell = CellProblem::new(&probe, c, 8, init, qs, 1e-3, 1e-4).with_robust_scale(0.05);
+            let s: Vec<f64> = (0..64)
+                .map(|i| (((i as u32).wrapping_mul(2654435761) ^ seed) % 1000) as f64 / 500.0 - 1.0)
+                .collect();
+            let at = |x: f64| {
+                let mut v = s.clone();
+                v[k] = x;
+                cell.cost(&v)
+            };
+            let texel = TexelProblem::new(&cell, &s, k);
+            let slice = texel.cost(&x1).unwrap() - texel.cost(&x2).unwrap();
+            let whole = at(x1) - at(x2);
+            prop_assert!((slice - whole).abs() <= 1e-10 * at(x1).abs().max(1.0), "texel {k}: {slice} vs {whole}");
+        }
     }
 }

@@ -34,6 +34,7 @@ fn sign_not_zero(x: f32) -> f32 {
 /// of z is random for random queries (a mispredicted branch costs more than the fold) and
 /// so that loops over lanes of lookups vectorise.
 #[inline]
+#[must_use]
 pub fn encode(dir: Vec3) -> Vec2 {
     let (u, v) = encode_xyz(dir.x, dir.y, dir.z);
     Vec2::new(u, v)
@@ -56,6 +57,7 @@ fn encode_xyz(x: f32, y: f32, z: f32) -> (f32, f32) {
 
 /// uv → unit direction. uv outside [0,1]² is clamped.
 #[inline]
+#[must_use]
 pub fn decode(uv: Vec2) -> Vec3 {
     let p = uv.clamp(Vec2::ZERO, Vec2::ONE) * 2.0 - 1.0;
     decode_p(p).normalize()
@@ -74,18 +76,21 @@ fn decode_p(p: Vec2) -> Vec3 {
 
 /// Unit direction through the centre of texel (i, j) of an N×N map.
 #[inline]
+#[must_use]
 pub fn texel_dir(res: u32, i: u32, j: u32) -> Vec3 {
     decode(texel_uv(res, i, j))
 }
 
 /// uv of the centre of texel (i, j).
 #[inline]
+#[must_use]
 pub fn texel_uv(res: u32, i: u32, j: u32) -> Vec2 {
     Vec2::new((i as f32 + 0.5) / res as f32, (j as f32 + 0.5) / res as f32)
 }
 
 /// Texel (i, j) containing `uv`.
 #[inline]
+#[must_use]
 pub fn texel_of_uv(res: u32, uv: Vec2) -> (u32, u32) {
     let n = res as f32;
     let i = ((uv.x * n) as i64).clamp(0, res as i64 - 1) as u32;
@@ -96,6 +101,7 @@ pub fn texel_of_uv(res: u32, uv: Vec2) -> (u32, u32) {
 /// Maps integer texel coordinates that may lie one texel outside the map back inside,
 /// following the octahedral seam fold (pbrt-v4 `WrapMode::OctahedralSphere`).
 #[inline]
+#[must_use]
 pub fn wrap_texel(res: u32, mut i: i64, mut j: i64) -> (u32, u32) {
     let n = res as i64;
     if i < 0 {
@@ -127,6 +133,7 @@ pub struct Footprint {
 
 /// The bilinear footprint of `uv` (clamped to [0,1]²) on an N×N map.
 #[inline]
+#[must_use]
 pub fn footprint(res: u32, uv: Vec2) -> Footprint {
     let (i0, j0, fx, fy) = footprint_of(res as f32, uv.x, uv.y);
     Footprint { i0, j0, fx, fy }
@@ -157,6 +164,7 @@ pub(crate) fn floor_small(x: f32) -> (i32, f32) {
 
 /// Linear indices (row-major) of the 2×2 texels at `(i0, j0)`, seam wrap applied.
 #[inline]
+#[must_use]
 pub fn quad_indices(res: u32, i0: i32, j0: i32) -> [u32; 4] {
     if quad_is_interior(res, i0, j0) {
         let k = (j0 * res as i32 + i0) as u32;
@@ -193,6 +201,7 @@ pub fn blend<T: Texel>(q: [T; 4], fx: f32, fy: f32) -> T {
 /// The four texels (linear indices, row-major) and weights a bilinear lookup at `uv` blends,
 /// with the seam wrap applied. Weights sum to 1.
 #[inline]
+#[must_use]
 pub fn bilinear_taps(res: u32, uv: Vec2) -> [(u32, f32); 4] {
     let Footprint { i0, j0, fx, fy } = footprint(res, uv);
     let k = quad_indices(res, i0, j0);
@@ -209,6 +218,7 @@ pub struct UvLanes {
 
 /// `encode` for [`LANES`] directions, bit for bit the same.
 #[inline]
+#[must_use]
 pub fn encode_lanes(dirs: &[Vec3; LANES]) -> UvLanes {
     let (mut x, mut y, mut z) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
     for k in 0..LANES {
@@ -258,6 +268,7 @@ pub struct OctMap<T> {
 }
 
 impl<T: Texel> OctMap<T> {
+    #[must_use]
     pub fn new(res: u32, texels: Vec<T>) -> Self {
         assert_eq!(texels.len(), (res * res) as usize, "octahedral map size");
         Self { res, texels }
@@ -275,12 +286,14 @@ impl<T: Texel> OctMap<T> {
     }
 
     #[inline]
+    #[must_use]
     pub fn get(&self, i: u32, j: u32) -> T {
         self.texels[(j * self.res + i) as usize]
     }
 
     /// Texel lookup with the octahedral seam wrap for coordinates just outside the map.
     #[inline]
+    #[must_use]
     pub fn get_wrapped(&self, i: i64, j: i64) -> T {
         let (i, j) = wrap_texel(self.res, i, j);
         self.get(i, j)
@@ -288,6 +301,7 @@ impl<T: Texel> OctMap<T> {
 
     /// Nearest-texel lookup.
     #[inline]
+    #[must_use]
     pub fn nearest(&self, dir: Vec3) -> T {
         let (i, j) = texel_of_uv(self.res, encode(dir));
         self.get(i, j)
@@ -295,6 +309,7 @@ impl<T: Texel> OctMap<T> {
 
     /// Bilinear lookup at `uv`, continuous across the octahedral seams.
     #[inline]
+    #[must_use]
     pub fn bilinear_uv(&self, uv: Vec2) -> T {
         let f = footprint(self.res, uv);
         blend(self.quad(f.i0, f.j0), f.fx, f.fy)
@@ -302,6 +317,7 @@ impl<T: Texel> OctMap<T> {
 
     /// The 2×2 texels at `(i0, j0)`, seam wrap applied.
     #[inline]
+    #[must_use]
     pub fn quad(&self, i0: i32, j0: i32) -> [T; 4] {
         if quad_is_interior(self.res, i0, j0) {
             // one bounds check for the whole 2×2 block
@@ -314,6 +330,7 @@ impl<T: Texel> OctMap<T> {
 
     /// `bilinear_uv` for [`LANES`] lookups at once, bit for bit the same values.
     #[inline]
+    #[must_use]
     pub fn bilinear_uv_lanes(&self, uv: &UvLanes) -> [T; LANES] {
         // Each stage is a plain loop over lanes so that it vectorises; only the gather is
         // per lane.
@@ -337,12 +354,14 @@ impl<T: Texel> OctMap<T> {
 
     /// Bilinear lookup towards `dir`.
     #[inline]
+    #[must_use]
     pub fn bilinear(&self, dir: Vec3) -> T {
         self.bilinear_uv(encode(dir))
     }
 
     /// Solid-angle-weighted 2×2 reduction to the next mip (box filter over the sphere).
     /// `res` must be even.
+    #[must_use]
     pub fn downsample(&self) -> Self {
         let weights = texel_solid_angles(self.res);
         self.downsample_weighted(&weights, |t| t, |t| t)
@@ -374,6 +393,7 @@ impl<T: Texel> OctMap<T> {
 /// great-circle arcs, so a texel split along the diagonal parallel to its quadrant's fold line
 /// is two spherical triangles whose areas are exact (Van Oosterom & Strackee 1983). For even N
 /// the fold lines run through texel corners, so no triangle straddles a fold.
+#[must_use]
 pub fn texel_solid_angles(res: u32) -> Vec<f32> {
     let n = res as f64;
     let corner = |i: u32, j: u32| -> [f64; 3] {
@@ -424,12 +444,14 @@ pub struct OctMips<T> {
 impl<T: Texel> OctMips<T> {
     /// Trilinear lookup at fractional `lod` (clamped to the chain).
     #[inline]
+    #[must_use]
     pub fn sample_lod(&self, dir: Vec3, lod: f32) -> T {
         let uv = encode(dir);
         self.sample_lod_uv(uv, lod)
     }
 
     #[inline]
+    #[must_use]
     pub fn sample_lod_uv(&self, uv: Vec2, lod: f32) -> T {
         let (l0, f) = self.split_lod(lod);
         let a = self.levels[l0].bilinear_uv(uv);
@@ -442,6 +464,7 @@ impl<T: Texel> OctMips<T> {
 
     /// `sample_lod_uv` for [`LANES`] lookups at one `lod`, bit for bit the same values.
     #[inline]
+    #[must_use]
     pub fn sample_lod_uv_lanes(&self, uv: &UvLanes, lod: f32) -> [T; LANES] {
         let (l0, f) = self.split_lod(lod);
         let a = self.levels[l0].bilinear_uv_lanes(uv);
@@ -467,6 +490,7 @@ impl<T: Texel> OctMips<T> {
 }
 
 /// Box mip chain of `base` down to `min_res` (inclusive), solid-angle weighted.
+#[must_use]
 pub fn build_mips<T: Texel>(base: OctMap<T>, min_res: u32) -> OctMips<T> {
     let mut levels = vec![base];
     while let Some(last) = levels.last() {
@@ -488,16 +512,33 @@ pub fn build_distance_mips(base: OctMap<f32>, min_res: u32) -> OctMips<f32> {
             break;
         }
         let w = texel_solid_angles(last.res);
-        let next = last.downsample_weighted(&w, inverse_distance, inverse_distance);
+        let next = last.downsample_weighted(&w, inverse_distance, distance_from_inverse);
         levels.push(next);
     }
     OctMips { levels }
 }
 
-/// 1/d with 1/inf = 0 and 1/0 = +inf mapped to a huge finite value (never NaN).
+/// Inverse distance `1/d`, the one conversion every distance map and warp uses: a miss
+/// (+inf) and NaN give 0 (sky), zero or negative distance (a probe touching geometry) gives
+/// `f32::MAX`, so the result is always finite and ≥ 0.
 #[inline]
-fn inverse_distance(d: f32) -> f32 {
-    if d <= 0.0 { f32::INFINITY } else { 1.0 / d }
+#[must_use]
+pub fn inverse_distance(d: f32) -> f32 {
+    if d.is_nan() || d.is_infinite() {
+        0.0
+    } else if d <= 0.0 {
+        f32::MAX
+    } else {
+        (1.0 / d).min(f32::MAX)
+    }
+}
+
+/// Distance from inverse distance `w`: 0 and NaN (sky) give +inf, the way back of
+/// [`inverse_distance`] for stored distance layers (where +inf means a miss).
+#[inline]
+#[must_use]
+pub fn distance_from_inverse(w: f32) -> f32 {
+    if w > 0.0 { 1.0 / w } else { f32::INFINITY }
 }
 
 #[cfg(test)]
@@ -522,6 +563,17 @@ mod tests {
         for j in 0..n as i64 {
             assert_eq!(wrap_texel(n, -1, j), (0, (n as i64 - 1 - j) as u32));
             assert_eq!(wrap_texel(n, n as i64, j), (n - 1, (n as i64 - 1 - j) as u32));
+        }
+    }
+
+    #[test]
+    fn floor_small_is_floor_at_the_edges() {
+        for x in
+            [0.0f32, -0.0, 0.5, -0.5, 1.0, -1.0, 1e-40, -1e-40, 2.999_999_8, -2.999_999_8, 4_194_303.5, -4_194_303.5]
+        {
+            let (i, f) = floor_small(x);
+            assert_eq!(f, x.floor(), "{x}");
+            assert_eq!(i, x.floor() as i32, "{x}");
         }
     }
 

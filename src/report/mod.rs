@@ -1,17 +1,21 @@
-//! Reports: the evaluation as `eval.json` (machine-readable), `eval.md` (for people) and an
-//! error-against-cost plot. Reads what other stages produce; computes nothing of its own.
+//! Everything a run leaves for people and tools to read, written from what the stages
+//! computed: the evaluation (`eval.json`, `eval.md`, the error-against-cost plot and the
+//! view tiles), the fit's diagnostics (`fit`), the roughness correction (`roughness`), the
+//! sweep's record and figures (`sweep`), and the run report (`page`: report.json/.md/.html).
+//! `folder::RunFolder` names the files. Computes nothing but summaries of its inputs.
 
+pub mod fit;
+pub mod folder;
 pub mod page;
 pub mod plot;
+pub mod roughness;
+pub mod sweep;
 
+use crate::eval::Evaluation;
 pub use crate::eval::{EvalReport, LevelEval};
-use crate::format::{FormatError, write_atomic};
+use crate::files::{FileError, write_atomic, write_json};
+use folder::RunFolder;
 use std::fmt::Write as _;
-use std::path::Path;
-
-fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> FormatError + '_ {
-    move |source| FormatError::Io { path: path.to_path_buf(), source }
-}
 
 /// Markdown table of the methods, sorted as given.
 pub fn methods_table(r: &EvalReport) -> String {
@@ -48,13 +52,19 @@ pub fn methods_table(r: &EvalReport) -> String {
     s
 }
 
-/// Writes eval.json, eval.md and eval_error_vs_cost.png into `dir`.
-pub fn write_eval(dir: &Path, r: &EvalReport) -> Result<(), FormatError> {
-    std::fs::create_dir_all(dir).map_err(io_err(dir))?;
-    let jpath = dir.join("eval.json");
-    let json =
-        serde_json::to_vec_pretty(r).map_err(|e| FormatError::Json { path: jpath.clone(), message: e.to_string() })?;
-    write_atomic(&jpath, &json).map_err(io_err(&jpath))?;
+/// Writes eval.json, eval.md, eval_error_vs_cost.png and eval_views.png into `folder`.
+pub fn write_evaluation(folder: &RunFolder, ev: &Evaluation) -> Result<(), FileError> {
+    write_eval(folder, &ev.report)?;
+    match &ev.views {
+        Some(v) => plot::views(&folder.eval_views(), &v.title, &v.tiles),
+        None => Ok(()),
+    }
+}
+
+/// Writes eval.json, eval.md and eval_error_vs_cost.png into `folder`.
+pub fn write_eval(folder: &RunFolder, r: &EvalReport) -> Result<(), FileError> {
+    std::fs::create_dir_all(&folder.dir).map_err(FileError::io(&folder.dir))?;
+    write_json(&folder.eval_json(), r)?;
 
     let mut md = String::new();
     let _ = writeln!(md, "# Warp evaluation: {}\n", r.scene);
@@ -99,10 +109,9 @@ pub fn write_eval(dir: &Path, r: &EvalReport) -> Result<(), FormatError> {
         let _ = writeln!(md, "| {} | {} | {:.4} |", row.depth_lod, row.relax_texels, row.rel_rmse);
     }
     let _ = writeln!(md, "\n![error against cost](eval_error_vs_cost.png)");
-    let mpath = dir.join("eval.md");
-    write_atomic(&mpath, md.as_bytes()).map_err(io_err(&mpath))?;
+    write_atomic(&folder.eval_md(), md.as_bytes())?;
 
     let points: Vec<(String, f64, f64)> =
         r.methods.iter().map(|m| (m.name.clone(), m.ns_per_lookup, m.rel_rmse)).collect();
-    plot::error_vs_cost(&dir.join("eval_error_vs_cost.png"), &format!("{}: error against cost", r.scene), &points)
+    plot::error_vs_cost(&folder.eval_plot(), &format!("{}: error against cost", r.scene), &points)
 }

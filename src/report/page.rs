@@ -5,11 +5,13 @@
 //! Computes nothing but summaries of those files.
 
 use super::EvalReport;
+use super::folder::RunFolder;
 use super::plot::pareto_front;
-use crate::fit::CellFit;
-use crate::format::manifest::BakeManifest;
-use crate::format::{FormatError, write_atomic};
-use crate::runtime::GridManifest;
+use super::sweep::Sweep;
+use crate::bakefile::manifest::BakeManifest;
+use crate::files::{FileError, read_json, write_atomic, write_json};
+use crate::fit::{CellFit, Level};
+use crate::gridfile::GridManifest;
 use base64::Engine as _;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
@@ -33,7 +35,7 @@ pub struct MethodRow {
 /// Held-out errors of the fit's cells grouped by stored level.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct LevelRow {
-    pub level: u8,
+    pub level: Level,
     pub cells: usize,
     pub mean_err_fallback: f64,
     pub mean_err_celldepth: f64,
@@ -43,7 +45,7 @@ pub struct LevelRow {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct WorstCell {
     pub cell: u32,
-    pub level: u8,
+    pub level: Level,
     pub err_stored: f64,
     pub err_fallback: f64,
     pub hidden_fraction: f64,
@@ -86,28 +88,24 @@ pub struct RunReport {
     pub payload_bytes: Vec<(String, u64)>,
     pub left_out: Vec<(String, String, u64)>,
     /// `sweep.json` when `warpfit sweep` wrote one into the folder.
-    pub sweep: Option<serde_json::Value>,
+    pub sweep: Option<Sweep>,
     /// `stability.json` when one is in the folder.
     pub stability: Option<serde_json::Value>,
     /// Images shown, by file name.
     pub images: Vec<String>,
 }
 
-fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, FormatError> {
-    let bytes = std::fs::read(path).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })?;
-    serde_json::from_slice(&bytes).map_err(|e| FormatError::Json { path: path.to_path_buf(), message: e.to_string() })
-}
-
-fn optional_json(path: &Path) -> Result<Option<serde_json::Value>, FormatError> {
+fn optional_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<Option<T>, FileError> {
     if path.is_file() { read_json(path).map(Some) } else { Ok(None) }
 }
 
-/// Builds the report from the files in `dir` (a `warpfit run` output folder).
-pub fn build(dir: &Path, command: &str) -> Result<RunReport, FormatError> {
-    let eval: EvalReport = read_json(&dir.join("eval.json"))?;
-    let grid: GridManifest = read_json(&dir.join("manifest.json"))?;
-    let cells: Vec<CellFit> = read_json(&dir.join("residuals.json"))?;
-    let bake_path = dir.join("bake").join(crate::format::bake_io::MANIFEST_FILE);
+/// Builds the report from the files of a run folder.
+pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> {
+    let dir = &folder.dir;
+    let eval: EvalReport = read_json(&folder.eval_json())?;
+    let grid: GridManifest = read_json(&folder.grid_manifest())?;
+    let cells: Vec<CellFit> = read_json(&folder.residuals())?;
+    let bake_path = folder.bake().join(crate::bakefile::MANIFEST_FILE);
     let bake: Option<BakeManifest> = if bake_path.is_file() { Some(read_json(&bake_path)?) } else { None };
 
     let points: Vec<(String, f64, f64)> =
@@ -129,9 +127,9 @@ pub fn build(dir: &Path, command: &str) -> Result<RunReport, FormatError> {
         })
         .collect();
 
-    let stored = |c: &CellFit| if c.level == 2 { c.check_err_fitted } else { c.check_err_fallback };
+    let stored = CellFit::check_err_stored;
     let mut levels = Vec::new();
-    for level in [0u8, 2] {
+    for level in Level::ALL {
         let of: Vec<&CellFit> = cells.iter().filter(|c| c.level == level).collect();
         if of.is_empty() {
             continue;
@@ -156,7 +154,7 @@ pub fn build(dir: &Path, command: &str) -> Result<RunReport, FormatError> {
             err_stored: stored(c),
             err_fallback: c.check_err_fallback,
             hidden_fraction: c.hidden_fraction,
-            reason: c.reason.clone(),
+            reason: c.selection.to_string(),
         })
         .collect();
 
@@ -242,8 +240,8 @@ pub fn build(dir: &Path, command: &str) -> Result<RunReport, FormatError> {
         layers,
         payload_bytes,
         left_out,
-        sweep: optional_json(&dir.join("sweep.json"))?,
-        stability: optional_json(&dir.join("stability.json"))?,
+        sweep: optional_json(&folder.sweep_json())?,
+        stability: optional_json(&folder.stability_json())?,
         images,
     })
 }
@@ -328,7 +326,10 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
     ];
     for l in &r.levels {
         t.push(vec![
-            if l.level == 0 { "0 (fallback, nothing stored)".into() } else { "2 (fitted warp map)".into() },
+            match l.level {
+                Level::Fallback => "0 (fallback, nothing stored)".into(),
+                Level::Map => "2 (fitted warp map)".into(),
+            },
             l.cells.to_string(),
             format!("{:.4}", l.mean_err_fallback),
             format!("{:.4}", l.mean_err_celldepth),
@@ -379,16 +380,17 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
     }
     out.push(("What this scene does not need".to_string(), t));
 
-    if let Some(rows) = r.sweep.as_ref().and_then(|s| s.get("rows")).and_then(|v| v.as_array()) {
+    if let Some(sweep) = &r.sweep {
         let mut t = vec![
             ["knob", "value", "fit seconds", "rel RMSE (held out)"].iter().map(|s| s.to_string()).collect::<Vec<_>>(),
         ];
-        for row in rows {
-            let f = |k: &str| row.get(k).and_then(|v| v.as_str()).unwrap_or_default().to_string();
-            let num = |k: &str, digits: usize| {
-                row.get(k).and_then(|v| v.as_f64()).map(|x| format!("{x:.digits$}")).unwrap_or_default()
-            };
-            t.push(vec![f("knob"), f("value"), num("fit_seconds", 1), num("rel_rmse", 4)]);
+        for row in &sweep.rows {
+            t.push(vec![
+                row.knob.name().to_string(),
+                row.value.clone(),
+                format!("{:.1}", row.fit_seconds),
+                format!("{:.4}", row.rel_rmse),
+            ]);
         }
         out.push(("Error against fit effort (warpfit sweep)".to_string(), t));
     }
@@ -409,7 +411,7 @@ fn escape(s: &str) -> String {
 }
 
 /// The report as one HTML file with every image inlined.
-pub fn html(r: &RunReport, dir: &Path) -> Result<String, FormatError> {
+pub fn html(r: &RunReport, dir: &Path) -> Result<String, FileError> {
     let mut h = String::new();
     let _ = write!(
         h,
@@ -441,7 +443,7 @@ pub fn html(r: &RunReport, dir: &Path) -> Result<String, FormatError> {
     h += "<h2>Figures</h2>\n";
     for img in &r.images {
         let path = dir.join(img);
-        let bytes = std::fs::read(&path).map_err(|source| FormatError::Io { path: path.clone(), source })?;
+        let bytes = std::fs::read(&path).map_err(FileError::io(&path))?;
         let b64 = base64::engine::general_purpose::STANDARD.encode(&bytes);
         let _ = writeln!(
             h,
@@ -453,26 +455,17 @@ pub fn html(r: &RunReport, dir: &Path) -> Result<String, FormatError> {
     Ok(h)
 }
 
-/// Builds the report from `dir` and writes report.json, report.md and report.html there.
-pub fn write_report(dir: &Path, command: &str) -> Result<RunReport, FormatError> {
+/// Builds the report from a run folder and writes report.json, report.md and report.html
+/// there.
+pub fn write_report(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> {
     // figures of a sweep are rendered from its data, so a report always shows the current style
-    let sweep_path = dir.join("sweep.json");
-    if sweep_path.is_file() {
-        let sw: crate::sweep::Sweep = read_json(&sweep_path)?;
-        crate::sweep::plot(dir, &sw)?;
+    if folder.sweep_json().is_file() {
+        let sw: Sweep = read_json(&folder.sweep_json())?;
+        super::sweep::plot(folder, &sw)?;
     }
-    let r = build(dir, command)?;
-    let io = |path: &Path| {
-        let path = path.to_path_buf();
-        move |source| FormatError::Io { path, source }
-    };
-    let jpath = dir.join("report.json");
-    let json =
-        serde_json::to_vec_pretty(&r).map_err(|e| FormatError::Json { path: jpath.clone(), message: e.to_string() })?;
-    write_atomic(&jpath, &json).map_err(io(&jpath))?;
-    let mpath = dir.join("report.md");
-    write_atomic(&mpath, markdown(&r).as_bytes()).map_err(io(&mpath))?;
-    let hpath = dir.join("report.html");
-    write_atomic(&hpath, html(&r, dir)?.as_bytes()).map_err(io(&hpath))?;
+    let r = build(folder, command)?;
+    write_json(&folder.report_json(), &r)?;
+    write_atomic(&folder.report_md(), markdown(&r).as_bytes())?;
+    write_atomic(&folder.report_html(), html(&r, &folder.dir)?.as_bytes())?;
     Ok(r)
 }

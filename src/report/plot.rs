@@ -1,7 +1,7 @@
 //! Plots (plotters, bitmap backend, pure-Rust text with a shipped font). Without a
 //! registered font plotters silently draws no text, so the font is registered here once.
 
-use crate::format::FormatError;
+use crate::files::FileError;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 use std::path::Path;
@@ -17,8 +17,8 @@ fn register_font() {
     });
 }
 
-fn plot_err(path: &Path, e: impl std::fmt::Display) -> FormatError {
-    FormatError::Invalid { path: path.to_path_buf(), field: "plot".into(), message: e.to_string() }
+fn plot_err(path: &Path, e: impl std::fmt::Display) -> FileError {
+    FileError::Invalid { path: path.to_path_buf(), field: "plot".into(), message: e.to_string() }
 }
 
 /// Points on the Pareto front (no other point is both cheaper and more accurate). The
@@ -55,7 +55,7 @@ fn ticks_125(lo: f64, hi: f64) -> Vec<f64> {
 }
 
 /// Log-log scatter of (cost ns/lookup, relative RMSE) per method, Pareto front marked.
-pub fn error_vs_cost(path: &Path, title: &str, points: &[(String, f64, f64)]) -> Result<(), FormatError> {
+pub fn error_vs_cost(path: &Path, title: &str, points: &[(String, f64, f64)]) -> Result<(), FileError> {
     register_font();
     let (w, h) = (960u32, 640u32);
     let mut buf = vec![255u8; (w * h * 3) as usize];
@@ -123,7 +123,7 @@ pub fn line_plot(
     x_desc: &str,
     y_desc: &str,
     series: &[(String, Vec<(f64, f64)>)],
-) -> Result<(), FormatError> {
+) -> Result<(), FileError> {
     register_font();
     let (w, h) = (900u32, 560u32);
     let mut buf = vec![255u8; (w * h * 3) as usize];
@@ -192,7 +192,7 @@ pub fn line_plot(
 
 /// Side-by-side octahedral views (one labelled tile per entry), tone-mapped with one
 /// common exposure so brightness compares across tiles.
-pub fn views(path: &Path, title: &str, tiles: &[(String, crate::octa::OctMap<glam::Vec3>)]) -> Result<(), FormatError> {
+pub fn views(path: &Path, title: &str, tiles: &[(String, crate::octa::OctMap<glam::Vec3>)]) -> Result<(), FileError> {
     register_font();
     let Some(res) = tiles.first().map(|t| t.1.res as usize) else { return Ok(()) };
     let (pad, label_h, title_h) = (8usize, 22usize, 30usize);

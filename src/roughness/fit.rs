@@ -1,6 +1,6 @@
 //! Fitting the roughness correction with argmin (bake-side; the runtime only reads it).
 
-use super::{RoughnessCorrection, analytic};
+use super::{Representation, RoughnessCorrection, RoughnessFit, analytic};
 use crate::sampling::ggx_d;
 use argmin::core::{CostFunction, Error, Executor, State};
 use argmin::solver::brent::BrentOpt;
@@ -109,7 +109,7 @@ pub fn fit_correction() -> RoughnessCorrection {
         .and_then(|nm| Executor::new(ModelProblem { samples: &samples }, nm).configure(|s| s.max_iters(400)).run().ok())
         .and_then(|r| r.state().get_best_param().cloned())
         .map_or((1.0, 1.0), |p| (p[0], p[1]));
-    let mut corr = RoughnessCorrection {
+    let fit = RoughnessFit {
         alphas,
         ratios,
         table,
@@ -118,50 +118,26 @@ pub fn fit_correction() -> RoughnessCorrection {
         c1: c1 as f32,
         heldout_rms_table: 0.0,
         heldout_rms_analytic: 0.0,
-        chosen: String::new(),
+        chosen: Representation::Table,
     };
+    let corr = RoughnessCorrection::try_from(fit.clone()).expect("the fitted axes are finite and increasing");
     // Held-out points: midway between table nodes (in α and log k).
     let (mut et, mut ea, mut n) = (0.0, 0.0, 0.0);
-    for i in 0..corr.alphas.len() - 1 {
-        for j in 0..corr.ratios.len() - 1 {
-            let a = 0.5 * (corr.alphas[i] + corr.alphas[i + 1]);
-            let k = (corr.ratios[j] * corr.ratios[j + 1]).sqrt();
+    for i in 0..fit.alphas.len() - 1 {
+        for j in 0..fit.ratios.len() - 1 {
+            let a = 0.5 * (fit.alphas[i] + fit.alphas[i + 1]);
+            let k = (fit.ratios[j] * fit.ratios[j + 1]).sqrt();
             let (truth, _) = fit_alpha(a as f64, k as f64);
             et += (corr.from_table(a, k) as f64 - truth).powi(2);
             ea += (corr.analytic(a, k) as f64 - truth).powi(2);
             n += 1.0;
         }
     }
-    corr.heldout_rms_table = (et / n).sqrt();
-    corr.heldout_rms_analytic = (ea / n).sqrt();
-    corr.chosen = if corr.heldout_rms_table <= corr.heldout_rms_analytic { "table" } else { "analytic" }.into();
-    corr
-}
-
-/// Writes `roughness.json` and `roughness.png` (α' against k for several α: table points as
-/// dots on lines, the analytic model dashed-equivalent as a second series per α).
-pub fn write_report(dir: &std::path::Path, c: &RoughnessCorrection) -> Result<(), crate::format::FormatError> {
-    std::fs::create_dir_all(dir)
-        .map_err(|source| crate::format::FormatError::Io { path: dir.to_path_buf(), source })?;
-    crate::fit::output::write_json(&dir.join("roughness.json"), c)?;
-    let nk = c.ratios.len();
-    let mut series = Vec::new();
-    for i in [1usize, 4, 7, 11] {
-        let a = c.alphas[i];
-        let fitted: Vec<(f64, f64)> =
-            (0..nk).map(|j| ((c.ratios[j] as f64).log2(), c.table[i * nk + j] as f64)).collect();
-        let model: Vec<(f64, f64)> =
-            (0..nk).map(|j| ((c.ratios[j] as f64).log2(), c.analytic(a, c.ratios[j]) as f64)).collect();
-        series.push((format!("fit α={a:.2}"), fitted));
-        series.push((format!("c0·α·k^-c1, α={a:.2}"), model));
-    }
-    crate::report::plot::line_plot(
-        &dir.join("roughness.png"),
-        "GGX roughness correction: probe-side α' against distance ratio",
-        "log2 k = log2(d_probe / d_surface)",
-        "α'",
-        &series,
-    )
+    let (heldout_rms_table, heldout_rms_analytic) = ((et / n).sqrt(), (ea / n).sqrt());
+    let chosen =
+        if heldout_rms_table <= heldout_rms_analytic { Representation::Table } else { Representation::Analytic };
+    RoughnessCorrection::try_from(RoughnessFit { heldout_rms_table, heldout_rms_analytic, chosen, ..fit })
+        .expect("validated above")
 }
 
 #[cfg(test)]

@@ -23,9 +23,21 @@ pub use fit::*;
 
 use serde::{Deserialize, Serialize};
 
-/// The fitted correction, both representations, and their measured residuals.
+/// Which representation of α'(α, k) a correction uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Representation {
+    /// Bilinear in α and ln k over the fitted table.
+    Table,
+    /// `α' = min(1, c0 · α · k^−c1)`.
+    Analytic,
+}
+
+/// The fitted correction as stored (`roughness.json`, the grid manifest's `roughness`):
+/// both representations, their measured residuals, and the choice.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct RoughnessCorrection {
+#[serde(deny_unknown_fields)]
+pub struct RoughnessFit {
     /// Table axes: α (GGX alpha = perceptual²) and k = d_probe / d_surface (log-spaced).
     pub alphas: Vec<f32>,
     pub ratios: Vec<f32>,
@@ -39,22 +51,75 @@ pub struct RoughnessCorrection {
     /// RMS error in α' on held-out (α, k) pairs: table (bilinear) and analytic.
     pub heldout_rms_table: f64,
     pub heldout_rms_analytic: f64,
-    /// Which representation the sampler should use (the lower held-out error).
-    pub chosen: String,
+    /// Which representation the sampler uses (the lower held-out error).
+    pub chosen: Representation,
+}
+
+/// A roughness correction ready to look up: validated (finite, increasing axes, a table of
+/// the axes' size), with the table's log-k axis precomputed. Serialised as [`RoughnessFit`];
+/// deserialising validates, so a malformed table never reaches a lookup.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "RoughnessFit", into = "RoughnessFit")]
+pub struct RoughnessCorrection {
+    fit: RoughnessFit,
+    log_ratios: Vec<f32>,
+}
+
+impl std::ops::Deref for RoughnessCorrection {
+    type Target = RoughnessFit;
+    fn deref(&self) -> &RoughnessFit {
+        &self.fit
+    }
+}
+
+impl From<RoughnessCorrection> for RoughnessFit {
+    fn from(c: RoughnessCorrection) -> RoughnessFit {
+        c.fit
+    }
+}
+
+impl TryFrom<RoughnessFit> for RoughnessCorrection {
+    type Error = String;
+    fn try_from(fit: RoughnessFit) -> Result<Self, String> {
+        let increasing =
+            |a: &[f32]| a.len() >= 2 && a.iter().all(|x| x.is_finite()) && a.windows(2).all(|w| w[0] < w[1]);
+        if !increasing(&fit.alphas) || !increasing(&fit.ratios) || !(fit.ratios[0] > 0.0) {
+            return Err("the α and k axes must be finite, increasing, with k > 0".into());
+        }
+        if fit.table.len() != fit.alphas.len() * fit.ratios.len() || !fit.table.iter().all(|x| x.is_finite()) {
+            return Err(format!(
+                "the table must hold {}×{} finite values, found {}",
+                fit.alphas.len(),
+                fit.ratios.len(),
+                fit.table.len()
+            ));
+        }
+        if !(fit.c0.is_finite() && fit.c1.is_finite()) {
+            return Err("c0 and c1 must be finite".into());
+        }
+        let log_ratios = fit.ratios.iter().map(|r| r.ln()).collect();
+        Ok(RoughnessCorrection { fit, log_ratios })
+    }
 }
 
 impl RoughnessCorrection {
     /// α' from the table, bilinear in α and log k, clamped to the table's range.
+    #[must_use]
     pub fn from_table(&self, alpha: f32, k: f32) -> f32 {
-        let k = if k > 0.0 { k } else { self.ratios.first().copied().unwrap_or(1.0) };
-        table_lookup(&self.alphas, &self.ratios, f32::ln, &self.table, alpha, k.ln())
+        table_lookup(&self.fit.alphas, &self.log_ratios, &self.fit.table, alpha, k.ln())
     }
 
+    /// α' from the analytic model.
+    #[must_use]
     pub fn analytic(&self, alpha: f32, k: f32) -> f32 {
-        analytic(self.c0 as f64, self.c1 as f64, alpha as f64, k as f64) as f32
+        analytic(self.fit.c0 as f64, self.fit.c1 as f64, alpha as f64, k as f64) as f32
     }
 
-    /// The chosen representation.
+    /// Probe-side α' for surface α and distance ratio k = d_probe / d_surface, by the
+    /// chosen representation (k clamped to the fitted range): always finite, in [1e-3, 1].
+    /// A non-finite α gives 1e-3; a non-finite or non-positive k means no correction.
+    #[inline]
+    #[must_use]
     pub fn corrected_alpha(&self, alpha: f32, k: f32) -> f32 {
         if !alpha.is_finite() {
             return 1e-3;
@@ -62,28 +127,25 @@ impl RoughnessCorrection {
         if !(k.is_finite() && k > 0.0) {
             return alpha.clamp(1e-3, 1.0);
         }
-        if self.chosen == "table" { self.from_table(alpha, k) } else { self.analytic(alpha, k) }
+        let v = match self.fit.chosen {
+            Representation::Table => self.from_table(alpha, k),
+            Representation::Analytic => self.analytic(alpha, k),
+        };
+        if v.is_finite() { v.clamp(1e-3, 1.0) } else { alpha.clamp(1e-3, 1.0) }
     }
 }
 
-/// Bilinear lookup of an α-row, k-column table, clamped to its range: linear in α, linear in
-/// ln k. `k_axis` is read through `key` (`f32::ln` for stored ratios, the identity for an
-/// axis already in logs, as the runtime keeps it). Always finite, in [1e-3, 1].
+/// Bilinear lookup of an α-row, ln k-column table, clamped to its range: linear in α,
+/// linear in ln k. Always finite, in [1e-3, 1].
 #[inline]
-pub fn table_lookup(
-    alphas: &[f32],
-    k_axis: &[f32],
-    key: impl Fn(f32) -> f32,
-    table: &[f32],
-    alpha: f32,
-    log_k: f32,
-) -> f32 {
-    let (na, nk) = (alphas.len(), k_axis.len());
+#[must_use]
+pub fn table_lookup(alphas: &[f32], log_ks: &[f32], table: &[f32], alpha: f32, log_k: f32) -> f32 {
+    let (na, nk) = (alphas.len(), log_ks.len());
     if na < 2 || nk < 2 || table.len() != na * nk {
         return alpha.clamp(1e-3, 1.0);
     }
     let (i, fa) = bracket(na, |t| alphas[t], alpha);
-    let (j, fk) = bracket(nk, |t| key(k_axis[t]), log_k);
+    let (j, fk) = bracket(nk, |t| log_ks[t], log_k);
     let at = |i: usize, j: usize| table[i * nk + j];
     let v = (at(i, j) * (1.0 - fk) + at(i, j + 1) * fk) * (1.0 - fa)
         + (at(i + 1, j) * (1.0 - fk) + at(i + 1, j + 1) * fk) * fa;

@@ -23,19 +23,16 @@
 //! - Results are always finite and ≥ 0 (the payloads are validated on load).
 //! - `FittedGrid` is `Send + Sync` and immutable; sampling never allocates.
 
-pub mod exr_layers;
-mod load;
-pub mod manifest;
+mod irradiance;
 
-pub use load::{LoadError, read_manifest};
-pub use manifest::{GridManifest, Precision};
+pub use crate::files::FileError as LoadError;
+pub use crate::gridfile::{GridManifest, IrradianceGrid, Precision, read_manifest};
 
-use crate::grid::GridGeometry;
 use crate::octa;
 use crate::roughness::RoughnessCorrection;
 use crate::warp::Warp;
 use crate::warp::corrective::{Blend, Correctives};
-use glam::{UVec3, Vec3};
+use glam::Vec3;
 use std::path::Path;
 
 /// A loaded fitted grid. Immutable; share it between threads freely.
@@ -48,7 +45,7 @@ pub struct FittedGrid {
     pub blend: Blend,
     pub correctives: Correctives,
     pub irradiance: IrradianceGrid,
-    pub roughness: Option<RoughnessLut>,
+    pub roughness: Option<RoughnessCorrection>,
     pub manifest: GridManifest,
 }
 
@@ -60,80 +57,25 @@ struct SpecularQuery {
     r: f32,
 }
 
-/// Irradiance and distance moments of the stored (not inside geometry) cells.
-#[derive(Clone, Debug, PartialEq)]
-pub struct IrradianceGrid {
-    pub geometry: GridGeometry,
-    pub resolution: u32,
-    pub depth_resolution: u32,
-    /// Per grid cell: slot in the arrays below (`u32::MAX` = not stored).
-    pub slot: Vec<u32>,
-    /// `slot · resolution² + texel`.
-    pub irradiance: Vec<Vec3>,
-    /// `slot · depth_resolution² + texel`: mean and mean square of the hit distance.
-    pub depth_mean: Vec<f32>,
-    pub depth_mean_sq: Vec<f32>,
-}
-
-/// The roughness correction, validated, with the table's log-k axis precomputed: the same
-/// α' as `RoughnessCorrection::corrected_alpha`, without a logarithm per axis node.
-#[derive(Clone, Debug)]
-pub struct RoughnessLut {
-    alphas: Vec<f32>,
-    log_ratios: Vec<f32>,
-    table: Vec<f32>,
-    /// `Some((c0, c1))` when the analytic model was chosen over the table.
-    analytic: Option<(f32, f32)>,
-}
-
-impl RoughnessLut {
-    /// `None` when the table's axes are not finite and increasing or its size is wrong.
-    pub fn new(c: &RoughnessCorrection) -> Option<Self> {
-        let increasing =
-            |a: &[f32]| a.len() >= 2 && a.iter().all(|x| x.is_finite()) && a.windows(2).all(|w| w[0] < w[1]);
-        let ok = increasing(&c.alphas)
-            && increasing(&c.ratios)
-            && c.ratios[0] > 0.0
-            && c.table.len() == c.alphas.len() * c.ratios.len()
-            && c.table.iter().all(|x| x.is_finite())
-            && c.c0.is_finite()
-            && c.c1.is_finite()
-            && (c.chosen == "table" || c.chosen == "analytic");
-        ok.then(|| RoughnessLut {
-            alphas: c.alphas.clone(),
-            log_ratios: c.ratios.iter().map(|r| r.ln()).collect(),
-            table: c.table.clone(),
-            analytic: (c.chosen == "analytic").then_some((c.c0, c.c1)),
-        })
-    }
-
-    /// Probe-side α' for surface α and distance ratio k = d_probe / d_surface (clamped to
-    /// the fitted range); always finite, in [1e-3, 1].
-    #[inline]
-    pub fn corrected_alpha(&self, alpha: f32, k: f32) -> f32 {
-        if !alpha.is_finite() {
-            return 1e-3;
-        }
-        if !(k.is_finite() && k > 0.0) {
-            return alpha.clamp(1e-3, 1.0);
-        }
-        if let Some((c0, c1)) = self.analytic {
-            let v = c0 * alpha * k.powf(-c1);
-            return if v.is_finite() { v.clamp(1e-3, 1.0) } else { alpha.clamp(1e-3, 1.0) };
-        }
-        crate::roughness::table_lookup(&self.alphas, &self.log_ratios, |x| x, &self.table, alpha, k.ln())
-    }
-}
-
 impl FittedGrid {
     /// Loads a fitted grid folder (`manifest.json` + EXR payloads), verifying versions,
     /// checksums, sizes and values.
     pub fn load(dir: impl AsRef<Path>) -> Result<FittedGrid, LoadError> {
-        load::load(dir.as_ref())
+        let d = crate::gridfile::read(dir.as_ref())?;
+        Ok(FittedGrid {
+            warp: d.warp,
+            mip_roughness: d.mip_roughness,
+            blend: d.manifest.warp.blend,
+            correctives: d.correctives,
+            irradiance: d.irradiance,
+            roughness: d.roughness,
+            manifest: d.manifest,
+        })
     }
 
     /// Fetch vector of probe A for the query (unit `dir`): exactly what the fit evaluated.
     #[inline]
+    #[must_use]
     pub fn fetch_vector(&self, position: Vec3, dir: Vec3) -> Vec3 {
         let b = if position.is_finite() { position } else { self.warp.probe.position };
         self.correctives.fetch_vector(self.blend, &self.warp, b, dir)
@@ -174,6 +116,7 @@ impl FittedGrid {
     /// Radiance reflected towards `dir` from `position` for perceptual roughness `roughness`:
     /// the fitted warp picks where to read probe A, the roughness correction picks the mip.
     #[inline]
+    #[must_use]
     pub fn specular(&self, position: Vec3, direction: Vec3, roughness: f32) -> Vec3 {
         let Some(q) = self.specular_query(position, direction, roughness) else {
             return Vec3::ZERO;
@@ -248,79 +191,11 @@ impl FittedGrid {
         out
     }
 
-    /// Irradiance at `position` for surface normal `normal`: the eight cells around the
-    /// position, weighted trilinearly, by a smooth back-face term and by Chebyshev visibility
-    /// from the cells' distance moments (DDGI, Majercik et al. 2019); cells inside geometry
-    /// are skipped and the weights renormalised. Black when no stored cell is near.
+    /// Irradiance at `position` for surface normal `normal` (see [`IrradianceGrid::irradiance`]).
+    #[inline]
+    #[must_use]
     pub fn irradiance(&self, position: Vec3, normal: Vec3) -> Vec3 {
-        let n = normal.normalize_or(Vec3::ZERO);
-        if n == Vec3::ZERO {
-            return Vec3::ZERO;
-        }
-        let g = &self.irradiance;
-        let geo = &g.geometry;
-        let p = if position.is_finite() { position } else { geo.min + (geo.max - geo.min) * 0.5 };
-        let f = (p - geo.min) / geo.cell_size() - 0.5;
-        let hi = (geo.counts - UVec3::ONE).as_vec3();
-        let f = if f.is_finite() { f.clamp(Vec3::ZERO, hi) } else { Vec3::ZERO };
-        let base = f.floor();
-        let frac = f - base;
-        let base = base.as_uvec3();
-        let taps_n = octa::bilinear_taps(g.resolution, octa::encode(n));
-        let cell_size = geo.cell_size();
-        let (ir, dr) = (g.resolution, g.depth_resolution);
-        let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
-        for corner in 0..8u32 {
-            let o = UVec3::new(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
-            let c = (base + o).min(geo.counts - UVec3::ONE);
-            let tri = (if o.x == 1 { frac.x } else { 1.0 - frac.x })
-                * (if o.y == 1 { frac.y } else { 1.0 - frac.y })
-                * (if o.z == 1 { frac.z } else { 1.0 - frac.z });
-            if tri <= 0.0 {
-                continue;
-            }
-            let cell = geo.cell_index(c);
-            let slot = g.slot[cell];
-            if slot == u32::MAX {
-                continue;
-            }
-            let slot = slot as usize;
-            let to_point = p - (geo.min + (c.as_vec3() + 0.5) * cell_size);
-            let dist = to_point.length();
-            let mut w = tri;
-            if dist > 0.0 && dist.is_finite() {
-                let u = to_point / dist;
-                // smooth back face: cells behind the surface count less
-                let facing = (n.dot(-u) + 1.0) * 0.5;
-                w *= facing * facing + 0.2;
-                // Chebyshev visibility of the point from the cell
-                let taps = octa::bilinear_taps(dr, octa::encode(u));
-                let (mut mean, mut mean_sq) = (0.0f32, 0.0f32);
-                let base = slot * (dr * dr) as usize;
-                for (t, wt) in taps {
-                    mean += g.depth_mean[base + t as usize] * wt;
-                    mean_sq += g.depth_mean_sq[base + t as usize] * wt;
-                }
-                if dist > mean {
-                    let var = (mean_sq - mean * mean).abs().max(1e-12 * mean * mean);
-                    let d = dist - mean;
-                    let cheb = var / (var + d * d);
-                    w *= (cheb * cheb * cheb).max(0.0);
-                }
-            }
-            // keep a trace of every stored neighbour so a fully occluded blend stays defined
-            let w = w.max(1e-6 * tri);
-            let base = slot * (ir * ir) as usize;
-            let e: Vec3 = taps_n.iter().map(|&(t, wt)| g.irradiance[base + t as usize] * wt).sum();
-            sum += e * w;
-            wsum += w;
-        }
-        if wsum > 0.0 {
-            let e = sum / wsum;
-            if e.is_finite() { e.max(Vec3::ZERO) } else { Vec3::ZERO }
-        } else {
-            Vec3::ZERO
-        }
+        self.irradiance.irradiance(position, normal)
     }
 
     /// `specular` over slices; every slice must have `out.len()` elements.
@@ -357,6 +232,7 @@ impl FittedGrid {
     }
 
     /// Bytes of the loaded data (probe, correctives, irradiance).
+    #[must_use]
     pub fn memory_bytes(&self) -> usize {
         let p = &self.warp.probe;
         let probe: usize = p.radiance.levels.iter().map(|l| l.texels.len() * 12).sum::<usize>()

@@ -428,7 +428,16 @@ fn add_geometry(
                 return Err(invalid(path, &format!("{field}.segments"), "must be in 2..=256"));
             }
             let m = b.material(material_from(material, false, path, field)?);
-            b.add_arch(p, span, ph, t, d, along_x, *segments, m);
+            let arch = procedural::Arch {
+                base: p,
+                span,
+                pier_height: ph,
+                thickness: t,
+                depth: d,
+                along_x,
+                segments: *segments,
+            };
+            b.add_arch(&arch, m);
         }
         GeometryConfig::Gltf { path: rel, transform } => {
             let xf = transform_matrix(path, &format!("{field}.transform"), transform)?;

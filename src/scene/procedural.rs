@@ -7,6 +7,24 @@ use glam::Vec3;
 /// Face names of a box, in the order [`Builder::add_box`] emits them.
 pub const FACE_NAMES: [&str; 6] = ["-x", "+x", "-y", "+y", "-z", "+z"];
 
+/// An arch: two rectangular piers and a semicircular vault of `segments` pieces.
+#[derive(Clone, Copy, Debug)]
+pub struct Arch {
+    /// Centre of the opening at floor level.
+    pub base: Vec3,
+    /// Clear width of the opening.
+    pub span: f32,
+    /// Height of the piers (spring line of the vault).
+    pub pier_height: f32,
+    /// Thickness of piers and vault ring.
+    pub thickness: f32,
+    /// Depth along the walking direction.
+    pub depth: f32,
+    /// The walking direction is +x (else +z).
+    pub along_x: bool,
+    pub segments: u32,
+}
+
 /// Accumulates geometry and deduplicated materials while a scene loads.
 #[derive(Default)]
 pub struct Builder {
@@ -119,18 +137,8 @@ impl Builder {
 
     /// Two piers and a semicircular vault. Local frame: `across` spans the opening, +Y up,
     /// `along` is the walking direction through the arch.
-    #[allow(clippy::too_many_arguments)]
-    pub fn add_arch(
-        &mut self,
-        base: Vec3,
-        span: f32,
-        pier_height: f32,
-        thickness: f32,
-        depth: f32,
-        along_x: bool,
-        segments: u32,
-        m: u32,
-    ) {
+    pub fn add_arch(&mut self, arch: &Arch, m: u32) {
+        let Arch { base, span, pier_height, thickness, depth, along_x, segments } = *arch;
         let to_world = |across: f32, up: f32, along: f32| {
             if along_x { base + Vec3::new(along, up, across) } else { base + Vec3::new(across, up, along) }
         };

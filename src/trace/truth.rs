@@ -11,6 +11,7 @@ use glam::Vec3;
 
 /// Distance along the unit ray (origin, dir) to the first thing it sees, sphere lights
 /// included (primary rays see them); +inf when it escapes.
+#[must_use]
 pub fn first_visible(scene: &Scene, tracer: &Tracer, origin: Vec3, dir: Vec3) -> f32 {
     let mut t = tracer.closest_hit(origin, dir, f32::INFINITY).map_or(f32::INFINITY, |h| h.t);
     for l in &scene.lights.sphere_lights {
@@ -22,6 +23,7 @@ pub fn first_visible(scene: &Scene, tracer: &Tracer, origin: Vec3, dir: Vec3) ->
 /// The oracle: the direction from A towards the true hit of the ray (B, dir), and whether A
 /// sees that point (`true` = hidden: no single fetch of A can be right). The query direction
 /// itself when the ray escapes or B is A.
+#[must_use]
 pub fn oracle(scene: &Scene, tracer: &Tracer, a: Vec3, b: Vec3, dir: Vec3) -> (Vec3, bool) {
     if a == b {
         return (dir, false); // A's own data is exact at A
@@ -114,16 +116,18 @@ pub fn trace_queries(
 impl TracedQueries {
     /// Position of query `k`.
     #[inline]
+    #[must_use]
     pub fn position_of(&self, k: usize) -> Vec3 {
         self.positions[k / self.dirs_per_position.max(1)]
     }
 
     /// Concatenates sets traced in parts (e.g. per position, in parallel), in order.
+    #[must_use]
     pub fn concat(parts: Vec<TracedQueries>) -> TracedQueries {
         let dirs_per_position = parts.first().map_or(0, |p| p.dirs_per_position);
         let mut out = TracedQueries { dirs_per_position, ..TracedQueries::default() };
         for p in parts {
-            debug_assert_eq!(p.dirs_per_position, dirs_per_position);
+            assert_eq!(p.dirs_per_position, dirs_per_position, "parts of one set share its directions per position");
             out.positions.extend(p.positions);
             out.dirs.extend(p.dirs);
             out.reference.extend(p.reference);

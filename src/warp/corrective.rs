@@ -43,6 +43,7 @@ pub struct Correctives {
 }
 
 impl Correctives {
+    #[must_use]
     pub fn stored_cells(&self) -> usize {
         self.slot.iter().filter(|s| **s != NO_MAP).count()
     }
@@ -55,6 +56,7 @@ impl Correctives {
 
     /// Where cell `cell` keeps its map; `None` for a level-0 cell (the fallback method).
     #[inline]
+    #[must_use]
     pub fn slot_of(&self, cell: usize) -> Option<u32> {
         let s = self.slot[cell];
         (s != NO_MAP).then_some(s)
@@ -62,6 +64,7 @@ impl Correctives {
 
     /// Whether cell `cell` stores a warp map.
     #[inline]
+    #[must_use]
     pub fn stores_map(&self, cell: usize) -> bool {
         self.slot[cell] != NO_MAP
     }
@@ -82,6 +85,7 @@ impl Correctives {
 
     /// Fetch vector for query (B, dir); the fallback method where no map applies.
     #[inline]
+    #[must_use]
     pub fn fetch_vector(&self, blend: Blend, warp: &Warp, b: Vec3, dir: Vec3) -> Vec3 {
         self.fetch_vector_at(blend, warp, b, dir, octa::encode(dir))
     }
@@ -92,6 +96,7 @@ impl Correctives {
     /// a cell stores a map is random from lookup to lookup, and a mispredicted branch per
     /// lane would serialise the lanes.
     #[inline]
+    #[must_use]
     pub fn fetch_vector_lanes(
         &self,
         blend: Blend,
@@ -197,6 +202,7 @@ pub const NO_MAP: u32 = u32::MAX;
 
 /// A warp map sampled with bilinear `taps`.
 #[inline]
+#[must_use]
 pub fn sample_map(map: &[f32], taps: &[(u32, f32); 4]) -> f32 {
     taps.iter().map(|&(k, wt)| map[k as usize] * wt).sum()
 }
@@ -205,6 +211,7 @@ pub fn sample_map(map: &[f32], taps: &[(u32, f32); 4]) -> f32 {
 /// `centre` sees its hit at inverse distance `w` along `dir`; one warp step against that
 /// estimate gives the point to fetch probe A (at `a`) towards.
 #[inline]
+#[must_use]
 pub fn map_fetch_vector(a: Vec3, centre: Vec3, w: f32, b: Vec3, dir: Vec3) -> Vec3 {
     fetch_vector_from_inv_t(a, inv_t_from_map(centre, w, b, dir), b, dir)
 }
@@ -225,6 +232,7 @@ fn fetch_vector_from_inv_t(a: Vec3, u: f32, b: Vec3, dir: Vec3) -> Vec3 {
 /// `w` along `dir`; the plane perpendicular to `dir` there is crossed by the ray from `b` at
 /// distance `t`. Returns 1/t (0 for sky; 1e30, i.e. the hit at B, if the plane is behind B).
 #[inline]
+#[must_use]
 pub fn inv_t_from_map(c: Vec3, w: f32, b: Vec3, dir: Vec3) -> f32 {
     if !(w > 0.0) {
         return 0.0;
@@ -235,6 +243,7 @@ pub fn inv_t_from_map(c: Vec3, w: f32, b: Vec3, dir: Vec3) -> f32 {
 
 /// Warp map of a cell from a box proxy: inverse distance from the cell centre to the box's
 /// boundary along each texel direction (0 where the centre is outside the box).
+#[must_use]
 pub fn box_map(centre: Vec3, proxy: &crate::warp::proxy::BoxProxy, map_res: u32) -> Vec<f32> {
     (0..map_res * map_res)
         .map(|t| {

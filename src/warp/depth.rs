@@ -39,6 +39,7 @@ fn ray_plane(b: Vec3, dir: Vec3, s: Vec3, n: Vec3) -> Option<f32> {
 /// `λ·(S − B) = λ·ab + v`. The textbook form divides by `w1` and by `λ`; this one needs no
 /// division besides the octahedral encode's, which shortens the dependent chain of a lookup.
 #[inline]
+#[must_use]
 pub fn plane_warp(p: &WarpProbe, b: Vec3, dir: Vec3, lod: f32, steps: u32, new_plane: bool) -> Vec3 {
     let a = p.position;
     if b == a {
@@ -91,6 +92,7 @@ fn project_on_ray(dir: Vec3, ab: Vec3, dir_ab: f32, v: Vec3, lambda: f32) -> Vec
 
 /// `to − from` when usable as a fetch vector, else `fallback`.
 #[inline]
+#[must_use]
 pub fn fetch_vector(from: Vec3, to: Vec3, fallback: Vec3) -> Vec3 {
     let v = to - from;
     let l2 = v.length_squared();
@@ -114,6 +116,7 @@ fn behind(p: &WarpProbe, b: Vec3, dir: Vec3, t: f32, lod: f32) -> (f32, Vec3) {
 
 /// Distance impostors: secant iteration on `g` from t = 0 and the one-step plane estimate.
 #[inline]
+#[must_use]
 pub fn secant(p: &WarpProbe, b: Vec3, dir: Vec3, lod: f32, steps: u32) -> Vec3 {
     let a = p.position;
     if b == a {
@@ -154,6 +157,7 @@ pub fn secant(p: &WarpProbe, b: Vec3, dir: Vec3, lod: f32, steps: u32) -> Vec3 {
 
 /// Ray marching against the probe's depth: `steps` linear steps, then 8 bisections.
 #[inline]
+#[must_use]
 pub fn raymarch(p: &WarpProbe, b: Vec3, dir: Vec3, lod: f32, steps: u32) -> Vec3 {
     let a = p.position;
     if b == a {
@@ -200,6 +204,7 @@ pub fn warp1_batch(p: &WarpProbe, queries: &[(Vec3, Vec3)], lod: f32, out: &mut 
 
 /// [`LANES`] lookups of `plane_warp` with one step.
 #[inline]
+#[must_use]
 pub fn warp1_lanes(p: &WarpProbe, q: &[(Vec3, Vec3); LANES], lod: f32) -> [Vec3; LANES] {
     let a = p.position;
     let w1 = p.inv_dist_lanes(&encode_lanes(&q.map(|(_, dir)| dir)), lod);

@@ -32,12 +32,13 @@ pub struct WarpProbe {
 
 impl WarpProbe {
     /// From distance mips (+inf = sky; mip 0 = texel-centre distances) and radiance mips.
+    #[must_use]
     pub fn from_distance_mips(position: Vec3, distance: &OctMips<f32>, radiance: OctMips<Vec3>) -> Self {
         let inv_depth = OctMips {
             levels: distance
                 .levels
                 .iter()
-                .map(|l| OctMap::new(l.res, l.texels.iter().map(|&d| inverse(d)).collect()))
+                .map(|l| OctMap::new(l.res, l.texels.iter().map(|&d| octa::inverse_distance(d)).collect()))
                 .collect(),
         };
         let max_distance = distance
@@ -49,12 +50,14 @@ impl WarpProbe {
 
     /// Inverse distance seen by the probe towards `dir` at depth mip `lod`.
     #[inline]
+    #[must_use]
     pub fn inv_dist(&self, dir: Vec3, lod: f32) -> f32 {
         usable_inverse(self.inv_depth.sample_lod(dir, lod))
     }
 
     /// `inv_dist` for [`LANES`] lookups given their octahedral uv, bit for bit the same.
     #[inline]
+    #[must_use]
     pub fn inv_dist_lanes(&self, uv: &UvLanes, lod: f32) -> [f32; LANES] {
         let mut w = self.inv_depth.sample_lod_uv_lanes(uv, lod);
         for k in 0..LANES {
@@ -65,6 +68,7 @@ impl WarpProbe {
 
     /// Mirror (roughness 0) radiance of the probe towards `dir`.
     #[inline]
+    #[must_use]
     pub fn radiance(&self, dir: Vec3) -> Vec3 {
         self.radiance.levels[0].bilinear(dir)
     }
@@ -82,6 +86,7 @@ impl WarpProbe {
 
     /// `radiance` for [`LANES`] fetch vectors, bit for bit the same.
     #[inline]
+    #[must_use]
     pub fn radiance_lanes(&self, dirs: &[Vec3; LANES]) -> [Vec3; LANES] {
         self.radiance.levels[0].bilinear_uv_lanes(&crate::octa::encode_lanes(dirs))
     }
@@ -94,21 +99,9 @@ fn usable_inverse(w: f32) -> f32 {
     if w > 0.0 && w < f32::INFINITY { w } else { 0.0 }
 }
 
-/// 1/d with 1/inf = 0; zero distance (probe touching geometry) maps to the largest finite
-/// value so the arithmetic stays finite.
-#[inline]
-pub fn inverse(d: f32) -> f32 {
-    if d.is_nan() || d.is_infinite() {
-        0.0
-    } else if d <= 0.0 {
-        f32::MAX
-    } else {
-        (1.0 / d).min(f32::MAX)
-    }
-}
-
 /// Unit direction from `from` to `to`, or `fallback` when they coincide or overflow.
 #[inline]
+#[must_use]
 pub fn toward(from: Vec3, to: Vec3, fallback: Vec3) -> Vec3 {
     let v = to - from;
     let l2 = v.length_squared();
@@ -132,6 +125,7 @@ pub struct WarpOptions {
 impl WarpOptions {
     /// Depth mip 2 (a 4×-downsampled, inverse-distance-filtered depth): the seed's "blurry
     /// depth" advice, better than mip 0 in the eval sweep, and cache-resident.
+    #[must_use]
     pub const fn standard() -> Self {
         WarpOptions { depth_lod: 2.0, relax_texels: 0.0, secant_steps: 6, march_steps: 64 }
     }
@@ -186,6 +180,7 @@ impl Method {
         Method::Raymarch,
     ];
 
+    #[must_use]
     pub fn name(self) -> &'static str {
         match self {
             Method::None => "none",
@@ -201,6 +196,7 @@ impl Method {
         }
     }
 
+    #[must_use]
     pub fn parse(name: &str) -> Option<Method> {
         Method::ALL.into_iter().find(|m| m.name() == name)
     }
@@ -225,6 +221,7 @@ pub struct Warp {
 impl Warp {
     /// Unit fetch direction of a per-lookup method (`Reproject`/`Oracle` return `dir`).
     #[inline]
+    #[must_use]
     pub fn fetch_dir(&self, method: Method, b: Vec3, dir: Vec3) -> Vec3 {
         let v = self.fetch_vector(method, b, dir);
         if v == dir {
@@ -237,6 +234,7 @@ impl Warp {
     /// Fetch vector: a positive multiple of the fetch direction (finite, non-zero). Probe
     /// lookups take it as is; normalise it only where a unit vector is needed.
     #[inline]
+    #[must_use]
     pub fn fetch_vector(&self, method: Method, b: Vec3, dir: Vec3) -> Vec3 {
         if b == self.probe.position {
             return dir;
@@ -249,6 +247,7 @@ impl Warp {
 
     /// Mirror radiance the method returns for the query (B, dir).
     #[inline]
+    #[must_use]
     pub fn lookup(&self, method: Method, b: Vec3, dir: Vec3) -> Vec3 {
         self.probe.radiance(self.fetch_vector(method, b, dir))
     }

@@ -25,11 +25,13 @@ pub struct BoxProxy {
 
 impl BoxProxy {
     /// Axis-aligned box [lo, hi].
+    #[must_use]
     pub fn aabb(lo: Vec3, hi: Vec3) -> Self {
         Self::oriented((lo + hi) * 0.5, Quat::IDENTITY, (hi - lo) * 0.5)
     }
 
     /// Oriented box: centre, rotation (local → world) and half extents.
+    #[must_use]
     pub fn oriented(centre: Vec3, rotation: Quat, half_extents: Vec3) -> Self {
         let rotation = rotation.normalize();
         BoxProxy {
@@ -42,6 +44,7 @@ impl BoxProxy {
 
     /// Distance along `dir` from `b` (inside) to the box's boundary, if `b` is inside.
     #[inline]
+    #[must_use]
     pub fn exit_distance(&self, b: Vec3, dir: Vec3) -> Option<f32> {
         let inv = self.world_to_local;
         let o = inv * (b - self.centre);
@@ -60,6 +63,7 @@ impl BoxProxy {
     }
 
     #[inline]
+    #[must_use]
     pub fn fetch_dir(&self, a: Vec3, b: Vec3, dir: Vec3) -> Vec3 {
         if a == b {
             return dir;
@@ -80,6 +84,7 @@ pub struct Kdop {
 }
 
 /// The 18 plane normals: ±x, ±y, ±z and ±(x±y), ±(y±z), ±(x±z), normalised.
+#[must_use]
 pub fn kdop18_normals() -> Vec<Vec3> {
     let s = std::f32::consts::FRAC_1_SQRT_2;
     let base = [
@@ -98,6 +103,7 @@ pub fn kdop18_normals() -> Vec<Vec3> {
 
 impl Kdop {
     /// Fits the planes to the probe's depth samples (texel-centre hit points).
+    #[must_use]
     pub fn fit(a: Vec3, distance: &octa::OctMap<f32>) -> Self {
         let normals = kdop18_normals();
         let mut offsets = vec![f32::NEG_INFINITY; normals.len()];
@@ -130,6 +136,7 @@ impl Kdop {
     }
 
     #[inline]
+    #[must_use]
     pub fn fetch_dir(&self, a: Vec3, b: Vec3, dir: Vec3) -> Vec3 {
         if a == b {
             return dir;

@@ -10,6 +10,7 @@ use crate::octa::{self, OctMap};
 use glam::{Vec3, Vec4};
 
 /// Reprojects probe A's mirror radiance to position `b` at resolution `res` (power of two).
+#[must_use]
 pub fn reproject(p: &WarpProbe, b: Vec3, res: u32) -> OctMap<Vec3> {
     let src_inv = &p.inv_depth.levels[0];
     let src_rad = &p.radiance.levels[0];

@@ -52,3 +52,19 @@ pub fn tmp_dir(tag: &str) -> PathBuf {
 pub fn exists(p: &Path) -> bool {
     p.exists()
 }
+
+/// Whether checks that need an external tool (the OpenEXR Python binding, Chromium, …) must
+/// run: `.ci/run` sets `WARPFIT_REQUIRE_EXTERNAL=1`, so in CI a missing tool fails the test
+/// instead of skipping it.
+pub fn external_required() -> bool {
+    std::env::var("WARPFIT_REQUIRE_EXTERNAL").is_ok_and(|v| v == "1")
+}
+
+/// A check's external tool is missing: fails where tools are required, else says loudly
+/// that the check was SKIPPED (and how to get the tool).
+pub fn tool_missing(check: &str, tool: &str, how: &str) {
+    assert!(!external_required(), "{check}: {tool} is required (WARPFIT_REQUIRE_EXTERNAL=1) but missing; {how}");
+    // straight to the process's stderr, past the test harness's capture, so it is seen
+    use std::io::Write as _;
+    let _ = writeln!(std::io::stderr(), "\n*** SKIPPED: {check}: {tool} is not installed ({how}) ***\n");
+}

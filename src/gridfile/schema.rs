@@ -1,7 +1,9 @@
 //! `manifest.json` of a fitted grid: what the folder holds, how to read it, and what the fit
-//! measured. Plain serde types; the writer (`format::grid_io`, feature `bake`) and the loader
-//! share them.
+//! measured. Plain serde types the writer and the reader share, the layout of the atlases,
+//! and the names of the probe's layers.
 
+use super::exr::ExrLayer;
+use crate::octa::OctMips;
 use crate::roughness::RoughnessCorrection;
 use crate::warp::WarpOptions;
 use crate::warp::corrective::Blend;
@@ -25,6 +27,7 @@ pub enum Precision {
 }
 
 impl Precision {
+    #[must_use]
     pub fn bytes(self) -> u64 {
         match self {
             Precision::F32 => 4,
@@ -161,6 +164,7 @@ pub struct LayerEntry {
 
 impl LayerEntry {
     /// Uncompressed bytes of the layer's samples.
+    #[must_use]
     pub fn raw_bytes(&self) -> u64 {
         self.width as u64 * self.height as u64 * self.channels.len() as u64 * self.precision.bytes()
     }
@@ -174,18 +178,47 @@ pub struct LeftOut {
     pub bytes_saved: u64,
 }
 
-/// FNV-1a (64 bit) of `bytes`, as written in `Payload::checksum`. Detects truncation and
-/// corruption; it is not a cryptographic hash.
-pub fn checksum(bytes: &[u8]) -> String {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for &b in bytes {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x0100_0000_01b3);
+/// Layer name of radiance mip `m` (GGX chain), in the grid's and the bake's `probe.exr`.
+#[must_use]
+pub fn radiance_layer(m: usize) -> String {
+    format!("radiance_mip{m}")
+}
+
+/// Layer name of distance mip `m`, in the grid's and the bake's `probe.exr`.
+#[must_use]
+pub fn distance_layer(m: usize) -> String {
+    format!("distance_mip{m}")
+}
+
+/// The probe's layers: radiance mips (R, G, B) then distance mips (Z; +inf = sky). The one
+/// layout of `probe.exr`, in the fitted grid and in the bake folder.
+#[must_use]
+pub fn probe_layers(radiance: &OctMips<glam::Vec3>, distance: &OctMips<f32>) -> Vec<ExrLayer> {
+    let mut layers = Vec::new();
+    for (m, level) in radiance.levels.iter().enumerate() {
+        let n = level.res as usize;
+        layers.push(ExrLayer { name: radiance_layer(m), width: n, height: n, channels: rgb_channels(&level.texels) });
     }
-    format!("fnv1a64:{h:016x}")
+    for (m, level) in distance.levels.iter().enumerate() {
+        let n = level.res as usize;
+        let channels = vec![("Z".into(), level.texels.clone())];
+        layers.push(ExrLayer { name: distance_layer(m), width: n, height: n, channels });
+    }
+    layers
+}
+
+/// R, G, B channels of `v`.
+#[must_use]
+pub fn rgb_channels(v: &[glam::Vec3]) -> Vec<(String, Vec<f32>)> {
+    vec![
+        ("R".into(), v.iter().map(|x| x.x).collect()),
+        ("G".into(), v.iter().map(|x| x.y).collect()),
+        ("B".into(), v.iter().map(|x| x.z).collect()),
+    ]
 }
 
 /// Tiles of `res × res` in rows of `columns`: the atlas size for `count` tiles.
+#[must_use]
 pub fn atlas_size(count: usize, res: u32, columns: u32) -> (usize, usize) {
     let cols = columns.max(1) as usize;
     let rows = count.div_ceil(cols).max(1);
@@ -193,12 +226,14 @@ pub fn atlas_size(count: usize, res: u32, columns: u32) -> (usize, usize) {
 }
 
 /// Columns of a near-square atlas of `count` tiles.
+#[must_use]
 pub fn atlas_columns(count: usize) -> u32 {
     ((count as f64).sqrt().ceil() as u32).max(1)
 }
 
 /// Linear index in the atlas of texel `t` (row-major in its tile) of tile `k`.
 #[inline]
+#[must_use]
 pub fn atlas_index(k: usize, t: usize, res: u32, columns: u32) -> usize {
     let (r, cols) = (res as usize, columns.max(1) as usize);
     let (tx, ty) = (k % cols, k / cols);
@@ -209,6 +244,7 @@ pub fn atlas_index(k: usize, t: usize, res: u32, columns: u32) -> usize {
 impl GridManifest {
     /// Human-readable summary: what the grid holds, the bytes of each layer, the fit's
     /// residuals and what was left out (`warpfit inspect`).
+    #[must_use]
     pub fn describe(&self) -> String {
         use std::fmt::Write as _;
         let mut s = String::new();
@@ -248,7 +284,7 @@ impl GridManifest {
                 let _ = writeln!(
                     s,
                     "roughness correction: {} ({}×{} table, held-out RMS in α' {:.4}; analytic c0 {:.4} c1 {:.4}, {:.4})",
-                    r.chosen,
+                    format!("{:?}", r.chosen).to_lowercase(),
                     r.alphas.len(),
                     r.ratios.len(),
                     r.heldout_rms_table,

@@ -1,69 +1,27 @@
-//! What a fit reports besides the fitted grid (`format::grid_io`): `residuals.json` (every
-//! cell's held-out errors before and after, solver iterations, evaluations, termination and
-//! time), `fit.md`, `residual_slices.png` (per grid layer, how much each cell's fit improved
-//! on its fallback) and `fit_convergence.png`; and the summary stored in the manifest.
+//! A fit's diagnostics files: `residuals.json` (every cell's held-out errors before and
+//! after, solver iterations, evaluations, termination and time), `fit.md`,
+//! `residual_slices.png` (per grid layer, how much each cell's fit improved on its fallback)
+//! and `fit_convergence.png`.
 
-use super::{CellFit, Fit};
-use crate::format::{FormatError, write_atomic};
-use serde::{Deserialize, Serialize};
+use super::folder::RunFolder;
+use crate::files::{FileError, write_atomic, write_json};
+use crate::fit::summary::{convergence, summary};
+use crate::fit::{CellFit, Fit, Level};
 use std::path::Path;
 
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct FitSummary {
-    pub active_cells: usize,
-    pub cells_level0: usize,
-    pub cells_level2: usize,
-    pub fallbacks: usize,
-    pub bytes_level2: usize,
-    pub fit_seconds: f64,
-    pub reference_rays: u64,
-    pub evaluations: u64,
-    pub fallback_method: String,
-    pub mean_check_err_warp1: f64,
-    pub mean_check_err_fallback: f64,
-    pub mean_check_err_celldepth: f64,
-    pub mean_check_err_stored: f64,
-}
-
-pub fn summary(fit: &Fit) -> FitSummary {
-    let n = fit.cells.len().max(1) as f64;
-    let stored = |c: &CellFit| if c.level == 2 { c.check_err_fitted } else { c.check_err_fallback };
-    FitSummary {
-        active_cells: fit.cells.len(),
-        cells_level0: fit.cells.iter().filter(|c| c.level == 0).count(),
-        cells_level2: fit.cells.iter().filter(|c| c.level == 2).count(),
-        fallbacks: fit.cells.iter().filter(|c| c.reason.starts_with("fallback")).count(),
-        bytes_level2: fit.correctives.maps.len() * 4,
-        fit_seconds: fit.seconds,
-        reference_rays: fit.reference_rays,
-        evaluations: fit.cells.iter().map(|c| c.evaluations).sum(),
-        fallback_method: fit.correctives.fallback.name().to_string(),
-        mean_check_err_warp1: fit.cells.iter().map(|c| c.check_err_warp1).sum::<f64>() / n,
-        mean_check_err_fallback: fit.cells.iter().map(|c| c.check_err_fallback).sum::<f64>() / n,
-        mean_check_err_celldepth: fit.cells.iter().map(|c| c.check_err_celldepth).sum::<f64>() / n,
-        mean_check_err_stored: fit.cells.iter().map(stored).sum::<f64>() / n,
-    }
-}
-
-/// Writes `residuals.json`, `residual_slices.png` and `fit_convergence.png` into `dir`
-/// (the fitted grid itself is written by `format::grid_io`).
-pub fn write_fit_diagnostics(dir: &Path, fit: &Fit) -> Result<(), FormatError> {
-    write_json(&dir.join("residuals.json"), &fit.cells)?;
-    write_residual_slices(&dir.join("residual_slices.png"), fit)?;
-    write_convergence(&dir.join("fit_convergence.png"), fit, rayon::current_num_threads())
-}
-
-/// Pretty JSON, written atomically.
-pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), FormatError> {
-    let bytes = serde_json::to_vec_pretty(value)
-        .map_err(|e| FormatError::Json { path: path.to_path_buf(), message: e.to_string() })?;
-    write_atomic(path, &bytes).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })
+/// Writes `residuals.json`, `fit.md`, `residual_slices.png` and `fit_convergence.png`
+/// (the fitted grid itself is written by `gridfile::write`).
+pub fn write_fit_diagnostics(folder: &RunFolder, fit: &Fit, command: &str) -> Result<(), FileError> {
+    write_json(&folder.residuals(), &fit.cells)?;
+    write_fit_report(&folder.fit_md(), fit, command)?;
+    write_residual_slices(&folder.residual_slices(), fit)?;
+    write_convergence(&folder.fit_convergence(), fit, rayon::current_num_threads())
 }
 
 /// Residual heat-map slices: one tile per grid layer (y), cells coloured by held-out error
 /// after the fit relative to the fallback (green: better, grey: unchanged or level 0,
 /// black: inside geometry), 8 pixels per cell; layers side by side, bottom layer left.
-pub fn write_residual_slices(path: &Path, fit: &Fit) -> Result<(), FormatError> {
+pub fn write_residual_slices(path: &Path, fit: &Fit) -> Result<(), FileError> {
     let g = fit.correctives.geometry;
     let (nx, ny, nz) = (g.counts.x as usize, g.counts.y as usize, g.counts.z as usize);
     let px = 8usize;
@@ -72,8 +30,11 @@ pub fn write_residual_slices(path: &Path, fit: &Fit) -> Result<(), FormatError> 
     let mut rgb = vec![255u8; w * h * 3];
     let mut colour = vec![[0u8, 0, 0]; g.cell_count()];
     for c in &fit.cells {
-        let ratio =
-            if c.level == 2 { (c.check_err_fitted / c.check_err_fallback.max(1e-12)).clamp(0.0, 1.0) } else { 1.0 };
+        let ratio = if c.level == Level::Map {
+            (c.check_err_fitted / c.check_err_fallback.max(1e-12)).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
         // ratio 1 → grey, ratio 0 → saturated green
         let t = (1.0 - ratio) as f32;
         colour[c.cell as usize] = [(160.0 * (1.0 - t)) as u8, (160.0 + 95.0 * t) as u8, (160.0 * (1.0 - t)) as u8];
@@ -94,7 +55,7 @@ pub fn write_residual_slices(path: &Path, fit: &Fit) -> Result<(), FormatError> 
 
 /// `fit.md`: what was stored where and what it bought, the histogram of per-cell
 /// improvement, and the worst cells with what explains them.
-pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), FormatError> {
+pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), FileError> {
     use std::fmt::Write as _;
     let s = summary(fit);
     let mut md = String::new();
@@ -130,7 +91,7 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), For
     );
     let _ = writeln!(md, "## Stored error / fallback error per cell (level-2 cells)\n\n| ratio | cells |\n|---|---:|");
     let mut buckets = [0usize; 10];
-    for c in fit.cells.iter().filter(|c| c.level == 2) {
+    for c in fit.cells.iter().filter(|c| c.level == Level::Map) {
         let r = (c.check_err_fitted / c.check_err_fallback.max(1e-12)).clamp(0.0, 0.999);
         buckets[(r * 10.0) as usize] += 1;
     }
@@ -148,14 +109,14 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), For
         md,
         "\n## Worst cells after the fit\n\n| cell | level | stored error | fallback | celldepth | hidden from A | start | why |\n|---:|---:|---:|---:|---:|---:|---|---|"
     );
-    let stored_err = |c: &CellFit| if c.level == 2 { c.check_err_fitted } else { c.check_err_fallback };
+    let stored_err = CellFit::check_err_stored;
     let mut worst: Vec<&CellFit> = fit.cells.iter().collect();
     worst.sort_by(|a, b| stored_err(b).total_cmp(&stored_err(a)));
     for c in worst.iter().take(12) {
         let why = if c.hidden_fraction > 0.3 {
-            format!("{:.0}% of its queries hit points probe A cannot see; {}", 100.0 * c.hidden_fraction, c.reason)
+            format!("{:.0}% of its queries hit points probe A cannot see; {}", 100.0 * c.hidden_fraction, c.selection)
         } else {
-            c.reason.clone()
+            c.selection.to_string()
         };
         let _ = writeln!(
             md,
@@ -166,7 +127,7 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), For
             c.check_err_fallback,
             c.check_err_celldepth,
             100.0 * c.hidden_fraction,
-            c.start,
+            format!("{:?}", c.start).to_lowercase(),
             why
         );
     }
@@ -179,30 +140,11 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), For
         md,
         "\n![residual slices](residual_slices.png)\n\nSlices: one tile per grid layer (bottom layer left), x to the right, z up; green = the stored map improves on the fallback (saturated: error → 0), grey = fallback, black = inside geometry."
     );
-    write_atomic(path, md.as_bytes()).map_err(|source| FormatError::Io { path: path.to_path_buf(), source })
-}
-
-/// Convergence of the fit: the mean training objective over active cells after each stage
-/// (start, each Brent sweep or the whole solve, relaxation) against the wall-clock time the
-/// whole grid takes to reach that stage (mean per-cell time × cells / threads).
-pub fn convergence(fit: &Fit, threads: usize) -> Vec<(f64, f64)> {
-    let stages = fit.cells.iter().map(|c| c.curve.len()).max().unwrap_or(0);
-    let n = fit.cells.len().max(1) as f64;
-    (0..stages)
-        .map(|k| {
-            let (mut t, mut cost) = (0.0, 0.0);
-            for c in &fit.cells {
-                let p = c.curve.get(k).or(c.curve.last()).copied().unwrap_or((0.0, 0.0));
-                t += p.0;
-                cost += p.1;
-            }
-            (t / threads.max(1) as f64, cost / n)
-        })
-        .collect()
+    write_atomic(path, md.as_bytes())
 }
 
 /// `fit_convergence.png`.
-pub fn write_convergence(path: &Path, fit: &Fit, threads: usize) -> Result<(), FormatError> {
+pub fn write_convergence(path: &Path, fit: &Fit, threads: usize) -> Result<(), FileError> {
     let series = vec![(format!("{:?}", fit.settings.solver), convergence(fit, threads))];
     crate::report::plot::line_plot(
         path,

@@ -7,7 +7,8 @@ use crate::scene::SceneFile;
 use serde::{Deserialize, Serialize};
 
 pub const BAKE_FORMAT: &str = "warpfit-bake";
-pub const BAKE_VERSION: u32 = 1;
+/// Version 2: distance layers are named `distance_mip{m}` (the fitted grid's names).
+pub const BAKE_VERSION: u32 = 2;
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct BakeManifest {
@@ -63,7 +64,7 @@ pub struct ProbeManifest {
     pub ggx_samples: u32,
     pub radiance_mips: Vec<MipInfo>,
     /// Distance layer names, level 0 first (level 0 = texel-centre distances).
-    pub depth_mips: Vec<String>,
+    pub distance_mips: Vec<String>,
     pub depth_mip_filter: String,
 }
 

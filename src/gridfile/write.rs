@@ -1,40 +1,66 @@
-//! Writing a fitted grid folder (`runtime::manifest` describes it; `runtime::FittedGrid`
-//! loads it): `probe.exr`, `correctives.exr` (only if some cell stores a warp map),
-//! `irradiance.exr` and `manifest.json`, each written atomically. The manifest is written
-//! last and carries every payload's checksum, so an interrupted rewrite is reported as a
-//! checksum mismatch on load, never read as a silently mixed grid.
+//! Writing a fitted grid folder from plain data: `probe.exr`, `correctives.exr` (only if
+//! some cell stores a warp map), `irradiance.exr` and `manifest.json`, each written
+//! atomically. The manifest is written last and carries every payload's checksum, so an
+//! interrupted rewrite is reported as a checksum mismatch on load, never read as a silently
+//! mixed grid. Knows nothing of how the data was fitted: the fit hands over [`Provenance`].
 
-use super::exr_io::{ExrLayer, encode_exr_with};
-use super::{FormatError, write_atomic};
-use crate::bake::{ProbeGrid, SpecularProbe};
-use crate::fit::Fit;
-use crate::fit::output::summary;
-use crate::octa;
+use super::exr::{self, ExrLayer, F16_MAX};
+use super::schema::*;
+use crate::files::{FileError, checksum, write_atomic};
+use crate::grid::GridGeometry;
+use crate::octa::{self, OctMips};
 use crate::roughness::RoughnessCorrection;
-use crate::runtime::manifest::*;
 use crate::warp::Warp;
-use crate::warp::corrective::Blend;
+use crate::warp::corrective::{Blend, Correctives};
 use glam::Vec3;
 use std::path::Path;
 
-/// What goes into a fitted grid besides the fit itself.
-pub struct GridInputs<'a> {
-    pub scene: &'a str,
-    pub probe: &'a SpecularProbe,
-    pub grid: &'a ProbeGrid,
-    pub warp: &'a Warp,
-    pub fit: &'a Fit,
-    pub blend: Blend,
-    pub roughness: Option<&'a RoughnessCorrection>,
-    pub precision: Precision,
+/// What the fit that made the correctives says about them, recorded in the manifest.
+#[derive(Clone, Debug, Default)]
+pub struct Provenance {
+    /// The fit settings (any serialisable record).
+    pub fit_settings: serde_json::Value,
+    /// Summary of the fit's held-out errors.
+    pub residuals: serde_json::Value,
+    /// Active cells that store no map (level 0: the fallback method is as good).
+    pub level0_cells: usize,
 }
 
-fn rgb_channels(v: &[Vec3]) -> Vec<(String, Vec<f32>)> {
-    vec![
-        ("R".into(), v.iter().map(|x| x.x).collect()),
-        ("G".into(), v.iter().map(|x| x.y).collect()),
-        ("B".into(), v.iter().map(|x| x.z).collect()),
-    ]
+/// The probe as stored: position, GGX radiance mips with their perceptual roughness, and the
+/// distance mips (+inf = sky).
+#[derive(Clone, Copy)]
+pub struct ProbeData<'a> {
+    pub position: Vec3,
+    pub radiance: &'a OctMips<Vec3>,
+    pub mip_roughness: &'a [f32],
+    pub distance: &'a OctMips<f32>,
+}
+
+/// The grid's per-cell irradiance and distance moments (`cell · res² + texel`), and which
+/// cells are inside geometry (stored nowhere).
+#[derive(Clone, Copy)]
+pub struct IrradianceSource<'a> {
+    pub resolution: u32,
+    pub depth_resolution: u32,
+    pub irradiance: &'a [Vec3],
+    pub depth_mean: &'a [f32],
+    pub depth_mean_sq: &'a [f32],
+    pub inside: &'a [bool],
+}
+
+/// Everything a fitted grid folder holds.
+pub struct GridContents<'a> {
+    pub scene: &'a str,
+    pub geometry: GridGeometry,
+    pub probe: ProbeData<'a>,
+    /// The proxies and warp options of the fallback method (the probe comes from `probe`).
+    pub warp: &'a Warp,
+    pub correctives: &'a Correctives,
+    pub blend: Blend,
+    pub irradiance: IrradianceSource<'a>,
+    pub roughness: Option<&'a RoughnessCorrection>,
+    pub precision: Precision,
+    pub provenance: Provenance,
 }
 
 /// Packs per-cell tiles (`cell · res² + texel` in `src`) of the listed cells into an atlas.
@@ -51,7 +77,7 @@ fn pack<T: Copy + Default>(src: &[T], cells: &[u32], res: u32, columns: u32) -> 
 }
 
 /// Encodes `layers` into `file` in `dir` and returns its manifest entry.
-fn payload(dir: &Path, file: &str, layers: &[ExrLayer], precision: Precision) -> Result<Payload, FormatError> {
+fn payload(dir: &Path, file: &str, layers: &[ExrLayer], precision: Precision) -> Result<Payload, FileError> {
     let path = dir.join(file);
     // f16 only where every value fits: a sun brighter than 65504 keeps its layer in f32
     // rather than saturating (the manifest records each layer's actual precision).
@@ -65,8 +91,8 @@ fn payload(dir: &Path, file: &str, layers: &[ExrLayer], precision: Precision) ->
         tracing::warn!("{}: layers {kept:?} exceed the f16 range (65504); stored as f32", path.display());
     }
     let half = |name: &str| precision == Precision::F16 && is_radiance(name) && !kept.contains(&name);
-    let bytes = encode_exr_with(&path, layers, half)?;
-    write_atomic(&path, &bytes).map_err(|source| FormatError::Io { path: path.clone(), source })?;
+    let bytes = exr::encode(&path, layers, half)?;
+    write_atomic(&path, &bytes)?;
     Ok(Payload {
         file: file.into(),
         bytes: bytes.len() as u64,
@@ -84,65 +110,42 @@ fn payload(dir: &Path, file: &str, layers: &[ExrLayer], precision: Precision) ->
     })
 }
 
-/// Largest finite f16.
-pub const F16_MAX: f32 = 65504.0;
-
 /// Radiance layers may be stored as f16; distances and warp maps never are.
 fn is_radiance(layer: &str) -> bool {
     layer.starts_with("radiance_mip") || layer == "irradiance"
 }
 
 /// Writes the fitted grid folder and returns its manifest.
-pub fn write_grid(dir: &Path, g: &GridInputs) -> Result<GridManifest, FormatError> {
-    let fit = g.fit;
-    let c = &fit.correctives;
-    let geo = c.geometry;
+pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
+    let c = g.correctives;
+    let geo = g.geometry;
     let cells = geo.cell_count();
     let mut payloads = Vec::new();
     let mut left_out = Vec::new();
 
     // probe: GGX chain and distance chain
-    let mut layers = Vec::new();
-    let mut radiance_mips = Vec::new();
-    for (m, level) in g.probe.radiance.levels.iter().enumerate() {
-        let name = format!("radiance_mip{m}");
-        layers.push(ExrLayer {
-            name: name.clone(),
-            width: level.res as usize,
-            height: level.res as usize,
-            channels: rgb_channels(&level.texels),
-        });
-        radiance_mips.push(RadianceMip {
-            layer: name,
+    let layers = probe_layers(g.probe.radiance, g.probe.distance);
+    let radiance_mips = g
+        .probe
+        .radiance
+        .levels
+        .iter()
+        .enumerate()
+        .map(|(m, level)| RadianceMip {
+            layer: radiance_layer(m),
             resolution: level.res,
-            perceptual_roughness: g.probe.roughness[m],
-        });
-    }
-    let mut distance_mips = Vec::new();
-    for (m, level) in g.probe.depth.levels.iter().enumerate() {
-        let name = format!("distance_mip{m}");
-        layers.push(ExrLayer {
-            name: name.clone(),
-            width: level.res as usize,
-            height: level.res as usize,
-            channels: vec![("Z".into(), level.texels.clone())],
-        });
-        distance_mips.push(name);
-    }
+            perceptual_roughness: g.probe.mip_roughness[m],
+        })
+        .collect();
+    let distance_mips = (0..g.probe.distance.levels.len()).map(distance_layer).collect();
     payloads.push(payload(dir, PROBE_FILE, &layers, g.precision)?);
 
     // correctives: warp maps of level-2 cells, in slot order
-    let mut stored: Vec<(u32, u32)> = c
-        .slot
-        .iter()
-        .enumerate()
-        .filter(|(_, s)| **s != crate::warp::corrective::NO_MAP)
-        .map(|(cell, s)| (*s, cell as u32))
-        .collect();
+    let mut stored: Vec<(u32, u32)> = (0..cells).filter_map(|cell| c.slot_of(cell).map(|s| (s, cell as u32))).collect();
     stored.sort();
     let stored_cells: Vec<u32> = stored.iter().map(|(_, cell)| *cell).collect();
     let n2 = (c.map_res * c.map_res) as u64;
-    let level0 = fit.cells.iter().filter(|x| x.level == 0).count() as u64;
+    let level0 = g.provenance.level0_cells as u64;
     left_out.push(LeftOut {
         what: format!("warp maps of {level0} level-0 cells"),
         reason: format!(
@@ -175,10 +178,10 @@ pub fn write_grid(dir: &Path, g: &GridInputs) -> Result<GridManifest, FormatErro
     };
 
     // irradiance and distance moments of cells not inside geometry
-    let grid = g.grid;
-    let active: Vec<u32> = (0..cells as u32).filter(|&k| !grid.inside[k as usize]).collect();
+    let src = &g.irradiance;
+    let active: Vec<u32> = (0..cells as u32).filter(|&k| !src.inside[k as usize]).collect();
     let inside = (cells - active.len()) as u64;
-    let (ir, dr) = (grid.irradiance_resolution, grid.depth_resolution);
+    let (ir, dr) = (src.resolution, src.depth_resolution);
     let per_cell = (ir * ir) as u64 * 3 * g.precision.bytes() + (dr * dr) as u64 * 2 * 4;
     left_out.push(LeftOut {
         what: format!("irradiance and distance moments of {inside} cells inside geometry"),
@@ -192,9 +195,9 @@ pub fn write_grid(dir: &Path, g: &GridInputs) -> Result<GridManifest, FormatErro
     });
     let columns = atlas_columns(active.len());
     if !active.is_empty() {
-        let (w, h, e) = pack(&grid.irradiance, &active, ir, columns);
-        let (dw, dh, mean) = pack(&grid.depth_mean, &active, dr, columns);
-        let (_, _, mean_sq) = pack(&grid.depth_mean_sq, &active, dr, columns);
+        let (w, h, e) = pack(src.irradiance, &active, ir, columns);
+        let (dw, dh, mean) = pack(src.depth_mean, &active, dr, columns);
+        let (_, _, mean_sq) = pack(src.depth_mean_sq, &active, dr, columns);
         let layers = [
             ExrLayer { name: "irradiance".into(), width: w, height: h, channels: rgb_channels(&e) },
             ExrLayer {
@@ -220,7 +223,7 @@ pub fn write_grid(dir: &Path, g: &GridInputs) -> Result<GridManifest, FormatErro
     }
 
     let aabb = &g.warp.proxies.aabb;
-    let s = summary(fit);
+    let kdop = &g.warp.proxies.kdop;
     let manifest = GridManifest {
         format: GRID_FORMAT.into(),
         version: GRID_VERSION,
@@ -231,7 +234,7 @@ pub fn write_grid(dir: &Path, g: &GridInputs) -> Result<GridManifest, FormatErro
         grid: GridSection { min: geo.min.to_array(), max: geo.max.to_array(), counts: geo.counts.to_array() },
         probe: ProbeSection {
             position: g.probe.position.to_array(),
-            resolution: g.probe.resolution(),
+            resolution: g.probe.radiance.levels[0].res,
             radiance_mips,
             distance_mips,
         },
@@ -244,13 +247,10 @@ pub fn write_grid(dir: &Path, g: &GridInputs) -> Result<GridManifest, FormatErro
                 rotation: aabb.rotation.to_array(),
                 half_extents: aabb.half_extents.to_array(),
             },
-            kdop: g
-                .warp
-                .proxies
-                .kdop
+            kdop: kdop
                 .normals
                 .iter()
-                .zip(&g.warp.proxies.kdop.offsets)
+                .zip(&kdop.offsets)
                 .map(|(n, h)| KdopPlane { normal: n.to_array(), offset: h.is_finite().then_some(*h) })
                 .collect(),
         },
@@ -265,12 +265,9 @@ pub fn write_grid(dir: &Path, g: &GridInputs) -> Result<GridManifest, FormatErro
         roughness: g.roughness.cloned(),
         payloads,
         left_out,
-        fit_settings: serde_json::to_value(&fit.settings).unwrap_or_default(),
-        residuals: serde_json::to_value(&s).unwrap_or_default(),
+        fit_settings: g.provenance.fit_settings.clone(),
+        residuals: g.provenance.residuals.clone(),
     };
-    let path = dir.join(MANIFEST_FILE);
-    let json = serde_json::to_vec_pretty(&manifest)
-        .map_err(|e| FormatError::Json { path: path.clone(), message: e.to_string() })?;
-    write_atomic(&path, &json).map_err(|source| FormatError::Io { path, source })?;
+    crate::files::write_json(&dir.join(MANIFEST_FILE), &manifest)?;
     Ok(manifest)
 }

@@ -1,31 +1,27 @@
-//! The bake folder: `probe.exr`, `grid.exr`, `manifest.json` and PNG previews.
+//! `warpfit-bake`, the bake folder: `probe.exr`, `grid.exr` and `manifest.json` (the job
+//! that writes it adds PNG previews).
 //!
-//! `probe.exr` layers: `radiance_mip{m}` (R, G, B; GGX-prefiltered, roughness in the
-//! manifest), `depth_mip{m}` (Z; distance, +inf on miss; mip 0 = texel-centre distances).
+//! `probe.exr` has the fitted grid's probe layout (`gridfile::probe_layers`):
+//! `radiance_mip{m}` (R, G, B; GGX-prefiltered, roughness in the manifest) and
+//! `distance_mip{m}` (Z; distance, +inf on miss; mip 0 = texel-centre distances).
 //! `grid.exr` layers: `irradiance` (R, G, B) and `depth_moments` (mean, mean_sq, hit) atlases;
 //! cell (x, y, z) occupies tile column x, tile row y + ny·z, tiles of the map's resolution.
 
-use super::exr_io::{ExrLayer, read_exr, write_exr};
-use super::manifest::*;
-use super::{FormatError, write_atomic};
+pub mod manifest;
+
 use crate::bake::{Bake, GridGeometry, ProbeGrid, SpecularProbe};
+use crate::files::{FileError, write_json};
+use crate::gridfile::exr::{self, ExrLayer};
+use crate::gridfile::{distance_layer, probe_layers, radiance_layer, rgb_channels};
 use crate::octa::{CONVENTION, OctMap, OctMips};
-use crate::preview;
 use crate::scene::Scene;
 use glam::{UVec3, Vec3};
+use manifest::*;
 use std::path::Path;
 
 pub const PROBE_FILE: &str = "probe.exr";
 pub const GRID_FILE: &str = "grid.exr";
 pub const MANIFEST_FILE: &str = "manifest.json";
-
-fn vec3_channels(texels: &[Vec3]) -> Vec<(String, Vec<f32>)> {
-    vec![
-        ("R".into(), texels.iter().map(|v| v.x).collect()),
-        ("G".into(), texels.iter().map(|v| v.y).collect()),
-        ("B".into(), texels.iter().map(|v| v.z).collect()),
-    ]
-}
 
 /// Rearranges cell-major per-cell maps into an atlas (row-major, see module docs).
 fn to_atlas<T: Copy + Default>(g: &GridGeometry, res: u32, per_cell: &[T]) -> (usize, usize, Vec<T>) {
@@ -62,36 +58,13 @@ fn from_atlas<T: Copy + Default>(g: &GridGeometry, res: u32, atlas: &[T]) -> Vec
     out
 }
 
-pub fn probe_layers(p: &SpecularProbe) -> Vec<ExrLayer> {
-    let mut layers = Vec::new();
-    for (m, level) in p.radiance.levels.iter().enumerate() {
-        let n = level.res as usize;
-        layers.push(ExrLayer {
-            name: format!("radiance_mip{m}"),
-            width: n,
-            height: n,
-            channels: vec3_channels(&level.texels),
-        });
-    }
-    for (m, level) in p.depth.levels.iter().enumerate() {
-        let n = level.res as usize;
-        layers.push(ExrLayer {
-            name: format!("depth_mip{m}"),
-            width: n,
-            height: n,
-            channels: vec![("Z".into(), level.texels.clone())],
-        });
-    }
-    layers
-}
-
 pub fn grid_layers(g: &ProbeGrid) -> Vec<ExrLayer> {
     let (w, h, irr) = to_atlas(&g.geometry, g.irradiance_resolution, &g.irradiance);
     let (dw, dh, mean) = to_atlas(&g.geometry, g.depth_resolution, &g.depth_mean);
     let (_, _, mean_sq) = to_atlas(&g.geometry, g.depth_resolution, &g.depth_mean_sq);
     let (_, _, hit) = to_atlas(&g.geometry, g.depth_resolution, &g.hit_fraction);
     vec![
-        ExrLayer { name: "irradiance".into(), width: w, height: h, channels: vec3_channels(&irr) },
+        ExrLayer { name: "irradiance".into(), width: w, height: h, channels: rgb_channels(&irr) },
         ExrLayer {
             name: "depth_moments".into(),
             width: dw,
@@ -142,13 +115,13 @@ pub fn build_manifest(scene: &Scene, bake: &Bake) -> BakeManifest {
                 .enumerate()
                 .map(|(m, l)| MipInfo {
                     level: m as u32,
-                    layer: format!("radiance_mip{m}"),
+                    layer: radiance_layer(m),
                     resolution: l.res,
                     perceptual_roughness: p.roughness[m],
                     alpha: p.roughness[m] * p.roughness[m],
                 })
                 .collect(),
-            depth_mips: (0..p.depth.levels.len()).map(|m| format!("depth_mip{m}")).collect(),
+            distance_mips: (0..p.depth.levels.len()).map(distance_layer).collect(),
             depth_mip_filter: "solid-angle-weighted 2x2 mean of inverse distance (1/inf = 0)".into(),
         },
         grid: GridManifest {
@@ -171,28 +144,18 @@ pub fn build_manifest(scene: &Scene, bake: &Bake) -> BakeManifest {
     }
 }
 
-/// Writes the whole bake folder (each file atomically) and its previews.
-pub fn write_bake(dir: &Path, scene: &Scene, bake: &Bake) -> Result<(), FormatError> {
-    std::fs::create_dir_all(dir).map_err(|source| FormatError::Io { path: dir.to_path_buf(), source })?;
-    write_exr(&dir.join(PROBE_FILE), &probe_layers(&bake.probe))?;
-    write_exr(&dir.join(GRID_FILE), &grid_layers(&bake.grid))?;
-    let manifest = build_manifest(scene, bake);
-    let path = dir.join(MANIFEST_FILE);
-    let json = serde_json::to_vec_pretty(&manifest)
-        .map_err(|e| FormatError::Json { path: path.clone(), message: e.to_string() })?;
-    write_atomic(&path, &json).map_err(|source| FormatError::Io { path: path.clone(), source })?;
-    preview::write_bake_previews(dir, bake)?;
-    Ok(())
+/// Writes the bake folder (each file atomically; the manifest last).
+pub fn write_bake(dir: &Path, scene: &Scene, bake: &Bake) -> Result<(), FileError> {
+    std::fs::create_dir_all(dir).map_err(FileError::io(dir))?;
+    exr::write(&dir.join(PROBE_FILE), &probe_layers(&bake.probe.radiance, &bake.probe.depth))?;
+    exr::write(&dir.join(GRID_FILE), &grid_layers(&bake.grid))?;
+    write_json(&dir.join(MANIFEST_FILE), &build_manifest(scene, bake))
 }
 
-fn find<'a>(layers: &'a [ExrLayer], path: &Path, name: &str, res: (usize, usize)) -> Result<&'a ExrLayer, FormatError> {
-    let l = layers.iter().find(|l| l.name == name).ok_or_else(|| FormatError::Invalid {
-        path: path.to_path_buf(),
-        field: name.into(),
-        message: "layer missing".into(),
-    })?;
+fn find<'a>(layers: &'a [ExrLayer], path: &Path, name: &str, res: (usize, usize)) -> Result<&'a ExrLayer, FileError> {
+    let l = layers.iter().find(|l| l.name == name).ok_or_else(|| FileError::invalid(path, name, "layer missing"))?;
     if (l.width, l.height) != res {
-        return Err(FormatError::Invalid {
+        return Err(FileError::Invalid {
             path: path.to_path_buf(),
             field: name.into(),
             message: format!("size {}x{}, expected {}x{}", l.width, l.height, res.0, res.1),
@@ -201,19 +164,19 @@ fn find<'a>(layers: &'a [ExrLayer], path: &Path, name: &str, res: (usize, usize)
     Ok(l)
 }
 
-fn channel<'a>(l: &'a ExrLayer, path: &Path, name: &str) -> Result<&'a [f32], FormatError> {
-    l.channel(name).ok_or_else(|| FormatError::Invalid {
+fn channel<'a>(l: &'a ExrLayer, path: &Path, name: &str) -> Result<&'a [f32], FileError> {
+    l.channel(name).ok_or_else(|| FileError::Invalid {
         path: path.to_path_buf(),
         field: format!("{}.{name}", l.name),
         message: "channel missing".into(),
     })
 }
 
-fn finite_rgb(l: &ExrLayer, path: &Path) -> Result<Vec<Vec3>, FormatError> {
+fn finite_rgb(l: &ExrLayer, path: &Path) -> Result<Vec<Vec3>, FileError> {
     let (r, g, b) = (channel(l, path, "R")?, channel(l, path, "G")?, channel(l, path, "B")?);
     let v: Vec<Vec3> = (0..r.len()).map(|k| Vec3::new(r[k], g[k], b[k])).collect();
     if let Some(k) = v.iter().position(|x| !x.is_finite()) {
-        return Err(FormatError::Invalid {
+        return Err(FileError::Invalid {
             path: path.to_path_buf(),
             field: l.name.clone(),
             message: format!("texel {k} is not finite"),
@@ -223,27 +186,21 @@ fn finite_rgb(l: &ExrLayer, path: &Path) -> Result<Vec<Vec3>, FormatError> {
 }
 
 /// Reads a bake folder back, validating versions, sizes and values.
-pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid), FormatError> {
+pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid), FileError> {
     let mpath = dir.join(MANIFEST_FILE);
-    let text = std::fs::read_to_string(&mpath).map_err(|source| FormatError::Io { path: mpath.clone(), source })?;
+    let text = std::fs::read_to_string(&mpath).map_err(|source| FileError::Io { path: mpath.clone(), source })?;
     let probe_format: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| FormatError::Json { path: mpath.clone(), message: e.to_string() })?;
+        serde_json::from_str(&text).map_err(|e| FileError::Json { path: mpath.clone(), message: e.to_string() })?;
     let found = probe_format.get("format").and_then(|v| v.as_str()).unwrap_or("").to_string();
-    let version = probe_format.get("version").and_then(|v| v.as_u64()).unwrap_or(0) as u32;
-    if found != BAKE_FORMAT || version != BAKE_VERSION {
-        return Err(FormatError::Version {
-            path: mpath,
-            found,
-            version,
-            expected: BAKE_FORMAT.into(),
-            supported: BAKE_VERSION,
-        });
+    let version = probe_format.get("version").and_then(|v| v.as_u64()).unwrap_or(0);
+    if found != BAKE_FORMAT || version != BAKE_VERSION as u64 {
+        return Err(FileError::Version { path: mpath, found, version, expected: BAKE_FORMAT, supported: BAKE_VERSION });
     }
     let m: BakeManifest = serde_json::from_value(probe_format)
-        .map_err(|e| FormatError::Json { path: mpath.clone(), message: e.to_string() })?;
+        .map_err(|e| FileError::Json { path: mpath.clone(), message: e.to_string() })?;
 
     let ppath = dir.join(&m.probe.file);
-    let layers = read_exr(&ppath)?;
+    let layers = exr::read(&ppath)?;
     let mut radiance = Vec::new();
     for mip in &m.probe.radiance_mips {
         let n = mip.resolution as usize;
@@ -251,12 +208,12 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
         radiance.push(OctMap::new(mip.resolution, finite_rgb(l, &ppath)?));
     }
     let mut depth = Vec::new();
-    for (k, name) in m.probe.depth_mips.iter().enumerate() {
+    for (k, name) in m.probe.distance_mips.iter().enumerate() {
         let n = (m.probe.resolution >> k) as usize;
         let l = find(&layers, &ppath, name, (n, n))?;
         let z = channel(l, &ppath, "Z")?;
         if let Some(t) = z.iter().position(|d| d.is_nan() || *d < 0.0) {
-            return Err(FormatError::Invalid {
+            return Err(FileError::Invalid {
                 path: ppath.clone(),
                 field: name.clone(),
                 message: format!("texel {t} is NaN or negative"),
@@ -265,7 +222,7 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
         depth.push(OctMap::new(n as u32, z.to_vec()));
     }
     if radiance.is_empty() || depth.is_empty() {
-        return Err(FormatError::Invalid { path: mpath, field: "probe".into(), message: "no mips listed".into() });
+        return Err(FileError::Invalid { path: mpath, field: "probe".into(), message: "no mips listed".into() });
     }
     let probe = SpecularProbe {
         position: Vec3::from_array(m.probe.position),
@@ -275,7 +232,7 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
     };
 
     let gpath = dir.join(&m.grid.file);
-    let layers = read_exr(&gpath)?;
+    let layers = exr::read(&gpath)?;
     let geometry = GridGeometry {
         min: Vec3::from_array(m.grid.min),
         max: Vec3::from_array(m.grid.max),
@@ -289,7 +246,7 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
     let dm = find(&layers, &gpath, "depth_moments", dep_size)?;
     let mut inside = vec![false; geometry.cell_count()];
     for &k in &m.grid.inside_cells {
-        *inside.get_mut(k as usize).ok_or_else(|| FormatError::Invalid {
+        *inside.get_mut(k as usize).ok_or_else(|| FileError::Invalid {
             path: mpath.clone(),
             field: "grid.inside_cells".into(),
             message: format!("cell {k} out of range"),

@@ -1,403 +1,26 @@
-//! The stability suite: stiff and extreme cases run through the real code paths (scene
-//! loading, tracing, bake, warps, fit, the fitted-grid writer and the runtime loader), each
-//! with a stated expectation, a measured value and a verdict. `warpfit stability` prints the
-//! rows and exits non-zero on any failure; `tests/stability.rs` runs the quick mode.
-//!
-//! Every case also checks that no NaN or Inf reaches any output it touches. A case that
-//! panics is a failed row, not an aborted suite.
+//! The stability suite's cases: each a function from the mode to a measured value and a
+//! verdict, run through the real code paths.
 
-use crate::bake::{self, Bake};
+use super::Mode;
+use super::scenes::*;
 use crate::eval::{self, EvalSettings};
-use crate::fit::objective::{CellProblem, Sample};
-use crate::fit::{FitSettings, Solver};
-use crate::octa::{self, OctMap, OctMips};
-use crate::pipeline::{self, Baked, StoreOptions};
-use crate::progress::Progress;
-use crate::runtime::{FittedGrid, Precision};
-use crate::sampling::{Sampler, uniform_sphere};
+use crate::fit::Solver;
+use crate::fit::fixtures::{wall_probe, wall_problem};
+use crate::fit::objective::CellProblem;
+use crate::jobs::run::StoreOptions;
+use crate::octa::{self, OctMap};
+use crate::runtime::Precision;
+use crate::sampling::Sampler;
 use crate::scene::Scene;
 use crate::trace::Tracer;
 use crate::warp::{self, Method, Warp, WarpOptions, WarpProbe};
 use glam::Vec3;
-use serde::Serialize;
-use std::path::{Path, PathBuf};
-use std::time::Instant;
 
-/// How thorough the suite is: `Quick` for the tests (seconds), `Full` for the command.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Mode {
-    Quick,
-    Full,
-}
+/// What a case returns: the measured value in words and whether it passes; an error when the
+/// case could not run.
+pub type Outcome = Result<(String, bool), String>;
 
-/// One row of the suite.
-#[derive(Clone, Debug, Serialize)]
-pub struct CaseResult {
-    pub case: String,
-    pub expectation: String,
-    pub measured: String,
-    pub pass: bool,
-    pub seconds: f64,
-}
-
-/// The committed small scene every case starts from (a room open to the sky, a block, a
-/// column, a sun).
-const TINY: &str = include_str!("../data/scenes/tiny.toml");
-
-/// A room 4×2×4 with a solid block filling the cells x<0, y<1, z<0 of a 4×2×4 grid, a wall
-/// 1e-3 thick across it, a window, and a sun of irradiance `sun`.
-fn block_room(sun: f32, albedo: f32) -> String {
-    format!(
-        r#"
-name = "block_room"
-seed = 5
-bounces = 1
-[probe]
-position = [0.6, 1.3, 0.7]
-resolution = 32
-samples_per_texel = 2
-ggx_samples = 16
-[grid]
-min = [-2.0, 0.0, -2.0]
-max = [2.0, 2.0, 2.0]
-counts = [4, 2, 4]
-irradiance_resolution = 4
-depth_resolution = 8
-depth_samples = 2
-[sky]
-color = [0.2, 0.3, 0.5]
-[sun]
-direction = [0.3, 0.9, 0.2]
-angular_radius_deg = 0.27
-irradiance = [{sun}, {sun}, {sun}]
-[[geometry]]
-type = "room"
-min = [-2.0, 0.0, -2.0]
-max = [2.0, 2.0, 2.0]
-open = ["+y"]
-material = {{ albedo = [{albedo}, {albedo}, {albedo}] }}
-[[geometry]]
-type = "box"
-min = [-2.0, 0.0, -2.0]
-max = [0.0, 1.0, 0.0]
-[[geometry]]
-type = "box"
-min = [1.0, 0.0, -1.5]
-max = [1.001, 1.8, 1.5]
-"#
-    )
-}
-
-/// A floor 100 units wide under an open sky.
-const OPEN_FLOOR: &str = r#"
-name = "open_floor"
-seed = 2
-[probe]
-position = [0.0, 1.0, 0.0]
-resolution = 32
-samples_per_texel = 2
-ggx_samples = 16
-[grid]
-min = [-2.0, 0.1, -2.0]
-max = [2.0, 2.1, 2.0]
-counts = [2, 1, 2]
-irradiance_resolution = 4
-depth_resolution = 8
-depth_samples = 2
-[sky]
-zenith = [0.3, 0.5, 1.0]
-horizon = [0.9, 0.9, 1.0]
-ground = [0.2, 0.2, 0.2]
-[[geometry]]
-type = "box"
-min = [-50.0, -1.0, -50.0]
-max = [50.0, 0.0, 50.0]
-"#;
-
-fn parse(text: &str, name: &str) -> Result<Scene, String> {
-    Scene::parse(text, Path::new(&format!("<stability>/{name}.toml"))).map_err(|e| e.to_string())
-}
-
-fn finite3(v: &[Vec3]) -> bool {
-    v.iter().all(|x| x.is_finite())
-}
-
-fn finite(v: &[f32]) -> bool {
-    v.iter().all(|x| x.is_finite())
-}
-
-/// Bake outputs that must be finite (distances may be +inf for sky; never NaN).
-fn bake_is_clean(b: &Bake) -> bool {
-    b.probe.radiance.levels.iter().all(|l| finite3(&l.texels))
-        && b.probe.depth.levels.iter().all(|l| l.texels.iter().all(|d| !d.is_nan() && *d >= 0.0))
-        && finite3(&b.grid.irradiance)
-        && finite(&b.grid.depth_mean)
-        && finite(&b.grid.depth_mean_sq)
-}
-
-fn unit_and_finite(v: Vec3) -> bool {
-    v.is_finite() && (v.length() - 1.0).abs() < 1e-3
-}
-
-/// Directions on the octahedral map's seams, poles and diagonals, and just beside them.
-pub fn seam_directions() -> Vec<Vec3> {
-    let mut base = Vec::new();
-    for a in [-1.0f32, 0.0, 1.0] {
-        for b in [-1.0f32, 0.0, 1.0] {
-            for c in [-1.0f32, 0.0, 1.0] {
-                if (a, b, c) != (0.0, 0.0, 0.0) {
-                    base.push(Vec3::new(a, b, c));
-                }
-            }
-        }
-    }
-    base.push(Vec3::new(-0.0, -0.0, -1.0));
-    base.push(Vec3::new(-0.0, 1.0, -0.0));
-    let mut out = Vec::new();
-    for d in base {
-        out.push(d.normalize());
-        for e in [1e-7f32, -1e-7, f32::MIN_POSITIVE, 1e-30] {
-            for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
-                out.push((d + axis * e).normalize());
-            }
-        }
-    }
-    out
-}
-
-/// `n` directions: a seeded uniform set plus the seam directions.
-fn directions(n: u32) -> Vec<Vec3> {
-    let mut d: Vec<Vec3> = (0..n).map(|k| uniform_sphere(Sampler::new(0x57AB, 1, k).next_2d())).collect();
-    d.extend(seam_directions());
-    d
-}
-
-/// Every per-lookup method at `b` over `dirs`: how many fetch directions are not finite unit
-/// vectors.
-fn bad_fetches(warp: &Warp, b: Vec3, dirs: &[Vec3]) -> usize {
-    let mut bad = 0;
-    for m in Method::PER_LOOKUP {
-        for &d in dirs {
-            let f = warp.fetch_dir(m, b, d);
-            let r = warp.lookup(m, b, d);
-            if !unit_and_finite(f) || !r.is_finite() {
-                bad += 1;
-            }
-        }
-    }
-    bad
-}
-
-/// Runtime answers at `b` over `dirs` that are not finite and ≥ 0.
-fn bad_runtime(g: &FittedGrid, b: Vec3, dirs: &[Vec3]) -> usize {
-    let mut bad = 0;
-    for &d in dirs {
-        for r in [0.0, 0.3, 1.0] {
-            let s = g.specular(b, d, r);
-            if !s.is_finite() || s.min_element() < 0.0 {
-                bad += 1;
-            }
-        }
-        let e = g.irradiance(b, d);
-        if !e.is_finite() || e.min_element() < 0.0 {
-            bad += 1;
-        }
-    }
-    bad
-}
-
-/// A scene, its tracer, its bake and the warp context.
-struct Fixture {
-    scene: Scene,
-    tracer: Tracer,
-    bake: Bake,
-    warp: Warp,
-}
-
-impl Fixture {
-    fn new(scene: Scene) -> Fixture {
-        let tracer = Tracer::new(&scene);
-        let bake = bake::bake(&scene, &tracer, &Progress::quiet());
-        let warp = bake::warp(&scene, &bake.probe, WarpOptions::standard());
-        Fixture { scene, tracer, bake, warp }
-    }
-
-    fn baked(&self) -> Baked<'_> {
-        Baked { scene: &self.scene, tracer: &self.tracer, probe: &self.bake.probe, grid: &self.bake.grid }
-    }
-
-    /// Fits, writes the fitted grid to a fresh folder and loads it back.
-    fn fit_and_load(&self, mode: Mode, store: StoreOptions) -> Result<(crate::fit::Fit, FittedGrid, TempDir), String> {
-        let dir = TempDir::new(&self.scene.name);
-        let (fit, _) = pipeline::fit(
-            self.baked(),
-            &self.warp,
-            &fit_settings(mode),
-            store,
-            &dir.0,
-            "warpfit stability",
-            &Progress::quiet(),
-        )
-        .map_err(|e| e.to_string())?;
-        let g = FittedGrid::load(&dir.0).map_err(|e| e.to_string())?;
-        Ok((fit, g, dir))
-    }
-}
-
-fn fit_settings(mode: Mode) -> FitSettings {
-    match mode {
-        Mode::Quick => FitSettings::quick(),
-        Mode::Full => FitSettings::moderate(),
-    }
-}
-
-/// A scratch folder removed on drop.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(tag: &str) -> TempDir {
-        use std::sync::atomic::{AtomicU32, Ordering};
-        static N: AtomicU32 = AtomicU32::new(0);
-        let n = N.fetch_add(1, Ordering::Relaxed);
-        let p = std::env::temp_dir().join(format!("warpfit-stability-{}-{tag}-{n}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&p);
-        TempDir(p)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-type Outcome = Result<(String, bool), String>;
-
-/// A case: name, expectation, the check.
-type Case = (&'static str, &'static str, Box<dyn Fn(Mode) -> Outcome>);
-
-/// Runs the suite; `on_row` sees each row as it finishes.
-pub fn run(mode: Mode, mut on_row: impl FnMut(&CaseResult)) -> Vec<CaseResult> {
-    let cases: Vec<Case> = vec![
-        (
-            "query at the probe centre",
-            "every method returns the query direction bit for bit; runtime = probe radiance",
-            Box::new(probe_centre),
-        ),
-        ("query 1e-6 from a wall", "finite unit fetch directions, finite runtime answers ≥ 0", Box::new(near_wall)),
-        ("query outside the grid", "finite answers; the nearest cell's corrective is used", Box::new(outside_grid)),
-        (
-            "octahedral seams, poles, diagonals",
-            "round trip < 1e-5 rad; finite unit fetches; finite runtime",
-            Box::new(seams),
-        ),
-        ("infinite depth (sky)", "depth warps return the query direction exactly where A sees only sky", Box::new(sky)),
-        ("zero depth (probe on a surface)", "bake, warps, fit and runtime stay finite", Box::new(zero_depth)),
-        (
-            "scene scaled by 1e-4",
-            "rel RMSE of every method within 2% of the unscaled scene",
-            Box::new(|m| scaled(m, 1e-4)),
-        ),
-        (
-            "scene scaled by 1e4",
-            "rel RMSE of every method within 2% of the unscaled scene",
-            Box::new(|m| scaled(m, 1e4)),
-        ),
-        ("grazing rays over a large plane", "no ray above the plane hits it; finite unit fetches", Box::new(grazing)),
-        ("thin feature (1e-3 thick wall)", "no ray leaks through it", Box::new(thin_feature)),
-        (
-            "cells inside geometry",
-            "exactly the 4 cells whose centres are in the block are flagged, fitted and stored nowhere",
-            Box::new(inside_cells),
-        ),
-        (
-            "a cell that sees only sky",
-            "flat objective: level 0 everywhere, finite errors, the grid loads",
-            Box::new(sky_only),
-        ),
-        (
-            "stiff fit (scales 1e-3 and 1e3)",
-            "log-scale parameters within 0.05, relative errors within 2%",
-            Box::new(stiff_fit),
-        ),
-        (
-            "near-singular secant step",
-            "finite unit fetches for rays 1e-7 from parallel to the wall",
-            Box::new(near_singular_secant),
-        ),
-        (
-            "HDR range 1e6 (sun vs dim walls)",
-            "finite everywhere; f16 layers above 65504 kept f32, no saturation",
-            Box::new(hdr),
-        ),
-        ("degenerate triangles", "skipped and counted (3 of 4), the scene loads", Box::new(degenerate_triangles)),
-        ("empty and non-finite scenes", "clear errors naming the file, no panic", Box::new(bad_scenes)),
-    ];
-    let mut rows = Vec::new();
-    for (case, expectation, f) in cases {
-        let t0 = Instant::now();
-        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(mode)));
-        let (measured, pass) = match outcome {
-            Ok(Ok((m, p))) => (m, p),
-            Ok(Err(e)) => (format!("error: {e}"), false),
-            Err(p) => {
-                let msg = p
-                    .downcast_ref::<String>()
-                    .cloned()
-                    .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
-                    .unwrap_or_default();
-                (format!("panicked: {msg}"), false)
-            }
-        };
-        let row = CaseResult {
-            case: case.into(),
-            expectation: expectation.into(),
-            measured,
-            pass,
-            seconds: t0.elapsed().as_secs_f64(),
-        };
-        on_row(&row);
-        rows.push(row);
-    }
-    rows
-}
-
-/// Writes `stability.json` and `stability.md` into `dir`.
-pub fn write(dir: &Path, rows: &[CaseResult], mode: Mode, command: &str) -> Result<(), crate::format::FormatError> {
-    use crate::format::{FormatError, write_atomic};
-    std::fs::create_dir_all(dir).map_err(|source| FormatError::Io { path: dir.to_path_buf(), source })?;
-    let value = serde_json::json!({
-        "mode": format!("{mode:?}").to_lowercase(),
-        "command": command,
-        "passed": rows.iter().filter(|r| r.pass).count(),
-        "failed": rows.iter().filter(|r| !r.pass).count(),
-        "cases": rows,
-    });
-    let jpath = dir.join("stability.json");
-    let bytes = serde_json::to_vec_pretty(&value)
-        .map_err(|e| FormatError::Json { path: jpath.clone(), message: e.to_string() })?;
-    write_atomic(&jpath, &bytes).map_err(|source| FormatError::Io { path: jpath.clone(), source })?;
-    let md = format!("# Stability suite ({mode:?} mode)\n\nProduced by `{command}`.\n\n{}", table(rows));
-    let mpath = dir.join("stability.md");
-    write_atomic(&mpath, md.as_bytes()).map_err(|source| FormatError::Io { path: mpath.clone(), source })
-}
-
-/// Markdown table of the rows.
-pub fn table(rows: &[CaseResult]) -> String {
-    let mut s = String::from("| case | expectation | measured | result |\n|---|---|---|---|\n");
-    for r in rows {
-        s += &format!(
-            "| {} | {} | {} | {} |\n",
-            r.case,
-            r.expectation,
-            r.measured.replace('|', "/"),
-            if r.pass { "pass" } else { "**FAIL**" }
-        );
-    }
-    s
-}
-
-fn tiny(mode: Mode) -> Result<Scene, String> {
+pub fn tiny(mode: Mode) -> Result<Scene, String> {
     let mut s = parse(TINY, "tiny")?;
     if mode == Mode::Full {
         s.config.probe.resolution = 64;
@@ -405,7 +28,7 @@ fn tiny(mode: Mode) -> Result<Scene, String> {
     Ok(s)
 }
 
-fn probe_centre(mode: Mode) -> Outcome {
+pub fn probe_centre(mode: Mode) -> Outcome {
     let fx = Fixture::new(tiny(mode)?);
     let (_, g, _dir) = fx.fit_and_load(mode, StoreOptions::default())?;
     let a = fx.bake.probe.position;
@@ -425,7 +48,7 @@ fn probe_centre(mode: Mode) -> Outcome {
     ))
 }
 
-fn near_wall(mode: Mode) -> Outcome {
+pub fn near_wall(mode: Mode) -> Outcome {
     let fx = Fixture::new(tiny(mode)?);
     let (_, g, _dir) = fx.fit_and_load(mode, StoreOptions::default())?;
     let dirs = directions(512);
@@ -437,7 +60,7 @@ fn near_wall(mode: Mode) -> Outcome {
     Ok((format!("{bad} bad method fetches, {bad_rt} bad runtime answers at 3 points"), bad == 0 && bad_rt == 0))
 }
 
-fn outside_grid(mode: Mode) -> Outcome {
+pub fn outside_grid(mode: Mode) -> Outcome {
     let fx = Fixture::new(tiny(mode)?);
     let (_, g, _dir) = fx.fit_and_load(mode, StoreOptions::default())?;
     let dirs = directions(256);
@@ -456,7 +79,7 @@ fn outside_grid(mode: Mode) -> Outcome {
     ))
 }
 
-fn seams(mode: Mode) -> Outcome {
+pub fn seams(mode: Mode) -> Outcome {
     let fx = Fixture::new(tiny(mode)?);
     let (_, g, _dir) = fx.fit_and_load(mode, StoreOptions::default())?;
     let dirs = seam_directions();
@@ -473,7 +96,7 @@ fn seams(mode: Mode) -> Outcome {
     ))
 }
 
-fn sky(mode: Mode) -> Outcome {
+pub fn sky(mode: Mode) -> Outcome {
     let fx = Fixture::new(parse(OPEN_FLOOR, "open_floor")?);
     let opts = WarpOptions::default();
     let b = Vec3::new(0.7, 1.4, -0.5);
@@ -500,7 +123,7 @@ fn sky(mode: Mode) -> Outcome {
     ))
 }
 
-fn zero_depth(mode: Mode) -> Outcome {
+pub fn zero_depth(mode: Mode) -> Outcome {
     let mut s = tiny(mode)?;
     s.config.probe.position = [0.3, 0.0, -0.4]; // on the floor
     let fx = Fixture::new(s);
@@ -538,7 +161,7 @@ fn method_errors(fx: &Fixture, mode: Mode) -> Vec<(String, f64)> {
         .collect()
 }
 
-fn scaled(mode: Mode, factor: f32) -> Outcome {
+pub fn scaled(mode: Mode, factor: f32) -> Outcome {
     let base = tiny(mode)?;
     let a = Fixture::new(base.clone());
     let b = Fixture::new(base.scaled(factor));
@@ -557,7 +180,7 @@ fn scaled(mode: Mode, factor: f32) -> Outcome {
     ))
 }
 
-fn grazing(_mode: Mode) -> Outcome {
+pub fn grazing(_mode: Mode) -> Outcome {
     let fx = Fixture::new(parse(OPEN_FLOOR, "open_floor")?);
     let b = Vec3::new(3.0, 1e-4, 2.0);
     let mut dirs = Vec::new();
@@ -577,7 +200,7 @@ fn grazing(_mode: Mode) -> Outcome {
     ))
 }
 
-fn thin_feature(mode: Mode) -> Outcome {
+pub fn thin_feature(mode: Mode) -> Outcome {
     let scene = parse(&block_room(5.0, 0.6), "block_room")?;
     let tracer = Tracer::new(&scene);
     // the wall spans x ∈ [1, 1.001], y ∈ [0, 1.8], z ∈ [−1.5, 1.5]; shoot at it from x = 0.5
@@ -596,7 +219,7 @@ fn thin_feature(mode: Mode) -> Outcome {
     Ok((format!("{leaks} of {n} rays leak"), leaks == 0))
 }
 
-fn inside_cells(mode: Mode) -> Outcome {
+pub fn inside_cells(mode: Mode) -> Outcome {
     let fx = Fixture::new(parse(&block_room(5.0, 0.6), "block_room")?);
     let geo = fx.bake.grid.geometry;
     let expected: Vec<usize> = (0..geo.cell_count())
@@ -618,11 +241,11 @@ fn inside_cells(mode: Mode) -> Outcome {
     ))
 }
 
-fn sky_only(mode: Mode) -> Outcome {
+pub fn sky_only(mode: Mode) -> Outcome {
     let text = "name = \"sky_only\"\n[probe]\nposition = [0.0, 1.0, 0.0]\nresolution = 16\nsamples_per_texel = 1\nggx_samples = 8\n[grid]\nmin = [-1.0, 0.0, -1.0]\nmax = [1.0, 2.0, 1.0]\ncounts = [2, 1, 2]\nirradiance_resolution = 4\ndepth_resolution = 8\n[sky]\ncolor = [0.5, 0.6, 0.9]\n[[geometry]]\ntype = \"sphere\"\ncenter = [500.0, 500.0, 500.0]\nradius = 0.01\n";
     let fx = Fixture::new(parse(text, "sky_only")?);
     let (fit, g, _dir) = fx.fit_and_load(mode, StoreOptions::default())?;
-    let level0 = fit.cells.iter().all(|c| c.level == 0);
+    let level0 = fit.cells.iter().all(|c| c.level == crate::fit::Level::Fallback);
     let finite_errs = fit
         .cells
         .iter()
@@ -638,48 +261,6 @@ fn sky_only(mode: Mode) -> Outcome {
     ))
 }
 
-/// Texture on the wall z = 5·scale.
-fn wall_radiance(p: Vec3, scale: f32) -> Vec3 {
-    let (x, y) = (p.x / scale, p.y / scale);
-    Vec3::new(0.5 + 0.4 * (1.3 * x).sin() * (1.1 * y).cos(), 0.5 + 0.3 * (0.9 * x + 0.4 * y).sin(), 0.4)
-}
-
-/// Closed-form fixture: a probe at the origin (`res`² map) before an infinite textured wall
-/// at z = 5·scale.
-pub fn wall_probe(scale: f32, res: u32) -> WarpProbe {
-    let z = 5.0 * scale;
-    let rad = OctMap::from_fn(res, |_, _, d| if d.z > 0.0 { wall_radiance(d * (z / d.z), scale) } else { Vec3::ZERO });
-    let dist = OctMap::from_fn(res, |_, _, d| if d.z > 0.0 { z / d.z } else { f32::INFINITY });
-    WarpProbe::from_distance_mips(Vec3::ZERO, &octa::build_distance_mips(dist, 8), OctMips { levels: vec![rad] })
-}
-
-/// The wall's cell problem: a cell centred 1·scale before the probe whose 8×8 map starts 30%
-/// too near, and `samples` queries in the cell with exact references. Returns the starting
-/// map, the queries, the cell centre and the true map.
-pub fn wall_problem(scale: f32, samples: u32) -> (Vec<f32>, Vec<Sample>, Vec3, Vec<f32>) {
-    let z = 5.0 * scale;
-    let c = Vec3::new(0.8, -0.5, 1.0) * scale;
-    let res = 8;
-    let truth: Vec<f32> = (0..res * res)
-        .map(|t| {
-            let d = octa::texel_dir(res, t % res, t / res);
-            if d.z > 0.0 { d.z / (z - c.z) } else { 0.0 }
-        })
-        .collect();
-    let init = truth.iter().map(|w| w * 1.3).collect();
-    let qs = (0..samples)
-        .map(|k| {
-            let mut s = Sampler::new(5, 7, k);
-            let b = c + (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5) * scale;
-            let mut d = uniform_sphere(s.next_2d());
-            d.z = d.z.abs().max(0.2);
-            let d = d.normalize();
-            Sample { b, dir: d, reference: wall_radiance(b + d * ((z - b.z) / d.z), scale), taps: [(0, 0.0); 4] }
-        })
-        .collect();
-    (init, qs, c, truth)
-}
-
 /// Fits the wall problem with Brent: log-scale parameters and the held-in relative error.
 fn fit_wall(scale: f32, samples: u32) -> (Vec<f64>, f64) {
     let probe = wall_probe(scale, 128);
@@ -690,7 +271,7 @@ fn fit_wall(scale: f32, samples: u32) -> (Vec<f64>, f64) {
     (out.params, err)
 }
 
-fn stiff_fit(mode: Mode) -> Outcome {
+pub fn stiff_fit(mode: Mode) -> Outcome {
     let n = if mode == Mode::Quick { 1500 } else { 4000 };
     let (s_small, e_small) = fit_wall(1e-3, n);
     let (s_large, e_large) = fit_wall(1e3, n);
@@ -704,7 +285,7 @@ fn stiff_fit(mode: Mode) -> Outcome {
     ))
 }
 
-fn near_singular_secant(_mode: Mode) -> Outcome {
+pub fn near_singular_secant(_mode: Mode) -> Outcome {
     let probe = wall_probe(1.0, 128);
     let proxies = warp::Proxies {
         aabb: warp::proxy::BoxProxy::aabb(Vec3::splat(-10.0), Vec3::splat(5.0)),
@@ -734,10 +315,10 @@ fn near_singular_secant(_mode: Mode) -> Outcome {
 /// The probe's level-0 distances, for fitting a k-DOP.
 fn probe_distance(p: &WarpProbe) -> OctMap<f32> {
     let l = &p.inv_depth.levels[0];
-    OctMap::new(l.res, l.texels.iter().map(|&w| if w > 0.0 { 1.0 / w } else { f32::INFINITY }).collect())
+    OctMap::new(l.res, l.texels.iter().map(|&w| octa::distance_from_inverse(w)).collect())
 }
 
-fn hdr(mode: Mode) -> Outcome {
+pub fn hdr(mode: Mode) -> Outcome {
     let fx = Fixture::new(parse(&block_room(1e6, 0.02), "hdr")?);
     let max_rad = fx.bake.probe.radiance.levels[0].texels.iter().map(|v| v.max_element()).fold(0.0f32, f32::max);
     let dim = fx.bake.probe.radiance.levels[0]
@@ -761,7 +342,7 @@ fn hdr(mode: Mode) -> Outcome {
     let bad_rt = bad_runtime(&g, Vec3::new(0.5, 1.2, 0.5), &directions(256));
     let errs = method_errors(&fx, Mode::Quick);
     let errs_finite = errs.iter().all(|(_, e)| e.is_finite());
-    let no_saturation = max_rad <= crate::format::grid_io::F16_MAX || loaded_max == max_rad;
+    let no_saturation = max_rad <= crate::gridfile::exr::F16_MAX || loaded_max == max_rad;
     Ok((
         format!(
             "radiance {dim:.1e}..{max_rad:.1e}; layers kept f32: {kept_f32:?}; loaded max {loaded_max:.3e}; {bad_rt} bad runtime answers; fit finite: {fit_finite}; warp1 rel RMSE {:.3}",
@@ -771,7 +352,7 @@ fn hdr(mode: Mode) -> Outcome {
     ))
 }
 
-fn degenerate_triangles(_mode: Mode) -> Outcome {
+pub fn degenerate_triangles(_mode: Mode) -> Outcome {
     let dir = TempDir::new("degenerate");
     std::fs::create_dir_all(&dir.0).map_err(|e| e.to_string())?;
     // one good triangle; a repeated vertex, a collinear triple, a zero-area sliver
@@ -793,7 +374,7 @@ fn degenerate_triangles(_mode: Mode) -> Outcome {
     ))
 }
 
-fn bad_scenes(_mode: Mode) -> Outcome {
+pub fn bad_scenes(_mode: Mode) -> Outcome {
     let header = "[probe]\nposition = [0.0, 1.0, 0.0]\nresolution = 16\n[grid]\nmin = [-1.0, 0.0, -1.0]\nmax = [1.0, 2.0, 1.0]\ncounts = [2, 2, 2]\n";
     let cases = [
         ("empty", header.to_string()),

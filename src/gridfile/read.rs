@@ -1,74 +1,70 @@
-//! Loading a fitted grid folder: read and check the manifest, verify each payload's size
-//! and checksum before decoding it, then validate every layer's presence, size and values.
-//! Every failure is a `LoadError` naming the file and the field.
+//! Reading a fitted grid folder, distrustfully: the manifest and its format and version,
+//! each payload's size and checksum before it is decoded, EXR headers against the manifest
+//! before any pixel is, then every layer's presence, size and values. Every failure is a
+//! [`FileError`] naming the file and the field. Produces plain data ([`GridData`]); the
+//! runtime sampler is assembled from it.
 
-use super::exr_layers::{ExrLayer as Layer, decode_layers};
-use super::manifest::*;
-use super::{FittedGrid, IrradianceGrid, RoughnessLut};
+use super::exr::{self, ExrLayer as Layer};
+use super::schema::*;
+use crate::files::{FileError, checksum};
 use crate::grid::GridGeometry;
 use crate::octa::{self, OctMap, OctMips};
-use crate::warp::corrective::Correctives;
+use crate::roughness::RoughnessCorrection;
+use crate::warp::corrective::{Correctives, NO_MAP};
 use crate::warp::proxy::{BoxProxy, Kdop};
 use crate::warp::{Method, Proxies, Warp, WarpProbe};
 use glam::{Quat, UVec3, Vec3};
-use std::fmt;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// Why a fitted grid could not be loaded.
-#[derive(Debug)]
-pub enum LoadError {
-    Io { path: PathBuf, message: String },
-    Json { path: PathBuf, message: String },
-    Version { path: PathBuf, found: String, version: u64 },
-    Checksum { path: PathBuf, expected: String, found: String },
-    Exr { path: PathBuf, message: String },
-    Invalid { path: PathBuf, field: String, message: String },
+/// A fitted grid as read from its folder, validated.
+pub struct GridData {
+    pub manifest: GridManifest,
+    /// Probe A (inverse-distance and radiance mips), the proxies and the warp options.
+    pub warp: Warp,
+    /// Perceptual roughness of each radiance mip (increasing, mip 0 = 0).
+    pub mip_roughness: Vec<f32>,
+    pub correctives: Correctives,
+    pub irradiance: IrradianceGrid,
+    pub roughness: Option<RoughnessCorrection>,
 }
 
-impl fmt::Display for LoadError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            LoadError::Io { path, message } => write!(f, "{}: {message}", path.display()),
-            LoadError::Json { path, message } => write!(f, "{}: invalid manifest JSON: {message}", path.display()),
-            LoadError::Version { path, found, version } => write!(
-                f,
-                "{}: format {found:?} version {version} is not supported (this reader reads {GRID_FORMAT:?} version {GRID_VERSION})",
-                path.display()
-            ),
-            LoadError::Checksum { path, expected, found } => write!(
-                f,
-                "{}: checksum {found} does not match the manifest's {expected} (truncated or modified file)",
-                path.display()
-            ),
-            LoadError::Exr { path, message } => write!(f, "{}: not a readable EXR: {message}", path.display()),
-            LoadError::Invalid { path, field, message } => write!(f, "{}: {field}: {message}", path.display()),
-        }
-    }
+/// Irradiance and distance moments of the stored (not inside geometry) cells; sampled by
+/// the runtime (`runtime::irradiance`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct IrradianceGrid {
+    pub geometry: GridGeometry,
+    pub resolution: u32,
+    pub depth_resolution: u32,
+    /// Per grid cell: slot in the arrays below ([`NO_MAP`] = not stored).
+    pub slot: Vec<u32>,
+    /// `slot · resolution² + texel`.
+    pub irradiance: Vec<Vec3>,
+    /// `slot · depth_resolution² + texel`: mean and mean square of the hit distance.
+    pub depth_mean: Vec<f32>,
+    pub depth_mean_sq: Vec<f32>,
 }
 
-impl std::error::Error for LoadError {}
-
-fn invalid(path: &Path, field: impl Into<String>, message: impl Into<String>) -> LoadError {
-    LoadError::Invalid { path: path.to_path_buf(), field: field.into(), message: message.into() }
+fn invalid(path: &Path, field: impl Into<String>, message: impl Into<String>) -> FileError {
+    FileError::invalid(path, field, message)
 }
 
 /// Reads and checks `manifest.json` (format, version, structure).
-pub fn read_manifest(dir: &Path) -> Result<GridManifest, LoadError> {
+pub fn read_manifest(dir: &Path) -> Result<GridManifest, FileError> {
     let path = dir.join(MANIFEST_FILE);
-    let bytes = std::fs::read(&path).map_err(|e| LoadError::Io { path: path.clone(), message: e.to_string() })?;
+    let bytes = std::fs::read(&path).map_err(FileError::io(&path))?;
     let value: serde_json::Value =
-        serde_json::from_slice(&bytes).map_err(|e| LoadError::Json { path: path.clone(), message: e.to_string() })?;
+        serde_json::from_slice(&bytes).map_err(|e| FileError::Json { path: path.clone(), message: e.to_string() })?;
     let found = value.get("format").and_then(|v| v.as_str()).unwrap_or("").to_string();
     let version = value.get("version").and_then(|v| v.as_u64()).unwrap_or(0);
     if found != GRID_FORMAT || version != GRID_VERSION as u64 {
-        return Err(LoadError::Version { path, found, version });
+        return Err(FileError::Version { path, found, version, expected: GRID_FORMAT, supported: GRID_VERSION });
     }
-    serde_json::from_value(value).map_err(|e| LoadError::Json { path, message: e.to_string() })
+    serde_json::from_value(value).map_err(|e| FileError::Json { path, message: e.to_string() })
 }
 
 /// Reads a payload (one of the fixed file names), checking its size and checksum against the
 /// manifest before decoding.
-fn read_payload(dir: &Path, m: &GridManifest, file: &str) -> Result<Vec<Layer>, LoadError> {
+fn read_payload(dir: &Path, m: &GridManifest, file: &str) -> Result<Vec<Layer>, FileError> {
     let mpath = dir.join(MANIFEST_FILE);
     let entry = m
         .payloads
@@ -79,18 +75,18 @@ fn read_payload(dir: &Path, m: &GridManifest, file: &str) -> Result<Vec<Layer>, 
         return Err(invalid(&mpath, format!("payloads.{}", l.name), "layer too large"));
     }
     let path = dir.join(file);
-    let bytes = std::fs::read(&path).map_err(|e| LoadError::Io { path: path.clone(), message: e.to_string() })?;
+    let bytes = std::fs::read(&path).map_err(FileError::io(&path))?;
     if bytes.len() as u64 != entry.bytes {
         return Err(invalid(&path, "size", format!("{} bytes, the manifest says {}", bytes.len(), entry.bytes)));
     }
     let found = checksum(&bytes);
     if found != entry.checksum {
-        return Err(LoadError::Checksum { path, expected: entry.checksum.clone(), found });
+        return Err(FileError::Checksum { path, expected: entry.checksum.clone(), found });
     }
     // Check the headers against the manifest before decoding: a damaged header can claim
     // a layer of any size, and decoding would try to allocate it.
     check_headers(&path, &bytes, entry)?;
-    let layers = decode_exr(&path, &bytes)?;
+    let layers = exr::decode(&path, &bytes)?;
     // every layer the manifest lists must be there with its size and channels
     for l in &entry.layers {
         let got = layers
@@ -116,9 +112,9 @@ fn read_payload(dir: &Path, m: &GridManifest, file: &str) -> Result<Vec<Layer>, 
 /// Largest layer a fitted grid may hold (pixels); far above any real grid.
 const MAX_LAYER_PIXELS: u64 = 1 << 28;
 
-fn check_headers(path: &Path, bytes: &[u8], entry: &Payload) -> Result<(), LoadError> {
-    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
-        .map_err(|e| LoadError::Exr { path: path.to_path_buf(), message: e.to_string() })?;
+fn check_headers(path: &Path, bytes: &[u8], entry: &Payload) -> Result<(), FileError> {
+    let meta = ::exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+        .map_err(|e| FileError::Exr { path: path.to_path_buf(), message: e.to_string() })?;
     for h in &meta.headers {
         let name = h.own_attributes.layer_name.as_ref().map(|n| n.to_string()).unwrap_or_default();
         let listed = entry
@@ -141,14 +137,7 @@ fn check_headers(path: &Path, bytes: &[u8], entry: &Payload) -> Result<(), LoadE
     Ok(())
 }
 
-fn decode_exr(path: &Path, bytes: &[u8]) -> Result<Vec<Layer>, LoadError> {
-    decode_layers(bytes).map_err(|e| match e.field {
-        Some(field) => invalid(path, field, e.message),
-        None => LoadError::Exr { path: path.to_path_buf(), message: e.message },
-    })
-}
-
-fn layer<'a>(layers: &'a [Layer], path: &Path, name: &str, size: (usize, usize)) -> Result<&'a Layer, LoadError> {
+fn layer<'a>(layers: &'a [Layer], path: &Path, name: &str, size: (usize, usize)) -> Result<&'a Layer, FileError> {
     let l = layers.iter().find(|l| l.name == name).ok_or_else(|| invalid(path, name, "layer missing"))?;
     if (l.width, l.height) != size {
         return Err(invalid(path, name, format!("size {}x{}, expected {}x{}", l.width, l.height, size.0, size.1)));
@@ -156,7 +145,7 @@ fn layer<'a>(layers: &'a [Layer], path: &Path, name: &str, size: (usize, usize))
     Ok(l)
 }
 
-fn channel<'a>(l: &'a Layer, path: &Path, name: &str) -> Result<&'a [f32], LoadError> {
+fn channel<'a>(l: &'a Layer, path: &Path, name: &str) -> Result<&'a [f32], FileError> {
     l.channels
         .iter()
         .find(|(n, _)| n == name)
@@ -165,14 +154,14 @@ fn channel<'a>(l: &'a Layer, path: &Path, name: &str) -> Result<&'a [f32], LoadE
 }
 
 /// Checks every value with `ok`; names the first offender.
-fn check(path: &Path, field: &str, values: &[f32], what: &str, ok: impl Fn(f32) -> bool) -> Result<(), LoadError> {
+fn check(path: &Path, field: &str, values: &[f32], what: &str, ok: impl Fn(f32) -> bool) -> Result<(), FileError> {
     match values.iter().position(|&v| !ok(v)) {
         Some(k) => Err(invalid(path, field, format!("sample {k} is {}: expected {what}", values[k]))),
         None => Ok(()),
     }
 }
 
-fn rgb(l: &Layer, path: &Path) -> Result<Vec<Vec3>, LoadError> {
+fn rgb(l: &Layer, path: &Path) -> Result<Vec<Vec3>, FileError> {
     let (r, g, b) = (channel(l, path, "R")?, channel(l, path, "G")?, channel(l, path, "B")?);
     for (c, v) in [("R", r), ("G", g), ("B", b)] {
         check(path, &format!("{}.{c}", l.name), v, "finite and ≥ 0", |x| x.is_finite() && x >= 0.0)?;
@@ -180,7 +169,7 @@ fn rgb(l: &Layer, path: &Path) -> Result<Vec<Vec3>, LoadError> {
     Ok((0..r.len()).map(|k| Vec3::new(r[k], g[k], b[k])).collect())
 }
 
-fn finite3(v: [f32; 3], path: &Path, field: &str) -> Result<Vec3, LoadError> {
+fn finite3(v: [f32; 3], path: &Path, field: &str) -> Result<Vec3, FileError> {
     let v = Vec3::from_array(v);
     if v.is_finite() { Ok(v) } else { Err(invalid(path, field, "not finite")) }
 }
@@ -191,11 +180,11 @@ fn tile(atlas: &[f32], k: usize, res: u32, columns: u32) -> impl Iterator<Item =
 }
 
 /// Sparse cell list → per-cell slot (`u32::MAX` = not stored), validated.
-fn slots(cells: &[u32], count: usize, path: &Path, field: &str) -> Result<Vec<u32>, LoadError> {
-    let mut slot = vec![u32::MAX; count];
+fn slots(cells: &[u32], count: usize, path: &Path, field: &str) -> Result<Vec<u32>, FileError> {
+    let mut slot = vec![NO_MAP; count];
     for (k, &c) in cells.iter().enumerate() {
         let s = slot.get_mut(c as usize).ok_or_else(|| invalid(path, field, format!("cell {c} out of range")))?;
-        if *s != u32::MAX {
+        if *s != NO_MAP {
             return Err(invalid(path, field, format!("cell {c} listed twice")));
         }
         *s = k as u32;
@@ -203,7 +192,8 @@ fn slots(cells: &[u32], count: usize, path: &Path, field: &str) -> Result<Vec<u3
     Ok(slot)
 }
 
-pub(super) fn load(dir: &Path) -> Result<FittedGrid, LoadError> {
+/// Reads and validates the fitted grid in `dir`.
+pub fn read(dir: &Path) -> Result<GridData, FileError> {
     let m = read_manifest(dir)?;
     let mpath = dir.join(MANIFEST_FILE);
     let mp = mpath.as_path();
@@ -238,7 +228,7 @@ pub(super) fn load(dir: &Path) -> Result<FittedGrid, LoadError> {
     let ppath = dir.join(PROBE_FILE);
     let layers = read_payload(dir, &m, PROBE_FILE)?;
     let mut radiance = Vec::new();
-    let mut roughness = Vec::new();
+    let mut roughness_of_mips = Vec::new();
     for (k, mip) in p.radiance_mips.iter().enumerate() {
         if mip.resolution != p.resolution >> k || mip.resolution == 0 {
             return Err(invalid(mp, format!("probe.radiance_mips[{k}].resolution"), "must halve at every mip"));
@@ -249,7 +239,7 @@ pub(super) fn load(dir: &Path) -> Result<FittedGrid, LoadError> {
         let n = mip.resolution as usize;
         let l = layer(&layers, &ppath, &mip.layer, (n, n))?;
         radiance.push(OctMap::new(mip.resolution, rgb(l, &ppath)?));
-        roughness.push(mip.perceptual_roughness);
+        roughness_of_mips.push(mip.perceptual_roughness);
     }
     let mut distance = Vec::new();
     for (k, name) in p.distance_mips.iter().enumerate() {
@@ -302,7 +292,7 @@ pub(super) fn load(dir: &Path) -> Result<FittedGrid, LoadError> {
 
     // correctives
     let (map_res, slot, maps) = match &m.correctives {
-        None => (8, vec![u32::MAX; cells], Vec::new()),
+        None => (8, vec![NO_MAP; cells], Vec::new()),
         Some(c) => {
             if !(2..=64).contains(&c.map_res) {
                 return Err(invalid(mp, "correctives.map_res", "must lie in 2..=64"));
@@ -356,18 +346,13 @@ pub(super) fn load(dir: &Path) -> Result<FittedGrid, LoadError> {
         depth_mean,
         depth_mean_sq,
     };
-
-    let roughness_lut = match &m.roughness {
-        None => None,
-        Some(r) => Some(RoughnessLut::new(r).ok_or_else(|| invalid(mp, "roughness", "malformed table"))?),
-    };
-    Ok(FittedGrid {
+    let roughness = m.roughness.clone();
+    Ok(GridData {
         warp: Warp { probe, proxies, options: *o },
-        mip_roughness: roughness,
-        blend: w.blend,
+        mip_roughness: roughness_of_mips,
         correctives,
         irradiance,
-        roughness: roughness_lut,
+        roughness,
         manifest: m,
     })
 }

@@ -1,0 +1,132 @@
+//! File plumbing every format shares: the one error type for files warpfit reads or writes
+//! (naming the file and the field), atomic writes, JSON, and the checksum payloads carry.
+//! Knows no domain type; builds in the runtime-only configuration (std and serde_json).
+
+use serde::Serialize;
+use std::fmt;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Everything that can be wrong with a file warpfit reads or writes. The runtime calls it
+/// `runtime::LoadError`.
+#[derive(Debug)]
+pub enum FileError {
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    Json {
+        path: PathBuf,
+        message: String,
+    },
+    /// Another format, or a version this build does not read.
+    Version {
+        path: PathBuf,
+        found: String,
+        version: u64,
+        expected: &'static str,
+        supported: u32,
+    },
+    Checksum {
+        path: PathBuf,
+        expected: String,
+        found: String,
+    },
+    Exr {
+        path: PathBuf,
+        message: String,
+    },
+    Invalid {
+        path: PathBuf,
+        field: String,
+        message: String,
+    },
+}
+
+impl fmt::Display for FileError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FileError::Io { path, source } => write!(f, "{}: {source}", path.display()),
+            FileError::Json { path, message } => write!(f, "{}: invalid JSON: {message}", path.display()),
+            FileError::Version { path, found, version, expected, supported } => write!(
+                f,
+                "{}: format {found:?} version {version} is not supported (this build reads {expected:?} version {supported})",
+                path.display()
+            ),
+            FileError::Checksum { path, expected, found } => write!(
+                f,
+                "{}: checksum {found} does not match the manifest's {expected} (truncated or modified file)",
+                path.display()
+            ),
+            FileError::Exr { path, message } => write!(f, "{}: not a readable EXR: {message}", path.display()),
+            FileError::Invalid { path, field, message } => write!(f, "{}: {field}: {message}", path.display()),
+        }
+    }
+}
+
+impl std::error::Error for FileError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            FileError::Io { source, .. } => Some(source),
+            _ => None,
+        }
+    }
+}
+
+impl FileError {
+    /// An I/O error on `path`.
+    pub fn io(path: &Path) -> impl FnOnce(std::io::Error) -> FileError + '_ {
+        move |source| FileError::Io { path: path.to_path_buf(), source }
+    }
+
+    /// A value of `path` that breaks a rule: the field and why.
+    pub fn invalid(path: &Path, field: impl Into<String>, message: impl Into<String>) -> FileError {
+        FileError::Invalid { path: path.to_path_buf(), field: field.into(), message: message.into() }
+    }
+}
+
+/// Writes `bytes` to `path` atomically, creating parent directories: a temporary file beside
+/// the target, flushed to disk, renamed over it. A crash leaves the old file or the new one,
+/// never half of one.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FileError> {
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(FileError::io(dir))?;
+    let name = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp: PathBuf = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        drop(f);
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.map_err(FileError::io(path))
+}
+
+/// Pretty JSON of `value`, written atomically.
+pub fn write_json<T: Serialize + ?Sized>(path: &Path, value: &T) -> Result<(), FileError> {
+    let bytes = serde_json::to_vec_pretty(value)
+        .map_err(|e| FileError::Json { path: path.to_path_buf(), message: e.to_string() })?;
+    write_atomic(path, &bytes)
+}
+
+/// Reads and parses a JSON file.
+pub fn read_json<T: for<'de> serde::Deserialize<'de>>(path: &Path) -> Result<T, FileError> {
+    let bytes = std::fs::read(path).map_err(FileError::io(path))?;
+    serde_json::from_slice(&bytes).map_err(|e| FileError::Json { path: path.to_path_buf(), message: e.to_string() })
+}
+
+/// FNV-1a (64 bit) of `bytes` as `fnv1a64:` + 16 hex digits, the checksum payloads carry in
+/// their manifests. Detects truncation and corruption; it is not a cryptographic hash.
+#[must_use]
+pub fn checksum(bytes: &[u8]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("fnv1a64:{h:016x}")
+}

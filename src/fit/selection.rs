@@ -1,0 +1,111 @@
+//! Model selection: what a cell stores, decided on held-out queries.
+//!
+//! Level 0 stores nothing (the grid's fallback method, the unfitted warp with the lowest
+//! mean held-out error); level 2 stores the cell's fitted warp map. Level 1 (one origin
+//! offset per cell) is not implemented: see ARCHITECTURE.md.
+
+use crate::warp::Method;
+use serde::{Deserialize, Serialize};
+
+/// What a cell stores. Serialised as its number (0, 2) in `residuals.json`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(into = "u8", try_from = "u8")]
+pub enum Level {
+    /// Nothing: the grid's fallback method.
+    Fallback,
+    /// The cell's warp map.
+    Map,
+}
+
+impl Level {
+    pub const ALL: [Level; 2] = [Level::Fallback, Level::Map];
+
+    /// The level's number in the corrective model (0 or 2).
+    #[must_use]
+    pub fn number(self) -> u8 {
+        match self {
+            Level::Fallback => 0,
+            Level::Map => 2,
+        }
+    }
+}
+
+impl From<Level> for u8 {
+    fn from(l: Level) -> u8 {
+        l.number()
+    }
+}
+
+impl TryFrom<u8> for Level {
+    type Error = String;
+    fn try_from(n: u8) -> Result<Level, String> {
+        match n {
+            0 => Ok(Level::Fallback),
+            2 => Ok(Level::Map),
+            _ => Err(format!("level {n} is not 0 or 2")),
+        }
+    }
+}
+
+impl std::fmt::Display for Level {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.number())
+    }
+}
+
+/// Why a cell got its level.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Selection {
+    /// The cell sees only sky: the fallback fetches the query direction, nothing to store.
+    SeesOnlySky,
+    /// The fallback method meets the tolerance.
+    FallbackMeetsTolerance,
+    /// The fitted map beats the fallback method on held-out queries.
+    MapBeatsFallback,
+    /// The fitted map is not better than the fallback method on held-out queries: the
+    /// fallback is kept.
+    KeptFallback,
+}
+
+impl Selection {
+    #[must_use]
+    pub fn level(self) -> Level {
+        match self {
+            Selection::MapBeatsFallback => Level::Map,
+            _ => Level::Fallback,
+        }
+    }
+}
+
+impl std::fmt::Display for Selection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Selection::SeesOnlySky => "sees only sky: the fallback fetches the query direction, nothing to store",
+            Selection::FallbackMeetsTolerance => "the fallback method meets the tolerance",
+            Selection::MapBeatsFallback => "fitted map beats the fallback method on held-out queries",
+            Selection::KeptFallback => "kept the fallback: the fitted map is not better on held-out queries",
+        })
+    }
+}
+
+/// A stored map must beat the fallback by this factor on held-out queries: a cell's check
+/// set is small, and a map that wins by noise loses elsewhere.
+pub const SELECTION_MARGIN: f64 = 0.95;
+
+/// Model selection on held-out errors: nothing is stored when the fallback method meets the
+/// tolerance, and a fitted map is stored only if it beats the fallback (never worse).
+#[must_use]
+pub fn choose_level(check_err_fallback: f64, check_err_fitted: f64, tol: f64) -> Selection {
+    if check_err_fallback <= tol {
+        Selection::FallbackMeetsTolerance
+    } else if check_err_fitted < SELECTION_MARGIN * check_err_fallback {
+        Selection::MapBeatsFallback
+    } else {
+        Selection::KeptFallback
+    }
+}
+
+/// Unfitted methods a level-0 cell may use; the grid keeps the one with the lowest mean
+/// held-out error over its active cells.
+pub const FALLBACK_CANDIDATES: [Method; 3] = [Method::Warp1, Method::Box, Method::Kdop];

@@ -1,0 +1,14 @@
+//! `warpfit-grid`, the fitted-grid folder: one JSON manifest and EXR payloads. The schema
+//! (`schema`: the manifest, field by field, and the atlas layout), the EXR codec (`exr`),
+//! the reader (`read`: distrustful, produces plain data) and, with the offline tool, the
+//! writer (`write`: from plain data and the fit's provenance). The runtime sampler
+//! (`runtime`) is assembled from what `read` returns.
+
+pub mod exr;
+pub mod read;
+pub mod schema;
+#[cfg(feature = "bake")]
+pub mod write;
+
+pub use read::{GridData, IrradianceGrid, read, read_manifest};
+pub use schema::*;

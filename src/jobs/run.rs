@@ -1,0 +1,266 @@
+//! The main job, `warpfit run`, and the stages it chains, each callable alone (`bake`, `fit`,
+//! `eval`): bake the scene or reuse a matching bake, fit the correctives and write the fitted
+//! grid with its diagnostics, evaluate every method (the fitted grid as loaded back from
+//! disk among them), and write the run report.
+
+use super::JobError;
+use crate::bake::{self, Bake, ProbeGrid, SpecularProbe};
+use crate::bakefile;
+use crate::eval::{self, CorrectiveRow, CorrectiveVariant, EvalReport, EvalSettings};
+use crate::files::FileError;
+use crate::fit::{Fit, FitInputs, FitSettings};
+use crate::gridfile::write::{GridContents, IrradianceSource, ProbeData, Provenance};
+use crate::gridfile::{GridManifest, Precision};
+use crate::progress::Progress;
+use crate::report::{self, folder::RunFolder};
+use crate::runtime::FittedGrid;
+use crate::scene::Scene;
+use crate::trace::Tracer;
+use crate::warp::corrective::Blend;
+use crate::warp::{Method, Warp, WarpOptions};
+use std::path::Path;
+
+/// A scene with its tracer and bake: what every stage after the bake reads.
+#[derive(Clone, Copy)]
+pub struct Baked<'a> {
+    pub scene: &'a Scene,
+    pub tracer: &'a Tracer,
+    pub probe: &'a SpecularProbe,
+    pub grid: &'a ProbeGrid,
+}
+
+impl Baked<'_> {
+    /// The warp context of this bake with `options`.
+    pub fn warp(&self, options: WarpOptions) -> Warp {
+        bake::warp(self.scene, self.probe, options)
+    }
+}
+
+/// A scene loaded, with its tracer and its bake (fresh or reused), and its run folder.
+pub struct Prepared {
+    pub scene: Scene,
+    pub tracer: Tracer,
+    pub probe: SpecularProbe,
+    pub grid: ProbeGrid,
+    /// The bake was made now (not reused).
+    pub baked_now: bool,
+    pub folder: RunFolder,
+}
+
+impl Prepared {
+    pub fn baked(&self) -> Baked<'_> {
+        Baked { scene: &self.scene, tracer: &self.tracer, probe: &self.probe, grid: &self.grid }
+    }
+}
+
+/// How a fitted grid is stored.
+#[derive(Clone, Copy, Debug)]
+pub struct StoreOptions {
+    pub precision: Precision,
+    /// Store the GGX roughness correction (left out anyway when the probe has no rough mips).
+    pub roughness: bool,
+}
+
+impl Default for StoreOptions {
+    fn default() -> Self {
+        StoreOptions { precision: Precision::F32, roughness: true }
+    }
+}
+
+/// Where a stage writes and how it reports: the run folder, the command recorded in every
+/// output, and the progress display.
+#[derive(Clone, Copy)]
+pub struct Output<'a> {
+    pub folder: &'a RunFolder,
+    pub command: &'a str,
+    pub progress: &'a Progress,
+}
+
+/// Everything `run` needs besides the scene.
+#[derive(Clone, Debug, Default)]
+pub struct RunSettings {
+    pub eval: EvalSettings,
+    pub fit: FitSettings,
+    pub store: StoreOptions,
+}
+
+/// Loads a scene file and names its run folder (`out`, or `fits/<scene name>`).
+pub fn load_scene(path: &Path, out: Option<&Path>) -> Result<(Scene, RunFolder), JobError> {
+    let scene = Scene::load(path)?;
+    let folder = out.map_or_else(|| RunFolder::for_scene(&scene.name), RunFolder::new);
+    Ok((scene, folder))
+}
+
+/// Bakes the scene and writes the bake folder with its previews.
+pub fn bake(scene: &Scene, tracer: &Tracer, folder: &RunFolder, progress: &Progress) -> Result<Bake, FileError> {
+    let baked = bake::bake(scene, tracer, progress);
+    let dir = folder.bake();
+    bakefile::write_bake(&dir, scene, &baked)?;
+    crate::preview::write_bake_previews(&dir, &baked)?;
+    Ok(baked)
+}
+
+/// The bake in `folder` if it was made from exactly these scene settings, else a fresh bake
+/// written there. Returns the probe, the grid and whether it baked.
+pub fn load_or_bake(
+    scene: &Scene,
+    tracer: &Tracer,
+    folder: &RunFolder,
+    progress: &Progress,
+) -> Result<(SpecularProbe, ProbeGrid, bool), FileError> {
+    let dir = folder.bake();
+    if dir.join(bakefile::MANIFEST_FILE).is_file() {
+        match bakefile::read_bake(&dir) {
+            Ok((m, probe, grid))
+                if serde_json::to_value(&m.settings).ok() == serde_json::to_value(&scene.config).ok() =>
+            {
+                tracing::info!("reusing bake in {}", dir.display());
+                return Ok((probe, grid, false));
+            }
+            Ok(_) => tracing::info!("bake in {} was made with other settings; baking again", dir.display()),
+            Err(e) => tracing::warn!("ignoring unreadable bake: {e}"),
+        }
+    }
+    let baked = bake(scene, tracer, folder, progress)?;
+    Ok((baked.probe, baked.grid, true))
+}
+
+/// The scene with its tracer and its bake, reused from `folder` where it matches.
+pub fn prepare(scene: Scene, folder: RunFolder, progress: &Progress) -> Result<Prepared, FileError> {
+    let tracer = Tracer::new(&scene);
+    let (probe, grid, baked_now) = load_or_bake(&scene, &tracer, &folder, progress)?;
+    Ok(Prepared { scene, tracer, probe, grid, baked_now, folder })
+}
+
+/// Fits the correctives of every active cell and writes the fitted grid (manifest.json +
+/// EXR payloads) and the fit's diagnostics into `folder`.
+pub fn fit(
+    baked: Baked,
+    warp: &Warp,
+    settings: &FitSettings,
+    store: StoreOptions,
+    out: Output,
+) -> Result<(Fit, GridManifest), FileError> {
+    let inputs = FitInputs { scene: baked.scene, tracer: baked.tracer, grid: baked.grid, warp };
+    let fitted = crate::fit::fit(inputs, settings, out.progress);
+    let manifest = write_grid(baked, warp, &fitted, store, out.folder)?;
+    report::fit::write_fit_diagnostics(out.folder, &fitted, out.command)?;
+    Ok((fitted, manifest))
+}
+
+/// Writes the fitted grid of `fitted` (with the roughness correction unless `store` leaves
+/// it out) into `folder`.
+pub fn write_grid(
+    baked: Baked,
+    warp: &Warp,
+    fitted: &Fit,
+    store: StoreOptions,
+    folder: &RunFolder,
+) -> Result<GridManifest, FileError> {
+    let roughness = (store.roughness && baked.probe.radiance.levels.len() > 1).then(crate::roughness::fit_correction);
+    let g = baked.grid;
+    let contents = GridContents {
+        scene: &baked.scene.name,
+        geometry: g.geometry,
+        probe: ProbeData {
+            position: baked.probe.position,
+            radiance: &baked.probe.radiance,
+            mip_roughness: &baked.probe.roughness,
+            distance: &baked.probe.depth,
+        },
+        warp,
+        correctives: &fitted.correctives,
+        blend: Blend::Cell,
+        irradiance: IrradianceSource {
+            resolution: g.irradiance_resolution,
+            depth_resolution: g.depth_resolution,
+            irradiance: &g.irradiance,
+            depth_mean: &g.depth_mean,
+            depth_mean_sq: &g.depth_mean_sq,
+            inside: &g.inside,
+        },
+        roughness: roughness.as_ref(),
+        precision: store.precision,
+        provenance: provenance(fitted),
+    };
+    crate::gridfile::write::write(&folder.dir, &contents)
+}
+
+/// What the grid's manifest records about the fit that made it.
+pub fn provenance(f: &Fit) -> Provenance {
+    Provenance {
+        fit_settings: serde_json::to_value(&f.settings).unwrap_or_default(),
+        residuals: serde_json::to_value(crate::fit::summary::summary(f)).unwrap_or_default(),
+        level0_cells: f.cells.iter().filter(|c| c.level == crate::fit::Level::Fallback).count(),
+    }
+}
+
+/// The corrective rows of a fit, in table order.
+pub fn corrective_rows(f: &Fit) -> Vec<CorrectiveRow<'_>> {
+    CorrectiveVariant::ALL
+        .iter()
+        .map(|&variant| {
+            let correctives = match variant {
+                CorrectiveVariant::Celldepth => &f.celldepth,
+                CorrectiveVariant::Fitted | CorrectiveVariant::FittedTrilinear => &f.correctives,
+                CorrectiveVariant::FittedL2All => &f.fitted_all,
+            };
+            CorrectiveRow { variant, correctives }
+        })
+        .collect()
+}
+
+/// Evaluates `methods` on the scene's validation set, with the fit's corrective grids and the
+/// fitted grid loaded back from `folder` when a fit is given, and writes eval.json/.md, the
+/// error-against-cost plot and the view tiles there.
+pub fn evaluate(
+    baked: Baked,
+    warp: &Warp,
+    settings: &EvalSettings,
+    methods: &[Method],
+    fit: Option<&Fit>,
+    out: Output,
+) -> Result<EvalReport, FileError> {
+    let rows = fit.map(corrective_rows).unwrap_or_default();
+    let runtime = match fit {
+        Some(_) => Some(FittedGrid::load(&out.folder.dir)?),
+        None => None,
+    };
+    let subject = eval::Subject {
+        scene: baked.scene,
+        tracer: baked.tracer,
+        grid: baked.grid,
+        warp,
+        methods,
+        corrective_rows: &rows,
+        runtime: runtime.as_ref(),
+    };
+    let ev = eval::evaluate(subject, settings, out.command, out.progress);
+    report::write_evaluation(out.folder, &ev)?;
+    Ok(ev.report)
+}
+
+/// What `run` produced.
+pub struct RunOutcome {
+    pub fit: Fit,
+    pub manifest: GridManifest,
+    pub eval: EvalReport,
+}
+
+/// The main job on a prepared scene: fit and write the grid, evaluate every method, write
+/// the run report. One warp context (the eval settings' options) serves fit and eval.
+pub fn run(p: &Prepared, s: &RunSettings, command: &str, progress: &Progress) -> Result<RunOutcome, FileError> {
+    let out = Output { folder: &p.folder, command, progress };
+    let warp = p.baked().warp(s.eval.options);
+    let (fit, manifest) = fit(p.baked(), &warp, &s.fit, s.store, out)?;
+    let eval = evaluate(p.baked(), &warp, &s.eval, &Method::ALL, Some(&fit), out)?;
+    report::page::write_report(&p.folder, command)?;
+    Ok(RunOutcome { fit, manifest, eval })
+}
+
+/// Fits the GGX roughness correction alone and writes roughness.json/.png into `folder`.
+pub fn roughness(folder: &RunFolder) -> Result<crate::roughness::RoughnessCorrection, FileError> {
+    let c = crate::roughness::fit_correction();
+    report::roughness::write_roughness(folder, &c)?;
+    Ok(c)
+}

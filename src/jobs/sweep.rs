@@ -1,0 +1,118 @@
+//! Error against fit effort: one knob at a time around the given settings (probe
+//! resolution, training directions per position, solver iterations, solver), each a real
+//! bake + fit + write + load, judged by the runtime sampler on one held-out validation set
+//! shared by every row. Writes `sweep.json`, `sweep.png` and `sweep_convergence.png`.
+
+use super::run::{self, Baked, Output, StoreOptions};
+use crate::eval::{self, EvalSettings};
+use crate::files::{FileError, write_json};
+use crate::fit::{FitSettings, Solver};
+use crate::progress::Progress;
+use crate::report::folder::RunFolder;
+use crate::report::sweep::{Knob, Sweep, SweepRow};
+use crate::runtime::FittedGrid;
+use crate::scene::Scene;
+use crate::trace::Tracer;
+
+/// One configuration of the sweep: the knob turned, its value, the probe resolution and the
+/// fit settings.
+struct Config {
+    knob: Knob,
+    value: String,
+    probe_resolution: u32,
+    settings: FitSettings,
+}
+
+/// The configurations around `base`: each knob at three values, the rest unchanged.
+fn configs(base_res: u32, base: &FitSettings) -> Vec<Config> {
+    let at = |knob, value: String, probe_resolution, settings| Config { knob, value, probe_resolution, settings };
+    let mut out = Vec::new();
+    for res in [base_res / 4, base_res / 2, base_res].into_iter().filter(|&r| r >= 16) {
+        out.push(at(Knob::ProbeResolution, res.to_string(), res, base.clone()));
+    }
+    for d in [32u32, 64, 128] {
+        out.push(at(Knob::TrainingDirections, d.to_string(), base_res, FitSettings { train_dirs: d, ..base.clone() }));
+    }
+    for it in [1u32, 2, 3] {
+        out.push(at(Knob::Iterations, it.to_string(), base_res, FitSettings { iterations: it, ..base.clone() }));
+    }
+    for s in [Solver::Brent, Solver::Lbfgs, Solver::NelderMead] {
+        let value = format!("{s:?}").to_lowercase();
+        out.push(at(Knob::Solver, value, base_res, FitSettings { solver: s, ..base.clone() }));
+    }
+    out
+}
+
+/// Runs the sweep for `scene` into `folder` (each fit written to `<folder>/sweep/<knob>-<value>`,
+/// loaded, measured, then removed).
+pub fn sweep(
+    scene: &Scene,
+    base: &FitSettings,
+    eval_settings: &EvalSettings,
+    folder: &RunFolder,
+    command: &str,
+    progress: &Progress,
+) -> Result<Sweep, FileError> {
+    let configs = configs(scene.config.probe.resolution, base);
+    let tracer = Tracer::new(scene);
+    let mut bakes: Vec<(u32, crate::bake::Bake)> = Vec::new();
+    let mut rows = Vec::new();
+    let mut convergence = Vec::new();
+    let mut set = None;
+    let bar = progress.bar(configs.len() as u64, "sweep");
+    for c in configs {
+        bar.set_message(format!("sweep: {} {}", c.knob.name(), c.value));
+        if !bakes.iter().any(|(r, _)| *r == c.probe_resolution) {
+            let mut s = scene.clone();
+            s.config.probe.resolution = c.probe_resolution;
+            bakes.push((c.probe_resolution, crate::bake::bake(&s, &tracer, &Progress::quiet())));
+        }
+        let bake = &bakes.iter().find(|(r, _)| *r == c.probe_resolution).expect("baked above").1;
+        let baked = Baked { scene, tracer: &tracer, probe: &bake.probe, grid: &bake.grid };
+        // the validation set depends on the grid and the probe position only: one for all rows
+        let set = set.get_or_insert_with(|| {
+            eval::validation_set(scene, &tracer, &bake.grid, bake.probe.position, eval_settings)
+        });
+        let row_folder =
+            RunFolder::new(folder.dir.join("sweep").join(format!("{}-{}", c.knob.name().replace(' ', "-"), c.value)));
+        let warp = baked.warp(eval_settings.options);
+        let out = Output { folder: &row_folder, command, progress: &Progress::quiet() };
+        let (fit, manifest) = run::fit(baked, &warp, &c.settings, StoreOptions::default(), out)?;
+        let grid = FittedGrid::load(&row_folder.dir)?;
+        let est: Vec<glam::Vec3> =
+            (0..set.dirs.len()).map(|k| grid.specular(set.position_of(k), set.dirs[k], 0.0)).collect();
+        rows.push(SweepRow {
+            knob: c.knob,
+            value: c.value.clone(),
+            fit_seconds: fit.seconds,
+            rel_rmse: eval::error_stats(&est, &set.reference).rel_rmse,
+            stored_cells: fit.correctives.stored_cells(),
+            payload_bytes: manifest.payloads.iter().map(|p| p.bytes).sum(),
+        });
+        // each row's grid was needed only to be measured through the runtime sampler
+        let _ = std::fs::remove_dir_all(&row_folder.dir);
+        if c.knob == Knob::Solver {
+            convergence.push((c.value, crate::fit::summary::convergence(&fit, rayon::current_num_threads())));
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let _ = std::fs::remove_dir(folder.dir.join("sweep"));
+    let set = set.expect("at least one row");
+    let sweep = Sweep {
+        scene: scene.name.clone(),
+        command: command.to_string(),
+        validation: format!(
+            "{} positions × {} directions, references with {} samples, seed {:#x}",
+            set.positions.len(),
+            set.dirs_per_position,
+            eval_settings.reference_spp,
+            eval_settings.seed
+        ),
+        rows,
+        convergence,
+    };
+    write_json(&folder.sweep_json(), &sweep)?;
+    crate::report::sweep::plot(folder, &sweep)?;
+    Ok(sweep)
+}

@@ -1,0 +1,89 @@
+//! The run folder (`fits/<scene>/` by default): the one place that names its files. The
+//! fitted grid's own files (`manifest.json`, payloads) are named by `gridfile`, the bake's by
+//! `bakefile`; this names everything else a run leaves and where the bake lives.
+
+use std::path::{Path, PathBuf};
+
+/// A run's output folder.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RunFolder {
+    pub dir: PathBuf,
+}
+
+impl RunFolder {
+    pub fn new(dir: impl Into<PathBuf>) -> Self {
+        RunFolder { dir: dir.into() }
+    }
+
+    /// The default folder of a scene: `fits/<scene name>`.
+    pub fn for_scene(scene_name: &str) -> Self {
+        RunFolder::new(Path::new("fits").join(scene_name))
+    }
+
+    fn file(&self, name: &str) -> PathBuf {
+        self.dir.join(name)
+    }
+
+    /// The bake folder (`warpfit-bake`).
+    pub fn bake(&self) -> PathBuf {
+        self.file("bake")
+    }
+    /// The fitted grid's manifest (`warpfit-grid`; its payloads sit beside it).
+    pub fn grid_manifest(&self) -> PathBuf {
+        self.file(crate::gridfile::MANIFEST_FILE)
+    }
+    pub fn eval_json(&self) -> PathBuf {
+        self.file("eval.json")
+    }
+    pub fn eval_md(&self) -> PathBuf {
+        self.file("eval.md")
+    }
+    pub fn eval_plot(&self) -> PathBuf {
+        self.file("eval_error_vs_cost.png")
+    }
+    pub fn eval_views(&self) -> PathBuf {
+        self.file("eval_views.png")
+    }
+    pub fn residuals(&self) -> PathBuf {
+        self.file("residuals.json")
+    }
+    pub fn fit_md(&self) -> PathBuf {
+        self.file("fit.md")
+    }
+    pub fn residual_slices(&self) -> PathBuf {
+        self.file("residual_slices.png")
+    }
+    pub fn fit_convergence(&self) -> PathBuf {
+        self.file("fit_convergence.png")
+    }
+    pub fn report_json(&self) -> PathBuf {
+        self.file("report.json")
+    }
+    pub fn report_md(&self) -> PathBuf {
+        self.file("report.md")
+    }
+    pub fn report_html(&self) -> PathBuf {
+        self.file("report.html")
+    }
+    pub fn sweep_json(&self) -> PathBuf {
+        self.file("sweep.json")
+    }
+    pub fn sweep_plot(&self) -> PathBuf {
+        self.file("sweep.png")
+    }
+    pub fn sweep_convergence(&self) -> PathBuf {
+        self.file("sweep_convergence.png")
+    }
+    pub fn stability_json(&self) -> PathBuf {
+        self.file("stability.json")
+    }
+    pub fn stability_md(&self) -> PathBuf {
+        self.file("stability.md")
+    }
+    pub fn roughness_json(&self) -> PathBuf {
+        self.file("roughness.json")
+    }
+    pub fn roughness_plot(&self) -> PathBuf {
+        self.file("roughness.png")
+    }
+}
