@@ -88,10 +88,10 @@ fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
     let tracer = Tracer::new(&scene);
     let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
     let warp = warpfit::bake::warp(&scene, &baked.probe, warpfit::warp::WarpOptions::standard());
-    let inputs = fit::FitInputs { scene: &scene, tracer: &tracer, grid: &baked.grid, warp: &warp };
+    let b = warpfit::bake::Baked { scene: &scene, tracer: &tracer, probe: &baked.probe, grid: &baked.grid };
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| fit::fit(inputs, &quick_settings(), &Progress::quiet()))
+        pool.install(|| fit::fit(b, &warp, &quick_settings(), &Progress::quiet()))
     };
     let (a, b) = (run(1), run(2));
     assert_eq!(a.correctives, b.correctives);
@@ -130,8 +130,8 @@ fn a_cell_seeing_only_sky_stores_nothing() {
     let tracer = Tracer::new(&scene);
     let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
     let warp = warpfit::bake::warp(&scene, &baked.probe, warpfit::warp::WarpOptions::standard());
-    let inputs = fit::FitInputs { scene: &scene, tracer: &tracer, grid: &baked.grid, warp: &warp };
-    let f = fit::fit(inputs, &quick_settings(), &Progress::quiet());
+    let b = warpfit::bake::Baked { scene: &scene, tracer: &tracer, probe: &baked.probe, grid: &baked.grid };
+    let f = fit::fit(b, &warp, &quick_settings(), &Progress::quiet());
     assert_eq!(f.correctives.stored_cells(), 0);
     assert!(f.correctives.maps.is_empty());
     for c in &f.cells {

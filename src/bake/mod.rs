@@ -14,6 +14,22 @@ use crate::warp::{Proxies, Warp, WarpOptions, proxy};
 use glam::{UVec3, Vec3};
 use std::time::Instant;
 
+/// A scene with its tracer and bake: what every stage after the bake reads.
+#[derive(Clone, Copy)]
+pub struct Baked<'a> {
+    pub scene: &'a Scene,
+    pub tracer: &'a Tracer,
+    pub probe: &'a SpecularProbe,
+    pub grid: &'a ProbeGrid,
+}
+
+impl Baked<'_> {
+    /// The warp context of this bake with `options`.
+    pub fn warp(&self, options: WarpOptions) -> Warp {
+        warp(self.scene, self.probe, options)
+    }
+}
+
 /// The warp context of a bake: probe A, the scene's bounds as the box proxy, an 18-DOP
 /// fitted to the probe's depth, and `options`.
 pub fn warp(scene: &Scene, probe: &SpecularProbe, options: WarpOptions) -> Warp {

@@ -25,11 +25,10 @@ pub use options::Warp1OptionRow;
 pub use validation::{DOMAIN_EVAL, ValidationSet, validation_set};
 pub use views::Views;
 
-use crate::bake::ProbeGrid;
+use crate::bake::Baked;
 use crate::progress::Progress;
 use crate::runtime::FittedGrid;
-use crate::scene::Scene;
-use crate::trace::{Renderer, Tracer};
+use crate::trace::Renderer;
 use crate::warp::{Method, Warp, WarpOptions};
 use serde::{Deserialize, Serialize};
 
@@ -98,9 +97,7 @@ pub struct EvalReport {
 /// methods, corrective grids and (optionally) a fitted grid loaded from disk.
 #[derive(Clone, Copy)]
 pub struct Subject<'a> {
-    pub scene: &'a Scene,
-    pub tracer: &'a Tracer,
-    pub grid: &'a ProbeGrid,
+    pub baked: Baked<'a>,
     pub warp: &'a Warp,
     pub methods: &'a [Method],
     pub corrective_rows: &'a [CorrectiveRow<'a>],
@@ -116,7 +113,8 @@ pub struct Evaluation {
 /// Evaluates the subject on its scene's validation set. `subject.warp` must carry
 /// `settings.options`.
 pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progress: &Progress) -> Evaluation {
-    let Subject { scene, tracer, grid, warp, methods, corrective_rows, runtime } = subject;
+    let Subject { baked, warp, methods, corrective_rows, runtime } = subject;
+    let Baked { scene, tracer, grid, .. } = baked;
     let t0 = std::time::Instant::now();
     let bar = progress.bar(3, "eval");
     bar.set_message("eval: references");

@@ -15,13 +15,12 @@ pub mod objective;
 pub mod selection;
 pub mod summary;
 
-use crate::bake::ProbeGrid;
+use crate::bake::Baked;
 use crate::grid::GridGeometry;
 use crate::progress::Progress;
 use crate::sampling::{Sampler, hash_pair};
-use crate::scene::Scene;
+use crate::trace::Renderer;
 use crate::trace::truth::{self, QueryStreams, TracedQueries};
-use crate::trace::{Renderer, Tracer};
 use crate::warp::Warp;
 use crate::warp::corrective::{Correctives, NO_MAP};
 use glam::Vec3;
@@ -228,19 +227,10 @@ fn samples(q: &TracedQueries) -> Vec<Sample> {
         .collect()
 }
 
-/// What a fit reads: the scene with its tracer, the baked grid, and the warp context (probe
-/// A, proxies and the options of the fallback methods).
-#[derive(Clone, Copy)]
-pub struct FitInputs<'a> {
-    pub scene: &'a Scene,
-    pub tracer: &'a Tracer,
-    pub grid: &'a ProbeGrid,
-    pub warp: &'a Warp,
-}
-
-/// Fits every active cell.
-pub fn fit(inputs: FitInputs, s: &FitSettings, progress: &Progress) -> Fit {
-    let FitInputs { scene, tracer, grid, warp } = inputs;
+/// Fits every active cell of a bake; `warp` holds probe A, the proxies and the options of
+/// the fallback methods.
+pub fn fit(baked: Baked, warp: &Warp, s: &FitSettings, progress: &Progress) -> Fit {
+    let Baked { scene, tracer, grid, .. } = baked;
     let t0 = Instant::now();
     let wp = &warp.probe;
     let renderer = Renderer::new(scene, tracer);

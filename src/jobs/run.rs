@@ -4,11 +4,12 @@
 //! disk among them), and write the run report.
 
 use super::JobError;
+pub use crate::bake::Baked;
 use crate::bake::{self, Bake, ProbeGrid, SpecularProbe};
 use crate::bakefile;
 use crate::eval::{self, CorrectiveRow, CorrectiveVariant, EvalReport, EvalSettings};
 use crate::files::FileError;
-use crate::fit::{Fit, FitInputs, FitSettings};
+use crate::fit::{Fit, FitSettings};
 use crate::gridfile::write::{GridContents, IrradianceSource, ProbeData, Provenance};
 use crate::gridfile::{GridManifest, Precision};
 use crate::progress::Progress;
@@ -17,24 +18,8 @@ use crate::runtime::FittedGrid;
 use crate::scene::Scene;
 use crate::trace::Tracer;
 use crate::warp::corrective::Blend;
-use crate::warp::{Method, Warp, WarpOptions};
+use crate::warp::{Method, Warp};
 use std::path::Path;
-
-/// A scene with its tracer and bake: what every stage after the bake reads.
-#[derive(Clone, Copy)]
-pub struct Baked<'a> {
-    pub scene: &'a Scene,
-    pub tracer: &'a Tracer,
-    pub probe: &'a SpecularProbe,
-    pub grid: &'a ProbeGrid,
-}
-
-impl Baked<'_> {
-    /// The warp context of this bake with `options`.
-    pub fn warp(&self, options: WarpOptions) -> Warp {
-        bake::warp(self.scene, self.probe, options)
-    }
-}
 
 /// A scene loaded, with its tracer and its bake (fresh or reused), and its run folder.
 pub struct Prepared {
@@ -141,8 +126,7 @@ pub fn fit(
     store: StoreOptions,
     out: Output,
 ) -> Result<(Fit, GridManifest), FileError> {
-    let inputs = FitInputs { scene: baked.scene, tracer: baked.tracer, grid: baked.grid, warp };
-    let fitted = crate::fit::fit(inputs, settings, out.progress);
+    let fitted = crate::fit::fit(baked, warp, settings, out.progress);
     let manifest = write_grid(baked, warp, &fitted, store, out.folder)?;
     report::fit::write_fit_diagnostics(out.folder, &fitted, out.command)?;
     Ok((fitted, manifest))
@@ -226,15 +210,7 @@ pub fn evaluate(
         Some(_) => Some(FittedGrid::load(&out.folder.dir)?),
         None => None,
     };
-    let subject = eval::Subject {
-        scene: baked.scene,
-        tracer: baked.tracer,
-        grid: baked.grid,
-        warp,
-        methods,
-        corrective_rows: &rows,
-        runtime: runtime.as_ref(),
-    };
+    let subject = eval::Subject { baked, warp, methods, corrective_rows: &rows, runtime: runtime.as_ref() };
     let ev = eval::evaluate(subject, settings, out.command, out.progress);
     report::write_evaluation(out.folder, &ev)?;
     Ok(ev.report)
