@@ -22,7 +22,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 #![allow(clippy::needless_range_loop)]
 
-// Always built: the math, the grid file and the runtime sampler (glam, serde, exr only).
+// Always built: the math, the grid file and the runtime sampler (glam, libm, serde, exr only).
 pub mod files;
 pub mod grid;
 pub mod gridfile;
@@ -30,6 +30,7 @@ pub mod octa;
 pub mod roughness;
 pub mod runtime;
 pub mod sampling;
+pub mod tonemap;
 pub mod warp;
 
 // The offline tool: scenes, raytracing, bake, fit, eval, reports and jobs (feature `bake`).

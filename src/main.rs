@@ -305,7 +305,13 @@ fn print_eval(r: &warpfit::eval::EvalReport, folder: &RunFolder) {
         100.0 * r.hidden_fraction,
         r.reference_ns_per_ray
     );
-    print!("{}", report::methods_table(r));
+    print!("{}", report::methods_table(r, 0.0));
+    if r.buckets.len() > 1 {
+        println!("\nper roughness (mean ꟻLIP of rendered views / tone-mapped RMSE / rel RMSE):");
+        print!("{}", report::summary_table(r));
+        println!("\nreferences' own noise per roughness:");
+        print!("{}", report::buckets_table(r));
+    }
     println!("wrote {}/eval.json, eval.md, eval_error_vs_cost.png", folder.dir.display());
 }
 
@@ -456,14 +462,17 @@ fn run(cli: Cli) -> Result<()> {
             let (scene, folder) = job::load_scene(&scene.scene, scene.out.as_deref())?;
             let sw = sweep::sweep(&scene, &fit.settings()?, &eval.settings(), &folder, &command, &progress)?;
             println!(
-                "| knob | value | fit s | runtime rel RMSE | stored cells | payload bytes |\n|---|---|---:|---:|---:|---:|"
+                "| knob | value | fit s | ꟻLIP r 0 | ꟻLIP r 0.5 | tone-mapped RMSE | rel RMSE | stored cells | payload bytes |\n|---|---|---:|---:|---:|---:|---:|---:|---:|"
             );
             for r in &sw.rows {
                 println!(
-                    "| {} | {} | {:.2} | {:.4} | {} | {} |",
+                    "| {} | {} | {:.2} | {:.4} | {:.4} | {:.4} | {:.4} | {} | {} |",
                     r.knob.name(),
                     r.value,
                     r.fit_seconds,
+                    r.flip_r0,
+                    r.flip_r05,
+                    r.tm_rmse,
                     r.rel_rmse,
                     r.stored_cells,
                     r.payload_bytes

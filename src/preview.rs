@@ -6,56 +6,18 @@ use crate::files::{FileError, write_atomic};
 use glam::Vec3;
 use std::path::Path;
 
-fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
-}
-
-fn srgb_encode(x: f32) -> u8 {
-    let x = x.clamp(0.0, 1.0);
-    let s = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
-    (s * 255.0 + 0.5) as u8
-}
-
-/// Exposure that maps the log-average luminance to middle grey.
-pub fn auto_exposure(texels: &[Vec3]) -> f32 {
-    let (mut sum, mut n) = (0.0f64, 0u32);
-    for &c in texels {
-        let l = luminance(c);
-        if l > 0.0 && l.is_finite() {
-            sum += (l as f64 + 1e-6).ln();
-            n += 1;
-        }
-    }
-    if n == 0 {
-        return 1.0;
-    }
-    let avg = (sum / n as f64).exp() as f32;
-    0.18 / avg.max(1e-9)
-}
-
-/// Tone-maps linear radiance to 8-bit sRGB pixels.
-pub fn tonemap(texels: &[Vec3], exposure: f32) -> Vec<u8> {
-    let mut out = Vec::with_capacity(texels.len() * 3);
-    for &c in texels {
-        let v = c * exposure;
-        let v = v / (Vec3::ONE + v);
-        out.extend([srgb_encode(v.x), srgb_encode(v.y), srgb_encode(v.z)]);
-    }
-    out
-}
-
 /// Log-scaled distance preview: near is white, far is dark, misses are sky blue.
 pub fn distance_pixels(dist: &[f32]) -> Vec<u8> {
     let finite: Vec<f32> = dist.iter().copied().filter(|d| d.is_finite() && *d > 0.0).collect();
     let lo = finite.iter().copied().fold(f32::INFINITY, f32::min);
     let hi = finite.iter().copied().fold(0.0f32, f32::max);
-    let span = (hi / lo.max(1e-30)).ln().max(1e-6);
+    let span = libm::logf(hi / lo.max(1e-30)).max(1e-6);
     let mut out = Vec::with_capacity(dist.len() * 3);
     for &d in dist {
         if !d.is_finite() {
             out.extend([110, 160, 235]);
         } else {
-            let t = ((d.max(lo) / lo).ln() / span).clamp(0.0, 1.0);
+            let t = (libm::logf(d.max(lo) / lo) / span).clamp(0.0, 1.0);
             let g = (255.0 * (1.0 - 0.85 * t)) as u8;
             out.extend([g, g, g]);
         }
@@ -76,7 +38,7 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<(),
 pub fn write_bake_previews(dir: &Path, bake: &Bake) -> Result<(), FileError> {
     let levels = &bake.probe.radiance.levels;
     let n = levels[0].res as usize;
-    let exposure = auto_exposure(&levels[0].texels);
+    let exposure = crate::tonemap::key_exposure(&levels[0].texels);
     // Mip strip: level 0 at full size, then each further level upscaled (nearest) to n.
     let width = n * levels.len();
     let mut strip = vec![Vec3::ZERO; width * n];
@@ -88,7 +50,7 @@ pub fn write_bake_previews(dir: &Path, bake: &Bake) -> Result<(), FileError> {
             }
         }
     }
-    write_png(&dir.join("probe_radiance.png"), width as u32, n as u32, &tonemap(&strip, exposure))?;
+    write_png(&dir.join("probe_radiance.png"), width as u32, n as u32, &crate::tonemap::to_srgb8(&strip, exposure))?;
     let d = &bake.probe.depth.levels[0];
     write_png(&dir.join("probe_distance.png"), d.res, d.res, &distance_pixels(&d.texels))?;
     let g = &bake.grid;
@@ -105,6 +67,6 @@ pub fn write_bake_previews(dir: &Path, bake: &Bake) -> Result<(), FileError> {
             }
         }
     }
-    let e = auto_exposure(&atlas);
-    write_png(&dir.join("grid_irradiance.png"), w as u32, h as u32, &tonemap(&atlas, e))
+    let e = crate::tonemap::key_exposure(&atlas);
+    write_png(&dir.join("grid_irradiance.png"), w as u32, h as u32, &crate::tonemap::to_srgb8(&atlas, e))
 }

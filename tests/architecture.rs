@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 /// Floors, bottom first: a module may use modules on lower floors only (and itself).
 const FLOORS: &[&[&str]] = &[
-    &["octa", "sampling", "files", "progress", "scene"],
+    &["octa", "sampling", "files", "progress", "scene", "tonemap"],
     &["grid", "roughness"],
     &["warp"],
     &["gridfile"],
@@ -21,7 +21,8 @@ const FLOORS: &[&[&str]] = &[
 ];
 
 /// What a game links (`default-features = false`): never imports the offline tool.
-const RUNTIME_LAYER: &[&str] = &["octa", "sampling", "grid", "files", "roughness", "warp", "gridfile", "runtime"];
+const RUNTIME_LAYER: &[&str] =
+    &["octa", "sampling", "tonemap", "grid", "files", "roughness", "warp", "gridfile", "runtime"];
 
 /// Pairs the floors would allow but the design forbids: (module, what it never uses, why).
 const NEVER: &[(&str, &str, &str)] = &[

@@ -24,13 +24,7 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
     // a second call reuses the bake
     let (_, _, baked_again) = job::load_or_bake(&scene, &tracer, &folder, &Progress::quiet()).unwrap();
     assert!(!baked_again);
-    let settings = EvalSettings {
-        positions: 16,
-        dirs_per_position: 64,
-        reference_spp: 4,
-        timing_lookups: 512,
-        ..EvalSettings::default()
-    };
+    let settings = EvalSettings { positions: 16, dirs_per_position: 64, reference_spp: 4, ..EvalSettings::quick() };
     let baked = job::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
     let warp = baked.warp(settings.options);
     let out = Output { folder: &folder, command: "test", progress: &Progress::quiet() };
@@ -44,22 +38,41 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
         serde_json::from_str(&std::fs::read_to_string(dir.join("eval.json")).unwrap()).unwrap();
     assert!(json["hidden_fraction"].as_f64().is_some());
     let methods = json["methods"].as_array().unwrap();
-    assert_eq!(methods.len(), Method::ALL.len());
+    // every bucket has every row: each method at roughness 0; each but reproject (no rough
+    // variant) with each of the four mip rules at every rough bucket
+    let buckets = warpfit::eval::ROUGHNESS_BUCKETS;
+    assert_eq!(report.buckets.len(), buckets.len());
+    assert_eq!(methods.len(), Method::ALL.len() + (buckets.len() - 1) * (Method::ALL.len() - 1) * 4);
+    for &r in &buckets {
+        let rows: Vec<&serde_json::Value> =
+            methods.iter().filter(|m| m["roughness"].as_f64() == Some(r as f64)).collect();
+        for method in Method::ALL.iter().filter(|&&m| r == 0.0 || m != Method::Reproject) {
+            let n = rows.iter().filter(|m| m["name"] == method.name()).count();
+            assert_eq!(n, if r == 0.0 { 1 } else { 4 }, "{} at roughness {r}", method.name());
+        }
+    }
     for m in methods {
-        for key in ["name", "rel_rmse", "mae", "p95", "max", "angular_deg", "ns_per_lookup"] {
+        for key in ["name", "roughness", "rel_rmse", "tm_rmse", "mae", "p95", "max", "angular_deg", "ns_per_lookup"] {
             assert!(m.get(key).is_some(), "{key} missing in {m}");
         }
-        assert!(m["rel_rmse"].as_f64().unwrap().is_finite());
+        assert!(m["rel_rmse"].as_f64().unwrap().is_finite() && m["tm_rmse"].as_f64().unwrap().is_finite());
         assert!(m["ns_per_lookup"].as_f64().unwrap() > 0.0);
-        // warp1 is also timed through its batch API; no other method has one
+        // every row but reproject renders the views for ꟻLIP, in [0, 1]
+        if m["name"] != "reproject" {
+            assert!(m["flip"].as_f64().is_some_and(|f| (0.0..=1.0).contains(&f)), "{m}");
+        }
+        // warp1's mirror row is also timed through its batch API; no other row has one
         let batched = m["ns_per_lookup_batched"].as_f64();
-        if m["name"] == "warp1" {
+        if m["name"] == "warp1" && m["roughness"] == 0.0 {
             assert!(batched.is_some_and(|ns| ns > 0.0 && ns.is_finite()), "{m}");
         } else {
             assert!(batched.is_none(), "{m}");
         }
     }
-    let get = |name: &str| report.methods.iter().find(|m| m.name == name).unwrap().rel_rmse;
+    for f in ["eval_rough.png", "flip_r0.500.png"] {
+        assert!(dir.join(f).is_file(), "{f}");
+    }
+    let get = |name: &str| report.methods.iter().find(|m| m.name == name && m.roughness == 0.0).unwrap().rel_rmse;
     // In a closed box room the box proxy (scene bounds) is near the oracle, and both beat
     // no correction at all.
     assert!(get("oracle") < get("none"));

@@ -4,8 +4,6 @@
 
 mod common;
 use common::*;
-use warpfit::fit::fixtures::{wall_probe, wall_problem};
-use warpfit::fit::objective::CellProblem;
 use warpfit::fit::{self, FitSettings, Solver};
 use warpfit::fit::{Level, Selection};
 use warpfit::octa;
@@ -13,14 +11,8 @@ use warpfit::progress::Progress;
 use warpfit::trace::Tracer;
 
 fn fit_wall(scale: f32, solver: Solver) -> (Vec<f64>, f64, f64, Vec<f32>, Vec<f32>) {
-    let probe = wall_probe(scale, 256);
-    let (init, qs, c, truth) = wall_problem(scale, 4000);
-    let mut problem = CellProblem::new(&probe, c, 8, init.clone(), qs, 1e-4, 0.0);
-    let before = problem.relative_error_map(&init);
-    let out = problem.solve(solver, 4);
-    let fitted = problem.map_with_relax(&out.params, 0.0);
-    let after = problem.relative_error_map(&fitted);
-    (out.params, before, after, fitted, truth)
+    let w = fit::fixtures::fit_wall(scale, 256, 4000, solver, 4);
+    (w.params, w.before, w.after, w.fitted, w.truth)
 }
 
 #[test]
@@ -89,13 +81,16 @@ fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
     let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
     let warp = warpfit::bake::warp(&scene, &baked.probe, warpfit::warp::WarpOptions::standard());
     let b = warpfit::bake::Baked { scene: &scene, tracer: &tracer, probe: &baked.probe, grid: &baked.grid };
+    let lobes = warpfit::roughness::fit_correction();
+    let glossy = warpfit::warp::glossy::Glossy { warp: &warp, correction: Some(&lobes) };
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| fit::fit(b, &warp, &quick_settings(), &Progress::quiet()))
+        pool.install(|| fit::fit(b, glossy, &quick_settings(), &Progress::quiet()))
     };
     let (a, b) = (run(1), run(2));
     assert_eq!(a.correctives, b.correctives);
     assert_eq!(a.celldepth, b.celldepth);
+    assert_eq!(a.roughness, b.roughness, "the scene's roughness correction is deterministic too");
     let strip = |f: &fit::Fit| {
         f.cells.iter().map(|c| (c.cell, c.level, c.check_err_fitted.to_bits(), c.evaluations)).collect::<Vec<_>>()
     };
@@ -107,7 +102,7 @@ fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
     let settings =
         warpfit::eval::EvalSettings { positions: 96, dirs_per_position: 64, reference_spp: 2, ..Default::default() };
     let set = warpfit::eval::validation_set(&scene, &tracer, &baked.grid, baked.probe.position, &settings);
-    let levels = warpfit::eval::metrics::level_errors(&warp, &set, &a.correctives);
+    let levels = warpfit::eval::metrics::level_errors(&warp, &set, &a.correctives, 1.0);
     let stored = levels.iter().find(|l| l.level == 2).expect("validation lookups in stored cells");
     assert!(stored.lookups > 500, "only {} held-out lookups in stored cells", stored.lookups);
     assert!(
@@ -131,7 +126,8 @@ fn a_cell_seeing_only_sky_stores_nothing() {
     let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
     let warp = warpfit::bake::warp(&scene, &baked.probe, warpfit::warp::WarpOptions::standard());
     let b = warpfit::bake::Baked { scene: &scene, tracer: &tracer, probe: &baked.probe, grid: &baked.grid };
-    let f = fit::fit(b, &warp, &quick_settings(), &Progress::quiet());
+    let glossy = warpfit::warp::glossy::Glossy { warp: &warp, correction: None };
+    let f = fit::fit(b, glossy, &quick_settings(), &Progress::quiet());
     assert_eq!(f.correctives.stored_cells(), 0);
     assert!(f.correctives.maps.is_empty());
     for c in &f.cells {

@@ -123,8 +123,8 @@ fn runtime_equals_the_fitters_evaluation_on_the_validation_set() {
     let h = FittedGrid::load(&f.f16_dir).unwrap();
     let est32: Vec<Vec3> = (0..set.dirs.len()).map(|k| g.specular(set.position_of(k), set.dirs[k], 0.0)).collect();
     let est16: Vec<Vec3> = (0..set.dirs.len()).map(|k| h.specular(set.position_of(k), set.dirs[k], 0.0)).collect();
-    let e32 = eval::error_stats(&est32, &set.reference).rel_rmse;
-    let e16 = eval::error_stats(&est16, &set.reference).rel_rmse;
+    let e32 = eval::error_stats(&est32, &set.reference, 1.0).rel_rmse;
+    let e16 = eval::error_stats(&est16, &set.reference, 1.0).rel_rmse;
     assert!((e16 - e32).abs() < 1e-3 * e32, "f16 changes rel RMSE {e32} → {e16}");
     let p32 = std::fs::metadata(f.f32_dir.join("probe.exr")).unwrap().len();
     let p16 = std::fs::metadata(f.f16_dir.join("probe.exr")).unwrap().len();
@@ -134,8 +134,9 @@ fn runtime_equals_the_fitters_evaluation_on_the_validation_set() {
 #[test]
 fn the_fits_per_query_error_is_the_error_through_the_runtime() {
     // The objective the fit minimises and the lookup the runtime answers share one fetch
-    // function: for queries in stored cells, the fit's per-query error under the stored map
-    // equals the error of `FittedGrid::specular` against the same reference.
+    // function and one rough lookup: for mirror and rough queries in stored cells, the fit's
+    // per-query error under the stored map equals the error of `FittedGrid::specular`
+    // against the same reference.
     let f = fixture();
     let g = FittedGrid::load(&f.f32_dir).unwrap();
     let c = &f.fit.correctives;
@@ -151,21 +152,21 @@ fn the_fits_per_query_error_is_the_error_through_the_runtime() {
                 let b = lo + Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * geo.cell_size();
                 let dir = warpfit::sampling::uniform_sphere(s.next_2d());
                 let reference = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
-                warpfit::fit::objective::Sample { b, dir, reference, taps: [(0, 0.0); 4] }
+                let roughness = [0.0, 0.25, 0.5, 1.0][k as usize % 4];
+                warpfit::fit::objective::Sample { b, dir, roughness, reference, taps: [(0, 0.0); 4] }
             })
             .collect();
         let map = c.maps[slot * n2..(slot + 1) * n2].to_vec();
-        let problem = warpfit::fit::objective::CellProblem::new(
-            &f.warp.probe,
-            geo.cell_centre(cell),
-            c.map_res,
-            map.clone(),
-            queries.clone(),
-            0.0,
-            0.0,
-        );
+        let glossy = warpfit::warp::glossy::Glossy { warp: &f.warp, correction: f.fit.roughness.as_ref() };
+        let ctx = warpfit::fit::objective::CellContext {
+            glossy,
+            exposure: 1.0,
+            centre: geo.cell_centre(cell),
+            res: c.map_res,
+        };
+        let problem = warpfit::fit::objective::CellProblem::new(ctx, map.clone(), queries.clone());
         for (q, fit_err) in queries.iter().zip(problem.query_errors(&map)) {
-            let d = g.specular(q.b, q.dir, 0.0) - q.reference;
+            let d = g.specular(q.b, q.dir, q.roughness) - q.reference;
             let runtime_err = ((d.x.abs() + d.y.abs() + d.z.abs()) / 3.0) as f64;
             assert_eq!(fit_err.to_bits(), runtime_err.to_bits(), "cell {cell} query {q:?}");
             compared += 1;

@@ -40,7 +40,7 @@ impl SpecularProbe {
 
     /// The probe as the warps read it: inverse-distance and radiance mips.
     pub fn warp_probe(&self) -> WarpProbe {
-        WarpProbe::from_distance_mips(self.position, &self.depth, self.radiance.clone())
+        WarpProbe::from_distance_mips(self.position, &self.depth, self.radiance.clone(), self.roughness.clone())
     }
 
     /// Fractional radiance mip for a perceptual roughness (linear in r between mips).
@@ -161,7 +161,7 @@ pub fn prefilter_ggx(
                 // pdf(l) = D·(n·h) / (4 (v·h)) with v = n.
                 let pdf = ggx_d(nh, alpha) * 0.25;
                 let sample_solid_angle = 1.0 / (samples as f32 * pdf.max(1e-8));
-                let lod = (0.5 * (sample_solid_angle / texel_solid_angle).log2() + 1.0).max(0.0);
+                let lod = (0.5 * libm::log2f(sample_solid_angle / texel_solid_angle) + 1.0).max(0.0);
                 sum += source.sample_lod(l, lod) * nl;
                 wsum += nl;
             }

@@ -1,28 +1,43 @@
-//! Every method's row of the evaluation: the seed methods and the oracle, corrective grids
-//! (fitted and unfitted), and a loaded fitted grid through the runtime sampler.
+//! Every row of the evaluation: a way to fetch probe A (a seed method, the oracle, a
+//! corrective grid, or a loaded fitted grid through the runtime sampler) with a way to pick
+//! the mip of a rough lookup (`warp::glossy::MipRule`), judged on one roughness bucket.
 
 use super::metrics::{error_stats, mean_angle_deg};
-use super::timing::{self, time_fetch};
+use super::timing;
 use super::validation::ValidationSet;
 use crate::runtime::FittedGrid;
 use crate::warp::corrective::{Blend, Correctives};
+use crate::warp::glossy::{Aim, Glossy, MipRule};
 use crate::warp::reproject::reproject;
 use crate::warp::{Method, Warp};
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-/// Error and cost of one method on the validation set. Keys as in `eval.json`.
+/// Error and cost of one row on one roughness bucket. Keys as in `eval.json`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct MethodResult {
     pub name: String,
+    /// Perceptual roughness of the bucket's queries (0 = mirror).
+    #[serde(default)]
+    pub roughness: f32,
+    /// How the lookup picks its mip (absent at roughness 0, where every rule reads mip 0, and
+    /// for the runtime, which applies the grid's stored correction).
+    #[serde(default)]
+    pub mip_rule: Option<MipRule>,
     /// RMSE of linear RGB radiance over the mean reference radiance.
     pub rel_rmse: f64,
+    /// RMSE after tone mapping (see `metrics::ErrorStats::tm_rmse`).
+    #[serde(default)]
+    pub tm_rmse: f64,
     /// Mean absolute error (mean over RGB), radiance units.
     pub mae: f64,
     /// 95th percentile of the per-lookup error (mean abs over RGB).
     pub p95: f64,
     pub max: f64,
+    /// Mean ꟻLIP of the bucket's rendered views (see `eval::views`), when rendered.
+    #[serde(default)]
+    pub flip: Option<f64>,
     /// Mean angle between the method's fetch direction and the oracle's, degrees (null for
     /// methods without a single fetch direction).
     pub angular_deg: Option<f64>,
@@ -36,6 +51,16 @@ pub struct MethodResult {
     #[serde(default)]
     pub ns_per_lookup_batched: Option<f64>,
     pub note: String,
+}
+
+impl MethodResult {
+    /// The row's name with its mip rule, as tables show it (`box/engine`).
+    pub fn label(&self) -> String {
+        match self.mip_rule {
+            Some(rule) => format!("{}/{}", self.name, rule.name()),
+            None => self.name.clone(),
+        }
+    }
 }
 
 /// The corrective grids the evaluation judges beside the warp methods.
@@ -94,23 +119,172 @@ pub struct CorrectiveRow<'a> {
     pub correctives: &'a Correctives,
 }
 
-/// One table row from a method's radiance estimates, its fetch directions (none for
-/// methods without a single fetch) and its coherent/random-order costs.
-fn method_row(
+/// How a row fetches probe A.
+#[derive(Clone, Copy)]
+pub enum Fetch<'a> {
+    /// A seed method or the oracle (`reproject` is evaluated apart).
+    Method(Method),
+    /// A corrective grid.
+    Grid(CorrectiveRow<'a>),
+    /// A fitted grid loaded from disk: `FittedGrid::specular`, its own mip rule included.
+    Runtime(&'a FittedGrid),
+}
+
+impl Fetch<'_> {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Fetch::Method(m) => m.name(),
+            Fetch::Grid(r) => r.variant.name(),
+            Fetch::Runtime(_) => "runtime",
+        }
+    }
+
+    fn note(&self) -> String {
+        match self {
+            Fetch::Method(Method::Oracle) => {
+                "bound: fetch towards the true hit traced from B (tracing cost not counted)".into()
+            }
+            Fetch::Method(Method::Box) => "scene bounds as the box; query direction outside it".into(),
+            Fetch::Method(Method::Kdop) => "18-DOP fitted to the probe's depth samples".into(),
+            Fetch::Method(_) => String::new(),
+            Fetch::Grid(r) => r.variant.note().into(),
+            Fetch::Runtime(g) => {
+                let f16 = g
+                    .manifest
+                    .payloads
+                    .iter()
+                    .flat_map(|p| &p.layers)
+                    .any(|l| l.precision == crate::runtime::Precision::F16);
+                format!(
+                    "the fitted grid loaded from disk ({}), runtime::FittedGrid::specular with its stored roughness correction",
+                    if f16 { "f16 radiance" } else { "f32" }
+                )
+            }
+        }
+    }
+}
+
+/// A row of the table: how it fetches and how it picks its mip (`None` where the rule is
+/// not the row's choice: mirror buckets and the runtime).
+#[derive(Clone, Copy)]
+pub struct Row<'a> {
+    pub fetch: Fetch<'a>,
+    pub rule: Option<MipRule>,
+}
+
+impl Row<'_> {
+    /// Fetch vector of query (B, dir) (the oracle's direction given), or `None` for the
+    /// runtime, which shades on its own.
+    #[inline]
+    fn aim(&self, warp: &Warp, b: Vec3, dir: Vec3, oracle: Vec3) -> Option<Aim> {
+        match self.fetch {
+            Fetch::Method(Method::Oracle) => Some(oracle.into()),
+            Fetch::Method(m) => Some(warp.fetch_vector(m, b, dir).into()),
+            Fetch::Grid(r) => Some(r.correctives.fetch(r.variant.blend(), warp, b, dir)),
+            Fetch::Runtime(_) => None,
+        }
+    }
+
+    /// The row's radiance for query (B, dir, roughness r).
+    #[inline]
+    pub fn estimate(&self, shading: Glossy, b: Vec3, dir: Vec3, oracle: Vec3, r: f32) -> Vec3 {
+        match (self.fetch, self.aim(shading.warp, b, dir, oracle)) {
+            (Fetch::Runtime(g), _) => g.specular(b, dir, r),
+            (_, Some(aim)) => shading.radiance(self.rule.unwrap_or(MipRule::Plain), b, dir, aim, r),
+            (_, None) => Vec3::ZERO,
+        }
+    }
+
+    /// Unit fetch direction of query (B, dir) (the runtime's own for the runtime).
+    fn fetch_dir(&self, warp: &Warp, b: Vec3, dir: Vec3, oracle: Vec3) -> Vec3 {
+        let v = match self.fetch {
+            Fetch::Runtime(g) => g.fetch_vector(b, dir),
+            _ => self.aim(warp, b, dir, oracle).map_or(dir, |a| a.v),
+        };
+        if v == dir { dir } else { v.try_normalize().unwrap_or(dir) }
+    }
+}
+
+/// The rows of one bucket: every method with the given rules, every corrective grid with
+/// them, then the runtime. At roughness 0 the rules coincide, so `rules` is `[Plain]` there.
+pub fn rows<'a>(
+    methods: &[Method],
+    grids: &[CorrectiveRow<'a>],
+    runtime: Option<&'a FittedGrid>,
+    rules: &[MipRule],
+) -> Vec<Row<'a>> {
+    let rough = rules.len() > 1;
+    let rule_of = |r: MipRule| rough.then_some(r);
+    let mut out = Vec::new();
+    for &m in methods.iter().filter(|&&m| m != Method::Reproject) {
+        out.extend(rules.iter().map(|&r| Row { fetch: Fetch::Method(m), rule: rule_of(r) }));
+    }
+    for &g in grids {
+        out.extend(rules.iter().map(|&r| Row { fetch: Fetch::Grid(g), rule: rule_of(r) }));
+    }
+    out.extend(runtime.map(|g| Row { fetch: Fetch::Runtime(g), rule: None }));
+    out
+}
+
+/// Estimates of `row` for every query of `set` (parallel, deterministic).
+pub fn estimates(row: &Row, shading: Glossy, set: &ValidationSet) -> Vec<Vec3> {
+    (0..set.dirs.len())
+        .into_par_iter()
+        .map(|k| row.estimate(shading, set.position_of(k), set.dirs[k], set.oracle_dir[k], set.roughness[k]))
+        .collect()
+}
+
+/// Error and cost of `row` on `set` (all queries of one roughness), timed over
+/// `timing_lookups` queries.
+pub fn evaluate_row(
+    row: &Row,
+    shading: Glossy,
+    set: &ValidationSet,
+    exposure: f32,
+    timing_lookups: usize,
+) -> MethodResult {
+    let est = estimates(row, shading, set);
+    let warp = shading.warp;
+    let dirs: Vec<Vec3> = (0..set.dirs.len())
+        .into_par_iter()
+        .map(|k| row.fetch_dir(warp, set.position_of(k), set.dirs[k], set.oracle_dir[k]))
+        .collect();
+    let r = set.roughness.first().copied().unwrap_or(0.0);
+    let lookup = |b, dir, oracle| row.estimate(shading, b, dir, oracle, r);
+    let ns = (
+        timing::time_queries(set, timing_lookups, false, lookup),
+        timing::time_queries(set, timing_lookups, true, lookup),
+    );
+    let mut out = result(set, row.fetch.name(), row.fetch.note(), &est, Some(&dirs), ns, exposure);
+    out.mip_rule = row.rule;
+    if matches!(row.fetch, Fetch::Method(Method::Warp1)) && warp.options.relax_texels == 0.0 && r == 0.0 {
+        out.ns_per_lookup_batched = Some(timing::time_warp1_batched(warp, set, timing_lookups));
+    }
+    out
+}
+
+/// One table row from estimates, fetch directions (none for methods without a single fetch)
+/// and coherent/random-order costs.
+fn result(
     set: &ValidationSet,
     name: &str,
     note: String,
     est: &[Vec3],
     dirs: Option<&[Vec3]>,
     (ns_per_lookup, ns_per_lookup_random): (f64, f64),
+    exposure: f32,
 ) -> MethodResult {
-    let e = error_stats(est, &set.reference);
+    let e = error_stats(est, &set.reference, exposure);
     MethodResult {
         name: name.into(),
+        roughness: set.roughness.first().copied().unwrap_or(0.0),
+        mip_rule: None,
         rel_rmse: e.rel_rmse,
+        tm_rmse: e.tm_rmse,
         mae: e.mae,
         p95: e.p95,
         max: e.max,
+        flip: None,
         angular_deg: dirs.map(|d| mean_angle_deg(d, &set.oracle_dir)),
         ns_per_lookup,
         ns_per_lookup_random,
@@ -127,7 +301,7 @@ pub fn fetch_dirs(warp: &Warp, set: &ValidationSet, method: Method) -> Vec<Vec3>
     (0..set.dirs.len()).into_par_iter().map(|k| warp.fetch_dir(method, set.position_of(k), set.dirs[k])).collect()
 }
 
-/// Radiance estimates of `reproject` (one reprojected probe per position).
+/// Radiance estimates of `reproject` (one reprojected mirror probe per position).
 pub fn reproject_estimates(warp: &Warp, set: &ValidationSet) -> Vec<Vec3> {
     let res = warp.probe.radiance.levels[0].res;
     let per_pos: Vec<Vec<Vec3>> = set
@@ -142,81 +316,13 @@ pub fn reproject_estimates(warp: &Warp, set: &ValidationSet) -> Vec<Vec3> {
     per_pos.into_iter().flatten().collect()
 }
 
-/// Evaluates `methods`; errors on the whole set, timings single-threaded.
-pub fn evaluate_methods(
-    warp: &Warp,
-    set: &ValidationSet,
-    methods: &[Method],
-    timing_lookups: usize,
-) -> Vec<MethodResult> {
-    methods
-        .iter()
-        .map(|&m| {
-            if m == Method::Reproject {
-                let est = reproject_estimates(warp, set);
-                // one per-location pass serves a location's lookups in any order: timed once
-                let ns = timing::time_reproject(warp, set);
-                let note = format!(
-                    "per-location scatter + push-pull amortised over {} lookups per location",
-                    set.dirs_per_position
-                );
-                return method_row(set, m.name(), note, &est, None, (ns, ns));
-            }
-            let dirs = fetch_dirs(warp, set, m);
-            let est: Vec<Vec3> = dirs.par_iter().map(|&d| warp.probe.radiance(d)).collect();
-            let note = match m {
-                Method::Oracle => "bound: fetch towards the true hit traced from B (tracing cost not counted)".into(),
-                Method::Box => "scene bounds as the box; query direction outside it".into(),
-                Method::Kdop => "18-DOP fitted to the probe's depth samples".into(),
-                _ => String::new(),
-            };
-            let ns = time_fetch(warp, set, timing_lookups, |b, dir, oracle| {
-                if m == Method::Oracle { oracle } else { warp.fetch_vector(m, b, dir) }
-            });
-            let mut row = method_row(set, m.name(), note, &est, Some(&dirs), ns);
-            if m == Method::Warp1 && warp.options.relax_texels == 0.0 {
-                row.ns_per_lookup_batched = Some(timing::time_warp1_batched(warp, set, timing_lookups));
-            }
-            row
-        })
-        .collect()
-}
-
-/// Error and cost of a corrective grid, as one table row.
-pub fn evaluate_correctives(
-    warp: &Warp,
-    set: &ValidationSet,
-    row: CorrectiveRow,
-    timing_lookups: usize,
-) -> MethodResult {
-    let blend = row.variant.blend();
-    let fetch = |b: Vec3, dir: Vec3| row.correctives.fetch_vector(blend, warp, b, dir);
-    let vectors: Vec<Vec3> =
-        (0..set.dirs.len()).into_par_iter().map(|k| fetch(set.position_of(k), set.dirs[k])).collect();
-    let est: Vec<Vec3> = vectors.par_iter().map(|&v| warp.probe.radiance(v)).collect();
-    let dirs: Vec<Vec3> = vectors.iter().zip(&set.dirs).map(|(v, d)| v.try_normalize().unwrap_or(*d)).collect();
-    let ns = time_fetch(warp, set, timing_lookups, |b, d, _| fetch(b, d));
-    method_row(set, row.variant.name(), row.variant.note().into(), &est, Some(&dirs), ns)
-}
-
-/// A loaded fitted grid (`runtime::FittedGrid`) on the validation set: mirror queries
-/// (roughness 0), timed through `specular` itself.
-pub fn evaluate_runtime(set: &ValidationSet, grid: &FittedGrid, timing_lookups: usize) -> MethodResult {
-    let est: Vec<Vec3> =
-        (0..set.dirs.len()).into_par_iter().map(|k| grid.specular(set.position_of(k), set.dirs[k], 0.0)).collect();
-    let dirs: Vec<Vec3> = (0..set.dirs.len())
-        .map(|k| grid.fetch_vector(set.position_of(k), set.dirs[k]).try_normalize().unwrap_or(set.dirs[k]))
-        .collect();
-    let specular = |b, d, _| grid.specular(b, d, 0.0);
-    let ns = (
-        timing::time_queries(set, timing_lookups, false, specular),
-        timing::time_queries(set, timing_lookups, true, specular),
-    );
-    let f16 =
-        grid.manifest.payloads.iter().flat_map(|p| &p.layers).any(|l| l.precision == crate::runtime::Precision::F16);
-    let note = format!(
-        "the fitted grid loaded from disk ({}), runtime::FittedGrid::specular at roughness 0",
-        if f16 { "f16 radiance" } else { "f32" }
-    );
-    method_row(set, "runtime", note, &est, Some(&dirs), ns)
+/// `reproject` on the mirror bucket: per-location scatter + push-pull, its build amortised
+/// over the lookups it serves (rough buckets have no reprojected prefiltered chain).
+pub fn evaluate_reproject(warp: &Warp, set: &ValidationSet, exposure: f32) -> MethodResult {
+    let est = reproject_estimates(warp, set);
+    // one per-location pass serves a location's lookups in any order: timed once
+    let ns = timing::time_reproject(warp, set);
+    let note =
+        format!("per-location scatter + push-pull amortised over {} lookups per location", set.dirs_per_position);
+    result(set, Method::Reproject.name(), note, &est, None, (ns, ns), exposure)
 }

@@ -2,6 +2,7 @@
 //! split by the level of each query's cell.
 
 use super::validation::ValidationSet;
+use crate::tonemap::reinhard;
 use crate::warp::Warp;
 use crate::warp::corrective::{Blend, Correctives};
 use glam::Vec3;
@@ -12,6 +13,10 @@ use serde::{Deserialize, Serialize};
 pub struct ErrorStats {
     /// RMSE of linear RGB over the mean reference radiance.
     pub rel_rmse: f64,
+    /// RMSE of RGB after tone mapping estimate and reference alike (`tonemap::reinhard` at
+    /// the scene's key exposure): each lookup's error is bounded, so a few samples of a lamp
+    /// or the sun cannot rule it.
+    pub tm_rmse: f64,
     /// Mean absolute error (mean over RGB), radiance units.
     pub mae: f64,
     /// 95th percentile of the per-lookup error (mean abs over RGB).
@@ -19,15 +24,19 @@ pub struct ErrorStats {
     pub max: f64,
 }
 
-/// Per-lookup error statistics of `estimate` against `reference`.
-pub fn error_stats(estimate: &[Vec3], reference: &[Vec3]) -> ErrorStats {
+/// Per-lookup error statistics of `estimate` against `reference`; `exposure` is the tone
+/// mapping's (see [`ErrorStats::tm_rmse`]).
+pub fn error_stats(estimate: &[Vec3], reference: &[Vec3], exposure: f32) -> ErrorStats {
     let n = estimate.len().max(1) as f64;
     let mut sq = 0.0f64;
     let mut abs = Vec::with_capacity(estimate.len());
     let mut ref_sum = 0.0f64;
+    let mut tm_sq = 0.0f64;
     for (e, r) in estimate.iter().zip(reference) {
         let d = *e - *r;
         sq += (d.x as f64).powi(2) + (d.y as f64).powi(2) + (d.z as f64).powi(2);
+        let t = reinhard(*e, exposure) - reinhard(*r, exposure);
+        tm_sq += (t.x as f64).powi(2) + (t.y as f64).powi(2) + (t.z as f64).powi(2);
         abs.push(((d.x.abs() + d.y.abs() + d.z.abs()) / 3.0) as f64);
         ref_sum += ((r.x + r.y + r.z) / 3.0) as f64;
     }
@@ -37,13 +46,13 @@ pub fn error_stats(estimate: &[Vec3], reference: &[Vec3]) -> ErrorStats {
     abs.sort_by(f64::total_cmp);
     let p95 = abs.get(((abs.len() as f64 * 0.95) as usize).min(abs.len().saturating_sub(1))).copied().unwrap_or(0.0);
     let max = abs.last().copied().unwrap_or(0.0);
-    ErrorStats { rel_rmse: rmse / mean_ref, mae, p95, max }
+    ErrorStats { rel_rmse: rmse / mean_ref, tm_rmse: (tm_sq / (3.0 * n)).sqrt(), mae, p95, max }
 }
 
 /// Mean angle between paired unit vectors, in degrees.
 #[must_use]
 pub fn mean_angle_deg(a: &[Vec3], b: &[Vec3]) -> f64 {
-    let sum: f64 = a.iter().zip(b).map(|(x, y)| (x.dot(*y).clamp(-1.0, 1.0) as f64).acos().to_degrees()).sum();
+    let sum: f64 = a.iter().zip(b).map(|(x, y)| libm::acos(x.dot(*y).clamp(-1.0, 1.0) as f64).to_degrees()).sum();
     sum / a.len().max(1) as f64
 }
 
@@ -61,7 +70,7 @@ pub struct LevelEval {
 /// `c` (containing-cell lookup) on the validation lookups split by the level of their
 /// position's cell.
 #[must_use]
-pub fn level_errors(warp: &Warp, set: &ValidationSet, c: &Correctives) -> Vec<LevelEval> {
+pub fn level_errors(warp: &Warp, set: &ValidationSet, c: &Correctives, exposure: f32) -> Vec<LevelEval> {
     let mut out = Vec::new();
     for stores_map in [false, true] {
         let (mut fit_est, mut fb_est, mut refs) = (Vec::new(), Vec::new(), Vec::new());
@@ -79,11 +88,53 @@ pub fn level_errors(warp: &Warp, set: &ValidationSet, c: &Correctives) -> Vec<Le
             out.push(LevelEval {
                 level: if stores_map { 2 } else { 0 },
                 lookups: refs.len(),
-                fitted_rel_rmse: error_stats(&fit_est, &refs).rel_rmse,
+                fitted_rel_rmse: error_stats(&fit_est, &refs, exposure).rel_rmse,
                 fallback: c.fallback.name().to_string(),
-                fallback_rel_rmse: error_stats(&fb_est, &refs).rel_rmse,
+                fallback_rel_rmse: error_stats(&fb_est, &refs, exposure).rel_rmse,
             });
         }
     }
     out
+}
+
+/// Standard error that the references' own noise puts on the difference between two rows'
+/// errors, `a` against `b` on the same references: (in rel RMSE, in tone-mapped RMSE).
+///
+/// RMSE_a = sqrt(Σ|a − ref|²/3N); a reference error ε_k moves it by −Σ_c(a_kc − ref_kc)ε_k/(3N·RMSE_a),
+/// and the difference of two rows by the difference of those terms. With independent ε_k of
+/// standard error σ_k (per query, luminance, applied to every channel) the variance of the
+/// difference is Σ_k σ_k² g_k². The tone-mapped form propagates σ_k through the curve's slope.
+pub fn difference_se(a: &[Vec3], b: &[Vec3], reference: &[Vec3], reference_se: &[f32], exposure: f32) -> (f64, f64) {
+    let n = reference.len().max(1) as f64;
+    let rmse = |x: &[Vec3], map: &dyn Fn(Vec3) -> Vec3| {
+        let sq: f64 = x
+            .iter()
+            .zip(reference)
+            .map(|(e, r)| {
+                let d = map(*e) - map(*r);
+                (d.x as f64).powi(2) + (d.y as f64).powi(2) + (d.z as f64).powi(2)
+            })
+            .sum();
+        (sq / (3.0 * n)).sqrt().max(1e-30)
+    };
+    let linear = |v: Vec3| v;
+    let tm = |v: Vec3| reinhard(v, exposure);
+    let var = |map: &dyn Fn(Vec3) -> Vec3, slope: &dyn Fn(Vec3) -> f64| {
+        let (ma, mb) = (rmse(a, map), rmse(b, map));
+        let mut v = 0.0f64;
+        for k in 0..reference.len() {
+            let (da, db) = (map(a[k]) - map(reference[k]), map(b[k]) - map(reference[k]));
+            let g = (da.x + da.y + da.z) as f64 / (3.0 * n * ma) - (db.x + db.y + db.z) as f64 / (3.0 * n * mb);
+            let sigma = reference_se[k] as f64 * slope(reference[k]);
+            v += (sigma * g).powi(2);
+        }
+        v
+    };
+    let mean_ref = reference.iter().map(|r| ((r.x + r.y + r.z) / 3.0) as f64).sum::<f64>() / n;
+    let rel = var(&linear, &|_| 1.0).sqrt() / mean_ref.max(1e-30);
+    let tm_slope = |r: Vec3| {
+        let y = crate::tonemap::luminance(r) * exposure;
+        (exposure / (1.0 + y).powi(2)) as f64
+    };
+    (rel, var(&tm, &tm_slope).sqrt())
 }

@@ -2,19 +2,28 @@
 //!
 //! - `validation`: the held-out queries (own sampler domain, never fitted on) with references
 //!   and oracle directions from `trace::truth`;
-//! - `methods`: one row per seed method, corrective grid and loaded fitted grid;
-//! - `metrics`: error statistics, and the fitted grid's error split by cell level;
+//! - `methods`: one row per way to fetch probe A (seed method, oracle, corrective grid,
+//!   loaded fitted grid) and way to pick a rough lookup's mip (`warp::glossy::MipRule`);
+//! - `metrics`: error statistics (relative and tone-mapped), and the fitted grid's error
+//!   split by cell level;
+//! - `renders`, `flip`: rendered views (a camera on glossy surfaces, spheres of directions)
+//!   judged by ꟻLIP against lobe references with many samples;
 //! - `timing`: the one timing harness (single-threaded warm loops);
 //! - `options`: the warp1 option sweep (depth mip, UV relaxation);
 //! - `views`: what a reflection sees from one validation position, per method.
 //!
-//! References are traced with the same radiance model as the probe, so the only difference
-//! between a method and its reference is the warp (plus sampling noise, which the `oracle`
-//! row bounds from below). Evaluation writes no files: the report does.
+//! Every row is judged on roughness buckets [`ROUGHNESS_BUCKETS`]: the mirror set and, per
+//! rough bucket, the same rays with GGX lobe references (`trace::truth::lobe_reference`, the
+//! lobe the probe's mips are prefiltered with). References are traced with the same radiance
+//! model as the probe, so the only difference between a row and its reference is the lookup
+//! (plus the reference's own noise, reported per bucket as its standard error). Evaluation
+//! writes no files: the report does.
 
+pub mod flip;
 pub mod methods;
 pub mod metrics;
 pub mod options;
+pub mod renders;
 pub mod timing;
 pub mod validation;
 pub mod views;
@@ -22,14 +31,20 @@ pub mod views;
 pub use methods::{CorrectiveRow, CorrectiveVariant, MethodResult};
 pub use metrics::{ErrorStats, LevelEval, error_stats};
 pub use options::Warp1OptionRow;
+pub use renders::RenderSettings;
 pub use validation::{DOMAIN_EVAL, ValidationSet, validation_set};
 pub use views::Views;
 
 use crate::bake::Baked;
 use crate::progress::Progress;
+use crate::roughness::RoughnessCorrection;
 use crate::runtime::FittedGrid;
 use crate::trace::Renderer;
+use crate::warp::glossy::Glossy;
+use crate::warp::glossy::MipRule;
 use crate::warp::{Method, Warp, WarpOptions};
+use glam::Vec3;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Size and seed of the validation set.
@@ -40,9 +55,24 @@ pub struct EvalSettings {
     pub reference_spp: u32,
     pub seed: u64,
     pub options: WarpOptions,
-    /// Lookups per timing loop (single-threaded, warm).
+    /// Lookups per timing loop (single-threaded, warm); rough buckets time a quarter.
     pub timing_lookups: u32,
+    /// Rough buckets: the mirror set's first `rough_positions` positions × `rough_dirs`
+    /// directions, with lobe references of `rough_reference_spp` samples (0 positions: no
+    /// rough buckets).
+    #[serde(default)]
+    pub rough_positions: u32,
+    #[serde(default)]
+    pub rough_dirs: u32,
+    #[serde(default)]
+    pub rough_reference_spp: u32,
+    /// The rendered views judged by ꟻLIP (`None`: not rendered).
+    #[serde(default)]
+    pub renders: Option<RenderSettings>,
 }
+
+/// The roughness buckets every row is judged on (perceptual roughness; α = r²).
+pub const ROUGHNESS_BUCKETS: [f32; 6] = [0.0, 0.125, 0.25, 0.5, 0.75, 1.0];
 
 impl EvalSettings {
     /// The default validation set: 256 positions × 256 directions, 16-sample references.
@@ -54,12 +84,26 @@ impl EvalSettings {
             seed: 0xE7A1,
             options: WarpOptions::standard(),
             timing_lookups: 32_768,
+            rough_positions: 128,
+            rough_dirs: 64,
+            rough_reference_spp: 64,
+            renders: Some(RenderSettings::standard()),
         }
     }
 
     /// A small set for tests: seconds, not minutes.
     pub const fn quick() -> Self {
-        EvalSettings { positions: 16, dirs_per_position: 32, reference_spp: 1, timing_lookups: 512, ..Self::standard() }
+        EvalSettings {
+            positions: 16,
+            dirs_per_position: 32,
+            reference_spp: 1,
+            timing_lookups: 512,
+            rough_positions: 8,
+            rough_dirs: 16,
+            rough_reference_spp: 8,
+            renders: Some(RenderSettings::quick()),
+            ..Self::standard()
+        }
     }
 }
 
@@ -79,7 +123,16 @@ pub struct EvalReport {
     pub hidden_fraction: f64,
     /// Cost of tracing one reference ray (one radiance sample), single-threaded.
     pub reference_ns_per_ray: f64,
+    /// Every row on every roughness bucket (`roughness`, `mip_rule` say which).
     pub methods: Vec<MethodResult>,
+    /// Per roughness bucket: size, the references' own noise against the differences the
+    /// table reports.
+    #[serde(default)]
+    pub buckets: Vec<BucketSummary>,
+    /// Exposure of the tone mapping behind `tm_rmse` and ꟻLIP (the key of probe A's mirror
+    /// image).
+    #[serde(default)]
+    pub exposure: f32,
     pub warp1_sweep: Vec<Warp1OptionRow>,
     pub settings: EvalSettings,
     pub command: String,
@@ -93,6 +146,35 @@ pub struct EvalReport {
     pub reference_rays: u64,
 }
 
+/// One roughness bucket of the evaluation.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct BucketSummary {
+    pub roughness: f32,
+    pub lookups: usize,
+    pub reference_spp: u32,
+    /// RMS standard error of a single reference's luminance over the mean reference.
+    pub query_se_rel: f64,
+    /// The comparison the bucket's claim rests on: `claim.0` (the fitted grid through the
+    /// runtime, or the best row costing ≤ 2× warp1 without one) against `claim.1`, the best
+    /// row of a seed method costing ≤ 2× warp1 (by tone-mapped RMSE).
+    pub claim: (String, String),
+    /// Their difference, in rel RMSE and in tone-mapped RMSE (positive: `claim.0` better).
+    pub difference_rel: f64,
+    pub difference_tm: f64,
+    /// The standard error the references' own noise puts on that difference
+    /// (`metrics::difference_se`).
+    pub reference_se_rel: f64,
+    pub reference_se_tm: f64,
+    /// The references are quiet enough: standard error ≤ 1/4 of the difference.
+    pub reference_ok: bool,
+    /// Rendered-view pixels behind each row's ꟻLIP, and their references' samples.
+    pub view_pixels: usize,
+    pub view_reference_spp: u32,
+    /// ꟻLIP between the two halves of each view's reference samples: how much of a row's
+    /// ꟻLIP is the references' own noise (an upper bound: each half has half the samples).
+    pub view_noise_flip: f64,
+}
+
 /// What an evaluation judges: a scene with its tracer and bake, the warp context, the seed
 /// methods, corrective grids and (optionally) a fitted grid loaded from disk.
 #[derive(Clone, Copy)]
@@ -102,58 +184,234 @@ pub struct Subject<'a> {
     pub methods: &'a [Method],
     pub corrective_rows: &'a [CorrectiveRow<'a>],
     pub runtime: Option<&'a FittedGrid>,
+    /// The correction the `Corrected` mip rule applies (the fitted grid's).
+    pub correction: Option<&'a RoughnessCorrection>,
 }
 
-/// An evaluation: the report (eval.json) and the view tiles (eval_views.png).
+/// A figure of one roughness bucket's camera view: the reference, then a few rows' images
+/// with their ꟻLIP maps and means.
+pub struct FlipFigure {
+    pub roughness: f32,
+    pub width: u32,
+    pub height: u32,
+    pub reference: Vec<Vec3>,
+    /// (row label, image, ꟻLIP map, mean ꟻLIP of the image)
+    pub tiles: Vec<(String, Vec<Vec3>, Vec<f32>, f64)>,
+}
+
+/// An evaluation: the report (eval.json), the view tiles (eval_views.png) and the ꟻLIP
+/// figures.
 pub struct Evaluation {
     pub report: EvalReport,
     pub views: Option<Views>,
+    pub flip_figures: Vec<FlipFigure>,
 }
 
-/// Evaluates the subject on its scene's validation set. `subject.warp` must carry
-/// `settings.options`.
+/// Evaluates the subject on its scene's validation set, every row on every roughness
+/// bucket. `subject.warp` must carry `settings.options`.
 pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progress: &Progress) -> Evaluation {
-    let Subject { baked, warp, methods, corrective_rows, runtime } = subject;
+    let Subject { baked, warp, methods, corrective_rows, runtime, correction } = subject;
     let Baked { scene, tracer, grid, .. } = baked;
     let t0 = std::time::Instant::now();
-    let bar = progress.bar(3, "eval");
+    let shading = Glossy { warp, correction };
+    let exposure = warp.probe.key_exposure();
+    let rough = settings.rough_positions > 0 && settings.rough_dirs > 0;
+    let buckets: Vec<f32> = ROUGHNESS_BUCKETS.iter().copied().filter(|&r| r == 0.0 || rough).collect();
+    let bar = progress.bar(2 + 3 * buckets.len() as u64, "eval");
     bar.set_message("eval: references");
-    let set = validation_set(scene, tracer, grid, warp.probe.position, settings);
+    let mirror = validation_set(scene, tracer, grid, warp.probe.position, settings);
+    let mut reference_rays = mirror.rays;
     bar.inc(1);
-    bar.set_message("eval: methods");
+    let views =
+        settings.renders.map(|r| renders::views(scene, tracer, &mirror, warp.probe.position, &r)).unwrap_or_default();
     let lookups = settings.timing_lookups as usize;
-    let mut rows = methods::evaluate_methods(warp, &set, methods, lookups);
-    for &r in corrective_rows {
-        rows.push(methods::evaluate_correctives(warp, &set, r, lookups));
+    let mut rows_out = Vec::new();
+    let mut summaries = Vec::new();
+    let mut flip_figures = Vec::new();
+    for (bucket, &r) in buckets.iter().enumerate() {
+        bar.set_message(format!("eval: r {r} references"));
+        let set = if r == 0.0 {
+            None
+        } else {
+            let size = (settings.rough_positions as usize, settings.rough_dirs as usize);
+            let s = validation::rough_set(
+                scene,
+                tracer,
+                &mirror,
+                (r, bucket as u64),
+                size,
+                settings.rough_reference_spp,
+                settings.seed,
+            );
+            reference_rays += s.rays;
+            Some(s)
+        };
+        let set = set.as_ref().unwrap_or(&mirror);
+        let view_refs: Vec<renders::ViewReference> = match settings.renders {
+            Some(rs) => views
+                .iter()
+                .enumerate()
+                .map(|(k, v)| {
+                    let tag = (bucket * 16 + k) as u64;
+                    renders::reference(scene, tracer, v, r, rs.reference_spp, (settings.seed, tag, exposure))
+                })
+                .collect(),
+            None => Vec::new(),
+        };
+        bar.inc(1);
+        bar.set_message(format!("eval: r {r} rows"));
+        let rules: &[MipRule] = if r == 0.0 { &[MipRule::Plain] } else { &MipRule::ALL };
+        let rows = methods::rows(methods, corrective_rows, runtime, rules);
+        let timing = if r == 0.0 { lookups } else { (lookups / 4).max(1) };
+        let mut results: Vec<MethodResult> =
+            rows.iter().map(|row| methods::evaluate_row(row, shading, set, exposure, timing)).collect();
+        if r == 0.0 && methods.contains(&Method::Reproject) {
+            // reproject has no rough variant: no reprojected prefiltered chain is built
+            let at = results.iter().position(|m| m.name == Method::Oracle.name()).unwrap_or(results.len());
+            results.insert(at, methods::evaluate_reproject(warp, set, exposure));
+        }
+        bar.inc(1);
+        bar.set_message(format!("eval: r {r} ꟻLIP"));
+        if !view_refs.is_empty() {
+            let flips: Vec<f64> =
+                rows.par_iter().map(|row| renders::mean_flip(row, shading, &view_refs, exposure)).collect();
+            for (row, f) in rows.iter().zip(flips) {
+                if let Some(m) = results.iter_mut().find(|m| m.name == row.fetch.name() && m.mip_rule == row.rule) {
+                    m.flip = Some(f);
+                }
+            }
+            flip_figures.extend(flip_figure(&rows, &results, shading, &view_refs[0], exposure));
+        }
+        bar.inc(1);
+        let spp = if r == 0.0 { settings.reference_spp } else { settings.rough_reference_spp };
+        summaries.push(bucket_summary(set, r, spp, (&rows, &results), shading, exposure, &view_refs));
+        rows_out.extend(results);
     }
     let fitted_levels = corrective_rows
         .iter()
         .find(|r| r.variant == CorrectiveVariant::Fitted)
-        .map(|r| metrics::level_errors(warp, &set, r.correctives))
+        .map(|r| metrics::level_errors(warp, &mirror, r.correctives, exposure))
         .unwrap_or_default();
-    if let Some(g) = runtime {
-        rows.push(methods::evaluate_runtime(&set, g, lookups));
-    }
-    bar.inc(1);
     bar.set_message("eval: warp1 options");
-    let warp1_sweep = options::warp1_options(warp, &set);
+    let warp1_sweep = options::warp1_options(warp, &mirror, exposure);
     bar.inc(1);
     bar.finish_and_clear();
     let renderer = Renderer::new(scene, tracer);
     let report = EvalReport {
         scene: scene.name.clone(),
-        positions: set.positions.len(),
-        lookups: set.dirs.len(),
-        hidden_fraction: set.hidden_fraction(),
-        reference_ns_per_ray: timing::time_reference(&renderer, &set, 4096),
-        methods: rows,
+        positions: mirror.positions.len(),
+        lookups: mirror.dirs.len(),
+        hidden_fraction: mirror.hidden_fraction(),
+        reference_ns_per_ray: timing::time_reference(&renderer, &mirror, 4096),
+        methods: rows_out,
+        buckets: summaries,
+        exposure,
         warp1_sweep,
         settings: settings.clone(),
         command: command.to_string(),
         fitted_levels,
         seconds: t0.elapsed().as_secs_f64(),
-        reference_rays: set.rays,
+        reference_rays,
     };
-    let views = views::views(scene, tracer, warp, &set, settings.reference_spp, settings.seed, corrective_rows);
-    Evaluation { report, views }
+    let views = views::views(scene, tracer, warp, &mirror, settings.reference_spp, settings.seed, corrective_rows);
+    Evaluation { report, views, flip_figures }
+}
+
+/// The bucket's summary: the claim's comparison, its difference, and the standard error
+/// the references' noise puts on it.
+fn bucket_summary(
+    set: &ValidationSet,
+    r: f32,
+    spp: u32,
+    (rows, results): (&[methods::Row], &[MethodResult]),
+    shading: Glossy,
+    exposure: f32,
+    views: &[renders::ViewReference],
+) -> BucketSummary {
+    let n = set.reference.len().max(1) as f64;
+    let mean_ref = set.reference.iter().map(|c| crate::tonemap::luminance(*c) as f64).sum::<f64>() / n;
+    let se2: f64 = set.reference_se.iter().map(|&e| (e as f64).powi(2)).sum::<f64>() / n;
+    let budget =
+        results.iter().find(|m| m.name == Method::Warp1.name()).map_or(f64::INFINITY, |m| 2.0 * m.ns_per_lookup);
+    let cheap = |m: &&MethodResult| m.ns_per_lookup <= budget && m.name != Method::Oracle.name();
+    let seed_method = |m: &&MethodResult| Method::parse(&m.name).is_some();
+    let by_tm = |a: &&MethodResult, b: &&MethodResult| a.tm_rmse.total_cmp(&b.tm_rmse);
+    let challenger = results.iter().filter(cheap).filter(seed_method).min_by(by_tm);
+    let champion = results.iter().find(|m| m.name == "runtime").or_else(|| {
+        results
+            .iter()
+            .filter(cheap)
+            .filter(|m| Some(m.name.as_str()) != challenger.map(|c| c.name.as_str()))
+            .min_by(by_tm)
+    });
+    let (mut claim, mut diff, mut se) = ((String::new(), String::new()), (0.0, 0.0), (0.0, 0.0));
+    if let (Some(a), Some(b)) = (champion, challenger) {
+        claim = (a.label(), b.label());
+        diff = (b.rel_rmse - a.rel_rmse, b.tm_rmse - a.tm_rmse);
+        let row_of = |m: &MethodResult| rows.iter().find(|row| row.fetch.name() == m.name && row.rule == m.mip_rule);
+        if let (Some(ra), Some(rb)) = (row_of(a), row_of(b)) {
+            let (ea, eb) = (methods::estimates(ra, shading, set), methods::estimates(rb, shading, set));
+            se = metrics::difference_se(&ea, &eb, &set.reference, &set.reference_se, exposure);
+        }
+    }
+    let (mut noise, mut pixels) = (0.0, 0usize);
+    for v in views {
+        noise += v.noise_flip * v.reference.len() as f64;
+        pixels += v.reference.len();
+    }
+    BucketSummary {
+        roughness: r,
+        lookups: set.dirs.len(),
+        reference_spp: spp,
+        query_se_rel: se2.sqrt() / mean_ref.max(1e-30),
+        claim,
+        difference_rel: diff.0,
+        difference_tm: diff.1,
+        reference_se_rel: se.0,
+        reference_se_tm: se.1,
+        reference_ok: se.0 <= diff.0.abs() / 4.0 && se.1 <= diff.1.abs() / 4.0,
+        view_pixels: pixels,
+        view_reference_spp: views.first().map_or(0, |v| v.spp),
+        view_noise_flip: noise / pixels.max(1) as f64,
+    }
+}
+
+/// The camera view's figure for a bucket: the runtime, the best other row costing ≤ 2× warp1
+/// by ꟻLIP, warp1 and box (plain mips), each with its ꟻLIP map.
+fn flip_figure(
+    rows: &[methods::Row],
+    results: &[MethodResult],
+    shading: Glossy,
+    view: &renders::ViewReference,
+    exposure: f32,
+) -> Option<FlipFigure> {
+    let budget = results.iter().find(|m| m.name == Method::Warp1.name()).map(|m| 2.0 * m.ns_per_lookup)?;
+    let best_other = results
+        .iter()
+        .filter(|m| m.ns_per_lookup <= budget && m.name != "runtime" && m.name != Method::Oracle.name())
+        .filter(|m| m.flip.is_some())
+        .min_by(|a, b| a.flip.unwrap_or(1.0).total_cmp(&b.flip.unwrap_or(1.0)));
+    let plain = |m: &MethodResult| m.mip_rule.is_none() || m.mip_rule == Some(MipRule::Plain);
+    let mut wanted: Vec<&MethodResult> = results.iter().filter(|m| m.name == "runtime").collect();
+    wanted.extend(best_other);
+    for name in [Method::Warp1.name(), Method::Box.name()] {
+        wanted.extend(results.iter().find(|m| m.name == name && plain(m)));
+    }
+    let mut tiles = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    wanted.retain(|m| seen.insert(m.label()));
+    for m in wanted {
+        let Some(row) = rows.iter().find(|row| row.fetch.name() == m.name && row.rule == m.mip_rule) else { continue };
+        let image = renders::render(row, shading, view);
+        let map = renders::flip_map(view, &image, exposure);
+        let mean = flip::mean(&map);
+        tiles.push((m.label(), image, map, mean));
+    }
+    Some(FlipFigure {
+        roughness: view.roughness,
+        width: view.view.width,
+        height: view.view.height,
+        reference: view.reference.clone(),
+        tiles,
+    })
 }

@@ -17,7 +17,7 @@ pub struct Warp1OptionRow {
 }
 
 /// warp1 at depth mips 0..=min(4, last) × relaxation 0, 1, 2 texels.
-pub fn warp1_options(warp: &Warp, set: &ValidationSet) -> Vec<Warp1OptionRow> {
+pub fn warp1_options(warp: &Warp, set: &ValidationSet, exposure: f32) -> Vec<Warp1OptionRow> {
     let mut rows = Vec::new();
     let max_lod = (warp.probe.inv_depth.levels.len() - 1).min(4);
     let mut w = warp.clone();
@@ -28,7 +28,7 @@ pub fn warp1_options(warp: &Warp, set: &ValidationSet) -> Vec<Warp1OptionRow> {
             rows.push(Warp1OptionRow {
                 depth_lod: lod as f32,
                 relax_texels: relax,
-                rel_rmse: error_stats(&est, &set.reference).rel_rmse,
+                rel_rmse: error_stats(&est, &set.reference, exposure).rel_rmse,
             });
         }
     }

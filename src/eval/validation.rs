@@ -39,11 +39,16 @@ impl ValidationSet {
     }
 }
 
-/// The validation set's streams, for the positions from `first` on.
+/// The validation set's streams, for the positions from `first` on. The mirror set and
+/// every roughness bucket share the directions (a bucket's queries are the mirror set's,
+/// with a rough lobe); each traces its references with streams of its own.
 struct Streams {
     seed: u64,
     dirs_per_position: usize,
     first: usize,
+    roughness: f32,
+    /// 0 for the mirror set, the bucket's number for a rough one.
+    bucket: u64,
 }
 
 impl QueryStreams for Streams {
@@ -51,8 +56,14 @@ impl QueryStreams for Streams {
         Sampler::new(self.seed, hash_pair(DOMAIN_EVAL, 2 + (self.first + p) as u64), d as u32)
     }
     fn reference(&self, p: usize, d: usize, k: u32) -> Sampler {
-        let ray = (self.first + p) * self.dirs_per_position + d;
-        Sampler::new(self.seed, hash_pair(DOMAIN_EVAL, 0) + ray as u64, k)
+        let ray = ((self.first + p) * self.dirs_per_position + d) as u64;
+        match self.bucket {
+            0 => Sampler::new(self.seed, hash_pair(DOMAIN_EVAL, 0) + ray, k),
+            b => Sampler::new(self.seed, hash_pair(hash_pair(DOMAIN_EVAL, 0x5200 + b), ray), k),
+        }
+    }
+    fn roughness(&self, _p: usize, _d: usize) -> f32 {
+        self.roughness
     }
 }
 
@@ -87,7 +98,7 @@ pub fn validation_set(
         .par_iter()
         .enumerate()
         .map(|(p, b)| {
-            let streams = Streams { seed: s.seed, dirs_per_position: dpp, first: p };
+            let streams = Streams { seed: s.seed, dirs_per_position: dpp, first: p, roughness: 0.0, bucket: 0 };
             truth::trace_queries(&renderer, std::slice::from_ref(b), dpp, s.reference_spp, &streams)
         })
         .collect();
@@ -96,5 +107,36 @@ pub fn validation_set(
         .into_par_iter()
         .map(|k| truth::oracle(scene, tracer, probe_pos, queries.position_of(k), queries.dirs[k]))
         .unzip();
+    ValidationSet { queries, oracle_dir, hidden }
+}
+
+/// A roughness bucket of the validation set: the mirror set's first `positions` positions
+/// and first `dirs` directions at each, with GGX lobe references of perceptual roughness `r`
+/// (`spp` samples each; `bucket` > 0 names their streams). Oracle directions and hidden
+/// flags are the mirror set's for the same rays.
+pub fn rough_set(
+    scene: &Scene,
+    tracer: &Tracer,
+    mirror: &ValidationSet,
+    (r, bucket): (f32, u64),
+    (positions, dirs): (usize, usize),
+    spp: u32,
+    seed: u64,
+) -> ValidationSet {
+    let renderer = Renderer::new(scene, tracer);
+    let base_dpp = mirror.dirs_per_position;
+    let (positions, dirs) = (positions.min(mirror.positions.len()), dirs.min(base_dpp));
+    let parts: Vec<TracedQueries> = mirror.positions[..positions]
+        .par_iter()
+        .enumerate()
+        .map(|(p, b)| {
+            let streams = Streams { seed, dirs_per_position: base_dpp, first: p, roughness: r, bucket };
+            truth::trace_queries(&renderer, std::slice::from_ref(b), dirs, spp, &streams)
+        })
+        .collect();
+    let queries = TracedQueries::concat(parts);
+    let base = |k: usize| (k / dirs) * base_dpp + k % dirs;
+    let oracle_dir = (0..queries.dirs.len()).map(|k| mirror.oracle_dir[base(k)]).collect();
+    let hidden = (0..queries.dirs.len()).map(|k| mirror.hidden[base(k)]).collect();
     ValidationSet { queries, oracle_dir, hidden }
 }

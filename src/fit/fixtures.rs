@@ -5,13 +5,14 @@
 use super::objective::Sample;
 use crate::octa::{self, OctMap, OctMips};
 use crate::sampling::{Sampler, uniform_sphere};
-use crate::warp::WarpProbe;
+use crate::warp::proxy::{BoxProxy, Kdop};
+use crate::warp::{Proxies, Warp, WarpOptions, WarpProbe};
 use glam::Vec3;
 
 /// Texture on the wall z = 5·scale.
 fn wall_radiance(p: Vec3, scale: f32) -> Vec3 {
     let (x, y) = (p.x / scale, p.y / scale);
-    Vec3::new(0.5 + 0.4 * (1.3 * x).sin() * (1.1 * y).cos(), 0.5 + 0.3 * (0.9 * x + 0.4 * y).sin(), 0.4)
+    Vec3::new(0.5 + 0.4 * libm::sinf(1.3 * x) * libm::cosf(1.1 * y), 0.5 + 0.3 * libm::sinf(0.9 * x + 0.4 * y), 0.4)
 }
 
 /// Closed-form fixture: a probe at the origin (`res`² map) before an infinite textured wall
@@ -20,7 +21,20 @@ pub fn wall_probe(scale: f32, res: u32) -> WarpProbe {
     let z = 5.0 * scale;
     let rad = OctMap::from_fn(res, |_, _, d| if d.z > 0.0 { wall_radiance(d * (z / d.z), scale) } else { Vec3::ZERO });
     let dist = OctMap::from_fn(res, |_, _, d| if d.z > 0.0 { z / d.z } else { f32::INFINITY });
-    WarpProbe::from_distance_mips(Vec3::ZERO, &octa::build_distance_mips(dist, 8), OctMips { levels: vec![rad] })
+    WarpProbe::from_distance_mips(
+        Vec3::ZERO,
+        &octa::build_distance_mips(dist, 8),
+        OctMips { levels: vec![rad] },
+        vec![0.0],
+    )
+}
+
+/// [`wall_probe`] as a warp context (a box proxy around the wall's half space, no k-DOP).
+pub fn wall_warp(scale: f32, res: u32) -> Warp {
+    let probe = wall_probe(scale, res);
+    let aabb = BoxProxy::aabb(Vec3::new(-100.0, -100.0, -10.0) * scale, Vec3::new(100.0, 100.0, 5.0) * scale);
+    let kdop = Kdop { normals: Vec::new(), offsets: Vec::new() };
+    Warp { probe, proxies: Proxies { aabb, kdop }, options: WarpOptions::standard() }
 }
 
 /// The wall's cell problem: a cell centred 1·scale before the probe whose 8×8 map starts 30%
@@ -44,8 +58,42 @@ pub fn wall_problem(scale: f32, samples: u32) -> (Vec<f32>, Vec<Sample>, Vec3, V
             let mut d = uniform_sphere(s.next_2d());
             d.z = d.z.abs().max(0.2);
             let d = d.normalize();
-            Sample { b, dir: d, reference: wall_radiance(b + d * ((z - b.z) / d.z), scale), taps: [(0, 0.0); 4] }
+            Sample {
+                b,
+                dir: d,
+                roughness: 0.0,
+                reference: wall_radiance(b + d * ((z - b.z) / d.z), scale),
+                taps: [(0, 0.0); 4],
+            }
         })
         .collect();
     (init, qs, c, truth)
+}
+
+/// What fitting the wall problem gave.
+pub struct WallFit {
+    /// Log-scale parameters of the fitted map.
+    pub params: Vec<f64>,
+    /// Relative error (the selection criterion) of the start and of the fit, on the
+    /// training queries.
+    pub before: f64,
+    pub after: f64,
+    pub fitted: Vec<f32>,
+    pub truth: Vec<f32>,
+}
+
+/// Fits the wall problem at `scale` (probe of `res`², `samples` queries) with `solver`,
+/// `sweeps` iterations, smoothness 1e-4 and no relaxation.
+pub fn fit_wall(scale: f32, res: u32, samples: u32, solver: super::Solver, sweeps: u32) -> WallFit {
+    use super::objective::{CellContext, CellProblem};
+    let warp = wall_warp(scale, res);
+    let (init, qs, centre, truth) = wall_problem(scale, samples);
+    let glossy = crate::warp::glossy::Glossy { warp: &warp, correction: None };
+    let ctx = CellContext { glossy, exposure: 1.0, centre, res: 8 };
+    let mut problem = CellProblem::new(ctx, init.clone(), qs).with_weights(1e-4, 0.0);
+    let before = problem.relative_error_map(&init);
+    let out = problem.solve(solver, sweeps);
+    let fitted = problem.map_with_relax(&out.params, 0.0);
+    let after = problem.relative_error_map(&fitted);
+    WallFit { params: out.params, before, after, fitted, truth }
 }

@@ -12,20 +12,23 @@
 pub mod fixtures;
 pub mod model;
 pub mod objective;
+pub mod roughness;
 pub mod selection;
 pub mod summary;
 
 use crate::bake::Baked;
 use crate::grid::GridGeometry;
 use crate::progress::Progress;
+use crate::roughness::RoughnessCorrection;
 use crate::sampling::{Sampler, hash_pair};
 use crate::trace::Renderer;
 use crate::trace::truth::{self, QueryStreams, TracedQueries};
 use crate::warp::Warp;
 use crate::warp::corrective::{Correctives, NO_MAP};
+use crate::warp::glossy::Glossy;
 use glam::Vec3;
 use objective::Termination;
-use objective::{CellProblem, Sample};
+use objective::{CellContext, CellProblem, Sample};
 use rayon::prelude::*;
 pub use selection::{FALLBACK_CANDIDATES, Level, SELECTION_MARGIN, Selection, choose_level};
 use serde::{Deserialize, Serialize};
@@ -68,7 +71,14 @@ pub struct FitSettings {
     /// Charbonnier ε as a fraction of the cell's mean reference radiance: errors far above
     /// it are penalised linearly (robust), errors below it quadratically.
     pub robust_scale: f64,
+    /// Fraction of the training and check queries that are rough (the rest are mirror
+    /// lookups); rough queries cycle through [`ROUGH_MIX`].
+    #[serde(default)]
+    pub rough_fraction: f32,
 }
+
+/// Roughness of the rough training and check queries, in turn.
+pub const ROUGH_MIX: [f32; 5] = [0.125, 0.25, 0.5, 0.75, 1.0];
 
 impl FitSettings {
     /// The defaults of `warpfit fit` (chosen by measurement; see ARCHITECTURE.md).
@@ -87,6 +97,7 @@ impl FitSettings {
             smooth_weight: 1e-3,
             size_weight: 1e-4,
             robust_scale: 0.05,
+            rough_fraction: 0.5,
         }
     }
 
@@ -171,15 +182,22 @@ pub struct Fit {
     /// The fitted map of every active cell, before model selection (level 2 everywhere).
     pub fitted_all: Correctives,
     pub cells: Vec<CellFit>,
+    /// The roughness correction chosen on this scene (`roughness::fit_scene_correction`):
+    /// absent when the fit was given none to start from.
+    pub roughness: Option<RoughnessCorrection>,
     pub settings: FitSettings,
     pub seconds: f64,
     pub reference_rays: u64,
 }
 
-/// The streams of one cell's training (`tag` 1) or check (`tag` 2) queries.
+/// The streams of one cell's training (`tag` 1) or check (`tag` 2) queries: the last
+/// `rough` of each position's `dirs` directions are rough lookups, cycling through
+/// [`ROUGH_MIX`].
 struct CellStreams {
     seed: u64,
     stream: u64,
+    dirs: usize,
+    rough: usize,
 }
 
 impl QueryStreams for CellStreams {
@@ -188,6 +206,10 @@ impl QueryStreams for CellStreams {
     }
     fn reference(&self, p: usize, d: usize, k: u32) -> Sampler {
         Sampler::new(self.seed, hash_pair(hash_pair(self.stream, 0xABC + p as u64), d as u64), k)
+    }
+    fn roughness(&self, p: usize, d: usize) -> f32 {
+        let first_rough = self.dirs - self.rough;
+        if d < first_rough { 0.0 } else { ROUGH_MIX[(p + d - first_rough) % ROUGH_MIX.len()] }
     }
 }
 
@@ -209,38 +231,61 @@ fn cell_samples(
             lo + Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * geometry.cell_size()
         })
         .collect();
-    truth::trace_queries(renderer, &positions, q.dirs as usize, q.spp, &CellStreams { seed, stream })
+    let dirs = q.dirs as usize;
+    let rough = ((dirs as f32 * q.rough_fraction).round() as usize).min(dirs);
+    truth::trace_queries(renderer, &positions, dirs, q.spp, &CellStreams { seed, stream, dirs, rough })
 }
 
-/// How many queries a cell set holds: positions × directions, with `spp`-sample references.
+/// How many queries a cell set holds: positions × directions, with `spp`-sample references,
+/// `rough_fraction` of them rough.
 #[derive(Clone, Copy, Debug)]
 struct QuerySize {
     positions: u32,
     dirs: u32,
     spp: u32,
+    rough_fraction: f32,
 }
 
 /// The queries of a set as the objective reads them.
 fn samples(q: &TracedQueries) -> Vec<Sample> {
     (0..q.dirs.len())
-        .map(|k| Sample { b: q.position_of(k), dir: q.dirs[k], reference: q.reference[k], taps: [(0, 0.0); 4] })
+        .map(|k| Sample {
+            b: q.position_of(k),
+            dir: q.dirs[k],
+            roughness: q.roughness[k],
+            reference: q.reference[k],
+            taps: [(0, 0.0); 4],
+        })
         .collect()
 }
 
-/// Fits every active cell of a bake; `warp` holds probe A, the proxies and the options of
-/// the fallback methods.
-pub fn fit(baked: Baked, warp: &Warp, s: &FitSettings, progress: &Progress) -> Fit {
+/// Exposure the fit's errors are tone-mapped at: the key of probe A's mirror image (the
+/// evaluation uses the same).
+pub fn exposure_of(warp: &Warp) -> f32 {
+    warp.probe.key_exposure()
+}
+
+/// Fits every active cell of a bake. `glossy` is the lookup the cells are fitted for: its
+/// warp holds probe A, the proxies and the options of the fallback methods, its correction
+/// picks the mips of rough queries.
+pub fn fit(baked: Baked, glossy: Glossy, s: &FitSettings, progress: &Progress) -> Fit {
     let Baked { scene, tracer, grid, .. } = baked;
     let t0 = Instant::now();
+    let warp = glossy.warp;
     let wp = &warp.probe;
+    let exposure = exposure_of(warp);
+    // a probe without rough mips has nothing to fit rough lookups against
+    let rough_fraction = if wp.radiance.levels.len() > 1 { s.rough_fraction.clamp(0.0, 1.0) } else { 0.0 };
     let renderer = Renderer::new(scene, tracer);
     let g = grid.geometry;
     let n2 = (s.map_res * s.map_res) as usize;
     let d2 = (grid.depth_resolution * grid.depth_resolution) as usize;
     let active: Vec<usize> = (0..g.cell_count()).filter(|&c| !grid.inside[c]).collect();
     let bar = progress.bar(active.len() as u64, "fit cells");
-    let train_size = QuerySize { positions: s.train_positions, dirs: s.train_dirs, spp: s.reference_spp };
-    let check_size = QuerySize { positions: s.check_positions, dirs: s.check_dirs, spp: s.reference_spp };
+    let train_size =
+        QuerySize { positions: s.train_positions, dirs: s.train_dirs, spp: s.reference_spp, rough_fraction };
+    let check_size =
+        QuerySize { positions: s.check_positions, dirs: s.check_dirs, spp: s.reference_spp, rough_fraction };
     let results: Vec<(CellFit, Vec<f32>, Vec<f32>, u64)> = active
         .par_iter()
         .map(|&cell| {
@@ -264,15 +309,17 @@ pub fn fit(baked: Baked, warp: &Warp, s: &FitSettings, progress: &Progress) -> F
             // Two starts: the grid's raytraced distances and the box proxy seen from the cell
             // centre; refine whichever explains the training queries better.
             let boxed = model::box_map(centre, &warp.proxies.aabb, s.map_res);
-            let judge = CellProblem::new(wp, centre, s.map_res, init.clone(), train.clone(), 0.0, 0.0);
+            let ctx = CellContext { glossy, exposure, centre, res: s.map_res };
+            let judge = CellProblem::new(ctx, init.clone(), train.clone());
             let box_better = init.iter().any(|w| *w > 0.0) && judge.data_cost_map(&boxed) < judge.data_cost_map(&init);
             let (start, start_name) = if box_better { (boxed, Start::Box) } else { (init.clone(), Start::Celldepth) };
-            let mut problem = CellProblem::new(wp, centre, s.map_res, start, train, s.smooth_weight, s.size_weight)
+            let mut problem = CellProblem::new(ctx, start, train)
+                .with_weights(s.smooth_weight, s.size_weight)
                 .with_robust_scale(s.robust_scale);
             let outcome = problem.solve(s.solver, s.iterations);
             let fitted = problem.map_with_relax(&outcome.params, outcome.relax);
-            let check_problem = CellProblem::new(wp, centre, s.map_res, init.clone(), check, 0.0, 0.0);
-            let [warp1, boxed_err, kdop] = FALLBACK_CANDIDATES.map(|m| check_problem.relative_error_method(warp, m));
+            let check_problem = CellProblem::new(ctx, init.clone(), check);
+            let [warp1, boxed_err, kdop] = FALLBACK_CANDIDATES.map(|m| check_problem.relative_error_method(m));
             let celldepth = check_problem.relative_error_map(&init);
             let fitted_err = check_problem.relative_error_map(&fitted);
             bar.inc(1);
@@ -332,11 +379,17 @@ pub fn fit(baked: Baked, warp: &Warp, s: &FitSettings, progress: &Progress) -> F
         reference_rays += rays;
         cells.push(fit);
     }
+    // the correction for the maps as stored: fitted to the scene, kept if it beats the lobes
+    let roughness = glossy
+        .correction
+        .filter(|_| rough_fraction > 0.0)
+        .map(|lobe| roughness::fit_scene_correction(baked, warp, &correctives, lobe, s));
     Fit {
         correctives,
         celldepth,
         fitted_all,
         cells,
+        roughness,
         settings: s.clone(),
         seconds: t0.elapsed().as_secs_f64(),
         reference_rays,

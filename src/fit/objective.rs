@@ -4,11 +4,18 @@
 //! distance is `w0_k · exp(s_k)`, so parameters are order 1 whatever the scene's scale (a
 //! scene scaled by 1e4 has the same objective). Texels that saw sky keep w = 0.
 //!
+//! Queries carry a roughness: mirror queries read mip 0 along the corrective's fetch, rough
+//! ones go through the same lookup as the runtime (`warp::glossy`, the `Corrected` rule), so
+//! a map that helps mirror lookups but hurts rough ones pays for it.
+//!
 //! Cost = data + regularisation:
-//! - data: mean Charbonnier loss `√(e² + ε²) − ε` of the per-query error `e` (mean absolute
-//!   RGB difference between the warped probe lookup and the reference), divided by the
-//!   mean reference radiance; ε = 5% of that mean (robust to the sampling noise of the
-//!   references and to the queries no single fetch can fix);
+//! - data: mean Charbonnier loss `√(e² + ε²) − ε` of the per-query error `e`, the mean
+//!   absolute RGB difference between lookup and reference *after tone mapping both*
+//!   (`tonemap::reinhard` at the scene's key exposure), divided by the mean tone-mapped
+//!   reference; ε = 5% of that mean. Tone mapping bounds each query's error, so a few
+//!   queries that see a lamp or the sun's disc cannot rule the fit; the Charbonnier loss
+//!   keeps reference noise and queries no single fetch can fix (hidden from A) from
+//!   dragging the map;
 //! - `smooth_weight` × mean squared difference of neighbouring texels' `s` (tile smoothness);
 //! - `size_weight` × mean `s²` (stay near the raytraced start).
 //!
@@ -20,8 +27,10 @@
 
 use super::Solver;
 use crate::octa::{self, wrap_texel};
-use crate::warp::corrective::{map_fetch_vector, sample_map};
-use crate::warp::{Method, Warp, WarpProbe};
+use crate::tonemap::reinhard;
+use crate::warp::corrective::{map_fetch, sample_map};
+use crate::warp::glossy::{Glossy, MipRule};
+use crate::warp::{Method, Warp};
 use argmin::core::{CostFunction, Error, Executor, Gradient, State};
 use argmin::solver::brent::BrentOpt;
 use argmin::solver::linesearch::MoreThuenteLineSearch;
@@ -36,6 +45,8 @@ use std::cell::{Cell, RefCell};
 pub struct Sample {
     pub b: Vec3,
     pub dir: Vec3,
+    /// Perceptual roughness of the lookup (0 = mirror).
+    pub roughness: f32,
     pub reference: Vec3,
     /// Bilinear taps of `dir` in the cell's warp map.
     pub taps: [(u32, f32); 4],
@@ -91,7 +102,9 @@ impl std::fmt::Display for Termination {
 
 /// A cell's fit problem.
 pub struct CellProblem<'a> {
-    probe: &'a WarpProbe,
+    glossy: Glossy<'a>,
+    /// Exposure of the tone mapping the errors are measured after.
+    exposure: f32,
     centre: Vec3,
     res: u32,
     init: Vec<f32>,
@@ -107,16 +120,21 @@ pub struct CellProblem<'a> {
     evaluations: Cell<u64>,
 }
 
+/// Where a cell problem lives: the lookup it shades with, the exposure its errors are
+/// measured after, the cell centre and the map's resolution.
+#[derive(Clone, Copy, Debug)]
+pub struct CellContext<'a> {
+    pub glossy: Glossy<'a>,
+    pub exposure: f32,
+    pub centre: Vec3,
+    pub res: u32,
+}
+
 impl<'a> CellProblem<'a> {
-    pub fn new(
-        probe: &'a WarpProbe,
-        centre: Vec3,
-        res: u32,
-        init: Vec<f32>,
-        mut samples: Vec<Sample>,
-        smooth_weight: f64,
-        size_weight: f64,
-    ) -> Self {
+    /// The problem of the cell in `ctx` with a map starting at `init` and its queries; no
+    /// regularisation (see [`CellProblem::with_weights`]).
+    pub fn new(ctx: CellContext<'a>, init: Vec<f32>, mut samples: Vec<Sample>) -> Self {
+        let CellContext { glossy, exposure, centre, res } = ctx;
         let n2 = (res * res) as usize;
         let mut touching = vec![Vec::new(); n2];
         for (i, s) in samples.iter_mut().enumerate() {
@@ -137,12 +155,18 @@ impl<'a> CellProblem<'a> {
                 }
             }
         }
-        let mean_reference =
-            samples.iter().map(|s| ((s.reference.x + s.reference.y + s.reference.z) / 3.0) as f64).sum::<f64>()
-                / samples.len().max(1) as f64;
+        let mean_reference = samples
+            .iter()
+            .map(|s| {
+                let t = reinhard(s.reference, exposure);
+                ((t.x + t.y + t.z) / 3.0) as f64
+            })
+            .sum::<f64>()
+            / samples.len().max(1) as f64;
         let mean_reference = mean_reference.max(1e-12);
         CellProblem {
-            probe,
+            glossy,
+            exposure,
             centre,
             res,
             init,
@@ -151,10 +175,16 @@ impl<'a> CellProblem<'a> {
             pairs,
             mean_reference,
             eps: 0.05 * mean_reference,
-            smooth_weight,
-            size_weight,
+            smooth_weight: 0.0,
+            size_weight: 0.0,
             evaluations: Cell::new(0),
         }
+    }
+
+    /// Sets the weights of the tile-smoothness and size terms.
+    pub fn with_weights(mut self, smooth_weight: f64, size_weight: f64) -> Self {
+        (self.smooth_weight, self.size_weight) = (smooth_weight, size_weight);
+        self
     }
 
     /// Sets the Charbonnier ε to `scale` × the mean reference radiance.
@@ -170,7 +200,7 @@ impl<'a> CellProblem<'a> {
 
     /// Warp map for log-scales `s` (full length).
     fn map(&self, s: &[f64]) -> Vec<f32> {
-        self.init.iter().zip(s).map(|(&w0, &sk)| w0 * (sk.clamp(-3.0, 3.0).exp() as f32)).collect()
+        self.init.iter().zip(s).map(|(&w0, &sk)| w0 * (libm::exp(sk.clamp(-3.0, 3.0)) as f32)).collect()
     }
 
     /// Map with UV relaxation of strength `relax` ∈ [0,1]: blend towards its seam-aware 3×3
@@ -198,18 +228,25 @@ impl<'a> CellProblem<'a> {
         out
     }
 
-    /// Absolute error of sample `i` under `map`: the runtime's corrective lookup
-    /// (`map_fetch_vector`) against the reference.
+    /// Radiance of sample `i`'s lookup under `map`: the runtime's corrective fetch
+    /// (`map_fetch`) and, for a rough query, its mip (`warp::glossy`).
     #[inline]
-    fn sample_error(&self, i: usize, map: &[f32]) -> f64 {
+    fn lookup(&self, i: usize, map: &[f32]) -> Vec3 {
         let q = &self.samples[i];
-        let v = map_fetch_vector(self.probe.position, self.centre, sample_map(map, &q.taps), q.b, q.dir);
-        abs_error(self.probe.radiance(v), q.reference)
+        let aim = map_fetch(self.glossy.warp.probe.position, self.centre, sample_map(map, &q.taps), q.b, q.dir);
+        self.glossy.radiance(MipRule::Corrected, q.b, q.dir, aim, q.roughness)
     }
 
-    /// Each query's absolute error (mean over RGB) under `map`, in query order.
+    /// Tone-mapped absolute error of sample `i` under `map`.
+    #[inline]
+    fn sample_error(&self, i: usize, map: &[f32]) -> f64 {
+        tm_error(self.lookup(i, map), self.samples[i].reference, self.exposure)
+    }
+
+    /// Each query's linear absolute error (mean over RGB) under `map`, in query order: what
+    /// the runtime's `specular` answers against the same references.
     pub fn query_errors(&self, map: &[f32]) -> Vec<f64> {
-        (0..self.samples.len()).map(|i| self.sample_error(i, map)).collect()
+        (0..self.samples.len()).map(|i| abs_error(self.lookup(i, map), self.samples[i].reference)).collect()
     }
 
     #[inline]
@@ -241,19 +278,27 @@ impl<'a> CellProblem<'a> {
         self.data_over(0..self.samples.len(), &map) + self.regulariser(s)
     }
 
-    /// Root-mean-square of the per-query errors of `map`, relative to the mean reference: the
-    /// held-out criterion of model selection (the same emphasis as eval's relative RMSE, so
-    /// a map that misplaces a few bright edges loses to a method that does not).
+    /// Root-mean-square of the per-query tone-mapped errors of `map`, relative to the mean
+    /// tone-mapped reference: the held-out criterion of model selection (RMSE, so a map that
+    /// misplaces edges loses to a method that does not; tone-mapped, so a lamp in view does
+    /// not decide it alone).
     pub fn relative_error_map(&self, map: &[f32]) -> f64 {
         let sq: f64 = (0..self.samples.len()).map(|i| self.sample_error(i, map).powi(2)).sum();
         (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
     }
 
-    /// The same error for an unfitted per-lookup method of `warp` (whose probe is this
-    /// problem's).
-    pub fn relative_error_method(&self, warp: &Warp, method: Method) -> f64 {
-        let sq: f64 =
-            self.samples.iter().map(|q| abs_error(warp.lookup(method, q.b, q.dir), q.reference).powi(2)).sum();
+    /// The same error for an unfitted per-lookup method of the problem's warp.
+    pub fn relative_error_method(&self, method: Method) -> f64 {
+        let warp: &Warp = self.glossy.warp;
+        let sq: f64 = self
+            .samples
+            .iter()
+            .map(|q| {
+                let v = warp.fetch_vector(method, q.b, q.dir);
+                let est = self.glossy.radiance(MipRule::Corrected, q.b, q.dir, v, q.roughness);
+                tm_error(est, q.reference, self.exposure).powi(2)
+            })
+            .sum();
         (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
     }
 
@@ -411,6 +456,12 @@ fn abs_error(estimate: Vec3, reference: Vec3) -> f64 {
     ((d.x.abs() + d.y.abs() + d.z.abs()) / 3.0) as f64
 }
 
+/// Absolute error after tone mapping estimate and reference at `exposure`, mean over RGB.
+#[inline]
+fn tm_error(estimate: Vec3, reference: Vec3, exposure: f32) -> f64 {
+    abs_error(reinhard(estimate, exposure), reinhard(reference, exposure))
+}
+
 /// Writes the best reduced parameter vector of a solve back into the full one.
 fn scatter_best(s: &mut [f64], free: &[usize], best: Option<&Vec<f64>>) {
     if let Some(best) = best {
@@ -442,7 +493,7 @@ impl CostFunction for TexelProblem<'_, '_> {
         let c = self.cell;
         c.evaluations.set(c.evaluations.get() + 1);
         let mut map = self.map.borrow_mut();
-        map[self.k] = c.init[self.k] * (x.clamp(-3.0, 3.0).exp() as f32);
+        map[self.k] = c.init[self.k] * (libm::exp(x.clamp(-3.0, 3.0)) as f32);
         let data = c.data_over(c.touching[self.k].iter().map(|&i| i as usize), &map);
         let mut smooth = 0.0;
         for &(a, b) in &c.pairs {
@@ -522,7 +573,7 @@ impl CostFunction for RelaxProblem<'_, '_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::fixtures::{wall_probe, wall_problem};
+    use crate::fit::fixtures::{wall_problem, wall_warp};
     use proptest::prelude::*;
 
     proptest! {
@@ -534,9 +585,10 @@ mod tests {
         fn a_texel_problem_is_an_exact_slice_of_the_cell_objective(
             seed in 0u32..1000, k in 0usize..64, x1 in -3.5f64..3.5, x2 in -3.5f64..3.5,
         ) {
-            let probe = wall_probe(1.0, 64);
+            let warp = wall_warp(1.0, 64);
             let (init, qs, c, _) = wall_problem(1.0, 300);
-            let cell = CellProblem::new(&probe, c, 8, init, qs, 1e-3, 1e-4).with_robust_scale(0.05);
+            let ctx = CellContext { glossy: Glossy { warp: &warp, correction: None }, exposure: 1.0, centre: c, res: 8 };
+            let cell = CellProblem::new(ctx, init, qs).with_weights(1e-3, 1e-4).with_robust_scale(0.05);
             let s: Vec<f64> = (0..64)
                 .map(|i| (((i as u32).wrapping_mul(2654435761) ^ seed) % 1000) as f64 / 500.0 - 1.0)
                 .collect();

@@ -21,8 +21,6 @@ pub struct GridData {
     pub manifest: GridManifest,
     /// Probe A (inverse-distance and radiance mips), the proxies and the warp options.
     pub warp: Warp,
-    /// Perceptual roughness of each radiance mip (increasing, mip 0 = 0).
-    pub mip_roughness: Vec<f32>,
     pub correctives: Correctives,
     pub irradiance: IrradianceGrid,
     pub roughness: Option<RoughnessCorrection>,
@@ -252,7 +250,12 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
         distance.push(OctMap::new(n as u32, z.to_vec()));
     }
     let position = finite3(p.position, mp, "probe.position")?;
-    let probe = WarpProbe::from_distance_mips(position, &OctMips { levels: distance }, OctMips { levels: radiance });
+    let probe = WarpProbe::from_distance_mips(
+        position,
+        &OctMips { levels: distance },
+        OctMips { levels: radiance },
+        roughness_of_mips,
+    );
 
     // warp
     let w = &m.warp;
@@ -347,12 +350,5 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
         depth_mean_sq,
     };
     let roughness = m.roughness.clone();
-    Ok(GridData {
-        warp: Warp { probe, proxies, options: *o },
-        mip_roughness: roughness_of_mips,
-        correctives,
-        irradiance,
-        roughness,
-        manifest: m,
-    })
+    Ok(GridData { warp: Warp { probe, proxies, options: *o }, correctives, irradiance, roughness, manifest: m })
 }

@@ -10,8 +10,10 @@ use crate::warp::corrective::Blend;
 use serde::{Deserialize, Serialize};
 
 pub const GRID_FORMAT: &str = "warpfit-grid";
-/// Bumped on any change a version-1 reader cannot read correctly.
-pub const GRID_VERSION: u32 = 1;
+/// Bumped on any change an older reader cannot read correctly.
+/// 2: a rough lookup in a cell with a warp map takes its distance ratio from the map's hit
+/// estimate (no depth fetch), and the stored roughness correction is fitted for that.
+pub const GRID_VERSION: u32 = 2;
 pub const MANIFEST_FILE: &str = "manifest.json";
 pub const PROBE_FILE: &str = "probe.exr";
 pub const CORRECTIVES_FILE: &str = "correctives.exr";

@@ -18,6 +18,7 @@ use crate::runtime::FittedGrid;
 use crate::scene::Scene;
 use crate::trace::Tracer;
 use crate::warp::corrective::Blend;
+use crate::warp::glossy::Glossy;
 use crate::warp::{Method, Warp};
 use std::path::Path;
 
@@ -126,7 +127,11 @@ pub fn fit(
     store: StoreOptions,
     out: Output,
 ) -> Result<(Fit, GridManifest), FileError> {
-    let fitted = crate::fit::fit(baked, warp, settings, out.progress);
+    // rough queries are fitted with the analytic-lobe correction; the fit then chooses the
+    // correction the grid stores (lobes or fitted to this scene)
+    let lobes = (baked.probe.radiance.levels.len() > 1).then(crate::roughness::fit_correction);
+    let glossy = Glossy { warp, correction: lobes.as_ref() };
+    let fitted = crate::fit::fit(baked, glossy, settings, out.progress);
     let manifest = write_grid(baked, warp, &fitted, store, out.folder)?;
     report::fit::write_fit_diagnostics(out.folder, &fitted, out.command)?;
     Ok((fitted, manifest))
@@ -141,7 +146,7 @@ pub fn write_grid(
     store: StoreOptions,
     folder: &RunFolder,
 ) -> Result<GridManifest, FileError> {
-    let roughness = (store.roughness && baked.probe.radiance.levels.len() > 1).then(crate::roughness::fit_correction);
+    let roughness = if store.roughness { fitted.roughness.as_ref() } else { None };
     let g = baked.grid;
     let contents = GridContents {
         scene: &baked.scene.name,
@@ -163,7 +168,7 @@ pub fn write_grid(
             depth_mean_sq: &g.depth_mean_sq,
             inside: &g.inside,
         },
-        roughness: roughness.as_ref(),
+        roughness,
         precision: store.precision,
         provenance: provenance(fitted),
     };
@@ -210,7 +215,19 @@ pub fn evaluate(
         Some(_) => Some(FittedGrid::load(&out.folder.dir)?),
         None => None,
     };
-    let subject = eval::Subject { baked, warp, methods, corrective_rows: &rows, runtime: runtime.as_ref() };
+    // the Corrected rule applies the fitted grid's correction, else the analytic-lobe fit
+    let correction = match &runtime {
+        Some(g) => g.roughness.clone(),
+        None => Some(crate::roughness::fit_correction()),
+    };
+    let subject = eval::Subject {
+        baked,
+        warp,
+        methods,
+        corrective_rows: &rows,
+        runtime: runtime.as_ref(),
+        correction: correction.as_ref(),
+    };
     let ev = eval::evaluate(subject, settings, out.command, out.progress);
     report::write_evaluation(out.folder, &ev)?;
     Ok(ev.report)

@@ -1,10 +1,11 @@
 //! Error against fit effort: one knob at a time around the given settings (probe
 //! resolution, training directions per position, solver iterations, solver), each a real
 //! bake + fit + write + load, judged by the runtime sampler on one held-out validation set
-//! shared by every row. Writes `sweep.json`, `sweep.png` and `sweep_convergence.png`.
+//! and one set of rendered views (ꟻLIP at roughness 0 and 0.5) shared by every row. Writes `sweep.json`, `sweep.png` and `sweep_convergence.png`.
 
 use super::run::{self, Baked, Output, StoreOptions};
-use crate::eval::{self, EvalSettings};
+use crate::eval::methods::{Fetch, Row};
+use crate::eval::{self, EvalSettings, RenderSettings, renders};
 use crate::files::{FileError, write_json};
 use crate::fit::{FitSettings, Solver};
 use crate::progress::Progress;
@@ -13,6 +14,10 @@ use crate::report::sweep::{Knob, Sweep, SweepRow};
 use crate::runtime::FittedGrid;
 use crate::scene::Scene;
 use crate::trace::Tracer;
+use crate::warp::glossy::Glossy;
+
+/// Roughness of the rendered views every row is judged on by ꟻLIP.
+const FLIP_ROUGHNESS: [f32; 2] = [0.0, 0.5];
 
 /// One configuration of the sweep: the knob turned, its value, the probe resolution and the
 /// fit settings.
@@ -59,6 +64,9 @@ pub fn sweep(
     let mut rows = Vec::new();
     let mut convergence = Vec::new();
     let mut set = None;
+    // rendered views and their references (r = 0 and 0.5), shared by every row, and the
+    // exposure every row is judged at (the base bake's)
+    let mut views: Option<(f32, Vec<Vec<renders::ViewReference>>)> = None;
     let bar = progress.bar(configs.len() as u64, "sweep");
     for c in configs {
         bar.set_message(format!("sweep: {} {}", c.knob.name(), c.value));
@@ -73,6 +81,33 @@ pub fn sweep(
         let set = set.get_or_insert_with(|| {
             eval::validation_set(scene, &tracer, &bake.grid, bake.probe.position, eval_settings)
         });
+        let (exposure, view_refs) = views.get_or_insert_with(|| {
+            let exposure = bake.probe.warp_probe().key_exposure();
+            let rs = eval_settings.renders.unwrap_or(RenderSettings::standard());
+            let vs = renders::views(scene, &tracer, set, bake.probe.position, &rs);
+            let refs = FLIP_ROUGHNESS
+                .iter()
+                .enumerate()
+                .map(|(b, &r)| {
+                    vs.iter()
+                        .enumerate()
+                        .map(|(k, v)| {
+                            let tag = 0x5EE9_0000 + (b * 16 + k) as u64;
+                            renders::reference(
+                                scene,
+                                &tracer,
+                                v,
+                                r,
+                                rs.reference_spp,
+                                (eval_settings.seed, tag, exposure),
+                            )
+                        })
+                        .collect()
+                })
+                .collect();
+            (exposure, refs)
+        });
+        let exposure = *exposure;
         let row_folder =
             RunFolder::new(folder.dir.join("sweep").join(format!("{}-{}", c.knob.name().replace(' ', "-"), c.value)));
         let warp = baked.warp(eval_settings.options);
@@ -81,11 +116,18 @@ pub fn sweep(
         let grid = FittedGrid::load(&row_folder.dir)?;
         let est: Vec<glam::Vec3> =
             (0..set.dirs.len()).map(|k| grid.specular(set.position_of(k), set.dirs[k], 0.0)).collect();
+        let stats = eval::error_stats(&est, &set.reference, exposure);
+        let row = Row { fetch: Fetch::Runtime(&grid), rule: None };
+        let shading = Glossy { warp: &warp, correction: grid.roughness.as_ref() };
+        let flip = |b: usize| renders::mean_flip(&row, shading, &view_refs[b], exposure);
         rows.push(SweepRow {
             knob: c.knob,
             value: c.value.clone(),
             fit_seconds: fit.seconds,
-            rel_rmse: eval::error_stats(&est, &set.reference).rel_rmse,
+            rel_rmse: stats.rel_rmse,
+            tm_rmse: stats.tm_rmse,
+            flip_r0: flip(0),
+            flip_r05: flip(1),
             stored_cells: fit.correctives.stored_cells(),
             payload_bytes: manifest.payloads.iter().map(|p| p.bytes).sum(),
         });

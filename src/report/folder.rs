@@ -44,6 +44,14 @@ impl RunFolder {
     pub fn eval_views(&self) -> PathBuf {
         self.file("eval_views.png")
     }
+    /// Error (mean ꟻLIP) against cost per roughness bucket.
+    pub fn eval_rough_plot(&self) -> PathBuf {
+        self.file("eval_rough.png")
+    }
+    /// The camera view of roughness bucket `r` with a few rows' images and ꟻLIP maps.
+    pub fn flip_figure(&self, r: f32) -> PathBuf {
+        self.file(&format!("flip_r{r:.3}.png"))
+    }
     pub fn residuals(&self) -> PathBuf {
         self.file("residuals.json")
     }

@@ -17,15 +17,15 @@ use crate::files::{FileError, write_atomic, write_json};
 use folder::RunFolder;
 use std::fmt::Write as _;
 
-/// Markdown table of the methods, sorted as given.
-pub fn methods_table(r: &EvalReport) -> String {
+/// Markdown table of the rows of roughness bucket `r`, in evaluation order.
+pub fn methods_table(r: &EvalReport, roughness: f32) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "| method | rel RMSE | MAE | p95 | max | angular ° | ns/lookup | ns/lookup (random order) | ns/lookup (batch API) | × cheaper than a reference ray | note |"
+        "| method | rel RMSE | tone-mapped RMSE | ꟻLIP | MAE | p95 | max | angular ° | ns/lookup | ns/lookup (random order) | ns/lookup (batch API) | × cheaper than a reference ray | note |"
     );
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|");
-    for m in &r.methods {
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|");
+    for m in r.methods.iter().filter(|m| m.roughness == roughness) {
         let ang = m.angular_deg.map_or("–".to_string(), |a| format!("{a:.2}"));
         let cheaper = if m.name == "oracle" {
             "–".to_string()
@@ -33,11 +33,14 @@ pub fn methods_table(r: &EvalReport) -> String {
             format!("{:.0}", r.reference_ns_per_ray / m.ns_per_lookup.max(1e-9))
         };
         let batched = m.ns_per_lookup_batched.map_or("–".to_string(), |ns| format!("{ns:.1}"));
+        let flip = m.flip.map_or("–".to_string(), |f| format!("{f:.4}"));
         let _ = writeln!(
             s,
-            "| {} | {:.4} | {:.4} | {:.4} | {:.3} | {} | {:.1} | {:.1} | {} | {} | {} |",
-            m.name,
+            "| {} | {:.4} | {:.4} | {} | {:.4} | {:.4} | {:.3} | {} | {:.1} | {:.1} | {} | {} | {} |",
+            m.label(),
             m.rel_rmse,
+            m.tm_rmse,
+            flip,
             m.mae,
             m.p95,
             m.max,
@@ -52,16 +55,105 @@ pub fn methods_table(r: &EvalReport) -> String {
     s
 }
 
-/// Writes eval.json, eval.md, eval_error_vs_cost.png and eval_views.png into `folder`.
+/// Markdown table, one line per roughness bucket, of what the claims rest on: the fitted
+/// grid through the runtime against the best other row costing ≤ 2× warp1 (by mean ꟻLIP),
+/// and warp1 and box with plain mips; ꟻLIP / tone-mapped RMSE / rel RMSE each.
+pub fn summary_table(r: &EvalReport) -> String {
+    let mut s = String::from(
+        "| roughness | runtime (ꟻLIP / tm RMSE / rel RMSE) | best other ≤ 2× warp1 | warp1 | box |\n|---:|---|---|---|---|\n",
+    );
+    let fmt = |m: &crate::eval::MethodResult| {
+        format!("{} / {:.4} / {:.3}", m.flip.map_or("–".into(), |f| format!("{f:.4}")), m.tm_rmse, m.rel_rmse)
+    };
+    let plain = |m: &&crate::eval::MethodResult| {
+        m.mip_rule.is_none() || m.mip_rule == Some(crate::warp::glossy::MipRule::Plain)
+    };
+    for b in &r.buckets {
+        let rows: Vec<&crate::eval::MethodResult> = r.methods.iter().filter(|m| m.roughness == b.roughness).collect();
+        let find = |name: &str| rows.iter().copied().filter(plain).find(|m| m.name == name);
+        let budget = find("warp1").map_or(f64::INFINITY, |m| 2.0 * m.ns_per_lookup);
+        let key = |m: &&crate::eval::MethodResult| m.flip.unwrap_or(m.tm_rmse);
+        let best = rows
+            .iter()
+            .copied()
+            .filter(|m| m.ns_per_lookup <= budget && !matches!(m.name.as_str(), "runtime" | "oracle"))
+            .min_by(|a, b| key(a).total_cmp(&key(b)));
+        let cell = |m: Option<&crate::eval::MethodResult>| m.map_or("–".into(), fmt);
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} |",
+            b.roughness,
+            cell(rows.iter().copied().find(|m| m.name == "runtime")),
+            best.map_or("–".into(), |m| format!("{}: {}", m.label(), fmt(m))),
+            cell(find("warp1")),
+            cell(find("box"))
+        );
+    }
+    s
+}
+
+/// Markdown table of the roughness buckets: size, the comparison the claim rests on, and the
+/// references' own noise against it.
+pub fn buckets_table(r: &EvalReport) -> String {
+    let mut s = String::from(
+        "| roughness | lookups | reference samples | claim | difference (rel RMSE / tm RMSE) | its reference SE (rel / tm) | SE ≤ ¼ difference | single reference SE (rel) | view pixels | view reference samples | ꟻLIP of the views' reference noise |\n|---:|---:|---:|---|---|---|---|---:|---:|---:|---:|\n",
+    );
+    for b in &r.buckets {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} vs {} | {:.4} / {:.4} | {:.4} / {:.4} | {} | {:.3} | {} | {} | {:.4} |",
+            b.roughness,
+            b.lookups,
+            b.reference_spp,
+            b.claim.0,
+            b.claim.1,
+            b.difference_rel,
+            b.difference_tm,
+            b.reference_se_rel,
+            b.reference_se_tm,
+            if b.reference_ok { "yes" } else { "**no**" },
+            b.query_se_rel,
+            b.view_pixels,
+            b.view_reference_spp,
+            b.view_noise_flip
+        );
+    }
+    s
+}
+
+/// Writes eval.json, eval.md, the error-against-cost plots, the ꟻLIP figures and
+/// eval_views.png into `folder`.
 pub fn write_evaluation(folder: &RunFolder, ev: &Evaluation) -> Result<(), FileError> {
     write_eval(folder, &ev.report)?;
+    for f in &ev.flip_figures {
+        write_flip_figure(folder, &ev.report, f)?;
+    }
     match &ev.views {
         Some(v) => plot::views(&folder.eval_views(), &v.title, &v.tiles),
         None => Ok(()),
     }
 }
 
-/// Writes eval.json, eval.md and eval_error_vs_cost.png into `folder`.
+/// `flip_r{r}.png`: the camera view at one roughness, the reference and a few rows' images
+/// (tone-mapped at the scene's key), each above its ꟻLIP map (magma: black = no visible
+/// difference, yellow = large).
+fn write_flip_figure(folder: &RunFolder, r: &EvalReport, f: &crate::eval::FlipFigure) -> Result<(), FileError> {
+    let (w, h) = (f.width as usize, f.height as usize);
+    let tile = |label: String, rgb: Vec<u8>| plot::Tile { label, rgb, width: w, height: h }.enlarged(2);
+    let mut images = vec![tile("reference".into(), crate::tonemap::to_srgb8(&f.reference, r.exposure))];
+    let mut maps = vec![tile(String::new(), vec![255; w * h * 3])];
+    for (label, image, map, mean) in &f.tiles {
+        images.push(tile(label.clone(), crate::tonemap::to_srgb8(image, r.exposure)));
+        maps.push(tile(format!("ꟻLIP {mean:.3}"), crate::eval::flip::magma(map, f.width, f.height)));
+    }
+    let title = format!(
+        "{}, roughness {}: every surface a glossy reflector; below, ꟻLIP against the reference",
+        r.scene, f.roughness
+    );
+    plot::image_grid(&folder.flip_figure(f.roughness), &title, &[images, maps])
+}
+
+/// Writes eval.json, eval.md and the error-against-cost plots into `folder`.
 pub fn write_eval(folder: &RunFolder, r: &EvalReport) -> Result<(), FileError> {
     std::fs::create_dir_all(&folder.dir).map_err(FileError::io(&folder.dir))?;
     write_json(&folder.eval_json(), r)?;
@@ -84,7 +176,15 @@ pub fn write_eval(folder: &RunFolder, r: &EvalReport) -> Result<(), FileError> {
         "A reference ray (one radiance sample, with shadow and bounce rays) costs {:.0} ns single-threaded.\n",
         r.reference_ns_per_ray
     );
-    md += &methods_table(r);
+    let _ = writeln!(
+        md,
+        "Headline errors: **ꟻLIP** on rendered views (a camera on glossy surfaces and spheres of directions, tone-mapped at three exposures, each pixel's largest error) and the **tone-mapped RMSE** of the lookups (exposure {:.3}, the key of probe A): both bounded per pixel, so a lamp or the sun's disc in view cannot rule them as it rules the relative RMSE, which is kept beside them.\n",
+        r.exposure
+    );
+    let _ = writeln!(md, "## Roughness buckets and the references' noise\n");
+    md += &buckets_table(r);
+    let _ = writeln!(md, "\n## Mirror lookups (roughness 0)\n");
+    md += &methods_table(r, 0.0);
     if !r.fitted_levels.is_empty() {
         let _ = writeln!(
             md,
@@ -103,6 +203,16 @@ pub fn write_eval(folder: &RunFolder, r: &EvalReport) -> Result<(), FileError> {
         md,
         "\nrel RMSE = RMSE of linear RGB radiance / mean reference radiance; MAE, p95, max: per-lookup mean absolute RGB error. Angular error: fetch direction against the oracle's. Costs: single-threaded warm loop, fetch + bilinear radiance lookup; queries issued per position in Morton order of their octahedral uv (coherent, as neighbouring pixels query a probe), and in random order (cache-hostile).\n"
     );
+    for b in r.buckets.iter().filter(|b| b.roughness > 0.0) {
+        let _ = writeln!(
+            md,
+            "\n## Roughness {} ({} lookups, lobe references with {} samples)\n\nRows are `method/mip rule`: `plain` reads the mip of r; `engine` Frostbite's distance-based roughness (Lagarde & de Rousiers 2014, Listing 25); `corrected` the stored distance-ratio correction α'(α, k); `fade` the plain mip with the fetch faded towards the query direction by r. `runtime` is the fitted grid through `FittedGrid::specular`.\n",
+            b.roughness, b.lookups, b.reference_spp
+        );
+        md += &methods_table(r, b.roughness);
+        let _ = writeln!(md, "\n![ꟻLIP, roughness {0}](flip_r{0:.3}.png)", b.roughness);
+    }
+    let _ = writeln!(md, "\n![mean ꟻLIP against cost per roughness](eval_rough.png)\n");
     let _ = writeln!(md, "## warp1 options (depth mip the warp reads, UV relaxation)\n");
     let _ = writeln!(md, "| depth mip | relax (texels) | rel RMSE |\n|---:|---:|---:|");
     for row in &r.warp1_sweep {
@@ -111,7 +221,34 @@ pub fn write_eval(folder: &RunFolder, r: &EvalReport) -> Result<(), FileError> {
     let _ = writeln!(md, "\n![error against cost](eval_error_vs_cost.png)");
     write_atomic(&folder.eval_md(), md.as_bytes())?;
 
-    let points: Vec<(String, f64, f64)> =
-        r.methods.iter().map(|m| (m.name.clone(), m.ns_per_lookup, m.rel_rmse)).collect();
-    plot::error_vs_cost(&folder.eval_plot(), &format!("{}: error against cost", r.scene), &points)
+    let points: Vec<(String, f64, f64)> = r
+        .methods
+        .iter()
+        .filter(|m| m.roughness == 0.0)
+        .map(|m| (m.name.clone(), m.ns_per_lookup, m.rel_rmse))
+        .collect();
+    plot::error_vs_cost(&folder.eval_plot(), &format!("{}: mirror lookups, error against cost", r.scene), &points)?;
+    let panels: Vec<plot::Panel> = r
+        .buckets
+        .iter()
+        .map(|b| {
+            let points = r
+                .methods
+                .iter()
+                .filter(|m| m.roughness == b.roughness)
+                .filter_map(|m| m.flip.map(|f| (m.label(), m.ns_per_lookup, f)))
+                .collect();
+            (format!("roughness {}", b.roughness), points)
+        })
+        .filter(|(_, p): &(String, Vec<_>)| !p.is_empty())
+        .collect();
+    if panels.is_empty() {
+        return Ok(());
+    }
+    plot::error_vs_cost_panels(
+        &folder.eval_rough_plot(),
+        &format!("{}: mean ꟻLIP against cost per roughness (red: Pareto front; green: the fitted grid)", r.scene),
+        "mean ꟻLIP",
+        &panels,
+    )
 }

@@ -37,7 +37,7 @@ pub fn pareto_front(points: &[(String, f64, f64)]) -> Vec<bool> {
 /// 1-2-5 tick values covering [lo, hi].
 fn ticks_125(lo: f64, hi: f64) -> Vec<f64> {
     let mut out = Vec::new();
-    let mut decade = 10f64.powf(lo.log10().floor());
+    let mut decade = libm::pow(10f64, libm::log10(lo).floor());
     while decade <= hi {
         for m in [1.0, 2.0, 5.0] {
             let v = decade * m;
@@ -49,7 +49,7 @@ fn ticks_125(lo: f64, hi: f64) -> Vec<f64> {
     }
     if out.len() < 3 {
         // narrow range: 6 evenly spaced (in log) ticks
-        out = (0..6).map(|k| lo * (hi / lo).powf(k as f64 / 5.0)).collect();
+        out = (0..6).map(|k| lo * libm::pow(hi / lo, k as f64 / 5.0)).collect();
     }
     out
 }
@@ -199,9 +199,9 @@ pub fn views(path: &Path, title: &str, tiles: &[(String, crate::octa::OctMap<gla
     let (w, h) = (tiles.len() * (res + pad) + pad, title_h + label_h + res + pad);
     let mut buf = vec![255u8; w * h * 3];
     let all: Vec<glam::Vec3> = tiles.iter().flat_map(|t| t.1.texels.iter().copied()).collect();
-    let exposure = crate::preview::auto_exposure(&all);
+    let exposure = crate::tonemap::key_exposure(&all);
     for (k, (_, map)) in tiles.iter().enumerate() {
-        let rgb = crate::preview::tonemap(&map.texels, exposure);
+        let rgb = crate::tonemap::to_srgb8(&map.texels, exposure);
         let x0 = pad + k * (res + pad);
         for j in 0..res {
             for i in 0..res {
@@ -224,4 +224,151 @@ pub fn views(path: &Path, title: &str, tiles: &[(String, crate::octa::OctMap<gla
         root.present().map_err(|e| plot_err(path, e))?;
     }
     crate::preview::write_png(path, w as u32, h as u32, &buf)
+}
+
+/// One tile of an image grid: label and 8-bit RGB pixels of `width × height`.
+pub struct Tile {
+    pub label: String,
+    pub rgb: Vec<u8>,
+    pub width: usize,
+    pub height: usize,
+}
+
+impl Tile {
+    /// The tile enlarged `k` times, nearest neighbour (pixels stay pixels).
+    #[must_use]
+    pub fn enlarged(self, k: usize) -> Tile {
+        let (w, h) = (self.width * k, self.height * k);
+        let mut rgb = vec![0u8; w * h * 3];
+        for y in 0..h {
+            for x in 0..w {
+                let src = ((y / k) * self.width + x / k) * 3;
+                if src + 3 <= self.rgb.len() {
+                    rgb[(y * w + x) * 3..(y * w + x) * 3 + 3].copy_from_slice(&self.rgb[src..src + 3]);
+                }
+            }
+        }
+        Tile { label: self.label, rgb, width: w, height: h }
+    }
+}
+
+/// Rows of labelled image tiles under a title (each row as tall as its tallest tile).
+pub fn image_grid(path: &Path, title: &str, rows: &[Vec<Tile>]) -> Result<(), FileError> {
+    register_font();
+    let (pad, label_h, title_h) = (8usize, 20usize, 30usize);
+    let row_h: Vec<usize> = rows.iter().map(|r| r.iter().map(|t| t.height).max().unwrap_or(0)).collect();
+    let w = rows.iter().map(|r| r.iter().map(|t| t.width + pad).sum::<usize>() + pad).max().unwrap_or(pad).max(480);
+    let h = title_h + row_h.iter().map(|rh| rh + label_h + pad).sum::<usize>();
+    let mut buf = vec![255u8; w * h * 3];
+    let mut y0 = title_h;
+    let mut labels = Vec::new();
+    for (row, rh) in rows.iter().zip(&row_h) {
+        let mut x0 = pad;
+        for t in row {
+            labels.push((t.label.clone(), x0, y0));
+            for j in 0..t.height {
+                for i in 0..t.width {
+                    let (src, dst) = ((j * t.width + i) * 3, ((y0 + label_h + j) * w + x0 + i) * 3);
+                    if src + 3 <= t.rgb.len() && dst + 3 <= buf.len() {
+                        buf[dst..dst + 3].copy_from_slice(&t.rgb[src..src + 3]);
+                    }
+                }
+            }
+            x0 += t.width + pad;
+        }
+        y0 += rh + label_h + pad;
+    }
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w as u32, h as u32)).into_drawing_area();
+        root.draw(&Text::new(title.to_string(), (pad as i32, 6), ("sans-serif", 17).into_font().color(&BLACK)))
+            .map_err(|e| plot_err(path, e))?;
+        let style = ("sans-serif", 14).into_font().color(&BLACK);
+        for (label, x, y) in labels {
+            root.draw(&Text::new(label, (x as i32, (y + 2) as i32), style.clone())).map_err(|e| plot_err(path, e))?;
+        }
+        root.present().map_err(|e| plot_err(path, e))?;
+    }
+    crate::preview::write_png(path, w as u32, h as u32, &buf)
+}
+
+/// A scatter panel: its title and its points (row label, cost in ns per lookup, error).
+pub type Panel = (String, Vec<(String, f64, f64)>);
+
+/// Small log-x scatter panels of (cost ns/lookup, error) per row, one per entry of
+/// `panels` (title, points), three to a line. Each panel labels its Pareto front and the
+/// `runtime` row; the front is drawn red.
+pub fn error_vs_cost_panels(path: &Path, title: &str, y_desc: &str, panels: &[Panel]) -> Result<(), FileError> {
+    register_font();
+    let cols = 3usize;
+    let lines = panels.len().div_ceil(cols).max(1);
+    let (pw, ph) = (520u32, 400u32);
+    let (w, h) = (pw * cols as u32, ph * lines as u32 + 40);
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| plot_err(path, e))?;
+        root.draw(&Text::new(title.to_string(), (12, 10), ("sans-serif", 20).into_font().color(&BLACK)))
+            .map_err(|e| plot_err(path, e))?;
+        let body = root.margin(40, 0, 0, 0);
+        let areas = body.split_evenly((lines, cols));
+        for ((name, points), area) in panels.iter().zip(areas) {
+            let finite: Vec<&(String, f64, f64)> =
+                points.iter().filter(|p| p.1 > 0.0 && p.2 >= 0.0 && p.1.is_finite() && p.2.is_finite()).collect();
+            let (cmin, cmax) = finite.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
+            let (emin, emax) = finite.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.2), b.max(p.2)));
+            let (cmin, cmax) = if finite.is_empty() { (1.0, 10.0) } else { (cmin / 1.4, cmax * 1.4) };
+            let (emin, emax) = if finite.is_empty() { (0.0, 1.0) } else { (emin * 0.9, emax * 1.08) };
+            let mut chart = ChartBuilder::on(&area)
+                .caption(name.clone(), ("sans-serif", 16))
+                .margin(10)
+                .x_label_area_size(36)
+                .y_label_area_size(58)
+                .build_cartesian_2d((cmin..cmax).log_scale().with_key_points(ticks_125(cmin, cmax)), emin..emax)
+                .map_err(|e| plot_err(path, e))?;
+            chart
+                .configure_mesh()
+                .x_desc("ns per lookup (log)")
+                .y_desc(y_desc)
+                .label_style(("sans-serif", 12))
+                .x_label_formatter(&|v| format!("{v:.0}"))
+                .y_label_formatter(&|v| format!("{v:.3}"))
+                .draw()
+                .map_err(|e| plot_err(path, e))?;
+            let front = pareto_front(points);
+            let mut front_pts: Vec<(f64, f64)> =
+                points.iter().zip(&front).filter(|(_, f)| **f).map(|(p, _)| (p.1, p.2)).collect();
+            front_pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            chart
+                .draw_series(LineSeries::new(front_pts, RGBColor(200, 60, 60).stroke_width(2)))
+                .map_err(|e| plot_err(path, e))?;
+            for ((label, c, e), on_front) in points.iter().zip(&front) {
+                if !(*c > 0.0 && e.is_finite()) {
+                    continue;
+                }
+                let runtime = label == "runtime";
+                let color = if runtime {
+                    RGBColor(20, 140, 40)
+                } else if *on_front {
+                    RGBColor(200, 40, 40)
+                } else {
+                    RGBColor(110, 130, 180)
+                };
+                let size = if runtime || *on_front { 5 } else { 3 };
+                chart
+                    .draw_series(std::iter::once(Circle::new((*c, *e), size, color.filled())))
+                    .map_err(|e| plot_err(path, e))?;
+                if runtime || *on_front {
+                    chart
+                        .draw_series(std::iter::once(Text::new(
+                            label.clone(),
+                            (*c * 1.05, *e),
+                            ("sans-serif", 12).into_font().color(&BLACK),
+                        )))
+                        .map_err(|e| plot_err(path, e))?;
+                }
+            }
+        }
+        root.present().map_err(|e| plot_err(path, e))?;
+    }
+    crate::preview::write_png(path, w, h, &buf)
 }

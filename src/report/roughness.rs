@@ -14,9 +14,9 @@ pub fn write_roughness(folder: &RunFolder, c: &RoughnessCorrection) -> Result<()
     for i in [1usize, 4, 7, 11].into_iter().filter(|&i| i < c.alphas.len()) {
         let a = c.alphas[i];
         let fitted: Vec<(f64, f64)> =
-            (0..nk).map(|j| ((c.ratios[j] as f64).log2(), c.table[i * nk + j] as f64)).collect();
+            (0..nk).map(|j| (libm::log2(c.ratios[j] as f64), c.table[i * nk + j] as f64)).collect();
         let model: Vec<(f64, f64)> =
-            (0..nk).map(|j| ((c.ratios[j] as f64).log2(), c.analytic(a, c.ratios[j]) as f64)).collect();
+            (0..nk).map(|j| (libm::log2(c.ratios[j] as f64), c.analytic(a, c.ratios[j]) as f64)).collect();
         series.push((format!("fit α={a:.2}"), fitted));
         series.push((format!("c0·α·k^-c1, α={a:.2}"), model));
     }

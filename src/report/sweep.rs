@@ -37,6 +37,15 @@ pub struct SweepRow {
     pub fit_seconds: f64,
     /// Runtime `specular` at roughness 0 on the shared validation set: rel RMSE.
     pub rel_rmse: f64,
+    /// The same lookups' tone-mapped RMSE (at the scene's key exposure).
+    #[serde(default)]
+    pub tm_rmse: f64,
+    /// Mean ꟻLIP of the shared rendered views through the runtime at roughness 0 and 0.5:
+    /// what a player sees (RMSE against noisy references rewards blur; ꟻLIP does less).
+    #[serde(default)]
+    pub flip_r0: f64,
+    #[serde(default)]
+    pub flip_r05: f64,
     pub stored_cells: usize,
     pub payload_bytes: u64,
 }
@@ -66,14 +75,14 @@ pub fn plot(folder: &RunFolder, sw: &Sweep) -> Result<(), FileError> {
         let values: Vec<&str> = rows.iter().map(|r| r.value.as_str()).collect();
         series.push((
             format!("{}: {}", k.name(), values.join(" → ")),
-            rows.iter().map(|r| (r.fit_seconds, r.rel_rmse)).collect(),
+            rows.iter().map(|r| (r.fit_seconds, r.flip_r05)).collect(),
         ));
     }
     super::plot::line_plot(
         &folder.sweep_plot(),
-        &format!("{}: held-out error against fit time, one knob at a time", sw.scene),
+        &format!("{}: what a player sees against fit time, one knob at a time", sw.scene),
         "fit time (s)",
-        "runtime rel RMSE (held out)",
+        "runtime mean ꟻLIP at roughness 0.5 (held-out views)",
         &series,
     )?;
     super::plot::line_plot(

@@ -1,6 +1,6 @@
 //! Fitting the roughness correction with argmin (bake-side; the runtime only reads it).
 
-use super::{Representation, RoughnessCorrection, RoughnessFit, analytic};
+use super::{Representation, RoughnessCorrection, RoughnessFit, Source, analytic};
 use crate::sampling::ggx_d;
 use argmin::core::{CostFunction, Error, Executor, State};
 use argmin::solver::brent::BrentOpt;
@@ -90,7 +90,7 @@ impl CostFunction for ModelProblem<'_> {
 /// both on held-out (α, k) between the grid points.
 pub fn fit_correction() -> RoughnessCorrection {
     let alphas: Vec<f32> = (0..12).map(|i| 0.02 + 0.98 * (i as f32 / 11.0).powi(2)).collect();
-    let ratios: Vec<f32> = (0..13).map(|j| 2f32.powf(-3.0 + 6.0 * j as f32 / 12.0)).collect();
+    let ratios: Vec<f32> = (0..13).map(|j| libm::powf(2f32, -3.0 + 6.0 * j as f32 / 12.0)).collect();
     let mut table = Vec::new();
     let mut lobe_residual = Vec::new();
     let mut samples = Vec::new();
@@ -119,6 +119,8 @@ pub fn fit_correction() -> RoughnessCorrection {
         heldout_rms_table: 0.0,
         heldout_rms_analytic: 0.0,
         chosen: Representation::Table,
+        source: Source::AnalyticLobes,
+        heldout_scene: None,
     };
     let corr = RoughnessCorrection::try_from(fit.clone()).expect("the fitted axes are finite and increasing");
     // Held-out points: midway between table nodes (in α and log k).
@@ -160,6 +162,45 @@ mod tests {
             let a = 0.04;
             let (ap, _) = fit_alpha(a, k);
             assert!((ap - a / k).abs() < 0.05 * a / k, "k {k}: {ap} vs {}", a / k);
+        }
+    }
+
+    #[test]
+    fn pseudo_log2_is_monotone_and_inverts() {
+        let mut last = f32::NEG_INFINITY;
+        for t in 0..=4000 {
+            let k = libm::powf(2f32, -8.0 + 16.0 * t as f32 / 4000.0);
+            let x = super::super::pseudo_log2(k);
+            assert!(x >= last, "{k}");
+            last = x;
+            let back = super::super::pseudo_exp2(x);
+            assert!((back - k).abs() <= 1e-6 * k, "{k} → {x} → {back}");
+        }
+        for e in -6..6 {
+            assert_eq!(super::super::pseudo_log2(2f32.powi(e)), e as f32);
+        }
+    }
+
+    #[test]
+    fn the_resampled_lookup_follows_the_exact_correction() {
+        let c = fit_correction();
+        let mut worst = 0.0f32;
+        // from the first node on (below it the lookup blends to the mirror's 0 at r = 0)
+        for i in 0..=40 {
+            let r = 1.0 / 32.0 + (1.0 - 1.0 / 32.0) * i as f32 / 40.0;
+            for j in 0..=60 {
+                let k = libm::powf(2f32, -3.0 + 6.0 * j as f32 / 60.0);
+                let exact = c.corrected_alpha(r * r, k).sqrt();
+                let fast = c.corrected_roughness(r, k);
+                assert!(fast.is_finite() && (0.0..=1.0).contains(&fast));
+                worst = worst.max((fast - exact).abs());
+            }
+        }
+        assert!(worst < 0.02, "largest difference in perceptual roughness {worst}");
+        // outside the table's k range: clamped; degenerate inputs: finite
+        assert_eq!(c.corrected_roughness(0.5, 1e9), c.corrected_roughness(0.5, 8.0));
+        for (r, k) in [(f32::NAN, 1.0), (0.5, f32::NAN), (0.5, 0.0), (0.5, -1.0), (2.0, 1.0), (0.5, f32::INFINITY)] {
+            assert!(c.corrected_roughness(r, k).is_finite(), "{r} {k}");
         }
     }
 }

@@ -53,6 +53,41 @@ pub struct RoughnessFit {
     pub heldout_rms_analytic: f64,
     /// Which representation the sampler uses (the lower held-out error).
     pub chosen: Representation,
+    /// What the chosen correction was fitted to.
+    #[serde(default)]
+    pub source: Source,
+    /// Tone-mapped RMSE of the scene's held-out rough lookups through the fitted grid for
+    /// each candidate, when the correction was chosen on the scene.
+    #[serde(default)]
+    pub heldout_scene: Option<SceneComparison>,
+}
+
+/// What a roughness correction was fitted to.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Source {
+    /// Analytic GGX lobes projected on planes (seed 002's derivation; any scene).
+    #[default]
+    AnalyticLobes,
+    /// This scene's own GGX references through the fitted grid's lookups.
+    SceneReferences,
+}
+
+/// How the candidate corrections did on a scene's held-out rough lookups (tone-mapped RMSE).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneComparison {
+    pub lookups: usize,
+    /// The mip of r itself.
+    pub plain: f64,
+    /// Frostbite's distance-based roughness.
+    pub engine: f64,
+    /// The analytic-lobe fit (table or analytic form, as chosen on lobes).
+    pub lobe_fit: f64,
+    /// The table fitted to the scene's references.
+    pub scene_fit: f64,
+    /// Its exponents per fitted roughness: (k > 1, k < 1).
+    pub scene_exponents: Vec<[f32; 2]>,
 }
 
 /// A roughness correction ready to look up: validated (finite, increasing axes, a table of
@@ -63,6 +98,45 @@ pub struct RoughnessFit {
 pub struct RoughnessCorrection {
     fit: RoughnessFit,
     log_ratios: Vec<f32>,
+    lookup: Lookup,
+}
+
+/// Nodes per axis of [`Lookup`].
+const LOOKUP_NODES: usize = 33;
+
+/// The chosen representation resampled for lookups: perceptual roughness r' of the mip to
+/// read, on a uniform grid over perceptual r ∈ [0, 1] and over `pseudo_log2(k)` across the
+/// table's k range, bilinear between nodes. Index arithmetic instead of searches and no
+/// logarithm: a rough lookup's mip costs a few integer and float operations, the same on
+/// every CPU. Its nodes are the exact correction; between nodes it differs from the exact
+/// form by interpolation only (bounded in tests).
+#[derive(Clone, Debug, PartialEq)]
+struct Lookup {
+    x0: f32,
+    inv_dx: f32,
+    k_min: f32,
+    k_max: f32,
+    /// r' per (r node, x node), row-major.
+    values: Vec<f32>,
+}
+
+/// Exponent plus the mantissa's fraction: monotone, continuous, exact at powers of two and
+/// linear between them. For positive normal `k`.
+#[inline]
+#[must_use]
+pub fn pseudo_log2(k: f32) -> f32 {
+    let bits = k.to_bits();
+    let e = ((bits >> 23) & 0xff) as i32 - 127;
+    let m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000);
+    e as f32 + (m - 1.0)
+}
+
+/// Inverse of [`pseudo_log2`].
+#[must_use]
+pub fn pseudo_exp2(x: f32) -> f32 {
+    let e = x.floor();
+    let pow = f32::from_bits(((e as i32 + 127).clamp(1, 254) as u32) << 23);
+    (1.0 + (x - e)) * pow
 }
 
 impl std::ops::Deref for RoughnessCorrection {
@@ -97,8 +171,50 @@ impl TryFrom<RoughnessFit> for RoughnessCorrection {
         if !(fit.c0.is_finite() && fit.c1.is_finite()) {
             return Err("c0 and c1 must be finite".into());
         }
-        let log_ratios = fit.ratios.iter().map(|r| r.ln()).collect();
-        Ok(RoughnessCorrection { fit, log_ratios })
+        let log_ratios = fit.ratios.iter().map(|&r| libm::logf(r)).collect();
+        let mut c = RoughnessCorrection { fit, log_ratios, lookup: Lookup::default() };
+        c.lookup = Lookup::resample(&c);
+        Ok(c)
+    }
+}
+
+impl Default for Lookup {
+    fn default() -> Self {
+        Lookup { x0: 0.0, inv_dx: 0.0, k_min: 1.0, k_max: 1.0, values: Vec::new() }
+    }
+}
+
+impl Lookup {
+    fn resample(c: &RoughnessCorrection) -> Lookup {
+        let n = LOOKUP_NODES;
+        let (k_min, k_max) = (c.fit.ratios[0], c.fit.ratios[c.fit.ratios.len() - 1]);
+        let (x0, x1) = (pseudo_log2(k_min), pseudo_log2(k_max));
+        let dx = (x1 - x0) / (n - 1) as f32;
+        let values = (0..n * n)
+            .map(|t| {
+                let r = (t / n) as f32 / (n - 1) as f32;
+                let k = if t % n == n - 1 { k_max } else { pseudo_exp2(x0 + (t % n) as f32 * dx).clamp(k_min, k_max) };
+                if r == 0.0 { 0.0 } else { c.corrected_alpha(r * r, k).sqrt() }
+            })
+            .collect();
+        Lookup { x0, inv_dx: if dx > 0.0 { 1.0 / dx } else { 0.0 }, k_min, k_max, values }
+    }
+
+    #[inline]
+    fn roughness(&self, r: f32, k: f32) -> f32 {
+        let n = LOOKUP_NODES;
+        let last = (n - 1) as f32;
+        let fr = if r.is_finite() { (r * last).clamp(0.0, last) } else { 0.0 };
+        let k = if k.is_finite() && k > 0.0 {
+            k.clamp(self.k_min, self.k_max)
+        } else {
+            1.0f32.clamp(self.k_min, self.k_max)
+        };
+        let fx = ((pseudo_log2(k) - self.x0) * self.inv_dx).clamp(0.0, last);
+        let (i, j) = ((fr as usize).min(n - 2), (fx as usize).min(n - 2));
+        let (a, b) = (fr - i as f32, fx - j as f32);
+        let at = |i: usize, j: usize| self.values[i * n + j];
+        (at(i, j) * (1.0 - b) + at(i, j + 1) * b) * (1.0 - a) + (at(i + 1, j) * (1.0 - b) + at(i + 1, j + 1) * b) * a
     }
 }
 
@@ -106,13 +222,22 @@ impl RoughnessCorrection {
     /// α' from the table, bilinear in α and log k, clamped to the table's range.
     #[must_use]
     pub fn from_table(&self, alpha: f32, k: f32) -> f32 {
-        table_lookup(&self.fit.alphas, &self.log_ratios, &self.fit.table, alpha, k.ln())
+        table_lookup(&self.fit.alphas, &self.log_ratios, &self.fit.table, alpha, libm::logf(k))
     }
 
     /// α' from the analytic model.
     #[must_use]
     pub fn analytic(&self, alpha: f32, k: f32) -> f32 {
         analytic(self.fit.c0 as f64, self.fit.c1 as f64, alpha as f64, k as f64) as f32
+    }
+
+    /// Perceptual roughness of the mip a lookup of perceptual roughness `r` at distance
+    /// ratio `k` reads: [`RoughnessCorrection::corrected_alpha`] resampled (see `Lookup`).
+    /// Always finite, in [0, 1]; r = 0 gives 0. What every rough lookup uses (`warp::glossy`).
+    #[inline]
+    #[must_use]
+    pub fn corrected_roughness(&self, r: f32, k: f32) -> f32 {
+        self.lookup.roughness(r, k)
     }
 
     /// Probe-side α' for surface α and distance ratio k = d_probe / d_surface, by the
@@ -163,5 +288,5 @@ fn bracket(n: usize, node: impl Fn(usize) -> f32, v: f32) -> (usize, f32) {
 }
 
 pub(crate) fn analytic(c0: f64, c1: f64, alpha: f64, k: f64) -> f64 {
-    (c0 * alpha * k.powf(-c1)).clamp(1e-3, 1.0)
+    (c0 * alpha * libm::pow(k, -c1)).clamp(1e-3, 1.0)
 }

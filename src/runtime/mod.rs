@@ -2,7 +2,7 @@
 //!
 //! This module (with `octa`, `warp`, `grid` and `roughness`) is all a game or tool needs at
 //! runtime; it builds without the offline tool (`cargo build --lib --no-default-features`
-//! depends only on glam, serde, serde_json and exr).
+//! depends only on glam, libm, serde, serde_json and exr).
 //!
 //! ```no_run
 //! use warpfit::runtime::FittedGrid;
@@ -32,6 +32,7 @@ use crate::octa;
 use crate::roughness::RoughnessCorrection;
 use crate::warp::Warp;
 use crate::warp::corrective::{Blend, Correctives};
+use crate::warp::glossy::{Aim, MipRule, glossy_radiance};
 use glam::Vec3;
 use std::path::Path;
 
@@ -40,8 +41,6 @@ use std::path::Path;
 pub struct FittedGrid {
     /// Probe A, the proxies and the warp options of the fallback method.
     pub warp: Warp,
-    /// Perceptual roughness of each radiance mip (increasing, mip 0 = 0).
-    pub mip_roughness: Vec<f32>,
     pub blend: Blend,
     pub correctives: Correctives,
     pub irradiance: IrradianceGrid,
@@ -64,7 +63,6 @@ impl FittedGrid {
         let d = crate::gridfile::read(dir.as_ref())?;
         Ok(FittedGrid {
             warp: d.warp,
-            mip_roughness: d.mip_roughness,
             blend: d.manifest.warp.blend,
             correctives: d.correctives,
             irradiance: d.irradiance,
@@ -81,38 +79,6 @@ impl FittedGrid {
         self.correctives.fetch_vector(self.blend, &self.warp, b, dir)
     }
 
-    /// Distance ratio k = d_probe / d_surface of the point probe A sees along `v` (whose
-    /// octahedral coordinate is `uv`, shared with the radiance fetch).
-    #[inline]
-    fn distance_ratio(&self, b: Vec3, v: Vec3, uv: glam::Vec2) -> f32 {
-        let l = v.length();
-        let w = self.warp.probe.inv_depth.sample_lod_uv(uv, self.warp.options.depth_lod);
-        if !(l > 0.0 && l.is_finite() && w > 0.0 && w.is_finite()) {
-            return 1.0; // sky: both distances infinite
-        }
-        let d_probe = 1.0 / w;
-        let d_surface = (self.warp.probe.position + v * (d_probe / l) - b).length();
-        let k = d_probe / d_surface;
-        if k.is_finite() && k > 0.0 { k } else { 1.0 }
-    }
-
-    /// Fractional radiance mip of perceptual roughness `r` (linear between the mips' values).
-    #[inline]
-    fn lod(&self, r: f32) -> f32 {
-        let m = &self.mip_roughness;
-        if m.len() < 2 || !(r > m[0]) {
-            return 0.0;
-        }
-        let last = m.len() - 1;
-        if r >= m[last] {
-            return last as f32;
-        }
-        let i = m.iter().map(|&x| (x <= r) as usize).sum::<usize>().clamp(1, last) - 1;
-        let span = m[i + 1] - m[i];
-        let f = if span > 0.0 { (r - m[i]) / span } else { 0.0 };
-        i as f32 + f.clamp(0.0, 1.0)
-    }
-
     /// Radiance reflected towards `dir` from `position` for perceptual roughness `roughness`:
     /// the fitted warp picks where to read probe A, the roughness correction picks the mip.
     #[inline]
@@ -121,8 +87,8 @@ impl FittedGrid {
         let Some(q) = self.specular_query(position, direction, roughness) else {
             return Vec3::ZERO;
         };
-        let v = self.correctives.fetch_vector(self.blend, &self.warp, q.b, q.dir);
-        self.shade(q, v)
+        let aim = self.correctives.fetch(self.blend, &self.warp, q.b, q.dir);
+        self.shade(q, aim)
     }
 
     /// A specular query made safe (see the module conventions); `None` means black.
@@ -139,21 +105,11 @@ impl FittedGrid {
         Some(SpecularQuery { b, dir, r })
     }
 
-    /// Radiance of probe A along fetch vector `v` for the query's roughness.
+    /// Radiance of probe A along `aim` for the query's roughness: the mip from the stored
+    /// roughness correction (`warp::glossy`, shared with the fit and eval).
     #[inline]
-    fn shade(&self, q: SpecularQuery, v: Vec3) -> Vec3 {
-        if q.r == 0.0 {
-            return self.warp.probe.radiance(v);
-        }
-        let uv = octa::encode(v);
-        let r = match &self.roughness {
-            Some(lut) => {
-                let k = self.distance_ratio(q.b, v, uv);
-                lut.corrected_alpha(q.r * q.r, k).sqrt()
-            }
-            None => q.r,
-        };
-        self.warp.probe.radiance.sample_lod_uv(uv, self.lod(r))
+    fn shade(&self, q: SpecularQuery, aim: Aim) -> Vec3 {
+        glossy_radiance(&self.warp, self.roughness.as_ref(), MipRule::Corrected, q.b, q.dir, aim, q.r)
     }
 
     /// `specular` for [`octa::LANES`] queries at once, bit for bit the same values: the
@@ -173,11 +129,11 @@ impl FittedGrid {
                 (q[k], valid[k]) = (query, true);
             }
         }
-        let v = self.correctives.fetch_vector_lanes(self.blend, &self.warp, &q.map(|q| q.b), &q.map(|q| q.dir));
+        let aim = self.correctives.fetch_lanes(self.blend, &self.warp, &q.map(|q| q.b), &q.map(|q| q.dir));
         let mut out = [Vec3::ZERO; octa::LANES];
         if q.iter().all(|q| q.r == 0.0) {
             // mirror lanes (invalid lanes hold a mirror placeholder and are zeroed)
-            let radiance = self.warp.probe.radiance_lanes(&v);
+            let radiance = self.warp.probe.radiance_lanes(&aim.map(|a| a.v));
             for k in 0..octa::LANES {
                 out[k] = if valid[k] { radiance[k] } else { Vec3::ZERO };
             }
@@ -185,7 +141,7 @@ impl FittedGrid {
         }
         for k in 0..octa::LANES {
             if valid[k] {
-                out[k] = self.shade(q[k], v[k]);
+                out[k] = self.shade(q[k], aim[k]);
             }
         }
         out

@@ -66,25 +66,95 @@ pub fn is_inside(tracer: &Tracer, p: Vec3, threshold: f32, sampler: impl Fn(u32)
     inside_by_backfaces(back as u32, INSIDE_PROBE_RAYS, threshold)
 }
 
-/// Queries (B, dir) with traced references: `positions.len() × dirs_per_position` of them,
-/// position-major.
+/// Queries (B, dir, roughness) with traced references: `positions.len() × dirs_per_position`
+/// of them, position-major.
 #[derive(Clone, Debug, Default)]
 pub struct TracedQueries {
     pub positions: Vec<Vec3>,
     pub dirs: Vec<Vec3>,
     pub dirs_per_position: usize,
-    /// Mean radiance of `spp` samples along each query ray.
+    /// Perceptual roughness of each query (0 = mirror).
+    pub roughness: Vec<f32>,
+    /// Each query's reference: the GGX lobe of its roughness around its direction (a mirror
+    /// ray at roughness 0), estimated from `spp` traced samples.
     pub reference: Vec<Vec3>,
+    /// Standard error of each reference's luminance (the estimator's own noise).
+    pub reference_se: Vec<f32>,
     /// Rays traced for the references (primary, shadow and bounce).
     pub rays: u64,
 }
 
-/// Where a query set draws its random numbers: the direction of query (position p, d) and
-/// sample k of its reference. Each set (validation, a cell's training or check set) has its
-/// own streams, so the sets are independent.
+/// Where a query set draws its random numbers, and each query's roughness: the direction
+/// of query (position p, d) and sample k of its reference. Each set (validation, a cell's
+/// training or check set, a roughness bucket) has its own streams, so the sets are
+/// independent.
 pub trait QueryStreams {
     fn direction(&self, p: usize, d: usize) -> Sampler;
     fn reference(&self, p: usize, d: usize, k: u32) -> Sampler;
+    /// Perceptual roughness of query (p, d); mirror unless a set says otherwise.
+    fn roughness(&self, _p: usize, _d: usize) -> f32 {
+        0.0
+    }
+}
+
+/// A reference and its standard error.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reference {
+    pub radiance: Vec3,
+    /// Standard error of the luminance of `radiance`.
+    pub se: f32,
+}
+
+/// The reference of query (B, unit `dir`, perceptual roughness `r`): radiance arriving at B
+/// through the GGX lobe the probe's mips are prefiltered with (N = V = dir, α = r²; Karis
+/// 2013): half vectors importance-sampled from D(h)(n·h), l reflected about h, each sample
+/// weighted by n·l; the weighted mean of the traced radiance along each l. At r = 0 the
+/// lobe is the mirror ray, and the mean of `spp` samples along it. `sampler(k)` drives
+/// sample k (lobe direction first, then the renderer's shading).
+pub fn lobe_reference(
+    renderer: &Renderer,
+    b: Vec3,
+    dir: Vec3,
+    r: f32,
+    spp: u32,
+    sampler: impl Fn(u32) -> Sampler,
+    rays: &mut u64,
+) -> Reference {
+    let alpha = r * r;
+    let (mut sum, mut w_sum) = (Vec3::ZERO, 0.0f64);
+    // moments for the ratio estimator's variance: Σw², Σw²Y, Σw²Y² (Y = luminance)
+    let (mut w2, mut w2y, mut w2y2) = (0.0f64, 0.0f64, 0.0f64);
+    let spp = spp.max(1);
+    for k in 0..spp {
+        let mut s = sampler(k);
+        let (l, w) = if r > 0.0 {
+            let h = crate::sampling::ggx_half_vector(s.next_2d(), dir, alpha);
+            let nh = dir.dot(h).max(0.0);
+            let l = 2.0 * nh * h - dir;
+            let nl = dir.dot(l);
+            if !(nl > 0.0) {
+                continue; // below the lobe's horizon: zero weight
+            }
+            (l, nl)
+        } else {
+            (dir, 1.0)
+        };
+        let radiance = renderer.sample(b, l, &mut s, rays).radiance;
+        let (w, y) = (w as f64, crate::tonemap::luminance(radiance) as f64);
+        sum += radiance * w as f32;
+        w_sum += w;
+        (w2, w2y, w2y2) = (w2 + w * w, w2y + w * w * y, w2y2 + w * w * y * y);
+    }
+    if !(w_sum > 0.0) {
+        return Reference { radiance: Vec3::ZERO, se: 0.0 };
+    }
+    let mean = sum / w_sum as f32;
+    let m = crate::tonemap::luminance(mean) as f64;
+    // delta-method variance of Σw·Y / Σw, with the n/(n−1) small-sample correction
+    let var = (w2y2 - 2.0 * m * w2y + m * m * w2).max(0.0) / (w_sum * w_sum);
+    let n = spp as f64;
+    let se = if n > 1.0 { (var * n / (n - 1.0)).sqrt() } else { 0.0 };
+    Reference { radiance: mean, se: se as f32 }
 }
 
 /// Traces the references of `dirs_per_position` uniform directions at each position
@@ -96,21 +166,28 @@ pub fn trace_queries(
     spp: u32,
     streams: &impl QueryStreams,
 ) -> TracedQueries {
-    let spp = spp.max(1);
     let n = positions.len() * dirs_per_position;
-    let (mut dirs, mut reference, mut rays) = (Vec::with_capacity(n), Vec::with_capacity(n), 0u64);
+    let mut q = TracedQueries {
+        positions: positions.to_vec(),
+        dirs: Vec::with_capacity(n),
+        dirs_per_position,
+        roughness: Vec::with_capacity(n),
+        reference: Vec::with_capacity(n),
+        reference_se: Vec::with_capacity(n),
+        rays: 0,
+    };
     for (p, &b) in positions.iter().enumerate() {
         for d in 0..dirs_per_position {
             let dir = uniform_sphere(streams.direction(p, d).next_2d());
-            let mut sum = Vec3::ZERO;
-            for k in 0..spp {
-                sum += renderer.sample(b, dir, &mut streams.reference(p, d, k), &mut rays).radiance;
-            }
-            dirs.push(dir);
-            reference.push(sum / spp as f32);
+            let r = streams.roughness(p, d);
+            let reference = lobe_reference(renderer, b, dir, r, spp, |k| streams.reference(p, d, k), &mut q.rays);
+            q.dirs.push(dir);
+            q.roughness.push(r);
+            q.reference.push(reference.radiance);
+            q.reference_se.push(reference.se);
         }
     }
-    TracedQueries { positions: positions.to_vec(), dirs, dirs_per_position, reference, rays }
+    q
 }
 
 impl TracedQueries {
@@ -130,7 +207,9 @@ impl TracedQueries {
             assert_eq!(p.dirs_per_position, dirs_per_position, "parts of one set share its directions per position");
             out.positions.extend(p.positions);
             out.dirs.extend(p.dirs);
+            out.roughness.extend(p.roughness);
             out.reference.extend(p.reference);
+            out.reference_se.extend(p.reference_se);
             out.rays += p.rays;
         }
         out

@@ -15,6 +15,7 @@
 //!   distance along the ray; blended as inverse distance with trilinear weights, cells
 //!   without a map dropped and the weights renormalised.
 
+use super::glossy::Aim;
 use super::{Method, Warp};
 use crate::grid::GridGeometry;
 use crate::octa::{self, LANES};
@@ -87,29 +88,31 @@ impl Correctives {
     #[inline]
     #[must_use]
     pub fn fetch_vector(&self, blend: Blend, warp: &Warp, b: Vec3, dir: Vec3) -> Vec3 {
-        self.fetch_vector_at(blend, warp, b, dir, octa::encode(dir))
+        self.fetch(blend, warp, b, dir).v
     }
 
-    /// `fetch_vector` for [`LANES`] queries, bit for bit the same. With `Blend::Cell` the
+    /// Where query (B, dir) reads probe A: a map's aim carries its distance ratio (no depth
+    /// fetch needed for a rough lookup), the fallback method's does not.
+    #[inline]
+    #[must_use]
+    pub fn fetch(&self, blend: Blend, warp: &Warp, b: Vec3, dir: Vec3) -> Aim {
+        self.fetch_at(blend, warp, b, dir, octa::encode(dir))
+    }
+
+    /// `fetch` for [`LANES`] queries, bit for bit the same. With `Blend::Cell` the
     /// lanes are first sorted (without branches) into those whose cell stores a map and
     /// those that use the fallback method, and each group then runs as its own loop: whether
     /// a cell stores a map is random from lookup to lookup, and a mispredicted branch per
     /// lane would serialise the lanes.
     #[inline]
     #[must_use]
-    pub fn fetch_vector_lanes(
-        &self,
-        blend: Blend,
-        warp: &Warp,
-        b: &[Vec3; LANES],
-        dir: &[Vec3; LANES],
-    ) -> [Vec3; LANES] {
+    pub fn fetch_lanes(&self, blend: Blend, warp: &Warp, b: &[Vec3; LANES], dir: &[Vec3; LANES]) -> [Aim; LANES] {
         let uv = octa::encode_lanes(dir);
         let uv_of = |k: usize| Vec2::new(uv.u[k], uv.v[k]);
-        let mut out = *dir; // lanes at the probe keep the query direction
+        let mut out = dir.map(|v| Aim { v, k: Some(1.0) }); // lanes at the probe keep the query direction
         if blend != Blend::Cell {
             for k in 0..LANES {
-                out[k] = self.fetch_vector_at(blend, warp, b[k], dir[k], uv_of(k));
+                out[k] = self.fetch_at(blend, warp, b[k], dir[k], uv_of(k));
             }
             return out;
         }
@@ -132,21 +135,21 @@ impl Correctives {
             let k = k as usize;
             let taps = octa::bilinear_taps(self.map_res, uv_of(k));
             let w = self.map_w(slots[k], &taps);
-            out[k] = map_fetch_vector(a, self.geometry.centre_of_sized(cells[k], size), w, b[k], dir[k]);
+            out[k] = map_fetch(a, self.geometry.centre_of_sized(cells[k], size), w, b[k], dir[k]);
         }
         for &k in &unmapped[..n_unmapped] {
             let k = k as usize;
-            out[k] = warp.fetch_vector(self.fallback, b[k], dir[k]);
+            out[k] = warp.fetch_vector(self.fallback, b[k], dir[k]).into();
         }
         out
     }
 
-    /// `fetch_vector` given `uv = encode(dir)`.
+    /// `fetch` given `uv = encode(dir)`.
     #[inline]
-    fn fetch_vector_at(&self, blend: Blend, warp: &Warp, b: Vec3, dir: Vec3, uv: Vec2) -> Vec3 {
+    fn fetch_at(&self, blend: Blend, warp: &Warp, b: Vec3, dir: Vec3, uv: Vec2) -> Aim {
         let a = warp.probe.position;
         if b == a {
-            return dir;
+            return Aim { v: dir, k: Some(1.0) };
         }
         let taps = octa::bilinear_taps(self.map_res, uv);
         match blend {
@@ -156,14 +159,14 @@ impl Correctives {
                 match self.slot_of(self.geometry.cell_index(cell)) {
                     Some(slot) => {
                         let centre = self.geometry.centre_of_sized(cell, size);
-                        map_fetch_vector(a, centre, self.map_w(slot, &taps), b, dir)
+                        map_fetch(a, centre, self.map_w(slot, &taps), b, dir)
                     }
-                    None => warp.fetch_vector(self.fallback, b, dir),
+                    None => warp.fetch_vector(self.fallback, b, dir).into(),
                 }
             }
             Blend::Trilinear => match self.trilinear_inv_t(&taps, b, dir) {
-                Some(u) => fetch_vector_from_inv_t(a, u, b, dir),
-                None => warp.fetch_vector(self.fallback, b, dir),
+                Some(u) => fetch_from_inv_t(a, u, b, dir),
+                None => warp.fetch_vector(self.fallback, b, dir).into(),
             },
         }
     }
@@ -213,19 +216,29 @@ pub fn sample_map(map: &[f32], taps: &[(u32, f32); 4]) -> f32 {
 #[inline]
 #[must_use]
 pub fn map_fetch_vector(a: Vec3, centre: Vec3, w: f32, b: Vec3, dir: Vec3) -> Vec3 {
-    fetch_vector_from_inv_t(a, inv_t_from_map(centre, w, b, dir), b, dir)
+    map_fetch(a, centre, w, b, dir).v
 }
 
-/// Fetch vector towards the point at inverse distance `u` along the ray (B, dir) (the
-/// query direction when the hit is at infinity).
+/// [`map_fetch_vector`] with the aimed point's distance ratio (`warp::glossy`).
 #[inline]
-fn fetch_vector_from_inv_t(a: Vec3, u: f32, b: Vec3, dir: Vec3) -> Vec3 {
+#[must_use]
+pub fn map_fetch(a: Vec3, centre: Vec3, w: f32, b: Vec3, dir: Vec3) -> Aim {
+    fetch_from_inv_t(a, inv_t_from_map(centre, w, b, dir), b, dir)
+}
+
+/// Aim at the point at inverse distance `u` along the ray (B, dir) (the query direction
+/// when the hit is at infinity). The point is `|v|` from A and `1/u` from B, so its
+/// distance ratio is `|v| · u`; 1 at infinity and wherever that degenerates.
+#[inline]
+fn fetch_from_inv_t(a: Vec3, u: f32, b: Vec3, dir: Vec3) -> Aim {
     if u > 0.0 {
         let v = b + dir / u - a;
-        if v.is_finite() && v != Vec3::ZERO { v } else { dir }
-    } else {
-        dir // hit at infinity: sky along Dir
+        if v.is_finite() && v != Vec3::ZERO {
+            let k = v.length() * u;
+            return Aim { v, k: Some(if k.is_finite() && k > 0.0 { k } else { 1.0 }) };
+        }
     }
+    Aim { v: dir, k: Some(1.0) } // hit at infinity: sky along Dir
 }
 
 /// One warp step against a cell map: the cell (centre `c`) sees its hit at inverse distance

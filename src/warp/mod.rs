@@ -13,27 +13,36 @@
 
 pub mod corrective;
 pub mod depth;
+pub mod glossy;
 pub mod proxy;
 pub mod reproject;
 
 use crate::octa::{self, LANES, OctMap, OctMips, UvLanes};
 use glam::Vec3;
 
-/// The probe data warps read: position, inverse-distance mips and radiance mips.
+/// The probe data warps read: position, inverse-distance mips and radiance mips with the
+/// perceptual roughness each radiance mip was prefiltered for.
 #[derive(Clone, Debug)]
 pub struct WarpProbe {
     pub position: Vec3,
     /// 1/distance per depth mip (0 where the probe saw sky).
     pub inv_depth: OctMips<f32>,
     pub radiance: OctMips<Vec3>,
+    /// Perceptual roughness of each radiance mip (increasing; mip 0 = 0, the mirror image).
+    pub mip_roughness: Vec<f32>,
     /// Largest finite distance the probe saw (bounds ray marching).
     pub max_distance: f32,
 }
 
 impl WarpProbe {
-    /// From distance mips (+inf = sky; mip 0 = texel-centre distances) and radiance mips.
-    #[must_use]
-    pub fn from_distance_mips(position: Vec3, distance: &OctMips<f32>, radiance: OctMips<Vec3>) -> Self {
+    /// From distance mips (+inf = sky; mip 0 = texel-centre distances), radiance mips and
+    /// their perceptual roughness.
+    pub fn from_distance_mips(
+        position: Vec3,
+        distance: &OctMips<f32>,
+        radiance: OctMips<Vec3>,
+        mip_roughness: Vec<f32>,
+    ) -> Self {
         let inv_depth = OctMips {
             levels: distance
                 .levels
@@ -45,7 +54,14 @@ impl WarpProbe {
             .levels
             .first()
             .map_or(0.0, |l| l.texels.iter().copied().filter(|d| d.is_finite()).fold(0.0f32, f32::max));
-        WarpProbe { position, inv_depth, radiance, max_distance }
+        WarpProbe { position, inv_depth, radiance, mip_roughness, max_distance }
+    }
+
+    /// The exposure every tone-mapped error of this probe's scene is measured at: the key of
+    /// its mirror image (`tonemap::key_exposure`), shared by the fit, eval and the sweep.
+    #[must_use]
+    pub fn key_exposure(&self) -> f32 {
+        self.radiance.levels.first().map_or(1.0, |l| crate::tonemap::key_exposure(&l.texels))
     }
 
     /// Inverse distance seen by the probe towards `dir` at depth mip `lod`.

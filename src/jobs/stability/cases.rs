@@ -5,8 +5,7 @@ use super::Mode;
 use super::scenes::*;
 use crate::eval::{self, EvalSettings};
 use crate::fit::Solver;
-use crate::fit::fixtures::{wall_probe, wall_problem};
-use crate::fit::objective::CellProblem;
+use crate::fit::fixtures::{fit_wall, wall_probe};
 use crate::jobs::run::StoreOptions;
 use crate::octa::{self, OctMap};
 use crate::runtime::Precision;
@@ -156,7 +155,7 @@ fn method_errors(fx: &Fixture, mode: Mode) -> Vec<(String, f64)> {
         .map(|&m| {
             let est: Vec<Vec3> =
                 eval::methods::fetch_dirs(&fx.warp, &set, m).iter().map(|&d| fx.warp.probe.radiance(d)).collect();
-            (m.name().to_string(), eval::error_stats(&est, &set.reference).rel_rmse)
+            (m.name().to_string(), eval::error_stats(&est, &set.reference, 1.0).rel_rmse)
         })
         .collect()
 }
@@ -187,7 +186,7 @@ pub fn grazing(_mode: Mode) -> Outcome {
     for k in 0..256 {
         let phi = k as f32 * std::f32::consts::TAU / 256.0;
         for y in [1e-7f32, 1e-5, 1e-3, 0.0, -1e-7] {
-            dirs.push(Vec3::new(phi.cos(), y, phi.sin()).normalize());
+            dirs.push(Vec3::new(libm::cosf(phi), y, libm::sinf(phi)).normalize());
         }
     }
     // rays leaving above the plane (y ≥ 0) must not hit it
@@ -261,20 +260,11 @@ pub fn sky_only(mode: Mode) -> Outcome {
     ))
 }
 
-/// Fits the wall problem with Brent: log-scale parameters and the held-in relative error.
-fn fit_wall(scale: f32, samples: u32) -> (Vec<f64>, f64) {
-    let probe = wall_probe(scale, 128);
-    let (init, qs, c, _) = wall_problem(scale, samples);
-    let mut problem = CellProblem::new(&probe, c, 8, init, qs, 1e-4, 0.0);
-    let out = problem.solve(Solver::Brent, 2);
-    let err = problem.relative_error_map(&problem.map_with_relax(&out.params, 0.0));
-    (out.params, err)
-}
-
 pub fn stiff_fit(mode: Mode) -> Outcome {
     let n = if mode == Mode::Quick { 1500 } else { 4000 };
-    let (s_small, e_small) = fit_wall(1e-3, n);
-    let (s_large, e_large) = fit_wall(1e3, n);
+    let small = fit_wall(1e-3, 128, n, Solver::Brent, 2);
+    let large = fit_wall(1e3, 128, n, Solver::Brent, 2);
+    let (s_small, e_small, s_large, e_large) = (small.params, small.after, large.params, large.after);
     let max_diff = s_small.iter().zip(&s_large).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     let rel = (e_small - e_large).abs() / e_small.max(1e-9);
     let finite_all =
@@ -298,7 +288,7 @@ pub fn near_singular_secant(_mode: Mode) -> Outcome {
         for k in 0..64 {
             let phi = k as f32 * std::f32::consts::TAU / 64.0;
             for dz in [1e-7f32, -1e-7, 1e-5, 1e-3, 0.0] {
-                let d = Vec3::new(phi.cos(), phi.sin(), dz).normalize();
+                let d = Vec3::new(libm::cosf(phi), libm::sinf(phi), dz).normalize();
                 for m in [Method::Secant, Method::Warp2New, Method::Warp1, Method::Raymarch] {
                     let f = warp.fetch_dir(m, b, d);
                     n += 1;
