@@ -49,7 +49,7 @@ fn methods(c: &mut Criterion) {
             let (t, b) = warpfit::sampling::orthonormal_basis(axis);
             (0..256).map(move |i| {
                 let (u, v) = ((i % 16) as f32 / 15.0 - 0.5, (i / 16) as f32 / 15.0 - 0.5);
-                let half = 20f32.to_radians().tan();
+                let half = libm::tanf(20f32.to_radians());
                 (p, (axis + (t * u + b * v) * half).normalize())
             })
         })

@@ -111,7 +111,7 @@ pub fn to_world(local: Vec3, n: Vec3) -> Vec3 {
 pub fn cosine_hemisphere(u: Vec2, n: Vec3) -> Vec3 {
     let r = u.x.sqrt();
     let phi = 2.0 * PI * u.y;
-    let local = Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u.x).max(0.0).sqrt());
+    let local = Vec3::new(r * libm::cosf(phi), r * libm::sinf(phi), (1.0 - u.x).max(0.0).sqrt());
     to_world(local, n)
 }
 
@@ -123,7 +123,7 @@ pub fn uniform_cone(u: Vec2, axis: Vec3, cos_max: f32) -> Vec3 {
     let cos_t = 1.0 - u.x * (1.0 - cos_max);
     let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
     let phi = 2.0 * PI * u.y;
-    to_world(Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t), axis)
+    to_world(Vec3::new(sin_t * libm::cosf(phi), sin_t * libm::sinf(phi), cos_t), axis)
 }
 
 /// Uniform direction on the sphere; pdf = 1/(4π).
@@ -133,7 +133,7 @@ pub fn uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
     let phi = 2.0 * PI * u.y;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    Vec3::new(r * libm::cosf(phi), r * libm::sinf(phi), z)
 }
 
 /// GGX (Trowbridge–Reitz) normal distribution D(h) for `cos_h` = n·h and roughness `alpha`
@@ -155,7 +155,7 @@ pub fn ggx_half_vector(u: Vec2, n: Vec3, alpha: f32) -> Vec3 {
     let cos_t = ((1.0 - u.x) / (1.0 + (a2 - 1.0) * u.x)).max(0.0).sqrt();
     let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
     let phi = 2.0 * PI * u.y;
-    to_world(Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t), n)
+    to_world(Vec3::new(sin_t * libm::cosf(phi), sin_t * libm::sinf(phi), cos_t), n)
 }
 
 #[cfg(test)]
@@ -191,9 +191,13 @@ mod tests {
             let mut sum = 0.0f64;
             for k in 0..steps {
                 let t = (k as f64 + 0.5) / steps as f64 * std::f64::consts::FRAC_PI_2;
-                let d = ggx_d(t.cos() as f32, alpha) as f64;
-                sum +=
-                    d * t.cos() * t.sin() * 2.0 * std::f64::consts::PI * (std::f64::consts::FRAC_PI_2 / steps as f64);
+                let d = ggx_d(libm::cos(t) as f32, alpha) as f64;
+                sum += d
+                    * libm::cos(t)
+                    * libm::sin(t)
+                    * 2.0
+                    * std::f64::consts::PI
+                    * (std::f64::consts::FRAC_PI_2 / steps as f64);
             }
             assert!((sum - 1.0).abs() < 2e-3, "alpha {alpha}: {sum}");
         }

@@ -124,7 +124,7 @@ fn solid_angles_match_numerical_integration() {
         let z = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
         let r = (1.0 - z * z).sqrt();
         let phi = k as f64 * 2.399_963_229_728_653;
-        let d = Vec3::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32);
+        let d = Vec3::new((r * libm::cos(phi)) as f32, (r * libm::sin(phi)) as f32, z as f32);
         let (i, j) = octa::texel_of_uv(res, octa::encode(d));
         counts[(j * res + i) as usize] += 1;
     }

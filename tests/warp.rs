@@ -109,7 +109,7 @@ fn sphere_centre_probe_secant_and_two_steps_converge() {
         let truth = (b + *d * t - a).normalize();
         for (slot, m) in [Method::Warp1, Method::Warp2Fixed, Method::Warp2New, Method::Secant].iter().enumerate() {
             let f = w.fetch_dir(*m, b, *d);
-            err[slot] += f.dot(truth).clamp(-1.0, 1.0).acos() as f64;
+            err[slot] += libm::acosf(f.dot(truth).clamp(-1.0, 1.0)) as f64;
         }
     }
     let mean: Vec<f64> = err.iter().map(|e| e.to_degrees() / ds.len() as f64).collect();
@@ -184,7 +184,7 @@ proptest! {
                  u in 0.0f32..1.0, v in 0.0f32..1.0, lod in 0.0f32..3.0, relax in 0.0f32..3.0) {
         let a = Vec3::new(0.5, 1.0, -0.5);
         let p = synthetic_probe(a, 16, |d| {
-            let h = ((d.x * 12.9898 + d.y * 78.233 + d.z * 37.719 + seed as f32).sin() * 43758.547).fract().abs();
+            let h = (libm::sinf(d.x * 12.9898 + d.y * 78.233 + d.z * 37.719 + seed as f32) * 43758.547).fract().abs();
             if h < 0.2 { f32::INFINITY } else if h < 0.25 { 0.0 } else { h * 5.0 }
         });
         let opts = WarpOptions { depth_lod: lod, relax_texels: relax, ..WarpOptions::default() };
@@ -263,7 +263,7 @@ proptest! {
         queries in proptest::collection::vec((-20.0f32..20.0, -20.0f32..20.0, -20.0f32..20.0, 0.0f32..1.0, 0.0f32..1.0), 1..40)) {
         let a = Vec3::new(0.5, 1.0, -0.5);
         let p = synthetic_probe(a, 16, |d| {
-            let h = ((d.x * 12.9898 + d.y * 78.233 + d.z * 37.719 + seed as f32).sin() * 43758.547).fract().abs();
+            let h = (libm::sinf(d.x * 12.9898 + d.y * 78.233 + d.z * 37.719 + seed as f32) * 43758.547).fract().abs();
             if h < 0.2 { f32::INFINITY } else if h < 0.25 { 0.0 } else { h * 5.0 }
         });
         let w = context(&p, Vec3::splat(-4.0), Vec3::splat(4.0), WarpOptions { depth_lod: lod, ..WarpOptions::default() });

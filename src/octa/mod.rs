@@ -432,7 +432,7 @@ fn spherical_triangle_area(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
         |u: [f64; 3], v: [f64; 3]| [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
     let triple = dot(a, cross(b, c)).abs();
     let denom = 1.0 + dot(a, b) + dot(b, c) + dot(c, a);
-    2.0 * triple.atan2(denom)
+    2.0 * libm::atan2(triple, denom)
 }
 
 /// A mip chain of octahedral maps, level 0 first, each half the resolution of the previous.

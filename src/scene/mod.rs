@@ -325,7 +325,7 @@ fn lights_from(f: &SceneFile, path: &Path) -> Result<Lights, SceneError> {
         }
         lights.sun = Some(Sun {
             direction: d.normalize(),
-            cos_angular_radius: radius.to_radians().cos(),
+            cos_angular_radius: libm::cosf(radius.to_radians()),
             irradiance: nonneg3(path, "sun.irradiance", sun.irradiance)?,
         });
     }

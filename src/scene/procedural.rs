@@ -116,7 +116,7 @@ impl Builder {
         let top = base + Vec3::Y * height;
         let ring = |k: u32| {
             let a = k as f32 / segments as f32 * std::f32::consts::TAU;
-            Vec3::new(a.cos(), 0.0, a.sin()) * radius
+            Vec3::new(libm::cosf(a), 0.0, libm::sinf(a)) * radius
         };
         for k in 0..segments {
             let (r0, r1) = (ring(k), ring(k + 1));
@@ -158,7 +158,7 @@ impl Builder {
         for k in 0..segments {
             let t0 = k as f32 / segments as f32 * std::f32::consts::PI;
             let t1 = (k + 1) as f32 / segments as f32 * std::f32::consts::PI;
-            let (c0, s0, c1, s1) = (t0.cos(), t0.sin(), t1.cos(), t1.sin());
+            let (c0, s0, c1, s1) = (libm::cosf(t0), libm::sinf(t0), libm::cosf(t1), libm::sinf(t1));
             let p = |r: f32, c: f32, s: f32, d: f32| to_world(r * c, pier_height + r * s, d);
             let mid_c = (c0 + c1) * 0.5;
             let mid_s = (s0 + s1) * 0.5;

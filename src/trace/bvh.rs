@@ -188,7 +188,7 @@ impl Tracer {
         let centre = (lo + hi) * 0.5;
         let extent = (hi - lo).max_element().max(f32::MIN_POSITIVE);
         // Power of two so that normalising is exact: extent·scale ∈ [512, 1024).
-        let scale = 2f32.powi(9 - extent.log2().floor() as i32);
+        let scale = 2f32.powi(9 - libm::log2f(extent).floor() as i32);
         let to_n = |p: Vec3| Vec3A::from((p - centre) * scale);
         let tri_v0: Vec<Vec3A> = scene.triangles.v0.iter().map(|&p| to_n(p)).collect();
         let tri_v1: Vec<Vec3A> = scene.triangles.v1.iter().map(|&p| to_n(p)).collect();
