@@ -5,6 +5,7 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use warpfit::eval::EvalSettings;
+use warpfit::files;
 use warpfit::fit::{FitSettings, Solver};
 use warpfit::jobs::run::{self as job, Output, RunSettings, StoreOptions};
 use warpfit::jobs::{stability, sweep};
@@ -117,6 +118,9 @@ struct SceneArgs {
     /// Output folder (default: fits/<scene name>); a matching bake there is reused.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Bake even when the estimate exceeds the machine's available memory.
+    #[arg(long)]
+    force: bool,
 }
 
 /// A whole job: scene, output folder, fit and eval settings. Shared by `run` and `sweep`.
@@ -260,14 +264,17 @@ fn command_line() -> String {
     format!("warpfit {}", args.join(" "))
 }
 
-/// Loads the scene and its bake (fresh or reused), saying which.
-fn prepare(args: &SceneArgs, progress: &Progress) -> Result<job::Prepared> {
+/// Opens a transaction on the scene's run folder and prepares the scene and its bake
+/// (reused from the folder or fresh) in it, saying which.
+fn prepare(args: &SceneArgs, progress: &Progress) -> Result<(job::Prepared, job::Transaction, RunFolder)> {
     let (scene, folder) = job::load_scene(&args.scene, args.out.as_deref())?;
-    let p = job::prepare(scene, folder, progress)?;
+    job::check_bake_estimate(&scene, args.force)?;
+    let tx = job::Transaction::begin(&folder)?;
+    let p = job::prepare_from(scene, &tx.previous, tx.out.clone(), progress)?;
     if p.baked_now {
-        println!("baked {} → {}", p.scene.name, p.folder.bake().display());
+        println!("baked {} → {}", p.scene.name, folder.bake().display());
     }
-    Ok(p)
+    Ok((p, tx, folder))
 }
 
 fn print_fit(f: &warpfit::fit::Fit, manifest: &warpfit::gridfile::GridManifest, folder: &RunFolder) {
@@ -316,6 +323,22 @@ fn print_eval(r: &warpfit::eval::EvalReport, folder: &RunFolder) {
 }
 
 fn main() {
+    // A closed pipe (`warpfit inspect | head -1`) ends the program quietly, as it ends any
+    // Unix filter, instead of a panic in `println!`.
+    #[cfg(unix)]
+    // SAFETY: restoring the default disposition of SIGPIPE before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+    // Test hook, for the kill-at-every-rename tests: `WARPFIT_TEST_FAULT_RENAME=N` makes the
+    // N-th rename fail, `N:abort` kills the process there.
+    if let Ok(v) = std::env::var("WARPFIT_TEST_FAULT_RENAME") {
+        let (n, abort) = v.split_once(':').map_or((v.as_str(), false), |(n, a)| (n, a == "abort"));
+        if let Ok(n) = n.parse::<u64>() {
+            let fault = if abort { files::staged::Fault::Abort } else { files::staged::Fault::Error };
+            files::staged::set_rename_fault(Some((n, fault)));
+        }
+    }
     let cli = Cli::parse();
     let level = if cli.quiet { "warn" } else { "info" };
     tracing_subscriber::fmt()
@@ -344,7 +367,9 @@ fn run(cli: Cli) -> Result<()> {
     let command = command_line();
     match cli.command {
         Command::Bake { scene } => {
+            let force = scene.force;
             let (scene, folder) = job::load_scene(&scene.scene, scene.out.as_deref())?;
+            job::check_bake_estimate(&scene, force)?;
             tracing::info!(
                 "scene {}: {} triangles, {} spheres",
                 scene.name,
@@ -352,7 +377,14 @@ fn run(cli: Cli) -> Result<()> {
                 scene.spheres.len()
             );
             let tracer = warpfit::trace::Tracer::new(&scene);
-            let baked = job::bake(&scene, &tracer, &folder, &progress)?;
+            let tx = job::Transaction::begin(&folder)?;
+            let same_bake = warpfit::bakefile::manifest_key(&folder.bake()).as_deref() == Some(&scene.content_key());
+            let baked = job::bake(&scene, &tracer, &tx.out, &progress)?;
+            if same_bake {
+                // the same inputs bake the same bits: the fit made from the old bake still holds
+                tx.keep(|_| true)?;
+            }
+            tx.commit(false)?;
             let s = &baked.stats;
             println!(
                 "baked {} → {}: probe {}² ({} mips), grid {:?} ({} active cells), {:.2} Mrays in {:.2} s ({:.2} Mrays/s, {} threads)",
@@ -370,31 +402,40 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Eval { scene, methods, eval } => {
             let methods = parse_methods(&methods)?;
-            let p = prepare(&scene, &progress)?;
+            let (p, tx, folder) = prepare(&scene, &progress)?;
             let settings = eval.settings();
             let warp = p.baked().warp(settings.options);
             let out = Output { folder: &p.folder, command: &command, progress: &progress };
             let r = job::evaluate(p.baked(), &warp, &settings, &methods, None, out)?;
-            print_eval(&r, &p.folder);
+            if !p.baked_now {
+                // same bake: the fitted grid and its diagnostics still hold; the old report
+                // described the old evaluation
+                tx.keep(|name| !RunFolder::written_by_eval(name) && !RunFolder::written_by_report(name))?;
+            }
+            tx.commit(false)?;
+            print_eval(&r, &folder);
         }
         Command::Fit { scene, fit } => {
             let settings = fit.settings()?;
-            let p = prepare(&scene, &progress)?;
+            let (p, tx, folder) = prepare(&scene, &progress)?;
             let warp = p.baked().warp(WarpOptions::standard());
             let out = Output { folder: &p.folder, command: &command, progress: &progress };
             let (f, manifest) = job::fit(p.baked(), &warp, &settings, fit.store(), out)?;
-            print_fit(&f, &manifest, &p.folder);
+            tx.commit(true)?;
+            print_fit(&f, &manifest, &folder);
         }
         Command::Run { job: RunArgs { scene, eval, fit } } => {
             let settings = RunSettings { eval: eval.settings(), fit: fit.settings()?, store: fit.store() };
-            let p = prepare(&scene, &progress)?;
+            let (p, tx, folder) = prepare(&scene, &progress)?;
             let outcome = job::run(&p, &settings, &command, &progress)?;
-            print_fit(&outcome.fit, &outcome.manifest, &p.folder);
-            print_eval(&outcome.eval, &p.folder);
-            println!("wrote {}/report.json, report.md, report.html", p.folder.dir.display());
+            tx.commit(true)?;
+            print_fit(&outcome.fit, &outcome.manifest, &folder);
+            print_eval(&outcome.eval, &folder);
+            println!("wrote {}/report.json, report.md, report.html", folder.dir.display());
         }
         Command::Roughness { out } => {
             let folder = RunFolder::new(out);
+            let _lock = files::staged::FolderLock::acquire(&folder.dir)?;
             let c = job::roughness(&folder)?;
             println!(
                 "roughness correction: analytic α' = min(1, {:.4}·α·k^-{:.4}); held-out RMS error in α': table {:.5}, analytic {:.5} → {:?} (wrote {}/roughness.json, roughness.png)",
@@ -442,6 +483,7 @@ fn run(cli: Cli) -> Result<()> {
                 );
             });
             let folder = RunFolder::new(out);
+            let _lock = files::staged::FolderLock::acquire(&folder.dir)?;
             stability::write(&folder, &rows, mode, &command)?;
             let failed = rows.iter().filter(|r| !r.pass).count();
             println!("wrote {}/stability.json, stability.md", folder.dir.display());
@@ -450,6 +492,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Report { out } => {
             let folder = RunFolder::new(out);
+            let _lock = files::staged::FolderLock::acquire(&folder.dir)?;
             let r = report::page::write_report(&folder, &command)?;
             println!(
                 "wrote {0}/report.json, report.md, report.html ({1} methods, {2} images)",
@@ -460,6 +503,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Sweep { job: RunArgs { scene, eval, fit } } => {
             let (scene, folder) = job::load_scene(&scene.scene, scene.out.as_deref())?;
+            let _lock = files::staged::FolderLock::acquire(&folder.dir)?;
             let sw = sweep::sweep(&scene, &fit.settings()?, &eval.settings(), &folder, &command, &progress)?;
             println!(
                 "| knob | value | fit s | ꟻLIP r 0 | ꟻLIP r 0.5 | tone-mapped RMSE | rel RMSE | stored cells | payload bytes |\n|---|---|---:|---:|---:|---:|---:|---:|---:|"

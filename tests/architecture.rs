@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 
 /// Floors, bottom first: a module may use modules on lower floors only (and itself).
 const FLOORS: &[&[&str]] = &[
-    &["octa", "sampling", "files", "progress", "scene", "tonemap"],
-    &["grid", "roughness"],
+    &["octa", "sampling", "files", "progress", "tonemap"],
+    &["grid", "roughness", "scene"],
     &["warp"],
     &["gridfile"],
     &["runtime"],

@@ -310,7 +310,18 @@ fn copy_tiny(tag: &str) -> PathBuf {
     dir
 }
 
+/// Edits the manifest and re-seals its checksum (where it still parses), so the loader's
+/// deeper rules are what the edit meets; [`edit_manifest_unsealed`] leaves the seal alone.
 fn edit_manifest(dir: &Path, edit: impl FnOnce(&mut serde_json::Value)) {
+    edit_manifest_unsealed(dir, edit);
+    let p = dir.join(MANIFEST_FILE);
+    if let Ok(mut m) = serde_json::from_slice::<warpfit::gridfile::GridManifest>(&std::fs::read(&p).unwrap()) {
+        m.manifest_checksum = m.canonical_checksum();
+        std::fs::write(&p, serde_json::to_vec_pretty(&m).unwrap()).unwrap();
+    }
+}
+
+fn edit_manifest_unsealed(dir: &Path, edit: impl FnOnce(&mut serde_json::Value)) {
     let p = dir.join(MANIFEST_FILE);
     let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(&p).unwrap()).unwrap();
     edit(&mut v);
@@ -384,9 +395,16 @@ fn every_malformed_input_is_an_error_naming_file_and_field() {
     let e = load_err(&d);
     assert!(e.contains("correctives.exr") && e.contains("warp_maps"), "{e}");
     let d = copy_tiny("cells");
-    edit_manifest(&d, |v| v["irradiance"]["stored_cells"][0] = 4096.into());
+    edit_manifest(&d, |v| {
+        let cells = v["irradiance"]["stored_cells"].as_array_mut().unwrap();
+        *cells.last_mut().unwrap() = 4096.into();
+    });
     let e = load_err(&d);
     assert!(e.contains("irradiance.stored_cells") && e.contains("out of range"), "{e}");
+    let d = copy_tiny("unsorted");
+    edit_manifest(&d, |v| v["irradiance"]["stored_cells"].as_array_mut().unwrap().swap(0, 1));
+    let e = load_err(&d);
+    assert!(e.contains("irradiance.stored_cells") && e.contains("sorted and unique"), "{e}");
     let d = copy_tiny("grid");
     edit_manifest(&d, |v| v["grid"]["counts"][1] = 0.into());
     assert!(load_err(&d).contains("grid.counts"));

@@ -1,5 +1,5 @@
 //! Baking: from a scene to the specular probe A and the dense probe grid. Pure computation;
-//! writing files is `format::bake_io`.
+//! writing files is `bakefile`.
 
 pub mod grid;
 pub mod probe;
@@ -27,6 +27,32 @@ impl Baked<'_> {
     /// The warp context of this bake with `options`.
     pub fn warp(&self, options: WarpOptions) -> Warp {
         warp(self.scene, self.probe, options)
+    }
+}
+
+/// What a bake of a scene will take, from its settings alone (before anything is traced).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Estimate {
+    /// Peak memory: probe mips, grid maps, geometry and its BVH.
+    pub bytes: u64,
+    /// Primary rays (each adds shadow and bounce rays).
+    pub rays: u64,
+}
+
+impl Estimate {
+    #[must_use]
+    pub fn of(scene: &Scene) -> Estimate {
+        let c = &scene.config;
+        let r = c.probe.resolution as u64;
+        let cells: u64 = c.grid.counts.iter().map(|&n| n as u64).product();
+        let (ir, dr) = (c.grid.irradiance_resolution as u64, c.grid.depth_resolution as u64);
+        // probe: radiance (RGB) and distance mips (×4/3), plus the supersampling buffer
+        let probe = r * r * (12 + 4) * 4 / 3 + r * r * 12;
+        // grid: irradiance (RGB) and three moment maps per cell, plus the inside flags
+        let grid = cells * (ir * ir * 12 + dr * dr * 12 + 1);
+        let geometry = scene.triangles.len() as u64 * 160 + scene.spheres.len() as u64 * 64;
+        let rays = r * r * c.probe.samples_per_texel as u64 + cells * dr * dr * c.grid.depth_samples as u64;
+        Estimate { bytes: probe + grid + geometry, rays }
     }
 }
 

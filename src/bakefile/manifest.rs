@@ -8,7 +8,8 @@ use serde::{Deserialize, Serialize};
 
 pub const BAKE_FORMAT: &str = "warpfit-bake";
 /// Version 2: distance layers are named `distance_mip{m}` (the fitted grid's names).
-pub const BAKE_VERSION: u32 = 2;
+/// Version 3: the content key of the scene and per-file checksums.
+pub const BAKE_VERSION: u32 = 3;
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct BakeManifest {
@@ -22,6 +23,20 @@ pub struct BakeManifest {
     pub stats: BakeStats,
     /// The scene file exactly as parsed (every setting that made this bake).
     pub settings: SceneFile,
+    /// `Scene::content_key`: tool version, settings and every input file's bytes. A bake is
+    /// reused only for a scene with the same key.
+    pub key: String,
+    /// The scene's input files and their checksums when baked.
+    pub inputs: Vec<(String, String)>,
+    /// Size and checksum of each payload, checked before a reuse.
+    pub files: Vec<FileEntry>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct FileEntry {
+    pub file: String,
+    pub bytes: u64,
+    pub checksum: String,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]

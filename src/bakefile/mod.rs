@@ -141,15 +141,55 @@ pub fn build_manifest(scene: &Scene, bake: &Bake) -> BakeManifest {
         },
         stats: bake.stats.clone(),
         settings: scene.config.clone(),
+        key: scene.content_key(),
+        inputs: scene.inputs.iter().map(|(p, c)| (p.display().to_string(), c.clone())).collect(),
+        files: Vec::new(),
     }
 }
 
-/// Writes the bake folder (each file atomically; the manifest last).
+/// Writes the bake folder (each file atomically; the manifest last, with the payloads'
+/// sizes and checksums). Callers write it inside a staged run folder, so a bake is swapped in
+/// whole or not at all.
 pub fn write_bake(dir: &Path, scene: &Scene, bake: &Bake) -> Result<(), FileError> {
     std::fs::create_dir_all(dir).map_err(FileError::io(dir))?;
-    exr::write(&dir.join(PROBE_FILE), &probe_layers(&bake.probe.radiance, &bake.probe.depth))?;
-    exr::write(&dir.join(GRID_FILE), &grid_layers(&bake.grid))?;
-    write_json(&dir.join(MANIFEST_FILE), &build_manifest(scene, bake))
+    let mut files = Vec::new();
+    for (file, layers) in
+        [(PROBE_FILE, probe_layers(&bake.probe.radiance, &bake.probe.depth)), (GRID_FILE, grid_layers(&bake.grid))]
+    {
+        let path = dir.join(file);
+        let bytes = exr::encode(&path, &layers, |_| false)?;
+        crate::files::write_atomic(&path, &bytes)?;
+        files.push(FileEntry {
+            file: file.into(),
+            bytes: bytes.len() as u64,
+            checksum: crate::files::checksum(&bytes),
+        });
+    }
+    write_json(&dir.join(MANIFEST_FILE), &BakeManifest { files, ..build_manifest(scene, bake) })
+}
+
+/// A payload of the bake, checked against the manifest's size and checksum, decoded.
+fn read_payload(dir: &Path, m: &BakeManifest, file: &str) -> Result<Vec<ExrLayer>, FileError> {
+    let mpath = dir.join(MANIFEST_FILE);
+    let entry = m
+        .files
+        .iter()
+        .find(|f| f.file == file)
+        .ok_or_else(|| FileError::invalid(&mpath, "files", format!("no entry for {file}")))?;
+    let path = dir.join(file);
+    let bytes = crate::files::read_regular(&path, entry.bytes)?;
+    if bytes.len() as u64 != entry.bytes {
+        return Err(FileError::invalid(
+            &path,
+            "size",
+            format!("{} bytes, the manifest says {}", bytes.len(), entry.bytes),
+        ));
+    }
+    let found = crate::files::checksum(&bytes);
+    if found != entry.checksum {
+        return Err(FileError::Checksum { path, expected: entry.checksum.clone(), found });
+    }
+    exr::decode(&path, &bytes)
 }
 
 fn find<'a>(layers: &'a [ExrLayer], path: &Path, name: &str, res: (usize, usize)) -> Result<&'a ExrLayer, FileError> {
@@ -185,12 +225,20 @@ fn finite_rgb(l: &ExrLayer, path: &Path) -> Result<Vec<Vec3>, FileError> {
     Ok(v)
 }
 
+/// The content key a bake folder's manifest records, if it has a readable one.
+#[must_use]
+pub fn manifest_key(dir: &Path) -> Option<String> {
+    let bytes = crate::files::read_regular(&dir.join(MANIFEST_FILE), crate::files::MAX_JSON_BYTES).ok()?;
+    let v: serde_json::Value = serde_json::from_slice(&bytes).ok()?;
+    v.get("key").and_then(|k| k.as_str()).map(str::to_string)
+}
+
 /// Reads a bake folder back, validating versions, sizes and values.
 pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid), FileError> {
     let mpath = dir.join(MANIFEST_FILE);
-    let text = std::fs::read_to_string(&mpath).map_err(|source| FileError::Io { path: mpath.clone(), source })?;
+    let bytes = crate::files::read_regular(&mpath, crate::files::MAX_JSON_BYTES)?;
     let probe_format: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| FileError::Json { path: mpath.clone(), message: e.to_string() })?;
+        serde_json::from_slice(&bytes).map_err(|e| FileError::Json { path: mpath.clone(), message: e.to_string() })?;
     let found = probe_format.get("format").and_then(|v| v.as_str()).unwrap_or("").to_string();
     let version = probe_format.get("version").and_then(|v| v.as_u64()).unwrap_or(0);
     if found != BAKE_FORMAT || version != BAKE_VERSION as u64 {
@@ -199,8 +247,11 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
     let m: BakeManifest = serde_json::from_value(probe_format)
         .map_err(|e| FileError::Json { path: mpath.clone(), message: e.to_string() })?;
 
-    let ppath = dir.join(&m.probe.file);
-    let layers = exr::read(&ppath)?;
+    if m.probe.file != PROBE_FILE || m.grid.file != GRID_FILE {
+        return Err(FileError::invalid(&mpath, "probe.file/grid.file", "not this format's file names"));
+    }
+    let ppath = dir.join(PROBE_FILE);
+    let layers = read_payload(dir, &m, PROBE_FILE)?;
     let mut radiance = Vec::new();
     for mip in &m.probe.radiance_mips {
         let n = mip.resolution as usize;
@@ -231,8 +282,8 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
         depth: OctMips { levels: depth },
     };
 
-    let gpath = dir.join(&m.grid.file);
-    let layers = exr::read(&gpath)?;
+    let gpath = dir.join(GRID_FILE);
+    let layers = read_payload(dir, &m, GRID_FILE)?;
     let geometry = GridGeometry {
         min: Vec3::from_array(m.grid.min),
         max: Vec3::from_array(m.grid.max),

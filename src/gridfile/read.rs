@@ -46,10 +46,11 @@ fn invalid(path: &Path, field: impl Into<String>, message: impl Into<String>) ->
     FileError::invalid(path, field, message)
 }
 
-/// Reads and checks `manifest.json` (format, version, structure).
+/// Reads and checks `manifest.json`: a regular file of bounded size, its format and
+/// version, and its checksum over its canonical form (an edited manifest is refused).
 pub fn read_manifest(dir: &Path) -> Result<GridManifest, FileError> {
     let path = dir.join(MANIFEST_FILE);
-    let bytes = std::fs::read(&path).map_err(FileError::io(&path))?;
+    let bytes = crate::files::read_regular(&path, MAX_MANIFEST_BYTES)?;
     let value: serde_json::Value =
         serde_json::from_slice(&bytes).map_err(|e| FileError::Json { path: path.clone(), message: e.to_string() })?;
     let found = value.get("format").and_then(|v| v.as_str()).unwrap_or("").to_string();
@@ -57,23 +58,207 @@ pub fn read_manifest(dir: &Path) -> Result<GridManifest, FileError> {
     if found != GRID_FORMAT || version != GRID_VERSION as u64 {
         return Err(FileError::Version { path, found, version, expected: GRID_FORMAT, supported: GRID_VERSION });
     }
-    serde_json::from_value(value).map_err(|e| FileError::Json { path, message: e.to_string() })
+    let m: GridManifest =
+        serde_json::from_value(value).map_err(|e| FileError::Json { path: path.clone(), message: e.to_string() })?;
+    let found = m.canonical_checksum();
+    if found != m.manifest_checksum {
+        return Err(FileError::Checksum { path, expected: m.manifest_checksum.clone(), found });
+    }
+    Ok(m)
 }
 
-/// Reads a payload (one of the fixed file names), checking its size and checksum against the
-/// manifest before decoding.
-fn read_payload(dir: &Path, m: &GridManifest, file: &str) -> Result<Vec<Layer>, FileError> {
+/// A layer a payload must hold, derived from the manifest's structure (not from the
+/// payload's own listing, which a damaged manifest could inflate).
+struct Expected {
+    name: String,
+    width: usize,
+    height: usize,
+    channels: &'static [&'static str],
+}
+
+/// The layers of every payload, from the manifest's structural fields; checks the structure
+/// on the way (resolutions, mip chains, layer names, sorted unique cells, atlas columns) and
+/// that everything decodes within [`MAX_DECODED_BYTES`].
+fn expected_payloads(
+    m: &GridManifest,
+    mp: &Path,
+    cells: usize,
+) -> Result<Vec<(&'static str, Vec<Expected>)>, FileError> {
+    let mut out = Vec::new();
+    let p = &m.probe;
+    if !(2..=MAX_PROBE_RESOLUTION).contains(&p.resolution) || !p.resolution.is_multiple_of(2) {
+        return Err(invalid(
+            mp,
+            "probe.resolution",
+            format!("{} is not an even size in 2..={MAX_PROBE_RESOLUTION}", p.resolution),
+        ));
+    }
+    if p.radiance_mips.is_empty() || p.distance_mips.is_empty() {
+        return Err(invalid(mp, "probe", "needs at least one radiance and one distance mip"));
+    }
+    let mut probe = Vec::new();
+    for (k, mip) in p.radiance_mips.iter().enumerate() {
+        let n = p.resolution.checked_shr(k as u32).unwrap_or(0);
+        if mip.resolution != n || n == 0 {
+            return Err(invalid(mp, format!("probe.radiance_mips[{k}].resolution"), "must halve at every mip"));
+        }
+        if mip.layer != radiance_layer(k) {
+            return Err(invalid(
+                mp,
+                format!("probe.radiance_mips[{k}].layer"),
+                format!("must be {}", radiance_layer(k)),
+            ));
+        }
+        if !(0.0..=1.0).contains(&mip.perceptual_roughness)
+            || (k > 0 && !(mip.perceptual_roughness > p.radiance_mips[k - 1].perceptual_roughness))
+        {
+            return Err(invalid(
+                mp,
+                format!("probe.radiance_mips[{k}].perceptual_roughness"),
+                "must lie in [0, 1] and increase from mip to mip",
+            ));
+        }
+        probe.push(Expected {
+            name: mip.layer.clone(),
+            width: n as usize,
+            height: n as usize,
+            channels: &["R", "G", "B"],
+        });
+    }
+    for (k, name) in p.distance_mips.iter().enumerate() {
+        let n = p.resolution.checked_shr(k as u32).unwrap_or(0);
+        if n == 0 {
+            return Err(invalid(mp, "probe.distance_mips", "more mips than the resolution allows"));
+        }
+        if *name != distance_layer(k) {
+            return Err(invalid(mp, format!("probe.distance_mips[{k}]"), format!("must be {}", distance_layer(k))));
+        }
+        probe.push(Expected { name: name.clone(), width: n as usize, height: n as usize, channels: &["Z"] });
+    }
+    out.push((PROBE_FILE, probe));
+    let tile_ok = |r: u32| (2..=MAX_TILE_RESOLUTION).contains(&r) && r.is_multiple_of(2);
+    let cells_ok = |list: &[u32], field: &str| -> Result<(), FileError> {
+        if let Some(w) = list.windows(2).find(|w| w[0] >= w[1]) {
+            return Err(invalid(mp, field, format!("cells must be sorted and unique ({} then {})", w[0], w[1])));
+        }
+        if let Some(&c) = list.last().filter(|&&c| c as usize >= cells) {
+            return Err(invalid(mp, field, format!("cell {c} out of range (the grid has {cells})")));
+        }
+        Ok(())
+    };
+    let columns_ok = |n: usize, columns: u32, field: &str| {
+        if columns == 0 || columns as usize > n.max(1) {
+            return Err(invalid(mp, field, format!("{columns} columns for {n} tiles")));
+        }
+        Ok(())
+    };
+    if let Some(c) = &m.correctives {
+        if !tile_ok(c.map_res) {
+            return Err(invalid(
+                mp,
+                "correctives.map_res",
+                format!("must be an even size in 2..={MAX_TILE_RESOLUTION}"),
+            ));
+        }
+        if c.stored_cells.is_empty() {
+            return Err(invalid(
+                mp,
+                "correctives.stored_cells",
+                "empty: the section is left out when no cell stores a map",
+            ));
+        }
+        cells_ok(&c.stored_cells, "correctives.stored_cells")?;
+        columns_ok(c.stored_cells.len(), c.atlas_columns, "correctives.atlas_columns")?;
+        let (w, h) = atlas_size(c.stored_cells.len(), c.map_res, c.atlas_columns);
+        out.push((
+            CORRECTIVES_FILE,
+            vec![Expected { name: "warp_maps".into(), width: w, height: h, channels: &["W"] }],
+        ));
+    }
+    let ir = &m.irradiance;
+    if !tile_ok(ir.resolution) || !tile_ok(ir.depth_resolution) {
+        return Err(invalid(mp, "irradiance", format!("resolutions must be even sizes in 2..={MAX_TILE_RESOLUTION}")));
+    }
+    cells_ok(&ir.stored_cells, "irradiance.stored_cells")?;
+    if !ir.stored_cells.is_empty() {
+        let n = ir.stored_cells.len();
+        columns_ok(n, ir.atlas_columns, "irradiance.atlas_columns")?;
+        let (w, h) = atlas_size(n, ir.resolution, ir.atlas_columns);
+        let (dw, dh) = atlas_size(n, ir.depth_resolution, ir.atlas_columns);
+        out.push((
+            IRRADIANCE_FILE,
+            vec![
+                Expected { name: "irradiance".into(), width: w, height: h, channels: &["R", "G", "B"] },
+                Expected { name: "depth_moments".into(), width: dw, height: dh, channels: &["mean", "mean_sq"] },
+            ],
+        ));
+    }
+    let decoded: u64 = out
+        .iter()
+        .flat_map(|(_, layers)| layers)
+        .map(|l| l.width as u64 * l.height as u64 * l.channels.len() as u64 * 4)
+        .sum();
+    if decoded > MAX_DECODED_BYTES {
+        return Err(invalid(
+            mp,
+            "payloads",
+            format!("the grid would decode to {decoded} bytes, more than the {MAX_DECODED_BYTES} this loader accepts"),
+        ));
+    }
+    // the manifest's own listing must be exactly this
+    let files: Vec<&str> = out.iter().map(|(f, _)| *f).collect();
+    if let Some(extra) = m.payloads.iter().find(|p| !files.contains(&p.file.as_str())) {
+        return Err(invalid(mp, "payloads", format!("unexpected payload {:?}", extra.file)));
+    }
+    for (file, layers) in &out {
+        let entries: Vec<&Payload> = m.payloads.iter().filter(|p| p.file == *file).collect();
+        let [entry] = entries.as_slice() else {
+            return Err(invalid(mp, "payloads", format!("{} entries for {file}, expected one", entries.len())));
+        };
+        if entry.layers.len() != layers.len() {
+            return Err(invalid(
+                mp,
+                format!("payloads.{file}"),
+                format!("{} layers, expected {}", entry.layers.len(), layers.len()),
+            ));
+        }
+        for l in layers {
+            let listed = entry
+                .layers
+                .iter()
+                .find(|x| x.name == l.name)
+                .ok_or_else(|| invalid(mp, format!("payloads.{file}"), format!("layer {} missing", l.name)))?;
+            let channels: Vec<&str> = listed.channels.iter().map(String::as_str).collect();
+            if (listed.width as usize, listed.height as usize) != (l.width, l.height) || channels != l.channels {
+                return Err(invalid(
+                    mp,
+                    format!("payloads.{file}.{}", l.name),
+                    format!(
+                        "lists {}x{} {:?}, the structure says {}x{} {:?}",
+                        listed.width, listed.height, channels, l.width, l.height, l.channels
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Reads a payload: a regular file whose size (from its metadata) and checksum match the
+/// manifest, whose EXR headers match the expected layers, then decoded.
+fn read_payload(dir: &Path, m: &GridManifest, file: &str, expected: &[Expected]) -> Result<Vec<Layer>, FileError> {
     let mpath = dir.join(MANIFEST_FILE);
     let entry = m
         .payloads
         .iter()
         .find(|p| p.file == file)
         .ok_or_else(|| invalid(&mpath, "payloads", format!("no entry for {file}")))?;
-    if let Some(l) = entry.layers.iter().find(|l| l.width as u64 * l.height as u64 > MAX_LAYER_PIXELS) {
-        return Err(invalid(&mpath, format!("payloads.{}", l.name), "layer too large"));
-    }
     let path = dir.join(file);
-    let bytes = std::fs::read(&path).map_err(FileError::io(&path))?;
+    let meta = std::fs::metadata(&path).map_err(FileError::io(&path))?;
+    if meta.is_file() && meta.len() != entry.bytes {
+        return Err(invalid(&path, "size", format!("{} bytes, the manifest says {}", meta.len(), entry.bytes)));
+    }
+    let bytes = crate::files::read_regular(&path, entry.bytes)?;
     if bytes.len() as u64 != entry.bytes {
         return Err(invalid(&path, "size", format!("{} bytes, the manifest says {}", bytes.len(), entry.bytes)));
     }
@@ -81,24 +266,23 @@ fn read_payload(dir: &Path, m: &GridManifest, file: &str) -> Result<Vec<Layer>, 
     if found != entry.checksum {
         return Err(FileError::Checksum { path, expected: entry.checksum.clone(), found });
     }
-    // Check the headers against the manifest before decoding: a damaged header can claim
-    // a layer of any size, and decoding would try to allocate it.
-    check_headers(&path, &bytes, entry)?;
+    // Check the headers against the expected layers before decoding: a damaged header can
+    // claim a layer of any size, and decoding would try to allocate it.
+    check_headers(&path, &bytes, expected)?;
     let layers = exr::decode(&path, &bytes)?;
-    // every layer the manifest lists must be there with its size and channels
-    for l in &entry.layers {
+    for l in expected {
         let got = layers
             .iter()
             .find(|x| x.name == l.name)
             .ok_or_else(|| invalid(&path, &l.name, "layer listed in the manifest is missing"))?;
-        if (got.width, got.height) != (l.width as usize, l.height as usize) {
+        if (got.width, got.height) != (l.width, l.height) {
             return Err(invalid(
                 &path,
                 &l.name,
                 format!("size {}x{}, the manifest says {}x{}", got.width, got.height, l.width, l.height),
             ));
         }
-        for c in &l.channels {
+        for c in l.channels {
             if !got.channels.iter().any(|(n, _)| n == c) {
                 return Err(invalid(&path, format!("{}.{c}", l.name), "channel missing"));
             }
@@ -107,29 +291,41 @@ fn read_payload(dir: &Path, m: &GridManifest, file: &str) -> Result<Vec<Layer>, 
     Ok(layers)
 }
 
-/// Largest layer a fitted grid may hold (pixels); far above any real grid.
-const MAX_LAYER_PIXELS: u64 = 1 << 28;
-
-fn check_headers(path: &Path, bytes: &[u8], entry: &Payload) -> Result<(), FileError> {
+fn check_headers(path: &Path, bytes: &[u8], expected: &[Expected]) -> Result<(), FileError> {
     let meta = ::exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
         .map_err(|e| FileError::Exr { path: path.to_path_buf(), message: e.to_string() })?;
+    if meta.headers.len() != expected.len() {
+        return Err(invalid(
+            path,
+            "layers",
+            format!("{} layers, the manifest says {}", meta.headers.len(), expected.len()),
+        ));
+    }
+    let mut seen = Vec::new();
     for h in &meta.headers {
         let name = h.own_attributes.layer_name.as_ref().map(|n| n.to_string()).unwrap_or_default();
-        let listed = entry
-            .layers
+        let listed = expected
             .iter()
             .find(|l| l.name == name)
             .ok_or_else(|| invalid(path, &name, "layer in the file is not listed in the manifest"))?;
-        let (w, h_) = (h.layer_size.0 as u64, h.layer_size.1 as u64);
-        if (w, h_) != (listed.width as u64, listed.height as u64) || w * h_ > MAX_LAYER_PIXELS {
+        if seen.contains(&name) {
+            return Err(invalid(path, &name, "layer appears twice"));
+        }
+        seen.push(name.clone());
+        let (w, h_) = (h.layer_size.0, h.layer_size.1);
+        if (w, h_) != (listed.width, listed.height) {
             return Err(invalid(
                 path,
                 &name,
                 format!("header says {w}x{h_}, the manifest says {}x{}", listed.width, listed.height),
             ));
         }
-        if h.deep || h.channels.list.len() > 8 {
-            return Err(invalid(path, &name, "deep data or more than 8 channels: not a warpfit layer"));
+        if h.deep || h.channels.list.len() != listed.channels.len() {
+            return Err(invalid(
+                path,
+                &name,
+                format!("deep data or not {} channels: not a warpfit layer", listed.channels.len()),
+            ));
         }
     }
     Ok(())
@@ -162,7 +358,9 @@ fn check(path: &Path, field: &str, values: &[f32], what: &str, ok: impl Fn(f32) 
 fn rgb(l: &Layer, path: &Path) -> Result<Vec<Vec3>, FileError> {
     let (r, g, b) = (channel(l, path, "R")?, channel(l, path, "G")?, channel(l, path, "B")?);
     for (c, v) in [("R", r), ("G", g), ("B", b)] {
-        check(path, &format!("{}.{c}", l.name), v, "finite and ≥ 0", |x| x.is_finite() && x >= 0.0)?;
+        check(path, &format!("{}.{c}", l.name), v, &format!("in [0, {MAX_RADIANCE:e}]"), |x| {
+            (0.0..=MAX_RADIANCE).contains(&x)
+        })?;
     }
     Ok((0..r.len()).map(|k| Vec3::new(r[k], g[k], b[k])).collect())
 }
@@ -210,30 +408,22 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     }
     let cells = m.grid.counts.iter().try_fold(1u64, |a, &c| (c > 0).then(|| a * c as u64));
     let cells = match cells {
-        Some(n) if n <= 1 << 24 => n as usize,
-        _ => return Err(invalid(mp, "grid.counts", "each count must be ≥ 1 and the grid ≤ 2^24 cells")),
+        Some(n) if n <= MAX_CELLS => n as usize,
+        _ => {
+            return Err(invalid(mp, "grid.counts", format!("each count must be ≥ 1 and the grid ≤ {MAX_CELLS} cells")));
+        }
     };
+    let bounds = ValueBounds::of_diagonal((geometry.max - geometry.min).length());
+    let expected = expected_payloads(&m, mp, cells)?;
+    let expected_of = |file: &str| expected.iter().find(|(f, _)| *f == file).map(|(_, l)| l.as_slice()).unwrap_or(&[]);
 
     // probe
     let p = &m.probe;
-    let res_ok = |r: u32| (2..=8192).contains(&r) && r.is_multiple_of(2);
-    if !res_ok(p.resolution) {
-        return Err(invalid(mp, "probe.resolution", format!("{} is not an even size in 2..=8192", p.resolution)));
-    }
-    if p.radiance_mips.is_empty() || p.distance_mips.is_empty() {
-        return Err(invalid(mp, "probe", "needs at least one radiance and one distance mip"));
-    }
     let ppath = dir.join(PROBE_FILE);
-    let layers = read_payload(dir, &m, PROBE_FILE)?;
+    let layers = read_payload(dir, &m, PROBE_FILE, expected_of(PROBE_FILE))?;
     let mut radiance = Vec::new();
     let mut roughness_of_mips = Vec::new();
-    for (k, mip) in p.radiance_mips.iter().enumerate() {
-        if mip.resolution != p.resolution >> k || mip.resolution == 0 {
-            return Err(invalid(mp, format!("probe.radiance_mips[{k}].resolution"), "must halve at every mip"));
-        }
-        if !(0.0..=1.0).contains(&mip.perceptual_roughness) {
-            return Err(invalid(mp, format!("probe.radiance_mips[{k}].perceptual_roughness"), "must lie in [0, 1]"));
-        }
+    for mip in &p.radiance_mips {
         let n = mip.resolution as usize;
         let l = layer(&layers, &ppath, &mip.layer, (n, n))?;
         radiance.push(OctMap::new(mip.resolution, rgb(l, &ppath)?));
@@ -242,11 +432,11 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     let mut distance = Vec::new();
     for (k, name) in p.distance_mips.iter().enumerate() {
         let n = (p.resolution >> k) as usize;
-        if n == 0 {
-            return Err(invalid(mp, "probe.distance_mips", "more mips than the resolution allows"));
-        }
         let z = channel(layer(&layers, &ppath, name, (n, n))?, &ppath, "Z")?;
-        check(&ppath, &format!("{name}.Z"), z, "a distance ≥ 0 or +inf", |d| d >= 0.0)?;
+        let dmax = bounds.max_distance;
+        check(&ppath, &format!("{name}.Z"), z, &format!("a distance in [0, {dmax:e}] or +inf"), |d| {
+            d >= 0.0 && (d <= dmax || d == f32::INFINITY)
+        })?;
         distance.push(OctMap::new(n as u32, z.to_vec()));
     }
     let position = finite3(p.position, mp, "probe.position")?;
@@ -297,15 +487,15 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     let (map_res, slot, maps) = match &m.correctives {
         None => (8, vec![NO_MAP; cells], Vec::new()),
         Some(c) => {
-            if !(2..=64).contains(&c.map_res) {
-                return Err(invalid(mp, "correctives.map_res", "must lie in 2..=64"));
-            }
             let slot = slots(&c.stored_cells, cells, mp, "correctives.stored_cells")?;
             let cpath = dir.join(CORRECTIVES_FILE);
-            let layers = read_payload(dir, &m, CORRECTIVES_FILE)?;
+            let layers = read_payload(dir, &m, CORRECTIVES_FILE, expected_of(CORRECTIVES_FILE))?;
             let size = atlas_size(c.stored_cells.len(), c.map_res, c.atlas_columns);
             let atlas = channel(layer(&layers, &cpath, "warp_maps", size)?, &cpath, "W")?;
-            check(&cpath, "warp_maps.W", atlas, "a finite inverse distance ≥ 0", |x| x.is_finite() && x >= 0.0)?;
+            let wmax = bounds.max_inverse_distance;
+            check(&cpath, "warp_maps.W", atlas, &format!("an inverse distance in [0, {wmax:e}]"), |x| {
+                (0.0..=wmax).contains(&x)
+            })?;
             let maps: Vec<f32> =
                 (0..c.stored_cells.len()).flat_map(|k| tile(atlas, k, c.map_res, c.atlas_columns)).collect();
             (c.map_res, slot, maps)
@@ -315,21 +505,20 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
 
     // irradiance
     let ir = &m.irradiance;
-    if !res_ok(ir.resolution) || !res_ok(ir.depth_resolution) {
-        return Err(invalid(mp, "irradiance", "resolutions must be even sizes in 2..=8192"));
-    }
     let islot = slots(&ir.stored_cells, cells, mp, "irradiance.stored_cells")?;
     let (irradiance, depth_mean, depth_mean_sq) = if ir.stored_cells.is_empty() {
         (Vec::new(), Vec::new(), Vec::new())
     } else {
         let ipath = dir.join(IRRADIANCE_FILE);
-        let layers = read_payload(dir, &m, IRRADIANCE_FILE)?;
+        let layers = read_payload(dir, &m, IRRADIANCE_FILE, expected_of(IRRADIANCE_FILE))?;
         let n = ir.stored_cells.len();
         let e = rgb(layer(&layers, &ipath, "irradiance", atlas_size(n, ir.resolution, ir.atlas_columns))?, &ipath)?;
         let dm = layer(&layers, &ipath, "depth_moments", atlas_size(n, ir.depth_resolution, ir.atlas_columns))?;
         let (mean, mean_sq) = (channel(dm, &ipath, "mean")?, channel(dm, &ipath, "mean_sq")?);
-        check(&ipath, "depth_moments.mean", mean, "finite and ≥ 0", |x| x.is_finite() && x >= 0.0)?;
-        check(&ipath, "depth_moments.mean_sq", mean_sq, "finite and ≥ 0", |x| x.is_finite() && x >= 0.0)?;
+        let dmax = bounds.max_distance;
+        check(&ipath, "depth_moments.mean", mean, &format!("in [0, {dmax:e}]"), |x| (0.0..=dmax).contains(&x))?;
+        let d2 = dmax * dmax;
+        check(&ipath, "depth_moments.mean_sq", mean_sq, &format!("in [0, {d2:e}]"), |x| (0.0..=d2).contains(&x))?;
         let (r, dr, cols) = (ir.resolution, ir.depth_resolution, ir.atlas_columns);
         let e = &e;
         let irr: Vec<Vec3> =

@@ -63,6 +63,9 @@ pub struct GridManifest {
     /// The fit settings and the per-level residual summary, as the fitter wrote them.
     pub fit_settings: serde_json::Value,
     pub residuals: serde_json::Value,
+    /// `fnv1a64:` checksum of this manifest's canonical form ([`GridManifest::canonical_checksum`]):
+    /// an edited manifest is refused instead of serving other answers.
+    pub manifest_checksum: String,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -243,7 +246,54 @@ pub fn atlas_index(k: usize, t: usize, res: u32, columns: u32) -> usize {
     (ty * r + j) * (cols * r) + tx * r + i
 }
 
+/// Bounds every stored value must keep (the writer clamps to them, the reader refuses
+/// beyond them): a hit nearer the cell centre or probe than a millionth of the grid's
+/// diagonal, a distance or moment beyond a million diagonals, and radiance above 1e12 are
+/// damage, not data.
+pub const DISTANCE_RANGE_DIAGONALS: f32 = 1e6;
+pub const MAX_RADIANCE: f32 = 1e12;
+/// Largest probe resolution (radiance mip 0 of 4096² RGB f32 decodes to 201 MB).
+pub const MAX_PROBE_RESOLUTION: u32 = 4096;
+/// Largest map, irradiance or moment tile side.
+pub const MAX_TILE_RESOLUTION: u32 = 64;
+/// Most grid cells.
+pub const MAX_CELLS: u64 = 1 << 24;
+/// Most bytes all payloads of a grid may decode to: a file that would need more is refused
+/// before anything is decoded.
+pub const MAX_DECODED_BYTES: u64 = 4 << 30;
+/// Largest manifest file.
+pub const MAX_MANIFEST_BYTES: u64 = 256 << 20;
+
+/// The value bounds of a grid whose diagonal is `diagonal` (see the constants above).
+#[derive(Clone, Copy, Debug)]
+pub struct ValueBounds {
+    /// Largest finite distance or mean distance.
+    pub max_distance: f32,
+    /// Largest inverse distance of a warp map.
+    pub max_inverse_distance: f32,
+}
+
+impl ValueBounds {
+    #[must_use]
+    pub fn of_diagonal(diagonal: f32) -> ValueBounds {
+        let d = if diagonal.is_finite() && diagonal > 0.0 { diagonal } else { 1.0 };
+        ValueBounds {
+            max_distance: (d * DISTANCE_RANGE_DIAGONALS).min(1e18),
+            max_inverse_distance: (DISTANCE_RANGE_DIAGONALS / d).min(1e18),
+        }
+    }
+}
+
 impl GridManifest {
+    /// Checksum of the manifest with an empty `manifest_checksum`, serialised compactly: the
+    /// value the writer stores and the reader recomputes (independent of whitespace).
+    #[must_use]
+    pub fn canonical_checksum(&self) -> String {
+        let mut m = self.clone();
+        m.manifest_checksum.clear();
+        crate::files::checksum(&serde_json::to_vec(&m).unwrap_or_default())
+    }
+
     /// Human-readable summary: what the grid holds, the bytes of each layer, the fit's
     /// residuals and what was left out (`warpfit inspect`).
     #[must_use]

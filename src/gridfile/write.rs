@@ -8,7 +8,7 @@ use super::exr::{self, ExrLayer, F16_MAX};
 use super::schema::*;
 use crate::files::{FileError, checksum, write_atomic};
 use crate::grid::GridGeometry;
-use crate::octa::{self, OctMips};
+use crate::octa::{self, OctMap, OctMips};
 use crate::roughness::RoughnessCorrection;
 use crate::warp::Warp;
 use crate::warp::corrective::{Blend, Correctives};
@@ -123,8 +123,32 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
     let mut payloads = Vec::new();
     let mut left_out = Vec::new();
 
+    // every value inside the bounds the reader enforces (real data never reaches them)
+    let bounds = ValueBounds::of_diagonal((geo.max - geo.min).length());
+    let radiance = OctMips {
+        levels: g
+            .probe
+            .radiance
+            .levels
+            .iter()
+            .map(|l| OctMap { res: l.res, texels: l.texels.iter().map(|v| v.min(Vec3::splat(MAX_RADIANCE))).collect() })
+            .collect(),
+    };
+    let distance = OctMips {
+        levels: g
+            .probe
+            .distance
+            .levels
+            .iter()
+            .map(|l| OctMap {
+                res: l.res,
+                texels: l.texels.iter().map(|&d| if d.is_finite() { d.min(bounds.max_distance) } else { d }).collect(),
+            })
+            .collect(),
+    };
+
     // probe: GGX chain and distance chain
-    let layers = probe_layers(g.probe.radiance, g.probe.distance);
+    let layers = probe_layers(&radiance, &distance);
     let radiance_mips = g
         .probe
         .radiance
@@ -140,9 +164,8 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
     let distance_mips = (0..g.probe.distance.levels.len()).map(distance_layer).collect();
     payloads.push(payload(dir, PROBE_FILE, &layers, g.precision)?);
 
-    // correctives: warp maps of level-2 cells, in slot order
-    let mut stored: Vec<(u32, u32)> = (0..cells).filter_map(|cell| c.slot_of(cell).map(|s| (s, cell as u32))).collect();
-    stored.sort();
+    // correctives: warp maps of level-2 cells, in cell order (tile k = k-th stored cell)
+    let stored: Vec<(u32, u32)> = (0..cells).filter_map(|cell| c.slot_of(cell).map(|s| (s, cell as u32))).collect();
     let stored_cells: Vec<u32> = stored.iter().map(|(_, cell)| *cell).collect();
     let n2 = (c.map_res * c.map_res) as u64;
     let level0 = g.provenance.level0_cells as u64;
@@ -164,9 +187,9 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
         None
     } else {
         let columns = atlas_columns(stored_cells.len());
-        // the maps are already in slot order: slot k = tile k
-        let slots: Vec<u32> = (0..stored_cells.len() as u32).collect();
+        let slots: Vec<u32> = stored.iter().map(|(slot, _)| *slot).collect();
         let (w, h, atlas) = pack(&c.maps, &slots, c.map_res, columns);
+        let atlas: Vec<f32> = atlas.iter().map(|&x| x.clamp(0.0, bounds.max_inverse_distance)).collect();
         let layers = [ExrLayer { name: "warp_maps".into(), width: w, height: h, channels: vec![("W".into(), atlas)] }];
         payloads.push(payload(dir, CORRECTIVES_FILE, &layers, g.precision)?);
         Some(CorrectiveSection {
@@ -196,8 +219,12 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
     let columns = atlas_columns(active.len());
     if !active.is_empty() {
         let (w, h, e) = pack(src.irradiance, &active, ir, columns);
+        let e: Vec<Vec3> = e.iter().map(|v| v.min(Vec3::splat(MAX_RADIANCE))).collect();
         let (dw, dh, mean) = pack(src.depth_mean, &active, dr, columns);
         let (_, _, mean_sq) = pack(src.depth_mean_sq, &active, dr, columns);
+        let dmax = bounds.max_distance;
+        let mean: Vec<f32> = mean.iter().map(|&x| x.min(dmax)).collect();
+        let mean_sq: Vec<f32> = mean_sq.iter().map(|&x| x.min(dmax * dmax)).collect();
         let layers = [
             ExrLayer { name: "irradiance".into(), width: w, height: h, channels: rgb_channels(&e) },
             ExrLayer {
@@ -267,7 +294,9 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
         left_out,
         fit_settings: g.provenance.fit_settings.clone(),
         residuals: g.provenance.residuals.clone(),
+        manifest_checksum: String::new(),
     };
+    let manifest = GridManifest { manifest_checksum: manifest.canonical_checksum(), ..manifest };
     crate::files::write_json(&dir.join(MANIFEST_FILE), &manifest)?;
     Ok(manifest)
 }

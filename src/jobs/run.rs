@@ -77,7 +77,47 @@ pub fn load_scene(path: &Path, out: Option<&Path>) -> Result<(Scene, RunFolder),
     Ok((scene, folder))
 }
 
-/// Bakes the scene and writes the bake folder with its previews.
+/// Memory this machine has available (`MemAvailable` of /proc/meminfo), if known.
+fn available_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    line.split_whitespace().nth(1)?.parse::<u64>().ok().map(|kb| kb * 1024)
+}
+
+/// Says what baking `scene` will take and refuses a bake that needs more memory than the
+/// machine has available, unless `force`.
+pub fn check_bake_estimate(scene: &Scene, force: bool) -> Result<bake::Estimate, JobError> {
+    let e = bake::Estimate::of(scene);
+    let threads = rayon::current_num_threads().max(1) as f64;
+    // about 4 M primary rays per second and thread on the development machine (with shadow
+    // and bounce rays behind each)
+    let seconds = e.rays as f64 / (4e6 * threads);
+    tracing::info!(
+        "bake estimate for {}: about {:.0} MB and {:.1} M primary rays (~{:.0} s on {} threads)",
+        scene.name,
+        e.bytes as f64 / 1e6,
+        e.rays as f64 / 1e6,
+        seconds,
+        threads
+    );
+    if let Some(avail) = available_memory()
+        && e.bytes > avail
+        && !force
+    {
+        return Err(JobError::Scene(crate::scene::SceneError::Invalid {
+            path: scene.source.clone(),
+            field: "probe/grid".into(),
+            message: format!(
+                "baking needs about {:.1} GB, more than the {:.1} GB available (lower probe.resolution, grid.counts or grid.irradiance_resolution, or pass --force)",
+                e.bytes as f64 / 1e9,
+                avail as f64 / 1e9
+            ),
+        }));
+    }
+    Ok(e)
+}
+
+/// Bakes the scene and writes the bake folder with its previews into `folder`.
 pub fn bake(scene: &Scene, tracer: &Tracer, folder: &RunFolder, progress: &Progress) -> Result<Bake, FileError> {
     let baked = bake::bake(scene, tracer, progress);
     let dir = folder.bake();
@@ -86,36 +126,103 @@ pub fn bake(scene: &Scene, tracer: &Tracer, folder: &RunFolder, progress: &Progr
     Ok(baked)
 }
 
-/// The bake in `folder` if it was made from exactly these scene settings, else a fresh bake
-/// written there. Returns the probe, the grid and whether it baked.
+/// The bake in `previous` if it was made from exactly this scene (same content key: tool
+/// version, settings and the bytes of every input file) and its files are intact, brought
+/// into `folder` (hard links where possible); else a fresh bake written into `folder`.
+/// Returns the probe, the grid and whether it baked.
 pub fn load_or_bake(
     scene: &Scene,
     tracer: &Tracer,
+    previous: &RunFolder,
     folder: &RunFolder,
     progress: &Progress,
 ) -> Result<(SpecularProbe, ProbeGrid, bool), FileError> {
-    let dir = folder.bake();
+    let dir = previous.bake();
     if dir.join(bakefile::MANIFEST_FILE).is_file() {
         match bakefile::read_bake(&dir) {
-            Ok((m, probe, grid))
-                if serde_json::to_value(&m.settings).ok() == serde_json::to_value(&scene.config).ok() =>
-            {
-                tracing::info!("reusing bake in {}", dir.display());
+            Ok((m, probe, grid)) if m.key == scene.content_key() => {
+                tracing::info!("reusing bake in {} (key {})", dir.display(), m.key);
+                if previous.dir != folder.dir {
+                    crate::files::staged::link_or_copy_dir(&dir, &folder.bake())?;
+                }
                 return Ok((probe, grid, false));
             }
-            Ok(_) => tracing::info!("bake in {} was made with other settings; baking again", dir.display()),
-            Err(e) => tracing::warn!("ignoring unreadable bake: {e}"),
+            Ok(_) => {
+                tracing::info!("bake in {} was made from other settings or input files; baking again", dir.display())
+            }
+            Err(e) => tracing::warn!("not reusing the bake: {e}"),
         }
     }
     let baked = bake(scene, tracer, folder, progress)?;
     Ok((baked.probe, baked.grid, true))
 }
 
-/// The scene with its tracer and its bake, reused from `folder` where it matches.
-pub fn prepare(scene: Scene, folder: RunFolder, progress: &Progress) -> Result<Prepared, FileError> {
+/// The scene with its tracer and its bake, reused from `previous` where it matches, written
+/// into `folder`.
+pub fn prepare_from(
+    scene: Scene,
+    previous: &RunFolder,
+    folder: RunFolder,
+    progress: &Progress,
+) -> Result<Prepared, FileError> {
     let tracer = Tracer::new(&scene);
-    let (probe, grid, baked_now) = load_or_bake(&scene, &tracer, &folder, progress)?;
+    let (probe, grid, baked_now) = load_or_bake(&scene, &tracer, previous, &folder, progress)?;
     Ok(Prepared { scene, tracer, probe, grid, baked_now, folder })
+}
+
+/// [`prepare_from`] reading and writing the same folder (tests, benches, scratch folders).
+pub fn prepare(scene: Scene, folder: RunFolder, progress: &Progress) -> Result<Prepared, FileError> {
+    let previous = folder.clone();
+    prepare_from(scene, &previous, folder, progress)
+}
+
+/// A run folder rewritten as a whole: the job writes into `out` (a staging folder beside the
+/// target), and [`Transaction::commit`] swaps it in only after the fitted grid it wrote, if
+/// any, loads back through the runtime loader. Until then the target keeps the previous run,
+/// complete; a second writer is refused while this one holds the folder.
+pub struct Transaction {
+    staged: crate::files::staged::StagedDir,
+    /// Where the job writes.
+    pub out: RunFolder,
+    /// The folder as it was (what a reused bake or kept files are read from).
+    pub previous: RunFolder,
+}
+
+impl Transaction {
+    pub fn begin(folder: &RunFolder) -> Result<Transaction, FileError> {
+        let staged = crate::files::staged::StagedDir::begin(&folder.dir)?;
+        let out = RunFolder::new(staged.dir());
+        Ok(Transaction { staged, out, previous: folder.clone() })
+    }
+
+    /// Brings the previous folder's files that `keep` accepts (by file name, top level) into
+    /// the new one, unless the new one already has them.
+    pub fn keep(&self, keep: impl Fn(&str) -> bool) -> Result<(), FileError> {
+        let Ok(entries) = std::fs::read_dir(&self.previous.dir) else { return Ok(()) };
+        for e in entries.flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            let to = self.out.dir.join(&name);
+            if name.starts_with('.') || !keep(&name) || to.exists() {
+                continue;
+            }
+            let t = e.file_type().map_err(FileError::io(&e.path()))?;
+            if t.is_dir() {
+                crate::files::staged::link_or_copy_dir(&e.path(), &to)?;
+            } else if t.is_file() && std::fs::hard_link(e.path(), &to).is_err() {
+                std::fs::copy(e.path(), &to).map_err(FileError::io(&e.path()))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Swaps the new folder in; with `wrote_grid`, only after the fitted grid it wrote loads
+    /// back through the runtime loader (a grid the loader would refuse is never committed).
+    pub fn commit(self, wrote_grid: bool) -> Result<(), FileError> {
+        if wrote_grid {
+            FittedGrid::load(&self.out.dir)?;
+        }
+        self.staged.commit()
+    }
 }
 
 /// Fits the correctives of every active cell and writes the fitted grid (manifest.json +

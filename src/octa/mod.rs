@@ -18,6 +18,25 @@ use glam::{Vec2, Vec3};
 use std::ops::{Add, Mul};
 
 /// Human-readable statement of the mapping, stored in manifests. Must match [`encode`].
+/// `v` made unit length, for any finite non-zero `v`: scaled by its largest component first,
+/// so lengths beyond f32's squared range (≈1.8e19) or below it (≈1e-19) still work. `None`
+/// for zero, NaN or infinite input. A vector already unit to rounding is returned as is.
+#[inline]
+#[must_use]
+pub fn unit_direction(v: Vec3) -> Option<Vec3> {
+    let l2 = v.length_squared();
+    if l2.is_finite() && (l2 - 1.0).abs() <= 4.0 * f32::EPSILON {
+        return Some(v);
+    }
+    let m = v.abs().max_element();
+    if !(m > 0.0 && m.is_finite()) {
+        return None;
+    }
+    let s = v / m;
+    let l = s.length();
+    (l > 0.0 && l.is_finite()).then(|| s / l)
+}
+
 pub const CONVENTION: &str = "octahedral full sphere: p = v.xy/(|x|+|y|+|z|); if v.z<0 then \
 p = (1-|p.yx|)*sign(p.xy), sign(0)=+1; uv = p*0.5+0.5; texel (i=column, j=row) centre at \
 uv=((i+0.5)/N,(j+0.5)/N), row 0 first, index j*N+i; world axes, +Z at the map centre";

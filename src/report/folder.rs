@@ -4,6 +4,15 @@
 
 use std::path::{Path, PathBuf};
 
+/// `name` as a single safe path component.
+#[must_use]
+pub fn safe_name(name: &str) -> String {
+    let s: String =
+        name.chars().map(|c| if c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') { c } else { '_' }).collect();
+    let s = s.trim_start_matches('.').to_string();
+    if s.is_empty() { "scene".into() } else { s }
+}
+
 /// A run's output folder.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RunFolder {
@@ -15,9 +24,21 @@ impl RunFolder {
         RunFolder { dir: dir.into() }
     }
 
-    /// The default folder of a scene: `fits/<scene name>`.
+    /// The default folder of a scene: `fits/<scene name>`, the name made a safe folder name
+    /// (letters, digits, `-`, `_`, `.`; no leading dot; others become `_`), so a name such as
+    /// `../..` or `/etc` cannot write outside `fits/`.
     pub fn for_scene(scene_name: &str) -> Self {
-        RunFolder::new(Path::new("fits").join(scene_name))
+        RunFolder::new(Path::new("fits").join(safe_name(scene_name)))
+    }
+
+    /// Whether `file` (a top-level name) is written by the evaluation.
+    pub fn written_by_eval(file: &str) -> bool {
+        file.starts_with("eval") || file.starts_with("flip_r")
+    }
+
+    /// Whether `file` is written by the run report.
+    pub fn written_by_report(file: &str) -> bool {
+        file.starts_with("report.")
     }
 
     fn file(&self, name: &str) -> PathBuf {

@@ -15,10 +15,9 @@ impl IrradianceGrid {
     /// are skipped and the weights renormalised. Black when no stored cell is near.
     #[must_use]
     pub fn irradiance(&self, position: Vec3, normal: Vec3) -> Vec3 {
-        let n = normal.normalize_or(Vec3::ZERO);
-        if n == Vec3::ZERO {
+        let Some(n) = crate::octa::unit_direction(normal) else {
             return Vec3::ZERO;
-        }
+        };
         let g = self;
         let geo = &g.geometry;
         let p = if position.is_finite() { position } else { geo.min + (geo.max - geo.min) * 0.5 };

@@ -94,12 +94,8 @@ impl FittedGrid {
     /// A specular query made safe (see the module conventions); `None` means black.
     #[inline]
     fn specular_query(&self, position: Vec3, direction: Vec3, roughness: f32) -> Option<SpecularQuery> {
-        let l2 = direction.length_squared();
-        if !(l2 > 0.0 && l2.is_finite()) {
-            return None;
-        }
         // unit to rounding: used as is (as the fit used it); otherwise normalised
-        let dir = if (l2 - 1.0).abs() <= 4.0 * f32::EPSILON { direction } else { direction / l2.sqrt() };
+        let dir = octa::unit_direction(direction)?;
         let b = if position.is_finite() { position } else { self.warp.probe.position };
         let r = if roughness.is_finite() { roughness.clamp(0.0, 1.0) } else { 0.0 };
         Some(SpecularQuery { b, dir, r })

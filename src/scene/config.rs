@@ -30,6 +30,9 @@ pub struct SceneFile {
     pub sphere_lights: Vec<SphereLightConfig>,
     #[serde(default)]
     pub geometry: Vec<GeometryConfig>,
+    /// Let mesh files reference files (buffers, MTLs) outside their own folder.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub allow_outside_paths: bool,
 }
 
 fn default_seed() -> u64 {

@@ -112,7 +112,21 @@ pub struct Scene {
     pub lights: Lights,
     /// Degenerate (zero-area) triangles skipped while loading.
     pub degenerate_skipped: usize,
+    /// Exact duplicate triangles dropped while loading.
+    pub duplicates_skipped: usize,
+    /// Every file the scene was built from besides the scene file, with its checksum.
+    pub inputs: Vec<(PathBuf, String)>,
 }
+
+/// Largest coordinate (scene units) a scene may use: squared distances stay far inside f32.
+pub const MAX_COORDINATE: f32 = 1e12;
+/// Largest radiance, irradiance or emission a scene may set: sums over millions of samples
+/// stay finite.
+pub const MAX_RADIANCE_INPUT: f32 = 1e9;
+/// Largest sample count of any kind.
+pub const MAX_SAMPLES: u32 = 1 << 16;
+/// Largest scene file.
+pub const MAX_SCENE_FILE_BYTES: u64 = 64 << 20;
 
 /// Everything that can be wrong with a scene.
 #[derive(Debug, thiserror::Error)]
@@ -132,15 +146,33 @@ pub enum SceneError {
 impl Scene {
     /// Loads and validates a scene file.
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
-        let text =
-            std::fs::read_to_string(path).map_err(|source| SceneError::Io { path: path.to_path_buf(), source })?;
+        let bytes = crate::files::read_regular(path, MAX_SCENE_FILE_BYTES).map_err(|e| match e {
+            crate::files::FileError::Io { path, source } => SceneError::Io { path, source },
+            other => SceneError::Parse { path: path.to_path_buf(), message: other.to_string() },
+        })?;
+        let text = String::from_utf8(bytes)
+            .map_err(|_| SceneError::Parse { path: path.to_path_buf(), message: "not UTF-8 text".into() })?;
         Scene::parse(&text, path)
+    }
+
+    /// The bake's cache key: a checksum of the tool and bake versions, every setting, and the
+    /// bytes of every file the scene was built from. Equal keys mean the bake would come out
+    /// bit for bit the same.
+    #[must_use]
+    pub fn content_key(&self) -> String {
+        let mut text = format!("warpfit {} bake\n", env!("CARGO_PKG_VERSION"));
+        text += &serde_json::to_string(&self.config).unwrap_or_default();
+        for (path, sum) in &self.inputs {
+            text += &format!("\n{} {sum}", path.display());
+        }
+        crate::files::checksum(text.as_bytes())
     }
 
     /// Parses scene-file text; `path` names it in errors and anchors relative mesh paths.
     pub fn parse(text: &str, path: &Path) -> Result<Scene, SceneError> {
         let file: SceneFile =
             toml::from_str(text).map_err(|e| SceneError::Parse { path: path.to_path_buf(), message: e.to_string() })?;
+        check_array_lengths(text, &file, path)?;
         let name = file
             .name
             .clone()
@@ -153,16 +185,20 @@ impl Scene {
     pub fn from_config(file: SceneFile, name: &str, path: &Path) -> Result<Scene, SceneError> {
         validate_settings(&file, path)?;
         let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let sources = mesh_io::Sources { allow_outside: file.allow_outside_paths };
         let mut builder = procedural::Builder::default();
         for (k, geom) in file.geometry.iter().enumerate() {
             let field = format!("geometry[{k}]");
-            add_geometry(&mut builder, geom, &base_dir, path, &field)?;
+            add_geometry(&mut builder, sources, geom, &base_dir, path, &field)?;
         }
         if builder.triangles.is_empty() && builder.spheres.is_empty() {
             return Err(SceneError::Empty { path: path.to_path_buf() });
         }
         if builder.degenerate_skipped > 0 {
             tracing::warn!("{}: skipped {} degenerate triangle(s)", path.display(), builder.degenerate_skipped);
+        }
+        if builder.duplicates_skipped > 0 {
+            tracing::warn!("{}: dropped {} duplicate triangle(s)", path.display(), builder.duplicates_skipped);
         }
         let sky = sky_from(&file, path)?;
         let lights = lights_from(&file, path)?;
@@ -173,6 +209,8 @@ impl Scene {
             spheres: builder.spheres,
             materials: builder.materials,
             degenerate_skipped: builder.degenerate_skipped,
+            duplicates_skipped: builder.duplicates_skipped,
+            inputs: builder.inputs,
             sky,
             lights,
             config: file,
@@ -229,27 +267,61 @@ fn invalid(path: &Path, field: &str, message: impl Into<String>) -> SceneError {
 }
 
 fn finite3(path: &Path, field: &str, v: V3) -> Result<Vec3, SceneError> {
-    if v.iter().all(|x| x.is_finite()) {
+    if v.iter().all(|x| x.is_finite() && x.abs() <= MAX_COORDINATE) {
         Ok(Vec3::from_array(v))
     } else {
-        Err(invalid(path, field, format!("must be finite, got {v:?}")))
+        Err(invalid(path, field, format!("must be finite and within ±{MAX_COORDINATE:e}, got {v:?}")))
     }
 }
 
+/// A radiance-like value: finite, ≥ 0, ≤ [`MAX_RADIANCE_INPUT`].
 fn nonneg3(path: &Path, field: &str, v: V3) -> Result<Vec3, SceneError> {
-    let out = finite3(path, field, v)?;
-    if out.min_element() < 0.0 {
-        return Err(invalid(path, field, format!("must be ≥ 0, got {v:?}")));
+    if v.iter().all(|x| x.is_finite() && (0.0..=MAX_RADIANCE_INPUT).contains(x)) {
+        Ok(Vec3::from_array(v))
+    } else {
+        Err(invalid(path, field, format!("must be finite, ≥ 0 and ≤ {MAX_RADIANCE_INPUT:e}, got {v:?}")))
     }
-    Ok(out)
 }
 
 fn positive(path: &Path, field: &str, x: f32) -> Result<f32, SceneError> {
-    if x.is_finite() && x > 0.0 {
+    if x.is_finite() && x > 0.0 && x <= MAX_COORDINATE {
         Ok(x)
     } else {
-        Err(invalid(path, field, format!("must be a finite number > 0, got {x}")))
+        Err(invalid(path, field, format!("must be a finite number in (0, {MAX_COORDINATE:e}], got {x}")))
     }
+}
+
+/// A TOML array longer than the field it fills (`[x, y, z, w]` for a point) would be cut
+/// silently by the parser: compare every array of the text with the parsed value's.
+fn check_array_lengths(text: &str, file: &SceneFile, path: &Path) -> Result<(), SceneError> {
+    fn walk(raw: &toml::Value, parsed: &toml::Value, at: &str, path: &Path) -> Result<(), SceneError> {
+        match (raw, parsed) {
+            (toml::Value::Table(r), toml::Value::Table(p)) => {
+                for (k, v) in r {
+                    if let Some(pv) = p.get(k) {
+                        let key = if at.is_empty() { k.clone() } else { format!("{at}.{k}") };
+                        walk(v, pv, &key, path)?;
+                    }
+                }
+                Ok(())
+            }
+            (toml::Value::Array(r), toml::Value::Array(p)) => {
+                if r.len() != p.len() {
+                    return Err(invalid(path, at, format!("{} elements, expected {}", r.len(), p.len())));
+                }
+                for (k, (rv, pv)) in r.iter().zip(p).enumerate() {
+                    walk(rv, pv, &format!("{at}[{k}]"), path)?;
+                }
+                Ok(())
+            }
+            _ => Ok(()),
+        }
+    }
+    let raw: toml::Value =
+        toml::from_str(text).map_err(|e| SceneError::Parse { path: path.to_path_buf(), message: e.to_string() })?;
+    let parsed = toml::Value::try_from(file)
+        .map_err(|e| SceneError::Parse { path: path.to_path_buf(), message: e.to_string() })?;
+    walk(&raw, &parsed, "", path)
 }
 
 fn validate_settings(f: &SceneFile, path: &Path) -> Result<(), SceneError> {
@@ -258,8 +330,14 @@ fn validate_settings(f: &SceneFile, path: &Path) -> Result<(), SceneError> {
     if !(16..=2048).contains(&r) || !r.is_power_of_two() {
         return Err(invalid(path, "probe.resolution", format!("must be a power of two in 16..=2048, got {r}")));
     }
-    if f.probe.samples_per_texel == 0 || f.probe.ggx_samples == 0 {
-        return Err(invalid(path, "probe.samples_per_texel/ggx_samples", "must be ≥ 1"));
+    for (field, n) in [
+        ("probe.samples_per_texel", f.probe.samples_per_texel),
+        ("probe.ggx_samples", f.probe.ggx_samples),
+        ("grid.depth_samples", f.grid.depth_samples),
+    ] {
+        if !(1..=MAX_SAMPLES).contains(&n) {
+            return Err(invalid(path, field, format!("must be in 1..={MAX_SAMPLES}, got {n}")));
+        }
     }
     let m = f.probe.min_mip_resolution;
     if !m.is_power_of_two() || m < 2 || m > r {
@@ -288,9 +366,6 @@ fn validate_settings(f: &SceneFile, path: &Path) -> Result<(), SceneError> {
     let dr = f.grid.depth_resolution;
     if !(8..=16).contains(&dr) || !dr.is_multiple_of(2) {
         return Err(invalid(path, "grid.depth_resolution", format!("must be even in 8..=16, got {dr}")));
-    }
-    if f.grid.depth_samples == 0 {
-        return Err(invalid(path, "grid.depth_samples", "must be ≥ 1"));
     }
     let bf = f.grid.inside_backface_fraction;
     if !(bf > 0.0 && bf < 1.0) {
@@ -359,6 +434,7 @@ fn material_from(
 
 fn add_geometry(
     b: &mut procedural::Builder,
+    sources: mesh_io::Sources,
     geom: &GeometryConfig,
     base_dir: &Path,
     path: &Path,
@@ -441,11 +517,11 @@ fn add_geometry(
         }
         GeometryConfig::Gltf { path: rel, transform } => {
             let xf = transform_matrix(path, &format!("{field}.transform"), transform)?;
-            mesh_io::load_gltf(b, &base_dir.join(rel), xf)?;
+            mesh_io::load_gltf(b, &sources, &base_dir.join(rel), xf)?;
         }
         GeometryConfig::Obj { path: rel, transform } => {
             let xf = transform_matrix(path, &format!("{field}.transform"), transform)?;
-            mesh_io::load_obj(b, &base_dir.join(rel), xf)?;
+            mesh_io::load_obj(b, &sources, &base_dir.join(rel), xf)?;
         }
     }
     Ok(())

@@ -32,6 +32,13 @@ pub struct Builder {
     pub spheres: Spheres,
     pub materials: Vec<Material>,
     pub degenerate_skipped: usize,
+    /// Exact duplicates of an earlier triangle (same corners, any rotation, same material)
+    /// dropped: they change nothing but the BVH's cost.
+    pub duplicates_skipped: usize,
+    /// Every file read while building, with its checksum (the bake's cache key hashes them).
+    pub inputs: Vec<(std::path::PathBuf, String)>,
+    /// Bit patterns of the triangles added so far (for duplicate removal).
+    seen: std::collections::HashSet<[u32; 10]>,
 }
 
 impl Builder {
@@ -53,6 +60,17 @@ impl Builder {
         let scale = e1.length_squared().max(e2.length_squared()).max((v2 - v1).length_squared());
         if !(n.length() > 1e-7 * scale) {
             self.degenerate_skipped += 1;
+            return;
+        }
+        // the same triangle again (same winding, any starting corner) adds nothing
+        let key = |a: Vec3, b: Vec3, c: Vec3| {
+            let k = [a, b, c].map(|v| v.to_array().map(f32::to_bits));
+            [k[0][0], k[0][1], k[0][2], k[1][0], k[1][1], k[1][2], k[2][0], k[2][1], k[2][2], material]
+        };
+        let rotations = [key(v0, v1, v2), key(v1, v2, v0), key(v2, v0, v1)];
+        let canonical = *rotations.iter().min().expect("three rotations");
+        if !self.seen.insert(canonical) {
+            self.duplicates_skipped += 1;
             return;
         }
         self.triangles.v0.push(v0);

@@ -2,6 +2,9 @@
 //! (naming the file and the field), atomic writes, JSON, and the checksum payloads carry.
 //! Knows no domain type; builds in the runtime-only configuration (std and serde_json).
 
+#[cfg(feature = "bake")]
+pub mod staged;
+
 use serde::Serialize;
 use std::fmt;
 use std::io::Write;
@@ -98,12 +101,20 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FileError> {
         f.write_all(bytes)?;
         f.sync_all()?;
         drop(f);
-        std::fs::rename(&tmp, path)
+        rename(&tmp, path)
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
     result.map_err(FileError::io(path))
+}
+
+/// Renames through the offline build's test hook (see `staged::set_rename_fault`).
+fn rename(from: &Path, to: &Path) -> std::io::Result<()> {
+    #[cfg(feature = "bake")]
+    return staged::rename(from, to);
+    #[cfg(not(feature = "bake"))]
+    std::fs::rename(from, to)
 }
 
 /// Pretty JSON of `value`, written atomically.
@@ -113,9 +124,51 @@ pub fn write_json<T: Serialize + ?Sized>(path: &Path, value: &T) -> Result<(), F
     write_atomic(path, &bytes)
 }
 
-/// Reads and parses a JSON file.
+/// Reads `path`, which must be a regular file (a FIFO, device or folder could block, never
+/// end or be huge) of at most `max` bytes, with the size checked before a byte is read.
+pub fn read_regular(path: &Path, max: u64) -> Result<Vec<u8>, FileError> {
+    let not_regular = |what: &str| FileError::invalid(path, "file", format!("is {what}, not a regular file"));
+    let meta = std::fs::metadata(path).map_err(FileError::io(path))?;
+    let kind = |m: &std::fs::Metadata| {
+        if m.is_file() {
+            None
+        } else if m.is_dir() {
+            Some("a folder")
+        } else {
+            Some("a FIFO, socket or device")
+        }
+    };
+    if let Some(k) = kind(&meta) {
+        return Err(not_regular(k));
+    }
+    if meta.len() > max {
+        return Err(FileError::invalid(
+            path,
+            "size",
+            format!("{} bytes, more than the {max} this reader accepts", meta.len()),
+        ));
+    }
+    let f = std::fs::File::open(path).map_err(FileError::io(path))?;
+    // the same checks on what was opened (the path may have changed in between)
+    let meta = f.metadata().map_err(FileError::io(path))?;
+    if let Some(k) = kind(&meta) {
+        return Err(not_regular(k));
+    }
+    let mut bytes = Vec::with_capacity(meta.len().min(max) as usize);
+    use std::io::Read;
+    f.take(max + 1).read_to_end(&mut bytes).map_err(FileError::io(path))?;
+    if bytes.len() as u64 > max {
+        return Err(FileError::invalid(path, "size", format!("more than the {max} bytes this reader accepts")));
+    }
+    Ok(bytes)
+}
+
+/// Largest JSON file [`read_json`] reads.
+pub const MAX_JSON_BYTES: u64 = 256 << 20;
+
+/// Reads and parses a JSON file (a regular file of at most [`MAX_JSON_BYTES`]).
 pub fn read_json<T: for<'de> serde::Deserialize<'de>>(path: &Path) -> Result<T, FileError> {
-    let bytes = std::fs::read(path).map_err(FileError::io(path))?;
+    let bytes = read_regular(path, MAX_JSON_BYTES)?;
     serde_json::from_slice(&bytes).map_err(|e| FileError::Json { path: path.to_path_buf(), message: e.to_string() })
 }
 
