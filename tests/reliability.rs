@@ -514,6 +514,24 @@ fn copies_of_one_triangle_load_in_linear_time() {
 }
 
 #[test]
+fn a_bake_beyond_the_machine_is_refused_before_it_starts() {
+    let d = tmp_dir("huge");
+    let body = std::fs::read_to_string(write_scene(&d, ROOM))
+        .unwrap()
+        .replace("counts = [2, 2, 2]", "counts = [200, 100, 200]")
+        .replace("irradiance_resolution = 4", "irradiance_resolution = 64");
+    let p = d.join("huge.toml");
+    std::fs::write(&p, body).unwrap();
+    let out = d.join("out");
+    let t = Instant::now();
+    let o = warpfit(&["bake", "--scene", &p.to_string_lossy(), "--out", &out.to_string_lossy()], &[]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("huge.toml") && text(&o).contains("--force") && text(&o).contains("GB"), "{}", text(&o));
+    assert!(t.elapsed() < Duration::from_secs(20));
+    assert!(!out.exists(), "nothing written");
+}
+
+#[test]
 fn scene_names_stay_inside_fits() {
     for name in ["../..", "/etc", "a/b", ".hidden", ""] {
         let f = warpfit::report::folder::RunFolder::for_scene(name);

@@ -36,6 +36,10 @@ pub fn pareto_front(points: &[(String, f64, f64)]) -> Vec<bool> {
 
 /// 1-2-5 tick values covering [lo, hi].
 fn ticks_125(lo: f64, hi: f64) -> Vec<f64> {
+    // a non-finite, non-positive or absurd range gets no ticks (it would never end)
+    if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && hi >= lo && hi / lo < 1e30) {
+        return Vec::new();
+    }
     let mut out = Vec::new();
     let mut decade = libm::pow(10f64, libm::log10(lo).floor());
     while decade <= hi {
