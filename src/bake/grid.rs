@@ -120,7 +120,7 @@ fn bake_cell(
     let mut mean = Vec::with_capacity((dres * dres) as usize);
     let mut mean_sq = Vec::with_capacity((dres * dres) as usize);
     let mut hit = Vec::with_capacity((dres * dres) as usize);
-    let mut backfaces = 0u32;
+    let mut backfaces = crate::trace::truth::Backfaces::default();
     let spp = s.depth_samples;
     for t in 0..dres * dres {
         let (i, j) = (t % dres, t / dres);
@@ -140,7 +140,7 @@ fn bake_cell(
             };
             d1 += d as f64;
             d2 += (d as f64) * (d as f64);
-            backfaces += r.backface as u32;
+            backfaces.add(r.backface || r.backface_two_sided, r.backface_two_sided);
             for ((e, cs), n) in irradiance.iter_mut().zip(&mut cosine_sum).zip(irr_normals) {
                 let c = n.dot(dir);
                 if c > 0.0 {
@@ -158,6 +158,6 @@ fn bake_cell(
     for (e, cs) in irradiance.iter_mut().zip(&cosine_sum) {
         *e = if *cs > 0.0 { *e * (std::f32::consts::PI / *cs) } else { Vec3::ZERO };
     }
-    let inside = crate::trace::truth::inside_by_backfaces(backfaces, dres * dres * spp, s.inside_backface_fraction);
+    let inside = crate::trace::truth::inside_by_backfaces(backfaces, s.inside_backface_fraction);
     CellBake { irradiance, mean, mean_sq, hit, inside, rays }
 }

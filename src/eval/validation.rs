@@ -88,7 +88,7 @@ pub fn validation_set(
         let u = Vec3::new(sampler.next_1d(), sampler.next_1d(), sampler.next_1d());
         let p = grid.geometry.min + (c + u) * grid.geometry.cell_size();
         let stream = hash_pair(DOMAIN_EVAL, 0xB ^ attempt as u64);
-        if truth::is_inside(tracer, p, threshold, |k| Sampler::new(s.seed, stream, k)) {
+        if truth::is_inside(scene, tracer, p, threshold, |k| Sampler::new(s.seed, stream, k)) {
             continue;
         }
         positions.push(p);

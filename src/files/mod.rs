@@ -172,6 +172,26 @@ pub fn read_json<T: for<'de> serde::Deserialize<'de>>(path: &Path) -> Result<T, 
     serde_json::from_slice(&bytes).map_err(|e| FileError::Json { path: path.to_path_buf(), message: e.to_string() })
 }
 
+/// A byte count for people: `1,385,270 bytes (1.4 MB)` style, decimal units.
+#[must_use]
+pub fn human_bytes(n: u64) -> String {
+    let digits = n.to_string();
+    let mut grouped = String::new();
+    for (k, c) in digits.chars().enumerate() {
+        if k > 0 && (digits.len() - k).is_multiple_of(3) {
+            grouped.push(',');
+        }
+        grouped.push(c);
+    }
+    let (v, unit) = match n {
+        0..1_000 => return format!("{grouped} bytes"),
+        1_000..1_000_000 => (n as f64 / 1e3, "kB"),
+        1_000_000..1_000_000_000 => (n as f64 / 1e6, "MB"),
+        _ => (n as f64 / 1e9, "GB"),
+    };
+    format!("{grouped} bytes ({v:.1} {unit})")
+}
+
 /// FNV-1a (64 bit) of `bytes` as `fnv1a64:` + 16 hex digits, the checksum payloads carry in
 /// their manifests. Detects truncation and corruption; it is not a cryptographic hash.
 #[must_use]

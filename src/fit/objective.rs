@@ -40,6 +40,10 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::cell::{Cell, RefCell};
 
+/// Floor of a cell's mean tone-mapped reference in its relative errors (tone-mapped units:
+/// the scene's key maps to about 0.15, so the floor is about a fifteenth of middle grey).
+pub const MEAN_REFERENCE_FLOOR: f64 = 0.01;
+
 /// One training or check query.
 #[derive(Clone, Copy, Debug)]
 pub struct Sample {
@@ -163,7 +167,9 @@ impl<'a> CellProblem<'a> {
             })
             .sum::<f64>()
             / samples.len().max(1) as f64;
-        let mean_reference = mean_reference.max(1e-12);
+        // floored: a cell that sees almost nothing would turn tiny absolute errors into
+        // relative ones in the millions
+        let mean_reference = mean_reference.max(MEAN_REFERENCE_FLOOR);
         CellProblem {
             glossy,
             exposure,

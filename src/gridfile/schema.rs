@@ -370,7 +370,7 @@ impl GridManifest {
             }
             let _ = writeln!(s, "  {:<18} {:<16} {:>10} {:>9} {:>12} (on disk, ZIP)", p.file, "", "", "", p.bytes);
         }
-        let _ = writeln!(s, "  total on disk: {total_file} bytes");
+        let _ = writeln!(s, "  total on disk: {}", crate::files::human_bytes(total_file));
         if let Some(c) = &self.correctives {
             let _ = writeln!(
                 s,
@@ -393,9 +393,9 @@ impl GridManifest {
         let mut saved = 0;
         for l in &self.left_out {
             saved += l.bytes_saved;
-            let _ = writeln!(s, "  {} — {} (saves {} bytes)", l.what, l.reason, l.bytes_saved);
+            let _ = writeln!(s, "  {} — {} (saves {})", l.what, l.reason, crate::files::human_bytes(l.bytes_saved));
         }
-        let _ = writeln!(s, "  total saved: {saved} bytes (uncompressed)");
+        let _ = writeln!(s, "  total saved: {} (uncompressed)", crate::files::human_bytes(saved));
         if let Some(r) = self.residuals.as_object() {
             let _ = writeln!(s, "\nfit residuals (mean held-out relative error per active cell):");
             for key in [

@@ -3,6 +3,8 @@
 //! `sweep` (error against fit effort) and `stability` (stiff and extreme cases). Each job
 //! composes the stages; none holds logic of its own that a stage should own.
 
+pub mod check;
+pub mod init;
 pub mod run;
 pub mod stability;
 pub mod sweep;

@@ -18,39 +18,42 @@ pub fn write_fit_diagnostics(folder: &RunFolder, fit: &Fit, command: &str) -> Re
     write_convergence(&folder.fit_convergence(), fit, rayon::current_num_threads())
 }
 
-/// Residual heat-map slices: one tile per grid layer (y), cells coloured by held-out error
-/// after the fit relative to the fallback (green: better, grey: unchanged or level 0,
-/// black: inside geometry), 8 pixels per cell; layers side by side, bottom layer left.
+/// Residual heat-map slices: one panel per grid layer (y), each cell coloured by how much
+/// its stored map lowers the held-out error of the fallback (`1 − fitted / fallback`), grey
+/// where the cell keeps the fallback, black inside geometry; cell axes and a colour bar.
 pub fn write_residual_slices(path: &Path, fit: &Fit) -> Result<(), FileError> {
     let g = fit.correctives.geometry;
     let (nx, ny, nz) = (g.counts.x as usize, g.counts.y as usize, g.counts.z as usize);
-    let px = 8usize;
-    let gap = 4usize;
-    let (w, h) = (ny * (nx * px + gap), nz * px);
-    let mut rgb = vec![255u8; w * h * 3];
-    let mut colour = vec![[0u8, 0, 0]; g.cell_count()];
+    let mut value = vec![None; g.cell_count()];
+    let mut fallback = vec![false; g.cell_count()];
     for c in &fit.cells {
-        let ratio = if c.level == Level::Map {
-            (c.check_err_fitted / c.check_err_fallback.max(1e-12)).clamp(0.0, 1.0)
+        let k = c.cell as usize;
+        if c.level == Level::Map {
+            value[k] = Some((1.0 - c.check_err_fitted / c.check_err_fallback.max(1e-12)).clamp(0.0, 1.0));
         } else {
-            1.0
-        };
-        // ratio 1 → grey, ratio 0 → saturated green
-        let t = (1.0 - ratio) as f32;
-        colour[c.cell as usize] = [(160.0 * (1.0 - t)) as u8, (160.0 + 95.0 * t) as u8, (160.0 * (1.0 - t)) as u8];
-    }
-    for cell in 0..g.cell_count() {
-        let cc = g.cell_coords(cell);
-        let (x, y, z) = (cc.x as usize, cc.y as usize, cc.z as usize);
-        for dy in 0..px {
-            for dx in 0..px {
-                let (ix, iy) = (y * (nx * px + gap) + x * px + dx, (nz - 1 - z) * px + dy);
-                let k = (iy * w + ix) * 3;
-                rgb[k..k + 3].copy_from_slice(&colour[cell]);
-            }
+            value[k] = Some(0.0);
+            fallback[k] = true;
         }
     }
-    crate::preview::write_png(path, w as u32, h as u32, &rgb)
+    let slices: Vec<crate::report::plot::Slice> = (0..ny)
+        .map(|y| {
+            let cells: Vec<usize> = (0..nz).flat_map(|z| (0..nx).map(move |x| x + nx * (y + ny * z))).collect();
+            let (lo, hi) = (g.min.y + g.cell_size().y * y as f32, g.min.y + g.cell_size().y * (y + 1) as f32);
+            crate::report::plot::Slice {
+                title: format!("layer y = {y} (height {lo:.2} – {hi:.2})"),
+                nx,
+                nz,
+                values: cells.iter().map(|&k| value[k]).collect(),
+                fallback: cells.iter().map(|&k| fallback[k]).collect(),
+            }
+        })
+        .collect();
+    crate::report::plot::heatmap_slices(
+        path,
+        "held-out error removed by each cell's stored warp map, per grid layer",
+        "share of the fallback's held-out error the stored map removes",
+        &slices,
+    )
 }
 
 /// `fit.md`: what was stored where and what it bought, the histogram of per-cell
@@ -138,7 +141,7 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
     let _ = writeln!(md, "\n![convergence](fit_convergence.png)");
     let _ = writeln!(
         md,
-        "\n![residual slices](residual_slices.png)\n\nSlices: one tile per grid layer (bottom layer left), x to the right, z up; green = the stored map improves on the fallback (saturated: error → 0), grey = fallback, black = inside geometry."
+        "\n![residual slices](residual_slices.png)\n\nOne panel per grid layer (bottom layer first), cell x to the right, cell z up; green: the share of the fallback's held-out error the cell's stored map removes (colour bar), grey: the cell keeps the fallback, black: inside geometry (not fitted)."
     );
     write_atomic(path, md.as_bytes())
 }

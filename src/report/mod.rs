@@ -221,13 +221,14 @@ pub fn write_eval(folder: &RunFolder, r: &EvalReport) -> Result<(), FileError> {
     let _ = writeln!(md, "\n![error against cost](eval_error_vs_cost.png)");
     write_atomic(&folder.eval_md(), md.as_bytes())?;
 
-    let points: Vec<(String, f64, f64)> = r
-        .methods
-        .iter()
-        .filter(|m| m.roughness == 0.0)
-        .map(|m| (m.name.clone(), m.ns_per_lookup, m.rel_rmse))
-        .collect();
-    plot::error_vs_cost(&folder.eval_plot(), &format!("{}: mirror lookups, error against cost", r.scene), &points)?;
+    let points: Vec<(String, f64, f64)> =
+        r.methods.iter().filter(|m| m.roughness == 0.0).map(|m| (m.name.clone(), m.ns_per_lookup, m.tm_rmse)).collect();
+    plot::error_vs_cost(
+        &folder.eval_plot(),
+        &format!("{}: mirror lookups, error against cost", r.scene),
+        "tone-mapped RMSE (log)",
+        &points,
+    )?;
     let panels: Vec<plot::Panel> = r
         .buckets
         .iter()

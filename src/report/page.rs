@@ -207,18 +207,14 @@ pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> 
         }
     }
     let left_out = grid.left_out.iter().map(|l| (l.what.clone(), l.reason.clone(), l.bytes_saved)).collect();
-    let images = [
-        "eval_error_vs_cost.png",
-        "eval_views.png",
-        "fit_convergence.png",
-        "residual_slices.png",
-        "sweep.png",
-        "sweep_convergence.png",
-    ]
-    .iter()
-    .filter(|f| dir.join(f).is_file())
-    .map(|f| f.to_string())
-    .collect();
+    let mut images: Vec<String> = ["eval_error_vs_cost.png", "eval_rough.png"].iter().map(|f| f.to_string()).collect();
+    images.extend(crate::eval::ROUGHNESS_BUCKETS.iter().map(|&r| format!("flip_r{r:.3}.png")));
+    images.extend(
+        ["eval_views.png", "fit_convergence.png", "residual_slices.png", "sweep.png", "sweep_convergence.png"]
+            .iter()
+            .map(|f| f.to_string()),
+    );
+    let images = images.into_iter().filter(|f| dir.join(f).is_file()).collect();
     Ok(RunReport {
         scene: eval.scene.clone(),
         command: command.to_string(),
@@ -453,12 +449,42 @@ pub fn html(r: &RunReport, dir: &Path) -> Result<String, FileError> {
         let b64 = base64::engine::general_purpose::STANDARD.encode(&bytes);
         let _ = writeln!(
             h,
-            "<figure><img alt=\"{0}\" src=\"data:image/png;base64,{b64}\"><figcaption>{0}</figcaption></figure>",
-            escape(img)
+            "<figure><img alt=\"{0}\" src=\"data:image/png;base64,{b64}\"><figcaption><b>{0}</b>: {1}</figcaption></figure>",
+            escape(img),
+            escape(caption(img))
         );
     }
     h += "</body></html>\n";
     Ok(h)
+}
+
+/// What to look for in figure `file`.
+fn caption(file: &str) -> &'static str {
+    match file {
+        "eval_error_vs_cost.png" => {
+            "every method's held-out tone-mapped error against its cost per lookup, mirror lookups; the red line is the Pareto front. Look for the fitted grid (fitted = runtime) below and left of the seed methods, and for how far it sits from the oracle bound."
+        }
+        "eval_rough.png" => {
+            "mean ꟻLIP of the rendered views against cost, one panel per roughness; green is the runtime. Look for the runtime at the bottom of each panel among methods of similar cost."
+        }
+        "eval_views.png" => {
+            "what probe A shows from one validation position through each method, beside the traced reference: look for misplaced geometry near edges and through openings."
+        }
+        "fit_convergence.png" => {
+            "the fit's training objective against time per solver stage: a curve still falling at its end says more iterations would pay."
+        }
+        "residual_slices.png" => {
+            "per grid layer, how much of the fallback's held-out error each cell's stored map removes; grey cells keep the fallback, black ones are inside geometry. Clusters of grey near walls or openings are where single fetches from A cannot do better."
+        }
+        "sweep.png" => {
+            "what a player sees (ꟻLIP at roughness 0.5) against fit time, one knob at a time: flat lines mean the knob is not worth its time."
+        }
+        "sweep_convergence.png" => "training objective against time for each solver of the sweep.",
+        f if f.starts_with("flip_r") => {
+            "the first camera at this roughness: the traced reference, the runtime and the best other methods, each above its ꟻLIP error map (black: no visible difference, yellow: large). Look for seams between cells and misplaced reflections."
+        }
+        _ => "",
+    }
 }
 
 /// Builds the report from a run folder and writes report.json, report.md and report.html

@@ -34,6 +34,82 @@ pub fn pareto_front(points: &[(String, f64, f64)]) -> Vec<bool> {
         .collect()
 }
 
+/// A tick label that fits its axis whatever the magnitude: plain for 0.001 ≤ |v| < 10⁴,
+/// scientific (`1.2e10`) otherwise.
+#[must_use]
+pub fn tick(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 {
+        "0".into()
+    } else if !(1e-3..1e4).contains(&a) {
+        format!("{v:.1e}")
+    } else if a >= 100.0 {
+        format!("{v:.0}")
+    } else if a >= 1.0 {
+        format!("{v:.2}")
+    } else {
+        format!("{v:.3}")
+    }
+}
+
+/// Labels for markers at pixel positions, placed so that no two overlap (as far as the
+/// candidates allow) and none leaves `area`: markers closer than 5 px share one label
+/// (`a = b`), and each label tries positions around its marker in turn. Returns (text,
+/// top-left pixel) per label. `char_px` is the font's mean advance.
+pub fn place_labels(
+    markers: &[(String, (i32, i32))],
+    area: ((i32, i32), (i32, i32)),
+    char_px: f64,
+    line_px: i32,
+) -> Vec<(String, (i32, i32))> {
+    // merge markers at (nearly) the same place
+    let mut groups: Vec<(String, (i32, i32))> = Vec::new();
+    for (name, p) in markers {
+        match groups.iter_mut().find(|(_, q)| (q.0 - p.0).abs() <= 5 && (q.1 - p.1).abs() <= 5) {
+            Some(g) => g.0 = format!("{} = {name}", g.0),
+            None => groups.push((name.clone(), *p)),
+        }
+    }
+    let marker_boxes: Vec<((i32, i32), (i32, i32))> =
+        markers.iter().map(|(_, p)| ((p.0 - 5, p.1 - 5), (p.0 + 5, p.1 + 5))).collect();
+    let overlaps = |a: ((i32, i32), (i32, i32)), b: ((i32, i32), (i32, i32))| {
+        a.0.0 < b.1.0 && b.0.0 < a.1.0 && a.0.1 < b.1.1 && b.0.1 < a.1.1
+    };
+    let inside =
+        |b: ((i32, i32), (i32, i32))| b.0.0 >= area.0.0 && b.0.1 >= area.0.1 && b.1.0 <= area.1.0 && b.1.1 <= area.1.1;
+    let mut placed: Vec<((i32, i32), (i32, i32))> = Vec::new();
+    let mut out = Vec::new();
+    for (text, (x, y)) in groups {
+        let w = (text.chars().count() as f64 * char_px).ceil() as i32;
+        let h = line_px;
+        let candidates = [
+            (8, -h / 2 - 6),
+            (8, -h / 2 + 8),
+            (-w - 8, -h / 2 - 6),
+            (-w - 8, -h / 2 + 8),
+            (-w / 2, -h - 8),
+            (-w / 2, 8),
+            (8, -h - 14),
+            (8, 14),
+            (-w - 8, -h - 14),
+            (-w - 8, 14),
+            (-w / 2, -2 * h - 10),
+            (-w / 2, h + 12),
+        ];
+        let boxes = candidates.map(|(dx, dy)| ((x + dx, y + dy), (x + dx + w, y + dy + h)));
+        let free = |b: &((i32, i32), (i32, i32))| {
+            inside(*b)
+                && !placed.iter().any(|p| overlaps(*p, *b))
+                && !marker_boxes.iter().any(|m| overlaps(*m, *b) && !(m.0.0 + 5 == x && m.0.1 + 5 == y))
+        };
+        let chosen =
+            boxes.iter().find(|b| free(b)).or_else(|| boxes.iter().find(|b| inside(**b))).copied().unwrap_or(boxes[0]);
+        placed.push(chosen);
+        out.push((text, chosen.0));
+    }
+    out
+}
+
 /// 1-2-5 tick values covering [lo, hi].
 fn ticks_125(lo: f64, hi: f64) -> Vec<f64> {
     // a non-finite, non-positive or absurd range gets no ticks (it would never end)
@@ -58,8 +134,9 @@ fn ticks_125(lo: f64, hi: f64) -> Vec<f64> {
     out
 }
 
-/// Log-log scatter of (cost ns/lookup, relative RMSE) per method, Pareto front marked.
-pub fn error_vs_cost(path: &Path, title: &str, points: &[(String, f64, f64)]) -> Result<(), FileError> {
+/// Log-log scatter of (cost ns/lookup, error) per method, Pareto front marked, labels placed
+/// without overlaps (markers at one place share a label).
+pub fn error_vs_cost(path: &Path, title: &str, y_desc: &str, points: &[(String, f64, f64)]) -> Result<(), FileError> {
     register_font();
     let (w, h) = (960u32, 640u32);
     let mut buf = vec![255u8; (w * h * 3) as usize];
@@ -85,12 +162,10 @@ pub fn error_vs_cost(path: &Path, title: &str, points: &[(String, f64, f64)]) ->
         chart
             .configure_mesh()
             .x_desc("cost (ns per lookup, single thread, log)")
-            .y_desc("relative RMSE (log)")
+            .y_desc(y_desc)
             .label_style(("sans-serif", 15))
-            .x_label_formatter(&|v| format!("{v:.0}"))
-            .y_label_formatter(&|v| {
-                if *v >= 1.0 { format!("{v:.2}") } else { format!("{v:.3}") }
-            })
+            .x_label_formatter(&|v| tick(*v))
+            .y_label_formatter(&|v| tick(*v))
             .draw()
             .map_err(|e| plot_err(path, e))?;
         let front = pareto_front(points);
@@ -100,19 +175,20 @@ pub fn error_vs_cost(path: &Path, title: &str, points: &[(String, f64, f64)]) ->
         chart
             .draw_series(LineSeries::new(front_pts, RGBColor(200, 60, 60).stroke_width(2)))
             .map_err(|e| plot_err(path, e))?;
+        let mut markers = Vec::new();
         for ((name, c, e), on_front) in points.iter().zip(&front) {
-            if !(*c > 0.0 && *e > 0.0) {
+            if !(*c > 0.0 && *e > 0.0 && c.is_finite() && e.is_finite()) {
                 continue;
             }
             let color = if *on_front { RGBColor(200, 40, 40) } else { RGBColor(40, 70, 160) };
             let style = if name == "oracle" { RGBColor(120, 120, 120).stroke_width(2) } else { color.filled() };
             chart.draw_series(std::iter::once(Circle::new((*c, *e), 5, style))).map_err(|e| plot_err(path, e))?;
-            chart
-                .draw_series(std::iter::once(Text::new(
-                    name.clone(),
-                    (*c * 1.06, *e * 1.02),
-                    ("sans-serif", 15).into_font().color(&BLACK),
-                )))
+            markers.push((name.clone(), chart.backend_coord(&(*c, *e))));
+        }
+        let (xr, yr) = chart.plotting_area().get_pixel_range();
+        let area = ((xr.start, yr.start), (xr.end, yr.end));
+        for (text, at) in place_labels(&markers, area, 8.4, 16) {
+            root.draw(&Text::new(text, at, ("sans-serif", 15).into_font().color(&BLACK)))
                 .map_err(|e| plot_err(path, e))?;
         }
         root.present().map_err(|e| plot_err(path, e))?;
@@ -161,6 +237,8 @@ pub fn line_plot(
             .x_desc(x_desc)
             .y_desc(y_desc)
             .label_style(("sans-serif", 15))
+            .x_label_formatter(&|v| tick(*v))
+            .y_label_formatter(&|v| tick(*v))
             .draw()
             .map_err(|e| plot_err(path, e))?;
         let colours = [
@@ -334,8 +412,8 @@ pub fn error_vs_cost_panels(path: &Path, title: &str, y_desc: &str, panels: &[Pa
                 .x_desc("ns per lookup (log)")
                 .y_desc(y_desc)
                 .label_style(("sans-serif", 12))
-                .x_label_formatter(&|v| format!("{v:.0}"))
-                .y_label_formatter(&|v| format!("{v:.3}"))
+                .x_label_formatter(&|v| tick(*v))
+                .y_label_formatter(&|v| tick(*v))
                 .draw()
                 .map_err(|e| plot_err(path, e))?;
             let front = pareto_front(points);
@@ -345,6 +423,7 @@ pub fn error_vs_cost_panels(path: &Path, title: &str, y_desc: &str, panels: &[Pa
             chart
                 .draw_series(LineSeries::new(front_pts, RGBColor(200, 60, 60).stroke_width(2)))
                 .map_err(|e| plot_err(path, e))?;
+            let mut markers = Vec::new();
             for ((label, c, e), on_front) in points.iter().zip(&front) {
                 if !(*c > 0.0 && e.is_finite()) {
                     continue;
@@ -362,17 +441,158 @@ pub fn error_vs_cost_panels(path: &Path, title: &str, y_desc: &str, panels: &[Pa
                     .draw_series(std::iter::once(Circle::new((*c, *e), size, color.filled())))
                     .map_err(|e| plot_err(path, e))?;
                 if runtime || *on_front {
-                    chart
-                        .draw_series(std::iter::once(Text::new(
-                            label.clone(),
-                            (*c * 1.05, *e),
-                            ("sans-serif", 12).into_font().color(&BLACK),
-                        )))
-                        .map_err(|e| plot_err(path, e))?;
+                    markers.push((label.clone(), chart.backend_coord(&(*c, *e))));
                 }
+            }
+            let (xr, yr) = chart.plotting_area().get_pixel_range();
+            for (text, at) in place_labels(&markers, ((xr.start, yr.start), (xr.end, yr.end)), 6.8, 13) {
+                area.draw(&Text::new(text, at, ("sans-serif", 12).into_font().color(&BLACK)))
+                    .map_err(|e| plot_err(path, e))?;
             }
         }
         root.present().map_err(|e| plot_err(path, e))?;
     }
     crate::preview::write_png(path, w, h, &buf)
+}
+
+/// One horizontal slice of the grid for [`heatmap_slices`]: its title and, per cell (x
+/// fastest, then z), a value in [0, 1] or `None` (drawn black: no value there).
+pub struct Slice {
+    pub title: String,
+    pub nx: usize,
+    pub nz: usize,
+    pub values: Vec<Option<f64>>,
+    /// Cells that keep the fallback (drawn grey whatever their value).
+    pub fallback: Vec<bool>,
+}
+
+/// The colour of value `t` in [0, 1]: light grey (0) to saturated green (1).
+fn improvement_colour(t: f64) -> RGBColor {
+    let t = t.clamp(0.0, 1.0);
+    RGBColor(
+        (200.0 * (1.0 - t) + 20.0 * t) as u8,
+        (200.0 * (1.0 - t) + 150.0 * t) as u8,
+        (200.0 * (1.0 - t) + 60.0 * t) as u8,
+    )
+}
+
+/// Grid slices as heat maps, four to a row, each with its cell axes (x to the right, z
+/// up), and a colour bar: `legend` names what the colour measures.
+pub fn heatmap_slices(path: &Path, title: &str, legend: &str, slices: &[Slice]) -> Result<(), FileError> {
+    register_font();
+    let cols = 4usize.min(slices.len().max(1));
+    let rows = slices.len().div_ceil(cols).max(1);
+    let (pw, ph) = (260u32, 260u32);
+    let (w, h) = ((pw * cols as u32).max(900), ph * rows as u32 + 110);
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| plot_err(path, e))?;
+        root.draw(&Text::new(title.to_string(), (10, 8), ("sans-serif", 18).into_font().color(&BLACK)))
+            .map_err(|e| plot_err(path, e))?;
+        let body = root.margin(36, 74, 0, 0);
+        let panels = body.split_evenly((rows, cols));
+        for (s, area) in slices.iter().zip(panels.iter()) {
+            let mut chart = ChartBuilder::on(area)
+                .caption(&s.title, ("sans-serif", 14))
+                .margin(6)
+                .x_label_area_size(30)
+                .y_label_area_size(34)
+                .build_cartesian_2d(0f64..s.nx as f64, 0f64..s.nz as f64)
+                .map_err(|e| plot_err(path, e))?;
+            chart
+                .configure_mesh()
+                .disable_mesh()
+                .x_desc("cell x")
+                .y_desc("cell z")
+                .x_labels(s.nx.min(6))
+                .y_labels(s.nz.min(6))
+                .x_label_formatter(&|v| format!("{v:.0}"))
+                .y_label_formatter(&|v| format!("{v:.0}"))
+                .label_style(("sans-serif", 11))
+                .draw()
+                .map_err(|e| plot_err(path, e))?;
+            chart
+                .draw_series((0..s.nx * s.nz).map(|k| {
+                    let (x, z) = ((k % s.nx) as f64, (k / s.nx) as f64);
+                    let colour = match (s.values[k], s.fallback[k]) {
+                        (None, _) => BLACK,
+                        (Some(_), true) => RGBColor(150, 150, 150),
+                        (Some(v), false) => improvement_colour(v),
+                    };
+                    Rectangle::new([(x, z), (x + 1.0, z + 1.0)], colour.filled())
+                }))
+                .map_err(|e| plot_err(path, e))?;
+        }
+        // the colour bar and the key
+        let (bx, by, bw, bh) = (40i32, h as i32 - 60, 300i32, 16i32);
+        for i in 0..bw {
+            let c = improvement_colour(i as f64 / (bw - 1) as f64);
+            root.draw(&Rectangle::new([(bx + i, by), (bx + i + 1, by + bh)], c.filled()))
+                .map_err(|e| plot_err(path, e))?;
+        }
+        let small = ("sans-serif", 12).into_font().color(&BLACK);
+        for (t, label) in [(0.0, "0%"), (0.5, "50%"), (1.0, "100%")] {
+            let x = bx + (t * (bw - 1) as f64) as i32;
+            root.draw(&Text::new(label.to_string(), (x - 8, by + bh + 4), small.clone()))
+                .map_err(|e| plot_err(path, e))?;
+        }
+        root.draw(&Text::new(legend.to_string(), (bx, by - 18), small.clone())).map_err(|e| plot_err(path, e))?;
+        let kx = bx + bw + 40;
+        root.draw(&Rectangle::new([(kx, by), (kx + 16, by + bh)], RGBColor(150, 150, 150).filled()))
+            .map_err(|e| plot_err(path, e))?;
+        root.draw(&Text::new("keeps the fallback".to_string(), (kx + 22, by + 2), small.clone()))
+            .map_err(|e| plot_err(path, e))?;
+        root.draw(&Rectangle::new([(kx + 170, by), (kx + 186, by + bh)], BLACK.filled()))
+            .map_err(|e| plot_err(path, e))?;
+        root.draw(&Text::new("inside geometry (not fitted)".to_string(), (kx + 192, by + 2), small))
+            .map_err(|e| plot_err(path, e))?;
+        root.present().map_err(|e| plot_err(path, e))?;
+    }
+    crate::preview::write_png(path, w, h, &buf)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn labels_never_overlap_and_stay_in_the_plot() {
+        // a crowd: near-equal points, a pair at one place, huge objectives
+        let markers: Vec<(String, (i32, i32))> = [
+            ("fitted", (300, 300)),
+            ("runtime", (301, 300)),
+            ("fitted-L2-all", (305, 292)),
+            ("fitted-trilinear", (320, 288)),
+            ("celldepth", (310, 280)),
+            ("kdop", (298, 284)),
+            ("none", (100, 100)),
+        ]
+        .iter()
+        .map(|(n, p)| (n.to_string(), *p))
+        .collect();
+        let area = ((80, 60), (900, 560));
+        let placed = place_labels(&markers, area, 8.4, 16);
+        assert_eq!(placed.len(), 6, "fitted and runtime share a label");
+        assert!(placed.iter().any(|(t, _)| t == "fitted = runtime"));
+        let boxes: Vec<_> = placed
+            .iter()
+            .map(|(t, (x, y))| ((*x, *y), (*x + (t.chars().count() as f64 * 8.4).ceil() as i32, *y + 16)))
+            .collect();
+        for (i, a) in boxes.iter().enumerate() {
+            assert!(
+                a.0.0 >= area.0.0 && a.1.0 <= area.1.0 && a.0.1 >= area.0.1 && a.1.1 <= area.1.1,
+                "{:?}",
+                placed[i]
+            );
+            for b in &boxes[i + 1..] {
+                let overlap = a.0.0 < b.1.0 && b.0.0 < a.1.0 && a.0.1 < b.1.1 && b.0.1 < a.1.1;
+                assert!(!overlap, "{a:?} and {b:?} overlap");
+            }
+        }
+        // tick labels stay short at any magnitude
+        for v in [2.3e10, 1e-7, 12345.0, 0.5, 3.0, 250.0] {
+            assert!(tick(v).len() <= 8, "{v}: {}", tick(v));
+        }
+    }
 }

@@ -33,6 +33,14 @@ pub struct SceneFile {
     /// Let mesh files reference files (buffers, MTLs) outside their own folder.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub allow_outside_paths: bool,
+    /// Up axis of the mesh files (`"y"`, glTF's, or `"z"`, many DCC and CAD tools'): a Z-up
+    /// mesh is turned so that its +Z points along the scene's +Y.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub up_axis: Option<String>,
+    /// Scene units per mesh unit (0.01 for meshes in centimetres in a scene in metres):
+    /// every mesh file is scaled by it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub units: Option<f32>,
 }
 
 fn default_seed() -> u64 {
@@ -261,17 +269,30 @@ pub enum GeometryConfig {
         #[serde(default)]
         material: MaterialConfig,
     },
-    /// glTF 2.0 file (.gltf or .glb), relative to the scene file.
+    /// glTF 2.0 file (.gltf or .glb), relative to the scene file: geometry, base colour
+    /// (factor × texture), emission, `doubleSided`, and `KHR_lights_punctual` lights.
     Gltf {
         path: String,
         #[serde(default)]
         transform: TransformConfig,
+        /// One material for every primitive, replacing the file's.
+        #[serde(default)]
+        material: Option<MaterialConfig>,
+        /// Sidedness for every primitive, replacing the file's `doubleSided`.
+        #[serde(default)]
+        two_sided: Option<bool>,
     },
     /// Wavefront OBJ (+MTL), relative to the scene file.
     Obj {
         path: String,
         #[serde(default)]
         transform: TransformConfig,
+        /// One material for every face, replacing the MTL's.
+        #[serde(default)]
+        material: Option<MaterialConfig>,
+        /// Sidedness for every face (OBJ faces are one-sided by default).
+        #[serde(default)]
+        two_sided: Option<bool>,
     },
 }
 

@@ -19,6 +19,41 @@ pub struct Material {
     pub albedo: Vec3,
     pub emission: Vec3,
     pub two_sided: bool,
+    /// Base-colour texture (index into `Scene::textures`), multiplied with `albedo` at the
+    /// hit's texture coordinates.
+    pub texture: Option<u32>,
+}
+
+/// A base-colour texture, decoded to linear RGB (row 0 at v = 0), sampled bilinearly with
+/// repeat wrapping.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<Vec3>,
+}
+
+impl Texture {
+    /// Bilinear sample at texture coordinates `uv` (repeat wrapping; finite for any input).
+    #[must_use]
+    pub fn sample(&self, uv: glam::Vec2) -> Vec3 {
+        let (w, h) = (self.width.max(1) as f32, self.height.max(1) as f32);
+        if self.texels.is_empty() || !uv.is_finite() {
+            return Vec3::ONE;
+        }
+        let x = (uv.x - uv.x.floor()) * w - 0.5;
+        let y = (uv.y - uv.y.floor()) * h - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let at = |i: f32, j: f32| {
+            let i = (i as i64).rem_euclid(self.width as i64) as usize;
+            let j = (j as i64).rem_euclid(self.height as i64) as usize;
+            self.texels[j * self.width as usize + i]
+        };
+        let top = at(x0, y0).lerp(at(x0 + 1.0, y0), fx);
+        let bottom = at(x0, y0 + 1.0).lerp(at(x0 + 1.0, y0 + 1.0), fx);
+        top.lerp(bottom, fy)
+    }
 }
 
 /// Triangle soup as a struct of arrays. Front faces are counter-clockwise: the geometric
@@ -29,6 +64,8 @@ pub struct Triangles {
     pub v1: Vec<Vec3>,
     pub v2: Vec<Vec3>,
     pub material: Vec<u32>,
+    /// Texture coordinates of the three corners (zero where the mesh has none).
+    pub uv: Vec<[glam::Vec2; 3]>,
 }
 
 impl Triangles {
@@ -90,6 +127,33 @@ pub struct SphereLight {
     pub position: Vec3,
     pub radius: f32,
     pub radiance: Vec3,
+    /// A spot light's cone (glTF `KHR_lights_punctual` spot): emission towards directions
+    /// outside it fades to zero.
+    pub spot: Option<Spot>,
+}
+
+/// A spot cone: unit axis, cosines of the inner (full) and outer (zero) angles; between them
+/// the falloff is glTF's `t²`, `t = (cos − cos_outer) / (cos_inner − cos_outer)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spot {
+    pub direction: Vec3,
+    pub cos_inner: f32,
+    pub cos_outer: f32,
+}
+
+impl SphereLight {
+    /// Emission factor towards unit direction `towards` (from the light): 1 without a cone.
+    #[inline]
+    #[must_use]
+    pub fn falloff(&self, towards: Vec3) -> f32 {
+        match self.spot {
+            None => 1.0,
+            Some(s) => {
+                let t = ((towards.dot(s.direction) - s.cos_outer) / (s.cos_inner - s.cos_outer)).clamp(0.0, 1.0);
+                if t.is_finite() { t * t } else { 0.0 }
+            }
+        }
+    }
 }
 
 #[derive(Clone, Debug, Default)]
@@ -116,6 +180,8 @@ pub struct Scene {
     pub duplicates_skipped: usize,
     /// Every file the scene was built from besides the scene file, with its checksum.
     pub inputs: Vec<(PathBuf, String)>,
+    /// Base-colour textures of the materials.
+    pub textures: Vec<Texture>,
 }
 
 /// Largest coordinate (scene units) a scene may use: squared distances stay far inside f32.
@@ -186,10 +252,11 @@ impl Scene {
         validate_settings(&file, path)?;
         let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let sources = mesh_io::Sources { allow_outside: file.allow_outside_paths };
+        let frame = mesh_frame(&file, path)?;
         let mut builder = procedural::Builder::default();
         for (k, geom) in file.geometry.iter().enumerate() {
             let field = format!("geometry[{k}]");
-            add_geometry(&mut builder, sources, geom, &base_dir, path, &field)?;
+            add_geometry(&mut builder, sources, frame, geom, &base_dir, path, &field)?;
         }
         if builder.triangles.is_empty() && builder.spheres.is_empty() {
             return Err(SceneError::Empty { path: path.to_path_buf() });
@@ -201,7 +268,16 @@ impl Scene {
             tracing::warn!("{}: dropped {} duplicate triangle(s)", path.display(), builder.duplicates_skipped);
         }
         let sky = sky_from(&file, path)?;
-        let lights = lights_from(&file, path)?;
+        let mut lights = lights_from(&file, path)?;
+        for l in builder.lights.drain(..) {
+            match l {
+                mesh_io::MeshLight::Sphere(s) => lights.sphere_lights.push(s),
+                mesh_io::MeshLight::Sun(sun) if lights.sun.is_none() => lights.sun = Some(sun),
+                mesh_io::MeshLight::Sun(_) => {
+                    tracing::warn!("{}: a second directional light is ignored (one sun per scene)", path.display())
+                }
+            }
+        }
         Ok(Scene {
             name: name.to_string(),
             source: path.to_path_buf(),
@@ -211,6 +287,7 @@ impl Scene {
             degenerate_skipped: builder.degenerate_skipped,
             duplicates_skipped: builder.duplicates_skipped,
             inputs: builder.inputs,
+            textures: builder.textures,
             sky,
             lights,
             config: file,
@@ -410,6 +487,7 @@ fn lights_from(f: &SceneFile, path: &Path) -> Result<Lights, SceneError> {
             position: finite3(path, &format!("{field}.position"), l.position)?,
             radius: positive(path, &format!("{field}.radius"), l.radius)?,
             radiance: nonneg3(path, &format!("{field}.radiance"), l.radiance)?,
+            spot: None,
         });
     }
     Ok(lights)
@@ -429,12 +507,29 @@ fn material_from(
         albedo,
         emission: nonneg3(path, &format!("{field}.material.emission"), m.emission)?,
         two_sided: m.two_sided.unwrap_or(default_two_sided),
+        texture: None,
     })
+}
+
+/// The frame every mesh file is read in: `up_axis` and `units` of the scene file.
+fn mesh_frame(f: &SceneFile, path: &Path) -> Result<Mat4, SceneError> {
+    let units = f.units.unwrap_or(1.0);
+    if !(units.is_finite() && units > 0.0 && (1e-6..=1e6).contains(&units)) {
+        return Err(invalid(path, "units", format!("must be in [1e-6, 1e6] scene units per mesh unit, got {units}")));
+    }
+    let turn = match f.up_axis.as_deref().unwrap_or("y") {
+        "y" | "Y" | "+y" => Mat4::IDENTITY,
+        // +Z up → +Y up (and +Y → −Z): right-handed, a quarter turn about X
+        "z" | "Z" | "+z" => Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2),
+        other => return Err(invalid(path, "up_axis", format!("must be \"y\" or \"z\", got {other:?}"))),
+    };
+    Ok(turn * Mat4::from_scale(Vec3::splat(units)))
 }
 
 fn add_geometry(
     b: &mut procedural::Builder,
     sources: mesh_io::Sources,
+    mesh_frame: Mat4,
     geom: &GeometryConfig,
     base_dir: &Path,
     path: &Path,
@@ -515,13 +610,17 @@ fn add_geometry(
             };
             b.add_arch(&arch, m);
         }
-        GeometryConfig::Gltf { path: rel, transform } => {
-            let xf = transform_matrix(path, &format!("{field}.transform"), transform)?;
-            mesh_io::load_gltf(b, &sources, &base_dir.join(rel), xf)?;
+        GeometryConfig::Gltf { path: rel, transform, material, two_sided } => {
+            let xf = transform_matrix(path, &format!("{field}.transform"), transform)? * mesh_frame;
+            let material = material.as_ref().map(|m| material_from(m, false, path, field)).transpose()?;
+            let o = mesh_io::MeshOptions { xf, material, two_sided: *two_sided };
+            mesh_io::load_gltf(b, &sources, &base_dir.join(rel), &o)?;
         }
-        GeometryConfig::Obj { path: rel, transform } => {
-            let xf = transform_matrix(path, &format!("{field}.transform"), transform)?;
-            mesh_io::load_obj(b, &sources, &base_dir.join(rel), xf)?;
+        GeometryConfig::Obj { path: rel, transform, material, two_sided } => {
+            let xf = transform_matrix(path, &format!("{field}.transform"), transform)? * mesh_frame;
+            let material = material.as_ref().map(|m| material_from(m, false, path, field)).transpose()?;
+            let o = mesh_io::MeshOptions { xf, material, two_sided: *two_sided };
+            mesh_io::load_obj(b, &sources, &base_dir.join(rel), &o)?;
         }
     }
     Ok(())

@@ -39,6 +39,10 @@ pub struct Builder {
     pub inputs: Vec<(std::path::PathBuf, String)>,
     /// Bit patterns of the triangles added so far (for duplicate removal).
     seen: std::collections::HashSet<[u32; 10]>,
+    /// Base-colour textures decoded so far.
+    pub textures: Vec<super::Texture>,
+    /// Lights read from mesh files (glTF `KHR_lights_punctual`).
+    pub lights: Vec<super::mesh_io::MeshLight>,
 }
 
 impl Builder {
@@ -54,6 +58,11 @@ impl Builder {
     /// Adds one triangle unless it is degenerate (zero or numerically negligible area
     /// relative to its edges), which is counted instead.
     pub fn add_triangle(&mut self, v0: Vec3, v1: Vec3, v2: Vec3, material: u32) {
+        self.add_triangle_uv(v0, v1, v2, material, [glam::Vec2::ZERO; 3]);
+    }
+
+    /// [`Builder::add_triangle`] with texture coordinates of the corners.
+    pub fn add_triangle_uv(&mut self, v0: Vec3, v1: Vec3, v2: Vec3, material: u32, uv: [glam::Vec2; 3]) {
         let e1 = v1 - v0;
         let e2 = v2 - v0;
         let n = e1.cross(e2);
@@ -77,6 +86,7 @@ impl Builder {
         self.triangles.v1.push(v1);
         self.triangles.v2.push(v2);
         self.triangles.material.push(material);
+        self.triangles.uv.push(uv);
     }
 
     /// Adds the planar quad a-b-c-d as two triangles whose front faces along `facing`.

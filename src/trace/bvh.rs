@@ -38,6 +38,8 @@ pub struct Hit {
     pub backface: bool,
     /// The primitive is an exact sphere (not a triangle).
     pub sphere: bool,
+    /// Index of the triangle (or of the sphere, when `sphere`).
+    pub prim: u32,
 }
 
 /// Which BVH builder preset to use (measured in `benches/trace.rs`).
@@ -313,7 +315,16 @@ impl Tracer {
             let out = Vec3::from((p - self.sphere_center[k]).normalize_or_zero());
             (if self.sphere_inward[k] { -out } else { out }, self.sphere_material[k])
         };
-        Some(Hit { t: t_world, position, normal, material, backface: normal.dot(dir) > 0.0, sphere: prim >= nt })
+        let (sphere, index) = if prim < nt { (false, prim) } else { (true, prim - nt) };
+        Some(Hit {
+            t: t_world,
+            position,
+            normal,
+            material,
+            backface: normal.dot(dir) > 0.0,
+            sphere,
+            prim: index as u32,
+        })
     }
 
     /// True when something lies along `dir` from `origin` closer than `tmax` (world units).

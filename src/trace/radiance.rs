@@ -22,8 +22,10 @@ pub struct RaySample {
     pub radiance: Vec3,
     /// Distance to the first thing seen (+inf on miss).
     pub distance: f32,
-    /// The ray hit the back of a one-sided surface.
+    /// The ray hit the back of a one-sided surface (black).
     pub backface: bool,
+    /// The ray hit the back of a two-sided surface (shaded as its front).
+    pub backface_two_sided: bool,
 }
 
 /// Scene + tracer: everything needed to answer radiance queries.
@@ -93,7 +95,7 @@ impl<'a> Renderer<'a> {
     /// sampling; `rays` counts every ray traced (primary, shadow and bounce).
     pub fn sample(&self, origin: Vec3, dir: Vec3, sampler: &mut Sampler, rays: &mut u64) -> RaySample {
         if !origin.is_finite() || !dir.is_finite() || dir.length_squared() == 0.0 {
-            return RaySample { radiance: Vec3::ZERO, distance: f32::INFINITY, backface: false };
+            return RaySample { radiance: Vec3::ZERO, distance: f32::INFINITY, ..Default::default() };
         }
         let dir = dir.normalize();
         *rays += 1;
@@ -113,22 +115,48 @@ impl<'a> Renderer<'a> {
             );
             if t < t_light {
                 t_light = t;
-                light_radiance = Some(l.radiance);
+                light_radiance = Some(l.radiance * l.falloff(-dir));
             }
         }
         if let Some(radiance) = light_radiance {
-            return RaySample { radiance, distance: t_light, backface: false };
+            return RaySample { radiance, distance: t_light, ..Default::default() };
         }
         let Some(hit) = hit else {
-            return RaySample { radiance: self.scene.sky.radiance(dir), distance: f32::INFINITY, backface: false };
+            return RaySample { radiance: self.scene.sky.radiance(dir), distance: f32::INFINITY, ..Default::default() };
         };
         let mat = self.scene.materials[hit.material as usize];
         if hit.backface && !mat.two_sided {
-            return RaySample { radiance: Vec3::ZERO, distance: hit.t, backface: true };
+            return RaySample { radiance: Vec3::ZERO, distance: hit.t, backface: true, backface_two_sided: false };
         }
         let n = if hit.backface { -hit.normal } else { hit.normal };
-        let radiance = mat.emission + self.shade(hit.position, n, mat.albedo, self.bounces, sampler, rays);
-        RaySample { radiance: sanitize(radiance), distance: hit.t, backface: false }
+        let radiance = mat.emission + self.shade(hit.position, n, self.albedo(&hit), self.bounces, sampler, rays);
+        RaySample { radiance: sanitize(radiance), distance: hit.t, backface: false, backface_two_sided: hit.backface }
+    }
+
+    /// Albedo at a hit: the material's, times its base-colour texture at the hit's texture
+    /// coordinates (interpolated barycentrically) when it has one.
+    #[inline]
+    fn albedo(&self, hit: &super::bvh::Hit) -> Vec3 {
+        let mat = &self.scene.materials[hit.material as usize];
+        let (Some(t), false) = (mat.texture, hit.sphere) else { return mat.albedo };
+        let (Some(tex), Some(uv)) =
+            (self.scene.textures.get(t as usize), self.scene.triangles.uv.get(hit.prim as usize))
+        else {
+            return mat.albedo;
+        };
+        let tris = &self.scene.triangles;
+        let k = hit.prim as usize;
+        let (a, b, c) = (tris.v0[k], tris.v1[k], tris.v2[k]);
+        let n = (b - a).cross(c - a);
+        let n2 = n.length_squared();
+        if !(n2 > 0.0 && n2.is_finite()) {
+            return mat.albedo;
+        }
+        let p = hit.position;
+        let wb = (p - a).cross(c - a).dot(n) / n2;
+        let wc = (b - a).cross(p - a).dot(n) / n2;
+        let at = uv[0] * (1.0 - wb - wc) + uv[1] * wb + uv[2] * wc;
+        (mat.albedo * tex.sample(at)).clamp(Vec3::ZERO, Vec3::ONE)
     }
 
     /// Outgoing Lambertian radiance (without emission) at `p` with front normal `n`.
@@ -173,10 +201,14 @@ impl<'a> Renderer<'a> {
             if !t_s.is_finite() {
                 continue;
             }
+            let falloff = light.falloff(-l);
+            if falloff <= 0.0 {
+                continue;
+            }
             *rays += 1;
             if !self.tracer.occluded(origin, l, t_s * (1.0 - 1e-4)) {
                 let solid_angle = TAU * (1.0 - cos_max);
-                irradiance_over_pi += light.radiance * cos * solid_angle * FRAC_1_PI;
+                irradiance_over_pi += light.radiance * (cos * solid_angle * FRAC_1_PI * falloff);
             }
         }
         irradiance_over_pi += self.emitter_irradiance(origin, n, sampler, rays) * FRAC_1_PI;
@@ -195,7 +227,7 @@ impl<'a> Renderer<'a> {
                         let hn = if h.backface { -h.normal } else { h.normal };
                         // Emissive triangles already arrived by next-event estimation.
                         let emission = if h.sphere { m.emission } else { Vec3::ZERO };
-                        emission + self.shade(h.position, hn, m.albedo, bounces_left - 1, sampler, rays)
+                        emission + self.shade(h.position, hn, self.albedo(&h), bounces_left - 1, sampler, rays)
                     }
                 }
             };

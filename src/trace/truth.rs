@@ -43,27 +43,55 @@ pub fn oracle(scene: &Scene, tracer: &Tracer, a: Vec3, b: Vec3, dir: Vec3) -> (V
     (d, hidden)
 }
 
+/// Back faces seen by the rays leaving a point: of one-sided surfaces, of any surface, and
+/// how many rays.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Backfaces {
+    pub one_sided: u32,
+    pub any: u32,
+    pub rays: u32,
+}
+
+impl Backfaces {
+    /// Counts one ray's hit: `back` (geometric back face), `two_sided` (its material).
+    pub fn add(&mut self, back: bool, two_sided: bool) {
+        self.rays += 1;
+        self.any += back as u32;
+        self.one_sided += (back && !two_sided) as u32;
+    }
+}
+
+/// Share of rays that must see back faces of any surface, two-sided ones included, for a
+/// point to be inside a closed solid: two-sided materials (Blender exports `doubleSided`
+/// by default) still enclose solids, but a point behind a free-standing two-sided panel
+/// sees its back in at most about half of its directions.
+pub const CLOSED_SOLID_FRACTION: f32 = 0.9;
+
 /// The one inside-geometry rule: a point is inside when more than `threshold` of the rays
-/// leaving it hit back faces of one-sided surfaces (the scene's `grid.inside_backface_fraction`).
-/// The bake applies it to a cell's distance rays, the query sets to [`INSIDE_PROBE_RAYS`]
-/// rays of their own.
+/// leaving it hit back faces of one-sided surfaces (the scene's
+/// `grid.inside_backface_fraction`), or more than [`CLOSED_SOLID_FRACTION`] hit back faces
+/// of any surface. The bake applies it to a cell's distance rays, the query sets to
+/// [`INSIDE_PROBE_RAYS`] rays of their own.
 #[must_use]
-pub fn inside_by_backfaces(backfaces: u32, rays: u32, threshold: f32) -> bool {
-    rays > 0 && backfaces as f32 / rays as f32 > threshold
+pub fn inside_by_backfaces(b: Backfaces, threshold: f32) -> bool {
+    b.rays > 0
+        && (b.one_sided as f32 / b.rays as f32 > threshold || b.any as f32 / b.rays as f32 > CLOSED_SOLID_FRACTION)
 }
 
 /// Rays a query point traces to apply the inside rule.
 pub const INSIDE_PROBE_RAYS: u32 = 16;
 
 /// The inside rule at `p`, with [`INSIDE_PROBE_RAYS`] uniform rays drawn from `sampler(k)`.
-pub fn is_inside(tracer: &Tracer, p: Vec3, threshold: f32, sampler: impl Fn(u32) -> Sampler) -> bool {
-    let back = (0..INSIDE_PROBE_RAYS)
-        .filter(|&k| {
-            let d = uniform_sphere(sampler(k).next_2d());
-            tracer.closest_hit(p, d, f32::INFINITY).is_some_and(|h| h.backface)
-        })
-        .count();
-    inside_by_backfaces(back as u32, INSIDE_PROBE_RAYS, threshold)
+pub fn is_inside(scene: &Scene, tracer: &Tracer, p: Vec3, threshold: f32, sampler: impl Fn(u32) -> Sampler) -> bool {
+    let mut b = Backfaces::default();
+    for k in 0..INSIDE_PROBE_RAYS {
+        let d = uniform_sphere(sampler(k).next_2d());
+        match tracer.closest_hit(p, d, f32::INFINITY) {
+            Some(h) => b.add(h.backface, scene.materials[h.material as usize].two_sided),
+            None => b.add(false, false),
+        }
+    }
+    inside_by_backfaces(b, threshold)
 }
 
 /// Queries (B, dir, roughness) with traced references: `positions.len() × dirs_per_position`
@@ -222,9 +250,13 @@ mod tests {
 
     #[test]
     fn the_inside_rule_is_a_strict_fraction() {
-        assert!(!inside_by_backfaces(4, 16, 0.25));
-        assert!(inside_by_backfaces(5, 16, 0.25));
-        assert!(!inside_by_backfaces(0, 0, 0.0), "no rays: not inside");
-        assert!(inside_by_backfaces(1, 1, 0.999));
+        let b = |one_sided, any, rays| Backfaces { one_sided, any, rays };
+        assert!(!inside_by_backfaces(b(4, 4, 16), 0.25));
+        assert!(inside_by_backfaces(b(5, 5, 16), 0.25));
+        assert!(!inside_by_backfaces(b(0, 0, 0), 0.0), "no rays: not inside");
+        assert!(inside_by_backfaces(b(1, 1, 1), 0.999));
+        // two-sided back faces: only a closed solid's share counts
+        assert!(!inside_by_backfaces(b(0, 8, 16), 0.25), "behind a two-sided panel");
+        assert!(inside_by_backfaces(b(0, 15, 16), 0.25), "inside a two-sided solid");
     }
 }

@@ -1,0 +1,117 @@
+//! `warpfit check`: what makes a bake or a fit of a scene meaningless, found before anything
+//! is baked (bake, fit and run call it first). Errors: probe A inside geometry or outside
+//! the scene, a grid that does not overlap the scene, a scene with no light. Warnings:
+//! mixed or inverted winding (back faces of one-sided surfaces seen from probe A), a grid
+//! reaching far beyond the scene, skipped degenerate and duplicate triangles. Every finding
+//! names the scene file and the element.
+
+use crate::sampling::{Sampler, hash_pair, uniform_sphere};
+use crate::scene::Scene;
+use crate::trace::{Tracer, truth};
+use glam::Vec3;
+
+/// Rays traced from probe A for the winding check.
+const WINDING_RAYS: u32 = 1024;
+/// Share of one-sided back faces seen from probe A above which the winding is suspect.
+const WINDING_WARN: f32 = 0.05;
+
+/// What the check found.
+#[derive(Clone, Debug, Default)]
+pub struct Check {
+    pub errors: Vec<String>,
+    pub warnings: Vec<String>,
+    /// Facts worth printing: bounds, triangle counts, lights.
+    pub facts: Vec<String>,
+}
+
+impl Check {
+    pub fn ok(&self) -> bool {
+        self.errors.is_empty()
+    }
+}
+
+/// Checks `scene` (traced with `tracer`).
+pub fn check(scene: &Scene, tracer: &Tracer) -> Check {
+    let mut c = Check::default();
+    let file = scene.source.display().to_string();
+    let (lo, hi) = scene.bounds();
+    let cfg = &scene.config;
+    c.facts.push(format!(
+        "{} triangles ({} degenerate and {} duplicate skipped), {} spheres; bounds ({:.3}, {:.3}, {:.3}) – ({:.3}, {:.3}, {:.3})",
+        scene.triangles.len(),
+        scene.degenerate_skipped,
+        scene.duplicates_skipped,
+        scene.spheres.len(),
+        lo.x,
+        lo.y,
+        lo.z,
+        hi.x,
+        hi.y,
+        hi.z
+    ));
+    // probe A
+    let a = Vec3::from_array(cfg.probe.position);
+    if !(a.cmpge(lo).all() && a.cmple(hi).all()) {
+        c.errors.push(format!("{file}: probe.position {a} lies outside the scene's bounds"));
+    } else {
+        let mut back = truth::Backfaces::default();
+        for k in 0..WINDING_RAYS {
+            let d = uniform_sphere(Sampler::new(cfg.seed, hash_pair(0xC4EC, 1), k).next_2d());
+            match tracer.closest_hit(a, d, f32::INFINITY) {
+                Some(h) => back.add(h.backface, scene.materials[h.material as usize].two_sided),
+                None => back.add(false, false),
+            }
+        }
+        if truth::inside_by_backfaces(back, cfg.grid.inside_backface_fraction) {
+            c.errors.push(format!(
+                "{file}: probe.position {a} is inside geometry ({} of {} rays from it see back faces): move it into open space",
+                back.any, back.rays
+            ));
+        } else if back.one_sided as f32 > WINDING_WARN * back.rays as f32 {
+            c.warnings.push(format!(
+                "{file}: {:.0}% of the rays from probe A see back faces of one-sided surfaces: mixed or inverted winding, or surfaces that should be two_sided (set two_sided on the geometry)",
+                100.0 * back.one_sided as f32 / back.rays as f32
+            ));
+        }
+    }
+    // the grid
+    let (gmin, gmax) = (Vec3::from_array(cfg.grid.min), Vec3::from_array(cfg.grid.max));
+    let overlap = gmin.max(lo);
+    let overlap_hi = gmax.min(hi);
+    if !(overlap_hi.cmpgt(overlap).all()) {
+        c.errors.push(format!("{file}: grid [{gmin} – {gmax}] does not overlap the scene's bounds"));
+    } else {
+        let inside_share = (overlap_hi - overlap).element_product() / (gmax - gmin).element_product();
+        if inside_share < 0.5 {
+            c.warnings.push(format!(
+                "{file}: only {:.0}% of the grid's volume lies inside the scene's bounds",
+                100.0 * inside_share
+            ));
+        }
+    }
+    // light
+    let emissive = scene.triangles.material.iter().any(|&m| scene.materials[m as usize].emission.max_element() > 0.0)
+        || scene.spheres.material.iter().any(|&m| scene.materials[m as usize].emission.max_element() > 0.0);
+    let sky = scene.sky.zenith.max(scene.sky.horizon).max(scene.sky.ground).max_element() > 0.0;
+    let sun = scene.lights.sun.is_some_and(|s| s.irradiance.max_element() > 0.0);
+    let spheres = scene.lights.sphere_lights.iter().any(|l| l.radiance.max_element() > 0.0);
+    if !(emissive || sky || sun || spheres) {
+        c.errors.push(format!(
+            "{file}: the scene has no light (no sun, sky, sphere light or emissive surface): every method would score a perfect 0"
+        ));
+    }
+    c.facts.push(format!(
+        "light: sun {}, sky {}, {} sphere light(s), emissive surfaces {}",
+        if sun { "yes" } else { "no" },
+        if sky { "yes" } else { "no" },
+        scene.lights.sphere_lights.len(),
+        if emissive { "yes" } else { "no" }
+    ));
+    if scene.degenerate_skipped > 0 {
+        c.warnings.push(format!("{file}: {} degenerate triangle(s) skipped", scene.degenerate_skipped));
+    }
+    if scene.duplicates_skipped > 0 {
+        c.warnings.push(format!("{file}: {} duplicate triangle(s) dropped", scene.duplicates_skipped));
+    }
+    c
+}
