@@ -316,7 +316,7 @@ fn print_fit(f: &warpfit::fit::Fit, manifest: &warpfit::gridfile::GridManifest, 
     let bytes: u64 = manifest.payloads.iter().map(|p| p.bytes).sum();
     let s = warpfit::fit::summary::summary(f);
     println!(
-        "fitted {} active cells in {:.1} s ({} threads): {} store a warp map ({}), {} keep the fallback {} ({} of them kept it over a fitted map that did not beat it by 5%); mean held-out tone-mapped relative error per cell: warp1 {:.4}, fallback {:.4}, unfitted cell maps {:.4}, stored model {:.4}",
+        "fitted {} active cells in {:.1} s ({} threads): {} store a warp map, {} in all; {} keep the fallback {} ({} of them kept it over a fitted map that did not beat it by 5%); mean held-out tone-mapped relative error per cell: warp1 {:.4}, fallback {:.4}, unfitted cell maps {:.4}, stored model {:.4}",
         s.active_cells,
         s.fit_seconds,
         rayon::current_num_threads(),
@@ -353,6 +353,10 @@ fn print_eval(r: &warpfit::eval::EvalReport, folder: &RunFolder) {
         print!("{}", report::summary_table(r));
         println!("\nreferences' own noise per roughness:");
         print!("{}", report::buckets_table(r));
+    }
+    if r.diffuse.is_some() {
+        println!("\ndiffuse (irradiance at held-out surface points):");
+        print!("{}", report::diffuse_table(r));
     }
     println!("wrote {}/eval.json, eval.md, eval_error_vs_cost.png", folder.dir.display());
 }

@@ -42,7 +42,9 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
     // variant) with each of the four mip rules at every rough bucket
     let buckets = warpfit::eval::ROUGHNESS_BUCKETS;
     assert_eq!(report.buckets.len(), buckets.len());
-    assert_eq!(methods.len(), Method::ALL.len() + (buckets.len() - 1) * (Method::ALL.len() - 1) * 4);
+    // plus the renormalized box row at every bucket (no fitted grid here, so no runtime rows)
+    assert_eq!(methods.len(), Method::ALL.len() + (buckets.len() - 1) * (Method::ALL.len() - 1) * 4 + buckets.len());
+    assert_eq!(methods.iter().filter(|m| m["name"] == "box+renorm").count(), buckets.len());
     for &r in &buckets {
         let rows: Vec<&serde_json::Value> =
             methods.iter().filter(|m| m["roughness"].as_f64() == Some(r as f64)).collect();
@@ -72,6 +74,15 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
     for f in ["eval_rough.png", "flip_r0.500.png"] {
         assert!(dir.join(f).is_file(), "{f}");
     }
+    // the diffuse table: every method, finite errors, ꟻLIP in [0, 1]
+    let diffuse = report.diffuse.as_ref().expect("a diffuse evaluation");
+    assert!(diffuse.points > 0);
+    assert_eq!(diffuse.rows.len(), 6);
+    for row in &diffuse.rows {
+        assert!(row.rel_rmse.is_finite() && row.tm_rmse.is_finite() && row.ns_per_lookup > 0.0, "{row:?}");
+        assert!(row.flip.is_some_and(|f| (0.0..=1.0).contains(&f)), "{row:?}");
+    }
+    assert!(std::fs::read_to_string(dir.join("eval.md")).unwrap().contains("## Diffuse lighting"));
     let get = |name: &str| report.methods.iter().find(|m| m.name == name && m.roughness == 0.0).unwrap().rel_rmse;
     // In a closed box room the box proxy (scene bounds) is near the oracle, and both beat
     // no correction at all.

@@ -58,7 +58,8 @@ fn report_is_self_contained_complete_and_opens_in_chromium() {
     assert_eq!(html.matches("src=\"data:image/png;base64,").count(), r.images.len());
     assert!(!html.contains("http://") && !html.contains("https://") && !html.contains("<script"));
     let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
-    assert!(md.contains("| method | rel RMSE |"));
+    assert!(md.contains("| roughness | method | ꟻLIP | tone-mapped RMSE | rel RMSE |"), "{md}");
+    assert!(md.contains("Diffuse: irradiance at"), "the diffuse table is in the report");
 
     match chromium() {
         None => {

@@ -164,15 +164,46 @@ impl Fetch<'_> {
     }
 }
 
-/// A row of the table: how it fetches and how it picks its mip (`None` where the rule is
-/// not the row's choice: mirror buckets and the runtime).
+/// Probe renormalization (seed 000: what Black Ops 3 shipped instead of warping): a
+/// specular lookup scaled by the ratio of the dense grid's irradiance at the shading point to
+/// probe A's own irradiance, both around the lookup's direction, `L · E_grid(B, R) / E_A(R)`
+/// (the normalization Call of Duty describes: Lazarov 2013, "Getting More Physical in Call
+/// of Duty: Black Ops II", environment map normalization). The ratio is capped at 16, which
+/// only a probe that sees nearly nothing in a direction reaches.
+pub struct Renorm<'a> {
+    pub grid: &'a crate::runtime::IrradianceGrid,
+    pub probe_a: &'a crate::octa::OctMap<Vec3>,
+}
+
+impl Renorm<'_> {
+    /// The scale of a lookup at `b` in unit direction `dir`.
+    #[inline]
+    pub fn scale(&self, b: Vec3, dir: Vec3) -> f32 {
+        let (e, ea) = (self.grid.irradiance(b, dir), self.probe_a.bilinear(dir));
+        let (y, ya) = (crate::tonemap::luminance(e), crate::tonemap::luminance(ea));
+        let k = if ya > 0.0 { y / ya } else { 1.0 };
+        if k.is_finite() { k.clamp(0.0, 16.0) } else { 1.0 }
+    }
+}
+
+/// A row of the table: how it fetches, how it picks its mip (`None` where the rule is not
+/// the row's choice: mirror buckets and the runtime), and whether it is renormalized.
 #[derive(Clone, Copy)]
 pub struct Row<'a> {
     pub fetch: Fetch<'a>,
     pub rule: Option<MipRule>,
+    pub renorm: Option<&'a Renorm<'a>>,
 }
 
 impl Row<'_> {
+    /// The row's method name (`+renorm` marks a renormalized row).
+    pub fn name(&self) -> String {
+        match self.renorm {
+            Some(_) => format!("{}+renorm", self.fetch.name()),
+            None => self.fetch.name().to_string(),
+        }
+    }
+
     /// Fetch vector of query (B, dir) (the oracle's direction given), or `None` for the
     /// runtime, which shades on its own.
     #[inline]
@@ -188,10 +219,14 @@ impl Row<'_> {
     /// The row's radiance for query (B, dir, roughness r).
     #[inline]
     pub fn estimate(&self, shading: Glossy, b: Vec3, dir: Vec3, oracle: Vec3, r: f32) -> Vec3 {
-        match (self.fetch, self.aim(shading.warp, b, dir, oracle)) {
+        let l = match (self.fetch, self.aim(shading.warp, b, dir, oracle)) {
             (Fetch::Runtime(g), _) => g.specular(b, dir, r),
             (_, Some(aim)) => shading.radiance(self.rule.unwrap_or(MipRule::Plain), b, dir, aim, r),
             (_, None) => Vec3::ZERO,
+        };
+        match self.renorm {
+            Some(n) => l * n.scale(b, dir),
+            None => l,
         }
     }
 
@@ -212,17 +247,26 @@ pub fn rows<'a>(
     grids: &[CorrectiveRow<'a>],
     runtime: Option<&'a FittedGrid>,
     rules: &[MipRule],
+    renorm: Option<&'a Renorm<'a>>,
 ) -> Vec<Row<'a>> {
     let rough = rules.len() > 1;
     let rule_of = |r: MipRule| rough.then_some(r);
     let mut out = Vec::new();
     for &m in methods.iter().filter(|&&m| m != Method::Reproject) {
-        out.extend(rules.iter().map(|&r| Row { fetch: Fetch::Method(m), rule: rule_of(r) }));
+        out.extend(rules.iter().map(|&r| Row { fetch: Fetch::Method(m), rule: rule_of(r), renorm: None }));
     }
     for &g in grids {
-        out.extend(rules.iter().map(|&r| Row { fetch: Fetch::Grid(g), rule: rule_of(r) }));
+        out.extend(rules.iter().map(|&r| Row { fetch: Fetch::Grid(g), rule: rule_of(r), renorm: None }));
     }
-    out.extend(runtime.map(|g| Row { fetch: Fetch::Runtime(g), rule: None }));
+    out.extend(runtime.map(|g| Row { fetch: Fetch::Runtime(g), rule: None, renorm: None }));
+    // renormalized: the parallax-corrected cubemap engines ship (box, the plain mip) and the
+    // runtime, each scaled by the grid's irradiance
+    if let Some(n) = renorm {
+        if methods.contains(&Method::Box) {
+            out.push(Row { fetch: Fetch::Method(Method::Box), rule: rough.then_some(MipRule::Plain), renorm: Some(n) });
+        }
+        out.extend(runtime.map(|g| Row { fetch: Fetch::Runtime(g), rule: None, renorm: Some(n) }));
+    }
     out
 }
 
@@ -255,7 +299,13 @@ pub fn evaluate_row(
         timing::time_queries(set, timing_lookups, false, lookup),
         timing::time_queries(set, timing_lookups, true, lookup),
     );
-    let mut out = result(set, row.fetch.name(), row.fetch.note(), &est, Some(&dirs), ns, exposure);
+    let note = match row.renorm {
+        Some(_) => {
+            format!("{}; scaled by the grid's irradiance over probe A's (renormalization, seed 000)", row.fetch.note())
+        }
+        None => row.fetch.note(),
+    };
+    let mut out = result(set, &row.name(), note, &est, Some(&dirs), ns, exposure);
     out.mip_rule = row.rule;
     if matches!(row.fetch, Fetch::Method(Method::Warp1)) && warp.options.relax_texels == 0.0 && r == 0.0 {
         out.ns_per_lookup_batched = Some(timing::time_warp1_batched(warp, set, timing_lookups));

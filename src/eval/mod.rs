@@ -19,6 +19,7 @@
 //! (plus the reference's own noise, reported per bucket as its standard error). Evaluation
 //! writes no files: the report does.
 
+pub mod diffuse;
 pub mod flip;
 pub mod methods;
 pub mod metrics;
@@ -69,6 +70,12 @@ pub struct EvalSettings {
     /// The rendered views judged by ꟻLIP (`None`: not rendered).
     #[serde(default)]
     pub renders: Option<RenderSettings>,
+    /// Diffuse: held-out surface points and samples per irradiance reference (0 points: no
+    /// diffuse evaluation).
+    #[serde(default)]
+    pub diffuse_points: u32,
+    #[serde(default)]
+    pub diffuse_spp: u32,
 }
 
 /// The roughness buckets every row is judged on (perceptual roughness; α = r²).
@@ -88,6 +95,8 @@ impl EvalSettings {
             rough_dirs: 64,
             rough_reference_spp: 64,
             renders: Some(RenderSettings::standard()),
+            diffuse_points: 512,
+            diffuse_spp: 256,
         }
     }
 
@@ -102,6 +111,8 @@ impl EvalSettings {
             rough_dirs: 16,
             rough_reference_spp: 8,
             renders: Some(RenderSettings::quick()),
+            diffuse_points: 32,
+            diffuse_spp: 16,
             ..Self::standard()
         }
     }
@@ -139,6 +150,9 @@ pub struct EvalReport {
     /// `fitted` split by the level of the cell containing each validation position.
     #[serde(default)]
     pub fitted_levels: Vec<LevelEval>,
+    /// Diffuse lighting: irradiance at held-out surface points, per method.
+    #[serde(default)]
+    pub diffuse: Option<diffuse::DiffuseReport>,
     /// Wall time of the evaluation (references, methods, timings) and its traced rays.
     #[serde(default)]
     pub seconds: f64,
@@ -215,6 +229,20 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     let t0 = std::time::Instant::now();
     let shading = Glossy { warp, correction };
     let exposure = warp.probe.key_exposure();
+    // the dense grid's irradiance (the written grid's when there is one, else the bake's)
+    // and probe A's own, for the diffuse rows and the renormalized specular rows
+    let mut from_bake = None;
+    let irradiance: &crate::runtime::IrradianceGrid = match runtime {
+        Some(g) => &g.irradiance,
+        None => from_bake.insert(crate::runtime::IrradianceGrid::from_cells(
+            grid.geometry,
+            (grid.irradiance_resolution, grid.depth_resolution),
+            (&grid.irradiance, &grid.depth_mean, &grid.depth_mean_sq),
+            |c| !grid.inside[c],
+        )),
+    };
+    let probe_a = diffuse::probe_irradiance(&warp.probe.radiance);
+    let renorm = methods::Renorm { grid: irradiance, probe_a: &probe_a };
     let rough = settings.rough_positions > 0 && settings.rough_dirs > 0;
     let buckets: Vec<f32> = ROUGHNESS_BUCKETS.iter().copied().filter(|&r| r == 0.0 || rough).collect();
     let bar = progress.bar(2 + 3 * buckets.len() as u64, "eval");
@@ -261,7 +289,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         bar.inc(1);
         bar.set_message(format!("eval: r {r} rows"));
         let rules: &[MipRule] = if r == 0.0 { &[MipRule::Plain] } else { &MipRule::ALL };
-        let rows = methods::rows(methods, corrective_rows, runtime, rules);
+        let rows = methods::rows(methods, corrective_rows, runtime, rules, Some(&renorm));
         let timing = if r == 0.0 { lookups } else { (lookups / 4).max(1) };
         let mut results: Vec<MethodResult> =
             rows.iter().map(|row| methods::evaluate_row(row, shading, set, exposure, timing)).collect();
@@ -276,7 +304,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             let flips: Vec<f64> =
                 rows.par_iter().map(|row| renders::mean_flip(row, shading, &view_refs, exposure)).collect();
             for (row, f) in rows.iter().zip(flips) {
-                if let Some(m) = results.iter_mut().find(|m| m.name == row.fetch.name() && m.mip_rule == row.rule) {
+                if let Some(m) = results.iter_mut().find(|m| m.name == row.name() && m.mip_rule == row.rule) {
                     m.flip = Some(f);
                 }
             }
@@ -295,6 +323,27 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     bar.set_message("eval: warp1 options");
     let warp1_sweep = options::warp1_options(warp, &mirror, exposure);
     bar.inc(1);
+    bar.set_message("eval: diffuse");
+    let diffuse = (settings.diffuse_points > 0).then(|| {
+        let set = diffuse::diffuse_set(
+            scene,
+            tracer,
+            irradiance,
+            settings.diffuse_points,
+            settings.diffuse_spp,
+            settings.seed,
+        );
+        reference_rays += set.rays;
+        let voxels = diffuse::VoxelGi::build(scene, tracer, grid.geometry, settings.seed);
+        let mut methods: Vec<diffuse::DiffuseMethod> =
+            crate::runtime::IrradianceBlend::ALL.iter().map(|&b| diffuse::DiffuseMethod::Grid(irradiance, b)).collect();
+        methods.push(diffuse::DiffuseMethod::ProbeA(&probe_a));
+        methods.push(diffuse::DiffuseMethod::Voxel(&voxels));
+        let view_spp = settings.renders.map_or(0, |r| r.reference_spp);
+        let mut r = diffuse::evaluate(scene, tracer, &set, &methods, &views, (view_spp, settings.seed, exposure));
+        r.reference_spp = settings.diffuse_spp;
+        r
+    });
     bar.finish_and_clear();
     let renderer = Renderer::new(scene, tracer);
     let report = EvalReport {
@@ -310,6 +359,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         settings: settings.clone(),
         command: command.to_string(),
         fitted_levels,
+        diffuse,
         seconds: t0.elapsed().as_secs_f64(),
         reference_rays,
     };
@@ -348,7 +398,7 @@ fn bucket_summary(
     if let (Some(a), Some(b)) = (champion, challenger) {
         claim = (a.label(), b.label());
         diff = (b.rel_rmse - a.rel_rmse, b.tm_rmse - a.tm_rmse);
-        let row_of = |m: &MethodResult| rows.iter().find(|row| row.fetch.name() == m.name && row.rule == m.mip_rule);
+        let row_of = |m: &MethodResult| rows.iter().find(|row| row.name() == m.name && row.rule == m.mip_rule);
         if let (Some(ra), Some(rb)) = (row_of(a), row_of(b)) {
             let (ea, eb) = (methods::estimates(ra, shading, set), methods::estimates(rb, shading, set));
             se = metrics::difference_se(&ea, &eb, &set.reference, &set.reference_se, exposure);
@@ -401,7 +451,7 @@ fn flip_figure(
     let mut seen = std::collections::HashSet::new();
     wanted.retain(|m| seen.insert(m.label()));
     for m in wanted {
-        let Some(row) = rows.iter().find(|row| row.fetch.name() == m.name && row.rule == m.mip_rule) else { continue };
+        let Some(row) = rows.iter().find(|row| row.name() == m.name && row.rule == m.mip_rule) else { continue };
         let image = renders::render(row, shading, view);
         let map = renders::flip_map(view, &image, exposure);
         let mean = flip::mean(&map);

@@ -53,7 +53,14 @@ impl RenderSettings {
 /// nothing to shade (the camera sees sky: the same radiance for every row).
 #[derive(Clone, Copy, Debug)]
 enum Pixel {
-    Query { b: Vec3, dir: Vec3, oracle: Vec3 },
+    /// `normal`: the surface's, facing the camera (camera views); the query direction for
+    /// spheres of directions, which see no surface.
+    Query {
+        b: Vec3,
+        dir: Vec3,
+        oracle: Vec3,
+        normal: Vec3,
+    },
     Background(Vec3),
 }
 
@@ -64,6 +71,23 @@ pub struct View {
     pub width: u32,
     pub height: u32,
     pixels: Vec<Pixel>,
+    /// A camera on surfaces (not a sphere of directions).
+    pub camera: bool,
+}
+
+impl View {
+    /// Per pixel: the shaded surface point and its normal facing the camera, or the
+    /// background radiance (camera views; a sphere of directions has no surfaces).
+    #[must_use]
+    pub fn surfaces(&self) -> Vec<Result<(Vec3, Vec3), Vec3>> {
+        self.pixels
+            .iter()
+            .map(|p| match *p {
+                Pixel::Query { b, normal, .. } => Ok((b, normal)),
+                Pixel::Background(c) => Err(c),
+            })
+            .collect()
+    }
 }
 
 /// A view at one roughness with its traced reference.
@@ -106,7 +130,7 @@ pub fn views(scene: &Scene, tracer: &Tracer, set: &ValidationSet, a: Vec3, s: &R
         let pixels = (0..n * n)
             .map(|t| {
                 let dir = octa::texel_dir(n, t % n, t / n);
-                Pixel::Query { b, dir, oracle: truth::oracle(scene, tracer, a, b, dir).0 }
+                Pixel::Query { b, dir, oracle: truth::oracle(scene, tracer, a, b, dir).0, normal: dir }
             })
             .collect();
         out.push(View {
@@ -114,6 +138,7 @@ pub fn views(scene: &Scene, tracer: &Tracer, set: &ValidationSet, a: Vec3, s: &R
             width: n,
             height: n,
             pixels,
+            camera: false,
         });
     }
     out
@@ -146,14 +171,20 @@ fn camera_view(scene: &Scene, tracer: &Tracer, a: Vec3, eye: Vec3, s: &RenderSet
                     let n = if hit.normal.dot(ray) > 0.0 { -hit.normal } else { hit.normal };
                     let b = hit.position + n * tracer.surface_offset(hit.position);
                     let dir = (ray - 2.0 * ray.dot(n) * n).normalize_or(n);
-                    Pixel::Query { b, dir, oracle: truth::oracle(scene, tracer, a, b, dir).0 }
+                    Pixel::Query { b, dir, oracle: truth::oracle(scene, tracer, a, b, dir).0, normal: n }
                 }
                 Some(_) => Pixel::Background(Vec3::ZERO),
                 None => Pixel::Background(scene.sky.radiance(ray)),
             }
         })
         .collect();
-    View { name: format!("camera at ({:.2}, {:.2}, {:.2})", eye.x, eye.y, eye.z), width: w, height: h, pixels }
+    View {
+        name: format!("camera at ({:.2}, {:.2}, {:.2})", eye.x, eye.y, eye.z),
+        width: w,
+        height: h,
+        pixels,
+        camera: true,
+    }
 }
 
 /// Traces the reference of `view` at roughness `r`: each query pixel's GGX lobe with `spp`
@@ -201,7 +232,7 @@ pub fn render(row: &Row, shading: Glossy, v: &ViewReference) -> Vec<Vec3> {
         .par_iter()
         .map(|px| match *px {
             Pixel::Background(c) => c,
-            Pixel::Query { b, dir, oracle } => row.estimate(shading, b, dir, oracle, v.roughness),
+            Pixel::Query { b, dir, oracle, .. } => row.estimate(shading, b, dir, oracle, v.roughness),
         })
         .collect()
 }

@@ -42,6 +42,36 @@ pub struct IrradianceGrid {
     pub depth_mean_sq: Vec<f32>,
 }
 
+impl IrradianceGrid {
+    /// The grid from dense per-cell arrays (`cell · res² + texel`, as the bake holds them),
+    /// storing the cells `stored` accepts, in cell order (as the grid file does).
+    #[must_use]
+    pub fn from_cells(
+        geometry: GridGeometry,
+        (resolution, depth_resolution): (u32, u32),
+        (irradiance, depth_mean, depth_mean_sq): (&[Vec3], &[f32], &[f32]),
+        stored: impl Fn(usize) -> bool,
+    ) -> IrradianceGrid {
+        let (n2, d2) = ((resolution * resolution) as usize, (depth_resolution * depth_resolution) as usize);
+        let mut g = IrradianceGrid {
+            geometry,
+            resolution,
+            depth_resolution,
+            slot: vec![NO_MAP; geometry.cell_count()],
+            irradiance: Vec::new(),
+            depth_mean: Vec::new(),
+            depth_mean_sq: Vec::new(),
+        };
+        for cell in (0..geometry.cell_count()).filter(|&c| stored(c)) {
+            g.slot[cell] = (g.irradiance.len() / n2) as u32;
+            g.irradiance.extend_from_slice(&irradiance[cell * n2..(cell + 1) * n2]);
+            g.depth_mean.extend_from_slice(&depth_mean[cell * d2..(cell + 1) * d2]);
+            g.depth_mean_sq.extend_from_slice(&depth_mean_sq[cell * d2..(cell + 1) * d2]);
+        }
+        g
+    }
+}
+
 fn invalid(path: &Path, field: impl Into<String>, message: impl Into<String>) -> FileError {
     FileError::invalid(path, field, message)
 }

@@ -117,7 +117,7 @@ pub fn sweep(
         let est: Vec<glam::Vec3> =
             (0..set.dirs.len()).map(|k| grid.specular(set.position_of(k), set.dirs[k], 0.0)).collect();
         let stats = eval::error_stats(&est, &set.reference, exposure);
-        let row = Row { fetch: Fetch::Runtime(&grid), rule: None };
+        let row = Row { fetch: Fetch::Runtime(&grid), rule: None, renorm: None };
         let shading = Glossy { warp: &warp, correction: grid.roughness.as_ref() };
         let flip = |b: usize| renders::mean_flip(&row, shading, &view_refs[b], exposure);
         rows.push(SweepRow {

@@ -94,6 +94,43 @@ pub fn summary_table(r: &EvalReport) -> String {
 
 /// Markdown table of the roughness buckets: size, the comparison the claim rests on, and the
 /// references' own noise against it.
+/// Markdown table of the diffuse evaluation (empty without one).
+pub fn diffuse_table(r: &EvalReport) -> String {
+    let Some(d) = &r.diffuse else { return String::new() };
+    let mut s = String::from(
+        "| method | ꟻLIP (diffuse-shaded cameras) | tone-mapped RMSE | rel RMSE | MAE | p95 | ns/lookup |\n|---|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for row in &d.rows {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.1} |",
+            row.name,
+            row.flip.map_or("–".into(), |f| format!("{f:.4}")),
+            row.tm_rmse,
+            row.rel_rmse,
+            row.mae,
+            row.p95,
+            row.ns_per_lookup
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n{} held-out surface points, {}-sample references (single-reference SE {:.3} relative); best against runner-up ({} vs {}): tone-mapped RMSE difference {:.4}, its reference SE {:.4} ({}); ꟻLIP on {} camera pixels, {}-sample references whose own noise scores {:.4}.",
+        d.points,
+        d.reference_spp,
+        d.reference_se_rel,
+        d.claim.0,
+        d.claim.1,
+        d.difference_tm,
+        d.reference_se_tm,
+        if d.reference_ok { "SE ≤ ¼ difference" } else { "**SE > ¼ difference: more samples needed**" },
+        d.view_pixels,
+        d.view_reference_spp,
+        d.view_noise_flip
+    );
+    s
+}
+
 pub fn buckets_table(r: &EvalReport) -> String {
     let mut s = String::from(
         "| roughness | lookups | reference samples | claim | difference (rel RMSE / tm RMSE) | its reference SE (rel / tm) | SE ≤ ¼ difference | single reference SE (rel) | view pixels | view reference samples | ꟻLIP of the views' reference noise |\n|---:|---:|---:|---|---|---|---|---:|---:|---:|---:|\n",
@@ -183,6 +220,10 @@ pub fn write_eval(folder: &RunFolder, r: &EvalReport) -> Result<(), FileError> {
     );
     let _ = writeln!(md, "## Roughness buckets and the references' noise\n");
     md += &buckets_table(r);
+    if r.diffuse.is_some() {
+        md += "\n## Diffuse lighting\n\nIrradiance at held-out surface points (area-uniform on triangles inside the grid), against cosine-weighted traced references: the light probes carry (sky, emitters, bounced light; direct sun is the renderer's job). Rows: the grid through each step of DDGI's blend, probe A alone, and seed 004's voxel GI.\n\n";
+        md += &diffuse_table(r);
+    }
     let _ = writeln!(md, "\n## Mirror lookups (roughness 0)\n");
     md += &methods_table(r, 0.0);
     if !r.fitted_levels.is_empty() {

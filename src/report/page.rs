@@ -20,7 +20,14 @@ use std::path::Path;
 /// One eval row with its place on the error-against-cost Pareto front.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct MethodRow {
+    /// `method` or `method/mip rule`.
     pub name: String,
+    #[serde(default)]
+    pub roughness: f32,
+    #[serde(default)]
+    pub flip: Option<f64>,
+    #[serde(default)]
+    pub tm_rmse: f64,
     pub rel_rmse: f64,
     pub mae: f64,
     pub p95: f64,
@@ -93,6 +100,9 @@ pub struct RunReport {
     pub stability: Option<serde_json::Value>,
     /// Images shown, by file name.
     pub images: Vec<String>,
+    /// The diffuse evaluation, when eval.json has one.
+    #[serde(default)]
+    pub diffuse: Option<crate::eval::diffuse::DiffuseReport>,
 }
 
 fn optional_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<Option<T>, FileError> {
@@ -108,15 +118,27 @@ pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> 
     let bake_path = folder.bake().join(crate::bakefile::MANIFEST_FILE);
     let bake: Option<BakeManifest> = if bake_path.is_file() { Some(read_json(&bake_path)?) } else { None };
 
-    let points: Vec<(String, f64, f64)> =
-        eval.methods.iter().map(|m| (m.name.clone(), m.ns_per_lookup, m.rel_rmse)).collect();
-    let front = pareto_front(&points);
+    // the Pareto front of each roughness bucket, on the headline tone-mapped RMSE
+    let mut front = vec![false; eval.methods.len()];
+    for r in crate::eval::ROUGHNESS_BUCKETS {
+        let at: Vec<usize> = (0..eval.methods.len()).filter(|&k| eval.methods[k].roughness == r).collect();
+        let points: Vec<(String, f64, f64)> = at
+            .iter()
+            .map(|&k| (eval.methods[k].name.clone(), eval.methods[k].ns_per_lookup, eval.methods[k].tm_rmse))
+            .collect();
+        for (&k, f) in at.iter().zip(pareto_front(&points)) {
+            front[k] = f;
+        }
+    }
     let methods = eval
         .methods
         .iter()
         .zip(&front)
         .map(|(m, &pareto)| MethodRow {
-            name: m.name.clone(),
+            name: m.label(),
+            roughness: m.roughness,
+            flip: m.flip,
+            tm_rmse: m.tm_rmse,
             rel_rmse: m.rel_rmse,
             mae: m.mae,
             p95: m.p95,
@@ -239,6 +261,7 @@ pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> 
         sweep: optional_json(&folder.sweep_json())?,
         stability: optional_json(&folder.stability_json())?,
         images,
+        diffuse: eval.diffuse.clone(),
     })
 }
 
@@ -280,14 +303,29 @@ fn md_table(rows: &[Vec<String>]) -> String {
 fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
     let mut out = Vec::new();
     let mut t = vec![
-        vec!["method", "rel RMSE", "MAE", "p95", "ns/lookup", "ns/lookup (batch API)", "Pareto front", "note"]
-            .into_iter()
-            .map(String::from)
-            .collect::<Vec<_>>(),
+        vec![
+            "roughness",
+            "method",
+            "ꟻLIP",
+            "tone-mapped RMSE",
+            "rel RMSE",
+            "MAE",
+            "p95",
+            "ns/lookup",
+            "ns/lookup (batch API)",
+            "Pareto front (tm RMSE)",
+            "note",
+        ]
+        .into_iter()
+        .map(String::from)
+        .collect::<Vec<_>>(),
     ];
     for m in &r.methods {
         t.push(vec![
+            format!("{}", m.roughness),
             m.name.clone(),
+            m.flip.map_or("–".into(), |f| format!("{f:.4}")),
+            format!("{:.4}", m.tm_rmse),
             format!("{:.4}", m.rel_rmse),
             format!("{:.4}", m.mae),
             format!("{:.4}", m.p95),
@@ -297,7 +335,33 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
             m.note.clone(),
         ]);
     }
-    out.push(("Every method on held-out positions and directions".to_string(), t));
+    out.push(("Every method on held-out positions and directions, per roughness".to_string(), t));
+    if let Some(d) = &r.diffuse {
+        let mut t = vec![
+            ["method", "ꟻLIP (diffuse-shaded cameras)", "tone-mapped RMSE", "rel RMSE", "MAE", "p95", "ns/lookup"]
+                .iter()
+                .map(|s| s.to_string())
+                .collect::<Vec<_>>(),
+        ];
+        for row in &d.rows {
+            t.push(vec![
+                row.name.clone(),
+                row.flip.map_or("–".into(), |f| format!("{f:.4}")),
+                format!("{:.4}", row.tm_rmse),
+                format!("{:.4}", row.rel_rmse),
+                format!("{:.4}", row.mae),
+                format!("{:.4}", row.p95),
+                format!("{:.1}", row.ns_per_lookup),
+            ]);
+        }
+        out.push((
+            format!(
+                "Diffuse: irradiance at {} held-out surface points ({}-sample references, single-reference SE {:.3} relative)",
+                d.points, d.reference_spp, d.reference_se_rel
+            ),
+            t,
+        ));
+    }
 
     if !r.eval_levels.is_empty() {
         let mut t = vec![

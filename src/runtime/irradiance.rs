@@ -8,6 +8,34 @@ use crate::octa;
 use crate::warp::corrective::NO_MAP;
 use glam::{UVec3, Vec3};
 
+/// How the cells around a point are combined: the steps of DDGI's blend, each a baseline
+/// the evaluation measures (`Chebyshev` is what [`IrradianceGrid::irradiance`] does).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum IrradianceBlend {
+    /// The containing cell alone (the nearest probe).
+    Nearest,
+    /// The eight cells around the point, trilinear weights only.
+    Trilinear,
+    /// Trilinear, and cells behind the surface count less (smooth back-face weight).
+    Backface,
+    /// Trilinear, back-face weight and Chebyshev visibility from the distance moments.
+    Chebyshev,
+}
+
+impl IrradianceBlend {
+    pub const ALL: [IrradianceBlend; 4] =
+        [IrradianceBlend::Nearest, IrradianceBlend::Trilinear, IrradianceBlend::Backface, IrradianceBlend::Chebyshev];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            IrradianceBlend::Nearest => "nearest cell",
+            IrradianceBlend::Trilinear => "trilinear",
+            IrradianceBlend::Backface => "trilinear + back-face weight",
+            IrradianceBlend::Chebyshev => "trilinear + back face + Chebyshev (DDGI)",
+        }
+    }
+}
+
 impl IrradianceGrid {
     /// Irradiance at `position` for surface normal `normal`: the eight cells around the
     /// position, weighted trilinearly, by a smooth back-face term and by Chebyshev visibility
@@ -15,9 +43,36 @@ impl IrradianceGrid {
     /// are skipped and the weights renormalised. Black when no stored cell is near.
     #[must_use]
     pub fn irradiance(&self, position: Vec3, normal: Vec3) -> Vec3 {
+        self.irradiance_blend(position, normal, IrradianceBlend::Chebyshev)
+    }
+
+    /// Irradiance of the stored cell `cell` for unit normal `n` (bilinear in its map), if
+    /// the cell is stored.
+    #[inline]
+    fn cell_irradiance(&self, cell: usize, n: Vec3) -> Option<Vec3> {
+        let slot = self.slot[cell];
+        if slot == NO_MAP {
+            return None;
+        }
+        let ir = self.resolution;
+        let base = slot as usize * (ir * ir) as usize;
+        let taps = octa::bilinear_taps(ir, octa::encode(n));
+        Some(taps.iter().map(|&(t, wt)| self.irradiance[base + t as usize] * wt).sum())
+    }
+
+    /// [`IrradianceGrid::irradiance`] with the blend's steps chosen by `blend`.
+    #[must_use]
+    pub fn irradiance_blend(&self, position: Vec3, normal: Vec3, blend: IrradianceBlend) -> Vec3 {
         let Some(n) = crate::octa::unit_direction(normal) else {
             return Vec3::ZERO;
         };
+        if blend == IrradianceBlend::Nearest {
+            let geo = &self.geometry;
+            let p = if position.is_finite() { position } else { geo.min + (geo.max - geo.min) * 0.5 };
+            let e = self.cell_irradiance(geo.cell_index(geo.cell_of(p)), n).unwrap_or(Vec3::ZERO);
+            return if e.is_finite() { e.max(Vec3::ZERO) } else { Vec3::ZERO };
+        }
+        let (backface, visibility) = (blend != IrradianceBlend::Trilinear, blend == IrradianceBlend::Chebyshev);
         let g = self;
         let geo = &g.geometry;
         let p = if position.is_finite() { position } else { geo.min + (geo.max - geo.min) * 0.5 };
@@ -49,7 +104,7 @@ impl IrradianceGrid {
             let to_point = p - (geo.min + (c.as_vec3() + 0.5) * cell_size);
             let dist = to_point.length();
             let mut w = tri;
-            if dist > 0.0 && dist.is_finite() {
+            if dist > 0.0 && dist.is_finite() && backface {
                 let u = to_point / dist;
                 // smooth back face: cells behind the surface count less
                 let facing = (n.dot(-u) + 1.0) * 0.5;
@@ -62,7 +117,7 @@ impl IrradianceGrid {
                     mean += g.depth_mean[base + t as usize] * wt;
                     mean_sq += g.depth_mean_sq[base + t as usize] * wt;
                 }
-                if dist > mean {
+                if visibility && dist > mean {
                     let var = (mean_sq - mean * mean).abs().max(1e-12 * mean * mean);
                     let d = dist - mean;
                     let cheb = var / (var + d * d);

@@ -1,0 +1,120 @@
+//! Diffuse lighting against closed forms: a constant sky gives π·L at any normal for every
+//! method; a closed furnace (an emissive sphere) gives the furnace value through the grid
+//! and probe A (seed 004's voxels see only their neighbours: no closed form there); the
+//! voxel texture of a box room is filled exactly where the walls are; the irradiance
+//! reference is exact where radiance is constant.
+
+mod common;
+use common::*;
+use glam::Vec3;
+use warpfit::eval::diffuse::{self, DiffuseMethod, VoxelGi};
+use warpfit::gridfile::IrradianceGrid;
+use warpfit::progress::Progress;
+use warpfit::runtime::IrradianceBlend;
+use warpfit::scene::Scene;
+use warpfit::trace::{Renderer, Tracer};
+
+/// Top-level keys `top` (before the tables), the header, then `body`.
+fn scene(top: &str, body: &str) -> Scene {
+    Scene::parse(&format!("{top}\n{HEADER}\n{body}"), &repo().join("tests/fixtures/inline.toml")).unwrap()
+}
+
+/// The bake's grid as the runtime holds it.
+fn grid_of(s: &Scene, tracer: &Tracer) -> (warpfit::bake::Bake, IrradianceGrid) {
+    let b = warpfit::bake::bake(s, tracer, &Progress::quiet());
+    let g = &b.grid;
+    let ir = IrradianceGrid::from_cells(
+        g.geometry,
+        (g.irradiance_resolution, g.depth_resolution),
+        (&g.irradiance, &g.depth_mean, &g.depth_mean_sq),
+        |c| !g.inside[c],
+    );
+    (b, ir)
+}
+
+fn normals() -> Vec<Vec3> {
+    (0..24u32).map(|k| warpfit::sampling::uniform_sphere(warpfit::sampling::Sampler::new(9, 1, k).next_2d())).collect()
+}
+
+#[test]
+fn a_constant_sky_gives_pi_l_for_every_method() {
+    // no geometry near: one tiny sphere far away (a scene needs some geometry)
+    let s = scene(
+        "bounces = 0",
+        "[sky]\ncolor = [0.5, 1.0, 2.0]\n[[geometry]]\ntype = \"sphere\"\ncenter = [0.0, -1000.0, 0.0]\nradius = 0.001\n",
+    );
+    let tracer = Tracer::new(&s);
+    let (bake, grid) = grid_of(&s, &tracer);
+    let probe_a = diffuse::probe_irradiance(&bake.probe.radiance);
+    let voxels = VoxelGi::build(&s, &tracer, bake.grid.geometry, 1);
+    let want = Vec3::new(0.5, 1.0, 2.0) * std::f32::consts::PI;
+    let mut methods: Vec<DiffuseMethod> = IrradianceBlend::ALL.iter().map(|&b| DiffuseMethod::Grid(&grid, b)).collect();
+    methods.push(DiffuseMethod::ProbeA(&probe_a));
+    methods.push(DiffuseMethod::Voxel(&voxels));
+    for m in &methods {
+        for n in normals() {
+            let e = m.irradiance(Vec3::new(0.1, 0.9, -0.3), n);
+            assert!((e - want).abs().max_element() < 0.01 * want.max_element(), "{}: {e} vs {want} at {n}", m.name());
+        }
+    }
+    // and the reference itself is exact
+    let r = Renderer::new(&s, &tracer);
+    let mut rays = 0;
+    let (e, se) = diffuse::irradiance_reference(
+        &r,
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::Y,
+        64,
+        |k| warpfit::sampling::Sampler::new(1, 2, k),
+        &mut rays,
+    );
+    assert!((e - want).abs().max_element() < 1e-4 * want.max_element() && se < 1e-4, "{e} ± {se}");
+}
+
+#[test]
+fn a_furnace_room_gives_the_furnace_value_through_the_grid_and_probe_a() {
+    // a closed emissive sphere (exact: its emission is seen, not sampled), albedo a,
+    // emission E, b bounces: L = E (1 + a + … + a^b), E = π L
+    let s = scene(
+        "bounces = 2",
+        "[[geometry]]\ntype = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 3.0\ninward = true\nmaterial = { albedo = [0.5, 0.5, 0.5], emission = [1.0, 0.5, 0.25] }\n",
+    );
+    let tracer = Tracer::new(&s);
+    let (bake, grid) = grid_of(&s, &tracer);
+    let probe_a = diffuse::probe_irradiance(&bake.probe.radiance);
+    let want = Vec3::new(1.0, 0.5, 0.25) * 1.75 * std::f32::consts::PI;
+    let mut methods: Vec<DiffuseMethod> = IrradianceBlend::ALL.iter().map(|&b| DiffuseMethod::Grid(&grid, b)).collect();
+    methods.push(DiffuseMethod::ProbeA(&probe_a));
+    for m in &methods {
+        for n in normals() {
+            let e = m.irradiance(Vec3::new(0.3, 0.7, -0.2), n);
+            assert!((e - want).abs().max_element() < 0.01 * want.max_element(), "{}: {e} vs {want}", m.name());
+        }
+    }
+}
+
+#[test]
+fn the_voxel_texture_of_a_box_room_is_filled_exactly_where_the_walls_are() {
+    // the header's 2×2×2 grid over the room [−1, 1]×[0, 2]×[−1, 1] has every cell at a wall;
+    // a 4×4×4 grid has the 8 central cells 1.5 voxels from any wall
+    let text = format!(
+        "{HEADER}\n[[geometry]]\ntype = \"room\"\nmin = [-1.0, 0.0, -1.0]\nmax = [1.0, 2.0, 1.0]\nmaterial = {{ emission = [1.0, 1.0, 1.0] }}\n"
+    );
+    let s = Scene::parse(&text, &repo().join("tests/fixtures/inline.toml")).unwrap();
+    let tracer = Tracer::new(&s);
+    let geo = warpfit::grid::GridGeometry {
+        min: Vec3::new(-1.0, 0.0, -1.0),
+        max: Vec3::new(1.0, 2.0, 1.0),
+        counts: glam::UVec3::splat(4),
+    };
+    let v = VoxelGi::build(&s, &tracer, geo, 1);
+    for cell in 0..geo.cell_count() {
+        let c = geo.cell_coords(cell);
+        let at_wall = [c.x, c.y, c.z].iter().any(|&k| k == 0 || k == 3);
+        let filled = v.distance[cell] < 1.0;
+        assert_eq!(filled, at_wall, "cell {c}: distance {} voxels", v.distance[cell]);
+        if at_wall {
+            assert!(v.colour[cell].max_element() > 0.0, "a filled voxel has the walls' radiance");
+        }
+    }
+}
