@@ -65,6 +65,9 @@ pub struct LevelEval {
     pub fitted_rel_rmse: f64,
     pub fallback: String,
     pub fallback_rel_rmse: f64,
+    /// Tone-mapped RMSE (the fit's objective's measure) of both.
+    pub fitted_tm_rmse: f64,
+    pub fallback_tm_rmse: f64,
 }
 
 /// `c` (containing-cell lookup) on the validation lookups split by the level of their
@@ -85,12 +88,15 @@ pub fn level_errors(warp: &Warp, set: &ValidationSet, c: &Correctives, exposure:
             refs.push(set.reference[k]);
         }
         if !refs.is_empty() {
+            let (fitted, fallback) = (error_stats(&fit_est, &refs, exposure), error_stats(&fb_est, &refs, exposure));
             out.push(LevelEval {
                 level: if stores_map { 2 } else { 0 },
                 lookups: refs.len(),
-                fitted_rel_rmse: error_stats(&fit_est, &refs, exposure).rel_rmse,
+                fitted_rel_rmse: fitted.rel_rmse,
                 fallback: c.fallback.name().to_string(),
-                fallback_rel_rmse: error_stats(&fb_est, &refs, exposure).rel_rmse,
+                fallback_rel_rmse: fallback.rel_rmse,
+                fitted_tm_rmse: fitted.tm_rmse,
+                fallback_tm_rmse: fallback.tm_rmse,
             });
         }
     }

@@ -78,6 +78,9 @@ pub struct WallFit {
     /// training queries.
     pub before: f64,
     pub after: f64,
+    /// The same error of the true map: not zero, as the lookup interpolates the map
+    /// bilinearly between texel centres over queries spread through the cell.
+    pub truth_err: f64,
     pub fitted: Vec<f32>,
     pub truth: Vec<f32>,
 }
@@ -95,5 +98,6 @@ pub fn fit_wall(scale: f32, res: u32, samples: u32, solver: super::Solver, sweep
     let out = problem.solve(solver, sweeps);
     let fitted = problem.map_with_relax(&out.params, 0.0);
     let after = problem.relative_error_map(&fitted);
-    WallFit { params: out.params, before, after, fitted, truth }
+    let truth_err = problem.relative_error_map(&truth);
+    WallFit { params: out.params, before, after, truth_err, fitted, truth }
 }

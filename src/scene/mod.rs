@@ -226,7 +226,7 @@ impl Scene {
     /// bit for bit the same.
     #[must_use]
     pub fn content_key(&self) -> String {
-        let mut text = format!("warpfit {} bake\n", env!("CARGO_PKG_VERSION"));
+        let mut text = format!("warpfit {} bake, sampler {}\n", env!("CARGO_PKG_VERSION"), crate::sampling::REVISION);
         text += &serde_json::to_string(&self.config).unwrap_or_default();
         for (path, sum) in &self.inputs {
             text += &format!("\n{} {sum}", path.display());
