@@ -60,7 +60,7 @@ fn a_constant_sky_gives_pi_l_for_every_method() {
     // and the reference itself is exact
     let r = Renderer::new(&s, &tracer);
     let mut rays = 0;
-    let (e, se) = diffuse::irradiance_reference(
+    let (e, se) = warpfit::trace::truth::irradiance_reference(
         &r,
         Vec3::new(0.0, 1.0, 0.0),
         Vec3::Y,

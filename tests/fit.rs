@@ -17,16 +17,21 @@ fn fit_wall(scale: f32, solver: Solver) -> (Vec<f64>, f64, f64, Vec<f32>, Vec<f3
 
 #[test]
 fn flat_wall_correction_is_recovered() {
-    let (_, before, after, fitted, truth) = fit_wall(1.0, Solver::Brent);
+    let w = fit::fixtures::fit_wall(1.0, 256, 4000, Solver::Brent, 4);
+    let (before, after, fitted, truth) = (w.before, w.after, w.fitted, w.truth);
     assert!(after < 0.7 * before, "error {before} → {after}");
-    // Texels looking at the wall head-on come back to their true inverse distance.
+    // The fit does at least as well as the true map, whose error is not zero: the lookup
+    // interpolates an 8×8 map bilinearly, and the queries fill the cell's volume.
+    assert!(after <= w.truth_err * 1.001, "fitted {after} vs true map {}", w.truth_err);
+    // Texels looking at the wall head-on come back near their true inverse distance (within
+    // what trading texel exactness for lower error between texel centres costs).
     let res = 8;
     let mut checked = 0;
     for t in 0..(res * res) as usize {
         let d = octa::texel_dir(res, t as u32 % res, t as u32 / res);
         if d.z > 0.8 {
             let rel = (fitted[t] / truth[t] - 1.0).abs();
-            assert!(rel < 0.08, "texel {t} ({d}): fitted {} vs true {} ({rel})", fitted[t], truth[t]);
+            assert!(rel < 0.15, "texel {t} ({d}): fitted {} vs true {} ({rel})", fitted[t], truth[t]);
             checked += 1;
         }
     }
@@ -83,9 +88,11 @@ fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
     let b = warpfit::bake::Baked { scene: &scene, tracer: &tracer, probe: &baked.probe, grid: &baked.grid };
     let lobes = warpfit::roughness::fit_correction();
     let glossy = warpfit::warp::glossy::Glossy { warp: &warp, correction: Some(&lobes) };
+    // `moderate`, not `quick`: quick's selection (4 check positions, 1-sample references)
+    // keeps maps that lose on held-out positions about as often as not
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| fit::fit(b, glossy, &quick_settings(), &Progress::quiet()))
+        pool.install(|| fit::fit(b, glossy, &FitSettings::moderate(), &Progress::quiet()))
     };
     let (a, b) = (run(1), run(2));
     assert_eq!(a.correctives, b.correctives);
@@ -105,11 +112,43 @@ fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
     let levels = warpfit::eval::metrics::level_errors(&warp, &set, &a.correctives, 1.0);
     let stored = levels.iter().find(|l| l.level == 2).expect("validation lookups in stored cells");
     assert!(stored.lookups > 500, "only {} held-out lookups in stored cells", stored.lookups);
+    // judged by the fit's own measure, tone-mapped RMSE (relative RMSE is ruled by the few
+    // brightest references: the emitters)
     assert!(
-        stored.fitted_rel_rmse < stored.fallback_rel_rmse,
+        stored.fitted_tm_rmse < stored.fallback_tm_rmse,
         "stored maps lose to the fallback on held-out lookups: {stored:?}"
     );
     assert!(a.correctives.stored_cells() > 0, "some torture cell should need a map");
+    // the diffuse correctives: deterministic, bounded, stored only where they helped the
+    // check points, and better than the blend alone on the evaluation's held-out points
+    assert_eq!(a.irradiance.correction, b.irradiance.correction);
+    assert!(a.irradiance.correction.scale.iter().all(|k| (0.2..=5.0).contains(k)));
+    for c in &a.irradiance.cells {
+        assert_eq!(c.stored, a.irradiance.correction.slot[c.cell as usize] != u32::MAX);
+        assert!(!c.stored || c.check_after < 0.95 * c.check_before, "{c:?}");
+    }
+    let mut ir = warpfit::runtime::IrradianceGrid::from_cells(
+        baked.grid.geometry,
+        (baked.grid.irradiance_resolution, baked.grid.depth_resolution),
+        (&baked.grid.irradiance, &baked.grid.depth_mean, &baked.grid.depth_mean_sq),
+        |c| !baked.grid.inside[c],
+    );
+    let held_out = warpfit::eval::diffuse::diffuse_set(&scene, &tracer, &ir, 256, 256, 7);
+    let tm_rmse = |ir: &warpfit::runtime::IrradianceGrid| {
+        let sq: f32 = (0..held_out.points.len())
+            .map(|i| {
+                let e = ir.irradiance(held_out.points[i], held_out.normals[i]);
+                let tm = |v: glam::Vec3| v / (v + glam::Vec3::ONE);
+                (tm(e) - tm(held_out.reference[i])).length_squared() / 3.0
+            })
+            .sum();
+        (sq / held_out.points.len() as f32).sqrt()
+    };
+    let before = tm_rmse(&ir);
+    ir.correction = a.irradiance.correction.clone();
+    let after = tm_rmse(&ir);
+    assert!(a.irradiance.correction.stored_cells() > 0, "some torture cell should need a diffuse correction");
+    assert!(after < before, "diffuse correctives lose on held-out surface points: {after} vs {before}");
     // cells inside geometry are left out entirely
     for (cell, inside) in baked.grid.inside.iter().enumerate() {
         if *inside {

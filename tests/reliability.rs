@@ -256,7 +256,7 @@ fn an_edited_manifest_is_refused() {
 #[test]
 fn every_structural_rule_of_the_manifest_is_checked() {
     type Edit = fn(&mut serde_json::Value);
-    let cases: [(&str, Edit, &str); 12] = [
+    let cases: [(&str, Edit, &str); 14] = [
         ("probe-resolution", |v| v["probe"]["resolution"] = 8192.into(), "probe.resolution"),
         ("mip-halving", |v| v["probe"]["radiance_mips"][1]["resolution"] = 15.into(), "radiance_mips[1].resolution"),
         ("mip-name", |v| v["probe"]["radiance_mips"][0]["layer"] = "distance_mip0".into(), "radiance_mips[0].layer"),
@@ -277,6 +277,12 @@ fn every_structural_rule_of_the_manifest_is_checked() {
             "sorted and unique",
         ),
         ("tile-res", |v| v["irradiance"]["resolution"] = 3.into(), "irradiance"),
+        (
+            "corrected-not-stored",
+            |v| v["irradiance"]["corrected_cells"] = serde_json::json!([17]),
+            "irradiance.corrected_cells",
+        ),
+        ("correction-res", |v| v["irradiance"]["correction_resolution"] = 5.into(), "irradiance.correction_resolution"),
         ("listing", |v| v["payloads"][0]["layers"][0]["width"] = 16384.into(), "payloads.probe.exr"),
         (
             "extra-payload",
@@ -307,14 +313,16 @@ fn every_structural_rule_of_the_manifest_is_checked() {
 
 #[test]
 fn absurd_values_in_a_payload_are_refused() {
-    for (tag, file, layer) in
-        [("inv-distance", "correctives.exr", "warp_maps"), ("moments", "irradiance.exr", "depth_moments")]
-    {
+    for (tag, file, layer, value) in [
+        ("inv-distance", "correctives.exr", "warp_maps", 3e38),
+        ("moments", "irradiance.exr", "depth_moments", 3e38),
+        ("scale", "irradiance.exr", "irradiance_scale", 0.0),
+    ] {
         let d = copy_tiny(tag);
         let path = d.join(file);
         let mut layers = warpfit::gridfile::exr::read(&path).unwrap();
         let l = layers.iter_mut().find(|l| l.name == layer).unwrap();
-        l.channels[0].1[3] = 3e38;
+        l.channels[0].1[3] = value;
         warpfit::gridfile::exr::write(&path, &layers).unwrap();
         let bytes = std::fs::read(&path).unwrap();
         reseal_payload(&d, file, bytes.len() as u64, warpfit::files::checksum(&bytes));

@@ -14,7 +14,7 @@ use warpfit::gridfile::{GRID_VERSION, MANIFEST_FILE};
 use warpfit::jobs::run::{self as job, Baked, Output, StoreOptions};
 use warpfit::progress::Progress;
 use warpfit::report::folder::RunFolder;
-use warpfit::runtime::{FittedGrid, LoadError, Precision};
+use warpfit::runtime::{FittedGrid, IrradianceBlend, LoadError, Precision};
 use warpfit::trace::Tracer;
 use warpfit::warp::corrective::Blend;
 
@@ -284,17 +284,22 @@ fn irradiance_at_a_cell_centre_is_that_cells_bake() {
     let g = FittedGrid::load(tiny()).unwrap();
     let ig = &g.irradiance;
     let res = ig.resolution;
+    assert!(ig.correction.stored_cells() > 0, "the witness grid stores a diffuse correction");
     for cell in 0..ig.geometry.cell_count() {
         let Some(slot) = (ig.slot[cell] != u32::MAX).then_some(ig.slot[cell] as usize) else { continue };
         let c = ig.geometry.cell_centre(cell);
         for t in [0u32, 5, 9] {
             let n = warpfit::octa::texel_dir(res, t % res, t / res);
             let want = ig.irradiance[slot * (res * res) as usize + t as usize];
-            let got = g.irradiance(c, n);
+            let got = ig.irradiance_blend(c, n, IrradianceBlend::Chebyshev);
             assert!(
                 (got - want).abs().max_element() <= 1e-5 * want.max_element().max(1e-3),
                 "cell {cell}: {got} vs {want}"
             );
+            // the runtime's answer is the blend times the cell's fitted correction
+            let k = ig.correction.scale(cell, n);
+            assert!(k > 0.0 && k.is_finite());
+            assert_eq!(g.irradiance(c, n), got * k, "cell {cell}");
         }
     }
 }

@@ -22,7 +22,7 @@ use super::validation::DOMAIN_EVAL;
 use crate::octa::{self, OctMap};
 use crate::runtime::IrradianceBlend;
 use crate::runtime::IrradianceGrid;
-use crate::sampling::{Sampler, cosine_hemisphere, hash_pair, uniform_sphere};
+use crate::sampling::{Sampler, hash_pair, uniform_sphere};
 use crate::scene::Scene;
 use crate::trace::{Renderer, Tracer, truth};
 use glam::{UVec3, Vec3};
@@ -41,33 +41,8 @@ pub struct DiffuseSet {
     pub rays: u64,
 }
 
-/// Cosine-weighted irradiance at `p` around unit `n` from `spp` traced radiance samples, and
-/// the standard error of its luminance.
-pub fn irradiance_reference(
-    renderer: &Renderer,
-    p: Vec3,
-    n: Vec3,
-    spp: u32,
-    sampler: impl Fn(u32) -> Sampler,
-    rays: &mut u64,
-) -> (Vec3, f32) {
-    let (mut sum, mut y1, mut y2) = (Vec3::ZERO, 0.0f64, 0.0f64);
-    let spp = spp.max(1);
-    for k in 0..spp {
-        let mut s = sampler(k);
-        let d = cosine_hemisphere(s.next_2d(), n);
-        let l = renderer.sample(p, d, &mut s, rays).radiance;
-        sum += l;
-        let y = crate::tonemap::luminance(l) as f64;
-        (y1, y2) = (y1 + y, y2 + y * y);
-    }
-    let m = spp as f64;
-    let var = ((y2 - y1 * y1 / m) / (m - 1.0).max(1.0)).max(0.0);
-    (sum * (PI / spp as f32), (PI as f64 * (var / m).sqrt()) as f32)
-}
-
-/// `count` held-out surface points inside the grid's bounds, area-uniform over triangles,
-/// with their references of `spp` samples.
+/// `count` held-out surface points inside the grid's bounds (`trace::truth::surface_points`
+/// on the evaluation's own streams), with their references of `spp` samples.
 pub fn diffuse_set(
     scene: &Scene,
     tracer: &Tracer,
@@ -76,54 +51,23 @@ pub fn diffuse_set(
     spp: u32,
     seed: u64,
 ) -> DiffuseSet {
-    let tris = &scene.triangles;
-    let geo = grid.geometry;
-    let mut cdf = Vec::with_capacity(tris.len());
-    let mut total = 0.0f64;
-    for k in 0..tris.len() {
-        total += 0.5 * (tris.v1[k] - tris.v0[k]).cross(tris.v2[k] - tris.v0[k]).length() as f64;
-        cdf.push(total);
-    }
-    let mut set = DiffuseSet::default();
-    if tris.is_empty() || !(total > 0.0) {
-        return set;
-    }
-    let threshold = scene.config.grid.inside_backface_fraction;
-    let mut attempt = 0u32;
-    while set.points.len() < count as usize && attempt < count * 256 {
-        let mut s = Sampler::new(seed, hash_pair(DOMAIN_EVAL, 0xD1F), attempt);
-        attempt += 1;
-        let pick = s.next_1d() as f64 * total;
-        let k = cdf.partition_point(|&c| c <= pick).min(tris.len() - 1);
-        let (u, v) = (s.next_1d(), s.next_1d());
-        let su = u.sqrt();
-        let (b0, b1) = (1.0 - su, v * su);
-        let p = tris.v0[k] * b0 + tris.v1[k] * b1 + tris.v2[k] * (1.0 - b0 - b1);
-        if !(p.cmpge(geo.min).all() && p.cmple(geo.max).all()) {
-            continue;
-        }
-        let front = (tris.v1[k] - tris.v0[k]).cross(tris.v2[k] - tris.v0[k]).normalize_or_zero();
-        let two_sided = scene.materials[tris.material[k] as usize].two_sided;
-        // a two-sided surface is seen from either side; a one-sided one from its front
-        let n = if two_sided && s.next_1d() < 0.5 { -front } else { front };
-        let b = p + n * tracer.surface_offset(p);
-        let stream = hash_pair(DOMAIN_EVAL, 0xD20 ^ attempt as u64);
-        if n == Vec3::ZERO || truth::is_inside(scene, tracer, b, threshold, |j| Sampler::new(seed, stream, j)) {
-            continue;
-        }
-        set.points.push(b);
-        set.normals.push(n);
-    }
+    let pts = truth::surface_points(
+        scene,
+        tracer,
+        (grid.geometry.min, grid.geometry.max),
+        count,
+        (seed, hash_pair(DOMAIN_EVAL, 0xD1F)),
+    );
     let renderer = Renderer::new(scene, tracer);
-    let refs: Vec<(Vec3, f32, u64)> = (0..set.points.len())
+    let refs: Vec<(Vec3, f32, u64)> = (0..pts.len())
         .into_par_iter()
         .map(|i| {
             let mut rays = 0;
             let stream = hash_pair(hash_pair(DOMAIN_EVAL, 0xD21), i as u64);
-            let (e, se) = irradiance_reference(
+            let (e, se) = truth::irradiance_reference(
                 &renderer,
-                set.points[i],
-                set.normals[i],
+                pts[i].0,
+                pts[i].1,
                 spp,
                 |k| Sampler::new(seed, stream, k),
                 &mut rays,
@@ -131,7 +75,10 @@ pub fn diffuse_set(
             (e, se, rays)
         })
         .collect();
-    for (e, se, rays) in refs {
+    let mut set = DiffuseSet::default();
+    for ((p, n), (e, se, rays)) in pts.into_iter().zip(refs) {
+        set.points.push(p);
+        set.normals.push(n);
         set.reference.push(e);
         set.reference_se.push(se);
         set.rays += rays;
@@ -261,6 +208,8 @@ impl VoxelGi {
 #[derive(Clone, Copy)]
 pub enum DiffuseMethod<'a> {
     Grid(&'a IrradianceGrid, IrradianceBlend),
+    /// What the runtime answers: the DDGI blend times the cell's fitted correction.
+    Runtime(&'a IrradianceGrid),
     ProbeA(&'a OctMap<Vec3>),
     Voxel(&'a VoxelGi),
 }
@@ -269,6 +218,7 @@ impl DiffuseMethod<'_> {
     pub fn name(&self) -> String {
         match self {
             DiffuseMethod::Grid(_, b) => format!("grid: {}", b.name()),
+            DiffuseMethod::Runtime(_) => "runtime: DDGI + fitted corrections".into(),
             DiffuseMethod::ProbeA(_) => "probe A alone".into(),
             DiffuseMethod::Voxel(_) => "voxel GI (seed 004)".into(),
         }
@@ -278,6 +228,7 @@ impl DiffuseMethod<'_> {
     pub fn irradiance(&self, p: Vec3, n: Vec3) -> Vec3 {
         match self {
             DiffuseMethod::Grid(g, b) => g.irradiance_blend(p, n, *b),
+            DiffuseMethod::Runtime(g) => g.irradiance(p, n),
             DiffuseMethod::ProbeA(map) => octa::unit_direction(n).map_or(Vec3::ZERO, |n| map.bilinear(n)),
             DiffuseMethod::Voxel(v) => v.irradiance(p, n),
         }
@@ -340,9 +291,16 @@ fn view_references(
                     Ok((b, n)) => {
                         let stream = hash_pair(hash_pair(DOMAIN_EVAL, 0xD22 + v as u64), k as u64);
                         let mut rays = 0;
-                        let a =
-                            irradiance_reference(&renderer, b, n, half, |j| Sampler::new(seed, stream, j), &mut rays).0;
-                        let c = irradiance_reference(
+                        let a = truth::irradiance_reference(
+                            &renderer,
+                            b,
+                            n,
+                            half,
+                            |j| Sampler::new(seed, stream, j),
+                            &mut rays,
+                        )
+                        .0;
+                        let c = truth::irradiance_reference(
                             &renderer,
                             b,
                             n,

@@ -95,8 +95,8 @@ impl EvalSettings {
             rough_dirs: 64,
             rough_reference_spp: 64,
             renders: Some(RenderSettings::standard()),
-            diffuse_points: 512,
-            diffuse_spp: 256,
+            diffuse_points: 1024,
+            diffuse_spp: 1024,
         }
     }
 
@@ -337,6 +337,9 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         let voxels = diffuse::VoxelGi::build(scene, tracer, grid.geometry, settings.seed);
         let mut methods: Vec<diffuse::DiffuseMethod> =
             crate::runtime::IrradianceBlend::ALL.iter().map(|&b| diffuse::DiffuseMethod::Grid(irradiance, b)).collect();
+        if runtime.is_some() {
+            methods.push(diffuse::DiffuseMethod::Runtime(irradiance));
+        }
         methods.push(diffuse::DiffuseMethod::ProbeA(&probe_a));
         methods.push(diffuse::DiffuseMethod::Voxel(&voxels));
         let view_spp = settings.renders.map_or(0, |r| r.reference_spp);

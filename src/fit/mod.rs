@@ -10,6 +10,7 @@
 //! at any thread count.
 
 pub mod fixtures;
+pub mod irradiance;
 pub mod model;
 pub mod objective;
 pub mod roughness;
@@ -185,6 +186,8 @@ pub struct Fit {
     /// The roughness correction chosen on this scene (`roughness::fit_scene_correction`):
     /// absent when the fit was given none to start from.
     pub roughness: Option<RoughnessCorrection>,
+    /// The diffuse correctives fitted into the grid (`irradiance`).
+    pub irradiance: irradiance::IrradianceFit,
     pub settings: FitSettings,
     pub seconds: f64,
     pub reference_rays: u64,
@@ -384,12 +387,22 @@ pub fn fit(baked: Baked, glossy: Glossy, s: &FitSettings, progress: &Progress) -
         .correction
         .filter(|_| rough_fraction > 0.0)
         .map(|lobe| roughness::fit_scene_correction(baked, warp, &correctives, lobe, s));
+    // the diffuse correctives, against the bake's irradiance
+    let blend = crate::runtime::IrradianceGrid::from_cells(
+        grid.geometry,
+        (grid.irradiance_resolution, grid.depth_resolution),
+        (&grid.irradiance, &grid.depth_mean, &grid.depth_mean_sq),
+        |c| !grid.inside[c],
+    );
+    let irradiance = irradiance::fit_irradiance(baked, &blend, exposure, s.seed);
+    let reference_rays = reference_rays + irradiance.reference_rays;
     Fit {
         correctives,
         celldepth,
         fitted_all,
         cells,
         roughness,
+        irradiance,
         settings: s.clone(),
         seconds: t0.elapsed().as_secs_f64(),
         reference_rays,

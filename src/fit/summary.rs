@@ -21,10 +21,17 @@ pub struct FitSummary {
     pub mean_check_err_fallback: f64,
     pub mean_check_err_celldepth: f64,
     pub mean_check_err_stored: f64,
+    /// Diffuse correctives: cells fitted, cells storing a map, and the fitted cells' mean
+    /// tone-mapped RMSE on their check points without and with what they store.
+    pub diffuse_cells_fitted: usize,
+    pub diffuse_cells_stored: usize,
+    pub diffuse_check_before: f64,
+    pub diffuse_check_after: f64,
 }
 
 pub fn summary(fit: &Fit) -> FitSummary {
     let n = fit.cells.len().max(1) as f64;
+    let ir = &fit.irradiance.cells;
     FitSummary {
         active_cells: fit.cells.len(),
         cells_level0: fit.cells.iter().filter(|c| c.level == Level::Fallback).count(),
@@ -39,6 +46,11 @@ pub fn summary(fit: &Fit) -> FitSummary {
         mean_check_err_fallback: fit.cells.iter().map(|c| c.check_err_fallback).sum::<f64>() / n,
         mean_check_err_celldepth: fit.cells.iter().map(|c| c.check_err_celldepth).sum::<f64>() / n,
         mean_check_err_stored: fit.cells.iter().map(CellFit::check_err_stored).sum::<f64>() / n,
+        diffuse_cells_fitted: ir.len(),
+        diffuse_cells_stored: ir.iter().filter(|c| c.stored).count(),
+        diffuse_check_before: ir.iter().map(|c| c.check_before).sum::<f64>() / ir.len().max(1) as f64,
+        diffuse_check_after: ir.iter().map(|c| if c.stored { c.check_after } else { c.check_before }).sum::<f64>()
+            / ir.len().max(1) as f64,
     }
 }
 

@@ -10,5 +10,5 @@ pub mod schema;
 #[cfg(feature = "bake")]
 pub mod write;
 
-pub use read::{GridData, IrradianceGrid, read, read_manifest};
+pub use read::{GridData, IrradianceCorrection, IrradianceGrid, read, read_manifest};
 pub use schema::*;

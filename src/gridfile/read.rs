@@ -40,6 +40,43 @@ pub struct IrradianceGrid {
     /// `slot · depth_resolution² + texel`: mean and mean square of the hit distance.
     pub depth_mean: Vec<f32>,
     pub depth_mean_sq: Vec<f32>,
+    /// The fitted corrections of the cells that store one (empty: none).
+    pub correction: IrradianceCorrection,
+}
+
+/// Per-cell corrections of the blended irradiance, fitted against traced references at
+/// surface points in the cell: a small octahedral map of scales over the normal, applied to
+/// what the blend of the eight cells around a point gives when the point lies in the cell.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct IrradianceCorrection {
+    /// N of each N×N map of scales.
+    pub resolution: u32,
+    /// Per grid cell: slot of its map ([`NO_MAP`]: no correction); empty when none.
+    pub slot: Vec<u32>,
+    /// `slot · N² + texel`: the scale.
+    pub scale: Vec<f32>,
+}
+
+impl IrradianceCorrection {
+    /// The scale for cell `cell` at unit normal `n` (1 where the cell stores none).
+    #[inline]
+    #[must_use]
+    pub fn scale(&self, cell: usize, n: Vec3) -> f32 {
+        match self.slot.get(cell) {
+            Some(&s) if s != NO_MAP => {
+                let r = self.resolution;
+                let base = s as usize * (r * r) as usize;
+                octa::bilinear_taps(r, octa::encode(n)).iter().map(|&(t, w)| self.scale[base + t as usize] * w).sum()
+            }
+            _ => 1.0,
+        }
+    }
+
+    /// Cells that store a correction.
+    #[must_use]
+    pub fn stored_cells(&self) -> usize {
+        self.slot.iter().filter(|&&s| s != NO_MAP).count()
+    }
 }
 
 impl IrradianceGrid {
@@ -61,6 +98,7 @@ impl IrradianceGrid {
             irradiance: Vec::new(),
             depth_mean: Vec::new(),
             depth_mean_sq: Vec::new(),
+            correction: IrradianceCorrection::default(),
         };
         for cell in (0..geometry.cell_count()).filter(|&c| stored(c)) {
             g.slot[cell] = (g.irradiance.len() / n2) as u32;
@@ -215,13 +253,29 @@ fn expected_payloads(
         columns_ok(n, ir.atlas_columns, "irradiance.atlas_columns")?;
         let (w, h) = atlas_size(n, ir.resolution, ir.atlas_columns);
         let (dw, dh) = atlas_size(n, ir.depth_resolution, ir.atlas_columns);
-        out.push((
-            IRRADIANCE_FILE,
-            vec![
-                Expected { name: "irradiance".into(), width: w, height: h, channels: &["R", "G", "B"] },
-                Expected { name: "depth_moments".into(), width: dw, height: dh, channels: &["mean", "mean_sq"] },
-            ],
-        ));
+        let mut layers = vec![
+            Expected { name: "irradiance".into(), width: w, height: h, channels: &["R", "G", "B"] },
+            Expected { name: "depth_moments".into(), width: dw, height: dh, channels: &["mean", "mean_sq"] },
+        ];
+        if !ir.corrected_cells.is_empty() {
+            if !tile_ok(ir.correction_resolution) {
+                return Err(invalid(
+                    mp,
+                    "irradiance.correction_resolution",
+                    format!("must be an even size in 2..={MAX_TILE_RESOLUTION}"),
+                ));
+            }
+            cells_ok(&ir.corrected_cells, "irradiance.corrected_cells")?;
+            if let Some(c) = ir.corrected_cells.iter().find(|c| ir.stored_cells.binary_search(c).is_err()) {
+                return Err(invalid(mp, "irradiance.corrected_cells", format!("cell {c} stores no irradiance")));
+            }
+            columns_ok(ir.corrected_cells.len(), ir.correction_columns, "irradiance.correction_columns")?;
+            let (sw, sh) = atlas_size(ir.corrected_cells.len(), ir.correction_resolution, ir.correction_columns);
+            layers.push(Expected { name: "irradiance_scale".into(), width: sw, height: sh, channels: &["S"] });
+        }
+        out.push((IRRADIANCE_FILE, layers));
+    } else if !ir.corrected_cells.is_empty() {
+        return Err(invalid(mp, "irradiance.corrected_cells", "no cell stores irradiance"));
     }
     let decoded: u64 = out
         .iter()
@@ -536,6 +590,7 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     // irradiance
     let ir = &m.irradiance;
     let islot = slots(&ir.stored_cells, cells, mp, "irradiance.stored_cells")?;
+    let mut correction = IrradianceCorrection::default();
     let (irradiance, depth_mean, depth_mean_sq) = if ir.stored_cells.is_empty() {
         (Vec::new(), Vec::new(), Vec::new())
     } else {
@@ -549,6 +604,20 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
         check(&ipath, "depth_moments.mean", mean, &format!("in [0, {dmax:e}]"), |x| (0.0..=dmax).contains(&x))?;
         let d2 = dmax * dmax;
         check(&ipath, "depth_moments.mean_sq", mean_sq, &format!("in [0, {d2:e}]"), |x| (0.0..=d2).contains(&x))?;
+        if !ir.corrected_cells.is_empty() {
+            let cr = ir.correction_resolution;
+            let k = ir.corrected_cells.len();
+            let sl = layer(&layers, &ipath, "irradiance_scale", atlas_size(k, cr, ir.correction_columns))?;
+            let atlas = channel(sl, &ipath, "S")?;
+            // the atlas's unused tail tiles are padding: only the cells' tiles are checked
+            let scale: Vec<f32> = (0..k).flat_map(|j| tile(atlas, j, cr, ir.correction_columns)).collect();
+            check(&ipath, "irradiance_scale.S", &scale, "a scale in (0, 100]", |x| x > 0.0 && x <= 100.0)?;
+            correction = IrradianceCorrection {
+                resolution: cr,
+                slot: slots(&ir.corrected_cells, cells, mp, "irradiance.corrected_cells")?,
+                scale,
+            };
+        }
         let (r, dr, cols) = (ir.resolution, ir.depth_resolution, ir.atlas_columns);
         let e = &e;
         let irr: Vec<Vec3> =
@@ -567,6 +636,7 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
         irradiance,
         depth_mean,
         depth_mean_sq,
+        correction,
     };
     let roughness = m.roughness.clone();
     Ok(GridData { warp: Warp { probe, proxies, options: *o }, correctives, irradiance, roughness, manifest: m })

@@ -13,7 +13,8 @@ pub const GRID_FORMAT: &str = "warpfit-grid";
 /// Bumped on any change an older reader cannot read correctly.
 /// 2: a rough lookup in a cell with a warp map takes its distance ratio from the map's hit
 /// estimate (no depth fetch), and the stored roughness correction is fitted for that.
-pub const GRID_VERSION: u32 = 2;
+/// 3: the manifest's own checksum, structural limits, and the fitted irradiance corrections.
+pub const GRID_VERSION: u32 = 3;
 pub const MANIFEST_FILE: &str = "manifest.json";
 pub const PROBE_FILE: &str = "probe.exr";
 pub const CORRECTIVES_FILE: &str = "correctives.exr";
@@ -145,6 +146,11 @@ pub struct IrradianceSection {
     pub atlas_columns: u32,
     /// `irradiance.exr` layers `irradiance` (R, G, B) and `depth_moments` (mean, mean_sq).
     pub encoding: String,
+    /// Cells that store a fitted correction of the blended irradiance (sorted), the N of
+    /// its N×N map of scales, and the columns of the `irradiance_scale` atlas (channel S).
+    pub corrected_cells: Vec<u32>,
+    pub correction_resolution: u32,
+    pub correction_columns: u32,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -46,6 +46,8 @@ pub struct IrradianceSource<'a> {
     pub depth_mean: &'a [f32],
     pub depth_mean_sq: &'a [f32],
     pub inside: &'a [bool],
+    /// The fitted corrections of the blended irradiance (cells without one: none stored).
+    pub correction: &'a crate::gridfile::IrradianceCorrection,
 }
 
 /// Everything a fitted grid folder holds.
@@ -217,6 +219,19 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
         bytes_saved: active.len() as u64 * (dr * dr) as u64 * 4,
     });
     let columns = atlas_columns(active.len());
+    // fitted irradiance corrections of stored cells, in cell order
+    let corrected: Vec<u32> = active
+        .iter()
+        .copied()
+        .filter(|&c| src.correction.slot.get(c as usize).is_some_and(|&s| s != crate::warp::corrective::NO_MAP))
+        .collect();
+    let correction_columns = atlas_columns(corrected.len());
+    let uncorrected = active.len() - corrected.len();
+    left_out.push(LeftOut {
+        what: format!("irradiance corrections of {uncorrected} cells"),
+        reason: "the blend of the grid is as good on held-out surface points (within 5%), or the cell holds too few surfaces to fit".into(),
+        bytes_saved: uncorrected as u64 * (src.correction.resolution * src.correction.resolution) as u64 * 4,
+    });
     if !active.is_empty() {
         let (w, h, e) = pack(src.irradiance, &active, ir, columns);
         let e: Vec<Vec3> = e.iter().map(|v| v.min(Vec3::splat(MAX_RADIANCE))).collect();
@@ -234,6 +249,18 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
                 channels: vec![("mean".into(), mean), ("mean_sq".into(), mean_sq)],
             },
         ];
+        let mut layers = layers.to_vec();
+        if !corrected.is_empty() {
+            let cr = src.correction.resolution;
+            let slots: Vec<u32> = corrected.iter().map(|&c| src.correction.slot[c as usize]).collect();
+            let (sw, sh, scale) = pack(&src.correction.scale, &slots, cr, correction_columns);
+            layers.push(ExrLayer {
+                name: "irradiance_scale".into(),
+                width: sw,
+                height: sh,
+                channels: vec![("S".into(), scale)],
+            });
+        }
         payloads.push(payload(dir, IRRADIANCE_FILE, &layers, g.precision)?);
     }
 
@@ -287,7 +314,10 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
             depth_resolution: dr,
             stored_cells: active,
             atlas_columns: columns,
-            encoding: "per stored cell: irradiance (R, G, B) on an octahedral map of normals; distance moments (mean, mean_sq; misses count as the bake's far distance) on an octahedral map of directions".into(),
+            encoding: "per stored cell: irradiance (R, G, B) on an octahedral map of normals; distance moments (mean, mean_sq; misses count as the bake's far distance) on an octahedral map of directions; per corrected cell: a map of scales (S) over the normal, multiplying the blended irradiance of points in the cell".into(),
+            corrected_cells: corrected,
+            correction_resolution: src.correction.resolution.max(2),
+            correction_columns,
         },
         roughness: g.roughness.cloned(),
         payloads,

@@ -274,6 +274,7 @@ pub fn write_grid(
             depth_mean: &g.depth_mean,
             depth_mean_sq: &g.depth_mean_sq,
             inside: &g.inside,
+            correction: &fitted.irradiance.correction,
         },
         roughness,
         precision: store.precision,

@@ -41,9 +41,18 @@ impl IrradianceGrid {
     /// position, weighted trilinearly, by a smooth back-face term and by Chebyshev visibility
     /// from the cells' distance moments (DDGI, Majercik et al. 2019); cells inside geometry
     /// are skipped and the weights renormalised. Black when no stored cell is near.
+    /// Where the containing cell stores a fitted correction, its scale for the normal
+    /// multiplies the blend.
     #[must_use]
     pub fn irradiance(&self, position: Vec3, normal: Vec3) -> Vec3 {
-        self.irradiance_blend(position, normal, IrradianceBlend::Chebyshev)
+        let e = self.irradiance_blend(position, normal, IrradianceBlend::Chebyshev);
+        if self.correction.slot.is_empty() {
+            return e;
+        }
+        let (Some(n), true) = (crate::octa::unit_direction(normal), position.is_finite()) else { return e };
+        let cell = self.geometry.cell_index(self.geometry.cell_of(position));
+        let k = self.correction.scale(cell, n);
+        if k.is_finite() && k >= 0.0 { e * k } else { e }
     }
 
     /// Irradiance of the stored cell `cell` for unit normal `n` (bilinear in its map), if

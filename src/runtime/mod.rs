@@ -27,7 +27,7 @@ mod irradiance;
 pub use irradiance::IrradianceBlend;
 
 pub use crate::files::FileError as LoadError;
-pub use crate::gridfile::{GridManifest, IrradianceGrid, Precision, read_manifest};
+pub use crate::gridfile::{GridManifest, IrradianceCorrection, IrradianceGrid, Precision, read_manifest};
 
 use crate::octa;
 use crate::roughness::RoughnessCorrection;

@@ -5,7 +5,7 @@
 
 use super::bvh::intersect_sphere;
 use super::{Renderer, Tracer};
-use crate::sampling::{Sampler, uniform_sphere};
+use crate::sampling::{Sampler, hash_pair, uniform_sphere};
 use crate::scene::Scene;
 use glam::Vec3;
 
@@ -92,6 +92,84 @@ pub fn is_inside(scene: &Scene, tracer: &Tracer, p: Vec3, threshold: f32, sample
         }
     }
     inside_by_backfaces(b, threshold)
+}
+
+/// Cosine-weighted irradiance at `p` around unit `n` from `spp` traced radiance samples
+/// (`E = π · mean L` over cosine-distributed directions: exact for constant radiance), and the
+/// standard error of its luminance. The light probes carry: sky, emitters, bounced light (the
+/// sun's disc is not seen by rays, it reaches surfaces by next-event estimation).
+pub fn irradiance_reference(
+    renderer: &Renderer,
+    p: Vec3,
+    n: Vec3,
+    spp: u32,
+    sampler: impl Fn(u32) -> Sampler,
+    rays: &mut u64,
+) -> (Vec3, f32) {
+    let (mut sum, mut y1, mut y2) = (Vec3::ZERO, 0.0f64, 0.0f64);
+    let spp = spp.max(1);
+    for k in 0..spp {
+        let mut s = sampler(k);
+        let d = crate::sampling::cosine_hemisphere(s.next_2d(), n);
+        let l = renderer.sample(p, d, &mut s, rays).radiance;
+        sum += l;
+        let y = crate::tonemap::luminance(l) as f64;
+        (y1, y2) = (y1 + y, y2 + y * y);
+    }
+    let m = spp as f64;
+    let var = ((y2 - y1 * y1 / m) / (m - 1.0).max(1.0)).max(0.0);
+    let pi = std::f64::consts::PI;
+    (sum * (std::f32::consts::PI / spp as f32), (pi * (var / m).sqrt()) as f32)
+}
+
+/// `count` points area-uniform on the scene's triangles inside `bounds`, each offset off the
+/// surface along the side it is seen from (one-sided: the front; two-sided: either, at
+/// random), with that normal; points inside geometry are skipped. Drawn from
+/// `Sampler::new(seed, stream, attempt)`: each user (validation, training, check) its own
+/// stream.
+pub fn surface_points(
+    scene: &Scene,
+    tracer: &Tracer,
+    bounds: (Vec3, Vec3),
+    count: u32,
+    (seed, stream): (u64, u64),
+) -> Vec<(Vec3, Vec3)> {
+    let tris = &scene.triangles;
+    let mut cdf = Vec::with_capacity(tris.len());
+    let mut total = 0.0f64;
+    for k in 0..tris.len() {
+        total += 0.5 * (tris.v1[k] - tris.v0[k]).cross(tris.v2[k] - tris.v0[k]).length() as f64;
+        cdf.push(total);
+    }
+    let mut out = Vec::new();
+    if tris.is_empty() || !(total > 0.0) {
+        return out;
+    }
+    let threshold = scene.config.grid.inside_backface_fraction;
+    let mut attempt = 0u32;
+    while out.len() < count as usize && attempt < count.saturating_mul(256) {
+        let mut s = Sampler::new(seed, stream, attempt);
+        attempt += 1;
+        let pick = s.next_1d() as f64 * total;
+        let k = cdf.partition_point(|&c| c <= pick).min(tris.len() - 1);
+        let (u, v) = (s.next_1d(), s.next_1d());
+        let su = u.sqrt();
+        let (b0, b1) = (1.0 - su, v * su);
+        let p = tris.v0[k] * b0 + tris.v1[k] * b1 + tris.v2[k] * (1.0 - b0 - b1);
+        if !(p.cmpge(bounds.0).all() && p.cmple(bounds.1).all()) {
+            continue;
+        }
+        let front = (tris.v1[k] - tris.v0[k]).cross(tris.v2[k] - tris.v0[k]).normalize_or_zero();
+        let two_sided = scene.materials[tris.material[k] as usize].two_sided;
+        let n = if two_sided && s.next_1d() < 0.5 { -front } else { front };
+        let b = p + n * tracer.surface_offset(p);
+        let inside_stream = hash_pair(stream, 0x1D ^ attempt as u64);
+        if n == Vec3::ZERO || is_inside(scene, tracer, b, threshold, |j| Sampler::new(seed, inside_stream, j)) {
+            continue;
+        }
+        out.push((b, n));
+    }
+    out
 }
 
 /// Queries (B, dir, roughness) with traced references: `positions.len() × dirs_per_position`
