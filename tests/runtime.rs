@@ -296,10 +296,16 @@ fn irradiance_at_a_cell_centre_is_that_cells_bake() {
                 (got - want).abs().max_element() <= 1e-5 * want.max_element().max(1e-3),
                 "cell {cell}: {got} vs {want}"
             );
-            // the runtime's answer is the blend times the cell's fitted correction
+            // the runtime's answer is the blend with each cell's fitted correction: at a cell
+            // centre, the cell's own
             let k = ig.correction.scale(cell, n);
             assert!(k > 0.0 && k.is_finite());
-            assert_eq!(g.irradiance(c, n), got * k, "cell {cell}");
+            let corrected = g.irradiance(c, n);
+            assert!(
+                (corrected - got * k).abs().max_element() <= 1e-5 * corrected.max_element().max(1e-3),
+                "cell {cell}: {corrected} vs {}",
+                got * k
+            );
         }
     }
 }
@@ -480,4 +486,32 @@ proptest! {
         }
         load_never_panics(&d, &format!("{name} with {edits:?}"));
     }
+}
+
+#[test]
+fn corrected_irradiance_is_continuous_across_cell_faces() {
+    // the corrections act inside the blend, so a corrected cell shows no seam at its faces
+    let g = FittedGrid::load(tiny()).unwrap();
+    let ig = &g.irradiance;
+    let size = ig.geometry.cell_size();
+    let mut faces = 0;
+    for cell in (0..ig.geometry.cell_count()).filter(|&c| ig.correction.slot[c] != u32::MAX) {
+        let c = ig.geometry.cell_centre(cell);
+        for axis in 0..3 {
+            let mut face = c;
+            face[axis] += 0.5 * size[axis];
+            if face[axis] >= ig.geometry.max[axis] {
+                continue;
+            }
+            for n in [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z, Vec3::new(0.3, 0.8, -0.5).normalize()] {
+                let eps =
+                    Vec3::from(std::array::from_fn::<f32, 3, _>(|k| if k == axis { 1e-4 * size[k] } else { 0.0 }));
+                let (a, b) = (g.irradiance(face - eps, n), g.irradiance(face + eps, n));
+                let scale = a.max_element().max(b.max_element()).max(1e-3);
+                assert!((a - b).abs().max_element() <= 2e-3 * scale, "cell {cell} axis {axis} n {n}: {a} vs {b}");
+                faces += 1;
+            }
+        }
+    }
+    assert!(faces > 0, "the witness grid stores corrections at inner faces");
 }

@@ -224,6 +224,16 @@ impl DiffuseMethod<'_> {
         }
     }
 
+    /// The diffuse figure's label of the row, if it shows it (trilinear, DDGI, the runtime).
+    fn figure_label(&self) -> Option<&'static str> {
+        match self {
+            DiffuseMethod::Grid(_, IrradianceBlend::Trilinear) => Some("trilinear"),
+            DiffuseMethod::Grid(_, IrradianceBlend::Chebyshev) => Some("DDGI blend"),
+            DiffuseMethod::Runtime(_) => Some("runtime (corrected)"),
+            _ => None,
+        }
+    }
+
     #[inline]
     pub fn irradiance(&self, p: Vec3, n: Vec3) -> Vec3 {
         match self {
@@ -321,7 +331,8 @@ fn view_references(
         .collect()
 }
 
-/// Evaluates `methods` on `set` and on the diffuse-shaded camera `views`.
+/// Evaluates `methods` on `set` and on the diffuse-shaded camera `views`; also returns the
+/// first camera's figure (reference and every grid row with its ꟻLIP map).
 pub fn evaluate(
     scene: &Scene,
     tracer: &Tracer,
@@ -329,12 +340,27 @@ pub fn evaluate(
     methods: &[DiffuseMethod],
     views: &[View],
     (view_spp, seed, exposure): (u32, u64, f32),
-) -> DiffuseReport {
+) -> (DiffuseReport, Option<super::FlipFigure>) {
     let cameras: Vec<&View> = views.iter().filter(|v| v.camera).collect();
     let cams: Vec<View> = cameras.iter().map(|v| (*v).clone()).collect();
     let refs = view_references(scene, tracer, &cams, view_spp, seed, exposure);
     let mut rows = Vec::new();
     let mut estimates = Vec::new();
+    // the figure shows the brightest camera (the most light to get right)
+    let shown = (0..cams.len()).max_by(|&a, &b| {
+        let mean = |k: usize| {
+            refs[k].0.iter().map(|e| crate::tonemap::luminance(*e) as f64).sum::<f64>() / refs[k].0.len().max(1) as f64
+        };
+        mean(a).total_cmp(&mean(b))
+    });
+    let mut figure = shown.map(|k| (&cams[k], &refs[k])).map(|(v, (reference, _))| super::FlipFigure {
+        roughness: 1.0,
+        diffuse: true,
+        width: v.width,
+        height: v.height,
+        reference: reference.clone(),
+        tiles: Vec::new(),
+    });
     for m in methods {
         let est: Vec<Vec3> =
             (0..set.points.len()).into_par_iter().map(|k| m.irradiance(set.points[k], set.normals[k])).collect();
@@ -349,7 +375,7 @@ pub fn evaluate(
         });
         let flip = (!cams.is_empty()).then(|| {
             let (mut sum, mut px) = (0.0, 0usize);
-            for (view, (reference, _)) in cams.iter().zip(&refs) {
+            for (i, (view, (reference, _))) in cams.iter().zip(&refs).enumerate() {
                 let img: Vec<Vec3> = view
                     .surfaces()
                     .par_iter()
@@ -361,6 +387,10 @@ pub fn evaluate(
                 let map = flip::flip_hdr(reference, &img, view.width, view.height, exposure);
                 sum += flip::mean(&map) * map.len() as f64;
                 px += map.len();
+                if let (Some(f), Some(label)) = (figure.as_mut().filter(|_| Some(i) == shown), m.figure_label()) {
+                    let mean = flip::mean(&map);
+                    f.tiles.push((label.into(), img, map, mean));
+                }
             }
             sum / px.max(1) as f64
         });
@@ -391,7 +421,7 @@ pub fn evaluate(
         / set.reference_se.len().max(1) as f64)
         .sqrt()
         / mean_ref.max(1e-30);
-    DiffuseReport {
+    let report = DiffuseReport {
         points: set.points.len(),
         reference_spp: 0,
         reference_se_rel: se_rel,
@@ -407,5 +437,6 @@ pub fn evaluate(
         view_noise_flip: refs.iter().zip(&cams).map(|((_, n), v)| n * (v.width * v.height) as f64).sum::<f64>()
             / cams.iter().map(|v| (v.width * v.height) as f64).sum::<f64>().max(1.0),
         rows,
-    }
+    };
+    (report, figure)
 }

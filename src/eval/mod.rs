@@ -206,6 +206,8 @@ pub struct Subject<'a> {
 /// with their ꟻLIP maps and means.
 pub struct FlipFigure {
     pub roughness: f32,
+    /// Diffuse shading (irradiance / π, albedo 1) instead of glossy reflection.
+    pub diffuse: bool,
     pub width: u32,
     pub height: u32,
     pub reference: Vec<Vec3>,
@@ -343,8 +345,10 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         methods.push(diffuse::DiffuseMethod::ProbeA(&probe_a));
         methods.push(diffuse::DiffuseMethod::Voxel(&voxels));
         let view_spp = settings.renders.map_or(0, |r| r.reference_spp);
-        let mut r = diffuse::evaluate(scene, tracer, &set, &methods, &views, (view_spp, settings.seed, exposure));
+        let (mut r, figure) =
+            diffuse::evaluate(scene, tracer, &set, &methods, &views, (view_spp, settings.seed, exposure));
         r.reference_spp = settings.diffuse_spp;
+        flip_figures.extend(figure);
         r
     });
     bar.finish_and_clear();
@@ -462,6 +466,7 @@ fn flip_figure(
     }
     Some(FlipFigure {
         roughness: view.roughness,
+        diffuse: false,
         width: view.view.width,
         height: view.view.height,
         reference: view.reference.clone(),

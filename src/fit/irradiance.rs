@@ -1,20 +1,23 @@
 //! Correctives fitted into the grid's diffuse answer (seed 000: "fit corrective factors
 //! directly into the dense grid" instead of renormalizing by hand).
 //!
-//! Per cell that holds surfaces: training and held-out check points on the scene's
-//! surfaces inside the cell (`trace::truth::surface_points` on the fit's own streams,
-//! never the evaluation's), each with a traced irradiance reference; the grid's blended
-//! answer there (trilinear, back face, Chebyshev: `runtime::IrradianceBlend::Chebyshev`);
-//! and a 4×4 octahedral map of scales over the normal that multiplies it. The scales are
-//! fitted texel by texel with argmin's Brent (two coordinate-descent sweeps, in [0.2, 5]),
-//! minimising the mean squared tone-mapped error plus a pull towards 1. A cell stores its map
-//! only when it lowers the check points' tone-mapped RMSE by 5% (never worse); the runtime
-//! applies the containing cell's map (`IrradianceGrid::irradiance`).
+//! The runtime multiplies each cell's irradiance by the cell's map of scales over the normal
+//! (4×4 octahedral) inside the DDGI blend (`runtime::IrradianceGrid::irradiance`), so the
+//! answer stays continuous across cell faces. A cell's map therefore moves the answer at
+//! every point whose blend it takes part in (its support: the eight cells around its
+//! centre). The fit: training and held-out check points on the scene's surfaces
+//! (`trace::truth::surface_points` on the fit's own streams, never the evaluation's), each
+//! with a traced irradiance reference and the blend's terms there; then Jacobi rounds, in
+//! which every cell fits its map texel by texel with argmin's Brent (in [0.2, 5], mean
+//! squared tone-mapped error over its support's training points plus a pull towards 1)
+//! while its neighbours keep the previous round's maps. Deterministic at any thread count:
+//! a round reads only the round before. A cell keeps its map only when its support's check
+//! points improve by 5% with the corrected field against the uncorrected blend.
 
 use super::DOMAIN_FIT;
 use crate::bake::Baked;
 use crate::octa;
-use crate::runtime::{IrradianceBlend, IrradianceCorrection, IrradianceGrid};
+use crate::runtime::{BlendTerms, IrradianceBlend, IrradianceCorrection, IrradianceGrid};
 use crate::sampling::{Sampler, hash_pair};
 use crate::tonemap::reinhard;
 use crate::trace::{Renderer, truth};
@@ -34,6 +37,8 @@ const POINTS_PER_CELL: u32 = 12;
 const SPP: u32 = 64;
 /// Weight of the pull towards a scale of 1.
 const PULL: f64 = 0.02;
+/// Jacobi rounds of the coupled fit.
+const ROUNDS: usize = 2;
 /// A cell needs this many training and check points to be fitted.
 const MIN_POINTS: usize = 6;
 
@@ -58,33 +63,48 @@ pub struct IrradianceFit {
     pub seconds: f64,
 }
 
-/// A point with its reference, the grid's blended answer and its taps in the scale map.
+/// A point with its reference, the blend's terms there and its taps in the scale maps.
 #[derive(Clone, Copy)]
 struct Point {
-    blended: Vec3,
+    terms: BlendTerms,
     reference: Vec3,
     taps: [(u32, f32); 4],
 }
 
-/// Tone-mapped squared error of `k · blended` (mean over RGB).
-fn err2(p: &Point, k: f32, exposure: f32) -> f64 {
-    let d = reinhard(p.blended * k, exposure) - reinhard(p.reference, exposure);
-    ((d.x as f64).powi(2) + (d.y as f64).powi(2) + (d.z as f64).powi(2)) / 3.0
-}
+/// The maps of one round: per grid cell, its map (`None`: scale 1).
+type Maps = Vec<Option<Vec<f32>>>;
 
 fn scale_at(map: &[f32], taps: &[(u32, f32); 4]) -> f32 {
     taps.iter().map(|&(t, w)| map[t as usize] * w).sum()
 }
 
-fn rmse(points: &[Point], map: Option<&[f32]>, exposure: f32) -> f64 {
-    let sq: f64 = points.iter().map(|p| err2(p, map.map_or(1.0, |m| scale_at(m, &p.taps)), exposure)).sum();
+/// The corrected blend at `p` with `maps`, cell `cell`'s map replaced by `own`.
+fn predict(p: &Point, maps: &Maps, cell: usize, own: Option<&[f32]>) -> Vec3 {
+    let mut e = Vec3::ZERO;
+    for &(c, w, ei) in &p.terms.terms[..p.terms.count] {
+        let map = if c as usize == cell { own } else { maps[c as usize].as_deref() };
+        e += ei * (w * map.map_or(1.0, |m| scale_at(m, &p.taps)));
+    }
+    e
+}
+
+/// Tone-mapped squared error of `e` (mean over RGB).
+fn err2(e: Vec3, reference: Vec3, exposure: f32) -> f64 {
+    let d = reinhard(e, exposure) - reinhard(reference, exposure);
+    ((d.x as f64).powi(2) + (d.y as f64).powi(2) + (d.z as f64).powi(2)) / 3.0
+}
+
+fn rmse(points: &[&Point], maps: &Maps, cell: usize, own: Option<&[f32]>, exposure: f32) -> f64 {
+    let sq: f64 = points.iter().map(|p| err2(predict(p, maps, cell, own), p.reference, exposure)).sum();
     (sq / points.len().max(1) as f64).sqrt()
 }
 
-/// Texel `t`'s scale as a 1-D problem, the rest of the map fixed.
+/// Texel `t` of cell `cell`'s map as a 1-D problem, the rest fixed.
 struct TexelProblem<'a> {
-    points: &'a [Point],
-    map: &'a [f32],
+    points: &'a [&'a Point],
+    maps: &'a Maps,
+    cell: usize,
+    own: &'a [f32],
     t: usize,
     exposure: f32,
 }
@@ -93,33 +113,35 @@ impl CostFunction for TexelProblem<'_> {
     type Param = f64;
     type Output = f64;
     fn cost(&self, x: &f64) -> Result<f64, Error> {
-        let mut map = self.map.to_vec();
-        map[self.t] = *x as f32;
+        let mut own = self.own.to_vec();
+        own[self.t] = *x as f32;
         let data: f64 = self
             .points
             .iter()
             .filter(|p| p.taps.iter().any(|&(t, w)| t as usize == self.t && w > 0.0))
-            .map(|p| err2(p, scale_at(&map, &p.taps), self.exposure))
+            .map(|p| err2(predict(p, self.maps, self.cell, Some(&own)), p.reference, self.exposure))
             .sum::<f64>()
             / self.points.len().max(1) as f64;
-        Ok(data + PULL * (x - 1.0).powi(2) / map.len() as f64)
+        Ok(data + PULL * (x - 1.0).powi(2) / own.len() as f64)
     }
 }
 
-/// Fits the map of one cell's training points.
-fn fit_map(points: &[Point], exposure: f32) -> Vec<f32> {
+/// Fits cell `cell`'s map on its support's training points, the neighbours' maps fixed.
+fn fit_map(points: &[&Point], maps: &Maps, cell: usize, exposure: f32) -> Vec<f32> {
     let n2 = (CORRECTION_RES * CORRECTION_RES) as usize;
-    let mut map = vec![1.0f32; n2];
+    let mut own = maps[cell].clone().unwrap_or_else(|| vec![1.0f32; n2]);
     for _ in 0..2 {
         for t in 0..n2 {
             if !points.iter().any(|p| p.taps.iter().any(|&(k, w)| k as usize == t && w > 0.0)) {
                 continue;
             }
-            let current =
-                TexelProblem { points, map: &map, t, exposure }.cost(&(map[t] as f64)).unwrap_or(f64::INFINITY);
+            let snapshot = own.clone();
+            let current = TexelProblem { points, maps, cell, own: &snapshot, t, exposure }
+                .cost(&(own[t] as f64))
+                .unwrap_or(f64::INFINITY);
             let solver = BrentOpt::new(0.2, 5.0).set_tolerance(1e-3, 1e-4);
-            let res = Executor::new(TexelProblem { points, map: &map, t, exposure }, solver)
-                .configure(|st| st.param(map[t] as f64).max_iters(24))
+            let res = Executor::new(TexelProblem { points, maps, cell, own: &snapshot, t, exposure }, solver)
+                .configure(|st| st.param(own[t] as f64).max_iters(24))
                 .run();
             if let Ok(r) = res {
                 let st = r.state();
@@ -127,12 +149,12 @@ fn fit_map(points: &[Point], exposure: f32) -> Vec<f32> {
                     && best.is_finite()
                     && st.get_best_cost() <= current
                 {
-                    map[t] = best as f32;
+                    own[t] = best as f32;
                 }
             }
         }
     }
-    map
+    own
 }
 
 /// Fits the diffuse correctives of `grid` (its irradiance without corrections) for the
@@ -148,7 +170,7 @@ pub fn fit_irradiance(baked: Baked, grid: &IrradianceGrid, exposure: f32, seed: 
     };
     let (train, check) = (draw(0x1A), draw(0x1B));
     let renderer = Renderer::new(scene, tracer);
-    let trace = |pts: &[(Vec3, Vec3)], tag: u64| -> Vec<(usize, Point, u64)> {
+    let trace = |pts: &[(Vec3, Vec3)], tag: u64| -> Vec<(Point, u64)> {
         pts.par_iter()
             .enumerate()
             .map(|(i, &(p, n))| {
@@ -157,54 +179,75 @@ pub fn fit_irradiance(baked: Baked, grid: &IrradianceGrid, exposure: f32, seed: 
                 let (reference, _) =
                     truth::irradiance_reference(&renderer, p, n, SPP, |k| Sampler::new(seed, stream, k), &mut rays);
                 let point = Point {
-                    blended: grid.irradiance_blend(p, n, IrradianceBlend::Chebyshev),
+                    terms: grid.blend_terms(p, n, IrradianceBlend::Chebyshev),
                     reference,
                     taps: octa::bilinear_taps(CORRECTION_RES, octa::encode(n)),
                 };
-                (g.cell_index(g.cell_of(p)), point, rays)
+                (point, rays)
             })
             .collect()
     };
     let (train, check) = (trace(&train, 0x1C), trace(&check, 0x1D));
-    let reference_rays = train.iter().chain(&check).map(|x| x.2).sum();
-    let mut by_cell: Vec<(Vec<Point>, Vec<Point>)> = vec![(Vec::new(), Vec::new()); g.cell_count()];
-    for (c, p, _) in &train {
-        by_cell[*c].0.push(*p);
+    let reference_rays = train.iter().chain(&check).map(|x| x.1).sum();
+    // each cell's support: the points whose blend it takes part in
+    let support = |pts: &[(Point, u64)]| {
+        let mut by_cell: Vec<Vec<usize>> = vec![Vec::new(); g.cell_count()];
+        for (k, (p, _)) in pts.iter().enumerate() {
+            for &(c, w, _) in &p.terms.terms[..p.terms.count] {
+                if w > 0.0 {
+                    by_cell[c as usize].push(k);
+                }
+            }
+        }
+        by_cell
+    };
+    let (train_of, check_of) = (support(&train), support(&check));
+    let cells: Vec<usize> = (0..g.cell_count())
+        .filter(|&c| grid.slot[c] != NO_MAP && train_of[c].len() >= MIN_POINTS && check_of[c].len() >= MIN_POINTS / 2)
+        .collect();
+    let gather = |pts: &'_ [(Point, u64)], idx: &[usize]| -> Vec<Point> { idx.iter().map(|&k| pts[k].0).collect() };
+    let mut maps: Maps = vec![None; g.cell_count()];
+    for _ in 0..ROUNDS {
+        let next: Vec<(usize, Vec<f32>)> = cells
+            .par_iter()
+            .map(|&c| {
+                let pts = gather(&train, &train_of[c]);
+                let refs: Vec<&Point> = pts.iter().collect();
+                (c, fit_map(&refs, &maps, c, exposure))
+            })
+            .collect();
+        for (c, m) in next {
+            maps[c] = Some(m);
+        }
     }
-    for (c, p, _) in &check {
-        by_cell[*c].1.push(*p);
-    }
-    let fits: Vec<(IrradianceCellFit, Option<Vec<f32>>)> = by_cell
+    // selection: a cell keeps its map where its support's check points improve by 5% with
+    // the corrected field against the uncorrected blend (neighbouring maps share their
+    // points, so one map alone rarely makes the difference: they are judged as a field)
+    let none: Maps = vec![None; g.cell_count()];
+    let fits: Vec<IrradianceCellFit> = cells
         .par_iter()
-        .enumerate()
-        .filter(|(c, (tr, ch))| grid.slot[*c] != NO_MAP && tr.len() >= MIN_POINTS && ch.len() >= MIN_POINTS / 2)
-        .map(|(c, (tr, ch))| {
-            let map = fit_map(tr, exposure);
-            let (before, after) = (rmse(ch, None, exposure), rmse(ch, Some(&map), exposure));
-            let stored = after < 0.95 * before;
-            let fit = IrradianceCellFit {
+        .map(|&c| {
+            let pts = gather(&check, &check_of[c]);
+            let refs: Vec<&Point> = pts.iter().collect();
+            let own = maps[c].as_deref();
+            let (before, after) = (rmse(&refs, &none, c, None, exposure), rmse(&refs, &maps, c, own, exposure));
+            IrradianceCellFit {
                 cell: c as u32,
-                train_points: tr.len(),
-                check_points: ch.len(),
+                train_points: train_of[c].len(),
+                check_points: check_of[c].len(),
                 check_before: before,
                 check_after: after,
-                stored,
-            };
-            (fit, stored.then_some(map))
+                stored: after < 0.95 * before,
+            }
         })
         .collect();
     let mut correction =
         IrradianceCorrection { resolution: CORRECTION_RES, slot: vec![NO_MAP; g.cell_count()], scale: Vec::new() };
-    for (f, map) in &fits {
-        if let Some(map) = map {
+    for f in fits.iter().filter(|f| f.stored) {
+        if let Some(map) = &maps[f.cell as usize] {
             correction.slot[f.cell as usize] = (correction.scale.len() / map.len()) as u32;
             correction.scale.extend_from_slice(map);
         }
     }
-    IrradianceFit {
-        correction,
-        cells: fits.into_iter().map(|(f, _)| f).collect(),
-        reference_rays,
-        seconds: t0.elapsed().as_secs_f64(),
-    }
+    IrradianceFit { correction, cells: fits, reference_rays, seconds: t0.elapsed().as_secs_f64() }
 }

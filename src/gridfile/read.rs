@@ -72,6 +72,19 @@ impl IrradianceCorrection {
         }
     }
 
+    /// [`IrradianceCorrection::scale`] with the normal's taps in the map given.
+    #[inline]
+    #[must_use]
+    pub fn scale_taps(&self, cell: usize, taps: &[(u32, f32); 4]) -> f32 {
+        match self.slot.get(cell) {
+            Some(&s) if s != NO_MAP => {
+                let base = s as usize * (self.resolution * self.resolution) as usize;
+                taps.iter().map(|&(t, w)| self.scale[base + t as usize] * w).sum()
+            }
+            _ => 1.0,
+        }
+    }
+
     /// Cells that store a correction.
     #[must_use]
     pub fn stored_cells(&self) -> usize {

@@ -33,7 +33,7 @@ impl RunFolder {
 
     /// Whether `file` (a top-level name) is written by the evaluation.
     pub fn written_by_eval(file: &str) -> bool {
-        file.starts_with("eval") || file.starts_with("flip_r")
+        file.starts_with("eval") || file.starts_with("flip_")
     }
 
     /// Whether `file` is written by the run report.
@@ -70,6 +70,11 @@ impl RunFolder {
         self.file("eval_rough.png")
     }
     /// The camera view of roughness bucket `r` with a few rows' images and ꟻLIP maps.
+    /// `flip_diffuse.png`: the diffuse camera view and its ꟻLIP maps.
+    pub fn flip_diffuse(&self) -> PathBuf {
+        self.file("flip_diffuse.png")
+    }
+
     pub fn flip_figure(&self, r: f32) -> PathBuf {
         self.file(&format!("flip_r{r:.3}.png"))
     }

@@ -183,6 +183,13 @@ fn write_flip_figure(folder: &RunFolder, r: &EvalReport, f: &crate::eval::FlipFi
         images.push(tile(label.clone(), crate::tonemap::to_srgb8(image, r.exposure)));
         maps.push(tile(format!("ꟻLIP {mean:.3}"), crate::eval::flip::magma(map, f.width, f.height)));
     }
+    if f.diffuse {
+        let title = format!(
+            "{}, diffuse: every surface white Lambertian lit by the grid's irradiance; below, ꟻLIP against the reference",
+            r.scene
+        );
+        return plot::image_grid(&folder.flip_diffuse(), &title, &[images, maps]);
+    }
     let title = format!(
         "{}, roughness {}: every surface a glossy reflector; below, ꟻLIP against the reference",
         r.scene, f.roughness
@@ -221,8 +228,9 @@ pub fn write_eval(folder: &RunFolder, r: &EvalReport) -> Result<(), FileError> {
     let _ = writeln!(md, "## Roughness buckets and the references' noise\n");
     md += &buckets_table(r);
     if r.diffuse.is_some() {
-        md += "\n## Diffuse lighting\n\nIrradiance at held-out surface points (area-uniform on triangles inside the grid), against cosine-weighted traced references: the light probes carry (sky, emitters, bounced light; direct sun is the renderer's job). Rows: the grid through each step of DDGI's blend, probe A alone, and seed 004's voxel GI.\n\n";
+        md += "\n## Diffuse lighting\n\nIrradiance at held-out surface points (area-uniform on triangles inside the grid), against cosine-weighted traced references: the light probes carry (sky, emitters, bounced light; direct sun is the renderer's job). Rows: the grid through each step of DDGI's blend, the runtime (the blend times the cell's fitted correction), probe A alone, and seed 004's voxel GI.\n\n";
         md += &diffuse_table(r);
+        md += "\n![ꟻLIP, diffuse](flip_diffuse.png)\n";
     }
     let _ = writeln!(md, "\n## Mirror lookups (roughness 0)\n");
     md += &methods_table(r, 0.0);

@@ -231,6 +231,7 @@ pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> 
     let left_out = grid.left_out.iter().map(|l| (l.what.clone(), l.reason.clone(), l.bytes_saved)).collect();
     let mut images: Vec<String> = ["eval_error_vs_cost.png", "eval_rough.png"].iter().map(|f| f.to_string()).collect();
     images.extend(crate::eval::ROUGHNESS_BUCKETS.iter().map(|&r| format!("flip_r{r:.3}.png")));
+    images.push("flip_diffuse.png".into());
     images.extend(
         ["eval_views.png", "fit_convergence.png", "residual_slices.png", "sweep.png", "sweep_convergence.png"]
             .iter()

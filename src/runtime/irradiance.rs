@@ -36,23 +36,34 @@ impl IrradianceBlend {
     }
 }
 
+/// The terms of one blend (see [`IrradianceGrid::blend_terms`]).
+#[derive(Clone, Copy, Debug)]
+pub struct BlendTerms {
+    pub terms: [(u32, f32, Vec3); 8],
+    pub count: usize,
+}
+
 impl IrradianceGrid {
     /// Irradiance at `position` for surface normal `normal`: the eight cells around the
     /// position, weighted trilinearly, by a smooth back-face term and by Chebyshev visibility
     /// from the cells' distance moments (DDGI, Majercik et al. 2019); cells inside geometry
-    /// are skipped and the weights renormalised. Black when no stored cell is near.
-    /// Where the containing cell stores a fitted correction, its scale for the normal
-    /// multiplies the blend.
+    /// are skipped and the weights renormalised. Each cell's irradiance is multiplied by its
+    /// fitted correction for the normal where it stores one, inside the blend, so the answer
+    /// stays continuous across cell faces. Black when no stored cell is near.
     #[must_use]
     pub fn irradiance(&self, position: Vec3, normal: Vec3) -> Vec3 {
-        let e = self.irradiance_blend(position, normal, IrradianceBlend::Chebyshev);
-        if self.correction.slot.is_empty() {
-            return e;
+        let Some(n) = crate::octa::unit_direction(normal) else {
+            return Vec3::ZERO;
+        };
+        let terms = self.blend_terms(position, n, IrradianceBlend::Chebyshev);
+        let c = &self.correction;
+        let ctaps = (!c.slot.is_empty()).then(|| octa::bilinear_taps(c.resolution, octa::encode(n)));
+        let mut e = Vec3::ZERO;
+        for &(cell, w, ei) in &terms.terms[..terms.count] {
+            let k = ctaps.as_ref().map_or(1.0, |t| c.scale_taps(cell as usize, t));
+            e += ei * (w * k);
         }
-        let (Some(n), true) = (crate::octa::unit_direction(normal), position.is_finite()) else { return e };
-        let cell = self.geometry.cell_index(self.geometry.cell_of(position));
-        let k = self.correction.scale(cell, n);
-        if k.is_finite() && k >= 0.0 { e * k } else { e }
+        if e.is_finite() { e.max(Vec3::ZERO) } else { Vec3::ZERO }
     }
 
     /// Irradiance of the stored cell `cell` for unit normal `n` (bilinear in its map), if
@@ -69,22 +80,35 @@ impl IrradianceGrid {
         Some(taps.iter().map(|&(t, wt)| self.irradiance[base + t as usize] * wt).sum())
     }
 
-    /// [`IrradianceGrid::irradiance`] with the blend's steps chosen by `blend`.
+    /// [`IrradianceGrid::irradiance`] without the fitted corrections, with the blend's steps
+    /// chosen by `blend`.
     #[must_use]
     pub fn irradiance_blend(&self, position: Vec3, normal: Vec3, blend: IrradianceBlend) -> Vec3 {
         let Some(n) = crate::octa::unit_direction(normal) else {
             return Vec3::ZERO;
         };
-        if blend == IrradianceBlend::Nearest {
-            let geo = &self.geometry;
-            let p = if position.is_finite() { position } else { geo.min + (geo.max - geo.min) * 0.5 };
-            let e = self.cell_irradiance(geo.cell_index(geo.cell_of(p)), n).unwrap_or(Vec3::ZERO);
-            return if e.is_finite() { e.max(Vec3::ZERO) } else { Vec3::ZERO };
-        }
-        let (backface, visibility) = (blend != IrradianceBlend::Trilinear, blend == IrradianceBlend::Chebyshev);
+        let terms = self.blend_terms(position, n, blend);
+        let e: Vec3 = terms.terms[..terms.count].iter().map(|&(_, w, e)| e * w).sum();
+        if e.is_finite() { e.max(Vec3::ZERO) } else { Vec3::ZERO }
+    }
+
+    /// The blend's terms at `position` for unit normal `n`: up to eight (cell, normalised
+    /// weight, the cell's irradiance for `n`). The weights sum to 1 when any cell counts.
+    #[must_use]
+    pub fn blend_terms(&self, position: Vec3, n: Vec3, blend: IrradianceBlend) -> BlendTerms {
+        let mut out = BlendTerms { terms: [(0, 0.0, Vec3::ZERO); 8], count: 0 };
         let g = self;
         let geo = &g.geometry;
         let p = if position.is_finite() { position } else { geo.min + (geo.max - geo.min) * 0.5 };
+        if blend == IrradianceBlend::Nearest {
+            let cell = geo.cell_index(geo.cell_of(p));
+            if let Some(e) = self.cell_irradiance(cell, n).filter(|e| e.is_finite()) {
+                out.terms[0] = (cell as u32, 1.0, e);
+                out.count = 1;
+            }
+            return out;
+        }
+        let (backface, visibility) = (blend != IrradianceBlend::Trilinear, blend == IrradianceBlend::Chebyshev);
         let f = (p - geo.min) / geo.cell_size() - 0.5;
         let hi = (geo.counts - UVec3::ONE).as_vec3();
         let f = if f.is_finite() { f.clamp(Vec3::ZERO, hi) } else { Vec3::ZERO };
@@ -94,7 +118,7 @@ impl IrradianceGrid {
         let taps_n = octa::bilinear_taps(g.resolution, octa::encode(n));
         let cell_size = geo.cell_size();
         let (ir, dr) = (g.resolution, g.depth_resolution);
-        let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
+        let mut wsum = 0.0f32;
         for corner in 0..8u32 {
             let o = UVec3::new(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
             let c = (base + o).min(geo.counts - UVec3::ONE);
@@ -137,14 +161,17 @@ impl IrradianceGrid {
             let w = w.max(1e-6 * tri);
             let base = slot * (ir * ir) as usize;
             let e: Vec3 = taps_n.iter().map(|&(t, wt)| g.irradiance[base + t as usize] * wt).sum();
-            sum += e * w;
+            out.terms[out.count] = (cell as u32, w, e);
+            out.count += 1;
             wsum += w;
         }
         if wsum > 0.0 {
-            let e = sum / wsum;
-            if e.is_finite() { e.max(Vec3::ZERO) } else { Vec3::ZERO }
+            for t in &mut out.terms[..out.count] {
+                t.1 /= wsum;
+            }
         } else {
-            Vec3::ZERO
+            out.count = 0;
         }
+        out
     }
 }

@@ -24,7 +24,7 @@
 //! - `FittedGrid` is `Send + Sync` and immutable; sampling never allocates.
 
 mod irradiance;
-pub use irradiance::IrradianceBlend;
+pub use irradiance::{BlendTerms, IrradianceBlend};
 
 pub use crate::files::FileError as LoadError;
 pub use crate::gridfile::{GridManifest, IrradianceCorrection, IrradianceGrid, Precision, read_manifest};
