@@ -10,10 +10,6 @@
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
-/// Revision of the sequences: bumped whenever a sample's value changes, so bakes keyed on
-/// it (`scene::Scene::content_key`) are not reused across such a change.
-pub const REVISION: u32 = 2;
-
 /// SplitMix64 finaliser: a well-mixed 64-bit hash.
 #[inline]
 #[must_use]

@@ -130,7 +130,7 @@ fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
     let mut ir = warpfit::runtime::IrradianceGrid::from_cells(
         baked.grid.geometry,
         (baked.grid.irradiance_resolution, baked.grid.depth_resolution),
-        (&baked.grid.irradiance, &baked.grid.depth_mean, &baked.grid.depth_mean_sq),
+        (&baked.grid.irradiance, &baked.grid.depth_mean, &baked.grid.depth_mean_sq, &baked.grid.probe_offset),
         |c| !baked.grid.inside[c],
     );
     let held_out = warpfit::eval::diffuse::diffuse_set(&scene, &tracer, &ir, 256, 256, 7);

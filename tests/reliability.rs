@@ -256,7 +256,7 @@ fn an_edited_manifest_is_refused() {
 #[test]
 fn every_structural_rule_of_the_manifest_is_checked() {
     type Edit = fn(&mut serde_json::Value);
-    let cases: [(&str, Edit, &str); 14] = [
+    let cases: [(&str, Edit, &str); 16] = [
         ("probe-resolution", |v| v["probe"]["resolution"] = 8192.into(), "probe.resolution"),
         ("mip-halving", |v| v["probe"]["radiance_mips"][1]["resolution"] = 15.into(), "radiance_mips[1].resolution"),
         ("mip-name", |v| v["probe"]["radiance_mips"][0]["layer"] = "distance_mip0".into(), "radiance_mips[0].layer"),
@@ -279,10 +279,19 @@ fn every_structural_rule_of_the_manifest_is_checked() {
         ("tile-res", |v| v["irradiance"]["resolution"] = 3.into(), "irradiance"),
         (
             "corrected-not-stored",
-            |v| v["irradiance"]["corrected_cells"] = serde_json::json!([17]),
+            |v| {
+                v["irradiance"]["corrected_cells"] = serde_json::json!([32]);
+                v["irradiance"]["correction_columns"] = 1.into();
+            },
             "irradiance.corrected_cells",
         ),
         ("correction-res", |v| v["irradiance"]["correction_resolution"] = 5.into(), "irradiance.correction_resolution"),
+        ("relocated-far", |v| v["grid"]["relocated"] = serde_json::json!([[3, [0.0, 0.0, 50.0]]]), "grid.relocated"),
+        (
+            "relocated-order",
+            |v| v["grid"]["relocated"] = serde_json::json!([[5, [0.1, 0.0, 0.0]], [3, [0.1, 0.0, 0.0]]]),
+            "sorted and unique",
+        ),
         ("listing", |v| v["payloads"][0]["layers"][0]["width"] = 16384.into(), "payloads.probe.exr"),
         (
             "extra-payload",
@@ -296,6 +305,7 @@ fn every_structural_rule_of_the_manifest_is_checked() {
             "budget",
             |v| {
                 v["grid"]["counts"] = serde_json::json!([256, 256, 256]);
+                v["grid"]["relocated"] = serde_json::json!([]);
                 let cells: Vec<u32> = (0..1 << 20).collect();
                 v["irradiance"]["stored_cells"] = serde_json::json!(cells);
                 v["irradiance"]["resolution"] = 64.into();

@@ -161,7 +161,7 @@ fn the_fits_per_query_error_is_the_error_through_the_runtime() {
         let ctx = warpfit::fit::objective::CellContext {
             glossy,
             exposure: 1.0,
-            centre: geo.cell_centre(cell),
+            centre: c.origin_sized(geo.cell_coords(cell), geo.cell_size()),
             res: c.map_res,
         };
         let problem = warpfit::fit::objective::CellProblem::new(ctx, map.clone(), queries.clone());

@@ -51,8 +51,8 @@ fn the_command_prints_every_row_and_writes_its_files() {
         .unwrap();
     let stdout = String::from_utf8_lossy(&run.stdout);
     assert!(run.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&run.stderr));
-    assert_eq!(stdout.lines().filter(|l| l.starts_with("pass ")).count(), 17, "{stdout}");
-    assert!(stdout.contains("all 17 stability cases pass"));
+    assert_eq!(stdout.lines().filter(|l| l.starts_with("pass ")).count(), 18, "{stdout}");
+    assert!(stdout.contains("all 18 stability cases pass"));
     let md = std::fs::read_to_string(out.join("stability.md")).unwrap();
     assert!(md.contains("| query at the probe centre |"));
     let _ = std::fs::remove_dir_all(&out);

@@ -1,6 +1,15 @@
-//! The dense probe grid (Black Ops 3 / DDGI style): per cell centre, a cosine-convolved
+//! The dense probe grid (Black Ops 3 / DDGI style): per cell probe, a cosine-convolved
 //! irradiance octahedral map and distance moments (mean, mean of squares, hit fraction) on a
-//! separate octahedral map. Cells whose centre is inside geometry are flagged.
+//! separate octahedral map. Cells whose probe is inside geometry are flagged.
+//!
+//! A cell's probe sits at its centre unless the centre is inside geometry or nearer to it
+//! than `relocate_clearance` of the cell: then it moves, within its cell, to the nearest
+//! candidate of a 5×5×5 lattice (±0.19, ±0.38 of the cell per axis) that is visible from the
+//! centre (when the centre is outside geometry: a probe never moves through a wall), outside
+//! geometry by the one inside rule (`trace::truth::is_inside`) and clear by that distance (DDGI's probe
+//! relocation, Majercik et al. 2021; Unity's virtual offset). No clear candidate: the most
+//! open one outside geometry, if at least a quarter of that clear; else the centre (flagged
+//! inside if it is).
 //!
 //! Each cell traces `depth_resolution² × depth_samples` rays, stratified inside the distance
 //! texels; the same rays' radiance is convolved with the clamped cosine for irradiance, each
@@ -32,8 +41,10 @@ pub struct ProbeGrid {
     pub depth_mean_sq: Vec<f32>,
     /// Fraction of the texel's rays that hit geometry.
     pub hit_fraction: Vec<f32>,
-    /// Cell centre inside geometry (too many back-face hits).
+    /// Cell probe inside geometry (too many back-face hits).
     pub inside: Vec<bool>,
+    /// Per cell: the probe's offset from the cell centre (zero where it was not moved).
+    pub probe_offset: Vec<Vec3>,
     /// Distance standing in for "miss" in the moments: 4 × the scene's bounds diagonal.
     pub far_distance: f32,
 }
@@ -50,6 +61,7 @@ pub struct GridSettings {
     pub depth_resolution: u32,
     pub depth_samples: u32,
     pub inside_backface_fraction: f32,
+    pub relocate_clearance: f32,
     pub far_distance: f32,
     pub seed: u64,
 }
@@ -60,6 +72,7 @@ struct CellBake {
     mean_sq: Vec<f32>,
     hit: Vec<f32>,
     inside: bool,
+    offset: Vec3,
     rays: u64,
 }
 
@@ -90,6 +103,7 @@ pub fn bake_grid(renderer: &Renderer, s: &GridSettings, progress: &Progress) -> 
         depth_mean_sq: Vec::with_capacity(cells * (dres * dres) as usize),
         hit_fraction: Vec::with_capacity(cells * (dres * dres) as usize),
         inside: Vec::with_capacity(cells),
+        probe_offset: Vec::with_capacity(cells),
         far_distance: s.far_distance,
     };
     let mut rays = 0;
@@ -99,6 +113,7 @@ pub fn bake_grid(renderer: &Renderer, s: &GridSettings, progress: &Progress) -> 
         grid.depth_mean_sq.extend(c.mean_sq);
         grid.hit_fraction.extend(c.hit);
         grid.inside.push(c.inside);
+        grid.probe_offset.push(c.offset);
         rays += c.rays;
     }
     (grid, rays)
@@ -112,9 +127,10 @@ fn bake_cell(
     irr_normals: &[Vec3],
 ) -> CellBake {
     let dres = s.depth_resolution;
-    let centre = s.geometry.cell_centre(cell);
     let cell_stream = hash_pair(DOMAIN_GRID, cell as u64);
     let mut rays = 0u64;
+    let offset = relocate(renderer, s, cell, &mut rays);
+    let centre = s.geometry.cell_centre(cell) + offset;
     let mut irradiance = vec![Vec3::ZERO; irr_normals.len()];
     let mut cosine_sum = vec![0.0f32; irr_normals.len()];
     let mut mean = Vec::with_capacity((dres * dres) as usize);
@@ -159,5 +175,86 @@ fn bake_cell(
         *e = if *cs > 0.0 { *e * (std::f32::consts::PI / *cs) } else { Vec3::ZERO };
     }
     let inside = crate::trace::truth::inside_by_backfaces(backfaces, s.inside_backface_fraction);
-    CellBake { irradiance, mean, mean_sq, hit, inside, rays }
+    // a probe the bake's own rays find inside is dropped: it keeps no offset
+    let offset = if inside { Vec3::ZERO } else { offset };
+    CellBake { irradiance, mean, mean_sq, hit, inside, offset, rays }
+}
+
+/// Directions of the clearance test: a Fibonacci sphere (the same for every candidate).
+const CLEARANCE_RAYS: u32 = 64;
+
+/// How far `p` is from geometry (the nearest hit over [`CLEARANCE_RAYS`] directions, up to
+/// `limit`), and whether it is inside geometry by the one inside rule.
+fn clearance(renderer: &Renderer, s: &GridSettings, p: Vec3, stream: u64, limit: f32, rays: &mut u64) -> (f32, bool) {
+    let tracer = renderer.tracer;
+    let mut nearest = limit;
+    for k in 0..CLEARANCE_RAYS {
+        let z = 1.0 - (2 * k + 1) as f32 / CLEARANCE_RAYS as f32;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = k as f32 * 2.399_963_2;
+        let d = Vec3::new(r * libm::cosf(phi), z, r * libm::sinf(phi));
+        *rays += 1;
+        if let Some(h) = tracer.closest_hit(p, d, limit) {
+            nearest = nearest.min(h.t);
+        }
+    }
+    *rays += u64::from(crate::trace::truth::INSIDE_PROBE_RAYS);
+    let inside = crate::trace::truth::is_inside(renderer.scene, tracer, p, s.inside_backface_fraction, |j| {
+        Sampler::new(s.seed, stream, j)
+    });
+    (nearest, inside)
+}
+
+/// The offset of cell `cell`'s probe from its centre (see the module's documentation).
+fn relocate(renderer: &Renderer, s: &GridSettings, cell: usize, rays: &mut u64) -> Vec3 {
+    if s.relocate_clearance <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let size = s.geometry.cell_size();
+    let need = s.relocate_clearance * size.min_element();
+    let centre = s.geometry.cell_centre(cell);
+    let stream = hash_pair(hash_pair(DOMAIN_GRID, 0x4E10), cell as u64);
+    let (c0, inside0) = clearance(renderer, s, centre, stream, 2.0 * need, rays);
+    if !inside0 && c0 >= need {
+        return Vec3::ZERO;
+    }
+    // candidates nearest first (ties in lattice order): the probe never leaves its cell
+    // off the round fractions where authored surfaces tend to lie (a candidate exactly on a
+    // face would see through it)
+    let steps = [-0.38f32, -0.19, 0.0, 0.19, 0.38];
+    let mut candidates: Vec<Vec3> = Vec::with_capacity(124);
+    for z in steps {
+        for y in steps {
+            for x in steps {
+                let o = Vec3::new(x, y, z) * size;
+                if o != Vec3::ZERO {
+                    candidates.push(o);
+                }
+            }
+        }
+    }
+    candidates.sort_by(|a, b| (a / size).length_squared().total_cmp(&(b / size).length_squared()));
+    let mut best: Option<(f32, Vec3)> = (!inside0).then_some((c0, Vec3::ZERO));
+    for (k, o) in candidates.into_iter().enumerate() {
+        // a probe outside geometry moves only where it can see from its centre: never
+        // through a wall into the room behind it
+        if !inside0 {
+            *rays += 1;
+            let len = o.length();
+            if renderer.tracer.occluded(centre, o / len, len) {
+                continue;
+            }
+        }
+        let (c, inside) = clearance(renderer, s, centre + o, hash_pair(stream, 1 + k as u64), 2.0 * need, rays);
+        if inside {
+            continue;
+        }
+        if c >= need {
+            return o;
+        }
+        if c >= need / 4.0 && best.is_none_or(|(b, _)| c > b) {
+            best = Some((c, o));
+        }
+    }
+    best.map_or(Vec3::ZERO, |(_, o)| o)
 }

@@ -116,6 +116,7 @@ pub fn bake(scene: &Scene, tracer: &Tracer, progress: &Progress) -> Bake {
             depth_resolution: cfg.grid.depth_resolution,
             depth_samples: cfg.grid.depth_samples,
             inside_backface_fraction: cfg.grid.inside_backface_fraction,
+            relocate_clearance: cfg.grid.relocate_clearance,
             far_distance: 4.0 * scene.extent(),
             seed: cfg.seed,
         },

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 pub const BAKE_FORMAT: &str = "warpfit-bake";
 /// Version 2: distance layers are named `distance_mip{m}` (the fitted grid's names).
 /// Version 3: the content key of the scene and per-file checksums.
-pub const BAKE_VERSION: u32 = 3;
+pub const BAKE_VERSION: u32 = 4;
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct BakeManifest {
@@ -97,6 +97,8 @@ pub struct GridManifest {
     pub atlas_layout: String,
     pub far_distance: f32,
     pub active_cells: usize,
-    /// Linear indices of cells whose centre is inside geometry.
+    /// Linear indices of cells whose probe is inside geometry.
     pub inside_cells: Vec<u32>,
+    /// Cells whose probe was moved off its centre (relocation), sorted, with the offset.
+    pub relocated: Vec<(u32, [f32; 3])>,
 }

@@ -138,6 +138,13 @@ pub fn build_manifest(scene: &Scene, bake: &Bake) -> BakeManifest {
             far_distance: g.far_distance,
             active_cells: g.active_cells(),
             inside_cells: g.inside.iter().enumerate().filter(|(_, x)| **x).map(|(k, _)| k as u32).collect(),
+            relocated: g
+                .probe_offset
+                .iter()
+                .enumerate()
+                .filter(|(_, o)| **o != Vec3::ZERO)
+                .map(|(k, o)| (k as u32, o.to_array()))
+                .collect(),
         },
         stats: bake.stats.clone(),
         settings: scene.config.clone(),
@@ -303,6 +310,16 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
             message: format!("cell {k} out of range"),
         })? = true;
     }
+    let mut probe_offset = vec![Vec3::ZERO; geometry.cell_count()];
+    let half = geometry.cell_size() * 0.5;
+    for &(k, o) in &m.grid.relocated {
+        let o = Vec3::from_array(o);
+        let bad = |message: String| FileError::Invalid { path: mpath.clone(), field: "grid.relocated".into(), message };
+        if !(o.is_finite() && o.abs().cmple(half).all()) {
+            return Err(bad(format!("cell {k}: offset {o} is not finite or leaves its cell")));
+        }
+        *probe_offset.get_mut(k as usize).ok_or_else(|| bad(format!("cell {k} out of range")))? = o;
+    }
     let grid = ProbeGrid {
         geometry,
         irradiance_resolution: ir,
@@ -313,6 +330,7 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
         depth_mean_sq: from_atlas(&geometry, dr, channel(dm, &gpath, "mean_sq")?),
         hit_fraction: from_atlas(&geometry, dr, channel(dm, &gpath, "hit")?),
         inside,
+        probe_offset,
         far_distance: m.grid.far_distance,
     };
     Ok((m, probe, grid))

@@ -239,7 +239,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         None => from_bake.insert(crate::runtime::IrradianceGrid::from_cells(
             grid.geometry,
             (grid.irradiance_resolution, grid.depth_resolution),
-            (&grid.irradiance, &grid.depth_mean, &grid.depth_mean_sq),
+            (&grid.irradiance, &grid.depth_mean, &grid.depth_mean_sq, &grid.probe_offset),
             |c| !grid.inside[c],
         )),
     };

@@ -308,9 +308,10 @@ pub fn fit(baked: Baked, glossy: Glossy, s: &FitSettings, progress: &Progress) -
                 .count() as f64
                 / check.dirs.len().max(1) as f64;
             let (train, check) = (samples(&train), samples(&check));
-            let centre = g.cell_centre(cell);
+            // the map's origin: the cell probe's position (its centre unless relocated)
+            let centre = g.cell_centre(cell) + grid.probe_offset[cell];
             // Two starts: the grid's raytraced distances and the box proxy seen from the cell
-            // centre; refine whichever explains the training queries better.
+            // probe; refine whichever explains the training queries better.
             let boxed = model::box_map(centre, &warp.proxies.aabb, s.map_res);
             let ctx = CellContext { glossy, exposure, centre, res: s.map_res };
             let judge = CellProblem::new(ctx, init.clone(), train.clone());
@@ -356,8 +357,18 @@ pub fn fit(baked: Baked, glossy: Glossy, s: &FitSettings, progress: &Progress) -
     let errs = [total(|c| c.check_err_warp1), total(|c| c.check_err_box), total(|c| c.check_err_kdop)];
     let best = (0..3).min_by(|&a, &b| errs[a].total_cmp(&errs[b])).unwrap_or(0);
     let fallback = FALLBACK_CANDIDATES[best];
-    let mut correctives =
-        Correctives { geometry: g, map_res: s.map_res, slot: vec![NO_MAP; g.cell_count()], maps: Vec::new(), fallback };
+    let mut correctives = Correctives {
+        geometry: g,
+        map_res: s.map_res,
+        slot: vec![NO_MAP; g.cell_count()],
+        maps: Vec::new(),
+        fallback,
+        origin_offset: if grid.probe_offset.iter().any(|o| *o != Vec3::ZERO) {
+            grid.probe_offset.clone()
+        } else {
+            Vec::new()
+        },
+    };
     let mut celldepth = correctives.clone();
     let mut fitted_all = correctives.clone();
     let mut cells = Vec::with_capacity(results.len());
@@ -391,7 +402,7 @@ pub fn fit(baked: Baked, glossy: Glossy, s: &FitSettings, progress: &Progress) -
     let blend = crate::runtime::IrradianceGrid::from_cells(
         grid.geometry,
         (grid.irradiance_resolution, grid.depth_resolution),
-        (&grid.irradiance, &grid.depth_mean, &grid.depth_mean_sq),
+        (&grid.irradiance, &grid.depth_mean, &grid.depth_mean_sq, &grid.probe_offset),
         |c| !grid.inside[c],
     );
     let irradiance = irradiance::fit_irradiance(baked, &blend, exposure, s.seed);

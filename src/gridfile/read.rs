@@ -42,6 +42,9 @@ pub struct IrradianceGrid {
     pub depth_mean_sq: Vec<f32>,
     /// The fitted corrections of the cells that store one (empty: none).
     pub correction: IrradianceCorrection,
+    /// Per grid cell: its probe's offset from the cell centre (relocation); empty when every
+    /// probe sits at its centre.
+    pub probe_offset: Vec<Vec3>,
 }
 
 /// Per-cell corrections of the blended irradiance, fitted against traced references at
@@ -99,7 +102,7 @@ impl IrradianceGrid {
     pub fn from_cells(
         geometry: GridGeometry,
         (resolution, depth_resolution): (u32, u32),
-        (irradiance, depth_mean, depth_mean_sq): (&[Vec3], &[f32], &[f32]),
+        (irradiance, depth_mean, depth_mean_sq, probe_offset): (&[Vec3], &[f32], &[f32], &[Vec3]),
         stored: impl Fn(usize) -> bool,
     ) -> IrradianceGrid {
         let (n2, d2) = ((resolution * resolution) as usize, (depth_resolution * depth_resolution) as usize);
@@ -112,6 +115,11 @@ impl IrradianceGrid {
             depth_mean: Vec::new(),
             depth_mean_sq: Vec::new(),
             correction: IrradianceCorrection::default(),
+            probe_offset: if probe_offset.iter().any(|o| *o != Vec3::ZERO) {
+                probe_offset.to_vec()
+            } else {
+                Vec::new()
+            },
         };
         for cell in (0..geometry.cell_count()).filter(|&c| stored(c)) {
             g.slot[cell] = (g.irradiance.len() / n2) as u32;
@@ -510,6 +518,31 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
             return Err(invalid(mp, "grid.counts", format!("each count must be ≥ 1 and the grid ≤ {MAX_CELLS} cells")));
         }
     };
+    // relocated cell probes: sorted, unique, in range, within half a cell of their centre
+    let mut probe_offset = Vec::new();
+    if !m.grid.relocated.is_empty() {
+        probe_offset = vec![Vec3::ZERO; cells];
+        let half = geometry.cell_size() * 0.5;
+        let mut last = None;
+        for &(c, o) in &m.grid.relocated {
+            let o = Vec3::from_array(o);
+            if last.is_some_and(|l| c <= l) {
+                return Err(invalid(mp, "grid.relocated", "cells must be sorted and unique"));
+            }
+            last = Some(c);
+            let slot = probe_offset
+                .get_mut(c as usize)
+                .ok_or_else(|| invalid(mp, "grid.relocated", format!("cell {c} out of range")))?;
+            if !(o.is_finite() && o.abs().cmple(half).all() && o != Vec3::ZERO) {
+                return Err(invalid(
+                    mp,
+                    "grid.relocated",
+                    format!("cell {c}: offset {o} is zero, not finite or leaves its cell"),
+                ));
+            }
+            *slot = o;
+        }
+    }
     let bounds = ValueBounds::of_diagonal((geometry.max - geometry.min).length());
     let expected = expected_payloads(&m, mp, cells)?;
     let expected_of = |file: &str| expected.iter().find(|(f, _)| *f == file).map(|(_, l)| l.as_slice()).unwrap_or(&[]);
@@ -598,7 +631,7 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
             (c.map_res, slot, maps)
         }
     };
-    let correctives = Correctives { geometry, map_res, slot, maps, fallback };
+    let correctives = Correctives { geometry, map_res, slot, maps, fallback, origin_offset: probe_offset.clone() };
 
     // irradiance
     let ir = &m.irradiance;
@@ -650,6 +683,7 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
         depth_mean,
         depth_mean_sq,
         correction,
+        probe_offset,
     };
     let roughness = m.roughness.clone();
     Ok(GridData { warp: Warp { probe, proxies, options: *o }, correctives, irradiance, roughness, manifest: m })

@@ -75,6 +75,10 @@ pub struct GridSection {
     pub min: [f32; 3],
     pub max: [f32; 3],
     pub counts: [u32; 3],
+    /// Cells whose probe is off its centre (relocated away from geometry), sorted, with the
+    /// offset from the centre (within half a cell): the origin of the cell's irradiance,
+    /// distance moments and warp map.
+    pub relocated: Vec<(u32, [f32; 3])>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -61,6 +61,8 @@ pub struct GridContents<'a> {
     pub blend: Blend,
     pub irradiance: IrradianceSource<'a>,
     pub roughness: Option<&'a RoughnessCorrection>,
+    /// Per cell: its probe's offset from the cell centre (relocation).
+    pub probe_offset: &'a [Vec3],
     pub precision: Precision,
     pub provenance: Provenance,
 }
@@ -285,7 +287,18 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
         units: "scene units (positions, distances); radiance in the scene's linear RGB units".into(),
         up_axis: "+Y".into(),
         scene: g.scene.into(),
-        grid: GridSection { min: geo.min.to_array(), max: geo.max.to_array(), counts: geo.counts.to_array() },
+        grid: GridSection {
+            min: geo.min.to_array(),
+            max: geo.max.to_array(),
+            counts: geo.counts.to_array(),
+            relocated: g
+                .probe_offset
+                .iter()
+                .enumerate()
+                .filter(|(_, o)| **o != Vec3::ZERO)
+                .map(|(k, o)| (k as u32, o.to_array()))
+                .collect(),
+        },
         probe: ProbeSection {
             position: g.probe.position.to_array(),
             resolution: g.probe.radiance.levels[0].res,

@@ -277,6 +277,7 @@ pub fn write_grid(
             correction: &fitted.irradiance.correction,
         },
         roughness,
+        probe_offset: &g.probe_offset,
         precision: store.precision,
         provenance: provenance(fitted),
     };

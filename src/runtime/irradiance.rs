@@ -134,7 +134,9 @@ impl IrradianceGrid {
                 continue;
             }
             let slot = slot as usize;
-            let to_point = p - (geo.min + (c.as_vec3() + 0.5) * cell_size);
+            let probe =
+                geo.min + (c.as_vec3() + 0.5) * cell_size + g.probe_offset.get(cell).copied().unwrap_or(Vec3::ZERO);
+            let to_point = p - probe;
             let dist = to_point.length();
             let mut w = tri;
             if dist > 0.0 && dist.is_finite() && backface {

@@ -102,6 +102,15 @@ pub struct GridConfig {
     /// A cell is inside geometry when more than this fraction of its rays hit back faces.
     #[serde(default = "default_backface")]
     pub inside_backface_fraction: f32,
+    /// A cell's probe inside geometry, or nearer to it than this fraction of the cell's
+    /// smallest extent, moves within its cell to the nearest clear point (DDGI's relocation,
+    /// Unity's virtual offset); 0 keeps every probe at its cell centre. Default 0.15.
+    #[serde(default = "default_relocate")]
+    pub relocate_clearance: f32,
+}
+
+fn default_relocate() -> f32 {
+    0.15
 }
 
 fn default_irr_res() -> u32 {

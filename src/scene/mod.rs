@@ -162,6 +162,11 @@ pub struct Lights {
     pub sun: Option<Sun>,
 }
 
+/// Revision of what a bake computes from the same inputs: bumped whenever the same scene
+/// would bake different values (2: every sample dimension its own generator; 3: probe
+/// relocation), so the bake cache never serves a bake of an older revision.
+pub const BAKE_REVISION: u32 = 3;
+
 /// A loaded, validated scene.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -221,12 +226,12 @@ impl Scene {
         Scene::parse(&text, path)
     }
 
-    /// The bake's cache key: a checksum of the tool and bake versions, every setting, and the
+    /// The bake's cache key: a checksum of the tool version and [`BAKE_REVISION`], every setting, and the
     /// bytes of every file the scene was built from. Equal keys mean the bake would come out
     /// bit for bit the same.
     #[must_use]
     pub fn content_key(&self) -> String {
-        let mut text = format!("warpfit {} bake, sampler {}\n", env!("CARGO_PKG_VERSION"), crate::sampling::REVISION);
+        let mut text = format!("warpfit {} bake, revision {BAKE_REVISION}\n", env!("CARGO_PKG_VERSION"));
         text += &serde_json::to_string(&self.config).unwrap_or_default();
         for (path, sum) in &self.inputs {
             text += &format!("\n{} {sum}", path.display());
@@ -443,6 +448,10 @@ fn validate_settings(f: &SceneFile, path: &Path) -> Result<(), SceneError> {
     let dr = f.grid.depth_resolution;
     if !(8..=16).contains(&dr) || !dr.is_multiple_of(2) {
         return Err(invalid(path, "grid.depth_resolution", format!("must be even in 8..=16, got {dr}")));
+    }
+    let rc = f.grid.relocate_clearance;
+    if !(0.0..=0.45).contains(&rc) {
+        return Err(invalid(path, "grid.relocate_clearance", format!("must be in [0, 0.45], got {rc}")));
     }
     let bf = f.grid.inside_backface_fraction;
     if !(bf > 0.0 && bf < 1.0) {

@@ -37,16 +37,30 @@ pub struct Correctives {
     pub map_res: u32,
     /// Per grid cell: index into `maps` ([`NO_MAP`] = level 0, nothing stored).
     pub slot: Vec<u32>,
-    /// Warp maps, `slot · N² + texel`: inverse distance from the cell centre (0 = sky).
+    /// Warp maps, `slot · N² + texel`: inverse distance from the cell's origin (0 = sky).
     pub maps: Vec<f32>,
     /// Method of level-0 cells.
     pub fallback: Method,
+    /// Per grid cell: its map's origin relative to the cell centre (the cell probe's
+    /// relocation offset); empty when every origin is the centre.
+    pub origin_offset: Vec<Vec3>,
 }
 
 impl Correctives {
     #[must_use]
     pub fn stored_cells(&self) -> usize {
         self.slot.iter().filter(|s| **s != NO_MAP).count()
+    }
+
+    /// Origin of cell `cell`'s map: its centre, moved by the cell probe's relocation.
+    #[inline]
+    #[must_use]
+    pub fn origin_sized(&self, cell: UVec3, cell_size: Vec3) -> Vec3 {
+        let centre = self.geometry.centre_of_sized(cell, cell_size);
+        match self.origin_offset.get(self.geometry.cell_index(cell)) {
+            Some(o) => centre + *o,
+            None => centre,
+        }
     }
 
     #[inline]
@@ -81,7 +95,7 @@ impl Correctives {
     #[inline]
     fn cell_inv_t(&self, cell: UVec3, cell_size: Vec3, taps: &[(u32, f32); 4], b: Vec3, dir: Vec3) -> Option<f32> {
         let slot = self.slot_of(self.geometry.cell_index(cell))?;
-        Some(inv_t_from_map(self.geometry.centre_of_sized(cell, cell_size), self.map_w(slot, taps), b, dir))
+        Some(inv_t_from_map(self.origin_sized(cell, cell_size), self.map_w(slot, taps), b, dir))
     }
 
     /// Fetch vector for query (B, dir); the fallback method where no map applies.
@@ -135,7 +149,7 @@ impl Correctives {
             let k = k as usize;
             let taps = octa::bilinear_taps(self.map_res, uv_of(k));
             let w = self.map_w(slots[k], &taps);
-            out[k] = map_fetch(a, self.geometry.centre_of_sized(cells[k], size), w, b[k], dir[k]);
+            out[k] = map_fetch(a, self.origin_sized(cells[k], size), w, b[k], dir[k]);
         }
         for &k in &unmapped[..n_unmapped] {
             let k = k as usize;
@@ -158,8 +172,8 @@ impl Correctives {
                 let cell = self.geometry.cell_of_sized(b, size);
                 match self.slot_of(self.geometry.cell_index(cell)) {
                     Some(slot) => {
-                        let centre = self.geometry.centre_of_sized(cell, size);
-                        map_fetch(a, centre, self.map_w(slot, &taps), b, dir)
+                        let origin = self.origin_sized(cell, size);
+                        map_fetch(a, origin, self.map_w(slot, &taps), b, dir)
                     }
                     None => warp.fetch_vector(self.fallback, b, dir).into(),
                 }

@@ -83,6 +83,11 @@ pub fn run(mode: Mode, mut on_row: impl FnMut(&CaseResult)) -> Vec<CaseResult> {
         ),
         ("thin feature (1e-3 thick wall)", "no ray leaks through it", Box::new(cases::thin_feature)),
         (
+            "light through a 1e-3 wall",
+            "relocated probes and fitted corrections leak less than the DDGI blend at cell centres",
+            Box::new(cases::thin_wall_leak),
+        ),
+        (
             "cells inside geometry",
             "exactly the 4 cells whose centres are in the block are flagged, fitted and stored nowhere",
             Box::new(cases::inside_cells),

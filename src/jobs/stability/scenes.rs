@@ -20,6 +20,49 @@ use std::path::{Path, PathBuf};
 /// column, a sun).
 pub const TINY: &str = include_str!("../../../data/scenes/tiny.toml");
 
+/// Two closed rooms side by side split by a wall 1e-3 thick at x = 0.24, 0.01 before the
+/// centres of the cells at x = 0.25 (grid cells of 0.5): a sphere light in the left room,
+/// no light at all in the right one, whose true irradiance is therefore zero. `relocate`
+/// is `grid.relocate_clearance`.
+pub fn two_rooms(relocate: f32) -> String {
+    format!(
+        r#"
+name = "two_rooms"
+seed = 7
+bounces = 1
+[probe]
+position = [-1.0, 1.0, 0.0]
+resolution = 32
+samples_per_texel = 2
+ggx_samples = 16
+[grid]
+min = [-2.0, 0.0, -1.0]
+max = [2.0, 2.0, 1.0]
+counts = [8, 4, 4]
+irradiance_resolution = 8
+depth_resolution = 16
+depth_samples = 4
+relocate_clearance = {relocate}
+[sky]
+color = [0.0, 0.0, 0.0]
+[[sphere_lights]]
+position = [-1.2, 1.5, 0.3]
+radius = 0.1
+radiance = [60.0, 55.0, 50.0]
+[[geometry]]
+type = "room"
+min = [-2.0, 0.0, -1.0]
+max = [2.0, 2.0, 1.0]
+material = {{ albedo = [0.7, 0.7, 0.7] }}
+[[geometry]]
+type = "box"
+min = [0.24, 0.0, -1.0]
+max = [0.241, 2.0, 1.0]
+material = {{ albedo = [0.7, 0.7, 0.7] }}
+"#
+    )
+}
+
 /// A room 4×2×4 with a solid block filling the cells x<0, y<1, z<0 of a 4×2×4 grid, a wall
 /// 1e-3 thick across it, a window, and a sun of irradiance `sun`.
 pub fn block_room(sun: f32, albedo: f32) -> String {
