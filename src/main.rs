@@ -330,10 +330,14 @@ fn print_fit(f: &warpfit::fit::Fit, manifest: &warpfit::gridfile::GridManifest, 
         s.mean_check_err_celldepth,
         s.mean_check_err_stored
     );
-    println!(
-        "diffuse: {} of {} cells with surfaces store a correction; their check points' mean tone-mapped RMSE {:.4} → {:.4}",
-        s.diffuse_cells_stored, s.diffuse_cells_fitted, s.diffuse_check_before, s.diffuse_check_after
-    );
+    if s.diffuse_cells_fitted == 0 {
+        println!("diffuse: no cell holds enough surface points to fit a correction (none stored)");
+    } else {
+        println!(
+            "diffuse: {} of {} cells with surfaces store a correction; their check points' mean tone-mapped RMSE {:.4} → {:.4}",
+            s.diffuse_cells_stored, s.diffuse_cells_fitted, s.diffuse_check_before, s.diffuse_check_after
+        );
+    }
     println!(
         "wrote the fitted grid {} ({} of payloads; `warpfit inspect {}`)",
         folder.dir.display(),

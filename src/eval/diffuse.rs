@@ -7,7 +7,8 @@
 //!   grid stores it, this is the light probes carry: sky, emitters and light bounced off
 //!   surfaces, not the sun's disc itself (engines add direct sun by shadow maps).
 //! - **Rows**: the dense grid through each step of DDGI's blend (`runtime::IrradianceBlend`:
-//!   nearest cell, trilinear, back-face weight, Chebyshev visibility); probe A alone (its own
+//!   nearest cell, trilinear, back-face weight, Chebyshev visibility); the runtime (the
+//!   written grid's `irradiance`: that blend with the fitted corrections); probe A alone (its own
 //!   radiance convolved with the cosine lobe, one probe for the level); seed 004's voxel GI
 //!   (a 3-D texture of the scene at the grid's resolution holding occupancy and outgoing
 //!   radiance, sampled one voxel away over a hemisphere of 50 directions).

@@ -326,31 +326,38 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     let warp1_sweep = options::warp1_options(warp, &mirror, exposure);
     bar.inc(1);
     bar.set_message("eval: diffuse");
-    let diffuse = (settings.diffuse_points > 0).then(|| {
-        let set = diffuse::diffuse_set(
-            scene,
-            tracer,
-            irradiance,
-            settings.diffuse_points,
-            settings.diffuse_spp,
-            settings.seed,
-        );
-        reference_rays += set.rays;
-        let voxels = diffuse::VoxelGi::build(scene, tracer, grid.geometry, settings.seed);
-        let mut methods: Vec<diffuse::DiffuseMethod> =
-            crate::runtime::IrradianceBlend::ALL.iter().map(|&b| diffuse::DiffuseMethod::Grid(irradiance, b)).collect();
-        if runtime.is_some() {
-            methods.push(diffuse::DiffuseMethod::Runtime(irradiance));
-        }
-        methods.push(diffuse::DiffuseMethod::ProbeA(&probe_a));
-        methods.push(diffuse::DiffuseMethod::Voxel(&voxels));
-        let view_spp = settings.renders.map_or(0, |r| r.reference_spp);
-        let (mut r, figure) =
-            diffuse::evaluate(scene, tracer, &set, &methods, &views, (view_spp, settings.seed, exposure));
-        r.reference_spp = settings.diffuse_spp;
-        flip_figures.extend(figure);
-        r
-    });
+    let diffuse = (settings.diffuse_points > 0)
+        .then(|| -> Option<diffuse::DiffuseReport> {
+            let set = diffuse::diffuse_set(
+                scene,
+                tracer,
+                irradiance,
+                settings.diffuse_points,
+                settings.diffuse_spp,
+                settings.seed,
+            );
+            reference_rays += set.rays;
+            if set.points.is_empty() {
+                return None; // no triangles inside the grid (spheres have no surface points)
+            }
+            let voxels = diffuse::VoxelGi::build(scene, tracer, grid.geometry, settings.seed);
+            let mut methods: Vec<diffuse::DiffuseMethod> = crate::runtime::IrradianceBlend::ALL
+                .iter()
+                .map(|&b| diffuse::DiffuseMethod::Grid(irradiance, b))
+                .collect();
+            if runtime.is_some() {
+                methods.push(diffuse::DiffuseMethod::Runtime(irradiance));
+            }
+            methods.push(diffuse::DiffuseMethod::ProbeA(&probe_a));
+            methods.push(diffuse::DiffuseMethod::Voxel(&voxels));
+            let view_spp = settings.renders.map_or(0, |r| r.reference_spp);
+            let (mut r, figure) =
+                diffuse::evaluate(scene, tracer, &set, &methods, &views, (view_spp, settings.seed, exposure));
+            r.reference_spp = settings.diffuse_spp;
+            flip_figures.extend(figure);
+            Some(r)
+        })
+        .flatten();
     bar.finish_and_clear();
     let renderer = Renderer::new(scene, tracer);
     let report = EvalReport {

@@ -340,7 +340,13 @@ impl GridManifest {
             "correctives: {stored} of {cells} cells store a {map_res}×{map_res} warp map; the others use `{}` (depth mip {}, blend {:?})",
             self.warp.fallback, self.warp.options.depth_lod, self.warp.blend
         );
-        let _ = writeln!(s, "irradiance: {} cells stored", self.irradiance.stored_cells.len());
+        let _ = writeln!(
+            s,
+            "irradiance: {} cells stored, {} with a fitted diffuse correction; {} cell probes relocated off their centre",
+            self.irradiance.stored_cells.len(),
+            self.irradiance.corrected_cells.len(),
+            self.grid.relocated.len()
+        );
         match &self.roughness {
             Some(r) => {
                 let _ = writeln!(
