@@ -42,8 +42,26 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
     // variant) with each of the four mip rules at every rough bucket
     let buckets = warpfit::eval::ROUGHNESS_BUCKETS;
     assert_eq!(report.buckets.len(), buckets.len());
-    // plus the renormalized box row at every bucket (no fitted grid here, so no runtime rows)
-    assert_eq!(methods.len(), Method::ALL.len() + (buckets.len() - 1) * (Method::ALL.len() - 1) * 4 + buckets.len());
+    // plus the renormalized box row and the best-fetch bound at every bucket (no fitted grid
+    // here, so no runtime rows)
+    assert_eq!(
+        methods.len(),
+        Method::ALL.len() + (buckets.len() - 1) * (Method::ALL.len() - 1) * 4 + 2 * buckets.len()
+    );
+    // the bound: one per bucket, no row below it in tone-mapped RMSE, every row's share of the
+    // none → best-fetch gap at most 1
+    for &r in &buckets {
+        let rows: Vec<&serde_json::Value> =
+            methods.iter().filter(|m| m["roughness"].as_f64() == Some(r as f64)).collect();
+        let bound: Vec<_> = rows.iter().filter(|m| m["name"] == "best-fetch").collect();
+        assert_eq!(bound.len(), 1, "roughness {r}");
+        let b = bound[0]["tm_rmse"].as_f64().unwrap();
+        for m in &rows {
+            assert!(m["tm_rmse"].as_f64().unwrap() >= b, "{m} below the bound {b}");
+            let gap = m["gap_closed"].as_f64().expect("gap closed");
+            assert!(gap.is_finite() && gap <= 1.0 + 1e-9, "{m}");
+        }
+    }
     assert_eq!(methods.iter().filter(|m| m["name"] == "box+renorm").count(), buckets.len());
     for &r in &buckets {
         let rows: Vec<&serde_json::Value> =
@@ -59,8 +77,8 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
         }
         assert!(m["rel_rmse"].as_f64().unwrap().is_finite() && m["tm_rmse"].as_f64().unwrap().is_finite());
         assert!(m["ns_per_lookup"].as_f64().unwrap() > 0.0);
-        // every row but reproject renders the views for ꟻLIP, in [0, 1]
-        if m["name"] != "reproject" {
+        // every row but reproject and the bound renders the views for ꟻLIP, in [0, 1]
+        if m["name"] != "reproject" && m["name"] != "best-fetch" {
             assert!(m["flip"].as_f64().is_some_and(|f| (0.0..=1.0).contains(&f)), "{m}");
         }
         // warp1's mirror row is also timed through its batch API; no other row has one

@@ -50,6 +50,10 @@ pub struct MethodResult {
     /// lookups in lockstep), for methods that have one.
     #[serde(default)]
     pub ns_per_lookup_batched: Option<f64>,
+    /// Share of the `none` → `best-fetch` gap in tone-mapped RMSE the row closes (1: as good
+    /// as the best single fetch).
+    #[serde(default)]
+    pub gap_closed: Option<f64>,
     pub note: String,
 }
 
@@ -339,6 +343,7 @@ fn result(
         ns_per_lookup,
         ns_per_lookup_random,
         ns_per_lookup_batched: None,
+        gap_closed: None,
         note,
     }
 }

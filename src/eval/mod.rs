@@ -19,6 +19,7 @@
 //! (plus the reference's own noise, reported per bucket as its standard error). Evaluation
 //! writes no files: the report does.
 
+pub mod bound;
 pub mod diffuse;
 pub mod flip;
 pub mod methods;
@@ -80,6 +81,13 @@ pub struct EvalSettings {
 
 /// The roughness buckets every row is judged on (perceptual roughness; α = r²).
 pub const ROUGHNESS_BUCKETS: [f32; 6] = [0.0, 0.125, 0.25, 0.5, 0.75, 1.0];
+
+/// Whether a row is a bound rather than a method (`oracle`, `best-fetch`): never on the
+/// Pareto front, never "the best other row".
+#[must_use]
+pub fn is_bound(name: &str) -> bool {
+    name == "oracle" || name == bound::NAME
+}
 
 impl EvalSettings {
     /// The default validation set: 256 positions × 256 directions, 16-sample references.
@@ -300,6 +308,9 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             let at = results.iter().position(|m| m.name == Method::Oracle.name()).unwrap_or(results.len());
             results.insert(at, methods::evaluate_reproject(warp, set, exposure));
         }
+        let at = results.iter().position(|m| m.name == Method::Oracle.name()).map_or(results.len(), |k| k + 1);
+        results.insert(at, bound::best_fetch_row(warp, set, exposure));
+        bound::set_gap_closed(&mut results);
         bar.inc(1);
         bar.set_message(format!("eval: r {r} ꟻLIP"));
         if !view_refs.is_empty() {
@@ -397,7 +408,7 @@ fn bucket_summary(
     let se2: f64 = set.reference_se.iter().map(|&e| (e as f64).powi(2)).sum::<f64>() / n;
     let budget =
         results.iter().find(|m| m.name == Method::Warp1.name()).map_or(f64::INFINITY, |m| 2.0 * m.ns_per_lookup);
-    let cheap = |m: &&MethodResult| m.ns_per_lookup <= budget && m.name != Method::Oracle.name();
+    let cheap = |m: &&MethodResult| m.ns_per_lookup <= budget && !is_bound(&m.name);
     let seed_method = |m: &&MethodResult| Method::parse(&m.name).is_some();
     let by_tm = |a: &&MethodResult, b: &&MethodResult| a.tm_rmse.total_cmp(&b.tm_rmse);
     let challenger = results.iter().filter(cheap).filter(seed_method).min_by(by_tm);
@@ -452,7 +463,7 @@ fn flip_figure(
     let budget = results.iter().find(|m| m.name == Method::Warp1.name()).map(|m| 2.0 * m.ns_per_lookup)?;
     let best_other = results
         .iter()
-        .filter(|m| m.ns_per_lookup <= budget && m.name != "runtime" && m.name != Method::Oracle.name())
+        .filter(|m| m.ns_per_lookup <= budget && m.name != "runtime" && !is_bound(&m.name))
         .filter(|m| m.flip.is_some())
         .min_by(|a, b| a.flip.unwrap_or(1.0).total_cmp(&b.flip.unwrap_or(1.0)));
     let plain = |m: &MethodResult| m.mip_rule.is_none() || m.mip_rule == Some(MipRule::Plain);

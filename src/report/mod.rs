@@ -22,12 +22,12 @@ pub fn methods_table(r: &EvalReport, roughness: f32) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "| method | rel RMSE | tone-mapped RMSE | ꟻLIP | MAE | p95 | max | angular ° | ns/lookup | ns/lookup (random order) | ns/lookup (batch API) | × cheaper than a reference ray | note |"
+        "| method | rel RMSE | tone-mapped RMSE | gap closed | ꟻLIP | MAE | p95 | max | angular ° | ns/lookup | ns/lookup (random order) | ns/lookup (batch API) | × cheaper than a reference ray | note |"
     );
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|");
     for m in r.methods.iter().filter(|m| m.roughness == roughness) {
         let ang = m.angular_deg.map_or("–".to_string(), |a| format!("{a:.2}"));
-        let cheaper = if m.name == "oracle" {
+        let cheaper = if crate::eval::is_bound(&m.name) {
             "–".to_string()
         } else {
             format!("{:.0}", r.reference_ns_per_ray / m.ns_per_lookup.max(1e-9))
@@ -36,10 +36,11 @@ pub fn methods_table(r: &EvalReport, roughness: f32) -> String {
         let flip = m.flip.map_or("–".to_string(), |f| format!("{f:.4}"));
         let _ = writeln!(
             s,
-            "| {} | {:.4} | {:.4} | {} | {:.4} | {:.4} | {:.3} | {} | {:.1} | {:.1} | {} | {} | {} |",
+            "| {} | {:.4} | {:.4} | {} | {} | {:.4} | {:.4} | {:.3} | {} | {:.1} | {:.1} | {} | {} | {} |",
             m.label(),
             m.rel_rmse,
             m.tm_rmse,
+            m.gap_closed.map_or("–".to_string(), |g| format!("{g:.2}")),
             flip,
             m.mae,
             m.p95,
@@ -76,7 +77,7 @@ pub fn summary_table(r: &EvalReport) -> String {
         let best = rows
             .iter()
             .copied()
-            .filter(|m| m.ns_per_lookup <= budget && !matches!(m.name.as_str(), "runtime" | "oracle"))
+            .filter(|m| m.ns_per_lookup <= budget && m.name != "runtime" && !crate::eval::is_bound(&m.name))
             .min_by(|a, b| key(a).total_cmp(&key(b)));
         let cell = |m: Option<&crate::eval::MethodResult>| m.map_or("–".into(), fmt);
         let _ = writeln!(
@@ -250,7 +251,7 @@ pub fn write_eval(folder: &RunFolder, r: &EvalReport) -> Result<(), FileError> {
     }
     let _ = writeln!(
         md,
-        "\nrel RMSE = RMSE of linear RGB radiance / mean reference radiance; MAE, p95, max: per-lookup mean absolute RGB error. Angular error: fetch direction against the oracle's. Costs: single-threaded warm loop, fetch + bilinear radiance lookup; queries issued per position in Morton order of their octahedral uv (coherent, as neighbouring pixels query a probe), and in random order (cache-hostile).\n"
+        "\nrel RMSE = RMSE of linear RGB radiance / mean reference radiance; MAE, p95, max: per-lookup mean absolute RGB error. Gap closed: the share of the none → best-fetch gap in tone-mapped RMSE (best-fetch: per query the single fetch of probe A, any direction and mip, nearest its reference: what no single-fetch lookup can beat). Angular error: fetch direction against the oracle's. Costs: single-threaded warm loop, fetch + bilinear radiance lookup; queries issued per position in Morton order of their octahedral uv (coherent, as neighbouring pixels query a probe), and in random order (cache-hostile).\n"
     );
     for b in r.buckets.iter().filter(|b| b.roughness > 0.0) {
         let _ = writeln!(

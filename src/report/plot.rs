@@ -25,7 +25,7 @@ fn plot_err(path: &Path, e: impl std::fmt::Display) -> FileError {
 /// `oracle` is a bound whose cost excludes its ray tracing, so it neither sits on nor
 /// shapes the front.
 pub fn pareto_front(points: &[(String, f64, f64)]) -> Vec<bool> {
-    let real = |name: &str| name != "oracle";
+    let real = |name: &str| !crate::eval::is_bound(name);
     points
         .iter()
         .map(|(n, c, e)| {
@@ -150,7 +150,10 @@ pub fn error_vs_cost(path: &Path, title: &str, y_desc: &str, points: &[(String, 
         let (cmin, cmax) = if finite.is_empty() { (1.0, 10.0) } else { (cmin / 1.6, cmax * 1.6) };
         let (emin, emax) = if finite.is_empty() { (0.01, 1.0) } else { (emin / 1.3, emax * 1.3) };
         let mut chart = ChartBuilder::on(&root)
-            .caption(format!("{title} (red: Pareto front; hollow: oracle bound)"), ("sans-serif", 22))
+            .caption(
+                format!("{title} (red: Pareto front; hollow: the bounds oracle and best-fetch)"),
+                ("sans-serif", 22),
+            )
             .margin(16)
             .x_label_area_size(48)
             .y_label_area_size(72)
@@ -181,7 +184,8 @@ pub fn error_vs_cost(path: &Path, title: &str, y_desc: &str, points: &[(String, 
                 continue;
             }
             let color = if *on_front { RGBColor(200, 40, 40) } else { RGBColor(40, 70, 160) };
-            let style = if name == "oracle" { RGBColor(120, 120, 120).stroke_width(2) } else { color.filled() };
+            let style =
+                if crate::eval::is_bound(name) { RGBColor(120, 120, 120).stroke_width(2) } else { color.filled() };
             chart.draw_series(std::iter::once(Circle::new((*c, *e), 5, style))).map_err(|e| plot_err(path, e))?;
             markers.push((name.clone(), chart.backend_coord(&(*c, *e))));
         }
