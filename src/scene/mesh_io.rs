@@ -12,7 +12,7 @@
 //! the file and the element. Degenerate triangles go through `Builder::add_triangle`, which
 //! skips and counts them.
 
-use super::procedural::Builder;
+use super::procedural::{Builder, MeshLight};
 use super::{Material, SceneError, SphereLight, Sun, Texture};
 use glam::{Mat4, Vec2, Vec3};
 use std::path::Path;
@@ -34,13 +34,6 @@ impl MeshOptions {
         let m = self.material.unwrap_or(own);
         Material { two_sided: self.two_sided.unwrap_or(m.two_sided), ..m }
     }
-}
-
-/// A light read from a mesh file.
-#[derive(Clone, Copy, Debug)]
-pub enum MeshLight {
-    Sphere(SphereLight),
-    Sun(Sun),
 }
 
 /// Radius of the sphere a point or spot light becomes, in metres.

@@ -276,9 +276,9 @@ impl Scene {
         let mut lights = lights_from(&file, path)?;
         for l in builder.lights.drain(..) {
             match l {
-                mesh_io::MeshLight::Sphere(s) => lights.sphere_lights.push(s),
-                mesh_io::MeshLight::Sun(sun) if lights.sun.is_none() => lights.sun = Some(sun),
-                mesh_io::MeshLight::Sun(_) => {
+                procedural::MeshLight::Sphere(s) => lights.sphere_lights.push(s),
+                procedural::MeshLight::Sun(sun) if lights.sun.is_none() => lights.sun = Some(sun),
+                procedural::MeshLight::Sun(_) => {
                     tracing::warn!("{}: a second directional light is ignored (one sun per scene)", path.display())
                 }
             }

@@ -25,6 +25,14 @@ pub struct Arch {
     pub segments: u32,
 }
 
+/// A light read from a mesh file (glTF's `KHR_lights_punctual`), collected by the
+/// [`Builder`] with the geometry.
+#[derive(Clone, Copy, Debug)]
+pub enum MeshLight {
+    Sphere(super::SphereLight),
+    Sun(super::Sun),
+}
+
 /// Accumulates geometry and deduplicated materials while a scene loads.
 #[derive(Default)]
 pub struct Builder {
@@ -42,7 +50,7 @@ pub struct Builder {
     /// Base-colour textures decoded so far.
     pub textures: Vec<super::Texture>,
     /// Lights read from mesh files (glTF `KHR_lights_punctual`).
-    pub lights: Vec<super::mesh_io::MeshLight>,
+    pub lights: Vec<MeshLight>,
 }
 
 impl Builder {
