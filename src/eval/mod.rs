@@ -82,11 +82,11 @@ pub struct EvalSettings {
 /// The roughness buckets every row is judged on (perceptual roughness; α = r²).
 pub const ROUGHNESS_BUCKETS: [f32; 6] = [0.0, 0.125, 0.25, 0.5, 0.75, 1.0];
 
-/// Whether a row is a bound rather than a method (`oracle`, `best-fetch`): never on the
+/// Whether a row is a bound rather than a method (`oracle`, `best-fetch`, `best-aim`): never on the
 /// Pareto front, never "the best other row".
 #[must_use]
 pub fn is_bound(name: &str) -> bool {
-    name == "oracle" || name == bound::NAME
+    name == "oracle" || name == bound::NAME || name == bound::AIM_NAME
 }
 
 impl EvalSettings {
@@ -310,6 +310,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         }
         let at = results.iter().position(|m| m.name == Method::Oracle.name()).map_or(results.len(), |k| k + 1);
         results.insert(at, bound::best_fetch_row(warp, set, exposure));
+        results.insert(at + 1, bound::best_aim_row(warp, set, exposure));
         bound::set_gap_closed(&mut results);
         bar.inc(1);
         bar.set_message(format!("eval: r {r} ꟻLIP"));

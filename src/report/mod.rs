@@ -251,7 +251,7 @@ pub fn write_eval(folder: &RunFolder, r: &EvalReport) -> Result<(), FileError> {
     }
     let _ = writeln!(
         md,
-        "\nrel RMSE = RMSE of linear RGB radiance / mean reference radiance; MAE, p95, max: per-lookup mean absolute RGB error. Gap closed: the share of the none → best-fetch gap in tone-mapped RMSE (best-fetch: per query the single fetch of probe A, any direction and mip, nearest its reference: what no single-fetch lookup can beat). Angular error: fetch direction against the oracle's. Costs: single-threaded warm loop, fetch + bilinear radiance lookup; queries issued per position in Morton order of their octahedral uv (coherent, as neighbouring pixels query a probe), and in random order (cache-hostile).\n"
+        "\nrel RMSE = RMSE of linear RGB radiance / mean reference radiance; MAE, p95, max: per-lookup mean absolute RGB error. Gap closed: the share of the none → best-aim gap in tone-mapped RMSE (best-aim: per query the best point on the query ray to fetch probe A towards, any mip: the bound of every warp, which all aim at a point on that ray; best-fetch: the best fetch in any direction, which no single-fetch lookup can beat). Angular error: fetch direction against the oracle's. Costs: single-threaded warm loop, fetch + bilinear radiance lookup; queries issued per position in Morton order of their octahedral uv (coherent, as neighbouring pixels query a probe), and in random order (cache-hostile).\n"
     );
     for b in r.buckets.iter().filter(|b| b.roughness > 0.0) {
         let _ = writeln!(

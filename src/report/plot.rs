@@ -151,7 +151,7 @@ pub fn error_vs_cost(path: &Path, title: &str, y_desc: &str, points: &[(String, 
         let (emin, emax) = if finite.is_empty() { (0.01, 1.0) } else { (emin / 1.3, emax * 1.3) };
         let mut chart = ChartBuilder::on(&root)
             .caption(
-                format!("{title} (red: Pareto front; hollow: the bounds oracle and best-fetch)"),
+                format!("{title} (red: Pareto front; hollow: the bounds oracle, best-aim and best-fetch)"),
                 ("sans-serif", 22),
             )
             .margin(16)
