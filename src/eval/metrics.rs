@@ -65,8 +65,10 @@ pub struct LevelEval {
     pub fitted_rel_rmse: f64,
     pub fallback: String,
     pub fallback_rel_rmse: f64,
-    /// Tone-mapped RMSE (the fit's objective's measure) of both.
+    /// Tone-mapped RMSE (the fit's objective's measure) of both (0 in older eval.json).
+    #[serde(default)]
     pub fitted_tm_rmse: f64,
+    #[serde(default)]
     pub fallback_tm_rmse: f64,
 }
 

@@ -238,14 +238,20 @@ pub fn write_eval(folder: &RunFolder, r: &EvalReport) -> Result<(), FileError> {
     if !r.fitted_levels.is_empty() {
         let _ = writeln!(
             md,
-            "\n`fitted` by the level of the cell containing the query position (rel RMSE over each subset):\n"
+            "\n`fitted` by the level of the cell containing the query position (tone-mapped RMSE / rel RMSE over each subset):\n"
         );
         let _ = writeln!(md, "| level | lookups | fitted | fallback on the same lookups |\n|---|---:|---:|---:|");
         for l in &r.fitted_levels {
             let _ = writeln!(
                 md,
-                "| {} | {} | {:.4} | {:.4} ({}) |",
-                l.level, l.lookups, l.fitted_rel_rmse, l.fallback_rel_rmse, l.fallback
+                "| {} | {} | {:.4} / {:.4} | {:.4} / {:.4} ({}) |",
+                l.level,
+                l.lookups,
+                l.fitted_tm_rmse,
+                l.fitted_rel_rmse,
+                l.fallback_tm_rmse,
+                l.fallback_rel_rmse,
+                l.fallback
             );
         }
     }

@@ -366,17 +366,22 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
 
     if !r.eval_levels.is_empty() {
         let mut t = vec![
-            ["cell level", "validation lookups", "fitted rel RMSE", "fallback rel RMSE (same lookups)"]
-                .iter()
-                .map(|s| s.to_string())
-                .collect::<Vec<_>>(),
+            [
+                "cell level",
+                "validation lookups",
+                "fitted tone-mapped / rel RMSE",
+                "fallback tone-mapped / rel RMSE (same lookups)",
+            ]
+            .iter()
+            .map(|s| s.to_string())
+            .collect::<Vec<_>>(),
         ];
         for l in &r.eval_levels {
             t.push(vec![
                 l.level.to_string(),
                 l.lookups.to_string(),
-                format!("{:.4}", l.fitted_rel_rmse),
-                format!("{:.4} ({})", l.fallback_rel_rmse, l.fallback),
+                format!("{:.4} / {:.4}", l.fitted_tm_rmse, l.fitted_rel_rmse),
+                format!("{:.4} / {:.4} ({})", l.fallback_tm_rmse, l.fallback_rel_rmse, l.fallback),
             ]);
         }
         out.push(("Fitted per level, on the validation set".to_string(), t));
