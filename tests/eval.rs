@@ -42,11 +42,11 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
     // variant) with each of the four mip rules at every rough bucket
     let buckets = warpfit::eval::ROUGHNESS_BUCKETS;
     assert_eq!(report.buckets.len(), buckets.len());
-    // plus the renormalized box row and the best-fetch bound at every bucket (no fitted grid
-    // here, so no runtime rows)
+    // plus reproject-dilate at roughness 0, and the renormalized box row and the two bounds
+    // at every bucket (no fitted grid here, so no runtime rows)
     assert_eq!(
         methods.len(),
-        Method::ALL.len() + (buckets.len() - 1) * (Method::ALL.len() - 1) * 4 + 3 * buckets.len()
+        Method::ALL.len() + 1 + (buckets.len() - 1) * (Method::ALL.len() - 1) * 4 + 3 * buckets.len()
     );
     // the bounds: one of each per bucket, no row below best-fetch in tone-mapped RMSE, no warp
     // of the seeds beyond best-aim (every row's share of the none → best-aim gap at most 1)
@@ -79,7 +79,7 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
         assert!(m["rel_rmse"].as_f64().unwrap().is_finite() && m["tm_rmse"].as_f64().unwrap().is_finite());
         assert!(m["ns_per_lookup"].as_f64().unwrap() > 0.0);
         // every row but reproject and the bound renders the views for ꟻLIP, in [0, 1]
-        if !matches!(m["name"].as_str(), Some("reproject" | "best-fetch" | "best-aim")) {
+        if !matches!(m["name"].as_str(), Some("reproject" | "reproject-dilate" | "best-fetch" | "best-aim")) {
             assert!(m["flip"].as_f64().is_some_and(|f| (0.0..=1.0).contains(&f)), "{m}");
         }
         // warp1's mirror row is also timed through its batch API; no other row has one

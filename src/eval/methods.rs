@@ -8,7 +8,7 @@ use super::validation::ValidationSet;
 use crate::runtime::FittedGrid;
 use crate::warp::corrective::{Blend, Correctives};
 use crate::warp::glossy::{Aim, Glossy, MipRule};
-use crate::warp::reproject::reproject;
+use crate::warp::reproject::{HoleFill, reproject_with};
 use crate::warp::{Method, Warp};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -357,27 +357,31 @@ pub fn fetch_dirs(warp: &Warp, set: &ValidationSet, method: Method) -> Vec<Vec3>
 }
 
 /// Radiance estimates of `reproject` (one reprojected mirror probe per position).
-pub fn reproject_estimates(warp: &Warp, set: &ValidationSet) -> Vec<Vec3> {
+pub fn reproject_estimates(warp: &Warp, set: &ValidationSet, fill: HoleFill) -> Vec<Vec3> {
     let res = warp.probe.radiance.levels[0].res;
     let per_pos: Vec<Vec<Vec3>> = set
         .positions
         .par_iter()
         .enumerate()
         .map(|(k, &b)| {
-            let map = reproject(&warp.probe, b, res);
+            let map = reproject_with(&warp.probe, b, res, fill);
             (0..set.dirs_per_position).map(|d| map.bilinear(set.dirs[k * set.dirs_per_position + d])).collect()
         })
         .collect();
     per_pos.into_iter().flatten().collect()
 }
 
-/// `reproject` on the mirror bucket: per-location scatter + push-pull, its build amortised
-/// over the lookups it serves (rough buckets have no reprojected prefiltered chain).
-pub fn evaluate_reproject(warp: &Warp, set: &ValidationSet, exposure: f32) -> MethodResult {
-    let est = reproject_estimates(warp, set);
+/// `reproject` on the mirror bucket: per-location scatter + hole filling (`fill`), its build
+/// amortised over the lookups it serves (rough buckets have no reprojected prefiltered
+/// chain). Push-pull is the `reproject` row, seed 002's median + dilation `reproject-dilate`.
+pub fn evaluate_reproject(warp: &Warp, set: &ValidationSet, exposure: f32, fill: HoleFill) -> MethodResult {
+    let est = reproject_estimates(warp, set, fill);
     // one per-location pass serves a location's lookups in any order: timed once
-    let ns = timing::time_reproject(warp, set);
-    let note =
-        format!("per-location scatter + push-pull amortised over {} lookups per location", set.dirs_per_position);
-    result(set, Method::Reproject.name(), note, &est, None, (ns, ns), exposure)
+    let ns = timing::time_reproject(warp, set, fill);
+    let (name, how) = match fill {
+        HoleFill::PushPull => (Method::Reproject.name(), "push-pull"),
+        HoleFill::MedianDilate => ("reproject-dilate", "seed 002's median + farthest-neighbour dilation"),
+    };
+    let note = format!("per-location scatter + {how} amortised over {} lookups per location", set.dirs_per_position);
+    result(set, name, note, &est, None, (ns, ns), exposure)
 }

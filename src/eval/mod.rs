@@ -306,7 +306,9 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         if r == 0.0 && methods.contains(&Method::Reproject) {
             // reproject has no rough variant: no reprojected prefiltered chain is built
             let at = results.iter().position(|m| m.name == Method::Oracle.name()).unwrap_or(results.len());
-            results.insert(at, methods::evaluate_reproject(warp, set, exposure));
+            use crate::warp::reproject::HoleFill;
+            results.insert(at, methods::evaluate_reproject(warp, set, exposure, HoleFill::MedianDilate));
+            results.insert(at, methods::evaluate_reproject(warp, set, exposure, HoleFill::PushPull));
         }
         let at = results.iter().position(|m| m.name == Method::Oracle.name()).map_or(results.len(), |k| k + 1);
         results.insert(at, bound::best_fetch_row(warp, set, exposure));

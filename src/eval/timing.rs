@@ -5,7 +5,7 @@ use super::validation::ValidationSet;
 use crate::sampling::Sampler;
 use crate::trace::Renderer;
 use crate::warp::Warp;
-use crate::warp::reproject::reproject;
+use crate::warp::reproject::{HoleFill, reproject_with};
 use glam::Vec3;
 use std::hint::black_box;
 use std::time::Instant;
@@ -95,13 +95,13 @@ pub fn time_warp1_batched(warp: &Warp, set: &ValidationSet, lookups: usize) -> f
 
 /// Amortised ns per lookup of `reproject`: the per-location build spread over the lookups
 /// it serves, plus the lookup.
-pub fn time_reproject(warp: &Warp, set: &ValidationSet) -> f64 {
+pub fn time_reproject(warp: &Warp, set: &ValidationSet, fill: HoleFill) -> f64 {
     let res = warp.probe.radiance.levels[0].res;
     let count = set.positions.len().clamp(1, 8).min(set.positions.len());
     let t = Instant::now();
     let mut acc = Vec3::ZERO;
     for k in 0..count {
-        let map = reproject(&warp.probe, set.positions[k], res);
+        let map = reproject_with(&warp.probe, set.positions[k], res, fill);
         for d in 0..set.dirs_per_position {
             acc += map.bilinear(set.dirs[k * set.dirs_per_position + d]);
         }
