@@ -39,7 +39,8 @@ const SPP: u32 = 64;
 const PULL: f64 = 0.02;
 /// Jacobi rounds of the coupled fit.
 const ROUNDS: usize = 2;
-/// A cell needs this many training and check points to be fitted.
+/// A cell needs this many training points in its support, and half as many check points,
+/// to be fitted.
 const MIN_POINTS: usize = 6;
 
 /// One cell's diffuse corrective.
@@ -48,7 +49,8 @@ pub struct IrradianceCellFit {
     pub cell: u32,
     pub train_points: usize,
     pub check_points: usize,
-    /// Check points' tone-mapped RMSE without and with the fitted map.
+    /// Tone-mapped RMSE of the check points of the cell's support: the uncorrected blend,
+    /// and the corrected field with the cell's map.
     pub check_before: f64,
     pub check_after: f64,
     pub stored: bool,
