@@ -347,13 +347,15 @@ pub fn evaluate(
     let refs = view_references(scene, tracer, &cams, view_spp, seed, exposure);
     let mut rows = Vec::new();
     let mut estimates = Vec::new();
-    // the figure shows the brightest camera (the most light to get right)
-    let shown = (0..cams.len()).max_by(|&a, &b| {
-        let mean = |k: usize| {
-            refs[k].0.iter().map(|e| crate::tonemap::luminance(*e) as f64).sum::<f64>() / refs[k].0.len().max(1) as f64
-        };
-        mean(a).total_cmp(&mean(b))
-    });
+    // the figure shows the camera of most contrast (variance of the reference's log
+    // luminance): light and shadow side by side, where a grid has the most to get wrong
+    let contrast = |k: usize| {
+        let logs: Vec<f64> = refs[k].0.iter().map(|e| libm::log(crate::tonemap::luminance(*e) as f64 + 1e-3)).collect();
+        let n = logs.len().max(1) as f64;
+        let mean = logs.iter().sum::<f64>() / n;
+        logs.iter().map(|l| (l - mean) * (l - mean)).sum::<f64>() / n
+    };
+    let shown = (0..cams.len()).max_by(|&a, &b| contrast(a).total_cmp(&contrast(b)));
     let mut figure = shown.map(|k| (&cams[k], &refs[k])).map(|(v, (reference, _))| super::FlipFigure {
         roughness: 1.0,
         diffuse: true,
