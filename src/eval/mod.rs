@@ -82,11 +82,13 @@ pub struct EvalSettings {
 /// The roughness buckets every row is judged on (perceptual roughness; α = r²).
 pub const ROUGHNESS_BUCKETS: [f32; 6] = [0.0, 0.125, 0.25, 0.5, 0.75, 1.0];
 
-/// Whether a row is a bound rather than a method (`oracle`, `best-fetch`, `best-aim`): never on the
-/// Pareto front, never "the best other row".
+/// Whether a row (by name or label) is a bound rather than a method (`oracle`, `best-fetch`,
+/// `best-aim`): never on the Pareto front, never "the best other row".
 #[must_use]
 pub fn is_bound(name: &str) -> bool {
-    name == "oracle" || name == bound::NAME || name == bound::AIM_NAME
+    // a row's label carries its mip rule (`oracle/plain`)
+    let base = name.split('/').next().unwrap_or(name);
+    base == "oracle" || base == bound::NAME || base == bound::AIM_NAME
 }
 
 impl EvalSettings {

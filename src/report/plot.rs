@@ -143,17 +143,22 @@ pub fn error_vs_cost(path: &Path, title: &str, y_desc: &str, points: &[(String, 
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| plot_err(path, e))?;
+        // the per-query bounds (best-aim, best-fetch) cost a search, not a lookup: drawn as
+        // horizontal lines, their cost kept off the axis
+        let is_line = |name: &str| name == crate::eval::bound::NAME || name == crate::eval::bound::AIM_NAME;
+        let lines: Vec<&(String, f64, f64)> =
+            points.iter().filter(|p| is_line(&p.0) && p.2 > 0.0 && p.2.is_finite()).collect();
+        let points: Vec<(String, f64, f64)> = points.iter().filter(|p| !is_line(&p.0)).cloned().collect();
+        let points = points.as_slice();
         let finite: Vec<&(String, f64, f64)> =
             points.iter().filter(|p| p.1 > 0.0 && p.2 > 0.0 && p.1.is_finite() && p.2.is_finite()).collect();
         let (cmin, cmax) = finite.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
-        let (emin, emax) = finite.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.2), b.max(p.2)));
+        let (emin, emax) =
+            finite.iter().chain(&lines).fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.2), b.max(p.2)));
         let (cmin, cmax) = if finite.is_empty() { (1.0, 10.0) } else { (cmin / 1.6, cmax * 1.6) };
         let (emin, emax) = if finite.is_empty() { (0.01, 1.0) } else { (emin / 1.3, emax * 1.3) };
         let mut chart = ChartBuilder::on(&root)
-            .caption(
-                format!("{title} (red: Pareto front; hollow: the bounds oracle, best-aim and best-fetch)"),
-                ("sans-serif", 22),
-            )
+            .caption(format!("{title} (red: Pareto front; hollow, grey: bounds)"), ("sans-serif", 22))
             .margin(16)
             .x_label_area_size(48)
             .y_label_area_size(72)
@@ -171,6 +176,18 @@ pub fn error_vs_cost(path: &Path, title: &str, y_desc: &str, points: &[(String, 
             .y_label_formatter(&|v| tick(*v))
             .draw()
             .map_err(|e| plot_err(path, e))?;
+        for (name, _, e) in &lines {
+            chart
+                .draw_series(LineSeries::new([(cmin, *e), (cmax, *e)], RGBColor(150, 150, 150).stroke_width(1)))
+                .map_err(|e| plot_err(path, e))?;
+            let (x, y) = chart.backend_coord(&(cmin, *e));
+            root.draw(&Text::new(
+                format!("{name} (per-query search)"),
+                (x + 6, y - 18),
+                ("sans-serif", 14).into_font().color(&RGBColor(110, 110, 110)),
+            ))
+            .map_err(|e| plot_err(path, e))?;
+        }
         let front = pareto_front(points);
         let mut front_pts: Vec<(f64, f64)> =
             points.iter().zip(&front).filter(|(_, f)| **f).map(|(p, _)| (p.1, p.2)).collect();
@@ -398,6 +415,13 @@ pub fn error_vs_cost_panels(path: &Path, title: &str, y_desc: &str, panels: &[Pa
         let body = root.margin(40, 0, 0, 0);
         let areas = body.split_evenly((lines, cols));
         for ((name, points), area) in panels.iter().zip(areas) {
+            // the per-query bounds cost a search, not a lookup: left out of the panels
+            let points: Vec<(String, f64, f64)> = points
+                .iter()
+                .filter(|p| p.0 != crate::eval::bound::NAME && p.0 != crate::eval::bound::AIM_NAME)
+                .cloned()
+                .collect();
+            let points = points.as_slice();
             let finite: Vec<&(String, f64, f64)> =
                 points.iter().filter(|p| p.1 > 0.0 && p.2 >= 0.0 && p.1.is_finite() && p.2.is_finite()).collect();
             let (cmin, cmax) = finite.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
@@ -449,8 +473,9 @@ pub fn error_vs_cost_panels(path: &Path, title: &str, y_desc: &str, panels: &[Pa
                 }
             }
             let (xr, yr) = chart.plotting_area().get_pixel_range();
+            // marker and label positions are the backend's pixels: drawn on the root
             for (text, at) in place_labels(&markers, ((xr.start, yr.start), (xr.end, yr.end)), 6.8, 13) {
-                area.draw(&Text::new(text, at, ("sans-serif", 12).into_font().color(&BLACK)))
+                root.draw(&Text::new(text, at, ("sans-serif", 12).into_font().color(&BLACK)))
                     .map_err(|e| plot_err(path, e))?;
             }
         }
