@@ -1,5 +1,6 @@
 //! Grid geometry shared by the bake, the fit and the runtime sampler: an axis-aligned box
-//! split into cells, one probe (and one corrective) per cell centre.
+//! split into cells, one probe (and one corrective) per cell, at its centre unless the bake
+//! relocated it.
 
 use glam::{UVec3, Vec3};
 
@@ -62,4 +63,11 @@ impl GridGeometry {
         let f = if f.is_finite() { f.clamp(Vec3::ZERO, hi) } else { Vec3::ZERO };
         f.as_uvec3()
     }
+}
+
+/// The sparse form files store per-cell probe offsets in: the cells whose probe is off its
+/// centre, in cell order, with the offset.
+#[must_use]
+pub fn relocated_cells(probe_offset: &[Vec3]) -> Vec<(u32, [f32; 3])> {
+    probe_offset.iter().enumerate().filter(|(_, o)| **o != Vec3::ZERO).map(|(k, o)| (k as u32, o.to_array())).collect()
 }

@@ -130,7 +130,7 @@ pub fn build_manifest(scene: &Scene, bake: &Bake) -> BakeManifest {
             max: g.geometry.max.to_array(),
             counts: g.geometry.counts.to_array(),
             cell_size: g.geometry.cell_size().to_array(),
-            cell_index: "x + nx*(y + ny*z); probe at the cell centre".into(),
+            cell_index: "x + nx*(y + ny*z); probe at the cell centre plus its relocation offset".into(),
             irradiance_resolution: g.irradiance_resolution,
             depth_resolution: g.depth_resolution,
             depth_samples: g.depth_samples,
@@ -138,13 +138,7 @@ pub fn build_manifest(scene: &Scene, bake: &Bake) -> BakeManifest {
             far_distance: g.far_distance,
             active_cells: g.active_cells(),
             inside_cells: g.inside.iter().enumerate().filter(|(_, x)| **x).map(|(k, _)| k as u32).collect(),
-            relocated: g
-                .probe_offset
-                .iter()
-                .enumerate()
-                .filter(|(_, o)| **o != Vec3::ZERO)
-                .map(|(k, o)| (k as u32, o.to_array()))
-                .collect(),
+            relocated: crate::grid::relocated_cells(&g.probe_offset),
         },
         stats: bake.stats.clone(),
         settings: scene.config.clone(),

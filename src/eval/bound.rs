@@ -13,8 +13,7 @@
 //! Searches can miss a narrower better optimum, so both rows are upper estimates of their
 //! bounds. Bounds, not methods: they read the references, and their cost is the search's.
 
-use super::methods::MethodResult;
-use super::metrics::error_stats;
+use super::methods::{MethodResult, result};
 use super::validation::ValidationSet;
 use crate::tonemap::reinhard;
 use crate::warp::Warp;
@@ -24,6 +23,13 @@ use rayon::prelude::*;
 /// The bounds' row names.
 pub const NAME: &str = "best-fetch";
 pub const AIM_NAME: &str = "best-aim";
+
+/// Whether a row is one of these per-query search bounds (whose cost is a search's, not a
+/// lookup's: plots keep them off the cost axis).
+#[must_use]
+pub fn is_search(name: &str) -> bool {
+    name == NAME || name == AIM_NAME
+}
 
 /// Coarse grid of the search (per axis, at most the mip's resolution).
 const COARSE: u32 = 32;
@@ -141,28 +147,7 @@ pub fn best_aim_row(warp: &Warp, set: &ValidationSet, exposure: f32) -> MethodRe
     let threads = rayon::current_num_threads().max(1) as f64;
     let ns = t0.elapsed().as_secs_f64() * 1e9 * threads / set.reference.len().max(1) as f64;
     let note = "bound: the best point on the query ray to fetch A towards (what every warp aims at); cost = the search";
-    row(AIM_NAME, r, &est, set, exposure, ns, note.into())
-}
-
-fn row(name: &str, r: f32, est: &[Vec3], set: &ValidationSet, exposure: f32, ns: f64, note: String) -> MethodResult {
-    let e = error_stats(est, &set.reference, exposure);
-    MethodResult {
-        name: name.into(),
-        roughness: r,
-        mip_rule: None,
-        rel_rmse: e.rel_rmse,
-        tm_rmse: e.tm_rmse,
-        mae: e.mae,
-        p95: e.p95,
-        max: e.max,
-        flip: None,
-        angular_deg: None,
-        ns_per_lookup: ns,
-        ns_per_lookup_random: ns,
-        ns_per_lookup_batched: None,
-        gap_closed: None,
-        note,
-    }
+    result(set, AIM_NAME, note.into(), &est, None, (ns, ns), exposure)
 }
 
 /// The `best-fetch` row of a bucket: mirror queries search mip 0; rough ones every mip of the
@@ -179,7 +164,7 @@ pub fn best_fetch_row(warp: &Warp, set: &ValidationSet, exposure: f32) -> Method
         "bound: the single fetch of A (any direction, mips {}) nearest each reference; cost = the search",
         if r > 0.0 { "all" } else { "0" }
     );
-    row(NAME, r, &est, set, exposure, ns, note)
+    result(set, NAME, note, &est, None, (ns, ns), exposure)
 }
 
 /// Sets every row's share of the `none` → `best-aim` gap it closes, in tone-mapped RMSE

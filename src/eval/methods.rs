@@ -319,7 +319,7 @@ pub fn evaluate_row(
 
 /// One table row from estimates, fetch directions (none for methods without a single fetch)
 /// and coherent/random-order costs.
-fn result(
+pub(super) fn result(
     set: &ValidationSet,
     name: &str,
     note: String,

@@ -88,7 +88,7 @@ pub const ROUGHNESS_BUCKETS: [f32; 6] = [0.0, 0.125, 0.25, 0.5, 0.75, 1.0];
 pub fn is_bound(name: &str) -> bool {
     // a row's label carries its mip rule (`oracle/plain`)
     let base = name.split('/').next().unwrap_or(name);
-    base == "oracle" || base == bound::NAME || base == bound::AIM_NAME
+    base == "oracle" || bound::is_search(base)
 }
 
 impl EvalSettings {

@@ -65,14 +65,10 @@ impl IrradianceCorrection {
     #[inline]
     #[must_use]
     pub fn scale(&self, cell: usize, n: Vec3) -> f32 {
-        match self.slot.get(cell) {
-            Some(&s) if s != NO_MAP => {
-                let r = self.resolution;
-                let base = s as usize * (r * r) as usize;
-                octa::bilinear_taps(r, octa::encode(n)).iter().map(|&(t, w)| self.scale[base + t as usize] * w).sum()
-            }
-            _ => 1.0,
+        if self.slot.get(cell).is_none_or(|&s| s == NO_MAP) {
+            return 1.0;
         }
+        self.scale_taps(cell, &octa::bilinear_taps(self.resolution, octa::encode(n)))
     }
 
     /// [`IrradianceCorrection::scale`] with the normal's taps in the map given.

@@ -291,13 +291,7 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
             min: geo.min.to_array(),
             max: geo.max.to_array(),
             counts: geo.counts.to_array(),
-            relocated: g
-                .probe_offset
-                .iter()
-                .enumerate()
-                .filter(|(_, o)| **o != Vec3::ZERO)
-                .map(|(k, o)| (k as u32, o.to_array()))
-                .collect(),
+            relocated: crate::grid::relocated_cells(g.probe_offset),
         },
         probe: ProbeSection {
             position: g.probe.position.to_array(),

@@ -145,7 +145,7 @@ pub fn error_vs_cost(path: &Path, title: &str, y_desc: &str, points: &[(String, 
         root.fill(&WHITE).map_err(|e| plot_err(path, e))?;
         // the per-query bounds (best-aim, best-fetch) cost a search, not a lookup: drawn as
         // horizontal lines, their cost kept off the axis
-        let is_line = |name: &str| name == crate::eval::bound::NAME || name == crate::eval::bound::AIM_NAME;
+        let is_line = |name: &str| crate::eval::bound::is_search(name);
         let lines: Vec<&(String, f64, f64)> =
             points.iter().filter(|p| is_line(&p.0) && p.2 > 0.0 && p.2.is_finite()).collect();
         let points: Vec<(String, f64, f64)> = points.iter().filter(|p| !is_line(&p.0)).cloned().collect();
@@ -416,11 +416,8 @@ pub fn error_vs_cost_panels(path: &Path, title: &str, y_desc: &str, panels: &[Pa
         let areas = body.split_evenly((lines, cols));
         for ((name, points), area) in panels.iter().zip(areas) {
             // the per-query bounds cost a search, not a lookup: left out of the panels
-            let points: Vec<(String, f64, f64)> = points
-                .iter()
-                .filter(|p| p.0 != crate::eval::bound::NAME && p.0 != crate::eval::bound::AIM_NAME)
-                .cloned()
-                .collect();
+            let points: Vec<(String, f64, f64)> =
+                points.iter().filter(|p| !crate::eval::bound::is_search(&p.0)).cloned().collect();
             let points = points.as_slice();
             let finite: Vec<&(String, f64, f64)> =
                 points.iter().filter(|p| p.1 > 0.0 && p.2 >= 0.0 && p.1.is_finite() && p.2.is_finite()).collect();
