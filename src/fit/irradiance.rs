@@ -73,18 +73,25 @@ struct Point {
     taps: [(u32, f32); 4],
 }
 
+/// Texels of one map.
+const N2: usize = (CORRECTION_RES * CORRECTION_RES) as usize;
+/// One cell's map of scales.
+type Map = [f32; N2];
 /// The maps of one round: per grid cell, its map (`None`: scale 1).
-type Maps = Vec<Option<Vec<f32>>>;
+type Maps = Vec<Option<Map>>;
 
-fn scale_at(map: &[f32], taps: &[(u32, f32); 4]) -> f32 {
+fn scale_at(map: &Map, taps: &[(u32, f32); 4]) -> f32 {
     taps.iter().map(|&(t, w)| map[t as usize] * w).sum()
 }
 
-/// The corrected blend at `p` with `maps`, cell `cell`'s map replaced by `own`.
-fn predict(p: &Point, maps: &Maps, cell: usize, own: Option<&[f32]>) -> Vec3 {
+/// The corrected blend at `p` with `maps`, one cell's map replaced where `swap` says so.
+fn predict(p: &Point, maps: &Maps, swap: Option<(usize, &Map)>) -> Vec3 {
     let mut e = Vec3::ZERO;
     for &(c, w, ei) in &p.terms.terms[..p.terms.count] {
-        let map = if c as usize == cell { own } else { maps[c as usize].as_deref() };
+        let map = match swap {
+            Some((cell, own)) if cell == c as usize => Some(own),
+            _ => maps[c as usize].as_ref(),
+        };
         e += ei * (w * map.map_or(1.0, |m| scale_at(m, &p.taps)));
     }
     e
@@ -96,8 +103,13 @@ fn err2(e: Vec3, reference: Vec3, exposure: f32) -> f64 {
     ((d.x as f64).powi(2) + (d.y as f64).powi(2) + (d.z as f64).powi(2)) / 3.0
 }
 
-fn rmse(points: &[&Point], maps: &Maps, cell: usize, own: Option<&[f32]>, exposure: f32) -> f64 {
-    let sq: f64 = points.iter().map(|p| err2(predict(p, maps, cell, own), p.reference, exposure)).sum();
+/// The points of `pts` listed in `idx`.
+fn gather<'a>(pts: &'a [(Point, u64)], idx: &[usize]) -> Vec<&'a Point> {
+    idx.iter().map(|&k| &pts[k].0).collect()
+}
+
+fn rmse(points: &[&Point], maps: &Maps, exposure: f32) -> f64 {
+    let sq: f64 = points.iter().map(|p| err2(predict(p, maps, None), p.reference, exposure)).sum();
     (sq / points.len().max(1) as f64).sqrt()
 }
 
@@ -106,7 +118,7 @@ struct TexelProblem<'a> {
     points: &'a [&'a Point],
     maps: &'a Maps,
     cell: usize,
-    own: &'a [f32],
+    own: Map,
     t: usize,
     exposure: f32,
 }
@@ -115,36 +127,31 @@ impl CostFunction for TexelProblem<'_> {
     type Param = f64;
     type Output = f64;
     fn cost(&self, x: &f64) -> Result<f64, Error> {
-        let mut own = self.own.to_vec();
+        let mut own = self.own;
         own[self.t] = *x as f32;
         let data: f64 = self
             .points
             .iter()
             .filter(|p| p.taps.iter().any(|&(t, w)| t as usize == self.t && w > 0.0))
-            .map(|p| err2(predict(p, self.maps, self.cell, Some(&own)), p.reference, self.exposure))
+            .map(|p| err2(predict(p, self.maps, Some((self.cell, &own))), p.reference, self.exposure))
             .sum::<f64>()
             / self.points.len().max(1) as f64;
-        Ok(data + PULL * (x - 1.0).powi(2) / own.len() as f64)
+        Ok(data + PULL * (x - 1.0).powi(2) / N2 as f64)
     }
 }
 
 /// Fits cell `cell`'s map on its support's training points, the neighbours' maps fixed.
-fn fit_map(points: &[&Point], maps: &Maps, cell: usize, exposure: f32) -> Vec<f32> {
-    let n2 = (CORRECTION_RES * CORRECTION_RES) as usize;
-    let mut own = maps[cell].clone().unwrap_or_else(|| vec![1.0f32; n2]);
+fn fit_map(points: &[&Point], maps: &Maps, cell: usize, exposure: f32) -> Map {
+    let mut own = maps[cell].unwrap_or([1.0; N2]);
     for _ in 0..2 {
-        for t in 0..n2 {
+        for t in 0..N2 {
             if !points.iter().any(|p| p.taps.iter().any(|&(k, w)| k as usize == t && w > 0.0)) {
                 continue;
             }
-            let snapshot = own.clone();
-            let current = TexelProblem { points, maps, cell, own: &snapshot, t, exposure }
-                .cost(&(own[t] as f64))
-                .unwrap_or(f64::INFINITY);
+            let problem = TexelProblem { points, maps, cell, own, t, exposure };
+            let current = problem.cost(&(own[t] as f64)).unwrap_or(f64::INFINITY);
             let solver = BrentOpt::new(0.2, 5.0).set_tolerance(1e-3, 1e-4);
-            let res = Executor::new(TexelProblem { points, maps, cell, own: &snapshot, t, exposure }, solver)
-                .configure(|st| st.param(own[t] as f64).max_iters(24))
-                .run();
+            let res = Executor::new(problem, solver).configure(|st| st.param(own[t] as f64).max_iters(24)).run();
             if let Ok(r) = res {
                 let st = r.state();
                 if let Some(&best) = st.get_best_param()
@@ -207,17 +214,10 @@ pub fn fit_irradiance(baked: Baked, grid: &IrradianceGrid, exposure: f32, seed: 
     let cells: Vec<usize> = (0..g.cell_count())
         .filter(|&c| grid.slot[c] != NO_MAP && train_of[c].len() >= MIN_POINTS && check_of[c].len() >= MIN_POINTS / 2)
         .collect();
-    let gather = |pts: &'_ [(Point, u64)], idx: &[usize]| -> Vec<Point> { idx.iter().map(|&k| pts[k].0).collect() };
     let mut maps: Maps = vec![None; g.cell_count()];
     for _ in 0..ROUNDS {
-        let next: Vec<(usize, Vec<f32>)> = cells
-            .par_iter()
-            .map(|&c| {
-                let pts = gather(&train, &train_of[c]);
-                let refs: Vec<&Point> = pts.iter().collect();
-                (c, fit_map(&refs, &maps, c, exposure))
-            })
-            .collect();
+        let next: Vec<(usize, Map)> =
+            cells.par_iter().map(|&c| (c, fit_map(&gather(&train, &train_of[c]), &maps, c, exposure))).collect();
         for (c, m) in next {
             maps[c] = Some(m);
         }
@@ -229,10 +229,8 @@ pub fn fit_irradiance(baked: Baked, grid: &IrradianceGrid, exposure: f32, seed: 
     let fits: Vec<IrradianceCellFit> = cells
         .par_iter()
         .map(|&c| {
-            let pts = gather(&check, &check_of[c]);
-            let refs: Vec<&Point> = pts.iter().collect();
-            let own = maps[c].as_deref();
-            let (before, after) = (rmse(&refs, &none, c, None, exposure), rmse(&refs, &maps, c, own, exposure));
+            let refs = gather(&check, &check_of[c]);
+            let (before, after) = (rmse(&refs, &none, exposure), rmse(&refs, &maps, exposure));
             IrradianceCellFit {
                 cell: c as u32,
                 train_points: train_of[c].len(),

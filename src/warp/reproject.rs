@@ -103,10 +103,13 @@ fn median_fill(keys: &mut [u64], res: u32) {
             if before[k] != EMPTY {
                 continue;
             }
-            let mut near: Vec<u64> = neighbours(&before, res, i, j, 1).collect();
-            if near.len() >= MEDIAN_MIN {
-                near.sort_unstable();
-                keys[k] = near[near.len() / 2];
+            let (mut near, mut n) = ([EMPTY; 8], 0);
+            for key in neighbours(&before, res, i, j, 1) {
+                (near[n], n) = (key, n + 1);
+            }
+            if n >= MEDIAN_MIN {
+                near[..n].sort_unstable();
+                keys[k] = near[n / 2];
             }
         }
     }
