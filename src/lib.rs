@@ -45,6 +45,8 @@ pub mod fit;
 #[cfg(feature = "bake")]
 pub mod jobs;
 #[cfg(feature = "bake")]
+pub mod partfile;
+#[cfg(feature = "bake")]
 pub mod preview;
 #[cfg(feature = "bake")]
 pub mod progress;

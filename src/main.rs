@@ -8,7 +8,7 @@ use warpfit::eval::EvalSettings;
 use warpfit::files;
 use warpfit::fit::{FitSettings, Solver};
 use warpfit::jobs::run::{self as job, Output, RunSettings, StoreOptions};
-use warpfit::jobs::{stability, sweep};
+use warpfit::jobs::{cluster, farm, stability, sweep};
 use warpfit::progress::Progress;
 use warpfit::report::{self, folder::RunFolder};
 use warpfit::runtime::{FittedGrid, Precision};
@@ -51,6 +51,10 @@ enum Command {
     Bake {
         #[command(flatten)]
         scene: SceneArgs,
+        /// Bake only shard K of N (grid cells; the probe with shard 0) into <out>/parts/;
+        /// `warpfit merge` makes the bake of all N.
+        #[arg(long, value_name = "K/N")]
+        shard: Option<farm::Shard>,
     },
     /// Measure every warp method against raytraced references on held-out positions and
     /// directions; writes eval.json, eval.md and an error-against-cost plot.
@@ -69,6 +73,25 @@ enum Command {
         scene: SceneArgs,
         #[command(flatten)]
         fit: FitArgs,
+        /// Fit only shard K of N (of the active cells) on the bake in <out> into
+        /// <out>/parts/; `warpfit merge` writes the grid of all N.
+        #[arg(long, value_name = "K/N")]
+        shard: Option<farm::Shard>,
+    },
+    /// Merge the parts of a sharded bake or fit (every shard exactly once) into <out>: the
+    /// bake, or the fitted grid, byte for byte what one machine writes.
+    Merge {
+        /// The run folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// The parts (`<out>/parts/*.part` of one job).
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+    },
+    /// Write (and with --submit, submit) a sharded bake and fit as cluster jobs.
+    Farm {
+        #[command(subcommand)]
+        target: FarmTarget,
     },
     /// Fit the GGX distance-ratio roughness correction (seed 002) and write
     /// roughness.json and roughness.png.
@@ -124,6 +147,53 @@ enum Command {
         #[command(flatten)]
         job: RunArgs,
     },
+}
+
+#[derive(Subcommand)]
+enum FarmTarget {
+    /// SLURM: array jobs for the bake and fit shards, merges chained with
+    /// --dependency=afterok; scripts in <out>/farm/.
+    Slurm {
+        #[command(flatten)]
+        farm: FarmArgs,
+        /// Submit the chain with sbatch (else only write it; <out>/farm/submit.sh submits).
+        #[arg(long)]
+        submit: bool,
+    },
+    /// Kubernetes: an Indexed Job per step (shard = JOB_COMPLETION_INDEX), JSON manifests
+    /// and a run.sh in <out>/farm/k8s/.
+    K8s {
+        #[command(flatten)]
+        farm: FarmArgs,
+        /// Container image with `warpfit` on its PATH.
+        #[arg(long)]
+        image: String,
+        /// PersistentVolumeClaim holding the scene and the run folder.
+        #[arg(long, default_value = "warpfit-work")]
+        volume: String,
+        /// Where the volume is mounted in the container.
+        #[arg(long, default_value = "/work")]
+        mount: PathBuf,
+    },
+}
+
+/// A farm job: scene, run folder, shards, threads per shard and the fit's settings.
+#[derive(clap::Args)]
+struct FarmArgs {
+    /// Scene file (TOML).
+    #[arg(long, default_value = "data/scenes/torture.toml")]
+    scene: PathBuf,
+    /// Run folder (default: fits/<scene name>), on storage every node sees.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Shards of the bake and of the fit.
+    #[arg(long)]
+    shards: u32,
+    /// Threads (CPUs) per shard.
+    #[arg(long, default_value_t = 2)]
+    cpus: u32,
+    #[command(flatten)]
+    fit: FitArgs,
 }
 
 /// The scene and the run folder.
@@ -195,6 +265,26 @@ impl FitArgs {
             PrecisionArg::F16 => Precision::F16,
         };
         StoreOptions { precision, roughness: !self.no_roughness }
+    }
+
+    /// The flags that give these settings to `warpfit fit` (for farm jobs).
+    fn flags(&self) -> Vec<String> {
+        use clap::ValueEnum;
+        let name = |v: Option<clap::builder::PossibleValue>| v.map(|v| v.get_name().to_string()).unwrap_or_default();
+        let mut f = vec![
+            format!("--map-res={}", self.map_res),
+            format!("--tol={}", self.tol),
+            format!("--solver={}", name(self.solver.to_possible_value())),
+            format!("--iterations={}", self.iterations),
+            format!("--train-positions={}", self.train_positions),
+            format!("--train-dirs={}", self.train_dirs),
+            format!("--robust-scale={}", self.robust_scale),
+            format!("--precision={}", name(self.precision.to_possible_value())),
+        ];
+        if self.no_roughness {
+            f.push("--no-roughness".into());
+        }
+        f
     }
 
     fn settings(&self) -> Result<FitSettings> {
@@ -432,7 +522,13 @@ fn run(cli: Cli) -> Result<()> {
             let i = warpfit::jobs::init::init(&mesh, &mesh, cell_size)?;
             print!("{}", i.text);
         }
-        Command::Bake { scene } => {
+        Command::Bake { scene, shard: Some(shard) } => {
+            let (scene, folder) = job::load_scene(&scene.scene, scene.out.as_deref())?;
+            check_scene(&scene)?;
+            let path = farm::bake_shard(&scene, &folder, shard, &progress)?;
+            println!("baked shard {shard} of {} → {}", scene.name, path.display());
+        }
+        Command::Bake { scene, shard: None } => {
             let force = scene.force;
             let (scene, folder) = job::load_scene(&scene.scene, scene.out.as_deref())?;
             check_scene(&scene)?;
@@ -482,7 +578,83 @@ fn run(cli: Cli) -> Result<()> {
             tx.commit(false)?;
             print_eval(&r, &folder);
         }
-        Command::Fit { scene, fit } => {
+        Command::Fit { scene, fit, shard: Some(shard) } => {
+            let job = farm::FitJob { fit: fit.settings()?, options: WarpOptions::standard(), store: fit.store() };
+            let (scene, folder) = job::load_scene(&scene.scene, scene.out.as_deref())?;
+            let path = farm::fit_shard(&scene, &folder, &job, shard, &progress)?;
+            println!("fitted shard {shard} of {} → {}", scene.name, path.display());
+        }
+        Command::Merge { out, parts } => {
+            let folder = RunFolder::new(out);
+            let (merged, r) = farm::merge(&folder, &parts, &command, &progress)?;
+            for (k, (host, s)) in r.shards.iter().enumerate() {
+                println!("shard {k}/{}: {s:.1} s on {host}", r.shards.len());
+            }
+            println!(
+                "merged {} {} shards of {} in {:.1} s; straggler ratio (slowest shard / median) {:.2}",
+                r.shards.len(),
+                r.kind.name(),
+                r.scene,
+                r.merge_seconds,
+                r.straggler_ratio
+            );
+            match merged {
+                farm::Merged::Bake(b) => println!(
+                    "wrote the bake {} ({} active cells of {})",
+                    folder.bake().display(),
+                    b.grid.active_cells(),
+                    b.grid.geometry.cell_count()
+                ),
+                farm::Merged::Fit(f, manifest) => print_fit(&f, &manifest, &folder),
+            }
+        }
+        Command::Farm { target } => {
+            let (args, submit) = match &target {
+                FarmTarget::Slurm { farm, submit } => (farm, *submit),
+                FarmTarget::K8s { farm, .. } => (farm, false),
+            };
+            anyhow::ensure!(args.shards >= 1, "--shards must be at least 1");
+            args.fit.settings()?;
+            let (scene, folder) = job::load_scene(&args.scene, args.out.as_deref())?;
+            let abs = |p: &std::path::Path| std::path::absolute(p).with_context(|| format!("{}", p.display()));
+            let job = cluster::FarmJob {
+                binary: std::env::current_exe().context("locating the warpfit binary")?,
+                scene: abs(&scene.source)?,
+                folder: RunFolder::new(abs(&folder.dir)?),
+                shards: args.shards,
+                fit_flags: args.fit.flags(),
+                cpus: args.cpus,
+            };
+            match &target {
+                FarmTarget::Slurm { .. } => {
+                    let paths = cluster::write_slurm(&job)?;
+                    println!("wrote {} (and submit.sh)", job.folder.farm().display());
+                    if submit {
+                        let ids = cluster::submit_slurm(&paths).map_err(anyhow::Error::msg)?;
+                        for (p, id) in paths.iter().zip(&ids) {
+                            println!(
+                                "submitted {}: job {id}",
+                                p.file_name().map(|f| f.to_string_lossy()).unwrap_or_default()
+                            );
+                        }
+                        println!(
+                            "the fitted grid lands in {} when job {} completes",
+                            job.folder.dir.display(),
+                            ids.last().map_or("", String::as_str)
+                        );
+                    }
+                }
+                FarmTarget::K8s { image, volume, mount, .. } => {
+                    let paths = cluster::write_k8s(&job, image, volume, mount)?;
+                    println!(
+                        "wrote {} manifests and run.sh into {}",
+                        paths.len(),
+                        job.folder.farm().join("k8s").display()
+                    );
+                }
+            }
+        }
+        Command::Fit { scene, fit, shard: None } => {
             let settings = fit.settings()?;
             let (p, tx, folder) = prepare(&scene, &progress)?;
             let warp = p.baked().warp(WarpOptions::standard());

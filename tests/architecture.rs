@@ -15,7 +15,7 @@ const FLOORS: &[&[&str]] = &[
     &["trace"],
     &["bake"],
     &["fit", "eval"],
-    &["bakefile", "preview"],
+    &["bakefile", "partfile", "preview"],
     &["report"],
     &["jobs"],
 ];

@@ -66,25 +66,52 @@ pub struct GridSettings {
     pub seed: u64,
 }
 
-struct CellBake {
-    irradiance: Vec<Vec3>,
-    mean: Vec<f32>,
-    mean_sq: Vec<f32>,
-    hit: Vec<f32>,
-    inside: bool,
-    offset: Vec3,
-    rays: u64,
+/// One cell's bake: what a shard of a bake hands to the merge.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CellBake {
+    pub irradiance: Vec<Vec3>,
+    pub mean: Vec<f32>,
+    pub mean_sq: Vec<f32>,
+    pub hit: Vec<f32>,
+    pub inside: bool,
+    pub offset: Vec3,
+    pub rays: u64,
+}
+
+impl CellBake {
+    /// Whether the cell's maps have the sizes `s` gives and hold finite values.
+    pub fn fits(&self, s: &GridSettings) -> bool {
+        let (i2, d2) = ((s.irradiance_resolution.pow(2)) as usize, (s.depth_resolution.pow(2)) as usize);
+        self.irradiance.len() == i2
+            && self.mean.len() == d2
+            && self.mean_sq.len() == d2
+            && self.hit.len() == d2
+            && self.irradiance.iter().all(|e| e.is_finite())
+            && self.mean.iter().chain(&self.mean_sq).chain(&self.hit).all(|x| x.is_finite())
+            && self.offset.is_finite()
+    }
 }
 
 /// Bakes every cell; returns the grid and the number of rays traced.
 pub fn bake_grid(renderer: &Renderer, s: &GridSettings, progress: &Progress) -> (ProbeGrid, u64) {
-    let cells = s.geometry.cell_count();
+    let baked = bake_cells(renderer, s, 0..s.geometry.cell_count(), progress);
+    assemble(s, baked)
+}
+
+/// Bakes the cells `cells`, in order (each cell on its own streams: any split bakes the
+/// same values).
+pub fn bake_cells(
+    renderer: &Renderer,
+    s: &GridSettings,
+    cells: std::ops::Range<usize>,
+    progress: &Progress,
+) -> Vec<CellBake> {
     let dres = s.depth_resolution;
     let ires = s.irradiance_resolution;
     let depth_omega = texel_solid_angles(dres);
     let irr_normals: Vec<Vec3> = (0..ires * ires).map(|t| octa::texel_dir(ires, t % ires, t / ires)).collect();
-    let bar = progress.bar(cells as u64, "grid cells");
-    let baked: Vec<CellBake> = (0..cells)
+    let bar = progress.bar(cells.len() as u64, "grid cells");
+    let baked: Vec<CellBake> = cells
         .into_par_iter()
         .map(|cell| {
             let r = bake_cell(renderer, s, cell, &depth_omega, &irr_normals);
@@ -93,6 +120,13 @@ pub fn bake_grid(renderer: &Renderer, s: &GridSettings, progress: &Progress) -> 
         })
         .collect();
     bar.finish_and_clear();
+    baked
+}
+
+/// The grid of every cell's bake (in cell order); returns it with the rays traced.
+pub fn assemble(s: &GridSettings, baked: Vec<CellBake>) -> (ProbeGrid, u64) {
+    let cells = baked.len();
+    let (dres, ires) = (s.depth_resolution, s.irradiance_resolution);
     let mut grid = ProbeGrid {
         geometry: s.geometry,
         irradiance_resolution: ires,

@@ -85,43 +85,71 @@ pub struct Bake {
     pub stats: BakeStats,
 }
 
+/// The probe settings of a scene file.
+pub fn probe_settings(scene: &Scene) -> probe::ProbeSettings {
+    let cfg = &scene.config;
+    probe::ProbeSettings {
+        position: Vec3::from_array(cfg.probe.position),
+        resolution: cfg.probe.resolution,
+        samples_per_texel: cfg.probe.samples_per_texel,
+        ggx_samples: cfg.probe.ggx_samples,
+        min_mip_resolution: cfg.probe.min_mip_resolution,
+        seed: cfg.seed,
+    }
+}
+
+/// The grid settings of a scene file.
+pub fn grid_settings(scene: &Scene) -> grid::GridSettings {
+    let cfg = &scene.config;
+    grid::GridSettings {
+        geometry: GridGeometry {
+            min: Vec3::from_array(cfg.grid.min),
+            max: Vec3::from_array(cfg.grid.max),
+            counts: UVec3::from_array(cfg.grid.counts),
+        },
+        irradiance_resolution: cfg.grid.irradiance_resolution,
+        depth_resolution: cfg.grid.depth_resolution,
+        depth_samples: cfg.grid.depth_samples,
+        inside_backface_fraction: cfg.grid.inside_backface_fraction,
+        relocate_clearance: cfg.grid.relocate_clearance,
+        far_distance: 4.0 * scene.extent(),
+        seed: cfg.seed,
+    }
+}
+
+/// The grid cells shard `k` of `n` of a bake works on, the probe going with shard 0:
+/// contiguous ranges of equal estimated cost, the probe's rays counted against shard 0's
+/// share (every cell traces the same rays but for relocation).
+pub fn shard_cells(scene: &Scene, k: usize, n: usize) -> std::ops::Range<usize> {
+    let cfg = &scene.config;
+    let cells = cfg.grid.counts.iter().map(|&c| c as usize).product::<usize>();
+    let cell_rays = (cfg.grid.depth_resolution as f64).powi(2) * cfg.grid.depth_samples.max(1) as f64;
+    let probe_rays = (cfg.probe.resolution as f64).powi(2) * cfg.probe.samples_per_texel.max(1) as f64;
+    let probe_cells = probe_rays / cell_rays.max(1.0);
+    let n = n.max(1);
+    let total = cells as f64 + probe_cells;
+    // shard k covers the cost interval [k, k+1)·total/n; the probe takes [0, probe_cells)
+    let edge = |j: usize| -> usize {
+        if j == 0 {
+            return 0;
+        }
+        if j >= n {
+            return cells;
+        }
+        let at = j as f64 * total / n as f64 - probe_cells;
+        (at.max(0.0).round() as usize).min(cells)
+    };
+    edge(k)..edge(k + 1)
+}
+
 /// Bakes the scene's probe and grid with the settings of its scene file.
 pub fn bake(scene: &Scene, tracer: &Tracer, progress: &Progress) -> Bake {
     let t0 = Instant::now();
-    let cfg = &scene.config;
     let renderer = Renderer::new(scene, tracer);
-    let (probe, probe_rays) = probe::bake_probe(
-        &renderer,
-        &probe::ProbeSettings {
-            position: Vec3::from_array(cfg.probe.position),
-            resolution: cfg.probe.resolution,
-            samples_per_texel: cfg.probe.samples_per_texel,
-            ggx_samples: cfg.probe.ggx_samples,
-            min_mip_resolution: cfg.probe.min_mip_resolution,
-            seed: cfg.seed,
-        },
-        progress,
-    );
+    let (probe, probe_rays) = probe::bake_probe(&renderer, &probe_settings(scene), progress);
     let probe_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let (grid, grid_rays) = grid::bake_grid(
-        &renderer,
-        &grid::GridSettings {
-            geometry: GridGeometry {
-                min: Vec3::from_array(cfg.grid.min),
-                max: Vec3::from_array(cfg.grid.max),
-                counts: UVec3::from_array(cfg.grid.counts),
-            },
-            irradiance_resolution: cfg.grid.irradiance_resolution,
-            depth_resolution: cfg.grid.depth_resolution,
-            depth_samples: cfg.grid.depth_samples,
-            inside_backface_fraction: cfg.grid.inside_backface_fraction,
-            relocate_clearance: cfg.grid.relocate_clearance,
-            far_distance: 4.0 * scene.extent(),
-            seed: cfg.seed,
-        },
-        progress,
-    );
+    let (grid, grid_rays) = grid::bake_grid(&renderer, &grid_settings(scene), progress);
     let grid_s = t1.elapsed().as_secs_f64();
     let total_s = t0.elapsed().as_secs_f64();
     let stats = BakeStats {

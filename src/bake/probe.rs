@@ -19,7 +19,7 @@ pub const DOMAIN_PROBE_RADIANCE: u64 = 0x5052_4144; // "PRAD"
 pub const DOMAIN_PROBE_GGX: u64 = 0x5047_4758; // "PGGX"
 
 /// A baked specular probe.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SpecularProbe {
     pub position: Vec3,
     /// GGX-prefiltered radiance; level 0 is the supersampled mirror image.

@@ -166,37 +166,129 @@ fn fit_map(points: &[&Point], maps: &Maps, cell: usize, exposure: f32) -> Map {
     own
 }
 
-/// Fits the diffuse correctives of `grid` (its irradiance without corrections) for the
-/// baked scene; `exposure` is the tone mapping's, `seed` the fit's.
-pub fn fit_irradiance(baked: Baked, grid: &IrradianceGrid, exposure: f32, seed: u64) -> IrradianceFit {
-    let t0 = std::time::Instant::now();
-    let Baked { scene, tracer, .. } = baked;
-    let g = grid.geometry;
-    let active = grid.slot.iter().filter(|&&s| s != NO_MAP).count() as u32;
-    let bounds = (g.min, g.max);
-    let draw = |tag: u64| {
-        truth::surface_points(scene, tracer, bounds, active * POINTS_PER_CELL, (seed, hash_pair(DOMAIN_FIT, tag)))
-    };
-    let (train, check) = (draw(0x1A), draw(0x1B));
-    let renderer = Renderer::new(scene, tracer);
-    let trace = |pts: &[(Vec3, Vec3)], tag: u64| -> Vec<(Point, u64)> {
+/// The surface points of a diffuse fit, training and check, drawn over the grid's bounds
+/// (`POINTS_PER_CELL` per active cell each) on the fit's own streams.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfacePoints {
+    /// (position, shading normal) of each point.
+    pub train: Vec<(Vec3, Vec3)>,
+    pub check: Vec<(Vec3, Vec3)>,
+}
+
+/// A contiguous part of the training and check points (what one shard traces).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PointRanges {
+    pub train: std::ops::Range<usize>,
+    pub check: std::ops::Range<usize>,
+}
+
+/// A point's traced irradiance reference and the rays it took.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Traced {
+    pub reference: Vec3,
+    pub rays: u64,
+}
+
+/// The traced references of the points of some [`PointRanges`], in point order.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct References {
+    pub train: Vec<Traced>,
+    pub check: Vec<Traced>,
+}
+
+impl References {
+    /// Appends the references of the ranges that follow this one's.
+    pub fn append(&mut self, mut next: References) {
+        self.train.append(&mut next.train);
+        self.check.append(&mut next.check);
+    }
+}
+
+impl SurfacePoints {
+    /// The points of a bake with `seed` (the fit's).
+    pub fn draw(baked: Baked, seed: u64) -> SurfacePoints {
+        let Baked { scene, tracer, grid, .. } = baked;
+        let g = grid.geometry;
+        let active = grid.active_cells() as u32;
+        let draw = |tag: u64| {
+            truth::surface_points(
+                scene,
+                tracer,
+                (g.min, g.max),
+                active * POINTS_PER_CELL,
+                (seed, hash_pair(DOMAIN_FIT, tag)),
+            )
+        };
+        SurfacePoints { train: draw(0x1A), check: draw(0x1B) }
+    }
+
+    /// Every point.
+    pub fn all(&self) -> PointRanges {
+        PointRanges { train: 0..self.train.len(), check: 0..self.check.len() }
+    }
+
+    /// Part `k` of `n` equal parts of the training and of the check points.
+    pub fn part(&self, k: usize, n: usize) -> PointRanges {
+        let split = |len: usize| len * k / n.max(1)..len * (k + 1) / n.max(1);
+        PointRanges { train: split(self.train.len()), check: split(self.check.len()) }
+    }
+}
+
+/// Traces the irradiance references of the points in `ranges` (each point on its own
+/// stream, so any split traces the same values).
+pub fn trace_references(baked: Baked, points: &SurfacePoints, seed: u64, ranges: &PointRanges) -> References {
+    let renderer = Renderer::new(baked.scene, baked.tracer);
+    let trace = |pts: &[(Vec3, Vec3)], first: usize, tag: u64| -> Vec<Traced> {
         pts.par_iter()
             .enumerate()
             .map(|(i, &(p, n))| {
                 let mut rays = 0;
-                let stream = hash_pair(hash_pair(DOMAIN_FIT, tag), i as u64);
+                let stream = hash_pair(hash_pair(DOMAIN_FIT, tag), (first + i) as u64);
                 let (reference, _) =
                     truth::irradiance_reference(&renderer, p, n, SPP, |k| Sampler::new(seed, stream, k), &mut rays);
-                let point = Point {
-                    terms: grid.blend_terms(p, n, IrradianceBlend::Chebyshev),
-                    reference,
-                    taps: octa::bilinear_taps(CORRECTION_RES, octa::encode(n)),
-                };
-                (point, rays)
+                Traced { reference, rays }
             })
             .collect()
     };
-    let (train, check) = (trace(&train, 0x1C), trace(&check, 0x1D));
+    References {
+        train: trace(&points.train[ranges.train.clone()], ranges.train.start, 0x1C),
+        check: trace(&points.check[ranges.check.clone()], ranges.check.start, 0x1D),
+    }
+}
+
+/// Fits the diffuse correctives of `grid` (its irradiance without corrections) for the
+/// baked scene: draws the surface points, traces their references and fits; `exposure` is
+/// the tone mapping's, `seed` the fit's.
+pub fn fit_irradiance(baked: Baked, grid: &IrradianceGrid, exposure: f32, seed: u64) -> IrradianceFit {
+    let points = SurfacePoints::draw(baked, seed);
+    let references = trace_references(baked, &points, seed, &points.all());
+    fit_from_references(grid, exposure, &points, references)
+}
+
+/// [`fit_irradiance`] from the surface points and their traced references (every point's,
+/// in order).
+pub fn fit_from_references(
+    grid: &IrradianceGrid,
+    exposure: f32,
+    points: &SurfacePoints,
+    references: References,
+) -> IrradianceFit {
+    let t0 = std::time::Instant::now();
+    let g = grid.geometry;
+    let prepare = |pts: &[(Vec3, Vec3)], refs: &[Traced]| -> Vec<(Point, u64)> {
+        pts.par_iter()
+            .zip(refs)
+            .map(|(&(p, n), t)| {
+                let point = Point {
+                    terms: grid.blend_terms(p, n, IrradianceBlend::Chebyshev),
+                    reference: t.reference,
+                    taps: octa::bilinear_taps(CORRECTION_RES, octa::encode(n)),
+                };
+                (point, t.rays)
+            })
+            .collect()
+    };
+    let (train, check) = (prepare(&points.train, &references.train), prepare(&points.check, &references.check));
     let reference_rays = train.iter().chain(&check).map(|x| x.1).sum();
     // each cell's support: the points whose blend it takes part in
     let support = |pts: &[(Point, u64)]| {

@@ -268,28 +268,71 @@ pub fn exposure_of(warp: &Warp) -> f32 {
     warp.probe.key_exposure()
 }
 
+/// The cells a fit works on: every cell whose probe is not inside geometry, in index order.
+pub fn active_cells(grid: &crate::bake::ProbeGrid) -> Vec<usize> {
+    (0..grid.geometry.cell_count()).filter(|&c| !grid.inside[c]).collect()
+}
+
+/// One cell's fit before the grid-wide choices (the grid's fallback, model selection): what
+/// a shard of a fit hands to the merge. `fit.level` and `fit.selection` are set by
+/// [`assemble`].
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CellOutcome {
+    pub fit: CellFit,
+    /// The refined map (level 2), `map_res²` log-scales.
+    pub fitted: Vec<f32>,
+    /// The unfitted map from the grid's raytraced distances (`celldepth`).
+    pub init: Vec<f32>,
+    /// Reference rays traced for the cell's training and check queries.
+    pub rays: u64,
+}
+
 /// Fits every active cell of a bake. `glossy` is the lookup the cells are fitted for: its
 /// warp holds probe A, the proxies and the options of the fallback methods, its correction
 /// picks the mips of rough queries.
+///
+/// The same as [`fit_cells`] over [`active_cells`], the irradiance references of
+/// [`irradiance::trace_references`] over all points, and [`assemble`]: the path a sharded
+/// fit takes, so that a merged fit is the same fit.
 pub fn fit(baked: Baked, glossy: Glossy, s: &FitSettings, progress: &Progress) -> Fit {
-    let Baked { scene, tracer, grid, .. } = baked;
     let t0 = Instant::now();
+    let cells = fit_cells(baked, glossy, s, &active_cells(baked.grid), progress);
+    let points = irradiance::SurfacePoints::draw(baked, s.seed);
+    let all = points.all();
+    let references = irradiance::trace_references(baked, &points, s.seed, &all);
+    let mut f = assemble(baked, glossy, s, cells, &points, references);
+    f.seconds = t0.elapsed().as_secs_f64();
+    f
+}
+
+/// The rough fraction a fit uses with this probe: none without rough mips.
+fn rough_fraction(glossy: &Glossy, s: &FitSettings) -> f32 {
+    if glossy.warp.probe.radiance.levels.len() > 1 { s.rough_fraction.clamp(0.0, 1.0) } else { 0.0 }
+}
+
+/// Fits the cells `cells` (active cells of the bake), in that order: each cell's warp map
+/// refined against its training references and judged on its check references.
+pub fn fit_cells(
+    baked: Baked,
+    glossy: Glossy,
+    s: &FitSettings,
+    cells: &[usize],
+    progress: &Progress,
+) -> Vec<CellOutcome> {
+    let Baked { scene, tracer, grid, .. } = baked;
     let warp = glossy.warp;
     let wp = &warp.probe;
     let exposure = exposure_of(warp);
-    // a probe without rough mips has nothing to fit rough lookups against
-    let rough_fraction = if wp.radiance.levels.len() > 1 { s.rough_fraction.clamp(0.0, 1.0) } else { 0.0 };
+    let rough_fraction = rough_fraction(&glossy, s);
     let renderer = Renderer::new(scene, tracer);
     let g = grid.geometry;
-    let n2 = (s.map_res * s.map_res) as usize;
     let d2 = (grid.depth_resolution * grid.depth_resolution) as usize;
-    let active: Vec<usize> = (0..g.cell_count()).filter(|&c| !grid.inside[c]).collect();
-    let bar = progress.bar(active.len() as u64, "fit cells");
+    let bar = progress.bar(cells.len() as u64, "fit cells");
     let train_size =
         QuerySize { positions: s.train_positions, dirs: s.train_dirs, spp: s.reference_spp, rough_fraction };
     let check_size =
         QuerySize { positions: s.check_positions, dirs: s.check_dirs, spp: s.reference_spp, rough_fraction };
-    let results: Vec<(CellFit, Vec<f32>, Vec<f32>, u64)> = active
+    let results: Vec<CellOutcome> = cells
         .par_iter()
         .map(|&cell| {
             let tc = Instant::now();
@@ -348,12 +391,36 @@ pub fn fit(baked: Baked, glossy: Glossy, s: &FitSettings, progress: &Progress) -
                 curve: outcome.curve.clone(),
                 hidden_fraction: hidden,
             };
-            (fit, fitted, init, rays)
+            CellOutcome { fit, fitted, init, rays }
         })
         .collect();
     bar.finish_and_clear();
+    results
+}
+
+/// Makes a fit of the outcomes of every active cell (in cell order) and the irradiance
+/// references of every surface point: the grid-wide steps. Chooses the grid's fallback (the
+/// unfitted method with the lowest summed held-out error, summed in cell order), selects
+/// each cell's model, fits the scene's roughness correction for the maps as stored and the
+/// diffuse correctives.
+pub fn assemble(
+    baked: Baked,
+    glossy: Glossy,
+    s: &FitSettings,
+    results: Vec<CellOutcome>,
+    points: &irradiance::SurfacePoints,
+    references: irradiance::References,
+) -> Fit {
+    let t0 = Instant::now();
+    let grid = baked.grid;
+    let warp = glossy.warp;
+    let exposure = exposure_of(warp);
+    let rough_fraction = rough_fraction(&glossy, s);
+    let g = grid.geometry;
+    let n2 = (s.map_res * s.map_res) as usize;
+
     // The grid's fallback: the unfitted method with the lowest mean held-out error.
-    let total = |f: fn(&CellFit) -> f64| results.iter().map(|r| f(&r.0)).sum::<f64>();
+    let total = |f: fn(&CellFit) -> f64| results.iter().map(|r| f(&r.fit)).sum::<f64>();
     let errs = [total(|c| c.check_err_warp1), total(|c| c.check_err_box), total(|c| c.check_err_kdop)];
     let best = (0..3).min_by(|&a, &b| errs[a].total_cmp(&errs[b])).unwrap_or(0);
     let fallback = FALLBACK_CANDIDATES[best];
@@ -373,7 +440,7 @@ pub fn fit(baked: Baked, glossy: Glossy, s: &FitSettings, progress: &Progress) -
     let mut fitted_all = correctives.clone();
     let mut cells = Vec::with_capacity(results.len());
     let mut reference_rays = 0;
-    for (mut fit, fitted, init, rays) in results {
+    for CellOutcome { mut fit, fitted, init, rays } in results {
         let cell = fit.cell as usize;
         fit.check_err_fallback = [fit.check_err_warp1, fit.check_err_box, fit.check_err_kdop][best];
         fit.selection = if init.iter().all(|w| *w == 0.0) {
@@ -405,7 +472,7 @@ pub fn fit(baked: Baked, glossy: Glossy, s: &FitSettings, progress: &Progress) -
         (&grid.irradiance, &grid.depth_mean, &grid.depth_mean_sq, &grid.probe_offset),
         |c| !grid.inside[c],
     );
-    let irradiance = irradiance::fit_irradiance(baked, &blend, exposure, s.seed);
+    let irradiance = irradiance::fit_from_references(&blend, exposure, points, references);
     let reference_rays = reference_rays + irradiance.reference_rays;
     Fit {
         correctives,

@@ -4,6 +4,8 @@
 //! composes the stages; none holds logic of its own that a stage should own.
 
 pub mod check;
+pub mod cluster;
+pub mod farm;
 pub mod init;
 pub mod run;
 pub mod stability;

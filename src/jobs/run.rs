@@ -40,7 +40,7 @@ impl Prepared {
 }
 
 /// How a fitted grid is stored.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StoreOptions {
     pub precision: Precision,
     /// Store the GGX roughness correction (left out anyway when the probe has no rough mips).
@@ -236,12 +236,30 @@ pub fn fit(
 ) -> Result<(Fit, GridManifest), FileError> {
     // rough queries are fitted with the analytic-lobe correction; the fit then chooses the
     // correction the grid stores (lobes or fitted to this scene)
-    let lobes = (baked.probe.radiance.levels.len() > 1).then(crate::roughness::fit_correction);
+    let lobes = fit_lobes(baked);
     let glossy = Glossy { warp, correction: lobes.as_ref() };
     let fitted = crate::fit::fit(baked, glossy, settings, out.progress);
-    let manifest = write_grid(baked, warp, &fitted, store, out.folder)?;
-    report::fit::write_fit_diagnostics(out.folder, &fitted, out.command)?;
+    let manifest = write_fit(baked, warp, &fitted, store, out)?;
     Ok((fitted, manifest))
+}
+
+/// The roughness correction a fit's rough queries are fitted with: the analytic lobes'
+/// (none for a probe without rough mips).
+pub fn fit_lobes(baked: Baked) -> Option<crate::roughness::RoughnessCorrection> {
+    (baked.probe.radiance.levels.len() > 1).then(crate::roughness::fit_correction)
+}
+
+/// Writes a fit: the fitted grid and the fit's diagnostics.
+pub fn write_fit(
+    baked: Baked,
+    warp: &Warp,
+    fitted: &Fit,
+    store: StoreOptions,
+    out: Output,
+) -> Result<GridManifest, FileError> {
+    let manifest = write_grid(baked, warp, fitted, store, out.folder)?;
+    report::fit::write_fit_diagnostics(out.folder, fitted, out.command)?;
+    Ok(manifest)
 }
 
 /// Writes the fitted grid of `fitted` (with the roughness correction unless `store` leaves

@@ -280,7 +280,7 @@ pub trait Texel: Copy + Default + Add<Output = Self> + Mul<f32, Output = Self> +
 impl<T> Texel for T where T: Copy + Default + Add<Output = T> + Mul<f32, Output = T> + Send + Sync {}
 
 /// A square octahedral image: plain data, `texels[j * res + i]`.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct OctMap<T> {
     pub res: u32,
     pub texels: Vec<T>,
@@ -455,7 +455,7 @@ fn spherical_triangle_area(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
 }
 
 /// A mip chain of octahedral maps, level 0 first, each half the resolution of the previous.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct OctMips<T> {
     pub levels: Vec<OctMap<T>>,
 }

@@ -45,6 +45,22 @@ impl RunFolder {
         self.dir.join(name)
     }
 
+    /// Whether `file` belongs to a farm: the shards' parts and the cluster scripts and logs
+    /// (kept when a merge rewrites the folder).
+    pub fn written_by_farm(file: &str) -> bool {
+        file == "parts" || file == "farm"
+    }
+
+    /// The parts the shards of a bake or fit write (`warpfit-part`).
+    pub fn parts(&self) -> PathBuf {
+        self.file("parts")
+    }
+
+    /// Cluster job scripts and their logs (`warpfit farm`).
+    pub fn farm(&self) -> PathBuf {
+        self.file("farm")
+    }
+
     /// The bake folder (`warpfit-bake`).
     pub fn bake(&self) -> PathBuf {
         self.file("bake")
