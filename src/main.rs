@@ -605,7 +605,7 @@ fn run(cli: Cli) -> Result<()> {
                     b.grid.active_cells(),
                     b.grid.geometry.cell_count()
                 ),
-                farm::Merged::Fit(f, manifest) => print_fit(&f, &manifest, &folder),
+                farm::Merged::Fit(f) => print_fit(&f.0, &f.1, &folder),
             }
         }
         Command::Farm { target } => {

@@ -118,26 +118,33 @@ pub fn grid_settings(scene: &Scene) -> grid::GridSettings {
 }
 
 /// The grid cells shard `k` of `n` of a bake works on, the probe going with shard 0:
-/// contiguous ranges of equal estimated cost, the probe's rays counted against shard 0's
-/// share (every cell traces the same rays but for relocation).
+/// contiguous ranges of equal estimated cost (rays), the probe's rays counted against shard
+/// 0's share; a probe that costs more than a share leaves shard 0 nothing else, and the
+/// cells are split evenly over the other shards.
 pub fn shard_cells(scene: &Scene, k: usize, n: usize) -> std::ops::Range<usize> {
     let cfg = &scene.config;
     let cells = cfg.grid.counts.iter().map(|&c| c as usize).product::<usize>();
     let cell_rays = (cfg.grid.depth_resolution as f64).powi(2) * cfg.grid.depth_samples.max(1) as f64;
     let probe_rays = (cfg.probe.resolution as f64).powi(2) * cfg.probe.samples_per_texel.max(1) as f64;
-    let probe_cells = probe_rays / cell_rays.max(1.0);
+    let probe = probe_rays / cell_rays.max(1.0);
     let n = n.max(1);
-    let total = cells as f64 + probe_cells;
-    // shard k covers the cost interval [k, k+1)·total/n; the probe takes [0, probe_cells)
+    let k = k.min(n - 1);
+    if n > 1 && probe >= (cells as f64 + probe) / n as f64 {
+        let (k, n) = (k as isize - 1, n - 1);
+        if k < 0 {
+            return 0..0;
+        }
+        let k = k as usize;
+        return cells * k / n..cells * (k + 1) / n;
+    }
+    let total = cells as f64 + probe;
+    // shard j starts where the cost j·total/n is reached, the probe being [0, probe)
     let edge = |j: usize| -> usize {
-        if j == 0 {
-            return 0;
+        match j {
+            0 => 0,
+            j if j >= n => cells,
+            j => ((j as f64 * total / n as f64 - probe).max(0.0).round() as usize).min(cells),
         }
-        if j >= n {
-            return cells;
-        }
-        let at = j as f64 * total / n as f64 - probe_cells;
-        (at.max(0.0).round() as usize).min(cells)
     };
     edge(k)..edge(k + 1)
 }

@@ -230,8 +230,8 @@ pub struct MergeReport {
 
 /// What a merge wrote.
 pub enum Merged {
-    Bake(bake::Bake),
-    Fit(Box<Fit>, GridManifest),
+    Bake(Box<bake::Bake>),
+    Fit(Box<(Fit, GridManifest)>),
 }
 
 /// Checks that `headers` (read from `paths`) are the N shards of one job, each once, and
@@ -362,7 +362,7 @@ pub fn merge(
             // the same inputs bake the same bits: a fit made from the old bake still holds
             tx.keep(|name| same_bake || RunFolder::written_by_farm(name))?;
             tx.commit(false)?;
-            Merged::Bake(bake)
+            Merged::Bake(Box::new(bake))
         }
         PartKind::Fit => {
             let (m, probe, grid) = read_matching_bake(&scene, &tx.previous)?;
@@ -391,7 +391,7 @@ pub fn merge(
             let manifest = run::write_fit(baked, &warp, &fitted, job.store, out)?;
             tx.keep(RunFolder::written_by_farm)?;
             tx.commit(true)?;
-            Merged::Fit(Box::new(fitted), manifest)
+            Merged::Fit(Box::new((fitted, manifest)))
         }
     };
     Ok((merged, merge_report(kind, &scene.name, &set, t0)))
