@@ -241,6 +241,15 @@ struct FitArgs {
     /// Training directions per position.
     #[arg(long, default_value_t = FitSettings::standard().train_dirs)]
     train_dirs: u32,
+    /// Held-out check positions per cell (model selection).
+    #[arg(long, default_value_t = FitSettings::standard().check_positions)]
+    check_positions: u32,
+    /// Check directions per position.
+    #[arg(long, default_value_t = FitSettings::standard().check_dirs)]
+    check_dirs: u32,
+    /// Samples per training and check reference.
+    #[arg(long, default_value_t = FitSettings::standard().reference_spp)]
+    reference_spp: u32,
     /// Charbonnier ε of the fit's loss as a fraction of a cell's mean reference radiance.
     #[arg(long, default_value_t = FitSettings::standard().robust_scale)]
     robust_scale: f64,
@@ -278,6 +287,9 @@ impl FitArgs {
             format!("--iterations={}", self.iterations),
             format!("--train-positions={}", self.train_positions),
             format!("--train-dirs={}", self.train_dirs),
+            format!("--check-positions={}", self.check_positions),
+            format!("--check-dirs={}", self.check_dirs),
+            format!("--reference-spp={}", self.reference_spp),
             format!("--robust-scale={}", self.robust_scale),
             format!("--precision={}", name(self.precision.to_possible_value())),
         ];
@@ -300,6 +312,9 @@ impl FitArgs {
             iterations: self.iterations.max(1),
             train_positions: self.train_positions.max(1),
             train_dirs: self.train_dirs.max(1),
+            check_positions: self.check_positions.max(1),
+            check_dirs: self.check_dirs.max(1),
+            reference_spp: self.reference_spp.max(1),
             robust_scale: self.robust_scale,
             ..FitSettings::standard()
         })

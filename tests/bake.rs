@@ -42,12 +42,12 @@ fn bake_is_bit_identical_at_any_thread_count() {
     // and so are the encoded files
     let p = std::path::Path::new("probe.exr");
     let ea =
-        warpfit::gridfile::exr::encode(p, &warpfit::gridfile::probe_layers(&a.probe.radiance, &a.probe.depth), |_| {
+        warpfit::gridfile::exr::encode(p, warpfit::gridfile::probe_layers(&a.probe.radiance, &a.probe.depth), |_| {
             false
         })
         .unwrap();
     let eb =
-        warpfit::gridfile::exr::encode(p, &warpfit::gridfile::probe_layers(&b.probe.radiance, &b.probe.depth), |_| {
+        warpfit::gridfile::exr::encode(p, warpfit::gridfile::probe_layers(&b.probe.radiance, &b.probe.depth), |_| {
             false
         })
         .unwrap();

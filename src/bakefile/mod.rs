@@ -154,11 +154,15 @@ pub fn build_manifest(scene: &Scene, bake: &Bake) -> BakeManifest {
 pub fn write_bake(dir: &Path, scene: &Scene, bake: &Bake) -> Result<(), FileError> {
     std::fs::create_dir_all(dir).map_err(FileError::io(dir))?;
     let mut files = Vec::new();
-    for (file, layers) in
-        [(PROBE_FILE, probe_layers(&bake.probe.radiance, &bake.probe.depth)), (GRID_FILE, grid_layers(&bake.grid))]
-    {
+    for file in [PROBE_FILE, GRID_FILE] {
+        // one payload's layers at a time
+        let layers = if file == PROBE_FILE {
+            probe_layers(&bake.probe.radiance, &bake.probe.depth)
+        } else {
+            grid_layers(&bake.grid)
+        };
         let path = dir.join(file);
-        let bytes = exr::encode(&path, &layers, |_| false)?;
+        let bytes = exr::encode(&path, layers, |_| false)?;
         crate::files::write_atomic(&path, &bytes)?;
         files.push(FileEntry {
             file: file.into(),

@@ -104,8 +104,8 @@ fn err2(e: Vec3, reference: Vec3, exposure: f32) -> f64 {
 }
 
 /// The points of `pts` listed in `idx`.
-fn gather<'a>(pts: &'a [(Point, u64)], idx: &[usize]) -> Vec<&'a Point> {
-    idx.iter().map(|&k| &pts[k].0).collect()
+fn gather<'a>(pts: &'a [Point], idx: &[u32]) -> Vec<&'a Point> {
+    idx.iter().map(|&k| &pts[k as usize]).collect()
 }
 
 fn rmse(points: &[&Point], maps: &Maps, exposure: f32) -> f64 {
@@ -275,7 +275,7 @@ pub fn fit_from_references(
 ) -> IrradianceFit {
     let t0 = std::time::Instant::now();
     let g = grid.geometry;
-    let prepare = |pts: &[(Vec3, Vec3)], refs: &[Traced]| -> Vec<(Point, u64)> {
+    let prepare = |pts: &[(Vec3, Vec3)], refs: &[Traced]| -> Vec<Point> {
         pts.par_iter()
             .zip(refs)
             .map(|(&(p, n), t)| {
@@ -284,19 +284,20 @@ pub fn fit_from_references(
                     reference: t.reference,
                     taps: octa::bilinear_taps(CORRECTION_RES, octa::encode(n)),
                 };
-                (point, t.rays)
+                point
             })
             .collect()
     };
     let (train, check) = (prepare(&points.train, &references.train), prepare(&points.check, &references.check));
-    let reference_rays = train.iter().chain(&check).map(|x| x.1).sum();
+    let reference_rays = references.train.iter().chain(&references.check).map(|t| t.rays).sum();
+    drop(references);
     // each cell's support: the points whose blend it takes part in
-    let support = |pts: &[(Point, u64)]| {
-        let mut by_cell: Vec<Vec<usize>> = vec![Vec::new(); g.cell_count()];
-        for (k, (p, _)) in pts.iter().enumerate() {
+    let support = |pts: &[Point]| {
+        let mut by_cell: Vec<Vec<u32>> = vec![Vec::new(); g.cell_count()];
+        for (k, p) in pts.iter().enumerate() {
             for &(c, w, _) in &p.terms.terms[..p.terms.count] {
                 if w > 0.0 {
-                    by_cell[c as usize].push(k);
+                    by_cell[c as usize].push(k as u32);
                 }
             }
         }

@@ -63,7 +63,7 @@ pub fn decode(path: &Path, bytes: &[u8]) -> Result<Vec<ExrLayer>, FileError> {
 /// (values clamped to ±65504 first, so nothing becomes +inf; the grid writer only asks for
 /// f16 where every value fits).
 #[cfg(feature = "bake")]
-pub fn encode(path: &Path, layers: &[ExrLayer], half: impl Fn(&str) -> bool) -> Result<Vec<u8>, FileError> {
+pub fn encode(path: &Path, layers: Vec<ExrLayer>, half: impl Fn(&str) -> bool) -> Result<Vec<u8>, FileError> {
     use exr::prelude::*;
     let bad = |m: String| FileError::invalid(path, "layers", m);
     if layers.is_empty() {
@@ -71,7 +71,7 @@ pub fn encode(path: &Path, layers: &[ExrLayer], half: impl Fn(&str) -> bool) -> 
     }
     let mut exr_layers = Vec::with_capacity(layers.len());
     let (mut max_w, mut max_h) = (1usize, 1usize);
-    for l in layers {
+    for l in &layers {
         if l.width == 0 || l.height == 0 || l.channels.is_empty() {
             return Err(bad(format!("layer {:?} is empty", l.name)));
         }
@@ -85,18 +85,21 @@ pub fn encode(path: &Path, layers: &[ExrLayer], half: impl Fn(&str) -> bool) -> 
                 )));
             }
         }
+    }
+    // the layers' samples move into the encoder: no copy of a payload is made
+    for l in layers {
         max_w = max_w.max(l.width);
         max_h = max_h.max(l.height);
         let to_half = half(&l.name);
-        let samples = |v: &Vec<f32>| {
+        let samples = |v: Vec<f32>| {
             if to_half {
                 FlatSamples::F16(v.iter().map(|&x| f16::from_f32(x.clamp(-F16_MAX, F16_MAX))).collect())
             } else {
-                FlatSamples::F32(v.clone())
+                FlatSamples::F32(v)
             }
         };
         let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> =
-            l.channels.iter().map(|(name, v)| AnyChannel::new(name.as_str(), samples(v))).collect();
+            l.channels.into_iter().map(|(name, v)| AnyChannel::new(name.as_str(), samples(v))).collect();
         exr_layers.push(Layer::new(
             (l.width, l.height),
             LayerAttributes::named(l.name.as_str()),
@@ -116,7 +119,7 @@ pub fn encode(path: &Path, layers: &[ExrLayer], half: impl Fn(&str) -> bool) -> 
 /// Writes layers (all f32) to `path` atomically; returns the bytes written.
 #[cfg(feature = "bake")]
 pub fn write(path: &Path, layers: &[ExrLayer]) -> Result<u64, FileError> {
-    let bytes = encode(path, layers, |_| false)?;
+    let bytes = encode(path, layers.to_vec(), |_| false)?;
     crate::files::write_atomic(path, &bytes)?;
     Ok(bytes.len() as u64)
 }

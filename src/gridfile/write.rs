@@ -81,37 +81,33 @@ fn pack<T: Copy + Default>(src: &[T], cells: &[u32], res: u32, columns: u32) -> 
 }
 
 /// Encodes `layers` into `file` in `dir` and returns its manifest entry.
-fn payload(dir: &Path, file: &str, layers: &[ExrLayer], precision: Precision) -> Result<Payload, FileError> {
+fn payload(dir: &Path, file: &str, layers: Vec<ExrLayer>, precision: Precision) -> Result<Payload, FileError> {
     let path = dir.join(file);
     // f16 only where every value fits: a sun brighter than 65504 keeps its layer in f32
     // rather than saturating (the manifest records each layer's actual precision).
     let fits_f16 = |l: &ExrLayer| l.channels.iter().all(|(_, v)| v.iter().all(|x| x.abs() <= F16_MAX));
-    let kept: Vec<&str> = layers
+    let kept: Vec<String> = layers
         .iter()
         .filter(|l| precision == Precision::F16 && is_radiance(&l.name) && !fits_f16(l))
-        .map(|l| l.name.as_str())
+        .map(|l| l.name.clone())
         .collect();
     if !kept.is_empty() {
         tracing::warn!("{}: layers {kept:?} exceed the f16 range (65504); stored as f32", path.display());
     }
-    let half = |name: &str| precision == Precision::F16 && is_radiance(name) && !kept.contains(&name);
+    let half = |name: &str| precision == Precision::F16 && is_radiance(name) && !kept.iter().any(|k| k == name);
+    let entries: Vec<LayerEntry> = layers
+        .iter()
+        .map(|l| LayerEntry {
+            name: l.name.clone(),
+            width: l.width as u32,
+            height: l.height as u32,
+            channels: l.channels.iter().map(|(c, _)| c.clone()).collect(),
+            precision: if half(&l.name) { Precision::F16 } else { Precision::F32 },
+        })
+        .collect();
     let bytes = exr::encode(&path, layers, half)?;
     write_atomic(&path, &bytes)?;
-    Ok(Payload {
-        file: file.into(),
-        bytes: bytes.len() as u64,
-        checksum: checksum(&bytes),
-        layers: layers
-            .iter()
-            .map(|l| LayerEntry {
-                name: l.name.clone(),
-                width: l.width as u32,
-                height: l.height as u32,
-                channels: l.channels.iter().map(|(c, _)| c.clone()).collect(),
-                precision: if half(&l.name) { Precision::F16 } else { Precision::F32 },
-            })
-            .collect(),
-    })
+    Ok(Payload { file: file.into(), bytes: bytes.len() as u64, checksum: checksum(&bytes), layers: entries })
 }
 
 /// Radiance layers may be stored as f16; distances and warp maps never are.
@@ -166,7 +162,7 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
         })
         .collect();
     let distance_mips = (0..g.probe.distance.levels.len()).map(distance_layer).collect();
-    payloads.push(payload(dir, PROBE_FILE, &layers, g.precision)?);
+    payloads.push(payload(dir, PROBE_FILE, layers, g.precision)?);
 
     // correctives: warp maps of level-2 cells, in cell order (tile k = k-th stored cell)
     let stored: Vec<(u32, u32)> = (0..cells).filter_map(|cell| c.slot_of(cell).map(|s| (s, cell as u32))).collect();
@@ -195,7 +191,7 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
         let (w, h, atlas) = pack(&c.maps, &slots, c.map_res, columns);
         let atlas: Vec<f32> = atlas.iter().map(|&x| x.clamp(0.0, bounds.max_inverse_distance)).collect();
         let layers = [ExrLayer { name: "warp_maps".into(), width: w, height: h, channels: vec![("W".into(), atlas)] }];
-        payloads.push(payload(dir, CORRECTIVES_FILE, &layers, g.precision)?);
+        payloads.push(payload(dir, CORRECTIVES_FILE, layers.into(), g.precision)?);
         Some(CorrectiveSection {
             map_res: c.map_res,
             stored_cells,
@@ -235,14 +231,14 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
         bytes_saved: uncorrected as u64 * (src.correction.resolution * src.correction.resolution) as u64 * 4,
     });
     if !active.is_empty() {
-        let (w, h, e) = pack(src.irradiance, &active, ir, columns);
-        let e: Vec<Vec3> = e.iter().map(|v| v.min(Vec3::splat(MAX_RADIANCE))).collect();
-        let (dw, dh, mean) = pack(src.depth_mean, &active, dr, columns);
-        let (_, _, mean_sq) = pack(src.depth_mean_sq, &active, dr, columns);
+        let (w, h, mut e) = pack(src.irradiance, &active, ir, columns);
+        e.iter_mut().for_each(|v| *v = v.min(Vec3::splat(MAX_RADIANCE)));
+        let (dw, dh, mut mean) = pack(src.depth_mean, &active, dr, columns);
+        let (_, _, mut mean_sq) = pack(src.depth_mean_sq, &active, dr, columns);
         let dmax = bounds.max_distance;
-        let mean: Vec<f32> = mean.iter().map(|&x| x.min(dmax)).collect();
-        let mean_sq: Vec<f32> = mean_sq.iter().map(|&x| x.min(dmax * dmax)).collect();
-        let layers = [
+        mean.iter_mut().for_each(|x| *x = x.min(dmax));
+        mean_sq.iter_mut().for_each(|x| *x = x.min(dmax * dmax));
+        let mut layers = vec![
             ExrLayer { name: "irradiance".into(), width: w, height: h, channels: rgb_channels(&e) },
             ExrLayer {
                 name: "depth_moments".into(),
@@ -251,7 +247,6 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
                 channels: vec![("mean".into(), mean), ("mean_sq".into(), mean_sq)],
             },
         ];
-        let mut layers = layers.to_vec();
         if !corrected.is_empty() {
             let cr = src.correction.resolution;
             let slots: Vec<u32> = corrected.iter().map(|&c| src.correction.slot[c as usize]).collect();
@@ -263,7 +258,7 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
                 channels: vec![("S".into(), scale)],
             });
         }
-        payloads.push(payload(dir, IRRADIANCE_FILE, &layers, g.precision)?);
+        payloads.push(payload(dir, IRRADIANCE_FILE, layers, g.precision)?);
     }
 
     if g.roughness.is_none() {
