@@ -4,15 +4,22 @@
 //! specular probe (radiance + distance on an octahedral map, GGX mip chain) and a dense
 //! probe grid, and measures and fits warps that let probe A be used anywhere in the level.
 //!
+//! A game links the runtime alone (`default-features = false`: glam, libm, serde,
+//! serde_json and exr), loads a fitted grid once and samples it:
+//!
 //! ```
-//! use warpfit::{scene::Scene, trace::Tracer, bake, progress::Progress};
-//! let scene = Scene::load(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/data/scenes/sphere.toml"))).unwrap();
-//! let tracer = Tracer::new(&scene);
-//! // A ray from the sphere's centre hits the inward-facing sphere at its radius.
-//! let hit = tracer.closest_hit(glam::Vec3::new(0.0, 1.0, 0.0), glam::Vec3::X, f32::INFINITY).unwrap();
-//! assert!((hit.t - 2.0).abs() < 1e-5);
-//! # let _ = (bake::bake, Progress::quiet());
+//! use warpfit::glam::Vec3;
+//! use warpfit::runtime::FittedGrid;
+//! let grid = FittedGrid::load(concat!(env!("CARGO_MANIFEST_DIR"), "/fits/tiny"))?;
+//! let mirror = grid.specular(Vec3::new(0.2, 1.0, 0.1), Vec3::new(1.0, 0.2, 0.0), 0.0);
+//! let rough = grid.specular(Vec3::new(0.2, 1.0, 0.1), Vec3::new(1.0, 0.2, 0.0), 0.5);
+//! let diffuse = grid.irradiance(Vec3::new(0.2, 1.0, 0.1), Vec3::Y);
+//! assert!([mirror, rough, diffuse].iter().all(|c| c.is_finite() && c.min_element() >= 0.0));
+//! # Ok::<(), warpfit::runtime::LoadError>(())
 //! ```
+//!
+//! The offline tool (feature `bake`, on by default) makes such grids: `warpfit run`, or
+//! `jobs::run` from code.
 //!
 //! Pipeline: `scene` → `trace` → `bake` → (`fit`, `eval`) → `gridfile` → `runtime`, with
 //! `report` writing what the others produce and `jobs` chaining them as the CLI runs them.
@@ -22,12 +29,17 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 #![allow(clippy::needless_range_loop)]
 
+/// The glam this crate's API speaks (`Vec3` positions and directions): use it as
+/// `warpfit::glam` so a game's glam version cannot disagree with the sampler's.
+pub use glam;
+
 // Always built: the math, the grid file and the runtime sampler (glam, libm, serde, exr only).
 pub mod files;
 pub mod grid;
 pub mod gridfile;
 pub mod octa;
 pub mod roughness;
+#[warn(missing_docs)]
 pub mod runtime;
 pub mod sampling;
 pub mod tonemap;

@@ -278,13 +278,10 @@ pub fn fit_from_references(
     let prepare = |pts: &[(Vec3, Vec3)], refs: &[Traced]| -> Vec<Point> {
         pts.par_iter()
             .zip(refs)
-            .map(|(&(p, n), t)| {
-                let point = Point {
-                    terms: grid.blend_terms(p, n, IrradianceBlend::Chebyshev),
-                    reference: t.reference,
-                    taps: octa::bilinear_taps(CORRECTION_RES, octa::encode(n)),
-                };
-                point
+            .map(|(&(p, n), t)| Point {
+                terms: grid.blend_terms(p, n, IrradianceBlend::Chebyshev),
+                reference: t.reference,
+                taps: octa::bilinear_taps(CORRECTION_RES, octa::encode(n)),
             })
             .collect()
     };

@@ -23,9 +23,11 @@ pub enum IrradianceBlend {
 }
 
 impl IrradianceBlend {
+    /// Every step, simplest first.
     pub const ALL: [IrradianceBlend; 4] =
         [IrradianceBlend::Nearest, IrradianceBlend::Trilinear, IrradianceBlend::Backface, IrradianceBlend::Chebyshev];
 
+    /// The step's name in tables.
     pub fn name(self) -> &'static str {
         match self {
             IrradianceBlend::Nearest => "nearest cell",
@@ -39,7 +41,9 @@ impl IrradianceBlend {
 /// The terms of one blend (see [`IrradianceGrid::blend_terms`]).
 #[derive(Clone, Copy, Debug)]
 pub struct BlendTerms {
+    /// (cell, blend weight, the cell's irradiance for the normal) of each contributing cell.
     pub terms: [(u32, f32, Vec3); 8],
+    /// How many of `terms` are used.
     pub count: usize,
 }
 

@@ -42,10 +42,15 @@ use std::path::Path;
 pub struct FittedGrid {
     /// Probe A, the proxies and the warp options of the fallback method.
     pub warp: Warp,
+    /// How a position's corrective map is found (the containing cell's).
     pub blend: Blend,
+    /// The per-cell warp maps (sparse) and the fallback method of the other cells.
     pub correctives: Correctives,
+    /// The dense grid's irradiance, distance moments and diffuse corrections.
     pub irradiance: IrradianceGrid,
+    /// The GGX distance-ratio roughness correction (absent: plain roughness picks the mip).
     pub roughness: Option<RoughnessCorrection>,
+    /// The manifest the grid was loaded from (conventions, provenance, residuals).
     pub manifest: GridManifest,
 }
 
@@ -204,7 +209,9 @@ impl FittedGrid {
 /// Slices of a batch call with different lengths.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct BatchError {
+    /// Length of the output slice.
     pub expected: usize,
+    /// Lengths of the positions, directions and roughness (or normals) slices.
     pub found: [usize; 3],
 }
 
