@@ -7,6 +7,7 @@ use super::bvh::intersect_sphere;
 use super::{Renderer, Tracer};
 use crate::sampling::{Sampler, hash_pair, uniform_sphere};
 use crate::scene::Scene;
+use rayon::prelude::*;
 use glam::Vec3;
 
 /// Distance along the unit ray (origin, dir) to the first thing it sees, sphere lights
@@ -146,10 +147,10 @@ pub fn surface_points(
         return out;
     }
     let threshold = scene.config.grid.inside_backface_fraction;
-    let mut attempt = 0u32;
-    while out.len() < count as usize && attempt < count.saturating_mul(256) {
-        let mut s = Sampler::new(seed, stream, attempt);
-        attempt += 1;
+    // attempt `a` is decided by its own sampler alone, so blocks of attempts run in
+    // parallel and are taken in attempt order: the same points as one attempt after another
+    let attempt = |a: u32| -> Option<(Vec3, Vec3)> {
+        let mut s = Sampler::new(seed, stream, a);
         let pick = s.next_1d() as f64 * total;
         let k = cdf.partition_point(|&c| c <= pick).min(tris.len() - 1);
         let (u, v) = (s.next_1d(), s.next_1d());
@@ -157,17 +158,26 @@ pub fn surface_points(
         let (b0, b1) = (1.0 - su, v * su);
         let p = tris.v0[k] * b0 + tris.v1[k] * b1 + tris.v2[k] * (1.0 - b0 - b1);
         if !(p.cmpge(bounds.0).all() && p.cmple(bounds.1).all()) {
-            continue;
+            return None;
         }
         let front = (tris.v1[k] - tris.v0[k]).cross(tris.v2[k] - tris.v0[k]).normalize_or_zero();
         let two_sided = scene.materials[tris.material[k] as usize].two_sided;
         let n = if two_sided && s.next_1d() < 0.5 { -front } else { front };
         let b = p + n * tracer.surface_offset(p);
-        let inside_stream = hash_pair(stream, 0x1D ^ attempt as u64);
+        let inside_stream = hash_pair(stream, 0x1D ^ (a as u64 + 1));
         if n == Vec3::ZERO || is_inside(scene, tracer, b, threshold, |j| Sampler::new(seed, inside_stream, j)) {
-            continue;
+            return None;
         }
-        out.push((b, n));
+        Some((b, n))
+    };
+    let limit = count.saturating_mul(256);
+    let mut next = 0u32;
+    while out.len() < count as usize && next < limit {
+        let block = ((count as usize - out.len()) * 5 / 4).clamp(256, 1 << 16) as u32;
+        let end = next.saturating_add(block).min(limit);
+        let found: Vec<Option<(Vec3, Vec3)>> = (next..end).into_par_iter().map(attempt).collect();
+        next = end;
+        out.extend(found.into_iter().flatten().take(count as usize - out.len()));
     }
     out
 }
