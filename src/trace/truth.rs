@@ -7,8 +7,8 @@ use super::bvh::intersect_sphere;
 use super::{Renderer, Tracer};
 use crate::sampling::{Sampler, hash_pair, uniform_sphere};
 use crate::scene::Scene;
-use rayon::prelude::*;
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// Distance along the unit ray (origin, dir) to the first thing it sees, sphere lights
 /// included (primary rays see them); +inf when it escapes.
