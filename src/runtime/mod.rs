@@ -131,16 +131,19 @@ impl FittedGrid {
                 (q[k], valid[k]) = (query, true);
             }
         }
-        let aim = self.correctives.fetch_lanes(self.blend, &self.warp, &q.map(|q| q.b), &q.map(|q| q.dir));
+        let (b, dir) = (q.map(|q| q.b), q.map(|q| q.dir));
         let mut out = [Vec3::ZERO; octa::LANES];
         if q.iter().all(|q| q.r == 0.0) {
-            // mirror lanes (invalid lanes hold a mirror placeholder and are zeroed)
-            let radiance = self.warp.probe.radiance_lanes(&aim.map(|a| a.v));
+            // mirror lanes (invalid lanes hold a mirror placeholder and are zeroed): the
+            // fetch vectors alone
+            let v = self.correctives.fetch_vector_lanes(self.blend, &self.warp, &b, &dir);
+            let radiance = self.warp.probe.radiance_lanes(&v);
             for k in 0..octa::LANES {
                 out[k] = if valid[k] { radiance[k] } else { Vec3::ZERO };
             }
             return out;
         }
+        let aim = self.correctives.fetch_lanes(self.blend, &self.warp, &b, &dir);
         for k in 0..octa::LANES {
             if valid[k] {
                 out[k] = self.shade(q[k], aim[k]);

@@ -121,6 +121,36 @@ impl Correctives {
     #[inline]
     #[must_use]
     pub fn fetch_lanes(&self, blend: Blend, warp: &Warp, b: &[Vec3; LANES], dir: &[Vec3; LANES]) -> [Aim; LANES] {
+        self.lanes::<true>(blend, warp, b, dir)
+    }
+
+    /// The fetch vectors of [`fetch_lanes`](Self::fetch_lanes) alone (what a mirror lookup
+    /// reads), without the distance ratios' square roots.
+    #[inline]
+    #[must_use]
+    pub fn fetch_vector_lanes(
+        &self,
+        blend: Blend,
+        warp: &Warp,
+        b: &[Vec3; LANES],
+        dir: &[Vec3; LANES],
+    ) -> [Vec3; LANES] {
+        self.lanes::<false>(blend, warp, b, dir).map(|a| a.v)
+    }
+
+    /// `fetch_lanes`, with the maps' aims carrying their distance ratio only if `RATIO`.
+    /// Three passes: sort the lanes (see `fetch_lanes`), gather each mapped lane's map value
+    /// and origin, then the one warp step for all lanes at once in structure-of-arrays form
+    /// (the same operations in the same order as `map_fetch`, lane by lane: bit for bit its
+    /// values, and the compiler runs the lanes side by side).
+    #[inline(always)]
+    fn lanes<const RATIO: bool>(
+        &self,
+        blend: Blend,
+        warp: &Warp,
+        b: &[Vec3; LANES],
+        dir: &[Vec3; LANES],
+    ) -> [Aim; LANES] {
         let uv = octa::encode_lanes(dir);
         let uv_of = |k: usize| Vec2::new(uv.u[k], uv.v[k]);
         let mut out = dir.map(|v| Aim { v, k: Some(1.0) }); // lanes at the probe keep the query direction
@@ -145,11 +175,38 @@ impl Correctives {
             n_mapped += (has_map && !at_probe) as usize;
             n_unmapped += (!has_map && !at_probe) as usize;
         }
-        for &k in &mapped[..n_mapped] {
-            let k = k as usize;
-            let taps = octa::bilinear_taps(self.map_res, uv_of(k));
-            let w = self.map_w(slots[k], &taps);
-            out[k] = map_fetch(a, self.origin_sized(cells[k], size), w, b[k], dir[k]);
+        if n_mapped > 0 {
+            // gather: the map's inverse distance and the map's origin minus B, per lane
+            let (mut w, mut cb) = ([0.0f32; LANES], [[0.0f32; LANES]; 3]);
+            for &k in &mapped[..n_mapped] {
+                let k = k as usize;
+                let taps = octa::bilinear_taps(self.map_res, uv_of(k));
+                w[k] = self.map_w(slots[k], &taps);
+                let c = self.origin_sized(cells[k], size) - b[k];
+                (cb[0][k], cb[1][k], cb[2][k]) = (c.x, c.y, c.z);
+            }
+            let d = [dir.map(|v| v.x), dir.map(|v| v.y), dir.map(|v| v.z)];
+            let bb = [b.map(|v| v.x), b.map(|v| v.y), b.map(|v| v.z)];
+            // the warp step (`inv_t_from_map`, then `aimed_point`) for every lane
+            let mut v = [[0.0f32; LANES]; 3];
+            let mut u = [0.0f32; LANES];
+            for k in 0..LANES {
+                let t = ((d[0][k] * cb[0][k]) + (d[1][k] * cb[1][k]) + (d[2][k] * cb[2][k])) + 1.0 / w[k];
+                let inv_t = if t > 0.0 { (1.0 / t).min(1e30) } else { 1e30 };
+                u[k] = if w[k] > 0.0 { inv_t } else { 0.0 };
+                for c in 0..3 {
+                    v[c][k] = (bb[c][k] + d[c][k] / u[k]) - [a.x, a.y, a.z][c];
+                }
+            }
+            for &k in &mapped[..n_mapped] {
+                let k = k as usize;
+                let p = Vec3::new(v[0][k], v[1][k], v[2][k]);
+                out[k] = match (u[k] > 0.0 && p.is_finite() && p != Vec3::ZERO, RATIO) {
+                    (true, true) => Aim { v: p, k: Some(distance_ratio(p, u[k])) },
+                    (true, false) => Aim { v: p, k: None },
+                    (false, _) => Aim { v: dir[k], k: Some(1.0) },
+                };
+            }
         }
         for &k in &unmapped[..n_unmapped] {
             let k = k as usize;
@@ -248,11 +305,17 @@ fn fetch_from_inv_t(a: Vec3, u: f32, b: Vec3, dir: Vec3) -> Aim {
     if u > 0.0 {
         let v = b + dir / u - a;
         if v.is_finite() && v != Vec3::ZERO {
-            let k = v.length() * u;
-            return Aim { v, k: Some(if k.is_finite() && k > 0.0 { k } else { 1.0 }) };
+            return Aim { v, k: Some(distance_ratio(v, u)) };
         }
     }
     Aim { v: dir, k: Some(1.0) } // hit at infinity: sky along Dir
+}
+
+/// The distance ratio `|v| · u` of an aimed point (1 where it degenerates).
+#[inline]
+fn distance_ratio(v: Vec3, u: f32) -> f32 {
+    let k = v.length() * u;
+    if k.is_finite() && k > 0.0 { k } else { 1.0 }
 }
 
 /// One warp step against a cell map: the cell (centre `c`) sees its hit at inverse distance
