@@ -53,6 +53,8 @@ pub mod bakefile;
 #[cfg(feature = "bake")]
 pub mod eval;
 #[cfg(feature = "bake")]
+pub mod export;
+#[cfg(feature = "bake")]
 pub mod fit;
 #[cfg(feature = "bake")]
 pub mod jobs;

@@ -136,6 +136,19 @@ enum Command {
         #[command(flatten)]
         job: RunArgs,
     },
+    /// Write a fitted grid in the layout engines load: KTX2 textures (probe mips, guttered
+    /// atlases) and export.json (grid, tile tables, conventions).
+    Export {
+        /// The fitted grid folder.
+        #[arg(long, default_value = "fits/torture")]
+        fit: PathBuf,
+        /// Texture container (KTX 2.0).
+        #[arg(long, value_enum, default_value = "ktx2")]
+        format: ExportFormat,
+        /// Where the textures and export.json go.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Summarise a fitted grid: contents, bytes per layer, residuals, what was left out.
     Inspect {
         #[arg(default_value = "fits/torture")]
@@ -259,6 +272,11 @@ struct FitArgs {
     /// Leave the GGX roughness correction out of the fitted grid.
     #[arg(long)]
     no_roughness: bool,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum ExportFormat {
+    Ktx2,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -688,6 +706,27 @@ fn run(cli: Cli) -> Result<()> {
             println!(
                 "wrote {0}/report.json, report.md, report.html (open report.html: every table, plot and ꟻLIP map of this run)",
                 folder.dir.display()
+            );
+        }
+        Command::Export { fit, format: ExportFormat::Ktx2, out } => {
+            let grid = FittedGrid::load(&fit)?;
+            let _lock = files::staged::FolderLock::acquire(&out)?;
+            let s = warpfit::export::export(&grid, &out)?;
+            let mut bytes = 0u64;
+            for e in std::fs::read_dir(&out).with_context(|| format!("{}", out.display()))?.flatten() {
+                bytes += e.metadata().map(|m| m.len()).unwrap_or(0);
+            }
+            println!(
+                "exported {} → {}: probe ({} mips), irradiance and moments atlases ({}×{} tiles of {}², 1-texel gutters), {} corrective tiles, {} irradiance-scale tiles; {} in all (export.json describes them)",
+                fit.display(),
+                out.display(),
+                s.probe_mips,
+                s.irradiance.columns,
+                s.irradiance.height / (s.irradiance.tile_resolution + 2),
+                s.irradiance.tile_resolution,
+                s.correctives.as_ref().map_or(0, |c| c.cell_tile.iter().filter(|t| **t >= 0).count()),
+                s.irradiance_scale.as_ref().map_or(0, |c| c.cell_tile.iter().filter(|t| **t >= 0).count()),
+                files::human_bytes(bytes)
             );
         }
         Command::Roughness { out } => {

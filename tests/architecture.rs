@@ -15,7 +15,7 @@ const FLOORS: &[&[&str]] = &[
     &["trace"],
     &["bake"],
     &["fit", "eval"],
-    &["bakefile", "partfile", "preview"],
+    &["bakefile", "export", "partfile", "preview"],
     &["report"],
     &["jobs"],
 ];

@@ -1,0 +1,183 @@
+//! `warpfit export`: a fitted grid in the layout engines load. KTX2 textures (`ktx2`) and
+//! a JSON sidecar (`export.json`):
+//!
+//! - `probe_radiance.ktx2` (RGBA16F, every GGX mip; alpha 1) and `probe_inv_distance.ktx2`
+//!   (R32F, every mip; 1/distance, 0 = sky: what the warps read);
+//! - `correctives.ktx2` (R32F), `irradiance.ktx2` (RGBA16F), `moments.ktx2` (RG32F: mean
+//!   and mean square of the hit distance) and `irradiance_scale.ktx2` (R32F): atlases of
+//!   per-cell octahedral tiles, each with a one-texel gutter filled by the octahedral seam
+//!   rule (`octa::wrap_texel`, as DDGI fills its borders: an edge texel's neighbour across
+//!   the edge is the mirrored texel of the same edge, a corner's the opposite corner). Plain
+//!   hardware bilinear inside a tile's gutter box then blends exactly the 2×2 texels and
+//!   weights the CPU's seam-aware bilinear blends (`tests/export.rs` checks it).
+//!
+//! The sidecar holds what a shader needs besides the textures: the grid, the sparse
+//! cell → tile tables, the atlas layout and the uv formula, and the grid's own manifest
+//! (fallback method, proxies, roughness correction, conventions).
+
+pub mod ktx2;
+
+use crate::files::{FileError, write_atomic, write_json};
+use crate::octa::wrap_texel;
+use crate::runtime::FittedGrid;
+use crate::warp::corrective::NO_MAP;
+use glam::Vec3;
+use ktx2::{Format, Level};
+use serde::Serialize;
+use std::path::Path;
+
+/// Where one kind of tile lives in its atlas.
+#[derive(Clone, Debug, Serialize)]
+pub struct AtlasLayout {
+    pub file: String,
+    pub format: String,
+    /// N of each N×N tile (without the gutter).
+    pub tile_resolution: u32,
+    /// Texels of gutter on each side of a tile.
+    pub gutter: u32,
+    /// Tiles per atlas row; tile `s` sits in column `s % columns`, row `s / columns`.
+    pub columns: u32,
+    pub width: u32,
+    pub height: u32,
+    /// Per grid cell (`x + nx·(y + ny·z)`): its tile, or −1 (none).
+    pub cell_tile: Vec<i64>,
+}
+
+/// `export.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct Sidecar {
+    pub format: &'static str,
+    pub version: u32,
+    /// How to sample a tile with hardware bilinear (clamp-free addressing).
+    pub uv_rule: &'static str,
+    pub probe_radiance: String,
+    pub probe_inv_distance: String,
+    pub probe_mips: u32,
+    pub correctives: Option<AtlasLayout>,
+    pub irradiance: AtlasLayout,
+    pub moments: AtlasLayout,
+    pub irradiance_scale: Option<AtlasLayout>,
+    /// The fitted grid's manifest: grid, conventions, fallback, proxies, roughness table.
+    pub grid_manifest: crate::gridfile::GridManifest,
+}
+
+pub const SIDECAR: &str = "export.json";
+
+/// An atlas of guttered tiles: tile `s` holds `tile(s)` (N² texels of `C` channels each,
+/// row-major), its border filled by the seam rule.
+pub fn guttered_atlas<const C: usize>(
+    n: u32,
+    tiles: usize,
+    tile: impl Fn(usize) -> Vec<[f32; C]>,
+) -> (u32, u32, u32, Vec<f32>) {
+    let columns = (tiles as f64).sqrt().ceil().max(1.0) as u32;
+    let rows = (tiles as u32).div_ceil(columns).max(1);
+    let t = n + 2;
+    let (w, h) = (columns * t, rows * t);
+    let mut out = vec![0.0f32; (w * h) as usize * C];
+    for s in 0..tiles {
+        let texels = tile(s);
+        let (x0, y0) = ((s as u32 % columns) * t, (s as u32 / columns) * t);
+        for bj in -1..=n as i64 {
+            for bi in -1..=n as i64 {
+                let (i, j) = wrap_texel(n, bi, bj);
+                let v = texels[(j * n + i) as usize];
+                let at = ((y0 as i64 + bj + 1) * w as i64 + x0 as i64 + bi + 1) as usize * C;
+                out[at..at + C].copy_from_slice(&v);
+            }
+        }
+    }
+    (columns, w, h, out)
+}
+
+fn cell_tiles(slot: &[u32]) -> Vec<i64> {
+    slot.iter().map(|&s| if s == NO_MAP { -1 } else { s as i64 }).collect()
+}
+
+/// Writes one atlas and returns its layout.
+fn write_atlas<const C: usize>(
+    dir: &Path,
+    file: &str,
+    format: Format,
+    n: u32,
+    slot: &[u32],
+    tiles: usize,
+    tile: impl Fn(usize) -> Vec<[f32; C]>,
+) -> Result<AtlasLayout, FileError> {
+    let (columns, width, height, values) = guttered_atlas::<C>(n, tiles, tile);
+    write_atomic(&dir.join(file), &ktx2::encode(format, &[Level { width, height, values }]))?;
+    Ok(AtlasLayout {
+        file: file.into(),
+        format: format.name().into(),
+        tile_resolution: n,
+        gutter: 1,
+        columns,
+        width,
+        height,
+        cell_tile: cell_tiles(slot),
+    })
+}
+
+/// Exports the fitted grid `grid` into `dir` (created; files written atomically).
+pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
+    std::fs::create_dir_all(dir).map_err(FileError::io(dir))?;
+    let p = &grid.warp.probe;
+    let rgba = |v: Vec3| [v.x, v.y, v.z, 1.0];
+    let radiance: Vec<Level> = p
+        .radiance
+        .levels
+        .iter()
+        .map(|m| Level { width: m.res, height: m.res, values: m.texels.iter().flat_map(|&v| rgba(v)).collect() })
+        .collect();
+    write_atomic(&dir.join("probe_radiance.ktx2"), &ktx2::encode(Format::Rgba16F, &radiance))?;
+    let inv: Vec<Level> =
+        p.inv_depth.levels.iter().map(|m| Level { width: m.res, height: m.res, values: m.texels.clone() }).collect();
+    write_atomic(&dir.join("probe_inv_distance.ktx2"), &ktx2::encode(Format::R32F, &inv))?;
+
+    let c = &grid.correctives;
+    let (n, n2) = (c.map_res, (c.map_res * c.map_res) as usize);
+    let stored = c.maps.len() / n2.max(1);
+    let correctives = (stored > 0)
+        .then(|| {
+            write_atlas::<1>(dir, "correctives.ktx2", Format::R32F, n, &c.slot, stored, |s| {
+                c.maps[s * n2..(s + 1) * n2].iter().map(|&x| [x]).collect()
+            })
+        })
+        .transpose()?;
+
+    let ir = &grid.irradiance;
+    let (ires, i2) = (ir.resolution, (ir.resolution * ir.resolution) as usize);
+    let (dres, d2) = (ir.depth_resolution, (ir.depth_resolution * ir.depth_resolution) as usize);
+    let cells = ir.irradiance.len() / i2.max(1);
+    let irradiance = write_atlas::<4>(dir, "irradiance.ktx2", Format::Rgba16F, ires, &ir.slot, cells, |s| {
+        ir.irradiance[s * i2..(s + 1) * i2].iter().map(|&v| rgba(v)).collect()
+    })?;
+    let moments = write_atlas::<2>(dir, "moments.ktx2", Format::Rg32F, dres, &ir.slot, cells, |s| {
+        (s * d2..(s + 1) * d2).map(|k| [ir.depth_mean[k], ir.depth_mean_sq[k]]).collect()
+    })?;
+    let cr = &ir.correction;
+    let c2 = (cr.resolution * cr.resolution) as usize;
+    let corrected = cr.scale.len() / c2.max(1);
+    let irradiance_scale = (corrected > 0)
+        .then(|| {
+            write_atlas::<1>(dir, "irradiance_scale.ktx2", Format::R32F, cr.resolution, &cr.slot, corrected, |s| {
+                cr.scale[s * c2..(s + 1) * c2].iter().map(|&x| [x]).collect()
+            })
+        })
+        .transpose()?;
+    let sidecar = Sidecar {
+        format: "warpfit-export",
+        version: 1,
+        uv_rule: "for octahedral uv in [0,1]² of tile s: texel coordinate x = (s % columns)·(N+2) + 1 + clamp(u,0,1)·N (same for y with s / columns), sampled with plain bilinear at (x, y) / (width, height); the gutter makes it equal to the seam-aware bilinear",
+        probe_radiance: "probe_radiance.ktx2".into(),
+        probe_inv_distance: "probe_inv_distance.ktx2".into(),
+        probe_mips: p.radiance.levels.len() as u32,
+        correctives,
+        irradiance,
+        moments,
+        irradiance_scale,
+        grid_manifest: grid.manifest.clone(),
+    };
+    write_json(&dir.join(SIDECAR), &sidecar)?;
+    Ok(sidecar)
+}
