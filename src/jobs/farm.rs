@@ -159,6 +159,17 @@ fn read_matching_bake(
     folder: &RunFolder,
 ) -> Result<(bakefile::manifest::BakeManifest, bake::SpecularProbe, bake::ProbeGrid), FileError> {
     let dir = folder.bake();
+    if !dir.join(bakefile::MANIFEST_FILE).is_file() {
+        return Err(FileError::invalid(
+            &dir,
+            "bake",
+            format!(
+                "no bake here: bake first (`warpfit bake --scene {} --out {}`, or its shards and `warpfit merge`)",
+                scene.source.display(),
+                folder.dir.display()
+            ),
+        ));
+    }
     let (m, probe, grid) = bakefile::read_bake(&dir)?;
     if m.key != scene.content_key() {
         return Err(FileError::invalid(
