@@ -160,6 +160,9 @@ pub struct CellFit {
     pub evaluations: u64,
     pub termination: Termination,
     pub seconds: f64,
+    /// Of `seconds`, the time spent tracing the cell's training and check references.
+    #[serde(default)]
+    pub trace_seconds: f64,
     /// Training objective against solve time (see `objective::Outcome::curve`).
     pub curve: Vec<(f64, f64)>,
     /// Fraction of the cell's check queries whose true hit is hidden from the probe.
@@ -190,7 +193,27 @@ pub struct Fit {
     pub irradiance: irradiance::IrradianceFit,
     pub settings: FitSettings,
     pub seconds: f64,
+    /// Where the time went.
+    pub times: FitTimes,
     pub reference_rays: u64,
+}
+
+/// Where a fit's time goes: wall seconds per step, and the cells' CPU seconds (summed over
+/// threads) with the part of them spent tracing references.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
+pub struct FitTimes {
+    /// Wall seconds fitting the cells (their reference tracing included).
+    pub cells: f64,
+    /// CPU seconds of the cells, and of those, tracing their references.
+    pub cells_cpu: f64,
+    pub cells_tracing_cpu: f64,
+    /// Wall seconds drawing the diffuse fit's surface points and tracing their references.
+    pub surface_points: f64,
+    pub irradiance_references: f64,
+    /// Wall seconds of the grid-wide steps: the scene's roughness correction (its rough
+    /// queries traced) and the coupled diffuse fit.
+    pub roughness: f64,
+    pub irradiance_fit: f64,
 }
 
 /// The streams of one cell's training (`tag` 1) or check (`tag` 2) queries: the last
@@ -297,10 +320,16 @@ pub struct CellOutcome {
 pub fn fit(baked: Baked, glossy: Glossy, s: &FitSettings, progress: &Progress) -> Fit {
     let t0 = Instant::now();
     let cells = fit_cells(baked, glossy, s, &active_cells(baked.grid), progress);
+    let t_cells = t0.elapsed().as_secs_f64();
     let points = irradiance::SurfacePoints::draw(baked, s.seed);
+    let t_points = t0.elapsed().as_secs_f64();
     let all = points.all();
     let references = irradiance::trace_references(baked, &points, s.seed, &all);
+    let t_references = t0.elapsed().as_secs_f64();
     let mut f = assemble(baked, glossy, s, cells, &points, references);
+    f.times.cells = t_cells;
+    f.times.surface_points = t_points - t_cells;
+    f.times.irradiance_references = t_references - t_points;
     f.seconds = t0.elapsed().as_secs_f64();
     f
 }
@@ -343,6 +372,7 @@ pub fn fit_cells(
                 grid.far_distance,
                 s.map_res,
             );
+            let tt = Instant::now();
             let train = cell_samples(&renderer, &g, cell, train_size, s.seed, 1);
             let check = cell_samples(&renderer, &g, cell, check_size, s.seed, 2);
             let rays = train.rays + check.rays;
@@ -350,6 +380,7 @@ pub fn fit_cells(
                 .filter(|&k| truth::oracle(scene, tracer, wp.position, check.position_of(k), check.dirs[k]).1)
                 .count() as f64
                 / check.dirs.len().max(1) as f64;
+            let trace_seconds = tt.elapsed().as_secs_f64();
             let (train, check) = (samples(&train), samples(&check));
             // the map's origin: the cell probe's position (its centre unless relocated)
             let centre = g.cell_centre(cell) + grid.probe_offset[cell];
@@ -388,6 +419,7 @@ pub fn fit_cells(
                 evaluations: outcome.evaluations,
                 termination: outcome.termination,
                 seconds: tc.elapsed().as_secs_f64(),
+                trace_seconds,
                 curve: outcome.curve.clone(),
                 hidden_fraction: hidden,
             };
@@ -460,7 +492,10 @@ pub fn assemble(
         reference_rays += rays;
         cells.push(fit);
     }
+    let cells_cpu = cells.iter().map(|c| c.seconds).sum::<f64>();
+    let cells_tracing_cpu = cells.iter().map(|c| c.trace_seconds).sum::<f64>();
     // the correction for the maps as stored: fitted to the scene, kept if it beats the lobes
+    let t_roughness = Instant::now();
     let roughness = glossy
         .correction
         .filter(|_| rough_fraction > 0.0)
@@ -472,7 +507,10 @@ pub fn assemble(
         (&grid.irradiance, &grid.depth_mean, &grid.depth_mean_sq, &grid.probe_offset),
         |c| !grid.inside[c],
     );
+    let roughness_s = t_roughness.elapsed().as_secs_f64();
+    let t_irradiance = Instant::now();
     let irradiance = irradiance::fit_from_references(&blend, exposure, points, references);
+    let irradiance_fit = t_irradiance.elapsed().as_secs_f64();
     let reference_rays = reference_rays + irradiance.reference_rays;
     Fit {
         correctives,
@@ -483,6 +521,7 @@ pub fn assemble(
         irradiance,
         settings: s.clone(),
         seconds: t0.elapsed().as_secs_f64(),
+        times: FitTimes { cells_cpu, cells_tracing_cpu, roughness: roughness_s, irradiance_fit, ..FitTimes::default() },
         reference_rays,
     }
 }

@@ -27,6 +27,9 @@ pub struct FitSummary {
     pub diffuse_cells_stored: usize,
     pub diffuse_check_before: f64,
     pub diffuse_check_after: f64,
+    /// Where the fit's time went.
+    #[serde(default)]
+    pub times: super::FitTimes,
 }
 
 pub fn summary(fit: &Fit) -> FitSummary {
@@ -51,6 +54,7 @@ pub fn summary(fit: &Fit) -> FitSummary {
         diffuse_check_before: ir.iter().map(|c| c.check_before).sum::<f64>() / ir.len().max(1) as f64,
         diffuse_check_after: ir.iter().map(|c| if c.stored { c.check_after } else { c.check_before }).sum::<f64>()
             / ir.len().max(1) as f64,
+        times: fit.times,
     }
 }
 

@@ -71,6 +71,18 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
         "Solver {:?}, {} s, {} reference rays, {} objective evaluations.\n",
         fit.settings.solver, s.fit_seconds as f32, s.reference_rays, s.evaluations
     );
+    let t = &s.times;
+    let _ = writeln!(
+        md,
+        "Time: cells {:.1} s (CPU {:.1} s, {:.1} s of it tracing references), surface points {:.1} s, their references {:.1} s, roughness correction {:.1} s, diffuse fit {:.1} s.\n",
+        t.cells,
+        t.cells_cpu,
+        t.cells_tracing_cpu,
+        t.surface_points,
+        t.irradiance_references,
+        t.roughness,
+        t.irradiance_fit
+    );
     let _ = writeln!(md, "| level | cells | bytes | meaning |\n|---|---:|---:|---|");
     let _ = writeln!(
         md,
