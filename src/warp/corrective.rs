@@ -208,9 +208,17 @@ impl Correctives {
                 };
             }
         }
-        for &k in &unmapped[..n_unmapped] {
-            let k = k as usize;
-            out[k] = warp.fetch_vector(self.fallback, b[k], dir[k]).into();
+        if n_unmapped > 0 && self.fallback == Method::Box && warp.options.relax_texels <= 0.0 {
+            // the box for every lane at once, kept for the fallback lanes
+            let boxed = warp.proxies.aabb.fetch_dir_lanes(a, b, dir);
+            for &k in &unmapped[..n_unmapped] {
+                out[k as usize] = boxed[k as usize].into();
+            }
+        } else {
+            for &k in &unmapped[..n_unmapped] {
+                let k = k as usize;
+                out[k] = warp.fetch_vector(self.fallback, b[k], dir[k]).into();
+            }
         }
         out
     }

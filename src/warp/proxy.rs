@@ -62,6 +62,53 @@ impl BoxProxy {
         t.is_finite().then_some(t.max(0.0))
     }
 
+    /// [`fetch_dir`](Self::fetch_dir) for [`LANES`](crate::octa::LANES) queries, in
+    /// structure-of-arrays form with the same operations in the same order (the matrix
+    /// products as glam forms them): bit for bit its values, the lanes side by side.
+    #[inline]
+    #[must_use]
+    pub fn fetch_dir_lanes(
+        &self,
+        a: Vec3,
+        b: &[Vec3; crate::octa::LANES],
+        dir: &[Vec3; crate::octa::LANES],
+    ) -> [Vec3; crate::octa::LANES] {
+        const L: usize = crate::octa::LANES;
+        let m = self.world_to_local;
+        let (h, c) = (self.half_extents, self.centre);
+        let local =
+            |v: [f32; 3], k: usize| -> f32 { ((m.x_axis[k] * v[0]) + (m.y_axis[k] * v[1])) + (m.z_axis[k] * v[2]) };
+        let mut out = *dir;
+        let mut hit = [[0.0f32; 3]; L];
+        let mut ok = [false; L];
+        for l in 0..L {
+            let bc = [b[l].x - c.x, b[l].y - c.y, b[l].z - c.z];
+            let d3 = [dir[l].x, dir[l].y, dir[l].z];
+            let o = [local(bc, 0), local(bc, 1), local(bc, 2)];
+            let d = [local(d3, 0), local(d3, 1), local(d3, 2)];
+            let outside = o[0].abs() > h.x || o[1].abs() > h.y || o[2].abs() > h.z;
+            let mut t = f32::INFINITY;
+            for k in 0..3 {
+                let face = if d[k] > 0.0 { h[k] } else { -h[k] };
+                let t_face = (face - o[k]) / d[k];
+                t = t.min(if d[k] != 0.0 { t_face } else { f32::INFINITY });
+            }
+            let t = t.max(0.0);
+            for k in 0..3 {
+                hit[l][k] = ([b[l].x, b[l].y, b[l].z][k] + d3[k] * t) - [a.x, a.y, a.z][k];
+            }
+            ok[l] = !outside && t.is_finite() && b[l] != a;
+        }
+        for l in 0..L {
+            let v = Vec3::from_array(hit[l]);
+            let l2 = v.length_squared();
+            if ok[l] && l2 > 0.0 && l2.is_finite() {
+                out[l] = v;
+            }
+        }
+        out
+    }
+
     #[inline]
     #[must_use]
     pub fn fetch_dir(&self, a: Vec3, b: Vec3, dir: Vec3) -> Vec3 {
