@@ -167,3 +167,34 @@ fn exported_irradiance_tiles_are_the_grid_s_tiles_in_their_atlas_slots() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn the_exported_roughness_table_interpolated_by_its_rule_is_the_runtime_s_correction() {
+    let grid = tiny();
+    let correction = grid.roughness.as_ref().expect("tiny stores a roughness correction");
+    let dir = common::tmp_dir("export-rough");
+    let s = export::export(&grid, &dir).unwrap();
+    let t = s.roughness_lookup.expect("exported");
+    let (format, w, h, levels) = read(&dir.join("roughness_lookup.ktx2"));
+    assert_eq!((format, w, h), (100, t.nodes, t.nodes));
+    let values = f32s(&levels[0]);
+    let n = t.nodes as usize;
+    let last = (n - 1) as f32;
+    // the sidecar's rule, written out as a shader would
+    let lookup = |r: f32, k: f32| -> f32 {
+        let fr = if r.is_finite() { (r * last).clamp(0.0, last) } else { 0.0 };
+        let k = if k.is_finite() && k > 0.0 { k.clamp(t.k_min, t.k_max) } else { 1.0f32.clamp(t.k_min, t.k_max) };
+        let fx = ((warpfit::roughness::pseudo_log2(k) - t.x0) * t.inv_dx).clamp(0.0, last);
+        let (i, j) = ((fr as usize).min(n - 2), (fx as usize).min(n - 2));
+        let (a, b) = (fr - i as f32, fx - j as f32);
+        let at = |i: usize, j: usize| values[i * n + j];
+        (at(i, j) * (1.0 - b) + at(i, j + 1) * b) * (1.0 - a) + (at(i + 1, j) * (1.0 - b) + at(i + 1, j + 1) * b) * a
+    };
+    for q in 0..5000u32 {
+        let mut smp = Sampler::new(5, 1, q);
+        let r = smp.next_1d();
+        let k = warpfit::roughness::pseudo_exp2(smp.next_1d() * 12.0 - 6.0);
+        assert_eq!(lookup(r, k).to_bits(), correction.corrected_roughness(r, k).to_bits(), "r {r}, k {k}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

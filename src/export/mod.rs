@@ -11,6 +11,9 @@
 //!   hardware bilinear inside a tile's gutter box then blends exactly the 2×2 texels and
 //!   weights the CPU's seam-aware bilinear blends (`tests/export.rs` checks it).
 //!
+//! `roughness_lookup.ktx2` (R32F) is the roughness correction's table exactly as the
+//! runtime interpolates it, its coordinates in the sidecar.
+//!
 //! The sidecar holds what a shader needs besides the textures: the grid, the sparse
 //! cell → tile tables, the atlas layout and the uv formula, and the grid's own manifest
 //! (fallback method, proxies, roughness correction, conventions).
@@ -57,6 +60,9 @@ pub struct Sidecar {
     pub irradiance: AtlasLayout,
     pub moments: AtlasLayout,
     pub irradiance_scale: Option<AtlasLayout>,
+    /// The roughness correction as the runtime interpolates it (`roughness_lookup.ktx2`:
+    /// R32F, `nodes × nodes`, row = roughness node): absent when the grid stores none.
+    pub roughness_lookup: Option<crate::roughness::LookupTable>,
     /// The fitted grid's manifest: grid, conventions, fallback, proxies, roughness table.
     pub grid_manifest: crate::gridfile::GridManifest,
 }
@@ -165,6 +171,11 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
             })
         })
         .transpose()?;
+    let roughness_lookup = grid.roughness.as_ref().map(|r| r.lookup_table());
+    if let Some(t) = &roughness_lookup {
+        let level = Level { width: t.nodes, height: t.nodes, values: t.values.clone() };
+        write_atomic(&dir.join("roughness_lookup.ktx2"), &ktx2::encode(Format::R32F, &[level]))?;
+    }
     let sidecar = Sidecar {
         format: "warpfit-export",
         version: 1,
@@ -176,6 +187,7 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
         irradiance,
         moments,
         irradiance_scale,
+        roughness_lookup,
         grid_manifest: grid.manifest.clone(),
     };
     write_json(&dir.join(SIDECAR), &sidecar)?;

@@ -218,7 +218,39 @@ impl Lookup {
     }
 }
 
+/// The resampled correction as a shader reads it (see [`RoughnessCorrection::lookup_table`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LookupTable {
+    /// Nodes per axis (the table is `nodes × nodes`, row = roughness node, column = k node).
+    pub nodes: u32,
+    /// `x = (pseudo_log2(clamp(k, k_min, k_max)) − x0) · inv_dx`, the column coordinate.
+    pub x0: f32,
+    pub inv_dx: f32,
+    pub k_min: f32,
+    pub k_max: f32,
+    /// r' per (r node, x node), row-major.
+    pub values: Vec<f32>,
+    /// The lookup, spelled out.
+    pub rule: &'static str,
+}
+
 impl RoughnessCorrection {
+    /// The table `corrected_roughness` interpolates, with its coordinates: for a shader or
+    /// an engine that ports the lookup (`warpfit export` writes it).
+    #[must_use]
+    pub fn lookup_table(&self) -> LookupTable {
+        let l = &self.lookup;
+        LookupTable {
+            nodes: LOOKUP_NODES as u32,
+            x0: l.x0,
+            inv_dx: l.inv_dx,
+            k_min: l.k_min,
+            k_max: l.k_max,
+            values: l.values.clone(),
+            rule: "fr = clamp(r·(nodes−1), 0, nodes−1) (r non-finite: 0); k non-finite or ≤ 0 reads as 1; fx = clamp((pseudo_log2(clamp(k, k_min, k_max)) − x0)·inv_dx, 0, nodes−1) with pseudo_log2(k) = exponent(k) + mantissa(k) − 1; r' = bilinear of values at (row fr, column fx), node-aligned",
+        }
+    }
+
     /// α' from the table, bilinear in α and log k, clamped to the table's range.
     #[must_use]
     pub fn from_table(&self, alpha: f32, k: f32) -> f32 {
