@@ -287,8 +287,9 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
         depth: OctMips { levels: depth },
     };
 
+    drop(layers);
     let gpath = dir.join(GRID_FILE);
-    let layers = read_payload(dir, &m, GRID_FILE)?;
+    let mut layers = read_payload(dir, &m, GRID_FILE)?;
     let geometry = GridGeometry {
         min: Vec3::from_array(m.grid.min),
         max: Vec3::from_array(m.grid.max),
@@ -298,8 +299,26 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
     let c = geometry.counts;
     let irr_size = ((c.x * ir) as usize, (c.y * c.z * ir) as usize);
     let dep_size = ((c.x * dr) as usize, (c.y * c.z * dr) as usize);
+    find(&layers, &gpath, "depth_moments", dep_size)?;
     let irr = finite_rgb(find(&layers, &gpath, "irradiance", irr_size)?, &gpath)?;
-    let dm = find(&layers, &gpath, "depth_moments", dep_size)?;
+    // each layer and channel is dropped once converted: a big grid's bake is read with
+    // about one copy of it in memory, not three
+    layers.retain(|l| l.name != "irradiance");
+    let irradiance = from_atlas(&geometry, ir, &irr);
+    drop(irr);
+    let mut moment = |name: &str| -> Result<Vec<f32>, FileError> {
+        let l = layers.iter_mut().find(|l| l.name == "depth_moments");
+        let c = l.and_then(|l| l.channels.iter_mut().find(|(n, _)| n == name)).ok_or_else(|| FileError::Invalid {
+            path: gpath.clone(),
+            field: format!("depth_moments.{name}"),
+            message: "channel missing".into(),
+        })?;
+        let atlas = std::mem::take(&mut c.1);
+        Ok(from_atlas(&geometry, dr, &atlas))
+    };
+    let depth_mean = moment("mean")?;
+    let depth_mean_sq = moment("mean_sq")?;
+    let hit_fraction = moment("hit")?;
     let mut inside = vec![false; geometry.cell_count()];
     for &k in &m.grid.inside_cells {
         *inside.get_mut(k as usize).ok_or_else(|| FileError::Invalid {
@@ -323,10 +342,10 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
         irradiance_resolution: ir,
         depth_resolution: dr,
         depth_samples: m.grid.depth_samples,
-        irradiance: from_atlas(&geometry, ir, &irr),
-        depth_mean: from_atlas(&geometry, dr, channel(dm, &gpath, "mean")?),
-        depth_mean_sq: from_atlas(&geometry, dr, channel(dm, &gpath, "mean_sq")?),
-        hit_fraction: from_atlas(&geometry, dr, channel(dm, &gpath, "hit")?),
+        irradiance,
+        depth_mean,
+        depth_mean_sq,
+        hit_fraction,
         inside,
         probe_offset,
         far_distance: m.grid.far_distance,
