@@ -260,9 +260,9 @@ struct FitArgs {
     /// Check directions per position.
     #[arg(long, default_value_t = FitSettings::standard().check_dirs)]
     check_dirs: u32,
-    /// Samples per training and check reference.
+    /// Samples per training and check reference (`--reference-spp` is the evaluation's).
     #[arg(long, default_value_t = FitSettings::standard().reference_spp)]
-    reference_spp: u32,
+    fit_reference_spp: u32,
     /// Charbonnier ε of the fit's loss as a fraction of a cell's mean reference radiance.
     #[arg(long, default_value_t = FitSettings::standard().robust_scale)]
     robust_scale: f64,
@@ -307,7 +307,7 @@ impl FitArgs {
             format!("--train-dirs={}", self.train_dirs),
             format!("--check-positions={}", self.check_positions),
             format!("--check-dirs={}", self.check_dirs),
-            format!("--reference-spp={}", self.reference_spp),
+            format!("--fit-reference-spp={}", self.fit_reference_spp),
             format!("--robust-scale={}", self.robust_scale),
             format!("--precision={}", name(self.precision.to_possible_value())),
         ];
@@ -332,7 +332,7 @@ impl FitArgs {
             train_dirs: self.train_dirs.max(1),
             check_positions: self.check_positions.max(1),
             check_dirs: self.check_dirs.max(1),
-            reference_spp: self.reference_spp.max(1),
+            reference_spp: self.fit_reference_spp.max(1),
             robust_scale: self.robust_scale,
             ..FitSettings::standard()
         })
@@ -840,4 +840,46 @@ fn run(cli: Cli) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    /// Every subcommand's arguments are consistent (no two flattened groups claim one flag):
+    /// clap's own check, which otherwise fires only when a user runs the command.
+    #[test]
+    fn the_command_line_is_consistent() {
+        use clap::CommandFactory;
+        super::Cli::command().debug_assert();
+    }
+
+    /// Each command parses with its defaults (two flattened groups claiming one argument
+    /// pass clap's check above and fail only here, as they would for a user).
+    #[test]
+    fn every_command_parses_with_its_defaults() {
+        use clap::Parser;
+        for args in [
+            &["run"][..],
+            &["sweep"],
+            &["fit"],
+            &["fit", "--shard", "1/3", "--fit-reference-spp", "2"],
+            &["eval", "--reference-spp", "8"],
+            &["bake"],
+            &["bake", "--shard", "0/2"],
+            &["merge", "--out", "x", "a.part"],
+            &["farm", "slurm", "--shards", "2"],
+            &["farm", "k8s", "--shards", "2", "--image", "i"],
+            &["export", "--out", "x"],
+            &["check"],
+            &["stability", "--quick"],
+            &["inspect"],
+            &["report"],
+            &["roughness"],
+            &["sample", "--pos", "0,1,0", "--dir", "1,0,0"],
+        ] {
+            let argv = std::iter::once("warpfit").chain(args.iter().copied());
+            if let Err(e) = super::Cli::try_parse_from(argv) {
+                panic!("warpfit {}: {e}", args.join(" "));
+            }
+        }
+    }
 }
