@@ -1,0 +1,32 @@
+"""Embree's closest-hit rate on the rays `cargo bench --bench trace` traces: the reference
+the README's tracer ratios are measured against (one thread, closest hit).
+
+    WARPFIT_DUMP_RAYS=/tmp/rays cargo bench --bench trace -- rays/atrium
+    python3 -m venv /tmp/embree && /tmp/embree/bin/pip install numpy embreex
+    /tmp/embree/bin/python benches/embree_reference.py /tmp/rays/atrium 5
+
+Reads CASE.tris.f32 (float32 LE: triangles × 3 vertices × xyz, world units) and
+CASE.rays.f32 (float32 LE: rays × origin xyz, unit direction xyz); prints one line per round
+with Mrays/s. Compare only with a warpfit figure measured in the same sitting."""
+import sys
+import time
+
+import numpy as np
+from embreex import rtcore_scene
+from embreex.mesh_construction import TriangleMesh
+
+case, rounds = sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else 5
+triangles = np.fromfile(case + ".tris.f32", dtype="<f4").reshape(-1, 3, 3)
+rays = np.fromfile(case + ".rays.f32", dtype="<f4").reshape(-1, 6)
+origins = np.ascontiguousarray(rays[:, :3])
+directions = np.ascontiguousarray(rays[:, 3:])
+scene = rtcore_scene.EmbreeScene()
+TriangleMesh(scene, triangles)
+start = time.perf_counter()
+scene.run(origins[:1], directions[:1])  # Embree builds its BVH on the first query
+print(f"{case}: {len(triangles)} triangles, {len(rays)} rays, BVH build {time.perf_counter() - start:.3f} s")
+for r in range(rounds):
+    start = time.perf_counter()
+    hits = int((scene.run(origins, directions) != -1).sum())
+    seconds = time.perf_counter() - start
+    print(f"round {r}: {len(rays) / seconds / 1e6:.2f} Mrays/s closest hit, 1 thread ({hits} hits)")
