@@ -70,7 +70,10 @@ fn empty_scene() -> Scene {
     )
     .unwrap();
     let t = &mut s.triangles;
-    (t.v0.clear(), t.v1.clear(), t.v2.clear(), t.material.clear());
+    t.v0.clear();
+    t.v1.clear();
+    t.v2.clear();
+    t.material.clear();
     s
 }
 
