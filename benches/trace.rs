@@ -237,18 +237,22 @@ fn rays(c: &mut Criterion) {
 
 fn builders(c: &mut Criterion) {
     let t = torture();
-    let origin = Vec3::from_array(t.config.probe.position);
-    let rays = probe_rays(origin);
-    let mut g = c.benchmark_group("bvh_preset/torture");
-    g.throughput(Throughput::Elements(RAYS as u64));
-    g.sample_size(20);
-    for (name, q) in [("fast", BuildQuality::Fast), ("medium", BuildQuality::Medium), ("slow", BuildQuality::Slow)] {
-        let tracer = Tracer::with_quality(&t, q);
-        g.bench_function(name, |b| {
-            b.iter(|| rays.iter().filter(|(o, d)| tracer.closest_hit(*o, *d, f32::INFINITY).is_some()).count())
-        });
+    let torture_origin = Vec3::from_array(t.config.probe.position);
+    for (case, scene, origin) in [("torture", t, torture_origin), ("atrium", atrium(), Vec3::new(17.3, 8.6, 14.2))] {
+        let rays = probe_rays(origin);
+        let mut g = c.benchmark_group(format!("bvh_preset/{case}"));
+        g.throughput(Throughput::Elements(RAYS as u64));
+        g.sample_size(20);
+        for (name, q) in [("fast", BuildQuality::Fast), ("medium", BuildQuality::Medium), ("slow", BuildQuality::Slow)]
+        {
+            let tracer = Tracer::with_quality(&scene, q);
+            println!("bvh_preset/{case}/{name}: build {:.3} s", tracer.build_time.as_secs_f64());
+            g.bench_function(name, |b| {
+                b.iter(|| rays.iter().filter(|(o, d)| tracer.closest_hit(*o, *d, f32::INFINITY).is_some()).count())
+            });
+        }
+        g.finish();
     }
-    g.finish();
 }
 
 fn bake_default(c: &mut Criterion) {
