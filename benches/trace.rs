@@ -24,16 +24,7 @@ fn torture() -> Scene {
 
 /// A closed box room with each face tessellated into n×n quads (12·n² triangles).
 fn tessellated_room(n: usize) -> Scene {
-    let mut s = Scene::parse(
-        "[probe]\nposition = [0.0, 0.0, 0.0]\n[grid]\nmin = [-1.0,-1.0,-1.0]\nmax = [1.0,1.0,1.0]\ncounts = [1,1,1]\n[[geometry]]\ntype = \"box\"\nmin = [0.0,0.0,0.0]\nmax = [0.1,0.1,0.1]\n",
-        Path::new("room.toml"),
-    )
-    .unwrap();
-    let t = &mut s.triangles;
-    t.v0.clear();
-    t.v1.clear();
-    t.v2.clear();
-    t.material.clear();
+    let mut s = empty_scene();
     let (lo, hi) = (Vec3::new(-4.0, 0.0, -6.0), Vec3::new(4.0, 3.0, 6.0));
     let size = hi - lo;
     let faces = [
@@ -45,19 +36,7 @@ fn tessellated_room(n: usize) -> Scene {
         (Vec3::new(lo.x, lo.y, hi.z), Vec3::Y, Vec3::X),
     ];
     for (o, u, v) in faces {
-        let (su, sv) = (u * size.dot(u), v * size.dot(v));
-        let at = |i: usize, j: usize| o + su * (i as f32 / n as f32) + sv * (j as f32 / n as f32);
-        for j in 0..n {
-            for i in 0..n {
-                let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
-                for (p, q, r) in [(a, b, c), (a, c, d)] {
-                    t.v0.push(p);
-                    t.v1.push(q);
-                    t.v2.push(r);
-                    t.material.push(0);
-                }
-            }
-        }
+        push_grid(&mut s, o, u * size.dot(u), v * size.dot(v), n, n);
     }
     s
 }
