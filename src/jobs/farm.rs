@@ -408,6 +408,16 @@ pub fn merge(
     Ok((merged, merge_report(kind, &scene.name, &set, t0)))
 }
 
+/// The body of the part at `path`, whose header `h` the set was checked with (a part
+/// replaced since is refused).
+fn read_body(path: &Path, h: &PartHeader) -> Result<PartBody, FileError> {
+    let (header, body) = partfile::read_part(path)?;
+    if header != *h {
+        return Err(FileError::invalid(path, "header", "changed while the merge read the parts"));
+    }
+    Ok(body)
+}
+
 /// The bake of a set of bake parts, checked against the scene's settings.
 fn merge_bake(scene: &Scene, set: &[(PathBuf, PartHeader)]) -> Result<bake::Bake, FileError> {
     let settings = bake::grid_settings(scene);
@@ -420,7 +430,7 @@ fn merge_bake(scene: &Scene, set: &[(PathBuf, PartHeader)]) -> Result<bake::Bake
         if h.cells != expected {
             return Err(FileError::invalid(path, "cells", format!("{:?}, shard {k}/{n} bakes {expected:?}", h.cells)));
         }
-        let (_, body) = partfile::read_part(path)?;
+        let body = read_body(path, h)?;
         let PartBody::Bake(part) = body else {
             return Err(FileError::invalid(path, "kind", "is no longer a bake part"));
         };
@@ -482,7 +492,7 @@ fn gather_fit(
                 format!("covers active cells {:?}; shard {k}/{n} of this bake fits {expected:?}", h.cells),
             ));
         }
-        let (_, body) = partfile::read_part(path)?;
+        let body = read_body(path, h)?;
         let PartBody::Fit(part) = body else {
             return Err(FileError::invalid(path, "kind", "is no longer a fit part"));
         };

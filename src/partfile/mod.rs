@@ -118,13 +118,15 @@ pub fn write_part(path: &Path, mut header: PartHeader, body: &PartBody) -> Resul
     write_atomic(path, &bytes)
 }
 
-/// Splits a part's bytes into its header and body bytes, checking magic, version and sizes.
-fn split<'a>(path: &Path, bytes: &'a [u8]) -> Result<(PartHeader, &'a [u8]), FileError> {
+/// Parses the header at the start of a part whose whole size is `file_len`: checks magic,
+/// format, version and that the body has the size the header gives. Returns the header and
+/// where the body starts.
+fn parse_header(path: &Path, start: &[u8], file_len: u64) -> Result<(PartHeader, usize), FileError> {
     let bad = |field: &str, message: String| FileError::invalid(path, field, message);
-    if !bytes.starts_with(MAGIC) {
+    if !start.starts_with(MAGIC) {
         return Err(bad("magic", "is not a warpfit part (it does not start with `warpfit-part`)".into()));
     }
-    let rest = &bytes[MAGIC.len()..];
+    let rest = &start[MAGIC.len()..];
     let Some((len, rest)) = rest.split_first_chunk::<8>() else {
         return Err(bad("header", "is truncated before its header".into()));
     };
@@ -132,7 +134,7 @@ fn split<'a>(path: &Path, bytes: &'a [u8]) -> Result<(PartHeader, &'a [u8]), Fil
     if len > MAX_HEADER || len > rest.len() as u64 {
         return Err(bad("header", format!("claims a header of {len} bytes; the file has {} after it", rest.len())));
     }
-    let (head, body) = rest.split_at(len as usize);
+    let head = &rest[..len as usize];
     // the version first, so a newer part says so rather than failing on a field
     let value: serde_json::Value = serde_json::from_slice(head)
         .map_err(|e| FileError::Json { path: path.to_path_buf(), message: e.to_string() })?;
@@ -145,28 +147,39 @@ fn split<'a>(path: &Path, bytes: &'a [u8]) -> Result<(PartHeader, &'a [u8]), Fil
     }
     let header: PartHeader = serde_json::from_value(value)
         .map_err(|e| FileError::Json { path: path.to_path_buf(), message: e.to_string() })?;
-    if header.body_bytes != body.len() as u64 {
+    let body_start = MAGIC.len() + 8 + len as usize;
+    let body_len = file_len - body_start as u64;
+    if header.body_bytes != body_len {
         return Err(bad(
             "body",
-            format!("is {} bytes, the header says {} (truncated or appended to)", body.len(), header.body_bytes),
+            format!("is {body_len} bytes, the header says {} (truncated or appended to)", header.body_bytes),
         ));
     }
-    if checksum(body) != header.body_checksum {
-        return Err(bad("body", format!("does not match its checksum {}", header.body_checksum)));
-    }
-    Ok((header, body))
+    Ok((header, body_start))
 }
 
-/// Reads a part's header alone (the body's checksum is checked too).
+/// Reads a part's header alone: the start of the file, checked as `parse_header` does (the
+/// body's checksum is checked when the body is read).
 pub fn read_header(path: &Path) -> Result<PartHeader, FileError> {
-    let bytes = read_regular(path, MAX_PART_BYTES)?;
-    Ok(split(path, &bytes)?.0)
+    use std::io::Read as _;
+    let file = std::fs::File::open(path).map_err(FileError::io(path))?;
+    let meta = file.metadata().map_err(FileError::io(path))?;
+    if !meta.is_file() {
+        return Err(FileError::invalid(path, "file", "is not a regular file"));
+    }
+    let mut start = Vec::new();
+    file.take(MAGIC.len() as u64 + 8 + MAX_HEADER).read_to_end(&mut start).map_err(FileError::io(path))?;
+    Ok(parse_header(path, &start, meta.len())?.0)
 }
 
 /// Reads a part: header and body, checked.
 pub fn read_part(path: &Path) -> Result<(PartHeader, PartBody), FileError> {
     let bytes = read_regular(path, MAX_PART_BYTES)?;
-    let (header, body) = split(path, &bytes)?;
+    let (header, body_start) = parse_header(path, &bytes, bytes.len() as u64)?;
+    let body = &bytes[body_start..];
+    if checksum(body) != header.body_checksum {
+        return Err(FileError::invalid(path, "body", format!("does not match its checksum {}", header.body_checksum)));
+    }
     let body: PartBody = ciborium::from_reader(body).map_err(|e| FileError::invalid(path, "body", e.to_string()))?;
     let kind = match body {
         PartBody::Bake(_) => PartKind::Bake,
