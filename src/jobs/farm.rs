@@ -143,7 +143,9 @@ pub fn bake_shard(scene: &Scene, folder: &RunFolder, shard: Shard, progress: &Pr
     let log = ShardLog::new(format!("bake shard {shard}"), cells.len());
     let ids: Vec<usize> = cells.clone().collect();
     let baked: Vec<CellBake> = in_chunks(&ids, &log, |part| {
-        bake::grid::bake_cells(&renderer, &settings, part[0]..part[part.len() - 1] + 1, &Progress::quiet())
+        // a chunk of a contiguous range is itself one
+        let range = part.first().map_or(0..0, |&first| first..first + part.len());
+        bake::grid::bake_cells(&renderer, &settings, range, &Progress::quiet())
     });
     let mut h = header(scene, PartKind::Bake, shard, serde_json::Value::Null);
     h.cells = cells;

@@ -190,12 +190,13 @@ impl Correctives {
             // the warp step (`inv_t_from_map`, then `aimed_point`) for every lane
             let mut v = [[0.0f32; LANES]; 3];
             let mut u = [0.0f32; LANES];
+            let a3 = a.to_array();
             for k in 0..LANES {
                 let t = ((d[0][k] * cb[0][k]) + (d[1][k] * cb[1][k]) + (d[2][k] * cb[2][k])) + 1.0 / w[k];
                 let inv_t = if t > 0.0 { (1.0 / t).min(1e30) } else { 1e30 };
                 u[k] = if w[k] > 0.0 { inv_t } else { 0.0 };
                 for c in 0..3 {
-                    v[c][k] = (bb[c][k] + d[c][k] / u[k]) - [a.x, a.y, a.z][c];
+                    v[c][k] = (bb[c][k] + d[c][k] / u[k]) - a3[c];
                 }
             }
             for &k in &mapped[..n_mapped] {

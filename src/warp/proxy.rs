@@ -79,11 +79,12 @@ impl BoxProxy {
         let local =
             |v: [f32; 3], k: usize| -> f32 { ((m.x_axis[k] * v[0]) + (m.y_axis[k] * v[1])) + (m.z_axis[k] * v[2]) };
         let mut out = *dir;
+        let a3 = a.to_array();
         let mut hit = [[0.0f32; 3]; L];
         let mut ok = [false; L];
         for l in 0..L {
-            let bc = [b[l].x - c.x, b[l].y - c.y, b[l].z - c.z];
-            let d3 = [dir[l].x, dir[l].y, dir[l].z];
+            let (b3, d3) = (b[l].to_array(), dir[l].to_array());
+            let bc = [b3[0] - c.x, b3[1] - c.y, b3[2] - c.z];
             let o = [local(bc, 0), local(bc, 1), local(bc, 2)];
             let d = [local(d3, 0), local(d3, 1), local(d3, 2)];
             let outside = o[0].abs() > h.x || o[1].abs() > h.y || o[2].abs() > h.z;
@@ -95,7 +96,7 @@ impl BoxProxy {
             }
             let t = t.max(0.0);
             for k in 0..3 {
-                hit[l][k] = ([b[l].x, b[l].y, b[l].z][k] + d3[k] * t) - [a.x, a.y, a.z][k];
+                hit[l][k] = (b3[k] + d3[k] * t) - a3[k];
             }
             ok[l] = !outside && t.is_finite() && b[l] != a;
         }
