@@ -247,6 +247,14 @@ pub enum Merged {
     Fit(Box<(Fit, GridManifest)>),
 }
 
+/// The header fields every part of one job shares.
+const SAME_IN_EVERY_PART: [&str; 7] =
+    ["kind", "scene", "scene_key", "tool_version", "settings", "bake_checksums", "shards"];
+
+fn json(path: &Path, h: &PartHeader) -> Result<serde_json::Value, FileError> {
+    serde_json::to_value(h).map_err(|e| FileError::Json { path: path.to_path_buf(), message: e.to_string() })
+}
+
 /// Checks that `headers` (read from `paths`) are the N shards of one job, each once, and
 /// returns them in shard order.
 fn check_set(paths: &[PathBuf], headers: Vec<PartHeader>) -> Result<Vec<(PathBuf, PartHeader)>, FileError> {
@@ -256,30 +264,21 @@ fn check_set(paths: &[PathBuf], headers: Vec<PartHeader>) -> Result<Vec<(PathBuf
     let first_path = &paths[0];
     let mut by_shard: Vec<Option<(PathBuf, PartHeader)>> = vec![None; first.shards as usize];
     for (path, h) in paths.iter().zip(headers) {
-        let differs = |field: &str, a: &dyn std::fmt::Debug, b: &dyn std::fmt::Debug| {
-            FileError::invalid(
-                path,
-                field,
-                format!("{a:?} differs from {b:?} in {}: the parts are not of one job", first_path.display()),
-            )
-        };
-        if h.kind != first.kind {
-            return Err(differs("kind", &h.kind, &first.kind));
-        }
-        if h.scene_key != first.scene_key {
-            return Err(differs("scene_key", &h.scene_key, &first.scene_key));
-        }
-        if h.tool_version != first.tool_version {
-            return Err(differs("tool_version", &h.tool_version, &first.tool_version));
-        }
-        if h.settings != first.settings {
-            return Err(differs("settings", &h.settings, &first.settings));
-        }
-        if h.bake_checksums != first.bake_checksums {
-            return Err(differs("bake_checksums", &h.bake_checksums, &first.bake_checksums));
-        }
-        if h.shards != first.shards {
-            return Err(differs("shards", &h.shards, &first.shards));
+        // what must agree: everything but the shard's own work (shard, cells, time, body)
+        let (mine, theirs) = (json(path, &h)?, json(first_path, &first)?);
+        for field in SAME_IN_EVERY_PART {
+            if mine[field] != theirs[field] {
+                return Err(FileError::invalid(
+                    path,
+                    field,
+                    format!(
+                        "{} differs from {} in {}: the parts are not of one job",
+                        mine[field],
+                        theirs[field],
+                        first_path.display()
+                    ),
+                ));
+            }
         }
         let slot = by_shard
             .get_mut(h.shard as usize)
