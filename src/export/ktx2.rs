@@ -9,6 +9,8 @@
 pub enum Format {
     /// VK_FORMAT_R16G16B16A16_SFLOAT
     Rgba16F,
+    /// VK_FORMAT_R32G32B32A32_SFLOAT
+    Rgba32F,
     /// VK_FORMAT_R32_SFLOAT
     R32F,
     /// VK_FORMAT_R32G32_SFLOAT
@@ -20,6 +22,7 @@ impl Format {
     pub fn vk_format(self) -> u32 {
         match self {
             Format::Rgba16F => 97,
+            Format::Rgba32F => 109,
             Format::R32F => 100,
             Format::Rg32F => 103,
         }
@@ -28,13 +31,13 @@ impl Format {
     pub fn type_size(self) -> u32 {
         match self {
             Format::Rgba16F => 2,
-            Format::R32F | Format::Rg32F => 4,
+            Format::Rgba32F | Format::R32F | Format::Rg32F => 4,
         }
     }
     /// Channels per texel, in order (KTX channel ids of the RGBSDA model).
     fn channels(self) -> &'static [u8] {
         match self {
-            Format::Rgba16F => &[0, 1, 2, 15],
+            Format::Rgba16F | Format::Rgba32F => &[0, 1, 2, 15],
             Format::R32F => &[0],
             Format::Rg32F => &[0, 1],
         }
@@ -47,6 +50,7 @@ impl Format {
     pub fn name(self) -> &'static str {
         match self {
             Format::Rgba16F => "RGBA16F",
+            Format::Rgba32F => "RGBA32F",
             Format::R32F => "R32F",
             Format::Rg32F => "RG32F",
         }
@@ -96,7 +100,7 @@ fn dfd(format: Format) -> Vec<u8> {
 fn encode_values(format: Format, values: &[f32]) -> Vec<u8> {
     match format {
         Format::Rgba16F => values.iter().flat_map(|&x| half::f16::from_f32(x).to_bits().to_le_bytes()).collect(),
-        Format::R32F | Format::Rg32F => values.iter().flat_map(|x| x.to_le_bytes()).collect(),
+        Format::Rgba32F | Format::R32F | Format::Rg32F => values.iter().flat_map(|x| x.to_le_bytes()).collect(),
     }
 }
 

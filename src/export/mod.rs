@@ -17,8 +17,14 @@
 //! The sidecar holds what a shader needs besides the textures: the grid, the sparse
 //! cell → tile tables, the atlas layout and the uv formula, and the grid's own manifest
 //! (fallback method, proxies, roughness correction, conventions).
+//!
+//! The reference shader (`shaders/warpfit.wgsl`, with naga's HLSL and GLSL translations) is
+//! written beside them, with its two buffers (`shader`): `warpfit_params.bin` and
+//! `warpfit_cells.bin`. Radiance beyond half-float range (65504) is exported as RGBA32F
+//! instead of RGBA16F, so a bright emitter is never turned into infinity.
 
 pub mod ktx2;
+pub mod shader;
 
 use crate::files::{FileError, write_atomic, write_json};
 use crate::octa::wrap_texel;
@@ -63,11 +69,33 @@ pub struct Sidecar {
     /// The roughness correction as the runtime interpolates it (`roughness_lookup.ktx2`:
     /// R32F, `nodes × nodes`, row = roughness node): absent when the grid stores none.
     pub roughness_lookup: Option<crate::roughness::LookupTable>,
+    /// The reference shader and its buffers.
+    pub shader: ShaderSection,
     /// The fitted grid's manifest: grid, conventions, fallback, proxies, roughness table.
     pub grid_manifest: crate::gridfile::GridManifest,
 }
 
+/// The reference shader's files in the export folder.
+#[derive(Clone, Debug, Serialize)]
+pub struct ShaderSection {
+    /// The WGSL source and its translations.
+    pub sources: Vec<String>,
+    /// The uniform buffer `Params` (binding 7), little-endian, `shader::PARAMS_BYTES` long.
+    pub params: String,
+    /// The storage buffer `array<Cell>` (binding 8), one `shader::CELL_BYTES` entry per cell.
+    pub cells: String,
+    pub bindings: &'static str,
+}
+
 pub const SIDECAR: &str = "export.json";
+
+/// Largest finite half float.
+const F16_MAX: f32 = 65504.0;
+
+/// RGBA16F when every value fits a half float, else RGBA32F.
+fn colour_format(values: impl IntoIterator<Item = Vec3>) -> Format {
+    if values.into_iter().all(|v| v.max_element() <= F16_MAX) { Format::Rgba16F } else { Format::Rgba32F }
+}
 
 /// An atlas of guttered tiles: tile `s` holds `tile(s)` (N² texels of `C` channels each,
 /// row-major), its border filled by the seam rule.
@@ -135,7 +163,8 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
         .iter()
         .map(|m| Level { width: m.res, height: m.res, values: m.texels.iter().flat_map(|&v| rgba(v)).collect() })
         .collect();
-    write_atomic(&dir.join("probe_radiance.ktx2"), &ktx2::encode(Format::Rgba16F, &radiance))?;
+    let radiance_format = colour_format(p.radiance.levels.iter().flat_map(|l| l.texels.iter().copied()));
+    write_atomic(&dir.join("probe_radiance.ktx2"), &ktx2::encode(radiance_format, &radiance))?;
     let inv: Vec<Level> =
         p.inv_depth.levels.iter().map(|m| Level { width: m.res, height: m.res, values: m.texels.clone() }).collect();
     write_atomic(&dir.join("probe_inv_distance.ktx2"), &ktx2::encode(Format::R32F, &inv))?;
@@ -155,7 +184,8 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
     let (ires, i2) = (ir.resolution, (ir.resolution * ir.resolution) as usize);
     let (dres, d2) = (ir.depth_resolution, (ir.depth_resolution * ir.depth_resolution) as usize);
     let cells = ir.irradiance.len() / i2.max(1);
-    let irradiance = write_atlas::<4>(dir, "irradiance.ktx2", Format::Rgba16F, ires, &ir.slot, cells, |s| {
+    let irradiance_format = colour_format(ir.irradiance.iter().copied());
+    let irradiance = write_atlas::<4>(dir, "irradiance.ktx2", irradiance_format, ires, &ir.slot, cells, |s| {
         ir.irradiance[s * i2..(s + 1) * i2].iter().map(|&v| rgba(v)).collect()
     })?;
     let moments = write_atlas::<2>(dir, "moments.ktx2", Format::Rg32F, dres, &ir.slot, cells, |s| {
@@ -176,6 +206,29 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
         let level = Level { width: t.nodes, height: t.nodes, values: t.values.clone() };
         write_atomic(&dir.join("roughness_lookup.ktx2"), &ktx2::encode(Format::R32F, &[level]))?;
     }
+    let shape = |l: Option<&AtlasLayout>| {
+        l.map_or(Default::default(), |l| shader::AtlasShape { tile_resolution: l.tile_resolution, columns: l.columns })
+    };
+    let atlases = shader::Atlases {
+        corrective: shape(correctives.as_ref()),
+        irradiance: shape(Some(&irradiance)),
+        moments: shape(Some(&moments)),
+        scale: shape(irradiance_scale.as_ref()),
+    };
+    let params = shader::params(grid, &atlases).map_err(|e| {
+        FileError::invalid(dir, "shader", format!("the grid cannot be exported for the shader: {}", e.0))
+    })?;
+    write_atomic(&dir.join("warpfit_params.bin"), &params)?;
+    write_atomic(&dir.join("warpfit_cells.bin"), &shader::cells(grid))?;
+    for (name, text) in shader::SHADER_FILES {
+        write_atomic(&dir.join(name), text.as_bytes())?;
+    }
+    let shader = ShaderSection {
+        sources: shader::SHADER_FILES.iter().map(|(name, _)| name.to_string()).collect(),
+        params: "warpfit_params.bin".into(),
+        cells: "warpfit_cells.bin".into(),
+        bindings: "group 0: 0 probe_radiance, 1 probe_inv_distance, 2 correctives, 3 irradiance, 4 moments, 5 irradiance_scale, 6 roughness_lookup (absent files: bind a 1×1 texture), 7 params (uniform), 8 cells (storage); group 1: the query kernels' queries and results",
+    };
     let sidecar = Sidecar {
         format: "warpfit-export",
         version: 1,
@@ -188,6 +241,7 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
         moments,
         irradiance_scale,
         roughness_lookup,
+        shader,
         grid_manifest: grid.manifest.clone(),
     };
     write_json(&dir.join(SIDECAR), &sidecar)?;

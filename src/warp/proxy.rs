@@ -42,6 +42,12 @@ impl BoxProxy {
         }
     }
 
+    /// The rotation from world to box-local coordinates (the inverse of `rotation`).
+    #[must_use]
+    pub fn world_to_local(&self) -> Mat3 {
+        self.world_to_local
+    }
+
     /// Distance along `dir` from `b` (inside) to the box's boundary, if `b` is inside.
     #[inline]
     #[must_use]

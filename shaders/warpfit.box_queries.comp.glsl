@@ -1,0 +1,801 @@
+#version 450 core
+#extension GL_ARB_compute_shader : require
+#extension GL_ARB_shader_storage_buffer_object : require
+layout(local_size_x = 64, local_size_y = 1, local_size_z = 1) in;
+
+struct Params {
+    vec4 grid_min;
+    vec4 grid_max;
+    uvec4 grid_counts;
+    vec4 probe;
+    uvec4 probe_info;
+    vec4 warp;
+    vec4 box_centre;
+    vec4 box_half;
+    vec4 box_x;
+    vec4 box_y;
+    vec4 box_z;
+    vec4 kdop[18];
+    uvec4 kdop_open;
+    vec4 mip_roughness[4];
+    uvec4 atlas_a;
+    uvec4 atlas_b;
+    vec4 lut;
+    uvec4 lut_info;
+};
+struct Cell {
+    ivec4 tiles;
+    vec4 offset;
+};
+struct Footprint {
+    ivec2 corner;
+    vec2 f;
+};
+struct Lattice {
+    uvec3 base;
+    vec3 frac;
+};
+struct Aim {
+    vec3 v;
+    float k;
+};
+const float HUGE = 1e30;
+const float F32_MIN_POSITIVE = 1.1754944e-38;
+const float F32_EPSILON = 1.1920929e-7;
+const float PI = 3.1415927;
+const uint ATLAS_CORRECTIVE = 0u;
+const uint ATLAS_IRRADIANCE = 1u;
+const uint ATLAS_MOMENTS = 2u;
+const uint ATLAS_SCALE = 3u;
+
+layout(binding = 0) uniform sampler2D _group_0_binding_0_cs;
+
+layout(binding = 1) uniform sampler2D _group_0_binding_1_cs;
+
+layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_binding_7_cs; };
+
+layout(std430, binding = 1) readonly buffer type_17_block_1Compute { vec4 _group_1_binding_0_cs[]; };
+
+layout(std430, binding = 2) buffer type_17_block_2Compute { vec4 _group_1_binding_1_cs[]; };
+
+
+bool finite(float x) {
+    return ((floatBitsToUint(x) & 2139095040u) != 2139095040u);
+}
+
+bool finite3_(vec3 v_2) {
+    bool local = false;
+    bool local_1 = false;
+    bool _e2 = finite(v_2.x);
+    if (_e2) {
+        bool _e6 = finite(v_2.y);
+        local = _e6;
+    } else {
+        local = false;
+    }
+    bool _e8 = local;
+    if (_e8) {
+        bool _e12 = finite(v_2.z);
+        local_1 = _e12;
+    } else {
+        local_1 = false;
+    }
+    bool _e14 = local_1;
+    return _e14;
+}
+
+float sign_not_zero(float x_1) {
+    return ((x_1 >= 0.0) ? 1.0 : -1.0);
+}
+
+vec4 unit_direction(vec3 v_3) {
+    bool local_2 = false;
+    bool local_3 = false;
+    bool local_4 = false;
+    bool local_5 = false;
+    float l2_ = dot(v_3, v_3);
+    bool _e2 = finite(l2_);
+    if (_e2) {
+        local_2 = (abs((l2_ - 1.0)) <= 4.7683716e-7);
+    } else {
+        local_2 = false;
+    }
+    bool _e11 = local_2;
+    if (_e11) {
+        return vec4(v_3, 1.0);
+    }
+    float m_1 = max(abs(v_3.x), max(abs(v_3.y), abs(v_3.z)));
+    if ((m_1 > 0.0)) {
+        bool _e26 = finite(m_1);
+        local_3 = _e26;
+    } else {
+        local_3 = false;
+    }
+    bool _e28 = local_3;
+    if (_e28) {
+        bool _e31 = finite3_(v_3);
+        local_4 = _e31;
+    } else {
+        local_4 = false;
+    }
+    bool _e33 = local_4;
+    if (!(_e33)) {
+        return vec4(0.0, 0.0, 1.0, 0.0);
+    }
+    vec3 s = (v_3 / vec3(m_1));
+    float l_2 = length(s);
+    if ((l_2 > 0.0)) {
+        bool _e47 = finite(l_2);
+        local_5 = _e47;
+    } else {
+        local_5 = false;
+    }
+    bool _e49 = local_5;
+    if (!(_e49)) {
+        return vec4(0.0, 0.0, 1.0, 0.0);
+    }
+    return vec4((s / vec3(l_2)), 1.0);
+}
+
+vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
+    bool local_6 = false;
+    vec3 v_7 = (to - from);
+    float l2_1 = dot(v_7, v_7);
+    if ((l2_1 > 0.0)) {
+        bool _e9 = finite(l2_1);
+        local_6 = _e9;
+    } else {
+        local_6 = false;
+    }
+    bool _e11 = local_6;
+    if (_e11) {
+        return v_7;
+    }
+    return fallback;
+}
+
+vec2 oct_encode(vec3 d) {
+    bool local_7 = false;
+    vec2 p = vec2(0.0);
+    float l1_ = ((abs(d.x) + abs(d.y)) + abs(d.z));
+    if ((l1_ >= F32_MIN_POSITIVE)) {
+        bool _e13 = finite(l1_);
+        local_7 = _e13;
+    } else {
+        local_7 = false;
+    }
+    bool _e15 = local_7;
+    if (!(_e15)) {
+        return vec2(0.5, 0.5);
+    }
+    float inv_l1_ = (1.0 / l1_);
+    p = vec2((d.x * inv_l1_), (d.y * inv_l1_));
+    if ((d.z < 0.0)) {
+        float _e32 = p.y;
+        float _e37 = p.x;
+        float _e38 = sign_not_zero(_e37);
+        float _e41 = p.x;
+        float _e46 = p.y;
+        float _e47 = sign_not_zero(_e46);
+        p = vec2(((1.0 - abs(_e32)) * _e38), ((1.0 - abs(_e41)) * _e47));
+    }
+    vec2 _e50 = p;
+    return clamp(((_e50 * 0.5) + vec2(0.5)), vec2(0.0), vec2(1.0));
+}
+
+ivec2 wrap_texel(int n, ivec2 t) {
+    int i = 0;
+    int j = 0;
+    i = t.x;
+    j = t.y;
+    int _e6 = i;
+    if ((_e6 < 0)) {
+        int _e9 = i;
+        i = (-(_e9) - 1);
+        int _e15 = j;
+        j = ((n - 1) - _e15);
+    } else {
+        int _e17 = i;
+        if ((_e17 >= n)) {
+            int _e23 = i;
+            i = (((2 * n) - 1) - _e23);
+            int _e27 = j;
+            j = ((n - 1) - _e27);
+        }
+    }
+    int _e29 = j;
+    if ((_e29 < 0)) {
+        int _e34 = i;
+        i = ((n - 1) - _e34);
+        int _e36 = j;
+        j = (-(_e36) - 1);
+    } else {
+        int _e40 = j;
+        if ((_e40 >= n)) {
+            int _e44 = i;
+            i = ((n - 1) - _e44);
+            int _e50 = j;
+            j = (((2 * n) - 1) - _e50);
+        }
+    }
+    int _e52 = i;
+    int _e53 = j;
+    return min(max(ivec2(_e52, _e53), ivec2(0)), ivec2((n - 1)));
+}
+
+Footprint footprint(uint n_1, vec2 uv) {
+    vec2 x_2 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
+    vec2 x0_ = floor(x_2);
+    return Footprint(ivec2(x0_), (x_2 - x0_));
+}
+
+vec4 blend4_(vec4 q00_, vec4 q10_, vec4 q01_, vec4 q11_, vec2 f) {
+    return ((((q00_ * (1.0 - f.x)) + (q10_ * f.x)) * (1.0 - f.y)) + (((q01_ * (1.0 - f.x)) + (q11_ * f.x)) * f.y));
+}
+
+vec4 probe_texel(uint which, ivec2 t_1, int level) {
+    if ((which == 0u)) {
+        vec4 _e6 = texelFetch(_group_0_binding_0_cs, t_1, level);
+        return _e6;
+    }
+    vec4 _e8 = texelFetch(_group_0_binding_1_cs, t_1, level);
+    return _e8;
+}
+
+vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1) {
+    float _e6 = _group_0_binding_7_cs.warp.z;
+    float _e10 = _group_0_binding_7_cs.warp.y;
+    float res0_ = ((which_1 == 0u) ? _e10 : _e6);
+    uint n_6 = max((uint(res0_) >> level_1), 1u);
+    Footprint _e18 = footprint(n_6, uv_1);
+    ivec2 c_6 = _e18.corner;
+    int l_3 = int(level_1);
+    int ni = int(n_6);
+    ivec2 _e22 = wrap_texel(ni, c_6);
+    vec4 _e23 = probe_texel(which_1, _e22, l_3);
+    ivec2 _e28 = wrap_texel(ni, (c_6 + ivec2(1, 0)));
+    vec4 _e29 = probe_texel(which_1, _e28, l_3);
+    ivec2 _e34 = wrap_texel(ni, (c_6 + ivec2(0, 1)));
+    vec4 _e35 = probe_texel(which_1, _e34, l_3);
+    ivec2 _e40 = wrap_texel(ni, (c_6 + ivec2(1, 1)));
+    vec4 _e41 = probe_texel(which_1, _e40, l_3);
+    vec4 _e43 = blend4_(_e23, _e29, _e35, _e41, _e18.f);
+    return _e43;
+}
+
+vec4 probe_sample_lod(uint which_2, vec2 uv_2, float lod_in, uint levels) {
+    float lod = 0.0;
+    bool local_8 = false;
+    float top = float((max(levels, 1u) - 1u));
+    bool _e11 = finite(lod_in);
+    if (_e11) {
+        lod = min(max(lod_in, 0.0), top);
+    }
+    float _e15 = lod;
+    uint l0_ = uint(_e15);
+    float _e17 = lod;
+    float f_3 = (_e17 - float(l0_));
+    vec4 _e20 = probe_bilinear(which_2, uv_2, l0_);
+    if (!((f_3 == 0.0))) {
+        local_8 = ((l0_ + 1u) >= levels);
+    } else {
+        local_8 = true;
+    }
+    bool _e30 = local_8;
+    if (_e30) {
+        return _e20;
+    }
+    vec4 _e33 = probe_bilinear(which_2, uv_2, (l0_ + 1u));
+    return ((_e20 * (1.0 - f_3)) + (_e33 * f_3));
+}
+
+vec3 radiance_lod(vec2 uv_3, float lod_1) {
+    uint _e6 = _group_0_binding_7_cs.probe_info.x;
+    vec4 _e7 = probe_sample_lod(0u, uv_3, lod_1, _e6);
+    return _e7.xyz;
+}
+
+float inv_dist(vec3 v_4) {
+    bool local_9 = false;
+    vec2 _e2 = oct_encode(v_4);
+    float _e6 = _group_0_binding_7_cs.probe.w;
+    uint _e10 = _group_0_binding_7_cs.probe_info.y;
+    vec4 _e11 = probe_sample_lod(1u, _e2, _e6, _e10);
+    float w_2 = _e11.x;
+    if ((w_2 > 0.0)) {
+        bool _e17 = finite(w_2);
+        local_9 = _e17;
+    } else {
+        local_9 = false;
+    }
+    bool _e19 = local_9;
+    if (_e19) {
+        return w_2;
+    }
+    return 0.0;
+}
+
+vec3 cell_size() {
+    vec4 _e2 = _group_0_binding_7_cs.grid_max;
+    vec4 _e6 = _group_0_binding_7_cs.grid_min;
+    uvec4 _e11 = _group_0_binding_7_cs.grid_counts;
+    return ((_e2.xyz - _e6.xyz) / vec3(_e11.xyz));
+}
+
+uint cell_index(uvec3 c_2) {
+    uvec4 n_7 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_7.x * (c_2.y + (n_7.y * c_2.z))));
+}
+
+uvec3 cell_of(vec3 p_1, vec3 size) {
+    vec4 _e4 = _group_0_binding_7_cs.grid_min;
+    vec3 f_4 = floor(((p_1 - _e4.xyz) / size));
+    uvec4 _e11 = _group_0_binding_7_cs.grid_counts;
+    vec3 hi = vec3((_e11.xyz - uvec3(1u)));
+    bool _e17 = finite3_(f_4);
+    if (!(_e17)) {
+        return uvec3(0u);
+    }
+    return uvec3(clamp(f_4, vec3(0.0), hi));
+}
+
+vec3 cell_centre(uvec3 c_3, vec3 size_1) {
+    vec4 _e4 = _group_0_binding_7_cs.grid_min;
+    return (_e4.xyz + ((vec3(c_3) + vec3(0.5)) * size_1));
+}
+
+Lattice lattice(vec3 p_2, vec3 size_2) {
+    vec3 f_1 = vec3(0.0);
+    vec4 _e4 = _group_0_binding_7_cs.grid_min;
+    f_1 = (((p_2 - _e4.xyz) / size_2) - vec3(0.5));
+    uvec4 _e14 = _group_0_binding_7_cs.grid_counts;
+    vec3 hi_1 = vec3((_e14.xyz - uvec3(1u)));
+    vec3 _e20 = f_1;
+    bool _e21 = finite3_(_e20);
+    if (_e21) {
+        vec3 _e22 = f_1;
+        f_1 = clamp(_e22, vec3(0.0), hi_1);
+    } else {
+        f_1 = vec3(0.0);
+    }
+    vec3 _e28 = f_1;
+    vec3 base = floor(_e28);
+    vec3 _e31 = f_1;
+    return Lattice(uvec3(base), (_e31 - base));
+}
+
+float corner_weight(Lattice l, uint corner) {
+    uvec3 o = uvec3((corner & 1u), ((corner >> 1u) & 1u), ((corner >> 2u) & 1u));
+    float wx = ((o.x == 1u) ? l.frac.x : (1.0 - l.frac.x));
+    float wy = ((o.y == 1u) ? l.frac.y : (1.0 - l.frac.y));
+    float wz = ((o.z == 1u) ? l.frac.z : (1.0 - l.frac.z));
+    return ((wx * wy) * wz);
+}
+
+uvec3 corner_cell(Lattice l_1, uint corner_1) {
+    uvec3 o_1 = uvec3((corner_1 & 1u), ((corner_1 >> 1u) & 1u), ((corner_1 >> 2u) & 1u));
+    uvec4 _e17 = _group_0_binding_7_cs.grid_counts;
+    return min((l_1.base + o_1), (_e17.xyz - uvec3(1u)));
+}
+
+vec3 warp1_(vec3 b_2, vec3 dir) {
+    vec4 _e4 = _group_0_binding_7_cs.probe;
+    vec3 a = _e4.xyz;
+    float _e6 = inv_dist(dir);
+    if ((_e6 == 0.0)) {
+        return dir;
+    }
+    vec3 ab = (a - b_2);
+    float dir_ab = dot(dir, ab);
+    vec3 v_8 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
+    float _e20 = inv_dist(v_8);
+    float lambda = (length(v_8) * _e20);
+    float t_6 = max(((dir_ab * lambda) + dot(dir, v_8)), 0.0);
+    vec3 f_5 = ((dir * t_6) - (ab * lambda));
+    if ((lambda > 0.0)) {
+        vec3 _e34 = fetch_vector(vec3(0.0), f_5, dir);
+        return _e34;
+    }
+    return dir;
+}
+
+vec3 box_fetch(vec3 b_3, vec3 dir_1) {
+    float t_3 = HUGE;
+    int k = 0;
+    vec4 _e4 = _group_0_binding_7_cs.probe;
+    vec3 a_1 = _e4.xyz;
+    vec4 _e8 = _group_0_binding_7_cs.box_x;
+    vec4 _e12 = _group_0_binding_7_cs.box_y;
+    vec4 _e16 = _group_0_binding_7_cs.box_z;
+    mat3x3 m_2 = mat3x3(_e8.xyz, _e12.xyz, _e16.xyz);
+    vec4 _e21 = _group_0_binding_7_cs.box_half;
+    vec3 h = _e21.xyz;
+    vec4 _e25 = _group_0_binding_7_cs.box_centre;
+    vec3 o_2 = (m_2 * (b_3 - _e25.xyz));
+    if (any(greaterThan(abs(o_2), h))) {
+        return dir_1;
+    }
+    vec3 d_1 = (m_2 * dir_1);
+    bool loop_init = true;
+    while(true) {
+        if (!loop_init) {
+            int _e63 = k;
+            k = (_e63 + 1);
+        }
+        loop_init = false;
+        int _e37 = k;
+        if ((_e37 < 3)) {
+        } else {
+            break;
+        }
+        {
+            int _e40 = k;
+            if ((d_1[_e40] != 0.0)) {
+                int _e44 = k;
+                int _e47 = k;
+                int _e49 = k;
+                float face = ((d_1[_e49] > 0.0) ? h[_e47] : -(h[_e44]));
+                float _e54 = t_3;
+                int _e55 = k;
+                int _e58 = k;
+                t_3 = min(_e54, ((face - o_2[_e55]) / d_1[_e58]));
+            }
+        }
+    }
+    float _e65 = t_3;
+    if (!((_e65 < HUGE))) {
+        return dir_1;
+    }
+    float _e69 = t_3;
+    vec3 _e74 = fetch_vector(a_1, (b_3 + (dir_1 * max(_e69, 0.0))), dir_1);
+    return _e74;
+}
+
+vec3 kdop_fetch(vec3 b_4, vec3 dir_2) {
+    float t_4 = HUGE;
+    uint k_1 = 0u;
+    vec4 _e4 = _group_0_binding_7_cs.probe;
+    vec3 a_2 = _e4.xyz;
+    bool loop_init_1 = true;
+    while(true) {
+        if (!loop_init_1) {
+            uint _e45 = k_1;
+            k_1 = (_e45 + 1u);
+        }
+        loop_init_1 = false;
+        uint _e10 = k_1;
+        if ((_e10 < 18u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e16 = _group_0_binding_7_cs.kdop_open.x;
+            uint _e18 = k_1;
+            if (((_e16 & (1u << _e18)) != 0u)) {
+                continue;
+            }
+            uint _e25 = k_1;
+            vec4 _e27 = _group_0_binding_7_cs.kdop[_e25];
+            vec3 n_8 = _e27.xyz;
+            uint _e31 = k_1;
+            float h_1 = _group_0_binding_7_cs.kdop[_e31].w;
+            float nb = dot(n_8, b_4);
+            if ((nb > h_1)) {
+                return dir_2;
+            }
+            float nd = dot(n_8, dir_2);
+            if ((nd > 0.0)) {
+                float _e40 = t_4;
+                t_4 = min(_e40, ((h_1 - nb) / nd));
+            }
+        }
+    }
+    float _e47 = t_4;
+    if ((_e47 < HUGE)) {
+        float _e50 = t_4;
+        vec3 _e53 = fetch_vector(a_2, (b_4 + (dir_2 * _e50)), dir_2);
+        return _e53;
+    }
+    return dir_2;
+}
+
+vec3 fallback_plain(vec3 b_5, vec3 dir_3) {
+    uint _e5 = _group_0_binding_7_cs.probe_info.z;
+    switch(_e5) {
+        case 1u: {
+            vec3 _e6 = box_fetch(b_5, dir_3);
+            return _e6;
+        }
+        case 2u: {
+            vec3 _e7 = kdop_fetch(b_5, dir_3);
+            return _e7;
+        }
+        default: {
+            vec3 _e8 = warp1_(b_5, dir_3);
+            return _e8;
+        }
+    }
+}
+
+vec3 basis_t(vec3 n_3) {
+    float s_1 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
+    float a_3 = (-1.0 / (s_1 + n_3.z));
+    float b_13 = ((n_3.x * n_3.y) * a_3);
+    return vec3((1.0 + (((s_1 * n_3.x) * n_3.x) * a_3)), (s_1 * b_13), (-(s_1) * n_3.x));
+}
+
+vec3 basis_b(vec3 n_4) {
+    float s_2 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
+    float a_4 = (-1.0 / (s_2 + n_4.z));
+    float b_14 = ((n_4.x * n_4.y) * a_4);
+    return vec3(b_14, (s_2 + ((n_4.y * n_4.y) * a_4)), -(n_4.y));
+}
+
+vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
+    bool local_10 = false;
+    float l_4 = length(v_5);
+    if ((l_4 > 0.0)) {
+        bool _e7 = finite(l_4);
+        local_10 = _e7;
+    } else {
+        local_10 = false;
+    }
+    bool _e9 = local_10;
+    if (_e9) {
+        return (v_5 / vec3(l_4));
+    }
+    return fallback_1;
+}
+
+vec3 fallback_fetch(vec3 b_6, vec3 dir_4) {
+    vec3 sum = vec3(0.0);
+    vec4 _e4 = _group_0_binding_7_cs.probe;
+    if (all(equal(b_6, _e4.xyz))) {
+        return dir_4;
+    }
+    float relax = _group_0_binding_7_cs.warp.x;
+    if (!((relax > 0.0))) {
+        vec3 _e15 = fallback_plain(b_6, dir_4);
+        return _e15;
+    }
+    float _e21 = _group_0_binding_7_cs.warp.y;
+    float angle = ((relax * 3.5449078) / _e21);
+    vec3 _e23 = basis_t(dir_4);
+    vec3 _e24 = basis_b(dir_4);
+    vec3 _e25 = fallback_plain(b_6, dir_4);
+    vec3 _e26 = normalize_or(_e25, dir_4);
+    sum = _e26;
+    vec3 _e28 = sum;
+    vec3 _e32 = fallback_plain(b_6, normalize((dir_4 + (_e23 * angle))));
+    vec3 _e33 = normalize_or(_e32, dir_4);
+    sum = (_e28 + _e33);
+    vec3 _e35 = sum;
+    vec3 _e39 = fallback_plain(b_6, normalize((dir_4 - (_e23 * angle))));
+    vec3 _e40 = normalize_or(_e39, dir_4);
+    sum = (_e35 + _e40);
+    vec3 _e42 = sum;
+    vec3 _e46 = fallback_plain(b_6, normalize((dir_4 + (_e24 * angle))));
+    vec3 _e47 = normalize_or(_e46, dir_4);
+    sum = (_e42 + _e47);
+    vec3 _e49 = sum;
+    vec3 _e53 = fallback_plain(b_6, normalize((dir_4 - (_e24 * angle))));
+    vec3 _e54 = normalize_or(_e53, dir_4);
+    sum = (_e49 + _e54);
+    vec3 _e56 = sum;
+    vec3 _e57 = normalize_or(_e56, dir_4);
+    return _e57;
+}
+
+float inv_t_from_map(vec3 c_4, float w, vec3 b_7, vec3 dir_5) {
+    if (!((w > 0.0))) {
+        return 0.0;
+    }
+    float t_7 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
+    if ((t_7 > 0.0)) {
+        return min((1.0 / t_7), HUGE);
+    }
+    return HUGE;
+}
+
+Aim aim_from_inv_t(float u, vec3 b_8, vec3 dir_6) {
+    bool local_11 = false;
+    float k_2 = 0.0;
+    bool local_12 = false;
+    if ((u > 0.0)) {
+        vec4 _e10 = _group_0_binding_7_cs.probe;
+        vec3 v_9 = ((b_8 + (dir_6 / vec3(u))) - _e10.xyz);
+        bool _e13 = finite3_(v_9);
+        if (_e13) {
+            local_11 = any(notEqual(v_9, vec3(0.0)));
+        } else {
+            local_11 = false;
+        }
+        bool _e21 = local_11;
+        if (_e21) {
+            k_2 = (length(v_9) * u);
+            float _e25 = k_2;
+            bool _e26 = finite(_e25);
+            if (_e26) {
+                float _e29 = k_2;
+                local_12 = (_e29 > 0.0);
+            } else {
+                local_12 = false;
+            }
+            bool _e33 = local_12;
+            if (!(_e33)) {
+                k_2 = 1.0;
+            }
+            float _e36 = k_2;
+            return Aim(v_9, _e36);
+        }
+    }
+    return Aim(dir_6, 1.0);
+}
+
+float mip_roughness(uint m) {
+    float _e9 = _group_0_binding_7_cs.mip_roughness[(m / 4u)][(m % 4u)];
+    return _e9;
+}
+
+float lod_of_roughness(float r) {
+    bool local_13 = false;
+    uint below = 0u;
+    uint t_5 = 0u;
+    float f_2 = 0.0;
+    uint n_9 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_9 < 2u))) {
+        float _e11 = mip_roughness(0u);
+        local_13 = !((r > _e11));
+    } else {
+        local_13 = true;
+    }
+    bool _e15 = local_13;
+    if (_e15) {
+        return 0.0;
+    }
+    uint last = (n_9 - 1u);
+    float _e19 = mip_roughness(last);
+    if ((r >= _e19)) {
+        return float(last);
+    }
+    bool loop_init_2 = true;
+    while(true) {
+        if (!loop_init_2) {
+            uint _e37 = t_5;
+            t_5 = (_e37 + 1u);
+        }
+        loop_init_2 = false;
+        uint _e26 = t_5;
+        if ((_e26 < n_9)) {
+        } else {
+            break;
+        }
+        {
+            uint _e28 = below;
+            uint _e31 = t_5;
+            float _e32 = mip_roughness(_e31);
+            below = (_e28 + ((_e32 <= r) ? 1u : 0u));
+        }
+    }
+    uint _e39 = below;
+    uint i_1 = (min(max(_e39, 1u), last) - 1u);
+    float _e46 = mip_roughness((i_1 + 1u));
+    float _e47 = mip_roughness(i_1);
+    float span = (_e46 - _e47);
+    if ((span > 0.0)) {
+        float _e53 = mip_roughness(i_1);
+        f_2 = ((r - _e53) / span);
+    }
+    float _e57 = f_2;
+    return (float(i_1) + clamp(_e57, 0.0, 1.0));
+}
+
+float distance_ratio(vec3 b_10, vec3 v_6, vec2 uv_6) {
+    bool local_14 = false;
+    bool local_15 = false;
+    bool local_16 = false;
+    bool local_17 = false;
+    float l_5 = length(v_6);
+    float _e8 = _group_0_binding_7_cs.probe.w;
+    uint _e12 = _group_0_binding_7_cs.probe_info.y;
+    vec4 _e13 = probe_sample_lod(1u, uv_6, _e8, _e12);
+    float w_3 = _e13.x;
+    if ((l_5 > 0.0)) {
+        bool _e19 = finite(l_5);
+        local_14 = _e19;
+    } else {
+        local_14 = false;
+    }
+    bool _e21 = local_14;
+    if (_e21) {
+        local_15 = (w_3 > 0.0);
+    } else {
+        local_15 = false;
+    }
+    bool _e27 = local_15;
+    if (_e27) {
+        bool _e30 = finite(w_3);
+        local_16 = _e30;
+    } else {
+        local_16 = false;
+    }
+    bool _e32 = local_16;
+    if (!(_e32)) {
+        return 1.0;
+    }
+    float d_probe = (1.0 / w_3);
+    vec4 _e39 = _group_0_binding_7_cs.probe;
+    float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_10));
+    float k_7 = (d_probe / d_surface);
+    bool _e47 = finite(k_7);
+    if (_e47) {
+        local_17 = (k_7 > 0.0);
+    } else {
+        local_17 = false;
+    }
+    bool _e53 = local_17;
+    if (_e53) {
+        return k_7;
+    }
+    return 1.0;
+}
+
+float pseudo_log2_(float k_3) {
+    uint bits = floatBitsToUint(k_3);
+    int e_1 = (int(((bits >> 23u) & 255u)) - 127);
+    float m_3 = uintBitsToFloat(((bits & 8388607u) | 1065353216u));
+    return (float(e_1) + (m_3 - 1.0));
+}
+
+vec3 clean(vec3 c_5) {
+    bool _e1 = finite3_(c_5);
+    if (_e1) {
+        return max(c_5, vec3(0.0));
+    }
+    return vec3(0.0);
+}
+
+uint query_count() {
+    return uint(_group_1_binding_1_cs.length());
+}
+
+void main() {
+    uvec3 id_3 = gl_GlobalInvocationID;
+    vec3 b_1 = vec3(0.0);
+    vec3 c_1 = vec3(0.0);
+    vec3 v_1 = vec3(0.0);
+    uint k_8 = id_3.x;
+    uint _e2 = query_count();
+    if ((k_8 >= _e2)) {
+        return;
+    }
+    vec4 _e6 = _group_0_binding_7_cs.probe;
+    b_1 = _e6.xyz;
+    vec4 _e13 = _group_1_binding_0_cs[(2u * k_8)];
+    bool _e15 = finite3_(_e13.xyz);
+    if (_e15) {
+        vec4 _e20 = _group_1_binding_0_cs[(2u * k_8)];
+        b_1 = _e20.xyz;
+    }
+    vec4 _e28 = _group_1_binding_0_cs[((2u * k_8) + 1u)];
+    vec4 _e30 = unit_direction(_e28.xyz);
+    if ((_e30.w != 0.0)) {
+        v_1 = _e30.xyz;
+        vec3 _e39 = b_1;
+        vec4 _e42 = _group_0_binding_7_cs.probe;
+        if (any(notEqual(_e39, _e42.xyz))) {
+            vec3 _e46 = b_1;
+            vec3 _e48 = box_fetch(_e46, _e30.xyz);
+            v_1 = _e48;
+        }
+        vec3 _e49 = v_1;
+        vec2 _e50 = oct_encode(_e49);
+        vec3 _e52 = radiance_lod(_e50, 0.0);
+        vec3 _e53 = clean(_e52);
+        c_1 = _e53;
+    }
+    vec3 _e56 = c_1;
+    _group_1_binding_1_cs[k_8] = vec4(_e56, 1.0);
+    return;
+}
+

@@ -1,0 +1,1355 @@
+struct Params {
+    float4 grid_min;
+    float4 grid_max;
+    uint4 grid_counts;
+    float4 probe;
+    uint4 probe_info;
+    float4 warp;
+    float4 box_centre;
+    float4 box_half;
+    float4 box_x;
+    float4 box_y;
+    float4 box_z;
+    float4 kdop[18];
+    uint4 kdop_open;
+    float4 mip_roughness[4];
+    uint4 atlas_a;
+    uint4 atlas_b;
+    float4 lut;
+    uint4 lut_info;
+};
+
+struct Cell {
+    int4 tiles;
+    float4 offset;
+};
+
+struct Footprint {
+    int2 corner;
+    float2 f;
+};
+
+struct Lattice {
+    uint3 base;
+    int _pad1_0;
+    float3 frac_;
+    int _end_pad_0;
+};
+
+struct Aim {
+    float3 v;
+    float k;
+};
+
+static const float HUGE = 1e30;
+static const float F32_MIN_POSITIVE = 1.1754944e-38;
+static const float F32_EPSILON = 1.1920929e-7;
+static const float PI = 3.1415927;
+static const uint ATLAS_CORRECTIVE = 0u;
+static const uint ATLAS_IRRADIANCE = 1u;
+static const uint ATLAS_MOMENTS = 2u;
+static const uint ATLAS_SCALE = 3u;
+
+Texture2D<float4> probe_radiance : register(t0);
+Texture2D<float4> probe_inv_distance : register(t1);
+Texture2D<float4> corrective_atlas : register(t2);
+Texture2D<float4> irradiance_atlas : register(t3);
+Texture2D<float4> moments_atlas : register(t4);
+Texture2D<float4> scale_atlas : register(t5);
+Texture2D<float4> roughness_lut : register(t6);
+cbuffer params : register(b7) { Params params; }
+ByteAddressBuffer cells : register(t8);
+ByteAddressBuffer queries : register(t0, space1);
+RWByteAddressBuffer results : register(u1, space1);
+
+bool finite(float x)
+{
+    return ((asuint(x) & 2139095040u) != 2139095040u);
+}
+
+bool finite3_(float3 v_2)
+{
+    bool local = (bool)0;
+    bool local_1 = (bool)0;
+
+    const bool _e2 = finite(v_2.x);
+    if (_e2) {
+        const bool _e6 = finite(v_2.y);
+        local = _e6;
+    } else {
+        local = false;
+    }
+    bool _e8 = local;
+    if (_e8) {
+        const bool _e12 = finite(v_2.z);
+        local_1 = _e12;
+    } else {
+        local_1 = false;
+    }
+    bool _e14 = local_1;
+    return _e14;
+}
+
+float sign_not_zero(float x_1)
+{
+    return ((x_1 >= 0.0) ? 1.0 : -1.0);
+}
+
+float4 unit_direction(float3 v_3)
+{
+    bool local_2 = (bool)0;
+    bool local_3 = (bool)0;
+    bool local_4 = (bool)0;
+    bool local_5 = (bool)0;
+
+    float l2_ = dot(v_3, v_3);
+    const bool _e2 = finite(l2_);
+    if (_e2) {
+        local_2 = (abs((l2_ - 1.0)) <= 4.7683716e-7);
+    } else {
+        local_2 = false;
+    }
+    bool _e11 = local_2;
+    if (_e11) {
+        return float4(v_3, 1.0);
+    }
+    float m_1 = max(abs(v_3.x), max(abs(v_3.y), abs(v_3.z)));
+    if ((m_1 > 0.0)) {
+        const bool _e26 = finite(m_1);
+        local_3 = _e26;
+    } else {
+        local_3 = false;
+    }
+    bool _e28 = local_3;
+    if (_e28) {
+        const bool _e31 = finite3_(v_3);
+        local_4 = _e31;
+    } else {
+        local_4 = false;
+    }
+    bool _e33 = local_4;
+    if (!(_e33)) {
+        return float4(0.0, 0.0, 1.0, 0.0);
+    }
+    float3 s = (v_3 / (m_1).xxx);
+    float l_2 = length(s);
+    if ((l_2 > 0.0)) {
+        const bool _e47 = finite(l_2);
+        local_5 = _e47;
+    } else {
+        local_5 = false;
+    }
+    bool _e49 = local_5;
+    if (!(_e49)) {
+        return float4(0.0, 0.0, 1.0, 0.0);
+    }
+    return float4((s / (l_2).xxx), 1.0);
+}
+
+float3 fetch_vector(float3 from, float3 to, float3 fallback)
+{
+    bool local_6 = (bool)0;
+
+    float3 v_7 = (to - from);
+    float l2_1 = dot(v_7, v_7);
+    if ((l2_1 > 0.0)) {
+        const bool _e9 = finite(l2_1);
+        local_6 = _e9;
+    } else {
+        local_6 = false;
+    }
+    bool _e11 = local_6;
+    if (_e11) {
+        return v_7;
+    }
+    return fallback;
+}
+
+float2 oct_encode(float3 d)
+{
+    bool local_7 = (bool)0;
+    float2 p = (float2)0;
+
+    float l1_ = ((abs(d.x) + abs(d.y)) + abs(d.z));
+    if ((l1_ >= F32_MIN_POSITIVE)) {
+        const bool _e13 = finite(l1_);
+        local_7 = _e13;
+    } else {
+        local_7 = false;
+    }
+    bool _e15 = local_7;
+    if (!(_e15)) {
+        return float2(0.5, 0.5);
+    }
+    float inv_l1_ = (1.0 / l1_);
+    p = float2((d.x * inv_l1_), (d.y * inv_l1_));
+    if ((d.z < 0.0)) {
+        float _e32 = p.y;
+        float _e37 = p.x;
+        const float _e38 = sign_not_zero(_e37);
+        float _e41 = p.x;
+        float _e46 = p.y;
+        const float _e47 = sign_not_zero(_e46);
+        p = float2(((1.0 - abs(_e32)) * _e38), ((1.0 - abs(_e41)) * _e47));
+    }
+    float2 _e50 = p;
+    return clamp(((_e50 * 0.5) + (0.5).xx), (0.0).xx, (1.0).xx);
+}
+
+int naga_neg(int val) {
+    return asint(-asuint(val));
+}
+
+int2 wrap_texel(int n, int2 t)
+{
+    int i = (int)0;
+    int j = (int)0;
+
+    i = t.x;
+    j = t.y;
+    int _e6 = i;
+    if ((_e6 < int(0))) {
+        int _e9 = i;
+        i = asint(asuint(naga_neg(_e9)) - asuint(int(1)));
+        int _e15 = j;
+        j = asint(asuint(asint(asuint(n) - asuint(int(1)))) - asuint(_e15));
+    } else {
+        int _e17 = i;
+        if ((_e17 >= n)) {
+            int _e23 = i;
+            i = asint(asuint(asint(asuint(asint(asuint(int(2)) * asuint(n))) - asuint(int(1)))) - asuint(_e23));
+            int _e27 = j;
+            j = asint(asuint(asint(asuint(n) - asuint(int(1)))) - asuint(_e27));
+        }
+    }
+    int _e29 = j;
+    if ((_e29 < int(0))) {
+        int _e34 = i;
+        i = asint(asuint(asint(asuint(n) - asuint(int(1)))) - asuint(_e34));
+        int _e36 = j;
+        j = asint(asuint(naga_neg(_e36)) - asuint(int(1)));
+    } else {
+        int _e40 = j;
+        if ((_e40 >= n)) {
+            int _e44 = i;
+            i = asint(asuint(asint(asuint(n) - asuint(int(1)))) - asuint(_e44));
+            int _e50 = j;
+            j = asint(asuint(asint(asuint(asint(asuint(int(2)) * asuint(n))) - asuint(int(1)))) - asuint(_e50));
+        }
+    }
+    int _e52 = i;
+    int _e53 = j;
+    return clamp(int2(_e52, _e53), (int(0)).xx, (asint(asuint(n) - asuint(int(1)))).xx);
+}
+
+Footprint ConstructFootprint(int2 arg0, float2 arg1) {
+    Footprint ret = (Footprint)0;
+    ret.corner = arg0;
+    ret.f = arg1;
+    return ret;
+}
+
+int2 naga_f2i32(float2 value) {
+    return int2(clamp(value, -2147483600.0, 2147483500.0));
+}
+
+Footprint footprint(uint n_1, float2 uv)
+{
+    float2 x_2 = ((clamp(uv, (0.0).xx, (1.0).xx) * float(n_1)) - (0.5).xx);
+    float2 x0_ = floor(x_2);
+    const Footprint footprint_1 = ConstructFootprint(naga_f2i32(x0_), (x_2 - x0_));
+    return footprint_1;
+}
+
+float4 blend4_(float4 q00_, float4 q10_, float4 q01_, float4 q11_, float2 f)
+{
+    return ((((q00_ * (1.0 - f.x)) + (q10_ * f.x)) * (1.0 - f.y)) + (((q01_ * (1.0 - f.x)) + (q11_ * f.x)) * f.y));
+}
+
+float4 probe_texel(uint which, int2 t_1, int level)
+{
+    if ((which == 0u)) {
+        float4 _e6 = probe_radiance.Load(int3(t_1, level));
+        return _e6;
+    }
+    float4 _e8 = probe_inv_distance.Load(int3(t_1, level));
+    return _e8;
+}
+
+uint naga_f2u32(float value) {
+    return uint(clamp(value, 0.0, 4294967000.0));
+}
+
+float4 probe_bilinear(uint which_1, float2 uv_1, uint level_1)
+{
+    float _e6 = params.warp.z;
+    float _e10 = params.warp.y;
+    float res0_ = ((which_1 == 0u) ? _e10 : _e6);
+    uint n_6 = max((naga_f2u32(res0_) >> level_1), 1u);
+    const Footprint _e18 = footprint(n_6, uv_1);
+    int2 c_6 = _e18.corner;
+    int l_3 = int(level_1);
+    int ni = int(n_6);
+    const int2 _e22 = wrap_texel(ni, c_6);
+    const float4 _e23 = probe_texel(which_1, _e22, l_3);
+    const int2 _e28 = wrap_texel(ni, asint(asuint(c_6) + asuint(int2(int(1), int(0)))));
+    const float4 _e29 = probe_texel(which_1, _e28, l_3);
+    const int2 _e34 = wrap_texel(ni, asint(asuint(c_6) + asuint(int2(int(0), int(1)))));
+    const float4 _e35 = probe_texel(which_1, _e34, l_3);
+    const int2 _e40 = wrap_texel(ni, asint(asuint(c_6) + asuint(int2(int(1), int(1)))));
+    const float4 _e41 = probe_texel(which_1, _e40, l_3);
+    const float4 _e43 = blend4_(_e23, _e29, _e35, _e41, _e18.f);
+    return _e43;
+}
+
+float4 probe_sample_lod(uint which_2, float2 uv_2, float lod_in, uint levels)
+{
+    float lod = 0.0;
+    bool local_8 = (bool)0;
+
+    float top = float((max(levels, 1u) - 1u));
+    const bool _e11 = finite(lod_in);
+    if (_e11) {
+        lod = min(max(lod_in, 0.0), top);
+    }
+    float _e15 = lod;
+    uint l0_ = naga_f2u32(_e15);
+    float _e17 = lod;
+    float f_3 = (_e17 - float(l0_));
+    const float4 _e20 = probe_bilinear(which_2, uv_2, l0_);
+    if (!((f_3 == 0.0))) {
+        local_8 = ((l0_ + 1u) >= levels);
+    } else {
+        local_8 = true;
+    }
+    bool _e30 = local_8;
+    if (_e30) {
+        return _e20;
+    }
+    const float4 _e33 = probe_bilinear(which_2, uv_2, (l0_ + 1u));
+    return ((_e20 * (1.0 - f_3)) + (_e33 * f_3));
+}
+
+float3 radiance_lod(float2 uv_3, float lod_1)
+{
+    uint _e6 = params.probe_info.x;
+    const float4 _e7 = probe_sample_lod(0u, uv_3, lod_1, _e6);
+    return _e7.xyz;
+}
+
+float inv_dist(float3 v_4)
+{
+    bool local_9 = (bool)0;
+
+    const float2 _e2 = oct_encode(v_4);
+    float _e6 = params.probe.w;
+    uint _e10 = params.probe_info.y;
+    const float4 _e11 = probe_sample_lod(1u, _e2, _e6, _e10);
+    float w_2 = _e11.x;
+    if ((w_2 > 0.0)) {
+        const bool _e17 = finite(w_2);
+        local_9 = _e17;
+    } else {
+        local_9 = false;
+    }
+    bool _e19 = local_9;
+    if (_e19) {
+        return w_2;
+    }
+    return 0.0;
+}
+
+float4 atlas_texel(uint which_3, int2 t_2)
+{
+    switch(which_3) {
+        case 0u: {
+            float4 _e4 = corrective_atlas.Load(int3(t_2, int(0)));
+            return _e4;
+        }
+        case 1u: {
+            float4 _e7 = irradiance_atlas.Load(int3(t_2, int(0)));
+            return _e7;
+        }
+        case 2u: {
+            float4 _e10 = moments_atlas.Load(int3(t_2, int(0)));
+            return _e10;
+        }
+        default: {
+            float4 _e13 = scale_atlas.Load(int3(t_2, int(0)));
+            return _e13;
+        }
+    }
+}
+
+uint naga_mod(uint lhs, uint rhs) {
+    return lhs % (rhs == 0u ? 1u : rhs);
+}
+
+uint naga_div(uint lhs, uint rhs) {
+    return lhs / (rhs == 0u ? 1u : rhs);
+}
+
+float4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, float2 uv_4)
+{
+    uint s_1 = uint(tile);
+    int2 origin = int2((uint2(naga_mod(s_1, columns), naga_div(s_1, columns)) * (n_2 + 2u)));
+    const Footprint _e13 = footprint(n_2, uv_4);
+    int2 c_7 = asint(asuint(asint(asuint(origin) + asuint(_e13.corner))) + asuint(int2(int(1), int(1))));
+    const float4 _e20 = atlas_texel(which_4, c_7);
+    const float4 _e25 = atlas_texel(which_4, asint(asuint(c_7) + asuint(int2(int(1), int(0)))));
+    const float4 _e30 = atlas_texel(which_4, asint(asuint(c_7) + asuint(int2(int(0), int(1)))));
+    const float4 _e35 = atlas_texel(which_4, asint(asuint(c_7) + asuint(int2(int(1), int(1)))));
+    const float4 _e37 = blend4_(_e20, _e25, _e30, _e35, _e13.f);
+    return _e37;
+}
+
+float3 cell_size()
+{
+    float4 _e2 = params.grid_max;
+    float4 _e6 = params.grid_min;
+    uint4 _e11 = params.grid_counts;
+    return ((_e2.xyz - _e6.xyz) / float3(_e11.xyz));
+}
+
+uint cell_index(uint3 c_2)
+{
+    uint4 n_7 = params.grid_counts;
+    return (c_2.x + (n_7.x * (c_2.y + (n_7.y * c_2.z))));
+}
+
+uint3 naga_f2u32(float3 value) {
+    return uint3(clamp(value, 0.0, 4294967000.0));
+}
+
+uint3 cell_of(float3 p_1, float3 size)
+{
+    float4 _e4 = params.grid_min;
+    float3 f_4 = floor(((p_1 - _e4.xyz) / size));
+    uint4 _e11 = params.grid_counts;
+    float3 hi = float3((_e11.xyz - (1u).xxx));
+    const bool _e17 = finite3_(f_4);
+    if (!(_e17)) {
+        return (0u).xxx;
+    }
+    return naga_f2u32(clamp(f_4, (0.0).xxx, hi));
+}
+
+float3 cell_centre(uint3 c_3, float3 size_1)
+{
+    float4 _e4 = params.grid_min;
+    return (_e4.xyz + ((float3(c_3) + (0.5).xxx) * size_1));
+}
+
+Lattice ConstructLattice(uint3 arg0, float3 arg1) {
+    Lattice ret = (Lattice)0;
+    ret.base = arg0;
+    ret.frac_ = arg1;
+    return ret;
+}
+
+Lattice lattice(float3 p_2, float3 size_2)
+{
+    float3 f_1 = (float3)0;
+
+    float4 _e4 = params.grid_min;
+    f_1 = (((p_2 - _e4.xyz) / size_2) - (0.5).xxx);
+    uint4 _e14 = params.grid_counts;
+    float3 hi_1 = float3((_e14.xyz - (1u).xxx));
+    float3 _e20 = f_1;
+    const bool _e21 = finite3_(_e20);
+    if (_e21) {
+        float3 _e22 = f_1;
+        f_1 = clamp(_e22, (0.0).xxx, hi_1);
+    } else {
+        f_1 = (0.0).xxx;
+    }
+    float3 _e28 = f_1;
+    float3 base = floor(_e28);
+    float3 _e31 = f_1;
+    const Lattice lattice_1 = ConstructLattice(naga_f2u32(base), (_e31 - base));
+    return lattice_1;
+}
+
+float corner_weight(Lattice l, uint corner)
+{
+    uint3 o = uint3((corner & 1u), ((corner >> 1u) & 1u), ((corner >> 2u) & 1u));
+    float wx = ((o.x == 1u) ? l.frac_.x : (1.0 - l.frac_.x));
+    float wy = ((o.y == 1u) ? l.frac_.y : (1.0 - l.frac_.y));
+    float wz = ((o.z == 1u) ? l.frac_.z : (1.0 - l.frac_.z));
+    return ((wx * wy) * wz);
+}
+
+uint3 corner_cell(Lattice l_1, uint corner_1)
+{
+    uint3 o_1 = uint3((corner_1 & 1u), ((corner_1 >> 1u) & 1u), ((corner_1 >> 2u) & 1u));
+    uint4 _e17 = params.grid_counts;
+    return min((l_1.base + o_1), (_e17.xyz - (1u).xxx));
+}
+
+float3 warp1_(float3 b_2, float3 dir)
+{
+    float4 _e4 = params.probe;
+    float3 a = _e4.xyz;
+    const float _e6 = inv_dist(dir);
+    if ((_e6 == 0.0)) {
+        return dir;
+    }
+    float3 ab = (a - b_2);
+    float dir_ab = dot(dir, ab);
+    float3 v_8 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
+    const float _e20 = inv_dist(v_8);
+    float lambda = (length(v_8) * _e20);
+    float t_6 = max(((dir_ab * lambda) + dot(dir, v_8)), 0.0);
+    float3 f_5 = ((dir * t_6) - (ab * lambda));
+    if ((lambda > 0.0)) {
+        const float3 _e34 = fetch_vector((0.0).xxx, f_5, dir);
+        return _e34;
+    }
+    return dir;
+}
+
+float3 box_fetch(float3 b_3, float3 dir_1)
+{
+    float t_3 = HUGE;
+    int k = int(0);
+
+    float4 _e4 = params.probe;
+    float3 a_1 = _e4.xyz;
+    float4 _e8 = params.box_x;
+    float4 _e12 = params.box_y;
+    float4 _e16 = params.box_z;
+    float3x3 m_2 = float3x3(_e8.xyz, _e12.xyz, _e16.xyz);
+    float4 _e21 = params.box_half;
+    float3 h = _e21.xyz;
+    float4 _e25 = params.box_centre;
+    float3 o_2 = mul((b_3 - _e25.xyz), m_2);
+    if (any((abs(o_2) > h))) {
+        return dir_1;
+    }
+    float3 d_1 = mul(dir_1, m_2);
+    uint2 loop_bound = uint2(4294967295u, 4294967295u);
+    bool loop_init = true;
+    while(true) {
+        if (all(loop_bound == uint2(0u, 0u))) { break; }
+        loop_bound -= uint2(loop_bound.y == 0u, 1u);
+        if (!loop_init) {
+            int _e63 = k;
+            k = asint(asuint(_e63) + asuint(int(1)));
+        }
+        loop_init = false;
+        int _e37 = k;
+        if ((_e37 < int(3))) {
+        } else {
+            break;
+        }
+        {
+            int _e40 = k;
+            if ((d_1[min(uint(_e40), 2u)] != 0.0)) {
+                int _e44 = k;
+                int _e47 = k;
+                int _e49 = k;
+                float face = ((d_1[min(uint(_e49), 2u)] > 0.0) ? h[min(uint(_e47), 2u)] : -(h[min(uint(_e44), 2u)]));
+                float _e54 = t_3;
+                int _e55 = k;
+                int _e58 = k;
+                t_3 = min(_e54, ((face - o_2[min(uint(_e55), 2u)]) / d_1[min(uint(_e58), 2u)]));
+            }
+        }
+    }
+    float _e65 = t_3;
+    if (!((_e65 < HUGE))) {
+        return dir_1;
+    }
+    float _e69 = t_3;
+    const float3 _e74 = fetch_vector(a_1, (b_3 + (dir_1 * max(_e69, 0.0))), dir_1);
+    return _e74;
+}
+
+float3 kdop_fetch(float3 b_4, float3 dir_2)
+{
+    float t_4 = HUGE;
+    uint k_1 = 0u;
+
+    float4 _e4 = params.probe;
+    float3 a_2 = _e4.xyz;
+    uint2 loop_bound_1 = uint2(4294967295u, 4294967295u);
+    bool loop_init_1 = true;
+    while(true) {
+        if (all(loop_bound_1 == uint2(0u, 0u))) { break; }
+        loop_bound_1 -= uint2(loop_bound_1.y == 0u, 1u);
+        if (!loop_init_1) {
+            uint _e45 = k_1;
+            k_1 = (_e45 + 1u);
+        }
+        loop_init_1 = false;
+        uint _e10 = k_1;
+        if ((_e10 < 18u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e16 = params.kdop_open.x;
+            uint _e18 = k_1;
+            if (((_e16 & (1u << _e18)) != 0u)) {
+                continue;
+            }
+            uint _e25 = k_1;
+            float4 _e27 = params.kdop[_e25];
+            float3 n_8 = _e27.xyz;
+            uint _e31 = k_1;
+            float h_1 = params.kdop[_e31].w;
+            float nb = dot(n_8, b_4);
+            if ((nb > h_1)) {
+                return dir_2;
+            }
+            float nd = dot(n_8, dir_2);
+            if ((nd > 0.0)) {
+                float _e40 = t_4;
+                t_4 = min(_e40, ((h_1 - nb) / nd));
+            }
+        }
+    }
+    float _e47 = t_4;
+    if ((_e47 < HUGE)) {
+        float _e50 = t_4;
+        const float3 _e53 = fetch_vector(a_2, (b_4 + (dir_2 * _e50)), dir_2);
+        return _e53;
+    }
+    return dir_2;
+}
+
+float3 fallback_plain(float3 b_5, float3 dir_3)
+{
+    uint _e5 = params.probe_info.z;
+    switch(_e5) {
+        case 1u: {
+            const float3 _e6 = box_fetch(b_5, dir_3);
+            return _e6;
+        }
+        case 2u: {
+            const float3 _e7 = kdop_fetch(b_5, dir_3);
+            return _e7;
+        }
+        default: {
+            const float3 _e8 = warp1_(b_5, dir_3);
+            return _e8;
+        }
+    }
+}
+
+float3 basis_t(float3 n_3)
+{
+    float s_2 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
+    float a_3 = (-1.0 / (s_2 + n_3.z));
+    float b_13 = ((n_3.x * n_3.y) * a_3);
+    return float3((1.0 + (((s_2 * n_3.x) * n_3.x) * a_3)), (s_2 * b_13), (-(s_2) * n_3.x));
+}
+
+float3 basis_b(float3 n_4)
+{
+    float s_3 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
+    float a_4 = (-1.0 / (s_3 + n_4.z));
+    float b_14 = ((n_4.x * n_4.y) * a_4);
+    return float3(b_14, (s_3 + ((n_4.y * n_4.y) * a_4)), -(n_4.y));
+}
+
+float3 normalize_or(float3 v_5, float3 fallback_1)
+{
+    bool local_10 = (bool)0;
+
+    float l_4 = length(v_5);
+    if ((l_4 > 0.0)) {
+        const bool _e7 = finite(l_4);
+        local_10 = _e7;
+    } else {
+        local_10 = false;
+    }
+    bool _e9 = local_10;
+    if (_e9) {
+        return (v_5 / (l_4).xxx);
+    }
+    return fallback_1;
+}
+
+float3 fallback_fetch(float3 b_6, float3 dir_4)
+{
+    float3 sum = (float3)0;
+
+    float4 _e4 = params.probe;
+    if (all((b_6 == _e4.xyz))) {
+        return dir_4;
+    }
+    float relax = params.warp.x;
+    if (!((relax > 0.0))) {
+        const float3 _e15 = fallback_plain(b_6, dir_4);
+        return _e15;
+    }
+    float _e21 = params.warp.y;
+    float angle = ((relax * 3.5449078) / _e21);
+    const float3 _e23 = basis_t(dir_4);
+    const float3 _e24 = basis_b(dir_4);
+    const float3 _e25 = fallback_plain(b_6, dir_4);
+    const float3 _e26 = normalize_or(_e25, dir_4);
+    sum = _e26;
+    float3 _e28 = sum;
+    const float3 _e32 = fallback_plain(b_6, normalize((dir_4 + (_e23 * angle))));
+    const float3 _e33 = normalize_or(_e32, dir_4);
+    sum = (_e28 + _e33);
+    float3 _e35 = sum;
+    const float3 _e39 = fallback_plain(b_6, normalize((dir_4 - (_e23 * angle))));
+    const float3 _e40 = normalize_or(_e39, dir_4);
+    sum = (_e35 + _e40);
+    float3 _e42 = sum;
+    const float3 _e46 = fallback_plain(b_6, normalize((dir_4 + (_e24 * angle))));
+    const float3 _e47 = normalize_or(_e46, dir_4);
+    sum = (_e42 + _e47);
+    float3 _e49 = sum;
+    const float3 _e53 = fallback_plain(b_6, normalize((dir_4 - (_e24 * angle))));
+    const float3 _e54 = normalize_or(_e53, dir_4);
+    sum = (_e49 + _e54);
+    float3 _e56 = sum;
+    const float3 _e57 = normalize_or(_e56, dir_4);
+    return _e57;
+}
+
+float inv_t_from_map(float3 c_4, float w, float3 b_7, float3 dir_5)
+{
+    if (!((w > 0.0))) {
+        return 0.0;
+    }
+    float t_7 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
+    if ((t_7 > 0.0)) {
+        return min((1.0 / t_7), HUGE);
+    }
+    return HUGE;
+}
+
+Aim ConstructAim(float3 arg0, float arg1) {
+    Aim ret = (Aim)0;
+    ret.v = arg0;
+    ret.k = arg1;
+    return ret;
+}
+
+Aim aim_from_inv_t(float u, float3 b_8, float3 dir_6)
+{
+    bool local_11 = (bool)0;
+    float k_2 = (float)0;
+    bool local_12 = (bool)0;
+
+    if ((u > 0.0)) {
+        float4 _e10 = params.probe;
+        float3 v_9 = ((b_8 + (dir_6 / (u).xxx)) - _e10.xyz);
+        const bool _e13 = finite3_(v_9);
+        if (_e13) {
+            local_11 = any((v_9 != (0.0).xxx));
+        } else {
+            local_11 = false;
+        }
+        bool _e21 = local_11;
+        if (_e21) {
+            k_2 = (length(v_9) * u);
+            float _e25 = k_2;
+            const bool _e26 = finite(_e25);
+            if (_e26) {
+                float _e29 = k_2;
+                local_12 = (_e29 > 0.0);
+            } else {
+                local_12 = false;
+            }
+            bool _e33 = local_12;
+            if (!(_e33)) {
+                k_2 = 1.0;
+            }
+            float _e36 = k_2;
+            const Aim aim_1 = ConstructAim(v_9, _e36);
+            return aim_1;
+        }
+    }
+    const Aim aim_2 = ConstructAim(dir_6, 1.0);
+    return aim_2;
+}
+
+float map_w(int tile_1, float2 uv_5)
+{
+    uint _e6 = params.atlas_a.x;
+    uint _e10 = params.atlas_a.y;
+    const float4 _e11 = atlas_bilinear(ATLAS_CORRECTIVE, tile_1, _e6, _e10, uv_5);
+    return _e11.x;
+}
+
+Cell ConstructCell(int4 arg0, float4 arg1) {
+    Cell ret = (Cell)0;
+    ret.tiles = arg0;
+    ret.offset = arg1;
+    return ret;
+}
+
+Aim fetch(float3 b_9, float3 dir_7)
+{
+    float sum_1 = 0.0;
+    float wsum = 0.0;
+    uint corner_2 = 0u;
+
+    float4 _e4 = params.probe;
+    if (all((b_9 == _e4.xyz))) {
+        const Aim aim_3 = ConstructAim(dir_7, 1.0);
+        return aim_3;
+    }
+    const float2 _e10 = oct_encode(dir_7);
+    const float3 _e11 = cell_size();
+    uint _e15 = params.grid_counts.w;
+    if ((_e15 == 0u)) {
+        const uint3 _e18 = cell_of(b_9, _e11);
+        const uint _e20 = cell_index(_e18);
+        Cell cell = ConstructCell(asint(cells.Load4(_e20*32+0)), asfloat(cells.Load4(_e20*32+16)));
+        if ((cell.tiles.x >= int(0))) {
+            const float3 _e27 = cell_centre(_e18, _e11);
+            float3 origin_1 = (_e27 + cell.offset.xyz);
+            const float _e33 = map_w(cell.tiles.x, _e10);
+            const float _e34 = inv_t_from_map(origin_1, _e33, b_9, dir_7);
+            const Aim _e35 = aim_from_inv_t(_e34, b_9, dir_7);
+            const Aim aim_4 = _e35;
+            return aim_4;
+        }
+        const float3 _e36 = fallback_fetch(b_9, dir_7);
+        const Aim aim_5 = ConstructAim(_e36, -1.0);
+        return aim_5;
+    }
+    const Lattice _e39 = lattice(b_9, _e11);
+    uint2 loop_bound_2 = uint2(4294967295u, 4294967295u);
+    bool loop_init_2 = true;
+    while(true) {
+        if (all(loop_bound_2 == uint2(0u, 0u))) { break; }
+        loop_bound_2 -= uint2(loop_bound_2.y == 0u, 1u);
+        if (!loop_init_2) {
+            uint _e77 = corner_2;
+            corner_2 = (_e77 + 1u);
+        }
+        loop_init_2 = false;
+        uint _e46 = corner_2;
+        if ((_e46 < 8u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e49 = corner_2;
+            const float _e50 = corner_weight(_e39, _e49);
+            if ((_e50 <= 0.0)) {
+                continue;
+            }
+            uint _e53 = corner_2;
+            const uint3 _e54 = corner_cell(_e39, _e53);
+            const uint _e56 = cell_index(_e54);
+            Cell cell_1 = ConstructCell(asint(cells.Load4(_e56*32+0)), asfloat(cells.Load4(_e56*32+16)));
+            if ((cell_1.tiles.x >= int(0))) {
+                const float3 _e63 = cell_centre(_e54, _e11);
+                float3 origin_2 = (_e63 + cell_1.offset.xyz);
+                float _e67 = sum_1;
+                const float _e70 = map_w(cell_1.tiles.x, _e10);
+                const float _e71 = inv_t_from_map(origin_2, _e70, b_9, dir_7);
+                sum_1 = (_e67 + (_e50 * _e71));
+                float _e74 = wsum;
+                wsum = (_e74 + _e50);
+            }
+        }
+    }
+    float _e79 = wsum;
+    if ((_e79 > 0.0)) {
+        float _e82 = sum_1;
+        float _e83 = wsum;
+        const Aim _e85 = aim_from_inv_t((_e82 / _e83), b_9, dir_7);
+        const Aim aim_6 = _e85;
+        return aim_6;
+    }
+    const float3 _e86 = fallback_fetch(b_9, dir_7);
+    const Aim aim_7 = ConstructAim(_e86, -1.0);
+    return aim_7;
+}
+
+float mip_roughness(uint m)
+{
+    float _e9 = params.mip_roughness[naga_div(m, 4u)][naga_mod(m, 4u)];
+    return _e9;
+}
+
+float lod_of_roughness(float r)
+{
+    bool local_13 = (bool)0;
+    uint below = 0u;
+    uint t_5 = 0u;
+    float f_2 = 0.0;
+
+    uint n_9 = params.probe_info.x;
+    if (!((n_9 < 2u))) {
+        const float _e11 = mip_roughness(0u);
+        local_13 = !((r > _e11));
+    } else {
+        local_13 = true;
+    }
+    bool _e15 = local_13;
+    if (_e15) {
+        return 0.0;
+    }
+    uint last = (n_9 - 1u);
+    const float _e19 = mip_roughness(last);
+    if ((r >= _e19)) {
+        return float(last);
+    }
+    uint2 loop_bound_3 = uint2(4294967295u, 4294967295u);
+    bool loop_init_3 = true;
+    while(true) {
+        if (all(loop_bound_3 == uint2(0u, 0u))) { break; }
+        loop_bound_3 -= uint2(loop_bound_3.y == 0u, 1u);
+        if (!loop_init_3) {
+            uint _e37 = t_5;
+            t_5 = (_e37 + 1u);
+        }
+        loop_init_3 = false;
+        uint _e26 = t_5;
+        if ((_e26 < n_9)) {
+        } else {
+            break;
+        }
+        {
+            uint _e28 = below;
+            uint _e31 = t_5;
+            const float _e32 = mip_roughness(_e31);
+            below = (_e28 + ((_e32 <= r) ? 1u : 0u));
+        }
+    }
+    uint _e39 = below;
+    uint i_1 = (clamp(_e39, 1u, last) - 1u);
+    const float _e46 = mip_roughness((i_1 + 1u));
+    const float _e47 = mip_roughness(i_1);
+    float span = (_e46 - _e47);
+    if ((span > 0.0)) {
+        const float _e53 = mip_roughness(i_1);
+        f_2 = ((r - _e53) / span);
+    }
+    float _e57 = f_2;
+    return (float(i_1) + clamp(_e57, 0.0, 1.0));
+}
+
+float distance_ratio(float3 b_10, float3 v_6, float2 uv_6)
+{
+    bool local_14 = (bool)0;
+    bool local_15 = (bool)0;
+    bool local_16 = (bool)0;
+    bool local_17 = (bool)0;
+
+    float l_5 = length(v_6);
+    float _e8 = params.probe.w;
+    uint _e12 = params.probe_info.y;
+    const float4 _e13 = probe_sample_lod(1u, uv_6, _e8, _e12);
+    float w_3 = _e13.x;
+    if ((l_5 > 0.0)) {
+        const bool _e19 = finite(l_5);
+        local_14 = _e19;
+    } else {
+        local_14 = false;
+    }
+    bool _e21 = local_14;
+    if (_e21) {
+        local_15 = (w_3 > 0.0);
+    } else {
+        local_15 = false;
+    }
+    bool _e27 = local_15;
+    if (_e27) {
+        const bool _e30 = finite(w_3);
+        local_16 = _e30;
+    } else {
+        local_16 = false;
+    }
+    bool _e32 = local_16;
+    if (!(_e32)) {
+        return 1.0;
+    }
+    float d_probe = (1.0 / w_3);
+    float4 _e39 = params.probe;
+    float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_10));
+    float k_7 = (d_probe / d_surface);
+    const bool _e47 = finite(k_7);
+    if (_e47) {
+        local_17 = (k_7 > 0.0);
+    } else {
+        local_17 = false;
+    }
+    bool _e53 = local_17;
+    if (_e53) {
+        return k_7;
+    }
+    return 1.0;
+}
+
+float pseudo_log2_(float k_3)
+{
+    uint bits = asuint(k_3);
+    int e_1 = asint(asuint(int(((bits >> 23u) & 255u))) - asuint(int(127)));
+    float m_3 = asfloat(((bits & 8388607u) | 1065353216u));
+    return (float(e_1) + (m_3 - 1.0));
+}
+
+float corrected_roughness(float r_1, float k_in)
+{
+    float fr = 0.0;
+    float k_4 = 1.0;
+    bool local_18 = (bool)0;
+
+    uint n_10 = params.lut_info.x;
+    float last_1 = float((n_10 - 1u));
+    const bool _e11 = finite(r_1);
+    if (_e11) {
+        fr = clamp((r_1 * last_1), 0.0, last_1);
+    }
+    const bool _e17 = finite(k_in);
+    if (_e17) {
+        local_18 = (k_in > 0.0);
+    } else {
+        local_18 = false;
+    }
+    bool _e23 = local_18;
+    if (_e23) {
+        k_4 = k_in;
+    }
+    float _e24 = k_4;
+    float _e28 = params.lut.z;
+    float _e32 = params.lut.w;
+    k_4 = clamp(_e24, _e28, _e32);
+    float _e34 = k_4;
+    const float _e35 = pseudo_log2_(_e34);
+    float _e39 = params.lut.x;
+    float _e44 = params.lut.y;
+    float fx = clamp(((_e35 - _e39) * _e44), 0.0, last_1);
+    float _e48 = fr;
+    uint i_2 = min(naga_f2u32(_e48), (n_10 - 2u));
+    uint j_1 = min(naga_f2u32(fx), (n_10 - 2u));
+    float _e57 = fr;
+    float a_5 = (_e57 - float(i_2));
+    float b_15 = (fx - float(j_1));
+    float4 _e67 = roughness_lut.Load(int3(int2(int(j_1), int(i_2)), int(0)));
+    float v00_ = _e67.x;
+    float4 _e76 = roughness_lut.Load(int3(int2(int((j_1 + 1u)), int(i_2)), int(0)));
+    float v01_ = _e76.x;
+    float4 _e85 = roughness_lut.Load(int3(int2(int(j_1), int((i_2 + 1u))), int(0)));
+    float v10_ = _e85.x;
+    float4 _e96 = roughness_lut.Load(int3(int2(int((j_1 + 1u)), int((i_2 + 1u))), int(0)));
+    float v11_ = _e96.x;
+    return ((((v00_ * (1.0 - b_15)) + (v01_ * b_15)) * (1.0 - a_5)) + (((v10_ * (1.0 - b_15)) + (v11_ * b_15)) * a_5));
+}
+
+float3 shade(float3 b_11, Aim aim, float r_2)
+{
+    float k_5 = (float)0;
+
+    const float2 _e4 = oct_encode(aim.v);
+    if ((r_2 == 0.0)) {
+        const float3 _e8 = radiance_lod(_e4, 0.0);
+        return _e8;
+    }
+    uint _e12 = params.probe_info.w;
+    if ((_e12 == 0u)) {
+        const float _e15 = lod_of_roughness(r_2);
+        const float3 _e16 = radiance_lod(_e4, _e15);
+        return _e16;
+    }
+    k_5 = aim.k;
+    float _e19 = k_5;
+    if ((_e19 < 0.0)) {
+        const float _e23 = distance_ratio(b_11, aim.v, _e4);
+        k_5 = _e23;
+    }
+    float _e24 = k_5;
+    const float _e25 = corrected_roughness(r_2, _e24);
+    const float _e26 = lod_of_roughness(_e25);
+    const float3 _e27 = radiance_lod(_e4, _e26);
+    return _e27;
+}
+
+float3 clean(float3 c_5)
+{
+    const bool _e1 = finite3_(c_5);
+    if (_e1) {
+        return max(c_5, (0.0).xxx);
+    }
+    return (0.0).xxx;
+}
+
+float3 specular(float3 position, float3 direction, float roughness)
+{
+    float3 b_12 = (float3)0;
+    float r_3 = 0.0;
+
+    const float4 _e3 = unit_direction(direction);
+    if ((_e3.w == 0.0)) {
+        return (0.0).xxx;
+    }
+    float4 _e11 = params.probe;
+    b_12 = _e11.xyz;
+    const bool _e14 = finite3_(position);
+    if (_e14) {
+        b_12 = position;
+    }
+    const bool _e17 = finite(roughness);
+    if (_e17) {
+        r_3 = clamp(roughness, 0.0, 1.0);
+    }
+    float3 _e21 = b_12;
+    float3 _e22 = b_12;
+    const Aim _e24 = fetch(_e22, _e3.xyz);
+    float _e25 = r_3;
+    const float3 _e26 = shade(_e21, _e24, _e25);
+    const float3 _e27 = clean(_e26);
+    return _e27;
+}
+
+float3 cell_irradiance(int tile_2, float3 n_5)
+{
+    uint _e6 = params.atlas_a.z;
+    uint _e10 = params.atlas_a.w;
+    const float2 _e11 = oct_encode(n_5);
+    const float4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
+    return _e12.xyz;
+}
+
+float3 irradiance(float3 position_1, float3 normal)
+{
+    float3 p_3 = (float3)0;
+    float3 e = (0.0).xxx;
+    float wsum_1 = 0.0;
+    uint corner_3 = 0u;
+    float w_1 = (float)0;
+    bool local_19 = (bool)0;
+    float k_6 = (float)0;
+
+    const float4 _e2 = unit_direction(normal);
+    if ((_e2.w == 0.0)) {
+        return (0.0).xxx;
+    }
+    float3 n_11 = _e2.xyz;
+    const float3 _e9 = cell_size();
+    float4 _e12 = params.grid_min;
+    float4 _e16 = params.grid_max;
+    float4 _e20 = params.grid_min;
+    p_3 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
+    const bool _e27 = finite3_(position_1);
+    if (_e27) {
+        p_3 = position_1;
+    }
+    float3 _e28 = p_3;
+    const Lattice _e29 = lattice(_e28, _e9);
+    const float2 _e30 = oct_encode(n_11);
+    uint2 loop_bound_4 = uint2(4294967295u, 4294967295u);
+    bool loop_init_4 = true;
+    while(true) {
+        if (all(loop_bound_4 == uint2(0u, 0u))) { break; }
+        loop_bound_4 -= uint2(loop_bound_4.y == 0u, 1u);
+        if (!loop_init_4) {
+            uint _e152 = corner_3;
+            corner_3 = (_e152 + 1u);
+        }
+        loop_init_4 = false;
+        uint _e38 = corner_3;
+        if ((_e38 < 8u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e41 = corner_3;
+            const float _e42 = corner_weight(_e29, _e41);
+            if ((_e42 <= 0.0)) {
+                continue;
+            }
+            uint _e45 = corner_3;
+            const uint3 _e46 = corner_cell(_e29, _e45);
+            const uint _e48 = cell_index(_e46);
+            Cell cell_2 = ConstructCell(asint(cells.Load4(_e48*32+0)), asfloat(cells.Load4(_e48*32+16)));
+            if ((cell_2.tiles.y < int(0))) {
+                continue;
+            }
+            float3 _e55 = p_3;
+            const float3 _e56 = cell_centre(_e46, _e9);
+            float3 to_point = (_e55 - (_e56 + cell_2.offset.xyz));
+            float dist = length(to_point);
+            w_1 = _e42;
+            if ((dist > 0.0)) {
+                const bool _e67 = finite(dist);
+                local_19 = _e67;
+            } else {
+                local_19 = false;
+            }
+            bool _e69 = local_19;
+            if (_e69) {
+                float3 u_1 = (to_point / (dist).xxx);
+                float facing = ((dot(n_11, -(u_1)) + 1.0) * 0.5);
+                float _e78 = w_1;
+                w_1 = (_e78 * ((facing * facing) + 0.2));
+                uint _e89 = params.atlas_b.x;
+                uint _e93 = params.atlas_b.y;
+                const float2 _e94 = oct_encode(u_1);
+                const float4 _e95 = atlas_bilinear(ATLAS_MOMENTS, cell_2.tiles.y, _e89, _e93, _e94);
+                float mean = _e95.x;
+                float mean_sq = _e95.y;
+                if ((dist > mean)) {
+                    float variance = max(abs((mean_sq - (mean * mean))), ((1e-12 * mean) * mean));
+                    float dd = (dist - mean);
+                    float cheb = (variance / (variance + (dd * dd)));
+                    float _e110 = w_1;
+                    w_1 = (_e110 * max(((cheb * cheb) * cheb), 0.0));
+                }
+            }
+            float _e116 = w_1;
+            w_1 = max(_e116, (1e-6 * _e42));
+            k_6 = 1.0;
+            if ((cell_2.tiles.z >= int(0))) {
+                uint _e132 = params.atlas_b.z;
+                uint _e136 = params.atlas_b.w;
+                const float4 _e137 = atlas_bilinear(ATLAS_SCALE, cell_2.tiles.z, _e132, _e136, _e30);
+                k_6 = _e137.x;
+            }
+            float3 _e139 = e;
+            const float3 _e142 = cell_irradiance(cell_2.tiles.y, n_11);
+            float _e143 = w_1;
+            float _e145 = k_6;
+            e = (_e139 + ((_e142 * _e143) * _e145));
+            float _e148 = wsum_1;
+            float _e149 = w_1;
+            wsum_1 = (_e148 + _e149);
+        }
+    }
+    float _e154 = wsum_1;
+    if (!((_e154 > 0.0))) {
+        return (0.0).xxx;
+    }
+    float3 _e160 = e;
+    float _e161 = wsum_1;
+    const float3 _e164 = clean((_e160 / (_e161).xxx));
+    return _e164;
+}
+
+uint NagaBufferLengthRW(RWByteAddressBuffer buffer)
+{
+    uint ret;
+    buffer.GetDimensions(ret);
+    return ret;
+}
+
+uint query_count()
+{
+    return ((NagaBufferLengthRW(results) - 0) / 16);
+}
+
+[numthreads(64, 1, 1)]
+void specular_queries(uint3 id : SV_DispatchThreadID)
+{
+    uint k_8 = id.x;
+    const uint _e2 = query_count();
+    if ((k_8 >= _e2)) {
+        return;
+    }
+    float4 p_4 = asfloat(queries.Load4((2u * k_8)*16));
+    float4 d_2 = asfloat(queries.Load4(((2u * k_8) + 1u)*16));
+    const float3 _e21 = specular(p_4.xyz, d_2.xyz, p_4.w);
+    results.Store4(k_8*16, asuint(float4(_e21, 1.0)));
+    return;
+}
+
+[numthreads(64, 1, 1)]
+void irradiance_queries(uint3 id_1 : SV_DispatchThreadID)
+{
+    uint k_9 = id_1.x;
+    const uint _e2 = query_count();
+    if ((k_9 >= _e2)) {
+        return;
+    }
+    float4 p_5 = asfloat(queries.Load4((2u * k_9)*16));
+    float4 n_12 = asfloat(queries.Load4(((2u * k_9) + 1u)*16));
+    const float3 _e20 = irradiance(p_5.xyz, n_12.xyz);
+    results.Store4(k_9*16, asuint(float4(_e20, 1.0)));
+    return;
+}
+
+[numthreads(64, 1, 1)]
+void warp1_queries(uint3 id_2 : SV_DispatchThreadID)
+{
+    float3 b = (float3)0;
+    float3 c = (0.0).xxx;
+    float3 v = (float3)0;
+
+    uint k_10 = id_2.x;
+    const uint _e2 = query_count();
+    if ((k_10 >= _e2)) {
+        return;
+    }
+    float4 _e6 = params.probe;
+    b = _e6.xyz;
+    float4 _e13 = asfloat(queries.Load4((2u * k_10)*16));
+    const bool _e15 = finite3_(_e13.xyz);
+    if (_e15) {
+        float4 _e20 = asfloat(queries.Load4((2u * k_10)*16));
+        b = _e20.xyz;
+    }
+    float4 _e28 = asfloat(queries.Load4(((2u * k_10) + 1u)*16));
+    const float4 _e30 = unit_direction(_e28.xyz);
+    if ((_e30.w != 0.0)) {
+        v = _e30.xyz;
+        float3 _e39 = b;
+        float4 _e42 = params.probe;
+        if (any((_e39 != _e42.xyz))) {
+            float3 _e46 = b;
+            const float3 _e48 = warp1_(_e46, _e30.xyz);
+            v = _e48;
+        }
+        float3 _e49 = v;
+        const float2 _e50 = oct_encode(_e49);
+        const float3 _e52 = radiance_lod(_e50, 0.0);
+        const float3 _e53 = clean(_e52);
+        c = _e53;
+    }
+    float3 _e56 = c;
+    results.Store4(k_10*16, asuint(float4(_e56, 1.0)));
+    return;
+}
+
+[numthreads(64, 1, 1)]
+void box_queries(uint3 id_3 : SV_DispatchThreadID)
+{
+    float3 b_1 = (float3)0;
+    float3 c_1 = (0.0).xxx;
+    float3 v_1 = (float3)0;
+
+    uint k_11 = id_3.x;
+    const uint _e2 = query_count();
+    if ((k_11 >= _e2)) {
+        return;
+    }
+    float4 _e6 = params.probe;
+    b_1 = _e6.xyz;
+    float4 _e13 = asfloat(queries.Load4((2u * k_11)*16));
+    const bool _e15 = finite3_(_e13.xyz);
+    if (_e15) {
+        float4 _e20 = asfloat(queries.Load4((2u * k_11)*16));
+        b_1 = _e20.xyz;
+    }
+    float4 _e28 = asfloat(queries.Load4(((2u * k_11) + 1u)*16));
+    const float4 _e30 = unit_direction(_e28.xyz);
+    if ((_e30.w != 0.0)) {
+        v_1 = _e30.xyz;
+        float3 _e39 = b_1;
+        float4 _e42 = params.probe;
+        if (any((_e39 != _e42.xyz))) {
+            float3 _e46 = b_1;
+            const float3 _e48 = box_fetch(_e46, _e30.xyz);
+            v_1 = _e48;
+        }
+        float3 _e49 = v_1;
+        const float2 _e50 = oct_encode(_e49);
+        const float3 _e52 = radiance_lod(_e50, 0.0);
+        const float3 _e53 = clean(_e52);
+        c_1 = _e53;
+    }
+    float3 _e56 = c_1;
+    results.Store4(k_11*16, asuint(float4(_e56, 1.0)));
+    return;
+}

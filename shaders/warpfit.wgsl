@@ -1,0 +1,816 @@
+// warpfit's fitted lookup as a shader: `specular(p, dir, roughness)` and `irradiance(p, n)`
+// over the textures and buffers `warpfit export --format ktx2` writes. A line-by-line port
+// of the CPU sampler (`warpfit::runtime::FittedGrid`), with the same defined behaviour at
+// the edges: a zero or non-finite direction or normal gives black, a non-finite position
+// reads as the probe's own (specular) or the grid's centre (irradiance), roughness is
+// clamped to [0, 1] (NaN reads 0), positions outside the grid use the nearest cell, the sky
+// (inverse distance 0) is at infinity, and every result is finite and >= 0.
+//
+// Bindings (group 0), all from the export folder:
+//   0 probe_radiance      probe_radiance.ktx2      RGBA16F (or RGBA32F), every GGX mip
+//   1 probe_inv_distance  probe_inv_distance.ktx2  R32F, every mip (1/distance, 0 = sky)
+//   2 corrective_atlas    correctives.ktx2         R32F, guttered tiles (1x1 dummy if none)
+//   3 irradiance_atlas    irradiance.ktx2          RGBA16F (or RGBA32F), guttered tiles
+//   4 moments_atlas       moments.ktx2             RG32F, guttered tiles
+//   5 scale_atlas         irradiance_scale.ktx2    R32F, guttered tiles (1x1 dummy if none)
+//   6 roughness_lut       roughness_lookup.ktx2    R32F nodes x nodes (1x1 dummy if none)
+//   7 params              warpfit_params.bin       uniform buffer (struct Params)
+//   8 cells               warpfit_cells.bin        storage buffer (array<Cell>)
+// Textures are read with textureLoad only (no sampler): R32F is not filterable in core
+// WebGPU, and loads give the CPU's exact bilinear weights. The probe's mips are read with
+// the octahedral seam wrap; the atlases' one-texel gutters make a tile's 2x2 footprint
+// contiguous, so they need none (and plain hardware bilinear of a tile equals this too).
+//
+// Group 1 holds the query kernels' buffers (see the entry points at the end).
+
+struct Params {
+    // the grid: min (xyz), max (xyz), cell counts (xyz) and the corrective blend (w: 0 the
+    // containing cell, 1 trilinear over the eight cells around the point)
+    grid_min: vec4<f32>,
+    grid_max: vec4<f32>,
+    grid_counts: vec4<u32>,
+    // probe A: position (xyz) and the depth mip the warps read (w)
+    probe: vec4<f32>,
+    // x radiance mips, y inverse-distance mips, z fallback method (0 warp1, 1 box, 2 kdop),
+    // w 1 when the roughness correction is present
+    probe_info: vec4<u32>,
+    // x UV relaxation in probe texels (0 = off), y and z mip-0 resolution of the radiance
+    // and of the inverse-distance map
+    warp: vec4<f32>,
+    // the box proxy: centre, half extents, and its world-to-local rotation's columns
+    box_centre: vec4<f32>,
+    box_half: vec4<f32>,
+    box_x: vec4<f32>,
+    box_y: vec4<f32>,
+    box_z: vec4<f32>,
+    // the 18-DOP: normal (xyz) and offset (w) of each plane; bit k of kdop_open.x set: plane
+    // k is open (the probe saw sky that way)
+    kdop: array<vec4<f32>, 18>,
+    kdop_open: vec4<u32>,
+    // perceptual roughness of radiance mip m at mip_roughness[m / 4][m % 4]
+    mip_roughness: array<vec4<f32>, 4>,
+    // tile resolution N (x) and tiles per atlas row (y) of the corrective atlas and the
+    // irradiance atlas (z, w)
+    atlas_a: vec4<u32>,
+    // the same for the moments atlas (x, y) and the irradiance scale atlas (z, w)
+    atlas_b: vec4<u32>,
+    // the roughness table: x0, inv_dx, k_min, k_max (see export.json's roughness_lookup)
+    lut: vec4<f32>,
+    // x nodes per axis of the roughness table
+    lut_info: vec4<u32>,
+}
+
+// One grid cell: its tiles (x corrective, y irradiance, z irradiance scale; -1 = none) and
+// its probe's relocation offset from the cell centre (xyz), which is also its warp map's
+// origin.
+struct Cell {
+    tiles: vec4<i32>,
+    offset: vec4<f32>,
+}
+
+@group(0) @binding(0) var probe_radiance: texture_2d<f32>;
+@group(0) @binding(1) var probe_inv_distance: texture_2d<f32>;
+@group(0) @binding(2) var corrective_atlas: texture_2d<f32>;
+@group(0) @binding(3) var irradiance_atlas: texture_2d<f32>;
+@group(0) @binding(4) var moments_atlas: texture_2d<f32>;
+@group(0) @binding(5) var scale_atlas: texture_2d<f32>;
+@group(0) @binding(6) var roughness_lut: texture_2d<f32>;
+@group(0) @binding(7) var<uniform> params: Params;
+@group(0) @binding(8) var<storage, read> cells: array<Cell>;
+
+// 1e30 stands for "at B" and "beyond everything": WGSL has no infinity literal, and
+// implementations may assume no infinities, so none is ever made on purpose.
+const HUGE: f32 = 1e30;
+const F32_MIN_POSITIVE: f32 = 1.17549435e-38;
+const F32_EPSILON: f32 = 1.1920929e-7;
+const PI: f32 = 3.14159265358979;
+
+const ATLAS_CORRECTIVE: u32 = 0u;
+const ATLAS_IRRADIANCE: u32 = 1u;
+const ATLAS_MOMENTS: u32 = 2u;
+const ATLAS_SCALE: u32 = 3u;
+
+// ---- numbers ---------------------------------------------------------------------------
+
+// Finite (not NaN or infinite), by the bits: comparisons may be optimised on the
+// assumption that no NaN exists.
+fn finite(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
+}
+
+fn finite3(v: vec3<f32>) -> bool {
+    return finite(v.x) && finite(v.y) && finite(v.z);
+}
+
+fn sign_not_zero(x: f32) -> f32 {
+    return select(-1.0, 1.0, x >= 0.0);
+}
+
+// `v` made unit length (w = 1), or w = 0 for a zero or non-finite vector. Scaled by its
+// largest component first, so huge and tiny vectors work; a unit vector is kept as is.
+fn unit_direction(v: vec3<f32>) -> vec4<f32> {
+    let l2 = dot(v, v);
+    if finite(l2) && abs(l2 - 1.0) <= 4.0 * F32_EPSILON {
+        return vec4<f32>(v, 1.0);
+    }
+    let m = max(abs(v.x), max(abs(v.y), abs(v.z)));
+    if !(m > 0.0 && finite(m) && finite3(v)) {
+        return vec4<f32>(0.0, 0.0, 1.0, 0.0);
+    }
+    let s = v / m;
+    let l = length(s);
+    if !(l > 0.0 && finite(l)) {
+        return vec4<f32>(0.0, 0.0, 1.0, 0.0);
+    }
+    return vec4<f32>(s / l, 1.0);
+}
+
+// `to - from` when usable as a fetch vector, else `fallback`.
+fn fetch_vector(from_: vec3<f32>, to: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
+    let v = to - from_;
+    let l2 = dot(v, v);
+    if l2 > 0.0 && finite(l2) {
+        return v;
+    }
+    return fallback;
+}
+
+// ---- octahedral maps -------------------------------------------------------------------
+
+// Direction -> uv in [0,1]^2 (the manifest's `octahedral` convention); a zero, subnormal or
+// non-finite vector maps to the centre (+Z).
+fn oct_encode(d: vec3<f32>) -> vec2<f32> {
+    let l1 = abs(d.x) + abs(d.y) + abs(d.z);
+    if !(l1 >= F32_MIN_POSITIVE && finite(l1)) {
+        return vec2<f32>(0.5, 0.5);
+    }
+    let inv_l1 = 1.0 / l1;
+    var p = vec2<f32>(d.x * inv_l1, d.y * inv_l1);
+    if d.z < 0.0 {
+        p = vec2<f32>((1.0 - abs(p.y)) * sign_not_zero(p.x), (1.0 - abs(p.x)) * sign_not_zero(p.y));
+    }
+    return clamp(p * 0.5 + 0.5, vec2<f32>(0.0), vec2<f32>(1.0));
+}
+
+// Integer texel coordinates up to one texel outside an N x N map, folded back inside by the
+// octahedral seam rule (an edge's outside neighbour is the mirrored texel of the same edge).
+fn wrap_texel(n: i32, t: vec2<i32>) -> vec2<i32> {
+    var i = t.x;
+    var j = t.y;
+    if i < 0 {
+        i = -i - 1;
+        j = n - 1 - j;
+    } else if i >= n {
+        i = 2 * n - 1 - i;
+        j = n - 1 - j;
+    }
+    if j < 0 {
+        i = n - 1 - i;
+        j = -j - 1;
+    } else if j >= n {
+        i = n - 1 - i;
+        j = 2 * n - 1 - j;
+    }
+    return clamp(vec2<i32>(i, j), vec2<i32>(0), vec2<i32>(n - 1));
+}
+
+// The bilinear footprint of uv on an N x N map: its top-left texel (-1 .. N-1) and the
+// blend fractions.
+struct Footprint {
+    corner: vec2<i32>,
+    f: vec2<f32>,
+}
+
+fn footprint(n: u32, uv: vec2<f32>) -> Footprint {
+    let x = clamp(uv, vec2<f32>(0.0), vec2<f32>(1.0)) * f32(n) - 0.5;
+    let x0 = floor(x);
+    return Footprint(vec2<i32>(x0), x - x0);
+}
+
+fn blend4(q00: vec4<f32>, q10: vec4<f32>, q01: vec4<f32>, q11: vec4<f32>, f: vec2<f32>) -> vec4<f32> {
+    return (q00 * (1.0 - f.x) + q10 * f.x) * (1.0 - f.y) + (q01 * (1.0 - f.x) + q11 * f.x) * f.y;
+}
+
+// Seam-aware bilinear of mip `level` of probe texture `which` (0 radiance, 1 inverse
+// distance).
+fn probe_texel(which: u32, t: vec2<i32>, level: i32) -> vec4<f32> {
+    if which == 0u {
+        return textureLoad(probe_radiance, t, level);
+    }
+    return textureLoad(probe_inv_distance, t, level);
+}
+
+fn probe_bilinear(which: u32, uv: vec2<f32>, level: u32) -> vec4<f32> {
+    // mip sizes from the parameters, not textureDimensions: some drivers (llvmpipe 22) answer
+    // textureDimensions for one invocation's level when invocations read different mips
+    let res0 = select(params.warp.z, params.warp.y, which == 0u);
+    let n = max(u32(res0) >> level, 1u);
+    let fp = footprint(n, uv);
+    let c = fp.corner;
+    let l = i32(level);
+    let ni = i32(n);
+    let q00 = probe_texel(which, wrap_texel(ni, c), l);
+    let q10 = probe_texel(which, wrap_texel(ni, c + vec2<i32>(1, 0)), l);
+    let q01 = probe_texel(which, wrap_texel(ni, c + vec2<i32>(0, 1)), l);
+    let q11 = probe_texel(which, wrap_texel(ni, c + vec2<i32>(1, 1)), l);
+    return blend4(q00, q10, q01, q11, fp.f);
+}
+
+// Trilinear lookup at fractional `lod` of a probe mip chain of `levels` levels.
+fn probe_sample_lod(which: u32, uv: vec2<f32>, lod_in: f32, levels: u32) -> vec4<f32> {
+    let top = f32(max(levels, 1u) - 1u);
+    var lod = 0.0;
+    if finite(lod_in) {
+        lod = min(max(lod_in, 0.0), top);
+    }
+    let l0 = u32(lod);
+    let f = lod - f32(l0);
+    let a = probe_bilinear(which, uv, l0);
+    if f == 0.0 || l0 + 1u >= levels {
+        return a;
+    }
+    let b = probe_bilinear(which, uv, l0 + 1u);
+    return a * (1.0 - f) + b * f;
+}
+
+fn radiance_lod(uv: vec2<f32>, lod: f32) -> vec3<f32> {
+    return probe_sample_lod(0u, uv, lod, params.probe_info.x).xyz;
+}
+
+// Inverse distance probe A sees along `v` at the warps' depth mip: finite and > 0, else 0
+// (sky).
+fn inv_dist(v: vec3<f32>) -> f32 {
+    let w = probe_sample_lod(1u, oct_encode(v), params.probe.w, params.probe_info.y).x;
+    if w > 0.0 && finite(w) {
+        return w;
+    }
+    return 0.0;
+}
+
+// Texel `t` of atlas `which`.
+fn atlas_texel(which: u32, t: vec2<i32>) -> vec4<f32> {
+    switch which {
+        case 0u: {
+            return textureLoad(corrective_atlas, t, 0);
+        }
+        case 1u: {
+            return textureLoad(irradiance_atlas, t, 0);
+        }
+        case 2u: {
+            return textureLoad(moments_atlas, t, 0);
+        }
+        default: {
+            return textureLoad(scale_atlas, t, 0);
+        }
+    }
+}
+
+// Bilinear of tile `tile` (N x N, `columns` tiles per row, one-texel gutter) of atlas
+// `which` at octahedral uv: the gutter holds the seam neighbours, so the footprint is four
+// plain loads.
+fn atlas_bilinear(which: u32, tile: i32, n: u32, columns: u32, uv: vec2<f32>) -> vec4<f32> {
+    let s = u32(tile);
+    let origin = vec2<i32>(vec2<u32>(s % columns, s / columns) * (n + 2u));
+    let fp = footprint(n, uv);
+    let c = origin + fp.corner + vec2<i32>(1, 1);
+    let q00 = atlas_texel(which, c);
+    let q10 = atlas_texel(which, c + vec2<i32>(1, 0));
+    let q01 = atlas_texel(which, c + vec2<i32>(0, 1));
+    let q11 = atlas_texel(which, c + vec2<i32>(1, 1));
+    return blend4(q00, q10, q01, q11, fp.f);
+}
+
+// ---- the grid --------------------------------------------------------------------------
+
+fn cell_size() -> vec3<f32> {
+    return (params.grid_max.xyz - params.grid_min.xyz) / vec3<f32>(params.grid_counts.xyz);
+}
+
+fn cell_index(c: vec3<u32>) -> u32 {
+    let n = params.grid_counts;
+    return c.x + n.x * (c.y + n.y * c.z);
+}
+
+// The cell containing p, clamped to the grid.
+fn cell_of(p: vec3<f32>, size: vec3<f32>) -> vec3<u32> {
+    let f = floor((p - params.grid_min.xyz) / size);
+    let hi = vec3<f32>(params.grid_counts.xyz - vec3<u32>(1u));
+    if !finite3(f) {
+        return vec3<u32>(0u);
+    }
+    return vec3<u32>(clamp(f, vec3<f32>(0.0), hi));
+}
+
+fn cell_centre(c: vec3<u32>, size: vec3<f32>) -> vec3<f32> {
+    return params.grid_min.xyz + (vec3<f32>(c) + 0.5) * size;
+}
+
+// Position in the lattice of cell centres, clamped to it (trilinear blends).
+struct Lattice {
+    base: vec3<u32>,
+    frac: vec3<f32>,
+}
+
+fn lattice(p: vec3<f32>, size: vec3<f32>) -> Lattice {
+    var f = (p - params.grid_min.xyz) / size - 0.5;
+    let hi = vec3<f32>(params.grid_counts.xyz - vec3<u32>(1u));
+    if finite3(f) {
+        f = clamp(f, vec3<f32>(0.0), hi);
+    } else {
+        f = vec3<f32>(0.0);
+    }
+    let base = floor(f);
+    return Lattice(vec3<u32>(base), f - base);
+}
+
+// Corner `corner` (bits x, y, z) of a lattice cube: its cell and trilinear weight.
+fn corner_weight(l: Lattice, corner: u32) -> f32 {
+    let o = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
+    let wx = select(1.0 - l.frac.x, l.frac.x, o.x == 1u);
+    let wy = select(1.0 - l.frac.y, l.frac.y, o.y == 1u);
+    let wz = select(1.0 - l.frac.z, l.frac.z, o.z == 1u);
+    return wx * wy * wz;
+}
+
+fn corner_cell(l: Lattice, corner: u32) -> vec3<u32> {
+    let o = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
+    return min(l.base + o, params.grid_counts.xyz - vec3<u32>(1u));
+}
+
+// ---- the unfitted warps (the fallback of cells without a map) --------------------------
+
+// Seed 000's plane warp, one step, in the homogeneous form the CPU uses.
+fn warp1(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    let a = params.probe.xyz;
+    let w1 = inv_dist(dir);
+    if w1 == 0.0 {
+        return dir;
+    }
+    let ab = a - b;
+    let dir_ab = dot(dir, ab);
+    let v = dir * max(dir_ab * w1 + 1.0, 0.0) - ab * w1;
+    let lambda = length(v) * inv_dist(v);
+    let t = max(dir_ab * lambda + dot(dir, v), 0.0);
+    let f = dir * t - ab * lambda;
+    if lambda > 0.0 {
+        return fetch_vector(vec3<f32>(0.0), f, dir);
+    }
+    return dir;
+}
+
+// Box proxy (seed 001): leave the oriented box from B along dir, fetch towards that point;
+// B outside the box or no exit: the query direction.
+fn box_fetch(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    let a = params.probe.xyz;
+    let m = mat3x3<f32>(params.box_x.xyz, params.box_y.xyz, params.box_z.xyz);
+    let h = params.box_half.xyz;
+    let o = m * (b - params.box_centre.xyz);
+    if any(abs(o) > h) {
+        return dir;
+    }
+    let d = m * dir;
+    var t = HUGE;
+    for (var k = 0; k < 3; k++) {
+        if d[k] != 0.0 {
+            let face = select(-h[k], h[k], d[k] > 0.0);
+            t = min(t, (face - o[k]) / d[k]);
+        }
+    }
+    if !(t < HUGE) {
+        return dir;
+    }
+    return fetch_vector(a, b + dir * max(t, 0.0), dir);
+}
+
+// 18-DOP proxy: the nearest closed plane the ray from B leaves through.
+fn kdop_fetch(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    let a = params.probe.xyz;
+    var t = HUGE;
+    for (var k = 0u; k < 18u; k++) {
+        if (params.kdop_open.x & (1u << k)) != 0u {
+            continue;
+        }
+        let n = params.kdop[k].xyz;
+        let h = params.kdop[k].w;
+        let nb = dot(n, b);
+        if nb > h {
+            return dir; // B outside the proxy
+        }
+        let nd = dot(n, dir);
+        if nd > 0.0 {
+            t = min(t, (h - nb) / nd);
+        }
+    }
+    if t < HUGE {
+        return fetch_vector(a, b + dir * t, dir);
+    }
+    return dir;
+}
+
+fn fallback_plain(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    switch params.probe_info.z {
+        case 1u: {
+            return box_fetch(b, dir);
+        }
+        case 2u: {
+            return kdop_fetch(b, dir);
+        }
+        default: {
+            return warp1(b, dir);
+        }
+    }
+}
+
+// Frisvad's orthonormal basis around unit n (Duff et al. 2017), as the CPU builds it.
+fn basis_t(n: vec3<f32>) -> vec3<f32> {
+    let s = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (s + n.z);
+    let b = n.x * n.y * a;
+    return vec3<f32>(1.0 + s * n.x * n.x * a, s * b, -s * n.x);
+}
+
+fn basis_b(n: vec3<f32>) -> vec3<f32> {
+    let s = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (s + n.z);
+    let b = n.x * n.y * a;
+    return vec3<f32>(b, s + n.y * n.y * a, -n.y);
+}
+
+fn normalize_or(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
+    let l = length(v);
+    if l > 0.0 && finite(l) {
+        return v / l;
+    }
+    return fallback;
+}
+
+// The fallback method's fetch vector, with UV relaxation when the fit used it (seed 000:
+// the warped direction averaged over a 4-tap stencil of query directions).
+fn fallback_fetch(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    if all(b == params.probe.xyz) {
+        return dir;
+    }
+    let relax = params.warp.x;
+    if !(relax > 0.0) {
+        return fallback_plain(b, dir);
+    }
+    let angle = relax * sqrt(4.0 * PI) / params.warp.y;
+    let t = basis_t(dir);
+    let bt = basis_b(dir);
+    var sum = normalize_or(fallback_plain(b, dir), dir);
+    sum += normalize_or(fallback_plain(b, normalize(dir + t * angle)), dir);
+    sum += normalize_or(fallback_plain(b, normalize(dir - t * angle)), dir);
+    sum += normalize_or(fallback_plain(b, normalize(dir + bt * angle)), dir);
+    sum += normalize_or(fallback_plain(b, normalize(dir - bt * angle)), dir);
+    return normalize_or(sum, dir);
+}
+
+// ---- the fitted correctives ------------------------------------------------------------
+
+// Where a lookup reads probe A: fetch vector v and, when it aimed at a known point, that
+// point's distance ratio k = d_probe / d_surface (k < 0: unknown, read A's depth).
+struct Aim {
+    v: vec3<f32>,
+    k: f32,
+}
+
+// One warp step against a cell map: the cell (origin c) sees its hit at inverse distance w
+// along dir; returns 1/t of where the ray from B crosses the plane there (0 sky, 1e30 at B).
+fn inv_t_from_map(c: vec3<f32>, w: f32, b: vec3<f32>, dir: vec3<f32>) -> f32 {
+    if !(w > 0.0) {
+        return 0.0;
+    }
+    let t = dot(dir, c - b) + 1.0 / w;
+    if t > 0.0 {
+        return min(1.0 / t, HUGE);
+    }
+    return HUGE;
+}
+
+// Aim at the point at inverse distance u along the ray from B (sky: the query direction).
+fn aim_from_inv_t(u: f32, b: vec3<f32>, dir: vec3<f32>) -> Aim {
+    if u > 0.0 {
+        let v = b + dir / u - params.probe.xyz;
+        if finite3(v) && any(v != vec3<f32>(0.0)) {
+            var k = length(v) * u;
+            if !(finite(k) && k > 0.0) {
+                k = 1.0;
+            }
+            return Aim(v, k);
+        }
+    }
+    return Aim(dir, 1.0);
+}
+
+// Inverse distance from cell `cell`'s map origin along the direction of uv (its tile).
+fn map_w(tile: i32, uv: vec2<f32>) -> f32 {
+    return atlas_bilinear(ATLAS_CORRECTIVE, tile, params.atlas_a.x, params.atlas_a.y, uv).x;
+}
+
+// Where query (B, unit dir) reads probe A: the containing cell's warp map (or the blend of
+// the eight around B), else the fallback method.
+fn fetch(b: vec3<f32>, dir: vec3<f32>) -> Aim {
+    if all(b == params.probe.xyz) {
+        return Aim(dir, 1.0);
+    }
+    let uv = oct_encode(dir);
+    let size = cell_size();
+    if params.grid_counts.w == 0u {
+        let c = cell_of(b, size);
+        let cell = cells[cell_index(c)];
+        if cell.tiles.x >= 0 {
+            let origin = cell_centre(c, size) + cell.offset.xyz;
+            return aim_from_inv_t(inv_t_from_map(origin, map_w(cell.tiles.x, uv), b, dir), b, dir);
+        }
+        return Aim(fallback_fetch(b, dir), -1.0);
+    }
+    let l = lattice(b, size);
+    var sum = 0.0;
+    var wsum = 0.0;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let w = corner_weight(l, corner);
+        if w <= 0.0 {
+            continue;
+        }
+        let c = corner_cell(l, corner);
+        let cell = cells[cell_index(c)];
+        if cell.tiles.x >= 0 {
+            let origin = cell_centre(c, size) + cell.offset.xyz;
+            sum += w * inv_t_from_map(origin, map_w(cell.tiles.x, uv), b, dir);
+            wsum += w;
+        }
+    }
+    if wsum > 0.0 {
+        return aim_from_inv_t(sum / wsum, b, dir);
+    }
+    return Aim(fallback_fetch(b, dir), -1.0);
+}
+
+// ---- rough lookups ---------------------------------------------------------------------
+
+fn mip_roughness(m: u32) -> f32 {
+    return params.mip_roughness[m / 4u][m % 4u];
+}
+
+// Fractional radiance mip of perceptual roughness r (linear between the mips' roughness).
+fn lod_of_roughness(r: f32) -> f32 {
+    let n = params.probe_info.x;
+    if n < 2u || !(r > mip_roughness(0u)) {
+        return 0.0;
+    }
+    let last = n - 1u;
+    if r >= mip_roughness(last) {
+        return f32(last);
+    }
+    var below = 0u;
+    for (var t = 0u; t < n; t++) {
+        below += select(0u, 1u, mip_roughness(t) <= r);
+    }
+    let i = clamp(below, 1u, last) - 1u;
+    let span = mip_roughness(i + 1u) - mip_roughness(i);
+    var f = 0.0;
+    if span > 0.0 {
+        f = (r - mip_roughness(i)) / span;
+    }
+    return f32(i) + clamp(f, 0.0, 1.0);
+}
+
+// Distance ratio k = d_probe / d_surface of the point probe A sees along v from B.
+fn distance_ratio(b: vec3<f32>, v: vec3<f32>, uv: vec2<f32>) -> f32 {
+    let l = length(v);
+    let w = probe_sample_lod(1u, uv, params.probe.w, params.probe_info.y).x;
+    if !(l > 0.0 && finite(l) && w > 0.0 && finite(w)) {
+        return 1.0;
+    }
+    let d_probe = 1.0 / w;
+    let d_surface = length(params.probe.xyz + v * (d_probe / l) - b);
+    let k = d_probe / d_surface;
+    if finite(k) && k > 0.0 {
+        return k;
+    }
+    return 1.0;
+}
+
+// Exponent plus mantissa fraction of positive normal k: monotone, exact at powers of two.
+fn pseudo_log2(k: f32) -> f32 {
+    let bits = bitcast<u32>(k);
+    let e = i32((bits >> 23u) & 0xffu) - 127;
+    let m = bitcast<f32>((bits & 0x007fffffu) | 0x3f800000u);
+    return f32(e) + (m - 1.0);
+}
+
+// Perceptual roughness of the mip a lookup of roughness r at distance ratio k reads: the
+// fitted correction's table, bilinear (export.json's roughness_lookup.rule).
+fn corrected_roughness(r: f32, k_in: f32) -> f32 {
+    let n = params.lut_info.x;
+    let last = f32(n - 1u);
+    var fr = 0.0;
+    if finite(r) {
+        fr = clamp(r * last, 0.0, last);
+    }
+    var k = 1.0;
+    if finite(k_in) && k_in > 0.0 {
+        k = k_in;
+    }
+    k = clamp(k, params.lut.z, params.lut.w);
+    let fx = clamp((pseudo_log2(k) - params.lut.x) * params.lut.y, 0.0, last);
+    let i = min(u32(fr), n - 2u);
+    let j = min(u32(fx), n - 2u);
+    let a = fr - f32(i);
+    let b = fx - f32(j);
+    let v00 = textureLoad(roughness_lut, vec2<i32>(i32(j), i32(i)), 0).x;
+    let v01 = textureLoad(roughness_lut, vec2<i32>(i32(j + 1u), i32(i)), 0).x;
+    let v10 = textureLoad(roughness_lut, vec2<i32>(i32(j), i32(i + 1u)), 0).x;
+    let v11 = textureLoad(roughness_lut, vec2<i32>(i32(j + 1u), i32(i + 1u)), 0).x;
+    return (v00 * (1.0 - b) + v01 * b) * (1.0 - a) + (v10 * (1.0 - b) + v11 * b) * a;
+}
+
+// Radiance of probe A for query (B, unit dir, roughness r) along `aim`, the mip from the
+// roughness correction (the plain mip of r without one).
+fn shade(b: vec3<f32>, aim: Aim, r: f32) -> vec3<f32> {
+    let uv = oct_encode(aim.v);
+    if r == 0.0 {
+        return radiance_lod(uv, 0.0);
+    }
+    if params.probe_info.w == 0u {
+        return radiance_lod(uv, lod_of_roughness(r));
+    }
+    var k = aim.k;
+    if k < 0.0 {
+        k = distance_ratio(b, aim.v, uv);
+    }
+    return radiance_lod(uv, lod_of_roughness(corrected_roughness(r, k)));
+}
+
+// ---- the two lookups -------------------------------------------------------------------
+
+fn clean(c: vec3<f32>) -> vec3<f32> {
+    if finite3(c) {
+        return max(c, vec3<f32>(0.0));
+    }
+    return vec3<f32>(0.0);
+}
+
+// Radiance reflected towards `direction` from `position` for perceptual roughness
+// `roughness`: `FittedGrid::specular`.
+fn specular(position: vec3<f32>, direction: vec3<f32>, roughness: f32) -> vec3<f32> {
+    let d = unit_direction(direction);
+    if d.w == 0.0 {
+        return vec3<f32>(0.0);
+    }
+    var b = params.probe.xyz;
+    if finite3(position) {
+        b = position;
+    }
+    var r = 0.0;
+    if finite(roughness) {
+        r = clamp(roughness, 0.0, 1.0);
+    }
+    return clean(shade(b, fetch(b, d.xyz), r));
+}
+
+// Irradiance of stored cell tile `tile` for unit normal n (bilinear in its map).
+fn cell_irradiance(tile: i32, n: vec3<f32>) -> vec3<f32> {
+    return atlas_bilinear(ATLAS_IRRADIANCE, tile, params.atlas_a.z, params.atlas_a.w, oct_encode(n)).xyz;
+}
+
+// Irradiance at `position` for surface normal `normal`: `FittedGrid::irradiance`. The
+// eight cells around the point, weighted trilinearly, by a smooth back-face term and by
+// Chebyshev visibility from the distance moments (DDGI), each cell's answer scaled by its
+// fitted correction.
+fn irradiance(position: vec3<f32>, normal: vec3<f32>) -> vec3<f32> {
+    let nd = unit_direction(normal);
+    if nd.w == 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let n = nd.xyz;
+    let size = cell_size();
+    var p = params.grid_min.xyz + (params.grid_max.xyz - params.grid_min.xyz) * 0.5;
+    if finite3(position) {
+        p = position;
+    }
+    let l = lattice(p, size);
+    let uv_n = oct_encode(n);
+    var e = vec3<f32>(0.0);
+    var wsum = 0.0;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let tri = corner_weight(l, corner);
+        if tri <= 0.0 {
+            continue;
+        }
+        let c = corner_cell(l, corner);
+        let cell = cells[cell_index(c)];
+        if cell.tiles.y < 0 {
+            continue;
+        }
+        let to_point = p - (cell_centre(c, size) + cell.offset.xyz);
+        let dist = length(to_point);
+        var w = tri;
+        if dist > 0.0 && finite(dist) {
+            let u = to_point / dist;
+            let facing = (dot(n, -u) + 1.0) * 0.5;
+            w *= facing * facing + 0.2;
+            let m = atlas_bilinear(ATLAS_MOMENTS, cell.tiles.y, params.atlas_b.x, params.atlas_b.y, oct_encode(u));
+            let mean = m.x;
+            let mean_sq = m.y;
+            if dist > mean {
+                let variance = max(abs(mean_sq - mean * mean), 1e-12 * mean * mean);
+                let dd = dist - mean;
+                let cheb = variance / (variance + dd * dd);
+                w *= max(cheb * cheb * cheb, 0.0);
+            }
+        }
+        w = max(w, 1e-6 * tri);
+        var k = 1.0;
+        if cell.tiles.z >= 0 {
+            k = atlas_bilinear(ATLAS_SCALE, cell.tiles.z, params.atlas_b.z, params.atlas_b.w, uv_n).x;
+        }
+        e += cell_irradiance(cell.tiles.y, n) * w * k;
+        wsum += w;
+    }
+    if !(wsum > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    return clean(e / wsum);
+}
+
+// ---- query kernels ---------------------------------------------------------------------
+// Batches of lookups, one invocation each: what the tests compare with the CPU sampler and
+// the GPU bench times. `queries` holds two vec4 per query; `results` one vec4 (xyz).
+
+@group(1) @binding(0) var<storage, read> queries: array<vec4<f32>>;
+@group(1) @binding(1) var<storage, read_write> results: array<vec4<f32>>;
+
+fn query_count() -> u32 {
+    return arrayLength(&results);
+}
+
+// query k: (position xyz, roughness), (direction xyz, -)
+@compute @workgroup_size(64)
+fn specular_queries(@builtin(global_invocation_id) id: vec3<u32>) {
+    let k = id.x;
+    if k >= query_count() {
+        return;
+    }
+    let p = queries[2u * k];
+    let d = queries[2u * k + 1u];
+    results[k] = vec4<f32>(specular(p.xyz, d.xyz, p.w), 1.0);
+}
+
+// query k: (position xyz, -), (normal xyz, -)
+@compute @workgroup_size(64)
+fn irradiance_queries(@builtin(global_invocation_id) id: vec3<u32>) {
+    let k = id.x;
+    if k >= query_count() {
+        return;
+    }
+    let p = queries[2u * k];
+    let n = queries[2u * k + 1u];
+    results[k] = vec4<f32>(irradiance(p.xyz, n.xyz), 1.0);
+}
+
+// Baselines in the same style, for the cost comparison: a mirror lookup through seed 000's
+// one-step warp alone, and through the box proxy alone (queries as `specular_queries`).
+@compute @workgroup_size(64)
+fn warp1_queries(@builtin(global_invocation_id) id: vec3<u32>) {
+    let k = id.x;
+    if k >= query_count() {
+        return;
+    }
+    var b = params.probe.xyz;
+    if finite3(queries[2u * k].xyz) {
+        b = queries[2u * k].xyz;
+    }
+    let d = unit_direction(queries[2u * k + 1u].xyz);
+    var c = vec3<f32>(0.0);
+    if d.w != 0.0 {
+        var v = d.xyz;
+        if any(b != params.probe.xyz) {
+            v = warp1(b, d.xyz);
+        }
+        c = clean(radiance_lod(oct_encode(v), 0.0));
+    }
+    results[k] = vec4<f32>(c, 1.0);
+}
+
+@compute @workgroup_size(64)
+fn box_queries(@builtin(global_invocation_id) id: vec3<u32>) {
+    let k = id.x;
+    if k >= query_count() {
+        return;
+    }
+    var b = params.probe.xyz;
+    if finite3(queries[2u * k].xyz) {
+        b = queries[2u * k].xyz;
+    }
+    let d = unit_direction(queries[2u * k + 1u].xyz);
+    var c = vec3<f32>(0.0);
+    if d.w != 0.0 {
+        var v = d.xyz;
+        if any(b != params.probe.xyz) {
+            v = box_fetch(b, d.xyz);
+        }
+        c = clean(radiance_lod(oct_encode(v), 0.0));
+    }
+    results[k] = vec4<f32>(c, 1.0);
+}

@@ -1,0 +1,163 @@
+//! The reference shader's buffers: `warpfit_params.bin` (the uniform `Params` of
+//! `shaders/warpfit.wgsl`) and `warpfit_cells.bin` (its `array<Cell>`), little-endian bytes
+//! an engine uploads as they are. The WGSL, and its HLSL and GLSL translations (naga), ship
+//! in the export folder beside them.
+
+use crate::runtime::FittedGrid;
+use crate::warp::Method;
+use crate::warp::corrective::{Blend, NO_MAP};
+
+/// `shaders/warpfit.wgsl`, and naga's translations of it (regenerated and compared by
+/// `tests/shader.rs`): (file name, text).
+pub const SHADER_FILES: [(&str, &str); 6] = [
+    ("warpfit.wgsl", include_str!("../../shaders/warpfit.wgsl")),
+    ("warpfit.hlsl", include_str!("../../shaders/warpfit.hlsl")),
+    ("warpfit.specular_queries.comp.glsl", include_str!("../../shaders/warpfit.specular_queries.comp.glsl")),
+    ("warpfit.irradiance_queries.comp.glsl", include_str!("../../shaders/warpfit.irradiance_queries.comp.glsl")),
+    ("warpfit.warp1_queries.comp.glsl", include_str!("../../shaders/warpfit.warp1_queries.comp.glsl")),
+    ("warpfit.box_queries.comp.glsl", include_str!("../../shaders/warpfit.box_queries.comp.glsl")),
+];
+
+/// Bytes of the WGSL `Params` struct: 38 vec4s.
+pub const PARAMS_BYTES: usize = 38 * 16;
+/// Bytes of one WGSL `Cell`: tiles (vec4<i32>) and offset (vec4<f32>).
+pub const CELL_BYTES: usize = 32;
+/// Radiance mips `Params::mip_roughness` holds.
+pub const MAX_MIPS: usize = 16;
+
+/// Tiles per atlas row and tile resolution of the four atlases (0 when an atlas is absent).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct AtlasShape {
+    pub tile_resolution: u32,
+    pub columns: u32,
+}
+
+/// The atlases' shapes, as the export wrote them.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Atlases {
+    pub corrective: AtlasShape,
+    pub irradiance: AtlasShape,
+    pub moments: AtlasShape,
+    pub scale: AtlasShape,
+}
+
+/// Why a grid cannot be expressed in the shader's buffers.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Unsupported(pub String);
+
+/// Appends vec4s of little-endian words.
+struct Words(Vec<u8>);
+
+impl Words {
+    fn f(&mut self, v: [f32; 4]) -> &mut Self {
+        for x in v {
+            self.0.extend_from_slice(&x.to_le_bytes());
+        }
+        self
+    }
+    fn u(&mut self, v: [u32; 4]) -> &mut Self {
+        for x in v {
+            self.0.extend_from_slice(&x.to_le_bytes());
+        }
+        self
+    }
+    fn i(&mut self, v: [i32; 4]) -> &mut Self {
+        for x in v {
+            self.0.extend_from_slice(&x.to_le_bytes());
+        }
+        self
+    }
+}
+
+fn tile(slot: Option<&u32>) -> i32 {
+    match slot {
+        Some(&s) if s != NO_MAP => s as i32,
+        _ => -1,
+    }
+}
+
+/// `Params` for `grid` with atlases shaped `atlases` (see `shaders/warpfit.wgsl` for each
+/// field's meaning).
+pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupported> {
+    let w = &grid.warp;
+    let p = &w.probe;
+    let c = &grid.correctives;
+    let geo = &c.geometry;
+    if geo != &grid.irradiance.geometry {
+        return Err(Unsupported("the correctives and the irradiance use different grids".into()));
+    }
+    if c.origin_offset != grid.irradiance.probe_offset {
+        return Err(Unsupported("the warp maps' origins and the irradiance probes are relocated differently".into()));
+    }
+    let fallback = match c.fallback {
+        Method::Warp1 => 0,
+        Method::Box => 1,
+        Method::Kdop => 2,
+        m => return Err(Unsupported(format!("fallback method `{}` has no shader port", m.name()))),
+    };
+    if p.mip_roughness.len() > MAX_MIPS || p.radiance.levels.len() > MAX_MIPS {
+        return Err(Unsupported(format!(
+            "{} radiance mips; the shader holds up to {MAX_MIPS}",
+            p.radiance.levels.len()
+        )));
+    }
+    let kdop = &w.proxies.kdop;
+    if kdop.normals.len() != 18 || kdop.offsets.len() != 18 {
+        return Err(Unsupported(format!("a {}-DOP; the shader reads an 18-DOP", kdop.normals.len())));
+    }
+    let blend = match grid.blend {
+        Blend::Cell => 0,
+        Blend::Trilinear => 1,
+    };
+    let bx = &w.proxies.aabb;
+    let m = bx.world_to_local();
+    let mut out = Words(Vec::with_capacity(PARAMS_BYTES));
+    out.f(geo.min.extend(0.0).to_array())
+        .f(geo.max.extend(0.0).to_array())
+        .u([geo.counts.x, geo.counts.y, geo.counts.z, blend])
+        .f(p.position.extend(w.options.depth_lod).to_array())
+        .u([p.radiance.levels.len() as u32, p.inv_depth.levels.len() as u32, fallback, grid.roughness.is_some() as u32])
+        .f([w.options.relax_texels, p.radiance.levels[0].res as f32, p.inv_depth.levels[0].res as f32, 0.0])
+        .f(bx.centre.extend(0.0).to_array())
+        .f(bx.half_extents.extend(0.0).to_array())
+        .f(m.x_axis.extend(0.0).to_array())
+        .f(m.y_axis.extend(0.0).to_array())
+        .f(m.z_axis.extend(0.0).to_array());
+    let mut open = 0u32;
+    for (k, (n, &h)) in kdop.normals.iter().zip(&kdop.offsets).enumerate() {
+        let finite = h.is_finite();
+        open |= (!finite as u32) << k;
+        out.f([n.x, n.y, n.z, if finite { h } else { 0.0 }]);
+    }
+    out.u([open, 0, 0, 0]);
+    let mut mips = [0.0f32; MAX_MIPS];
+    mips[..p.mip_roughness.len()].copy_from_slice(&p.mip_roughness);
+    for q in mips.chunks_exact(4) {
+        out.f([q[0], q[1], q[2], q[3]]);
+    }
+    let a = atlases;
+    out.u([a.corrective.tile_resolution, a.corrective.columns, a.irradiance.tile_resolution, a.irradiance.columns]);
+    out.u([a.moments.tile_resolution, a.moments.columns, a.scale.tile_resolution, a.scale.columns]);
+    match grid.roughness.as_ref().map(|r| r.lookup_table()) {
+        Some(t) => out.f([t.x0, t.inv_dx, t.k_min, t.k_max]).u([t.nodes, 0, 0, 0]),
+        None => out.f([0.0, 0.0, 1.0, 1.0]).u([2, 0, 0, 0]),
+    };
+    debug_assert_eq!(out.0.len(), PARAMS_BYTES);
+    Ok(out.0)
+}
+
+/// The `array<Cell>`: per grid cell (`x + nx·(y + ny·z)`) its corrective, irradiance and
+/// irradiance-scale tiles (−1: none) and its probe's offset from the cell centre.
+#[must_use]
+pub fn cells(grid: &FittedGrid) -> Vec<u8> {
+    let c = &grid.correctives;
+    let ir = &grid.irradiance;
+    let n = c.geometry.cell_count();
+    let mut out = Words(Vec::with_capacity(n * CELL_BYTES));
+    for cell in 0..n {
+        let offset = c.origin_offset.get(cell).copied().unwrap_or_default();
+        out.i([tile(c.slot.get(cell)), tile(ir.slot.get(cell)), tile(ir.correction.slot.get(cell)), 0])
+            .f(offset.extend(0.0).to_array());
+    }
+    out.0
+}

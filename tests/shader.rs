@@ -1,0 +1,99 @@
+//! The reference shader (`shaders/warpfit.wgsl`) is valid WGSL, its buffers are laid out as
+//! the export writes them, and the shipped HLSL and GLSL are naga's translations of it as it
+//! stands (`WARPFIT_BLESS=1 cargo test --release --test shader` rewrites them).
+
+mod common;
+
+use naga::back::{glsl, hlsl};
+use naga::valid::{Capabilities, ValidationFlags, Validator};
+use warpfit::export::shader::{CELL_BYTES, PARAMS_BYTES};
+
+const ENTRY_POINTS: [&str; 4] = ["specular_queries", "irradiance_queries", "warp1_queries", "box_queries"];
+
+fn module() -> (naga::Module, naga::valid::ModuleInfo) {
+    let path = common::repo().join("shaders/warpfit.wgsl");
+    let src = std::fs::read_to_string(&path).unwrap();
+    let module = naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)));
+    let info = Validator::new(ValidationFlags::all(), Capabilities::empty())
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)));
+    (module, info)
+}
+
+/// naga's translations: (file name under shaders/, text).
+fn translations() -> Vec<(String, String)> {
+    let (module, info) = module();
+    let mut out = Vec::new();
+    let mut text = String::new();
+    let options = hlsl::Options { shader_model: hlsl::ShaderModel::V5_1, ..Default::default() };
+    hlsl::Writer::new(&mut text, &options, &hlsl::PipelineOptions::default())
+        .write(&module, &info, None)
+        .expect("HLSL");
+    out.push(("warpfit.hlsl".to_string(), text));
+    for ep in ENTRY_POINTS {
+        let mut text = String::new();
+        let options =
+            glsl::Options { version: glsl::Version::Desktop(450), binding_map: gl_bindings(), ..Default::default() };
+        let pipeline =
+            glsl::PipelineOptions { shader_stage: naga::ShaderStage::Compute, entry_point: ep.into(), multiview: None };
+        glsl::Writer::new(&mut text, &module, &info, &options, &pipeline, Default::default())
+            .and_then(|mut w| w.write())
+            .unwrap_or_else(|e| panic!("GLSL {ep}: {e}"));
+        out.push((format!("warpfit.{ep}.comp.glsl"), text));
+    }
+    out
+}
+
+/// OpenGL binding points (textures, uniform and storage buffers count separately): the
+/// textures at units 0–6 (bindings 0–6), `params` at uniform binding 0, `cells`, `queries`
+/// and `results` at storage bindings 0, 1 and 2.
+fn gl_bindings() -> glsl::BindingMap {
+    let rb = |group, binding| naga::ResourceBinding { group, binding };
+    let mut map: glsl::BindingMap = (0..7).map(|b| (rb(0, b), b as u8)).collect();
+    map.extend([(rb(0, 7), 0), (rb(0, 8), 0), (rb(1, 0), 1), (rb(1, 1), 2)]);
+    map
+}
+
+#[test]
+fn the_shipped_translations_are_nagas_of_the_wgsl() {
+    let bless = std::env::var("WARPFIT_BLESS").is_ok_and(|v| v == "1");
+    for (name, text) in translations() {
+        let path = common::repo().join("shaders").join(&name);
+        if bless {
+            std::fs::write(&path, &text).unwrap();
+        }
+        let shipped = std::fs::read_to_string(&path).unwrap_or_default();
+        assert!(
+            shipped == text,
+            "shaders/{name} is not naga's translation of shaders/warpfit.wgsl; rerun with WARPFIT_BLESS=1"
+        );
+    }
+    // the export ships exactly these files
+    let shipped: Vec<&str> = warpfit::export::shader::SHADER_FILES.iter().map(|(n, _)| *n).collect();
+    let mut expected = vec!["warpfit.wgsl".to_string()];
+    expected.extend(translations().into_iter().map(|(n, _)| n));
+    assert_eq!(shipped, expected);
+}
+
+#[test]
+fn the_buffers_have_the_shaders_layout() {
+    let (module, _) = module();
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).unwrap();
+    let size = |name: &str| {
+        let (h, _) = module.types.iter().find(|(_, t)| t.name.as_deref() == Some(name)).expect(name);
+        layouter[h].size as usize
+    };
+    assert_eq!(size("Params"), PARAMS_BYTES);
+    assert_eq!(size("Cell"), CELL_BYTES);
+    // and the export writes buffers of those sizes
+    let grid = warpfit::runtime::FittedGrid::load(common::repo().join("fits/tiny")).unwrap();
+    let dir = common::tmp_dir("shader-buffers");
+    let s = warpfit::export::export(&grid, &dir).unwrap();
+    assert_eq!(std::fs::metadata(dir.join(&s.shader.params)).unwrap().len() as usize, PARAMS_BYTES);
+    let cells = grid.correctives.geometry.cell_count();
+    assert_eq!(std::fs::metadata(dir.join(&s.shader.cells)).unwrap().len() as usize, cells * CELL_BYTES);
+    for name in &s.shader.sources {
+        assert!(dir.join(name).is_file(), "{name} exported");
+    }
+}
