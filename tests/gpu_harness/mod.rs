@@ -1,0 +1,291 @@
+//! The reference shader on a real graphics API: an export folder (`warpfit export`) loaded
+//! as an engine would load it (the KTX2 textures through an independent reader, the two
+//! buffers as bytes, the WGSL as shipped) and its query kernels run through wgpu on whatever
+//! adapter exists (Mesa's lavapipe software Vulkan on machines without a GPU). Shared by
+//! `tests/gpu.rs` and `benches/gpu.rs`.
+#![allow(dead_code)]
+
+use std::collections::HashMap;
+use std::path::Path;
+use std::time::{Duration, Instant};
+use wgpu::util::DeviceExt as _;
+
+/// A device on the first adapter found.
+pub struct Gpu {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub adapter: wgpu::AdapterInfo,
+}
+
+/// How to get an adapter where none exists.
+pub const NO_ADAPTER: &str =
+    "no graphics adapter: install a Vulkan driver (on Debian, Mesa's lavapipe: apt-get install mesa-vulkan-drivers)";
+
+impl Gpu {
+    /// The first adapter of the native backends (Vulkan, Metal, DX12; `WGPU_BACKEND` picks
+    /// another), with `FLOAT32_FILTERABLE` when it has it (the hardware-filter check needs it).
+    pub fn new() -> Result<Gpu, String> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+        let instance = wgpu::Instance::new(desc);
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
+            .map_err(|e| format!("{NO_ADAPTER} ({e})"))?;
+        let features = adapter.features() & wgpu::Features::FLOAT32_FILTERABLE;
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("warpfit"),
+            required_features: features,
+            required_limits: wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits()),
+            ..Default::default()
+        }))
+        .map_err(|e| format!("the adapter {:?} gave no device: {e}", adapter.get_info().name))?;
+        Ok(Gpu { device, queue, adapter: adapter.get_info() })
+    }
+
+    /// A texture from a KTX2 file (every mip), read with the `ktx2` crate.
+    pub fn ktx2_texture(&self, path: &Path) -> wgpu::Texture {
+        let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let r = ktx2::Reader::new(bytes.as_slice()).unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
+        let h = r.header();
+        let format = match h.format.map(|f| f.value()) {
+            Some(97) => wgpu::TextureFormat::Rgba16Float,
+            Some(109) => wgpu::TextureFormat::Rgba32Float,
+            Some(100) => wgpu::TextureFormat::R32Float,
+            Some(103) => wgpu::TextureFormat::Rg32Float,
+            f => panic!("{}: unexpected vkFormat {f:?}", path.display()),
+        };
+        let data: Vec<u8> = r.levels().flat_map(|l| l.data.iter().copied()).collect();
+        self.device.create_texture_with_data(
+            &self.queue,
+            &wgpu::TextureDescriptor {
+                label: path.file_name().and_then(|n| n.to_str()),
+                size: wgpu::Extent3d { width: h.pixel_width, height: h.pixel_height, depth_or_array_layers: 1 },
+                mip_level_count: h.level_count.max(1),
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            &data,
+        )
+    }
+
+    /// A 1×1 R32F texture: what an absent file binds.
+    pub fn dummy_texture(&self) -> wgpu::Texture {
+        self.device.create_texture_with_data(
+            &self.queue,
+            &wgpu::TextureDescriptor {
+                label: Some("absent"),
+                size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::R32Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            &[0; 4],
+        )
+    }
+
+    fn wait(&self) {
+        self.device.poll(wgpu::PollType::wait_indefinitely()).expect("the device answers");
+    }
+
+    /// The bytes of `buffer` (MAP_READ).
+    fn read(&self, buffer: &wgpu::Buffer) -> Vec<u8> {
+        let slice = buffer.slice(..);
+        slice.map_async(wgpu::MapMode::Read, |r| r.expect("map"));
+        self.wait();
+        let out = slice.get_mapped_range().expect("mapped").to_vec();
+        buffer.unmap();
+        out
+    }
+}
+
+/// The texture files of an export, in binding order (absent: `None`).
+pub const TEXTURES: [&str; 7] = [
+    "probe_radiance.ktx2",
+    "probe_inv_distance.ktx2",
+    "correctives.ktx2",
+    "irradiance.ktx2",
+    "moments.ktx2",
+    "irradiance_scale.ktx2",
+    "roughness_lookup.ktx2",
+];
+
+fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+fn buffer_entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
+        count: None,
+    }
+}
+
+/// An export folder on the GPU, ready to run the shader's query kernels.
+pub struct Lookup {
+    group0: wgpu::BindGroup,
+    layout1: wgpu::BindGroupLayout,
+    pipelines: HashMap<&'static str, wgpu::ComputePipeline>,
+}
+
+/// The shader's query kernels.
+pub const KERNELS: [&str; 4] = ["specular_queries", "irradiance_queries", "warp1_queries", "box_queries"];
+
+/// Query and result buffers for `n` queries.
+pub struct Batch {
+    n: usize,
+    group1: wgpu::BindGroup,
+    queries: wgpu::Buffer,
+    results: wgpu::Buffer,
+    staging: wgpu::Buffer,
+}
+
+impl Lookup {
+    pub fn load(gpu: &Gpu, dir: &Path) -> Lookup {
+        let d = &gpu.device;
+        let textures: Vec<wgpu::Texture> = TEXTURES
+            .iter()
+            .map(|f| if dir.join(f).is_file() { gpu.ktx2_texture(&dir.join(f)) } else { gpu.dummy_texture() })
+            .collect();
+        let views: Vec<wgpu::TextureView> = textures.iter().map(|t| t.create_view(&Default::default())).collect();
+        let file = |name: &str| std::fs::read(dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let params = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("params"),
+            contents: &file("warpfit_params.bin"),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let cells = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("cells"),
+            contents: &file("warpfit_cells.bin"),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let mut entries0: Vec<_> = (0..7).map(texture_entry).collect();
+        entries0.push(buffer_entry(7, wgpu::BufferBindingType::Uniform));
+        entries0.push(buffer_entry(8, wgpu::BufferBindingType::Storage { read_only: true }));
+        let layout0 = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: None, entries: &entries0 });
+        let layout1 = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: None,
+            entries: &[
+                buffer_entry(0, wgpu::BufferBindingType::Storage { read_only: true }),
+                buffer_entry(1, wgpu::BufferBindingType::Storage { read_only: false }),
+            ],
+        });
+        let mut bind: Vec<wgpu::BindGroupEntry> = views
+            .iter()
+            .enumerate()
+            .map(|(k, v)| wgpu::BindGroupEntry { binding: k as u32, resource: wgpu::BindingResource::TextureView(v) })
+            .collect();
+        bind.push(wgpu::BindGroupEntry { binding: 7, resource: params.as_entire_binding() });
+        bind.push(wgpu::BindGroupEntry { binding: 8, resource: cells.as_entire_binding() });
+        let group0 = d.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout0, entries: &bind });
+        let source = std::fs::read_to_string(dir.join("warpfit.wgsl")).expect("warpfit.wgsl exported");
+        let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("warpfit.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: None,
+            bind_group_layouts: &[Some(&layout0), Some(&layout1)],
+            immediate_size: 0,
+        });
+        let pipelines = KERNELS
+            .iter()
+            .map(|&k| {
+                let p = d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(k),
+                    layout: Some(&layout),
+                    module: &module,
+                    entry_point: Some(k),
+                    compilation_options: Default::default(),
+                    cache: None,
+                });
+                (k, p)
+            })
+            .collect();
+        Lookup { group0, layout1, pipelines }
+    }
+
+    /// Buffers for the queries (two vec4 each, as the kernels read them).
+    pub fn batch(&self, gpu: &Gpu, queries: &[[f32; 4]]) -> Batch {
+        let d = &gpu.device;
+        let n = queries.len() / 2;
+        let bytes: Vec<u8> = queries.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+        let queries = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("queries"),
+            contents: &bytes,
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let size = (n * 16) as u64;
+        let results = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("results"),
+            size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let staging = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("staging"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let group1 = d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &self.layout1,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: queries.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: results.as_entire_binding() },
+            ],
+        });
+        Batch { n, group1, queries, results, staging }
+    }
+
+    /// Runs kernel `kernel` over the batch and waits for it; returns the time from submit
+    /// to completion.
+    pub fn dispatch(&self, gpu: &Gpu, kernel: &str, batch: &Batch, copy_out: bool) -> Duration {
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&self.pipelines[kernel]);
+            pass.set_bind_group(0, &self.group0, &[]);
+            pass.set_bind_group(1, &batch.group1, &[]);
+            // 64 queries per workgroup, along x only (the kernels read the x invocation id)
+            let groups = batch.n.div_ceil(64);
+            assert!(groups <= 65535, "at most 65535·64 queries per dispatch");
+            pass.dispatch_workgroups(groups as u32, 1, 1);
+        }
+        if copy_out {
+            enc.copy_buffer_to_buffer(&batch.results, 0, &batch.staging, 0, (batch.n * 16) as u64);
+        }
+        let start = Instant::now();
+        gpu.queue.submit([enc.finish()]);
+        gpu.wait();
+        start.elapsed()
+    }
+
+    /// The kernel's results for `queries` (two vec4 per query): one vec4 per query.
+    pub fn run(&self, gpu: &Gpu, kernel: &str, queries: &[[f32; 4]]) -> Vec<[f32; 4]> {
+        let batch = self.batch(gpu, queries);
+        self.dispatch(gpu, kernel, &batch, true);
+        gpu.read(&batch.staging)
+            .chunks_exact(16)
+            .map(|c| std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))
+            .collect()
+    }
+}
