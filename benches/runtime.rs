@@ -7,31 +7,16 @@
 //!
 //! Run: `cargo bench --bench runtime`
 
+#[path = "common/mod.rs"]
+mod common;
+
+use common::fitted_torture;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use std::hint::black_box;
-use std::path::{Path, PathBuf};
 use warpfit::runtime::FittedGrid;
 use warpfit::sampling::{Sampler, uniform_sphere};
 use warpfit::warp::{self, Method};
-
-fn fitted_torture() -> PathBuf {
-    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/fits/torture"));
-    if FittedGrid::load(&dir).is_ok() {
-        return dir;
-    }
-    let out = std::env::temp_dir().join(format!("warpfit-bench-runtime-{}", std::process::id()));
-    let scene =
-        warpfit::scene::Scene::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/data/scenes/torture.toml")))
-            .expect("torture scene");
-    let quiet = warpfit::progress::Progress::quiet();
-    let folder = warpfit::report::folder::RunFolder::new(&out);
-    let p = warpfit::jobs::run::prepare(scene, folder.clone(), &quiet).unwrap();
-    let warp = p.baked().warp(warpfit::warp::WarpOptions::standard());
-    let o = warpfit::jobs::run::Output { folder: &folder, command: "bench", progress: &quiet };
-    warpfit::jobs::run::fit(p.baked(), &warp, &warpfit::fit::FitSettings::standard(), Default::default(), o).unwrap();
-    out
-}
 
 /// 64 positions uniform in stored cells × 256 uniform directions, position-major (as eval).
 fn queries(g: &FittedGrid) -> Vec<(Vec3, Vec3)> {

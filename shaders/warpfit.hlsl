@@ -131,8 +131,8 @@ float4 unit_direction(float3 v_3)
     if (!(_e33)) {
         return float4(0.0, 0.0, 1.0, 0.0);
     }
-    float3 s = (v_3 / (m_1).xxx);
-    float l_2 = length(s);
+    float3 s_1 = (v_3 / (m_1).xxx);
+    float l_2 = length(s_1);
     if ((l_2 > 0.0)) {
         const bool _e47 = finite(l_2);
         local_5 = _e47;
@@ -143,7 +143,7 @@ float4 unit_direction(float3 v_3)
     if (!(_e49)) {
         return float4(0.0, 0.0, 1.0, 0.0);
     }
-    return float4((s / (l_2).xxx), 1.0);
+    return float4((s_1 / (l_2).xxx), 1.0);
 }
 
 float3 fetch_vector(float3 from, float3 to, float3 fallback)
@@ -391,8 +391,8 @@ uint naga_div(uint lhs, uint rhs) {
 
 float4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, float2 uv_4)
 {
-    uint s_1 = uint(tile);
-    int2 origin = int2((uint2(naga_mod(s_1, columns), naga_div(s_1, columns)) * (n_2 + 2u)));
+    uint s_2 = uint(tile);
+    int2 origin = int2((uint2(naga_mod(s_2, columns), naga_div(s_2, columns)) * (n_2 + 2u)));
     const Footprint _e13 = footprint(n_2, uv_4);
     int2 c_7 = asint(asuint(asint(asuint(origin) + asuint(_e13.corner))) + asuint(int2(int(1), int(1))));
     const float4 _e20 = atlas_texel(which_4, c_7);
@@ -526,7 +526,7 @@ float3 box_fetch(float3 b_3, float3 dir_1)
     if (any((abs(o_2) > h))) {
         return dir_1;
     }
-    float3 d_1 = mul(dir_1, m_2);
+    float3 d_2 = mul(dir_1, m_2);
     uint2 loop_bound = uint2(4294967295u, 4294967295u);
     bool loop_init = true;
     while(true) {
@@ -544,15 +544,15 @@ float3 box_fetch(float3 b_3, float3 dir_1)
         }
         {
             int _e40 = k;
-            if ((d_1[min(uint(_e40), 2u)] != 0.0)) {
+            if ((d_2[min(uint(_e40), 2u)] != 0.0)) {
                 int _e44 = k;
                 int _e47 = k;
                 int _e49 = k;
-                float face = ((d_1[min(uint(_e49), 2u)] > 0.0) ? h[min(uint(_e47), 2u)] : -(h[min(uint(_e44), 2u)]));
+                float face = ((d_2[min(uint(_e49), 2u)] > 0.0) ? h[min(uint(_e47), 2u)] : -(h[min(uint(_e44), 2u)]));
                 float _e54 = t_3;
                 int _e55 = k;
                 int _e58 = k;
-                t_3 = min(_e54, ((face - o_2[min(uint(_e55), 2u)]) / d_1[min(uint(_e58), 2u)]));
+                t_3 = min(_e54, ((face - o_2[min(uint(_e55), 2u)]) / d_2[min(uint(_e58), 2u)]));
             }
         }
     }
@@ -639,18 +639,18 @@ float3 fallback_plain(float3 b_5, float3 dir_3)
 
 float3 basis_t(float3 n_3)
 {
-    float s_2 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a_3 = (-1.0 / (s_2 + n_3.z));
+    float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
+    float a_3 = (-1.0 / (s_3 + n_3.z));
     float b_13 = ((n_3.x * n_3.y) * a_3);
-    return float3((1.0 + (((s_2 * n_3.x) * n_3.x) * a_3)), (s_2 * b_13), (-(s_2) * n_3.x));
+    return float3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_13), (-(s_3) * n_3.x));
 }
 
 float3 basis_b(float3 n_4)
 {
-    float s_3 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
-    float a_4 = (-1.0 / (s_3 + n_4.z));
+    float s_4 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
+    float a_4 = (-1.0 / (s_4 + n_4.z));
     float b_14 = ((n_4.x * n_4.y) * a_4);
-    return float3(b_14, (s_3 + ((n_4.y * n_4.y) * a_4)), -(n_4.y));
+    return float3(b_14, (s_4 + ((n_4.y * n_4.y) * a_4)), -(n_4.y));
 }
 
 float3 normalize_or(float3 v_5, float3 fallback_1)
@@ -673,43 +673,82 @@ float3 normalize_or(float3 v_5, float3 fallback_1)
 
 float3 fallback_fetch(float3 b_6, float3 dir_4)
 {
-    float3 sum = (float3)0;
+    float3 plain = (float3)0;
+    float3 sum = (0.0).xxx;
+    uint s = 0u;
+    float3 d_1 = (float3)0;
 
     float4 _e4 = params.probe;
     if (all((b_6 == _e4.xyz))) {
         return dir_4;
     }
     float relax = params.warp.x;
-    if (!((relax > 0.0))) {
-        const float3 _e15 = fallback_plain(b_6, dir_4);
-        return _e15;
+    bool relaxed = (relax > 0.0);
+    float _e19 = params.warp.y;
+    float angle = ((relax * 3.5449078) / _e19);
+    const float3 _e21 = basis_t(dir_4);
+    float3 t_7 = (_e21 * angle);
+    const float3 _e23 = basis_b(dir_4);
+    float3 bt = (_e23 * angle);
+    plain = dir_4;
+    uint2 loop_bound_2 = uint2(4294967295u, 4294967295u);
+    bool loop_init_2 = true;
+    while(true) {
+        if (all(loop_bound_2 == uint2(0u, 0u))) { break; }
+        loop_bound_2 -= uint2(loop_bound_2.y == 0u, 1u);
+        if (!loop_init_2) {
+            uint _e55 = s;
+            s = (_e55 + 1u);
+        }
+        loop_init_2 = false;
+        uint _e31 = s;
+        if ((_e31 < (relaxed ? 5u : 1u))) {
+        } else {
+            break;
+        }
+        {
+            d_1 = dir_4;
+            uint _e37 = s;
+            bool should_continue = false;
+            switch(_e37) {
+                case 1u: {
+                    d_1 = normalize((dir_4 + t_7));
+                    break;
+                }
+                case 2u: {
+                    d_1 = normalize((dir_4 - t_7));
+                    break;
+                }
+                case 3u: {
+                    d_1 = normalize((dir_4 + bt));
+                    break;
+                }
+                case 4u: {
+                    d_1 = normalize((dir_4 - bt));
+                    break;
+                }
+                default: {
+                    break;
+                }
+            }
+            float3 _e46 = d_1;
+            const float3 _e47 = fallback_plain(b_6, _e46);
+            uint _e48 = s;
+            if ((_e48 == 0u)) {
+                plain = _e47;
+            }
+            float3 _e51 = sum;
+            const float3 _e52 = normalize_or(_e47, dir_4);
+            sum = (_e51 + _e52);
+        }
     }
-    float _e21 = params.warp.y;
-    float angle = ((relax * 3.5449078) / _e21);
-    const float3 _e23 = basis_t(dir_4);
-    const float3 _e24 = basis_b(dir_4);
-    const float3 _e25 = fallback_plain(b_6, dir_4);
-    const float3 _e26 = normalize_or(_e25, dir_4);
-    sum = _e26;
-    float3 _e28 = sum;
-    const float3 _e32 = fallback_plain(b_6, normalize((dir_4 + (_e23 * angle))));
-    const float3 _e33 = normalize_or(_e32, dir_4);
-    sum = (_e28 + _e33);
-    float3 _e35 = sum;
-    const float3 _e39 = fallback_plain(b_6, normalize((dir_4 - (_e23 * angle))));
-    const float3 _e40 = normalize_or(_e39, dir_4);
-    sum = (_e35 + _e40);
-    float3 _e42 = sum;
-    const float3 _e46 = fallback_plain(b_6, normalize((dir_4 + (_e24 * angle))));
-    const float3 _e47 = normalize_or(_e46, dir_4);
-    sum = (_e42 + _e47);
-    float3 _e49 = sum;
-    const float3 _e53 = fallback_plain(b_6, normalize((dir_4 - (_e24 * angle))));
-    const float3 _e54 = normalize_or(_e53, dir_4);
-    sum = (_e49 + _e54);
-    float3 _e56 = sum;
-    const float3 _e57 = normalize_or(_e56, dir_4);
-    return _e57;
+    if (!(relaxed)) {
+        float3 _e58 = plain;
+        return _e58;
+    }
+    float3 _e59 = sum;
+    const float3 _e60 = normalize_or(_e59, dir_4);
+    return _e60;
 }
 
 float inv_t_from_map(float3 c_4, float w, float3 b_7, float3 dir_5)
@@ -717,9 +756,9 @@ float inv_t_from_map(float3 c_4, float w, float3 b_7, float3 dir_5)
     if (!((w > 0.0))) {
         return 0.0;
     }
-    float t_7 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
-    if ((t_7 > 0.0)) {
-        return min((1.0 / t_7), HUGE);
+    float t_8 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
+    if ((t_8 > 0.0)) {
+        return min((1.0 / t_8), HUGE);
     }
     return HUGE;
 }
@@ -817,16 +856,16 @@ Aim fetch(float3 b_9, float3 dir_7)
         return aim_5;
     }
     const Lattice _e39 = lattice(b_9, _e11);
-    uint2 loop_bound_2 = uint2(4294967295u, 4294967295u);
-    bool loop_init_2 = true;
+    uint2 loop_bound_3 = uint2(4294967295u, 4294967295u);
+    bool loop_init_3 = true;
     while(true) {
-        if (all(loop_bound_2 == uint2(0u, 0u))) { break; }
-        loop_bound_2 -= uint2(loop_bound_2.y == 0u, 1u);
-        if (!loop_init_2) {
+        if (all(loop_bound_3 == uint2(0u, 0u))) { break; }
+        loop_bound_3 -= uint2(loop_bound_3.y == 0u, 1u);
+        if (!loop_init_3) {
             uint _e77 = corner_2;
             corner_2 = (_e77 + 1u);
         }
-        loop_init_2 = false;
+        loop_init_3 = false;
         uint _e46 = corner_2;
         if ((_e46 < 8u)) {
         } else {
@@ -896,16 +935,16 @@ float lod_of_roughness(float r)
     if ((r >= _e19)) {
         return float(last);
     }
-    uint2 loop_bound_3 = uint2(4294967295u, 4294967295u);
-    bool loop_init_3 = true;
+    uint2 loop_bound_4 = uint2(4294967295u, 4294967295u);
+    bool loop_init_4 = true;
     while(true) {
-        if (all(loop_bound_3 == uint2(0u, 0u))) { break; }
-        loop_bound_3 -= uint2(loop_bound_3.y == 0u, 1u);
-        if (!loop_init_3) {
+        if (all(loop_bound_4 == uint2(0u, 0u))) { break; }
+        loop_bound_4 -= uint2(loop_bound_4.y == 0u, 1u);
+        if (!loop_init_4) {
             uint _e37 = t_5;
             t_5 = (_e37 + 1u);
         }
-        loop_init_3 = false;
+        loop_init_4 = false;
         uint _e26 = t_5;
         if ((_e26 < n_9)) {
         } else {
@@ -1140,16 +1179,16 @@ float3 irradiance(float3 position_1, float3 normal)
     float3 _e28 = p_3;
     const Lattice _e29 = lattice(_e28, _e9);
     const float2 _e30 = oct_encode(n_11);
-    uint2 loop_bound_4 = uint2(4294967295u, 4294967295u);
-    bool loop_init_4 = true;
+    uint2 loop_bound_5 = uint2(4294967295u, 4294967295u);
+    bool loop_init_5 = true;
     while(true) {
-        if (all(loop_bound_4 == uint2(0u, 0u))) { break; }
-        loop_bound_4 -= uint2(loop_bound_4.y == 0u, 1u);
-        if (!loop_init_4) {
+        if (all(loop_bound_5 == uint2(0u, 0u))) { break; }
+        loop_bound_5 -= uint2(loop_bound_5.y == 0u, 1u);
+        if (!loop_init_5) {
             uint _e152 = corner_3;
             corner_3 = (_e152 + 1u);
         }
-        loop_init_4 = false;
+        loop_init_5 = false;
         uint _e38 = corner_3;
         if ((_e38 < 8u)) {
         } else {
@@ -1249,8 +1288,8 @@ void specular_queries(uint3 id : SV_DispatchThreadID)
         return;
     }
     float4 p_4 = asfloat(queries.Load4((2u * k_8)*16));
-    float4 d_2 = asfloat(queries.Load4(((2u * k_8) + 1u)*16));
-    const float3 _e21 = specular(p_4.xyz, d_2.xyz, p_4.w);
+    float4 d_3 = asfloat(queries.Load4(((2u * k_8) + 1u)*16));
+    const float3 _e21 = specular(p_4.xyz, d_3.xyz, p_4.w);
     results.Store4(k_8*16, asuint(float4(_e21, 1.0)));
     return;
 }

@@ -128,8 +128,8 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e33)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    vec3 s = (v_3 / vec3(m_1));
-    float l_2 = length(s);
+    vec3 s_1 = (v_3 / vec3(m_1));
+    float l_2 = length(s_1);
     if ((l_2 > 0.0)) {
         bool _e47 = finite(l_2);
         local_5 = _e47;
@@ -140,7 +140,7 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    return vec4((s / vec3(l_2)), 1.0);
+    return vec4((s_1 / vec3(l_2)), 1.0);
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
@@ -261,8 +261,8 @@ vec4 atlas_texel(uint which_3, ivec2 t_2) {
 }
 
 vec4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, vec2 uv_4) {
-    uint s_1 = uint(tile);
-    ivec2 origin = ivec2((uvec2((s_1 % columns), (s_1 / columns)) * (n_2 + 2u)));
+    uint s_2 = uint(tile);
+    ivec2 origin = ivec2((uvec2((s_2 % columns), (s_2 / columns)) * (n_2 + 2u)));
     Footprint _e13 = footprint(n_2, uv_4);
     ivec2 c_6 = ((origin + _e13.corner) + ivec2(1, 1));
     vec4 _e20 = atlas_texel(which_4, c_6);
@@ -352,7 +352,7 @@ vec3 box_fetch(vec3 b_3, vec3 dir_1) {
     if (any(greaterThan(abs(o_2), h))) {
         return dir_1;
     }
-    vec3 d_1 = (m_2 * dir_1);
+    vec3 d_2 = (m_2 * dir_1);
     bool loop_init = true;
     while(true) {
         if (!loop_init) {
@@ -367,15 +367,15 @@ vec3 box_fetch(vec3 b_3, vec3 dir_1) {
         }
         {
             int _e40 = k;
-            if ((d_1[_e40] != 0.0)) {
+            if ((d_2[_e40] != 0.0)) {
                 int _e44 = k;
                 int _e47 = k;
                 int _e49 = k;
-                float face = ((d_1[_e49] > 0.0) ? h[_e47] : -(h[_e44]));
+                float face = ((d_2[_e49] > 0.0) ? h[_e47] : -(h[_e44]));
                 float _e54 = t_3;
                 int _e55 = k;
                 int _e58 = k;
-                t_3 = min(_e54, ((face - o_2[_e55]) / d_1[_e58]));
+                t_3 = min(_e54, ((face - o_2[_e55]) / d_2[_e58]));
             }
         }
     }
@@ -437,17 +437,17 @@ vec3 kdop_fetch(vec3 b_4, vec3 dir_2) {
 }
 
 vec3 basis_t(vec3 n_3) {
-    float s_2 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a_2 = (-1.0 / (s_2 + n_3.z));
+    float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
+    float a_2 = (-1.0 / (s_3 + n_3.z));
     float b_13 = ((n_3.x * n_3.y) * a_2);
-    return vec3((1.0 + (((s_2 * n_3.x) * n_3.x) * a_2)), (s_2 * b_13), (-(s_2) * n_3.x));
+    return vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_2)), (s_3 * b_13), (-(s_3) * n_3.x));
 }
 
 vec3 basis_b(vec3 n_4) {
-    float s_3 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
-    float a_3 = (-1.0 / (s_3 + n_4.z));
+    float s_4 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
+    float a_3 = (-1.0 / (s_4 + n_4.z));
     float b_14 = ((n_4.x * n_4.y) * a_3);
-    return vec3(b_14, (s_3 + ((n_4.y * n_4.y) * a_3)), -(n_4.y));
+    return vec3(b_14, (s_4 + ((n_4.y * n_4.y) * a_3)), -(n_4.y));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {

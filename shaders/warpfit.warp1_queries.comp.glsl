@@ -122,8 +122,8 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e33)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    vec3 s = (v_3 / vec3(m_1));
-    float l_2 = length(s);
+    vec3 s_1 = (v_3 / vec3(m_1));
+    float l_2 = length(s_1);
     if ((l_2 > 0.0)) {
         bool _e47 = finite(l_2);
         local_5 = _e47;
@@ -134,7 +134,7 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    return vec4((s / vec3(l_2)), 1.0);
+    return vec4((s_1 / vec3(l_2)), 1.0);
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
@@ -415,7 +415,7 @@ vec3 box_fetch(vec3 b_3, vec3 dir_1) {
     if (any(greaterThan(abs(o_2), h))) {
         return dir_1;
     }
-    vec3 d_1 = (m_2 * dir_1);
+    vec3 d_2 = (m_2 * dir_1);
     bool loop_init = true;
     while(true) {
         if (!loop_init) {
@@ -430,15 +430,15 @@ vec3 box_fetch(vec3 b_3, vec3 dir_1) {
         }
         {
             int _e40 = k;
-            if ((d_1[_e40] != 0.0)) {
+            if ((d_2[_e40] != 0.0)) {
                 int _e44 = k;
                 int _e47 = k;
                 int _e49 = k;
-                float face = ((d_1[_e49] > 0.0) ? h[_e47] : -(h[_e44]));
+                float face = ((d_2[_e49] > 0.0) ? h[_e47] : -(h[_e44]));
                 float _e54 = t_3;
                 int _e55 = k;
                 int _e58 = k;
-                t_3 = min(_e54, ((face - o_2[_e55]) / d_1[_e58]));
+                t_3 = min(_e54, ((face - o_2[_e55]) / d_2[_e58]));
             }
         }
     }
@@ -518,17 +518,17 @@ vec3 fallback_plain(vec3 b_5, vec3 dir_3) {
 }
 
 vec3 basis_t(vec3 n_3) {
-    float s_1 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a_3 = (-1.0 / (s_1 + n_3.z));
+    float s_2 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
+    float a_3 = (-1.0 / (s_2 + n_3.z));
     float b_13 = ((n_3.x * n_3.y) * a_3);
-    return vec3((1.0 + (((s_1 * n_3.x) * n_3.x) * a_3)), (s_1 * b_13), (-(s_1) * n_3.x));
+    return vec3((1.0 + (((s_2 * n_3.x) * n_3.x) * a_3)), (s_2 * b_13), (-(s_2) * n_3.x));
 }
 
 vec3 basis_b(vec3 n_4) {
-    float s_2 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
-    float a_4 = (-1.0 / (s_2 + n_4.z));
+    float s_3 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
+    float a_4 = (-1.0 / (s_3 + n_4.z));
     float b_14 = ((n_4.x * n_4.y) * a_4);
-    return vec3(b_14, (s_2 + ((n_4.y * n_4.y) * a_4)), -(n_4.y));
+    return vec3(b_14, (s_3 + ((n_4.y * n_4.y) * a_4)), -(n_4.y));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
@@ -548,51 +548,86 @@ vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
 }
 
 vec3 fallback_fetch(vec3 b_6, vec3 dir_4) {
+    vec3 plain = vec3(0.0);
     vec3 sum = vec3(0.0);
+    uint s = 0u;
+    vec3 d_1 = vec3(0.0);
     vec4 _e4 = _group_0_binding_7_cs.probe;
     if (all(equal(b_6, _e4.xyz))) {
         return dir_4;
     }
     float relax = _group_0_binding_7_cs.warp.x;
-    if (!((relax > 0.0))) {
-        vec3 _e15 = fallback_plain(b_6, dir_4);
-        return _e15;
+    bool relaxed = (relax > 0.0);
+    float _e19 = _group_0_binding_7_cs.warp.y;
+    float angle = ((relax * 3.5449078) / _e19);
+    vec3 _e21 = basis_t(dir_4);
+    vec3 t_7 = (_e21 * angle);
+    vec3 _e23 = basis_b(dir_4);
+    vec3 bt = (_e23 * angle);
+    plain = dir_4;
+    bool loop_init_2 = true;
+    while(true) {
+        if (!loop_init_2) {
+            uint _e55 = s;
+            s = (_e55 + 1u);
+        }
+        loop_init_2 = false;
+        uint _e31 = s;
+        if ((_e31 < (relaxed ? 5u : 1u))) {
+        } else {
+            break;
+        }
+        {
+            d_1 = dir_4;
+            uint _e37 = s;
+            switch(_e37) {
+                case 1u: {
+                    d_1 = normalize((dir_4 + t_7));
+                    break;
+                }
+                case 2u: {
+                    d_1 = normalize((dir_4 - t_7));
+                    break;
+                }
+                case 3u: {
+                    d_1 = normalize((dir_4 + bt));
+                    break;
+                }
+                case 4u: {
+                    d_1 = normalize((dir_4 - bt));
+                    break;
+                }
+                default: {
+                    break;
+                }
+            }
+            vec3 _e46 = d_1;
+            vec3 _e47 = fallback_plain(b_6, _e46);
+            uint _e48 = s;
+            if ((_e48 == 0u)) {
+                plain = _e47;
+            }
+            vec3 _e51 = sum;
+            vec3 _e52 = normalize_or(_e47, dir_4);
+            sum = (_e51 + _e52);
+        }
     }
-    float _e21 = _group_0_binding_7_cs.warp.y;
-    float angle = ((relax * 3.5449078) / _e21);
-    vec3 _e23 = basis_t(dir_4);
-    vec3 _e24 = basis_b(dir_4);
-    vec3 _e25 = fallback_plain(b_6, dir_4);
-    vec3 _e26 = normalize_or(_e25, dir_4);
-    sum = _e26;
-    vec3 _e28 = sum;
-    vec3 _e32 = fallback_plain(b_6, normalize((dir_4 + (_e23 * angle))));
-    vec3 _e33 = normalize_or(_e32, dir_4);
-    sum = (_e28 + _e33);
-    vec3 _e35 = sum;
-    vec3 _e39 = fallback_plain(b_6, normalize((dir_4 - (_e23 * angle))));
-    vec3 _e40 = normalize_or(_e39, dir_4);
-    sum = (_e35 + _e40);
-    vec3 _e42 = sum;
-    vec3 _e46 = fallback_plain(b_6, normalize((dir_4 + (_e24 * angle))));
-    vec3 _e47 = normalize_or(_e46, dir_4);
-    sum = (_e42 + _e47);
-    vec3 _e49 = sum;
-    vec3 _e53 = fallback_plain(b_6, normalize((dir_4 - (_e24 * angle))));
-    vec3 _e54 = normalize_or(_e53, dir_4);
-    sum = (_e49 + _e54);
-    vec3 _e56 = sum;
-    vec3 _e57 = normalize_or(_e56, dir_4);
-    return _e57;
+    if (!(relaxed)) {
+        vec3 _e58 = plain;
+        return _e58;
+    }
+    vec3 _e59 = sum;
+    vec3 _e60 = normalize_or(_e59, dir_4);
+    return _e60;
 }
 
 float inv_t_from_map(vec3 c_4, float w, vec3 b_7, vec3 dir_5) {
     if (!((w > 0.0))) {
         return 0.0;
     }
-    float t_7 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
-    if ((t_7 > 0.0)) {
-        return min((1.0 / t_7), HUGE);
+    float t_8 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
+    if ((t_8 > 0.0)) {
+        return min((1.0 / t_8), HUGE);
     }
     return HUGE;
 }
@@ -658,13 +693,13 @@ float lod_of_roughness(float r) {
     if ((r >= _e19)) {
         return float(last);
     }
-    bool loop_init_2 = true;
+    bool loop_init_3 = true;
     while(true) {
-        if (!loop_init_2) {
+        if (!loop_init_3) {
             uint _e37 = t_5;
             t_5 = (_e37 + 1u);
         }
-        loop_init_2 = false;
+        loop_init_3 = false;
         uint _e26 = t_5;
         if ((_e26 < n_9)) {
         } else {

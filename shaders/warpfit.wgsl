@@ -445,23 +445,46 @@ fn normalize_or(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
 }
 
 // The fallback method's fetch vector, with UV relaxation when the fit used it (seed 000:
-// the warped direction averaged over a 4-tap stencil of query directions).
+// the warped direction averaged over a 4-tap stencil of query directions). One loop for
+// both cases: a processor that runs every branch under a mask (llvmpipe) then pays for one
+// warp, not six, when relaxation is off.
 fn fallback_fetch(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     if all(b == params.probe.xyz) {
         return dir;
     }
     let relax = params.warp.x;
-    if !(relax > 0.0) {
-        return fallback_plain(b, dir);
-    }
+    let relaxed = relax > 0.0;
     let angle = relax * sqrt(4.0 * PI) / params.warp.y;
-    let t = basis_t(dir);
-    let bt = basis_b(dir);
-    var sum = normalize_or(fallback_plain(b, dir), dir);
-    sum += normalize_or(fallback_plain(b, normalize(dir + t * angle)), dir);
-    sum += normalize_or(fallback_plain(b, normalize(dir - t * angle)), dir);
-    sum += normalize_or(fallback_plain(b, normalize(dir + bt * angle)), dir);
-    sum += normalize_or(fallback_plain(b, normalize(dir - bt * angle)), dir);
+    let t = basis_t(dir) * angle;
+    let bt = basis_b(dir) * angle;
+    var plain = dir;
+    var sum = vec3<f32>(0.0);
+    for (var s = 0u; s < select(1u, 5u, relaxed); s++) {
+        var d = dir;
+        switch s {
+            case 1u: {
+                d = normalize(dir + t);
+            }
+            case 2u: {
+                d = normalize(dir - t);
+            }
+            case 3u: {
+                d = normalize(dir + bt);
+            }
+            case 4u: {
+                d = normalize(dir - bt);
+            }
+            default: {}
+        }
+        let v = fallback_plain(b, d);
+        if s == 0u {
+            plain = v;
+        }
+        sum += normalize_or(v, dir);
+    }
+    if !relaxed {
+        return plain;
+    }
     return normalize_or(sum, dir);
 }
 

@@ -1,0 +1,81 @@
+//! The reference shader's cost on the adapter wgpu finds (Mesa's lavapipe where there is no
+//! GPU): ns per lookup over 1,048,576 queries for the fitted `specular` (mirror and rough),
+//! `irradiance`, and, in the same shader style on the same probe and queries, seed 000's
+//! one-step warp and the box proxy alone. Printed as ratios to `warp1`: absolute figures
+//! from a software rasteriser on a shared machine say little, the ratios say what the fitted
+//! lookup costs over the baselines an engine already runs.
+//!
+//! Uses `fits/torture` (fitted first if missing, as `benches/runtime.rs` does). Each kernel:
+//! two warm-up dispatches, then the median of nine, timed from submit to completion.
+//!
+//! Run: `cargo bench --bench gpu`
+
+#[path = "common/mod.rs"]
+mod common;
+#[path = "../tests/gpu_harness/mod.rs"]
+mod gpu_harness;
+
+use glam::Vec3;
+use gpu_harness::{Gpu, Lookup};
+use warpfit::runtime::FittedGrid;
+use warpfit::sampling::{Sampler, uniform_sphere};
+
+const POSITIONS: u32 = 4096;
+const DIRS: u32 = 256;
+
+/// POSITIONS positions uniform in stored cells × DIRS directions, position-major (as the
+/// CPU runtime bench), roughness `r`: two vec4 per query.
+fn queries(g: &FittedGrid, r: f32) -> Vec<[f32; 4]> {
+    let geo = &g.irradiance.geometry;
+    let cells: Vec<usize> =
+        (0..geo.cell_count()).filter(|&c| g.irradiance.slot[c] != warpfit::warp::corrective::NO_MAP).collect();
+    let mut q = Vec::with_capacity((2 * POSITIONS * DIRS) as usize);
+    for p in 0..POSITIONS {
+        let mut s = Sampler::new(0xBE7C, 1, p);
+        let cell = cells[(s.next_1d() * cells.len() as f32) as usize % cells.len()];
+        let lo = geo.min + geo.cell_coords(cell).as_vec3() * geo.cell_size();
+        let b = lo + geo.cell_size() * Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
+        for k in 0..DIRS {
+            let d = uniform_sphere(Sampler::new(0xBE7C, 2 + p as u64, k).next_2d());
+            q.push([b.x, b.y, b.z, r]);
+            q.push([d.x, d.y, d.z, 0.0]);
+        }
+    }
+    q
+}
+
+fn main() {
+    // `cargo bench` passes libtest-style flags (`--bench`); a filter argument picks kernels
+    let filter: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with('-')).collect();
+    let gpu = Gpu::new().unwrap_or_else(|e| panic!("{e}"));
+    let grid = FittedGrid::load(common::fitted_torture()).unwrap();
+    let dir = std::env::temp_dir().join(format!("warpfit-bench-gpu-{}", std::process::id()));
+    warpfit::export::export(&grid, &dir).unwrap();
+    let lookup = Lookup::load(&gpu, &dir);
+    let n = (POSITIONS * DIRS) as f64;
+    println!("adapter: {} ({:?}, {})", gpu.adapter.name, gpu.adapter.backend, gpu.adapter.driver_info);
+    let cases = [
+        ("warp1", "warp1_queries", 0.0),
+        ("box", "box_queries", 0.0),
+        ("specular r=0", "specular_queries", 0.0),
+        ("specular r=0.5", "specular_queries", 0.5),
+        ("irradiance", "irradiance_queries", 0.0),
+    ];
+    let mut warp1 = None;
+    println!("{:<16} {:>12} {:>10}", "kernel", "ns/lookup", "÷ warp1");
+    for (name, kernel, r) in cases {
+        if !filter.is_empty() && !filter.iter().any(|f| name.contains(f.as_str())) {
+            continue;
+        }
+        let batch = lookup.batch(&gpu, &queries(&grid, r));
+        for _ in 0..2 {
+            lookup.dispatch(&gpu, kernel, &batch, false);
+        }
+        let mut t: Vec<f64> = (0..9).map(|_| lookup.dispatch(&gpu, kernel, &batch, false).as_secs_f64()).collect();
+        t.sort_by(f64::total_cmp);
+        let ns = t[4] * 1e9 / n;
+        let base = *warp1.get_or_insert(ns);
+        println!("{name:<16} {ns:>12.2} {:>10.2}", ns / base);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
