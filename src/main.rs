@@ -137,7 +137,8 @@ enum Command {
         job: RunArgs,
     },
     /// Write a fitted grid in the layout engines load: KTX2 textures (probe mips, guttered
-    /// atlases) and export.json (grid, tile tables, conventions).
+    /// atlases), export.json (grid, tile tables, conventions) and the reference shader
+    /// (WGSL, HLSL, GLSL) with its two buffers.
     Export {
         /// The fitted grid folder.
         #[arg(long, default_value = "fits/torture")]
@@ -727,7 +728,7 @@ fn run(cli: Cli) -> Result<()> {
                 bytes += e.metadata().map(|m| m.len()).unwrap_or(0);
             }
             println!(
-                "exported {} → {}: probe ({} mips), irradiance and moments atlases ({}×{} tiles of {}², 1-texel gutters), {} corrective tiles, {} irradiance-scale tiles; {} in all (export.json describes them)",
+                "exported {} → {}: probe ({} mips), irradiance and moments atlases ({}×{} tiles of {}², 1-texel gutters), {} corrective tiles, {} irradiance-scale tiles, the reference shader ({}) and its buffers; {} in all (export.json describes them)",
                 fit.display(),
                 out.display(),
                 s.probe_mips,
@@ -736,6 +737,7 @@ fn run(cli: Cli) -> Result<()> {
                 s.irradiance.tile_resolution,
                 s.correctives.as_ref().map_or(0, |c| c.cell_tile.iter().filter(|t| **t >= 0).count()),
                 s.irradiance_scale.as_ref().map_or(0, |c| c.cell_tile.iter().filter(|t| **t >= 0).count()),
+                s.shader.sources.join(", "),
                 files::human_bytes(bytes)
             );
         }
