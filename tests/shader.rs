@@ -97,3 +97,31 @@ fn the_buffers_have_the_shaders_layout() {
         assert!(dir.join(name).is_file(), "{name} exported");
     }
 }
+
+/// The shipped translations compile in Khronos' reference compiler (glslang): the GLSL as
+/// OpenGL compute shaders, the HLSL through glslang's HLSL front end, each kernel as the
+/// entry point. `.ci/run` installs it (Debian `glslang-tools`).
+#[test]
+fn the_shipped_translations_compile_in_glslang() {
+    let tool = "glslangValidator";
+    if std::process::Command::new(tool).arg("--version").output().is_err() {
+        common::tool_missing("compiling the HLSL and GLSL translations", tool, "apt-get install glslang-tools");
+        return;
+    }
+    let shaders = common::repo().join("shaders");
+    let out = common::tmp_dir("glslang").join("out.spv");
+    let run = |args: &[&str], file: &str| {
+        let o = std::process::Command::new(tool).args(args).arg(shaders.join(file)).output().unwrap();
+        assert!(
+            o.status.success(),
+            "glslang rejects shaders/{file} ({args:?}):\n{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        );
+    };
+    let out = out.to_str().unwrap();
+    for ep in ENTRY_POINTS {
+        run(&["-G", "-S", "comp", "-o", out], &format!("warpfit.{ep}.comp.glsl"));
+        run(&["-D", "-V", "-S", "comp", "-e", ep, "-o", out], "warpfit.hlsl");
+    }
+}
