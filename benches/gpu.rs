@@ -1,12 +1,15 @@
 //! The reference shader's cost on the adapter wgpu finds (Mesa's lavapipe where there is no
 //! GPU): ns per lookup over 1,048,576 queries for the fitted `specular` (mirror and rough),
 //! `irradiance`, and, in the same shader style on the same probe and queries, seed 000's
-//! one-step warp and the box proxy alone. Printed as ratios to `warp1`: absolute figures
+//! one-step warp and the box proxy alone; the fitted lookups through the generic pipeline
+//! (settings read from `params`) and through one specialised to the grid (`override`s set). Printed as ratios to `warp1`: absolute figures
 //! from a software rasteriser on a shared machine say little, the ratios say what the fitted
 //! lookup costs over the baselines an engine already runs.
 //!
-//! Uses `fits/torture` (fitted first if missing, as `benches/runtime.rs` does). Each kernel:
-//! two warm-up dispatches, then the median of nine, timed from submit to completion.
+//! Uses `fits/torture` (fitted first if missing, as `benches/runtime.rs` does). Eleven rounds
+//! of every kernel in turn (so a change in the machine's load hits them alike); the first two
+//! warm up, each kernel's figure is the median of the other nine, timed from submit to
+//! completion.
 //!
 //! Run: `cargo bench --bench gpu`
 
@@ -16,7 +19,7 @@ mod common;
 mod gpu_harness;
 
 use glam::Vec3;
-use gpu_harness::{Gpu, Lookup};
+use gpu_harness::{Gpu, Lookup, Pipeline};
 use warpfit::runtime::FittedGrid;
 use warpfit::sampling::{Sampler, uniform_sphere};
 
@@ -51,31 +54,42 @@ fn main() {
     let grid = FittedGrid::load(common::fitted_torture()).unwrap();
     let dir = std::env::temp_dir().join(format!("warpfit-bench-gpu-{}", std::process::id()));
     warpfit::export::export(&grid, &dir).unwrap();
-    let lookup = Lookup::load(&gpu, &dir);
+    let generic = Lookup::load(&gpu, &dir, Pipeline::Generic);
+    let specialised = Lookup::load(&gpu, &dir, Pipeline::Specialised);
     let n = (POSITIONS * DIRS) as f64;
     println!("adapter: {} ({:?}, {})", gpu.adapter.name, gpu.adapter.backend, gpu.adapter.driver_info);
     let cases = [
-        ("warp1", "warp1_queries", 0.0),
-        ("box", "box_queries", 0.0),
-        ("specular r=0", "specular_queries", 0.0),
-        ("specular r=0.5", "specular_queries", 0.5),
-        ("irradiance", "irradiance_queries", 0.0),
+        ("warp1", "warp1_queries", 0.0, &generic),
+        ("box", "box_queries", 0.0, &generic),
+        ("specular r=0", "specular_queries", 0.0, &generic),
+        ("specular r=0.5", "specular_queries", 0.5, &generic),
+        ("specular r=0, specialised", "specular_queries", 0.0, &specialised),
+        ("specular r=0.5, specialised", "specular_queries", 0.5, &specialised),
+        ("irradiance", "irradiance_queries", 0.0, &generic),
     ];
+    let cases: Vec<_> = cases
+        .into_iter()
+        .filter(|(name, ..)| filter.is_empty() || filter.iter().any(|f| name.contains(f.as_str())))
+        .collect();
+    let batches: Vec<_> = cases.iter().map(|&(_, _, r, lookup)| lookup.batch(&gpu, &queries(&grid, r))).collect();
+    // rounds of every kernel in turn, so a change in the machine's load hits them alike
+    let mut times = vec![Vec::new(); cases.len()];
+    for round in 0..11 {
+        for (k, &(_, kernel, _, lookup)) in cases.iter().enumerate() {
+            let t = lookup.dispatch(&gpu, kernel, &batches[k], false).as_secs_f64();
+            if round >= 2 {
+                times[k].push(t); // the first two rounds warm up
+            }
+        }
+    }
     let mut warp1 = None;
-    println!("{:<16} {:>12} {:>10}", "kernel", "ns/lookup", "÷ warp1");
-    for (name, kernel, r) in cases {
-        if !filter.is_empty() && !filter.iter().any(|f| name.contains(f.as_str())) {
-            continue;
-        }
-        let batch = lookup.batch(&gpu, &queries(&grid, r));
-        for _ in 0..2 {
-            lookup.dispatch(&gpu, kernel, &batch, false);
-        }
-        let mut t: Vec<f64> = (0..9).map(|_| lookup.dispatch(&gpu, kernel, &batch, false).as_secs_f64()).collect();
+    println!("{:<28} {:>12} {:>10}", "kernel", "ns/lookup", "÷ warp1");
+    for (k, &(name, ..)) in cases.iter().enumerate() {
+        let t = &mut times[k];
         t.sort_by(f64::total_cmp);
-        let ns = t[4] * 1e9 / n;
+        let ns = t[t.len() / 2] * 1e9 / n;
         let base = *warp1.get_or_insert(ns);
-        println!("{name:<16} {ns:>12.2} {:>10.2}", ns / base);
+        println!("{name:<28} {ns:>12.2} {:>10.2}", ns / base);
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

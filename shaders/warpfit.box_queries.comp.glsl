@@ -39,6 +39,7 @@ struct Aim {
     vec3 v;
     float k;
 };
+const uint DYNAMIC = 255u;
 const float HUGE = 1e30;
 const float F32_MIN_POSITIVE = 1.1754944e-38;
 const float F32_EPSILON = 1.1920929e-7;
@@ -47,6 +48,10 @@ const uint ATLAS_CORRECTIVE = 0u;
 const uint ATLAS_IRRADIANCE = 1u;
 const uint ATLAS_MOMENTS = 2u;
 const uint ATLAS_SCALE = 3u;
+const uint FALLBACK = 255u;
+const uint BLEND = 255u;
+const uint RELAX = 255u;
+const uint ROUGHNESS_CORRECTION = 255u;
 
 layout(binding = 0) uniform sampler2D _group_0_binding_0_cs;
 
@@ -58,6 +63,38 @@ layout(std430, binding = 1) readonly buffer type_17_block_1Compute { vec4 _group
 
 layout(std430, binding = 2) buffer type_17_block_2Compute { vec4 _group_1_binding_1_cs[]; };
 
+
+uint fallback_method() {
+    if (true) {
+        uint _e8 = _group_0_binding_7_cs.probe_info.z;
+        return _e8;
+    }
+    return FALLBACK;
+}
+
+uint blend_mode() {
+    if (true) {
+        uint _e8 = _group_0_binding_7_cs.grid_counts.w;
+        return _e8;
+    }
+    return BLEND;
+}
+
+bool relaxation_on() {
+    if (true) {
+        float _e8 = _group_0_binding_7_cs.warp.x;
+        return (_e8 > 0.0);
+    }
+    return false;
+}
+
+bool roughness_corrected() {
+    if (true) {
+        uint _e8 = _group_0_binding_7_cs.probe_info.w;
+        return (_e8 != 0u);
+    }
+    return false;
+}
 
 bool finite(float x) {
     return ((floatBitsToUint(x) & 2139095040u) != 2139095040u);
@@ -500,19 +537,19 @@ vec3 kdop_fetch(vec3 b_4, vec3 dir_2) {
 }
 
 vec3 fallback_plain(vec3 b_5, vec3 dir_3) {
-    uint _e5 = _group_0_binding_7_cs.probe_info.z;
-    switch(_e5) {
+    uint _e2 = fallback_method();
+    switch(_e2) {
         case 1u: {
-            vec3 _e6 = box_fetch(b_5, dir_3);
-            return _e6;
+            vec3 _e3 = box_fetch(b_5, dir_3);
+            return _e3;
         }
         case 2u: {
-            vec3 _e7 = kdop_fetch(b_5, dir_3);
-            return _e7;
+            vec3 _e4 = kdop_fetch(b_5, dir_3);
+            return _e4;
         }
         default: {
-            vec3 _e8 = warp1_(b_5, dir_3);
-            return _e8;
+            vec3 _e5 = warp1_(b_5, dir_3);
+            return _e5;
         }
     }
 }
@@ -557,30 +594,30 @@ vec3 fallback_fetch(vec3 b_6, vec3 dir_4) {
         return dir_4;
     }
     float relax = _group_0_binding_7_cs.warp.x;
-    bool relaxed = (relax > 0.0);
-    float _e19 = _group_0_binding_7_cs.warp.y;
-    float angle = ((relax * 3.5449078) / _e19);
-    vec3 _e21 = basis_t(dir_4);
-    vec3 t_7 = (_e21 * angle);
-    vec3 _e23 = basis_b(dir_4);
-    vec3 bt = (_e23 * angle);
+    bool _e12 = relaxation_on();
+    float _e18 = _group_0_binding_7_cs.warp.y;
+    float angle = ((relax * 3.5449078) / _e18);
+    vec3 _e20 = basis_t(dir_4);
+    vec3 t_7 = (_e20 * angle);
+    vec3 _e22 = basis_b(dir_4);
+    vec3 bt = (_e22 * angle);
     plain = dir_4;
     bool loop_init_2 = true;
     while(true) {
         if (!loop_init_2) {
-            uint _e55 = s;
-            s = (_e55 + 1u);
+            uint _e54 = s;
+            s = (_e54 + 1u);
         }
         loop_init_2 = false;
-        uint _e31 = s;
-        if ((_e31 < (relaxed ? 5u : 1u))) {
+        uint _e30 = s;
+        if ((_e30 < (_e12 ? 5u : 1u))) {
         } else {
             break;
         }
         {
             d_1 = dir_4;
-            uint _e37 = s;
-            switch(_e37) {
+            uint _e36 = s;
+            switch(_e36) {
                 case 1u: {
                     d_1 = normalize((dir_4 + t_7));
                     break;
@@ -601,24 +638,24 @@ vec3 fallback_fetch(vec3 b_6, vec3 dir_4) {
                     break;
                 }
             }
-            vec3 _e46 = d_1;
-            vec3 _e47 = fallback_plain(b_6, _e46);
-            uint _e48 = s;
-            if ((_e48 == 0u)) {
-                plain = _e47;
+            vec3 _e45 = d_1;
+            vec3 _e46 = fallback_plain(b_6, _e45);
+            uint _e47 = s;
+            if ((_e47 == 0u)) {
+                plain = _e46;
             }
-            vec3 _e51 = sum;
-            vec3 _e52 = normalize_or(_e47, dir_4);
-            sum = (_e51 + _e52);
+            vec3 _e50 = sum;
+            vec3 _e51 = normalize_or(_e46, dir_4);
+            sum = (_e50 + _e51);
         }
     }
-    if (!(relaxed)) {
-        vec3 _e58 = plain;
-        return _e58;
+    if (!(_e12)) {
+        vec3 _e57 = plain;
+        return _e57;
     }
-    vec3 _e59 = sum;
-    vec3 _e60 = normalize_or(_e59, dir_4);
-    return _e60;
+    vec3 _e58 = sum;
+    vec3 _e59 = normalize_or(_e58, dir_4);
+    return _e59;
 }
 
 float inv_t_from_map(vec3 c_4, float w, vec3 b_7, vec3 dir_5) {

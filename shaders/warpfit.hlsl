@@ -41,6 +41,7 @@ struct Aim {
     float k;
 };
 
+static const uint DYNAMIC = 255u;
 static const float HUGE = 1e30;
 static const float F32_MIN_POSITIVE = 1.1754944e-38;
 static const float F32_EPSILON = 1.1920929e-7;
@@ -49,6 +50,10 @@ static const uint ATLAS_CORRECTIVE = 0u;
 static const uint ATLAS_IRRADIANCE = 1u;
 static const uint ATLAS_MOMENTS = 2u;
 static const uint ATLAS_SCALE = 3u;
+static const uint FALLBACK = 255u;
+static const uint BLEND = 255u;
+static const uint RELAX = 255u;
+static const uint ROUGHNESS_CORRECTION = 255u;
 
 Texture2D<float4> probe_radiance : register(t0);
 Texture2D<float4> probe_inv_distance : register(t1);
@@ -61,6 +66,42 @@ cbuffer params : register(b7) { Params params; }
 ByteAddressBuffer cells : register(t8);
 ByteAddressBuffer queries : register(t0, space1);
 RWByteAddressBuffer results : register(u1, space1);
+
+uint fallback_method()
+{
+    if (true) {
+        uint _e8 = params.probe_info.z;
+        return _e8;
+    }
+    return FALLBACK;
+}
+
+uint blend_mode()
+{
+    if (true) {
+        uint _e8 = params.grid_counts.w;
+        return _e8;
+    }
+    return BLEND;
+}
+
+bool relaxation_on()
+{
+    if (true) {
+        float _e8 = params.warp.x;
+        return (_e8 > 0.0);
+    }
+    return false;
+}
+
+bool roughness_corrected()
+{
+    if (true) {
+        uint _e8 = params.probe_info.w;
+        return (_e8 != 0u);
+    }
+    return false;
+}
 
 bool finite(float x)
 {
@@ -620,19 +661,19 @@ float3 kdop_fetch(float3 b_4, float3 dir_2)
 
 float3 fallback_plain(float3 b_5, float3 dir_3)
 {
-    uint _e5 = params.probe_info.z;
-    switch(_e5) {
+    const uint _e2 = fallback_method();
+    switch(_e2) {
         case 1u: {
-            const float3 _e6 = box_fetch(b_5, dir_3);
-            return _e6;
+            const float3 _e3 = box_fetch(b_5, dir_3);
+            return _e3;
         }
         case 2u: {
-            const float3 _e7 = kdop_fetch(b_5, dir_3);
-            return _e7;
+            const float3 _e4 = kdop_fetch(b_5, dir_3);
+            return _e4;
         }
         default: {
-            const float3 _e8 = warp1_(b_5, dir_3);
-            return _e8;
+            const float3 _e5 = warp1_(b_5, dir_3);
+            return _e5;
         }
     }
 }
@@ -683,13 +724,13 @@ float3 fallback_fetch(float3 b_6, float3 dir_4)
         return dir_4;
     }
     float relax = params.warp.x;
-    bool relaxed = (relax > 0.0);
-    float _e19 = params.warp.y;
-    float angle = ((relax * 3.5449078) / _e19);
-    const float3 _e21 = basis_t(dir_4);
-    float3 t_7 = (_e21 * angle);
-    const float3 _e23 = basis_b(dir_4);
-    float3 bt = (_e23 * angle);
+    const bool _e12 = relaxation_on();
+    float _e18 = params.warp.y;
+    float angle = ((relax * 3.5449078) / _e18);
+    const float3 _e20 = basis_t(dir_4);
+    float3 t_7 = (_e20 * angle);
+    const float3 _e22 = basis_b(dir_4);
+    float3 bt = (_e22 * angle);
     plain = dir_4;
     uint2 loop_bound_2 = uint2(4294967295u, 4294967295u);
     bool loop_init_2 = true;
@@ -697,20 +738,20 @@ float3 fallback_fetch(float3 b_6, float3 dir_4)
         if (all(loop_bound_2 == uint2(0u, 0u))) { break; }
         loop_bound_2 -= uint2(loop_bound_2.y == 0u, 1u);
         if (!loop_init_2) {
-            uint _e55 = s;
-            s = (_e55 + 1u);
+            uint _e54 = s;
+            s = (_e54 + 1u);
         }
         loop_init_2 = false;
-        uint _e31 = s;
-        if ((_e31 < (relaxed ? 5u : 1u))) {
+        uint _e30 = s;
+        if ((_e30 < (_e12 ? 5u : 1u))) {
         } else {
             break;
         }
         {
             d_1 = dir_4;
-            uint _e37 = s;
+            uint _e36 = s;
             bool should_continue = false;
-            switch(_e37) {
+            switch(_e36) {
                 case 1u: {
                     d_1 = normalize((dir_4 + t_7));
                     break;
@@ -731,24 +772,24 @@ float3 fallback_fetch(float3 b_6, float3 dir_4)
                     break;
                 }
             }
-            float3 _e46 = d_1;
-            const float3 _e47 = fallback_plain(b_6, _e46);
-            uint _e48 = s;
-            if ((_e48 == 0u)) {
-                plain = _e47;
+            float3 _e45 = d_1;
+            const float3 _e46 = fallback_plain(b_6, _e45);
+            uint _e47 = s;
+            if ((_e47 == 0u)) {
+                plain = _e46;
             }
-            float3 _e51 = sum;
-            const float3 _e52 = normalize_or(_e47, dir_4);
-            sum = (_e51 + _e52);
+            float3 _e50 = sum;
+            const float3 _e51 = normalize_or(_e46, dir_4);
+            sum = (_e50 + _e51);
         }
     }
-    if (!(relaxed)) {
-        float3 _e58 = plain;
-        return _e58;
+    if (!(_e12)) {
+        float3 _e57 = plain;
+        return _e57;
     }
-    float3 _e59 = sum;
-    const float3 _e60 = normalize_or(_e59, dir_4);
-    return _e60;
+    float3 _e58 = sum;
+    const float3 _e59 = normalize_or(_e58, dir_4);
+    return _e59;
 }
 
 float inv_t_from_map(float3 c_4, float w, float3 b_7, float3 dir_5)
@@ -837,72 +878,72 @@ Aim fetch(float3 b_9, float3 dir_7)
     }
     const float2 _e10 = oct_encode(dir_7);
     const float3 _e11 = cell_size();
-    uint _e15 = params.grid_counts.w;
-    if ((_e15 == 0u)) {
-        const uint3 _e18 = cell_of(b_9, _e11);
-        const uint _e20 = cell_index(_e18);
-        Cell cell = ConstructCell(asint(cells.Load4(_e20*32+0)), asfloat(cells.Load4(_e20*32+16)));
+    const uint _e12 = blend_mode();
+    if ((_e12 == 0u)) {
+        const uint3 _e15 = cell_of(b_9, _e11);
+        const uint _e17 = cell_index(_e15);
+        Cell cell = ConstructCell(asint(cells.Load4(_e17*32+0)), asfloat(cells.Load4(_e17*32+16)));
         if ((cell.tiles.x >= int(0))) {
-            const float3 _e27 = cell_centre(_e18, _e11);
-            float3 origin_1 = (_e27 + cell.offset.xyz);
-            const float _e33 = map_w(cell.tiles.x, _e10);
-            const float _e34 = inv_t_from_map(origin_1, _e33, b_9, dir_7);
-            const Aim _e35 = aim_from_inv_t(_e34, b_9, dir_7);
-            const Aim aim_4 = _e35;
+            const float3 _e24 = cell_centre(_e15, _e11);
+            float3 origin_1 = (_e24 + cell.offset.xyz);
+            const float _e30 = map_w(cell.tiles.x, _e10);
+            const float _e31 = inv_t_from_map(origin_1, _e30, b_9, dir_7);
+            const Aim _e32 = aim_from_inv_t(_e31, b_9, dir_7);
+            const Aim aim_4 = _e32;
             return aim_4;
         }
-        const float3 _e36 = fallback_fetch(b_9, dir_7);
-        const Aim aim_5 = ConstructAim(_e36, -1.0);
+        const float3 _e33 = fallback_fetch(b_9, dir_7);
+        const Aim aim_5 = ConstructAim(_e33, -1.0);
         return aim_5;
     }
-    const Lattice _e39 = lattice(b_9, _e11);
+    const Lattice _e36 = lattice(b_9, _e11);
     uint2 loop_bound_3 = uint2(4294967295u, 4294967295u);
     bool loop_init_3 = true;
     while(true) {
         if (all(loop_bound_3 == uint2(0u, 0u))) { break; }
         loop_bound_3 -= uint2(loop_bound_3.y == 0u, 1u);
         if (!loop_init_3) {
-            uint _e77 = corner_2;
-            corner_2 = (_e77 + 1u);
+            uint _e74 = corner_2;
+            corner_2 = (_e74 + 1u);
         }
         loop_init_3 = false;
-        uint _e46 = corner_2;
-        if ((_e46 < 8u)) {
+        uint _e43 = corner_2;
+        if ((_e43 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e49 = corner_2;
-            const float _e50 = corner_weight(_e39, _e49);
-            if ((_e50 <= 0.0)) {
+            uint _e46 = corner_2;
+            const float _e47 = corner_weight(_e36, _e46);
+            if ((_e47 <= 0.0)) {
                 continue;
             }
-            uint _e53 = corner_2;
-            const uint3 _e54 = corner_cell(_e39, _e53);
-            const uint _e56 = cell_index(_e54);
-            Cell cell_1 = ConstructCell(asint(cells.Load4(_e56*32+0)), asfloat(cells.Load4(_e56*32+16)));
+            uint _e50 = corner_2;
+            const uint3 _e51 = corner_cell(_e36, _e50);
+            const uint _e53 = cell_index(_e51);
+            Cell cell_1 = ConstructCell(asint(cells.Load4(_e53*32+0)), asfloat(cells.Load4(_e53*32+16)));
             if ((cell_1.tiles.x >= int(0))) {
-                const float3 _e63 = cell_centre(_e54, _e11);
-                float3 origin_2 = (_e63 + cell_1.offset.xyz);
-                float _e67 = sum_1;
-                const float _e70 = map_w(cell_1.tiles.x, _e10);
-                const float _e71 = inv_t_from_map(origin_2, _e70, b_9, dir_7);
-                sum_1 = (_e67 + (_e50 * _e71));
-                float _e74 = wsum;
-                wsum = (_e74 + _e50);
+                const float3 _e60 = cell_centre(_e51, _e11);
+                float3 origin_2 = (_e60 + cell_1.offset.xyz);
+                float _e64 = sum_1;
+                const float _e67 = map_w(cell_1.tiles.x, _e10);
+                const float _e68 = inv_t_from_map(origin_2, _e67, b_9, dir_7);
+                sum_1 = (_e64 + (_e47 * _e68));
+                float _e71 = wsum;
+                wsum = (_e71 + _e47);
             }
         }
     }
-    float _e79 = wsum;
-    if ((_e79 > 0.0)) {
-        float _e82 = sum_1;
-        float _e83 = wsum;
-        const Aim _e85 = aim_from_inv_t((_e82 / _e83), b_9, dir_7);
-        const Aim aim_6 = _e85;
+    float _e76 = wsum;
+    if ((_e76 > 0.0)) {
+        float _e79 = sum_1;
+        float _e80 = wsum;
+        const Aim _e82 = aim_from_inv_t((_e79 / _e80), b_9, dir_7);
+        const Aim aim_6 = _e82;
         return aim_6;
     }
-    const float3 _e86 = fallback_fetch(b_9, dir_7);
-    const Aim aim_7 = ConstructAim(_e86, -1.0);
+    const float3 _e83 = fallback_fetch(b_9, dir_7);
+    const Aim aim_7 = ConstructAim(_e83, -1.0);
     return aim_7;
 }
 
@@ -1087,23 +1128,23 @@ float3 shade(float3 b_11, Aim aim, float r_2)
         const float3 _e8 = radiance_lod(_e4, 0.0);
         return _e8;
     }
-    uint _e12 = params.probe_info.w;
-    if ((_e12 == 0u)) {
-        const float _e15 = lod_of_roughness(r_2);
-        const float3 _e16 = radiance_lod(_e4, _e15);
-        return _e16;
+    const bool _e9 = roughness_corrected();
+    if (!(_e9)) {
+        const float _e11 = lod_of_roughness(r_2);
+        const float3 _e12 = radiance_lod(_e4, _e11);
+        return _e12;
     }
     k_5 = aim.k;
-    float _e19 = k_5;
-    if ((_e19 < 0.0)) {
-        const float _e23 = distance_ratio(b_11, aim.v, _e4);
-        k_5 = _e23;
+    float _e15 = k_5;
+    if ((_e15 < 0.0)) {
+        const float _e19 = distance_ratio(b_11, aim.v, _e4);
+        k_5 = _e19;
     }
-    float _e24 = k_5;
-    const float _e25 = corrected_roughness(r_2, _e24);
-    const float _e26 = lod_of_roughness(_e25);
-    const float3 _e27 = radiance_lod(_e4, _e26);
-    return _e27;
+    float _e20 = k_5;
+    const float _e21 = corrected_roughness(r_2, _e20);
+    const float _e22 = lod_of_roughness(_e21);
+    const float3 _e23 = radiance_lod(_e4, _e22);
+    return _e23;
 }
 
 float3 clean(float3 c_5)

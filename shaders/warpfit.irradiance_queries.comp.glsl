@@ -39,6 +39,7 @@ struct Aim {
     vec3 v;
     float k;
 };
+const uint DYNAMIC = 255u;
 const float HUGE = 1e30;
 const float F32_MIN_POSITIVE = 1.1754944e-38;
 const float F32_EPSILON = 1.1920929e-7;
@@ -47,6 +48,10 @@ const uint ATLAS_CORRECTIVE = 0u;
 const uint ATLAS_IRRADIANCE = 1u;
 const uint ATLAS_MOMENTS = 2u;
 const uint ATLAS_SCALE = 3u;
+const uint FALLBACK = 255u;
+const uint BLEND = 255u;
+const uint RELAX = 255u;
+const uint ROUGHNESS_CORRECTION = 255u;
 
 layout(binding = 2) uniform sampler2D _group_0_binding_2_cs;
 
@@ -64,6 +69,38 @@ layout(std430, binding = 1) readonly buffer type_17_block_2Compute { vec4 _group
 
 layout(std430, binding = 2) buffer type_17_block_3Compute { vec4 _group_1_binding_1_cs[]; };
 
+
+uint fallback_method() {
+    if (true) {
+        uint _e8 = _group_0_binding_7_cs.probe_info.z;
+        return _e8;
+    }
+    return FALLBACK;
+}
+
+uint blend_mode() {
+    if (true) {
+        uint _e8 = _group_0_binding_7_cs.grid_counts.w;
+        return _e8;
+    }
+    return BLEND;
+}
+
+bool relaxation_on() {
+    if (true) {
+        float _e8 = _group_0_binding_7_cs.warp.x;
+        return (_e8 > 0.0);
+    }
+    return false;
+}
+
+bool roughness_corrected() {
+    if (true) {
+        uint _e8 = _group_0_binding_7_cs.probe_info.w;
+        return (_e8 != 0u);
+    }
+    return false;
+}
 
 bool finite(float x) {
     return ((floatBitsToUint(x) & 2139095040u) != 2139095040u);

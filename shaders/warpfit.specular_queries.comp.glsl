@@ -39,6 +39,7 @@ struct Aim {
     vec3 v;
     float k;
 };
+const uint DYNAMIC = 255u;
 const float HUGE = 1e30;
 const float F32_MIN_POSITIVE = 1.1754944e-38;
 const float F32_EPSILON = 1.1920929e-7;
@@ -47,6 +48,10 @@ const uint ATLAS_CORRECTIVE = 0u;
 const uint ATLAS_IRRADIANCE = 1u;
 const uint ATLAS_MOMENTS = 2u;
 const uint ATLAS_SCALE = 3u;
+const uint FALLBACK = 255u;
+const uint BLEND = 255u;
+const uint RELAX = 255u;
+const uint ROUGHNESS_CORRECTION = 255u;
 
 layout(binding = 0) uniform sampler2D _group_0_binding_0_cs;
 
@@ -70,6 +75,38 @@ layout(std430, binding = 1) readonly buffer type_17_block_2Compute { vec4 _group
 
 layout(std430, binding = 2) buffer type_17_block_3Compute { vec4 _group_1_binding_1_cs[]; };
 
+
+uint fallback_method() {
+    if (true) {
+        uint _e8 = _group_0_binding_7_cs.probe_info.z;
+        return _e8;
+    }
+    return FALLBACK;
+}
+
+uint blend_mode() {
+    if (true) {
+        uint _e8 = _group_0_binding_7_cs.grid_counts.w;
+        return _e8;
+    }
+    return BLEND;
+}
+
+bool relaxation_on() {
+    if (true) {
+        float _e8 = _group_0_binding_7_cs.warp.x;
+        return (_e8 > 0.0);
+    }
+    return false;
+}
+
+bool roughness_corrected() {
+    if (true) {
+        uint _e8 = _group_0_binding_7_cs.probe_info.w;
+        return (_e8 != 0u);
+    }
+    return false;
+}
 
 bool finite(float x) {
     return ((floatBitsToUint(x) & 2139095040u) != 2139095040u);
@@ -546,19 +583,19 @@ vec3 kdop_fetch(vec3 b_4, vec3 dir_2) {
 }
 
 vec3 fallback_plain(vec3 b_5, vec3 dir_3) {
-    uint _e5 = _group_0_binding_7_cs.probe_info.z;
-    switch(_e5) {
+    uint _e2 = fallback_method();
+    switch(_e2) {
         case 1u: {
-            vec3 _e6 = box_fetch(b_5, dir_3);
-            return _e6;
+            vec3 _e3 = box_fetch(b_5, dir_3);
+            return _e3;
         }
         case 2u: {
-            vec3 _e7 = kdop_fetch(b_5, dir_3);
-            return _e7;
+            vec3 _e4 = kdop_fetch(b_5, dir_3);
+            return _e4;
         }
         default: {
-            vec3 _e8 = warp1_(b_5, dir_3);
-            return _e8;
+            vec3 _e5 = warp1_(b_5, dir_3);
+            return _e5;
         }
     }
 }
@@ -603,30 +640,30 @@ vec3 fallback_fetch(vec3 b_6, vec3 dir_4) {
         return dir_4;
     }
     float relax = _group_0_binding_7_cs.warp.x;
-    bool relaxed = (relax > 0.0);
-    float _e19 = _group_0_binding_7_cs.warp.y;
-    float angle = ((relax * 3.5449078) / _e19);
-    vec3 _e21 = basis_t(dir_4);
-    vec3 t_7 = (_e21 * angle);
-    vec3 _e23 = basis_b(dir_4);
-    vec3 bt = (_e23 * angle);
+    bool _e12 = relaxation_on();
+    float _e18 = _group_0_binding_7_cs.warp.y;
+    float angle = ((relax * 3.5449078) / _e18);
+    vec3 _e20 = basis_t(dir_4);
+    vec3 t_7 = (_e20 * angle);
+    vec3 _e22 = basis_b(dir_4);
+    vec3 bt = (_e22 * angle);
     plain = dir_4;
     bool loop_init_2 = true;
     while(true) {
         if (!loop_init_2) {
-            uint _e55 = s;
-            s = (_e55 + 1u);
+            uint _e54 = s;
+            s = (_e54 + 1u);
         }
         loop_init_2 = false;
-        uint _e31 = s;
-        if ((_e31 < (relaxed ? 5u : 1u))) {
+        uint _e30 = s;
+        if ((_e30 < (_e12 ? 5u : 1u))) {
         } else {
             break;
         }
         {
             d_1 = dir_4;
-            uint _e37 = s;
-            switch(_e37) {
+            uint _e36 = s;
+            switch(_e36) {
                 case 1u: {
                     d_1 = normalize((dir_4 + t_7));
                     break;
@@ -647,24 +684,24 @@ vec3 fallback_fetch(vec3 b_6, vec3 dir_4) {
                     break;
                 }
             }
-            vec3 _e46 = d_1;
-            vec3 _e47 = fallback_plain(b_6, _e46);
-            uint _e48 = s;
-            if ((_e48 == 0u)) {
-                plain = _e47;
+            vec3 _e45 = d_1;
+            vec3 _e46 = fallback_plain(b_6, _e45);
+            uint _e47 = s;
+            if ((_e47 == 0u)) {
+                plain = _e46;
             }
-            vec3 _e51 = sum;
-            vec3 _e52 = normalize_or(_e47, dir_4);
-            sum = (_e51 + _e52);
+            vec3 _e50 = sum;
+            vec3 _e51 = normalize_or(_e46, dir_4);
+            sum = (_e50 + _e51);
         }
     }
-    if (!(relaxed)) {
-        vec3 _e58 = plain;
-        return _e58;
+    if (!(_e12)) {
+        vec3 _e57 = plain;
+        return _e57;
     }
-    vec3 _e59 = sum;
-    vec3 _e60 = normalize_or(_e59, dir_4);
-    return _e60;
+    vec3 _e58 = sum;
+    vec3 _e59 = normalize_or(_e58, dir_4);
+    return _e59;
 }
 
 float inv_t_from_map(vec3 c_4, float w, vec3 b_7, vec3 dir_5) {
@@ -730,66 +767,66 @@ Aim fetch(vec3 b_9, vec3 dir_7) {
     }
     vec2 _e10 = oct_encode(dir_7);
     vec3 _e11 = cell_size();
-    uint _e15 = _group_0_binding_7_cs.grid_counts.w;
-    if ((_e15 == 0u)) {
-        uvec3 _e18 = cell_of(b_9, _e11);
-        uint _e20 = cell_index(_e18);
-        Cell cell = _group_0_binding_8_cs[_e20];
+    uint _e12 = blend_mode();
+    if ((_e12 == 0u)) {
+        uvec3 _e15 = cell_of(b_9, _e11);
+        uint _e17 = cell_index(_e15);
+        Cell cell = _group_0_binding_8_cs[_e17];
         if ((cell.tiles.x >= 0)) {
-            vec3 _e27 = cell_centre(_e18, _e11);
-            vec3 origin_1 = (_e27 + cell.offset.xyz);
-            float _e33 = map_w(cell.tiles.x, _e10);
-            float _e34 = inv_t_from_map(origin_1, _e33, b_9, dir_7);
-            Aim _e35 = aim_from_inv_t(_e34, b_9, dir_7);
-            return _e35;
+            vec3 _e24 = cell_centre(_e15, _e11);
+            vec3 origin_1 = (_e24 + cell.offset.xyz);
+            float _e30 = map_w(cell.tiles.x, _e10);
+            float _e31 = inv_t_from_map(origin_1, _e30, b_9, dir_7);
+            Aim _e32 = aim_from_inv_t(_e31, b_9, dir_7);
+            return _e32;
         }
-        vec3 _e36 = fallback_fetch(b_9, dir_7);
-        return Aim(_e36, -1.0);
+        vec3 _e33 = fallback_fetch(b_9, dir_7);
+        return Aim(_e33, -1.0);
     }
-    Lattice _e39 = lattice(b_9, _e11);
+    Lattice _e36 = lattice(b_9, _e11);
     bool loop_init_3 = true;
     while(true) {
         if (!loop_init_3) {
-            uint _e77 = corner_2;
-            corner_2 = (_e77 + 1u);
+            uint _e74 = corner_2;
+            corner_2 = (_e74 + 1u);
         }
         loop_init_3 = false;
-        uint _e46 = corner_2;
-        if ((_e46 < 8u)) {
+        uint _e43 = corner_2;
+        if ((_e43 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e49 = corner_2;
-            float _e50 = corner_weight(_e39, _e49);
-            if ((_e50 <= 0.0)) {
+            uint _e46 = corner_2;
+            float _e47 = corner_weight(_e36, _e46);
+            if ((_e47 <= 0.0)) {
                 continue;
             }
-            uint _e53 = corner_2;
-            uvec3 _e54 = corner_cell(_e39, _e53);
-            uint _e56 = cell_index(_e54);
-            Cell cell_1 = _group_0_binding_8_cs[_e56];
+            uint _e50 = corner_2;
+            uvec3 _e51 = corner_cell(_e36, _e50);
+            uint _e53 = cell_index(_e51);
+            Cell cell_1 = _group_0_binding_8_cs[_e53];
             if ((cell_1.tiles.x >= 0)) {
-                vec3 _e63 = cell_centre(_e54, _e11);
-                vec3 origin_2 = (_e63 + cell_1.offset.xyz);
-                float _e67 = sum_1;
-                float _e70 = map_w(cell_1.tiles.x, _e10);
-                float _e71 = inv_t_from_map(origin_2, _e70, b_9, dir_7);
-                sum_1 = (_e67 + (_e50 * _e71));
-                float _e74 = wsum;
-                wsum = (_e74 + _e50);
+                vec3 _e60 = cell_centre(_e51, _e11);
+                vec3 origin_2 = (_e60 + cell_1.offset.xyz);
+                float _e64 = sum_1;
+                float _e67 = map_w(cell_1.tiles.x, _e10);
+                float _e68 = inv_t_from_map(origin_2, _e67, b_9, dir_7);
+                sum_1 = (_e64 + (_e47 * _e68));
+                float _e71 = wsum;
+                wsum = (_e71 + _e47);
             }
         }
     }
-    float _e79 = wsum;
-    if ((_e79 > 0.0)) {
-        float _e82 = sum_1;
-        float _e83 = wsum;
-        Aim _e85 = aim_from_inv_t((_e82 / _e83), b_9, dir_7);
-        return _e85;
+    float _e76 = wsum;
+    if ((_e76 > 0.0)) {
+        float _e79 = sum_1;
+        float _e80 = wsum;
+        Aim _e82 = aim_from_inv_t((_e79 / _e80), b_9, dir_7);
+        return _e82;
     }
-    vec3 _e86 = fallback_fetch(b_9, dir_7);
-    return Aim(_e86, -1.0);
+    vec3 _e83 = fallback_fetch(b_9, dir_7);
+    return Aim(_e83, -1.0);
 }
 
 float mip_roughness(uint m) {
@@ -960,23 +997,23 @@ vec3 shade(vec3 b_11, Aim aim, float r_2) {
         vec3 _e8 = radiance_lod(_e4, 0.0);
         return _e8;
     }
-    uint _e12 = _group_0_binding_7_cs.probe_info.w;
-    if ((_e12 == 0u)) {
-        float _e15 = lod_of_roughness(r_2);
-        vec3 _e16 = radiance_lod(_e4, _e15);
-        return _e16;
+    bool _e9 = roughness_corrected();
+    if (!(_e9)) {
+        float _e11 = lod_of_roughness(r_2);
+        vec3 _e12 = radiance_lod(_e4, _e11);
+        return _e12;
     }
     k_5 = aim.k;
-    float _e19 = k_5;
-    if ((_e19 < 0.0)) {
-        float _e23 = distance_ratio(b_11, aim.v, _e4);
-        k_5 = _e23;
+    float _e15 = k_5;
+    if ((_e15 < 0.0)) {
+        float _e19 = distance_ratio(b_11, aim.v, _e4);
+        k_5 = _e19;
     }
-    float _e24 = k_5;
-    float _e25 = corrected_roughness(r_2, _e24);
-    float _e26 = lod_of_roughness(_e25);
-    vec3 _e27 = radiance_lod(_e4, _e26);
-    return _e27;
+    float _e20 = k_5;
+    float _e21 = corrected_roughness(r_2, _e20);
+    float _e22 = lod_of_roughness(_e21);
+    vec3 _e23 = radiance_lod(_e4, _e22);
+    return _e23;
 }
 
 vec3 clean(vec3 c_5) {

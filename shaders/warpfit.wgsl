@@ -22,6 +22,12 @@
 // contiguous, so they need none (and plain hardware bilinear of a tile equals this too).
 //
 // Group 1 holds the query kernels' buffers (see the entry points at the end).
+//
+// Specialisation: four pipeline-overridable constants name the grid's fallback method,
+// corrective blend, relaxation and roughness correction. Left at 255 (the default) the
+// shader reads them from Params at run time, so one pipeline serves every grid; a renderer
+// that builds a pipeline per grid sets them to export.json's `shader.constants`, and the
+// compiler drops the branches that grid never takes.
 
 struct Params {
     // the grid: min (xyz), max (xyz), cell counts (xyz) and the corrective blend (w: 0 the
@@ -68,6 +74,16 @@ struct Cell {
     offset: vec4<f32>,
 }
 
+const DYNAMIC: u32 = 255u;
+// 0 warp1, 1 box, 2 kdop
+override FALLBACK: u32 = DYNAMIC;
+// 0 the containing cell, 1 trilinear
+override BLEND: u32 = DYNAMIC;
+// 0 off, 1 on
+override RELAX: u32 = DYNAMIC;
+// 0 absent (the plain mip of r), 1 present
+override ROUGHNESS_CORRECTION: u32 = DYNAMIC;
+
 @group(0) @binding(0) var probe_radiance: texture_2d<f32>;
 @group(0) @binding(1) var probe_inv_distance: texture_2d<f32>;
 @group(0) @binding(2) var corrective_atlas: texture_2d<f32>;
@@ -89,6 +105,36 @@ const ATLAS_CORRECTIVE: u32 = 0u;
 const ATLAS_IRRADIANCE: u32 = 1u;
 const ATLAS_MOMENTS: u32 = 2u;
 const ATLAS_SCALE: u32 = 3u;
+
+// ---- the grid's settings (specialised or read from Params) -----------------------------
+
+fn fallback_method() -> u32 {
+    if FALLBACK == DYNAMIC {
+        return params.probe_info.z;
+    }
+    return FALLBACK;
+}
+
+fn blend_mode() -> u32 {
+    if BLEND == DYNAMIC {
+        return params.grid_counts.w;
+    }
+    return BLEND;
+}
+
+fn relaxation_on() -> bool {
+    if RELAX == DYNAMIC {
+        return params.warp.x > 0.0;
+    }
+    return RELAX == 1u;
+}
+
+fn roughness_corrected() -> bool {
+    if ROUGHNESS_CORRECTION == DYNAMIC {
+        return params.probe_info.w != 0u;
+    }
+    return ROUGHNESS_CORRECTION == 1u;
+}
 
 // ---- numbers ---------------------------------------------------------------------------
 
@@ -408,7 +454,7 @@ fn kdop_fetch(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
 }
 
 fn fallback_plain(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
-    switch params.probe_info.z {
+    switch fallback_method() {
         case 1u: {
             return box_fetch(b, dir);
         }
@@ -453,7 +499,7 @@ fn fallback_fetch(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
         return dir;
     }
     let relax = params.warp.x;
-    let relaxed = relax > 0.0;
+    let relaxed = relaxation_on();
     let angle = relax * sqrt(4.0 * PI) / params.warp.y;
     let t = basis_t(dir) * angle;
     let bt = basis_b(dir) * angle;
@@ -538,7 +584,7 @@ fn fetch(b: vec3<f32>, dir: vec3<f32>) -> Aim {
     }
     let uv = oct_encode(dir);
     let size = cell_size();
-    if params.grid_counts.w == 0u {
+    if blend_mode() == 0u {
         let c = cell_of(b, size);
         let cell = cells[cell_index(c)];
         if cell.tiles.x >= 0 {
@@ -655,7 +701,7 @@ fn shade(b: vec3<f32>, aim: Aim, r: f32) -> vec3<f32> {
     if r == 0.0 {
         return radiance_lod(uv, 0.0);
     }
-    if params.probe_info.w == 0u {
+    if !roughness_corrected() {
         return radiance_lod(uv, lod_of_roughness(r));
     }
     var k = aim.k;

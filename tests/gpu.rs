@@ -19,7 +19,7 @@ mod gpu_harness;
 
 use common::*;
 use glam::{Vec2, Vec3};
-use gpu_harness::{Gpu, Lookup};
+use gpu_harness::{Gpu, Lookup, Pipeline};
 use std::path::{Path, PathBuf};
 use warpfit::fit::FitSettings;
 use warpfit::jobs::run::{self as job, Baked, Output, StoreOptions};
@@ -126,9 +126,14 @@ fn check_grid(name: &str, fit: &Path) {
     let g = FittedGrid::load(fit).unwrap();
     let dir = tmp_dir(&format!("gpu-export-{name}"));
     warpfit::export::export(&g, &dir).unwrap();
-    let lookup = Lookup::load(gpu, &dir);
-    let q = queries(&g, 6000);
-    let floor = 1e-3 * mean_radiance(&g);
+    for pipeline in [Pipeline::Generic, Pipeline::Specialised] {
+        check_pipeline(&format!("{name} ({pipeline:?})"), gpu, &g, &Lookup::load(gpu, &dir, pipeline));
+    }
+}
+
+fn check_pipeline(name: &str, gpu: &Gpu, g: &FittedGrid, lookup: &Lookup) {
+    let q = queries(g, 6000);
+    let floor = 1e-3 * mean_radiance(g);
 
     let shader = lookup.run(gpu, "specular_queries", &q);
     let cpu: Vec<Vec3> = q
@@ -192,7 +197,7 @@ fn the_baseline_kernels_answer_as_the_cpu_methods() {
     let g = FittedGrid::load(torture_fit()).unwrap();
     let dir = tmp_dir("gpu-export-baselines");
     warpfit::export::export(&g, &dir).unwrap();
-    let lookup = Lookup::load(gpu, &dir);
+    let lookup = Lookup::load(gpu, &dir, Pipeline::Generic);
     let q = queries(&g, 2000);
     let floor = 1e-3 * mean_radiance(&g);
     for (kernel, method) in
@@ -377,23 +382,24 @@ fn every_fallback_blend_and_relaxation_answers_as_the_cpu_sampler() {
                 g.warp.options.relax_texels = relax;
                 let dir = tmp_dir("gpu-export-variant");
                 warpfit::export::export(&g, &dir).unwrap();
-                let lookup = Lookup::load(gpu, &dir);
-                let shader = lookup.run(gpu, "specular_queries", &q);
                 let cpu: Vec<Vec3> = q
                     .chunks_exact(2)
                     .map(|c| {
                         g.specular(Vec3::new(c[0][0], c[0][1], c[0][2]), Vec3::new(c[1][0], c[1][1], c[1][2]), c[0][3])
                     })
                     .collect();
-                let (worst, at) = worst_relative("specular", &shader, &cpu, floor);
-                assert!(
-                    worst <= 1e-3,
-                    "{} / {blend:?} / relax {relax}: query {at}: shader {:?} vs CPU {} ({:?})",
-                    fallback.name(),
-                    shader[at],
-                    cpu[at],
-                    &q[2 * at..2 * at + 2]
-                );
+                for pipeline in [Pipeline::Generic, Pipeline::Specialised] {
+                    let shader = Lookup::load(gpu, &dir, pipeline).run(gpu, "specular_queries", &q);
+                    let (worst, at) = worst_relative("specular", &shader, &cpu, floor);
+                    assert!(
+                        worst <= 1e-3,
+                        "{} / {blend:?} / relax {relax} / {pipeline:?}: query {at}: shader {:?} vs CPU {} ({:?})",
+                        fallback.name(),
+                        shader[at],
+                        cpu[at],
+                        &q[2 * at..2 * at + 2]
+                    );
+                }
             }
         }
     }

@@ -22,7 +22,11 @@ fn module() -> (naga::Module, naga::valid::ModuleInfo) {
 
 /// naga's translations: (file name under shaders/, text).
 fn translations() -> Vec<(String, String)> {
+    // the specialisation constants at their defaults (255: read from `params` at run time)
     let (module, info) = module();
+    let (module, info) = naga::back::pipeline_constants::process_overrides(&module, &info, None, &Default::default())
+        .expect("the overrides have defaults");
+    let (module, info) = (module.into_owned(), info.into_owned());
     let mut out = Vec::new();
     let mut text = String::new();
     let options = hlsl::Options { shader_model: hlsl::ShaderModel::V5_1, ..Default::default() };

@@ -85,6 +85,10 @@ pub struct ShaderSection {
     /// The storage buffer `array<Cell>` (binding 8), one `shader::CELL_BYTES` entry per cell.
     pub cells: String,
     pub bindings: &'static str,
+    /// The grid's values of the shader's specialisation constants (WGSL `override`s):
+    /// set them when building a pipeline for this grid alone; leave them unset (255) for a
+    /// pipeline that reads every setting from `params`.
+    pub constants: std::collections::BTreeMap<&'static str, u32>,
 }
 
 pub const SIDECAR: &str = "export.json";
@@ -227,6 +231,7 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
         sources: shader::SHADER_FILES.iter().map(|(name, _)| name.to_string()).collect(),
         params: "warpfit_params.bin".into(),
         cells: "warpfit_cells.bin".into(),
+        constants: shader::constants(grid).into_iter().collect(),
         bindings: "group 0: 0 probe_radiance, 1 probe_inv_distance, 2 correctives, 3 irradiance, 4 moments, 5 irradiance_scale, 6 roughness_lookup (absent files: bind a 1×1 texture), 7 params (uniform), 8 cells (storage); group 1: the query kernels' queries and results",
     };
     let sidecar = Sidecar {

@@ -76,6 +76,24 @@ fn tile(slot: Option<&u32>) -> i32 {
     }
 }
 
+/// The shader's specialisation constants for `grid` (WGSL `override`s; see
+/// `shaders/warpfit.wgsl`): fallback method, corrective blend, relaxation on, roughness
+/// correction present. Callers have checked the grid with [`params`].
+#[must_use]
+pub fn constants(grid: &FittedGrid) -> Vec<(&'static str, u32)> {
+    let fallback = match grid.correctives.fallback {
+        Method::Box => 1,
+        Method::Kdop => 2,
+        _ => 0,
+    };
+    vec![
+        ("FALLBACK", fallback),
+        ("BLEND", (grid.blend == Blend::Trilinear) as u32),
+        ("RELAX", (grid.warp.options.relax_texels > 0.0) as u32),
+        ("ROUGHNESS_CORRECTION", grid.roughness.is_some() as u32),
+    ]
+}
+
 /// `Params` for `grid` with atlases shaped `atlases` (see `shaders/warpfit.wgsl` for each
 /// field's meaning).
 pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupported> {

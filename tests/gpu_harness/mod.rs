@@ -157,8 +157,29 @@ pub struct Batch {
     staging: wgpu::Buffer,
 }
 
+/// Which pipeline to build.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pipeline {
+    /// The specialisation constants left at their defaults: every setting read from `params`.
+    Generic,
+    /// The constants set to the grid's values from `export.json`.
+    Specialised,
+}
+
+/// The export's specialisation constants (`export.json`'s `shader.constants`).
+pub fn constants(dir: &Path) -> Vec<(String, f64)> {
+    let text = std::fs::read_to_string(dir.join("export.json")).expect("export.json");
+    let v: serde_json::Value = serde_json::from_str(&text).expect("export.json parses");
+    v["shader"]["constants"]
+        .as_object()
+        .expect("shader.constants")
+        .iter()
+        .map(|(k, n)| (k.clone(), n.as_f64().expect("a number")))
+        .collect()
+}
+
 impl Lookup {
-    pub fn load(gpu: &Gpu, dir: &Path) -> Lookup {
+    pub fn load(gpu: &Gpu, dir: &Path, pipeline: Pipeline) -> Lookup {
         let d = &gpu.device;
         let textures: Vec<wgpu::Texture> = TEXTURES
             .iter()
@@ -205,6 +226,11 @@ impl Lookup {
             bind_group_layouts: &[Some(&layout0), Some(&layout1)],
             immediate_size: 0,
         });
+        let owned = match pipeline {
+            Pipeline::Generic => Vec::new(),
+            Pipeline::Specialised => constants(dir),
+        };
+        let constants: Vec<(&str, f64)> = owned.iter().map(|(k, v)| (k.as_str(), *v)).collect();
         let pipelines = KERNELS
             .iter()
             .map(|&k| {
@@ -213,7 +239,10 @@ impl Lookup {
                     layout: Some(&layout),
                     module: &module,
                     entry_point: Some(k),
-                    compilation_options: Default::default(),
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants: &constants,
+                        ..Default::default()
+                    },
                     cache: None,
                 });
                 (k, p)
