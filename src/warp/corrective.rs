@@ -176,12 +176,26 @@ impl Correctives {
             n_unmapped += (!has_map && !at_probe) as usize;
         }
         if n_mapped > 0 {
-            // gather: the map's inverse distance and the map's origin minus B, per lane
+            // the maps' bilinear footprints for every lane at once (a loop that vectorises)
+            let n = self.map_res as f32;
+            let (mut i0, mut j0) = ([0i32; LANES], [0i32; LANES]);
+            let (mut fx, mut fy) = ([0f32; LANES], [0f32; LANES]);
+            for k in 0..LANES {
+                (i0[k], j0[k], fx[k], fy[k]) = octa::footprint_of(n, uv.u[k], uv.v[k]);
+            }
+            // gather: the map's inverse distance (the taps of `bilinear_taps`, summed in
+            // `sample_map`'s order from its −0 start) and the map's origin minus B, per lane
             let (mut w, mut cb) = ([0.0f32; LANES], [[0.0f32; LANES]; 3]);
             for &k in &mapped[..n_mapped] {
                 let k = k as usize;
-                let taps = octa::bilinear_taps(self.map_res, uv_of(k));
-                w[k] = self.map_w(slots[k], &taps);
+                let q = octa::quad_indices(self.map_res, i0[k], j0[k]);
+                let (x, y) = (fx[k], fy[k]);
+                let map = self.map(slots[k]);
+                w[k] = -0.0
+                    + map[q[0] as usize] * ((1.0 - x) * (1.0 - y))
+                    + map[q[1] as usize] * (x * (1.0 - y))
+                    + map[q[2] as usize] * ((1.0 - x) * y)
+                    + map[q[3] as usize] * (x * y);
                 let c = self.origin_sized(cells[k], size) - b[k];
                 (cb[0][k], cb[1][k], cb[2][k]) = (c.x, c.y, c.z);
             }
