@@ -198,3 +198,25 @@ fn the_exported_roughness_table_interpolated_by_its_rule_is_the_runtime_s_correc
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn radiance_beyond_half_float_range_is_exported_as_rgba32f_unchanged() {
+    // a sun-like texel of 1e6 would become infinity in a half float
+    let mut grid = tiny();
+    grid.warp.probe.radiance.levels[0].texels[5] = Vec3::new(1e6, 2e5, 3e4);
+    let dir = common::tmp_dir("export-rgba32f");
+    export::export(&grid, &dir).unwrap();
+    let (format, _, _, levels) = read(&dir.join("probe_radiance.ktx2"));
+    assert_eq!(format, 109, "VK_FORMAT_R32G32B32A32_SFLOAT");
+    let p = &grid.warp.probe;
+    for (m, bytes) in p.radiance.levels.iter().zip(&levels) {
+        let v = f32s(bytes);
+        for (k, t) in m.texels.iter().enumerate() {
+            assert_eq!([v[4 * k], v[4 * k + 1], v[4 * k + 2], v[4 * k + 3]], [t.x, t.y, t.z, 1.0]);
+        }
+    }
+    // the irradiance, in range, stays half float
+    let (format, ..) = read(&dir.join("irradiance.ktx2"));
+    assert_eq!(format, 97);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -366,41 +366,45 @@ fn hardware_bilinear_of_the_exported_atlases_is_the_cpu_seam_aware_bilinear() {
 #[test]
 fn every_fallback_blend_and_relaxation_answers_as_the_cpu_sampler() {
     // the torture grid re-exported with each fallback method, corrective blend and UV
-    // relaxation the format can hold (the CPU sampler reads the same settings)
+    // relaxation the format can hold, and without a roughness correction (the CPU sampler
+    // reads the same settings)
     use warpfit::warp::Method;
     use warpfit::warp::corrective::Blend;
     let Some(gpu) = gpu() else { return };
     let base = FittedGrid::load(torture_fit()).unwrap();
     let q = queries(&base, 1500);
     let floor = 1e-3 * mean_radiance(&base);
-    for fallback in [Method::Warp1, Method::Box, Method::Kdop] {
-        for blend in [Blend::Cell, Blend::Trilinear] {
-            for relax in [0.0, 0.7] {
-                let mut g = base.clone();
-                g.correctives.fallback = fallback;
-                g.blend = blend;
-                g.warp.options.relax_texels = relax;
-                let dir = tmp_dir("gpu-export-variant");
-                warpfit::export::export(&g, &dir).unwrap();
-                let cpu: Vec<Vec3> = q
-                    .chunks_exact(2)
-                    .map(|c| {
-                        g.specular(Vec3::new(c[0][0], c[0][1], c[0][2]), Vec3::new(c[1][0], c[1][1], c[1][2]), c[0][3])
-                    })
-                    .collect();
-                for pipeline in [Pipeline::Generic, Pipeline::Specialised] {
-                    let shader = Lookup::load(gpu, &dir, pipeline).run(gpu, "specular_queries", &q);
-                    let (worst, at) = worst_relative("specular", &shader, &cpu, floor);
-                    assert!(
-                        worst <= 1e-3,
-                        "{} / {blend:?} / relax {relax} / {pipeline:?}: query {at}: shader {:?} vs CPU {} ({:?})",
-                        fallback.name(),
-                        shader[at],
-                        cpu[at],
-                        &q[2 * at..2 * at + 2]
-                    );
-                }
-            }
+    let variants = [Method::Warp1, Method::Box, Method::Kdop]
+        .into_iter()
+        .flat_map(|f| [Blend::Cell, Blend::Trilinear].map(|b| (f, b)))
+        .flat_map(|(f, b)| [0.0, 0.7].map(|r| (f, b, r, true)))
+        // and once without a roughness correction (the plain mip of r)
+        .chain([(Method::Box, Blend::Cell, 0.0, false)]);
+    for (fallback, blend, relax, correction) in variants {
+        let mut g = base.clone();
+        g.correctives.fallback = fallback;
+        g.blend = blend;
+        g.warp.options.relax_texels = relax;
+        if !correction {
+            g.roughness = None;
+        }
+        let dir = tmp_dir("gpu-export-variant");
+        warpfit::export::export(&g, &dir).unwrap();
+        let cpu: Vec<Vec3> = q
+            .chunks_exact(2)
+            .map(|c| g.specular(Vec3::new(c[0][0], c[0][1], c[0][2]), Vec3::new(c[1][0], c[1][1], c[1][2]), c[0][3]))
+            .collect();
+        for pipeline in [Pipeline::Generic, Pipeline::Specialised] {
+            let shader = Lookup::load(gpu, &dir, pipeline).run(gpu, "specular_queries", &q);
+            let (worst, at) = worst_relative("specular", &shader, &cpu, floor);
+            assert!(
+                worst <= 1e-3,
+                "{} / {blend:?} / relax {relax} / correction {correction} / {pipeline:?}: query {at}: shader {:?} vs CPU {} ({:?})",
+                fallback.name(),
+                shader[at],
+                cpu[at],
+                &q[2 * at..2 * at + 2]
+            );
         }
     }
 }
