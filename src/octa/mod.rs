@@ -223,6 +223,14 @@ pub fn blend<T: Texel>(q: [T; 4], fx: f32, fy: f32) -> T {
 #[must_use]
 pub fn bilinear_taps(res: u32, uv: Vec2) -> [(u32, f32); 4] {
     let Footprint { i0, j0, fx, fy } = footprint(res, uv);
+    footprint_taps(res, i0, j0, fx, fy)
+}
+
+/// The taps of [`bilinear_taps`] given the footprint (`footprint_of`'s values): for lane
+/// loops that find the footprints of many lookups at once.
+#[inline]
+#[must_use]
+pub fn footprint_taps(res: u32, i0: i32, j0: i32, fx: f32, fy: f32) -> [(u32, f32); 4] {
     let k = quad_indices(res, i0, j0);
     [(k[0], (1.0 - fx) * (1.0 - fy)), (k[1], fx * (1.0 - fy)), (k[2], (1.0 - fx) * fy), (k[3], fx * fy)]
 }

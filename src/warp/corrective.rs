@@ -183,19 +183,12 @@ impl Correctives {
             for k in 0..LANES {
                 (i0[k], j0[k], fx[k], fy[k]) = octa::footprint_of(n, uv.u[k], uv.v[k]);
             }
-            // gather: the map's inverse distance (the taps of `bilinear_taps`, summed in
-            // `sample_map`'s order from its −0 start) and the map's origin minus B, per lane
+            // gather: the map's inverse distance and the map's origin minus B, per lane
             let (mut w, mut cb) = ([0.0f32; LANES], [[0.0f32; LANES]; 3]);
             for &k in &mapped[..n_mapped] {
                 let k = k as usize;
-                let q = octa::quad_indices(self.map_res, i0[k], j0[k]);
-                let (x, y) = (fx[k], fy[k]);
-                let map = self.map(slots[k]);
-                w[k] = -0.0
-                    + map[q[0] as usize] * ((1.0 - x) * (1.0 - y))
-                    + map[q[1] as usize] * (x * (1.0 - y))
-                    + map[q[2] as usize] * ((1.0 - x) * y)
-                    + map[q[3] as usize] * (x * y);
+                let taps = octa::footprint_taps(self.map_res, i0[k], j0[k], fx[k], fy[k]);
+                w[k] = self.map_w(slots[k], &taps);
                 let c = self.origin_sized(cells[k], size) - b[k];
                 (cb[0][k], cb[1][k], cb[2][k]) = (c.x, c.y, c.z);
             }
