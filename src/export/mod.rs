@@ -219,9 +219,11 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
         moments: shape(Some(&moments)),
         scale: shape(irradiance_scale.as_ref()),
     };
-    let params = shader::params(grid, &atlases).map_err(|e| {
+    let unsupported = |e: shader::Unsupported| {
         FileError::invalid(dir, "shader", format!("the grid cannot be exported for the shader: {}", e.0))
-    })?;
+    };
+    let params = shader::params(grid, &atlases).map_err(unsupported)?;
+    let constants = shader::constants(grid).map_err(unsupported)?;
     write_atomic(&dir.join("warpfit_params.bin"), &params)?;
     write_atomic(&dir.join("warpfit_cells.bin"), &shader::cells(grid))?;
     for (name, text) in shader::SHADER_FILES {
@@ -231,7 +233,7 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
         sources: shader::SHADER_FILES.iter().map(|(name, _)| name.to_string()).collect(),
         params: "warpfit_params.bin".into(),
         cells: "warpfit_cells.bin".into(),
-        constants: shader::constants(grid).into_iter().collect(),
+        constants: constants.into_iter().collect(),
         bindings: "group 0: 0 probe_radiance, 1 probe_inv_distance, 2 correctives, 3 irradiance, 4 moments, 5 irradiance_scale, 6 roughness_lookup (absent files: bind a 1×1 texture), 7 params (uniform), 8 cells (storage); group 1: the query kernels' queries and results",
     };
     let sidecar = Sidecar {

@@ -49,23 +49,36 @@ pub struct Unsupported(pub String);
 struct Words(Vec<u8>);
 
 impl Words {
-    fn f(&mut self, v: [f32; 4]) -> &mut Self {
-        for x in v {
-            self.0.extend_from_slice(&x.to_le_bytes());
-        }
+    fn put(&mut self, words: [[u8; 4]; 4]) -> &mut Self {
+        self.0.extend(words.into_iter().flatten());
         self
+    }
+    fn f(&mut self, v: [f32; 4]) -> &mut Self {
+        self.put(v.map(f32::to_le_bytes))
     }
     fn u(&mut self, v: [u32; 4]) -> &mut Self {
-        for x in v {
-            self.0.extend_from_slice(&x.to_le_bytes());
-        }
-        self
+        self.put(v.map(u32::to_le_bytes))
     }
     fn i(&mut self, v: [i32; 4]) -> &mut Self {
-        for x in v {
-            self.0.extend_from_slice(&x.to_le_bytes());
-        }
-        self
+        self.put(v.map(i32::to_le_bytes))
+    }
+}
+
+/// The shader's number for a fallback method (`Params::probe_info.z`, `FALLBACK`).
+fn fallback_code(m: Method) -> Result<u32, Unsupported> {
+    match m {
+        Method::Warp1 => Ok(0),
+        Method::Box => Ok(1),
+        Method::Kdop => Ok(2),
+        m => Err(Unsupported(format!("fallback method `{}` has no shader port", m.name()))),
+    }
+}
+
+/// The shader's number for a corrective blend (`Params::grid_counts.w`, `BLEND`).
+fn blend_code(b: Blend) -> u32 {
+    match b {
+        Blend::Cell => 0,
+        Blend::Trilinear => 1,
     }
 }
 
@@ -77,21 +90,15 @@ fn tile(slot: Option<&u32>) -> i32 {
 }
 
 /// The shader's specialisation constants for `grid` (WGSL `override`s; see
-/// `shaders/warpfit.wgsl`): fallback method, corrective blend, relaxation on, roughness
-/// correction present. Callers have checked the grid with [`params`].
-#[must_use]
-pub fn constants(grid: &FittedGrid) -> Vec<(&'static str, u32)> {
-    let fallback = match grid.correctives.fallback {
-        Method::Box => 1,
-        Method::Kdop => 2,
-        _ => 0,
-    };
-    vec![
-        ("FALLBACK", fallback),
-        ("BLEND", (grid.blend == Blend::Trilinear) as u32),
+/// `shaders/warpfit.wgsl`): the values `params` writes for the fallback method, corrective
+/// blend, relaxation and roughness correction.
+pub fn constants(grid: &FittedGrid) -> Result<Vec<(&'static str, u32)>, Unsupported> {
+    Ok(vec![
+        ("FALLBACK", fallback_code(grid.correctives.fallback)?),
+        ("BLEND", blend_code(grid.blend)),
         ("RELAX", (grid.warp.options.relax_texels > 0.0) as u32),
         ("ROUGHNESS_CORRECTION", grid.roughness.is_some() as u32),
-    ]
+    ])
 }
 
 /// `Params` for `grid` with atlases shaped `atlases` (see `shaders/warpfit.wgsl` for each
@@ -107,12 +114,7 @@ pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupport
     if c.origin_offset != grid.irradiance.probe_offset {
         return Err(Unsupported("the warp maps' origins and the irradiance probes are relocated differently".into()));
     }
-    let fallback = match c.fallback {
-        Method::Warp1 => 0,
-        Method::Box => 1,
-        Method::Kdop => 2,
-        m => return Err(Unsupported(format!("fallback method `{}` has no shader port", m.name()))),
-    };
+    let fallback = fallback_code(c.fallback)?;
     if p.mip_roughness.len() > MAX_MIPS || p.radiance.levels.len() > MAX_MIPS {
         return Err(Unsupported(format!(
             "{} radiance mips; the shader holds up to {MAX_MIPS}",
@@ -123,10 +125,7 @@ pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupport
     if kdop.normals.len() != 18 || kdop.offsets.len() != 18 {
         return Err(Unsupported(format!("a {}-DOP; the shader reads an 18-DOP", kdop.normals.len())));
     }
-    let blend = match grid.blend {
-        Blend::Cell => 0,
-        Blend::Trilinear => 1,
-    };
+    let blend = blend_code(grid.blend);
     let bx = &w.proxies.aabb;
     let m = bx.world_to_local();
     let mut out = Words(Vec::with_capacity(PARAMS_BYTES));
