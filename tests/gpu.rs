@@ -21,13 +21,8 @@ use common::*;
 use glam::{Vec2, Vec3};
 use gpu_harness::{Gpu, Lookup, Pipeline};
 use std::path::{Path, PathBuf};
-use warpfit::fit::FitSettings;
-use warpfit::jobs::run::{self as job, Baked, Output, StoreOptions};
-use warpfit::progress::Progress;
-use warpfit::report::folder::RunFolder;
 use warpfit::runtime::FittedGrid;
 use warpfit::sampling::{Sampler, uniform_sphere};
-use warpfit::trace::Tracer;
 
 /// The adapter, or the test's failure (in CI) / skip (elsewhere) with the reason.
 fn gpu() -> Option<&'static Gpu> {
@@ -45,18 +40,8 @@ fn gpu() -> Option<&'static Gpu> {
 fn torture_fit() -> &'static Path {
     static D: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
     D.get_or_init(|| {
-        let mut scene = load("torture");
-        scene.config.probe.resolution = 64;
-        scene.config.probe.samples_per_texel = 2;
-        scene.config.grid.counts = [5, 2, 5];
-        let tracer = Tracer::new(&scene);
-        let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
         let dir = tmp_dir("gpu-torture");
-        let b = Baked { scene: &scene, tracer: &tracer, probe: &baked.probe, grid: &baked.grid };
-        let warp = b.warp(warpfit::warp::WarpOptions::standard());
-        let quiet = Progress::quiet();
-        let out = Output { folder: &RunFolder::new(&dir), command: "test", progress: &quiet };
-        job::fit(b, &warp, &FitSettings::quick(), StoreOptions::default(), out).unwrap();
+        SmallTorture::fit_into(&dir);
         dir
     })
 }

@@ -9,13 +9,10 @@ use glam::Vec3;
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 use warpfit::eval::{self, EvalSettings};
-use warpfit::fit::FitSettings;
 use warpfit::gridfile::{GRID_VERSION, MANIFEST_FILE};
-use warpfit::jobs::run::{self as job, Baked, Output, StoreOptions};
-use warpfit::progress::Progress;
+use warpfit::jobs::run::{self as job, StoreOptions};
 use warpfit::report::folder::RunFolder;
 use warpfit::runtime::{FittedGrid, IrradianceBlend, LoadError, Precision};
-use warpfit::trace::Tracer;
 use warpfit::warp::corrective::Blend;
 
 fn tiny() -> PathBuf {
@@ -68,37 +65,29 @@ fn the_committed_fit_keeps_loading_with_the_same_answers() {
     assert!(got.iter().flatten().all(|x| x.is_finite() && *x >= 0.0));
 }
 
-/// Fits a small torture grid, writes it (f32 and f16) and loads both back.
+/// A small torture grid, written f32 and f16.
 struct Fixture {
-    scene: warpfit::scene::Scene,
-    tracer: Tracer,
-    probe: warpfit::bake::SpecularProbe,
-    grid: warpfit::bake::ProbeGrid,
-    fit: warpfit::fit::Fit,
-    warp: warpfit::warp::Warp,
+    torture: SmallTorture,
     f32_dir: PathBuf,
     f16_dir: PathBuf,
+}
+
+impl std::ops::Deref for Fixture {
+    type Target = SmallTorture;
+    fn deref(&self) -> &SmallTorture {
+        &self.torture
+    }
 }
 
 fn fixture() -> &'static Fixture {
     static F: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
     F.get_or_init(|| {
-        let mut scene = load("torture");
-        scene.config.probe.resolution = 64;
-        scene.config.probe.samples_per_texel = 2;
-        scene.config.grid.counts = [5, 2, 5];
-        let tracer = Tracer::new(&scene);
-        let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
         let f32_dir = tmp_dir("runtime-f32");
-        let b = Baked { scene: &scene, tracer: &tracer, probe: &baked.probe, grid: &baked.grid };
-        let warp = b.warp(warpfit::warp::WarpOptions::standard());
-        let quiet = Progress::quiet();
-        let out = Output { folder: &RunFolder::new(&f32_dir), command: "test", progress: &quiet };
-        let (fit, _) = job::fit(b, &warp, &FitSettings::quick(), StoreOptions::default(), out).unwrap();
+        let torture = SmallTorture::fit_into(&f32_dir);
         let f16_dir = tmp_dir("runtime-f16");
         let f16 = StoreOptions { precision: Precision::F16, roughness: true };
-        job::write_grid(b, &warp, &fit, f16, &RunFolder::new(&f16_dir)).unwrap();
-        Fixture { scene, tracer, probe: baked.probe, grid: baked.grid, fit, warp, f32_dir, f16_dir }
+        job::write_grid(torture.baked(), &torture.warp, &torture.fit, f16, &RunFolder::new(&f16_dir)).unwrap();
+        Fixture { torture, f32_dir, f16_dir }
     })
 }
 

@@ -68,3 +68,40 @@ pub fn tool_missing(check: &str, tool: &str, how: &str) {
     use std::io::Write as _;
     let _ = writeln!(std::io::stderr(), "\n*** SKIPPED: {check}: {tool} is not installed ({how}) ***\n");
 }
+
+/// A lit torture grid small enough for a test: 64² probe, 5 × 2 × 5 cells, the quick fit,
+/// written as a fitted grid folder. It stores warp maps, relocated probes and diffuse
+/// corrections.
+pub struct SmallTorture {
+    pub scene: Scene,
+    pub tracer: warpfit::trace::Tracer,
+    pub probe: warpfit::bake::SpecularProbe,
+    pub grid: warpfit::bake::ProbeGrid,
+    pub fit: warpfit::fit::Fit,
+    pub warp: warpfit::warp::Warp,
+}
+
+impl SmallTorture {
+    /// Bakes and fits it, writing the grid (f32) into `dir`.
+    pub fn fit_into(dir: &Path) -> SmallTorture {
+        use warpfit::jobs::run::{self as job, Output, StoreOptions};
+        let mut scene = load("torture");
+        scene.config.probe.resolution = 64;
+        scene.config.probe.samples_per_texel = 2;
+        scene.config.grid.counts = [5, 2, 5];
+        let tracer = warpfit::trace::Tracer::new(&scene);
+        let quiet = warpfit::progress::Progress::quiet();
+        let baked = warpfit::bake::bake(&scene, &tracer, &quiet);
+        let (probe, grid) = (baked.probe, baked.grid);
+        let b = job::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
+        let warp = b.warp(warpfit::warp::WarpOptions::standard());
+        let out = Output { folder: &warpfit::report::folder::RunFolder::new(dir), command: "test", progress: &quiet };
+        let (fit, _) = job::fit(b, &warp, &warpfit::fit::FitSettings::quick(), StoreOptions::default(), out).unwrap();
+        SmallTorture { scene, tracer, probe, grid, fit, warp }
+    }
+
+    /// The bake, as the jobs take it.
+    pub fn baked(&self) -> warpfit::jobs::run::Baked<'_> {
+        warpfit::jobs::run::Baked { scene: &self.scene, tracer: &self.tracer, probe: &self.probe, grid: &self.grid }
+    }
+}
