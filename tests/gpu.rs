@@ -85,9 +85,15 @@ fn queries(g: &FittedGrid, n: u32) -> Vec<[f32; 4]> {
     out
 }
 
-/// Worst relative difference of `gpu` against `cpu` (see the module docs for the floor),
-/// after checking that every GPU value is finite and ≥ 0.
-fn worst_relative(what: &str, gpu: &[[f32; 4]], cpu: &[Vec3], floor: f32) -> (f32, usize) {
+/// `f(position, direction, roughness)` for every query: the CPU's answers.
+fn on_cpu(q: &[[f32; 4]], f: impl Fn(Vec3, Vec3, f32) -> Vec3) -> Vec<Vec3> {
+    q.chunks_exact(2).map(|c| f(Vec3::from_slice(&c[0][..3]), Vec3::from_slice(&c[1][..3]), c[0][3])).collect()
+}
+
+/// Checks that every GPU value is finite and ≥ 0 and that the worst relative difference of
+/// `gpu` against `cpu` (denominators floored at `floor`, see the module docs) is at most
+/// 1e-3; returns it and its query.
+fn assert_agrees(what: &str, gpu: &[[f32; 4]], cpu: &[Vec3], floor: f32, q: &[[f32; 4]]) -> (f32, usize) {
     assert_eq!(gpu.len(), cpu.len());
     let mut worst = (0.0f32, 0usize);
     for (k, (g, c)) in gpu.iter().zip(cpu).enumerate() {
@@ -98,6 +104,8 @@ fn worst_relative(what: &str, gpu: &[[f32; 4]], cpu: &[Vec3], floor: f32) -> (f3
             worst = (rel, k);
         }
     }
+    let (rel, at) = worst;
+    assert!(rel <= 1e-3, "{what}: query {at}: shader {:?} vs CPU {} ({:?})", gpu[at], cpu[at], &q[2 * at..2 * at + 2]);
     worst
 }
 
@@ -118,25 +126,13 @@ fn check_grid(name: &str, fit: &Path) {
 
 fn check_pipeline(name: &str, gpu: &Gpu, g: &FittedGrid, lookup: &Lookup) {
     let q = queries(g, 6000);
-    let floor = 1e-3 * mean_radiance(g);
-
     let shader = lookup.run(gpu, "specular_queries", &q);
-    let cpu: Vec<Vec3> = q
-        .chunks_exact(2)
-        .map(|c| g.specular(Vec3::new(c[0][0], c[0][1], c[0][2]), Vec3::new(c[1][0], c[1][1], c[1][2]), c[0][3]))
-        .collect();
-    let (worst, at) = worst_relative("specular", &shader, &cpu, floor);
+    let cpu = on_cpu(&q, |p, d, r| g.specular(p, d, r));
+    let (worst, at) = assert_agrees(&format!("{name}: specular"), &shader, &cpu, 1e-3 * mean_radiance(g), &q);
     eprintln!(
         "{name}: specular worst relative difference {worst:.2e} (query {at}) on {} queries ({})",
         cpu.len(),
         gpu.adapter.name
-    );
-    assert!(
-        worst <= 1e-3,
-        "{name}: specular query {at}: shader {:?} vs CPU {} ({:?})",
-        shader[at],
-        cpu[at],
-        &q[2 * at..2 * at + 2]
     );
     // the degenerate queries answer exactly as the CPU's: black where the CPU is black
     for (k, c) in cpu.iter().enumerate() {
@@ -146,20 +142,10 @@ fn check_pipeline(name: &str, gpu: &Gpu, g: &FittedGrid, lookup: &Lookup) {
     }
 
     let shader = lookup.run(gpu, "irradiance_queries", &q);
-    let cpu: Vec<Vec3> = q
-        .chunks_exact(2)
-        .map(|c| g.irradiance(Vec3::new(c[0][0], c[0][1], c[0][2]), Vec3::new(c[1][0], c[1][1], c[1][2])))
-        .collect();
-    let ifloor = 1e-3 * cpu.iter().map(|v| v.max_element()).sum::<f32>() / cpu.len() as f32;
-    let (worst, at) = worst_relative("irradiance", &shader, &cpu, ifloor);
+    let cpu = on_cpu(&q, |p, n, _| g.irradiance(p, n));
+    let floor = 1e-3 * cpu.iter().map(|v| v.max_element()).sum::<f32>() / cpu.len() as f32;
+    let (worst, at) = assert_agrees(&format!("{name}: irradiance"), &shader, &cpu, floor, &q);
     eprintln!("{name}: irradiance worst relative difference {worst:.2e} (query {at})");
-    assert!(
-        worst <= 1e-3,
-        "{name}: irradiance query {at}: shader {:?} vs CPU {} ({:?})",
-        shader[at],
-        cpu[at],
-        &q[2 * at..2 * at + 2]
-    );
 }
 
 #[test]
@@ -189,19 +175,12 @@ fn the_baseline_kernels_answer_as_the_cpu_methods() {
         [("warp1_queries", warpfit::warp::Method::Warp1), ("box_queries", warpfit::warp::Method::Box)]
     {
         let shader = lookup.run(gpu, kernel, &q);
-        let cpu: Vec<Vec3> = q
-            .chunks_exact(2)
-            .map(|c| {
-                let (b, d) = (Vec3::new(c[0][0], c[0][1], c[0][2]), Vec3::new(c[1][0], c[1][1], c[1][2]));
-                match (warpfit::octa::unit_direction(d), b.is_finite()) {
-                    (Some(d), true) => g.warp.lookup(method, b, d),
-                    (Some(d), false) => g.warp.probe.radiance(d),
-                    (None, _) => Vec3::ZERO,
-                }
-            })
-            .collect();
-        let (worst, at) = worst_relative(kernel, &shader, &cpu, floor);
-        assert!(worst <= 1e-3, "{kernel} query {at}: shader {:?} vs CPU {}", shader[at], cpu[at]);
+        let cpu = on_cpu(&q, |b, d, _| match (warpfit::octa::unit_direction(d), b.is_finite()) {
+            (Some(d), true) => g.warp.lookup(method, b, d),
+            (Some(d), false) => g.warp.probe.radiance(d),
+            (None, _) => Vec3::ZERO,
+        });
+        assert_agrees(kernel, &shader, &cpu, floor, &q);
     }
 }
 
@@ -280,13 +259,7 @@ fn hardware_filtered(gpu: &Gpu, texture: &wgpu::Texture, coords: &[Vec2]) -> Vec
     }
     enc.copy_buffer_to_buffer(&out, 0, &staging, 0, size);
     gpu.queue.submit([enc.finish()]);
-    let slice = staging.slice(..);
-    slice.map_async(wgpu::MapMode::Read, |r| r.expect("map"));
-    d.poll(wgpu::PollType::wait_indefinitely()).unwrap();
-    let data = slice.get_mapped_range().expect("mapped").to_vec();
-    data.chunks_exact(16)
-        .map(|c| std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))
-        .collect()
+    gpu.read_vec4s(&staging)
 }
 
 /// The hardware filter's weights carry `SUBTEXEL_BITS` bits (Vulkan's
@@ -375,21 +348,12 @@ fn every_fallback_blend_and_relaxation_answers_as_the_cpu_sampler() {
         }
         let dir = tmp_dir("gpu-export-variant");
         warpfit::export::export(&g, &dir).unwrap();
-        let cpu: Vec<Vec3> = q
-            .chunks_exact(2)
-            .map(|c| g.specular(Vec3::new(c[0][0], c[0][1], c[0][2]), Vec3::new(c[1][0], c[1][1], c[1][2]), c[0][3]))
-            .collect();
+        let cpu = on_cpu(&q, |p, d, r| g.specular(p, d, r));
         for pipeline in [Pipeline::Generic, Pipeline::Specialised] {
             let shader = Lookup::load(gpu, &dir, pipeline).run(gpu, "specular_queries", &q);
-            let (worst, at) = worst_relative("specular", &shader, &cpu, floor);
-            assert!(
-                worst <= 1e-3,
-                "{} / {blend:?} / relax {relax} / correction {correction} / {pipeline:?}: query {at}: shader {:?} vs CPU {} ({:?})",
-                fallback.name(),
-                shader[at],
-                cpu[at],
-                &q[2 * at..2 * at + 2]
-            );
+            let what =
+                format!("{} / {blend:?} / relax {relax} / correction {correction} / {pipeline:?}", fallback.name());
+            assert_agrees(&what, &shader, &cpu, floor, &q);
         }
     }
 }

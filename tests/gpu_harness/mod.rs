@@ -94,12 +94,17 @@ impl Gpu {
         self.device.poll(wgpu::PollType::wait_indefinitely()).expect("the device answers");
     }
 
-    /// The bytes of `buffer` (MAP_READ).
-    fn read(&self, buffer: &wgpu::Buffer) -> Vec<u8> {
+    /// The vec4s in `buffer` (MAP_READ), once the queue has finished.
+    pub fn read_vec4s(&self, buffer: &wgpu::Buffer) -> Vec<[f32; 4]> {
         let slice = buffer.slice(..);
         slice.map_async(wgpu::MapMode::Read, |r| r.expect("map"));
         self.wait();
-        let out = slice.get_mapped_range().expect("mapped").to_vec();
+        let out = slice
+            .get_mapped_range()
+            .expect("mapped")
+            .chunks_exact(16)
+            .map(|c| std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))
+            .collect();
         buffer.unmap();
         out
     }
@@ -312,9 +317,6 @@ impl Lookup {
     pub fn run(&self, gpu: &Gpu, kernel: &str, queries: &[[f32; 4]]) -> Vec<[f32; 4]> {
         let batch = self.batch(gpu, queries);
         self.dispatch(gpu, kernel, &batch, true);
-        gpu.read(&batch.staging)
-            .chunks_exact(16)
-            .map(|c| std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))
-            .collect()
+        gpu.read_vec4s(&batch.staging)
     }
 }
