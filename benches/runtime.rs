@@ -15,26 +15,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use std::hint::black_box;
 use warpfit::runtime::FittedGrid;
-use warpfit::sampling::{Sampler, uniform_sphere};
 use warpfit::warp::{self, Method};
-
-/// 64 positions uniform in stored cells × 256 uniform directions, position-major (as eval).
-fn queries(g: &FittedGrid) -> Vec<(Vec3, Vec3)> {
-    let geo = &g.irradiance.geometry;
-    let cells: Vec<usize> =
-        (0..geo.cell_count()).filter(|&c| g.irradiance.slot[c] != warpfit::warp::corrective::NO_MAP).collect();
-    let mut q = Vec::new();
-    for p in 0..64u32 {
-        let mut s = Sampler::new(0xBE7C, 1, p);
-        let cell = cells[(s.next_1d() * cells.len() as f32) as usize % cells.len()];
-        let lo = geo.min + geo.cell_coords(cell).as_vec3() * geo.cell_size();
-        let b = lo + geo.cell_size() * Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
-        for k in 0..256u32 {
-            q.push((b, uniform_sphere(Sampler::new(0xBE7C, 2 + p as u64, k).next_2d())));
-        }
-    }
-    q
-}
 
 fn runtime(c: &mut Criterion) {
     let dir = fitted_torture();
@@ -51,7 +32,7 @@ fn runtime(c: &mut Criterion) {
         grid.memory_bytes(),
         m.correctives.as_ref().map_or(0, |c| c.map_res * c.map_res * 4)
     );
-    let q = queries(&grid);
+    let q = common::queries(&grid, 64, 256);
     let mut g = c.benchmark_group("runtime/torture");
     g.throughput(Throughput::Elements(q.len() as u64));
     g.sample_size(20);
