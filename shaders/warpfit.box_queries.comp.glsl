@@ -35,6 +35,10 @@ struct Lattice {
     uvec3 base;
     vec3 frac;
 };
+struct Basis {
+    vec3 t;
+    vec3 b;
+};
 struct Aim {
     vec3 v;
     float k;
@@ -283,11 +287,11 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1) {
     float _e6 = _group_0_binding_7_cs.warp.z;
     float _e10 = _group_0_binding_7_cs.warp.y;
     float res0_ = ((which_1 == 0u) ? _e10 : _e6);
-    uint n_6 = max((uint(res0_) >> level_1), 1u);
-    Footprint _e18 = footprint(n_6, uv_1);
+    uint n_5 = max((uint(res0_) >> level_1), 1u);
+    Footprint _e18 = footprint(n_5, uv_1);
     ivec2 c_6 = _e18.corner;
     int l_3 = int(level_1);
-    int ni = int(n_6);
+    int ni = int(n_5);
     ivec2 _e22 = wrap_texel(ni, c_6);
     vec4 _e23 = probe_texel(which_1, _e22, l_3);
     ivec2 _e28 = wrap_texel(ni, (c_6 + ivec2(1, 0)));
@@ -360,8 +364,8 @@ vec3 cell_size() {
 }
 
 uint cell_index(uvec3 c_2) {
-    uvec4 n_7 = _group_0_binding_7_cs.grid_counts;
-    return (c_2.x + (n_7.x * (c_2.y + (n_7.y * c_2.z))));
+    uvec4 n_6 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_6.x * (c_2.y + (n_6.y * c_2.z))));
 }
 
 uvec3 cell_of(vec3 p_1, vec3 size) {
@@ -513,14 +517,14 @@ vec3 kdop_fetch(vec3 b_4, vec3 dir_2) {
             }
             uint _e25 = k_1;
             vec4 _e27 = _group_0_binding_7_cs.kdop[_e25];
-            vec3 n_8 = _e27.xyz;
+            vec3 n_7 = _e27.xyz;
             uint _e31 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e31].w;
-            float nb = dot(n_8, b_4);
+            float nb = dot(n_7, b_4);
             if ((nb > h_1)) {
                 return dir_2;
             }
-            float nd = dot(n_8, dir_2);
+            float nd = dot(n_7, dir_2);
             if ((nd > 0.0)) {
                 float _e40 = t_4;
                 t_4 = min(_e40, ((h_1 - nb) / nd));
@@ -554,18 +558,11 @@ vec3 fallback_plain(vec3 b_5, vec3 dir_3) {
     }
 }
 
-vec3 basis_t(vec3 n_3) {
+Basis orthonormal_basis(vec3 n_3) {
     float s_2 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_3 = (-1.0 / (s_2 + n_3.z));
     float b_13 = ((n_3.x * n_3.y) * a_3);
-    return vec3((1.0 + (((s_2 * n_3.x) * n_3.x) * a_3)), (s_2 * b_13), (-(s_2) * n_3.x));
-}
-
-vec3 basis_b(vec3 n_4) {
-    float s_3 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
-    float a_4 = (-1.0 / (s_3 + n_4.z));
-    float b_14 = ((n_4.x * n_4.y) * a_4);
-    return vec3(b_14, (s_3 + ((n_4.y * n_4.y) * a_4)), -(n_4.y));
+    return Basis(vec3((1.0 + (((s_2 * n_3.x) * n_3.x) * a_3)), (s_2 * b_13), (-(s_2) * n_3.x)), vec3(b_13, (s_2 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
@@ -597,27 +594,26 @@ vec3 fallback_fetch(vec3 b_6, vec3 dir_4) {
     bool _e12 = relaxation_on();
     float _e18 = _group_0_binding_7_cs.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
-    vec3 _e20 = basis_t(dir_4);
-    vec3 t_7 = (_e20 * angle);
-    vec3 _e22 = basis_b(dir_4);
-    vec3 bt = (_e22 * angle);
+    Basis _e20 = orthonormal_basis(dir_4);
+    vec3 t_7 = (_e20.t * angle);
+    vec3 bt = (_e20.b * angle);
     plain = dir_4;
     bool loop_init_2 = true;
     while(true) {
         if (!loop_init_2) {
-            uint _e54 = s;
-            s = (_e54 + 1u);
+            uint _e55 = s;
+            s = (_e55 + 1u);
         }
         loop_init_2 = false;
-        uint _e30 = s;
-        if ((_e30 < (_e12 ? 5u : 1u))) {
+        uint _e31 = s;
+        if ((_e31 < (_e12 ? 5u : 1u))) {
         } else {
             break;
         }
         {
             d_1 = dir_4;
-            uint _e36 = s;
-            switch(_e36) {
+            uint _e37 = s;
+            switch(_e37) {
                 case 1u: {
                     d_1 = normalize((dir_4 + t_7));
                     break;
@@ -638,24 +634,24 @@ vec3 fallback_fetch(vec3 b_6, vec3 dir_4) {
                     break;
                 }
             }
-            vec3 _e45 = d_1;
-            vec3 _e46 = fallback_plain(b_6, _e45);
-            uint _e47 = s;
-            if ((_e47 == 0u)) {
-                plain = _e46;
+            vec3 _e46 = d_1;
+            vec3 _e47 = fallback_plain(b_6, _e46);
+            uint _e48 = s;
+            if ((_e48 == 0u)) {
+                plain = _e47;
             }
-            vec3 _e50 = sum;
-            vec3 _e51 = normalize_or(_e46, dir_4);
-            sum = (_e50 + _e51);
+            vec3 _e51 = sum;
+            vec3 _e52 = normalize_or(_e47, dir_4);
+            sum = (_e51 + _e52);
         }
     }
     if (!(_e12)) {
-        vec3 _e57 = plain;
-        return _e57;
+        vec3 _e58 = plain;
+        return _e58;
     }
-    vec3 _e58 = sum;
-    vec3 _e59 = normalize_or(_e58, dir_4);
-    return _e59;
+    vec3 _e59 = sum;
+    vec3 _e60 = normalize_or(_e59, dir_4);
+    return _e60;
 }
 
 float inv_t_from_map(vec3 c_4, float w, vec3 b_7, vec3 dir_5) {
@@ -714,8 +710,8 @@ float lod_of_roughness(float r) {
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
-    uint n_9 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_9 < 2u))) {
+    uint n_8 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_8 < 2u))) {
         float _e11 = mip_roughness(0u);
         local_13 = !((r > _e11));
     } else {
@@ -725,7 +721,7 @@ float lod_of_roughness(float r) {
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_9 - 1u);
+    uint last = (n_8 - 1u);
     float _e19 = mip_roughness(last);
     if ((r >= _e19)) {
         return float(last);
@@ -738,7 +734,7 @@ float lod_of_roughness(float r) {
         }
         loop_init_3 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_9)) {
+        if ((_e26 < n_8)) {
         } else {
             break;
         }

@@ -36,6 +36,13 @@ struct Lattice {
     int _end_pad_0;
 };
 
+struct Basis {
+    float3 t;
+    int _pad1_0;
+    float3 b;
+    int _end_pad_0;
+};
+
 struct Aim {
     float3 v;
     float k;
@@ -326,11 +333,11 @@ float4 probe_bilinear(uint which_1, float2 uv_1, uint level_1)
     float _e6 = params.warp.z;
     float _e10 = params.warp.y;
     float res0_ = ((which_1 == 0u) ? _e10 : _e6);
-    uint n_6 = max((naga_f2u32(res0_) >> level_1), 1u);
-    const Footprint _e18 = footprint(n_6, uv_1);
+    uint n_5 = max((naga_f2u32(res0_) >> level_1), 1u);
+    const Footprint _e18 = footprint(n_5, uv_1);
     int2 c_6 = _e18.corner;
     int l_3 = int(level_1);
-    int ni = int(n_6);
+    int ni = int(n_5);
     const int2 _e22 = wrap_texel(ni, c_6);
     const float4 _e23 = probe_texel(which_1, _e22, l_3);
     const int2 _e28 = wrap_texel(ni, asint(asuint(c_6) + asuint(int2(int(1), int(0)))));
@@ -454,8 +461,8 @@ float3 cell_size()
 
 uint cell_index(uint3 c_2)
 {
-    uint4 n_7 = params.grid_counts;
-    return (c_2.x + (n_7.x * (c_2.y + (n_7.y * c_2.z))));
+    uint4 n_6 = params.grid_counts;
+    return (c_2.x + (n_6.x * (c_2.y + (n_6.y * c_2.z))));
 }
 
 uint3 naga_f2u32(float3 value) {
@@ -636,14 +643,14 @@ float3 kdop_fetch(float3 b_4, float3 dir_2)
             }
             uint _e25 = k_1;
             float4 _e27 = params.kdop[_e25];
-            float3 n_8 = _e27.xyz;
+            float3 n_7 = _e27.xyz;
             uint _e31 = k_1;
             float h_1 = params.kdop[_e31].w;
-            float nb = dot(n_8, b_4);
+            float nb = dot(n_7, b_4);
             if ((nb > h_1)) {
                 return dir_2;
             }
-            float nd = dot(n_8, dir_2);
+            float nd = dot(n_7, dir_2);
             if ((nd > 0.0)) {
                 float _e40 = t_4;
                 t_4 = min(_e40, ((h_1 - nb) / nd));
@@ -678,20 +685,20 @@ float3 fallback_plain(float3 b_5, float3 dir_3)
     }
 }
 
-float3 basis_t(float3 n_3)
+Basis ConstructBasis(float3 arg0, float3 arg1) {
+    Basis ret = (Basis)0;
+    ret.t = arg0;
+    ret.b = arg1;
+    return ret;
+}
+
+Basis orthonormal_basis(float3 n_3)
 {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_3 = (-1.0 / (s_3 + n_3.z));
     float b_13 = ((n_3.x * n_3.y) * a_3);
-    return float3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_13), (-(s_3) * n_3.x));
-}
-
-float3 basis_b(float3 n_4)
-{
-    float s_4 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
-    float a_4 = (-1.0 / (s_4 + n_4.z));
-    float b_14 = ((n_4.x * n_4.y) * a_4);
-    return float3(b_14, (s_4 + ((n_4.y * n_4.y) * a_4)), -(n_4.y));
+    const Basis basis = ConstructBasis(float3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_13), (-(s_3) * n_3.x)), float3(b_13, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+    return basis;
 }
 
 float3 normalize_or(float3 v_5, float3 fallback_1)
@@ -727,10 +734,9 @@ float3 fallback_fetch(float3 b_6, float3 dir_4)
     const bool _e12 = relaxation_on();
     float _e18 = params.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
-    const float3 _e20 = basis_t(dir_4);
-    float3 t_7 = (_e20 * angle);
-    const float3 _e22 = basis_b(dir_4);
-    float3 bt = (_e22 * angle);
+    const Basis _e20 = orthonormal_basis(dir_4);
+    float3 t_7 = (_e20.t * angle);
+    float3 bt = (_e20.b * angle);
     plain = dir_4;
     uint2 loop_bound_2 = uint2(4294967295u, 4294967295u);
     bool loop_init_2 = true;
@@ -738,20 +744,20 @@ float3 fallback_fetch(float3 b_6, float3 dir_4)
         if (all(loop_bound_2 == uint2(0u, 0u))) { break; }
         loop_bound_2 -= uint2(loop_bound_2.y == 0u, 1u);
         if (!loop_init_2) {
-            uint _e54 = s;
-            s = (_e54 + 1u);
+            uint _e55 = s;
+            s = (_e55 + 1u);
         }
         loop_init_2 = false;
-        uint _e30 = s;
-        if ((_e30 < (_e12 ? 5u : 1u))) {
+        uint _e31 = s;
+        if ((_e31 < (_e12 ? 5u : 1u))) {
         } else {
             break;
         }
         {
             d_1 = dir_4;
-            uint _e36 = s;
+            uint _e37 = s;
             bool should_continue = false;
-            switch(_e36) {
+            switch(_e37) {
                 case 1u: {
                     d_1 = normalize((dir_4 + t_7));
                     break;
@@ -772,24 +778,24 @@ float3 fallback_fetch(float3 b_6, float3 dir_4)
                     break;
                 }
             }
-            float3 _e45 = d_1;
-            const float3 _e46 = fallback_plain(b_6, _e45);
-            uint _e47 = s;
-            if ((_e47 == 0u)) {
-                plain = _e46;
+            float3 _e46 = d_1;
+            const float3 _e47 = fallback_plain(b_6, _e46);
+            uint _e48 = s;
+            if ((_e48 == 0u)) {
+                plain = _e47;
             }
-            float3 _e50 = sum;
-            const float3 _e51 = normalize_or(_e46, dir_4);
-            sum = (_e50 + _e51);
+            float3 _e51 = sum;
+            const float3 _e52 = normalize_or(_e47, dir_4);
+            sum = (_e51 + _e52);
         }
     }
     if (!(_e12)) {
-        float3 _e57 = plain;
-        return _e57;
+        float3 _e58 = plain;
+        return _e58;
     }
-    float3 _e58 = sum;
-    const float3 _e59 = normalize_or(_e58, dir_4);
-    return _e59;
+    float3 _e59 = sum;
+    const float3 _e60 = normalize_or(_e59, dir_4);
+    return _e60;
 }
 
 float inv_t_from_map(float3 c_4, float w, float3 b_7, float3 dir_5)
@@ -960,8 +966,8 @@ float lod_of_roughness(float r)
     uint t_5 = 0u;
     float f_2 = 0.0;
 
-    uint n_9 = params.probe_info.x;
-    if (!((n_9 < 2u))) {
+    uint n_8 = params.probe_info.x;
+    if (!((n_8 < 2u))) {
         const float _e11 = mip_roughness(0u);
         local_13 = !((r > _e11));
     } else {
@@ -971,7 +977,7 @@ float lod_of_roughness(float r)
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_9 - 1u);
+    uint last = (n_8 - 1u);
     const float _e19 = mip_roughness(last);
     if ((r >= _e19)) {
         return float(last);
@@ -987,7 +993,7 @@ float lod_of_roughness(float r)
         }
         loop_init_4 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_9)) {
+        if ((_e26 < n_8)) {
         } else {
             break;
         }
@@ -1077,8 +1083,8 @@ float corrected_roughness(float r_1, float k_in)
     float k_4 = 1.0;
     bool local_18 = (bool)0;
 
-    uint n_10 = params.lut_info.x;
-    float last_1 = float((n_10 - 1u));
+    uint n_9 = params.lut_info.x;
+    float last_1 = float((n_9 - 1u));
     const bool _e11 = finite(r_1);
     if (_e11) {
         fr = clamp((r_1 * last_1), 0.0, last_1);
@@ -1103,11 +1109,11 @@ float corrected_roughness(float r_1, float k_in)
     float _e44 = params.lut.y;
     float fx = clamp(((_e35 - _e39) * _e44), 0.0, last_1);
     float _e48 = fr;
-    uint i_2 = min(naga_f2u32(_e48), (n_10 - 2u));
-    uint j_1 = min(naga_f2u32(fx), (n_10 - 2u));
+    uint i_2 = min(naga_f2u32(_e48), (n_9 - 2u));
+    uint j_1 = min(naga_f2u32(fx), (n_9 - 2u));
     float _e57 = fr;
-    float a_5 = (_e57 - float(i_2));
-    float b_15 = (fx - float(j_1));
+    float a_4 = (_e57 - float(i_2));
+    float b_14 = (fx - float(j_1));
     float4 _e67 = roughness_lut.Load(int3(int2(int(j_1), int(i_2)), int(0)));
     float v00_ = _e67.x;
     float4 _e76 = roughness_lut.Load(int3(int2(int((j_1 + 1u)), int(i_2)), int(0)));
@@ -1116,7 +1122,7 @@ float corrected_roughness(float r_1, float k_in)
     float v10_ = _e85.x;
     float4 _e96 = roughness_lut.Load(int3(int2(int((j_1 + 1u)), int((i_2 + 1u))), int(0)));
     float v11_ = _e96.x;
-    return ((((v00_ * (1.0 - b_15)) + (v01_ * b_15)) * (1.0 - a_5)) + (((v10_ * (1.0 - b_15)) + (v11_ * b_15)) * a_5));
+    return ((((v00_ * (1.0 - b_14)) + (v01_ * b_14)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_14)) + (v11_ * b_14)) * a_4));
 }
 
 float3 shade(float3 b_11, Aim aim, float r_2)
@@ -1184,11 +1190,11 @@ float3 specular(float3 position, float3 direction, float roughness)
     return _e27;
 }
 
-float3 cell_irradiance(int tile_2, float3 n_5)
+float3 cell_irradiance(int tile_2, float3 n_4)
 {
     uint _e6 = params.atlas_a.z;
     uint _e10 = params.atlas_a.w;
-    const float2 _e11 = oct_encode(n_5);
+    const float2 _e11 = oct_encode(n_4);
     const float4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
     return _e12.xyz;
 }
@@ -1207,7 +1213,7 @@ float3 irradiance(float3 position_1, float3 normal)
     if ((_e2.w == 0.0)) {
         return (0.0).xxx;
     }
-    float3 n_11 = _e2.xyz;
+    float3 n_10 = _e2.xyz;
     const float3 _e9 = cell_size();
     float4 _e12 = params.grid_min;
     float4 _e16 = params.grid_max;
@@ -1219,7 +1225,7 @@ float3 irradiance(float3 position_1, float3 normal)
     }
     float3 _e28 = p_3;
     const Lattice _e29 = lattice(_e28, _e9);
-    const float2 _e30 = oct_encode(n_11);
+    const float2 _e30 = oct_encode(n_10);
     uint2 loop_bound_5 = uint2(4294967295u, 4294967295u);
     bool loop_init_5 = true;
     while(true) {
@@ -1262,7 +1268,7 @@ float3 irradiance(float3 position_1, float3 normal)
             bool _e69 = local_19;
             if (_e69) {
                 float3 u_1 = (to_point / (dist).xxx);
-                float facing = ((dot(n_11, -(u_1)) + 1.0) * 0.5);
+                float facing = ((dot(n_10, -(u_1)) + 1.0) * 0.5);
                 float _e78 = w_1;
                 w_1 = (_e78 * ((facing * facing) + 0.2));
                 uint _e89 = params.atlas_b.x;
@@ -1289,7 +1295,7 @@ float3 irradiance(float3 position_1, float3 normal)
                 k_6 = _e137.x;
             }
             float3 _e139 = e;
-            const float3 _e142 = cell_irradiance(cell_2.tiles.y, n_11);
+            const float3 _e142 = cell_irradiance(cell_2.tiles.y, n_10);
             float _e143 = w_1;
             float _e145 = k_6;
             e = (_e139 + ((_e142 * _e143) * _e145));
@@ -1344,8 +1350,8 @@ void irradiance_queries(uint3 id_1 : SV_DispatchThreadID)
         return;
     }
     float4 p_5 = asfloat(queries.Load4((2u * k_9)*16));
-    float4 n_12 = asfloat(queries.Load4(((2u * k_9) + 1u)*16));
-    const float3 _e20 = irradiance(p_5.xyz, n_12.xyz);
+    float4 n_11 = asfloat(queries.Load4(((2u * k_9) + 1u)*16));
+    const float3 _e20 = irradiance(p_5.xyz, n_11.xyz);
     results.Store4(k_9*16, asuint(float4(_e20, 1.0)));
     return;
 }

@@ -35,6 +35,10 @@ struct Lattice {
     uvec3 base;
     vec3 frac;
 };
+struct Basis {
+    vec3 t;
+    vec3 b;
+};
 struct Aim {
     vec3 v;
     float k;
@@ -318,8 +322,8 @@ vec3 cell_size() {
 }
 
 uint cell_index(uvec3 c_2) {
-    uvec4 n_6 = _group_0_binding_7_cs.grid_counts;
-    return (c_2.x + (n_6.x * (c_2.y + (n_6.y * c_2.z))));
+    uvec4 n_5 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_5.x * (c_2.y + (n_5.y * c_2.z))));
 }
 
 uvec3 cell_of(vec3 p_1, vec3 size) {
@@ -450,14 +454,14 @@ vec3 kdop_fetch(vec3 b_4, vec3 dir_2) {
             }
             uint _e25 = k_1;
             vec4 _e27 = _group_0_binding_7_cs.kdop[_e25];
-            vec3 n_7 = _e27.xyz;
+            vec3 n_6 = _e27.xyz;
             uint _e31 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e31].w;
-            float nb = dot(n_7, b_4);
+            float nb = dot(n_6, b_4);
             if ((nb > h_1)) {
                 return dir_2;
             }
-            float nd = dot(n_7, dir_2);
+            float nd = dot(n_6, dir_2);
             if ((nd > 0.0)) {
                 float _e40 = t_4;
                 t_4 = min(_e40, ((h_1 - nb) / nd));
@@ -473,18 +477,11 @@ vec3 kdop_fetch(vec3 b_4, vec3 dir_2) {
     return dir_2;
 }
 
-vec3 basis_t(vec3 n_3) {
+Basis orthonormal_basis(vec3 n_3) {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_2 = (-1.0 / (s_3 + n_3.z));
     float b_13 = ((n_3.x * n_3.y) * a_2);
-    return vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_2)), (s_3 * b_13), (-(s_3) * n_3.x));
-}
-
-vec3 basis_b(vec3 n_4) {
-    float s_4 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
-    float a_3 = (-1.0 / (s_4 + n_4.z));
-    float b_14 = ((n_4.x * n_4.y) * a_3);
-    return vec3(b_14, (s_4 + ((n_4.y * n_4.y) * a_3)), -(n_4.y));
+    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_2)), (s_3 * b_13), (-(s_3) * n_3.x)), vec3(b_13, (s_3 + ((n_3.y * n_3.y) * a_2)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
@@ -566,8 +563,8 @@ float lod_of_roughness(float r) {
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
-    uint n_8 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_8 < 2u))) {
+    uint n_7 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_7 < 2u))) {
         float _e11 = mip_roughness(0u);
         local_13 = !((r > _e11));
     } else {
@@ -577,7 +574,7 @@ float lod_of_roughness(float r) {
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_8 - 1u);
+    uint last = (n_7 - 1u);
     float _e19 = mip_roughness(last);
     if ((r >= _e19)) {
         return float(last);
@@ -590,7 +587,7 @@ float lod_of_roughness(float r) {
         }
         loop_init_2 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_8)) {
+        if ((_e26 < n_7)) {
         } else {
             break;
         }
@@ -629,10 +626,10 @@ vec3 clean(vec3 c_5) {
     return vec3(0.0);
 }
 
-vec3 cell_irradiance(int tile_2, vec3 n_5) {
+vec3 cell_irradiance(int tile_2, vec3 n_4) {
     uint _e6 = _group_0_binding_7_cs.atlas_a.z;
     uint _e10 = _group_0_binding_7_cs.atlas_a.w;
-    vec2 _e11 = oct_encode(n_5);
+    vec2 _e11 = oct_encode(n_4);
     vec4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
     return _e12.xyz;
 }
@@ -649,7 +646,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     if ((_e2.w == 0.0)) {
         return vec3(0.0);
     }
-    vec3 n_9 = _e2.xyz;
+    vec3 n_8 = _e2.xyz;
     vec3 _e9 = cell_size();
     vec4 _e12 = _group_0_binding_7_cs.grid_min;
     vec4 _e16 = _group_0_binding_7_cs.grid_max;
@@ -661,7 +658,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     }
     vec3 _e28 = p_3;
     Lattice _e29 = lattice(_e28, _e9);
-    vec2 _e30 = oct_encode(n_9);
+    vec2 _e30 = oct_encode(n_8);
     bool loop_init_3 = true;
     while(true) {
         if (!loop_init_3) {
@@ -701,7 +698,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             bool _e69 = local_19;
             if (_e69) {
                 vec3 u_1 = (to_point / vec3(dist));
-                float facing = ((dot(n_9, -(u_1)) + 1.0) * 0.5);
+                float facing = ((dot(n_8, -(u_1)) + 1.0) * 0.5);
                 float _e78 = w_1;
                 w_1 = (_e78 * ((facing * facing) + 0.2));
                 uint _e89 = _group_0_binding_7_cs.atlas_b.x;
@@ -728,7 +725,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                 k_6 = _e137.x;
             }
             vec3 _e139 = e;
-            vec3 _e142 = cell_irradiance(cell.tiles.y, n_9);
+            vec3 _e142 = cell_irradiance(cell.tiles.y, n_8);
             float _e143 = w_1;
             float _e145 = k_6;
             e = (_e139 + ((_e142 * _e143) * _e145));
@@ -759,8 +756,8 @@ void main() {
         return;
     }
     vec4 p_4 = _group_1_binding_0_cs[(2u * k_7)];
-    vec4 n_10 = _group_1_binding_0_cs[((2u * k_7) + 1u)];
-    vec3 _e20 = irradiance(p_4.xyz, n_10.xyz);
+    vec4 n_9 = _group_1_binding_0_cs[((2u * k_7) + 1u)];
+    vec3 _e20 = irradiance(p_4.xyz, n_9.xyz);
     _group_1_binding_1_cs[k_7] = vec4(_e20, 1.0);
     return;
 }

@@ -35,6 +35,10 @@ struct Lattice {
     uvec3 base;
     vec3 frac;
 };
+struct Basis {
+    vec3 t;
+    vec3 b;
+};
 struct Aim {
     vec3 v;
     float k;
@@ -295,11 +299,11 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1) {
     float _e6 = _group_0_binding_7_cs.warp.z;
     float _e10 = _group_0_binding_7_cs.warp.y;
     float res0_ = ((which_1 == 0u) ? _e10 : _e6);
-    uint n_6 = max((uint(res0_) >> level_1), 1u);
-    Footprint _e18 = footprint(n_6, uv_1);
+    uint n_5 = max((uint(res0_) >> level_1), 1u);
+    Footprint _e18 = footprint(n_5, uv_1);
     ivec2 c_6 = _e18.corner;
     int l_3 = int(level_1);
-    int ni = int(n_6);
+    int ni = int(n_5);
     ivec2 _e22 = wrap_texel(ni, c_6);
     vec4 _e23 = probe_texel(which_1, _e22, l_3);
     ivec2 _e28 = wrap_texel(ni, (c_6 + ivec2(1, 0)));
@@ -406,8 +410,8 @@ vec3 cell_size() {
 }
 
 uint cell_index(uvec3 c_2) {
-    uvec4 n_7 = _group_0_binding_7_cs.grid_counts;
-    return (c_2.x + (n_7.x * (c_2.y + (n_7.y * c_2.z))));
+    uvec4 n_6 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_6.x * (c_2.y + (n_6.y * c_2.z))));
 }
 
 uvec3 cell_of(vec3 p_1, vec3 size) {
@@ -559,14 +563,14 @@ vec3 kdop_fetch(vec3 b_4, vec3 dir_2) {
             }
             uint _e25 = k_1;
             vec4 _e27 = _group_0_binding_7_cs.kdop[_e25];
-            vec3 n_8 = _e27.xyz;
+            vec3 n_7 = _e27.xyz;
             uint _e31 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e31].w;
-            float nb = dot(n_8, b_4);
+            float nb = dot(n_7, b_4);
             if ((nb > h_1)) {
                 return dir_2;
             }
-            float nd = dot(n_8, dir_2);
+            float nd = dot(n_7, dir_2);
             if ((nd > 0.0)) {
                 float _e40 = t_4;
                 t_4 = min(_e40, ((h_1 - nb) / nd));
@@ -600,18 +604,11 @@ vec3 fallback_plain(vec3 b_5, vec3 dir_3) {
     }
 }
 
-vec3 basis_t(vec3 n_3) {
+Basis orthonormal_basis(vec3 n_3) {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_3 = (-1.0 / (s_3 + n_3.z));
     float b_13 = ((n_3.x * n_3.y) * a_3);
-    return vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_13), (-(s_3) * n_3.x));
-}
-
-vec3 basis_b(vec3 n_4) {
-    float s_4 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
-    float a_4 = (-1.0 / (s_4 + n_4.z));
-    float b_14 = ((n_4.x * n_4.y) * a_4);
-    return vec3(b_14, (s_4 + ((n_4.y * n_4.y) * a_4)), -(n_4.y));
+    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_13), (-(s_3) * n_3.x)), vec3(b_13, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
@@ -643,27 +640,26 @@ vec3 fallback_fetch(vec3 b_6, vec3 dir_4) {
     bool _e12 = relaxation_on();
     float _e18 = _group_0_binding_7_cs.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
-    vec3 _e20 = basis_t(dir_4);
-    vec3 t_7 = (_e20 * angle);
-    vec3 _e22 = basis_b(dir_4);
-    vec3 bt = (_e22 * angle);
+    Basis _e20 = orthonormal_basis(dir_4);
+    vec3 t_7 = (_e20.t * angle);
+    vec3 bt = (_e20.b * angle);
     plain = dir_4;
     bool loop_init_2 = true;
     while(true) {
         if (!loop_init_2) {
-            uint _e54 = s;
-            s = (_e54 + 1u);
+            uint _e55 = s;
+            s = (_e55 + 1u);
         }
         loop_init_2 = false;
-        uint _e30 = s;
-        if ((_e30 < (_e12 ? 5u : 1u))) {
+        uint _e31 = s;
+        if ((_e31 < (_e12 ? 5u : 1u))) {
         } else {
             break;
         }
         {
             d_1 = dir_4;
-            uint _e36 = s;
-            switch(_e36) {
+            uint _e37 = s;
+            switch(_e37) {
                 case 1u: {
                     d_1 = normalize((dir_4 + t_7));
                     break;
@@ -684,24 +680,24 @@ vec3 fallback_fetch(vec3 b_6, vec3 dir_4) {
                     break;
                 }
             }
-            vec3 _e45 = d_1;
-            vec3 _e46 = fallback_plain(b_6, _e45);
-            uint _e47 = s;
-            if ((_e47 == 0u)) {
-                plain = _e46;
+            vec3 _e46 = d_1;
+            vec3 _e47 = fallback_plain(b_6, _e46);
+            uint _e48 = s;
+            if ((_e48 == 0u)) {
+                plain = _e47;
             }
-            vec3 _e50 = sum;
-            vec3 _e51 = normalize_or(_e46, dir_4);
-            sum = (_e50 + _e51);
+            vec3 _e51 = sum;
+            vec3 _e52 = normalize_or(_e47, dir_4);
+            sum = (_e51 + _e52);
         }
     }
     if (!(_e12)) {
-        vec3 _e57 = plain;
-        return _e57;
+        vec3 _e58 = plain;
+        return _e58;
     }
-    vec3 _e58 = sum;
-    vec3 _e59 = normalize_or(_e58, dir_4);
-    return _e59;
+    vec3 _e59 = sum;
+    vec3 _e60 = normalize_or(_e59, dir_4);
+    return _e60;
 }
 
 float inv_t_from_map(vec3 c_4, float w, vec3 b_7, vec3 dir_5) {
@@ -839,8 +835,8 @@ float lod_of_roughness(float r) {
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
-    uint n_9 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_9 < 2u))) {
+    uint n_8 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_8 < 2u))) {
         float _e11 = mip_roughness(0u);
         local_13 = !((r > _e11));
     } else {
@@ -850,7 +846,7 @@ float lod_of_roughness(float r) {
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_9 - 1u);
+    uint last = (n_8 - 1u);
     float _e19 = mip_roughness(last);
     if ((r >= _e19)) {
         return float(last);
@@ -863,7 +859,7 @@ float lod_of_roughness(float r) {
         }
         loop_init_4 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_9)) {
+        if ((_e26 < n_8)) {
         } else {
             break;
         }
@@ -948,8 +944,8 @@ float corrected_roughness(float r_1, float k_in) {
     float fr = 0.0;
     float k_4 = 1.0;
     bool local_18 = false;
-    uint n_10 = _group_0_binding_7_cs.lut_info.x;
-    float last_1 = float((n_10 - 1u));
+    uint n_9 = _group_0_binding_7_cs.lut_info.x;
+    float last_1 = float((n_9 - 1u));
     bool _e11 = finite(r_1);
     if (_e11) {
         fr = clamp((r_1 * last_1), 0.0, last_1);
@@ -974,11 +970,11 @@ float corrected_roughness(float r_1, float k_in) {
     float _e44 = _group_0_binding_7_cs.lut.y;
     float fx = clamp(((_e35 - _e39) * _e44), 0.0, last_1);
     float _e48 = fr;
-    uint i_2 = min(uint(_e48), (n_10 - 2u));
-    uint j_1 = min(uint(fx), (n_10 - 2u));
+    uint i_2 = min(uint(_e48), (n_9 - 2u));
+    uint j_1 = min(uint(fx), (n_9 - 2u));
     float _e57 = fr;
-    float a_5 = (_e57 - float(i_2));
-    float b_15 = (fx - float(j_1));
+    float a_4 = (_e57 - float(i_2));
+    float b_14 = (fx - float(j_1));
     vec4 _e67 = texelFetch(_group_0_binding_6_cs, ivec2(int(j_1), int(i_2)), 0);
     float v00_ = _e67.x;
     vec4 _e76 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_1 + 1u)), int(i_2)), 0);
@@ -987,7 +983,7 @@ float corrected_roughness(float r_1, float k_in) {
     float v10_ = _e85.x;
     vec4 _e96 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_1 + 1u)), int((i_2 + 1u))), 0);
     float v11_ = _e96.x;
-    return ((((v00_ * (1.0 - b_15)) + (v01_ * b_15)) * (1.0 - a_5)) + (((v10_ * (1.0 - b_15)) + (v11_ * b_15)) * a_5));
+    return ((((v00_ * (1.0 - b_14)) + (v01_ * b_14)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_14)) + (v11_ * b_14)) * a_4));
 }
 
 vec3 shade(vec3 b_11, Aim aim, float r_2) {
@@ -1050,10 +1046,10 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     return _e27;
 }
 
-vec3 cell_irradiance(int tile_2, vec3 n_5) {
+vec3 cell_irradiance(int tile_2, vec3 n_4) {
     uint _e6 = _group_0_binding_7_cs.atlas_a.z;
     uint _e10 = _group_0_binding_7_cs.atlas_a.w;
-    vec2 _e11 = oct_encode(n_5);
+    vec2 _e11 = oct_encode(n_4);
     vec4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
     return _e12.xyz;
 }
@@ -1070,7 +1066,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     if ((_e2.w == 0.0)) {
         return vec3(0.0);
     }
-    vec3 n_11 = _e2.xyz;
+    vec3 n_10 = _e2.xyz;
     vec3 _e9 = cell_size();
     vec4 _e12 = _group_0_binding_7_cs.grid_min;
     vec4 _e16 = _group_0_binding_7_cs.grid_max;
@@ -1082,7 +1078,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     }
     vec3 _e28 = p_3;
     Lattice _e29 = lattice(_e28, _e9);
-    vec2 _e30 = oct_encode(n_11);
+    vec2 _e30 = oct_encode(n_10);
     bool loop_init_5 = true;
     while(true) {
         if (!loop_init_5) {
@@ -1122,7 +1118,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             bool _e69 = local_19;
             if (_e69) {
                 vec3 u_1 = (to_point / vec3(dist));
-                float facing = ((dot(n_11, -(u_1)) + 1.0) * 0.5);
+                float facing = ((dot(n_10, -(u_1)) + 1.0) * 0.5);
                 float _e78 = w_1;
                 w_1 = (_e78 * ((facing * facing) + 0.2));
                 uint _e89 = _group_0_binding_7_cs.atlas_b.x;
@@ -1149,7 +1145,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                 k_6 = _e137.x;
             }
             vec3 _e139 = e;
-            vec3 _e142 = cell_irradiance(cell_2.tiles.y, n_11);
+            vec3 _e142 = cell_irradiance(cell_2.tiles.y, n_10);
             float _e143 = w_1;
             float _e145 = k_6;
             e = (_e139 + ((_e142 * _e143) * _e145));

@@ -467,19 +467,18 @@ fn fallback_plain(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     }
 }
 
-// Frisvad's orthonormal basis around unit n (Duff et al. 2017), as the CPU builds it.
-fn basis_t(n: vec3<f32>) -> vec3<f32> {
-    let s = select(-1.0, 1.0, n.z >= 0.0);
-    let a = -1.0 / (s + n.z);
-    let b = n.x * n.y * a;
-    return vec3<f32>(1.0 + s * n.x * n.x * a, s * b, -s * n.x);
+// Frisvad's orthonormal basis around unit n (Duff et al. 2017), as the CPU builds it: the
+// two tangents.
+struct Basis {
+    t: vec3<f32>,
+    b: vec3<f32>,
 }
 
-fn basis_b(n: vec3<f32>) -> vec3<f32> {
+fn orthonormal_basis(n: vec3<f32>) -> Basis {
     let s = select(-1.0, 1.0, n.z >= 0.0);
     let a = -1.0 / (s + n.z);
     let b = n.x * n.y * a;
-    return vec3<f32>(b, s + n.y * n.y * a, -n.y);
+    return Basis(vec3<f32>(1.0 + s * n.x * n.x * a, s * b, -s * n.x), vec3<f32>(b, s + n.y * n.y * a, -n.y));
 }
 
 fn normalize_or(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
@@ -501,8 +500,9 @@ fn fallback_fetch(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     let relax = params.warp.x;
     let relaxed = relaxation_on();
     let angle = relax * sqrt(4.0 * PI) / params.warp.y;
-    let t = basis_t(dir) * angle;
-    let bt = basis_b(dir) * angle;
+    let basis = orthonormal_basis(dir);
+    let t = basis.t * angle;
+    let bt = basis.b * angle;
     var plain = dir;
     var sum = vec3<f32>(0.0);
     for (var s = 0u; s < select(1u, 5u, relaxed); s++) {
