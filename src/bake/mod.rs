@@ -3,6 +3,7 @@
 
 pub mod grid;
 pub mod probe;
+pub mod surface;
 
 pub use grid::{GridGeometry, ProbeGrid};
 pub use probe::SpecularProbe;

@@ -359,6 +359,7 @@ pub fn evaluate(
     let mut figure = shown.map(|k| (&cams[k], &refs[k])).map(|(v, (reference, _))| super::FlipFigure {
         roughness: 1.0,
         diffuse: true,
+        surface: None,
         width: v.width,
         height: v.height,
         reference: reference.clone(),

@@ -26,6 +26,7 @@ pub mod methods;
 pub mod metrics;
 pub mod options;
 pub mod renders;
+pub mod surface;
 pub mod timing;
 pub mod validation;
 pub mod views;
@@ -77,6 +78,12 @@ pub struct EvalSettings {
     pub diffuse_points: u32,
     #[serde(default)]
     pub diffuse_spp: u32,
+    /// Surface probes (seed 003): held-out points per patch and reflection directions per
+    /// point (0: not judged). References use `reference_spp` and `rough_reference_spp`.
+    #[serde(default)]
+    pub surface_points: u32,
+    #[serde(default)]
+    pub surface_dirs: u32,
 }
 
 /// The roughness buckets every row is judged on (perceptual roughness; α = r²).
@@ -107,6 +114,8 @@ impl EvalSettings {
             renders: Some(RenderSettings::standard()),
             diffuse_points: 1024,
             diffuse_spp: 1024,
+            surface_points: 256,
+            surface_dirs: 32,
         }
     }
 
@@ -123,6 +132,8 @@ impl EvalSettings {
             renders: Some(RenderSettings::quick()),
             diffuse_points: 32,
             diffuse_spp: 16,
+            surface_points: 16,
+            surface_dirs: 8,
             ..Self::standard()
         }
     }
@@ -163,6 +174,9 @@ pub struct EvalReport {
     /// Diffuse lighting: irradiance at held-out surface points, per method.
     #[serde(default)]
     pub diffuse: Option<diffuse::DiffuseReport>,
+    /// Surface probes (seed 003): one report per `[[surface_probes]]` patch of the scene.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub surface: Vec<surface::SurfaceReport>,
     /// Wall time of the evaluation (references, methods, timings) and its traced rays.
     #[serde(default)]
     pub seconds: f64,
@@ -218,6 +232,8 @@ pub struct FlipFigure {
     pub roughness: f32,
     /// Diffuse shading (irradiance / π, albedo 1) instead of glossy reflection.
     pub diffuse: bool,
+    /// The camera across surface-probe patch k (`eval::surface`), not a scene camera.
+    pub surface: Option<usize>,
     pub width: u32,
     pub height: u32,
     pub reference: Vec<Vec3>,
@@ -229,6 +245,8 @@ pub struct FlipFigure {
 /// figures.
 pub struct Evaluation {
     pub report: EvalReport,
+    /// Each surface-probe patch's atlas (mip 0 as one image: width, height, texels).
+    pub surface_atlases: Vec<(u32, u32, Vec<Vec3>)>,
     pub views: Option<Views>,
     pub flip_figures: Vec<FlipFigure>,
 }
@@ -374,6 +392,40 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             Some(r)
         })
         .flatten();
+    bar.set_message("eval: surface probes");
+    let (mut surface, mut surface_atlases) = (Vec::new(), Vec::new());
+    if settings.surface_points > 0 && settings.surface_dirs > 0 {
+        let renderer = Renderer::new(scene, tracer);
+        for (index, spec) in scene.surface_probes().iter().enumerate() {
+            let t = std::time::Instant::now();
+            let (atlas, rays) =
+                crate::bake::surface::bake_surface_atlas(&renderer, spec, index as u64, scene.config.seed, progress);
+            let bake = (t.elapsed().as_secs_f64(), rays);
+            reference_rays += rays;
+            let mut rows = vec![surface::SurfaceMethod::Atlas(&atlas), surface::SurfaceMethod::AtlasWarped(&atlas)];
+            let probe_rows = methods::rows(
+                &methods
+                    .iter()
+                    .copied()
+                    .filter(|m| matches!(m, Method::None | Method::Box | Method::Kdop | Method::Warp1))
+                    .collect::<Vec<_>>(),
+                &[],
+                runtime,
+                &[MipRule::Plain],
+                None,
+            );
+            rows.extend(probe_rows.into_iter().map(surface::SurfaceMethod::Volume));
+            let subject = surface::SurfaceSubject { atlas: &atlas, index, bake, methods: &rows };
+            // the grid's bounds grown by a cell: a floor lies just outside a grid that
+            // starts above it, and the grid answers there from its outer cells
+            let cell = grid.geometry.cell_size();
+            let bounds = (grid.geometry.min - cell, grid.geometry.max + cell);
+            let (report, figures) = surface::evaluate(scene, tracer, &subject, shading, (settings, bounds, exposure));
+            surface.push(report);
+            flip_figures.extend(figures);
+            surface_atlases.push(atlas.atlas_image());
+        }
+    }
     bar.finish_and_clear();
     let renderer = Renderer::new(scene, tracer);
     let report = EvalReport {
@@ -390,11 +442,12 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         command: command.to_string(),
         fitted_levels,
         diffuse,
+        surface,
         seconds: t0.elapsed().as_secs_f64(),
         reference_rays,
     };
     let views = views::views(scene, tracer, warp, &mirror, settings.reference_spp, settings.seed, corrective_rows);
-    Evaluation { report, views, flip_figures }
+    Evaluation { report, surface_atlases, views, flip_figures }
 }
 
 /// The bucket's summary: the claim's comparison, its difference, and the standard error
@@ -490,6 +543,7 @@ fn flip_figure(
     Some(FlipFigure {
         roughness: view.roughness,
         diffuse: false,
+        surface: None,
         width: view.view.width,
         height: view.view.height,
         reference: view.reference.clone(),

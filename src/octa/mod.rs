@@ -14,6 +14,8 @@
 //! Mips: for even N every texel of level k+1 covers exactly a 2×2 block of level k in uv, so a
 //! solid-angle-weighted 2×2 reduction is a true box filter over the sphere.
 
+pub mod hemi;
+
 use glam::{Vec2, Vec3};
 use std::ops::{Add, Mul};
 

@@ -91,6 +91,14 @@ impl RunFolder {
         self.file("flip_diffuse.png")
     }
 
+    /// `flip_surface{k}_r{r}.png`: the camera across surface-probe patch k at roughness r.
+    pub fn flip_surface(&self, k: usize, r: f32) -> PathBuf {
+        self.file(&format!("flip_surface{k}_r{r:.3}.png"))
+    }
+    /// `surface_atlas{k}.png`: the mirror tiles of surface-probe patch k, as packed.
+    pub fn surface_atlas(&self, k: usize) -> PathBuf {
+        self.file(&format!("surface_atlas{k}.png"))
+    }
     pub fn flip_figure(&self, r: f32) -> PathBuf {
         self.file(&format!("flip_r{r:.3}.png"))
     }

@@ -93,8 +93,61 @@ pub fn summary_table(r: &EvalReport) -> String {
     s
 }
 
-/// Markdown table of the roughness buckets: size, the comparison the claim rests on, and the
-/// references' own noise against it.
+/// Markdown section of one surface-probe patch (seed 003): the atlas, then every row at
+/// every roughness, then the references' noise.
+pub fn surface_section(sr: &crate::eval::surface::SurfaceReport) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "\n## Surface probes {} (seed 003)\n\nAn atlas of {}×{} hemi-octahedral probes of {}² texels on the patch ({:.1} MB as RGBA16F with its mips; baked in {:.1} s, {} rays). Held-out queries: {} points on the patch × {} cosine-distributed reflection directions. ꟻLIP: a camera across the patch{}, mean over the patch's pixels.\n",
+        sr.index,
+        sr.counts[0],
+        sr.counts[1],
+        sr.resolution,
+        sr.bytes as f64 / 1e6,
+        sr.bake_seconds,
+        sr.bake_rays,
+        sr.points,
+        sr.dirs_per_point,
+        sr.camera.map_or(" (none found)".into(), |c| format!(" from ({:.2}, {:.2}, {:.2})", c[0], c[1], c[2]))
+    );
+    s += "| roughness | method | ꟻLIP (patch camera) | tone-mapped RMSE | rel RMSE | MAE | p95 | ns/lookup |\n|---:|---|---:|---:|---:|---:|---:|---:|\n";
+    for row in &sr.rows {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.1} |",
+            row.roughness,
+            row.name,
+            row.flip.map_or("–".into(), |f| format!("{f:.4}")),
+            row.tm_rmse,
+            row.rel_rmse,
+            row.mae,
+            row.p95,
+            row.ns_per_lookup
+        );
+    }
+    s += "\n| roughness | lookups | reference spp | single-reference SE (rel) | camera pixels on the patch | camera reference spp | ꟻLIP of the references' own noise |\n|---:|---:|---:|---:|---:|---:|---:|\n";
+    for b in &sr.buckets {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.4} | {} | {} | {:.4} |",
+            b.roughness,
+            b.lookups,
+            b.reference_spp,
+            b.query_se_rel,
+            b.view_pixels,
+            b.view_reference_spp,
+            b.view_noise_flip
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n![atlas](surface_atlas{k}.png)\n\n![ꟻLIP, patch camera, r = 0](flip_surface{k}_r0.000.png)\n",
+        k = sr.index
+    );
+    s
+}
+
 /// Markdown table of the diffuse evaluation (empty without one).
 pub fn diffuse_table(r: &EvalReport) -> String {
     let Some(d) = &r.diffuse else { return String::new() };
@@ -166,6 +219,10 @@ pub fn write_evaluation(folder: &RunFolder, ev: &Evaluation) -> Result<(), FileE
     for f in &ev.flip_figures {
         write_flip_figure(folder, &ev.report, f)?;
     }
+    for (k, (w, h, texels)) in ev.surface_atlases.iter().enumerate() {
+        let rgb = crate::tonemap::to_srgb8(texels, ev.report.exposure);
+        crate::preview::write_png(&folder.surface_atlas(k), *w, *h, &rgb)?;
+    }
     match &ev.views {
         Some(v) => plot::views(&folder.eval_views(), &v.title, &v.tiles),
         None => Ok(()),
@@ -183,6 +240,13 @@ fn write_flip_figure(folder: &RunFolder, r: &EvalReport, f: &crate::eval::FlipFi
     for (label, image, map, mean) in &f.tiles {
         images.push(tile(label.clone(), crate::tonemap::to_srgb8(image, r.exposure)));
         maps.push(tile(format!("ꟻLIP {mean:.3}"), crate::eval::flip::magma(map, f.width, f.height)));
+    }
+    if let Some(k) = f.surface {
+        let title = format!(
+            "{}, surface probes {k}, roughness {}: the patch a glossy reflector, the rest as seen; below, ꟻLIP against the reference",
+            r.scene, f.roughness
+        );
+        return plot::image_grid(&folder.flip_surface(k, f.roughness), &title, &[images, maps]);
     }
     if f.diffuse {
         let title = format!(
@@ -232,6 +296,9 @@ pub fn write_eval(folder: &RunFolder, r: &EvalReport) -> Result<(), FileError> {
         md += "\n## Diffuse lighting\n\nIrradiance at held-out surface points (area-uniform on triangles inside the grid), against cosine-weighted traced references: the light probes carry (sky, emitters, bounced light; direct sun is the renderer's job). Rows: the grid through each step of DDGI's blend, the runtime (the blend times the cell's fitted correction), probe A alone, and seed 004's voxel GI.\n\n";
         md += &diffuse_table(r);
         md += "\n![ꟻLIP, diffuse](flip_diffuse.png)\n";
+    }
+    for sr in &r.surface {
+        md += &surface_section(sr);
     }
     let _ = writeln!(md, "\n## Mirror lookups (roughness 0)\n");
     md += &methods_table(r, 0.0);

@@ -103,6 +103,9 @@ pub struct RunReport {
     /// The diffuse evaluation, when eval.json has one.
     #[serde(default)]
     pub diffuse: Option<crate::eval::diffuse::DiffuseReport>,
+    /// The surface-probe patches' evaluations (seed 003).
+    #[serde(default)]
+    pub surface: Vec<crate::eval::surface::SurfaceReport>,
 }
 
 fn optional_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<Option<T>, FileError> {
@@ -232,6 +235,10 @@ pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> 
     let mut images: Vec<String> = ["eval_error_vs_cost.png", "eval_rough.png"].iter().map(|f| f.to_string()).collect();
     images.extend(crate::eval::ROUGHNESS_BUCKETS.iter().map(|&r| format!("flip_r{r:.3}.png")));
     images.push("flip_diffuse.png".into());
+    for sr in &eval.surface {
+        images.push(format!("surface_atlas{}.png", sr.index));
+        images.extend(crate::eval::ROUGHNESS_BUCKETS.iter().map(|&r| format!("flip_surface{}_r{r:.3}.png", sr.index)));
+    }
     images.extend(
         ["eval_views.png", "fit_convergence.png", "residual_slices.png", "sweep.png", "sweep_convergence.png"]
             .iter()
@@ -263,6 +270,7 @@ pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> 
         stability: optional_json(&folder.stability_json())?,
         images,
         diffuse: eval.diffuse.clone(),
+        surface: eval.surface.clone(),
     })
 }
 
@@ -359,6 +367,40 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
             format!(
                 "Diffuse: irradiance at {} held-out surface points ({}-sample references, single-reference SE {:.3} relative)",
                 d.points, d.reference_spp, d.reference_se_rel
+            ),
+            t,
+        ));
+    }
+
+    for sr in &r.surface {
+        let mut t = vec![
+            ["roughness", "method", "ꟻLIP (patch camera)", "tone-mapped RMSE", "rel RMSE", "MAE", "p95", "ns/lookup"]
+                .iter()
+                .map(|s| s.to_string())
+                .collect::<Vec<_>>(),
+        ];
+        for row in &sr.rows {
+            t.push(vec![
+                format!("{}", row.roughness),
+                row.name.clone(),
+                row.flip.map_or("–".into(), |f| format!("{f:.4}")),
+                format!("{:.4}", row.tm_rmse),
+                format!("{:.4}", row.rel_rmse),
+                format!("{:.4}", row.mae),
+                format!("{:.4}", row.p95),
+                format!("{:.1}", row.ns_per_lookup),
+            ]);
+        }
+        out.push((
+            format!(
+                "Surface probes {} (seed 003): {}×{} probes of {}² texels ({:.1} MB), {} held-out points × {} reflection directions",
+                sr.index,
+                sr.counts[0],
+                sr.counts[1],
+                sr.resolution,
+                sr.bytes as f64 / 1e6,
+                sr.points,
+                sr.dirs_per_point
             ),
             t,
         ));

@@ -30,6 +30,10 @@ pub struct SceneFile {
     pub sphere_lights: Vec<SphereLightConfig>,
     #[serde(default)]
     pub geometry: Vec<GeometryConfig>,
+    /// Reflection probes attached to a surface (seed 003): judged against the volume grid
+    /// for points on that surface. Not part of the bake: changing them re-bakes nothing.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub surface_probes: Vec<SurfaceProbesConfig>,
     /// Let mesh files reference files (buffers, MTLs) outside their own folder.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub allow_outside_paths: bool,
@@ -124,6 +128,30 @@ fn default_depth_spp() -> u32 {
 }
 fn default_backface() -> f32 {
     0.25
+}
+
+/// A grid of hemi-octahedral reflection probes on a parallelogram `corner + s·edge_u +
+/// t·edge_v` (s, t in [0, 1]) facing along `edge_u × edge_v`: a water plane or a polished
+/// floor (seed 003, "Baked Surface Reflections"). Probe (i, j) sits at the centre of its
+/// patch, `s = (i + ½)/counts[0]`, `t = (j + ½)/counts[1]`, just off the surface.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SurfaceProbesConfig {
+    pub corner: V3,
+    pub edge_u: V3,
+    pub edge_v: V3,
+    /// Probes along edge_u and edge_v (each 1..=256).
+    pub counts: [u32; 2],
+    /// N of each probe's N×N hemi-octahedral tile (even, 4..=64). Default 16.
+    #[serde(default = "default_surface_res")]
+    pub resolution: u32,
+    /// Stratified radiance samples per texel. Default 16.
+    #[serde(default = "default_probe_spp")]
+    pub samples_per_texel: u32,
+}
+
+fn default_surface_res() -> u32 {
+    16
 }
 
 /// Radiance of rays that miss all geometry: a gradient over the up (+Y) component.

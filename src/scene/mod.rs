@@ -232,7 +232,9 @@ impl Scene {
     #[must_use]
     pub fn content_key(&self) -> String {
         let mut text = format!("warpfit {} bake, revision {BAKE_REVISION}\n", env!("CARGO_PKG_VERSION"));
-        text += &serde_json::to_string(&self.config).unwrap_or_default();
+        // surface probes are baked and judged apart: adding one re-bakes nothing
+        let baked = SceneFile { surface_probes: Vec::new(), ..self.config.clone() };
+        text += &serde_json::to_string(&baked).unwrap_or_default();
         for (path, sum) in &self.inputs {
             text += &format!("\n{} {sum}", path.display());
         }
@@ -338,6 +340,11 @@ impl Scene {
         }
         let scale3 = |v: &mut V3| v.iter_mut().for_each(|x| *x *= factor);
         scale3(&mut s.config.probe.position);
+        for sp in &mut s.config.surface_probes {
+            scale3(&mut sp.corner);
+            scale3(&mut sp.edge_u);
+            scale3(&mut sp.edge_v);
+        }
         scale3(&mut s.config.grid.min);
         scale3(&mut s.config.grid.max);
         s
@@ -460,7 +467,77 @@ fn validate_settings(f: &SceneFile, path: &Path) -> Result<(), SceneError> {
     if f.bounces > 8 {
         return Err(invalid(path, "bounces", format!("must be ≤ 8, got {}", f.bounces)));
     }
+    for k in 0..f.surface_probes.len() {
+        surface_probes_from(f, k, path)?;
+    }
     Ok(())
+}
+
+/// A validated `[[surface_probes]]` entry (seed 003): its parallelogram, probe counts, tile
+/// resolution and samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceProbeSpec {
+    pub corner: Vec3,
+    pub edge_u: Vec3,
+    pub edge_v: Vec3,
+    pub counts: [u32; 2],
+    pub resolution: u32,
+    pub samples_per_texel: u32,
+}
+
+/// Largest number of texels of one surface-probe atlas (probes × N²).
+pub const MAX_SURFACE_TEXELS: u64 = 1 << 24;
+
+fn surface_probes_from(f: &SceneFile, k: usize, path: &Path) -> Result<SurfaceProbeSpec, SceneError> {
+    let c = &f.surface_probes[k];
+    let field = format!("surface_probes[{k}]");
+    let corner = finite3(path, &format!("{field}.corner"), c.corner)?;
+    let edge_u = finite3(path, &format!("{field}.edge_u"), c.edge_u)?;
+    let edge_v = finite3(path, &format!("{field}.edge_v"), c.edge_v)?;
+    // the sine of the angle between the edges, from components scaled to order 1
+    let (u, v) = (
+        edge_u / edge_u.abs().max_element().max(f32::MIN_POSITIVE),
+        edge_v / edge_v.abs().max_element().max(f32::MIN_POSITIVE),
+    );
+    if !(u.cross(v).length() > 1e-3 * u.length() * v.length()) {
+        return Err(invalid(path, &field, "edge_u and edge_v must be non-zero and not parallel"));
+    }
+    if c.counts.iter().any(|n| !(1..=256).contains(n)) {
+        return Err(invalid(path, &format!("{field}.counts"), format!("each must be in 1..=256, got {:?}", c.counts)));
+    }
+    let r = c.resolution;
+    if !(4..=64).contains(&r) || !r.is_multiple_of(2) {
+        return Err(invalid(path, &format!("{field}.resolution"), format!("must be even in 4..=64, got {r}")));
+    }
+    if !(1..=MAX_SAMPLES).contains(&c.samples_per_texel) {
+        return Err(invalid(
+            path,
+            &format!("{field}.samples_per_texel"),
+            format!("must be in 1..={MAX_SAMPLES}, got {}", c.samples_per_texel),
+        ));
+    }
+    let texels = c.counts[0] as u64 * c.counts[1] as u64 * (r * r) as u64;
+    if texels > MAX_SURFACE_TEXELS {
+        return Err(invalid(path, &field, format!("{texels} texels, more than {MAX_SURFACE_TEXELS}")));
+    }
+    Ok(SurfaceProbeSpec {
+        corner,
+        edge_u,
+        edge_v,
+        counts: c.counts,
+        resolution: r,
+        samples_per_texel: c.samples_per_texel,
+    })
+}
+
+impl Scene {
+    /// The scene's surface-probe atlases (seed 003), validated when the scene was loaded.
+    #[must_use]
+    pub fn surface_probes(&self) -> Vec<SurfaceProbeSpec> {
+        (0..self.config.surface_probes.len())
+            .filter_map(|k| surface_probes_from(&self.config, k, &self.source).ok())
+            .collect()
+    }
 }
 
 fn sky_from(f: &SceneFile, path: &Path) -> Result<Sky, SceneError> {

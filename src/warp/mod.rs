@@ -16,6 +16,7 @@ pub mod depth;
 pub mod glossy;
 pub mod proxy;
 pub mod reproject;
+pub mod surface;
 
 use crate::octa::{self, LANES, OctMap, OctMips, UvLanes};
 use glam::Vec3;

@@ -1,0 +1,201 @@
+//! Seed 003, "Baked Surface Reflections": many reflection probes attached to one surface,
+//! each a hemi-octahedral tile in the surface's tangent space, packed into one atlas. A
+//! lookup at a point on the surface finds the point's place among the probes (the surface's
+//! (s, t) coordinates), brings the reflection direction into tangent space, and blends the
+//! four nearest probes bilinearly, each read bilinearly inside its tile, as the seed does.
+//!
+//! Beside the seed's lookup, `radiance_warped` applies each of the four probes' own depth
+//! first (seed 000's one-step plane warp from that probe, `warp::depth`), the unfitted
+//! parallax correction a surface probe can afford.
+//!
+//! Plain data: the atlas is baked by `bake::surface` and judged by `eval::surface`; this
+//! module only samples it. Rough lookups read the tile mips (GGX-prefiltered, r = m/(M−1)),
+//! linear in r between mips, as the probe's chain is read.
+
+use crate::octa::{self, hemi};
+use glam::Vec3;
+
+/// Where an atlas sits: the parallelogram `corner + s·edge_u + t·edge_v` (s, t in [0, 1]),
+/// facing along `edge_u × edge_v`, its probe counts and tile size.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePatch {
+    pub corner: Vec3,
+    pub edge_u: Vec3,
+    pub edge_v: Vec3,
+    /// Probes along edge_u and edge_v (each ≥ 1); probe (i, j) is tile `j·counts[0] + i`.
+    pub counts: [u32; 2],
+    /// N of each N×N hemi-octahedral tile (even, ≥ 2).
+    pub resolution: u32,
+    /// Height of the probes above the surface, along the normal (scene units).
+    pub offset: f32,
+}
+
+/// A baked surface-probe atlas (struct of arrays).
+#[derive(Clone, Debug)]
+pub struct SurfaceAtlas {
+    pub patch: SurfacePatch,
+    /// Radiance per mip, each `probes × N²` texels, tile after tile; mip 0 is the mirror
+    /// image, mip m is GGX-prefiltered for `roughness[m]`.
+    pub radiance: Vec<Vec<Vec3>>,
+    /// Perceptual roughness of each radiance mip (0 first, increasing, 1 last).
+    pub roughness: Vec<f32>,
+    /// 1/distance of each mip-0 texel-centre ray (0 where the probe saw sky).
+    pub inv_distance: Vec<f32>,
+    frame: Frame,
+}
+
+/// The atlas's frame, derived from its parallelogram.
+#[derive(Clone, Copy, Debug)]
+struct Frame {
+    tangent: Vec3,
+    bitangent: Vec3,
+    normal: Vec3,
+    /// `s = dual_u · (p − corner)`, `t = dual_v · (p − corner)`.
+    dual_u: Vec3,
+    dual_v: Vec3,
+}
+
+impl Frame {
+    fn of(p: &SurfacePatch) -> Frame {
+        let (u, v) = (p.edge_u, p.edge_v);
+        let normal = u.cross(v).normalize_or_zero();
+        let tangent = u.normalize_or_zero();
+        let bitangent = normal.cross(tangent);
+        let (uu, uv, vv) = (u.dot(u), u.dot(v), v.dot(v));
+        let det = uu * vv - uv * uv;
+        let inv = if det > 0.0 && det.is_finite() { 1.0 / det } else { 0.0 };
+        Frame { tangent, bitangent, normal, dual_u: (u * vv - v * uv) * inv, dual_v: (v * uu - u * uv) * inv }
+    }
+}
+
+impl SurfaceAtlas {
+    /// An atlas from its patch and baked layers. Panics unless the layers fit the patch
+    /// (the baker's contract, not user input): every mip and the distances hold
+    /// `probes × N²` texels, and the roughness runs from 0 with one entry per mip.
+    #[must_use]
+    pub fn new(patch: SurfacePatch, radiance: Vec<Vec<Vec3>>, roughness: Vec<f32>, inv_distance: Vec<f32>) -> Self {
+        let texels =
+            patch.counts[0] as usize * patch.counts[1] as usize * (patch.resolution * patch.resolution) as usize;
+        assert!(patch.counts[0] >= 1 && patch.counts[1] >= 1 && patch.resolution >= 2);
+        assert!(!radiance.is_empty() && radiance.len() == roughness.len() && roughness[0] == 0.0);
+        assert!(radiance.iter().all(|l| l.len() == texels) && inv_distance.len() == texels);
+        SurfaceAtlas { frame: Frame::of(&patch), patch, radiance, roughness, inv_distance }
+    }
+
+    /// Unit normal of the surface (`edge_u × edge_v`).
+    #[must_use]
+    pub fn normal(&self) -> Vec3 {
+        self.frame.normal
+    }
+
+    /// Number of probes.
+    #[must_use]
+    pub fn probes(&self) -> usize {
+        self.patch.counts[0] as usize * self.patch.counts[1] as usize
+    }
+
+    /// Surface coordinates (s, t) of a point (not clamped).
+    #[must_use]
+    pub fn surface_coordinates(&self, p: Vec3) -> (f32, f32) {
+        let d = p - self.patch.corner;
+        (self.frame.dual_u.dot(d), self.frame.dual_v.dot(d))
+    }
+
+    /// World position of probe (i, j): the centre of its patch, `offset` off the surface.
+    #[must_use]
+    pub fn probe_position(&self, i: u32, j: u32) -> Vec3 {
+        let p = &self.patch;
+        let s = (i as f32 + 0.5) / p.counts[0] as f32;
+        let t = (j as f32 + 0.5) / p.counts[1] as f32;
+        p.corner + p.edge_u * s + p.edge_v * t + self.frame.normal * p.offset
+    }
+
+    /// World direction of a tangent-space direction.
+    #[must_use]
+    pub fn to_world(&self, local: Vec3) -> Vec3 {
+        let f = &self.frame;
+        f.tangent * local.x + f.bitangent * local.y + f.normal * local.z
+    }
+
+    /// Radiance arriving at `b` (a point on or just off the surface) from unit-or-not
+    /// direction `dir` at perceptual roughness `r`: the seed's lookup. Black for a zero or
+    /// non-finite direction; a position off the parallelogram reads its nearest probes.
+    #[must_use]
+    pub fn radiance(&self, b: Vec3, dir: Vec3, r: f32) -> Vec3 {
+        self.lookup(b, dir, r, false)
+    }
+
+    /// As [`Self::radiance`], each of the four probes warped by its own depth first.
+    #[must_use]
+    pub fn radiance_warped(&self, b: Vec3, dir: Vec3, r: f32) -> Vec3 {
+        self.lookup(b, dir, r, true)
+    }
+
+    fn lookup(&self, b: Vec3, dir: Vec3, r: f32, warped: bool) -> Vec3 {
+        let Some(dir) = octa::unit_direction(dir) else { return Vec3::ZERO };
+        let (f, p) = (&self.frame, &self.patch);
+        let b = if b.is_finite() { b } else { p.corner };
+        let d = b - p.corner;
+        let axis = |x: f32, n: u32| {
+            let x = if x.is_finite() { x } else { 0.5 };
+            let c = (x * n as f32 - 0.5).clamp(0.0, (n - 1) as f32);
+            let i0 = c.floor() as u32;
+            (i0, (i0 + 1).min(n - 1), c - i0 as f32)
+        };
+        let (i0, i1, fx) = axis(f.dual_u.dot(d), p.counts[0]);
+        let (j0, j1, fy) = axis(f.dual_v.dot(d), p.counts[1]);
+        let last = (self.roughness.len() - 1) as f32;
+        let lod = if r.is_finite() { r.clamp(0.0, 1.0) * last } else { 0.0 };
+        let m0 = lod.floor() as usize;
+        let (m1, fm) = ((m0 + 1).min(self.roughness.len() - 1), lod - m0 as f32);
+        let local = |v: Vec3| Vec3::new(v.dot(f.tangent), v.dot(f.bitangent), v.dot(f.normal));
+        let (res, texels) = (p.resolution, (p.resolution * p.resolution) as usize);
+        let probe = |i: u32, j: u32| -> Vec3 {
+            let tile = (j * p.counts[0] + i) as usize * texels;
+            let mut fetch = local(dir);
+            if warped {
+                // seed 000's plane warp from this probe: w1 along Dir, plane ⟂ Dir at the hit,
+                // fetch towards where the ray from B crosses it (homogeneous form, as
+                // `warp::depth::plane_warp`)
+                let w1 = hemi::bilinear(&self.inv_distance[tile..tile + texels], res, hemi::encode(fetch));
+                let ab = local(self.probe_position(i, j) - b);
+                if w1 > 0.0 {
+                    let v = fetch * (w1 * fetch.dot(ab) + 1.0).max(0.0) - ab * w1;
+                    if v.is_finite() && v.length_squared() > 0.0 {
+                        fetch = v;
+                    }
+                }
+            }
+            let uv = hemi::encode(fetch);
+            let a = hemi::bilinear(&self.radiance[m0][tile..tile + texels], res, uv);
+            if fm > 0.0 { a.lerp(hemi::bilinear(&self.radiance[m1][tile..tile + texels], res, uv), fm) } else { a }
+        };
+        let top = probe(i0, j0).lerp(probe(i1, j0), fx);
+        let bottom = probe(i0, j1).lerp(probe(i1, j1), fx);
+        let l = top.lerp(bottom, fy);
+        if l.is_finite() { l.max(Vec3::ZERO) } else { Vec3::ZERO }
+    }
+
+    /// Bytes the atlas takes in engine layout (RGBA16F radiance per texel and mip).
+    #[must_use]
+    pub fn bytes(&self) -> u64 {
+        self.radiance.iter().map(|l| l.len() as u64 * 8).sum()
+    }
+
+    /// Mip 0 as one image: the tiles side by side as the seed packs them (probe (i, j) at
+    /// column i, row j), `(width, height, texels)`.
+    #[must_use]
+    pub fn atlas_image(&self) -> (u32, u32, Vec<Vec3>) {
+        let n = self.patch.resolution as usize;
+        let (cu, cv) = (self.patch.counts[0] as usize, self.patch.counts[1] as usize);
+        let (w, h) = (cu * n, cv * n);
+        let mut out = vec![Vec3::ZERO; w * h];
+        for (k, tile) in self.radiance[0].chunks(n * n).enumerate() {
+            let (i, j) = (k % cu, k / cu);
+            for (t, c) in tile.iter().enumerate() {
+                out[(j * n + t / n) * w + i * n + t % n] = *c;
+            }
+        }
+        (w as u32, h as u32, out)
+    }
+}

@@ -1,0 +1,228 @@
+//! Surface probes (seed 003) against closed forms: a constant sky over a floor is the sky
+//! at every point, direction and roughness; a ceiling plane's distance is `h / cos θ`; the
+//! warped lookup at a probe is the seed's lookup; probes under a box take their neighbours'
+//! light; bakes are bit-identical at any thread count; bad entries are named; the surface
+//! table of an evaluation has every row at every bucket.
+
+mod common;
+use common::*;
+use glam::Vec3;
+use warpfit::bake::surface::bake_surface_atlas;
+use warpfit::progress::Progress;
+use warpfit::scene::Scene;
+use warpfit::trace::{Renderer, Tracer};
+use warpfit::warp::surface::SurfaceAtlas;
+
+fn scene(top: &str, body: &str) -> Scene {
+    Scene::parse(&format!("{top}\n{HEADER}\n{body}"), &repo().join("tests/fixtures/inline.toml")).unwrap()
+}
+
+/// A 2 × 2 floor at y = 0 facing up, 4 × 4 probes of 8² texels.
+const FLOOR_PROBES: &str = r#"
+[[surface_probes]]
+corner = [-1.0, 0.0, -1.0]
+edge_u = [0.0, 0.0, 2.0]
+edge_v = [2.0, 0.0, 0.0]
+counts = [4, 4]
+resolution = 8
+samples_per_texel = 2
+"#;
+
+const FLOOR: &str = r#"
+[[geometry]]
+type = "quad"
+corner = [-1.0, 0.0, -1.0]
+edge_u = [0.0, 0.0, 2.0]
+edge_v = [2.0, 0.0, 0.0]
+"#;
+
+fn atlas(s: &Scene) -> SurfaceAtlas {
+    let tracer = Tracer::new(s);
+    let spec = s.surface_probes()[0];
+    bake_surface_atlas(&Renderer::new(s, &tracer), &spec, 0, 1, &Progress::quiet()).0
+}
+
+fn queries() -> Vec<(Vec3, Vec3)> {
+    (0..64u32)
+        .map(|k| {
+            let mut s = warpfit::sampling::Sampler::new(4, 2, k);
+            let p = Vec3::new(s.next_1d() * 2.0 - 1.0, 1e-3, s.next_1d() * 2.0 - 1.0);
+            (p, warpfit::sampling::cosine_hemisphere(s.next_2d(), Vec3::Y))
+        })
+        .collect()
+}
+
+#[test]
+fn a_constant_sky_over_a_floor_is_the_sky_everywhere() {
+    let s = scene("bounces = 0", &format!("[sky]\ncolor = [0.5, 1.0, 2.0]\n{FLOOR}{FLOOR_PROBES}"));
+    let a = atlas(&s);
+    assert!((a.normal() - Vec3::Y).length() < 1e-6);
+    let sky = Vec3::new(0.5, 1.0, 2.0);
+    for (p, d) in queries() {
+        for r in [0.0, 0.125, 0.3, 0.5, 1.0] {
+            for l in [a.radiance(p, d, r), a.radiance_warped(p, d, r)] {
+                assert!((l - sky).abs().max_element() < 1e-5, "{l} at {p} {d} r {r}");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_ceiling_plane_is_at_h_over_cos_theta() {
+    // floor at 0, an unlit ceiling at h = 0.5 seen from every probe
+    let ceiling = r#"
+[[geometry]]
+type = "quad"
+corner = [-50.0, 0.5, -50.0]
+edge_u = [100.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, 100.0]
+"#;
+    let s = scene("bounces = 0", &format!("{FLOOR}{ceiling}{FLOOR_PROBES}"));
+    let a = atlas(&s);
+    let n = a.patch.resolution;
+    for (t, &w) in a.inv_distance.iter().enumerate().take((n * n) as usize) {
+        let d = warpfit::octa::hemi::texel_dir(n, t as u32 % n, t as u32 / n);
+        let h = 0.5 - a.patch.offset;
+        let want = d.z / h; // world up is the tangent frame's z
+        assert!((w - want).abs() <= 1e-4 * want.max(1e-3), "texel {t}: {w} vs {want}");
+    }
+}
+
+#[test]
+fn the_warped_lookup_at_a_probe_is_the_seed_lookup() {
+    let s = load("cornell");
+    let text = format!(
+        "{}\n[[surface_probes]]\ncorner = [0.05, 0.0, 0.05]\nedge_u = [0.0, 0.0, 0.45]\nedge_v = [0.45, 0.0, 0.0]\ncounts = [3, 3]\nresolution = 8\nsamples_per_texel = 1\n",
+        std::fs::read_to_string(scene_file("cornell")).unwrap()
+    );
+    let s2 = Scene::parse(&text, &scene_file("cornell")).unwrap();
+    assert_eq!(s.content_key(), s2.content_key(), "surface probes are not part of the bake's key");
+    let a = atlas(&s2);
+    // at a probe (to the rounding of its surface coordinates, which leaves its neighbours
+    // weights of order 1e-6) the warp changes nothing; between probes it does
+    for (i, j) in [(0, 0), (1, 1), (2, 1)] {
+        let p = a.probe_position(i, j);
+        for (_, d) in queries() {
+            for r in [0.0, 0.5] {
+                let (l, w) = (a.radiance(p, d, r), a.radiance_warped(p, d, r));
+                assert!((l - w).abs().max_element() <= 1e-4 * l.max_element().max(1e-6), "{l} vs {w}");
+            }
+        }
+    }
+    let between = (a.probe_position(0, 0) + a.probe_position(1, 1)) * 0.5;
+    let moved =
+        queries().iter().filter(|(_, d)| a.radiance(between, *d, 0.0) != a.radiance_warped(between, *d, 0.0)).count();
+    assert!(moved > 32, "the warp moved {moved} of 64 lookups");
+}
+
+#[test]
+fn degenerate_queries_are_finite_and_never_negative() {
+    let s = scene("", &format!("[sky]\ncolor = [0.5, 1.0, 2.0]\n{FLOOR}{FLOOR_PROBES}"));
+    let a = atlas(&s);
+    let positions = [Vec3::ZERO, Vec3::NAN, Vec3::splat(f32::INFINITY), Vec3::splat(1e30), Vec3::new(5.0, -3.0, 9.0)];
+    let dirs = [Vec3::ZERO, Vec3::NAN, -Vec3::Y, Vec3::X, Vec3::splat(1e-30), Vec3::splat(f32::MAX)];
+    for p in positions {
+        for d in dirs {
+            for r in [f32::NAN, -1.0, 0.0, 0.7, 2.0, f32::INFINITY] {
+                for l in [a.radiance(p, d, r), a.radiance_warped(p, d, r)] {
+                    assert!(l.is_finite() && l.cmpge(Vec3::ZERO).all(), "{l} at {p} {d} {r}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn probes_inside_geometry_take_their_neighbours_light() {
+    // a box standing on the floor swallows the probes under it
+    let block = "[[geometry]]\ntype = \"box\"\nmin = [-0.45, 0.0, -0.45]\nmax = [0.45, 0.6, 0.45]\n";
+    let s = scene("", &format!("[sky]\ncolor = [1.0, 1.0, 1.0]\n{FLOOR}{block}{FLOOR_PROBES}"));
+    let a = atlas(&s);
+    let texels = (a.patch.resolution * a.patch.resolution) as usize;
+    for (k, tile) in a.radiance[0].chunks(texels).enumerate() {
+        let mean = tile.iter().copied().sum::<Vec3>() / texels as f32;
+        assert!(mean.min_element() > 0.05, "probe {k} is black: {mean}");
+    }
+}
+
+#[test]
+fn the_bake_is_identical_at_any_thread_count() {
+    let text = format!(
+        "{}\n[[surface_probes]]\ncorner = [0.05, 0.0, 0.05]\nedge_u = [0.0, 0.0, 0.45]\nedge_v = [0.45, 0.0, 0.0]\ncounts = [3, 2]\nresolution = 6\nsamples_per_texel = 2\n",
+        std::fs::read_to_string(scene_file("cornell")).unwrap()
+    );
+    let s = Scene::parse(&text, &scene_file("cornell")).unwrap();
+    let bits = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let a = pool.install(|| atlas(&s));
+        let mut out: Vec<u32> = a.radiance.iter().flatten().flat_map(|v| v.to_array().map(f32::to_bits)).collect();
+        out.extend(a.inv_distance.iter().map(|w| w.to_bits()));
+        out
+    };
+    assert_eq!(bits(1), bits(3));
+}
+
+#[test]
+fn bad_surface_probe_entries_are_named() {
+    let cases = [
+        ("edge_v = [0.0, 0.0, 4.0]", "surface_probes[0]"),
+        ("edge_v = [0.0, 0.0, 0.0]", "surface_probes[0]"),
+        ("counts = [0, 4]", "surface_probes[0].counts"),
+        ("resolution = 7", "surface_probes[0].resolution"),
+        ("samples_per_texel = 0", "surface_probes[0].samples_per_texel"),
+        ("corner = [1e30, 0.0, 0.0]", "surface_probes[0].corner"),
+    ];
+    for (line, field) in cases {
+        let key = line.split(' ').next().unwrap();
+        let entry: String = FLOOR_PROBES
+            .lines()
+            .map(|l| if l.starts_with(&format!("{key} ")) { line.to_string() } else { l.to_string() })
+            .collect::<Vec<_>>()
+            .join("\n");
+        let entry = if entry.contains(line) { entry } else { format!("{entry}\n{line}") };
+        let err = parse(&format!("{FLOOR}{entry}")).err().unwrap_or_else(|| panic!("{line} accepted")).to_string();
+        assert!(err.contains(field), "{line}: {err}");
+    }
+}
+
+#[test]
+fn an_evaluation_judges_every_row_at_every_bucket() {
+    use warpfit::jobs::run::{self as job, Output};
+    let dir = tmp_dir("surface-eval");
+    let fixture = SmallTorture::fit_into(&dir);
+    // the same bake with a floor of surface probes (not part of the bake)
+    let mut scene = fixture.scene.clone();
+    scene.config.surface_probes.push(warpfit::scene::config::SurfaceProbesConfig {
+        corner: [-5.0, 0.0, -5.0],
+        edge_u: [0.0, 0.0, 10.0],
+        edge_v: [10.0, 0.0, 0.0],
+        counts: [4, 4],
+        resolution: 6,
+        samples_per_texel: 1,
+    });
+    let baked = job::Baked { scene: &scene, ..fixture.baked() };
+    let settings = warpfit::eval::EvalSettings::quick();
+    let folder = warpfit::report::folder::RunFolder::new(&dir);
+    let out = Output { folder: &folder, command: "test", progress: &Progress::quiet() };
+    let methods = [warpfit::warp::Method::None, warpfit::warp::Method::Box, warpfit::warp::Method::Warp1];
+    let report = job::evaluate(baked, &fixture.warp, &settings, &methods, Some(&fixture.fit), out).unwrap();
+    assert_eq!(report.surface.len(), 1);
+    let sr = &report.surface[0];
+    assert!(sr.points > 0 && sr.bytes > 0 && sr.camera.is_some());
+    let buckets: Vec<f32> = sr.buckets.iter().map(|b| b.roughness).collect();
+    assert_eq!(buckets, warpfit::eval::ROUGHNESS_BUCKETS.to_vec());
+    let names: std::collections::BTreeSet<&str> = sr.rows.iter().map(|r| r.name.as_str()).collect();
+    for want in ["surface atlas (seed 003)", "surface atlas + warp1 per probe", "none", "box", "warp1", "runtime"] {
+        assert!(names.contains(want), "{want} missing from {names:?}");
+    }
+    assert_eq!(sr.rows.len(), names.len() * buckets.len());
+    for r in &sr.rows {
+        assert!(r.tm_rmse.is_finite() && r.rel_rmse.is_finite() && r.ns_per_lookup > 0.0, "{r:?}");
+        assert!(r.flip.is_some_and(f64::is_finite), "{r:?}");
+    }
+    for f in ["surface_atlas0.png", "flip_surface0_r0.000.png", "flip_surface0_r0.500.png"] {
+        assert!(dir.join(f).is_file(), "{f}");
+    }
+    let md = std::fs::read_to_string(dir.join("eval.md")).unwrap();
+    assert!(md.contains("## Surface probes 0 (seed 003)"));
+}
