@@ -85,22 +85,42 @@ pub fn texel_solid_angles(res: u32) -> Vec<f32> {
     out
 }
 
-/// Bilinear lookup at `uv` in one N×N tile (`texels`, row-major), clamped to its edge
-/// texels.
+/// Where a bilinear lookup at `uv` reads an N×N tile: the four texels (row-major indices,
+/// clamped to the edge) and the blend's fractions. The same for every tile of an atlas.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Taps {
+    pub texels: [usize; 4],
+    pub fx: f32,
+    pub fy: f32,
+}
+
+/// The taps of a lookup at `uv` (clamped to the tile's edge texels).
 #[inline]
 #[must_use]
-pub fn bilinear<T: Texel>(texels: &[T], res: u32, uv: Vec2) -> T {
+pub fn taps(res: u32, uv: Vec2) -> Taps {
     let n = res as f32;
     let x = (uv.x * n - 0.5).clamp(0.0, n - 1.0);
     let y = (uv.y * n - 0.5).clamp(0.0, n - 1.0);
     let (x0, y0) = (x.floor(), y.floor());
-    let (fx, fy) = (x - x0, y - y0);
     let (i0, j0) = (x0 as usize, y0 as usize);
     let last = res as usize - 1;
     let (i1, j1) = ((i0 + 1).min(last), (j0 + 1).min(last));
     let w = res as usize;
-    let q = [texels[j0 * w + i0], texels[j0 * w + i1], texels[j1 * w + i0], texels[j1 * w + i1]];
-    super::blend(q, fx, fy)
+    Taps { texels: [j0 * w + i0, j0 * w + i1, j1 * w + i0, j1 * w + i1], fx: x - x0, fy: y - y0 }
+}
+
+/// The bilinear value of one tile (`tile`, row-major) at `taps`.
+#[inline]
+#[must_use]
+pub fn gather<T: Texel>(tile: &[T], t: Taps) -> T {
+    super::blend(t.texels.map(|k| tile[k]), t.fx, t.fy)
+}
+
+/// Bilinear lookup at `uv` in one N×N tile, clamped to its edge texels.
+#[inline]
+#[must_use]
+pub fn bilinear<T: Texel>(tile: &[T], res: u32, uv: Vec2) -> T {
+    gather(tile, taps(res, uv))
 }
 
 #[cfg(test)]

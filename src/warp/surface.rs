@@ -150,25 +150,28 @@ impl SurfaceAtlas {
         let (m1, fm) = ((m0 + 1).min(self.roughness.len() - 1), lod - m0 as f32);
         let local = |v: Vec3| Vec3::new(v.dot(f.tangent), v.dot(f.bitangent), v.dot(f.normal));
         let (res, texels) = (p.resolution, (p.resolution * p.resolution) as usize);
+        let dir_local = local(dir);
+        // unwarped, every probe reads the same texels of its own tile
+        let shared = hemi::taps(res, hemi::encode(dir_local));
         let probe = |i: u32, j: u32| -> Vec3 {
             let tile = (j * p.counts[0] + i) as usize * texels;
-            let mut fetch = local(dir);
-            if warped {
+            let taps = if warped {
                 // seed 000's plane warp from this probe: w1 along Dir, plane ⟂ Dir at the hit,
                 // fetch towards where the ray from B crosses it (homogeneous form, as
                 // `warp::depth::plane_warp`)
-                let w1 = hemi::bilinear(&self.inv_distance[tile..tile + texels], res, hemi::encode(fetch));
+                let w1 = hemi::gather(&self.inv_distance[tile..tile + texels], shared);
                 let ab = local(self.probe_position(i, j) - b);
-                if w1 > 0.0 {
-                    let v = fetch * (w1 * fetch.dot(ab) + 1.0).max(0.0) - ab * w1;
-                    if v.is_finite() && v.length_squared() > 0.0 {
-                        fetch = v;
-                    }
+                let v = dir_local * (w1 * dir_local.dot(ab) + 1.0).max(0.0) - ab * w1;
+                if w1 > 0.0 && v.is_finite() && v.length_squared() > 0.0 {
+                    hemi::taps(res, hemi::encode(v))
+                } else {
+                    shared
                 }
-            }
-            let uv = hemi::encode(fetch);
-            let a = hemi::bilinear(&self.radiance[m0][tile..tile + texels], res, uv);
-            if fm > 0.0 { a.lerp(hemi::bilinear(&self.radiance[m1][tile..tile + texels], res, uv), fm) } else { a }
+            } else {
+                shared
+            };
+            let a = hemi::gather(&self.radiance[m0][tile..tile + texels], taps);
+            if fm > 0.0 { a.lerp(hemi::gather(&self.radiance[m1][tile..tile + texels], taps), fm) } else { a }
         };
         let top = probe(i0, j0).lerp(probe(i1, j0), fx);
         let bottom = probe(i0, j1).lerp(probe(i1, j1), fx);
