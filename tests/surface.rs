@@ -225,4 +225,66 @@ fn an_evaluation_judges_every_row_at_every_bucket() {
     }
     let md = std::fs::read_to_string(dir.join("eval.md")).unwrap();
     assert!(md.contains("## Surface probes 0 (seed 003)"));
+    // the atlas as a game loads it
+    let loaded = warpfit::runtime::load_surface_atlas(&dir.join("surface0")).unwrap();
+    assert_eq!(loaded.patch.counts, [4, 4]);
+}
+
+/// A small lit atlas written to a fresh folder.
+fn written(tag: &str) -> (SurfaceAtlas, std::path::PathBuf) {
+    let s = scene("", &format!("[sky]\nzenith = [0.2, 0.4, 1.0]\nhorizon = [1.0, 0.9, 0.8]\n{FLOOR}{FLOOR_PROBES}"));
+    let a = atlas(&s);
+    let dir = tmp_dir(tag).join("surface0");
+    warpfit::gridfile::surface::write(&dir, &a).unwrap();
+    (a, dir)
+}
+
+#[test]
+fn a_written_atlas_loads_back_bit_for_bit() {
+    let (a, dir) = written("surface-file");
+    let b = warpfit::runtime::load_surface_atlas(&dir).unwrap();
+    assert_eq!(a.patch, b.patch);
+    assert_eq!(a.roughness, b.roughness);
+    let bits = |x: &SurfaceAtlas| -> Vec<u32> {
+        let mut v: Vec<u32> = x.radiance.iter().flatten().flat_map(|c| c.to_array().map(f32::to_bits)).collect();
+        v.extend(x.inv_distance.iter().map(|w| w.to_bits()));
+        v
+    };
+    assert_eq!(bits(&a), bits(&b));
+    for (p, d) in queries() {
+        assert_eq!(a.radiance_warped(p, d, 0.3).to_array(), b.radiance_warped(p, d, 0.3).to_array());
+    }
+}
+
+#[test]
+fn damaged_or_foreign_atlas_files_are_named_errors() {
+    let (_, dir) = written("surface-damaged");
+    let manifest = std::fs::read_to_string(dir.join("manifest.json")).unwrap();
+    let exr = std::fs::read(dir.join("atlas.exr")).unwrap();
+    let check = |what: &str, want: &str, setup: &dyn Fn()| {
+        setup();
+        let err =
+            warpfit::runtime::load_surface_atlas(&dir).err().unwrap_or_else(|| panic!("{what}: loaded")).to_string();
+        assert!(err.contains(want), "{what}: {err}");
+        std::fs::write(dir.join("manifest.json"), &manifest).unwrap();
+        std::fs::write(dir.join("atlas.exr"), &exr).unwrap();
+    };
+    let edit = |from: &str, to: &str| {
+        assert!(manifest.contains(from), "{from}");
+        std::fs::write(dir.join("manifest.json"), manifest.replacen(from, to, 1)).unwrap();
+    };
+    check("truncated atlas", "atlas.exr", &|| std::fs::write(dir.join("atlas.exr"), &exr[..exr.len() / 2]).unwrap());
+    check("flipped byte", "atlas.exr", &|| {
+        let mut e = exr.clone();
+        let k = e.len() - 100;
+        e[k] ^= 0x40;
+        std::fs::write(dir.join("atlas.exr"), e).unwrap();
+    });
+    check("newer version", "manifest.json", &|| edit("\"version\": 1", "\"version\": 2"));
+    check("foreign format", "manifest.json", &|| edit("warpfit-surface", "warpfit-grid"));
+    check("parallel edges", "edge_u", &|| {
+        edit("\"edge_v\": [\n    2.0,\n    0.0,\n    0.0", "\"edge_v\": [\n    0.0,\n    0.0,\n    4.0")
+    });
+    check("odd resolution", "resolution", &|| edit("\"resolution\": 8", "\"resolution\": 7"));
+    check("no manifest", "manifest.json", &|| std::fs::remove_file(dir.join("manifest.json")).unwrap());
 }

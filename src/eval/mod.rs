@@ -245,8 +245,8 @@ pub struct FlipFigure {
 /// figures.
 pub struct Evaluation {
     pub report: EvalReport,
-    /// Each surface-probe patch's atlas (mip 0 as one image: width, height, texels).
-    pub surface_atlases: Vec<(u32, u32, Vec<Vec3>)>,
+    /// Each surface-probe patch's atlas, as baked for the evaluation.
+    pub surface_atlases: Vec<crate::warp::surface::SurfaceAtlas>,
     pub views: Option<Views>,
     pub flip_figures: Vec<FlipFigure>,
 }
@@ -423,7 +423,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             let (report, figures) = surface::evaluate(scene, tracer, &subject, shading, (settings, bounds, exposure));
             surface.push(report);
             flip_figures.extend(figures);
-            surface_atlases.push(atlas.atlas_image());
+            surface_atlases.push(atlas);
         }
     }
     bar.finish_and_clear();

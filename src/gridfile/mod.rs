@@ -7,6 +7,7 @@
 pub mod exr;
 pub mod read;
 pub mod schema;
+pub mod surface;
 #[cfg(feature = "bake")]
 pub mod write;
 

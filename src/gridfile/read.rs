@@ -154,11 +154,11 @@ pub fn read_manifest(dir: &Path) -> Result<GridManifest, FileError> {
 
 /// A layer a payload must hold, derived from the manifest's structure (not from the
 /// payload's own listing, which a damaged manifest could inflate).
-struct Expected {
-    name: String,
-    width: usize,
-    height: usize,
-    channels: &'static [&'static str],
+pub(crate) struct Expected {
+    pub(crate) name: String,
+    pub(crate) width: usize,
+    pub(crate) height: usize,
+    pub(crate) channels: &'static [&'static str],
 }
 
 /// The layers of every payload, from the manifest's structural fields; checks the structure
@@ -348,12 +348,23 @@ fn expected_payloads(
 /// Reads a payload: a regular file whose size (from its metadata) and checksum match the
 /// manifest, whose EXR headers match the expected layers, then decoded.
 fn read_payload(dir: &Path, m: &GridManifest, file: &str, expected: &[Expected]) -> Result<Vec<Layer>, FileError> {
-    let mpath = dir.join(MANIFEST_FILE);
-    let entry = m
-        .payloads
+    read_listed_payload(dir, &dir.join(MANIFEST_FILE), &m.payloads, file, expected)
+}
+
+/// Reads payload `file` of `dir` as `payloads` (from the manifest at `mpath`) lists it:
+/// size, checksum and EXR headers checked against the listing and `expected` before a byte
+/// is decoded, then the layers' sizes and channels.
+pub(crate) fn read_listed_payload(
+    dir: &Path,
+    mpath: &Path,
+    payloads: &[Payload],
+    file: &str,
+    expected: &[Expected],
+) -> Result<Vec<Layer>, FileError> {
+    let entry = payloads
         .iter()
         .find(|p| p.file == file)
-        .ok_or_else(|| invalid(&mpath, "payloads", format!("no entry for {file}")))?;
+        .ok_or_else(|| invalid(mpath, "payloads", format!("no entry for {file}")))?;
     let path = dir.join(file);
     let meta = std::fs::metadata(&path).map_err(FileError::io(&path))?;
     if meta.is_file() && meta.len() != entry.bytes {

@@ -357,6 +357,12 @@ pub fn evaluate(
     };
     let ev = eval::evaluate(subject, settings, out.command, out.progress);
     report::write_evaluation(out.folder, &ev)?;
+    // each surface-probe atlas as a game loads it, read back before the run is committed
+    for (k, atlas) in ev.surface_atlases.iter().enumerate() {
+        let dir = out.folder.surface_atlas_dir(k);
+        crate::gridfile::surface::write(&dir, atlas)?;
+        crate::gridfile::surface::read(&dir)?;
+    }
     Ok(ev.report)
 }
 

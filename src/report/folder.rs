@@ -95,6 +95,10 @@ impl RunFolder {
     pub fn flip_surface(&self, k: usize, r: f32) -> PathBuf {
         self.file(&format!("flip_surface{k}_r{r:.3}.png"))
     }
+    /// `surface{k}/`: surface-probe patch k's atlas as a game loads it (`warpfit-surface`).
+    pub fn surface_atlas_dir(&self, k: usize) -> PathBuf {
+        self.file(&format!("surface{k}"))
+    }
     /// `surface_atlas{k}.png`: the mirror tiles of surface-probe patch k, as packed.
     pub fn surface_atlas(&self, k: usize) -> PathBuf {
         self.file(&format!("surface_atlas{k}.png"))

@@ -219,9 +219,10 @@ pub fn write_evaluation(folder: &RunFolder, ev: &Evaluation) -> Result<(), FileE
     for f in &ev.flip_figures {
         write_flip_figure(folder, &ev.report, f)?;
     }
-    for (k, (w, h, texels)) in ev.surface_atlases.iter().enumerate() {
-        let rgb = crate::tonemap::to_srgb8(texels, ev.report.exposure);
-        crate::preview::write_png(&folder.surface_atlas(k), *w, *h, &rgb)?;
+    for (k, atlas) in ev.surface_atlases.iter().enumerate() {
+        let (w, h, texels) = atlas.atlas_image();
+        let rgb = crate::tonemap::to_srgb8(&texels, ev.report.exposure);
+        crate::preview::write_png(&folder.surface_atlas(k), w, h, &rgb)?;
     }
     match &ev.views {
         Some(v) => plot::views(&folder.eval_views(), &v.title, &v.tiles),

@@ -22,8 +22,14 @@
 //!   the position into the lattice of cell centres.
 //! - Results are always finite and ≥ 0 (the payloads are validated on load).
 //! - `FittedGrid` is `Send + Sync` and immutable; sampling never allocates.
+//!
+//! A run of a scene with `[[surface_probes]]` also writes each patch's atlas (seed 003) in
+//! `surface{k}/`; [`load_surface_atlas`] reads it, and `SurfaceAtlas::radiance(p, dir, r)`
+//! answers for points on that patch (`radiance_warped` with each probe's depth first).
 
 mod irradiance;
+pub use crate::gridfile::surface::read as load_surface_atlas;
+pub use crate::warp::surface::SurfaceAtlas;
 pub use irradiance::{BlendTerms, IrradianceBlend};
 
 pub use crate::files::FileError as LoadError;
