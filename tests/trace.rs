@@ -369,3 +369,32 @@ mod lobe_reference {
         assert_eq!(mirror.radiance, Vec3::splat(le));
     }
 }
+
+#[test]
+fn axis_rays_with_negative_zero_components_hit_like_positive_zero() {
+    // obvhs reads a ray's octant from `d < 0.0` and its inverse from the sign bit: with a
+    // −0.0 component the two disagree; the tracer must hide that (`-Vec3::Y` is (−0, −1, −0))
+    let scene = load("torture");
+    let tracer = Tracer::new(&scene);
+    let p = Vec3::new(-3.0, 1.0, -3.0); // under the roof, below the window's sill
+    for axis in 0..3 {
+        for sign in [1.0f32, -1.0] {
+            let mut base = [0.0f32; 3];
+            base[axis] = sign;
+            let want = tracer.closest_hit(p, Vec3::from_array(base), f32::INFINITY).map(|h| h.t);
+            assert!(want.is_some(), "the closed hall stops axis {axis} sign {sign}");
+            for zeros in 0..4u32 {
+                let mut d = base;
+                let others = [(axis + 1) % 3, (axis + 2) % 3];
+                for (bit, &c) in others.iter().enumerate() {
+                    if zeros & (1 << bit) != 0 {
+                        d[c] = -0.0;
+                    }
+                }
+                let d = Vec3::from_array(d);
+                assert_eq!(tracer.closest_hit(p, d, f32::INFINITY).map(|h| h.t), want, "{d:?}");
+                assert!(tracer.occluded(p, d, f32::INFINITY), "{d:?}");
+            }
+        }
+    }
+}

@@ -278,11 +278,16 @@ impl Tracer {
         }
     }
 
+    /// The ray in the normalised frame. A direction component of −0.0 becomes +0.0: obvhs
+    /// takes the ray's octant from `d < 0.0` (false for −0.0) but its inverse from the sign
+    /// bit (`signum(−0.0) = −1`), and with the two disagreeing every node test misses, so a
+    /// ray along −Y written as `-Vec3::Y` (components −0, −1, −0) saw nothing.
     #[inline]
     fn normalised_ray(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Ray {
         let o = Vec3A::from((origin - self.centre) * self.scale);
         let tmax_n = if tmax.is_finite() { tmax * self.scale } else { f32::INFINITY };
-        Ray::new(o, Vec3A::from(dir), 0.0, tmax_n)
+        // x + 0.0 is +0.0 for x = −0.0 and x otherwise (IEEE 754, round to nearest)
+        Ray::new(o, Vec3A::from(dir) + Vec3A::ZERO, 0.0, tmax_n)
     }
 
     /// Closest hit along the unit direction `dir` from `origin`, up to `tmax` (world units).
