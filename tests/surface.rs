@@ -288,3 +288,22 @@ fn damaged_or_foreign_atlas_files_are_named_errors() {
     check("odd resolution", "resolution", &|| edit("\"resolution\": 8", "\"resolution\": 7"));
     check("no manifest", "manifest.json", &|| std::fs::remove_file(dir.join("manifest.json")).unwrap());
 }
+
+#[test]
+fn check_warns_of_a_patch_in_the_air_or_facing_into_its_floor() {
+    let room = "[[geometry]]\ntype = \"room\"\nmin = [-1.0, 0.0, -1.0]\nmax = [1.0, 2.0, 1.0]\n";
+    let warnings = |probes: &str| {
+        let s = scene("", &format!("[sky]\ncolor = [1.0, 1.0, 1.0]\n{room}{probes}"));
+        warpfit::jobs::check::check(&s, &Tracer::new(&s)).warnings
+    };
+    assert!(warnings(FLOOR_PROBES).is_empty(), "{:?}", warnings(FLOOR_PROBES));
+    let flipped = FLOOR_PROBES.replace(
+        "edge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
+        "edge_u = [2.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, 2.0]",
+    );
+    let w = warnings(&flipped);
+    assert!(w.iter().any(|m| m.contains("surface_probes[0]") && m.contains("swap edge_u and edge_v")), "{w:?}");
+    let lifted = FLOOR_PROBES.replace("corner = [-1.0, 0.0, -1.0]", "corner = [-1.0, 0.7, -1.0]");
+    let w = warnings(&lifted);
+    assert!(w.iter().any(|m| m.contains("surface_probes[0] lies on geometry at only 0")), "{w:?}");
+}

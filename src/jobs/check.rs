@@ -107,6 +107,7 @@ pub fn check(scene: &Scene, tracer: &Tracer) -> Check {
         scene.lights.sphere_lights.len(),
         if emissive { "yes" } else { "no" }
     ));
+    check_surface_probes(scene, tracer, &mut c);
     if scene.degenerate_skipped > 0 {
         c.warnings.push(format!("{file}: {} degenerate triangle(s) skipped", scene.degenerate_skipped));
     }
@@ -114,4 +115,57 @@ pub fn check(scene: &Scene, tracer: &Tracer) -> Check {
         c.warnings.push(format!("{file}: {} duplicate triangle(s) dropped", scene.duplicates_skipped));
     }
     c
+}
+
+/// Points per surface-probe patch the check traces down onto the surface.
+const SURFACE_CHECK_POINTS: u32 = 64;
+
+/// Surface probes: what each patch holds, and whether it lies on a surface it faces (a
+/// patch floating in the air, or facing into the floor, bakes probes that see the wrong
+/// hemisphere) and near the grid.
+fn check_surface_probes(scene: &Scene, tracer: &Tracer, c: &mut Check) {
+    let file = scene.source.display().to_string();
+    let cfg = &scene.config;
+    let (gmin, gmax) = (Vec3::from_array(cfg.grid.min), Vec3::from_array(cfg.grid.max));
+    let cell = (gmax - gmin) / glam::UVec3::from_array(cfg.grid.counts).as_vec3();
+    for (k, sp) in scene.surface_probes().iter().enumerate() {
+        let n = sp.edge_u.cross(sp.edge_v).normalize_or_zero();
+        let probes = sp.counts[0] as u64 * sp.counts[1] as u64;
+        let mips = crate::bake::surface::SURFACE_MIPS as u64;
+        c.facts.push(format!(
+            "surface_probes[{k}]: {}×{} probes {:.3} × {:.3} apart, tiles of {}² texels ({} with {mips} mips as RGBA16F)",
+            sp.counts[0],
+            sp.counts[1],
+            sp.edge_u.length() / sp.counts[0] as f32,
+            sp.edge_v.length() / sp.counts[1] as f32,
+            sp.resolution,
+            crate::files::human_bytes(probes * (sp.resolution * sp.resolution) as u64 * mips * 8)
+        ));
+        let (mut on, mut facing) = (0u32, 0u32);
+        for j in 0..SURFACE_CHECK_POINTS {
+            let st = Sampler::new(cfg.seed, hash_pair(0xC4EC, 2 + k as u64), j).next_2d();
+            let p = sp.corner + sp.edge_u * st.x + sp.edge_v * st.y;
+            let eps = 64.0 * tracer.surface_offset(p);
+            if let Some(h) = tracer.closest_hit(p + n * eps, -n, 2.0 * eps) {
+                on += 1;
+                facing += u32::from(!h.backface || scene.materials[h.material as usize].two_sided);
+            }
+        }
+        if on < SURFACE_CHECK_POINTS / 2 {
+            c.warnings.push(format!(
+                "{file}: surface_probes[{k}] lies on geometry at only {on} of {SURFACE_CHECK_POINTS} points: a patch in the air, or facing into the surface (its front is edge_u × edge_v = {n}; swap edge_u and edge_v to turn it)"
+            ));
+        } else if facing < on / 2 {
+            c.warnings.push(format!(
+                "{file}: surface_probes[{k}] lies on the back of a one-sided surface at {} of {on} points: swap edge_u and edge_v",
+                on - facing
+            ));
+        }
+        let centre = sp.corner + (sp.edge_u + sp.edge_v) * 0.5;
+        if !(centre.cmpge(gmin - cell).all() && centre.cmple(gmax + cell).all()) {
+            c.warnings.push(format!(
+                "{file}: surface_probes[{k}] is centred at {centre}, outside the grid: its evaluation has no volume grid to compare with"
+            ));
+        }
+    }
 }
