@@ -273,6 +273,10 @@ struct FitArgs {
     /// Leave the GGX roughness correction out of the fitted grid.
     #[arg(long)]
     no_roughness: bool,
+    /// Also fit every cell's level-1 corrective (origin offset, depth mip, relaxation) and
+    /// report its held-out error beside the stored model's in fit.md (not stored).
+    #[arg(long)]
+    level1: bool,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -315,6 +319,9 @@ impl FitArgs {
         if self.no_roughness {
             f.push("--no-roughness".into());
         }
+        if self.level1 {
+            f.push("--level1".into());
+        }
         f
     }
 
@@ -335,6 +342,7 @@ impl FitArgs {
             check_dirs: self.check_dirs.max(1),
             reference_spp: self.fit_reference_spp.max(1),
             robust_scale: self.robust_scale,
+            level1: self.level1,
             ..FitSettings::standard()
         })
     }

@@ -176,3 +176,35 @@ fn a_cell_seeing_only_sky_stores_nothing() {
         assert!(c.check_err_fallback <= c.check_err_warp1);
     }
 }
+
+#[test]
+fn level_one_is_measured_against_the_stored_model_when_asked() {
+    let scene = small_torture();
+    let tracer = Tracer::new(&scene);
+    let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
+    let warp = warpfit::bake::warp(&scene, &baked.probe, warpfit::warp::WarpOptions::standard());
+    let b = warpfit::bake::Baked { scene: &scene, tracer: &tracer, probe: &baked.probe, grid: &baked.grid };
+    let glossy = warpfit::warp::glossy::Glossy { warp: &warp, correction: None };
+    // the level-1 lookup with nothing changed is the plain warp, bit for bit
+    let plain =
+        warpfit::warp::Level1 { offset: glam::Vec3::ZERO, depth_lod: warp.options.depth_lod, relax_texels: 0.0 };
+    for k in 0..64u32 {
+        let mut s = warpfit::sampling::Sampler::new(3, 7, k);
+        let p = glam::Vec3::new(s.next_1d() * 8.0 - 4.0, s.next_1d() * 4.0 + 0.5, s.next_1d() * 8.0 - 4.0);
+        let d = warpfit::sampling::uniform_sphere(s.next_2d());
+        assert_eq!(warp.level1_vector(&plain, p, d), warp.fetch_vector(warpfit::warp::Method::Warp1, p, d));
+    }
+    let without = fit::fit(b, glossy, &quick_settings(), &Progress::quiet());
+    assert!(without.cells.iter().all(|c| c.level1.is_none()) && fit::summary::summary(&without).level1.is_none());
+    let with = fit::fit(b, glossy, &FitSettings { level1: true, ..quick_settings() }, &Progress::quiet());
+    // measuring level 1 changes nothing stored
+    assert_eq!(with.correctives.maps, without.correctives.maps);
+    for c in &with.cells {
+        let l = c.level1.expect("every active cell measures level 1");
+        assert!(l.check_err.is_finite() && l.evaluations > 0);
+        assert!(l.params.offset.abs().cmple(b.grid.geometry.cell_size()).all() && l.params.relax_texels <= 3.0);
+    }
+    let s = fit::summary::summary(&with).level1.expect("a level-1 summary");
+    assert_eq!(s.chosen.iter().sum::<usize>(), with.cells.len());
+    assert!(s.bytes_chosen <= s.bytes_stored + s.chosen[1] * fit::summary::LEVEL1_BYTES);
+}

@@ -76,6 +76,11 @@ pub struct FitSettings {
     /// lookups); rough queries cycle through [`ROUGH_MIX`].
     #[serde(default)]
     pub rough_fraction: f32,
+    /// Also fit each cell's level-1 corrective (one origin offset, depth mip and
+    /// relaxation strength) on a quarter of its training queries and judge it on the check
+    /// queries, to compare with the stored model; it is not stored.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub level1: bool,
 }
 
 /// Roughness of the rough training and check queries, in turn.
@@ -99,6 +104,7 @@ impl FitSettings {
             size_weight: 1e-4,
             robust_scale: 0.05,
             rough_fraction: 0.5,
+            level1: false,
         }
     }
 
@@ -167,6 +173,18 @@ pub struct CellFit {
     pub curve: Vec<(f64, f64)>,
     /// Fraction of the cell's check queries whose true hit is hidden from the probe.
     pub hidden_fraction: f64,
+    /// The level-1 corrective, when the settings ask for it (measured, not stored).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level1: Option<Level1Fit>,
+}
+
+/// A cell's level-1 corrective and its held-out error (`FitSettings::level1`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Level1Fit {
+    pub params: crate::warp::Level1,
+    /// Held-out error on the cell's check queries, as `check_err_fitted`.
+    pub check_err: f64,
+    pub evaluations: u64,
 }
 
 /// The map a cell's refinement starts from: the grid's raytraced distances or the box
@@ -389,6 +407,7 @@ pub fn fit_cells(
             let boxed = model::box_map(centre, &warp.proxies.aabb, s.map_res);
             let ctx = CellContext { glossy, exposure, centre, res: s.map_res };
             let judge = CellProblem::new(ctx, init.clone(), train.clone());
+            let level1_train: Vec<_> = if s.level1 { train.iter().step_by(4).copied().collect() } else { Vec::new() };
             let box_better = init.iter().any(|w| *w > 0.0) && judge.data_cost_map(&boxed) < judge.data_cost_map(&init);
             let (start, start_name) = if box_better { (boxed, Start::Box) } else { (init.clone(), Start::Celldepth) };
             let mut problem = CellProblem::new(ctx, start, train)
@@ -400,6 +419,11 @@ pub fn fit_cells(
             let [warp1, boxed_err, kdop] = FALLBACK_CANDIDATES.map(|m| check_problem.relative_error_method(m));
             let celldepth = check_problem.relative_error_map(&init);
             let fitted_err = check_problem.relative_error_map(&fitted);
+            let level1 = s.level1.then(|| {
+                let p = CellProblem::new(ctx, init.clone(), level1_train).with_robust_scale(s.robust_scale);
+                let (params, evaluations) = p.fit_level1(g.cell_size(), warp.options.depth_lod);
+                Level1Fit { params, check_err: check_problem.relative_error_level1(&params), evaluations }
+            });
             bar.inc(1);
             let fit = CellFit {
                 cell: cell as u32,
@@ -422,6 +446,7 @@ pub fn fit_cells(
                 trace_seconds,
                 curve: outcome.curve.clone(),
                 hidden_fraction: hidden,
+                level1,
             };
             CellOutcome { fit, fitted, init, rays }
         })

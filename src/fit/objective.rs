@@ -30,7 +30,7 @@ use crate::octa::{self, wrap_texel};
 use crate::tonemap::reinhard;
 use crate::warp::corrective::{map_fetch, sample_map};
 use crate::warp::glossy::{Glossy, MipRule};
-use crate::warp::{Method, Warp};
+use crate::warp::{Level1, Method, Warp};
 use argmin::core::{CostFunction, Error, Executor, Gradient, State};
 use argmin::solver::brent::BrentOpt;
 use argmin::solver::linesearch::MoreThuenteLineSearch;
@@ -309,6 +309,48 @@ impl<'a> CellProblem<'a> {
         (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
     }
 
+    /// The same error for the level-1 corrective `l`.
+    pub fn relative_error_level1(&self, l: &Level1) -> f64 {
+        let sq: f64 = (0..self.samples.len()).map(|i| self.level1_error(i, l).powi(2)).sum();
+        (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
+    }
+
+    fn level1_error(&self, i: usize, l: &Level1) -> f64 {
+        let q = &self.samples[i];
+        let v = self.glossy.warp.level1_vector(l, q.b, q.dir);
+        let est = self.glossy.radiance(MipRule::Corrected, q.b, q.dir, v, q.roughness);
+        tm_error(est, q.reference, self.exposure)
+    }
+
+    /// Fits the cell's level-1 corrective (origin offset, depth mip, relaxation) to the
+    /// problem's data term with Nelder-Mead from the plain warp (`start_lod`, no offset, no
+    /// relaxation); the offset is searched in units of `cell_size`, clamped to a cell
+    /// either way. Returns it with the evaluations spent.
+    pub fn fit_level1(&self, cell_size: Vec3, start_lod: f32) -> (Level1, u64) {
+        let max_lod = (self.glossy.warp.probe.inv_depth.levels.len() - 1) as f64;
+        let problem = Level1Problem { cell: self, cell_size, max_lod, evaluations: Cell::new(0) };
+        let x0 = vec![0.0, 0.0, 0.0, start_lod as f64, 0.0];
+        let steps = [0.25, 0.25, 0.25, 1.0, 0.5];
+        let mut simplex = vec![x0.clone()];
+        for (i, step) in steps.iter().enumerate() {
+            let mut v = x0.clone();
+            v[i] += step;
+            simplex.push(v);
+        }
+        let start = problem.level1(&x0);
+        let start_cost = (&problem).cost(&x0).unwrap_or(f64::INFINITY);
+        let best = NelderMead::new(simplex)
+            .with_sd_tolerance(1e-4)
+            .and_then(|nm| Executor::new(&problem, nm).configure(|st| st.max_iters(60)).run())
+            .ok()
+            .and_then(|r| {
+                let st = r.state();
+                let cost = st.get_best_cost();
+                st.get_best_param().filter(|_| cost < start_cost).map(|x| problem.level1(x))
+            });
+        (best.unwrap_or(start), problem.evaluations.get())
+    }
+
     /// The same error for an unfitted per-lookup method of the problem's warp.
     pub fn relative_error_method(&self, method: Method) -> f64 {
         let warp: &Warp = self.glossy.warp;
@@ -570,6 +612,38 @@ impl Gradient for FullProblem<'_, '_> {
             g[i] = (up - down) / (2.0 * H);
         }
         Ok(g)
+    }
+}
+
+/// A cell's level-1 corrective: (offset in cell sizes along x, y, z; depth mip; relaxation
+/// in probe texels), clamped to a cell, the probe's depth chain and [0, 3] texels.
+struct Level1Problem<'p, 'a> {
+    cell: &'p CellProblem<'a>,
+    cell_size: Vec3,
+    max_lod: f64,
+    evaluations: Cell<u64>,
+}
+
+impl Level1Problem<'_, '_> {
+    fn level1(&self, x: &[f64]) -> Level1 {
+        let c = |v: f64, lo: f64, hi: f64| if v.is_finite() { v.clamp(lo, hi) as f32 } else { 0.0 };
+        Level1 {
+            offset: Vec3::new(c(x[0], -1.0, 1.0), c(x[1], -1.0, 1.0), c(x[2], -1.0, 1.0)) * self.cell_size,
+            depth_lod: c(x[3], 0.0, self.max_lod),
+            relax_texels: c(x[4], 0.0, 3.0),
+        }
+    }
+}
+
+impl CostFunction for &Level1Problem<'_, '_> {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, x: &Vec<f64>) -> Result<f64, Error> {
+        self.evaluations.set(self.evaluations.get() + 1);
+        let (c, l) = (self.cell, self.level1(x));
+        let n = c.samples.len().max(1) as f64;
+        let v = (0..c.samples.len()).map(|i| c.rho(c.level1_error(i, &l))).sum::<f64>() / (n * c.mean_reference);
+        Ok(if v.is_finite() { v } else { f64::MAX })
     }
 }
 

@@ -2,7 +2,8 @@
 //!
 //! Level 0 stores nothing (the grid's fallback method, the unfitted warp with the lowest
 //! mean held-out error); level 2 stores the cell's fitted warp map. Level 1 (one origin
-//! offset per cell) is not implemented: see ARCHITECTURE.md.
+//! offset, depth mip and relaxation per cell) is measured on request
+//! (`FitSettings::level1`, `summary::Level1Summary`), not stored: see ARCHITECTURE.md.
 
 use crate::warp::Method;
 use serde::{Deserialize, Serialize};

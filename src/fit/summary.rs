@@ -30,6 +30,77 @@ pub struct FitSummary {
     /// Where the fit's time went.
     #[serde(default)]
     pub times: super::FitTimes,
+    /// The level-1 comparison, when the fit measured it (`FitSettings::level1`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level1: Option<Level1Summary>,
+}
+
+/// Level 1 against the fallback and the fitted map on the cells' check queries, and what a
+/// selection over all three would store: per cell the cheapest of {fallback: 0 bytes, level
+/// 1: 20 bytes, map: 4·N² bytes} within [`super::SELECTION_MARGIN`]'s 5% of the best of them.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Level1Summary {
+    pub cells: usize,
+    pub mean_check_err_level1: f64,
+    /// The fitted map in every cell (before selection).
+    pub mean_check_err_map: f64,
+    /// Cells where level 1 beats the fallback by the selection margin.
+    pub beats_fallback: usize,
+    /// Cells where level 1 is within the margin of the map.
+    pub within_margin_of_map: usize,
+    /// Cells where level 1 has the lowest error of the three.
+    pub best_of_three: usize,
+    /// The three-way selection: cells per level (0, 1, 2), its mean check error and bytes,
+    /// against the stored (two-way) selection's.
+    pub chosen: [usize; 3],
+    pub mean_check_err_chosen: f64,
+    pub bytes_chosen: usize,
+    pub mean_check_err_stored: f64,
+    pub bytes_stored: usize,
+    /// Objective evaluations and cell CPU seconds level 1 took (a quarter of the training
+    /// queries each).
+    pub evaluations: u64,
+}
+
+/// Bytes of a level-1 corrective: offset (3), depth mip and relaxation, f32.
+pub const LEVEL1_BYTES: usize = 20;
+
+fn level1_summary(fit: &Fit) -> Option<Level1Summary> {
+    let cells: Vec<(&CellFit, &super::Level1Fit)> =
+        fit.cells.iter().filter_map(|c| c.level1.as_ref().map(|l| (c, l))).collect();
+    if cells.is_empty() {
+        return None;
+    }
+    let n = cells.len() as f64;
+    let map_bytes = (fit.settings.map_res * fit.settings.map_res) as usize * 4;
+    let margin = super::SELECTION_MARGIN;
+    let (mut chosen, mut err, mut bytes) = ([0usize; 3], 0.0, 0usize);
+    for (c, l) in &cells {
+        let errs = [c.check_err_fallback, l.check_err, c.check_err_fitted];
+        let best = errs.iter().copied().fold(f64::INFINITY, f64::min);
+        // cheapest first; a stored model must also beat the fallback by the margin
+        let pick = (0..3).find(|&k| errs[k] * margin <= best && (k == 0 || errs[k] < margin * errs[0])).unwrap_or(0);
+        chosen[pick] += 1;
+        err += errs[pick];
+        bytes += [0, LEVEL1_BYTES, map_bytes][pick];
+    }
+    Some(Level1Summary {
+        cells: cells.len(),
+        mean_check_err_level1: cells.iter().map(|(_, l)| l.check_err).sum::<f64>() / n,
+        mean_check_err_map: cells.iter().map(|(c, _)| c.check_err_fitted).sum::<f64>() / n,
+        beats_fallback: cells.iter().filter(|(c, l)| l.check_err < margin * c.check_err_fallback).count(),
+        within_margin_of_map: cells.iter().filter(|(c, l)| l.check_err * margin <= c.check_err_fitted).count(),
+        best_of_three: cells
+            .iter()
+            .filter(|(c, l)| l.check_err < c.check_err_fitted && l.check_err < c.check_err_fallback)
+            .count(),
+        chosen,
+        mean_check_err_chosen: err / n,
+        bytes_chosen: bytes,
+        mean_check_err_stored: cells.iter().map(|(c, _)| c.check_err_stored()).sum::<f64>() / n,
+        bytes_stored: cells.iter().filter(|(c, _)| c.level == Level::Map).count() * map_bytes,
+        evaluations: cells.iter().map(|(_, l)| l.evaluations).sum(),
+    })
 }
 
 pub fn summary(fit: &Fit) -> FitSummary {
@@ -55,6 +126,7 @@ pub fn summary(fit: &Fit) -> FitSummary {
         diffuse_check_after: ir.iter().map(|c| if c.stored { c.check_after } else { c.check_before }).sum::<f64>()
             / ir.len().max(1) as f64,
         times: fit.times,
+        level1: level1_summary(fit),
     }
 }
 

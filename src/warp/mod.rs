@@ -287,17 +287,45 @@ impl Warp {
     /// UV relaxation (seed 000: "store the warped UVs, then relax them"): the warped
     /// direction field is box-filtered over a small stencil of neighbouring query directions.
     fn relaxed(&self, method: Method, b: Vec3, dir: Vec3) -> Vec3 {
+        self.relaxed_with(self.options.relax_texels, dir, |d| self.fetch_vector_plain(method, b, d))
+    }
+
+    /// `fetch`'s direction field box-filtered over a 5-tap stencil `relax_texels` probe
+    /// texels around `dir`.
+    fn relaxed_with(&self, relax_texels: f32, dir: Vec3, fetch: impl Fn(Vec3) -> Vec3) -> Vec3 {
         let res = self.probe.radiance.levels[0].res as f32;
         // one texel of an N×N octahedral map spans about sqrt(4π/N²) radians
-        let angle = self.options.relax_texels * (4.0 * std::f32::consts::PI).sqrt() / res;
+        let angle = relax_texels * (4.0 * std::f32::consts::PI).sqrt() / res;
         let (t, bt) = crate::sampling::orthonormal_basis(dir);
         let unit = |v: Vec3| v.normalize_or(dir);
-        let mut sum = unit(self.fetch_vector_plain(method, b, dir));
+        let mut sum = unit(fetch(dir));
         for off in [t, -t, bt, -bt] {
             let d = (dir + off * angle).normalize();
-            sum += unit(self.fetch_vector_plain(method, b, d));
+            sum += unit(fetch(d));
         }
         let l = sum.length();
         if l > 0.0 && l.is_finite() { sum / l } else { dir }
     }
+
+    /// Fetch vector of the level-1 corrective (one origin offset, depth mip and relaxation
+    /// strength for a whole cell): seed 000's warp from `b + offset` reading the depth mip
+    /// `depth_lod`, relaxed over `relax_texels`.
+    #[must_use]
+    pub fn level1_vector(&self, l: &Level1, b: Vec3, dir: Vec3) -> Vec3 {
+        if b == self.probe.position {
+            return dir;
+        }
+        let from = b + l.offset;
+        let plain = |d: Vec3| depth::plane_warp(&self.probe, from, d, l.depth_lod, 1, false);
+        if l.relax_texels > 0.0 { self.relaxed_with(l.relax_texels, dir, plain) } else { plain(dir) }
+    }
+}
+
+/// The level-1 corrective of a cell: the query's origin moved by `offset` (scene units),
+/// the depth mip `depth_lod` and the relaxation strength `relax_texels` of its warp.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Level1 {
+    pub offset: Vec3,
+    pub depth_lod: f32,
+    pub relax_texels: f32,
 }
