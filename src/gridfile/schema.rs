@@ -178,6 +178,18 @@ pub struct LayerEntry {
 }
 
 impl LayerEntry {
+    /// The manifest's entry of `layer` stored at `precision`.
+    #[must_use]
+    pub fn of(layer: &super::exr::ExrLayer, precision: Precision) -> LayerEntry {
+        LayerEntry {
+            name: layer.name.clone(),
+            width: layer.width as u32,
+            height: layer.height as u32,
+            channels: layer.channels.iter().map(|(c, _)| c.clone()).collect(),
+            precision,
+        }
+    }
+
     /// Uncompressed bytes of the layer's samples.
     #[must_use]
     pub fn raw_bytes(&self) -> u64 {

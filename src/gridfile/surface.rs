@@ -108,16 +108,7 @@ pub fn write(dir: &Path, atlas: &SurfaceAtlas) -> Result<SurfaceManifest, FileEr
         height: h,
         channels: vec![("W".into(), pack(&atlas.inv_distance, p.counts, p.resolution))],
     });
-    let entries = layers
-        .iter()
-        .map(|l| LayerEntry {
-            name: l.name.clone(),
-            width: l.width as u32,
-            height: l.height as u32,
-            channels: l.channels.iter().map(|(c, _)| c.clone()).collect(),
-            precision: Precision::F32,
-        })
-        .collect();
+    let entries = layers.iter().map(|l| LayerEntry::of(l, Precision::F32)).collect();
     let path = dir.join(SURFACE_ATLAS_FILE);
     let bytes = super::exr::encode(&path, layers, |_| false)?;
     crate::files::write_atomic(&path, &bytes)?;

@@ -95,16 +95,8 @@ fn payload(dir: &Path, file: &str, layers: Vec<ExrLayer>, precision: Precision) 
         tracing::warn!("{}: layers {kept:?} exceed the f16 range (65504); stored as f32", path.display());
     }
     let half = |name: &str| precision == Precision::F16 && is_radiance(name) && !kept.iter().any(|k| k == name);
-    let entries: Vec<LayerEntry> = layers
-        .iter()
-        .map(|l| LayerEntry {
-            name: l.name.clone(),
-            width: l.width as u32,
-            height: l.height as u32,
-            channels: l.channels.iter().map(|(c, _)| c.clone()).collect(),
-            precision: if half(&l.name) { Precision::F16 } else { Precision::F32 },
-        })
-        .collect();
+    let entries: Vec<LayerEntry> =
+        layers.iter().map(|l| LayerEntry::of(l, if half(&l.name) { Precision::F16 } else { Precision::F32 })).collect();
     let bytes = exr::encode(&path, layers, half)?;
     write_atomic(&path, &bytes)?;
     Ok(Payload { file: file.into(), bytes: bytes.len() as u64, checksum: checksum(&bytes), layers: entries })

@@ -64,12 +64,8 @@ pub fn texel_dir(res: u32, i: u32, j: u32) -> Vec3 {
 #[must_use]
 pub fn texel_solid_angles(res: u32) -> Vec<f32> {
     let n = res as f64;
-    let corner = |i: u32, j: u32| -> [f64; 3] {
-        let v = decode_point(Vec2::new((i as f64 / n) as f32, (j as f64 / n) as f32));
-        let (x, y, z) = (v.x as f64, v.y as f64, v.z as f64);
-        let l = (x * x + y * y + z * z).sqrt();
-        [x / l, y / l, z / l]
-    };
+    let corner =
+        |i: u32, j: u32| super::unit_f64(decode_point(Vec2::new((i as f64 / n) as f32, (j as f64 / n) as f32)));
     let mut out = Vec::with_capacity((res * res) as usize);
     for j in 0..res {
         for i in 0..res {

@@ -425,12 +425,8 @@ impl<T: Texel> OctMap<T> {
 #[must_use]
 pub fn texel_solid_angles(res: u32) -> Vec<f32> {
     let n = res as f64;
-    let corner = |i: u32, j: u32| -> [f64; 3] {
-        let p = Vec2::new((2.0 * i as f64 / n - 1.0) as f32, (2.0 * j as f64 / n - 1.0) as f32);
-        let v = decode_p(p);
-        let (x, y, z) = (v.x as f64, v.y as f64, v.z as f64);
-        let l = (x * x + y * y + z * z).sqrt();
-        [x / l, y / l, z / l]
+    let corner = |i: u32, j: u32| {
+        unit_f64(decode_p(Vec2::new((2.0 * i as f64 / n - 1.0) as f32, (2.0 * j as f64 / n - 1.0) as f32)))
     };
     let mut out = Vec::with_capacity((res * res) as usize);
     for j in 0..res {
@@ -452,6 +448,13 @@ pub fn texel_solid_angles(res: u32) -> Vec<f32> {
         }
     }
     out
+}
+
+/// `v` made unit length in f64 (the corners of exact texel solid angles).
+fn unit_f64(v: Vec3) -> [f64; 3] {
+    let (x, y, z) = (v.x as f64, v.y as f64, v.z as f64);
+    let l = (x * x + y * y + z * z).sqrt();
+    [x / l, y / l, z / l]
 }
 
 /// Area of the spherical triangle with unit-vector corners a, b, c (Van Oosterom & Strackee).

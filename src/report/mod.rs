@@ -93,6 +93,15 @@ pub fn summary_table(r: &EvalReport) -> String {
     s
 }
 
+/// The error columns the method tables share: ꟻLIP (or "–"), then tone-mapped RMSE, rel
+/// RMSE, MAE and p95 (`errors`, four decimals), then ns per lookup.
+pub(crate) fn error_cells(flip: Option<f64>, errors: [f64; 4], ns_per_lookup: f64) -> Vec<String> {
+    let mut cells = vec![flip.map_or("–".into(), |f| format!("{f:.4}"))];
+    cells.extend(errors.iter().map(|e| format!("{e:.4}")));
+    cells.push(format!("{ns_per_lookup:.1}"));
+    cells
+}
+
 /// Markdown section of one surface-probe patch (seed 003): the atlas, then every row at
 /// every roughness, then the references' noise.
 pub fn surface_section(sr: &crate::eval::surface::SurfaceReport) -> String {
@@ -113,18 +122,9 @@ pub fn surface_section(sr: &crate::eval::surface::SurfaceReport) -> String {
     );
     s += "| roughness | method | ꟻLIP (patch camera) | tone-mapped RMSE | rel RMSE | MAE | p95 | ns/lookup |\n|---:|---|---:|---:|---:|---:|---:|---:|\n";
     for row in &sr.rows {
-        let _ = writeln!(
-            s,
-            "| {} | {} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.1} |",
-            row.roughness,
-            row.name,
-            row.flip.map_or("–".into(), |f| format!("{f:.4}")),
-            row.tm_rmse,
-            row.rel_rmse,
-            row.mae,
-            row.p95,
-            row.ns_per_lookup
-        );
+        let mut cells = vec![row.roughness.to_string(), row.name.clone()];
+        cells.extend(error_cells(row.flip, [row.tm_rmse, row.rel_rmse, row.mae, row.p95], row.ns_per_lookup));
+        let _ = writeln!(s, "| {} |", cells.join(" | "));
     }
     s += "\n| roughness | lookups | reference spp | single-reference SE (rel) | camera pixels on the patch | camera reference spp | ꟻLIP of the references' own noise |\n|---:|---:|---:|---:|---:|---:|---:|\n";
     for b in &sr.buckets {
@@ -155,17 +155,9 @@ pub fn diffuse_table(r: &EvalReport) -> String {
         "| method | ꟻLIP (diffuse-shaded cameras) | tone-mapped RMSE | rel RMSE | MAE | p95 | ns/lookup |\n|---|---:|---:|---:|---:|---:|---:|\n",
     );
     for row in &d.rows {
-        let _ = writeln!(
-            s,
-            "| {} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.1} |",
-            row.name,
-            row.flip.map_or("–".into(), |f| format!("{f:.4}")),
-            row.tm_rmse,
-            row.rel_rmse,
-            row.mae,
-            row.p95,
-            row.ns_per_lookup
-        );
+        let mut cells = vec![row.name.clone()];
+        cells.extend(error_cells(row.flip, [row.tm_rmse, row.rel_rmse, row.mae, row.p95], row.ns_per_lookup));
+        let _ = writeln!(s, "| {} |", cells.join(" | "));
     }
     let _ = writeln!(
         s,

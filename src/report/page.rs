@@ -308,6 +308,12 @@ fn md_table(rows: &[Vec<String>]) -> String {
     s
 }
 
+/// The headers of [`super::error_cells`]'s columns, ꟻLIP named by what it was measured on.
+fn error_headers(flip: &str) -> impl Iterator<Item = String> + '_ {
+    std::iter::once(flip.to_string())
+        .chain(["tone-mapped RMSE", "rel RMSE", "MAE", "p95", "ns/lookup"].into_iter().map(String::from))
+}
+
 /// Titled tables (first row = header), shared by the Markdown and HTML renderings.
 fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
     let mut out = Vec::new();
@@ -330,38 +336,30 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
         .collect::<Vec<_>>(),
     ];
     for m in &r.methods {
-        t.push(vec![
-            format!("{}", m.roughness),
-            m.name.clone(),
-            m.flip.map_or("–".into(), |f| format!("{f:.4}")),
-            format!("{:.4}", m.tm_rmse),
-            format!("{:.4}", m.rel_rmse),
-            format!("{:.4}", m.mae),
-            format!("{:.4}", m.p95),
-            format!("{:.1}", m.ns_per_lookup),
+        let mut cells = vec![format!("{}", m.roughness), m.name.clone()];
+        cells.extend(super::error_cells(m.flip, [m.tm_rmse, m.rel_rmse, m.mae, m.p95], m.ns_per_lookup));
+        cells.extend([
             m.ns_per_lookup_batched.map_or("–".into(), |ns| format!("{ns:.1}")),
             if m.pareto { "yes".into() } else { String::new() },
             m.note.clone(),
         ]);
+        t.push(cells);
     }
     out.push(("Every method on held-out positions and directions, per roughness".to_string(), t));
     if let Some(d) = &r.diffuse {
         let mut t = vec![
-            ["method", "ꟻLIP (diffuse-shaded cameras)", "tone-mapped RMSE", "rel RMSE", "MAE", "p95", "ns/lookup"]
-                .iter()
-                .map(|s| s.to_string())
+            std::iter::once("method".to_string())
+                .chain(error_headers("ꟻLIP (diffuse-shaded cameras)"))
                 .collect::<Vec<_>>(),
         ];
         for row in &d.rows {
-            t.push(vec![
-                row.name.clone(),
-                row.flip.map_or("–".into(), |f| format!("{f:.4}")),
-                format!("{:.4}", row.tm_rmse),
-                format!("{:.4}", row.rel_rmse),
-                format!("{:.4}", row.mae),
-                format!("{:.4}", row.p95),
-                format!("{:.1}", row.ns_per_lookup),
-            ]);
+            let mut cells = vec![row.name.clone()];
+            cells.extend(super::error_cells(
+                row.flip,
+                [row.tm_rmse, row.rel_rmse, row.mae, row.p95],
+                row.ns_per_lookup,
+            ));
+            t.push(cells);
         }
         out.push((
             format!(
@@ -374,22 +372,20 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
 
     for sr in &r.surface {
         let mut t = vec![
-            ["roughness", "method", "ꟻLIP (patch camera)", "tone-mapped RMSE", "rel RMSE", "MAE", "p95", "ns/lookup"]
+            ["roughness", "method"]
                 .iter()
                 .map(|s| s.to_string())
+                .chain(error_headers("ꟻLIP (patch camera)"))
                 .collect::<Vec<_>>(),
         ];
         for row in &sr.rows {
-            t.push(vec![
-                format!("{}", row.roughness),
-                row.name.clone(),
-                row.flip.map_or("–".into(), |f| format!("{f:.4}")),
-                format!("{:.4}", row.tm_rmse),
-                format!("{:.4}", row.rel_rmse),
-                format!("{:.4}", row.mae),
-                format!("{:.4}", row.p95),
-                format!("{:.1}", row.ns_per_lookup),
-            ]);
+            let mut cells = vec![format!("{}", row.roughness), row.name.clone()];
+            cells.extend(super::error_cells(
+                row.flip,
+                [row.tm_rmse, row.rel_rmse, row.mae, row.p95],
+                row.ns_per_lookup,
+            ));
+            t.push(cells);
         }
         out.push((
             format!(
