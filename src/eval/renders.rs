@@ -208,14 +208,7 @@ pub fn reference(
         .map(|(p, px)| match *px {
             Pixel::Background(c) => (c, c),
             Pixel::Query { b, dir, .. } => {
-                let mut rays = 0;
-                let pixel_stream = hash_pair(stream, p as u64);
-                let mut trace = |first: u32| {
-                    let sampler = |k| Sampler::new(seed, pixel_stream, first + k);
-                    truth::lobe_reference(&renderer, b, dir, r, half, sampler, &mut rays).radiance
-                };
-                let a = trace(0);
-                (a, trace(half))
+                lobe_halves(&renderer, (b, dir, r), half, (seed, hash_pair(stream, p as u64)))
             }
         })
         .collect();
@@ -223,6 +216,23 @@ pub fn reference(
     let (a, b): (Vec<Vec3>, Vec<Vec3>) = halves.into_iter().unzip();
     let noise_flip = flip::mean(&flip::flip_hdr(&a, &b, view.width, view.height, exposure));
     ViewReference { view: view.clone(), roughness: r, reference, spp: 2 * half, noise_flip }
+}
+
+/// A pixel's lobe reference (query `(b, dir, r)`) as two independent halves of `half`
+/// samples each, drawn from `Sampler::new(seed, stream, k)`: their mean is the reference,
+/// their difference its noise.
+pub fn lobe_halves(
+    renderer: &Renderer,
+    (b, dir, r): (Vec3, Vec3, f32),
+    half: u32,
+    (seed, stream): (u64, u64),
+) -> (Vec3, Vec3) {
+    let mut rays = 0;
+    let mut trace = |first: u32| {
+        truth::lobe_reference(renderer, b, dir, r, half, |k| Sampler::new(seed, stream, first + k), &mut rays).radiance
+    };
+    let a = trace(0);
+    (a, trace(half))
 }
 
 /// What `row` renders for a view at the reference's roughness.

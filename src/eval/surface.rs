@@ -270,14 +270,7 @@ fn view_reference(
         .map(|(k, px)| match *px {
             Err(c) => (c, c),
             Ok((b, dir)) => {
-                let mut rays = 0;
-                let ps = hash_pair(stream, k as u64);
-                let mut trace = |first: u32| {
-                    truth::lobe_reference(renderer, b, dir, r, half, |j| Sampler::new(seed, ps, first + j), &mut rays)
-                        .radiance
-                };
-                let a = trace(0);
-                (a, trace(half))
+                super::renders::lobe_halves(renderer, (b, dir, r), half, (seed, hash_pair(stream, k as u64)))
             }
         })
         .collect();
