@@ -729,14 +729,15 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Export { fit, format: ExportFormat::Ktx2, out } => {
             let grid = FittedGrid::load(&fit)?;
+            let surfaces = warpfit::runtime::load_surface_atlases(&fit)?;
             let _lock = files::staged::FolderLock::acquire(&out)?;
-            let s = warpfit::export::export(&grid, &out)?;
+            let s = warpfit::export::export_with_surfaces(&grid, &surfaces, &out)?;
             let mut bytes = 0u64;
             for e in std::fs::read_dir(&out).with_context(|| format!("{}", out.display()))?.flatten() {
                 bytes += e.metadata().map(|m| m.len()).unwrap_or(0);
             }
             println!(
-                "exported {} → {}: probe ({} mips), irradiance and moments atlases ({}×{} tiles of {}², 1-texel gutters), {} corrective tiles, {} irradiance-scale tiles, the reference shader ({}) and its buffers; {} in all (export.json describes them)",
+                "exported {} → {}: probe ({} mips), irradiance and moments atlases ({}×{} tiles of {}², 1-texel gutters), {} corrective tiles, {} irradiance-scale tiles, {} surface-probe atlas(es), the reference shader ({}) and its buffers; {} in all (export.json describes them)",
                 fit.display(),
                 out.display(),
                 s.probe_mips,
@@ -745,6 +746,7 @@ fn run(cli: Cli) -> Result<()> {
                 s.irradiance.tile_resolution,
                 s.correctives.as_ref().map_or(0, |c| c.cell_tile.iter().filter(|t| **t >= 0).count()),
                 s.irradiance_scale.as_ref().map_or(0, |c| c.cell_tile.iter().filter(|t| **t >= 0).count()),
+                s.surfaces.len(),
                 s.shader.sources.join(", "),
                 files::human_bytes(bytes)
             );

@@ -220,3 +220,53 @@ fn radiance_beyond_half_float_range_is_exported_as_rgba32f_unchanged() {
     assert_eq!(format, 97);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn surface_atlases_export_as_array_textures_in_the_seeds_layout() {
+    use warpfit::warp::surface::{SurfaceAtlas, SurfacePatch};
+    let patch = SurfacePatch {
+        corner: Vec3::new(-1.0, 0.0, -1.0),
+        edge_u: Vec3::new(0.0, 0.0, 2.0),
+        edge_v: Vec3::new(3.0, 0.0, 0.0),
+        counts: [3, 2],
+        resolution: 4,
+        offset: 1e-4,
+    };
+    let texels = 3 * 2 * 16;
+    let value = |m: usize, t: usize| Vec3::new(t as f32, m as f32, 0.5 + t as f32 * 0.25);
+    let radiance: Vec<Vec<Vec3>> = (0..3).map(|m| (0..texels).map(|t| value(m, t)).collect()).collect();
+    let inv: Vec<f32> = (0..texels).map(|t| 1.0 / (1.0 + t as f32)).collect();
+    let atlas = SurfaceAtlas::new(patch, radiance, vec![0.0, 0.5, 1.0], inv.clone());
+    let dir = common::tmp_dir("export-surface");
+    let s = export::export_with_surfaces(&tiny(), std::slice::from_ref(&atlas), &dir).unwrap();
+    assert_eq!(s.surfaces.len(), 1);
+    let sec = &s.surfaces[0];
+    assert_eq!((sec.width, sec.height, sec.counts, sec.resolution), (12, 8, [3, 2], 4));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("export.json")).unwrap()).unwrap();
+    assert_eq!(json["surfaces"][0]["radiance"], "surface0_radiance.ktx2");
+    // the radiance: one level, a layer per mip, probe (i, j)'s texel (x, y) at (i·4 + x, j·4 + y)
+    let bytes = std::fs::read(dir.join(&sec.radiance)).unwrap();
+    let r = ktx2::Reader::new(bytes.as_slice()).unwrap();
+    assert_eq!((r.header().layer_count, r.header().level_count, r.header().pixel_width), (3, 1, 12));
+    let data = f16s(r.levels().next().unwrap().data);
+    assert_eq!(data.len(), 3 * 12 * 8 * 4);
+    for m in 0..3 {
+        for (probe, (i, j)) in [(0usize, (0usize, 0usize)), (4, (1, 1)), (5, (2, 1))] {
+            for (x, y) in [(0usize, 0usize), (3, 1), (2, 3)] {
+                let want = value(m, probe * 16 + y * 4 + x);
+                let at = ((m * 8 + j * 4 + y) * 12 + i * 4 + x) * 4;
+                let got = Vec3::new(data[at], data[at + 1], data[at + 2]);
+                assert!(
+                    (got - want).abs().max_element() <= want.max_element() * 1e-3,
+                    "mip {m} probe {probe}: {got} vs {want}"
+                );
+            }
+        }
+    }
+    let bytes = std::fs::read(dir.join(&sec.inv_distance)).unwrap();
+    let r = ktx2::Reader::new(bytes.as_slice()).unwrap();
+    let w = f32s(r.levels().next().unwrap().data);
+    // probe (2, 1), texel (3, 1): image row 4 + 1, column 8 + 3
+    assert_eq!(w[(4 + 1) * 12 + 8 + 3], inv[5 * 16 + 4 + 3]);
+}

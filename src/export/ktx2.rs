@@ -106,6 +106,12 @@ fn encode_values(format: Format, values: &[f32]) -> Vec<u8> {
 
 /// A KTX2 file of `levels` (level 0 the largest) in `format`.
 pub fn encode(format: Format, levels: &[Level]) -> Vec<u8> {
+    encode_array(format, 0, levels)
+}
+
+/// A KTX2 file of `levels` in `format` with `layers` array layers (0: not an array); each
+/// level's values hold every layer's image, one after the other.
+pub fn encode_array(format: Format, layers: u32, levels: &[Level]) -> Vec<u8> {
     let n = levels.len();
     let dfd = dfd(format);
     let mut kvd = Vec::new();
@@ -131,7 +137,7 @@ pub fn encode(format: Format, levels: &[Level]) -> Vec<u8> {
     let mut out = Vec::with_capacity(at);
     out.extend_from_slice(&IDENTIFIER);
     let (w, h) = levels.first().map_or((0, 0), |l| (l.width, l.height));
-    u32s(&mut out, &[format.vk_format(), format.type_size(), w, h, 0, 0, 1, n as u32, 0]);
+    u32s(&mut out, &[format.vk_format(), format.type_size(), w, h, 0, layers, 1, n as u32, 0]);
     u32s(&mut out, &[dfd_offset as u32, dfd.len() as u32, kvd_offset as u32, kvd.len() as u32]);
     out.extend_from_slice(&0u64.to_le_bytes());
     out.extend_from_slice(&0u64.to_le_bytes());

@@ -73,6 +73,80 @@ pub struct Sidecar {
     pub shader: ShaderSection,
     /// The fitted grid's manifest: grid, conventions, fallback, proxies, roughness table.
     pub grid_manifest: crate::gridfile::GridManifest,
+    /// Surface-probe atlases (seed 003) exported beside the grid.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub surfaces: Vec<SurfaceSection>,
+}
+
+/// A surface-probe atlas in engine layout: `radiance` a 2-D array texture (layer m = mip m
+/// of every tile, prefiltered for `roughness[m]`), `inv_distance` a 2-D texture, both
+/// `counts[0]·N × counts[1]·N` with probe (i, j)'s tile at column i, row j, no gutter.
+#[derive(Clone, Debug, Serialize)]
+pub struct SurfaceSection {
+    pub radiance: String,
+    pub radiance_format: String,
+    pub inv_distance: String,
+    pub width: u32,
+    pub height: u32,
+    pub corner: [f32; 3],
+    pub edge_u: [f32; 3],
+    pub edge_v: [f32; 3],
+    pub counts: [u32; 2],
+    pub resolution: u32,
+    pub offset: f32,
+    pub roughness: Vec<f32>,
+    pub convention: &'static str,
+    pub uv_rule: &'static str,
+}
+
+/// Writes surface atlas `k` into `dir` and returns its section.
+fn export_surface(
+    dir: &Path,
+    k: usize,
+    atlas: &crate::warp::surface::SurfaceAtlas,
+) -> Result<SurfaceSection, FileError> {
+    let p = &atlas.patch;
+    let (width, height, _) = atlas.atlas_image();
+    let format = colour_format(atlas.radiance.iter().flatten().copied());
+    let mut values = Vec::new();
+    for level in &atlas.radiance {
+        let image = atlas.packed(level);
+        values.extend(image.iter().flat_map(|v| [v.x, v.y, v.z, 1.0]));
+    }
+    let radiance = format!("surface{k}_radiance.ktx2");
+    let layers = atlas.radiance.len() as u32;
+    write_atomic(&dir.join(&radiance), &ktx2::encode_array(format, layers, &[Level { width, height, values }]))?;
+    let inv_distance = format!("surface{k}_inv_distance.ktx2");
+    let inv = Level { width, height, values: atlas.packed(&atlas.inv_distance) };
+    write_atomic(&dir.join(&inv_distance), &ktx2::encode(Format::R32F, &[inv]))?;
+    Ok(SurfaceSection {
+        radiance,
+        radiance_format: format.name().into(),
+        inv_distance,
+        width,
+        height,
+        corner: p.corner.to_array(),
+        edge_u: p.edge_u.to_array(),
+        edge_v: p.edge_v.to_array(),
+        counts: p.counts,
+        resolution: p.resolution,
+        offset: p.offset,
+        roughness: atlas.roughness.clone(),
+        convention: crate::octa::hemi::CONVENTION,
+        uv_rule: "for hemi-octahedral uv in [0,1]² of probe (i, j): texel coordinate x = i·N + clamp(u·N, 0.5, N − 0.5) (y likewise with j), bilinear at (x, y) / (width, height): the clamp keeps the lookup inside its tile, as the CPU's edge clamp does; the four nearest probes blend bilinearly by the point's (s, t) on the patch",
+    })
+}
+
+/// [`export`] with surface-probe atlases (`runtime::load_surface_atlases`) beside the grid.
+pub fn export_with_surfaces(
+    grid: &FittedGrid,
+    surfaces: &[crate::warp::surface::SurfaceAtlas],
+    dir: &Path,
+) -> Result<Sidecar, FileError> {
+    let mut sidecar = export(grid, dir)?;
+    sidecar.surfaces = surfaces.iter().enumerate().map(|(k, a)| export_surface(dir, k, a)).collect::<Result<_, _>>()?;
+    write_json(&dir.join(SIDECAR), &sidecar)?;
+    Ok(sidecar)
 }
 
 /// The reference shader's files in the export folder.
@@ -250,6 +324,7 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
         roughness_lookup,
         shader,
         grid_manifest: grid.manifest.clone(),
+        surfaces: Vec::new(),
     };
     write_json(&dir.join(SIDECAR), &sidecar)?;
     Ok(sidecar)

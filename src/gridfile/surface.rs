@@ -53,22 +53,7 @@ fn radiance_layer(m: usize) -> String {
     format!("radiance_mip{m}")
 }
 
-/// Packs `probes` tiles of N×N values into the seed's atlas image, row-major.
-#[cfg(feature = "bake")]
-fn pack<T: Copy + Default>(tiles: &[T], counts: [u32; 2], n: u32) -> Vec<T> {
-    let (n, cu) = (n as usize, counts[0] as usize);
-    let w = cu * n;
-    let mut out = vec![T::default(); tiles.len()];
-    for (k, tile) in tiles.chunks(n * n).enumerate() {
-        let (i, j) = (k % cu, k / cu);
-        for (t, v) in tile.iter().enumerate() {
-            out[(j * n + t / n) * w + i * n + t % n] = *v;
-        }
-    }
-    out
-}
-
-/// The inverse of [`pack`].
+/// The inverse of `SurfaceAtlas::packed`: an atlas image back to tiles.
 fn unpack<T: Copy + Default>(image: &[T], counts: [u32; 2], n: u32) -> Vec<T> {
     let (n, cu) = (n as usize, counts[0] as usize);
     let w = cu * n;
@@ -93,7 +78,7 @@ pub fn write(dir: &Path, atlas: &SurfaceAtlas) -> Result<SurfaceManifest, FileEr
     let (w, h) = ((p.counts[0] * p.resolution) as usize, (p.counts[1] * p.resolution) as usize);
     let mut layers = Vec::new();
     for (m, level) in atlas.radiance.iter().enumerate() {
-        let image = pack(level, p.counts, p.resolution);
+        let image = atlas.packed(level);
         let channel = |c: usize| image.iter().map(|v| v[c]).collect::<Vec<f32>>();
         layers.push(Layer {
             name: radiance_layer(m),
@@ -106,7 +91,7 @@ pub fn write(dir: &Path, atlas: &SurfaceAtlas) -> Result<SurfaceManifest, FileEr
         name: "inv_distance".into(),
         width: w,
         height: h,
-        channels: vec![("W".into(), pack(&atlas.inv_distance, p.counts, p.resolution))],
+        channels: vec![("W".into(), atlas.packed(&atlas.inv_distance))],
     });
     let entries = layers.iter().map(|l| LayerEntry::of(l, Precision::F32)).collect();
     let path = dir.join(SURFACE_ATLAS_FILE);
@@ -221,4 +206,14 @@ pub fn read(dir: &Path) -> Result<SurfaceAtlas, FileError> {
     }
     let patch = SurfacePatch { corner, edge_u, edge_v, counts: m.counts, resolution: n, offset: m.offset };
     Ok(SurfaceAtlas::new(patch, radiance, m.roughness.clone(), unpack(inv, m.counts, n)))
+}
+
+/// Every atlas a run wrote into the grid folder `dir`: `surface0/`, `surface1/`, … up to the
+/// first index without a folder.
+pub fn read_all(dir: &Path) -> Result<Vec<SurfaceAtlas>, FileError> {
+    let mut out = Vec::new();
+    while dir.join(format!("surface{}", out.len())).is_dir() {
+        out.push(read(&dir.join(format!("surface{}", out.len())))?);
+    }
+    Ok(out)
 }

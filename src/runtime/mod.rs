@@ -28,7 +28,7 @@
 //! answers for points on that patch (`radiance_warped` with each probe's depth first).
 
 mod irradiance;
-pub use crate::gridfile::surface::read as load_surface_atlas;
+pub use crate::gridfile::surface::{read as load_surface_atlas, read_all as load_surface_atlases};
 pub use crate::warp::surface::SurfaceAtlas;
 pub use irradiance::{BlendTerms, IrradianceBlend};
 

@@ -189,16 +189,24 @@ impl SurfaceAtlas {
     /// column i, row j), `(width, height, texels)`.
     #[must_use]
     pub fn atlas_image(&self) -> (u32, u32, Vec<Vec3>) {
+        let p = &self.patch;
+        (p.counts[0] * p.resolution, p.counts[1] * p.resolution, self.packed(&self.radiance[0]))
+    }
+
+    /// A layer of the atlas (`probes × N²` values, tile after tile) packed as one image,
+    /// probe (i, j)'s tile at column i, row j, row-major.
+    #[must_use]
+    pub fn packed<T: Copy + Default>(&self, tiles: &[T]) -> Vec<T> {
         let n = self.patch.resolution as usize;
-        let (cu, cv) = (self.patch.counts[0] as usize, self.patch.counts[1] as usize);
-        let (w, h) = (cu * n, cv * n);
-        let mut out = vec![Vec3::ZERO; w * h];
-        for (k, tile) in self.radiance[0].chunks(n * n).enumerate() {
+        let cu = self.patch.counts[0] as usize;
+        let w = cu * n;
+        let mut out = vec![T::default(); tiles.len()];
+        for (k, tile) in tiles.chunks(n * n).enumerate() {
             let (i, j) = (k % cu, k / cu);
-            for (t, c) in tile.iter().enumerate() {
-                out[(j * n + t / n) * w + i * n + t % n] = *c;
+            for (t, v) in tile.iter().enumerate() {
+                out[(j * n + t / n) * w + i * n + t % n] = *v;
             }
         }
-        (w as u32, h as u32, out)
+        out
     }
 }
