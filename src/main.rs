@@ -849,6 +849,20 @@ fn run(cli: Cli) -> Result<()> {
             let grid = FittedGrid::load(&fit)?;
             print!("{}", grid.manifest.describe());
             println!("loaded in memory: {} bytes", grid.memory_bytes());
+            for (k, a) in warpfit::runtime::load_surface_atlases(&fit)?.iter().enumerate() {
+                let p = &a.patch;
+                println!(
+                    "surface{k}/: surface-probe atlas (seed 003), {}×{} probes of {}² texels, {} mips, on the patch {} + s·{} + t·{}; {} as RGBA16F",
+                    p.counts[0],
+                    p.counts[1],
+                    p.resolution,
+                    a.roughness.len(),
+                    p.corner,
+                    p.edge_u,
+                    p.edge_v,
+                    files::human_bytes(a.bytes())
+                );
+            }
         }
     }
     Ok(())
