@@ -241,7 +241,7 @@ fn surface_atlases_export_as_array_textures_in_the_seeds_layout() {
     let s = export::export_with_surfaces(&tiny(), std::slice::from_ref(&atlas), &dir).unwrap();
     assert_eq!(s.surfaces.len(), 1);
     let sec = &s.surfaces[0];
-    assert_eq!((sec.width, sec.height, sec.counts, sec.resolution), (12, 8, [3, 2], 4));
+    assert_eq!((sec.width, sec.height, sec.surface.counts, sec.surface.resolution), (12, 8, [3, 2], 4));
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("export.json")).unwrap()).unwrap();
     assert_eq!(json["surfaces"][0]["radiance"], "surface0_radiance.ktx2");

@@ -269,9 +269,10 @@ fn damaged_or_foreign_atlas_files_are_named_errors() {
         std::fs::write(dir.join("manifest.json"), &manifest).unwrap();
         std::fs::write(dir.join("atlas.exr"), &exr).unwrap();
     };
-    let edit = |from: &str, to: &str| {
-        assert!(manifest.contains(from), "{from}");
-        std::fs::write(dir.join("manifest.json"), manifest.replacen(from, to, 1)).unwrap();
+    let edit = |pointer: &str, to: serde_json::Value| {
+        let mut v: serde_json::Value = serde_json::from_str(&manifest).unwrap();
+        *v.pointer_mut(pointer).unwrap_or_else(|| panic!("{pointer}")) = to;
+        std::fs::write(dir.join("manifest.json"), serde_json::to_string_pretty(&v).unwrap()).unwrap();
     };
     check("truncated atlas", "atlas.exr", &|| std::fs::write(dir.join("atlas.exr"), &exr[..exr.len() / 2]).unwrap());
     check("flipped byte", "atlas.exr", &|| {
@@ -280,12 +281,16 @@ fn damaged_or_foreign_atlas_files_are_named_errors() {
         e[k] ^= 0x40;
         std::fs::write(dir.join("atlas.exr"), e).unwrap();
     });
-    check("newer version", "manifest.json", &|| edit("\"version\": 1", "\"version\": 2"));
-    check("foreign format", "manifest.json", &|| edit("warpfit-surface", "warpfit-grid"));
-    check("parallel edges", "edge_u", &|| {
-        edit("\"edge_v\": [\n    2.0,\n    0.0,\n    0.0", "\"edge_v\": [\n    0.0,\n    0.0,\n    4.0")
+    check("newer version", "manifest.json", &|| edit("/version", 2.into()));
+    check("foreign format", "manifest.json", &|| edit("/format", "warpfit-grid".into()));
+    check("parallel edges", "edge_u", &|| edit("/surface/edge_v", serde_json::json!([0.0, 0.0, 4.0])));
+    check("odd resolution", "resolution", &|| edit("/surface/resolution", 7.into()));
+    check("fewer mips than the file", "7 layers, the manifest says 3", &|| {
+        edit("/surface/roughness", serde_json::json!([0.0, 0.5]))
     });
-    check("odd resolution", "resolution", &|| edit("\"resolution\": 8", "\"resolution\": 7"));
+    check("roughness not from 0", "roughness", &|| {
+        edit("/surface/roughness", serde_json::json!([0.1, 0.2, 0.4, 0.6, 0.8, 1.0]))
+    });
     check("no manifest", "manifest.json", &|| std::fs::remove_file(dir.join("manifest.json")).unwrap());
 }
 

@@ -79,8 +79,8 @@ pub struct Sidecar {
 }
 
 /// A surface-probe atlas in engine layout: `radiance` a 2-D array texture (layer m = mip m
-/// of every tile, prefiltered for `roughness[m]`), `inv_distance` a 2-D texture, both
-/// `counts[0]·N × counts[1]·N` with probe (i, j)'s tile at column i, row j, no gutter.
+/// of every tile, prefiltered for `surface.roughness[m]`), `inv_distance` a 2-D texture,
+/// both `counts[0]·N × counts[1]·N` with probe (i, j)'s tile at column i, row j, no gutter.
 #[derive(Clone, Debug, Serialize)]
 pub struct SurfaceSection {
     pub radiance: String,
@@ -88,15 +88,10 @@ pub struct SurfaceSection {
     pub inv_distance: String,
     pub width: u32,
     pub height: u32,
-    pub corner: [f32; 3],
-    pub edge_u: [f32; 3],
-    pub edge_v: [f32; 3],
-    pub counts: [u32; 2],
-    pub resolution: u32,
-    pub offset: f32,
-    pub roughness: Vec<f32>,
-    pub convention: &'static str,
     pub uv_rule: &'static str,
+    /// The patch, the tiles' convention and each layer's roughness (as in the atlas's
+    /// `manifest.json`).
+    pub surface: crate::gridfile::surface::SurfaceDescription,
 }
 
 /// Writes surface atlas `k` into `dir` and returns its section.
@@ -105,7 +100,6 @@ fn export_surface(
     k: usize,
     atlas: &crate::warp::surface::SurfaceAtlas,
 ) -> Result<SurfaceSection, FileError> {
-    let p = &atlas.patch;
     let (width, height, _) = atlas.atlas_image();
     let format = colour_format(atlas.radiance.iter().flatten().copied());
     let mut values = Vec::new();
@@ -125,14 +119,7 @@ fn export_surface(
         inv_distance,
         width,
         height,
-        corner: p.corner.to_array(),
-        edge_u: p.edge_u.to_array(),
-        edge_v: p.edge_v.to_array(),
-        counts: p.counts,
-        resolution: p.resolution,
-        offset: p.offset,
-        roughness: atlas.roughness.clone(),
-        convention: crate::octa::hemi::CONVENTION,
+        surface: crate::gridfile::surface::SurfaceDescription::of(atlas),
         uv_rule: "for hemi-octahedral uv in [0,1]² of probe (i, j): texel coordinate x = i·N + clamp(u·N, 0.5, N − 0.5) (y likewise with j), bilinear at (x, y) / (width, height): the clamp keeps the lookup inside its tile, as the CPU's edge clamp does; the four nearest probes blend bilinearly by the point's (s, t) on the patch",
     })
 }

@@ -27,12 +27,11 @@ pub const SURFACE_ATLAS_FILE: &str = "atlas.exr";
 pub const MAX_SURFACE_PROBES: u32 = 256;
 pub const MAX_SURFACE_MIPS: usize = 16;
 
-/// `manifest.json` of a surface-probe atlas.
+/// Where an atlas sits and how its tiles read: what the manifest and the engine export
+/// (`export.json` → `surfaces`) both describe.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct SurfaceManifest {
-    pub format: String,
-    pub version: u32,
+pub struct SurfaceDescription {
     /// [`hemi::CONVENTION`]: the tile mapping the atlas was written with.
     pub convention: String,
     /// The patch `corner + s·edge_u + t·edge_v`, facing `edge_u × edge_v`; the tangent frame
@@ -46,6 +45,33 @@ pub struct SurfaceManifest {
     pub offset: f32,
     /// Perceptual roughness of each radiance mip (GGX α = r²).
     pub roughness: Vec<f32>,
+}
+
+impl SurfaceDescription {
+    /// The description of `atlas`.
+    #[must_use]
+    pub fn of(atlas: &SurfaceAtlas) -> SurfaceDescription {
+        let p = &atlas.patch;
+        SurfaceDescription {
+            convention: hemi::CONVENTION.into(),
+            corner: p.corner.to_array(),
+            edge_u: p.edge_u.to_array(),
+            edge_v: p.edge_v.to_array(),
+            counts: p.counts,
+            resolution: p.resolution,
+            offset: p.offset,
+            roughness: atlas.roughness.clone(),
+        }
+    }
+}
+
+/// `manifest.json` of a surface-probe atlas.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SurfaceManifest {
+    pub format: String,
+    pub version: u32,
+    pub surface: SurfaceDescription,
     pub payload: Payload,
 }
 
@@ -100,14 +126,7 @@ pub fn write(dir: &Path, atlas: &SurfaceAtlas) -> Result<SurfaceManifest, FileEr
     let manifest = SurfaceManifest {
         format: SURFACE_FORMAT.into(),
         version: SURFACE_VERSION,
-        convention: hemi::CONVENTION.into(),
-        corner: p.corner.to_array(),
-        edge_u: p.edge_u.to_array(),
-        edge_v: p.edge_v.to_array(),
-        counts: p.counts,
-        resolution: p.resolution,
-        offset: p.offset,
-        roughness: atlas.roughness.clone(),
+        surface: SurfaceDescription::of(atlas),
         payload: Payload {
             file: SURFACE_ATLAS_FILE.into(),
             bytes: bytes.len() as u64,
@@ -140,9 +159,9 @@ pub fn read(dir: &Path) -> Result<SurfaceAtlas, FileError> {
             supported: SURFACE_VERSION,
         });
     }
-    let m: SurfaceManifest =
+    let manifest: SurfaceManifest =
         serde_json::from_value(value).map_err(|e| FileError::Json { path: mpath.clone(), message: e.to_string() })?;
-    let mp = mpath.as_path();
+    let (m, mp) = (&manifest.surface, mpath.as_path());
     if m.convention != hemi::CONVENTION {
         return Err(invalid(mp, "convention", "differs from this reader's hemi-octahedral mapping"));
     }
@@ -180,7 +199,7 @@ pub fn read(dir: &Path) -> Result<SurfaceAtlas, FileError> {
         .map(|k| Expected { name: radiance_layer(k), width: w, height: h, channels: &["R", "G", "B"] })
         .collect();
     expected.push(Expected { name: "inv_distance".into(), width: w, height: h, channels: &["W"] });
-    let layers = read_listed_payload(dir, mp, std::slice::from_ref(&m.payload), SURFACE_ATLAS_FILE, &expected)?;
+    let layers = read_listed_payload(dir, mp, std::slice::from_ref(&manifest.payload), SURFACE_ATLAS_FILE, &expected)?;
     let path = dir.join(SURFACE_ATLAS_FILE);
     let channel = |layer: &str, c: &str| -> Result<&[f32], FileError> {
         layers
