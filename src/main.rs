@@ -508,6 +508,9 @@ fn print_eval(r: &warpfit::eval::EvalReport, folder: &RunFolder) {
         println!("\ndiffuse (irradiance at held-out surface points):");
         print!("{}", report::diffuse_table(r));
     }
+    for sr in &r.surface {
+        print!("{}", report::surface_section(sr));
+    }
     println!("wrote {}/eval.json, eval.md, eval_error_vs_cost.png", folder.dir.display());
 }
 
