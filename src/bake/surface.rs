@@ -44,18 +44,14 @@ pub fn bake_surface_atlas(
         resolution: n,
         offset: renderer.tracer.surface_offset(centre) * 4.0,
     };
-    // the frame without layers: an empty atlas of the right shape
-    let texels = (n * n) as usize;
-    let probes = spec.counts[0] as usize * spec.counts[1] as usize;
-    let shape =
-        SurfaceAtlas::new(patch, vec![vec![Vec3::ZERO; probes * texels]], vec![0.0], vec![0.0; probes * texels]);
+    let (texels, probes, frame) = ((n * n) as usize, patch.probes(), patch.frame());
     let bar = progress.bar(probes as u64, "surface probes");
     let stream_base = hash_pair(DOMAIN_SURFACE_RADIANCE, index);
     let tiles: Vec<(Vec<Vec3>, Vec<f32>, u64)> = (0..probes)
         .into_par_iter()
         .map(|k| {
             let (i, j) = (k as u32 % spec.counts[0], k as u32 / spec.counts[0]);
-            let origin = shape.probe_position(i, j);
+            let origin = patch.probe_position(&frame, i, j);
             let mut rays = 0u64;
             let mut radiance = Vec::with_capacity(texels);
             let mut inv = Vec::with_capacity(texels);
@@ -66,11 +62,11 @@ pub fn bake_surface_atlas(
                 for s in 0..spec.samples_per_texel {
                     let mut sampler = Sampler::new(seed, stream, s);
                     let uv = (Vec2::new(ti as f32, tj as f32) + sampler.next_2d()) / n as f32;
-                    let d = shape.to_world(hemi::decode(uv));
+                    let d = frame.to_world(hemi::decode(uv));
                     sum += renderer.sample(origin, d, &mut sampler, &mut rays).radiance;
                 }
                 radiance.push(sum / spec.samples_per_texel as f32);
-                let d = shape.to_world(hemi::texel_dir(n, ti, tj));
+                let d = frame.to_world(hemi::texel_dir(n, ti, tj));
                 let mut sampler = Sampler::new(seed, stream, u32::MAX);
                 inv.push(crate::octa::inverse_distance(renderer.sample(origin, d, &mut sampler, &mut rays).distance));
             }
@@ -95,7 +91,7 @@ pub fn bake_surface_atlas(
         .into_par_iter()
         .map(|k| {
             let (i, j) = (k as u32 % spec.counts[0], k as u32 / spec.counts[0]);
-            let p = shape.probe_position(i, j);
+            let p = patch.probe_position(&frame, i, j);
             truth::is_inside(renderer.scene, renderer.tracer, p, threshold, |s| {
                 Sampler::new(seed, hash_pair(inside_stream, k as u64), s)
             })

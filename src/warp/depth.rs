@@ -78,7 +78,7 @@ pub fn plane_warp(p: &WarpProbe, b: Vec3, dir: Vec3, lod: f32, steps: u32, new_p
 /// `w1·(I − A)`: I is where the ray from B crosses the plane perpendicular to Dir at the
 /// probe's hit `A + Dir/w1` (`w1 > 0`; `ab = A − B`, `dir_ab = Dir·ab`).
 #[inline]
-fn first_plane(dir: Vec3, ab: Vec3, dir_ab: f32, w1: f32) -> Vec3 {
+pub(super) fn first_plane(dir: Vec3, ab: Vec3, dir_ab: f32, w1: f32) -> Vec3 {
     dir * (dir_ab * w1 + 1.0).max(0.0) - ab * w1
 }
 

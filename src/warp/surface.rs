@@ -41,30 +41,63 @@ pub struct SurfaceAtlas {
     pub roughness: Vec<f32>,
     /// 1/distance of each mip-0 texel-centre ray (0 where the probe saw sky).
     pub inv_distance: Vec<f32>,
-    frame: Frame,
+    /// `patch.frame()`, kept for the lookups.
+    frame: SurfaceFrame,
 }
 
-/// The atlas's frame, derived from its parallelogram.
-#[derive(Clone, Copy, Debug)]
-struct Frame {
-    tangent: Vec3,
-    bitangent: Vec3,
-    normal: Vec3,
+/// A patch's tangent frame (edge_u normalised, normal × that, the normal) and the dual
+/// basis of its edges.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceFrame {
+    pub tangent: Vec3,
+    pub bitangent: Vec3,
+    pub normal: Vec3,
     /// `s = dual_u · (p − corner)`, `t = dual_v · (p − corner)`.
-    dual_u: Vec3,
-    dual_v: Vec3,
+    pub dual_u: Vec3,
+    pub dual_v: Vec3,
 }
 
-impl Frame {
-    fn of(p: &SurfacePatch) -> Frame {
-        let (u, v) = (p.edge_u, p.edge_v);
+impl SurfaceFrame {
+    /// World direction of a tangent-space direction.
+    #[must_use]
+    pub fn to_world(&self, local: Vec3) -> Vec3 {
+        self.tangent * local.x + self.bitangent * local.y + self.normal * local.z
+    }
+
+    /// Tangent-space direction of a world direction.
+    #[must_use]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.tangent), v.dot(self.bitangent), v.dot(self.normal))
+    }
+}
+
+impl SurfacePatch {
+    /// The patch's frame (zero vectors for degenerate edges: lookups stay finite).
+    #[must_use]
+    pub fn frame(&self) -> SurfaceFrame {
+        let (u, v) = (self.edge_u, self.edge_v);
         let normal = u.cross(v).normalize_or_zero();
         let tangent = u.normalize_or_zero();
         let bitangent = normal.cross(tangent);
         let (uu, uv, vv) = (u.dot(u), u.dot(v), v.dot(v));
         let det = uu * vv - uv * uv;
         let inv = if det > 0.0 && det.is_finite() { 1.0 / det } else { 0.0 };
-        Frame { tangent, bitangent, normal, dual_u: (u * vv - v * uv) * inv, dual_v: (v * uu - u * uv) * inv }
+        SurfaceFrame { tangent, bitangent, normal, dual_u: (u * vv - v * uv) * inv, dual_v: (v * uu - u * uv) * inv }
+    }
+
+    /// Number of probes.
+    #[must_use]
+    pub fn probes(&self) -> usize {
+        self.counts[0] as usize * self.counts[1] as usize
+    }
+
+    /// World position of probe (i, j) given the patch's `frame`: the centre of its patch,
+    /// `offset` off the surface.
+    #[must_use]
+    pub fn probe_position(&self, frame: &SurfaceFrame, i: u32, j: u32) -> Vec3 {
+        let s = (i as f32 + 0.5) / self.counts[0] as f32;
+        let t = (j as f32 + 0.5) / self.counts[1] as f32;
+        self.corner + self.edge_u * s + self.edge_v * t + frame.normal * self.offset
     }
 }
 
@@ -74,24 +107,17 @@ impl SurfaceAtlas {
     /// `probes × N²` texels, and the roughness runs from 0 with one entry per mip.
     #[must_use]
     pub fn new(patch: SurfacePatch, radiance: Vec<Vec<Vec3>>, roughness: Vec<f32>, inv_distance: Vec<f32>) -> Self {
-        let texels =
-            patch.counts[0] as usize * patch.counts[1] as usize * (patch.resolution * patch.resolution) as usize;
+        let texels = patch.probes() * (patch.resolution * patch.resolution) as usize;
         assert!(patch.counts[0] >= 1 && patch.counts[1] >= 1 && patch.resolution >= 2);
         assert!(!radiance.is_empty() && radiance.len() == roughness.len() && roughness[0] == 0.0);
         assert!(radiance.iter().all(|l| l.len() == texels) && inv_distance.len() == texels);
-        SurfaceAtlas { frame: Frame::of(&patch), patch, radiance, roughness, inv_distance }
+        SurfaceAtlas { frame: patch.frame(), patch, radiance, roughness, inv_distance }
     }
 
     /// Unit normal of the surface (`edge_u × edge_v`).
     #[must_use]
     pub fn normal(&self) -> Vec3 {
         self.frame.normal
-    }
-
-    /// Number of probes.
-    #[must_use]
-    pub fn probes(&self) -> usize {
-        self.patch.counts[0] as usize * self.patch.counts[1] as usize
     }
 
     /// Surface coordinates (s, t) of a point (not clamped).
@@ -104,17 +130,7 @@ impl SurfaceAtlas {
     /// World position of probe (i, j): the centre of its patch, `offset` off the surface.
     #[must_use]
     pub fn probe_position(&self, i: u32, j: u32) -> Vec3 {
-        let p = &self.patch;
-        let s = (i as f32 + 0.5) / p.counts[0] as f32;
-        let t = (j as f32 + 0.5) / p.counts[1] as f32;
-        p.corner + p.edge_u * s + p.edge_v * t + self.frame.normal * p.offset
-    }
-
-    /// World direction of a tangent-space direction.
-    #[must_use]
-    pub fn to_world(&self, local: Vec3) -> Vec3 {
-        let f = &self.frame;
-        f.tangent * local.x + f.bitangent * local.y + f.normal * local.z
+        self.patch.probe_position(&self.frame, i, j)
     }
 
     /// Radiance arriving at `b` (a point on or just off the surface) from unit-or-not
@@ -148,20 +164,18 @@ impl SurfaceAtlas {
         let lod = if r.is_finite() { r.clamp(0.0, 1.0) * last } else { 0.0 };
         let m0 = lod.floor() as usize;
         let (m1, fm) = ((m0 + 1).min(self.roughness.len() - 1), lod - m0 as f32);
-        let local = |v: Vec3| Vec3::new(v.dot(f.tangent), v.dot(f.bitangent), v.dot(f.normal));
         let (res, texels) = (p.resolution, (p.resolution * p.resolution) as usize);
-        let dir_local = local(dir);
+        let dir_local = f.to_local(dir);
         // unwarped, every probe reads the same texels of its own tile
         let shared = hemi::taps(res, hemi::encode(dir_local));
         let probe = |i: u32, j: u32| -> Vec3 {
             let tile = (j * p.counts[0] + i) as usize * texels;
             let taps = if warped {
                 // seed 000's plane warp from this probe: w1 along Dir, plane ⟂ Dir at the hit,
-                // fetch towards where the ray from B crosses it (homogeneous form, as
-                // `warp::depth::plane_warp`)
+                // fetch towards where the ray from B crosses it
                 let w1 = hemi::gather(&self.inv_distance[tile..tile + texels], shared);
-                let ab = local(self.probe_position(i, j) - b);
-                let v = dir_local * (w1 * dir_local.dot(ab) + 1.0).max(0.0) - ab * w1;
+                let ab = f.to_local(self.probe_position(i, j) - b);
+                let v = super::depth::first_plane(dir_local, ab, dir_local.dot(ab), w1);
                 if w1 > 0.0 && v.is_finite() && v.length_squared() > 0.0 {
                     hemi::taps(res, hemi::encode(v))
                 } else {
