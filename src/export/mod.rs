@@ -100,7 +100,8 @@ fn export_surface(
     k: usize,
     atlas: &crate::warp::surface::SurfaceAtlas,
 ) -> Result<SurfaceSection, FileError> {
-    let (width, height, _) = atlas.atlas_image();
+    let p = &atlas.patch;
+    let (width, height) = (p.counts[0] * p.resolution, p.counts[1] * p.resolution);
     let format = colour_format(atlas.radiance.iter().flatten().copied());
     let mut values = Vec::new();
     for level in &atlas.radiance {
