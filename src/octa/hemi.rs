@@ -105,18 +105,12 @@ pub fn taps(res: u32, uv: Vec2) -> Taps {
     Taps { texels: [j0 * w + i0, j0 * w + i1, j1 * w + i0, j1 * w + i1], fx: x - x0, fy: y - y0 }
 }
 
-/// The bilinear value of one tile (`tile`, row-major) at `taps`.
+/// The bilinear value of one tile (`tile`, row-major) at `taps`: with [`taps`], the
+/// tile's bilinear lookup, clamped to its edge texels.
 #[inline]
 #[must_use]
 pub fn gather<T: Texel>(tile: &[T], t: Taps) -> T {
     super::blend(t.texels.map(|k| tile[k]), t.fx, t.fy)
-}
-
-/// Bilinear lookup at `uv` in one N×N tile, clamped to its edge texels.
-#[inline]
-#[must_use]
-pub fn bilinear<T: Texel>(tile: &[T], res: u32, uv: Vec2) -> T {
-    gather(tile, taps(res, uv))
 }
 
 #[cfg(test)]
@@ -169,6 +163,7 @@ mod tests {
     #[test]
     fn bilinear_interpolates_and_clamps() {
         let tile: Vec<f32> = (0..16).map(|k| k as f32).collect();
+        let bilinear = |tile: &[f32], res: u32, uv: Vec2| gather(tile, taps(res, uv));
         assert_eq!(bilinear(&tile, 4, super::super::texel_uv(4, 2, 1)), 6.0);
         assert_eq!(bilinear(&tile, 4, Vec2::ZERO), 0.0);
         assert_eq!(bilinear(&tile, 4, Vec2::ONE), 15.0);
