@@ -317,7 +317,11 @@ impl<'a> CellProblem<'a> {
 
     fn level1_error(&self, i: usize, l: &Level1) -> f64 {
         let q = &self.samples[i];
-        let v = self.glossy.warp.level1_vector(l, q.b, q.dir);
+        self.fetch_error(q, self.glossy.warp.level1_vector(l, q.b, q.dir))
+    }
+
+    /// Tone-mapped error of query `q` shaded along fetch vector `v` (the `Corrected` rule).
+    fn fetch_error(&self, q: &Sample, v: Vec3) -> f64 {
         let est = self.glossy.radiance(MipRule::Corrected, q.b, q.dir, v, q.roughness);
         tm_error(est, q.reference, self.exposure)
     }
@@ -354,15 +358,8 @@ impl<'a> CellProblem<'a> {
     /// The same error for an unfitted per-lookup method of the problem's warp.
     pub fn relative_error_method(&self, method: Method) -> f64 {
         let warp: &Warp = self.glossy.warp;
-        let sq: f64 = self
-            .samples
-            .iter()
-            .map(|q| {
-                let v = warp.fetch_vector(method, q.b, q.dir);
-                let est = self.glossy.radiance(MipRule::Corrected, q.b, q.dir, v, q.roughness);
-                tm_error(est, q.reference, self.exposure).powi(2)
-            })
-            .sum();
+        let sq: f64 =
+            self.samples.iter().map(|q| self.fetch_error(q, warp.fetch_vector(method, q.b, q.dir)).powi(2)).sum();
         (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
     }
 
