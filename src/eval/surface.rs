@@ -318,11 +318,14 @@ pub fn evaluate(
     let view = settings
         .renders
         .and_then(|rs| patch_view(scene, tracer, atlas, (rs.camera.0, rs.camera.1, rs.fov_deg), (seed, index as u64)));
+    // no held-out point on the patch (inside geometry, or away from the grid): nothing to
+    // judge, rather than rows of zeros
     let rough = settings.rough_positions > 0 && settings.rough_dirs > 0;
     let mut rows = Vec::new();
     let mut buckets = Vec::new();
     let mut figures = Vec::new();
-    for (bucket, &r) in ROUGHNESS_BUCKETS.iter().enumerate().filter(|(_, r)| **r == 0.0 || rough) {
+    let judged = if queries.dirs.is_empty() { &[][..] } else { &ROUGHNESS_BUCKETS[..] };
+    for (bucket, &r) in judged.iter().enumerate().filter(|(_, r)| **r == 0.0 || rough) {
         let spp = if r == 0.0 { settings.reference_spp } else { settings.rough_reference_spp };
         let stream = hash_pair(hash_pair(DOMAIN_EVAL, 0x5F2), (index * 16 + bucket) as u64);
         let refs: Vec<truth::Reference> = (0..queries.dirs.len())
