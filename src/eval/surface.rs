@@ -149,16 +149,7 @@ pub fn surface_queries(
         let inside_stream = hash_pair(stream, 0x1D ^ (a as u64 + 1));
         (!truth::is_inside(scene, tracer, b, threshold, |j| Sampler::new(seed, inside_stream, j))).then_some(b)
     };
-    let limit = count.saturating_mul(64);
-    let found: Vec<Option<Vec3>> = (0..limit.min(count.saturating_mul(4))).into_par_iter().map(attempt).collect();
-    let mut positions: Vec<Vec3> = found.into_iter().flatten().take(count as usize).collect();
-    let mut next = count.saturating_mul(4);
-    while positions.len() < count as usize && next < limit {
-        if let Some(b) = attempt(next) {
-            positions.push(b);
-        }
-        next += 1;
-    }
+    let positions = truth::first_successes(count, count.saturating_mul(64), attempt);
     let dir_stream = hash_pair(stream, 0xD1);
     let mut q = SurfaceQueries { dirs_per_position: dirs as usize, ..Default::default() };
     for (k, &b) in positions.iter().enumerate() {

@@ -142,9 +142,8 @@ pub fn surface_points(
         total += 0.5 * (tris.v1[k] - tris.v0[k]).cross(tris.v2[k] - tris.v0[k]).length() as f64;
         cdf.push(total);
     }
-    let mut out = Vec::new();
     if tris.is_empty() || !(total > 0.0) {
-        return out;
+        return Vec::new();
     }
     let threshold = scene.config.grid.inside_backface_fraction;
     // attempt `a` is decided by its own sampler alone, so blocks of attempts run in
@@ -170,12 +169,19 @@ pub fn surface_points(
         }
         Some((b, n))
     };
-    let limit = count.saturating_mul(256);
+    first_successes(count, count.saturating_mul(256), attempt)
+}
+
+/// The first `count` successes of `attempt(0)`, `attempt(1)`, … (at most `limit` attempts),
+/// in attempt order. Each attempt must depend on its index alone: blocks of them run in
+/// parallel and give the same answer as one attempt after another.
+pub fn first_successes<T: Send>(count: u32, limit: u32, attempt: impl Fn(u32) -> Option<T> + Sync) -> Vec<T> {
+    let mut out = Vec::new();
     let mut next = 0u32;
     while out.len() < count as usize && next < limit {
         let block = ((count as usize - out.len()) * 5 / 4).clamp(256, 1 << 16) as u32;
         let end = next.saturating_add(block).min(limit);
-        let found: Vec<Option<(Vec3, Vec3)>> = (next..end).into_par_iter().map(attempt).collect();
+        let found: Vec<Option<T>> = (next..end).into_par_iter().map(&attempt).collect();
         next = end;
         out.extend(found.into_iter().flatten().take(count as usize - out.len()));
     }
