@@ -14,7 +14,7 @@ use std::hint::black_box;
 use std::path::Path;
 use warpfit::sampling::{Sampler, uniform_sphere};
 use warpfit::scene::Scene;
-use warpfit::trace::{BuildQuality, Tracer};
+use warpfit::trace::{BuildQuality, NodeTest, Tracer};
 
 const RAYS: u32 = 65_536;
 
@@ -179,6 +179,10 @@ fn bench_scene(c: &mut Criterion, name: &str, scene: &Scene, origin: Vec3) {
     g.sample_size(20);
     g.bench_function("closest_hit/ours/1t", |b| {
         b.iter(|| rays.iter().filter(|(o, d)| tracer.closest_hit(*o, *d, f32::INFINITY).is_some()).count())
+    });
+    let portable = Tracer::new(scene).with_node_test(NodeTest::Portable);
+    g.bench_function("closest_hit/ours_portable/1t", |b| {
+        b.iter(|| rays.iter().filter(|(o, d)| portable.closest_hit(*o, *d, f32::INFINITY).is_some()).count())
     });
     g.bench_function("closest_hit/bare_obvhs/1t", |b| {
         b.iter(|| bare_rays.iter().filter(|(o, d)| tracer.bare_closest_t(&tris, *o, *d).is_finite()).count())

@@ -6,7 +6,7 @@ use common::*;
 use glam::Vec3;
 use warpfit::sampling::{Sampler, uniform_sphere};
 use warpfit::scene::Scene;
-use warpfit::trace::{Renderer, Tracer, trace_batch};
+use warpfit::trace::{NodeTest, Renderer, Tracer, trace_batch};
 
 fn dirs(n: u32, seed: u64) -> Vec<Vec3> {
     (0..n).map(|k| uniform_sphere(Sampler::new(seed, 0, k).next_2d())).collect()
@@ -283,6 +283,49 @@ fn the_bvh_finds_what_a_scan_of_every_primitive_finds() {
         checked += 1;
     }
     assert!(checked > 2000, "only {checked} unambiguous rays");
+}
+
+/// The tracer walks obvhs's CWBVH itself, with a node test chosen for the CPU at run time.
+/// Whichever test runs, it must find what obvhs's own traversal finds, bit for bit: same
+/// distance, same leaf slot (so same primitive, normal and material), for closest hit and
+/// occlusion, on rays from inside and outside, axis rays and rays that end early.
+#[test]
+fn every_node_test_finds_what_obvhs_finds_bit_for_bit() {
+    for name in ["torture", "cornell"] {
+        let scene = load(name);
+        let wide = Tracer::new(&scene).with_node_test(NodeTest::Wide);
+        let portable = Tracer::new(&scene).with_node_test(NodeTest::Portable);
+        assert_eq!(portable.node_test(), NodeTest::Portable);
+        let (lo, hi) = scene.bounds();
+        let mut hits = 0;
+        for k in 0..20_000u32 {
+            let mut s = Sampler::new(43, 9, k);
+            let u = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
+            let o = if k % 5 == 0 { lo - (hi - lo) * 0.5 + (hi - lo) * 2.0 * u } else { lo + (hi - lo) * u };
+            let d = if k % 7 == 0 {
+                [Vec3::X, -Vec3::Y, Vec3::Z, -Vec3::X][(k / 7 % 4) as usize]
+            } else {
+                uniform_sphere(s.next_2d())
+            };
+            let reference = wide.closest_slot_obvhs(o, d).map(|(t, slot)| (t.to_bits(), slot));
+            for t in [&wide, &portable] {
+                let got = t.closest_slot(o, d).map(|(t, slot)| (t.to_bits(), slot));
+                assert_eq!(got, reference, "{name}, ray {k} from {o} along {d}, {:?}", t.node_test());
+                let a = t.closest_hit(o, d, f32::INFINITY);
+                let b = wide.closest_hit(o, d, f32::INFINITY);
+                assert_eq!(format!("{a:?}"), format!("{b:?}"), "{name}, ray {k}");
+                let tmax = [0.5f32, 2.0, f32::INFINITY][(k % 3) as usize];
+                assert_eq!(t.occluded(o, d, tmax), wide.occluded(o, d, tmax), "{name}, ray {k}, tmax {tmax}");
+                assert_eq!(
+                    t.occluded(o, d, tmax),
+                    t.closest_hit(o, d, tmax).is_some(),
+                    "{name}, ray {k}, tmax {tmax}: occlusion disagrees with closest hit"
+                );
+            }
+            hits += reference.is_some() as u32;
+        }
+        assert!(hits > 10_000, "{name}: only {hits} hits");
+    }
 }
 
 /// The GGX lobe reference (`trace::truth::lobe_reference`) against closed forms.

@@ -15,13 +15,18 @@
 //! - **Watertightness.** `Triangle::intersect` lets rays escape through shared edges, so
 //!   triangles use the watertight test of Woop, Benthin & Wald (JCGT 2013).
 
+use super::cwbvh::{self, NodeRay, NodeTest};
 use crate::scene::Scene;
-use glam::{Vec3, Vec3A};
+use glam::{Vec3, Vec3A, Vec4};
 use obvhs::{BvhBuildParams, aabb::Aabb, cwbvh::CwBvh, ray::Ray, ray::RayHit};
 use std::time::Duration;
 
 /// AABB padding in the normalised frame (extent 512..1024): ~16 ulps at the frame's edge.
 const BOX_PAD: f32 = 1e-3;
+
+/// Slot tags (bits of `slot_tri[s][0].w`); any other value is a sphere's index.
+const SLOT_TRIANGLE: u32 = u32::MAX;
+const SLOT_PADDING: u32 = u32::MAX - 1;
 
 /// What a closest-hit query found.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -64,10 +69,12 @@ impl BuildQuality {
 /// Acceleration structure plus primitives in the normalised frame.
 pub struct Tracer {
     bvh: CwBvh,
-    /// Triangle vertex 0 and edges, normalised frame.
-    tri_v0: Vec<Vec3A>,
-    tri_v1: Vec<Vec3A>,
-    tri_v2: Vec<Vec3A>,
+    /// Per leaf slot (the order of `bvh.primitive_indices`), so a leaf's primitives are
+    /// read from consecutive memory: a triangle's vertices in the normalised frame, and in
+    /// the first vertex's `w` the slot's kind (`SLOT_TRIANGLE`, `SLOT_PADDING` or the
+    /// sphere's index), so the hot loop never reads `primitive_indices`.
+    slot_tri: Vec<[Vec4; 3]>,
+    tri_count: usize,
     tri_material: Vec<u32>,
     sphere_center: Vec<Vec3A>,
     sphere_radius: Vec<f32>,
@@ -76,6 +83,8 @@ pub struct Tracer {
     /// World → normalised: `(p − centre) · scale`.
     centre: Vec3,
     scale: f32,
+    /// The node test this CPU runs (see `trace::cwbvh`).
+    node_test: NodeTest,
     /// Time spent building the BVH.
     pub build_time: Duration,
 }
@@ -221,11 +230,26 @@ impl Tracer {
 
         let mut build_time = Duration::default();
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, quality.params(), &mut build_time);
+        let slot_tri = bvh
+            .primitive_indices
+            .iter()
+            .map(|&p| {
+                let p = p as usize;
+                let nt = tri_v0.len();
+                let tag = |v: Vec3A, tag: u32| v.extend(f32::from_bits(tag));
+                if p < nt {
+                    [tag(tri_v0[p], SLOT_TRIANGLE), tri_v1[p].extend(0.0), tri_v2[p].extend(0.0)]
+                } else if p - nt < sphere_center.len() {
+                    [tag(Vec3A::ZERO, (p - nt) as u32), Vec4::ZERO, Vec4::ZERO]
+                } else {
+                    [tag(Vec3A::ZERO, SLOT_PADDING), Vec4::ZERO, Vec4::ZERO]
+                }
+            })
+            .collect();
         Tracer {
             bvh,
-            tri_v0,
-            tri_v1,
-            tri_v2,
+            slot_tri,
+            tri_count: tri_v0.len(),
             tri_material: scene.triangles.material.clone(),
             sphere_center,
             sphere_radius,
@@ -233,13 +257,27 @@ impl Tracer {
             sphere_material: scene.spheres.material.clone(),
             centre,
             scale,
+            node_test: NodeTest::Auto.resolve(),
             build_time,
         }
     }
 
+    /// The same tracer with another node test (tests and benchmarks compare them; every
+    /// test gives the same hits).
+    #[doc(hidden)]
+    pub fn with_node_test(mut self, test: NodeTest) -> Tracer {
+        self.node_test = test.resolve();
+        self
+    }
+
+    /// The node test this tracer runs on this CPU.
+    pub fn node_test(&self) -> NodeTest {
+        self.node_test
+    }
+
     /// Number of real primitives (triangles + spheres).
     pub fn primitive_count(&self) -> usize {
-        self.tri_v0.len() + self.sphere_center.len()
+        self.tri_count + self.sphere_center.len()
     }
 
     /// Scene units per normalised unit, times a small factor: the offset applied to
@@ -250,44 +288,17 @@ impl Tracer {
         (pn.abs().max_element() + 1.0) * 2e-5 / self.scale
     }
 
-    #[inline]
-    fn intersect_prim(&self, shear: &Shear, ray: &Ray, prim: usize) -> f32 {
-        let nt = self.tri_v0.len();
-        if prim < nt {
-            intersect_watertight(
-                shear,
-                ray.origin,
-                self.tri_v0[prim],
-                self.tri_v1[prim],
-                self.tri_v2[prim],
-                ray.tmin,
-                ray.tmax,
-            )
-        } else if prim - nt < self.sphere_center.len() {
-            let k = prim - nt;
-            intersect_sphere(
-                ray.origin,
-                ray.direction,
-                self.sphere_center[k],
-                self.sphere_radius[k],
-                ray.tmin,
-                ray.tmax,
-            )
-        } else {
-            f32::INFINITY // padding primitive
-        }
-    }
-
     /// The ray in the normalised frame. A direction component of −0.0 becomes +0.0: obvhs
     /// takes the ray's octant from `d < 0.0` (false for −0.0) but its inverse from the sign
     /// bit (`signum(−0.0) = −1`), and with the two disagreeing every node test misses, so a
-    /// ray along −Y written as `-Vec3::Y` (components −0, −1, −0) saw nothing.
+    /// ray along −Y written as `-Vec3::Y` (components −0, −1, −0) saw nothing. The node test
+    /// here follows obvhs's conventions, so the rule stays.
     #[inline]
-    fn normalised_ray(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Ray {
+    fn normalised_ray(&self, origin: Vec3, dir: Vec3, tmax: f32) -> NodeRay {
         let o = Vec3A::from((origin - self.centre) * self.scale);
         let tmax_n = if tmax.is_finite() { tmax * self.scale } else { f32::INFINITY };
         // x + 0.0 is +0.0 for x = −0.0 and x otherwise (IEEE 754, round to nearest)
-        Ray::new(o, Vec3A::from(dir) + Vec3A::ZERO, 0.0, tmax_n)
+        NodeRay::new(o, Vec3A::from(dir) + Vec3A::ZERO, tmax_n)
     }
 
     /// Closest hit along the unit direction `dir` from `origin`, up to `tmax` (world units).
@@ -297,26 +308,24 @@ impl Tracer {
         if !origin.is_finite() || !dir.is_finite() || dir == Vec3::ZERO {
             return None;
         }
-        let ray = self.normalised_ray(origin, dir, tmax);
-        let shear = Shear::new(ray.direction);
-        let mut hit = RayHit::none();
-        let found = self.bvh.ray_traverse(ray, &mut hit, |r, id| {
-            let prim = self.bvh.primitive_indices[id] as usize;
-            self.intersect_prim(&shear, r, prim)
-        });
-        if !found || !hit.t.is_finite() {
+        let mut ray = self.normalised_ray(origin, dir, tmax);
+        let (o, d) = (ray.origin, Vec3A::from(dir) + Vec3A::ZERO);
+        let leaves = SlotLeaves { tracer: self, shear: Shear::new(d), origin: o, dir: d };
+        let slot = cwbvh::traverse::<false>(&self.bvh.nodes, &mut ray, self.node_test, &leaves)?;
+        let t = ray.tmax;
+        if !t.is_finite() {
             return None;
         }
-        let prim = self.bvh.primitive_indices[hit.primitive_id as usize] as usize;
-        let t_world = hit.t / self.scale;
+        let prim = self.bvh.primitive_indices[slot as usize] as usize;
+        let t_world = t / self.scale;
         let position = origin + dir * t_world;
-        let nt = self.tri_v0.len();
+        let nt = self.tri_count;
         let (normal, material) = if prim < nt {
-            let n = (self.tri_v1[prim] - self.tri_v0[prim]).cross(self.tri_v2[prim] - self.tri_v0[prim]);
-            (Vec3::from(n.normalize_or_zero()), self.tri_material[prim])
+            let [v0, v1, v2] = self.slot_tri[slot as usize].map(Vec3A::from_vec4);
+            (Vec3::from((v1 - v0).cross(v2 - v0).normalize_or_zero()), self.tri_material[prim])
         } else {
             let k = prim - nt;
-            let p = ray.origin + ray.direction * hit.t;
+            let p = o + d * t;
             let out = Vec3::from((p - self.sphere_center[k]).normalize_or_zero());
             (if self.sphere_inward[k] { -out } else { out }, self.sphere_material[k])
         };
@@ -338,12 +347,35 @@ impl Tracer {
         if !origin.is_finite() || !dir.is_finite() {
             return true;
         }
-        let ray = self.normalised_ray(origin, dir, tmax);
-        let shear = Shear::new(ray.direction);
-        !self.bvh.ray_traverse_miss(ray, |r, id| {
-            let prim = self.bvh.primitive_indices[id] as usize;
-            self.intersect_prim(&shear, r, prim)
-        })
+        let mut ray = self.normalised_ray(origin, dir, tmax);
+        let (o, d) = (ray.origin, Vec3A::from(dir) + Vec3A::ZERO);
+        let leaves = SlotLeaves { tracer: self, shear: Shear::new(d), origin: o, dir: d };
+        cwbvh::traverse::<true>(&self.bvh.nodes, &mut ray, self.node_test, &leaves).is_some()
+    }
+
+    /// The same query walked by obvhs's own traversal (`CwBvh::ray_traverse`) with the same
+    /// primitive tests: distance (normalised frame) and leaf slot. Tests check that the
+    /// tracer's walk finds exactly this.
+    #[doc(hidden)]
+    pub fn closest_slot_obvhs(&self, origin: Vec3, dir: Vec3) -> Option<(f32, u32)> {
+        let o = Vec3A::from((origin - self.centre) * self.scale);
+        let d = Vec3A::from(dir) + Vec3A::ZERO;
+        let leaves = SlotLeaves { tracer: self, shear: Shear::new(d), origin: o, dir: d };
+        let mut hit = RayHit::none();
+        let found = self.bvh.ray_traverse(Ray::new(o, d, 0.0, f32::INFINITY), &mut hit, |r, slot| {
+            cwbvh::Leaves::intersect(&leaves, slot as u32, r.tmax)
+        });
+        found.then_some((hit.t, hit.primitive_id))
+    }
+
+    /// The closest hit's distance (normalised frame) and leaf slot, as `closest_hit` finds it.
+    #[doc(hidden)]
+    pub fn closest_slot(&self, origin: Vec3, dir: Vec3) -> Option<(f32, u32)> {
+        let mut ray = self.normalised_ray(origin, dir, f32::INFINITY);
+        let d = Vec3A::from(dir) + Vec3A::ZERO;
+        let leaves = SlotLeaves { tracer: self, shear: Shear::new(d), origin: ray.origin, dir: d };
+        let slot = cwbvh::traverse::<false>(&self.bvh.nodes, &mut ray, self.node_test, &leaves)?;
+        Some((ray.tmax, slot))
     }
 
     /// The bare obvhs path on the same BVH: `Triangle::intersect` (not watertight) and no
@@ -365,14 +397,56 @@ impl Tracer {
     /// Triangles in the normalised frame as obvhs `Triangle`s, for the bare benchmark path.
     #[doc(hidden)]
     pub fn normalised_triangles(&self) -> Vec<obvhs::triangle::Triangle> {
-        (0..self.tri_v0.len())
-            .map(|k| obvhs::triangle::Triangle { v0: self.tri_v0[k], v1: self.tri_v1[k], v2: self.tri_v2[k] })
-            .collect()
+        let zero = obvhs::triangle::Triangle { v0: Vec3A::ZERO, v1: Vec3A::ZERO, v2: Vec3A::ZERO };
+        let mut tris = vec![zero; self.tri_count];
+        for (slot, &p) in self.bvh.primitive_indices.iter().enumerate() {
+            if let Some(t) = tris.get_mut(p as usize) {
+                let [v0, v1, v2] = self.slot_tri[slot].map(Vec3A::from_vec4);
+                *t = obvhs::triangle::Triangle { v0, v1, v2 };
+            }
+        }
+        tris
     }
 
     /// World → normalised point (benchmarks feed the bare path in this frame).
     #[doc(hidden)]
     pub fn to_normalised(&self, p: Vec3) -> Vec3A {
         Vec3A::from((p - self.centre) * self.scale)
+    }
+}
+
+/// One ray's view of the tracer's leaf slots (see `trace::cwbvh::Leaves`).
+struct SlotLeaves<'a> {
+    tracer: &'a Tracer,
+    shear: Shear,
+    origin: Vec3A,
+    dir: Vec3A,
+}
+
+impl cwbvh::Leaves for SlotLeaves<'_> {
+    #[inline(always)]
+    fn intersect(&self, slot: u32, tmax: f32) -> f32 {
+        let Some([v0, v1, v2]) = self.tracer.slot_tri.get(slot as usize) else {
+            return f32::INFINITY;
+        };
+        match v0.w.to_bits() {
+            SLOT_TRIANGLE => intersect_watertight(
+                &self.shear,
+                self.origin,
+                Vec3A::from_vec4(*v0),
+                Vec3A::from_vec4(*v1),
+                Vec3A::from_vec4(*v2),
+                0.0,
+                tmax,
+            ),
+            SLOT_PADDING => f32::INFINITY,
+            k => {
+                let t = self.tracer;
+                match (t.sphere_center.get(k as usize), t.sphere_radius.get(k as usize)) {
+                    (Some(&c), Some(&r)) => intersect_sphere(self.origin, self.dir, c, r, 0.0, tmax),
+                    _ => f32::INFINITY,
+                }
+            }
+        }
     }
 }

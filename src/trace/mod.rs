@@ -2,10 +2,12 @@
 //! batch entry point later stages use for references.
 
 pub mod bvh;
+pub mod cwbvh;
 pub mod radiance;
 pub mod truth;
 
 pub use bvh::{BuildQuality, Hit, Tracer};
+pub use cwbvh::NodeTest;
 pub use radiance::{RaySample, Renderer};
 
 use crate::sampling::Sampler;
