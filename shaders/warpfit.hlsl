@@ -48,6 +48,22 @@ struct Aim {
     float k;
 };
 
+struct SurfaceParams {
+    float4 corner;
+    float4 tangent;
+    float4 bitangent;
+    float4 normal;
+    float4 dual_u;
+    float4 dual_v;
+    uint4 shape;
+};
+
+struct SurfaceAxis {
+    uint i0_;
+    uint i1_;
+    float f;
+};
+
 static const uint DYNAMIC = 255u;
 static const float HUGE = 1e30;
 static const float F32_MIN_POSITIVE = 1.1754944e-38;
@@ -71,6 +87,8 @@ Texture2D<float4> scale_atlas : register(t5);
 Texture2D<float4> roughness_lut : register(t6);
 cbuffer params : register(b7) { Params params; }
 ByteAddressBuffer cells : register(t8);
+Texture2DArray<float4> surface_radiance : register(t0, space2);
+cbuffer surface_params : register(b1, space2) { SurfaceParams surface_params; }
 ByteAddressBuffer queries : register(t0, space1);
 RWByteAddressBuffer results : register(u1, space1);
 
@@ -198,8 +216,8 @@ float3 fetch_vector(float3 from, float3 to, float3 fallback)
 {
     bool local_6 = (bool)0;
 
-    float3 v_7 = (to - from);
-    float l2_1 = dot(v_7, v_7);
+    float3 v_8 = (to - from);
+    float l2_1 = dot(v_8, v_8);
     if ((l2_1 > 0.0)) {
         const bool _e9 = finite(l2_1);
         local_6 = _e9;
@@ -208,7 +226,7 @@ float3 fetch_vector(float3 from, float3 to, float3 fallback)
     }
     bool _e11 = local_6;
     if (_e11) {
-        return v_7;
+        return v_8;
     }
     return fallback;
 }
@@ -303,9 +321,9 @@ int2 naga_f2i32(float2 value) {
 
 Footprint footprint(uint n_1, float2 uv)
 {
-    float2 x_2 = ((clamp(uv, (0.0).xx, (1.0).xx) * float(n_1)) - (0.5).xx);
-    float2 x0_ = floor(x_2);
-    const Footprint footprint_1 = ConstructFootprint(naga_f2i32(x0_), (x_2 - x0_));
+    float2 x_3 = ((clamp(uv, (0.0).xx, (1.0).xx) * float(n_1)) - (0.5).xx);
+    float2 x0_ = floor(x_3);
+    const Footprint footprint_1 = ConstructFootprint(naga_f2i32(x0_), (x_3 - x0_));
     return footprint_1;
 }
 
@@ -333,11 +351,11 @@ float4 probe_bilinear(uint which_1, float2 uv_1, uint level_1)
     float _e6 = params.warp.z;
     float _e10 = params.warp.y;
     float res0_ = ((which_1 == 0u) ? _e10 : _e6);
-    uint n_5 = max((naga_f2u32(res0_) >> level_1), 1u);
-    const Footprint _e18 = footprint(n_5, uv_1);
+    uint n_6 = max((naga_f2u32(res0_) >> level_1), 1u);
+    const Footprint _e18 = footprint(n_6, uv_1);
     int2 c_6 = _e18.corner;
     int l_3 = int(level_1);
-    int ni = int(n_5);
+    int ni = int(n_6);
     const int2 _e22 = wrap_texel(ni, c_6);
     const float4 _e23 = probe_texel(which_1, _e22, l_3);
     const int2 _e28 = wrap_texel(ni, asint(asuint(c_6) + asuint(int2(int(1), int(0)))));
@@ -461,8 +479,8 @@ float3 cell_size()
 
 uint cell_index(uint3 c_2)
 {
-    uint4 n_6 = params.grid_counts;
-    return (c_2.x + (n_6.x * (c_2.y + (n_6.y * c_2.z))));
+    uint4 n_7 = params.grid_counts;
+    return (c_2.x + (n_7.x * (c_2.y + (n_7.y * c_2.z))));
 }
 
 uint3 naga_f2u32(float3 value) {
@@ -544,10 +562,10 @@ float3 warp1_(float3 b_2, float3 dir)
     }
     float3 ab = (a - b_2);
     float dir_ab = dot(dir, ab);
-    float3 v_8 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
-    const float _e20 = inv_dist(v_8);
-    float lambda = (length(v_8) * _e20);
-    float t_6 = max(((dir_ab * lambda) + dot(dir, v_8)), 0.0);
+    float3 v_9 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
+    const float _e20 = inv_dist(v_9);
+    float lambda = (length(v_9) * _e20);
+    float t_6 = max(((dir_ab * lambda) + dot(dir, v_9)), 0.0);
     float3 f_5 = ((dir * t_6) - (ab * lambda));
     if ((lambda > 0.0)) {
         const float3 _e34 = fetch_vector((0.0).xxx, f_5, dir);
@@ -643,14 +661,14 @@ float3 kdop_fetch(float3 b_4, float3 dir_2)
             }
             uint _e25 = k_1;
             float4 _e27 = params.kdop[_e25];
-            float3 n_7 = _e27.xyz;
+            float3 n_8 = _e27.xyz;
             uint _e31 = k_1;
             float h_1 = params.kdop[_e31].w;
-            float nb = dot(n_7, b_4);
+            float nb = dot(n_8, b_4);
             if ((nb > h_1)) {
                 return dir_2;
             }
-            float nd = dot(n_7, dir_2);
+            float nd = dot(n_8, dir_2);
             if ((nd > 0.0)) {
                 float _e40 = t_4;
                 t_4 = min(_e40, ((h_1 - nb) / nd));
@@ -696,8 +714,8 @@ Basis orthonormal_basis(float3 n_3)
 {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_3 = (-1.0 / (s_3 + n_3.z));
-    float b_13 = ((n_3.x * n_3.y) * a_3);
-    const Basis basis = ConstructBasis(float3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_13), (-(s_3) * n_3.x)), float3(b_13, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+    float b_14 = ((n_3.x * n_3.y) * a_3);
+    const Basis basis = ConstructBasis(float3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_14), (-(s_3) * n_3.x)), float3(b_14, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
     return basis;
 }
 
@@ -825,16 +843,16 @@ Aim aim_from_inv_t(float u, float3 b_8, float3 dir_6)
 
     if ((u > 0.0)) {
         float4 _e10 = params.probe;
-        float3 v_9 = ((b_8 + (dir_6 / (u).xxx)) - _e10.xyz);
-        const bool _e13 = finite3_(v_9);
+        float3 v_10 = ((b_8 + (dir_6 / (u).xxx)) - _e10.xyz);
+        const bool _e13 = finite3_(v_10);
         if (_e13) {
-            local_11 = any((v_9 != (0.0).xxx));
+            local_11 = any((v_10 != (0.0).xxx));
         } else {
             local_11 = false;
         }
         bool _e21 = local_11;
         if (_e21) {
-            k_2 = (length(v_9) * u);
+            k_2 = (length(v_10) * u);
             float _e25 = k_2;
             const bool _e26 = finite(_e25);
             if (_e26) {
@@ -848,7 +866,7 @@ Aim aim_from_inv_t(float u, float3 b_8, float3 dir_6)
                 k_2 = 1.0;
             }
             float _e36 = k_2;
-            const Aim aim_1 = ConstructAim(v_9, _e36);
+            const Aim aim_1 = ConstructAim(v_10, _e36);
             return aim_1;
         }
     }
@@ -966,8 +984,8 @@ float lod_of_roughness(float r)
     uint t_5 = 0u;
     float f_2 = 0.0;
 
-    uint n_8 = params.probe_info.x;
-    if (!((n_8 < 2u))) {
+    uint n_9 = params.probe_info.x;
+    if (!((n_9 < 2u))) {
         const float _e11 = mip_roughness(0u);
         local_13 = !((r > _e11));
     } else {
@@ -977,7 +995,7 @@ float lod_of_roughness(float r)
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_8 - 1u);
+    uint last = (n_9 - 1u);
     const float _e19 = mip_roughness(last);
     if ((r >= _e19)) {
         return float(last);
@@ -993,7 +1011,7 @@ float lod_of_roughness(float r)
         }
         loop_init_4 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_8)) {
+        if ((_e26 < n_9)) {
         } else {
             break;
         }
@@ -1005,16 +1023,16 @@ float lod_of_roughness(float r)
         }
     }
     uint _e39 = below;
-    uint i_1 = (clamp(_e39, 1u, last) - 1u);
-    const float _e46 = mip_roughness((i_1 + 1u));
-    const float _e47 = mip_roughness(i_1);
+    uint i_3 = (clamp(_e39, 1u, last) - 1u);
+    const float _e46 = mip_roughness((i_3 + 1u));
+    const float _e47 = mip_roughness(i_3);
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
-        const float _e53 = mip_roughness(i_1);
+        const float _e53 = mip_roughness(i_3);
         f_2 = ((r - _e53) / span);
     }
     float _e57 = f_2;
-    return (float(i_1) + clamp(_e57, 0.0, 1.0));
+    return (float(i_3) + clamp(_e57, 0.0, 1.0));
 }
 
 float distance_ratio(float3 b_10, float3 v_6, float2 uv_6)
@@ -1083,8 +1101,8 @@ float corrected_roughness(float r_1, float k_in)
     float k_4 = 1.0;
     bool local_18 = (bool)0;
 
-    uint n_9 = params.lut_info.x;
-    float last_1 = float((n_9 - 1u));
+    uint n_10 = params.lut_info.x;
+    float last_1 = float((n_10 - 1u));
     const bool _e11 = finite(r_1);
     if (_e11) {
         fr = clamp((r_1 * last_1), 0.0, last_1);
@@ -1109,20 +1127,20 @@ float corrected_roughness(float r_1, float k_in)
     float _e44 = params.lut.y;
     float fx = clamp(((_e35 - _e39) * _e44), 0.0, last_1);
     float _e48 = fr;
-    uint i_2 = min(naga_f2u32(_e48), (n_9 - 2u));
-    uint j_1 = min(naga_f2u32(fx), (n_9 - 2u));
+    uint i_4 = min(naga_f2u32(_e48), (n_10 - 2u));
+    uint j_3 = min(naga_f2u32(fx), (n_10 - 2u));
     float _e57 = fr;
-    float a_4 = (_e57 - float(i_2));
-    float b_14 = (fx - float(j_1));
-    float4 _e67 = roughness_lut.Load(int3(int2(int(j_1), int(i_2)), int(0)));
+    float a_4 = (_e57 - float(i_4));
+    float b_15 = (fx - float(j_3));
+    float4 _e67 = roughness_lut.Load(int3(int2(int(j_3), int(i_4)), int(0)));
     float v00_ = _e67.x;
-    float4 _e76 = roughness_lut.Load(int3(int2(int((j_1 + 1u)), int(i_2)), int(0)));
+    float4 _e76 = roughness_lut.Load(int3(int2(int((j_3 + 1u)), int(i_4)), int(0)));
     float v01_ = _e76.x;
-    float4 _e85 = roughness_lut.Load(int3(int2(int(j_1), int((i_2 + 1u))), int(0)));
+    float4 _e85 = roughness_lut.Load(int3(int2(int(j_3), int((i_4 + 1u))), int(0)));
     float v10_ = _e85.x;
-    float4 _e96 = roughness_lut.Load(int3(int2(int((j_1 + 1u)), int((i_2 + 1u))), int(0)));
+    float4 _e96 = roughness_lut.Load(int3(int2(int((j_3 + 1u)), int((i_4 + 1u))), int(0)));
     float v11_ = _e96.x;
-    return ((((v00_ * (1.0 - b_14)) + (v01_ * b_14)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_14)) + (v11_ * b_14)) * a_4));
+    return ((((v00_ * (1.0 - b_15)) + (v01_ * b_15)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_15)) + (v11_ * b_15)) * a_4));
 }
 
 float3 shade(float3 b_11, Aim aim, float r_2)
@@ -1213,7 +1231,7 @@ float3 irradiance(float3 position_1, float3 normal)
     if ((_e2.w == 0.0)) {
         return (0.0).xxx;
     }
-    float3 n_10 = _e2.xyz;
+    float3 n_11 = _e2.xyz;
     const float3 _e9 = cell_size();
     float4 _e12 = params.grid_min;
     float4 _e16 = params.grid_max;
@@ -1225,7 +1243,7 @@ float3 irradiance(float3 position_1, float3 normal)
     }
     float3 _e28 = p_3;
     const Lattice _e29 = lattice(_e28, _e9);
-    const float2 _e30 = oct_encode(n_10);
+    const float2 _e30 = oct_encode(n_11);
     uint2 loop_bound_5 = uint2(4294967295u, 4294967295u);
     bool loop_init_5 = true;
     while(true) {
@@ -1268,7 +1286,7 @@ float3 irradiance(float3 position_1, float3 normal)
             bool _e69 = local_19;
             if (_e69) {
                 float3 u_1 = (to_point / (dist).xxx);
-                float facing = ((dot(n_10, -(u_1)) + 1.0) * 0.5);
+                float facing = ((dot(n_11, -(u_1)) + 1.0) * 0.5);
                 float _e78 = w_1;
                 w_1 = (_e78 * ((facing * facing) + 0.2));
                 uint _e89 = params.atlas_b.x;
@@ -1295,7 +1313,7 @@ float3 irradiance(float3 position_1, float3 normal)
                 k_6 = _e137.x;
             }
             float3 _e139 = e;
-            const float3 _e142 = cell_irradiance(cell_2.tiles.y, n_10);
+            const float3 _e142 = cell_irradiance(cell_2.tiles.y, n_11);
             float _e143 = w_1;
             float _e145 = k_6;
             e = (_e139 + ((_e142 * _e143) * _e145));
@@ -1312,6 +1330,128 @@ float3 irradiance(float3 position_1, float3 normal)
     float _e161 = wsum_1;
     const float3 _e164 = clean((_e160 / (_e161).xxx));
     return _e164;
+}
+
+float2 hemi_encode(float3 v_7)
+{
+    bool local_20 = (bool)0;
+
+    float z = max(v_7.z, 0.0);
+    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
+    if ((l1_1 >= F32_MIN_POSITIVE)) {
+        const bool _e14 = finite(l1_1);
+        local_20 = _e14;
+    } else {
+        local_20 = false;
+    }
+    bool _e16 = local_20;
+    if (!(_e16)) {
+        return float2(0.5, 0.5);
+    }
+    float px = (v_7.x / l1_1);
+    float py = (v_7.y / l1_1);
+    return clamp(float2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), (0.0).xx, (1.0).xx);
+}
+
+SurfaceAxis ConstructSurfaceAxis(uint arg0, uint arg1, float arg2) {
+    SurfaceAxis ret = (SurfaceAxis)0;
+    ret.i0_ = arg0;
+    ret.i1_ = arg1;
+    ret.f = arg2;
+    return ret;
+}
+
+SurfaceAxis surface_axis(float x_in, uint n_5)
+{
+    float x_2 = 0.5;
+
+    const bool _e4 = finite(x_in);
+    if (_e4) {
+        x_2 = x_in;
+    }
+    float _e5 = x_2;
+    float c_8 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
+    uint i0_ = naga_f2u32(floor(c_8));
+    const SurfaceAxis surfaceaxis = ConstructSurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_8 - float(i0_)));
+    return surfaceaxis;
+}
+
+float3 surface_tile(uint i_1, uint j_1, uint layer, float2 uv_7)
+{
+    uint n_12 = surface_params.shape.z;
+    float nf = float(n_12);
+    float x_4 = clamp(((uv_7.x * nf) - 0.5), 0.0, (nf - 1.0));
+    float y = clamp(((uv_7.y * nf) - 0.5), 0.0, (nf - 1.0));
+    float x0_1 = floor(x_4);
+    float y0_ = floor(y);
+    uint i0_1 = naga_f2u32(x0_1);
+    uint j0_ = naga_f2u32(y0_);
+    uint i1_ = min((i0_1 + 1u), (n_12 - 1u));
+    uint j1_ = min((j0_ + 1u), (n_12 - 1u));
+    uint2 o_3 = uint2((i_1 * n_12), (j_1 * n_12));
+    int l_6 = int(layer);
+    float4 q00_1 = surface_radiance.Load(int4(int2((o_3 + uint2(i0_1, j0_))), l_6, int(0)));
+    float4 q10_1 = surface_radiance.Load(int4(int2((o_3 + uint2(i1_, j0_))), l_6, int(0)));
+    float4 q01_1 = surface_radiance.Load(int4(int2((o_3 + uint2(i0_1, j1_))), l_6, int(0)));
+    float4 q11_1 = surface_radiance.Load(int4(int2((o_3 + uint2(i1_, j1_))), l_6, int(0)));
+    const float4 _e70 = blend4_(q00_1, q10_1, q01_1, q11_1, float2((x_4 - x0_1), (y - y0_)));
+    return _e70.xyz;
+}
+
+float3 surface_probe(uint i_2, uint j_2, float2 uv_8, uint m0_, uint m1_, float fm)
+{
+    const float3 _e6 = surface_tile(i_2, j_2, m0_, uv_8);
+    if ((fm > 0.0)) {
+        const float3 _e9 = surface_tile(i_2, j_2, m1_, uv_8);
+        return lerp(_e6, _e9, fm);
+    }
+    return _e6;
+}
+
+float3 surface_specular(float3 b_in, float3 dir_in, float roughness_1)
+{
+    float3 b_13 = (float3)0;
+    float lod_2 = 0.0;
+
+    const float4 _e3 = unit_direction(dir_in);
+    if ((_e3.w == 0.0)) {
+        return (0.0).xxx;
+    }
+    SurfaceParams sp = surface_params;
+    b_13 = sp.corner.xyz;
+    const bool _e14 = finite3_(b_in);
+    if (_e14) {
+        b_13 = b_in;
+    }
+    float3 _e15 = b_13;
+    float3 d_3 = (_e15 - sp.corner.xyz);
+    const SurfaceAxis _e24 = surface_axis(dot(sp.dual_u.xyz, d_3), sp.shape.x);
+    const SurfaceAxis _e30 = surface_axis(dot(sp.dual_v.xyz, d_3), sp.shape.y);
+    uint last_2 = (sp.shape.w - 1u);
+    const bool _e37 = finite(roughness_1);
+    if (_e37) {
+        lod_2 = (clamp(roughness_1, 0.0, 1.0) * float(last_2));
+    }
+    float _e43 = lod_2;
+    uint m0_1 = naga_f2u32(floor(_e43));
+    uint m1_1 = min((m0_1 + 1u), last_2);
+    float _e49 = lod_2;
+    float fm_1 = (_e49 - float(m0_1));
+    float3 dir_8 = _e3.xyz;
+    float3 local_21 = float3(dot(dir_8, sp.tangent.xyz), dot(dir_8, sp.bitangent.xyz), dot(dir_8, sp.normal.xyz));
+    const float2 _e63 = hemi_encode(local_21);
+    const float3 _e66 = surface_probe(_e24.i0_, _e30.i0_, _e63, m0_1, m1_1, fm_1);
+    const float3 _e69 = surface_probe(_e24.i1_, _e30.i0_, _e63, m0_1, m1_1, fm_1);
+    float3 top_1 = lerp(_e66, _e69, _e24.f);
+    const float3 _e74 = surface_probe(_e24.i0_, _e30.i1_, _e63, m0_1, m1_1, fm_1);
+    const float3 _e77 = surface_probe(_e24.i1_, _e30.i1_, _e63, m0_1, m1_1, fm_1);
+    float3 bottom = lerp(_e74, _e77, _e24.f);
+    float3 l_7 = lerp(top_1, bottom, _e30.f);
+    const bool _e82 = finite3_(l_7);
+    if (_e82) {
+        return max(l_7, (0.0).xxx);
+    }
+    return (0.0).xxx;
 }
 
 uint NagaBufferLengthRW(RWByteAddressBuffer buffer)
@@ -1335,8 +1475,8 @@ void specular_queries(uint3 id : SV_DispatchThreadID)
         return;
     }
     float4 p_4 = asfloat(queries.Load4((2u * k_8)*16));
-    float4 d_3 = asfloat(queries.Load4(((2u * k_8) + 1u)*16));
-    const float3 _e21 = specular(p_4.xyz, d_3.xyz, p_4.w);
+    float4 d_4 = asfloat(queries.Load4(((2u * k_8) + 1u)*16));
+    const float3 _e21 = specular(p_4.xyz, d_4.xyz, p_4.w);
     results.Store4(k_8*16, asuint(float4(_e21, 1.0)));
     return;
 }
@@ -1350,8 +1490,8 @@ void irradiance_queries(uint3 id_1 : SV_DispatchThreadID)
         return;
     }
     float4 p_5 = asfloat(queries.Load4((2u * k_9)*16));
-    float4 n_11 = asfloat(queries.Load4(((2u * k_9) + 1u)*16));
-    const float3 _e20 = irradiance(p_5.xyz, n_11.xyz);
+    float4 n_13 = asfloat(queries.Load4(((2u * k_9) + 1u)*16));
+    const float3 _e20 = irradiance(p_5.xyz, n_13.xyz);
     results.Store4(k_9*16, asuint(float4(_e20, 1.0)));
     return;
 }
@@ -1437,5 +1577,20 @@ void box_queries(uint3 id_3 : SV_DispatchThreadID)
     }
     float3 _e56 = c_1;
     results.Store4(k_11*16, asuint(float4(_e56, 1.0)));
+    return;
+}
+
+[numthreads(64, 1, 1)]
+void surface_queries(uint3 id_4 : SV_DispatchThreadID)
+{
+    uint k_12 = id_4.x;
+    const uint _e2 = query_count();
+    if ((k_12 >= _e2)) {
+        return;
+    }
+    float4 p_6 = asfloat(queries.Load4((2u * k_12)*16));
+    float4 d_5 = asfloat(queries.Load4(((2u * k_12) + 1u)*16));
+    const float3 _e21 = surface_specular(p_6.xyz, d_5.xyz, p_6.w);
+    results.Store4(k_12*16, asuint(float4(_e21, 1.0)));
     return;
 }

@@ -43,6 +43,20 @@ struct Aim {
     vec3 v;
     float k;
 };
+struct SurfaceParams {
+    vec4 corner;
+    vec4 tangent;
+    vec4 bitangent;
+    vec4 normal;
+    vec4 dual_u;
+    vec4 dual_v;
+    uvec4 shape;
+};
+struct SurfaceAxis {
+    uint i0_;
+    uint i1_;
+    float f;
+};
 const uint DYNAMIC = 255u;
 const float HUGE = 1e30;
 const float F32_MIN_POSITIVE = 1.1754944e-38;
@@ -69,9 +83,9 @@ layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_bind
 
 layout(std430, binding = 0) readonly buffer type_9_block_1Compute { Cell _group_0_binding_8_cs[]; };
 
-layout(std430, binding = 1) readonly buffer type_17_block_2Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_18_block_2Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_17_block_3Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_18_block_3Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 uint fallback_method() {
@@ -186,8 +200,8 @@ vec4 unit_direction(vec3 v_3) {
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
     bool local_6 = false;
-    vec3 v_7 = (to - from);
-    float l2_1 = dot(v_7, v_7);
+    vec3 v_8 = (to - from);
+    float l2_1 = dot(v_8, v_8);
     if ((l2_1 > 0.0)) {
         bool _e9 = finite(l2_1);
         local_6 = _e9;
@@ -196,7 +210,7 @@ vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
     }
     bool _e11 = local_6;
     if (_e11) {
-        return v_7;
+        return v_8;
     }
     return fallback;
 }
@@ -271,9 +285,9 @@ ivec2 wrap_texel(int n, ivec2 t) {
 }
 
 Footprint footprint(uint n_1, vec2 uv) {
-    vec2 x_2 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
-    vec2 x0_ = floor(x_2);
-    return Footprint(ivec2(x0_), (x_2 - x0_));
+    vec2 x_3 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
+    vec2 x0_ = floor(x_3);
+    return Footprint(ivec2(x0_), (x_3 - x0_));
 }
 
 vec4 blend4_(vec4 q00_, vec4 q10_, vec4 q01_, vec4 q11_, vec2 f) {
@@ -322,8 +336,8 @@ vec3 cell_size() {
 }
 
 uint cell_index(uvec3 c_2) {
-    uvec4 n_5 = _group_0_binding_7_cs.grid_counts;
-    return (c_2.x + (n_5.x * (c_2.y + (n_5.y * c_2.z))));
+    uvec4 n_6 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_6.x * (c_2.y + (n_6.y * c_2.z))));
 }
 
 uvec3 cell_of(vec3 p_1, vec3 size) {
@@ -454,14 +468,14 @@ vec3 kdop_fetch(vec3 b_4, vec3 dir_2) {
             }
             uint _e25 = k_1;
             vec4 _e27 = _group_0_binding_7_cs.kdop[_e25];
-            vec3 n_6 = _e27.xyz;
+            vec3 n_7 = _e27.xyz;
             uint _e31 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e31].w;
-            float nb = dot(n_6, b_4);
+            float nb = dot(n_7, b_4);
             if ((nb > h_1)) {
                 return dir_2;
             }
-            float nd = dot(n_6, dir_2);
+            float nd = dot(n_7, dir_2);
             if ((nd > 0.0)) {
                 float _e40 = t_4;
                 t_4 = min(_e40, ((h_1 - nb) / nd));
@@ -480,8 +494,8 @@ vec3 kdop_fetch(vec3 b_4, vec3 dir_2) {
 Basis orthonormal_basis(vec3 n_3) {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_2 = (-1.0 / (s_3 + n_3.z));
-    float b_13 = ((n_3.x * n_3.y) * a_2);
-    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_2)), (s_3 * b_13), (-(s_3) * n_3.x)), vec3(b_13, (s_3 + ((n_3.y * n_3.y) * a_2)), -(n_3.y)));
+    float b_14 = ((n_3.x * n_3.y) * a_2);
+    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_2)), (s_3 * b_14), (-(s_3) * n_3.x)), vec3(b_14, (s_3 + ((n_3.y * n_3.y) * a_2)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
@@ -517,16 +531,16 @@ Aim aim_from_inv_t(float u, vec3 b_8, vec3 dir_6) {
     bool local_12 = false;
     if ((u > 0.0)) {
         vec4 _e10 = _group_0_binding_7_cs.probe;
-        vec3 v_8 = ((b_8 + (dir_6 / vec3(u))) - _e10.xyz);
-        bool _e13 = finite3_(v_8);
+        vec3 v_9 = ((b_8 + (dir_6 / vec3(u))) - _e10.xyz);
+        bool _e13 = finite3_(v_9);
         if (_e13) {
-            local_11 = any(notEqual(v_8, vec3(0.0)));
+            local_11 = any(notEqual(v_9, vec3(0.0)));
         } else {
             local_11 = false;
         }
         bool _e21 = local_11;
         if (_e21) {
-            k_2 = (length(v_8) * u);
+            k_2 = (length(v_9) * u);
             float _e25 = k_2;
             bool _e26 = finite(_e25);
             if (_e26) {
@@ -540,7 +554,7 @@ Aim aim_from_inv_t(float u, vec3 b_8, vec3 dir_6) {
                 k_2 = 1.0;
             }
             float _e36 = k_2;
-            return Aim(v_8, _e36);
+            return Aim(v_9, _e36);
         }
     }
     return Aim(dir_6, 1.0);
@@ -563,8 +577,8 @@ float lod_of_roughness(float r) {
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
-    uint n_7 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_7 < 2u))) {
+    uint n_8 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_8 < 2u))) {
         float _e11 = mip_roughness(0u);
         local_13 = !((r > _e11));
     } else {
@@ -574,7 +588,7 @@ float lod_of_roughness(float r) {
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_7 - 1u);
+    uint last = (n_8 - 1u);
     float _e19 = mip_roughness(last);
     if ((r >= _e19)) {
         return float(last);
@@ -587,7 +601,7 @@ float lod_of_roughness(float r) {
         }
         loop_init_2 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_7)) {
+        if ((_e26 < n_8)) {
         } else {
             break;
         }
@@ -599,16 +613,16 @@ float lod_of_roughness(float r) {
         }
     }
     uint _e39 = below;
-    uint i_1 = (min(max(_e39, 1u), last) - 1u);
-    float _e46 = mip_roughness((i_1 + 1u));
-    float _e47 = mip_roughness(i_1);
+    uint i_3 = (min(max(_e39, 1u), last) - 1u);
+    float _e46 = mip_roughness((i_3 + 1u));
+    float _e47 = mip_roughness(i_3);
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
-        float _e53 = mip_roughness(i_1);
+        float _e53 = mip_roughness(i_3);
         f_2 = ((r - _e53) / span);
     }
     float _e57 = f_2;
-    return (float(i_1) + clamp(_e57, 0.0, 1.0));
+    return (float(i_3) + clamp(_e57, 0.0, 1.0));
 }
 
 float pseudo_log2_(float k_3) {
@@ -646,7 +660,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     if ((_e2.w == 0.0)) {
         return vec3(0.0);
     }
-    vec3 n_8 = _e2.xyz;
+    vec3 n_9 = _e2.xyz;
     vec3 _e9 = cell_size();
     vec4 _e12 = _group_0_binding_7_cs.grid_min;
     vec4 _e16 = _group_0_binding_7_cs.grid_max;
@@ -658,7 +672,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     }
     vec3 _e28 = p_3;
     Lattice _e29 = lattice(_e28, _e9);
-    vec2 _e30 = oct_encode(n_8);
+    vec2 _e30 = oct_encode(n_9);
     bool loop_init_3 = true;
     while(true) {
         if (!loop_init_3) {
@@ -698,7 +712,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             bool _e69 = local_19;
             if (_e69) {
                 vec3 u_1 = (to_point / vec3(dist));
-                float facing = ((dot(n_8, -(u_1)) + 1.0) * 0.5);
+                float facing = ((dot(n_9, -(u_1)) + 1.0) * 0.5);
                 float _e78 = w_1;
                 w_1 = (_e78 * ((facing * facing) + 0.2));
                 uint _e89 = _group_0_binding_7_cs.atlas_b.x;
@@ -725,7 +739,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                 k_6 = _e137.x;
             }
             vec3 _e139 = e;
-            vec3 _e142 = cell_irradiance(cell.tiles.y, n_8);
+            vec3 _e142 = cell_irradiance(cell.tiles.y, n_9);
             float _e143 = w_1;
             float _e145 = k_6;
             e = (_e139 + ((_e142 * _e143) * _e145));
@@ -744,6 +758,37 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     return _e164;
 }
 
+vec2 hemi_encode(vec3 v_7) {
+    bool local_20 = false;
+    float z = max(v_7.z, 0.0);
+    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
+    if ((l1_1 >= F32_MIN_POSITIVE)) {
+        bool _e14 = finite(l1_1);
+        local_20 = _e14;
+    } else {
+        local_20 = false;
+    }
+    bool _e16 = local_20;
+    if (!(_e16)) {
+        return vec2(0.5, 0.5);
+    }
+    float px = (v_7.x / l1_1);
+    float py = (v_7.y / l1_1);
+    return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
+}
+
+SurfaceAxis surface_axis(float x_in, uint n_5) {
+    float x_2 = 0.5;
+    bool _e4 = finite(x_in);
+    if (_e4) {
+        x_2 = x_in;
+    }
+    float _e5 = x_2;
+    float c_7 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
+    uint i0_ = uint(floor(c_7));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_7 - float(i0_)));
+}
+
 uint query_count() {
     return uint(_group_1_binding_1_cs.length());
 }
@@ -756,8 +801,8 @@ void main() {
         return;
     }
     vec4 p_4 = _group_1_binding_0_cs[(2u * k_7)];
-    vec4 n_9 = _group_1_binding_0_cs[((2u * k_7) + 1u)];
-    vec3 _e20 = irradiance(p_4.xyz, n_9.xyz);
+    vec4 n_10 = _group_1_binding_0_cs[((2u * k_7) + 1u)];
+    vec3 _e20 = irradiance(p_4.xyz, n_10.xyz);
     _group_1_binding_1_cs[k_7] = vec4(_e20, 1.0);
     return;
 }

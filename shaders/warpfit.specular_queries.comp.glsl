@@ -43,6 +43,20 @@ struct Aim {
     vec3 v;
     float k;
 };
+struct SurfaceParams {
+    vec4 corner;
+    vec4 tangent;
+    vec4 bitangent;
+    vec4 normal;
+    vec4 dual_u;
+    vec4 dual_v;
+    uvec4 shape;
+};
+struct SurfaceAxis {
+    uint i0_;
+    uint i1_;
+    float f;
+};
 const uint DYNAMIC = 255u;
 const float HUGE = 1e30;
 const float F32_MIN_POSITIVE = 1.1754944e-38;
@@ -75,9 +89,9 @@ layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_bind
 
 layout(std430, binding = 0) readonly buffer type_9_block_1Compute { Cell _group_0_binding_8_cs[]; };
 
-layout(std430, binding = 1) readonly buffer type_17_block_2Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_18_block_2Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_17_block_3Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_18_block_3Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 uint fallback_method() {
@@ -192,8 +206,8 @@ vec4 unit_direction(vec3 v_3) {
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
     bool local_6 = false;
-    vec3 v_7 = (to - from);
-    float l2_1 = dot(v_7, v_7);
+    vec3 v_8 = (to - from);
+    float l2_1 = dot(v_8, v_8);
     if ((l2_1 > 0.0)) {
         bool _e9 = finite(l2_1);
         local_6 = _e9;
@@ -202,7 +216,7 @@ vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
     }
     bool _e11 = local_6;
     if (_e11) {
-        return v_7;
+        return v_8;
     }
     return fallback;
 }
@@ -277,9 +291,9 @@ ivec2 wrap_texel(int n, ivec2 t) {
 }
 
 Footprint footprint(uint n_1, vec2 uv) {
-    vec2 x_2 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
-    vec2 x0_ = floor(x_2);
-    return Footprint(ivec2(x0_), (x_2 - x0_));
+    vec2 x_3 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
+    vec2 x0_ = floor(x_3);
+    return Footprint(ivec2(x0_), (x_3 - x0_));
 }
 
 vec4 blend4_(vec4 q00_, vec4 q10_, vec4 q01_, vec4 q11_, vec2 f) {
@@ -299,11 +313,11 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1) {
     float _e6 = _group_0_binding_7_cs.warp.z;
     float _e10 = _group_0_binding_7_cs.warp.y;
     float res0_ = ((which_1 == 0u) ? _e10 : _e6);
-    uint n_5 = max((uint(res0_) >> level_1), 1u);
-    Footprint _e18 = footprint(n_5, uv_1);
+    uint n_6 = max((uint(res0_) >> level_1), 1u);
+    Footprint _e18 = footprint(n_6, uv_1);
     ivec2 c_6 = _e18.corner;
     int l_3 = int(level_1);
-    int ni = int(n_5);
+    int ni = int(n_6);
     ivec2 _e22 = wrap_texel(ni, c_6);
     vec4 _e23 = probe_texel(which_1, _e22, l_3);
     ivec2 _e28 = wrap_texel(ni, (c_6 + ivec2(1, 0)));
@@ -410,8 +424,8 @@ vec3 cell_size() {
 }
 
 uint cell_index(uvec3 c_2) {
-    uvec4 n_6 = _group_0_binding_7_cs.grid_counts;
-    return (c_2.x + (n_6.x * (c_2.y + (n_6.y * c_2.z))));
+    uvec4 n_7 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_7.x * (c_2.y + (n_7.y * c_2.z))));
 }
 
 uvec3 cell_of(vec3 p_1, vec3 size) {
@@ -474,10 +488,10 @@ vec3 warp1_(vec3 b_2, vec3 dir) {
     }
     vec3 ab = (a - b_2);
     float dir_ab = dot(dir, ab);
-    vec3 v_8 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
-    float _e20 = inv_dist(v_8);
-    float lambda = (length(v_8) * _e20);
-    float t_6 = max(((dir_ab * lambda) + dot(dir, v_8)), 0.0);
+    vec3 v_9 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
+    float _e20 = inv_dist(v_9);
+    float lambda = (length(v_9) * _e20);
+    float t_6 = max(((dir_ab * lambda) + dot(dir, v_9)), 0.0);
     vec3 f_5 = ((dir * t_6) - (ab * lambda));
     if ((lambda > 0.0)) {
         vec3 _e34 = fetch_vector(vec3(0.0), f_5, dir);
@@ -563,14 +577,14 @@ vec3 kdop_fetch(vec3 b_4, vec3 dir_2) {
             }
             uint _e25 = k_1;
             vec4 _e27 = _group_0_binding_7_cs.kdop[_e25];
-            vec3 n_7 = _e27.xyz;
+            vec3 n_8 = _e27.xyz;
             uint _e31 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e31].w;
-            float nb = dot(n_7, b_4);
+            float nb = dot(n_8, b_4);
             if ((nb > h_1)) {
                 return dir_2;
             }
-            float nd = dot(n_7, dir_2);
+            float nd = dot(n_8, dir_2);
             if ((nd > 0.0)) {
                 float _e40 = t_4;
                 t_4 = min(_e40, ((h_1 - nb) / nd));
@@ -607,8 +621,8 @@ vec3 fallback_plain(vec3 b_5, vec3 dir_3) {
 Basis orthonormal_basis(vec3 n_3) {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_3 = (-1.0 / (s_3 + n_3.z));
-    float b_13 = ((n_3.x * n_3.y) * a_3);
-    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_13), (-(s_3) * n_3.x)), vec3(b_13, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+    float b_14 = ((n_3.x * n_3.y) * a_3);
+    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_14), (-(s_3) * n_3.x)), vec3(b_14, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
@@ -717,16 +731,16 @@ Aim aim_from_inv_t(float u, vec3 b_8, vec3 dir_6) {
     bool local_12 = false;
     if ((u > 0.0)) {
         vec4 _e10 = _group_0_binding_7_cs.probe;
-        vec3 v_9 = ((b_8 + (dir_6 / vec3(u))) - _e10.xyz);
-        bool _e13 = finite3_(v_9);
+        vec3 v_10 = ((b_8 + (dir_6 / vec3(u))) - _e10.xyz);
+        bool _e13 = finite3_(v_10);
         if (_e13) {
-            local_11 = any(notEqual(v_9, vec3(0.0)));
+            local_11 = any(notEqual(v_10, vec3(0.0)));
         } else {
             local_11 = false;
         }
         bool _e21 = local_11;
         if (_e21) {
-            k_2 = (length(v_9) * u);
+            k_2 = (length(v_10) * u);
             float _e25 = k_2;
             bool _e26 = finite(_e25);
             if (_e26) {
@@ -740,7 +754,7 @@ Aim aim_from_inv_t(float u, vec3 b_8, vec3 dir_6) {
                 k_2 = 1.0;
             }
             float _e36 = k_2;
-            return Aim(v_9, _e36);
+            return Aim(v_10, _e36);
         }
     }
     return Aim(dir_6, 1.0);
@@ -835,8 +849,8 @@ float lod_of_roughness(float r) {
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
-    uint n_8 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_8 < 2u))) {
+    uint n_9 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_9 < 2u))) {
         float _e11 = mip_roughness(0u);
         local_13 = !((r > _e11));
     } else {
@@ -846,7 +860,7 @@ float lod_of_roughness(float r) {
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_8 - 1u);
+    uint last = (n_9 - 1u);
     float _e19 = mip_roughness(last);
     if ((r >= _e19)) {
         return float(last);
@@ -859,7 +873,7 @@ float lod_of_roughness(float r) {
         }
         loop_init_4 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_8)) {
+        if ((_e26 < n_9)) {
         } else {
             break;
         }
@@ -871,16 +885,16 @@ float lod_of_roughness(float r) {
         }
     }
     uint _e39 = below;
-    uint i_1 = (min(max(_e39, 1u), last) - 1u);
-    float _e46 = mip_roughness((i_1 + 1u));
-    float _e47 = mip_roughness(i_1);
+    uint i_3 = (min(max(_e39, 1u), last) - 1u);
+    float _e46 = mip_roughness((i_3 + 1u));
+    float _e47 = mip_roughness(i_3);
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
-        float _e53 = mip_roughness(i_1);
+        float _e53 = mip_roughness(i_3);
         f_2 = ((r - _e53) / span);
     }
     float _e57 = f_2;
-    return (float(i_1) + clamp(_e57, 0.0, 1.0));
+    return (float(i_3) + clamp(_e57, 0.0, 1.0));
 }
 
 float distance_ratio(vec3 b_10, vec3 v_6, vec2 uv_6) {
@@ -944,8 +958,8 @@ float corrected_roughness(float r_1, float k_in) {
     float fr = 0.0;
     float k_4 = 1.0;
     bool local_18 = false;
-    uint n_9 = _group_0_binding_7_cs.lut_info.x;
-    float last_1 = float((n_9 - 1u));
+    uint n_10 = _group_0_binding_7_cs.lut_info.x;
+    float last_1 = float((n_10 - 1u));
     bool _e11 = finite(r_1);
     if (_e11) {
         fr = clamp((r_1 * last_1), 0.0, last_1);
@@ -970,20 +984,20 @@ float corrected_roughness(float r_1, float k_in) {
     float _e44 = _group_0_binding_7_cs.lut.y;
     float fx = clamp(((_e35 - _e39) * _e44), 0.0, last_1);
     float _e48 = fr;
-    uint i_2 = min(uint(_e48), (n_9 - 2u));
-    uint j_1 = min(uint(fx), (n_9 - 2u));
+    uint i_4 = min(uint(_e48), (n_10 - 2u));
+    uint j_3 = min(uint(fx), (n_10 - 2u));
     float _e57 = fr;
-    float a_4 = (_e57 - float(i_2));
-    float b_14 = (fx - float(j_1));
-    vec4 _e67 = texelFetch(_group_0_binding_6_cs, ivec2(int(j_1), int(i_2)), 0);
+    float a_4 = (_e57 - float(i_4));
+    float b_15 = (fx - float(j_3));
+    vec4 _e67 = texelFetch(_group_0_binding_6_cs, ivec2(int(j_3), int(i_4)), 0);
     float v00_ = _e67.x;
-    vec4 _e76 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_1 + 1u)), int(i_2)), 0);
+    vec4 _e76 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_3 + 1u)), int(i_4)), 0);
     float v01_ = _e76.x;
-    vec4 _e85 = texelFetch(_group_0_binding_6_cs, ivec2(int(j_1), int((i_2 + 1u))), 0);
+    vec4 _e85 = texelFetch(_group_0_binding_6_cs, ivec2(int(j_3), int((i_4 + 1u))), 0);
     float v10_ = _e85.x;
-    vec4 _e96 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_1 + 1u)), int((i_2 + 1u))), 0);
+    vec4 _e96 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_3 + 1u)), int((i_4 + 1u))), 0);
     float v11_ = _e96.x;
-    return ((((v00_ * (1.0 - b_14)) + (v01_ * b_14)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_14)) + (v11_ * b_14)) * a_4));
+    return ((((v00_ * (1.0 - b_15)) + (v01_ * b_15)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_15)) + (v11_ * b_15)) * a_4));
 }
 
 vec3 shade(vec3 b_11, Aim aim, float r_2) {
@@ -1066,7 +1080,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     if ((_e2.w == 0.0)) {
         return vec3(0.0);
     }
-    vec3 n_10 = _e2.xyz;
+    vec3 n_11 = _e2.xyz;
     vec3 _e9 = cell_size();
     vec4 _e12 = _group_0_binding_7_cs.grid_min;
     vec4 _e16 = _group_0_binding_7_cs.grid_max;
@@ -1078,7 +1092,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     }
     vec3 _e28 = p_3;
     Lattice _e29 = lattice(_e28, _e9);
-    vec2 _e30 = oct_encode(n_10);
+    vec2 _e30 = oct_encode(n_11);
     bool loop_init_5 = true;
     while(true) {
         if (!loop_init_5) {
@@ -1118,7 +1132,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             bool _e69 = local_19;
             if (_e69) {
                 vec3 u_1 = (to_point / vec3(dist));
-                float facing = ((dot(n_10, -(u_1)) + 1.0) * 0.5);
+                float facing = ((dot(n_11, -(u_1)) + 1.0) * 0.5);
                 float _e78 = w_1;
                 w_1 = (_e78 * ((facing * facing) + 0.2));
                 uint _e89 = _group_0_binding_7_cs.atlas_b.x;
@@ -1145,7 +1159,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                 k_6 = _e137.x;
             }
             vec3 _e139 = e;
-            vec3 _e142 = cell_irradiance(cell_2.tiles.y, n_10);
+            vec3 _e142 = cell_irradiance(cell_2.tiles.y, n_11);
             float _e143 = w_1;
             float _e145 = k_6;
             e = (_e139 + ((_e142 * _e143) * _e145));
@@ -1162,6 +1176,37 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     float _e161 = wsum_1;
     vec3 _e164 = clean((_e160 / vec3(_e161)));
     return _e164;
+}
+
+vec2 hemi_encode(vec3 v_7) {
+    bool local_20 = false;
+    float z = max(v_7.z, 0.0);
+    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
+    if ((l1_1 >= F32_MIN_POSITIVE)) {
+        bool _e14 = finite(l1_1);
+        local_20 = _e14;
+    } else {
+        local_20 = false;
+    }
+    bool _e16 = local_20;
+    if (!(_e16)) {
+        return vec2(0.5, 0.5);
+    }
+    float px = (v_7.x / l1_1);
+    float py = (v_7.y / l1_1);
+    return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
+}
+
+SurfaceAxis surface_axis(float x_in, uint n_5) {
+    float x_2 = 0.5;
+    bool _e4 = finite(x_in);
+    if (_e4) {
+        x_2 = x_in;
+    }
+    float _e5 = x_2;
+    float c_8 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
+    uint i0_ = uint(floor(c_8));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_8 - float(i0_)));
 }
 
 uint query_count() {

@@ -23,6 +23,12 @@
 //
 // Group 1 holds the query kernels' buffers (see the entry points at the end).
 //
+// Group 2 is one surface-probe atlas (seed 003, `surface_specular`), from the same export:
+//   0 surface_radiance      surface{k}_radiance.ktx2  RGBA16F (or RGBA32F) 2-D array, layer m =
+//                           every tile prefiltered for roughness m/(layers-1)
+//   1 surface_params        surface{k}_params.bin     uniform buffer (struct SurfaceParams)
+// A renderer binds the atlas of the surface it shades; the grid's group 0 is not needed.
+//
 // Specialisation: four pipeline-overridable constants name the grid's fallback method,
 // corrective blend, relaxation and roughness correction. Left at 255 (the default) the
 // shader reads them from Params at run time, so one pipeline serves every grid; a renderer
@@ -807,6 +813,123 @@ fn irradiance(position: vec3<f32>, normal: vec3<f32>) -> vec3<f32> {
 // Batches of lookups, one invocation each: what the tests compare with the CPU sampler and
 // the GPU bench times. `queries` holds two vec4 per query; `results` one vec4 (xyz).
 
+// ---------------------------------------------------------------------------------------
+// Surface probes (seed 003): a port of `warpfit::warp::surface::SurfaceAtlas::radiance`.
+
+// One atlas: its patch `corner + s*edge_u + t*edge_v`, the tangent frame the tiles are
+// stored in, the dual basis giving (s, t), and its shape.
+struct SurfaceParams {
+    corner: vec4<f32>,     // xyz; w: the probes' height above the surface
+    tangent: vec4<f32>,    // xyz (unit edge_u)
+    bitangent: vec4<f32>,  // xyz (normal x tangent)
+    normal: vec4<f32>,     // xyz (unit edge_u x edge_v)
+    dual_u: vec4<f32>,     // s = dot(dual_u, p - corner)
+    dual_v: vec4<f32>,     // t = dot(dual_v, p - corner)
+    shape: vec4<u32>,      // probes along edge_u, along edge_v, tile resolution N, layers
+}
+
+@group(2) @binding(0) var surface_radiance: texture_2d_array<f32>;
+@group(2) @binding(1) var<uniform> surface_params: SurfaceParams;
+
+// Tangent-space direction -> hemi-octahedral uv in [0,1]^2 (`octa::hemi::encode`).
+fn hemi_encode(v: vec3<f32>) -> vec2<f32> {
+    let z = max(v.z, 0.0);
+    let l1 = abs(v.x) + abs(v.y) + z;
+    if !(l1 >= F32_MIN_POSITIVE && finite(l1)) {
+        return vec2<f32>(0.5, 0.5);
+    }
+    let px = v.x / l1;
+    let py = v.y / l1;
+    return clamp(vec2<f32>((px + py) * 0.5 + 0.5, (px - py) * 0.5 + 0.5), vec2<f32>(0.0), vec2<f32>(1.0));
+}
+
+// Where a point falls between probes along one edge: nearest lower probe, the next one
+// (clamped), and the blend fraction; `x` is the surface coordinate (NaN reads 0.5).
+struct SurfaceAxis {
+    i0: u32,
+    i1: u32,
+    f: f32,
+}
+
+fn surface_axis(x_in: f32, n: u32) -> SurfaceAxis {
+    var x = 0.5;
+    if finite(x_in) {
+        x = x_in;
+    }
+    let c = clamp(x * f32(n) - 0.5, 0.0, f32(n - 1u));
+    let i0 = u32(floor(c));
+    return SurfaceAxis(i0, min(i0 + 1u, n - 1u), c - f32(i0));
+}
+
+// Bilinear read of probe (i, j)'s tile in layer `layer` at the taps of `uv` (clamped to
+// the tile's edge texels, as `octa::hemi::taps`).
+fn surface_tile(i: u32, j: u32, layer: u32, uv: vec2<f32>) -> vec3<f32> {
+    let n = surface_params.shape.z;
+    let nf = f32(n);
+    let x = clamp(uv.x * nf - 0.5, 0.0, nf - 1.0);
+    let y = clamp(uv.y * nf - 0.5, 0.0, nf - 1.0);
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let i0 = u32(x0);
+    let j0 = u32(y0);
+    let i1 = min(i0 + 1u, n - 1u);
+    let j1 = min(j0 + 1u, n - 1u);
+    let o = vec2<u32>(i * n, j * n);
+    let l = i32(layer);
+    let q00 = textureLoad(surface_radiance, vec2<i32>(o + vec2<u32>(i0, j0)), l, 0);
+    let q10 = textureLoad(surface_radiance, vec2<i32>(o + vec2<u32>(i1, j0)), l, 0);
+    let q01 = textureLoad(surface_radiance, vec2<i32>(o + vec2<u32>(i0, j1)), l, 0);
+    let q11 = textureLoad(surface_radiance, vec2<i32>(o + vec2<u32>(i1, j1)), l, 0);
+    return blend4(q00, q10, q01, q11, vec2<f32>(x - x0, y - y0)).xyz;
+}
+
+// Probe (i, j)'s radiance at `uv`, linear in roughness between layers m0 and m1.
+fn surface_probe(i: u32, j: u32, uv: vec2<f32>, m0: u32, m1: u32, fm: f32) -> vec3<f32> {
+    let a = surface_tile(i, j, m0, uv);
+    if fm > 0.0 {
+        return mix(a, surface_tile(i, j, m1, uv), fm);
+    }
+    return a;
+}
+
+// Radiance arriving at `b` (a point on or just off the atlas's surface) from direction
+// `dir` at perceptual roughness `roughness`: the four nearest probes blended bilinearly by
+// the point's (s, t), each read bilinearly in its tile. Black for a zero or non-finite
+// direction; a non-finite position reads the patch's corner; a point off the patch reads
+// its nearest probes; roughness is clamped to [0, 1] (NaN reads 0).
+fn surface_specular(b_in: vec3<f32>, dir_in: vec3<f32>, roughness: f32) -> vec3<f32> {
+    let u = unit_direction(dir_in);
+    if u.w == 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let sp = surface_params;
+    var b = sp.corner.xyz;
+    if finite3(b_in) {
+        b = b_in;
+    }
+    let d = b - sp.corner.xyz;
+    let ax = surface_axis(dot(sp.dual_u.xyz, d), sp.shape.x);
+    let ay = surface_axis(dot(sp.dual_v.xyz, d), sp.shape.y);
+    let last = sp.shape.w - 1u;
+    var lod = 0.0;
+    if finite(roughness) {
+        lod = clamp(roughness, 0.0, 1.0) * f32(last);
+    }
+    let m0 = u32(floor(lod));
+    let m1 = min(m0 + 1u, last);
+    let fm = lod - f32(m0);
+    let dir = u.xyz;
+    let local = vec3<f32>(dot(dir, sp.tangent.xyz), dot(dir, sp.bitangent.xyz), dot(dir, sp.normal.xyz));
+    let uv = hemi_encode(local);
+    let top = mix(surface_probe(ax.i0, ay.i0, uv, m0, m1, fm), surface_probe(ax.i1, ay.i0, uv, m0, m1, fm), ax.f);
+    let bottom = mix(surface_probe(ax.i0, ay.i1, uv, m0, m1, fm), surface_probe(ax.i1, ay.i1, uv, m0, m1, fm), ax.f);
+    let l = mix(top, bottom, ay.f);
+    if finite3(l) {
+        return max(l, vec3<f32>(0.0));
+    }
+    return vec3<f32>(0.0);
+}
+
 @group(1) @binding(0) var<storage, read> queries: array<vec4<f32>>;
 @group(1) @binding(1) var<storage, read_write> results: array<vec4<f32>>;
 
@@ -882,4 +1005,16 @@ fn box_queries(@builtin(global_invocation_id) id: vec3<u32>) {
         c = clean(radiance_lod(oct_encode(v), 0.0));
     }
     results[k] = vec4<f32>(c, 1.0);
+}
+
+// query k: (position xyz, roughness), (direction xyz, -); reads group 2's atlas
+@compute @workgroup_size(64)
+fn surface_queries(@builtin(global_invocation_id) id: vec3<u32>) {
+    let k = id.x;
+    if k >= query_count() {
+        return;
+    }
+    let p = queries[2u * k];
+    let d = queries[2u * k + 1u];
+    results[k] = vec4<f32>(surface_specular(p.xyz, d.xyz, p.w), 1.0);
 }

@@ -357,3 +357,73 @@ fn every_fallback_blend_and_relaxation_answers_as_the_cpu_sampler() {
         }
     }
 }
+
+/// Seed 003's surface-probe atlas through the shader's `surface_specular` (group 2 only, as
+/// a renderer shading just that surface binds it) agrees with `SurfaceAtlas::radiance` on
+/// points on, beside and off a lit torture floor, every roughness bucket and random ones,
+/// directions above and below the surface, and the degenerate queries (at a probe, zero and
+/// NaN directions, NaN and infinite positions, roughness NaN, < 0 and > 1).
+#[test]
+fn the_surface_shader_answers_as_the_cpu_atlas() {
+    let Some(gpu) = gpu() else { return };
+    let scene = load("torture");
+    let spec = warpfit::scene::SurfaceProbeSpec {
+        corner: Vec3::new(-5.5, 0.0, -5.5),
+        edge_u: Vec3::new(0.0, 0.0, 11.0),
+        edge_v: Vec3::new(11.0, 0.0, 0.0),
+        counts: [10, 7],
+        resolution: 8,
+        samples_per_texel: 2,
+    };
+    let tracer = warpfit::trace::Tracer::new(&scene);
+    let renderer = warpfit::trace::Renderer::new(&scene, &tracer);
+    let quiet = warpfit::progress::Progress::quiet();
+    let (atlas, _) = warpfit::bake::surface::bake_surface_atlas(&renderer, &spec, 0, 1, &quiet);
+    let g = FittedGrid::load(repo().join("fits/tiny")).unwrap();
+    let dir = tmp_dir("gpu-export-surface");
+    warpfit::export::export_with_surfaces(&g, std::slice::from_ref(&atlas), &dir).unwrap();
+    let lookup = gpu_harness::SurfaceLookup::load(gpu, &dir, 0);
+
+    let mut q = Vec::new();
+    let mut push = |p: Vec3, d: Vec3, r: f32| {
+        q.push([p.x, p.y, p.z, r]);
+        q.push([d.x, d.y, d.z, 0.0]);
+    };
+    for k in 0..6000u32 {
+        let mut s = Sampler::new(37, 0, k);
+        // (s, t) over the patch and 10% beyond each edge, a little above the floor
+        let (u, v) = (s.next_1d() * 1.2 - 0.1, s.next_1d() * 1.2 - 0.1);
+        let p = spec.corner + spec.edge_u * u + spec.edge_v * v + Vec3::Y * (0.01 * s.next_1d());
+        let d = uniform_sphere(s.next_2d()) * (0.5 + 2.0 * s.next_1d());
+        let r = [0.0, 0.125, 0.25, 0.5, 0.75, 1.0, s.next_1d()][k as usize % 7];
+        push(p, d, r);
+    }
+    let at_probe = atlas.probe_position(3, 2);
+    let centre = spec.corner + (spec.edge_u + spec.edge_v) * 0.5;
+    let (nan, inf) = (f32::NAN, f32::INFINITY);
+    for (k, d) in [Vec3::Y, Vec3::new(0.3, 0.2, 0.9), -Vec3::Y, Vec3::new(1.0, 0.0, 0.0)].into_iter().enumerate() {
+        let r = [0.0, 0.3, 1.0, 0.6][k];
+        push(at_probe, d, r);
+        push(centre, Vec3::ZERO, r);
+        push(centre, Vec3::new(nan, d.y, d.z), r);
+        push(centre, d * 1e-30, r);
+        push(Vec3::new(nan, 0.0, 0.0), d, r);
+        push(Vec3::new(inf, 0.0, -inf), d, r);
+        push(centre, d, nan);
+        push(centre, d, -0.5);
+        push(centre, d, 7.0);
+    }
+
+    let shader = lookup.run(gpu, &q);
+    let cpu = on_cpu(&q, |p, d, r| atlas.radiance(p, d, r));
+    let texels = &atlas.radiance[0];
+    let mean = texels.iter().map(|v| v.max_element()).sum::<f32>() / texels.len() as f32;
+    let (worst, at) = assert_agrees("surface atlas", &shader, &cpu, 1e-3 * mean, &q);
+    eprintln!("surface atlas: worst relative difference {worst:.2e} (query {at}) on {} queries", cpu.len());
+    for (k, c) in cpu.iter().enumerate() {
+        if *c == Vec3::ZERO {
+            assert_eq!(shader[k][..3], [0.0; 3], "surface query {k} must be black");
+        }
+    }
+    assert!(cpu.iter().filter(|c| c.max_element() > 0.0).count() > 5000, "the atlas must be lit");
+}

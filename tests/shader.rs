@@ -6,9 +6,10 @@ mod common;
 
 use naga::back::{glsl, hlsl};
 use naga::valid::{Capabilities, ValidationFlags, Validator};
-use warpfit::export::shader::{CELL_BYTES, PARAMS_BYTES};
+use warpfit::export::shader::{CELL_BYTES, PARAMS_BYTES, SURFACE_PARAMS_BYTES};
 
-const ENTRY_POINTS: [&str; 4] = ["specular_queries", "irradiance_queries", "warp1_queries", "box_queries"];
+const ENTRY_POINTS: [&str; 5] =
+    ["specular_queries", "irradiance_queries", "warp1_queries", "box_queries", "surface_queries"];
 
 fn module() -> (naga::Module, naga::valid::ModuleInfo) {
     let path = common::repo().join("shaders/warpfit.wgsl");
@@ -50,11 +51,12 @@ fn translations() -> Vec<(String, String)> {
 
 /// OpenGL binding points (textures, uniform and storage buffers count separately): the
 /// textures at units 0–6 (bindings 0–6), `params` at uniform binding 0, `cells`, `queries`
-/// and `results` at storage bindings 0, 1 and 2.
+/// and `results` at storage bindings 0, 1 and 2; a surface atlas (group 2) at texture unit
+/// 7 and uniform binding 1.
 fn gl_bindings() -> glsl::BindingMap {
     let rb = |group, binding| naga::ResourceBinding { group, binding };
     let mut map: glsl::BindingMap = (0..7).map(|b| (rb(0, b), b as u8)).collect();
-    map.extend([(rb(0, 7), 0), (rb(0, 8), 0), (rb(1, 0), 1), (rb(1, 1), 2)]);
+    map.extend([(rb(0, 7), 0), (rb(0, 8), 0), (rb(1, 0), 1), (rb(1, 1), 2), (rb(2, 0), 7), (rb(2, 1), 1)]);
     map
 }
 
@@ -90,6 +92,7 @@ fn the_buffers_have_the_shaders_layout() {
     };
     assert_eq!(size("Params"), PARAMS_BYTES);
     assert_eq!(size("Cell"), CELL_BYTES);
+    assert_eq!(size("SurfaceParams"), SURFACE_PARAMS_BYTES);
     // and the export writes buffers of those sizes
     let grid = warpfit::runtime::FittedGrid::load(common::repo().join("fits/tiny")).unwrap();
     let dir = common::tmp_dir("shader-buffers");

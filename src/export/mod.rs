@@ -86,6 +86,9 @@ pub struct SurfaceSection {
     pub radiance: String,
     pub radiance_format: String,
     pub inv_distance: String,
+    /// The atlas's `SurfaceParams` for the reference shader's `surface_specular` (group 2
+    /// of `warpfit.wgsl`), little-endian bytes uploaded as a uniform buffer.
+    pub params: String,
     pub width: u32,
     pub height: u32,
     pub uv_rule: &'static str,
@@ -114,10 +117,13 @@ fn export_surface(
     let inv_distance = format!("surface{k}_inv_distance.ktx2");
     let inv = Level { width, height, values: atlas.packed(&atlas.inv_distance) };
     write_atomic(&dir.join(&inv_distance), &ktx2::encode(Format::R32F, &[inv]))?;
+    let params = format!("surface{k}_params.bin");
+    write_atomic(&dir.join(&params), &shader::surface_params(atlas))?;
     Ok(SurfaceSection {
         radiance,
         radiance_format: format.name().into(),
         inv_distance,
+        params,
         width,
         height,
         surface: crate::gridfile::surface::SurfaceDescription::of(atlas),

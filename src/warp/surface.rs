@@ -114,6 +114,12 @@ impl SurfaceAtlas {
         SurfaceAtlas { frame: patch.frame(), patch, radiance, roughness, inv_distance }
     }
 
+    /// The patch's tangent frame and dual basis, as the lookups use them.
+    #[must_use]
+    pub fn frame(&self) -> &SurfaceFrame {
+        &self.frame
+    }
+
     /// Unit normal of the surface (`edge_u × edge_v`).
     #[must_use]
     pub fn normal(&self) -> Vec3 {

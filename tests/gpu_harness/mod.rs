@@ -41,7 +41,7 @@ impl Gpu {
         Ok(Gpu { device, queue, adapter: adapter.get_info() })
     }
 
-    /// A texture from a KTX2 file (every mip), read with the `ktx2` crate.
+    /// A texture from a KTX2 file (every mip and array layer), read with the `ktx2` crate.
     pub fn ktx2_texture(&self, path: &Path) -> wgpu::Texture {
         let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let r = ktx2::Reader::new(bytes.as_slice()).unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
@@ -53,12 +53,14 @@ impl Gpu {
             Some(103) => wgpu::TextureFormat::Rg32Float,
             f => panic!("{}: unexpected vkFormat {f:?}", path.display()),
         };
+        let layers = h.layer_count.max(1);
+        assert!(layers == 1 || h.level_count <= 1, "{}: layered textures with mips are not read here", path.display());
         let data: Vec<u8> = r.levels().flat_map(|l| l.data.iter().copied()).collect();
         self.device.create_texture_with_data(
             &self.queue,
             &wgpu::TextureDescriptor {
                 label: path.file_name().and_then(|n| n.to_str()),
-                size: wgpu::Extent3d { width: h.pixel_width, height: h.pixel_height, depth_or_array_layers: 1 },
+                size: wgpu::Extent3d { width: h.pixel_width, height: h.pixel_height, depth_or_array_layers: layers },
                 mip_level_count: h.level_count.max(1),
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
@@ -206,13 +208,7 @@ impl Lookup {
         entries0.push(buffer_entry(7, wgpu::BufferBindingType::Uniform));
         entries0.push(buffer_entry(8, wgpu::BufferBindingType::Storage { read_only: true }));
         let layout0 = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: None, entries: &entries0 });
-        let layout1 = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: None,
-            entries: &[
-                buffer_entry(0, wgpu::BufferBindingType::Storage { read_only: true }),
-                buffer_entry(1, wgpu::BufferBindingType::Storage { read_only: false }),
-            ],
-        });
+        let layout1 = queries_layout(d);
         let mut bind: Vec<wgpu::BindGroupEntry> = views
             .iter()
             .enumerate()
@@ -258,36 +254,7 @@ impl Lookup {
 
     /// Buffers for the queries (two vec4 each, as the kernels read them).
     pub fn batch(&self, gpu: &Gpu, queries: &[[f32; 4]]) -> Batch {
-        let d = &gpu.device;
-        let n = queries.len() / 2;
-        let bytes: Vec<u8> = queries.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
-        let queries = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("queries"),
-            contents: &bytes,
-            usage: wgpu::BufferUsages::STORAGE,
-        });
-        let size = (n * 16) as u64;
-        let results = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("results"),
-            size,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let staging = d.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("staging"),
-            size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let group1 = d.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: None,
-            layout: &self.layout1,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: queries.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: results.as_entire_binding() },
-            ],
-        });
-        Batch { n, group1, queries, results, staging }
+        batch(gpu, &self.layout1, queries)
     }
 
     /// Runs kernel `kernel` over the batch and waits for it; returns the time from submit
@@ -318,5 +285,144 @@ impl Lookup {
         let batch = self.batch(gpu, queries);
         self.dispatch(gpu, kernel, &batch, true);
         gpu.read_vec4s(&batch.staging)
+    }
+}
+
+/// The query kernels' group 1 layout: queries (read) and results (read-write).
+fn queries_layout(d: &wgpu::Device) -> wgpu::BindGroupLayout {
+    d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: None,
+        entries: &[
+            buffer_entry(0, wgpu::BufferBindingType::Storage { read_only: true }),
+            buffer_entry(1, wgpu::BufferBindingType::Storage { read_only: false }),
+        ],
+    })
+}
+
+/// Query and result buffers for `queries` (two vec4 each), bound as group 1.
+fn batch(gpu: &Gpu, layout1: &wgpu::BindGroupLayout, queries: &[[f32; 4]]) -> Batch {
+    let d = &gpu.device;
+    let n = queries.len() / 2;
+    let bytes: Vec<u8> = queries.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+    let queries = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("queries"),
+        contents: &bytes,
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let size = (n * 16) as u64;
+    let results = d.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("results"),
+        size,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let staging = d.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("staging"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let group1 = d.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: layout1,
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: queries.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: results.as_entire_binding() },
+        ],
+    });
+    Batch { n, group1, queries, results, staging }
+}
+
+/// One exported surface-probe atlas on the GPU (group 2: its radiance array and its
+/// `SurfaceParams`), ready to run the shader's `surface_queries` kernel. The kernel does not
+/// touch the grid's group 0, so the pipeline layout leaves it empty, as a renderer that
+/// shades only a surface would.
+pub struct SurfaceLookup {
+    group2: wgpu::BindGroup,
+    layout1: wgpu::BindGroupLayout,
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl SurfaceLookup {
+    /// Atlas `k` of the export folder `dir` (`export.json` → `surfaces[k]`).
+    pub fn load(gpu: &Gpu, dir: &Path, k: usize) -> SurfaceLookup {
+        let d = &gpu.device;
+        let text = std::fs::read_to_string(dir.join("export.json")).expect("export.json");
+        let v: serde_json::Value = serde_json::from_str(&text).expect("export.json parses");
+        let section = &v["surfaces"][k];
+        let radiance = gpu.ktx2_texture(&dir.join(section["radiance"].as_str().expect("surfaces[k].radiance")));
+        let view = radiance.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let params_file = dir.join(section["params"].as_str().expect("surfaces[k].params"));
+        let params = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("surface params"),
+            contents: &std::fs::read(&params_file).unwrap_or_else(|e| panic!("{}: {e}", params_file.display())),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let layout2 = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: None,
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                buffer_entry(1, wgpu::BufferBindingType::Uniform),
+            ],
+        });
+        let group2 = d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &layout2,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
+                wgpu::BindGroupEntry { binding: 1, resource: params.as_entire_binding() },
+            ],
+        });
+        let layout1 = queries_layout(d);
+        let source = std::fs::read_to_string(dir.join("warpfit.wgsl")).expect("warpfit.wgsl exported");
+        let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("warpfit.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: None,
+            bind_group_layouts: &[None, Some(&layout1), Some(&layout2)],
+            immediate_size: 0,
+        });
+        let pipeline = d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("surface_queries"),
+            layout: Some(&layout),
+            module: &module,
+            entry_point: Some("surface_queries"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        SurfaceLookup { group2, layout1, pipeline }
+    }
+
+    /// `surface_specular` for `queries` (two vec4 each): one vec4 per query.
+    pub fn run(&self, gpu: &Gpu, queries: &[[f32; 4]]) -> Vec<[f32; 4]> {
+        let b = batch(gpu, &self.layout1, queries);
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(1, &b.group1, &[]);
+            pass.set_bind_group(2, &self.group2, &[]);
+            let groups = b.n.div_ceil(64);
+            assert!(groups <= 65535, "at most 65535·64 queries per dispatch");
+            pass.dispatch_workgroups(groups as u32, 1, 1);
+        }
+        enc.copy_buffer_to_buffer(&b.results, 0, &b.staging, 0, (b.n * 16) as u64);
+        gpu.queue.submit([enc.finish()]);
+        gpu.wait();
+        gpu.read_vec4s(&b.staging)
     }
 }
