@@ -277,6 +277,10 @@ struct FitArgs {
     /// report its held-out error beside the stored model's in fit.md (not stored).
     #[arg(long)]
     level1: bool,
+    /// A cell stores its map only when the map's held-out error is below this fraction of
+    /// the fallback's (at most 1).
+    #[arg(long, default_value_t = FitSettings::standard().selection_margin)]
+    selection_margin: f64,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -315,6 +319,7 @@ impl FitArgs {
             format!("--fit-reference-spp={}", self.fit_reference_spp),
             format!("--robust-scale={}", self.robust_scale),
             format!("--precision={}", name(self.precision.to_possible_value())),
+            format!("--selection-margin={}", self.selection_margin),
         ];
         if self.no_roughness {
             f.push("--no-roughness".into());
@@ -331,6 +336,10 @@ impl FitArgs {
             "--map-res must be 8 or 16"
         );
         anyhow::ensure!(self.robust_scale.is_finite() && self.robust_scale > 0.0, "--robust-scale must be > 0");
+        anyhow::ensure!(
+            self.selection_margin > 0.0 && self.selection_margin <= 1.0,
+            "--selection-margin must be in (0, 1]"
+        );
         Ok(FitSettings {
             map_res: self.map_res,
             tol: self.tol.max(0.0),
@@ -343,6 +352,7 @@ impl FitArgs {
             reference_spp: self.fit_reference_spp.max(1),
             robust_scale: self.robust_scale,
             level1: self.level1,
+            selection_margin: self.selection_margin,
             ..FitSettings::standard()
         })
     }
@@ -448,7 +458,7 @@ fn print_fit(f: &warpfit::fit::Fit, manifest: &warpfit::gridfile::GridManifest, 
     let bytes: u64 = manifest.payloads.iter().map(|p| p.bytes).sum();
     let s = warpfit::fit::summary::summary(f);
     println!(
-        "fitted {} active cells in {:.1} s ({} threads): {} store a warp map, {} in all; {} keep the fallback {} ({} of them kept it over a fitted map that did not beat it by 5%); mean held-out tone-mapped relative error per cell: warp1 {:.4}, fallback {:.4}, unfitted cell maps {:.4}, stored model {:.4}",
+        "fitted {} active cells in {:.1} s ({} threads): {} store a warp map, {} in all; {} keep the fallback {} ({} of them kept it over a fitted map that did not beat it by {:.0}%); mean held-out tone-mapped relative error per cell: warp1 {:.4}, fallback {:.4}, unfitted cell maps {:.4}, stored model {:.4}",
         s.active_cells,
         s.fit_seconds,
         rayon::current_num_threads(),
@@ -457,6 +467,7 @@ fn print_fit(f: &warpfit::fit::Fit, manifest: &warpfit::gridfile::GridManifest, 
         s.cells_level0,
         s.fallback_method,
         s.kept_fallback,
+        100.0 * (1.0 - f.settings.selection_margin),
         s.mean_check_err_warp1,
         s.mean_check_err_fallback,
         s.mean_check_err_celldepth,

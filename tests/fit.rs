@@ -59,12 +59,12 @@ fn gradient_and_simplex_solvers_also_improve_the_wall() {
 
 #[test]
 fn fallback_never_keeps_a_worse_map() {
-    assert_eq!(fit::choose_level(0.3, 0.31, 0.02), Selection::KeptFallback);
-    assert_eq!(fit::choose_level(0.3, 0.31, 0.02).level(), Level::Fallback);
-    assert_eq!(fit::choose_level(0.3, 0.3, 0.02).level(), Level::Fallback);
-    assert_eq!(fit::choose_level(0.3, 0.2, 0.02), Selection::MapBeatsFallback);
-    assert_eq!(fit::choose_level(0.3, 0.2, 0.02).level(), Level::Map);
-    assert_eq!(fit::choose_level(0.01, 0.001, 0.02), Selection::FallbackMeetsTolerance);
+    assert_eq!(fit::choose_level(0.3, 0.31, 0.02, fit::SELECTION_MARGIN), Selection::KeptFallback);
+    assert_eq!(fit::choose_level(0.3, 0.31, 0.02, fit::SELECTION_MARGIN).level(), Level::Fallback);
+    assert_eq!(fit::choose_level(0.3, 0.3, 0.02, fit::SELECTION_MARGIN).level(), Level::Fallback);
+    assert_eq!(fit::choose_level(0.3, 0.2, 0.02, fit::SELECTION_MARGIN), Selection::MapBeatsFallback);
+    assert_eq!(fit::choose_level(0.3, 0.2, 0.02, fit::SELECTION_MARGIN).level(), Level::Map);
+    assert_eq!(fit::choose_level(0.01, 0.001, 0.02, fit::SELECTION_MARGIN), Selection::FallbackMeetsTolerance);
 }
 
 fn small_torture() -> warpfit::scene::Scene {

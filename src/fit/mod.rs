@@ -81,6 +81,18 @@ pub struct FitSettings {
     /// queries, to compare with the stored model; it is not stored.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub level1: bool,
+    /// A cell stores its fitted map only when the map's held-out error is below this
+    /// fraction of the fallback's ([`SELECTION_MARGIN`] unless set).
+    #[serde(default = "default_margin", skip_serializing_if = "is_default_margin")]
+    pub selection_margin: f64,
+}
+
+fn default_margin() -> f64 {
+    SELECTION_MARGIN
+}
+
+fn is_default_margin(m: &f64) -> bool {
+    *m == SELECTION_MARGIN
 }
 
 /// Roughness of the rough training and check queries, in turn.
@@ -105,6 +117,7 @@ impl FitSettings {
             robust_scale: 0.05,
             rough_fraction: 0.5,
             level1: false,
+            selection_margin: SELECTION_MARGIN,
         }
     }
 
@@ -503,7 +516,7 @@ pub fn assemble(
         fit.selection = if init.iter().all(|w| *w == 0.0) {
             Selection::SeesOnlySky
         } else {
-            choose_level(fit.check_err_fallback, fit.check_err_fitted, s.tol as f64)
+            choose_level(fit.check_err_fallback, fit.check_err_fitted, s.tol as f64, s.selection_margin)
         };
         fit.level = fit.selection.level();
         celldepth.slot[cell] = (celldepth.maps.len() / n2) as u32;

@@ -95,12 +95,13 @@ impl std::fmt::Display for Selection {
 pub const SELECTION_MARGIN: f64 = 0.95;
 
 /// Model selection on held-out errors: nothing is stored when the fallback method meets the
-/// tolerance, and a fitted map is stored only if it beats the fallback (never worse).
+/// tolerance, and a fitted map is stored only if it beats the fallback by `margin` (the
+/// map's error below `margin` times the fallback's; never worse).
 #[must_use]
-pub fn choose_level(check_err_fallback: f64, check_err_fitted: f64, tol: f64) -> Selection {
+pub fn choose_level(check_err_fallback: f64, check_err_fitted: f64, tol: f64, margin: f64) -> Selection {
     if check_err_fallback <= tol {
         Selection::FallbackMeetsTolerance
-    } else if check_err_fitted < SELECTION_MARGIN * check_err_fallback {
+    } else if check_err_fitted < margin.min(1.0) * check_err_fallback {
         Selection::MapBeatsFallback
     } else {
         Selection::KeptFallback

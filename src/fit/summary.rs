@@ -37,7 +37,7 @@ pub struct FitSummary {
 
 /// Level 1 against the fallback and the fitted map on the cells' check queries, and what a
 /// selection over all three would store: per cell the cheapest of {fallback: 0 bytes, level
-/// 1: 20 bytes, map: 4·N² bytes} within [`super::SELECTION_MARGIN`]'s 5% of the best of them.
+/// 1: 20 bytes, map: 4·N² bytes} within the selection margin (`FitSettings::selection_margin`, 5% by default) of the best of them.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Level1Summary {
     pub cells: usize,
@@ -73,7 +73,7 @@ fn level1_summary(fit: &Fit) -> Option<Level1Summary> {
     }
     let n = cells.len() as f64;
     let map_bytes = (fit.settings.map_res * fit.settings.map_res) as usize * 4;
-    let margin = super::SELECTION_MARGIN;
+    let margin = fit.settings.selection_margin;
     let (mut chosen, mut err, mut bytes) = ([0usize; 3], 0.0, 0usize);
     for (c, l) in &cells {
         let errs = [c.check_err_fallback, l.check_err, c.check_err_fitted];
