@@ -124,12 +124,16 @@ pub const TEXTURES: [&str; 7] = [
 ];
 
 fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    texture_entry_of(binding, wgpu::TextureViewDimension::D2)
+}
+
+fn texture_entry_of(binding: u32, view_dimension: wgpu::TextureViewDimension) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
         ty: wgpu::BindingType::Texture {
             sample_type: wgpu::TextureSampleType::Float { filterable: false },
-            view_dimension: wgpu::TextureViewDimension::D2,
+            view_dimension,
             multisampled: false,
         },
         count: None,
@@ -364,16 +368,7 @@ impl SurfaceLookup {
         let layout2 = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: None,
             entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2Array,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
+                texture_entry_of(0, wgpu::TextureViewDimension::D2Array),
                 buffer_entry(1, wgpu::BufferBindingType::Uniform),
             ],
         });
