@@ -45,6 +45,8 @@ struct Aim {
 };
 struct SurfaceParams {
     vec4 corner;
+    vec4 edge_u;
+    vec4 edge_v;
     vec4 tangent;
     vec4 bitangent;
     vec4 normal;
@@ -575,8 +577,8 @@ vec3 fallback_plain(vec3 b_5, vec3 dir_3) {
 Basis orthonormal_basis(vec3 n_3) {
     float s_2 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_3 = (-1.0 / (s_2 + n_3.z));
-    float b_14 = ((n_3.x * n_3.y) * a_3);
-    return Basis(vec3((1.0 + (((s_2 * n_3.x) * n_3.x) * a_3)), (s_2 * b_14), (-(s_2) * n_3.x)), vec3(b_14, (s_2 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+    float b_17 = ((n_3.x * n_3.y) * a_3);
+    return Basis(vec3((1.0 + (((s_2 * n_3.x) * n_3.x) * a_3)), (s_2 * b_17), (-(s_2) * n_3.x)), vec3(b_17, (s_2 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
@@ -760,16 +762,16 @@ float lod_of_roughness(float r) {
         }
     }
     uint _e39 = below;
-    uint i_3 = (min(max(_e39, 1u), last) - 1u);
-    float _e46 = mip_roughness((i_3 + 1u));
-    float _e47 = mip_roughness(i_3);
+    uint i_5 = (min(max(_e39, 1u), last) - 1u);
+    float _e46 = mip_roughness((i_5 + 1u));
+    float _e47 = mip_roughness(i_5);
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
-        float _e53 = mip_roughness(i_3);
+        float _e53 = mip_roughness(i_5);
         f_2 = ((r - _e53) / span);
     }
     float _e57 = f_2;
-    return (float(i_3) + clamp(_e57, 0.0, 1.0));
+    return (float(i_5) + clamp(_e57, 0.0, 1.0));
 }
 
 float distance_ratio(vec3 b_10, vec3 v_6, vec2 uv_6) {

@@ -50,6 +50,8 @@ struct Aim {
 
 struct SurfaceParams {
     float4 corner;
+    float4 edge_u;
+    float4 edge_v;
     float4 tangent;
     float4 bitangent;
     float4 normal;
@@ -89,6 +91,7 @@ cbuffer params : register(b7) { Params params; }
 ByteAddressBuffer cells : register(t8);
 Texture2DArray<float4> surface_radiance : register(t0, space2);
 cbuffer surface_params : register(b1, space2) { SurfaceParams surface_params; }
+Texture2D<float4> surface_inv_distance : register(t2, space2);
 ByteAddressBuffer queries : register(t0, space1);
 RWByteAddressBuffer results : register(u1, space1);
 
@@ -714,8 +717,8 @@ Basis orthonormal_basis(float3 n_3)
 {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_3 = (-1.0 / (s_3 + n_3.z));
-    float b_14 = ((n_3.x * n_3.y) * a_3);
-    const Basis basis = ConstructBasis(float3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_14), (-(s_3) * n_3.x)), float3(b_14, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+    float b_17 = ((n_3.x * n_3.y) * a_3);
+    const Basis basis = ConstructBasis(float3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_17), (-(s_3) * n_3.x)), float3(b_17, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
     return basis;
 }
 
@@ -1023,16 +1026,16 @@ float lod_of_roughness(float r)
         }
     }
     uint _e39 = below;
-    uint i_3 = (clamp(_e39, 1u, last) - 1u);
-    const float _e46 = mip_roughness((i_3 + 1u));
-    const float _e47 = mip_roughness(i_3);
+    uint i_5 = (clamp(_e39, 1u, last) - 1u);
+    const float _e46 = mip_roughness((i_5 + 1u));
+    const float _e47 = mip_roughness(i_5);
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
-        const float _e53 = mip_roughness(i_3);
+        const float _e53 = mip_roughness(i_5);
         f_2 = ((r - _e53) / span);
     }
     float _e57 = f_2;
-    return (float(i_3) + clamp(_e57, 0.0, 1.0));
+    return (float(i_5) + clamp(_e57, 0.0, 1.0));
 }
 
 float distance_ratio(float3 b_10, float3 v_6, float2 uv_6)
@@ -1127,20 +1130,20 @@ float corrected_roughness(float r_1, float k_in)
     float _e44 = params.lut.y;
     float fx = clamp(((_e35 - _e39) * _e44), 0.0, last_1);
     float _e48 = fr;
-    uint i_4 = min(naga_f2u32(_e48), (n_10 - 2u));
-    uint j_3 = min(naga_f2u32(fx), (n_10 - 2u));
+    uint i_6 = min(naga_f2u32(_e48), (n_10 - 2u));
+    uint j_5 = min(naga_f2u32(fx), (n_10 - 2u));
     float _e57 = fr;
-    float a_4 = (_e57 - float(i_4));
-    float b_15 = (fx - float(j_3));
-    float4 _e67 = roughness_lut.Load(int3(int2(int(j_3), int(i_4)), int(0)));
+    float a_4 = (_e57 - float(i_6));
+    float b_18 = (fx - float(j_5));
+    float4 _e67 = roughness_lut.Load(int3(int2(int(j_5), int(i_6)), int(0)));
     float v00_ = _e67.x;
-    float4 _e76 = roughness_lut.Load(int3(int2(int((j_3 + 1u)), int(i_4)), int(0)));
+    float4 _e76 = roughness_lut.Load(int3(int2(int((j_5 + 1u)), int(i_6)), int(0)));
     float v01_ = _e76.x;
-    float4 _e85 = roughness_lut.Load(int3(int2(int(j_3), int((i_4 + 1u))), int(0)));
+    float4 _e85 = roughness_lut.Load(int3(int2(int(j_5), int((i_6 + 1u))), int(0)));
     float v10_ = _e85.x;
-    float4 _e96 = roughness_lut.Load(int3(int2(int((j_3 + 1u)), int((i_4 + 1u))), int(0)));
+    float4 _e96 = roughness_lut.Load(int3(int2(int((j_5 + 1u)), int((i_6 + 1u))), int(0)));
     float v11_ = _e96.x;
-    return ((((v00_ * (1.0 - b_15)) + (v01_ * b_15)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_15)) + (v11_ * b_15)) * a_4));
+    return ((((v00_ * (1.0 - b_18)) + (v01_ * b_18)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_18)) + (v11_ * b_18)) * a_4));
 }
 
 float3 shade(float3 b_11, Aim aim, float r_2)
@@ -1398,60 +1401,152 @@ float3 surface_tile(uint i_1, uint j_1, uint layer, float2 uv_7)
     return _e70.xyz;
 }
 
-float3 surface_probe(uint i_2, uint j_2, float2 uv_8, uint m0_, uint m1_, float fm)
+float surface_tile_inv_distance(uint i_2, uint j_2, float2 uv_8)
 {
-    const float3 _e6 = surface_tile(i_2, j_2, m0_, uv_8);
+    uint n_13 = surface_params.shape.z;
+    float nf_1 = float(n_13);
+    float x_5 = clamp(((uv_8.x * nf_1) - 0.5), 0.0, (nf_1 - 1.0));
+    float y_1 = clamp(((uv_8.y * nf_1) - 0.5), 0.0, (nf_1 - 1.0));
+    float x0_2 = floor(x_5);
+    float y0_1 = floor(y_1);
+    uint i0_2 = naga_f2u32(x0_2);
+    uint j0_1 = naga_f2u32(y0_1);
+    uint i1_1 = min((i0_2 + 1u), (n_13 - 1u));
+    uint j1_1 = min((j0_1 + 1u), (n_13 - 1u));
+    uint2 o_4 = uint2((i_2 * n_13), (j_2 * n_13));
+    float4 q00_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(i0_2, j0_1))), int(0)));
+    float4 q10_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(i1_1, j0_1))), int(0)));
+    float4 q01_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(i0_2, j1_1))), int(0)));
+    float4 q11_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(i1_1, j1_1))), int(0)));
+    const float4 _e68 = blend4_(q00_2, q10_2, q01_2, q11_2, float2((x_5 - x0_2), (y_1 - y0_1)));
+    return _e68.x;
+}
+
+float2 surface_warped_uv(uint i_3, uint j_3, float3 b_13, float3 local_21, float2 shared_uv)
+{
+    bool local_22 = (bool)0;
+    bool local_23 = (bool)0;
+
+    SurfaceParams sp = surface_params;
+    float s_4 = ((float(i_3) + 0.5) / float(sp.shape.x));
+    float t_9 = ((float(j_3) + 0.5) / float(sp.shape.y));
+    float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_4)) + (sp.edge_v.xyz * t_9)) + (sp.normal.xyz * sp.corner.w));
+    float3 d_3 = (probe - b_13);
+    float3 ab_1 = float3(dot(d_3, sp.tangent.xyz), dot(d_3, sp.bitangent.xyz), dot(d_3, sp.normal.xyz));
+    const float _e48 = surface_tile_inv_distance(i_3, j_3, shared_uv);
+    float3 v_11 = ((local_21 * max(((dot(local_21, ab_1) * _e48) + 1.0), 0.0)) - (ab_1 * _e48));
+    if ((_e48 > 0.0)) {
+        const bool _e62 = finite3_(v_11);
+        local_22 = _e62;
+    } else {
+        local_22 = false;
+    }
+    bool _e64 = local_22;
+    if (_e64) {
+        local_23 = (dot(v_11, v_11) > 0.0);
+    } else {
+        local_23 = false;
+    }
+    bool _e71 = local_23;
+    if (_e71) {
+        const float2 _e72 = hemi_encode(v_11);
+        return _e72;
+    }
+    return shared_uv;
+}
+
+float3 surface_probe(uint i_4, uint j_4, float2 uv_9, uint m0_, uint m1_, float fm)
+{
+    const float3 _e6 = surface_tile(i_4, j_4, m0_, uv_9);
     if ((fm > 0.0)) {
-        const float3 _e9 = surface_tile(i_2, j_2, m1_, uv_8);
+        const float3 _e9 = surface_tile(i_4, j_4, m1_, uv_9);
         return lerp(_e6, _e9, fm);
     }
     return _e6;
 }
 
-float3 surface_specular(float3 b_in, float3 dir_in, float roughness_1)
+float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped)
 {
-    float3 b_13 = (float3)0;
+    float3 b_14 = (float3)0;
     float lod_2 = 0.0;
+    float2 uv00_ = (float2)0;
+    float2 uv10_ = (float2)0;
+    float2 uv01_ = (float2)0;
+    float2 uv11_ = (float2)0;
 
-    const float4 _e3 = unit_direction(dir_in);
-    if ((_e3.w == 0.0)) {
+    const float4 _e4 = unit_direction(dir_in);
+    if ((_e4.w == 0.0)) {
         return (0.0).xxx;
     }
-    SurfaceParams sp = surface_params;
-    b_13 = sp.corner.xyz;
-    const bool _e14 = finite3_(b_in);
-    if (_e14) {
-        b_13 = b_in;
+    SurfaceParams sp_1 = surface_params;
+    b_14 = sp_1.corner.xyz;
+    const bool _e15 = finite3_(b_in);
+    if (_e15) {
+        b_14 = b_in;
     }
-    float3 _e15 = b_13;
-    float3 d_3 = (_e15 - sp.corner.xyz);
-    const SurfaceAxis _e24 = surface_axis(dot(sp.dual_u.xyz, d_3), sp.shape.x);
-    const SurfaceAxis _e30 = surface_axis(dot(sp.dual_v.xyz, d_3), sp.shape.y);
-    uint last_2 = (sp.shape.w - 1u);
-    const bool _e37 = finite(roughness_1);
-    if (_e37) {
+    float3 _e16 = b_14;
+    float3 d_4 = (_e16 - sp_1.corner.xyz);
+    const SurfaceAxis _e25 = surface_axis(dot(sp_1.dual_u.xyz, d_4), sp_1.shape.x);
+    const SurfaceAxis _e31 = surface_axis(dot(sp_1.dual_v.xyz, d_4), sp_1.shape.y);
+    uint last_2 = (sp_1.shape.w - 1u);
+    const bool _e38 = finite(roughness_1);
+    if (_e38) {
         lod_2 = (clamp(roughness_1, 0.0, 1.0) * float(last_2));
     }
-    float _e43 = lod_2;
-    uint m0_1 = naga_f2u32(floor(_e43));
+    float _e44 = lod_2;
+    uint m0_1 = naga_f2u32(floor(_e44));
     uint m1_1 = min((m0_1 + 1u), last_2);
-    float _e49 = lod_2;
-    float fm_1 = (_e49 - float(m0_1));
-    float3 dir_8 = _e3.xyz;
-    float3 local_21 = float3(dot(dir_8, sp.tangent.xyz), dot(dir_8, sp.bitangent.xyz), dot(dir_8, sp.normal.xyz));
-    const float2 _e63 = hemi_encode(local_21);
-    const float3 _e66 = surface_probe(_e24.i0_, _e30.i0_, _e63, m0_1, m1_1, fm_1);
-    const float3 _e69 = surface_probe(_e24.i1_, _e30.i0_, _e63, m0_1, m1_1, fm_1);
-    float3 top_1 = lerp(_e66, _e69, _e24.f);
-    const float3 _e74 = surface_probe(_e24.i0_, _e30.i1_, _e63, m0_1, m1_1, fm_1);
-    const float3 _e77 = surface_probe(_e24.i1_, _e30.i1_, _e63, m0_1, m1_1, fm_1);
-    float3 bottom = lerp(_e74, _e77, _e24.f);
-    float3 l_7 = lerp(top_1, bottom, _e30.f);
-    const bool _e82 = finite3_(l_7);
-    if (_e82) {
+    float _e50 = lod_2;
+    float fm_1 = (_e50 - float(m0_1));
+    float3 dir_10 = _e4.xyz;
+    float3 local_24 = float3(dot(dir_10, sp_1.tangent.xyz), dot(dir_10, sp_1.bitangent.xyz), dot(dir_10, sp_1.normal.xyz));
+    const float2 _e64 = hemi_encode(local_24);
+    uv00_ = _e64;
+    uv10_ = _e64;
+    uv01_ = _e64;
+    uv11_ = _e64;
+    if (warped) {
+        float3 _e71 = b_14;
+        const float2 _e72 = surface_warped_uv(_e25.i0_, _e31.i0_, _e71, local_24, _e64);
+        uv00_ = _e72;
+        float3 _e75 = b_14;
+        const float2 _e76 = surface_warped_uv(_e25.i1_, _e31.i0_, _e75, local_24, _e64);
+        uv10_ = _e76;
+        float3 _e79 = b_14;
+        const float2 _e80 = surface_warped_uv(_e25.i0_, _e31.i1_, _e79, local_24, _e64);
+        uv01_ = _e80;
+        float3 _e83 = b_14;
+        const float2 _e84 = surface_warped_uv(_e25.i1_, _e31.i1_, _e83, local_24, _e64);
+        uv11_ = _e84;
+    }
+    float2 _e87 = uv00_;
+    const float3 _e88 = surface_probe(_e25.i0_, _e31.i0_, _e87, m0_1, m1_1, fm_1);
+    float2 _e91 = uv10_;
+    const float3 _e92 = surface_probe(_e25.i1_, _e31.i0_, _e91, m0_1, m1_1, fm_1);
+    float3 top_1 = lerp(_e88, _e92, _e25.f);
+    float2 _e97 = uv01_;
+    const float3 _e98 = surface_probe(_e25.i0_, _e31.i1_, _e97, m0_1, m1_1, fm_1);
+    float2 _e101 = uv11_;
+    const float3 _e102 = surface_probe(_e25.i1_, _e31.i1_, _e101, m0_1, m1_1, fm_1);
+    float3 bottom = lerp(_e98, _e102, _e25.f);
+    float3 l_7 = lerp(top_1, bottom, _e31.f);
+    const bool _e107 = finite3_(l_7);
+    if (_e107) {
         return max(l_7, (0.0).xxx);
     }
     return (0.0).xxx;
+}
+
+float3 surface_specular(float3 b_15, float3 dir_8, float roughness_2)
+{
+    const float3 _e4 = surface_lookup(b_15, dir_8, roughness_2, false);
+    return _e4;
+}
+
+float3 surface_specular_warped(float3 b_16, float3 dir_9, float roughness_3)
+{
+    const float3 _e4 = surface_lookup(b_16, dir_9, roughness_3, true);
+    return _e4;
 }
 
 uint NagaBufferLengthRW(RWByteAddressBuffer buffer)
@@ -1475,8 +1570,8 @@ void specular_queries(uint3 id : SV_DispatchThreadID)
         return;
     }
     float4 p_4 = asfloat(queries.Load4((2u * k_8)*16));
-    float4 d_4 = asfloat(queries.Load4(((2u * k_8) + 1u)*16));
-    const float3 _e21 = specular(p_4.xyz, d_4.xyz, p_4.w);
+    float4 d_5 = asfloat(queries.Load4(((2u * k_8) + 1u)*16));
+    const float3 _e21 = specular(p_4.xyz, d_5.xyz, p_4.w);
     results.Store4(k_8*16, asuint(float4(_e21, 1.0)));
     return;
 }
@@ -1490,8 +1585,8 @@ void irradiance_queries(uint3 id_1 : SV_DispatchThreadID)
         return;
     }
     float4 p_5 = asfloat(queries.Load4((2u * k_9)*16));
-    float4 n_13 = asfloat(queries.Load4(((2u * k_9) + 1u)*16));
-    const float3 _e20 = irradiance(p_5.xyz, n_13.xyz);
+    float4 n_14 = asfloat(queries.Load4(((2u * k_9) + 1u)*16));
+    const float3 _e20 = irradiance(p_5.xyz, n_14.xyz);
     results.Store4(k_9*16, asuint(float4(_e20, 1.0)));
     return;
 }
@@ -1589,8 +1684,23 @@ void surface_queries(uint3 id_4 : SV_DispatchThreadID)
         return;
     }
     float4 p_6 = asfloat(queries.Load4((2u * k_12)*16));
-    float4 d_5 = asfloat(queries.Load4(((2u * k_12) + 1u)*16));
-    const float3 _e21 = surface_specular(p_6.xyz, d_5.xyz, p_6.w);
+    float4 d_6 = asfloat(queries.Load4(((2u * k_12) + 1u)*16));
+    const float3 _e21 = surface_specular(p_6.xyz, d_6.xyz, p_6.w);
     results.Store4(k_12*16, asuint(float4(_e21, 1.0)));
+    return;
+}
+
+[numthreads(64, 1, 1)]
+void surface_warped_queries(uint3 id_5 : SV_DispatchThreadID)
+{
+    uint k_13 = id_5.x;
+    const uint _e2 = query_count();
+    if ((k_13 >= _e2)) {
+        return;
+    }
+    float4 p_7 = asfloat(queries.Load4((2u * k_13)*16));
+    float4 d_7 = asfloat(queries.Load4(((2u * k_13) + 1u)*16));
+    const float3 _e21 = surface_specular_warped(p_7.xyz, d_7.xyz, p_7.w);
+    results.Store4(k_13*16, asuint(float4(_e21, 1.0)));
     return;
 }

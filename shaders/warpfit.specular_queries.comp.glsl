@@ -45,6 +45,8 @@ struct Aim {
 };
 struct SurfaceParams {
     vec4 corner;
+    vec4 edge_u;
+    vec4 edge_v;
     vec4 tangent;
     vec4 bitangent;
     vec4 normal;
@@ -621,8 +623,8 @@ vec3 fallback_plain(vec3 b_5, vec3 dir_3) {
 Basis orthonormal_basis(vec3 n_3) {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_3 = (-1.0 / (s_3 + n_3.z));
-    float b_14 = ((n_3.x * n_3.y) * a_3);
-    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_14), (-(s_3) * n_3.x)), vec3(b_14, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+    float b_17 = ((n_3.x * n_3.y) * a_3);
+    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_17), (-(s_3) * n_3.x)), vec3(b_17, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
@@ -885,16 +887,16 @@ float lod_of_roughness(float r) {
         }
     }
     uint _e39 = below;
-    uint i_3 = (min(max(_e39, 1u), last) - 1u);
-    float _e46 = mip_roughness((i_3 + 1u));
-    float _e47 = mip_roughness(i_3);
+    uint i_5 = (min(max(_e39, 1u), last) - 1u);
+    float _e46 = mip_roughness((i_5 + 1u));
+    float _e47 = mip_roughness(i_5);
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
-        float _e53 = mip_roughness(i_3);
+        float _e53 = mip_roughness(i_5);
         f_2 = ((r - _e53) / span);
     }
     float _e57 = f_2;
-    return (float(i_3) + clamp(_e57, 0.0, 1.0));
+    return (float(i_5) + clamp(_e57, 0.0, 1.0));
 }
 
 float distance_ratio(vec3 b_10, vec3 v_6, vec2 uv_6) {
@@ -984,20 +986,20 @@ float corrected_roughness(float r_1, float k_in) {
     float _e44 = _group_0_binding_7_cs.lut.y;
     float fx = clamp(((_e35 - _e39) * _e44), 0.0, last_1);
     float _e48 = fr;
-    uint i_4 = min(uint(_e48), (n_10 - 2u));
-    uint j_3 = min(uint(fx), (n_10 - 2u));
+    uint i_6 = min(uint(_e48), (n_10 - 2u));
+    uint j_5 = min(uint(fx), (n_10 - 2u));
     float _e57 = fr;
-    float a_4 = (_e57 - float(i_4));
-    float b_15 = (fx - float(j_3));
-    vec4 _e67 = texelFetch(_group_0_binding_6_cs, ivec2(int(j_3), int(i_4)), 0);
+    float a_4 = (_e57 - float(i_6));
+    float b_18 = (fx - float(j_5));
+    vec4 _e67 = texelFetch(_group_0_binding_6_cs, ivec2(int(j_5), int(i_6)), 0);
     float v00_ = _e67.x;
-    vec4 _e76 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_3 + 1u)), int(i_4)), 0);
+    vec4 _e76 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_5 + 1u)), int(i_6)), 0);
     float v01_ = _e76.x;
-    vec4 _e85 = texelFetch(_group_0_binding_6_cs, ivec2(int(j_3), int((i_4 + 1u))), 0);
+    vec4 _e85 = texelFetch(_group_0_binding_6_cs, ivec2(int(j_5), int((i_6 + 1u))), 0);
     float v10_ = _e85.x;
-    vec4 _e96 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_3 + 1u)), int((i_4 + 1u))), 0);
+    vec4 _e96 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_5 + 1u)), int((i_6 + 1u))), 0);
     float v11_ = _e96.x;
-    return ((((v00_ * (1.0 - b_15)) + (v01_ * b_15)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_15)) + (v11_ * b_15)) * a_4));
+    return ((((v00_ * (1.0 - b_18)) + (v01_ * b_18)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_18)) + (v11_ * b_18)) * a_4));
 }
 
 vec3 shade(vec3 b_11, Aim aim, float r_2) {

@@ -45,6 +45,8 @@ struct Aim {
 };
 struct SurfaceParams {
     vec4 corner;
+    vec4 edge_u;
+    vec4 edge_v;
     vec4 tangent;
     vec4 bitangent;
     vec4 normal;
@@ -74,6 +76,8 @@ const uint ROUGHNESS_CORRECTION = 255u;
 layout(binding = 7) uniform sampler2DArray _group_2_binding_0_cs;
 
 layout(std140, binding = 1) uniform SurfaceParams_block_0Compute { SurfaceParams _group_2_binding_1_cs; };
+
+layout(binding = 8) uniform sampler2D _group_2_binding_2_cs;
 
 layout(std430, binding = 1) readonly buffer type_18_block_1Compute { vec4 _group_1_binding_0_cs[]; };
 
@@ -265,8 +269,8 @@ float corner_weight(Lattice l, uint corner) {
 Basis orthonormal_basis(vec3 n_3) {
     float s_2 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a = (-1.0 / (s_2 + n_3.z));
-    float b_14 = ((n_3.x * n_3.y) * a);
-    return Basis(vec3((1.0 + (((s_2 * n_3.x) * n_3.x) * a)), (s_2 * b_14), (-(s_2) * n_3.x)), vec3(b_14, (s_2 + ((n_3.y * n_3.y) * a)), -(n_3.y)));
+    float b_17 = ((n_3.x * n_3.y) * a);
+    return Basis(vec3((1.0 + (((s_2 * n_3.x) * n_3.x) * a)), (s_2 * b_17), (-(s_2) * n_3.x)), vec3(b_17, (s_2 + ((n_3.y * n_3.y) * a)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
@@ -363,57 +367,144 @@ vec3 surface_tile(uint i_1, uint j_1, uint layer, vec2 uv_7) {
     return _e70.xyz;
 }
 
-vec3 surface_probe(uint i_2, uint j_2, vec2 uv_8, uint m0_, uint m1_, float fm) {
-    vec3 _e6 = surface_tile(i_2, j_2, m0_, uv_8);
+float surface_tile_inv_distance(uint i_2, uint j_2, vec2 uv_8) {
+    uint n_7 = _group_2_binding_1_cs.shape.z;
+    float nf_1 = float(n_7);
+    float x_5 = clamp(((uv_8.x * nf_1) - 0.5), 0.0, (nf_1 - 1.0));
+    float y_1 = clamp(((uv_8.y * nf_1) - 0.5), 0.0, (nf_1 - 1.0));
+    float x0_2 = floor(x_5);
+    float y0_1 = floor(y_1);
+    uint i0_2 = uint(x0_2);
+    uint j0_1 = uint(y0_1);
+    uint i1_1 = min((i0_2 + 1u), (n_7 - 1u));
+    uint j1_1 = min((j0_1 + 1u), (n_7 - 1u));
+    uvec2 o_2 = uvec2((i_2 * n_7), (j_2 * n_7));
+    vec4 q00_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(i0_2, j0_1))), 0);
+    vec4 q10_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(i1_1, j0_1))), 0);
+    vec4 q01_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(i0_2, j1_1))), 0);
+    vec4 q11_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(i1_1, j1_1))), 0);
+    vec4 _e68 = blend4_(q00_2, q10_2, q01_2, q11_2, vec2((x_5 - x0_2), (y_1 - y0_1)));
+    return _e68.x;
+}
+
+vec2 surface_warped_uv(uint i_3, uint j_3, vec3 b_13, vec3 local_21, vec2 shared_uv) {
+    bool local_22 = false;
+    bool local_23 = false;
+    SurfaceParams sp = _group_2_binding_1_cs;
+    float s_3 = ((float(i_3) + 0.5) / float(sp.shape.x));
+    float t_7 = ((float(j_3) + 0.5) / float(sp.shape.y));
+    vec3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_3)) + (sp.edge_v.xyz * t_7)) + (sp.normal.xyz * sp.corner.w));
+    vec3 d_2 = (probe - b_13);
+    vec3 ab = vec3(dot(d_2, sp.tangent.xyz), dot(d_2, sp.bitangent.xyz), dot(d_2, sp.normal.xyz));
+    float _e48 = surface_tile_inv_distance(i_3, j_3, shared_uv);
+    vec3 v_9 = ((local_21 * max(((dot(local_21, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
+    if ((_e48 > 0.0)) {
+        bool _e62 = finite3_(v_9);
+        local_22 = _e62;
+    } else {
+        local_22 = false;
+    }
+    bool _e64 = local_22;
+    if (_e64) {
+        local_23 = (dot(v_9, v_9) > 0.0);
+    } else {
+        local_23 = false;
+    }
+    bool _e71 = local_23;
+    if (_e71) {
+        vec2 _e72 = hemi_encode(v_9);
+        return _e72;
+    }
+    return shared_uv;
+}
+
+vec3 surface_probe(uint i_4, uint j_4, vec2 uv_9, uint m0_, uint m1_, float fm) {
+    vec3 _e6 = surface_tile(i_4, j_4, m0_, uv_9);
     if ((fm > 0.0)) {
-        vec3 _e9 = surface_tile(i_2, j_2, m1_, uv_8);
+        vec3 _e9 = surface_tile(i_4, j_4, m1_, uv_9);
         return mix(_e6, _e9, fm);
     }
     return _e6;
 }
 
-vec3 surface_specular(vec3 b_in, vec3 dir_in, float roughness_1) {
-    vec3 b_13 = vec3(0.0);
+vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
+    vec3 b_14 = vec3(0.0);
     float lod_2 = 0.0;
-    vec4 _e3 = unit_direction(dir_in);
-    if ((_e3.w == 0.0)) {
+    vec2 uv00_ = vec2(0.0);
+    vec2 uv10_ = vec2(0.0);
+    vec2 uv01_ = vec2(0.0);
+    vec2 uv11_ = vec2(0.0);
+    vec4 _e4 = unit_direction(dir_in);
+    if ((_e4.w == 0.0)) {
         return vec3(0.0);
     }
-    SurfaceParams sp = _group_2_binding_1_cs;
-    b_13 = sp.corner.xyz;
-    bool _e14 = finite3_(b_in);
-    if (_e14) {
-        b_13 = b_in;
+    SurfaceParams sp_1 = _group_2_binding_1_cs;
+    b_14 = sp_1.corner.xyz;
+    bool _e15 = finite3_(b_in);
+    if (_e15) {
+        b_14 = b_in;
     }
-    vec3 _e15 = b_13;
-    vec3 d_2 = (_e15 - sp.corner.xyz);
-    SurfaceAxis _e24 = surface_axis(dot(sp.dual_u.xyz, d_2), sp.shape.x);
-    SurfaceAxis _e30 = surface_axis(dot(sp.dual_v.xyz, d_2), sp.shape.y);
-    uint last = (sp.shape.w - 1u);
-    bool _e37 = finite(roughness_1);
-    if (_e37) {
+    vec3 _e16 = b_14;
+    vec3 d_3 = (_e16 - sp_1.corner.xyz);
+    SurfaceAxis _e25 = surface_axis(dot(sp_1.dual_u.xyz, d_3), sp_1.shape.x);
+    SurfaceAxis _e31 = surface_axis(dot(sp_1.dual_v.xyz, d_3), sp_1.shape.y);
+    uint last = (sp_1.shape.w - 1u);
+    bool _e38 = finite(roughness_1);
+    if (_e38) {
         lod_2 = (clamp(roughness_1, 0.0, 1.0) * float(last));
     }
-    float _e43 = lod_2;
-    uint m0_1 = uint(floor(_e43));
+    float _e44 = lod_2;
+    uint m0_1 = uint(floor(_e44));
     uint m1_1 = min((m0_1 + 1u), last);
-    float _e49 = lod_2;
-    float fm_1 = (_e49 - float(m0_1));
-    vec3 dir_8 = _e3.xyz;
-    vec3 local_21 = vec3(dot(dir_8, sp.tangent.xyz), dot(dir_8, sp.bitangent.xyz), dot(dir_8, sp.normal.xyz));
-    vec2 _e63 = hemi_encode(local_21);
-    vec3 _e66 = surface_probe(_e24.i0_, _e30.i0_, _e63, m0_1, m1_1, fm_1);
-    vec3 _e69 = surface_probe(_e24.i1_, _e30.i0_, _e63, m0_1, m1_1, fm_1);
-    vec3 top = mix(_e66, _e69, _e24.f);
-    vec3 _e74 = surface_probe(_e24.i0_, _e30.i1_, _e63, m0_1, m1_1, fm_1);
-    vec3 _e77 = surface_probe(_e24.i1_, _e30.i1_, _e63, m0_1, m1_1, fm_1);
-    vec3 bottom = mix(_e74, _e77, _e24.f);
-    vec3 l_5 = mix(top, bottom, _e30.f);
-    bool _e82 = finite3_(l_5);
-    if (_e82) {
+    float _e50 = lod_2;
+    float fm_1 = (_e50 - float(m0_1));
+    vec3 dir_10 = _e4.xyz;
+    vec3 local_24 = vec3(dot(dir_10, sp_1.tangent.xyz), dot(dir_10, sp_1.bitangent.xyz), dot(dir_10, sp_1.normal.xyz));
+    vec2 _e64 = hemi_encode(local_24);
+    uv00_ = _e64;
+    uv10_ = _e64;
+    uv01_ = _e64;
+    uv11_ = _e64;
+    if (warped) {
+        vec3 _e71 = b_14;
+        vec2 _e72 = surface_warped_uv(_e25.i0_, _e31.i0_, _e71, local_24, _e64);
+        uv00_ = _e72;
+        vec3 _e75 = b_14;
+        vec2 _e76 = surface_warped_uv(_e25.i1_, _e31.i0_, _e75, local_24, _e64);
+        uv10_ = _e76;
+        vec3 _e79 = b_14;
+        vec2 _e80 = surface_warped_uv(_e25.i0_, _e31.i1_, _e79, local_24, _e64);
+        uv01_ = _e80;
+        vec3 _e83 = b_14;
+        vec2 _e84 = surface_warped_uv(_e25.i1_, _e31.i1_, _e83, local_24, _e64);
+        uv11_ = _e84;
+    }
+    vec2 _e87 = uv00_;
+    vec3 _e88 = surface_probe(_e25.i0_, _e31.i0_, _e87, m0_1, m1_1, fm_1);
+    vec2 _e91 = uv10_;
+    vec3 _e92 = surface_probe(_e25.i1_, _e31.i0_, _e91, m0_1, m1_1, fm_1);
+    vec3 top = mix(_e88, _e92, _e25.f);
+    vec2 _e97 = uv01_;
+    vec3 _e98 = surface_probe(_e25.i0_, _e31.i1_, _e97, m0_1, m1_1, fm_1);
+    vec2 _e101 = uv11_;
+    vec3 _e102 = surface_probe(_e25.i1_, _e31.i1_, _e101, m0_1, m1_1, fm_1);
+    vec3 bottom = mix(_e98, _e102, _e25.f);
+    vec3 l_5 = mix(top, bottom, _e31.f);
+    bool _e107 = finite3_(l_5);
+    if (_e107) {
         return max(l_5, vec3(0.0));
     }
     return vec3(0.0);
+}
+
+vec3 surface_specular(vec3 b_15, vec3 dir_8, float roughness_2) {
+    vec3 _e4 = surface_lookup(b_15, dir_8, roughness_2, false);
+    return _e4;
+}
+
+vec3 surface_specular_warped(vec3 b_16, vec3 dir_9, float roughness_3) {
+    vec3 _e4 = surface_lookup(b_16, dir_9, roughness_3, true);
+    return _e4;
 }
 
 uint query_count() {
@@ -428,8 +519,8 @@ void main() {
         return;
     }
     vec4 p_4 = _group_1_binding_0_cs[(2u * k_7)];
-    vec4 d_3 = _group_1_binding_0_cs[((2u * k_7) + 1u)];
-    vec3 _e21 = surface_specular(p_4.xyz, d_3.xyz, p_4.w);
+    vec4 d_4 = _group_1_binding_0_cs[((2u * k_7) + 1u)];
+    vec3 _e21 = surface_specular(p_4.xyz, d_4.xyz, p_4.w);
     _group_1_binding_1_cs[k_7] = vec4(_e21, 1.0);
     return;
 }

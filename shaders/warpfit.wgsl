@@ -27,6 +27,8 @@
 //   0 surface_radiance      surface{k}_radiance.ktx2  RGBA16F (or RGBA32F) 2-D array, layer m =
 //                           every tile prefiltered for roughness m/(layers-1)
 //   1 surface_params        surface{k}_params.bin     uniform buffer (struct SurfaceParams)
+//   2 surface_inv_distance  surface{k}_inv_distance.ktx2  R32F, 1/distance of each mip-0
+//                           texel (0 = sky; read by `surface_specular_warped` only)
 // A renderer binds the atlas of the surface it shades; the grid's group 0 is not needed.
 //
 // Specialisation: four pipeline-overridable constants name the grid's fallback method,
@@ -820,6 +822,8 @@ fn irradiance(position: vec3<f32>, normal: vec3<f32>) -> vec3<f32> {
 // stored in, the dual basis giving (s, t), and its shape.
 struct SurfaceParams {
     corner: vec4<f32>,     // xyz; w: the probes' height above the surface
+    edge_u: vec4<f32>,     // xyz: the patch's first edge (probes along it: shape.x)
+    edge_v: vec4<f32>,     // xyz: its second edge (probes along it: shape.y)
     tangent: vec4<f32>,    // xyz (unit edge_u)
     bitangent: vec4<f32>,  // xyz (normal x tangent)
     normal: vec4<f32>,     // xyz (unit edge_u x edge_v)
@@ -830,6 +834,7 @@ struct SurfaceParams {
 
 @group(2) @binding(0) var surface_radiance: texture_2d_array<f32>;
 @group(2) @binding(1) var<uniform> surface_params: SurfaceParams;
+@group(2) @binding(2) var surface_inv_distance: texture_2d<f32>;
 
 // Tangent-space direction -> hemi-octahedral uv in [0,1]^2 (`octa::hemi::encode`).
 fn hemi_encode(v: vec3<f32>) -> vec2<f32> {
@@ -883,6 +888,46 @@ fn surface_tile(i: u32, j: u32, layer: u32, uv: vec2<f32>) -> vec3<f32> {
     return blend4(q00, q10, q01, q11, vec2<f32>(x - x0, y - y0)).xyz;
 }
 
+// Bilinear 1/distance of probe (i, j)'s tile at `uv` (same taps as `surface_tile`).
+fn surface_tile_inv_distance(i: u32, j: u32, uv: vec2<f32>) -> f32 {
+    let n = surface_params.shape.z;
+    let nf = f32(n);
+    let x = clamp(uv.x * nf - 0.5, 0.0, nf - 1.0);
+    let y = clamp(uv.y * nf - 0.5, 0.0, nf - 1.0);
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let i0 = u32(x0);
+    let j0 = u32(y0);
+    let i1 = min(i0 + 1u, n - 1u);
+    let j1 = min(j0 + 1u, n - 1u);
+    let o = vec2<u32>(i * n, j * n);
+    let q00 = textureLoad(surface_inv_distance, vec2<i32>(o + vec2<u32>(i0, j0)), 0);
+    let q10 = textureLoad(surface_inv_distance, vec2<i32>(o + vec2<u32>(i1, j0)), 0);
+    let q01 = textureLoad(surface_inv_distance, vec2<i32>(o + vec2<u32>(i0, j1)), 0);
+    let q11 = textureLoad(surface_inv_distance, vec2<i32>(o + vec2<u32>(i1, j1)), 0);
+    return blend4(q00, q10, q01, q11, vec2<f32>(x - x0, y - y0)).x;
+}
+
+// Where probe (i, j) reads for a lookup from `b` along tangent-space `local` (uv `shared`,
+// where every probe reads unwarped): seed 000's plane warp from that probe, as
+// `SurfaceAtlas::radiance_warped` does. w1 is the probe's 1/distance along the direction;
+// the plane perpendicular to it at that hit is crossed by the ray from B, and the probe
+// reads towards the crossing. Sky (w1 = 0) or an unusable vector: the shared uv.
+fn surface_warped_uv(i: u32, j: u32, b: vec3<f32>, local: vec3<f32>, shared_uv: vec2<f32>) -> vec2<f32> {
+    let sp = surface_params;
+    let s = (f32(i) + 0.5) / f32(sp.shape.x);
+    let t = (f32(j) + 0.5) / f32(sp.shape.y);
+    let probe = sp.corner.xyz + sp.edge_u.xyz * s + sp.edge_v.xyz * t + sp.normal.xyz * sp.corner.w;
+    let d = probe - b;
+    let ab = vec3<f32>(dot(d, sp.tangent.xyz), dot(d, sp.bitangent.xyz), dot(d, sp.normal.xyz));
+    let w1 = surface_tile_inv_distance(i, j, shared_uv);
+    let v = local * max(dot(local, ab) * w1 + 1.0, 0.0) - ab * w1;
+    if w1 > 0.0 && finite3(v) && dot(v, v) > 0.0 {
+        return hemi_encode(v);
+    }
+    return shared_uv;
+}
+
 // Probe (i, j)'s radiance at `uv`, linear in roughness between layers m0 and m1.
 fn surface_probe(i: u32, j: u32, uv: vec2<f32>, m0: u32, m1: u32, fm: f32) -> vec3<f32> {
     let a = surface_tile(i, j, m0, uv);
@@ -894,10 +939,11 @@ fn surface_probe(i: u32, j: u32, uv: vec2<f32>, m0: u32, m1: u32, fm: f32) -> ve
 
 // Radiance arriving at `b` (a point on or just off the atlas's surface) from direction
 // `dir` at perceptual roughness `roughness`: the four nearest probes blended bilinearly by
-// the point's (s, t), each read bilinearly in its tile. Black for a zero or non-finite
-// direction; a non-finite position reads the patch's corner; a point off the patch reads
-// its nearest probes; roughness is clamped to [0, 1] (NaN reads 0).
-fn surface_specular(b_in: vec3<f32>, dir_in: vec3<f32>, roughness: f32) -> vec3<f32> {
+// the point's (s, t), each read bilinearly in its tile; with `warped`, each probe first
+// warped by its own depth (`surface_warped_uv`). Black for a zero or non-finite direction;
+// a non-finite position reads the patch's corner; a point off the patch reads its nearest
+// probes; roughness is clamped to [0, 1] (NaN reads 0).
+fn surface_lookup(b_in: vec3<f32>, dir_in: vec3<f32>, roughness: f32, warped: bool) -> vec3<f32> {
     let u = unit_direction(dir_in);
     if u.w == 0.0 {
         return vec3<f32>(0.0);
@@ -920,14 +966,34 @@ fn surface_specular(b_in: vec3<f32>, dir_in: vec3<f32>, roughness: f32) -> vec3<
     let fm = lod - f32(m0);
     let dir = u.xyz;
     let local = vec3<f32>(dot(dir, sp.tangent.xyz), dot(dir, sp.bitangent.xyz), dot(dir, sp.normal.xyz));
-    let uv = hemi_encode(local);
-    let top = mix(surface_probe(ax.i0, ay.i0, uv, m0, m1, fm), surface_probe(ax.i1, ay.i0, uv, m0, m1, fm), ax.f);
-    let bottom = mix(surface_probe(ax.i0, ay.i1, uv, m0, m1, fm), surface_probe(ax.i1, ay.i1, uv, m0, m1, fm), ax.f);
+    let shared_uv = hemi_encode(local);
+    var uv00 = shared_uv;
+    var uv10 = shared_uv;
+    var uv01 = shared_uv;
+    var uv11 = shared_uv;
+    if warped {
+        uv00 = surface_warped_uv(ax.i0, ay.i0, b, local, shared_uv);
+        uv10 = surface_warped_uv(ax.i1, ay.i0, b, local, shared_uv);
+        uv01 = surface_warped_uv(ax.i0, ay.i1, b, local, shared_uv);
+        uv11 = surface_warped_uv(ax.i1, ay.i1, b, local, shared_uv);
+    }
+    let top = mix(surface_probe(ax.i0, ay.i0, uv00, m0, m1, fm), surface_probe(ax.i1, ay.i0, uv10, m0, m1, fm), ax.f);
+    let bottom = mix(surface_probe(ax.i0, ay.i1, uv01, m0, m1, fm), surface_probe(ax.i1, ay.i1, uv11, m0, m1, fm), ax.f);
     let l = mix(top, bottom, ay.f);
     if finite3(l) {
         return max(l, vec3<f32>(0.0));
     }
     return vec3<f32>(0.0);
+}
+
+// Seed 003's lookup (`SurfaceAtlas::radiance`).
+fn surface_specular(b: vec3<f32>, dir: vec3<f32>, roughness: f32) -> vec3<f32> {
+    return surface_lookup(b, dir, roughness, false);
+}
+
+// The same, each probe warped by its own depth first (`SurfaceAtlas::radiance_warped`).
+fn surface_specular_warped(b: vec3<f32>, dir: vec3<f32>, roughness: f32) -> vec3<f32> {
+    return surface_lookup(b, dir, roughness, true);
 }
 
 @group(1) @binding(0) var<storage, read> queries: array<vec4<f32>>;
@@ -1017,4 +1083,16 @@ fn surface_queries(@builtin(global_invocation_id) id: vec3<u32>) {
     let p = queries[2u * k];
     let d = queries[2u * k + 1u];
     results[k] = vec4<f32>(surface_specular(p.xyz, d.xyz, p.w), 1.0);
+}
+
+// query k: (position xyz, roughness), (direction xyz, -); reads group 2's atlas
+@compute @workgroup_size(64)
+fn surface_warped_queries(@builtin(global_invocation_id) id: vec3<u32>) {
+    let k = id.x;
+    if k >= query_count() {
+        return;
+    }
+    let p = queries[2u * k];
+    let d = queries[2u * k + 1u];
+    results[k] = vec4<f32>(surface_specular_warped(p.xyz, d.xyz, p.w), 1.0);
 }

@@ -358,8 +358,9 @@ fn every_fallback_blend_and_relaxation_answers_as_the_cpu_sampler() {
     }
 }
 
-/// Seed 003's surface-probe atlas through the shader's `surface_specular` (group 2 only, as
-/// a renderer shading just that surface binds it) agrees with `SurfaceAtlas::radiance` on
+/// Seed 003's surface-probe atlas through the shader's `surface_specular` and
+/// `surface_specular_warped` (group 2 only, as a renderer shading just that surface binds
+/// it) agrees with `SurfaceAtlas::radiance` and `radiance_warped` on
 /// points on, beside and off a lit torture floor, every roughness bucket and random ones,
 /// directions above and below the surface, and the degenerate queries (at a probe, zero and
 /// NaN directions, NaN and infinite positions, roughness NaN, < 0 and > 1).
@@ -414,16 +415,25 @@ fn the_surface_shader_answers_as_the_cpu_atlas() {
         push(centre, d, 7.0);
     }
 
-    let shader = lookup.run(gpu, &q);
-    let cpu = on_cpu(&q, |p, d, r| atlas.radiance(p, d, r));
     let texels = &atlas.radiance[0];
     let mean = texels.iter().map(|v| v.max_element()).sum::<f32>() / texels.len() as f32;
-    let (worst, at) = assert_agrees("surface atlas", &shader, &cpu, 1e-3 * mean, &q);
-    eprintln!("surface atlas: worst relative difference {worst:.2e} (query {at}) on {} queries", cpu.len());
-    for (k, c) in cpu.iter().enumerate() {
-        if *c == Vec3::ZERO {
-            assert_eq!(shader[k][..3], [0.0; 3], "surface query {k} must be black");
+    let warped = |p, d, r| atlas.radiance_warped(p, d, r);
+    let plain = |p, d, r| atlas.radiance(p, d, r);
+    type SurfaceFn<'a> = &'a dyn Fn(Vec3, Vec3, f32) -> Vec3;
+    let kernels: [(&str, SurfaceFn); 2] = [("surface_queries", &plain), ("surface_warped_queries", &warped)];
+    for (kernel, f) in kernels {
+        let shader = lookup.run(gpu, kernel, &q);
+        let cpu = on_cpu(&q, f);
+        let (worst, at) = assert_agrees(kernel, &shader, &cpu, 1e-3 * mean, &q);
+        eprintln!("{kernel}: worst relative difference {worst:.2e} (query {at}) on {} queries", cpu.len());
+        for (k, c) in cpu.iter().enumerate() {
+            if *c == Vec3::ZERO {
+                assert_eq!(shader[k][..3], [0.0; 3], "{kernel}: query {k} must be black");
+            }
         }
+        assert!(cpu.iter().filter(|c| c.max_element() > 0.0).count() > 5000, "the atlas must be lit");
     }
-    assert!(cpu.iter().filter(|c| c.max_element() > 0.0).count() > 5000, "the atlas must be lit");
+    // the warp moves lookups: the two kernels must differ somewhere
+    let (a, b) = (lookup.run(gpu, "surface_queries", &q), lookup.run(gpu, "surface_warped_queries", &q));
+    assert!(a.iter().zip(&b).filter(|(x, y)| x != y).count() > 1000, "the warped lookup must warp");
 }

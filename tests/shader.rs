@@ -8,8 +8,14 @@ use naga::back::{glsl, hlsl};
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use warpfit::export::shader::{CELL_BYTES, PARAMS_BYTES, SURFACE_PARAMS_BYTES};
 
-const ENTRY_POINTS: [&str; 5] =
-    ["specular_queries", "irradiance_queries", "warp1_queries", "box_queries", "surface_queries"];
+const ENTRY_POINTS: [&str; 6] = [
+    "specular_queries",
+    "irradiance_queries",
+    "warp1_queries",
+    "box_queries",
+    "surface_queries",
+    "surface_warped_queries",
+];
 
 fn module() -> (naga::Module, naga::valid::ModuleInfo) {
     let path = common::repo().join("shaders/warpfit.wgsl");
@@ -51,12 +57,20 @@ fn translations() -> Vec<(String, String)> {
 
 /// OpenGL binding points (textures, uniform and storage buffers count separately): the
 /// textures at units 0–6 (bindings 0–6), `params` at uniform binding 0, `cells`, `queries`
-/// and `results` at storage bindings 0, 1 and 2; a surface atlas (group 2) at texture unit
-/// 7 and uniform binding 1.
+/// and `results` at storage bindings 0, 1 and 2; a surface atlas (group 2) at texture units
+/// 7 (radiance) and 8 (inverse distance) and uniform binding 1.
 fn gl_bindings() -> glsl::BindingMap {
     let rb = |group, binding| naga::ResourceBinding { group, binding };
     let mut map: glsl::BindingMap = (0..7).map(|b| (rb(0, b), b as u8)).collect();
-    map.extend([(rb(0, 7), 0), (rb(0, 8), 0), (rb(1, 0), 1), (rb(1, 1), 2), (rb(2, 0), 7), (rb(2, 1), 1)]);
+    map.extend([
+        (rb(0, 7), 0),
+        (rb(0, 8), 0),
+        (rb(1, 0), 1),
+        (rb(1, 1), 2),
+        (rb(2, 0), 7),
+        (rb(2, 1), 1),
+        (rb(2, 2), 8),
+    ]);
     map
 }
 

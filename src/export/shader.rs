@@ -9,7 +9,7 @@ use crate::warp::corrective::{Blend, NO_MAP};
 
 /// `shaders/warpfit.wgsl`, and naga's translations of it (regenerated and compared by
 /// `tests/shader.rs`): (file name, text).
-pub const SHADER_FILES: [(&str, &str); 7] = [
+pub const SHADER_FILES: [(&str, &str); 8] = [
     ("warpfit.wgsl", include_str!("../../shaders/warpfit.wgsl")),
     ("warpfit.hlsl", include_str!("../../shaders/warpfit.hlsl")),
     ("warpfit.specular_queries.comp.glsl", include_str!("../../shaders/warpfit.specular_queries.comp.glsl")),
@@ -17,14 +17,18 @@ pub const SHADER_FILES: [(&str, &str); 7] = [
     ("warpfit.warp1_queries.comp.glsl", include_str!("../../shaders/warpfit.warp1_queries.comp.glsl")),
     ("warpfit.box_queries.comp.glsl", include_str!("../../shaders/warpfit.box_queries.comp.glsl")),
     ("warpfit.surface_queries.comp.glsl", include_str!("../../shaders/warpfit.surface_queries.comp.glsl")),
+    (
+        "warpfit.surface_warped_queries.comp.glsl",
+        include_str!("../../shaders/warpfit.surface_warped_queries.comp.glsl"),
+    ),
 ];
 
 /// Bytes of the WGSL `Params` struct: 38 vec4s.
 pub const PARAMS_BYTES: usize = 38 * 16;
 /// Bytes of one WGSL `Cell`: tiles (vec4<i32>) and offset (vec4<f32>).
 pub const CELL_BYTES: usize = 32;
-/// Bytes of the WGSL `SurfaceParams` struct (one surface-probe atlas): 7 vec4s.
-pub const SURFACE_PARAMS_BYTES: usize = 7 * 16;
+/// Bytes of the WGSL `SurfaceParams` struct (one surface-probe atlas): 9 vec4s.
+pub const SURFACE_PARAMS_BYTES: usize = 9 * 16;
 /// Radiance mips `Params::mip_roughness` holds.
 pub const MAX_MIPS: usize = 16;
 
@@ -183,13 +187,16 @@ pub fn cells(grid: &FittedGrid) -> Vec<u8> {
 }
 
 /// `SurfaceParams` for a surface-probe atlas (`surface{k}_params.bin`, group 2 of
-/// `shaders/warpfit.wgsl`): the patch's corner and probe height, its tangent frame, the dual
-/// basis of its edges and its shape, exactly the values `SurfaceAtlas::radiance` uses.
+/// `shaders/warpfit.wgsl`): the patch's corner, probe height and edges, its tangent frame,
+/// the dual basis of its edges and its shape, exactly the values `SurfaceAtlas::radiance`
+/// and `radiance_warped` use.
 #[must_use]
 pub fn surface_params(atlas: &crate::warp::surface::SurfaceAtlas) -> Vec<u8> {
     let (p, f) = (&atlas.patch, atlas.frame());
     let mut out = Words(Vec::with_capacity(SURFACE_PARAMS_BYTES));
     out.f(p.corner.extend(p.offset).to_array())
+        .f(p.edge_u.extend(0.0).to_array())
+        .f(p.edge_v.extend(0.0).to_array())
         .f(f.tangent.extend(0.0).to_array())
         .f(f.bitangent.extend(0.0).to_array())
         .f(f.normal.extend(0.0).to_array())

@@ -337,14 +337,17 @@ fn batch(gpu: &Gpu, layout1: &wgpu::BindGroupLayout, queries: &[[f32; 4]]) -> Ba
     Batch { n, group1, queries, results, staging }
 }
 
-/// One exported surface-probe atlas on the GPU (group 2: its radiance array and its
-/// `SurfaceParams`), ready to run the shader's `surface_queries` kernel. The kernel does not
-/// touch the grid's group 0, so the pipeline layout leaves it empty, as a renderer that
-/// shades only a surface would.
+/// The shader's surface-atlas kernels: seed 003's lookup and its warped variant.
+pub const SURFACE_KERNELS: [&str; 2] = ["surface_queries", "surface_warped_queries"];
+
+/// One exported surface-probe atlas on the GPU (group 2: its radiance array, its
+/// `SurfaceParams` and its inverse distances), ready to run the shader's surface kernels.
+/// They do not touch the grid's group 0, so the pipeline layout leaves it empty, as a
+/// renderer that shades only a surface would.
 pub struct SurfaceLookup {
     group2: wgpu::BindGroup,
     layout1: wgpu::BindGroupLayout,
-    pipeline: wgpu::ComputePipeline,
+    pipelines: HashMap<&'static str, wgpu::ComputePipeline>,
 }
 
 impl SurfaceLookup {
@@ -359,6 +362,8 @@ impl SurfaceLookup {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             ..Default::default()
         });
+        let inv = gpu.ktx2_texture(&dir.join(section["inv_distance"].as_str().expect("surfaces[k].inv_distance")));
+        let inv_view = inv.create_view(&Default::default());
         let params_file = dir.join(section["params"].as_str().expect("surfaces[k].params"));
         let params = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("surface params"),
@@ -370,6 +375,7 @@ impl SurfaceLookup {
             entries: &[
                 texture_entry_of(0, wgpu::TextureViewDimension::D2Array),
                 buffer_entry(1, wgpu::BufferBindingType::Uniform),
+                texture_entry(2),
             ],
         });
         let group2 = d.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -378,6 +384,7 @@ impl SurfaceLookup {
             entries: &[
                 wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
                 wgpu::BindGroupEntry { binding: 1, resource: params.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&inv_view) },
             ],
         });
         let layout1 = queries_layout(d);
@@ -391,24 +398,30 @@ impl SurfaceLookup {
             bind_group_layouts: &[None, Some(&layout1), Some(&layout2)],
             immediate_size: 0,
         });
-        let pipeline = d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("surface_queries"),
-            layout: Some(&layout),
-            module: &module,
-            entry_point: Some("surface_queries"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        SurfaceLookup { group2, layout1, pipeline }
+        let pipelines = SURFACE_KERNELS
+            .iter()
+            .map(|&k| {
+                let p = d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(k),
+                    layout: Some(&layout),
+                    module: &module,
+                    entry_point: Some(k),
+                    compilation_options: Default::default(),
+                    cache: None,
+                });
+                (k, p)
+            })
+            .collect();
+        SurfaceLookup { group2, layout1, pipelines }
     }
 
-    /// `surface_specular` for `queries` (two vec4 each): one vec4 per query.
-    pub fn run(&self, gpu: &Gpu, queries: &[[f32; 4]]) -> Vec<[f32; 4]> {
+    /// Surface kernel `kernel` for `queries` (two vec4 each): one vec4 per query.
+    pub fn run(&self, gpu: &Gpu, kernel: &str, queries: &[[f32; 4]]) -> Vec<[f32; 4]> {
         let b = batch(gpu, &self.layout1, queries);
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&self.pipeline);
+            pass.set_pipeline(&self.pipelines[kernel]);
             pass.set_bind_group(1, &b.group1, &[]);
             pass.set_bind_group(2, &self.group2, &[]);
             let groups = b.n.div_ceil(64);

@@ -1,0 +1,527 @@
+#version 450 core
+#extension GL_ARB_compute_shader : require
+#extension GL_ARB_shader_storage_buffer_object : require
+layout(local_size_x = 64, local_size_y = 1, local_size_z = 1) in;
+
+struct Params {
+    vec4 grid_min;
+    vec4 grid_max;
+    uvec4 grid_counts;
+    vec4 probe;
+    uvec4 probe_info;
+    vec4 warp;
+    vec4 box_centre;
+    vec4 box_half;
+    vec4 box_x;
+    vec4 box_y;
+    vec4 box_z;
+    vec4 kdop[18];
+    uvec4 kdop_open;
+    vec4 mip_roughness[4];
+    uvec4 atlas_a;
+    uvec4 atlas_b;
+    vec4 lut;
+    uvec4 lut_info;
+};
+struct Cell {
+    ivec4 tiles;
+    vec4 offset;
+};
+struct Footprint {
+    ivec2 corner;
+    vec2 f;
+};
+struct Lattice {
+    uvec3 base;
+    vec3 frac;
+};
+struct Basis {
+    vec3 t;
+    vec3 b;
+};
+struct Aim {
+    vec3 v;
+    float k;
+};
+struct SurfaceParams {
+    vec4 corner;
+    vec4 edge_u;
+    vec4 edge_v;
+    vec4 tangent;
+    vec4 bitangent;
+    vec4 normal;
+    vec4 dual_u;
+    vec4 dual_v;
+    uvec4 shape;
+};
+struct SurfaceAxis {
+    uint i0_;
+    uint i1_;
+    float f;
+};
+const uint DYNAMIC = 255u;
+const float HUGE = 1e30;
+const float F32_MIN_POSITIVE = 1.1754944e-38;
+const float F32_EPSILON = 1.1920929e-7;
+const float PI = 3.1415927;
+const uint ATLAS_CORRECTIVE = 0u;
+const uint ATLAS_IRRADIANCE = 1u;
+const uint ATLAS_MOMENTS = 2u;
+const uint ATLAS_SCALE = 3u;
+const uint FALLBACK = 255u;
+const uint BLEND = 255u;
+const uint RELAX = 255u;
+const uint ROUGHNESS_CORRECTION = 255u;
+
+layout(binding = 7) uniform sampler2DArray _group_2_binding_0_cs;
+
+layout(std140, binding = 1) uniform SurfaceParams_block_0Compute { SurfaceParams _group_2_binding_1_cs; };
+
+layout(binding = 8) uniform sampler2D _group_2_binding_2_cs;
+
+layout(std430, binding = 1) readonly buffer type_18_block_1Compute { vec4 _group_1_binding_0_cs[]; };
+
+layout(std430, binding = 2) buffer type_18_block_2Compute { vec4 _group_1_binding_1_cs[]; };
+
+
+bool finite(float x) {
+    return ((floatBitsToUint(x) & 2139095040u) != 2139095040u);
+}
+
+bool finite3_(vec3 v_2) {
+    bool local = false;
+    bool local_1 = false;
+    bool _e2 = finite(v_2.x);
+    if (_e2) {
+        bool _e6 = finite(v_2.y);
+        local = _e6;
+    } else {
+        local = false;
+    }
+    bool _e8 = local;
+    if (_e8) {
+        bool _e12 = finite(v_2.z);
+        local_1 = _e12;
+    } else {
+        local_1 = false;
+    }
+    bool _e14 = local_1;
+    return _e14;
+}
+
+float sign_not_zero(float x_1) {
+    return ((x_1 >= 0.0) ? 1.0 : -1.0);
+}
+
+vec4 unit_direction(vec3 v_3) {
+    bool local_2 = false;
+    bool local_3 = false;
+    bool local_4 = false;
+    bool local_5 = false;
+    float l2_ = dot(v_3, v_3);
+    bool _e2 = finite(l2_);
+    if (_e2) {
+        local_2 = (abs((l2_ - 1.0)) <= 4.7683716e-7);
+    } else {
+        local_2 = false;
+    }
+    bool _e11 = local_2;
+    if (_e11) {
+        return vec4(v_3, 1.0);
+    }
+    float m_1 = max(abs(v_3.x), max(abs(v_3.y), abs(v_3.z)));
+    if ((m_1 > 0.0)) {
+        bool _e26 = finite(m_1);
+        local_3 = _e26;
+    } else {
+        local_3 = false;
+    }
+    bool _e28 = local_3;
+    if (_e28) {
+        bool _e31 = finite3_(v_3);
+        local_4 = _e31;
+    } else {
+        local_4 = false;
+    }
+    bool _e33 = local_4;
+    if (!(_e33)) {
+        return vec4(0.0, 0.0, 1.0, 0.0);
+    }
+    vec3 s_1 = (v_3 / vec3(m_1));
+    float l_2 = length(s_1);
+    if ((l_2 > 0.0)) {
+        bool _e47 = finite(l_2);
+        local_5 = _e47;
+    } else {
+        local_5 = false;
+    }
+    bool _e49 = local_5;
+    if (!(_e49)) {
+        return vec4(0.0, 0.0, 1.0, 0.0);
+    }
+    return vec4((s_1 / vec3(l_2)), 1.0);
+}
+
+vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
+    bool local_6 = false;
+    vec3 v_8 = (to - from);
+    float l2_1 = dot(v_8, v_8);
+    if ((l2_1 > 0.0)) {
+        bool _e9 = finite(l2_1);
+        local_6 = _e9;
+    } else {
+        local_6 = false;
+    }
+    bool _e11 = local_6;
+    if (_e11) {
+        return v_8;
+    }
+    return fallback;
+}
+
+vec2 oct_encode(vec3 d) {
+    bool local_7 = false;
+    vec2 p = vec2(0.0);
+    float l1_ = ((abs(d.x) + abs(d.y)) + abs(d.z));
+    if ((l1_ >= F32_MIN_POSITIVE)) {
+        bool _e13 = finite(l1_);
+        local_7 = _e13;
+    } else {
+        local_7 = false;
+    }
+    bool _e15 = local_7;
+    if (!(_e15)) {
+        return vec2(0.5, 0.5);
+    }
+    float inv_l1_ = (1.0 / l1_);
+    p = vec2((d.x * inv_l1_), (d.y * inv_l1_));
+    if ((d.z < 0.0)) {
+        float _e32 = p.y;
+        float _e37 = p.x;
+        float _e38 = sign_not_zero(_e37);
+        float _e41 = p.x;
+        float _e46 = p.y;
+        float _e47 = sign_not_zero(_e46);
+        p = vec2(((1.0 - abs(_e32)) * _e38), ((1.0 - abs(_e41)) * _e47));
+    }
+    vec2 _e50 = p;
+    return clamp(((_e50 * 0.5) + vec2(0.5)), vec2(0.0), vec2(1.0));
+}
+
+ivec2 wrap_texel(int n, ivec2 t) {
+    int i = 0;
+    int j = 0;
+    i = t.x;
+    j = t.y;
+    int _e6 = i;
+    if ((_e6 < 0)) {
+        int _e9 = i;
+        i = (-(_e9) - 1);
+        int _e15 = j;
+        j = ((n - 1) - _e15);
+    } else {
+        int _e17 = i;
+        if ((_e17 >= n)) {
+            int _e23 = i;
+            i = (((2 * n) - 1) - _e23);
+            int _e27 = j;
+            j = ((n - 1) - _e27);
+        }
+    }
+    int _e29 = j;
+    if ((_e29 < 0)) {
+        int _e34 = i;
+        i = ((n - 1) - _e34);
+        int _e36 = j;
+        j = (-(_e36) - 1);
+    } else {
+        int _e40 = j;
+        if ((_e40 >= n)) {
+            int _e44 = i;
+            i = ((n - 1) - _e44);
+            int _e50 = j;
+            j = (((2 * n) - 1) - _e50);
+        }
+    }
+    int _e52 = i;
+    int _e53 = j;
+    return min(max(ivec2(_e52, _e53), ivec2(0)), ivec2((n - 1)));
+}
+
+Footprint footprint(uint n_1, vec2 uv) {
+    vec2 x_3 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
+    vec2 x0_ = floor(x_3);
+    return Footprint(ivec2(x0_), (x_3 - x0_));
+}
+
+vec4 blend4_(vec4 q00_, vec4 q10_, vec4 q01_, vec4 q11_, vec2 f) {
+    return ((((q00_ * (1.0 - f.x)) + (q10_ * f.x)) * (1.0 - f.y)) + (((q01_ * (1.0 - f.x)) + (q11_ * f.x)) * f.y));
+}
+
+float corner_weight(Lattice l, uint corner) {
+    uvec3 o = uvec3((corner & 1u), ((corner >> 1u) & 1u), ((corner >> 2u) & 1u));
+    float wx = ((o.x == 1u) ? l.frac.x : (1.0 - l.frac.x));
+    float wy = ((o.y == 1u) ? l.frac.y : (1.0 - l.frac.y));
+    float wz = ((o.z == 1u) ? l.frac.z : (1.0 - l.frac.z));
+    return ((wx * wy) * wz);
+}
+
+Basis orthonormal_basis(vec3 n_3) {
+    float s_2 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
+    float a = (-1.0 / (s_2 + n_3.z));
+    float b_17 = ((n_3.x * n_3.y) * a);
+    return Basis(vec3((1.0 + (((s_2 * n_3.x) * n_3.x) * a)), (s_2 * b_17), (-(s_2) * n_3.x)), vec3(b_17, (s_2 + ((n_3.y * n_3.y) * a)), -(n_3.y)));
+}
+
+vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
+    bool local_10 = false;
+    float l_3 = length(v_5);
+    if ((l_3 > 0.0)) {
+        bool _e7 = finite(l_3);
+        local_10 = _e7;
+    } else {
+        local_10 = false;
+    }
+    bool _e9 = local_10;
+    if (_e9) {
+        return (v_5 / vec3(l_3));
+    }
+    return fallback_1;
+}
+
+float inv_t_from_map(vec3 c_4, float w, vec3 b_7, vec3 dir_5) {
+    if (!((w > 0.0))) {
+        return 0.0;
+    }
+    float t_6 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
+    if ((t_6 > 0.0)) {
+        return min((1.0 / t_6), HUGE);
+    }
+    return HUGE;
+}
+
+float pseudo_log2_(float k_3) {
+    uint bits = floatBitsToUint(k_3);
+    int e_1 = (int(((bits >> 23u) & 255u)) - 127);
+    float m_2 = uintBitsToFloat(((bits & 8388607u) | 1065353216u));
+    return (float(e_1) + (m_2 - 1.0));
+}
+
+vec3 clean(vec3 c_5) {
+    bool _e1 = finite3_(c_5);
+    if (_e1) {
+        return max(c_5, vec3(0.0));
+    }
+    return vec3(0.0);
+}
+
+vec2 hemi_encode(vec3 v_7) {
+    bool local_20 = false;
+    float z = max(v_7.z, 0.0);
+    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
+    if ((l1_1 >= F32_MIN_POSITIVE)) {
+        bool _e14 = finite(l1_1);
+        local_20 = _e14;
+    } else {
+        local_20 = false;
+    }
+    bool _e16 = local_20;
+    if (!(_e16)) {
+        return vec2(0.5, 0.5);
+    }
+    float px = (v_7.x / l1_1);
+    float py = (v_7.y / l1_1);
+    return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
+}
+
+SurfaceAxis surface_axis(float x_in, uint n_5) {
+    float x_2 = 0.5;
+    bool _e4 = finite(x_in);
+    if (_e4) {
+        x_2 = x_in;
+    }
+    float _e5 = x_2;
+    float c_6 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
+    uint i0_ = uint(floor(c_6));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_6 - float(i0_)));
+}
+
+vec3 surface_tile(uint i_1, uint j_1, uint layer, vec2 uv_7) {
+    uint n_6 = _group_2_binding_1_cs.shape.z;
+    float nf = float(n_6);
+    float x_4 = clamp(((uv_7.x * nf) - 0.5), 0.0, (nf - 1.0));
+    float y = clamp(((uv_7.y * nf) - 0.5), 0.0, (nf - 1.0));
+    float x0_1 = floor(x_4);
+    float y0_ = floor(y);
+    uint i0_1 = uint(x0_1);
+    uint j0_ = uint(y0_);
+    uint i1_ = min((i0_1 + 1u), (n_6 - 1u));
+    uint j1_ = min((j0_ + 1u), (n_6 - 1u));
+    uvec2 o_1 = uvec2((i_1 * n_6), (j_1 * n_6));
+    int l_4 = int(layer);
+    vec4 q00_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(i0_1, j0_))), l_4), 0);
+    vec4 q10_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(i1_, j0_))), l_4), 0);
+    vec4 q01_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(i0_1, j1_))), l_4), 0);
+    vec4 q11_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(i1_, j1_))), l_4), 0);
+    vec4 _e70 = blend4_(q00_1, q10_1, q01_1, q11_1, vec2((x_4 - x0_1), (y - y0_)));
+    return _e70.xyz;
+}
+
+float surface_tile_inv_distance(uint i_2, uint j_2, vec2 uv_8) {
+    uint n_7 = _group_2_binding_1_cs.shape.z;
+    float nf_1 = float(n_7);
+    float x_5 = clamp(((uv_8.x * nf_1) - 0.5), 0.0, (nf_1 - 1.0));
+    float y_1 = clamp(((uv_8.y * nf_1) - 0.5), 0.0, (nf_1 - 1.0));
+    float x0_2 = floor(x_5);
+    float y0_1 = floor(y_1);
+    uint i0_2 = uint(x0_2);
+    uint j0_1 = uint(y0_1);
+    uint i1_1 = min((i0_2 + 1u), (n_7 - 1u));
+    uint j1_1 = min((j0_1 + 1u), (n_7 - 1u));
+    uvec2 o_2 = uvec2((i_2 * n_7), (j_2 * n_7));
+    vec4 q00_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(i0_2, j0_1))), 0);
+    vec4 q10_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(i1_1, j0_1))), 0);
+    vec4 q01_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(i0_2, j1_1))), 0);
+    vec4 q11_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(i1_1, j1_1))), 0);
+    vec4 _e68 = blend4_(q00_2, q10_2, q01_2, q11_2, vec2((x_5 - x0_2), (y_1 - y0_1)));
+    return _e68.x;
+}
+
+vec2 surface_warped_uv(uint i_3, uint j_3, vec3 b_13, vec3 local_21, vec2 shared_uv) {
+    bool local_22 = false;
+    bool local_23 = false;
+    SurfaceParams sp = _group_2_binding_1_cs;
+    float s_3 = ((float(i_3) + 0.5) / float(sp.shape.x));
+    float t_7 = ((float(j_3) + 0.5) / float(sp.shape.y));
+    vec3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_3)) + (sp.edge_v.xyz * t_7)) + (sp.normal.xyz * sp.corner.w));
+    vec3 d_2 = (probe - b_13);
+    vec3 ab = vec3(dot(d_2, sp.tangent.xyz), dot(d_2, sp.bitangent.xyz), dot(d_2, sp.normal.xyz));
+    float _e48 = surface_tile_inv_distance(i_3, j_3, shared_uv);
+    vec3 v_9 = ((local_21 * max(((dot(local_21, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
+    if ((_e48 > 0.0)) {
+        bool _e62 = finite3_(v_9);
+        local_22 = _e62;
+    } else {
+        local_22 = false;
+    }
+    bool _e64 = local_22;
+    if (_e64) {
+        local_23 = (dot(v_9, v_9) > 0.0);
+    } else {
+        local_23 = false;
+    }
+    bool _e71 = local_23;
+    if (_e71) {
+        vec2 _e72 = hemi_encode(v_9);
+        return _e72;
+    }
+    return shared_uv;
+}
+
+vec3 surface_probe(uint i_4, uint j_4, vec2 uv_9, uint m0_, uint m1_, float fm) {
+    vec3 _e6 = surface_tile(i_4, j_4, m0_, uv_9);
+    if ((fm > 0.0)) {
+        vec3 _e9 = surface_tile(i_4, j_4, m1_, uv_9);
+        return mix(_e6, _e9, fm);
+    }
+    return _e6;
+}
+
+vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
+    vec3 b_14 = vec3(0.0);
+    float lod_2 = 0.0;
+    vec2 uv00_ = vec2(0.0);
+    vec2 uv10_ = vec2(0.0);
+    vec2 uv01_ = vec2(0.0);
+    vec2 uv11_ = vec2(0.0);
+    vec4 _e4 = unit_direction(dir_in);
+    if ((_e4.w == 0.0)) {
+        return vec3(0.0);
+    }
+    SurfaceParams sp_1 = _group_2_binding_1_cs;
+    b_14 = sp_1.corner.xyz;
+    bool _e15 = finite3_(b_in);
+    if (_e15) {
+        b_14 = b_in;
+    }
+    vec3 _e16 = b_14;
+    vec3 d_3 = (_e16 - sp_1.corner.xyz);
+    SurfaceAxis _e25 = surface_axis(dot(sp_1.dual_u.xyz, d_3), sp_1.shape.x);
+    SurfaceAxis _e31 = surface_axis(dot(sp_1.dual_v.xyz, d_3), sp_1.shape.y);
+    uint last = (sp_1.shape.w - 1u);
+    bool _e38 = finite(roughness_1);
+    if (_e38) {
+        lod_2 = (clamp(roughness_1, 0.0, 1.0) * float(last));
+    }
+    float _e44 = lod_2;
+    uint m0_1 = uint(floor(_e44));
+    uint m1_1 = min((m0_1 + 1u), last);
+    float _e50 = lod_2;
+    float fm_1 = (_e50 - float(m0_1));
+    vec3 dir_10 = _e4.xyz;
+    vec3 local_24 = vec3(dot(dir_10, sp_1.tangent.xyz), dot(dir_10, sp_1.bitangent.xyz), dot(dir_10, sp_1.normal.xyz));
+    vec2 _e64 = hemi_encode(local_24);
+    uv00_ = _e64;
+    uv10_ = _e64;
+    uv01_ = _e64;
+    uv11_ = _e64;
+    if (warped) {
+        vec3 _e71 = b_14;
+        vec2 _e72 = surface_warped_uv(_e25.i0_, _e31.i0_, _e71, local_24, _e64);
+        uv00_ = _e72;
+        vec3 _e75 = b_14;
+        vec2 _e76 = surface_warped_uv(_e25.i1_, _e31.i0_, _e75, local_24, _e64);
+        uv10_ = _e76;
+        vec3 _e79 = b_14;
+        vec2 _e80 = surface_warped_uv(_e25.i0_, _e31.i1_, _e79, local_24, _e64);
+        uv01_ = _e80;
+        vec3 _e83 = b_14;
+        vec2 _e84 = surface_warped_uv(_e25.i1_, _e31.i1_, _e83, local_24, _e64);
+        uv11_ = _e84;
+    }
+    vec2 _e87 = uv00_;
+    vec3 _e88 = surface_probe(_e25.i0_, _e31.i0_, _e87, m0_1, m1_1, fm_1);
+    vec2 _e91 = uv10_;
+    vec3 _e92 = surface_probe(_e25.i1_, _e31.i0_, _e91, m0_1, m1_1, fm_1);
+    vec3 top = mix(_e88, _e92, _e25.f);
+    vec2 _e97 = uv01_;
+    vec3 _e98 = surface_probe(_e25.i0_, _e31.i1_, _e97, m0_1, m1_1, fm_1);
+    vec2 _e101 = uv11_;
+    vec3 _e102 = surface_probe(_e25.i1_, _e31.i1_, _e101, m0_1, m1_1, fm_1);
+    vec3 bottom = mix(_e98, _e102, _e25.f);
+    vec3 l_5 = mix(top, bottom, _e31.f);
+    bool _e107 = finite3_(l_5);
+    if (_e107) {
+        return max(l_5, vec3(0.0));
+    }
+    return vec3(0.0);
+}
+
+vec3 surface_specular(vec3 b_15, vec3 dir_8, float roughness_2) {
+    vec3 _e4 = surface_lookup(b_15, dir_8, roughness_2, false);
+    return _e4;
+}
+
+vec3 surface_specular_warped(vec3 b_16, vec3 dir_9, float roughness_3) {
+    vec3 _e4 = surface_lookup(b_16, dir_9, roughness_3, true);
+    return _e4;
+}
+
+uint query_count() {
+    return uint(_group_1_binding_1_cs.length());
+}
+
+void main() {
+    uvec3 id_5 = gl_GlobalInvocationID;
+    uint k_7 = id_5.x;
+    uint _e2 = query_count();
+    if ((k_7 >= _e2)) {
+        return;
+    }
+    vec4 p_4 = _group_1_binding_0_cs[(2u * k_7)];
+    vec4 d_4 = _group_1_binding_0_cs[((2u * k_7) + 1u)];
+    vec3 _e21 = surface_specular_warped(p_4.xyz, d_4.xyz, p_4.w);
+    _group_1_binding_1_cs[k_7] = vec4(_e21, 1.0);
+    return;
+}
+
