@@ -1,5 +1,5 @@
 //! Closest-hit and occlusion queries over a scene's triangles and exact spheres, on an obvhs
-//! CWBVH.
+//! CWBVH (built by obvhs, walked by `trace::cwbvh`).
 //!
 //! Three guards against pitfalls of obvhs 0.4 live here:
 //! - **Scale.** The CWBVH node test clamps ray entry at a fixed 1e-4, and PLOC's Morton codes
