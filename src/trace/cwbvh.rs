@@ -14,8 +14,9 @@
 //!   compare, no fused multiply-add), so they give the same bits: `tests/trace.rs` compares
 //!   them ray by ray.
 //!
-//! Primitive tests are a closure over the leaf *slot* (index into `primitive_indices`), so
-//! the caller can lay its primitives out in slot order and read them sequentially.
+//! Primitive tests go through the `Leaves` trait by leaf *slot* (index into
+//! `primitive_indices`), so the caller can lay its primitives out in slot order and read
+//! them sequentially.
 
 use glam::{UVec2, Vec3A};
 use obvhs::cwbvh::node::CwBvhNode;
@@ -150,8 +151,9 @@ fn hit_mask(node: &CwBvhNode, oct_inv4: u32, mut entered: u32) -> u32 {
     mask
 }
 
-/// The node test, one child at a time (non-x86 targets and the reference for the others).
-#[allow(dead_code)]
+/// The node test, one child at a time (non-x86 targets, and the reference the vector tests
+/// are checked against).
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
 #[inline(always)]
 fn entered_scalar(node: &CwBvhNode, ray: &NodeRay) -> u32 {
     let (scale, shift) = node_frame(node, ray);
@@ -373,5 +375,67 @@ pub fn traverse<const ANY: bool>(
     {
         let _ = test;
         walk::<ANY>(nodes, ray, entered_scalar, leaves)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A node with pseudo-random planes (min ≤ max per child), origin and exponents.
+    fn node(seed: &mut u64) -> CwBvhNode {
+        let mut next = || {
+            *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (*seed >> 33) as u32
+        };
+        let mut n = CwBvhNode::default();
+        n.p = glam::Vec3::new(next() as f32 / 4e7 - 50.0, next() as f32 / 4e7 - 50.0, next() as f32 / 4e7 - 50.0);
+        n.e = [120 + (next() % 10) as u8, 120 + (next() % 10) as u8, 120 + (next() % 10) as u8];
+        for j in 0..8 {
+            for (lo, hi) in [(&mut n.child_min_x, &mut n.child_max_x), (&mut n.child_min_y, &mut n.child_max_y)]
+                .into_iter()
+                .chain([(&mut n.child_min_z, &mut n.child_max_z)])
+            {
+                let (a, b) = ((next() % 256) as u8, (next() % 256) as u8);
+                (lo[j], hi[j]) = (a.min(b), a.max(b));
+            }
+        }
+        n
+    }
+
+    /// Every node test says the same children are entered, on random nodes and rays
+    /// (axis-aligned and grazing directions included, finite and short rays).
+    #[test]
+    fn vector_node_tests_match_the_scalar_one() {
+        let mut seed = 7u64;
+        let mut entered_any = 0;
+        for k in 0..20_000u32 {
+            let n = node(&mut seed);
+            let m = node(&mut seed);
+            // from a random point, aimed at one child's centre (or along an axis)
+            let origin = Vec3A::from(n.p) + Vec3A::from(m.p);
+            let j = k as usize % 8;
+            let lo = Vec3A::new(n.child_min_x[j] as f32, n.child_min_y[j] as f32, n.child_min_z[j] as f32);
+            let hi = Vec3A::new(n.child_max_x[j] as f32, n.child_max_y[j] as f32, n.child_max_z[j] as f32);
+            let centre = Vec3A::from(n.p) + n.compute_extent() * (lo + hi) * 0.5;
+            let dir = match k % 5 {
+                0 => Vec3A::X,
+                1 => Vec3A::new(0.0, -1.0, 0.0),
+                _ => (centre - origin).normalize_or(Vec3A::Z) + Vec3A::ZERO,
+            };
+            let tmax = [f32::INFINITY, 60.0, 1e-3][(k % 3) as usize];
+            let ray = NodeRay::new(origin, dir, tmax);
+            let scalar = entered_scalar(&n, &ray);
+            entered_any += (scalar != 0) as u32;
+            #[cfg(target_arch = "x86_64")]
+            {
+                assert_eq!(x86::entered_sse2(&n, &ray), scalar, "node {k}");
+                if wide_available() {
+                    // SAFETY: the CPU has AVX2.
+                    assert_eq!(unsafe { x86::entered_avx2(&n, &ray) }, scalar, "node {k}");
+                }
+            }
+        }
+        assert!(entered_any > 2_000, "only {entered_any} nodes entered: the test would prove little");
     }
 }
