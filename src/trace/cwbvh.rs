@@ -388,9 +388,9 @@ mod tests {
             *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             (*seed >> 33) as u32
         };
-        let mut n = CwBvhNode::default();
-        n.p = glam::Vec3::new(next() as f32 / 4e7 - 50.0, next() as f32 / 4e7 - 50.0, next() as f32 / 4e7 - 50.0);
-        n.e = [120 + (next() % 10) as u8, 120 + (next() % 10) as u8, 120 + (next() % 10) as u8];
+        let p = glam::Vec3::new(next() as f32 / 4e7 - 50.0, next() as f32 / 4e7 - 50.0, next() as f32 / 4e7 - 50.0);
+        let e = [120 + (next() % 10) as u8, 120 + (next() % 10) as u8, 120 + (next() % 10) as u8];
+        let mut n = CwBvhNode { p, e, ..CwBvhNode::default() };
         for j in 0..8 {
             for (lo, hi) in [(&mut n.child_min_x, &mut n.child_max_x), (&mut n.child_min_y, &mut n.child_max_y)]
                 .into_iter()
