@@ -59,6 +59,11 @@ struct SurfaceAxis {
     uint i1_;
     float f;
 };
+struct SurfaceTaps {
+    uvec2 lo;
+    uvec2 hi;
+    vec2 f;
+};
 const uint DYNAMIC = 255u;
 const float HUGE = 1e30;
 const float F32_MIN_POSITIVE = 1.1754944e-38;
@@ -447,8 +452,8 @@ vec3 warp1_(vec3 b_2, vec3 dir) {
     vec3 v_9 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
     float _e20 = inv_dist(v_9);
     float lambda = (length(v_9) * _e20);
-    float t_6 = max(((dir_ab * lambda) + dot(dir, v_9)), 0.0);
-    vec3 f_5 = ((dir * t_6) - (ab * lambda));
+    float t_9 = max(((dir_ab * lambda) + dot(dir, v_9)), 0.0);
+    vec3 f_5 = ((dir * t_9) - (ab * lambda));
     if ((lambda > 0.0)) {
         vec3 _e34 = fetch_vector(vec3(0.0), f_5, dir);
         return _e34;
@@ -611,7 +616,7 @@ vec3 fallback_fetch(vec3 b_6, vec3 dir_4) {
     float _e18 = _group_0_binding_7_cs.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
     Basis _e20 = orthonormal_basis(dir_4);
-    vec3 t_7 = (_e20.t * angle);
+    vec3 t_10 = (_e20.t * angle);
     vec3 bt = (_e20.b * angle);
     plain = dir_4;
     bool loop_init_2 = true;
@@ -631,11 +636,11 @@ vec3 fallback_fetch(vec3 b_6, vec3 dir_4) {
             uint _e37 = s;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_4 + t_7));
+                    d_1 = normalize((dir_4 + t_10));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_4 - t_7));
+                    d_1 = normalize((dir_4 - t_10));
                     break;
                 }
                 case 3u: {
@@ -674,9 +679,9 @@ float inv_t_from_map(vec3 c_4, float w, vec3 b_7, vec3 dir_5) {
     if (!((w > 0.0))) {
         return 0.0;
     }
-    float t_8 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
-    if ((t_8 > 0.0)) {
-        return min((1.0 / t_8), HUGE);
+    float t_11 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
+    if ((t_11 > 0.0)) {
+        return min((1.0 / t_11), HUGE);
     }
     return HUGE;
 }

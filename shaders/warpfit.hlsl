@@ -66,6 +66,12 @@ struct SurfaceAxis {
     float f;
 };
 
+struct SurfaceTaps {
+    uint2 lo;
+    uint2 hi;
+    float2 f;
+};
+
 static const uint DYNAMIC = 255u;
 static const float HUGE = 1e30;
 static const float F32_MIN_POSITIVE = 1.1754944e-38;
@@ -568,8 +574,8 @@ float3 warp1_(float3 b_2, float3 dir)
     float3 v_9 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
     const float _e20 = inv_dist(v_9);
     float lambda = (length(v_9) * _e20);
-    float t_6 = max(((dir_ab * lambda) + dot(dir, v_9)), 0.0);
-    float3 f_5 = ((dir * t_6) - (ab * lambda));
+    float t_9 = max(((dir_ab * lambda) + dot(dir, v_9)), 0.0);
+    float3 f_5 = ((dir * t_9) - (ab * lambda));
     if ((lambda > 0.0)) {
         const float3 _e34 = fetch_vector((0.0).xxx, f_5, dir);
         return _e34;
@@ -756,7 +762,7 @@ float3 fallback_fetch(float3 b_6, float3 dir_4)
     float _e18 = params.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
     const Basis _e20 = orthonormal_basis(dir_4);
-    float3 t_7 = (_e20.t * angle);
+    float3 t_10 = (_e20.t * angle);
     float3 bt = (_e20.b * angle);
     plain = dir_4;
     uint2 loop_bound_2 = uint2(4294967295u, 4294967295u);
@@ -780,11 +786,11 @@ float3 fallback_fetch(float3 b_6, float3 dir_4)
             bool should_continue = false;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_4 + t_7));
+                    d_1 = normalize((dir_4 + t_10));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_4 - t_7));
+                    d_1 = normalize((dir_4 - t_10));
                     break;
                 }
                 case 3u: {
@@ -824,9 +830,9 @@ float inv_t_from_map(float3 c_4, float w, float3 b_7, float3 dir_5)
     if (!((w > 0.0))) {
         return 0.0;
     }
-    float t_8 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
-    if ((t_8 > 0.0)) {
-        return min((1.0 / t_8), HUGE);
+    float t_11 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
+    if ((t_11 > 0.0)) {
+        return min((1.0 / t_11), HUGE);
     }
     return HUGE;
 }
@@ -1379,7 +1385,15 @@ SurfaceAxis surface_axis(float x_in, uint n_5)
     return surfaceaxis;
 }
 
-float3 surface_tile(uint i_1, uint j_1, uint layer, float2 uv_7)
+SurfaceTaps ConstructSurfaceTaps(uint2 arg0, uint2 arg1, float2 arg2) {
+    SurfaceTaps ret = (SurfaceTaps)0;
+    ret.lo = arg0;
+    ret.hi = arg1;
+    ret.f = arg2;
+    return ret;
+}
+
+SurfaceTaps surface_taps(float2 uv_7)
 {
     uint n_12 = surface_params.shape.z;
     float nf = float(n_12);
@@ -1387,53 +1401,48 @@ float3 surface_tile(uint i_1, uint j_1, uint layer, float2 uv_7)
     float y = clamp(((uv_7.y * nf) - 0.5), 0.0, (nf - 1.0));
     float x0_1 = floor(x_4);
     float y0_ = floor(y);
-    uint i0_1 = naga_f2u32(x0_1);
-    uint j0_ = naga_f2u32(y0_);
-    uint i1_ = min((i0_1 + 1u), (n_12 - 1u));
-    uint j1_ = min((j0_ + 1u), (n_12 - 1u));
-    uint2 o_3 = uint2((i_1 * n_12), (j_1 * n_12));
-    int l_6 = int(layer);
-    float4 q00_1 = surface_radiance.Load(int4(int2((o_3 + uint2(i0_1, j0_))), l_6, int(0)));
-    float4 q10_1 = surface_radiance.Load(int4(int2((o_3 + uint2(i1_, j0_))), l_6, int(0)));
-    float4 q01_1 = surface_radiance.Load(int4(int2((o_3 + uint2(i0_1, j1_))), l_6, int(0)));
-    float4 q11_1 = surface_radiance.Load(int4(int2((o_3 + uint2(i1_, j1_))), l_6, int(0)));
-    const float4 _e70 = blend4_(q00_1, q10_1, q01_1, q11_1, float2((x_4 - x0_1), (y - y0_)));
-    return _e70.xyz;
+    uint2 lo = uint2(naga_f2u32(x0_1), naga_f2u32(y0_));
+    const SurfaceTaps surfacetaps = ConstructSurfaceTaps(lo, min((lo + (1u).xx), ((n_12 - 1u)).xx), float2((x_4 - x0_1), (y - y0_)));
+    return surfacetaps;
 }
 
-float surface_tile_inv_distance(uint i_2, uint j_2, float2 uv_8)
+float3 surface_tile(uint i_1, uint j_1, uint layer, SurfaceTaps t_6)
 {
-    uint n_13 = surface_params.shape.z;
-    float nf_1 = float(n_13);
-    float x_5 = clamp(((uv_8.x * nf_1) - 0.5), 0.0, (nf_1 - 1.0));
-    float y_1 = clamp(((uv_8.y * nf_1) - 0.5), 0.0, (nf_1 - 1.0));
-    float x0_2 = floor(x_5);
-    float y0_1 = floor(y_1);
-    uint i0_2 = naga_f2u32(x0_2);
-    uint j0_1 = naga_f2u32(y0_1);
-    uint i1_1 = min((i0_2 + 1u), (n_13 - 1u));
-    uint j1_1 = min((j0_1 + 1u), (n_13 - 1u));
-    uint2 o_4 = uint2((i_2 * n_13), (j_2 * n_13));
-    float4 q00_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(i0_2, j0_1))), int(0)));
-    float4 q10_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(i1_1, j0_1))), int(0)));
-    float4 q01_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(i0_2, j1_1))), int(0)));
-    float4 q11_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(i1_1, j1_1))), int(0)));
-    const float4 _e68 = blend4_(q00_2, q10_2, q01_2, q11_2, float2((x_5 - x0_2), (y_1 - y0_1)));
-    return _e68.x;
+    uint _e8 = surface_params.shape.z;
+    uint2 o_3 = (uint2(i_1, j_1) * _e8);
+    int l_6 = int(layer);
+    float4 q00_1 = surface_radiance.Load(int4(int2((o_3 + t_6.lo)), l_6, int(0)));
+    float4 q10_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.hi.x, t_6.lo.y))), l_6, int(0)));
+    float4 q01_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.lo.x, t_6.hi.y))), l_6, int(0)));
+    float4 q11_1 = surface_radiance.Load(int4(int2((o_3 + t_6.hi)), l_6, int(0)));
+    const float4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_6.f);
+    return _e44.xyz;
 }
 
-float2 surface_warped_uv(uint i_3, uint j_3, float3 b_13, float3 local_21, float2 shared_uv)
+float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_7)
+{
+    uint _e7 = surface_params.shape.z;
+    uint2 o_4 = (uint2(i_2, j_2) * _e7);
+    float4 q00_2 = surface_inv_distance.Load(int3(int2((o_4 + t_7.lo)), int(0)));
+    float4 q10_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(t_7.hi.x, t_7.lo.y))), int(0)));
+    float4 q01_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(t_7.lo.x, t_7.hi.y))), int(0)));
+    float4 q11_2 = surface_inv_distance.Load(int3(int2((o_4 + t_7.hi)), int(0)));
+    const float4 _e42 = blend4_(q00_2, q10_2, q01_2, q11_2, t_7.f);
+    return _e42.x;
+}
+
+SurfaceTaps surface_warped_taps(uint i_3, uint j_3, float3 b_13, float3 local_21, SurfaceTaps shared_taps)
 {
     bool local_22 = (bool)0;
     bool local_23 = (bool)0;
 
     SurfaceParams sp = surface_params;
     float s_4 = ((float(i_3) + 0.5) / float(sp.shape.x));
-    float t_9 = ((float(j_3) + 0.5) / float(sp.shape.y));
-    float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_4)) + (sp.edge_v.xyz * t_9)) + (sp.normal.xyz * sp.corner.w));
+    float t_12 = ((float(j_3) + 0.5) / float(sp.shape.y));
+    float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_4)) + (sp.edge_v.xyz * t_12)) + (sp.normal.xyz * sp.corner.w));
     float3 d_3 = (probe - b_13);
     float3 ab_1 = float3(dot(d_3, sp.tangent.xyz), dot(d_3, sp.bitangent.xyz), dot(d_3, sp.normal.xyz));
-    const float _e48 = surface_tile_inv_distance(i_3, j_3, shared_uv);
+    const float _e48 = surface_tile_inv_distance(i_3, j_3, shared_taps);
     float3 v_11 = ((local_21 * max(((dot(local_21, ab_1) * _e48) + 1.0), 0.0)) - (ab_1 * _e48));
     if ((_e48 > 0.0)) {
         const bool _e62 = finite3_(v_11);
@@ -1450,16 +1459,19 @@ float2 surface_warped_uv(uint i_3, uint j_3, float3 b_13, float3 local_21, float
     bool _e71 = local_23;
     if (_e71) {
         const float2 _e72 = hemi_encode(v_11);
-        return _e72;
+        const SurfaceTaps _e73 = surface_taps(_e72);
+        const SurfaceTaps surfacetaps_1 = _e73;
+        return surfacetaps_1;
     }
-    return shared_uv;
+    const SurfaceTaps surfacetaps_2 = shared_taps;
+    return surfacetaps_2;
 }
 
-float3 surface_probe(uint i_4, uint j_4, float2 uv_9, uint m0_, uint m1_, float fm)
+float3 surface_probe(uint i_4, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, float fm)
 {
-    const float3 _e6 = surface_tile(i_4, j_4, m0_, uv_9);
+    const float3 _e6 = surface_tile(i_4, j_4, m0_, t_8);
     if ((fm > 0.0)) {
-        const float3 _e9 = surface_tile(i_4, j_4, m1_, uv_9);
+        const float3 _e9 = surface_tile(i_4, j_4, m1_, t_8);
         return lerp(_e6, _e9, fm);
     }
     return _e6;
@@ -1469,10 +1481,10 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
 {
     float3 b_14 = (float3)0;
     float lod_2 = 0.0;
-    float2 uv00_ = (float2)0;
-    float2 uv10_ = (float2)0;
-    float2 uv01_ = (float2)0;
-    float2 uv11_ = (float2)0;
+    SurfaceTaps t00_ = (SurfaceTaps)0;
+    SurfaceTaps t10_ = (SurfaceTaps)0;
+    SurfaceTaps t01_ = (SurfaceTaps)0;
+    SurfaceTaps t11_ = (SurfaceTaps)0;
 
     const float4 _e4 = unit_direction(dir_in);
     if ((_e4.w == 0.0)) {
@@ -1501,37 +1513,38 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     float3 dir_10 = _e4.xyz;
     float3 local_24 = float3(dot(dir_10, sp_1.tangent.xyz), dot(dir_10, sp_1.bitangent.xyz), dot(dir_10, sp_1.normal.xyz));
     const float2 _e64 = hemi_encode(local_24);
-    uv00_ = _e64;
-    uv10_ = _e64;
-    uv01_ = _e64;
-    uv11_ = _e64;
+    const SurfaceTaps _e65 = surface_taps(_e64);
+    t00_ = _e65;
+    t10_ = _e65;
+    t01_ = _e65;
+    t11_ = _e65;
     if (warped) {
-        float3 _e71 = b_14;
-        const float2 _e72 = surface_warped_uv(_e25.i0_, _e31.i0_, _e71, local_24, _e64);
-        uv00_ = _e72;
-        float3 _e75 = b_14;
-        const float2 _e76 = surface_warped_uv(_e25.i1_, _e31.i0_, _e75, local_24, _e64);
-        uv10_ = _e76;
-        float3 _e79 = b_14;
-        const float2 _e80 = surface_warped_uv(_e25.i0_, _e31.i1_, _e79, local_24, _e64);
-        uv01_ = _e80;
-        float3 _e83 = b_14;
-        const float2 _e84 = surface_warped_uv(_e25.i1_, _e31.i1_, _e83, local_24, _e64);
-        uv11_ = _e84;
+        float3 _e72 = b_14;
+        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_24, _e65);
+        t00_ = _e73;
+        float3 _e76 = b_14;
+        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_24, _e65);
+        t10_ = _e77;
+        float3 _e80 = b_14;
+        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_24, _e65);
+        t01_ = _e81;
+        float3 _e84 = b_14;
+        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_24, _e65);
+        t11_ = _e85;
     }
-    float2 _e87 = uv00_;
-    const float3 _e88 = surface_probe(_e25.i0_, _e31.i0_, _e87, m0_1, m1_1, fm_1);
-    float2 _e91 = uv10_;
-    const float3 _e92 = surface_probe(_e25.i1_, _e31.i0_, _e91, m0_1, m1_1, fm_1);
-    float3 top_1 = lerp(_e88, _e92, _e25.f);
-    float2 _e97 = uv01_;
-    const float3 _e98 = surface_probe(_e25.i0_, _e31.i1_, _e97, m0_1, m1_1, fm_1);
-    float2 _e101 = uv11_;
-    const float3 _e102 = surface_probe(_e25.i1_, _e31.i1_, _e101, m0_1, m1_1, fm_1);
-    float3 bottom = lerp(_e98, _e102, _e25.f);
+    SurfaceTaps _e88 = t00_;
+    const float3 _e89 = surface_probe(_e25.i0_, _e31.i0_, _e88, m0_1, m1_1, fm_1);
+    SurfaceTaps _e92 = t10_;
+    const float3 _e93 = surface_probe(_e25.i1_, _e31.i0_, _e92, m0_1, m1_1, fm_1);
+    float3 top_1 = lerp(_e89, _e93, _e25.f);
+    SurfaceTaps _e98 = t01_;
+    const float3 _e99 = surface_probe(_e25.i0_, _e31.i1_, _e98, m0_1, m1_1, fm_1);
+    SurfaceTaps _e102 = t11_;
+    const float3 _e103 = surface_probe(_e25.i1_, _e31.i1_, _e102, m0_1, m1_1, fm_1);
+    float3 bottom = lerp(_e99, _e103, _e25.f);
     float3 l_7 = lerp(top_1, bottom, _e31.f);
-    const bool _e107 = finite3_(l_7);
-    if (_e107) {
+    const bool _e108 = finite3_(l_7);
+    if (_e108) {
         return max(l_7, (0.0).xxx);
     }
     return (0.0).xxx;
@@ -1585,8 +1598,8 @@ void irradiance_queries(uint3 id_1 : SV_DispatchThreadID)
         return;
     }
     float4 p_5 = asfloat(queries.Load4((2u * k_9)*16));
-    float4 n_14 = asfloat(queries.Load4(((2u * k_9) + 1u)*16));
-    const float3 _e20 = irradiance(p_5.xyz, n_14.xyz);
+    float4 n_13 = asfloat(queries.Load4(((2u * k_9) + 1u)*16));
+    const float3 _e20 = irradiance(p_5.xyz, n_13.xyz);
     results.Store4(k_9*16, asuint(float4(_e20, 1.0)));
     return;
 }

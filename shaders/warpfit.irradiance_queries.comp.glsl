@@ -59,6 +59,11 @@ struct SurfaceAxis {
     uint i1_;
     float f;
 };
+struct SurfaceTaps {
+    uvec2 lo;
+    uvec2 hi;
+    vec2 f;
+};
 const uint DYNAMIC = 255u;
 const float HUGE = 1e30;
 const float F32_MIN_POSITIVE = 1.1754944e-38;
@@ -520,9 +525,9 @@ float inv_t_from_map(vec3 c_4, float w, vec3 b_7, vec3 dir_5) {
     if (!((w > 0.0))) {
         return 0.0;
     }
-    float t_6 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
-    if ((t_6 > 0.0)) {
-        return min((1.0 / t_6), HUGE);
+    float t_9 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
+    if ((t_9 > 0.0)) {
+        return min((1.0 / t_9), HUGE);
     }
     return HUGE;
 }

@@ -59,6 +59,11 @@ struct SurfaceAxis {
     uint i1_;
     float f;
 };
+struct SurfaceTaps {
+    uvec2 lo;
+    uvec2 hi;
+    vec2 f;
+};
 const uint DYNAMIC = 255u;
 const float HUGE = 1e30;
 const float F32_MIN_POSITIVE = 1.1754944e-38;
@@ -293,9 +298,9 @@ float inv_t_from_map(vec3 c_4, float w, vec3 b_7, vec3 dir_5) {
     if (!((w > 0.0))) {
         return 0.0;
     }
-    float t_6 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
-    if ((t_6 > 0.0)) {
-        return min((1.0 / t_6), HUGE);
+    float t_9 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
+    if ((t_9 > 0.0)) {
+        return min((1.0 / t_9), HUGE);
     }
     return HUGE;
 }
@@ -346,57 +351,50 @@ SurfaceAxis surface_axis(float x_in, uint n_5) {
     return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_6 - float(i0_)));
 }
 
-vec3 surface_tile(uint i_1, uint j_1, uint layer, vec2 uv_7) {
+SurfaceTaps surface_taps(vec2 uv_7) {
     uint n_6 = _group_2_binding_1_cs.shape.z;
     float nf = float(n_6);
     float x_4 = clamp(((uv_7.x * nf) - 0.5), 0.0, (nf - 1.0));
     float y = clamp(((uv_7.y * nf) - 0.5), 0.0, (nf - 1.0));
     float x0_1 = floor(x_4);
     float y0_ = floor(y);
-    uint i0_1 = uint(x0_1);
-    uint j0_ = uint(y0_);
-    uint i1_ = min((i0_1 + 1u), (n_6 - 1u));
-    uint j1_ = min((j0_ + 1u), (n_6 - 1u));
-    uvec2 o_1 = uvec2((i_1 * n_6), (j_1 * n_6));
+    uvec2 lo = uvec2(uint(x0_1), uint(y0_));
+    return SurfaceTaps(lo, min((lo + uvec2(1u)), uvec2((n_6 - 1u))), vec2((x_4 - x0_1), (y - y0_)));
+}
+
+vec3 surface_tile(uint i_1, uint j_1, uint layer, SurfaceTaps t_6) {
+    uint _e8 = _group_2_binding_1_cs.shape.z;
+    uvec2 o_1 = (uvec2(i_1, j_1) * _e8);
     int l_4 = int(layer);
-    vec4 q00_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(i0_1, j0_))), l_4), 0);
-    vec4 q10_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(i1_, j0_))), l_4), 0);
-    vec4 q01_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(i0_1, j1_))), l_4), 0);
-    vec4 q11_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(i1_, j1_))), l_4), 0);
-    vec4 _e70 = blend4_(q00_1, q10_1, q01_1, q11_1, vec2((x_4 - x0_1), (y - y0_)));
-    return _e70.xyz;
+    vec4 q00_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.lo)), l_4), 0);
+    vec4 q10_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.hi.x, t_6.lo.y))), l_4), 0);
+    vec4 q01_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.lo.x, t_6.hi.y))), l_4), 0);
+    vec4 q11_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.hi)), l_4), 0);
+    vec4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_6.f);
+    return _e44.xyz;
 }
 
-float surface_tile_inv_distance(uint i_2, uint j_2, vec2 uv_8) {
-    uint n_7 = _group_2_binding_1_cs.shape.z;
-    float nf_1 = float(n_7);
-    float x_5 = clamp(((uv_8.x * nf_1) - 0.5), 0.0, (nf_1 - 1.0));
-    float y_1 = clamp(((uv_8.y * nf_1) - 0.5), 0.0, (nf_1 - 1.0));
-    float x0_2 = floor(x_5);
-    float y0_1 = floor(y_1);
-    uint i0_2 = uint(x0_2);
-    uint j0_1 = uint(y0_1);
-    uint i1_1 = min((i0_2 + 1u), (n_7 - 1u));
-    uint j1_1 = min((j0_1 + 1u), (n_7 - 1u));
-    uvec2 o_2 = uvec2((i_2 * n_7), (j_2 * n_7));
-    vec4 q00_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(i0_2, j0_1))), 0);
-    vec4 q10_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(i1_1, j0_1))), 0);
-    vec4 q01_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(i0_2, j1_1))), 0);
-    vec4 q11_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(i1_1, j1_1))), 0);
-    vec4 _e68 = blend4_(q00_2, q10_2, q01_2, q11_2, vec2((x_5 - x0_2), (y_1 - y0_1)));
-    return _e68.x;
+float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_7) {
+    uint _e7 = _group_2_binding_1_cs.shape.z;
+    uvec2 o_2 = (uvec2(i_2, j_2) * _e7);
+    vec4 q00_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + t_7.lo)), 0);
+    vec4 q10_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(t_7.hi.x, t_7.lo.y))), 0);
+    vec4 q01_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(t_7.lo.x, t_7.hi.y))), 0);
+    vec4 q11_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + t_7.hi)), 0);
+    vec4 _e42 = blend4_(q00_2, q10_2, q01_2, q11_2, t_7.f);
+    return _e42.x;
 }
 
-vec2 surface_warped_uv(uint i_3, uint j_3, vec3 b_13, vec3 local_21, vec2 shared_uv) {
+SurfaceTaps surface_warped_taps(uint i_3, uint j_3, vec3 b_13, vec3 local_21, SurfaceTaps shared_taps) {
     bool local_22 = false;
     bool local_23 = false;
     SurfaceParams sp = _group_2_binding_1_cs;
     float s_3 = ((float(i_3) + 0.5) / float(sp.shape.x));
-    float t_7 = ((float(j_3) + 0.5) / float(sp.shape.y));
-    vec3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_3)) + (sp.edge_v.xyz * t_7)) + (sp.normal.xyz * sp.corner.w));
+    float t_10 = ((float(j_3) + 0.5) / float(sp.shape.y));
+    vec3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_3)) + (sp.edge_v.xyz * t_10)) + (sp.normal.xyz * sp.corner.w));
     vec3 d_2 = (probe - b_13);
     vec3 ab = vec3(dot(d_2, sp.tangent.xyz), dot(d_2, sp.bitangent.xyz), dot(d_2, sp.normal.xyz));
-    float _e48 = surface_tile_inv_distance(i_3, j_3, shared_uv);
+    float _e48 = surface_tile_inv_distance(i_3, j_3, shared_taps);
     vec3 v_9 = ((local_21 * max(((dot(local_21, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
     if ((_e48 > 0.0)) {
         bool _e62 = finite3_(v_9);
@@ -413,15 +411,16 @@ vec2 surface_warped_uv(uint i_3, uint j_3, vec3 b_13, vec3 local_21, vec2 shared
     bool _e71 = local_23;
     if (_e71) {
         vec2 _e72 = hemi_encode(v_9);
-        return _e72;
+        SurfaceTaps _e73 = surface_taps(_e72);
+        return _e73;
     }
-    return shared_uv;
+    return shared_taps;
 }
 
-vec3 surface_probe(uint i_4, uint j_4, vec2 uv_9, uint m0_, uint m1_, float fm) {
-    vec3 _e6 = surface_tile(i_4, j_4, m0_, uv_9);
+vec3 surface_probe(uint i_4, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, float fm) {
+    vec3 _e6 = surface_tile(i_4, j_4, m0_, t_8);
     if ((fm > 0.0)) {
-        vec3 _e9 = surface_tile(i_4, j_4, m1_, uv_9);
+        vec3 _e9 = surface_tile(i_4, j_4, m1_, t_8);
         return mix(_e6, _e9, fm);
     }
     return _e6;
@@ -430,10 +429,10 @@ vec3 surface_probe(uint i_4, uint j_4, vec2 uv_9, uint m0_, uint m1_, float fm) 
 vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     vec3 b_14 = vec3(0.0);
     float lod_2 = 0.0;
-    vec2 uv00_ = vec2(0.0);
-    vec2 uv10_ = vec2(0.0);
-    vec2 uv01_ = vec2(0.0);
-    vec2 uv11_ = vec2(0.0);
+    SurfaceTaps t00_ = SurfaceTaps(uvec2(0u), uvec2(0u), vec2(0.0));
+    SurfaceTaps t10_ = SurfaceTaps(uvec2(0u), uvec2(0u), vec2(0.0));
+    SurfaceTaps t01_ = SurfaceTaps(uvec2(0u), uvec2(0u), vec2(0.0));
+    SurfaceTaps t11_ = SurfaceTaps(uvec2(0u), uvec2(0u), vec2(0.0));
     vec4 _e4 = unit_direction(dir_in);
     if ((_e4.w == 0.0)) {
         return vec3(0.0);
@@ -461,37 +460,38 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     vec3 dir_10 = _e4.xyz;
     vec3 local_24 = vec3(dot(dir_10, sp_1.tangent.xyz), dot(dir_10, sp_1.bitangent.xyz), dot(dir_10, sp_1.normal.xyz));
     vec2 _e64 = hemi_encode(local_24);
-    uv00_ = _e64;
-    uv10_ = _e64;
-    uv01_ = _e64;
-    uv11_ = _e64;
+    SurfaceTaps _e65 = surface_taps(_e64);
+    t00_ = _e65;
+    t10_ = _e65;
+    t01_ = _e65;
+    t11_ = _e65;
     if (warped) {
-        vec3 _e71 = b_14;
-        vec2 _e72 = surface_warped_uv(_e25.i0_, _e31.i0_, _e71, local_24, _e64);
-        uv00_ = _e72;
-        vec3 _e75 = b_14;
-        vec2 _e76 = surface_warped_uv(_e25.i1_, _e31.i0_, _e75, local_24, _e64);
-        uv10_ = _e76;
-        vec3 _e79 = b_14;
-        vec2 _e80 = surface_warped_uv(_e25.i0_, _e31.i1_, _e79, local_24, _e64);
-        uv01_ = _e80;
-        vec3 _e83 = b_14;
-        vec2 _e84 = surface_warped_uv(_e25.i1_, _e31.i1_, _e83, local_24, _e64);
-        uv11_ = _e84;
+        vec3 _e72 = b_14;
+        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_24, _e65);
+        t00_ = _e73;
+        vec3 _e76 = b_14;
+        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_24, _e65);
+        t10_ = _e77;
+        vec3 _e80 = b_14;
+        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_24, _e65);
+        t01_ = _e81;
+        vec3 _e84 = b_14;
+        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_24, _e65);
+        t11_ = _e85;
     }
-    vec2 _e87 = uv00_;
-    vec3 _e88 = surface_probe(_e25.i0_, _e31.i0_, _e87, m0_1, m1_1, fm_1);
-    vec2 _e91 = uv10_;
-    vec3 _e92 = surface_probe(_e25.i1_, _e31.i0_, _e91, m0_1, m1_1, fm_1);
-    vec3 top = mix(_e88, _e92, _e25.f);
-    vec2 _e97 = uv01_;
-    vec3 _e98 = surface_probe(_e25.i0_, _e31.i1_, _e97, m0_1, m1_1, fm_1);
-    vec2 _e101 = uv11_;
-    vec3 _e102 = surface_probe(_e25.i1_, _e31.i1_, _e101, m0_1, m1_1, fm_1);
-    vec3 bottom = mix(_e98, _e102, _e25.f);
+    SurfaceTaps _e88 = t00_;
+    vec3 _e89 = surface_probe(_e25.i0_, _e31.i0_, _e88, m0_1, m1_1, fm_1);
+    SurfaceTaps _e92 = t10_;
+    vec3 _e93 = surface_probe(_e25.i1_, _e31.i0_, _e92, m0_1, m1_1, fm_1);
+    vec3 top = mix(_e89, _e93, _e25.f);
+    SurfaceTaps _e98 = t01_;
+    vec3 _e99 = surface_probe(_e25.i0_, _e31.i1_, _e98, m0_1, m1_1, fm_1);
+    SurfaceTaps _e102 = t11_;
+    vec3 _e103 = surface_probe(_e25.i1_, _e31.i1_, _e102, m0_1, m1_1, fm_1);
+    vec3 bottom = mix(_e99, _e103, _e25.f);
     vec3 l_5 = mix(top, bottom, _e31.f);
-    bool _e107 = finite3_(l_5);
-    if (_e107) {
+    bool _e108 = finite3_(l_5);
+    if (_e108) {
         return max(l_5, vec3(0.0));
     }
     return vec3(0.0);

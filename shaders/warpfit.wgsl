@@ -866,73 +866,72 @@ fn surface_axis(x_in: f32, n: u32) -> SurfaceAxis {
     return SurfaceAxis(i0, min(i0 + 1u, n - 1u), c - f32(i0));
 }
 
-// Bilinear read of probe (i, j)'s tile in layer `layer` at the taps of `uv` (clamped to
-// the tile's edge texels, as `octa::hemi::taps`).
-fn surface_tile(i: u32, j: u32, layer: u32, uv: vec2<f32>) -> vec3<f32> {
+// Where a bilinear lookup at `uv` reads a tile (`octa::hemi::taps`): the lower and upper
+// texel of each axis inside the tile (clamped to its edge) and the blend fractions. The
+// same for every tile, so one lookup finds them once.
+struct SurfaceTaps {
+    lo: vec2<u32>,
+    hi: vec2<u32>,
+    f: vec2<f32>,
+}
+
+fn surface_taps(uv: vec2<f32>) -> SurfaceTaps {
     let n = surface_params.shape.z;
     let nf = f32(n);
     let x = clamp(uv.x * nf - 0.5, 0.0, nf - 1.0);
     let y = clamp(uv.y * nf - 0.5, 0.0, nf - 1.0);
     let x0 = floor(x);
     let y0 = floor(y);
-    let i0 = u32(x0);
-    let j0 = u32(y0);
-    let i1 = min(i0 + 1u, n - 1u);
-    let j1 = min(j0 + 1u, n - 1u);
-    let o = vec2<u32>(i * n, j * n);
+    let lo = vec2<u32>(u32(x0), u32(y0));
+    return SurfaceTaps(lo, min(lo + 1u, vec2<u32>(n - 1u)), vec2<f32>(x - x0, y - y0));
+}
+
+// Bilinear read of probe (i, j)'s tile in layer `layer` at taps `t`.
+fn surface_tile(i: u32, j: u32, layer: u32, t: SurfaceTaps) -> vec3<f32> {
+    let o = vec2<u32>(i, j) * surface_params.shape.z;
     let l = i32(layer);
-    let q00 = textureLoad(surface_radiance, vec2<i32>(o + vec2<u32>(i0, j0)), l, 0);
-    let q10 = textureLoad(surface_radiance, vec2<i32>(o + vec2<u32>(i1, j0)), l, 0);
-    let q01 = textureLoad(surface_radiance, vec2<i32>(o + vec2<u32>(i0, j1)), l, 0);
-    let q11 = textureLoad(surface_radiance, vec2<i32>(o + vec2<u32>(i1, j1)), l, 0);
-    return blend4(q00, q10, q01, q11, vec2<f32>(x - x0, y - y0)).xyz;
+    let q00 = textureLoad(surface_radiance, vec2<i32>(o + t.lo), l, 0);
+    let q10 = textureLoad(surface_radiance, vec2<i32>(o + vec2<u32>(t.hi.x, t.lo.y)), l, 0);
+    let q01 = textureLoad(surface_radiance, vec2<i32>(o + vec2<u32>(t.lo.x, t.hi.y)), l, 0);
+    let q11 = textureLoad(surface_radiance, vec2<i32>(o + t.hi), l, 0);
+    return blend4(q00, q10, q01, q11, t.f).xyz;
 }
 
-// Bilinear 1/distance of probe (i, j)'s tile at `uv` (same taps as `surface_tile`).
-fn surface_tile_inv_distance(i: u32, j: u32, uv: vec2<f32>) -> f32 {
-    let n = surface_params.shape.z;
-    let nf = f32(n);
-    let x = clamp(uv.x * nf - 0.5, 0.0, nf - 1.0);
-    let y = clamp(uv.y * nf - 0.5, 0.0, nf - 1.0);
-    let x0 = floor(x);
-    let y0 = floor(y);
-    let i0 = u32(x0);
-    let j0 = u32(y0);
-    let i1 = min(i0 + 1u, n - 1u);
-    let j1 = min(j0 + 1u, n - 1u);
-    let o = vec2<u32>(i * n, j * n);
-    let q00 = textureLoad(surface_inv_distance, vec2<i32>(o + vec2<u32>(i0, j0)), 0);
-    let q10 = textureLoad(surface_inv_distance, vec2<i32>(o + vec2<u32>(i1, j0)), 0);
-    let q01 = textureLoad(surface_inv_distance, vec2<i32>(o + vec2<u32>(i0, j1)), 0);
-    let q11 = textureLoad(surface_inv_distance, vec2<i32>(o + vec2<u32>(i1, j1)), 0);
-    return blend4(q00, q10, q01, q11, vec2<f32>(x - x0, y - y0)).x;
+// Bilinear 1/distance of probe (i, j)'s tile at taps `t`.
+fn surface_tile_inv_distance(i: u32, j: u32, t: SurfaceTaps) -> f32 {
+    let o = vec2<u32>(i, j) * surface_params.shape.z;
+    let q00 = textureLoad(surface_inv_distance, vec2<i32>(o + t.lo), 0);
+    let q10 = textureLoad(surface_inv_distance, vec2<i32>(o + vec2<u32>(t.hi.x, t.lo.y)), 0);
+    let q01 = textureLoad(surface_inv_distance, vec2<i32>(o + vec2<u32>(t.lo.x, t.hi.y)), 0);
+    let q11 = textureLoad(surface_inv_distance, vec2<i32>(o + t.hi), 0);
+    return blend4(q00, q10, q01, q11, t.f).x;
 }
 
-// Where probe (i, j) reads for a lookup from `b` along tangent-space `local` (uv `shared`,
+// Where probe (i, j) reads for a lookup from `b` along tangent-space `local` (`shared`:
 // where every probe reads unwarped): seed 000's plane warp from that probe, as
 // `SurfaceAtlas::radiance_warped` does. w1 is the probe's 1/distance along the direction;
 // the plane perpendicular to it at that hit is crossed by the ray from B, and the probe
-// reads towards the crossing. Sky (w1 = 0) or an unusable vector: the shared uv.
-fn surface_warped_uv(i: u32, j: u32, b: vec3<f32>, local: vec3<f32>, shared_uv: vec2<f32>) -> vec2<f32> {
+// reads towards the crossing. Sky (w1 = 0) or an unusable vector: the shared taps.
+fn surface_warped_taps(i: u32, j: u32, b: vec3<f32>, local: vec3<f32>, shared_taps: SurfaceTaps) -> SurfaceTaps {
     let sp = surface_params;
     let s = (f32(i) + 0.5) / f32(sp.shape.x);
     let t = (f32(j) + 0.5) / f32(sp.shape.y);
     let probe = sp.corner.xyz + sp.edge_u.xyz * s + sp.edge_v.xyz * t + sp.normal.xyz * sp.corner.w;
     let d = probe - b;
     let ab = vec3<f32>(dot(d, sp.tangent.xyz), dot(d, sp.bitangent.xyz), dot(d, sp.normal.xyz));
-    let w1 = surface_tile_inv_distance(i, j, shared_uv);
+    let w1 = surface_tile_inv_distance(i, j, shared_taps);
     let v = local * max(dot(local, ab) * w1 + 1.0, 0.0) - ab * w1;
     if w1 > 0.0 && finite3(v) && dot(v, v) > 0.0 {
-        return hemi_encode(v);
+        return surface_taps(hemi_encode(v));
     }
-    return shared_uv;
+    return shared_taps;
 }
 
-// Probe (i, j)'s radiance at `uv`, linear in roughness between layers m0 and m1.
-fn surface_probe(i: u32, j: u32, uv: vec2<f32>, m0: u32, m1: u32, fm: f32) -> vec3<f32> {
-    let a = surface_tile(i, j, m0, uv);
+// Probe (i, j)'s radiance at taps `t`, linear in roughness between layers m0 and m1.
+fn surface_probe(i: u32, j: u32, t: SurfaceTaps, m0: u32, m1: u32, fm: f32) -> vec3<f32> {
+    let a = surface_tile(i, j, m0, t);
     if fm > 0.0 {
-        return mix(a, surface_tile(i, j, m1, uv), fm);
+        return mix(a, surface_tile(i, j, m1, t), fm);
     }
     return a;
 }
@@ -940,9 +939,9 @@ fn surface_probe(i: u32, j: u32, uv: vec2<f32>, m0: u32, m1: u32, fm: f32) -> ve
 // Radiance arriving at `b` (a point on or just off the atlas's surface) from direction
 // `dir` at perceptual roughness `roughness`: the four nearest probes blended bilinearly by
 // the point's (s, t), each read bilinearly in its tile; with `warped`, each probe first
-// warped by its own depth (`surface_warped_uv`). Black for a zero or non-finite direction;
-// a non-finite position reads the patch's corner; a point off the patch reads its nearest
-// probes; roughness is clamped to [0, 1] (NaN reads 0).
+// warped by its own depth (`surface_warped_taps`). Black for a zero or non-finite
+// direction; a non-finite position reads the patch's corner; a point off the patch reads
+// its nearest probes; roughness is clamped to [0, 1] (NaN reads 0).
 fn surface_lookup(b_in: vec3<f32>, dir_in: vec3<f32>, roughness: f32, warped: bool) -> vec3<f32> {
     let u = unit_direction(dir_in);
     if u.w == 0.0 {
@@ -966,19 +965,19 @@ fn surface_lookup(b_in: vec3<f32>, dir_in: vec3<f32>, roughness: f32, warped: bo
     let fm = lod - f32(m0);
     let dir = u.xyz;
     let local = vec3<f32>(dot(dir, sp.tangent.xyz), dot(dir, sp.bitangent.xyz), dot(dir, sp.normal.xyz));
-    let shared_uv = hemi_encode(local);
-    var uv00 = shared_uv;
-    var uv10 = shared_uv;
-    var uv01 = shared_uv;
-    var uv11 = shared_uv;
+    let shared_taps = surface_taps(hemi_encode(local));
+    var t00 = shared_taps;
+    var t10 = shared_taps;
+    var t01 = shared_taps;
+    var t11 = shared_taps;
     if warped {
-        uv00 = surface_warped_uv(ax.i0, ay.i0, b, local, shared_uv);
-        uv10 = surface_warped_uv(ax.i1, ay.i0, b, local, shared_uv);
-        uv01 = surface_warped_uv(ax.i0, ay.i1, b, local, shared_uv);
-        uv11 = surface_warped_uv(ax.i1, ay.i1, b, local, shared_uv);
+        t00 = surface_warped_taps(ax.i0, ay.i0, b, local, shared_taps);
+        t10 = surface_warped_taps(ax.i1, ay.i0, b, local, shared_taps);
+        t01 = surface_warped_taps(ax.i0, ay.i1, b, local, shared_taps);
+        t11 = surface_warped_taps(ax.i1, ay.i1, b, local, shared_taps);
     }
-    let top = mix(surface_probe(ax.i0, ay.i0, uv00, m0, m1, fm), surface_probe(ax.i1, ay.i0, uv10, m0, m1, fm), ax.f);
-    let bottom = mix(surface_probe(ax.i0, ay.i1, uv01, m0, m1, fm), surface_probe(ax.i1, ay.i1, uv11, m0, m1, fm), ax.f);
+    let top = mix(surface_probe(ax.i0, ay.i0, t00, m0, m1, fm), surface_probe(ax.i1, ay.i0, t10, m0, m1, fm), ax.f);
+    let bottom = mix(surface_probe(ax.i0, ay.i1, t01, m0, m1, fm), surface_probe(ax.i1, ay.i1, t11, m0, m1, fm), ax.f);
     let l = mix(top, bottom, ay.f);
     if finite3(l) {
         return max(l, vec3<f32>(0.0));

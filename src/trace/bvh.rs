@@ -301,6 +301,12 @@ impl Tracer {
         NodeRay::new(o, Vec3A::from(dir) + Vec3A::ZERO, tmax_n)
     }
 
+    /// The leaf slots as `ray` sees them (its origin, direction and watertight shear).
+    #[inline(always)]
+    fn leaves(&self, ray: &NodeRay) -> SlotLeaves<'_> {
+        SlotLeaves { tracer: self, shear: Shear::new(ray.dir), origin: ray.origin, dir: ray.dir }
+    }
+
     /// Closest hit along the unit direction `dir` from `origin`, up to `tmax` (world units).
     /// Non-finite inputs return `None`.
     #[inline]
@@ -309,8 +315,8 @@ impl Tracer {
             return None;
         }
         let mut ray = self.normalised_ray(origin, dir, tmax);
-        let (o, d) = (ray.origin, Vec3A::from(dir) + Vec3A::ZERO);
-        let leaves = SlotLeaves { tracer: self, shear: Shear::new(d), origin: o, dir: d };
+        let (o, d) = (ray.origin, ray.dir);
+        let leaves = self.leaves(&ray);
         let slot = cwbvh::traverse::<false>(&self.bvh.nodes, &mut ray, self.node_test, &leaves)?;
         let t = ray.tmax;
         if !t.is_finite() {
@@ -348,8 +354,7 @@ impl Tracer {
             return true;
         }
         let mut ray = self.normalised_ray(origin, dir, tmax);
-        let (o, d) = (ray.origin, Vec3A::from(dir) + Vec3A::ZERO);
-        let leaves = SlotLeaves { tracer: self, shear: Shear::new(d), origin: o, dir: d };
+        let leaves = self.leaves(&ray);
         cwbvh::traverse::<true>(&self.bvh.nodes, &mut ray, self.node_test, &leaves).is_some()
     }
 
@@ -358,11 +363,10 @@ impl Tracer {
     /// tracer's walk finds exactly this.
     #[doc(hidden)]
     pub fn closest_slot_obvhs(&self, origin: Vec3, dir: Vec3) -> Option<(f32, u32)> {
-        let o = Vec3A::from((origin - self.centre) * self.scale);
-        let d = Vec3A::from(dir) + Vec3A::ZERO;
-        let leaves = SlotLeaves { tracer: self, shear: Shear::new(d), origin: o, dir: d };
+        let ray = self.normalised_ray(origin, dir, f32::INFINITY);
+        let leaves = self.leaves(&ray);
         let mut hit = RayHit::none();
-        let found = self.bvh.ray_traverse(Ray::new(o, d, 0.0, f32::INFINITY), &mut hit, |r, slot| {
+        let found = self.bvh.ray_traverse(Ray::new(ray.origin, ray.dir, 0.0, ray.tmax), &mut hit, |r, slot| {
             cwbvh::Leaves::intersect(&leaves, slot as u32, r.tmax)
         });
         found.then_some((hit.t, hit.primitive_id))
@@ -372,8 +376,7 @@ impl Tracer {
     #[doc(hidden)]
     pub fn closest_slot(&self, origin: Vec3, dir: Vec3) -> Option<(f32, u32)> {
         let mut ray = self.normalised_ray(origin, dir, f32::INFINITY);
-        let d = Vec3A::from(dir) + Vec3A::ZERO;
-        let leaves = SlotLeaves { tracer: self, shear: Shear::new(d), origin: ray.origin, dir: d };
+        let leaves = self.leaves(&ray);
         let slot = cwbvh::traverse::<false>(&self.bvh.nodes, &mut ray, self.node_test, &leaves)?;
         Some((ray.tmax, slot))
     }

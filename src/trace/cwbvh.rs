@@ -68,6 +68,8 @@ fn wide_available() -> bool {
 #[derive(Clone, Copy, Debug)]
 pub struct NodeRay {
     pub origin: Vec3A,
+    /// Unit direction (no −0.0 component).
+    pub dir: Vec3A,
     /// `obvhs::ray::safe_inverse` of each direction component (finite).
     pub inv_dir: Vec3A,
     /// Byte offsets, inside a node, of the near-plane arrays of x, y and z (the far plane's
@@ -96,6 +98,7 @@ impl NodeRay {
         let pick = |n: bool, lo: usize, hi: usize| if n { hi } else { lo };
         NodeRay {
             origin,
+            dir,
             inv_dir: Vec3A::new(safe_inverse(dir.x), safe_inverse(dir.y), safe_inverse(dir.z)),
             near: [pick(neg[0], MIN_X, MAX_X), pick(neg[1], MIN_Y, MAX_Y), pick(neg[2], MIN_Z, MAX_Z)],
             oct_inv4: (if neg[0] { 0 } else { 0x0404_0404 })

@@ -264,24 +264,7 @@ impl Lookup {
     /// Runs kernel `kernel` over the batch and waits for it; returns the time from submit
     /// to completion.
     pub fn dispatch(&self, gpu: &Gpu, kernel: &str, batch: &Batch, copy_out: bool) -> Duration {
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&self.pipelines[kernel]);
-            pass.set_bind_group(0, &self.group0, &[]);
-            pass.set_bind_group(1, &batch.group1, &[]);
-            // 64 queries per workgroup, along x only (the kernels read the x invocation id)
-            let groups = batch.n.div_ceil(64);
-            assert!(groups <= 65535, "at most 65535·64 queries per dispatch");
-            pass.dispatch_workgroups(groups as u32, 1, 1);
-        }
-        if copy_out {
-            enc.copy_buffer_to_buffer(&batch.results, 0, &batch.staging, 0, (batch.n * 16) as u64);
-        }
-        let start = Instant::now();
-        gpu.queue.submit([enc.finish()]);
-        gpu.wait();
-        start.elapsed()
+        dispatch(gpu, &self.pipelines[kernel], (0, &self.group0), batch, copy_out)
     }
 
     /// The kernel's results for `queries` (two vec4 per query): one vec4 per query.
@@ -290,6 +273,36 @@ impl Lookup {
         self.dispatch(gpu, kernel, &batch, true);
         gpu.read_vec4s(&batch.staging)
     }
+}
+
+/// Runs `pipeline` over `batch` (group 1) with `other` bound beside it (the grid's group 0
+/// or a surface atlas's group 2) and waits for it; returns the time from submit to
+/// completion. With `copy_out` the results land in the batch's staging buffer.
+fn dispatch(
+    gpu: &Gpu,
+    pipeline: &wgpu::ComputePipeline,
+    other: (u32, &wgpu::BindGroup),
+    batch: &Batch,
+    copy_out: bool,
+) -> Duration {
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(other.0, other.1, &[]);
+        pass.set_bind_group(1, &batch.group1, &[]);
+        // 64 queries per workgroup, along x only (the kernels read the x invocation id)
+        let groups = batch.n.div_ceil(64);
+        assert!(groups <= 65535, "at most 65535·64 queries per dispatch");
+        pass.dispatch_workgroups(groups as u32, 1, 1);
+    }
+    if copy_out {
+        enc.copy_buffer_to_buffer(&batch.results, 0, &batch.staging, 0, (batch.n * 16) as u64);
+    }
+    let start = Instant::now();
+    gpu.queue.submit([enc.finish()]);
+    gpu.wait();
+    start.elapsed()
 }
 
 /// The query kernels' group 1 layout: queries (read) and results (read-write).
@@ -418,19 +431,7 @@ impl SurfaceLookup {
     /// Surface kernel `kernel` for `queries` (two vec4 each): one vec4 per query.
     pub fn run(&self, gpu: &Gpu, kernel: &str, queries: &[[f32; 4]]) -> Vec<[f32; 4]> {
         let b = batch(gpu, &self.layout1, queries);
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&self.pipelines[kernel]);
-            pass.set_bind_group(1, &b.group1, &[]);
-            pass.set_bind_group(2, &self.group2, &[]);
-            let groups = b.n.div_ceil(64);
-            assert!(groups <= 65535, "at most 65535·64 queries per dispatch");
-            pass.dispatch_workgroups(groups as u32, 1, 1);
-        }
-        enc.copy_buffer_to_buffer(&b.results, 0, &b.staging, 0, (b.n * 16) as u64);
-        gpu.queue.submit([enc.finish()]);
-        gpu.wait();
+        dispatch(gpu, &self.pipelines[kernel], (2, &self.group2), &b, true);
         gpu.read_vec4s(&b.staging)
     }
 }
