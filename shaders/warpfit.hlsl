@@ -362,16 +362,16 @@ float4 probe_bilinear(uint which_1, float2 uv_1, uint level_1)
     float res0_ = ((which_1 == 0u) ? _e10 : _e6);
     uint n_6 = max((naga_f2u32(res0_) >> level_1), 1u);
     const Footprint _e18 = footprint(n_6, uv_1);
-    int2 c_6 = _e18.corner;
+    int2 c_5 = _e18.corner;
     int l_3 = int(level_1);
     int ni = int(n_6);
-    const int2 _e22 = wrap_texel(ni, c_6);
+    const int2 _e22 = wrap_texel(ni, c_5);
     const float4 _e23 = probe_texel(which_1, _e22, l_3);
-    const int2 _e28 = wrap_texel(ni, asint(asuint(c_6) + asuint(int2(int(1), int(0)))));
+    const int2 _e28 = wrap_texel(ni, asint(asuint(c_5) + asuint(int2(int(1), int(0)))));
     const float4 _e29 = probe_texel(which_1, _e28, l_3);
-    const int2 _e34 = wrap_texel(ni, asint(asuint(c_6) + asuint(int2(int(0), int(1)))));
+    const int2 _e34 = wrap_texel(ni, asint(asuint(c_5) + asuint(int2(int(0), int(1)))));
     const float4 _e35 = probe_texel(which_1, _e34, l_3);
-    const int2 _e40 = wrap_texel(ni, asint(asuint(c_6) + asuint(int2(int(1), int(1)))));
+    const int2 _e40 = wrap_texel(ni, asint(asuint(c_5) + asuint(int2(int(1), int(1)))));
     const float4 _e41 = probe_texel(which_1, _e40, l_3);
     const float4 _e43 = blend4_(_e23, _e29, _e35, _e41, _e18.f);
     return _e43;
@@ -420,16 +420,16 @@ float inv_dist(float3 v_4)
     float _e6 = params.probe.w;
     uint _e10 = params.probe_info.y;
     const float4 _e11 = probe_sample_lod(1u, _e2, _e6, _e10);
-    float w_2 = _e11.x;
-    if ((w_2 > 0.0)) {
-        const bool _e17 = finite(w_2);
+    float w_1 = _e11.x;
+    if ((w_1 > 0.0)) {
+        const bool _e17 = finite(w_1);
         local_9 = _e17;
     } else {
         local_9 = false;
     }
     bool _e19 = local_9;
     if (_e19) {
-        return w_2;
+        return w_1;
     }
     return 0.0;
 }
@@ -469,11 +469,11 @@ float4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, float2 uv_
     uint s_2 = uint(tile);
     int2 origin = int2((uint2(naga_mod(s_2, columns), naga_div(s_2, columns)) * (n_2 + 2u)));
     const Footprint _e13 = footprint(n_2, uv_4);
-    int2 c_7 = asint(asuint(asint(asuint(origin) + asuint(_e13.corner))) + asuint(int2(int(1), int(1))));
-    const float4 _e20 = atlas_texel(which_4, c_7);
-    const float4 _e25 = atlas_texel(which_4, asint(asuint(c_7) + asuint(int2(int(1), int(0)))));
-    const float4 _e30 = atlas_texel(which_4, asint(asuint(c_7) + asuint(int2(int(0), int(1)))));
-    const float4 _e35 = atlas_texel(which_4, asint(asuint(c_7) + asuint(int2(int(1), int(1)))));
+    int2 c_6 = asint(asuint(asint(asuint(origin) + asuint(_e13.corner))) + asuint(int2(int(1), int(1))));
+    const float4 _e20 = atlas_texel(which_4, c_6);
+    const float4 _e25 = atlas_texel(which_4, asint(asuint(c_6) + asuint(int2(int(1), int(0)))));
+    const float4 _e30 = atlas_texel(which_4, asint(asuint(c_6) + asuint(int2(int(0), int(1)))));
+    const float4 _e35 = atlas_texel(which_4, asint(asuint(c_6) + asuint(int2(int(1), int(1)))));
     const float4 _e37 = blend4_(_e20, _e25, _e30, _e35, _e13.f);
     return _e37;
 }
@@ -583,23 +583,21 @@ float3 warp1_(float3 b_2, float3 dir)
     return dir;
 }
 
-float3 box_fetch(float3 b_3, float3 dir_1)
+float2 box_exit(float3 b_3, float3 dir_1)
 {
     float t_3 = HUGE;
     int k = int(0);
 
-    float4 _e4 = params.probe;
-    float3 a_1 = _e4.xyz;
-    float4 _e8 = params.box_x;
-    float4 _e12 = params.box_y;
-    float4 _e16 = params.box_z;
-    float3x3 m_2 = float3x3(_e8.xyz, _e12.xyz, _e16.xyz);
-    float4 _e21 = params.box_half;
-    float3 h = _e21.xyz;
-    float4 _e25 = params.box_centre;
-    float3 o_2 = mul((b_3 - _e25.xyz), m_2);
+    float4 _e4 = params.box_x;
+    float4 _e8 = params.box_y;
+    float4 _e12 = params.box_z;
+    float3x3 m_2 = float3x3(_e4.xyz, _e8.xyz, _e12.xyz);
+    float4 _e17 = params.box_half;
+    float3 h = _e17.xyz;
+    float4 _e21 = params.box_centre;
+    float3 o_2 = mul((b_3 - _e21.xyz), m_2);
     if (any((abs(o_2) > h))) {
-        return dir_1;
+        return float2(0.0, 0.0);
     }
     float3 d_2 = mul(dir_1, m_2);
     uint2 loop_bound = uint2(4294967295u, 4294967295u);
@@ -608,108 +606,117 @@ float3 box_fetch(float3 b_3, float3 dir_1)
         if (all(loop_bound == uint2(0u, 0u))) { break; }
         loop_bound -= uint2(loop_bound.y == 0u, 1u);
         if (!loop_init) {
-            int _e63 = k;
-            k = asint(asuint(_e63) + asuint(int(1)));
+            int _e62 = k;
+            k = asint(asuint(_e62) + asuint(int(1)));
         }
         loop_init = false;
-        int _e37 = k;
-        if ((_e37 < int(3))) {
+        int _e36 = k;
+        if ((_e36 < int(3))) {
         } else {
             break;
         }
         {
-            int _e40 = k;
-            if ((d_2[min(uint(_e40), 2u)] != 0.0)) {
-                int _e44 = k;
-                int _e47 = k;
-                int _e49 = k;
-                float face = ((d_2[min(uint(_e49), 2u)] > 0.0) ? h[min(uint(_e47), 2u)] : -(h[min(uint(_e44), 2u)]));
-                float _e54 = t_3;
-                int _e55 = k;
-                int _e58 = k;
-                t_3 = min(_e54, ((face - o_2[min(uint(_e55), 2u)]) / d_2[min(uint(_e58), 2u)]));
+            int _e39 = k;
+            if ((d_2[min(uint(_e39), 2u)] != 0.0)) {
+                int _e43 = k;
+                int _e46 = k;
+                int _e48 = k;
+                float face = ((d_2[min(uint(_e48), 2u)] > 0.0) ? h[min(uint(_e46), 2u)] : -(h[min(uint(_e43), 2u)]));
+                float _e53 = t_3;
+                int _e54 = k;
+                int _e57 = k;
+                t_3 = min(_e53, ((face - o_2[min(uint(_e54), 2u)]) / d_2[min(uint(_e57), 2u)]));
             }
         }
     }
-    float _e65 = t_3;
-    if (!((_e65 < HUGE))) {
-        return dir_1;
+    float _e64 = t_3;
+    if (!((_e64 < HUGE))) {
+        return float2(0.0, 0.0);
     }
-    float _e69 = t_3;
-    const float3 _e74 = fetch_vector(a_1, (b_3 + (dir_1 * max(_e69, 0.0))), dir_1);
-    return _e74;
+    float _e71 = t_3;
+    return float2(max(_e71, 0.0), 1.0);
 }
 
-float3 kdop_fetch(float3 b_4, float3 dir_2)
+float2 kdop_exit(float3 b_4, float3 dir_2)
 {
     float t_4 = HUGE;
     uint k_1 = 0u;
 
-    float4 _e4 = params.probe;
-    float3 a_2 = _e4.xyz;
     uint2 loop_bound_1 = uint2(4294967295u, 4294967295u);
     bool loop_init_1 = true;
     while(true) {
         if (all(loop_bound_1 == uint2(0u, 0u))) { break; }
         loop_bound_1 -= uint2(loop_bound_1.y == 0u, 1u);
         if (!loop_init_1) {
-            uint _e45 = k_1;
-            k_1 = (_e45 + 1u);
+            uint _e44 = k_1;
+            k_1 = (_e44 + 1u);
         }
         loop_init_1 = false;
-        uint _e10 = k_1;
-        if ((_e10 < 18u)) {
+        uint _e6 = k_1;
+        if ((_e6 < 18u)) {
         } else {
             break;
         }
         {
-            uint _e16 = params.kdop_open.x;
-            uint _e18 = k_1;
-            if (((_e16 & (1u << _e18)) != 0u)) {
+            uint _e12 = params.kdop_open.x;
+            uint _e14 = k_1;
+            if (((_e12 & (1u << _e14)) != 0u)) {
                 continue;
             }
-            uint _e25 = k_1;
-            float4 _e27 = params.kdop[_e25];
-            float3 n_8 = _e27.xyz;
-            uint _e31 = k_1;
-            float h_1 = params.kdop[_e31].w;
+            uint _e21 = k_1;
+            float4 _e23 = params.kdop[_e21];
+            float3 n_8 = _e23.xyz;
+            uint _e27 = k_1;
+            float h_1 = params.kdop[_e27].w;
             float nb = dot(n_8, b_4);
             if ((nb > h_1)) {
-                return dir_2;
+                return float2(0.0, 0.0);
             }
             float nd = dot(n_8, dir_2);
             if ((nd > 0.0)) {
-                float _e40 = t_4;
-                t_4 = min(_e40, ((h_1 - nb) / nd));
+                float _e39 = t_4;
+                t_4 = min(_e39, ((h_1 - nb) / nd));
             }
         }
     }
-    float _e47 = t_4;
-    if ((_e47 < HUGE)) {
-        float _e50 = t_4;
-        const float3 _e53 = fetch_vector(a_2, (b_4 + (dir_2 * _e50)), dir_2);
-        return _e53;
-    }
-    return dir_2;
+    float _e46 = t_4;
+    return float2(_e46, 1.0);
 }
 
-float3 fallback_plain(float3 b_5, float3 dir_3)
+float2 proxy_exit(float3 b_5, float3 dir_3)
 {
     const uint _e2 = fallback_method();
-    switch(_e2) {
-        case 1u: {
-            const float3 _e3 = box_fetch(b_5, dir_3);
-            return _e3;
-        }
-        case 2u: {
-            const float3 _e4 = kdop_fetch(b_5, dir_3);
-            return _e4;
-        }
-        default: {
-            const float3 _e5 = warp1_(b_5, dir_3);
-            return _e5;
-        }
+    if ((_e2 == 2u)) {
+        const float2 _e5 = kdop_exit(b_5, dir_3);
+        return _e5;
     }
+    const float2 _e6 = box_exit(b_5, dir_3);
+    return _e6;
+}
+
+float3 proxy_fetch(float2 exit, float3 b_6, float3 dir_4)
+{
+    bool local_10 = (bool)0;
+
+    if (!((exit.y == 0.0))) {
+        local_10 = !((exit.x < HUGE));
+    } else {
+        local_10 = true;
+    }
+    bool _e14 = local_10;
+    if (_e14) {
+        return dir_4;
+    }
+    float4 _e17 = params.probe;
+    const float3 _e22 = fetch_vector(_e17.xyz, (b_6 + (dir_4 * exit.x)), dir_4);
+    return _e22;
+}
+
+float3 box_fetch(float3 b_7, float3 dir_5)
+{
+    const float2 _e2 = box_exit(b_7, dir_5);
+    const float3 _e3 = proxy_fetch(_e2, b_7, dir_5);
+    return _e3;
 }
 
 Basis ConstructBasis(float3 arg0, float3 arg1) {
@@ -722,31 +729,31 @@ Basis ConstructBasis(float3 arg0, float3 arg1) {
 Basis orthonormal_basis(float3 n_3)
 {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a_3 = (-1.0 / (s_3 + n_3.z));
-    float b_17 = ((n_3.x * n_3.y) * a_3);
-    const Basis basis = ConstructBasis(float3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_17), (-(s_3) * n_3.x)), float3(b_17, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+    float a_1 = (-1.0 / (s_3 + n_3.z));
+    float b_18 = ((n_3.x * n_3.y) * a_1);
+    const Basis basis = ConstructBasis(float3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_1)), (s_3 * b_18), (-(s_3) * n_3.x)), float3(b_18, (s_3 + ((n_3.y * n_3.y) * a_1)), -(n_3.y)));
     return basis;
 }
 
 float3 normalize_or(float3 v_5, float3 fallback_1)
 {
-    bool local_10 = (bool)0;
+    bool local_11 = (bool)0;
 
     float l_4 = length(v_5);
     if ((l_4 > 0.0)) {
         const bool _e7 = finite(l_4);
-        local_10 = _e7;
+        local_11 = _e7;
     } else {
-        local_10 = false;
+        local_11 = false;
     }
-    bool _e9 = local_10;
+    bool _e9 = local_11;
     if (_e9) {
         return (v_5 / (l_4).xxx);
     }
     return fallback_1;
 }
 
-float3 fallback_fetch(float3 b_6, float3 dir_4)
+float3 fallback_fetch(float3 b_8, float3 dir_6)
 {
     float3 plain = (float3)0;
     float3 sum = (0.0).xxx;
@@ -754,25 +761,25 @@ float3 fallback_fetch(float3 b_6, float3 dir_4)
     float3 d_1 = (float3)0;
 
     float4 _e4 = params.probe;
-    if (all((b_6 == _e4.xyz))) {
-        return dir_4;
+    if (all((b_8 == _e4.xyz))) {
+        return dir_6;
     }
     float relax = params.warp.x;
     const bool _e12 = relaxation_on();
     float _e18 = params.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
-    const Basis _e20 = orthonormal_basis(dir_4);
+    const Basis _e20 = orthonormal_basis(dir_6);
     float3 t_10 = (_e20.t * angle);
     float3 bt = (_e20.b * angle);
-    plain = dir_4;
+    plain = dir_6;
     uint2 loop_bound_2 = uint2(4294967295u, 4294967295u);
     bool loop_init_2 = true;
     while(true) {
         if (all(loop_bound_2 == uint2(0u, 0u))) { break; }
         loop_bound_2 -= uint2(loop_bound_2.y == 0u, 1u);
         if (!loop_init_2) {
-            uint _e55 = s;
-            s = (_e55 + 1u);
+            uint _e57 = s;
+            s = (_e57 + 1u);
         }
         loop_init_2 = false;
         uint _e31 = s;
@@ -781,24 +788,24 @@ float3 fallback_fetch(float3 b_6, float3 dir_4)
             break;
         }
         {
-            d_1 = dir_4;
+            d_1 = dir_6;
             uint _e37 = s;
             bool should_continue = false;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_4 + t_10));
+                    d_1 = normalize((dir_6 + t_10));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_4 - t_10));
+                    d_1 = normalize((dir_6 - t_10));
                     break;
                 }
                 case 3u: {
-                    d_1 = normalize((dir_4 + bt));
+                    d_1 = normalize((dir_6 + bt));
                     break;
                 }
                 case 4u: {
-                    d_1 = normalize((dir_4 - bt));
+                    d_1 = normalize((dir_6 - bt));
                     break;
                 }
                 default: {
@@ -806,35 +813,25 @@ float3 fallback_fetch(float3 b_6, float3 dir_4)
                 }
             }
             float3 _e46 = d_1;
-            const float3 _e47 = fallback_plain(b_6, _e46);
-            uint _e48 = s;
-            if ((_e48 == 0u)) {
-                plain = _e47;
+            const float2 _e47 = proxy_exit(b_8, _e46);
+            float3 _e48 = d_1;
+            const float3 _e49 = proxy_fetch(_e47, b_8, _e48);
+            uint _e50 = s;
+            if ((_e50 == 0u)) {
+                plain = _e49;
             }
-            float3 _e51 = sum;
-            const float3 _e52 = normalize_or(_e47, dir_4);
-            sum = (_e51 + _e52);
+            float3 _e53 = sum;
+            const float3 _e54 = normalize_or(_e49, dir_6);
+            sum = (_e53 + _e54);
         }
     }
     if (!(_e12)) {
-        float3 _e58 = plain;
-        return _e58;
+        float3 _e60 = plain;
+        return _e60;
     }
-    float3 _e59 = sum;
-    const float3 _e60 = normalize_or(_e59, dir_4);
-    return _e60;
-}
-
-float inv_t_from_map(float3 c_4, float w, float3 b_7, float3 dir_5)
-{
-    if (!((w > 0.0))) {
-        return 0.0;
-    }
-    float t_11 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
-    if ((t_11 > 0.0)) {
-        return min((1.0 / t_11), HUGE);
-    }
-    return HUGE;
+    float3 _e61 = sum;
+    const float3 _e62 = normalize_or(_e61, dir_6);
+    return _e62;
 }
 
 Aim ConstructAim(float3 arg0, float arg1) {
@@ -844,46 +841,62 @@ Aim ConstructAim(float3 arg0, float arg1) {
     return ret;
 }
 
-Aim aim_from_inv_t(float u, float3 b_8, float3 dir_6)
+Aim shifted_aim(float2 exit_1, float delta, float3 b_9, float3 dir_7)
 {
-    bool local_11 = (bool)0;
-    float k_2 = (float)0;
     bool local_12 = (bool)0;
+    float u = HUGE;
+    bool local_13 = (bool)0;
+    float k_2 = (float)0;
+    bool local_14 = (bool)0;
 
-    if ((u > 0.0)) {
-        float4 _e10 = params.probe;
-        float3 v_10 = ((b_8 + (dir_6 / (u).xxx)) - _e10.xyz);
-        const bool _e13 = finite3_(v_10);
-        if (_e13) {
-            local_11 = any((v_10 != (0.0).xxx));
-        } else {
-            local_11 = false;
-        }
-        bool _e21 = local_11;
-        if (_e21) {
-            k_2 = (length(v_10) * u);
-            float _e25 = k_2;
-            const bool _e26 = finite(_e25);
-            if (_e26) {
-                float _e29 = k_2;
-                local_12 = (_e29 > 0.0);
-            } else {
-                local_12 = false;
-            }
-            bool _e33 = local_12;
-            if (!(_e33)) {
-                k_2 = 1.0;
-            }
-            float _e36 = k_2;
-            const Aim aim_1 = ConstructAim(v_10, _e36);
-            return aim_1;
-        }
+    if (!((exit_1.y == 0.0))) {
+        local_12 = !((exit_1.x < HUGE));
+    } else {
+        local_12 = true;
     }
-    const Aim aim_2 = ConstructAim(dir_6, 1.0);
-    return aim_2;
+    bool _e15 = local_12;
+    if (_e15) {
+        const Aim aim_1 = ConstructAim(dir_7, 1.0);
+        return aim_1;
+    }
+    float s_4 = (exit_1.x + delta);
+    if ((s_4 > 0.0)) {
+        u = min((1.0 / s_4), HUGE);
+    }
+    float _e28 = u;
+    float4 _e34 = params.probe;
+    float3 v_10 = ((b_9 + (dir_7 / (_e28).xxx)) - _e34.xyz);
+    const bool _e37 = finite3_(v_10);
+    if (_e37) {
+        local_13 = any((v_10 != (0.0).xxx));
+    } else {
+        local_13 = false;
+    }
+    bool _e45 = local_13;
+    if (_e45) {
+        float _e47 = u;
+        k_2 = (length(v_10) * _e47);
+        float _e50 = k_2;
+        const bool _e51 = finite(_e50);
+        if (_e51) {
+            float _e54 = k_2;
+            local_14 = (_e54 > 0.0);
+        } else {
+            local_14 = false;
+        }
+        bool _e58 = local_14;
+        if (!(_e58)) {
+            k_2 = 1.0;
+        }
+        float _e61 = k_2;
+        const Aim aim_2 = ConstructAim(v_10, _e61);
+        return aim_2;
+    }
+    const Aim aim_3 = ConstructAim(dir_7, 1.0);
+    return aim_3;
 }
 
-float map_w(int tile_1, float2 uv_5)
+float map_delta(int tile_1, float2 uv_5)
 {
     uint _e6 = params.atlas_a.x;
     uint _e10 = params.atlas_a.y;
@@ -898,86 +911,81 @@ Cell ConstructCell(int4 arg0, float4 arg1) {
     return ret;
 }
 
-Aim fetch(float3 b_9, float3 dir_7)
+Aim fetch(float3 b_10, float3 dir_8)
 {
-    float sum_1 = 0.0;
-    float wsum = 0.0;
+    float delta_1 = 0.0;
+    bool mapped = false;
     uint corner_2 = 0u;
+    bool local_15 = (bool)0;
 
     float4 _e4 = params.probe;
-    if (all((b_9 == _e4.xyz))) {
-        const Aim aim_3 = ConstructAim(dir_7, 1.0);
-        return aim_3;
+    if (all((b_10 == _e4.xyz))) {
+        const Aim aim_4 = ConstructAim(dir_8, 1.0);
+        return aim_4;
     }
-    const float2 _e10 = oct_encode(dir_7);
+    const float2 _e10 = oct_encode(dir_8);
     const float3 _e11 = cell_size();
-    const uint _e12 = blend_mode();
-    if ((_e12 == 0u)) {
-        const uint3 _e15 = cell_of(b_9, _e11);
-        const uint _e17 = cell_index(_e15);
-        Cell cell = ConstructCell(asint(cells.Load4(_e17*32+0)), asfloat(cells.Load4(_e17*32+16)));
+    const uint _e16 = blend_mode();
+    if ((_e16 == 0u)) {
+        const uint3 _e20 = cell_of(b_10, _e11);
+        const uint _e21 = cell_index(_e20);
+        Cell cell = ConstructCell(asint(cells.Load4(_e21*32+0)), asfloat(cells.Load4(_e21*32+16)));
         if ((cell.tiles.x >= int(0))) {
-            const float3 _e24 = cell_centre(_e15, _e11);
-            float3 origin_1 = (_e24 + cell.offset.xyz);
-            const float _e30 = map_w(cell.tiles.x, _e10);
-            const float _e31 = inv_t_from_map(origin_1, _e30, b_9, dir_7);
-            const Aim _e32 = aim_from_inv_t(_e31, b_9, dir_7);
-            const Aim aim_4 = _e32;
-            return aim_4;
+            const float _e30 = map_delta(cell.tiles.x, _e10);
+            delta_1 = _e30;
+            mapped = true;
         }
-        const float3 _e33 = fallback_fetch(b_9, dir_7);
-        const Aim aim_5 = ConstructAim(_e33, -1.0);
+    } else {
+        const Lattice _e32 = lattice(b_10, _e11);
+        uint2 loop_bound_3 = uint2(4294967295u, 4294967295u);
+        bool loop_init_3 = true;
+        while(true) {
+            if (all(loop_bound_3 == uint2(0u, 0u))) { break; }
+            loop_bound_3 -= uint2(loop_bound_3.y == 0u, 1u);
+            if (!loop_init_3) {
+                uint _e58 = corner_2;
+                corner_2 = (_e58 + 1u);
+            }
+            loop_init_3 = false;
+            uint _e35 = corner_2;
+            if ((_e35 < 8u)) {
+            } else {
+                break;
+            }
+            {
+                uint _e39 = corner_2;
+                const uint3 _e40 = corner_cell(_e32, _e39);
+                const uint _e41 = cell_index(_e40);
+                Cell cell_1 = ConstructCell(asint(cells.Load4(_e41*32+0)), asfloat(cells.Load4(_e41*32+16)));
+                if ((cell_1.tiles.x >= int(0))) {
+                    float _e48 = delta_1;
+                    uint _e49 = corner_2;
+                    const float _e50 = corner_weight(_e32, _e49);
+                    const float _e53 = map_delta(cell_1.tiles.x, _e10);
+                    delta_1 = (_e48 + (_e50 * _e53));
+                    mapped = true;
+                }
+            }
+        }
+    }
+    bool _e60 = mapped;
+    if (!(_e60)) {
+        const bool _e64 = relaxation_on();
+        local_15 = _e64;
+    } else {
+        local_15 = false;
+    }
+    bool _e66 = local_15;
+    if (_e66) {
+        const float3 _e67 = fallback_fetch(b_10, dir_8);
+        const Aim aim_5 = ConstructAim(_e67, -1.0);
         return aim_5;
     }
-    const Lattice _e36 = lattice(b_9, _e11);
-    uint2 loop_bound_3 = uint2(4294967295u, 4294967295u);
-    bool loop_init_3 = true;
-    while(true) {
-        if (all(loop_bound_3 == uint2(0u, 0u))) { break; }
-        loop_bound_3 -= uint2(loop_bound_3.y == 0u, 1u);
-        if (!loop_init_3) {
-            uint _e74 = corner_2;
-            corner_2 = (_e74 + 1u);
-        }
-        loop_init_3 = false;
-        uint _e43 = corner_2;
-        if ((_e43 < 8u)) {
-        } else {
-            break;
-        }
-        {
-            uint _e46 = corner_2;
-            const float _e47 = corner_weight(_e36, _e46);
-            if ((_e47 <= 0.0)) {
-                continue;
-            }
-            uint _e50 = corner_2;
-            const uint3 _e51 = corner_cell(_e36, _e50);
-            const uint _e53 = cell_index(_e51);
-            Cell cell_1 = ConstructCell(asint(cells.Load4(_e53*32+0)), asfloat(cells.Load4(_e53*32+16)));
-            if ((cell_1.tiles.x >= int(0))) {
-                const float3 _e60 = cell_centre(_e51, _e11);
-                float3 origin_2 = (_e60 + cell_1.offset.xyz);
-                float _e64 = sum_1;
-                const float _e67 = map_w(cell_1.tiles.x, _e10);
-                const float _e68 = inv_t_from_map(origin_2, _e67, b_9, dir_7);
-                sum_1 = (_e64 + (_e47 * _e68));
-                float _e71 = wsum;
-                wsum = (_e71 + _e47);
-            }
-        }
-    }
-    float _e76 = wsum;
-    if ((_e76 > 0.0)) {
-        float _e79 = sum_1;
-        float _e80 = wsum;
-        const Aim _e82 = aim_from_inv_t((_e79 / _e80), b_9, dir_7);
-        const Aim aim_6 = _e82;
-        return aim_6;
-    }
-    const float3 _e83 = fallback_fetch(b_9, dir_7);
-    const Aim aim_7 = ConstructAim(_e83, -1.0);
-    return aim_7;
+    const float2 _e70 = proxy_exit(b_10, dir_8);
+    float _e71 = delta_1;
+    const Aim _e72 = shifted_aim(_e70, _e71, b_10, dir_8);
+    const Aim aim_6 = _e72;
+    return aim_6;
 }
 
 float mip_roughness(uint m)
@@ -988,7 +996,7 @@ float mip_roughness(uint m)
 
 float lod_of_roughness(float r)
 {
-    bool local_13 = (bool)0;
+    bool local_16 = (bool)0;
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
@@ -996,11 +1004,11 @@ float lod_of_roughness(float r)
     uint n_9 = params.probe_info.x;
     if (!((n_9 < 2u))) {
         const float _e11 = mip_roughness(0u);
-        local_13 = !((r > _e11));
+        local_16 = !((r > _e11));
     } else {
-        local_13 = true;
+        local_16 = true;
     }
-    bool _e15 = local_13;
+    bool _e15 = local_16;
     if (_e15) {
         return 0.0;
     }
@@ -1044,52 +1052,52 @@ float lod_of_roughness(float r)
     return (float(i_5) + clamp(_e57, 0.0, 1.0));
 }
 
-float distance_ratio(float3 b_10, float3 v_6, float2 uv_6)
+float distance_ratio(float3 b_11, float3 v_6, float2 uv_6)
 {
-    bool local_14 = (bool)0;
-    bool local_15 = (bool)0;
-    bool local_16 = (bool)0;
     bool local_17 = (bool)0;
+    bool local_18 = (bool)0;
+    bool local_19 = (bool)0;
+    bool local_20 = (bool)0;
 
     float l_5 = length(v_6);
     float _e8 = params.probe.w;
     uint _e12 = params.probe_info.y;
     const float4 _e13 = probe_sample_lod(1u, uv_6, _e8, _e12);
-    float w_3 = _e13.x;
+    float w_2 = _e13.x;
     if ((l_5 > 0.0)) {
         const bool _e19 = finite(l_5);
-        local_14 = _e19;
-    } else {
-        local_14 = false;
-    }
-    bool _e21 = local_14;
-    if (_e21) {
-        local_15 = (w_3 > 0.0);
-    } else {
-        local_15 = false;
-    }
-    bool _e27 = local_15;
-    if (_e27) {
-        const bool _e30 = finite(w_3);
-        local_16 = _e30;
-    } else {
-        local_16 = false;
-    }
-    bool _e32 = local_16;
-    if (!(_e32)) {
-        return 1.0;
-    }
-    float d_probe = (1.0 / w_3);
-    float4 _e39 = params.probe;
-    float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_10));
-    float k_7 = (d_probe / d_surface);
-    const bool _e47 = finite(k_7);
-    if (_e47) {
-        local_17 = (k_7 > 0.0);
+        local_17 = _e19;
     } else {
         local_17 = false;
     }
-    bool _e53 = local_17;
+    bool _e21 = local_17;
+    if (_e21) {
+        local_18 = (w_2 > 0.0);
+    } else {
+        local_18 = false;
+    }
+    bool _e27 = local_18;
+    if (_e27) {
+        const bool _e30 = finite(w_2);
+        local_19 = _e30;
+    } else {
+        local_19 = false;
+    }
+    bool _e32 = local_19;
+    if (!(_e32)) {
+        return 1.0;
+    }
+    float d_probe = (1.0 / w_2);
+    float4 _e39 = params.probe;
+    float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_11));
+    float k_7 = (d_probe / d_surface);
+    const bool _e47 = finite(k_7);
+    if (_e47) {
+        local_20 = (k_7 > 0.0);
+    } else {
+        local_20 = false;
+    }
+    bool _e53 = local_20;
     if (_e53) {
         return k_7;
     }
@@ -1108,7 +1116,7 @@ float corrected_roughness(float r_1, float k_in)
 {
     float fr = 0.0;
     float k_4 = 1.0;
-    bool local_18 = (bool)0;
+    bool local_21 = (bool)0;
 
     uint n_10 = params.lut_info.x;
     float last_1 = float((n_10 - 1u));
@@ -1118,11 +1126,11 @@ float corrected_roughness(float r_1, float k_in)
     }
     const bool _e17 = finite(k_in);
     if (_e17) {
-        local_18 = (k_in > 0.0);
+        local_21 = (k_in > 0.0);
     } else {
-        local_18 = false;
+        local_21 = false;
     }
-    bool _e23 = local_18;
+    bool _e23 = local_21;
     if (_e23) {
         k_4 = k_in;
     }
@@ -1139,8 +1147,8 @@ float corrected_roughness(float r_1, float k_in)
     uint i_6 = min(naga_f2u32(_e48), (n_10 - 2u));
     uint j_5 = min(naga_f2u32(fx), (n_10 - 2u));
     float _e57 = fr;
-    float a_4 = (_e57 - float(i_6));
-    float b_18 = (fx - float(j_5));
+    float a_2 = (_e57 - float(i_6));
+    float b_19 = (fx - float(j_5));
     float4 _e67 = roughness_lut.Load(int3(int2(int(j_5), int(i_6)), int(0)));
     float v00_ = _e67.x;
     float4 _e76 = roughness_lut.Load(int3(int2(int((j_5 + 1u)), int(i_6)), int(0)));
@@ -1149,10 +1157,10 @@ float corrected_roughness(float r_1, float k_in)
     float v10_ = _e85.x;
     float4 _e96 = roughness_lut.Load(int3(int2(int((j_5 + 1u)), int((i_6 + 1u))), int(0)));
     float v11_ = _e96.x;
-    return ((((v00_ * (1.0 - b_18)) + (v01_ * b_18)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_18)) + (v11_ * b_18)) * a_4));
+    return ((((v00_ * (1.0 - b_19)) + (v01_ * b_19)) * (1.0 - a_2)) + (((v10_ * (1.0 - b_19)) + (v11_ * b_19)) * a_2));
 }
 
-float3 shade(float3 b_11, Aim aim, float r_2)
+float3 shade(float3 b_12, Aim aim, float r_2)
 {
     float k_5 = (float)0;
 
@@ -1170,7 +1178,7 @@ float3 shade(float3 b_11, Aim aim, float r_2)
     k_5 = aim.k;
     float _e15 = k_5;
     if ((_e15 < 0.0)) {
-        const float _e19 = distance_ratio(b_11, aim.v, _e4);
+        const float _e19 = distance_ratio(b_12, aim.v, _e4);
         k_5 = _e19;
     }
     float _e20 = k_5;
@@ -1180,18 +1188,18 @@ float3 shade(float3 b_11, Aim aim, float r_2)
     return _e23;
 }
 
-float3 clean(float3 c_5)
+float3 clean(float3 c_4)
 {
-    const bool _e1 = finite3_(c_5);
+    const bool _e1 = finite3_(c_4);
     if (_e1) {
-        return max(c_5, (0.0).xxx);
+        return max(c_4, (0.0).xxx);
     }
     return (0.0).xxx;
 }
 
 float3 specular(float3 position, float3 direction, float roughness)
 {
-    float3 b_12 = (float3)0;
+    float3 b_13 = (float3)0;
     float r_3 = 0.0;
 
     const float4 _e3 = unit_direction(direction);
@@ -1199,17 +1207,17 @@ float3 specular(float3 position, float3 direction, float roughness)
         return (0.0).xxx;
     }
     float4 _e11 = params.probe;
-    b_12 = _e11.xyz;
+    b_13 = _e11.xyz;
     const bool _e14 = finite3_(position);
     if (_e14) {
-        b_12 = position;
+        b_13 = position;
     }
     const bool _e17 = finite(roughness);
     if (_e17) {
         r_3 = clamp(roughness, 0.0, 1.0);
     }
-    float3 _e21 = b_12;
-    float3 _e22 = b_12;
+    float3 _e21 = b_13;
+    float3 _e22 = b_13;
     const Aim _e24 = fetch(_e22, _e3.xyz);
     float _e25 = r_3;
     const float3 _e26 = shade(_e21, _e24, _e25);
@@ -1230,10 +1238,10 @@ float3 irradiance(float3 position_1, float3 normal)
 {
     float3 p_3 = (float3)0;
     float3 e = (0.0).xxx;
-    float wsum_1 = 0.0;
+    float wsum = 0.0;
     uint corner_3 = 0u;
-    float w_1 = (float)0;
-    bool local_19 = (bool)0;
+    float w = (float)0;
+    bool local_22 = (bool)0;
     float k_6 = (float)0;
 
     const float4 _e2 = unit_direction(normal);
@@ -1285,19 +1293,19 @@ float3 irradiance(float3 position_1, float3 normal)
             const float3 _e56 = cell_centre(_e46, _e9);
             float3 to_point = (_e55 - (_e56 + cell_2.offset.xyz));
             float dist = length(to_point);
-            w_1 = _e42;
+            w = _e42;
             if ((dist > 0.0)) {
                 const bool _e67 = finite(dist);
-                local_19 = _e67;
+                local_22 = _e67;
             } else {
-                local_19 = false;
+                local_22 = false;
             }
-            bool _e69 = local_19;
+            bool _e69 = local_22;
             if (_e69) {
                 float3 u_1 = (to_point / (dist).xxx);
                 float facing = ((dot(n_11, -(u_1)) + 1.0) * 0.5);
-                float _e78 = w_1;
-                w_1 = (_e78 * ((facing * facing) + 0.2));
+                float _e78 = w;
+                w = (_e78 * ((facing * facing) + 0.2));
                 uint _e89 = params.atlas_b.x;
                 uint _e93 = params.atlas_b.y;
                 const float2 _e94 = oct_encode(u_1);
@@ -1308,12 +1316,12 @@ float3 irradiance(float3 position_1, float3 normal)
                     float variance = max(abs((mean_sq - (mean * mean))), ((1e-12 * mean) * mean));
                     float dd = (dist - mean);
                     float cheb = (variance / (variance + (dd * dd)));
-                    float _e110 = w_1;
-                    w_1 = (_e110 * max(((cheb * cheb) * cheb), 0.0));
+                    float _e110 = w;
+                    w = (_e110 * max(((cheb * cheb) * cheb), 0.0));
                 }
             }
-            float _e116 = w_1;
-            w_1 = max(_e116, (1e-6 * _e42));
+            float _e116 = w;
+            w = max(_e116, (1e-6 * _e42));
             k_6 = 1.0;
             if ((cell_2.tiles.z >= int(0))) {
                 uint _e132 = params.atlas_b.z;
@@ -1323,37 +1331,37 @@ float3 irradiance(float3 position_1, float3 normal)
             }
             float3 _e139 = e;
             const float3 _e142 = cell_irradiance(cell_2.tiles.y, n_11);
-            float _e143 = w_1;
+            float _e143 = w;
             float _e145 = k_6;
             e = (_e139 + ((_e142 * _e143) * _e145));
-            float _e148 = wsum_1;
-            float _e149 = w_1;
-            wsum_1 = (_e148 + _e149);
+            float _e148 = wsum;
+            float _e149 = w;
+            wsum = (_e148 + _e149);
         }
     }
-    float _e154 = wsum_1;
+    float _e154 = wsum;
     if (!((_e154 > 0.0))) {
         return (0.0).xxx;
     }
     float3 _e160 = e;
-    float _e161 = wsum_1;
+    float _e161 = wsum;
     const float3 _e164 = clean((_e160 / (_e161).xxx));
     return _e164;
 }
 
 float2 hemi_encode(float3 v_7)
 {
-    bool local_20 = (bool)0;
+    bool local_23 = (bool)0;
 
     float z = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         const bool _e14 = finite(l1_1);
-        local_20 = _e14;
+        local_23 = _e14;
     } else {
-        local_20 = false;
+        local_23 = false;
     }
-    bool _e16 = local_20;
+    bool _e16 = local_23;
     if (!(_e16)) {
         return float2(0.5, 0.5);
     }
@@ -1379,9 +1387,9 @@ SurfaceAxis surface_axis(float x_in, uint n_5)
         x_2 = x_in;
     }
     float _e5 = x_2;
-    float c_8 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
-    uint i0_ = naga_f2u32(floor(c_8));
-    const SurfaceAxis surfaceaxis = ConstructSurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_8 - float(i0_)));
+    float c_7 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
+    uint i0_ = naga_f2u32(floor(c_7));
+    const SurfaceAxis surfaceaxis = ConstructSurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_7 - float(i0_)));
     return surfaceaxis;
 }
 
@@ -1431,32 +1439,32 @@ float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_7)
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_3, uint j_3, float3 b_13, float3 local_21, SurfaceTaps shared_taps)
+SurfaceTaps surface_warped_taps(uint i_3, uint j_3, float3 b_14, float3 local_24, SurfaceTaps shared_taps)
 {
-    bool local_22 = (bool)0;
-    bool local_23 = (bool)0;
+    bool local_25 = (bool)0;
+    bool local_26 = (bool)0;
 
     SurfaceParams sp = surface_params;
-    float s_4 = ((float(i_3) + 0.5) / float(sp.shape.x));
-    float t_12 = ((float(j_3) + 0.5) / float(sp.shape.y));
-    float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_4)) + (sp.edge_v.xyz * t_12)) + (sp.normal.xyz * sp.corner.w));
-    float3 d_3 = (probe - b_13);
+    float s_5 = ((float(i_3) + 0.5) / float(sp.shape.x));
+    float t_11 = ((float(j_3) + 0.5) / float(sp.shape.y));
+    float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_5)) + (sp.edge_v.xyz * t_11)) + (sp.normal.xyz * sp.corner.w));
+    float3 d_3 = (probe - b_14);
     float3 ab_1 = float3(dot(d_3, sp.tangent.xyz), dot(d_3, sp.bitangent.xyz), dot(d_3, sp.normal.xyz));
     const float _e48 = surface_tile_inv_distance(i_3, j_3, shared_taps);
-    float3 v_11 = ((local_21 * max(((dot(local_21, ab_1) * _e48) + 1.0), 0.0)) - (ab_1 * _e48));
+    float3 v_11 = ((local_24 * max(((dot(local_24, ab_1) * _e48) + 1.0), 0.0)) - (ab_1 * _e48));
     if ((_e48 > 0.0)) {
         const bool _e62 = finite3_(v_11);
-        local_22 = _e62;
+        local_25 = _e62;
     } else {
-        local_22 = false;
+        local_25 = false;
     }
-    bool _e64 = local_22;
+    bool _e64 = local_25;
     if (_e64) {
-        local_23 = (dot(v_11, v_11) > 0.0);
+        local_26 = (dot(v_11, v_11) > 0.0);
     } else {
-        local_23 = false;
+        local_26 = false;
     }
-    bool _e71 = local_23;
+    bool _e71 = local_26;
     if (_e71) {
         const float2 _e72 = hemi_encode(v_11);
         const SurfaceTaps _e73 = surface_taps(_e72);
@@ -1479,7 +1487,7 @@ float3 surface_probe(uint i_4, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, fl
 
 float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped)
 {
-    float3 b_14 = (float3)0;
+    float3 b_15 = (float3)0;
     float lod_2 = 0.0;
     SurfaceTaps t00_ = (SurfaceTaps)0;
     SurfaceTaps t10_ = (SurfaceTaps)0;
@@ -1491,12 +1499,12 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
         return (0.0).xxx;
     }
     SurfaceParams sp_1 = surface_params;
-    b_14 = sp_1.corner.xyz;
+    b_15 = sp_1.corner.xyz;
     const bool _e15 = finite3_(b_in);
     if (_e15) {
-        b_14 = b_in;
+        b_15 = b_in;
     }
-    float3 _e16 = b_14;
+    float3 _e16 = b_15;
     float3 d_4 = (_e16 - sp_1.corner.xyz);
     const SurfaceAxis _e25 = surface_axis(dot(sp_1.dual_u.xyz, d_4), sp_1.shape.x);
     const SurfaceAxis _e31 = surface_axis(dot(sp_1.dual_v.xyz, d_4), sp_1.shape.y);
@@ -1510,26 +1518,26 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     uint m1_1 = min((m0_1 + 1u), last_2);
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
-    float3 dir_10 = _e4.xyz;
-    float3 local_24 = float3(dot(dir_10, sp_1.tangent.xyz), dot(dir_10, sp_1.bitangent.xyz), dot(dir_10, sp_1.normal.xyz));
-    const float2 _e64 = hemi_encode(local_24);
+    float3 dir_11 = _e4.xyz;
+    float3 local_27 = float3(dot(dir_11, sp_1.tangent.xyz), dot(dir_11, sp_1.bitangent.xyz), dot(dir_11, sp_1.normal.xyz));
+    const float2 _e64 = hemi_encode(local_27);
     const SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
     t01_ = _e65;
     t11_ = _e65;
     if (warped) {
-        float3 _e72 = b_14;
-        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_24, _e65);
+        float3 _e72 = b_15;
+        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_27, _e65);
         t00_ = _e73;
-        float3 _e76 = b_14;
-        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_24, _e65);
+        float3 _e76 = b_15;
+        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_27, _e65);
         t10_ = _e77;
-        float3 _e80 = b_14;
-        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_24, _e65);
+        float3 _e80 = b_15;
+        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_27, _e65);
         t01_ = _e81;
-        float3 _e84 = b_14;
-        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_24, _e65);
+        float3 _e84 = b_15;
+        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_27, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;
@@ -1550,15 +1558,15 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     return (0.0).xxx;
 }
 
-float3 surface_specular(float3 b_15, float3 dir_8, float roughness_2)
+float3 surface_specular(float3 b_16, float3 dir_9, float roughness_2)
 {
-    const float3 _e4 = surface_lookup(b_15, dir_8, roughness_2, false);
+    const float3 _e4 = surface_lookup(b_16, dir_9, roughness_2, false);
     return _e4;
 }
 
-float3 surface_specular_warped(float3 b_16, float3 dir_9, float roughness_3)
+float3 surface_specular_warped(float3 b_17, float3 dir_10, float roughness_3)
 {
-    const float3 _e4 = surface_lookup(b_16, dir_9, roughness_3, true);
+    const float3 _e4 = surface_lookup(b_17, dir_10, roughness_3, true);
     return _e4;
 }
 

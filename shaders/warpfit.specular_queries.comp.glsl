@@ -322,16 +322,16 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1) {
     float res0_ = ((which_1 == 0u) ? _e10 : _e6);
     uint n_6 = max((uint(res0_) >> level_1), 1u);
     Footprint _e18 = footprint(n_6, uv_1);
-    ivec2 c_6 = _e18.corner;
+    ivec2 c_5 = _e18.corner;
     int l_3 = int(level_1);
     int ni = int(n_6);
-    ivec2 _e22 = wrap_texel(ni, c_6);
+    ivec2 _e22 = wrap_texel(ni, c_5);
     vec4 _e23 = probe_texel(which_1, _e22, l_3);
-    ivec2 _e28 = wrap_texel(ni, (c_6 + ivec2(1, 0)));
+    ivec2 _e28 = wrap_texel(ni, (c_5 + ivec2(1, 0)));
     vec4 _e29 = probe_texel(which_1, _e28, l_3);
-    ivec2 _e34 = wrap_texel(ni, (c_6 + ivec2(0, 1)));
+    ivec2 _e34 = wrap_texel(ni, (c_5 + ivec2(0, 1)));
     vec4 _e35 = probe_texel(which_1, _e34, l_3);
-    ivec2 _e40 = wrap_texel(ni, (c_6 + ivec2(1, 1)));
+    ivec2 _e40 = wrap_texel(ni, (c_5 + ivec2(1, 1)));
     vec4 _e41 = probe_texel(which_1, _e40, l_3);
     vec4 _e43 = blend4_(_e23, _e29, _e35, _e41, _e18.f);
     return _e43;
@@ -375,16 +375,16 @@ float inv_dist(vec3 v_4) {
     float _e6 = _group_0_binding_7_cs.probe.w;
     uint _e10 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e11 = probe_sample_lod(1u, _e2, _e6, _e10);
-    float w_2 = _e11.x;
-    if ((w_2 > 0.0)) {
-        bool _e17 = finite(w_2);
+    float w_1 = _e11.x;
+    if ((w_1 > 0.0)) {
+        bool _e17 = finite(w_1);
         local_9 = _e17;
     } else {
         local_9 = false;
     }
     bool _e19 = local_9;
     if (_e19) {
-        return w_2;
+        return w_1;
     }
     return 0.0;
 }
@@ -414,11 +414,11 @@ vec4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, vec2 uv_4) {
     uint s_2 = uint(tile);
     ivec2 origin = ivec2((uvec2((s_2 % columns), (s_2 / columns)) * (n_2 + 2u)));
     Footprint _e13 = footprint(n_2, uv_4);
-    ivec2 c_7 = ((origin + _e13.corner) + ivec2(1, 1));
-    vec4 _e20 = atlas_texel(which_4, c_7);
-    vec4 _e25 = atlas_texel(which_4, (c_7 + ivec2(1, 0)));
-    vec4 _e30 = atlas_texel(which_4, (c_7 + ivec2(0, 1)));
-    vec4 _e35 = atlas_texel(which_4, (c_7 + ivec2(1, 1)));
+    ivec2 c_6 = ((origin + _e13.corner) + ivec2(1, 1));
+    vec4 _e20 = atlas_texel(which_4, c_6);
+    vec4 _e25 = atlas_texel(which_4, (c_6 + ivec2(1, 0)));
+    vec4 _e30 = atlas_texel(which_4, (c_6 + ivec2(0, 1)));
+    vec4 _e35 = atlas_texel(which_4, (c_6 + ivec2(1, 1)));
     vec4 _e37 = blend4_(_e20, _e25, _e30, _e35, _e13.f);
     return _e37;
 }
@@ -507,169 +507,173 @@ vec3 warp1_(vec3 b_2, vec3 dir) {
     return dir;
 }
 
-vec3 box_fetch(vec3 b_3, vec3 dir_1) {
+vec2 box_exit(vec3 b_3, vec3 dir_1) {
     float t_3 = HUGE;
     int k = 0;
-    vec4 _e4 = _group_0_binding_7_cs.probe;
-    vec3 a_1 = _e4.xyz;
-    vec4 _e8 = _group_0_binding_7_cs.box_x;
-    vec4 _e12 = _group_0_binding_7_cs.box_y;
-    vec4 _e16 = _group_0_binding_7_cs.box_z;
-    mat3x3 m_2 = mat3x3(_e8.xyz, _e12.xyz, _e16.xyz);
-    vec4 _e21 = _group_0_binding_7_cs.box_half;
-    vec3 h = _e21.xyz;
-    vec4 _e25 = _group_0_binding_7_cs.box_centre;
-    vec3 o_2 = (m_2 * (b_3 - _e25.xyz));
+    vec4 _e4 = _group_0_binding_7_cs.box_x;
+    vec4 _e8 = _group_0_binding_7_cs.box_y;
+    vec4 _e12 = _group_0_binding_7_cs.box_z;
+    mat3x3 m_2 = mat3x3(_e4.xyz, _e8.xyz, _e12.xyz);
+    vec4 _e17 = _group_0_binding_7_cs.box_half;
+    vec3 h = _e17.xyz;
+    vec4 _e21 = _group_0_binding_7_cs.box_centre;
+    vec3 o_2 = (m_2 * (b_3 - _e21.xyz));
     if (any(greaterThan(abs(o_2), h))) {
-        return dir_1;
+        return vec2(0.0, 0.0);
     }
     vec3 d_2 = (m_2 * dir_1);
     bool loop_init = true;
     while(true) {
         if (!loop_init) {
-            int _e63 = k;
-            k = (_e63 + 1);
+            int _e62 = k;
+            k = (_e62 + 1);
         }
         loop_init = false;
-        int _e37 = k;
-        if ((_e37 < 3)) {
+        int _e36 = k;
+        if ((_e36 < 3)) {
         } else {
             break;
         }
         {
-            int _e40 = k;
-            if ((d_2[_e40] != 0.0)) {
-                int _e44 = k;
-                int _e47 = k;
-                int _e49 = k;
-                float face = ((d_2[_e49] > 0.0) ? h[_e47] : -(h[_e44]));
-                float _e54 = t_3;
-                int _e55 = k;
-                int _e58 = k;
-                t_3 = min(_e54, ((face - o_2[_e55]) / d_2[_e58]));
+            int _e39 = k;
+            if ((d_2[_e39] != 0.0)) {
+                int _e43 = k;
+                int _e46 = k;
+                int _e48 = k;
+                float face = ((d_2[_e48] > 0.0) ? h[_e46] : -(h[_e43]));
+                float _e53 = t_3;
+                int _e54 = k;
+                int _e57 = k;
+                t_3 = min(_e53, ((face - o_2[_e54]) / d_2[_e57]));
             }
         }
     }
-    float _e65 = t_3;
-    if (!((_e65 < HUGE))) {
-        return dir_1;
+    float _e64 = t_3;
+    if (!((_e64 < HUGE))) {
+        return vec2(0.0, 0.0);
     }
-    float _e69 = t_3;
-    vec3 _e74 = fetch_vector(a_1, (b_3 + (dir_1 * max(_e69, 0.0))), dir_1);
-    return _e74;
+    float _e71 = t_3;
+    return vec2(max(_e71, 0.0), 1.0);
 }
 
-vec3 kdop_fetch(vec3 b_4, vec3 dir_2) {
+vec2 kdop_exit(vec3 b_4, vec3 dir_2) {
     float t_4 = HUGE;
     uint k_1 = 0u;
-    vec4 _e4 = _group_0_binding_7_cs.probe;
-    vec3 a_2 = _e4.xyz;
     bool loop_init_1 = true;
     while(true) {
         if (!loop_init_1) {
-            uint _e45 = k_1;
-            k_1 = (_e45 + 1u);
+            uint _e44 = k_1;
+            k_1 = (_e44 + 1u);
         }
         loop_init_1 = false;
-        uint _e10 = k_1;
-        if ((_e10 < 18u)) {
+        uint _e6 = k_1;
+        if ((_e6 < 18u)) {
         } else {
             break;
         }
         {
-            uint _e16 = _group_0_binding_7_cs.kdop_open.x;
-            uint _e18 = k_1;
-            if (((_e16 & (1u << _e18)) != 0u)) {
+            uint _e12 = _group_0_binding_7_cs.kdop_open.x;
+            uint _e14 = k_1;
+            if (((_e12 & (1u << _e14)) != 0u)) {
                 continue;
             }
-            uint _e25 = k_1;
-            vec4 _e27 = _group_0_binding_7_cs.kdop[_e25];
-            vec3 n_8 = _e27.xyz;
-            uint _e31 = k_1;
-            float h_1 = _group_0_binding_7_cs.kdop[_e31].w;
+            uint _e21 = k_1;
+            vec4 _e23 = _group_0_binding_7_cs.kdop[_e21];
+            vec3 n_8 = _e23.xyz;
+            uint _e27 = k_1;
+            float h_1 = _group_0_binding_7_cs.kdop[_e27].w;
             float nb = dot(n_8, b_4);
             if ((nb > h_1)) {
-                return dir_2;
+                return vec2(0.0, 0.0);
             }
             float nd = dot(n_8, dir_2);
             if ((nd > 0.0)) {
-                float _e40 = t_4;
-                t_4 = min(_e40, ((h_1 - nb) / nd));
+                float _e39 = t_4;
+                t_4 = min(_e39, ((h_1 - nb) / nd));
             }
         }
     }
-    float _e47 = t_4;
-    if ((_e47 < HUGE)) {
-        float _e50 = t_4;
-        vec3 _e53 = fetch_vector(a_2, (b_4 + (dir_2 * _e50)), dir_2);
-        return _e53;
-    }
-    return dir_2;
+    float _e46 = t_4;
+    return vec2(_e46, 1.0);
 }
 
-vec3 fallback_plain(vec3 b_5, vec3 dir_3) {
+vec2 proxy_exit(vec3 b_5, vec3 dir_3) {
     uint _e2 = fallback_method();
-    switch(_e2) {
-        case 1u: {
-            vec3 _e3 = box_fetch(b_5, dir_3);
-            return _e3;
-        }
-        case 2u: {
-            vec3 _e4 = kdop_fetch(b_5, dir_3);
-            return _e4;
-        }
-        default: {
-            vec3 _e5 = warp1_(b_5, dir_3);
-            return _e5;
-        }
+    if ((_e2 == 2u)) {
+        vec2 _e5 = kdop_exit(b_5, dir_3);
+        return _e5;
     }
+    vec2 _e6 = box_exit(b_5, dir_3);
+    return _e6;
+}
+
+vec3 proxy_fetch(vec2 exit, vec3 b_6, vec3 dir_4) {
+    bool local_10 = false;
+    if (!((exit.y == 0.0))) {
+        local_10 = !((exit.x < HUGE));
+    } else {
+        local_10 = true;
+    }
+    bool _e14 = local_10;
+    if (_e14) {
+        return dir_4;
+    }
+    vec4 _e17 = _group_0_binding_7_cs.probe;
+    vec3 _e22 = fetch_vector(_e17.xyz, (b_6 + (dir_4 * exit.x)), dir_4);
+    return _e22;
+}
+
+vec3 box_fetch(vec3 b_7, vec3 dir_5) {
+    vec2 _e2 = box_exit(b_7, dir_5);
+    vec3 _e3 = proxy_fetch(_e2, b_7, dir_5);
+    return _e3;
 }
 
 Basis orthonormal_basis(vec3 n_3) {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a_3 = (-1.0 / (s_3 + n_3.z));
-    float b_17 = ((n_3.x * n_3.y) * a_3);
-    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_17), (-(s_3) * n_3.x)), vec3(b_17, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+    float a_1 = (-1.0 / (s_3 + n_3.z));
+    float b_18 = ((n_3.x * n_3.y) * a_1);
+    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_1)), (s_3 * b_18), (-(s_3) * n_3.x)), vec3(b_18, (s_3 + ((n_3.y * n_3.y) * a_1)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
-    bool local_10 = false;
+    bool local_11 = false;
     float l_4 = length(v_5);
     if ((l_4 > 0.0)) {
         bool _e7 = finite(l_4);
-        local_10 = _e7;
+        local_11 = _e7;
     } else {
-        local_10 = false;
+        local_11 = false;
     }
-    bool _e9 = local_10;
+    bool _e9 = local_11;
     if (_e9) {
         return (v_5 / vec3(l_4));
     }
     return fallback_1;
 }
 
-vec3 fallback_fetch(vec3 b_6, vec3 dir_4) {
+vec3 fallback_fetch(vec3 b_8, vec3 dir_6) {
     vec3 plain = vec3(0.0);
     vec3 sum = vec3(0.0);
     uint s = 0u;
     vec3 d_1 = vec3(0.0);
     vec4 _e4 = _group_0_binding_7_cs.probe;
-    if (all(equal(b_6, _e4.xyz))) {
-        return dir_4;
+    if (all(equal(b_8, _e4.xyz))) {
+        return dir_6;
     }
     float relax = _group_0_binding_7_cs.warp.x;
     bool _e12 = relaxation_on();
     float _e18 = _group_0_binding_7_cs.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
-    Basis _e20 = orthonormal_basis(dir_4);
+    Basis _e20 = orthonormal_basis(dir_6);
     vec3 t_10 = (_e20.t * angle);
     vec3 bt = (_e20.b * angle);
-    plain = dir_4;
+    plain = dir_6;
     bool loop_init_2 = true;
     while(true) {
         if (!loop_init_2) {
-            uint _e55 = s;
-            s = (_e55 + 1u);
+            uint _e57 = s;
+            s = (_e57 + 1u);
         }
         loop_init_2 = false;
         uint _e31 = s;
@@ -678,23 +682,23 @@ vec3 fallback_fetch(vec3 b_6, vec3 dir_4) {
             break;
         }
         {
-            d_1 = dir_4;
+            d_1 = dir_6;
             uint _e37 = s;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_4 + t_10));
+                    d_1 = normalize((dir_6 + t_10));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_4 - t_10));
+                    d_1 = normalize((dir_6 - t_10));
                     break;
                 }
                 case 3u: {
-                    d_1 = normalize((dir_4 + bt));
+                    d_1 = normalize((dir_6 + bt));
                     break;
                 }
                 case 4u: {
-                    d_1 = normalize((dir_4 - bt));
+                    d_1 = normalize((dir_6 - bt));
                     break;
                 }
                 default: {
@@ -702,148 +706,151 @@ vec3 fallback_fetch(vec3 b_6, vec3 dir_4) {
                 }
             }
             vec3 _e46 = d_1;
-            vec3 _e47 = fallback_plain(b_6, _e46);
-            uint _e48 = s;
-            if ((_e48 == 0u)) {
-                plain = _e47;
+            vec2 _e47 = proxy_exit(b_8, _e46);
+            vec3 _e48 = d_1;
+            vec3 _e49 = proxy_fetch(_e47, b_8, _e48);
+            uint _e50 = s;
+            if ((_e50 == 0u)) {
+                plain = _e49;
             }
-            vec3 _e51 = sum;
-            vec3 _e52 = normalize_or(_e47, dir_4);
-            sum = (_e51 + _e52);
+            vec3 _e53 = sum;
+            vec3 _e54 = normalize_or(_e49, dir_6);
+            sum = (_e53 + _e54);
         }
     }
     if (!(_e12)) {
-        vec3 _e58 = plain;
-        return _e58;
+        vec3 _e60 = plain;
+        return _e60;
     }
-    vec3 _e59 = sum;
-    vec3 _e60 = normalize_or(_e59, dir_4);
-    return _e60;
+    vec3 _e61 = sum;
+    vec3 _e62 = normalize_or(_e61, dir_6);
+    return _e62;
 }
 
-float inv_t_from_map(vec3 c_4, float w, vec3 b_7, vec3 dir_5) {
-    if (!((w > 0.0))) {
-        return 0.0;
-    }
-    float t_11 = (dot(dir_5, (c_4 - b_7)) + (1.0 / w));
-    if ((t_11 > 0.0)) {
-        return min((1.0 / t_11), HUGE);
-    }
-    return HUGE;
-}
-
-Aim aim_from_inv_t(float u, vec3 b_8, vec3 dir_6) {
-    bool local_11 = false;
-    float k_2 = 0.0;
+Aim shifted_aim(vec2 exit_1, float delta, vec3 b_9, vec3 dir_7) {
     bool local_12 = false;
-    if ((u > 0.0)) {
-        vec4 _e10 = _group_0_binding_7_cs.probe;
-        vec3 v_10 = ((b_8 + (dir_6 / vec3(u))) - _e10.xyz);
-        bool _e13 = finite3_(v_10);
-        if (_e13) {
-            local_11 = any(notEqual(v_10, vec3(0.0)));
-        } else {
-            local_11 = false;
-        }
-        bool _e21 = local_11;
-        if (_e21) {
-            k_2 = (length(v_10) * u);
-            float _e25 = k_2;
-            bool _e26 = finite(_e25);
-            if (_e26) {
-                float _e29 = k_2;
-                local_12 = (_e29 > 0.0);
-            } else {
-                local_12 = false;
-            }
-            bool _e33 = local_12;
-            if (!(_e33)) {
-                k_2 = 1.0;
-            }
-            float _e36 = k_2;
-            return Aim(v_10, _e36);
-        }
+    float u = HUGE;
+    bool local_13 = false;
+    float k_2 = 0.0;
+    bool local_14 = false;
+    if (!((exit_1.y == 0.0))) {
+        local_12 = !((exit_1.x < HUGE));
+    } else {
+        local_12 = true;
     }
-    return Aim(dir_6, 1.0);
+    bool _e15 = local_12;
+    if (_e15) {
+        return Aim(dir_7, 1.0);
+    }
+    float s_4 = (exit_1.x + delta);
+    if ((s_4 > 0.0)) {
+        u = min((1.0 / s_4), HUGE);
+    }
+    float _e28 = u;
+    vec4 _e34 = _group_0_binding_7_cs.probe;
+    vec3 v_10 = ((b_9 + (dir_7 / vec3(_e28))) - _e34.xyz);
+    bool _e37 = finite3_(v_10);
+    if (_e37) {
+        local_13 = any(notEqual(v_10, vec3(0.0)));
+    } else {
+        local_13 = false;
+    }
+    bool _e45 = local_13;
+    if (_e45) {
+        float _e47 = u;
+        k_2 = (length(v_10) * _e47);
+        float _e50 = k_2;
+        bool _e51 = finite(_e50);
+        if (_e51) {
+            float _e54 = k_2;
+            local_14 = (_e54 > 0.0);
+        } else {
+            local_14 = false;
+        }
+        bool _e58 = local_14;
+        if (!(_e58)) {
+            k_2 = 1.0;
+        }
+        float _e61 = k_2;
+        return Aim(v_10, _e61);
+    }
+    return Aim(dir_7, 1.0);
 }
 
-float map_w(int tile_1, vec2 uv_5) {
+float map_delta(int tile_1, vec2 uv_5) {
     uint _e6 = _group_0_binding_7_cs.atlas_a.x;
     uint _e10 = _group_0_binding_7_cs.atlas_a.y;
     vec4 _e11 = atlas_bilinear(ATLAS_CORRECTIVE, tile_1, _e6, _e10, uv_5);
     return _e11.x;
 }
 
-Aim fetch(vec3 b_9, vec3 dir_7) {
-    float sum_1 = 0.0;
-    float wsum = 0.0;
+Aim fetch(vec3 b_10, vec3 dir_8) {
+    float delta_1 = 0.0;
+    bool mapped = false;
     uint corner_2 = 0u;
+    bool local_15 = false;
     vec4 _e4 = _group_0_binding_7_cs.probe;
-    if (all(equal(b_9, _e4.xyz))) {
-        return Aim(dir_7, 1.0);
+    if (all(equal(b_10, _e4.xyz))) {
+        return Aim(dir_8, 1.0);
     }
-    vec2 _e10 = oct_encode(dir_7);
+    vec2 _e10 = oct_encode(dir_8);
     vec3 _e11 = cell_size();
-    uint _e12 = blend_mode();
-    if ((_e12 == 0u)) {
-        uvec3 _e15 = cell_of(b_9, _e11);
-        uint _e17 = cell_index(_e15);
-        Cell cell = _group_0_binding_8_cs[_e17];
+    uint _e16 = blend_mode();
+    if ((_e16 == 0u)) {
+        uvec3 _e20 = cell_of(b_10, _e11);
+        uint _e21 = cell_index(_e20);
+        Cell cell = _group_0_binding_8_cs[_e21];
         if ((cell.tiles.x >= 0)) {
-            vec3 _e24 = cell_centre(_e15, _e11);
-            vec3 origin_1 = (_e24 + cell.offset.xyz);
-            float _e30 = map_w(cell.tiles.x, _e10);
-            float _e31 = inv_t_from_map(origin_1, _e30, b_9, dir_7);
-            Aim _e32 = aim_from_inv_t(_e31, b_9, dir_7);
-            return _e32;
+            float _e30 = map_delta(cell.tiles.x, _e10);
+            delta_1 = _e30;
+            mapped = true;
         }
-        vec3 _e33 = fallback_fetch(b_9, dir_7);
-        return Aim(_e33, -1.0);
-    }
-    Lattice _e36 = lattice(b_9, _e11);
-    bool loop_init_3 = true;
-    while(true) {
-        if (!loop_init_3) {
-            uint _e74 = corner_2;
-            corner_2 = (_e74 + 1u);
-        }
-        loop_init_3 = false;
-        uint _e43 = corner_2;
-        if ((_e43 < 8u)) {
-        } else {
-            break;
-        }
-        {
-            uint _e46 = corner_2;
-            float _e47 = corner_weight(_e36, _e46);
-            if ((_e47 <= 0.0)) {
-                continue;
+    } else {
+        Lattice _e32 = lattice(b_10, _e11);
+        bool loop_init_3 = true;
+        while(true) {
+            if (!loop_init_3) {
+                uint _e58 = corner_2;
+                corner_2 = (_e58 + 1u);
             }
-            uint _e50 = corner_2;
-            uvec3 _e51 = corner_cell(_e36, _e50);
-            uint _e53 = cell_index(_e51);
-            Cell cell_1 = _group_0_binding_8_cs[_e53];
-            if ((cell_1.tiles.x >= 0)) {
-                vec3 _e60 = cell_centre(_e51, _e11);
-                vec3 origin_2 = (_e60 + cell_1.offset.xyz);
-                float _e64 = sum_1;
-                float _e67 = map_w(cell_1.tiles.x, _e10);
-                float _e68 = inv_t_from_map(origin_2, _e67, b_9, dir_7);
-                sum_1 = (_e64 + (_e47 * _e68));
-                float _e71 = wsum;
-                wsum = (_e71 + _e47);
+            loop_init_3 = false;
+            uint _e35 = corner_2;
+            if ((_e35 < 8u)) {
+            } else {
+                break;
+            }
+            {
+                uint _e39 = corner_2;
+                uvec3 _e40 = corner_cell(_e32, _e39);
+                uint _e41 = cell_index(_e40);
+                Cell cell_1 = _group_0_binding_8_cs[_e41];
+                if ((cell_1.tiles.x >= 0)) {
+                    float _e48 = delta_1;
+                    uint _e49 = corner_2;
+                    float _e50 = corner_weight(_e32, _e49);
+                    float _e53 = map_delta(cell_1.tiles.x, _e10);
+                    delta_1 = (_e48 + (_e50 * _e53));
+                    mapped = true;
+                }
             }
         }
     }
-    float _e76 = wsum;
-    if ((_e76 > 0.0)) {
-        float _e79 = sum_1;
-        float _e80 = wsum;
-        Aim _e82 = aim_from_inv_t((_e79 / _e80), b_9, dir_7);
-        return _e82;
+    bool _e60 = mapped;
+    if (!(_e60)) {
+        bool _e64 = relaxation_on();
+        local_15 = _e64;
+    } else {
+        local_15 = false;
     }
-    vec3 _e83 = fallback_fetch(b_9, dir_7);
-    return Aim(_e83, -1.0);
+    bool _e66 = local_15;
+    if (_e66) {
+        vec3 _e67 = fallback_fetch(b_10, dir_8);
+        return Aim(_e67, -1.0);
+    }
+    vec2 _e70 = proxy_exit(b_10, dir_8);
+    float _e71 = delta_1;
+    Aim _e72 = shifted_aim(_e70, _e71, b_10, dir_8);
+    return _e72;
 }
 
 float mip_roughness(uint m) {
@@ -852,18 +859,18 @@ float mip_roughness(uint m) {
 }
 
 float lod_of_roughness(float r) {
-    bool local_13 = false;
+    bool local_16 = false;
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
     uint n_9 = _group_0_binding_7_cs.probe_info.x;
     if (!((n_9 < 2u))) {
         float _e11 = mip_roughness(0u);
-        local_13 = !((r > _e11));
+        local_16 = !((r > _e11));
     } else {
-        local_13 = true;
+        local_16 = true;
     }
-    bool _e15 = local_13;
+    bool _e15 = local_16;
     if (_e15) {
         return 0.0;
     }
@@ -904,50 +911,50 @@ float lod_of_roughness(float r) {
     return (float(i_5) + clamp(_e57, 0.0, 1.0));
 }
 
-float distance_ratio(vec3 b_10, vec3 v_6, vec2 uv_6) {
-    bool local_14 = false;
-    bool local_15 = false;
-    bool local_16 = false;
+float distance_ratio(vec3 b_11, vec3 v_6, vec2 uv_6) {
     bool local_17 = false;
+    bool local_18 = false;
+    bool local_19 = false;
+    bool local_20 = false;
     float l_5 = length(v_6);
     float _e8 = _group_0_binding_7_cs.probe.w;
     uint _e12 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e13 = probe_sample_lod(1u, uv_6, _e8, _e12);
-    float w_3 = _e13.x;
+    float w_2 = _e13.x;
     if ((l_5 > 0.0)) {
         bool _e19 = finite(l_5);
-        local_14 = _e19;
-    } else {
-        local_14 = false;
-    }
-    bool _e21 = local_14;
-    if (_e21) {
-        local_15 = (w_3 > 0.0);
-    } else {
-        local_15 = false;
-    }
-    bool _e27 = local_15;
-    if (_e27) {
-        bool _e30 = finite(w_3);
-        local_16 = _e30;
-    } else {
-        local_16 = false;
-    }
-    bool _e32 = local_16;
-    if (!(_e32)) {
-        return 1.0;
-    }
-    float d_probe = (1.0 / w_3);
-    vec4 _e39 = _group_0_binding_7_cs.probe;
-    float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_10));
-    float k_7 = (d_probe / d_surface);
-    bool _e47 = finite(k_7);
-    if (_e47) {
-        local_17 = (k_7 > 0.0);
+        local_17 = _e19;
     } else {
         local_17 = false;
     }
-    bool _e53 = local_17;
+    bool _e21 = local_17;
+    if (_e21) {
+        local_18 = (w_2 > 0.0);
+    } else {
+        local_18 = false;
+    }
+    bool _e27 = local_18;
+    if (_e27) {
+        bool _e30 = finite(w_2);
+        local_19 = _e30;
+    } else {
+        local_19 = false;
+    }
+    bool _e32 = local_19;
+    if (!(_e32)) {
+        return 1.0;
+    }
+    float d_probe = (1.0 / w_2);
+    vec4 _e39 = _group_0_binding_7_cs.probe;
+    float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_11));
+    float k_7 = (d_probe / d_surface);
+    bool _e47 = finite(k_7);
+    if (_e47) {
+        local_20 = (k_7 > 0.0);
+    } else {
+        local_20 = false;
+    }
+    bool _e53 = local_20;
     if (_e53) {
         return k_7;
     }
@@ -964,7 +971,7 @@ float pseudo_log2_(float k_3) {
 float corrected_roughness(float r_1, float k_in) {
     float fr = 0.0;
     float k_4 = 1.0;
-    bool local_18 = false;
+    bool local_21 = false;
     uint n_10 = _group_0_binding_7_cs.lut_info.x;
     float last_1 = float((n_10 - 1u));
     bool _e11 = finite(r_1);
@@ -973,11 +980,11 @@ float corrected_roughness(float r_1, float k_in) {
     }
     bool _e17 = finite(k_in);
     if (_e17) {
-        local_18 = (k_in > 0.0);
+        local_21 = (k_in > 0.0);
     } else {
-        local_18 = false;
+        local_21 = false;
     }
-    bool _e23 = local_18;
+    bool _e23 = local_21;
     if (_e23) {
         k_4 = k_in;
     }
@@ -994,8 +1001,8 @@ float corrected_roughness(float r_1, float k_in) {
     uint i_6 = min(uint(_e48), (n_10 - 2u));
     uint j_5 = min(uint(fx), (n_10 - 2u));
     float _e57 = fr;
-    float a_4 = (_e57 - float(i_6));
-    float b_18 = (fx - float(j_5));
+    float a_2 = (_e57 - float(i_6));
+    float b_19 = (fx - float(j_5));
     vec4 _e67 = texelFetch(_group_0_binding_6_cs, ivec2(int(j_5), int(i_6)), 0);
     float v00_ = _e67.x;
     vec4 _e76 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_5 + 1u)), int(i_6)), 0);
@@ -1004,10 +1011,10 @@ float corrected_roughness(float r_1, float k_in) {
     float v10_ = _e85.x;
     vec4 _e96 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_5 + 1u)), int((i_6 + 1u))), 0);
     float v11_ = _e96.x;
-    return ((((v00_ * (1.0 - b_18)) + (v01_ * b_18)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_18)) + (v11_ * b_18)) * a_4));
+    return ((((v00_ * (1.0 - b_19)) + (v01_ * b_19)) * (1.0 - a_2)) + (((v10_ * (1.0 - b_19)) + (v11_ * b_19)) * a_2));
 }
 
-vec3 shade(vec3 b_11, Aim aim, float r_2) {
+vec3 shade(vec3 b_12, Aim aim, float r_2) {
     float k_5 = 0.0;
     vec2 _e4 = oct_encode(aim.v);
     if ((r_2 == 0.0)) {
@@ -1023,7 +1030,7 @@ vec3 shade(vec3 b_11, Aim aim, float r_2) {
     k_5 = aim.k;
     float _e15 = k_5;
     if ((_e15 < 0.0)) {
-        float _e19 = distance_ratio(b_11, aim.v, _e4);
+        float _e19 = distance_ratio(b_12, aim.v, _e4);
         k_5 = _e19;
     }
     float _e20 = k_5;
@@ -1033,33 +1040,33 @@ vec3 shade(vec3 b_11, Aim aim, float r_2) {
     return _e23;
 }
 
-vec3 clean(vec3 c_5) {
-    bool _e1 = finite3_(c_5);
+vec3 clean(vec3 c_4) {
+    bool _e1 = finite3_(c_4);
     if (_e1) {
-        return max(c_5, vec3(0.0));
+        return max(c_4, vec3(0.0));
     }
     return vec3(0.0);
 }
 
 vec3 specular(vec3 position, vec3 direction, float roughness) {
-    vec3 b_12 = vec3(0.0);
+    vec3 b_13 = vec3(0.0);
     float r_3 = 0.0;
     vec4 _e3 = unit_direction(direction);
     if ((_e3.w == 0.0)) {
         return vec3(0.0);
     }
     vec4 _e11 = _group_0_binding_7_cs.probe;
-    b_12 = _e11.xyz;
+    b_13 = _e11.xyz;
     bool _e14 = finite3_(position);
     if (_e14) {
-        b_12 = position;
+        b_13 = position;
     }
     bool _e17 = finite(roughness);
     if (_e17) {
         r_3 = clamp(roughness, 0.0, 1.0);
     }
-    vec3 _e21 = b_12;
-    vec3 _e22 = b_12;
+    vec3 _e21 = b_13;
+    vec3 _e22 = b_13;
     Aim _e24 = fetch(_e22, _e3.xyz);
     float _e25 = r_3;
     vec3 _e26 = shade(_e21, _e24, _e25);
@@ -1078,10 +1085,10 @@ vec3 cell_irradiance(int tile_2, vec3 n_4) {
 vec3 irradiance(vec3 position_1, vec3 normal) {
     vec3 p_3 = vec3(0.0);
     vec3 e = vec3(0.0);
-    float wsum_1 = 0.0;
+    float wsum = 0.0;
     uint corner_3 = 0u;
-    float w_1 = 0.0;
-    bool local_19 = false;
+    float w = 0.0;
+    bool local_22 = false;
     float k_6 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
@@ -1129,19 +1136,19 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             vec3 _e56 = cell_centre(_e46, _e9);
             vec3 to_point = (_e55 - (_e56 + cell_2.offset.xyz));
             float dist = length(to_point);
-            w_1 = _e42;
+            w = _e42;
             if ((dist > 0.0)) {
                 bool _e67 = finite(dist);
-                local_19 = _e67;
+                local_22 = _e67;
             } else {
-                local_19 = false;
+                local_22 = false;
             }
-            bool _e69 = local_19;
+            bool _e69 = local_22;
             if (_e69) {
                 vec3 u_1 = (to_point / vec3(dist));
                 float facing = ((dot(n_11, -(u_1)) + 1.0) * 0.5);
-                float _e78 = w_1;
-                w_1 = (_e78 * ((facing * facing) + 0.2));
+                float _e78 = w;
+                w = (_e78 * ((facing * facing) + 0.2));
                 uint _e89 = _group_0_binding_7_cs.atlas_b.x;
                 uint _e93 = _group_0_binding_7_cs.atlas_b.y;
                 vec2 _e94 = oct_encode(u_1);
@@ -1152,12 +1159,12 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                     float variance = max(abs((mean_sq - (mean * mean))), ((1e-12 * mean) * mean));
                     float dd = (dist - mean);
                     float cheb = (variance / (variance + (dd * dd)));
-                    float _e110 = w_1;
-                    w_1 = (_e110 * max(((cheb * cheb) * cheb), 0.0));
+                    float _e110 = w;
+                    w = (_e110 * max(((cheb * cheb) * cheb), 0.0));
                 }
             }
-            float _e116 = w_1;
-            w_1 = max(_e116, (1e-6 * _e42));
+            float _e116 = w;
+            w = max(_e116, (1e-6 * _e42));
             k_6 = 1.0;
             if ((cell_2.tiles.z >= 0)) {
                 uint _e132 = _group_0_binding_7_cs.atlas_b.z;
@@ -1167,35 +1174,35 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             }
             vec3 _e139 = e;
             vec3 _e142 = cell_irradiance(cell_2.tiles.y, n_11);
-            float _e143 = w_1;
+            float _e143 = w;
             float _e145 = k_6;
             e = (_e139 + ((_e142 * _e143) * _e145));
-            float _e148 = wsum_1;
-            float _e149 = w_1;
-            wsum_1 = (_e148 + _e149);
+            float _e148 = wsum;
+            float _e149 = w;
+            wsum = (_e148 + _e149);
         }
     }
-    float _e154 = wsum_1;
+    float _e154 = wsum;
     if (!((_e154 > 0.0))) {
         return vec3(0.0);
     }
     vec3 _e160 = e;
-    float _e161 = wsum_1;
+    float _e161 = wsum;
     vec3 _e164 = clean((_e160 / vec3(_e161)));
     return _e164;
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_20 = false;
+    bool local_23 = false;
     float z = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_20 = _e14;
+        local_23 = _e14;
     } else {
-        local_20 = false;
+        local_23 = false;
     }
-    bool _e16 = local_20;
+    bool _e16 = local_23;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -1211,9 +1218,9 @@ SurfaceAxis surface_axis(float x_in, uint n_5) {
         x_2 = x_in;
     }
     float _e5 = x_2;
-    float c_8 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
-    uint i0_ = uint(floor(c_8));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_8 - float(i0_)));
+    float c_7 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
+    uint i0_ = uint(floor(c_7));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_7 - float(i0_)));
 }
 
 uint query_count() {

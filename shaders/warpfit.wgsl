@@ -9,7 +9,7 @@
 // Bindings (group 0), all from the export folder:
 //   0 probe_radiance      probe_radiance.ktx2      RGBA16F (or RGBA32F), every GGX mip
 //   1 probe_inv_distance  probe_inv_distance.ktx2  R32F, every mip (1/distance, 0 = sky)
-//   2 corrective_atlas    correctives.ktx2         R32F, guttered tiles (1x1 dummy if none)
+//   2 corrective_atlas    correctives.ktx2         R32F shift maps, guttered tiles (1x1 dummy if none)
 //   3 irradiance_atlas    irradiance.ktx2          RGBA16F (or RGBA32F), guttered tiles
 //   4 moments_atlas       moments.ktx2             RG32F, guttered tiles
 //   5 scale_atlas         irradiance_scale.ktx2    R32F, guttered tiles (1x1 dummy if none)
@@ -45,7 +45,7 @@ struct Params {
     grid_counts: vec4<u32>,
     // probe A: position (xyz) and the depth mip the warps read (w)
     probe: vec4<f32>,
-    // x radiance mips, y inverse-distance mips, z fallback method (0 warp1, 1 box, 2 kdop),
+    // x radiance mips, y inverse-distance mips, z the proxy the maps shift (1 box, 2 kdop),
     // w 1 when the roughness correction is present
     probe_info: vec4<u32>,
     // x UV relaxation in probe texels (0 = off), y and z mip-0 resolution of the radiance
@@ -74,16 +74,15 @@ struct Params {
     lut_info: vec4<u32>,
 }
 
-// One grid cell: its tiles (x corrective, y irradiance, z irradiance scale; -1 = none) and
-// its probe's relocation offset from the cell centre (xyz), which is also its warp map's
-// origin.
+// One grid cell: its tiles (x shift map, y irradiance, z irradiance scale; -1 = none) and
+// its irradiance probe's relocation offset from the cell centre (xyz).
 struct Cell {
     tiles: vec4<i32>,
     offset: vec4<f32>,
 }
 
 const DYNAMIC: u32 = 255u;
-// 0 warp1, 1 box, 2 kdop
+// the proxy: 1 box, 2 kdop
 override FALLBACK: u32 = DYNAMIC;
 // 0 the containing cell, 1 trilinear
 override BLEND: u32 = DYNAMIC;
@@ -412,15 +411,14 @@ fn warp1(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     return dir;
 }
 
-// Box proxy (seed 001): leave the oriented box from B along dir, fetch towards that point;
-// B outside the box or no exit: the query direction.
-fn box_fetch(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
-    let a = params.probe.xyz;
+// Where the ray from B leaves the oriented box proxy (seed 001): x the distance, y 1 when
+// there is one (0: B outside the box, or no exit).
+fn box_exit(b: vec3<f32>, dir: vec3<f32>) -> vec2<f32> {
     let m = mat3x3<f32>(params.box_x.xyz, params.box_y.xyz, params.box_z.xyz);
     let h = params.box_half.xyz;
     let o = m * (b - params.box_centre.xyz);
     if any(abs(o) > h) {
-        return dir;
+        return vec2<f32>(0.0, 0.0);
     }
     let d = m * dir;
     var t = HUGE;
@@ -431,14 +429,14 @@ fn box_fetch(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
         }
     }
     if !(t < HUGE) {
-        return dir;
+        return vec2<f32>(0.0, 0.0);
     }
-    return fetch_vector(a, b + dir * max(t, 0.0), dir);
+    return vec2<f32>(max(t, 0.0), 1.0);
 }
 
-// 18-DOP proxy: the nearest closed plane the ray from B leaves through.
-fn kdop_fetch(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
-    let a = params.probe.xyz;
+// Where the ray from B leaves the 18-DOP through its nearest closed plane: as `box_exit`,
+// with x = HUGE through an open side.
+fn kdop_exit(b: vec3<f32>, dir: vec3<f32>) -> vec2<f32> {
     var t = HUGE;
     for (var k = 0u; k < 18u; k++) {
         if (params.kdop_open.x & (1u << k)) != 0u {
@@ -448,31 +446,36 @@ fn kdop_fetch(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
         let h = params.kdop[k].w;
         let nb = dot(n, b);
         if nb > h {
-            return dir; // B outside the proxy
+            return vec2<f32>(0.0, 0.0); // B outside the proxy
         }
         let nd = dot(n, dir);
         if nd > 0.0 {
             t = min(t, (h - nb) / nd);
         }
     }
-    if t < HUGE {
-        return fetch_vector(a, b + dir * t, dir);
-    }
-    return dir;
+    return vec2<f32>(t, 1.0);
 }
 
-fn fallback_plain(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
-    switch fallback_method() {
-        case 1u: {
-            return box_fetch(b, dir);
-        }
-        case 2u: {
-            return kdop_fetch(b, dir);
-        }
-        default: {
-            return warp1(b, dir);
-        }
+// The grid's proxy's exit (see `box_exit`).
+fn proxy_exit(b: vec3<f32>, dir: vec3<f32>) -> vec2<f32> {
+    if fallback_method() == 2u {
+        return kdop_exit(b, dir);
     }
+    return box_exit(b, dir);
+}
+
+// A proxy's fetch vector: towards where the ray from B leaves it; the query direction when
+// B is outside it or the ray leaves through an open side.
+fn proxy_fetch(exit: vec2<f32>, b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    if exit.y == 0.0 || !(exit.x < HUGE) {
+        return dir;
+    }
+    return fetch_vector(params.probe.xyz, b + dir * exit.x, dir);
+}
+
+// The box proxy's fetch (the `box_queries` kernel's baseline).
+fn box_fetch(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    return proxy_fetch(box_exit(b, dir), b, dir);
 }
 
 // Frisvad's orthonormal basis around unit n (Duff et al. 2017), as the CPU builds it: the
@@ -497,10 +500,10 @@ fn normalize_or(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
     return fallback;
 }
 
-// The fallback method's fetch vector, with UV relaxation when the fit used it (seed 000:
-// the warped direction averaged over a 4-tap stencil of query directions). One loop for
-// both cases: a processor that runs every branch under a mask (llvmpipe) then pays for one
-// warp, not six, when relaxation is off.
+// The proxy's fetch vector with UV relaxation (seed 000: the fetch direction averaged over
+// a 4-tap stencil of query directions), for cells without a map when the grid relaxes. One
+// loop: a processor that runs every branch under a mask (llvmpipe) pays for the stencil
+// only when relaxation is on.
 fn fallback_fetch(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     if all(b == params.probe.xyz) {
         return dir;
@@ -530,7 +533,7 @@ fn fallback_fetch(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
             }
             default: {}
         }
-        let v = fallback_plain(b, d);
+        let v = proxy_fetch(proxy_exit(b, d), b, d);
         if s == 0u {
             plain = v;
         }
@@ -551,76 +554,66 @@ struct Aim {
     k: f32,
 }
 
-// One warp step against a cell map: the cell (origin c) sees its hit at inverse distance w
-// along dir; returns 1/t of where the ray from B crosses the plane there (0 sky, 1e30 at B).
-fn inv_t_from_map(c: vec3<f32>, w: f32, b: vec3<f32>, dir: vec3<f32>) -> f32 {
-    if !(w > 0.0) {
-        return 0.0;
+// The corrective lookup: the ray from B leaves the proxy at `exit` (see `box_exit`); its
+// surface shifted by `delta` along dir is where probe A is fetched towards, with that
+// point's distance ratio. B outside the proxy, or an open side: the query direction; a
+// surface at or behind B: B itself.
+fn shifted_aim(exit: vec2<f32>, delta: f32, b: vec3<f32>, dir: vec3<f32>) -> Aim {
+    if exit.y == 0.0 || !(exit.x < HUGE) {
+        return Aim(dir, 1.0);
     }
-    let t = dot(dir, c - b) + 1.0 / w;
-    if t > 0.0 {
-        return min(1.0 / t, HUGE);
+    let s = exit.x + delta;
+    var u = HUGE;
+    if s > 0.0 {
+        u = min(1.0 / s, HUGE);
     }
-    return HUGE;
-}
-
-// Aim at the point at inverse distance u along the ray from B (sky: the query direction).
-fn aim_from_inv_t(u: f32, b: vec3<f32>, dir: vec3<f32>) -> Aim {
-    if u > 0.0 {
-        let v = b + dir / u - params.probe.xyz;
-        if finite3(v) && any(v != vec3<f32>(0.0)) {
-            var k = length(v) * u;
-            if !(finite(k) && k > 0.0) {
-                k = 1.0;
-            }
-            return Aim(v, k);
+    let v = b + dir / u - params.probe.xyz;
+    if finite3(v) && any(v != vec3<f32>(0.0)) {
+        var k = length(v) * u;
+        if !(finite(k) && k > 0.0) {
+            k = 1.0;
         }
+        return Aim(v, k);
     }
     return Aim(dir, 1.0);
 }
 
-// Inverse distance from cell `cell`'s map origin along the direction of uv (its tile).
-fn map_w(tile: i32, uv: vec2<f32>) -> f32 {
+// The shift of cell tile `tile`'s map along the direction of uv.
+fn map_delta(tile: i32, uv: vec2<f32>) -> f32 {
     return atlas_bilinear(ATLAS_CORRECTIVE, tile, params.atlas_a.x, params.atlas_a.y, uv).x;
 }
 
-// Where query (B, unit dir) reads probe A: the containing cell's warp map (or the blend of
-// the eight around B), else the fallback method.
+// Where query (B, unit dir) reads probe A: the proxy's surface shifted by the containing
+// cell's map (or the trilinear blend of the eight maps around B, cells without one counting
+// 0); the proxy as it is where no map applies (relaxed when the grid relaxes).
 fn fetch(b: vec3<f32>, dir: vec3<f32>) -> Aim {
     if all(b == params.probe.xyz) {
         return Aim(dir, 1.0);
     }
     let uv = oct_encode(dir);
     let size = cell_size();
+    var delta = 0.0;
+    var mapped = false;
     if blend_mode() == 0u {
-        let c = cell_of(b, size);
-        let cell = cells[cell_index(c)];
+        let cell = cells[cell_index(cell_of(b, size))];
         if cell.tiles.x >= 0 {
-            let origin = cell_centre(c, size) + cell.offset.xyz;
-            return aim_from_inv_t(inv_t_from_map(origin, map_w(cell.tiles.x, uv), b, dir), b, dir);
+            delta = map_delta(cell.tiles.x, uv);
+            mapped = true;
         }
+    } else {
+        let l = lattice(b, size);
+        for (var corner = 0u; corner < 8u; corner++) {
+            let cell = cells[cell_index(corner_cell(l, corner))];
+            if cell.tiles.x >= 0 {
+                delta += corner_weight(l, corner) * map_delta(cell.tiles.x, uv);
+                mapped = true;
+            }
+        }
+    }
+    if !mapped && relaxation_on() {
         return Aim(fallback_fetch(b, dir), -1.0);
     }
-    let l = lattice(b, size);
-    var sum = 0.0;
-    var wsum = 0.0;
-    for (var corner = 0u; corner < 8u; corner++) {
-        let w = corner_weight(l, corner);
-        if w <= 0.0 {
-            continue;
-        }
-        let c = corner_cell(l, corner);
-        let cell = cells[cell_index(c)];
-        if cell.tiles.x >= 0 {
-            let origin = cell_centre(c, size) + cell.offset.xyz;
-            sum += w * inv_t_from_map(origin, map_w(cell.tiles.x, uv), b, dir);
-            wsum += w;
-        }
-    }
-    if wsum > 0.0 {
-        return aim_from_inv_t(sum / wsum, b, dir);
-    }
-    return Aim(fallback_fetch(b, dir), -1.0);
+    return shifted_aim(proxy_exit(b, dir), delta, b, dir);
 }
 
 // ---- rough lookups ---------------------------------------------------------------------

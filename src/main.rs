@@ -237,13 +237,13 @@ struct RunArgs {
 
 #[derive(clap::Args)]
 struct FitArgs {
-    /// N of each cell's N×N warp map (8..=16).
+    /// N of each cell's N×N shift map (8..=16).
     #[arg(long, default_value_t = FitSettings::standard().map_res)]
     map_res: u32,
     /// Relative error at or below which a cell keeps the plain warp.
     #[arg(long, default_value_t = FitSettings::standard().tol)]
     tol: f32,
-    /// Solver refining the warp maps.
+    /// Solver refining the shift maps.
     #[arg(long, value_enum, default_value_t = FitSettings::standard().solver)]
     solver: Solver,
     /// Sweeps (Brent) or iteration budget multiplier (L-BFGS, Nelder-Mead).
@@ -267,7 +267,7 @@ struct FitArgs {
     /// Charbonnier ε of the fit's loss as a fraction of a cell's mean reference radiance.
     #[arg(long, default_value_t = FitSettings::standard().robust_scale)]
     robust_scale: f64,
-    /// Storage of the radiance layers of the fitted grid (distances and warp maps are f32).
+    /// Storage of the radiance layers of the fitted grid (distances and shift maps are f32).
     #[arg(long, value_enum, default_value = "f32")]
     precision: PrecisionArg,
     /// Leave the GGX roughness correction out of the fitted grid.
@@ -281,6 +281,18 @@ struct FitArgs {
     /// the fallback's (at most 1).
     #[arg(long, default_value_t = FitSettings::standard().selection_margin)]
     selection_margin: f64,
+    /// Weight of the pull of every map towards the proxy (mean squared log-scale of the
+    /// shifted distance over the proxy's).
+    #[arg(long, default_value_t = FitSettings::standard().size_weight)]
+    size_weight: f64,
+    /// Fraction of each cell's training and check positions on the surfaces around it
+    /// (reflection directions), the rest in its volume (in [0, 1]).
+    #[arg(long, default_value_t = FitSettings::standard().surface_fraction)]
+    surface_fraction: f32,
+    /// The proxy the maps shift: measured (box, or the 18-DOP when it is 5% better), box or
+    /// kdop.
+    #[arg(long, value_enum, default_value = "measured")]
+    proxy: warpfit::fit::proxy::ProxyChoice,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -320,6 +332,9 @@ impl FitArgs {
             format!("--robust-scale={}", self.robust_scale),
             format!("--precision={}", name(self.precision.to_possible_value())),
             format!("--selection-margin={}", self.selection_margin),
+            format!("--size-weight={}", self.size_weight),
+            format!("--surface-fraction={}", self.surface_fraction),
+            format!("--proxy={}", name(self.proxy.to_possible_value())),
         ];
         if self.no_roughness {
             f.push("--no-roughness".into());
@@ -340,6 +355,8 @@ impl FitArgs {
             self.selection_margin > 0.0 && self.selection_margin <= 1.0,
             "--selection-margin must be in (0, 1]"
         );
+        anyhow::ensure!(self.size_weight.is_finite() && self.size_weight >= 0.0, "--size-weight must be ≥ 0");
+        anyhow::ensure!((0.0..=1.0).contains(&self.surface_fraction), "--surface-fraction must be in [0, 1]");
         Ok(FitSettings {
             map_res: self.map_res,
             tol: self.tol.max(0.0),
@@ -353,6 +370,9 @@ impl FitArgs {
             robust_scale: self.robust_scale,
             level1: self.level1,
             selection_margin: self.selection_margin,
+            size_weight: self.size_weight,
+            surface_fraction: self.surface_fraction,
+            proxy: self.proxy,
             ..FitSettings::standard()
         })
     }
@@ -458,7 +478,7 @@ fn print_fit(f: &warpfit::fit::Fit, manifest: &warpfit::gridfile::GridManifest, 
     let bytes: u64 = manifest.payloads.iter().map(|p| p.bytes).sum();
     let s = warpfit::fit::summary::summary(f);
     println!(
-        "fitted {} active cells in {:.1} s ({} threads): {} store a warp map, {} in all; {} keep the fallback {} ({} of them kept it over a fitted map that did not beat it by {:.0}%); mean held-out tone-mapped relative error per cell: warp1 {:.4}, fallback {:.4}, unfitted cell maps {:.4}, stored model {:.4}",
+        "fitted {} active cells in {:.1} s ({} threads): {} store a shift map, {} in all; {} keep the proxy {} alone ({} of them kept it over a fitted map that did not beat it by {:.0}%); mean held-out tone-mapped relative error per cell: warp1 {:.4}, fallback {:.4}, unfitted cell maps {:.4}, stored model {:.4}",
         s.active_cells,
         s.fit_seconds,
         rayon::current_num_threads(),
@@ -796,7 +816,7 @@ fn run(cli: Cli) -> Result<()> {
                 n.normalize_or_zero().to_array()
             );
             let stores = if grid.correctives.stores_map(cell) {
-                "stores a warp map".to_string()
+                "stores a shift map".to_string()
             } else {
                 format!("uses the fallback {}", grid.correctives.fallback.name())
             };

@@ -6,7 +6,7 @@ use glam::{Vec2, Vec3};
 use warpfit::grid::GridGeometry;
 use warpfit::octa::{self, distance_from_inverse, inverse_distance};
 use warpfit::trace::radiance::sanitize;
-use warpfit::warp::corrective::{inv_t_from_map, map_fetch_vector};
+use warpfit::warp::corrective::shifted_aim;
 use warpfit::warp::{depth, toward};
 
 const SUB: f32 = 1e-40; // subnormal
@@ -88,20 +88,24 @@ fn toward_falls_back_where_it_cannot_point() {
 }
 
 #[test]
-fn the_corrective_step_is_finite_for_any_map_value() {
-    let (c, b, dir, a) = (Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.2, 0.1, 0.0), Vec3::Z, Vec3::new(-1.0, 0.0, 0.5));
-    for w in EDGES {
-        let u = inv_t_from_map(c, w, b, dir);
-        assert!(u.is_finite() && u >= 0.0, "inv_t_from_map(w = {w:e}) = {u}");
-        let v = map_fetch_vector(a, c, w, b, dir);
-        assert!(v.is_finite() && v != Vec3::ZERO, "map_fetch_vector(w = {w:e}) = {v}");
+fn the_corrective_step_is_finite_for_any_shift_and_proxy_distance() {
+    let (b, dir, a) = (Vec3::new(1.2, 0.1, 0.0), Vec3::Z, Vec3::new(-1.0, 0.0, 0.5));
+    for t in EDGES.into_iter().map(Some).chain([None]) {
+        for delta in EDGES {
+            let aim = shifted_aim(a, t, delta, b, dir);
+            assert!(aim.v.is_finite() && aim.v != Vec3::ZERO, "t = {t:?}, shift {delta:e}: {:?}", aim.v);
+            assert!(aim.k.is_some_and(|k| k.is_finite() && k > 0.0), "t = {t:?}, shift {delta:e}: {:?}", aim.k);
+        }
     }
-    // sky (w = 0, NaN, negative) fetches the query direction itself
-    for w in [0.0, -0.0, -1.0, f32::NAN, f32::NEG_INFINITY] {
-        assert_eq!(map_fetch_vector(a, c, w, b, dir), dir, "w = {w}");
+    // B outside the proxy, or a ray through an open side: the query direction itself
+    for t in [None, Some(f32::INFINITY), Some(f32::NAN)] {
+        assert_eq!(shifted_aim(a, t, 0.5, b, dir).v, dir, "t = {t:?}");
     }
-    // a plane behind B: the hit is at B
-    assert_eq!(inv_t_from_map(c, 1e3, b + Vec3::Z * 5.0, dir), 1e30);
+    // a surface shifted to or behind B: the aim is B itself
+    let at_b = shifted_aim(a, Some(2.0), -5.0, b, dir).v;
+    assert!((at_b - (b - a)).length() < 1e-6, "{at_b}");
+    // B at the probe: the query direction
+    assert_eq!(shifted_aim(a, Some(2.0), 0.5, a, dir).v, dir);
 }
 
 #[test]

@@ -74,7 +74,7 @@ fn bake_and_grid_files_open_in_the_reference_openexr_library() {
         }
     }
     assert!(text.contains("float16"), "an f16 grid stores f16 radiance:\n{text}");
-    for layer in ["radiance_mip0", "distance_mip0", "irradiance", "depth_moments", "warp_maps"] {
+    for layer in ["radiance_mip0", "distance_mip0", "irradiance", "depth_moments", "shift_maps"] {
         assert!(text.contains(layer), "{layer} missing in:\n{text}");
     }
 }

@@ -324,7 +324,7 @@ fn every_structural_rule_of_the_manifest_is_checked() {
 #[test]
 fn absurd_values_in_a_payload_are_refused() {
     for (tag, file, layer, value) in [
-        ("inv-distance", "correctives.exr", "warp_maps", 3e38),
+        ("shift", "correctives.exr", "shift_maps", 3e38),
         ("moments", "irradiance.exr", "depth_moments", 3e38),
         ("scale", "irradiance.exr", "irradiance_scale", 0.0),
     ] {

@@ -142,7 +142,7 @@ fn the_fits_per_query_error_is_the_error_through_the_runtime() {
                 let dir = warpfit::sampling::uniform_sphere(s.next_2d());
                 let reference = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
                 let roughness = [0.0, 0.25, 0.5, 1.0][k as usize % 4];
-                warpfit::fit::objective::Sample { b, dir, roughness, reference, taps: [(0, 0.0); 4] }
+                warpfit::fit::objective::Sample::new(b, dir, roughness, reference)
             })
             .collect();
         let map = c.maps[slot * n2..(slot + 1) * n2].to_vec();
@@ -150,10 +150,12 @@ fn the_fits_per_query_error_is_the_error_through_the_runtime() {
         let ctx = warpfit::fit::objective::CellContext {
             glossy,
             exposure: 1.0,
-            centre: c.origin_sized(geo.cell_coords(cell), geo.cell_size()),
+            proxy: c.fallback,
+            origin: geo.cell_centre(cell),
             res: c.map_res,
         };
-        let problem = warpfit::fit::objective::CellProblem::new(ctx, map.clone(), queries.clone());
+        let start = vec![0.0; n2];
+        let problem = warpfit::fit::objective::CellProblem::new(ctx, start, queries.clone());
         for (q, fit_err) in queries.iter().zip(problem.query_errors(&map)) {
             let d = g.specular(q.b, q.dir, q.roughness) - q.reference;
             let runtime_err = ((d.x.abs() + d.y.abs() + d.z.abs()) / 3.0) as f64;
@@ -393,7 +395,7 @@ fn every_malformed_input_is_an_error_naming_file_and_field() {
     let d = copy_tiny("sizes");
     edit_manifest(&d, |v| v["correctives"]["map_res"] = 4.into());
     let e = load_err(&d);
-    assert!(e.contains("correctives.exr") && e.contains("warp_maps"), "{e}");
+    assert!(e.contains("correctives.exr") && e.contains("shift_maps"), "{e}");
     let d = copy_tiny("cells");
     edit_manifest(&d, |v| {
         let cells = v["irradiance"]["stored_cells"].as_array_mut().unwrap();

@@ -99,12 +99,12 @@ impl CorrectiveVariant {
 
     pub fn note(self) -> &'static str {
         match self {
-            CorrectiveVariant::Celldepth => "unfitted warp maps from the grid's raytraced distances, containing cell",
-            CorrectiveVariant::Fitted => "fitted warp maps (levels as stored), containing cell",
+            CorrectiveVariant::Celldepth => "unfitted shift maps from the grid's raytraced distances, containing cell",
+            CorrectiveVariant::Fitted => "fitted shift maps (levels as stored), containing cell",
             CorrectiveVariant::FittedL2All => {
                 "level 2 in every active cell (fitted maps before model selection), containing cell"
             }
-            CorrectiveVariant::FittedTrilinear => "fitted warp maps (levels as stored), trilinear blend of 8 cells",
+            CorrectiveVariant::FittedTrilinear => "fitted shift maps (levels as stored), trilinear blend of 8 cells",
         }
     }
 

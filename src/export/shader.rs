@@ -71,13 +71,12 @@ impl Words {
     }
 }
 
-/// The shader's number for a fallback method (`Params::probe_info.z`, `FALLBACK`).
+/// The shader's number for a grid's proxy (`Params::probe_info.z`, `FALLBACK`).
 fn fallback_code(m: Method) -> Result<u32, Unsupported> {
     match m {
-        Method::Warp1 => Ok(0),
         Method::Box => Ok(1),
         Method::Kdop => Ok(2),
-        m => Err(Unsupported(format!("fallback method `{}` has no shader port", m.name()))),
+        m => Err(Unsupported(format!("`{}` is not a proxy the shader's maps shift (box or kdop)", m.name()))),
     }
 }
 
@@ -117,9 +116,6 @@ pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupport
     let geo = &c.geometry;
     if geo != &grid.irradiance.geometry {
         return Err(Unsupported("the correctives and the irradiance use different grids".into()));
-    }
-    if c.origin_offset != grid.irradiance.probe_offset {
-        return Err(Unsupported("the warp maps' origins and the irradiance probes are relocated differently".into()));
     }
     let fallback = fallback_code(c.fallback)?;
     if p.mip_roughness.len() > MAX_MIPS || p.radiance.levels.len() > MAX_MIPS {
@@ -170,8 +166,9 @@ pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupport
     Ok(out.0)
 }
 
-/// The `array<Cell>`: per grid cell (`x + nx·(y + ny·z)`) its corrective, irradiance and
-/// irradiance-scale tiles (−1: none) and its probe's offset from the cell centre.
+/// The `array<Cell>`: per grid cell (`x + nx·(y + ny·z)`) its shift-map, irradiance and
+/// irradiance-scale tiles (−1: none) and its irradiance probe's offset from the cell
+/// centre.
 #[must_use]
 pub fn cells(grid: &FittedGrid) -> Vec<u8> {
     let c = &grid.correctives;
@@ -179,7 +176,7 @@ pub fn cells(grid: &FittedGrid) -> Vec<u8> {
     let n = c.geometry.cell_count();
     let mut out = Words(Vec::with_capacity(n * CELL_BYTES));
     for cell in 0..n {
-        let offset = c.origin_offset.get(cell).copied().unwrap_or_default();
+        let offset = ir.probe_offset.get(cell).copied().unwrap_or_default();
         out.i([tile(c.slot.get(cell)), tile(ir.slot.get(cell)), tile(ir.correction.slot.get(cell)), 0])
             .f(offset.extend(0.0).to_array());
     }

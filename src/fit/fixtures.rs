@@ -1,8 +1,8 @@
 //! Closed-form fixtures of the fit: a probe before an infinite textured wall, and the cell
-//! problem whose true warp map is known. Shared by the fitter's tests and the stability
+//! problem whose true shift map is known. Shared by the fitter's tests and the stability
 //! suite.
 
-use super::objective::Sample;
+use super::objective::{CellContext, CellProblem, Sample};
 use crate::octa::{self, OctMap, OctMips};
 use crate::sampling::{Sampler, uniform_sphere};
 use crate::warp::proxy::{BoxProxy, Kdop};
@@ -29,53 +29,61 @@ pub fn wall_probe(scale: f32, res: u32) -> WarpProbe {
     )
 }
 
-/// [`wall_probe`] as a warp context (a box proxy around the wall's half space, no k-DOP).
+/// [`wall_probe`] as a warp context: a box proxy around the wall's half space whose far face
+/// stands 1.5·scale behind the wall (so the proxy alone is wrong by a known amount), no k-DOP.
 pub fn wall_warp(scale: f32, res: u32) -> Warp {
     let probe = wall_probe(scale, res);
-    let aabb = BoxProxy::aabb(Vec3::new(-100.0, -100.0, -10.0) * scale, Vec3::new(100.0, 100.0, 5.0) * scale);
+    let aabb = BoxProxy::aabb(Vec3::new(-100.0, -100.0, -10.0) * scale, Vec3::new(100.0, 100.0, 6.5) * scale);
     let kdop = Kdop { normals: Vec::new(), offsets: Vec::new() };
     Warp { probe, proxies: Proxies { aabb, kdop }, options: WarpOptions::standard() }
 }
 
-/// The wall's cell problem: a cell centred 1·scale before the probe whose 8×8 map starts 30%
-/// too near, and `samples` queries in the cell with exact references. Returns the starting
-/// map, the queries, the cell centre and the true map.
-pub fn wall_problem(scale: f32, samples: u32) -> (Vec<f32>, Vec<Sample>, Vec3, Vec<f32>) {
+/// The wall's cell problem (see [`wall_warp`]): its context, the queries and the true shift
+/// map.
+pub struct WallProblem<'a> {
+    pub ctx: CellContext<'a>,
+    /// `samples` queries in the cell with exact references.
+    pub samples: Vec<Sample>,
+    /// Per texel, the distance from the origin to the wall (+inf where it sees none) and
+    /// the shift map it makes.
+    pub distance: Vec<f32>,
+    pub truth: Vec<f32>,
+}
+
+/// The wall's cell problem for `warp` (a [`wall_warp`] at `scale`): a cell centred 1·scale
+/// before the probe with an 8×8 map, and `samples` queries in it.
+pub fn wall_problem(warp: &Warp, scale: f32, samples: u32) -> WallProblem<'_> {
     let z = 5.0 * scale;
-    let c = Vec3::new(0.8, -0.5, 1.0) * scale;
+    let origin = Vec3::new(0.8, -0.5, 1.0) * scale;
     let res = 8;
-    let truth: Vec<f32> = (0..res * res)
+    let glossy = crate::warp::glossy::Glossy { warp, correction: None };
+    let ctx = CellContext { glossy, exposure: 1.0, proxy: crate::warp::Method::Box, origin, res };
+    let distance: Vec<f32> = (0..res * res)
         .map(|t| {
             let d = octa::texel_dir(res, t % res, t / res);
-            if d.z > 0.0 { d.z / (z - c.z) } else { 0.0 }
+            if d.z > 0.0 { (z - origin.z) / d.z } else { f32::INFINITY }
         })
         .collect();
-    let init = truth.iter().map(|w| w * 1.3).collect();
-    let qs = (0..samples)
+    let truth = crate::warp::corrective::shift_map(warp, ctx.proxy, origin, res, |t, _| distance[t as usize]);
+    let samples = (0..samples)
         .map(|k| {
             let mut s = Sampler::new(5, 7, k);
-            let b = c + (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5) * scale;
+            let b = origin + (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - 0.5) * scale;
             let mut d = uniform_sphere(s.next_2d());
             d.z = d.z.abs().max(0.2);
             let d = d.normalize();
-            Sample {
-                b,
-                dir: d,
-                roughness: 0.0,
-                reference: wall_radiance(b + d * ((z - b.z) / d.z), scale),
-                taps: [(0, 0.0); 4],
-            }
+            Sample::new(b, d, 0.0, wall_radiance(b + d * ((z - b.z) / d.z), scale))
         })
         .collect();
-    (init, qs, c, truth)
+    WallProblem { ctx, samples, distance, truth }
 }
 
 /// What fitting the wall problem gave.
 pub struct WallFit {
     /// Log-scale parameters of the fitted map.
     pub params: Vec<f64>,
-    /// Relative error (the selection criterion) of the start and of the fit, on the
-    /// training queries.
+    /// Relative error (the selection criterion) of the start (the proxy alone) and of the
+    /// fit, on the training queries.
     pub before: f64,
     pub after: f64,
     /// The same error of the true map: not zero, as the lookup interpolates the map
@@ -83,21 +91,31 @@ pub struct WallFit {
     pub truth_err: f64,
     pub fitted: Vec<f32>,
     pub truth: Vec<f32>,
+    /// Per texel, the distance from the origin to the proxy and to the wall.
+    pub proxy_distance: Vec<f32>,
+    pub distance: Vec<f32>,
 }
 
 /// Fits the wall problem at `scale` (probe of `res`², `samples` queries) with `solver`,
-/// `sweeps` iterations, smoothness 1e-4 and no relaxation.
+/// `sweeps` iterations, smoothness 1e-4, no size term and no relaxation, from the proxy.
 pub fn fit_wall(scale: f32, res: u32, samples: u32, solver: super::Solver, sweeps: u32) -> WallFit {
-    use super::objective::{CellContext, CellProblem};
     let warp = wall_warp(scale, res);
-    let (init, qs, centre, truth) = wall_problem(scale, samples);
-    let glossy = crate::warp::glossy::Glossy { warp: &warp, correction: None };
-    let ctx = CellContext { glossy, exposure: 1.0, centre, res: 8 };
-    let mut problem = CellProblem::new(ctx, init.clone(), qs).with_weights(1e-4, 0.0);
-    let before = problem.relative_error_map(&init);
+    let WallProblem { ctx, samples, distance, truth } = wall_problem(&warp, scale, samples);
+    let start = vec![0.0; 64];
+    let mut problem = CellProblem::new(ctx, start.clone(), samples).with_weights(1e-4, 0.0);
+    let before = problem.relative_error_map(&problem.map(&start));
     let out = problem.solve(solver, sweeps);
     let fitted = problem.map_with_relax(&out.params, 0.0);
     let after = problem.relative_error_map(&fitted);
     let truth_err = problem.relative_error_map(&truth);
-    WallFit { params: out.params, before, after, truth_err, fitted, truth }
+    WallFit {
+        params: out.params,
+        before,
+        after,
+        truth_err,
+        fitted,
+        truth,
+        proxy_distance: ctx.proxy_distances(),
+        distance,
+    }
 }

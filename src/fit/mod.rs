@@ -1,18 +1,22 @@
 //! Fitting per-cell correctives against raytraced references with argmin.
 //!
-//! For every cell that is not inside geometry: draw training queries (positions uniform in
-//! the cell, never its centre; directions uniform; their own sampler domain, independent of
-//! `eval`'s validation set) and a separate held-out check set, trace references, start the
-//! cell's warp map from the grid's raytraced distances (`celldepth`), refine it against the
-//! radiance error, fit the UV relaxation strength, and keep it only if it beats the plain
-//! warp on the held-out check set (otherwise level 0). Cells are independent: rayon runs
-//! them in parallel and every random choice is seeded per cell, so results are bit-identical
-//! at any thread count.
+//! First the grid's proxy (the box or the 18-DOP, `proxy::choose`): every lookup reads probe
+//! A through it, and the maps shift its surface (`warp::corrective`). Then, for every cell
+//! that is not inside geometry: draw training queries (what a viewer sees, mostly: points on
+//! the surfaces around the cell with reflection directions over their hemisphere, and points
+//! in the cell's volume with directions over the sphere; their own sampler domain,
+//! independent of `eval`'s validation set) and a separate held-out check set, trace
+//! references, start the cell's shift map from the proxy itself or from the grid's raytraced
+//! distances (`celldepth`), refine it against the radiance error, fit the UV relaxation
+//! strength, and keep it only if it beats the proxy alone on the held-out check set
+//! (otherwise level 0). Cells are independent: rayon runs them in parallel and every random
+//! choice is seeded per cell, so results are bit-identical at any thread count.
 
 pub mod fixtures;
 pub mod irradiance;
 pub mod model;
 pub mod objective;
+pub mod proxy;
 pub mod roughness;
 pub mod selection;
 pub mod summary;
@@ -24,14 +28,14 @@ use crate::roughness::RoughnessCorrection;
 use crate::sampling::{Sampler, hash_pair};
 use crate::trace::Renderer;
 use crate::trace::truth::{self, QueryStreams, TracedQueries};
-use crate::warp::Warp;
 use crate::warp::corrective::{Correctives, NO_MAP};
 use crate::warp::glossy::Glossy;
+use crate::warp::{Method, Warp};
 use glam::Vec3;
 use objective::Termination;
 use objective::{CellContext, CellProblem, Sample};
 use rayon::prelude::*;
-pub use selection::{FALLBACK_CANDIDATES, Level, SELECTION_MARGIN, Selection, choose_level};
+pub use selection::{Level, SELECTION_MARGIN, Selection, choose_level};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -67,7 +71,7 @@ pub struct FitSettings {
     pub iterations: u32,
     /// Weight of the tile-smoothness term (squared differences of neighbouring log-scales).
     pub smooth_weight: f64,
-    /// Weight of the size term (squared log-scales: stay near the raytraced start).
+    /// Weight of the size term (squared log-scales: stay near the proxy).
     pub size_weight: f64,
     /// Charbonnier ε as a fraction of the cell's mean reference radiance: errors far above
     /// it are penalised linearly (robust), errors below it quadratically.
@@ -85,6 +89,13 @@ pub struct FitSettings {
     /// fraction of the fallback's ([`SELECTION_MARGIN`] unless set).
     #[serde(default = "default_margin", skip_serializing_if = "is_default_margin")]
     pub selection_margin: f64,
+    /// Fraction of each cell's training and check positions drawn on the surfaces around
+    /// it, with reflection directions over the surface's hemisphere (what a viewer sees);
+    /// the rest lie in the cell's volume with directions over the sphere (what moving
+    /// objects see). Cells with no surface near take volume positions only.
+    pub surface_fraction: f32,
+    /// The proxy the maps shift: chosen by measurement, or set.
+    pub proxy: proxy::ProxyChoice,
 }
 
 fn default_margin() -> f64 {
@@ -113,11 +124,13 @@ impl FitSettings {
             solver: Solver::Brent,
             iterations: 2,
             smooth_weight: 1e-3,
-            size_weight: 1e-4,
+            size_weight: 1.0,
             robust_scale: 0.05,
             rough_fraction: 0.5,
             level1: false,
             selection_margin: SELECTION_MARGIN,
+            surface_fraction: 0.5,
+            proxy: proxy::ProxyChoice::Measured,
         }
     }
 
@@ -200,19 +213,19 @@ pub struct Level1Fit {
     pub evaluations: u64,
 }
 
-/// The map a cell's refinement starts from: the grid's raytraced distances or the box
-/// proxy seen from the cell centre, whichever explains the training queries better.
+/// Where a cell's refinement started: the proxy itself (no shift) or the grid's raytraced
+/// distances, whichever explains the training queries better.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Start {
     Celldepth,
-    Box,
+    Proxy,
 }
 
 /// A fitted grid: the correctives plus what happened in every cell.
 pub struct Fit {
     pub correctives: Correctives,
-    /// The same maps unfitted (raytraced start) for every active cell: `celldepth`.
+    /// The maps of the grid's raytraced distances, unfitted, in every active cell: `celldepth`.
     pub celldepth: Correctives,
     /// The fitted map of every active cell, before model selection (level 2 everywhere).
     pub fitted_all: Correctives,
@@ -222,6 +235,8 @@ pub struct Fit {
     pub roughness: Option<RoughnessCorrection>,
     /// The diffuse correctives fitted into the grid (`irradiance`).
     pub irradiance: irradiance::IrradianceFit,
+    /// The proxy the maps shift, and how it was chosen.
+    pub proxy: proxy::ProxyOutcome,
     pub settings: FitSettings,
     pub seconds: f64,
     /// Where the time went.
@@ -249,12 +264,13 @@ pub struct FitTimes {
 
 /// The streams of one cell's training (`tag` 1) or check (`tag` 2) queries: the last
 /// `rough` of each position's `dirs` directions are rough lookups, cycling through
-/// [`ROUGH_MIX`].
+/// [`ROUGH_MIX`]; positions on a surface (`normals`) look over its hemisphere.
 struct CellStreams {
     seed: u64,
     stream: u64,
     dirs: usize,
     rough: usize,
+    normals: Vec<Option<Vec3>>,
 }
 
 impl QueryStreams for CellStreams {
@@ -268,10 +284,14 @@ impl QueryStreams for CellStreams {
         let first_rough = self.dirs - self.rough;
         if d < first_rough { 0.0 } else { ROUGH_MIX[(p + d - first_rough) % ROUGH_MIX.len()] }
     }
+    fn hemisphere(&self, p: usize) -> Option<Vec3> {
+        self.normals.get(p).copied().flatten()
+    }
 }
 
-/// Training or check queries of one cell: positions uniform in the cell, uniform
-/// directions, references traced by `trace::truth`.
+/// Training or check queries of one cell: `surface_fraction` of the positions on the
+/// surfaces seen from inside the cell (reflection directions over their hemisphere), the
+/// rest uniform in the cell (uniform directions); references traced by `trace::truth`.
 fn cell_samples(
     renderer: &Renderer,
     geometry: &GridGeometry,
@@ -280,17 +300,39 @@ fn cell_samples(
     seed: u64,
     tag: u64,
 ) -> TracedQueries {
-    let lo = geometry.min + geometry.cell_coords(cell).as_vec3() * geometry.cell_size();
+    let (lo, size) = (geometry.min + geometry.cell_coords(cell).as_vec3() * geometry.cell_size(), geometry.cell_size());
     let stream = hash_pair(hash_pair(DOMAIN_FIT, tag), cell as u64);
-    let positions: Vec<Vec3> = (0..q.positions)
-        .map(|p| {
-            let mut s = Sampler::new(seed, stream, p);
-            lo + Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * geometry.cell_size()
-        })
-        .collect();
+    let on_surfaces = (q.positions as f32 * q.surface_fraction.clamp(0.0, 1.0)).round() as u32;
+    let surface = cell_surface_points(renderer, geometry, cell, on_surfaces, (seed, hash_pair(stream, 0x5EF)));
+    let mut positions: Vec<Vec3> = surface.iter().map(|&(b, _)| b).collect();
+    let mut normals: Vec<Option<Vec3>> = surface.iter().map(|&(_, n)| Some(n)).collect();
+    for p in positions.len() as u32..q.positions {
+        let mut s = Sampler::new(seed, stream, p);
+        positions.push(lo + Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * size);
+        normals.push(None);
+    }
     let dirs = q.dirs as usize;
     let rough = ((dirs as f32 * q.rough_fraction).round() as usize).min(dirs);
-    truth::trace_queries(renderer, &positions, dirs, q.spp, &CellStreams { seed, stream, dirs, rough })
+    truth::trace_queries(renderer, &positions, dirs, q.spp, &CellStreams { seed, stream, dirs, rough, normals })
+}
+
+/// Up to `count` points on the surfaces seen from inside cell `cell`, with their normals
+/// (`truth::cell_surface_points`). A cell on the grid's border also takes the surfaces just
+/// beyond it (lookups clamp to the nearest cell): a room's walls a little outside the grid,
+/// a floor below it.
+fn cell_surface_points(
+    renderer: &Renderer,
+    geometry: &GridGeometry,
+    cell: usize,
+    count: u32,
+    streams: (u64, u64),
+) -> Vec<(Vec3, Vec3)> {
+    let (size, coords) = (geometry.cell_size(), geometry.cell_coords(cell));
+    let lo = geometry.min + coords.as_vec3() * size;
+    let last = geometry.counts - glam::UVec3::ONE;
+    let outer = |at_border: glam::BVec3| Vec3::select(at_border, size, Vec3::ZERO);
+    let accept = (lo - outer(coords.cmpeq(glam::UVec3::ZERO)), lo + size + outer(coords.cmpeq(last)));
+    truth::cell_surface_points(renderer.scene, renderer.tracer, (lo, lo + size), accept, count, streams)
 }
 
 /// How many queries a cell set holds: positions × directions, with `spp`-sample references,
@@ -301,19 +343,12 @@ struct QuerySize {
     dirs: u32,
     spp: u32,
     rough_fraction: f32,
+    surface_fraction: f32,
 }
 
 /// The queries of a set as the objective reads them.
 fn samples(q: &TracedQueries) -> Vec<Sample> {
-    (0..q.dirs.len())
-        .map(|k| Sample {
-            b: q.position_of(k),
-            dir: q.dirs[k],
-            roughness: q.roughness[k],
-            reference: q.reference[k],
-            taps: [(0, 0.0); 4],
-        })
-        .collect()
+    (0..q.dirs.len()).map(|k| Sample::new(q.position_of(k), q.dirs[k], q.roughness[k], q.reference[k])).collect()
 }
 
 /// Exposure the fit's errors are tone-mapped at: the key of probe A's mirror image (the
@@ -333,10 +368,12 @@ pub fn active_cells(grid: &crate::bake::ProbeGrid) -> Vec<usize> {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct CellOutcome {
     pub fit: CellFit,
-    /// The refined map (level 2), `map_res²` log-scales.
+    /// The refined shift map (level 2), `map_res²` shifts.
     pub fitted: Vec<f32>,
-    /// The unfitted map from the grid's raytraced distances (`celldepth`).
+    /// The unfitted shift map of the grid's raytraced distances (`celldepth`).
     pub init: Vec<f32>,
+    /// The cell's probe saw nothing but sky (nothing to shift towards).
+    pub sees_only_sky: bool,
     /// Reference rays traced for the cell's training and check queries.
     pub rays: u64,
 }
@@ -350,14 +387,15 @@ pub struct CellOutcome {
 /// fit takes, so that a merged fit is the same fit.
 pub fn fit(baked: Baked, glossy: Glossy, s: &FitSettings, progress: &Progress) -> Fit {
     let t0 = Instant::now();
-    let cells = fit_cells(baked, glossy, s, &active_cells(baked.grid), progress);
+    let proxy = proxy::choose(baked, glossy, s);
+    let cells = fit_cells(baked, glossy, s, proxy.method, &active_cells(baked.grid), progress);
     let t_cells = t0.elapsed().as_secs_f64();
     let points = irradiance::SurfacePoints::draw(baked, s.seed);
     let t_points = t0.elapsed().as_secs_f64();
     let all = points.all();
     let references = irradiance::trace_references(baked, &points, s.seed, &all);
     let t_references = t0.elapsed().as_secs_f64();
-    let mut f = assemble(baked, glossy, s, cells, &points, references);
+    let mut f = assemble(baked, glossy, s, proxy, cells, &points, references);
     f.times.cells = t_cells;
     f.times.surface_points = t_points - t_cells;
     f.times.irradiance_references = t_references - t_points;
@@ -370,12 +408,13 @@ fn rough_fraction(glossy: &Glossy, s: &FitSettings) -> f32 {
     if glossy.warp.probe.radiance.levels.len() > 1 { s.rough_fraction.clamp(0.0, 1.0) } else { 0.0 }
 }
 
-/// Fits the cells `cells` (active cells of the bake), in that order: each cell's warp map
-/// refined against its training references and judged on its check references.
+/// Fits the cells `cells` (active cells of the bake), in that order: each cell's shift map of
+/// `proxy` refined against its training references and judged on its check references.
 pub fn fit_cells(
     baked: Baked,
     glossy: Glossy,
     s: &FitSettings,
+    proxy: Method,
     cells: &[usize],
     progress: &Progress,
 ) -> Vec<CellOutcome> {
@@ -388,21 +427,26 @@ pub fn fit_cells(
     let g = grid.geometry;
     let d2 = (grid.depth_resolution * grid.depth_resolution) as usize;
     let bar = progress.bar(cells.len() as u64, "fit cells");
-    let train_size =
-        QuerySize { positions: s.train_positions, dirs: s.train_dirs, spp: s.reference_spp, rough_fraction };
-    let check_size =
-        QuerySize { positions: s.check_positions, dirs: s.check_dirs, spp: s.reference_spp, rough_fraction };
+    let size = |positions, dirs| QuerySize {
+        positions,
+        dirs,
+        spp: s.reference_spp,
+        rough_fraction,
+        surface_fraction: s.surface_fraction,
+    };
+    let (train_size, check_size) = (size(s.train_positions, s.train_dirs), size(s.check_positions, s.check_dirs));
     let results: Vec<CellOutcome> = cells
         .par_iter()
         .map(|&cell| {
             let tc = Instant::now();
-            let init = model::initial_map(
+            let distance = model::celldepth_distances(
                 grid.depth_resolution,
                 &grid.depth_mean[cell * d2..(cell + 1) * d2],
                 &grid.hit_fraction[cell * d2..(cell + 1) * d2],
                 grid.far_distance,
                 s.map_res,
             );
+            let sees_only_sky = distance.iter().all(|d| !d.is_finite());
             let tt = Instant::now();
             let train = cell_samples(&renderer, &g, cell, train_size, s.seed, 1);
             let check = cell_samples(&renderer, &g, cell, check_size, s.seed, 2);
@@ -414,26 +458,34 @@ pub fn fit_cells(
             let trace_seconds = tt.elapsed().as_secs_f64();
             let (train, check) = (samples(&train), samples(&check));
             // the map's origin: the cell probe's position (its centre unless relocated)
-            let centre = g.cell_centre(cell) + grid.probe_offset[cell];
-            // Two starts: the grid's raytraced distances and the box proxy seen from the cell
-            // probe; refine whichever explains the training queries better.
-            let boxed = model::box_map(centre, &warp.proxies.aabb, s.map_res);
-            let ctx = CellContext { glossy, exposure, centre, res: s.map_res };
-            let judge = CellProblem::new(ctx, init.clone(), train.clone());
+            let origin = g.cell_centre(cell) + grid.probe_offset[cell];
+            let ctx = CellContext { glossy, exposure, proxy, origin, res: s.map_res };
+            // Two starts: the proxy itself and the grid's raytraced distances; refine
+            // whichever explains the training queries better (the size term pulls towards
+            // the proxy either way).
+            let n2 = (s.map_res * s.map_res) as usize;
+            let celldepth_start = ctx.log_scales_of(&distance);
             let level1_train: Vec<_> = if s.level1 { train.iter().step_by(4).copied().collect() } else { Vec::new() };
-            let box_better = init.iter().any(|w| *w > 0.0) && judge.data_cost_map(&boxed) < judge.data_cost_map(&init);
-            let (start, start_name) = if box_better { (boxed, Start::Box) } else { (init.clone(), Start::Celldepth) };
-            let mut problem = CellProblem::new(ctx, start, train)
+            let mut problem = CellProblem::new(ctx, vec![0.0; n2], train)
                 .with_weights(s.smooth_weight, s.size_weight)
                 .with_robust_scale(s.robust_scale);
+            let start = if !sees_only_sky && problem.cost(&celldepth_start) < problem.cost(&vec![0.0; n2]) {
+                problem.set_start(celldepth_start.clone());
+                Start::Celldepth
+            } else {
+                Start::Proxy
+            };
             let outcome = problem.solve(s.solver, s.iterations);
             let fitted = problem.map_with_relax(&outcome.params, outcome.relax);
-            let check_problem = CellProblem::new(ctx, init.clone(), check);
-            let [warp1, boxed_err, kdop] = FALLBACK_CANDIDATES.map(|m| check_problem.relative_error_method(m));
+            let init = problem.map(&celldepth_start);
+            let check_problem = CellProblem::new(ctx, vec![0.0; n2], check);
+            let [warp1, boxed_err, kdop] =
+                [Method::Warp1, Method::Box, Method::Kdop].map(|m| check_problem.relative_error_method(m));
+            let fallback = check_problem.relative_error_map(&vec![0.0; n2]);
             let celldepth = check_problem.relative_error_map(&init);
             let fitted_err = check_problem.relative_error_map(&fitted);
             let level1 = s.level1.then(|| {
-                let p = CellProblem::new(ctx, init.clone(), level1_train).with_robust_scale(s.robust_scale);
+                let p = CellProblem::new(ctx, vec![0.0; n2], level1_train).with_robust_scale(s.robust_scale);
                 let (params, evaluations) = p.fit_level1(g.cell_size(), warp.options.depth_lod);
                 Level1Fit { params, check_err: check_problem.relative_error_level1(&params), evaluations }
             });
@@ -442,11 +494,11 @@ pub fn fit_cells(
                 cell: cell as u32,
                 level: Level::Fallback,
                 selection: Selection::KeptFallback,
-                start: start_name,
+                start,
                 check_err_warp1: warp1,
                 check_err_box: boxed_err,
                 check_err_kdop: kdop,
-                check_err_fallback: warp1,
+                check_err_fallback: fallback,
                 check_err_celldepth: celldepth,
                 check_err_fitted: fitted_err,
                 train_cost_start: outcome.cost_start,
@@ -461,22 +513,22 @@ pub fn fit_cells(
                 hidden_fraction: hidden,
                 level1,
             };
-            CellOutcome { fit, fitted, init, rays }
+            CellOutcome { fit, fitted, init, sees_only_sky, rays }
         })
         .collect();
     bar.finish_and_clear();
     results
 }
 
-/// Makes a fit of the outcomes of every active cell (in cell order) and the irradiance
-/// references of every surface point: the grid-wide steps. Chooses the grid's fallback (the
-/// unfitted method with the lowest summed held-out error, summed in cell order), selects
-/// each cell's model, fits the scene's roughness correction for the maps as stored and the
+/// Makes a fit of the outcomes of every active cell (in cell order), fitted for `proxy`,
+/// and the irradiance references of every surface point: the grid-wide steps. Selects each
+/// cell's model, fits the scene's roughness correction for the maps as stored and the
 /// diffuse correctives.
 pub fn assemble(
     baked: Baked,
     glossy: Glossy,
     s: &FitSettings,
+    proxy: proxy::ProxyOutcome,
     results: Vec<CellOutcome>,
     points: &irradiance::SurfacePoints,
     references: irradiance::References,
@@ -489,31 +541,20 @@ pub fn assemble(
     let g = grid.geometry;
     let n2 = (s.map_res * s.map_res) as usize;
 
-    // The grid's fallback: the unfitted method with the lowest mean held-out error.
-    let total = |f: fn(&CellFit) -> f64| results.iter().map(|r| f(&r.fit)).sum::<f64>();
-    let errs = [total(|c| c.check_err_warp1), total(|c| c.check_err_box), total(|c| c.check_err_kdop)];
-    let best = (0..3).min_by(|&a, &b| errs[a].total_cmp(&errs[b])).unwrap_or(0);
-    let fallback = FALLBACK_CANDIDATES[best];
     let mut correctives = Correctives {
         geometry: g,
         map_res: s.map_res,
         slot: vec![NO_MAP; g.cell_count()],
         maps: Vec::new(),
-        fallback,
-        origin_offset: if grid.probe_offset.iter().any(|o| *o != Vec3::ZERO) {
-            grid.probe_offset.clone()
-        } else {
-            Vec::new()
-        },
+        fallback: proxy.method,
     };
     let mut celldepth = correctives.clone();
     let mut fitted_all = correctives.clone();
     let mut cells = Vec::with_capacity(results.len());
     let mut reference_rays = 0;
-    for CellOutcome { mut fit, fitted, init, rays } in results {
+    for CellOutcome { mut fit, fitted, init, sees_only_sky, rays } in results {
         let cell = fit.cell as usize;
-        fit.check_err_fallback = [fit.check_err_warp1, fit.check_err_box, fit.check_err_kdop][best];
-        fit.selection = if init.iter().all(|w| *w == 0.0) {
+        fit.selection = if sees_only_sky {
             Selection::SeesOnlySky
         } else {
             choose_level(fit.check_err_fallback, fit.check_err_fitted, s.tol as f64, s.selection_margin)
@@ -557,6 +598,7 @@ pub fn assemble(
         cells,
         roughness,
         irradiance,
+        proxy,
         settings: s.clone(),
         seconds: t0.elapsed().as_secs_f64(),
         times: FitTimes { cells_cpu, cells_tracing_cpu, roughness: roughness_s, irradiance_fit, ..FitTimes::default() },

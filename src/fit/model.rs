@@ -1,14 +1,14 @@
-//! Fit-side helpers of the corrective model: the maps a cell's fit starts from. The model
-//! itself (`Correctives`, `Blend`) and its runtime evaluation live in `warp::corrective`,
-//! which the runtime sampler shares.
+//! Fit-side helpers of the corrective model: the distances a cell's map starts from. The
+//! model itself (`Correctives`, `Blend`) and its runtime evaluation live in
+//! `warp::corrective`, which the runtime sampler shares.
 
 use crate::octa::OctMap;
-pub use crate::warp::corrective::box_map;
 
-/// Initial warp map of a cell from the grid's distance moments: inverse of the mean hit
-/// distance per texel (misses removed from the mean), 0 where most rays missed; reduced to
-/// `map_res` by averaging inverse distance.
-pub fn initial_map(depth_res: u32, mean: &[f32], hit: &[f32], far: f32, map_res: u32) -> Vec<f32> {
+/// Per texel of a `map_res`² map, the distance a cell's probe saw, from the grid's distance
+/// moments: the mean hit distance (misses removed from the mean), reduced to `map_res` by
+/// averaging inverse distance; +inf where most rays missed (sky).
+#[must_use]
+pub fn celldepth_distances(depth_res: u32, mean: &[f32], hit: &[f32], far: f32, map_res: u32) -> Vec<f32> {
     let inv: Vec<f32> = mean
         .iter()
         .zip(hit)
@@ -24,5 +24,5 @@ pub fn initial_map(depth_res: u32, mean: &[f32], hit: &[f32], far: f32, map_res:
     while map.res > map_res && map.res.is_multiple_of(2) {
         map = map.downsample();
     }
-    map.texels
+    map.texels.iter().map(|&w| crate::octa::distance_from_inverse(w)).collect()
 }

@@ -1,8 +1,10 @@
 //! The fit objective of one cell as argmin problems.
 //!
-//! Parameters: one log-scale `s_k` per warp-map texel that saw geometry; the texel's inverse
-//! distance is `w0_k · exp(s_k)`, so parameters are order 1 whatever the scene's scale (a
-//! scene scaled by 1e4 has the same objective). Texels that saw sky keep w = 0.
+//! Parameters: one log-scale `s_k` per shift-map texel whose direction leaves the proxy at a
+//! finite distance `t_k` from the cell's origin; the texel's surface lies at `t_k · exp(s_k)`
+//! from the origin, so its shift is `Δ_k = t_k · (exp(s_k) − 1)` and `s = 0` is the proxy
+//! itself. Parameters are order 1 whatever the scene's scale (a scene scaled by 1e4 has the
+//! same objective). Texels without a finite proxy distance keep Δ = 0.
 //!
 //! Queries carry a roughness: mirror queries read mip 0 along the corrective's fetch, rough
 //! ones go through the same lookup as the runtime (`warp::glossy`, the `Corrected` rule), so
@@ -17,7 +19,9 @@
 //!   keeps reference noise and queries no single fetch can fix (hidden from A) from
 //!   dragging the map;
 //! - `smooth_weight` × mean squared difference of neighbouring texels' `s` (tile smoothness);
-//! - `size_weight` × mean `s²` (stay near the raytraced start).
+//! - `size_weight` × mean `s²`: stay near the proxy unless the data pays, so that a map
+//!   departs from its neighbours (and from cells without a map) only where the scene makes
+//!   it (seams between cells are what a viewer sees first: ARCHITECTURE.md).
 //!
 //! Solvers (chosen by measurement, see ARCHITECTURE.md): Brent's method per texel in
 //! coordinate-descent sweeps (each texel only touches the queries in its bilinear
@@ -28,7 +32,7 @@
 use super::Solver;
 use crate::octa::{self, wrap_texel};
 use crate::tonemap::reinhard;
-use crate::warp::corrective::{map_fetch, sample_map};
+use crate::warp::corrective::{sample_map, shifted_aim};
 use crate::warp::glossy::{Glossy, MipRule};
 use crate::warp::{Level1, Method, Warp};
 use argmin::core::{CostFunction, Error, Executor, Gradient, State};
@@ -68,8 +72,18 @@ pub struct Sample {
     /// Perceptual roughness of the lookup (0 = mirror).
     pub roughness: f32,
     pub reference: Vec3,
-    /// Bilinear taps of `dir` in the cell's warp map.
+    /// Bilinear taps of `dir` in the cell's shift map (set by [`CellProblem::new`]).
     pub taps: [(u32, f32); 4],
+    /// Where the ray leaves the proxy (set by [`CellProblem::new`]): no map changes it.
+    pub t_proxy: Option<f32>,
+}
+
+impl Sample {
+    /// A query with its reference; the problem fills in the rest.
+    #[must_use]
+    pub fn new(b: Vec3, dir: Vec3, roughness: f32, reference: Vec3) -> Sample {
+        Sample { b, dir, roughness, reference, taps: [(0, 0.0); 4], t_proxy: None }
+    }
 }
 
 /// Result of a solve.
@@ -125,9 +139,11 @@ pub struct CellProblem<'a> {
     glossy: Glossy<'a>,
     /// Exposure of the tone mapping the errors are measured after.
     exposure: f32,
-    centre: Vec3,
     res: u32,
-    init: Vec<f32>,
+    /// Per texel, the proxy's exit distance from the cell's origin (+inf: none).
+    proxy_distance: Vec<f32>,
+    /// The log-scales the solve starts from.
+    start: Vec<f64>,
     samples: Vec<Sample>,
     /// Per texel, the samples whose bilinear footprint includes it.
     touching: Vec<Vec<u32>>,
@@ -141,24 +157,68 @@ pub struct CellProblem<'a> {
 }
 
 /// Where a cell problem lives: the lookup it shades with, the exposure its errors are
-/// measured after, the cell centre and the map's resolution.
+/// measured after, the proxy its map shifts, the map's origin (the cell probe) and
+/// resolution.
 #[derive(Clone, Copy, Debug)]
 pub struct CellContext<'a> {
     pub glossy: Glossy<'a>,
     pub exposure: f32,
-    pub centre: Vec3,
+    pub proxy: Method,
+    pub origin: Vec3,
     pub res: u32,
 }
 
+impl CellContext<'_> {
+    /// Per texel of the map, the proxy's exit distance from the origin (+inf: none).
+    #[must_use]
+    pub fn proxy_distances(&self) -> Vec<f32> {
+        (0..self.res * self.res)
+            .map(|t| {
+                let d = octa::texel_dir(self.res, t % self.res, t / self.res);
+                match self.glossy.warp.proxies.exit_distance(self.proxy, self.origin, d) {
+                    Some(x) if x.is_finite() && x > 0.0 => x,
+                    _ => f32::INFINITY,
+                }
+            })
+            .collect()
+    }
+
+    /// The log-scales of a map of distances from the origin (`distance[k]`: +inf for sky):
+    /// `ln(distance / proxy distance)`, clamped to ±`S_LIMIT` (sky: the far end); 0 where
+    /// the proxy has no finite distance.
+    #[must_use]
+    pub fn log_scales_of(&self, distance: &[f32]) -> Vec<f64> {
+        self.proxy_distances()
+            .iter()
+            .zip(distance)
+            .map(|(&t, &d)| {
+                if !t.is_finite() {
+                    0.0
+                } else if d.is_finite() && d > 0.0 {
+                    libm::log(d as f64 / t as f64).clamp(-S_LIMIT, S_LIMIT)
+                } else if d.is_nan() {
+                    0.0
+                } else {
+                    S_LIMIT
+                }
+            })
+            .collect()
+    }
+}
+
 impl<'a> CellProblem<'a> {
-    /// The problem of the cell in `ctx` with a map starting at `init` and its queries; no
-    /// regularisation (see [`CellProblem::with_weights`]).
-    pub fn new(ctx: CellContext<'a>, init: Vec<f32>, mut samples: Vec<Sample>) -> Self {
-        let CellContext { glossy, exposure, centre, res } = ctx;
+    /// The problem of the cell in `ctx` with a solve starting at log-scales `start` (one per
+    /// texel; see the module docs) and its queries; no regularisation (see
+    /// [`CellProblem::with_weights`]).
+    pub fn new(ctx: CellContext<'a>, start: Vec<f64>, mut samples: Vec<Sample>) -> Self {
+        let CellContext { glossy, exposure, res, proxy, .. } = ctx;
+        let proxy_distance = ctx.proxy_distances();
         let n2 = (res * res) as usize;
+        debug_assert_eq!(start.len(), n2);
         let mut touching = vec![Vec::new(); n2];
         for (i, s) in samples.iter_mut().enumerate() {
             s.taps = octa::bilinear_taps(res, octa::encode(s.dir));
+            s.t_proxy = glossy.warp.proxies.exit_distance(proxy, s.b, s.dir);
             for &(k, w) in &s.taps {
                 if w > 0.0 && !touching[k as usize].contains(&(i as u32)) {
                     touching[k as usize].push(i as u32);
@@ -189,9 +249,9 @@ impl<'a> CellProblem<'a> {
         CellProblem {
             glossy,
             exposure,
-            centre,
             res,
-            init,
+            proxy_distance,
+            start,
             samples,
             touching,
             pairs,
@@ -201,6 +261,12 @@ impl<'a> CellProblem<'a> {
             size_weight: 0.0,
             evaluations: Cell::new(0),
         }
+    }
+
+    /// Starts the solve from log-scales `start` instead.
+    pub fn set_start(&mut self, start: Vec<f64>) {
+        debug_assert_eq!(start.len(), self.start.len());
+        self.start = start;
     }
 
     /// Sets the weights of the tile-smoothness and size terms.
@@ -215,14 +281,29 @@ impl<'a> CellProblem<'a> {
         self
     }
 
-    /// Texels whose parameter matters (saw geometry and are touched by some query).
+    /// Texels whose parameter matters (a finite proxy distance, touched by some query).
     fn free_texels(&self) -> Vec<usize> {
-        (0..self.init.len()).filter(|&k| self.init[k] > 0.0 && !self.touching[k].is_empty()).collect()
+        (0..self.proxy_distance.len())
+            .filter(|&k| self.proxy_distance[k].is_finite() && !self.touching[k].is_empty())
+            .collect()
     }
 
-    /// Warp map for log-scales `s` (full length).
-    fn map(&self, s: &[f64]) -> Vec<f32> {
-        self.init.iter().zip(s).map(|(&w0, &sk)| w0 * (libm::exp(sk.clamp(-S_LIMIT, S_LIMIT)) as f32)).collect()
+    /// Texel `k`'s shift at log-scale `s`.
+    #[inline]
+    fn texel_shift(&self, k: usize, s: f64) -> f32 {
+        let t = self.proxy_distance[k];
+        if t.is_finite() { t * ((libm::exp(s.clamp(-S_LIMIT, S_LIMIT)) - 1.0) as f32) } else { 0.0 }
+    }
+
+    /// Shift map for log-scales `s` (full length).
+    pub fn map(&self, s: &[f64]) -> Vec<f32> {
+        s.iter().enumerate().map(|(k, &sk)| self.texel_shift(k, sk)).collect()
+    }
+
+    /// The log-scales the solve starts from.
+    #[must_use]
+    pub fn start(&self) -> &[f64] {
+        &self.start
     }
 
     /// Map with UV relaxation of strength `relax` ∈ [0,1]: blend towards its seam-aware 3×3
@@ -251,11 +332,11 @@ impl<'a> CellProblem<'a> {
     }
 
     /// Radiance of sample `i`'s lookup under `map`: the runtime's corrective fetch
-    /// (`map_fetch`) and, for a rough query, its mip (`warp::glossy`).
+    /// (`shifted_aim`) and, for a rough query, its mip (`warp::glossy`).
     #[inline]
     fn lookup(&self, i: usize, map: &[f32]) -> Vec3 {
         let q = &self.samples[i];
-        let aim = map_fetch(self.glossy.warp.probe.position, self.centre, sample_map(map, &q.taps), q.b, q.dir);
+        let aim = shifted_aim(self.glossy.warp.probe.position, q.t_proxy, sample_map(map, &q.taps), q.b, q.dir);
         self.glossy.radiance(MipRule::Corrected, q.b, q.dir, aim, q.roughness)
     }
 
@@ -363,10 +444,10 @@ impl<'a> CellProblem<'a> {
         (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
     }
 
-    /// Refines the map with `solver`, then fits the relaxation strength with Brent.
+    /// Refines the map from the start with `solver`, then fits the relaxation strength
+    /// with Brent.
     pub fn solve(&mut self, solver: Solver, iterations: u32) -> Outcome {
-        let n = self.init.len();
-        let mut s = vec![0.0f64; n];
+        let mut s = self.start.clone();
         let clock = std::time::Instant::now();
         let cost_start = self.cost(&s);
         let mut curve = vec![(0.0, cost_start)];
@@ -410,7 +491,7 @@ impl<'a> CellProblem<'a> {
                 curve.push((clock.elapsed().as_secs_f64(), self.cost(&s)));
             }
             if self.cost(&s) > cost_start || s.iter().any(|x| !x.is_finite()) {
-                s = vec![0.0; n];
+                s = self.start.clone();
                 if let Termination::Finished { kept_start, .. } = &mut termination {
                     *kept_start = true;
                 }
@@ -553,7 +634,7 @@ impl CostFunction for TexelProblem<'_, '_> {
         let c = self.cell;
         c.evaluations.set(c.evaluations.get() + 1);
         let mut map = self.map.borrow_mut();
-        map[self.k] = c.init[self.k] * (libm::exp(x.clamp(-S_LIMIT, S_LIMIT)) as f32);
+        map[self.k] = c.texel_shift(self.k, *x);
         let data = c.data_over(c.touching[self.k].iter().map(|&i| i as usize), &map);
         let mut smooth = 0.0;
         for &(a, b) in &c.pairs {
@@ -678,9 +759,9 @@ mod tests {
             seed in 0u32..1000, k in 0usize..64, x1 in -3.5f64..3.5, x2 in -3.5f64..3.5,
         ) {
             let warp = wall_warp(1.0, 64);
-            let (init, qs, c, _) = wall_problem(1.0, 300);
-            let ctx = CellContext { glossy: Glossy { warp: &warp, correction: None }, exposure: 1.0, centre: c, res: 8 };
-            let cell = CellProblem::new(ctx, init, qs).with_weights(1e-3, 1e-4).with_robust_scale(0.05);
+            let w = wall_problem(&warp, 1.0, 300);
+            let start = w.ctx.log_scales_of(&w.distance).iter().map(|s| s * 1.3).collect();
+            let cell = CellProblem::new(w.ctx, start, w.samples).with_weights(1e-3, 1e-4).with_robust_scale(0.05);
             let s: Vec<f64> = (0..64)
                 .map(|i| (((i as u32).wrapping_mul(2654435761) ^ seed) % 1000) as f64 / 500.0 - 1.0)
                 .collect();

@@ -48,6 +48,8 @@ struct Query {
 struct Streams {
     seed: u64,
     first: usize,
+    /// The surface the position lies on.
+    normal: Option<Vec3>,
 }
 
 impl QueryStreams for Streams {
@@ -61,30 +63,43 @@ impl QueryStreams for Streams {
     fn roughness(&self, p: usize, d: usize) -> f32 {
         ROUGH_MIX[(self.first + p + d) % ROUGH_MIX.len()]
     }
+    fn hemisphere(&self, _p: usize) -> Option<Vec3> {
+        self.normal
+    }
 }
 
-/// Rough queries at positions uniform over the active cells, traced, and prepared through
-/// `correctives`: (training, held-out), split by position.
-fn queries(baked: Baked, warp: &Warp, correctives: &Correctives, seed: u64) -> (Vec<Query>, Vec<Query>) {
+/// Rough queries over the active cells with the cells' own mix (`surface_fraction` of the
+/// positions on surfaces, reflecting over their hemisphere; the rest in the volume), traced,
+/// and prepared through `correctives`: (training, held-out), split by position.
+fn queries(baked: Baked, warp: &Warp, correctives: &Correctives, s: &FitSettings) -> (Vec<Query>, Vec<Query>) {
     let Baked { scene, tracer, grid, .. } = baked;
-    let g = grid.geometry;
+    let (g, seed) = (grid.geometry, s.seed);
     let active: Vec<usize> = (0..g.cell_count()).filter(|&c| !grid.inside[c]).collect();
     if active.is_empty() {
         return (Vec::new(), Vec::new());
     }
-    let positions: Vec<Vec3> = (0..POSITIONS)
+    let renderer = Renderer::new(scene, tracer);
+    let positions: Vec<(Vec3, Option<Vec3>)> = (0..POSITIONS)
+        .into_par_iter()
         .map(|p| {
-            let mut s = Sampler::new(seed, hash_pair(DOMAIN_FIT, 0x5B), p);
-            let cell = active[((s.next_1d() * active.len() as f32) as usize).min(active.len() - 1)];
-            let u = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
-            g.min + (g.cell_coords(cell).as_vec3() + u) * g.cell_size()
+            let mut r = Sampler::new(seed, hash_pair(DOMAIN_FIT, 0x5B), p);
+            let cell = active[((r.next_1d() * active.len() as f32) as usize).min(active.len() - 1)];
+            let u = Vec3::new(r.next_1d(), r.next_1d(), r.next_1d());
+            if r.next_1d() < s.surface_fraction {
+                let stream = (seed, hash_pair(hash_pair(DOMAIN_FIT, 0x5E), p as u64));
+                if let Some(&(b, n)) = super::cell_surface_points(&renderer, &g, cell, 1, stream).first() {
+                    return (b, Some(n));
+                }
+            }
+            (g.min + (g.cell_coords(cell).as_vec3() + u) * g.cell_size(), None)
         })
         .collect();
-    let renderer = Renderer::new(scene, tracer);
     let parts: Vec<TracedQueries> = positions
         .par_iter()
         .enumerate()
-        .map(|(p, b)| truth::trace_queries(&renderer, std::slice::from_ref(b), DIRS, SPP, &Streams { seed, first: p }))
+        .map(|(p, &(b, normal))| {
+            truth::trace_queries(&renderer, std::slice::from_ref(&b), DIRS, SPP, &Streams { seed, first: p, normal })
+        })
         .collect();
     let q = TracedQueries::concat(parts);
     let prepared: Vec<(usize, Query)> = (0..q.dirs.len())
@@ -185,7 +200,7 @@ pub fn fit_scene_correction(
     s: &FitSettings,
 ) -> RoughnessCorrection {
     let exposure = super::exposure_of(warp);
-    let (train, held) = queries(baked, warp, correctives, s.seed);
+    let (train, held) = queries(baked, warp, correctives, s);
     if train.is_empty() || held.is_empty() {
         return lobe_fit.clone();
     }

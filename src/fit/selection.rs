@@ -1,11 +1,10 @@
 //! Model selection: what a cell stores, decided on held-out queries.
 //!
-//! Level 0 stores nothing (the grid's fallback method, the unfitted warp with the lowest
-//! mean held-out error); level 2 stores the cell's fitted warp map. Level 1 (one origin
+//! Level 0 stores nothing (the grid's proxy as it is); level 2 stores the cell's fitted
+//! shift map of the proxy. Level 1 (one origin
 //! offset, depth mip and relaxation per cell) is measured on request
 //! (`FitSettings::level1`, `summary::Level1Summary`), not stored: see ARCHITECTURE.md.
 
-use crate::warp::Method;
 use serde::{Deserialize, Serialize};
 
 /// What a cell stores. Serialised as its number (0, 2) in `residuals.json`.
@@ -14,7 +13,7 @@ use serde::{Deserialize, Serialize};
 pub enum Level {
     /// Nothing: the grid's fallback method.
     Fallback,
-    /// The cell's warp map.
+    /// The cell's shift map.
     Map,
 }
 
@@ -58,7 +57,7 @@ impl std::fmt::Display for Level {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Selection {
-    /// The cell sees only sky: the fallback fetches the query direction, nothing to store.
+    /// The cell sees only sky: nothing to shift the proxy towards, nothing to store.
     SeesOnlySky,
     /// The fallback method meets the tolerance.
     FallbackMeetsTolerance,
@@ -82,7 +81,7 @@ impl Selection {
 impl std::fmt::Display for Selection {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
-            Selection::SeesOnlySky => "sees only sky: the fallback fetches the query direction, nothing to store",
+            Selection::SeesOnlySky => "sees only sky: nothing to shift the proxy towards, nothing to store",
             Selection::FallbackMeetsTolerance => "the fallback method meets the tolerance",
             Selection::MapBeatsFallback => "fitted map beats the fallback method on held-out queries",
             Selection::KeptFallback => "kept the fallback: the fitted map is not better on held-out queries",
@@ -107,7 +106,3 @@ pub fn choose_level(check_err_fallback: f64, check_err_fitted: f64, tol: f64, ma
         Selection::KeptFallback
     }
 }
-
-/// Unfitted methods a level-0 cell may use; the grid keeps the one with the lowest mean
-/// held-out error over its active cells.
-pub const FALLBACK_CANDIDATES: [Method; 3] = [Method::Warp1, Method::Box, Method::Kdop];

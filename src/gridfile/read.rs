@@ -257,7 +257,7 @@ fn expected_payloads(
         let (w, h) = atlas_size(c.stored_cells.len(), c.map_res, c.atlas_columns);
         out.push((
             CORRECTIVES_FILE,
-            vec![Expected { name: "warp_maps".into(), width: w, height: h, channels: &["W"] }],
+            vec![Expected { name: "shift_maps".into(), width: w, height: h, channels: &["D"] }],
         ));
     }
     let ir = &m.irradiance;
@@ -587,8 +587,8 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     // warp
     let w = &m.warp;
     let fallback = match Method::parse(&w.fallback) {
-        Some(f) if Method::PER_LOOKUP.contains(&f) => f,
-        _ => return Err(invalid(mp, "warp.fallback", format!("{:?} is not a per-lookup method", w.fallback))),
+        Some(f @ (Method::Box | Method::Kdop)) => f,
+        _ => return Err(invalid(mp, "warp.fallback", format!("{:?} is not a proxy (box or kdop)", w.fallback))),
     };
     let o = &w.options;
     if !(o.depth_lod.is_finite() && o.depth_lod >= 0.0 && o.relax_texels.is_finite() && o.relax_texels >= 0.0)
@@ -628,17 +628,17 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
             let cpath = dir.join(CORRECTIVES_FILE);
             let layers = read_payload(dir, &m, CORRECTIVES_FILE, expected_of(CORRECTIVES_FILE))?;
             let size = atlas_size(c.stored_cells.len(), c.map_res, c.atlas_columns);
-            let atlas = channel(layer(&layers, &cpath, "warp_maps", size)?, &cpath, "W")?;
-            let wmax = bounds.max_inverse_distance;
-            check(&cpath, "warp_maps.W", atlas, &format!("an inverse distance in [0, {wmax:e}]"), |x| {
-                (0.0..=wmax).contains(&x)
+            let atlas = channel(layer(&layers, &cpath, "shift_maps", size)?, &cpath, "D")?;
+            let dmax = bounds.max_distance;
+            check(&cpath, "shift_maps.D", atlas, &format!("a shift in [-{dmax:e}, {dmax:e}]"), |x| {
+                (-dmax..=dmax).contains(&x)
             })?;
             let maps: Vec<f32> =
                 (0..c.stored_cells.len()).flat_map(|k| tile(atlas, k, c.map_res, c.atlas_columns)).collect();
             (c.map_res, slot, maps)
         }
     };
-    let correctives = Correctives { geometry, map_res, slot, maps, fallback, origin_offset: probe_offset.clone() };
+    let correctives = Correctives { geometry, map_res, slot, maps, fallback };
 
     // irradiance
     let ir = &m.irradiance;

@@ -11,16 +11,18 @@ use serde::{Deserialize, Serialize};
 
 pub const GRID_FORMAT: &str = "warpfit-grid";
 /// Bumped on any change an older reader cannot read correctly.
-/// 2: a rough lookup in a cell with a warp map takes its distance ratio from the map's hit
+/// 2: a rough lookup in a cell with a map takes its distance ratio from the map's hit
 /// estimate (no depth fetch), and the stored roughness correction is fitted for that.
 /// 3: the manifest's own checksum, structural limits, and the fitted irradiance corrections.
-pub const GRID_VERSION: u32 = 3;
+/// 4: the maps shift the proxy's surface (`shift_maps`, scene units) instead of holding
+/// inverse distances from the cell's origin; the fallback is the proxy (box or kdop).
+pub const GRID_VERSION: u32 = 4;
 pub const MANIFEST_FILE: &str = "manifest.json";
 pub const PROBE_FILE: &str = "probe.exr";
 pub const CORRECTIVES_FILE: &str = "correctives.exr";
 pub const IRRADIANCE_FILE: &str = "irradiance.exr";
 
-/// Storage precision of a radiance layer. Distances and warp maps are always f32: f16's
+/// Storage precision of a radiance layer. Distances and shift maps are always f32: f16's
 /// range (6.5e4) and precision cannot hold the distances of a level scaled by 1e4.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -52,7 +54,7 @@ pub struct GridManifest {
     pub grid: GridSection,
     pub probe: ProbeSection,
     pub warp: WarpSection,
-    /// Absent when no cell stores a warp map.
+    /// Absent when no cell stores a shift map.
     pub correctives: Option<CorrectiveSection>,
     pub irradiance: IrradianceSection,
     /// GGX distance-ratio roughness correction; absent when the probe has no rough mips or
@@ -76,8 +78,8 @@ pub struct GridSection {
     pub max: [f32; 3],
     pub counts: [u32; 3],
     /// Cells whose probe is off its centre (relocated away from geometry), sorted, with the
-    /// offset from the centre (within half a cell): the origin of the cell's irradiance,
-    /// distance moments and warp map.
+    /// offset from the centre (within half a cell): the origin of the cell's irradiance and
+    /// distance moments (and of the shift map the fit started from).
     pub relocated: Vec<(u32, [f32; 3])>,
 }
 
@@ -103,7 +105,8 @@ pub struct RadianceMip {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WarpSection {
-    /// Method of cells without a warp map (`warp1`, `box` or `kdop`).
+    /// The proxy every lookup reads through and the maps shift (`box` or `kdop`), as it is
+    /// in cells without a map.
     pub fallback: String,
     pub options: WarpOptions,
     pub blend: Blend,
@@ -131,14 +134,18 @@ pub struct KdopPlane {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CorrectiveSection {
-    /// N of each N×N warp map.
+    /// N of each N×N shift map.
     pub map_res: u32,
     /// Grid cell index of each stored map, in atlas tile order.
     pub stored_cells: Vec<u32>,
-    /// `correctives.exr` layer `warp_maps`, channel `W`: tiles in rows of `atlas_columns`.
+    /// `correctives.exr` layer `shift_maps`, channel `D`: tiles in rows of `atlas_columns`.
     pub atlas_columns: u32,
+    /// [`SHIFT_MAP_ENCODING`].
     pub encoding: String,
 }
+
+/// What a shift map's texels mean (the manifest's `correctives.encoding`).
+pub const SHIFT_MAP_ENCODING: &str = "per stored cell, an N×N octahedral map of shifts (scene units) of the proxy's surface along the lookup direction: a lookup from B along dir aims at t_proxy(B, dir) + bilinear shift(dir), where t_proxy is the distance to the proxy (warp.fallback) from B; negative = nearer";
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -291,7 +298,7 @@ pub const MAX_MANIFEST_BYTES: u64 = 256 << 20;
 pub struct ValueBounds {
     /// Largest finite distance or mean distance.
     pub max_distance: f32,
-    /// Largest inverse distance of a warp map.
+    /// Largest inverse distance.
     pub max_inverse_distance: f32,
 }
 
@@ -349,7 +356,7 @@ impl GridManifest {
         let map_res = self.correctives.as_ref().map_or(0, |c| c.map_res);
         let _ = writeln!(
             s,
-            "correctives: {stored} of {cells} cells store a {map_res}×{map_res} warp map; the others use `{}` (depth mip {}, blend {:?})",
+            "correctives: {stored} of {cells} cells store a {map_res}×{map_res} shift map of the proxy `{}`; the others read it as it is (depth mip {}, blend {:?})",
             self.warp.fallback, self.warp.options.depth_lod, self.warp.blend
         );
         let _ = writeln!(
@@ -402,7 +409,7 @@ impl GridManifest {
         if let Some(c) = &self.correctives {
             let _ = writeln!(
                 s,
-                "  bytes per stored cell: {} (warp map) + {} (irradiance and moments)",
+                "  bytes per stored cell: {} (shift map) + {} (irradiance and moments)",
                 c.map_res as u64 * c.map_res as u64 * 4,
                 {
                     let ir = self.irradiance.resolution as u64;

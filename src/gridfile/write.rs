@@ -1,5 +1,5 @@
 //! Writing a fitted grid folder from plain data: `probe.exr`, `correctives.exr` (only if
-//! some cell stores a warp map), `irradiance.exr` and `manifest.json`, each written
+//! some cell stores a shift map), `irradiance.exr` and `manifest.json`, each written
 //! atomically. The manifest is written last and carries every payload's checksum, so an
 //! interrupted rewrite is reported as a checksum mismatch on load, never read as a silently
 //! mixed grid. Knows nothing of how the data was fitted: the fit hands over [`Provenance`].
@@ -102,7 +102,7 @@ fn payload(dir: &Path, file: &str, layers: Vec<ExrLayer>, precision: Precision) 
     Ok(Payload { file: file.into(), bytes: bytes.len() as u64, checksum: checksum(&bytes), layers: entries })
 }
 
-/// Radiance layers may be stored as f16; distances and warp maps never are.
+/// Radiance layers may be stored as f16; distances and shift maps never are.
 fn is_radiance(layer: &str) -> bool {
     layer.starts_with("radiance_mip") || layer == "irradiance"
 }
@@ -156,15 +156,15 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
     let distance_mips = (0..g.probe.distance.levels.len()).map(distance_layer).collect();
     payloads.push(payload(dir, PROBE_FILE, layers, g.precision)?);
 
-    // correctives: warp maps of level-2 cells, in cell order (tile k = k-th stored cell)
+    // correctives: shift maps of level-2 cells, in cell order (tile k = k-th stored cell)
     let stored: Vec<(u32, u32)> = (0..cells).filter_map(|cell| c.slot_of(cell).map(|s| (s, cell as u32))).collect();
     let stored_cells: Vec<u32> = stored.iter().map(|(_, cell)| *cell).collect();
     let n2 = (c.map_res * c.map_res) as u64;
     let level0 = g.provenance.level0_cells as u64;
     left_out.push(LeftOut {
-        what: format!("warp maps of {level0} level-0 cells"),
+        what: format!("shift maps of {level0} level-0 cells"),
         reason: format!(
-            "the fallback `{}` is as good on held-out queries (within the selection margin)",
+            "the proxy `{}` alone is as good on held-out queries (within the selection margin)",
             c.fallback.name()
         ),
         bytes_saved: level0 * n2 * 4,
@@ -173,7 +173,7 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
         let _ = std::fs::remove_file(dir.join(CORRECTIVES_FILE));
         left_out.push(LeftOut {
             what: CORRECTIVES_FILE.into(),
-            reason: "no cell stores a warp map".into(),
+            reason: "no cell stores a shift map".into(),
             bytes_saved: 0,
         });
         None
@@ -181,14 +181,15 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
         let columns = atlas_columns(stored_cells.len());
         let slots: Vec<u32> = stored.iter().map(|(slot, _)| *slot).collect();
         let (w, h, atlas) = pack(&c.maps, &slots, c.map_res, columns);
-        let atlas: Vec<f32> = atlas.iter().map(|&x| x.clamp(0.0, bounds.max_inverse_distance)).collect();
-        let layers = [ExrLayer { name: "warp_maps".into(), width: w, height: h, channels: vec![("W".into(), atlas)] }];
+        let dmax = bounds.max_distance;
+        let atlas: Vec<f32> = atlas.iter().map(|&x| if x.is_nan() { 0.0 } else { x.clamp(-dmax, dmax) }).collect();
+        let layers = [ExrLayer { name: "shift_maps".into(), width: w, height: h, channels: vec![("D".into(), atlas)] }];
         payloads.push(payload(dir, CORRECTIVES_FILE, layers.into(), g.precision)?);
         Some(CorrectiveSection {
             map_res: c.map_res,
             stored_cells,
             atlas_columns: columns,
-            encoding: "per stored cell, an N×N octahedral map of inverse distance (1/scene units) from the cell centre to what each direction hits; 0 = sky".into(),
+            encoding: SHIFT_MAP_ENCODING.into(),
         })
     };
 

@@ -208,8 +208,10 @@ pub fn fit_shard(
     let (k, n) = (shard.k as usize, shard.n as usize);
     let range = active.len() * k / n..active.len() * (k + 1) / n;
     let log = ShardLog::new(format!("fit shard {shard}"), range.len());
+    // every shard measures the proxy the same way (seeded), so they all fit for the same one
+    let proxy = fit::proxy::choose(baked, glossy, &job.fit).method;
     let cells: Vec<CellOutcome> =
-        in_chunks(&active[range.clone()], &log, |part| fit::fit_cells(baked, glossy, &job.fit, part, progress));
+        in_chunks(&active[range.clone()], &log, |part| fit::fit_cells(baked, glossy, &job.fit, proxy, part, progress));
     let points = irradiance::SurfacePoints::draw(baked, job.fit.seed);
     let ranges = points.part(k, n);
     tracing::info!(
@@ -396,7 +398,8 @@ pub fn merge(
             let glossy = Glossy { warp: &warp, correction: lobes.as_ref() };
             let points = irradiance::SurfacePoints::draw(baked, job.fit.seed);
             let (cells, references) = gather_fit(&set, &fit::active_cells(&grid), &points, &job.fit)?;
-            let mut fitted = fit::assemble(baked, glossy, &job.fit, cells, &points, references);
+            let proxy = fit::proxy::choose(baked, glossy, &job.fit);
+            let mut fitted = fit::assemble(baked, glossy, &job.fit, proxy, cells, &points, references);
             fitted.seconds += set.iter().map(|(_, h)| h.seconds).sum::<f64>();
             crate::files::staged::link_or_copy_dir(&tx.previous.bake(), &tx.out.bake())?;
             let out = Output { folder: &tx.out, command, progress };

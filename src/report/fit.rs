@@ -50,7 +50,7 @@ pub fn write_residual_slices(path: &Path, fit: &Fit) -> Result<(), FileError> {
         .collect();
     crate::report::plot::heatmap_slices(
         path,
-        "held-out error removed by each cell's stored warp map, per grid layer",
+        "held-out error removed by each cell's stored shift map, per grid layer",
         "share of the fallback's held-out error the stored map removes",
         &slices,
     )
@@ -91,7 +91,7 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
     );
     let _ = writeln!(
         md,
-        "| 2 | {} | {} | {}×{} warp map, f32 inverse distance |",
+        "| 2 | {} | {} | {}×{} shift map of the proxy, f32 scene units |",
         s.cells_level2, s.bytes_level2, fit.settings.map_res, fit.settings.map_res
     );
     let _ = writeln!(

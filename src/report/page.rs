@@ -432,7 +432,7 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
         t.push(vec![
             match l.level {
                 Level::Fallback => "0 (fallback, nothing stored)".into(),
-                Level::Map => "2 (fitted warp map)".into(),
+                Level::Map => "2 (fitted shift map)".into(),
             },
             l.cells.to_string(),
             format!("{:.4}", l.mean_err_fallback),

@@ -50,7 +50,8 @@ pub struct FittedGrid {
     pub warp: Warp,
     /// How a position's corrective map is found (the containing cell's).
     pub blend: Blend,
-    /// The per-cell warp maps (sparse) and the fallback method of the other cells.
+    /// The per-cell shift maps (sparse) and the proxy they shift, as it is in the other
+    /// cells.
     pub correctives: Correctives,
     /// The dense grid's irradiance, distance moments and diffuse corrections.
     pub irradiance: IrradianceGrid,

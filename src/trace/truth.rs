@@ -172,6 +172,46 @@ pub fn surface_points(
     first_successes(count, count.saturating_mul(256), attempt)
 }
 
+/// Up to `count` points on the surfaces seen from inside the box `from` (rays from random
+/// points in it in uniform directions), each where the ray's first hit lies inside the box
+/// `accept` on a side that can be seen (a front face, or either side of a two-sided
+/// material): off the surface by a small offset, with the seen side's normal. Points the
+/// inside rule rejects (inside a closed two-sided solid) are skipped. At most `16 × count`
+/// rays; fewer points where little surface is near (none in open air). Seeded by
+/// `(seed, stream)` alone.
+pub fn cell_surface_points(
+    scene: &Scene,
+    tracer: &Tracer,
+    from: (Vec3, Vec3),
+    accept: (Vec3, Vec3),
+    count: u32,
+    (seed, stream): (u64, u64),
+) -> Vec<(Vec3, Vec3)> {
+    let threshold = scene.config.grid.inside_backface_fraction;
+    let mut out = Vec::new();
+    for a in 0..count.saturating_mul(16) {
+        if out.len() >= count as usize {
+            break;
+        }
+        let mut s = Sampler::new(seed, stream, a);
+        let o = from.0 + (from.1 - from.0) * Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
+        let d = uniform_sphere(s.next_2d());
+        let Some(h) = tracer.closest_hit(o, d, f32::INFINITY) else { continue };
+        let two_sided = scene.materials[h.material as usize].two_sided;
+        if !(h.position.cmpge(accept.0).all() && h.position.cmple(accept.1).all()) || (h.backface && !two_sided) {
+            continue;
+        }
+        let n = if h.backface { -h.normal } else { h.normal };
+        let b = h.position + n * tracer.surface_offset(h.position);
+        let inside_stream = hash_pair(stream, 0x5F ^ (a as u64 + 1));
+        if is_inside(scene, tracer, b, threshold, |j| Sampler::new(seed, inside_stream, j)) {
+            continue;
+        }
+        out.push((b, n));
+    }
+    out
+}
+
 /// The first `count` successes of `attempt(0)`, `attempt(1)`, … (at most `limit` attempts),
 /// in attempt order. Each attempt must depend on its index alone: blocks of them run in
 /// parallel and give the same answer as one attempt after another.
@@ -216,6 +256,11 @@ pub trait QueryStreams {
     /// Perceptual roughness of query (p, d); mirror unless a set says otherwise.
     fn roughness(&self, _p: usize, _d: usize) -> f32 {
         0.0
+    }
+    /// The normal of the surface position p lies on: its directions are reflections off
+    /// that surface, uniform over its hemisphere; `None`: uniform over the sphere.
+    fn hemisphere(&self, _p: usize) -> Option<Vec3> {
+        None
     }
 }
 
@@ -279,8 +324,9 @@ pub fn lobe_reference(
     Reference { radiance: mean, se: se as f32 }
 }
 
-/// Traces the references of `dirs_per_position` uniform directions at each position
-/// (sequentially: callers parallelise over positions or cells).
+/// Traces the references of `dirs_per_position` uniform directions at each position (over
+/// the hemisphere of `streams.hemisphere` where it names one), sequentially: callers
+/// parallelise over positions or cells.
 pub fn trace_queries(
     renderer: &Renderer,
     positions: &[Vec3],
@@ -300,7 +346,12 @@ pub fn trace_queries(
     };
     for (p, &b) in positions.iter().enumerate() {
         for d in 0..dirs_per_position {
-            let dir = uniform_sphere(streams.direction(p, d).next_2d());
+            let mut dir = uniform_sphere(streams.direction(p, d).next_2d());
+            if let Some(n) = streams.hemisphere(p)
+                && dir.dot(n) < 0.0
+            {
+                dir = -dir; // the sphere folded onto the hemisphere: uniform over it
+            }
             let r = streams.roughness(p, d);
             let reference = lobe_reference(renderer, b, dir, r, spp, |k| streams.reference(p, d, k), &mut q.rays);
             q.dirs.push(dir);

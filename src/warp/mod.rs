@@ -226,6 +226,21 @@ pub struct Proxies {
     pub kdop: proxy::Kdop,
 }
 
+impl Proxies {
+    /// Distance along unit `dir` from `b` to the boundary of proxy `method` (`Box` or
+    /// `Kdop`): `None` when `b` is outside it or `method` is not a proxy, `+inf` through an
+    /// open side of the k-DOP.
+    #[inline]
+    #[must_use]
+    pub fn exit_distance(&self, method: Method, b: Vec3, dir: Vec3) -> Option<f32> {
+        match method {
+            Method::Box => self.aabb.exit_distance(b, dir),
+            Method::Kdop => self.kdop.exit_distance(b, dir),
+            _ => None,
+        }
+    }
+}
+
 /// What every warp reads: probe A, the proxy shapes and the warp options. The evaluation,
 /// the fit and the runtime sampler each hold one, so a method answers the same everywhere.
 #[derive(Clone, Debug)]

@@ -68,26 +68,23 @@ impl BoxProxy {
         t.is_finite().then_some(t.max(0.0))
     }
 
-    /// [`fetch_dir`](Self::fetch_dir) for [`LANES`](crate::octa::LANES) queries, in
+    /// [`exit_distance`](Self::exit_distance) for [`LANES`](crate::octa::LANES) queries, in
     /// structure-of-arrays form with the same operations in the same order (the matrix
-    /// products as glam forms them): bit for bit its values, the lanes side by side.
+    /// products as glam forms them): each lane's distance and whether it has one (`Some`),
+    /// bit for bit the scalar values, the lanes side by side.
     #[inline]
     #[must_use]
-    pub fn fetch_dir_lanes(
+    pub fn exit_distance_lanes(
         &self,
-        a: Vec3,
         b: &[Vec3; crate::octa::LANES],
         dir: &[Vec3; crate::octa::LANES],
-    ) -> [Vec3; crate::octa::LANES] {
+    ) -> ([f32; crate::octa::LANES], [bool; crate::octa::LANES]) {
         const L: usize = crate::octa::LANES;
         let m = self.world_to_local;
         let (h, c) = (self.half_extents, self.centre);
         let local =
             |v: [f32; 3], k: usize| -> f32 { ((m.x_axis[k] * v[0]) + (m.y_axis[k] * v[1])) + (m.z_axis[k] * v[2]) };
-        let mut out = *dir;
-        let a3 = a.to_array();
-        let mut hit = [[0.0f32; 3]; L];
-        let mut ok = [false; L];
+        let (mut out, mut ok) = ([0.0f32; L], [false; L]);
         for l in 0..L {
             let (b3, d3) = (b[l].to_array(), dir[l].to_array());
             let bc = [b3[0] - c.x, b3[1] - c.y, b3[2] - c.z];
@@ -100,20 +97,11 @@ impl BoxProxy {
                 let t_face = (face - o[k]) / d[k];
                 t = t.min(if d[k] != 0.0 { t_face } else { f32::INFINITY });
             }
-            let t = t.max(0.0);
-            for k in 0..3 {
-                hit[l][k] = (b3[k] + d3[k] * t) - a3[k];
-            }
-            ok[l] = !outside && t.is_finite() && b[l] != a;
+            // `o.abs().cmpgt(h)` is false for NaN, as here
+            ok[l] = !outside && t.is_finite();
+            out[l] = t.max(0.0);
         }
-        for l in 0..L {
-            let v = Vec3::from_array(hit[l]);
-            let l2 = v.length_squared();
-            if ok[l] && l2 > 0.0 && l2.is_finite() {
-                out[l] = v;
-            }
-        }
-        out
+        (out, ok)
     }
 
     #[inline]
@@ -189,23 +177,34 @@ impl Kdop {
         Kdop { normals, offsets }
     }
 
+    /// Distance along `dir` from `b` (inside) to the proxy's boundary: `None` when `b` is
+    /// outside it, `+inf` when the ray leaves through an open side.
     #[inline]
     #[must_use]
-    pub fn fetch_dir(&self, a: Vec3, b: Vec3, dir: Vec3) -> Vec3 {
-        if a == b {
-            return dir;
-        }
+    pub fn exit_distance(&self, b: Vec3, dir: Vec3) -> Option<f32> {
         let mut t = f32::INFINITY;
         for (n, &h) in self.normals.iter().zip(&self.offsets) {
             let nb = n.dot(b);
             if nb > h {
-                return dir; // B outside the proxy
+                return None; // B outside the proxy
             }
             let nd = n.dot(dir);
             if nd > 0.0 && h.is_finite() {
                 t = t.min((h - nb) / nd);
             }
         }
-        if t.is_finite() { super::depth::fetch_vector(a, b + dir * t, dir) } else { dir }
+        Some(t)
+    }
+
+    #[inline]
+    #[must_use]
+    pub fn fetch_dir(&self, a: Vec3, b: Vec3, dir: Vec3) -> Vec3 {
+        if a == b {
+            return dir;
+        }
+        match self.exit_distance(b, dir) {
+            Some(t) if t.is_finite() => super::depth::fetch_vector(a, b + dir * t, dir),
+            _ => dir,
+        }
     }
 }
