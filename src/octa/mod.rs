@@ -245,6 +245,15 @@ pub struct UvLanes {
     pub v: [f32; LANES],
 }
 
+impl UvLanes {
+    /// Lane `k`'s coordinate.
+    #[inline]
+    #[must_use]
+    pub fn at(&self, k: usize) -> Vec2 {
+        Vec2::new(self.u[k], self.v[k])
+    }
+}
+
 /// `encode` for [`LANES`] directions, bit for bit the same.
 #[inline]
 #[must_use]
