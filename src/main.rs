@@ -477,8 +477,16 @@ fn check_scene(scene: &warpfit::scene::Scene) -> Result<()> {
 fn print_fit(f: &warpfit::fit::Fit, manifest: &warpfit::gridfile::GridManifest, folder: &RunFolder) {
     let bytes: u64 = manifest.payloads.iter().map(|p| p.bytes).sum();
     let s = warpfit::fit::summary::summary(f);
+    let margin = match 100.0 * (1.0 - f.settings.selection_margin) {
+        m if m > 0.0 => format!(" by {m:.0}%"),
+        _ => String::new(),
+    };
+    let proxy = match f.proxy.measured {
+        Some([b, k]) => format!(" (measured: box {b:.4}, kdop {k:.4})"),
+        None => " (set)".into(),
+    };
     println!(
-        "fitted {} active cells in {:.1} s ({} threads): {} store a shift map, {} in all; {} keep the proxy {} alone ({} of them kept it over a fitted map that did not beat it by {:.0}%); mean held-out tone-mapped relative error per cell: warp1 {:.4}, fallback {:.4}, unfitted cell maps {:.4}, stored model {:.4}",
+        "fitted {} active cells in {:.1} s ({} threads): {} store a shift map, {} in all; {} keep the proxy {}{} alone ({} of them kept it over a fitted map that did not beat it{}); mean held-out tone-mapped relative error per cell: warp1 {:.4}, proxy {:.4}, unfitted cell maps {:.4}, stored model {:.4}",
         s.active_cells,
         s.fit_seconds,
         rayon::current_num_threads(),
@@ -486,8 +494,9 @@ fn print_fit(f: &warpfit::fit::Fit, manifest: &warpfit::gridfile::GridManifest, 
         files::human_bytes(s.bytes_level2 as u64),
         s.cells_level0,
         s.fallback_method,
+        proxy,
         s.kept_fallback,
-        100.0 * (1.0 - f.settings.selection_margin),
+        margin,
         s.mean_check_err_warp1,
         s.mean_check_err_fallback,
         s.mean_check_err_celldepth,

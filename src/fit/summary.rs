@@ -17,6 +17,9 @@ pub struct FitSummary {
     pub reference_rays: u64,
     pub evaluations: u64,
     pub fallback_method: String,
+    /// How the proxy was chosen (and, measured, the box's and the k-DOP's errors).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub proxy: Option<super::proxy::ProxyOutcome>,
     pub mean_check_err_warp1: f64,
     pub mean_check_err_fallback: f64,
     pub mean_check_err_celldepth: f64,
@@ -37,7 +40,7 @@ pub struct FitSummary {
 
 /// Level 1 against the fallback and the fitted map on the cells' check queries, and what a
 /// selection over all three would store: per cell the cheapest of {fallback: 0 bytes, level
-/// 1: 20 bytes, map: 4·N² bytes} within the selection margin (`FitSettings::selection_margin`, 5% by default) of the best of them.
+/// 1: 20 bytes, map: 4·N² bytes} within the selection margin (`FitSettings::selection_margin`; with 1, the default, the best) of the best of them.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Level1Summary {
     pub cells: usize,
@@ -116,6 +119,7 @@ pub fn summary(fit: &Fit) -> FitSummary {
         reference_rays: fit.reference_rays,
         evaluations: fit.cells.iter().map(|c| c.evaluations).sum(),
         fallback_method: fit.correctives.fallback.name().to_string(),
+        proxy: Some(fit.proxy),
         mean_check_err_warp1: fit.cells.iter().map(|c| c.check_err_warp1).sum::<f64>() / n,
         mean_check_err_fallback: fit.cells.iter().map(|c| c.check_err_fallback).sum::<f64>() / n,
         mean_check_err_celldepth: fit.cells.iter().map(|c| c.check_err_celldepth).sum::<f64>() / n,

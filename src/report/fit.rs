@@ -84,11 +84,14 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
         t.irradiance_fit
     );
     let _ = writeln!(md, "| level | cells | bytes | meaning |\n|---|---:|---:|---|");
-    let _ = writeln!(
-        md,
-        "| 0 | {} | 0 | grid fallback `{}` (chosen by held-out error) |",
-        s.cells_level0, s.fallback_method
-    );
+    let how = match s.proxy.and_then(|p| p.measured) {
+        Some([b, k]) => format!(
+            "measured on held-out queries: box {b:.4}, kdop {k:.4}; the k-DOP only when below {:.0}% of the box",
+            100.0 * crate::fit::proxy::KDOP_MARGIN
+        ),
+        None => "set".into(),
+    };
+    let _ = writeln!(md, "| 0 | {} | 0 | the grid's proxy `{}` alone ({how}) |", s.cells_level0, s.fallback_method);
     let _ = writeln!(
         md,
         "| 2 | {} | {} | {}×{} shift map of the proxy, f32 scene units |",
@@ -102,7 +105,7 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
     if let Some(l) = &s.level1 {
         let _ = writeln!(
             md,
-            "Level 1 (one origin offset, depth mip and relaxation per cell, fitted with Nelder-Mead on a quarter of each cell's training queries; measured, not stored), on {} cells' check queries: mean relative error {:.4} against the fitted map's {:.4} in every cell. It beats the fallback by the selection margin in {} cells, is within the margin of the map in {} and the best of the three in {}. A selection over all three (the cheapest within 5% of the best, a stored model beating the fallback by the margin) would keep {} / {} / {} cells at levels 0 / 1 / 2: mean error {:.4} in {} bytes, against the stored selection's {:.4} in {} bytes. Level 1 took {} objective evaluations.\n",
+            "Level 1 (one origin offset, depth mip and relaxation per cell, fitted with Nelder-Mead on a quarter of each cell's training queries; measured, not stored), on {} cells' check queries: mean relative error {:.4} against the fitted map's {:.4} in every cell. It beats the fallback by the selection margin in {} cells, is within the margin of the map in {} and the best of the three in {}. A selection over all three (the cheapest within the selection margin of the best, a stored model beating the proxy alone by it) would keep {} / {} / {} cells at levels 0 / 1 / 2: mean error {:.4} in {} bytes, against the stored selection's {:.4} in {} bytes. Level 1 took {} objective evaluations.\n",
             l.cells,
             l.mean_check_err_level1,
             l.mean_check_err_map,
@@ -121,10 +124,10 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
     }
     let _ = writeln!(
         md,
-        "Mean held-out relative error per active cell: warp1 {:.4}, fallback {:.4}, celldepth {:.4}, stored model {:.4}.\n",
+        "Mean held-out relative error per active cell: warp1 {:.4}, the proxy alone {:.4}, celldepth {:.4}, stored model {:.4}.\n",
         s.mean_check_err_warp1, s.mean_check_err_fallback, s.mean_check_err_celldepth, s.mean_check_err_stored
     );
-    let _ = writeln!(md, "## Stored error / fallback error per cell (level-2 cells)\n\n| ratio | cells |\n|---|---:|");
+    let _ = writeln!(md, "## Stored error / the proxy's error per cell (level-2 cells)\n\n| ratio | cells |\n|---|---:|");
     let mut buckets = [0usize; 10];
     for c in fit.cells.iter().filter(|c| c.level == Level::Map) {
         let r = (c.check_err_fitted / c.check_err_fallback.max(1e-12)).clamp(0.0, 0.999);
