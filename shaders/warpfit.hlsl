@@ -561,29 +561,61 @@ uint3 corner_cell(Lattice l_1, uint corner_1)
     return min((l_1.base + o_1), (_e17.xyz - (1u).xxx));
 }
 
-float3 warp1_(float3 b_2, float3 dir)
+float2 warp1_exit(float3 b_2, float3 dir)
 {
+    bool local_10 = (bool)0;
+
     float4 _e4 = params.probe;
     float3 a = _e4.xyz;
     const float _e6 = inv_dist(dir);
     if ((_e6 == 0.0)) {
-        return dir;
+        return float2(1e30, 1.0);
     }
     float3 ab = (a - b_2);
     float dir_ab = dot(dir, ab);
     float3 v_9 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
-    const float _e20 = inv_dist(v_9);
-    float lambda = (length(v_9) * _e20);
-    float t_9 = max(((dir_ab * lambda) + dot(dir, v_9)), 0.0);
-    float3 f_5 = ((dir * t_9) - (ab * lambda));
-    if ((lambda > 0.0)) {
-        const float3 _e34 = fetch_vector((0.0).xxx, f_5, dir);
-        return _e34;
+    const float _e23 = inv_dist(v_9);
+    float lambda = (length(v_9) * _e23);
+    if (!((lambda > 0.0))) {
+        return float2(1e30, 1.0);
     }
-    return dir;
+    float t_9 = (max(((dir_ab * lambda) + dot(dir, v_9)), 0.0) / lambda);
+    const bool _e37 = finite(t_9);
+    if (_e37) {
+        local_10 = (t_9 < HUGE);
+    } else {
+        local_10 = false;
+    }
+    bool _e43 = local_10;
+    if (!(_e43)) {
+        return float2(1e30, 1.0);
+    }
+    return float2(t_9, 1.0);
 }
 
-float2 box_exit(float3 b_3, float3 dir_1)
+float3 warp1_(float3 b_3, float3 dir_1)
+{
+    float4 _e4 = params.probe;
+    float3 a_1 = _e4.xyz;
+    const float _e6 = inv_dist(dir_1);
+    if ((_e6 == 0.0)) {
+        return dir_1;
+    }
+    float3 ab_1 = (a_1 - b_3);
+    float dir_ab_1 = dot(dir_1, ab_1);
+    float3 v_10 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
+    const float _e20 = inv_dist(v_10);
+    float lambda_1 = (length(v_10) * _e20);
+    float t_10 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_10)), 0.0);
+    float3 f_5 = ((dir_1 * t_10) - (ab_1 * lambda_1));
+    if ((lambda_1 > 0.0)) {
+        const float3 _e34 = fetch_vector((0.0).xxx, f_5, dir_1);
+        return _e34;
+    }
+    return dir_1;
+}
+
+float2 box_exit(float3 b_4, float3 dir_2)
 {
     float t_3 = HUGE;
     int k = int(0);
@@ -595,11 +627,11 @@ float2 box_exit(float3 b_3, float3 dir_1)
     float4 _e17 = params.box_half;
     float3 h = _e17.xyz;
     float4 _e21 = params.box_centre;
-    float3 o_2 = mul((b_3 - _e21.xyz), m_2);
+    float3 o_2 = mul((b_4 - _e21.xyz), m_2);
     if (any((abs(o_2) > h))) {
         return float2(0.0, 0.0);
     }
-    float3 d_2 = mul(dir_1, m_2);
+    float3 d_2 = mul(dir_2, m_2);
     uint2 loop_bound = uint2(4294967295u, 4294967295u);
     bool loop_init = true;
     while(true) {
@@ -637,7 +669,7 @@ float2 box_exit(float3 b_3, float3 dir_1)
     return float2(max(_e71, 0.0), 1.0);
 }
 
-float2 kdop_exit(float3 b_4, float3 dir_2)
+float2 kdop_exit(float3 b_5, float3 dir_3)
 {
     float t_4 = HUGE;
     uint k_1 = 0u;
@@ -668,11 +700,11 @@ float2 kdop_exit(float3 b_4, float3 dir_2)
             float3 n_8 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = params.kdop[_e27].w;
-            float nb = dot(n_8, b_4);
+            float nb = dot(n_8, b_5);
             if ((nb > h_1)) {
                 return float2(0.0, 0.0);
             }
-            float nd = dot(n_8, dir_2);
+            float nd = dot(n_8, dir_3);
             if ((nd > 0.0)) {
                 float _e39 = t_4;
                 t_4 = min(_e39, ((h_1 - nb) / nd));
@@ -683,39 +715,47 @@ float2 kdop_exit(float3 b_4, float3 dir_2)
     return float2(_e46, 1.0);
 }
 
-float2 proxy_exit(float3 b_5, float3 dir_3)
+float2 proxy_exit(float3 b_6, float3 dir_4)
 {
     const uint _e2 = fallback_method();
-    if ((_e2 == 2u)) {
-        const float2 _e5 = kdop_exit(b_5, dir_3);
-        return _e5;
+    switch(_e2) {
+        case 0u: {
+            const float2 _e3 = warp1_exit(b_6, dir_4);
+            return _e3;
+        }
+        case 2u: {
+            const float2 _e4 = kdop_exit(b_6, dir_4);
+            return _e4;
+        }
+        default: {
+            const float2 _e5 = box_exit(b_6, dir_4);
+            return _e5;
+        }
     }
-    const float2 _e6 = box_exit(b_5, dir_3);
-    return _e6;
 }
 
-float3 proxy_fetch(float2 exit, float3 b_6, float3 dir_4)
+float3 proxy_fetch(float2 exit, float3 b_7, float3 dir_5)
 {
-    bool local_10 = (bool)0;
+    bool local_11 = (bool)0;
 
     if (!((exit.y == 0.0))) {
-        local_10 = !((exit.x < HUGE));
+        local_11 = !((exit.x < HUGE));
     } else {
-        local_10 = true;
+        local_11 = true;
     }
-    bool _e14 = local_10;
+    bool _e14 = local_11;
     if (_e14) {
-        return dir_4;
+        return dir_5;
     }
     float4 _e17 = params.probe;
-    const float3 _e22 = fetch_vector(_e17.xyz, (b_6 + (dir_4 * exit.x)), dir_4);
+    const float3 _e22 = fetch_vector(_e17.xyz, (b_7 + (dir_5 * exit.x)), dir_5);
     return _e22;
 }
 
-float3 box_fetch(float3 b_7, float3 dir_5)
+float3 box_fetch(float3 b_8, float3 dir_6)
 {
-    const float2 _e2 = box_exit(b_7, dir_5);
-    const float3 _e3 = proxy_fetch(_e2, b_7, dir_5);
+    const float2 _e2 = box_exit(b_8, dir_6);
+    const float3 _e3 = proxy_fetch(_e2, b_8, dir_6);
     return _e3;
 }
 
@@ -729,31 +769,31 @@ Basis ConstructBasis(float3 arg0, float3 arg1) {
 Basis orthonormal_basis(float3 n_3)
 {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a_1 = (-1.0 / (s_3 + n_3.z));
-    float b_18 = ((n_3.x * n_3.y) * a_1);
-    const Basis basis = ConstructBasis(float3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_1)), (s_3 * b_18), (-(s_3) * n_3.x)), float3(b_18, (s_3 + ((n_3.y * n_3.y) * a_1)), -(n_3.y)));
+    float a_2 = (-1.0 / (s_3 + n_3.z));
+    float b_19 = ((n_3.x * n_3.y) * a_2);
+    const Basis basis = ConstructBasis(float3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_2)), (s_3 * b_19), (-(s_3) * n_3.x)), float3(b_19, (s_3 + ((n_3.y * n_3.y) * a_2)), -(n_3.y)));
     return basis;
 }
 
 float3 normalize_or(float3 v_5, float3 fallback_1)
 {
-    bool local_11 = (bool)0;
+    bool local_12 = (bool)0;
 
     float l_4 = length(v_5);
     if ((l_4 > 0.0)) {
         const bool _e7 = finite(l_4);
-        local_11 = _e7;
+        local_12 = _e7;
     } else {
-        local_11 = false;
+        local_12 = false;
     }
-    bool _e9 = local_11;
+    bool _e9 = local_12;
     if (_e9) {
         return (v_5 / (l_4).xxx);
     }
     return fallback_1;
 }
 
-float3 fallback_fetch(float3 b_8, float3 dir_6)
+float3 fallback_fetch(float3 b_9, float3 dir_7)
 {
     float3 plain = (float3)0;
     float3 sum = (0.0).xxx;
@@ -761,17 +801,17 @@ float3 fallback_fetch(float3 b_8, float3 dir_6)
     float3 d_1 = (float3)0;
 
     float4 _e4 = params.probe;
-    if (all((b_8 == _e4.xyz))) {
-        return dir_6;
+    if (all((b_9 == _e4.xyz))) {
+        return dir_7;
     }
     float relax = params.warp.x;
     const bool _e12 = relaxation_on();
     float _e18 = params.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
-    const Basis _e20 = orthonormal_basis(dir_6);
-    float3 t_10 = (_e20.t * angle);
+    const Basis _e20 = orthonormal_basis(dir_7);
+    float3 t_11 = (_e20.t * angle);
     float3 bt = (_e20.b * angle);
-    plain = dir_6;
+    plain = dir_7;
     uint2 loop_bound_2 = uint2(4294967295u, 4294967295u);
     bool loop_init_2 = true;
     while(true) {
@@ -788,24 +828,24 @@ float3 fallback_fetch(float3 b_8, float3 dir_6)
             break;
         }
         {
-            d_1 = dir_6;
+            d_1 = dir_7;
             uint _e37 = s;
             bool should_continue = false;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_6 + t_10));
+                    d_1 = normalize((dir_7 + t_11));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_6 - t_10));
+                    d_1 = normalize((dir_7 - t_11));
                     break;
                 }
                 case 3u: {
-                    d_1 = normalize((dir_6 + bt));
+                    d_1 = normalize((dir_7 + bt));
                     break;
                 }
                 case 4u: {
-                    d_1 = normalize((dir_6 - bt));
+                    d_1 = normalize((dir_7 - bt));
                     break;
                 }
                 default: {
@@ -813,15 +853,15 @@ float3 fallback_fetch(float3 b_8, float3 dir_6)
                 }
             }
             float3 _e46 = d_1;
-            const float2 _e47 = proxy_exit(b_8, _e46);
+            const float2 _e47 = proxy_exit(b_9, _e46);
             float3 _e48 = d_1;
-            const float3 _e49 = proxy_fetch(_e47, b_8, _e48);
+            const float3 _e49 = proxy_fetch(_e47, b_9, _e48);
             uint _e50 = s;
             if ((_e50 == 0u)) {
                 plain = _e49;
             }
             float3 _e53 = sum;
-            const float3 _e54 = normalize_or(_e49, dir_6);
+            const float3 _e54 = normalize_or(_e49, dir_7);
             sum = (_e53 + _e54);
         }
     }
@@ -830,7 +870,7 @@ float3 fallback_fetch(float3 b_8, float3 dir_6)
         return _e60;
     }
     float3 _e61 = sum;
-    const float3 _e62 = normalize_or(_e61, dir_6);
+    const float3 _e62 = normalize_or(_e61, dir_7);
     return _e62;
 }
 
@@ -841,22 +881,22 @@ Aim ConstructAim(float3 arg0, float arg1) {
     return ret;
 }
 
-Aim shifted_aim(float2 exit_1, float delta, float3 b_9, float3 dir_7)
+Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_8)
 {
-    bool local_12 = (bool)0;
-    float u = HUGE;
     bool local_13 = (bool)0;
-    float k_2 = (float)0;
+    float u = HUGE;
     bool local_14 = (bool)0;
+    float k_2 = (float)0;
+    bool local_15 = (bool)0;
 
     if (!((exit_1.y == 0.0))) {
-        local_12 = !((exit_1.x < HUGE));
+        local_13 = !((exit_1.x < HUGE));
     } else {
-        local_12 = true;
+        local_13 = true;
     }
-    bool _e15 = local_12;
+    bool _e15 = local_13;
     if (_e15) {
-        const Aim aim_1 = ConstructAim(dir_7, 1.0);
+        const Aim aim_1 = ConstructAim(dir_8, 1.0);
         return aim_1;
     }
     float s_4 = (exit_1.x + delta);
@@ -865,34 +905,34 @@ Aim shifted_aim(float2 exit_1, float delta, float3 b_9, float3 dir_7)
     }
     float _e28 = u;
     float4 _e34 = params.probe;
-    float3 v_10 = ((b_9 + (dir_7 / (_e28).xxx)) - _e34.xyz);
-    const bool _e37 = finite3_(v_10);
+    float3 v_11 = ((b_10 + (dir_8 / (_e28).xxx)) - _e34.xyz);
+    const bool _e37 = finite3_(v_11);
     if (_e37) {
-        local_13 = any((v_10 != (0.0).xxx));
+        local_14 = any((v_11 != (0.0).xxx));
     } else {
-        local_13 = false;
+        local_14 = false;
     }
-    bool _e45 = local_13;
+    bool _e45 = local_14;
     if (_e45) {
         float _e47 = u;
-        k_2 = (length(v_10) * _e47);
+        k_2 = (length(v_11) * _e47);
         float _e50 = k_2;
         const bool _e51 = finite(_e50);
         if (_e51) {
             float _e54 = k_2;
-            local_14 = (_e54 > 0.0);
+            local_15 = (_e54 > 0.0);
         } else {
-            local_14 = false;
+            local_15 = false;
         }
-        bool _e58 = local_14;
+        bool _e58 = local_15;
         if (!(_e58)) {
             k_2 = 1.0;
         }
         float _e61 = k_2;
-        const Aim aim_2 = ConstructAim(v_10, _e61);
+        const Aim aim_2 = ConstructAim(v_11, _e61);
         return aim_2;
     }
-    const Aim aim_3 = ConstructAim(dir_7, 1.0);
+    const Aim aim_3 = ConstructAim(dir_8, 1.0);
     return aim_3;
 }
 
@@ -911,23 +951,23 @@ Cell ConstructCell(int4 arg0, float4 arg1) {
     return ret;
 }
 
-Aim fetch(float3 b_10, float3 dir_8)
+Aim fetch(float3 b_11, float3 dir_9)
 {
     float delta_1 = 0.0;
     bool mapped = false;
     uint corner_2 = 0u;
-    bool local_15 = (bool)0;
+    bool local_16 = (bool)0;
 
     float4 _e4 = params.probe;
-    if (all((b_10 == _e4.xyz))) {
-        const Aim aim_4 = ConstructAim(dir_8, 1.0);
+    if (all((b_11 == _e4.xyz))) {
+        const Aim aim_4 = ConstructAim(dir_9, 1.0);
         return aim_4;
     }
-    const float2 _e10 = oct_encode(dir_8);
+    const float2 _e10 = oct_encode(dir_9);
     const float3 _e11 = cell_size();
     const uint _e16 = blend_mode();
     if ((_e16 == 0u)) {
-        const uint3 _e20 = cell_of(b_10, _e11);
+        const uint3 _e20 = cell_of(b_11, _e11);
         const uint _e21 = cell_index(_e20);
         Cell cell = ConstructCell(asint(cells.Load4(_e21*32+0)), asfloat(cells.Load4(_e21*32+16)));
         if ((cell.tiles.x >= int(0))) {
@@ -936,7 +976,7 @@ Aim fetch(float3 b_10, float3 dir_8)
             mapped = true;
         }
     } else {
-        const Lattice _e32 = lattice(b_10, _e11);
+        const Lattice _e32 = lattice(b_11, _e11);
         uint2 loop_bound_3 = uint2(4294967295u, 4294967295u);
         bool loop_init_3 = true;
         while(true) {
@@ -971,19 +1011,19 @@ Aim fetch(float3 b_10, float3 dir_8)
     bool _e60 = mapped;
     if (!(_e60)) {
         const bool _e64 = relaxation_on();
-        local_15 = _e64;
+        local_16 = _e64;
     } else {
-        local_15 = false;
+        local_16 = false;
     }
-    bool _e66 = local_15;
+    bool _e66 = local_16;
     if (_e66) {
-        const float3 _e67 = fallback_fetch(b_10, dir_8);
+        const float3 _e67 = fallback_fetch(b_11, dir_9);
         const Aim aim_5 = ConstructAim(_e67, -1.0);
         return aim_5;
     }
-    const float2 _e70 = proxy_exit(b_10, dir_8);
+    const float2 _e70 = proxy_exit(b_11, dir_9);
     float _e71 = delta_1;
-    const Aim _e72 = shifted_aim(_e70, _e71, b_10, dir_8);
+    const Aim _e72 = shifted_aim(_e70, _e71, b_11, dir_9);
     const Aim aim_6 = _e72;
     return aim_6;
 }
@@ -996,7 +1036,7 @@ float mip_roughness(uint m)
 
 float lod_of_roughness(float r)
 {
-    bool local_16 = (bool)0;
+    bool local_17 = (bool)0;
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
@@ -1004,11 +1044,11 @@ float lod_of_roughness(float r)
     uint n_9 = params.probe_info.x;
     if (!((n_9 < 2u))) {
         const float _e11 = mip_roughness(0u);
-        local_16 = !((r > _e11));
+        local_17 = !((r > _e11));
     } else {
-        local_16 = true;
+        local_17 = true;
     }
-    bool _e15 = local_16;
+    bool _e15 = local_17;
     if (_e15) {
         return 0.0;
     }
@@ -1052,12 +1092,12 @@ float lod_of_roughness(float r)
     return (float(i_5) + clamp(_e57, 0.0, 1.0));
 }
 
-float distance_ratio(float3 b_11, float3 v_6, float2 uv_6)
+float distance_ratio(float3 b_12, float3 v_6, float2 uv_6)
 {
-    bool local_17 = (bool)0;
     bool local_18 = (bool)0;
     bool local_19 = (bool)0;
     bool local_20 = (bool)0;
+    bool local_21 = (bool)0;
 
     float l_5 = length(v_6);
     float _e8 = params.probe.w;
@@ -1066,38 +1106,38 @@ float distance_ratio(float3 b_11, float3 v_6, float2 uv_6)
     float w_2 = _e13.x;
     if ((l_5 > 0.0)) {
         const bool _e19 = finite(l_5);
-        local_17 = _e19;
-    } else {
-        local_17 = false;
-    }
-    bool _e21 = local_17;
-    if (_e21) {
-        local_18 = (w_2 > 0.0);
+        local_18 = _e19;
     } else {
         local_18 = false;
     }
-    bool _e27 = local_18;
-    if (_e27) {
-        const bool _e30 = finite(w_2);
-        local_19 = _e30;
+    bool _e21 = local_18;
+    if (_e21) {
+        local_19 = (w_2 > 0.0);
     } else {
         local_19 = false;
     }
-    bool _e32 = local_19;
+    bool _e27 = local_19;
+    if (_e27) {
+        const bool _e30 = finite(w_2);
+        local_20 = _e30;
+    } else {
+        local_20 = false;
+    }
+    bool _e32 = local_20;
     if (!(_e32)) {
         return 1.0;
     }
     float d_probe = (1.0 / w_2);
     float4 _e39 = params.probe;
-    float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_11));
+    float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_12));
     float k_7 = (d_probe / d_surface);
     const bool _e47 = finite(k_7);
     if (_e47) {
-        local_20 = (k_7 > 0.0);
+        local_21 = (k_7 > 0.0);
     } else {
-        local_20 = false;
+        local_21 = false;
     }
-    bool _e53 = local_20;
+    bool _e53 = local_21;
     if (_e53) {
         return k_7;
     }
@@ -1116,7 +1156,7 @@ float corrected_roughness(float r_1, float k_in)
 {
     float fr = 0.0;
     float k_4 = 1.0;
-    bool local_21 = (bool)0;
+    bool local_22 = (bool)0;
 
     uint n_10 = params.lut_info.x;
     float last_1 = float((n_10 - 1u));
@@ -1126,11 +1166,11 @@ float corrected_roughness(float r_1, float k_in)
     }
     const bool _e17 = finite(k_in);
     if (_e17) {
-        local_21 = (k_in > 0.0);
+        local_22 = (k_in > 0.0);
     } else {
-        local_21 = false;
+        local_22 = false;
     }
-    bool _e23 = local_21;
+    bool _e23 = local_22;
     if (_e23) {
         k_4 = k_in;
     }
@@ -1147,8 +1187,8 @@ float corrected_roughness(float r_1, float k_in)
     uint i_6 = min(naga_f2u32(_e48), (n_10 - 2u));
     uint j_5 = min(naga_f2u32(fx), (n_10 - 2u));
     float _e57 = fr;
-    float a_2 = (_e57 - float(i_6));
-    float b_19 = (fx - float(j_5));
+    float a_3 = (_e57 - float(i_6));
+    float b_20 = (fx - float(j_5));
     float4 _e67 = roughness_lut.Load(int3(int2(int(j_5), int(i_6)), int(0)));
     float v00_ = _e67.x;
     float4 _e76 = roughness_lut.Load(int3(int2(int((j_5 + 1u)), int(i_6)), int(0)));
@@ -1157,10 +1197,10 @@ float corrected_roughness(float r_1, float k_in)
     float v10_ = _e85.x;
     float4 _e96 = roughness_lut.Load(int3(int2(int((j_5 + 1u)), int((i_6 + 1u))), int(0)));
     float v11_ = _e96.x;
-    return ((((v00_ * (1.0 - b_19)) + (v01_ * b_19)) * (1.0 - a_2)) + (((v10_ * (1.0 - b_19)) + (v11_ * b_19)) * a_2));
+    return ((((v00_ * (1.0 - b_20)) + (v01_ * b_20)) * (1.0 - a_3)) + (((v10_ * (1.0 - b_20)) + (v11_ * b_20)) * a_3));
 }
 
-float3 shade(float3 b_12, Aim aim, float r_2)
+float3 shade(float3 b_13, Aim aim, float r_2)
 {
     float k_5 = (float)0;
 
@@ -1178,7 +1218,7 @@ float3 shade(float3 b_12, Aim aim, float r_2)
     k_5 = aim.k;
     float _e15 = k_5;
     if ((_e15 < 0.0)) {
-        const float _e19 = distance_ratio(b_12, aim.v, _e4);
+        const float _e19 = distance_ratio(b_13, aim.v, _e4);
         k_5 = _e19;
     }
     float _e20 = k_5;
@@ -1199,7 +1239,7 @@ float3 clean(float3 c_4)
 
 float3 specular(float3 position, float3 direction, float roughness)
 {
-    float3 b_13 = (float3)0;
+    float3 b_14 = (float3)0;
     float r_3 = 0.0;
 
     const float4 _e3 = unit_direction(direction);
@@ -1207,17 +1247,17 @@ float3 specular(float3 position, float3 direction, float roughness)
         return (0.0).xxx;
     }
     float4 _e11 = params.probe;
-    b_13 = _e11.xyz;
+    b_14 = _e11.xyz;
     const bool _e14 = finite3_(position);
     if (_e14) {
-        b_13 = position;
+        b_14 = position;
     }
     const bool _e17 = finite(roughness);
     if (_e17) {
         r_3 = clamp(roughness, 0.0, 1.0);
     }
-    float3 _e21 = b_13;
-    float3 _e22 = b_13;
+    float3 _e21 = b_14;
+    float3 _e22 = b_14;
     const Aim _e24 = fetch(_e22, _e3.xyz);
     float _e25 = r_3;
     const float3 _e26 = shade(_e21, _e24, _e25);
@@ -1241,7 +1281,7 @@ float3 irradiance(float3 position_1, float3 normal)
     float wsum = 0.0;
     uint corner_3 = 0u;
     float w = (float)0;
-    bool local_22 = (bool)0;
+    bool local_23 = (bool)0;
     float k_6 = (float)0;
 
     const float4 _e2 = unit_direction(normal);
@@ -1296,11 +1336,11 @@ float3 irradiance(float3 position_1, float3 normal)
             w = _e42;
             if ((dist > 0.0)) {
                 const bool _e67 = finite(dist);
-                local_22 = _e67;
+                local_23 = _e67;
             } else {
-                local_22 = false;
+                local_23 = false;
             }
-            bool _e69 = local_22;
+            bool _e69 = local_23;
             if (_e69) {
                 float3 u_1 = (to_point / (dist).xxx);
                 float facing = ((dot(n_11, -(u_1)) + 1.0) * 0.5);
@@ -1351,17 +1391,17 @@ float3 irradiance(float3 position_1, float3 normal)
 
 float2 hemi_encode(float3 v_7)
 {
-    bool local_23 = (bool)0;
+    bool local_24 = (bool)0;
 
     float z = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         const bool _e14 = finite(l1_1);
-        local_23 = _e14;
+        local_24 = _e14;
     } else {
-        local_23 = false;
+        local_24 = false;
     }
-    bool _e16 = local_23;
+    bool _e16 = local_24;
     if (!(_e16)) {
         return float2(0.5, 0.5);
     }
@@ -1439,34 +1479,34 @@ float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_7)
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_3, uint j_3, float3 b_14, float3 local_24, SurfaceTaps shared_taps)
+SurfaceTaps surface_warped_taps(uint i_3, uint j_3, float3 b_15, float3 local_25, SurfaceTaps shared_taps)
 {
-    bool local_25 = (bool)0;
     bool local_26 = (bool)0;
+    bool local_27 = (bool)0;
 
     SurfaceParams sp = surface_params;
     float s_5 = ((float(i_3) + 0.5) / float(sp.shape.x));
-    float t_11 = ((float(j_3) + 0.5) / float(sp.shape.y));
-    float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_5)) + (sp.edge_v.xyz * t_11)) + (sp.normal.xyz * sp.corner.w));
-    float3 d_3 = (probe - b_14);
-    float3 ab_1 = float3(dot(d_3, sp.tangent.xyz), dot(d_3, sp.bitangent.xyz), dot(d_3, sp.normal.xyz));
+    float t_12 = ((float(j_3) + 0.5) / float(sp.shape.y));
+    float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_5)) + (sp.edge_v.xyz * t_12)) + (sp.normal.xyz * sp.corner.w));
+    float3 d_3 = (probe - b_15);
+    float3 ab_2 = float3(dot(d_3, sp.tangent.xyz), dot(d_3, sp.bitangent.xyz), dot(d_3, sp.normal.xyz));
     const float _e48 = surface_tile_inv_distance(i_3, j_3, shared_taps);
-    float3 v_11 = ((local_24 * max(((dot(local_24, ab_1) * _e48) + 1.0), 0.0)) - (ab_1 * _e48));
+    float3 v_12 = ((local_25 * max(((dot(local_25, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
     if ((_e48 > 0.0)) {
-        const bool _e62 = finite3_(v_11);
-        local_25 = _e62;
-    } else {
-        local_25 = false;
-    }
-    bool _e64 = local_25;
-    if (_e64) {
-        local_26 = (dot(v_11, v_11) > 0.0);
+        const bool _e62 = finite3_(v_12);
+        local_26 = _e62;
     } else {
         local_26 = false;
     }
-    bool _e71 = local_26;
+    bool _e64 = local_26;
+    if (_e64) {
+        local_27 = (dot(v_12, v_12) > 0.0);
+    } else {
+        local_27 = false;
+    }
+    bool _e71 = local_27;
     if (_e71) {
-        const float2 _e72 = hemi_encode(v_11);
+        const float2 _e72 = hemi_encode(v_12);
         const SurfaceTaps _e73 = surface_taps(_e72);
         const SurfaceTaps surfacetaps_1 = _e73;
         return surfacetaps_1;
@@ -1487,7 +1527,7 @@ float3 surface_probe(uint i_4, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, fl
 
 float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped)
 {
-    float3 b_15 = (float3)0;
+    float3 b_16 = (float3)0;
     float lod_2 = 0.0;
     SurfaceTaps t00_ = (SurfaceTaps)0;
     SurfaceTaps t10_ = (SurfaceTaps)0;
@@ -1499,12 +1539,12 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
         return (0.0).xxx;
     }
     SurfaceParams sp_1 = surface_params;
-    b_15 = sp_1.corner.xyz;
+    b_16 = sp_1.corner.xyz;
     const bool _e15 = finite3_(b_in);
     if (_e15) {
-        b_15 = b_in;
+        b_16 = b_in;
     }
-    float3 _e16 = b_15;
+    float3 _e16 = b_16;
     float3 d_4 = (_e16 - sp_1.corner.xyz);
     const SurfaceAxis _e25 = surface_axis(dot(sp_1.dual_u.xyz, d_4), sp_1.shape.x);
     const SurfaceAxis _e31 = surface_axis(dot(sp_1.dual_v.xyz, d_4), sp_1.shape.y);
@@ -1518,26 +1558,26 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     uint m1_1 = min((m0_1 + 1u), last_2);
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
-    float3 dir_11 = _e4.xyz;
-    float3 local_27 = float3(dot(dir_11, sp_1.tangent.xyz), dot(dir_11, sp_1.bitangent.xyz), dot(dir_11, sp_1.normal.xyz));
-    const float2 _e64 = hemi_encode(local_27);
+    float3 dir_12 = _e4.xyz;
+    float3 local_28 = float3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
+    const float2 _e64 = hemi_encode(local_28);
     const SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
     t01_ = _e65;
     t11_ = _e65;
     if (warped) {
-        float3 _e72 = b_15;
-        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_27, _e65);
+        float3 _e72 = b_16;
+        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_28, _e65);
         t00_ = _e73;
-        float3 _e76 = b_15;
-        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_27, _e65);
+        float3 _e76 = b_16;
+        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_28, _e65);
         t10_ = _e77;
-        float3 _e80 = b_15;
-        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_27, _e65);
+        float3 _e80 = b_16;
+        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_28, _e65);
         t01_ = _e81;
-        float3 _e84 = b_15;
-        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_27, _e65);
+        float3 _e84 = b_16;
+        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_28, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;
@@ -1558,15 +1598,15 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     return (0.0).xxx;
 }
 
-float3 surface_specular(float3 b_16, float3 dir_9, float roughness_2)
+float3 surface_specular(float3 b_17, float3 dir_10, float roughness_2)
 {
-    const float3 _e4 = surface_lookup(b_16, dir_9, roughness_2, false);
+    const float3 _e4 = surface_lookup(b_17, dir_10, roughness_2, false);
     return _e4;
 }
 
-float3 surface_specular_warped(float3 b_17, float3 dir_10, float roughness_3)
+float3 surface_specular_warped(float3 b_18, float3 dir_11, float roughness_3)
 {
-    const float3 _e4 = surface_lookup(b_17, dir_10, roughness_3, true);
+    const float3 _e4 = surface_lookup(b_18, dir_11, roughness_3, true);
     return _e4;
 }
 

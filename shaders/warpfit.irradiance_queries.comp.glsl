@@ -398,7 +398,7 @@ uvec3 corner_cell(Lattice l_1, uint corner_1) {
     return min((l_1.base + o_1), (_e17.xyz - uvec3(1u)));
 }
 
-vec2 box_exit(vec3 b_3, vec3 dir_1) {
+vec2 box_exit(vec3 b_4, vec3 dir_2) {
     float t_3 = HUGE;
     int k = 0;
     vec4 _e4 = _group_0_binding_7_cs.box_x;
@@ -408,11 +408,11 @@ vec2 box_exit(vec3 b_3, vec3 dir_1) {
     vec4 _e17 = _group_0_binding_7_cs.box_half;
     vec3 h = _e17.xyz;
     vec4 _e21 = _group_0_binding_7_cs.box_centre;
-    vec3 o_2 = (m_2 * (b_3 - _e21.xyz));
+    vec3 o_2 = (m_2 * (b_4 - _e21.xyz));
     if (any(greaterThan(abs(o_2), h))) {
         return vec2(0.0, 0.0);
     }
-    vec3 d_2 = (m_2 * dir_1);
+    vec3 d_2 = (m_2 * dir_2);
     bool loop_init = true;
     while(true) {
         if (!loop_init) {
@@ -447,7 +447,7 @@ vec2 box_exit(vec3 b_3, vec3 dir_1) {
     return vec2(max(_e71, 0.0), 1.0);
 }
 
-vec2 kdop_exit(vec3 b_4, vec3 dir_2) {
+vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
     float t_4 = HUGE;
     uint k_1 = 0u;
     bool loop_init_1 = true;
@@ -473,11 +473,11 @@ vec2 kdop_exit(vec3 b_4, vec3 dir_2) {
             vec3 n_7 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e27].w;
-            float nb = dot(n_7, b_4);
+            float nb = dot(n_7, b_5);
             if ((nb > h_1)) {
                 return vec2(0.0, 0.0);
             }
-            float nd = dot(n_7, dir_2);
+            float nd = dot(n_7, dir_3);
             if ((nd > 0.0)) {
                 float _e39 = t_4;
                 t_4 = min(_e39, ((h_1 - nb) / nd));
@@ -488,150 +488,65 @@ vec2 kdop_exit(vec3 b_4, vec3 dir_2) {
     return vec2(_e46, 1.0);
 }
 
-vec2 proxy_exit(vec3 b_5, vec3 dir_3) {
-    uint _e2 = fallback_method();
-    if ((_e2 == 2u)) {
-        vec2 _e5 = kdop_exit(b_5, dir_3);
-        return _e5;
-    }
-    vec2 _e6 = box_exit(b_5, dir_3);
-    return _e6;
-}
-
-vec3 proxy_fetch(vec2 exit, vec3 b_6, vec3 dir_4) {
-    bool local_10 = false;
+vec3 proxy_fetch(vec2 exit, vec3 b_7, vec3 dir_5) {
+    bool local_11 = false;
     if (!((exit.y == 0.0))) {
-        local_10 = !((exit.x < HUGE));
+        local_11 = !((exit.x < HUGE));
     } else {
-        local_10 = true;
+        local_11 = true;
     }
-    bool _e14 = local_10;
+    bool _e14 = local_11;
     if (_e14) {
-        return dir_4;
+        return dir_5;
     }
     vec4 _e17 = _group_0_binding_7_cs.probe;
-    vec3 _e22 = fetch_vector(_e17.xyz, (b_6 + (dir_4 * exit.x)), dir_4);
+    vec3 _e22 = fetch_vector(_e17.xyz, (b_7 + (dir_5 * exit.x)), dir_5);
     return _e22;
 }
 
-vec3 box_fetch(vec3 b_7, vec3 dir_5) {
-    vec2 _e2 = box_exit(b_7, dir_5);
-    vec3 _e3 = proxy_fetch(_e2, b_7, dir_5);
+vec3 box_fetch(vec3 b_8, vec3 dir_6) {
+    vec2 _e2 = box_exit(b_8, dir_6);
+    vec3 _e3 = proxy_fetch(_e2, b_8, dir_6);
     return _e3;
 }
 
 Basis orthonormal_basis(vec3 n_3) {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a = (-1.0 / (s_3 + n_3.z));
-    float b_18 = ((n_3.x * n_3.y) * a);
-    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a)), (s_3 * b_18), (-(s_3) * n_3.x)), vec3(b_18, (s_3 + ((n_3.y * n_3.y) * a)), -(n_3.y)));
+    float b_19 = ((n_3.x * n_3.y) * a);
+    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a)), (s_3 * b_19), (-(s_3) * n_3.x)), vec3(b_19, (s_3 + ((n_3.y * n_3.y) * a)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
-    bool local_11 = false;
+    bool local_12 = false;
     float l_3 = length(v_5);
     if ((l_3 > 0.0)) {
         bool _e7 = finite(l_3);
-        local_11 = _e7;
+        local_12 = _e7;
     } else {
-        local_11 = false;
+        local_12 = false;
     }
-    bool _e9 = local_11;
+    bool _e9 = local_12;
     if (_e9) {
         return (v_5 / vec3(l_3));
     }
     return fallback_1;
 }
 
-vec3 fallback_fetch(vec3 b_8, vec3 dir_6) {
-    vec3 plain = vec3(0.0);
-    vec3 sum = vec3(0.0);
-    uint s = 0u;
-    vec3 d_1 = vec3(0.0);
-    vec4 _e4 = _group_0_binding_7_cs.probe;
-    if (all(equal(b_8, _e4.xyz))) {
-        return dir_6;
-    }
-    float relax = _group_0_binding_7_cs.warp.x;
-    bool _e12 = relaxation_on();
-    float _e18 = _group_0_binding_7_cs.warp.y;
-    float angle = ((relax * 3.5449078) / _e18);
-    Basis _e20 = orthonormal_basis(dir_6);
-    vec3 t_9 = (_e20.t * angle);
-    vec3 bt = (_e20.b * angle);
-    plain = dir_6;
-    bool loop_init_2 = true;
-    while(true) {
-        if (!loop_init_2) {
-            uint _e57 = s;
-            s = (_e57 + 1u);
-        }
-        loop_init_2 = false;
-        uint _e31 = s;
-        if ((_e31 < (_e12 ? 5u : 1u))) {
-        } else {
-            break;
-        }
-        {
-            d_1 = dir_6;
-            uint _e37 = s;
-            switch(_e37) {
-                case 1u: {
-                    d_1 = normalize((dir_6 + t_9));
-                    break;
-                }
-                case 2u: {
-                    d_1 = normalize((dir_6 - t_9));
-                    break;
-                }
-                case 3u: {
-                    d_1 = normalize((dir_6 + bt));
-                    break;
-                }
-                case 4u: {
-                    d_1 = normalize((dir_6 - bt));
-                    break;
-                }
-                default: {
-                    break;
-                }
-            }
-            vec3 _e46 = d_1;
-            vec2 _e47 = proxy_exit(b_8, _e46);
-            vec3 _e48 = d_1;
-            vec3 _e49 = proxy_fetch(_e47, b_8, _e48);
-            uint _e50 = s;
-            if ((_e50 == 0u)) {
-                plain = _e49;
-            }
-            vec3 _e53 = sum;
-            vec3 _e54 = normalize_or(_e49, dir_6);
-            sum = (_e53 + _e54);
-        }
-    }
-    if (!(_e12)) {
-        vec3 _e60 = plain;
-        return _e60;
-    }
-    vec3 _e61 = sum;
-    vec3 _e62 = normalize_or(_e61, dir_6);
-    return _e62;
-}
-
-Aim shifted_aim(vec2 exit_1, float delta, vec3 b_9, vec3 dir_7) {
-    bool local_12 = false;
-    float u = HUGE;
+Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8) {
     bool local_13 = false;
-    float k_2 = 0.0;
+    float u = HUGE;
     bool local_14 = false;
+    float k_2 = 0.0;
+    bool local_15 = false;
     if (!((exit_1.y == 0.0))) {
-        local_12 = !((exit_1.x < HUGE));
+        local_13 = !((exit_1.x < HUGE));
     } else {
-        local_12 = true;
+        local_13 = true;
     }
-    bool _e15 = local_12;
+    bool _e15 = local_13;
     if (_e15) {
-        return Aim(dir_7, 1.0);
+        return Aim(dir_8, 1.0);
     }
     float s_4 = (exit_1.x + delta);
     if ((s_4 > 0.0)) {
@@ -639,14 +554,14 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_9, vec3 dir_7) {
     }
     float _e28 = u;
     vec4 _e34 = _group_0_binding_7_cs.probe;
-    vec3 v_9 = ((b_9 + (dir_7 / vec3(_e28))) - _e34.xyz);
+    vec3 v_9 = ((b_10 + (dir_8 / vec3(_e28))) - _e34.xyz);
     bool _e37 = finite3_(v_9);
     if (_e37) {
-        local_13 = any(notEqual(v_9, vec3(0.0)));
+        local_14 = any(notEqual(v_9, vec3(0.0)));
     } else {
-        local_13 = false;
+        local_14 = false;
     }
-    bool _e45 = local_13;
+    bool _e45 = local_14;
     if (_e45) {
         float _e47 = u;
         k_2 = (length(v_9) * _e47);
@@ -654,18 +569,18 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_9, vec3 dir_7) {
         bool _e51 = finite(_e50);
         if (_e51) {
             float _e54 = k_2;
-            local_14 = (_e54 > 0.0);
+            local_15 = (_e54 > 0.0);
         } else {
-            local_14 = false;
+            local_15 = false;
         }
-        bool _e58 = local_14;
+        bool _e58 = local_15;
         if (!(_e58)) {
             k_2 = 1.0;
         }
         float _e61 = k_2;
         return Aim(v_9, _e61);
     }
-    return Aim(dir_7, 1.0);
+    return Aim(dir_8, 1.0);
 }
 
 float map_delta(int tile_1, vec2 uv_5) {
@@ -675,93 +590,24 @@ float map_delta(int tile_1, vec2 uv_5) {
     return _e11.x;
 }
 
-Aim fetch(vec3 b_10, vec3 dir_8) {
-    float delta_1 = 0.0;
-    bool mapped = false;
-    uint corner_2 = 0u;
-    bool local_15 = false;
-    vec4 _e4 = _group_0_binding_7_cs.probe;
-    if (all(equal(b_10, _e4.xyz))) {
-        return Aim(dir_8, 1.0);
-    }
-    vec2 _e10 = oct_encode(dir_8);
-    vec3 _e11 = cell_size();
-    uint _e16 = blend_mode();
-    if ((_e16 == 0u)) {
-        uvec3 _e20 = cell_of(b_10, _e11);
-        uint _e21 = cell_index(_e20);
-        Cell cell = _group_0_binding_8_cs[_e21];
-        if ((cell.tiles.x >= 0)) {
-            float _e30 = map_delta(cell.tiles.x, _e10);
-            delta_1 = _e30;
-            mapped = true;
-        }
-    } else {
-        Lattice _e32 = lattice(b_10, _e11);
-        bool loop_init_3 = true;
-        while(true) {
-            if (!loop_init_3) {
-                uint _e58 = corner_2;
-                corner_2 = (_e58 + 1u);
-            }
-            loop_init_3 = false;
-            uint _e35 = corner_2;
-            if ((_e35 < 8u)) {
-            } else {
-                break;
-            }
-            {
-                uint _e39 = corner_2;
-                uvec3 _e40 = corner_cell(_e32, _e39);
-                uint _e41 = cell_index(_e40);
-                Cell cell_1 = _group_0_binding_8_cs[_e41];
-                if ((cell_1.tiles.x >= 0)) {
-                    float _e48 = delta_1;
-                    uint _e49 = corner_2;
-                    float _e50 = corner_weight(_e32, _e49);
-                    float _e53 = map_delta(cell_1.tiles.x, _e10);
-                    delta_1 = (_e48 + (_e50 * _e53));
-                    mapped = true;
-                }
-            }
-        }
-    }
-    bool _e60 = mapped;
-    if (!(_e60)) {
-        bool _e64 = relaxation_on();
-        local_15 = _e64;
-    } else {
-        local_15 = false;
-    }
-    bool _e66 = local_15;
-    if (_e66) {
-        vec3 _e67 = fallback_fetch(b_10, dir_8);
-        return Aim(_e67, -1.0);
-    }
-    vec2 _e70 = proxy_exit(b_10, dir_8);
-    float _e71 = delta_1;
-    Aim _e72 = shifted_aim(_e70, _e71, b_10, dir_8);
-    return _e72;
-}
-
 float mip_roughness(uint m) {
     float _e9 = _group_0_binding_7_cs.mip_roughness[(m / 4u)][(m % 4u)];
     return _e9;
 }
 
 float lod_of_roughness(float r) {
-    bool local_16 = false;
+    bool local_17 = false;
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
     uint n_8 = _group_0_binding_7_cs.probe_info.x;
     if (!((n_8 < 2u))) {
         float _e11 = mip_roughness(0u);
-        local_16 = !((r > _e11));
+        local_17 = !((r > _e11));
     } else {
-        local_16 = true;
+        local_17 = true;
     }
-    bool _e15 = local_16;
+    bool _e15 = local_17;
     if (_e15) {
         return 0.0;
     }
@@ -770,13 +616,13 @@ float lod_of_roughness(float r) {
     if ((r >= _e19)) {
         return float(last);
     }
-    bool loop_init_4 = true;
+    bool loop_init_2 = true;
     while(true) {
-        if (!loop_init_4) {
+        if (!loop_init_2) {
             uint _e37 = t_5;
             t_5 = (_e37 + 1u);
         }
-        loop_init_4 = false;
+        loop_init_2 = false;
         uint _e26 = t_5;
         if ((_e26 < n_8)) {
         } else {
@@ -831,7 +677,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     float wsum = 0.0;
     uint corner_3 = 0u;
     float w = 0.0;
-    bool local_22 = false;
+    bool local_23 = false;
     float k_6 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
@@ -850,13 +696,13 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     vec3 _e28 = p_3;
     Lattice _e29 = lattice(_e28, _e9);
     vec2 _e30 = oct_encode(n_9);
-    bool loop_init_5 = true;
+    bool loop_init_3 = true;
     while(true) {
-        if (!loop_init_5) {
+        if (!loop_init_3) {
             uint _e152 = corner_3;
             corner_3 = (_e152 + 1u);
         }
-        loop_init_5 = false;
+        loop_init_3 = false;
         uint _e38 = corner_3;
         if ((_e38 < 8u)) {
         } else {
@@ -871,22 +717,22 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             uint _e45 = corner_3;
             uvec3 _e46 = corner_cell(_e29, _e45);
             uint _e48 = cell_index(_e46);
-            Cell cell_2 = _group_0_binding_8_cs[_e48];
-            if ((cell_2.tiles.y < 0)) {
+            Cell cell = _group_0_binding_8_cs[_e48];
+            if ((cell.tiles.y < 0)) {
                 continue;
             }
             vec3 _e55 = p_3;
             vec3 _e56 = cell_centre(_e46, _e9);
-            vec3 to_point = (_e55 - (_e56 + cell_2.offset.xyz));
+            vec3 to_point = (_e55 - (_e56 + cell.offset.xyz));
             float dist = length(to_point);
             w = _e42;
             if ((dist > 0.0)) {
                 bool _e67 = finite(dist);
-                local_22 = _e67;
+                local_23 = _e67;
             } else {
-                local_22 = false;
+                local_23 = false;
             }
-            bool _e69 = local_22;
+            bool _e69 = local_23;
             if (_e69) {
                 vec3 u_1 = (to_point / vec3(dist));
                 float facing = ((dot(n_9, -(u_1)) + 1.0) * 0.5);
@@ -895,7 +741,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                 uint _e89 = _group_0_binding_7_cs.atlas_b.x;
                 uint _e93 = _group_0_binding_7_cs.atlas_b.y;
                 vec2 _e94 = oct_encode(u_1);
-                vec4 _e95 = atlas_bilinear(ATLAS_MOMENTS, cell_2.tiles.y, _e89, _e93, _e94);
+                vec4 _e95 = atlas_bilinear(ATLAS_MOMENTS, cell.tiles.y, _e89, _e93, _e94);
                 float mean = _e95.x;
                 float mean_sq = _e95.y;
                 if ((dist > mean)) {
@@ -909,14 +755,14 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             float _e116 = w;
             w = max(_e116, (1e-6 * _e42));
             k_6 = 1.0;
-            if ((cell_2.tiles.z >= 0)) {
+            if ((cell.tiles.z >= 0)) {
                 uint _e132 = _group_0_binding_7_cs.atlas_b.z;
                 uint _e136 = _group_0_binding_7_cs.atlas_b.w;
-                vec4 _e137 = atlas_bilinear(ATLAS_SCALE, cell_2.tiles.z, _e132, _e136, _e30);
+                vec4 _e137 = atlas_bilinear(ATLAS_SCALE, cell.tiles.z, _e132, _e136, _e30);
                 k_6 = _e137.x;
             }
             vec3 _e139 = e;
-            vec3 _e142 = cell_irradiance(cell_2.tiles.y, n_9);
+            vec3 _e142 = cell_irradiance(cell.tiles.y, n_9);
             float _e143 = w;
             float _e145 = k_6;
             e = (_e139 + ((_e142 * _e143) * _e145));
@@ -936,16 +782,16 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_23 = false;
+    bool local_24 = false;
     float z = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_23 = _e14;
+        local_24 = _e14;
     } else {
-        local_23 = false;
+        local_24 = false;
     }
-    bool _e16 = local_23;
+    bool _e16 = local_24;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }

@@ -274,20 +274,20 @@ float corner_weight(Lattice l, uint corner) {
 Basis orthonormal_basis(vec3 n_3) {
     float s_2 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a = (-1.0 / (s_2 + n_3.z));
-    float b_18 = ((n_3.x * n_3.y) * a);
-    return Basis(vec3((1.0 + (((s_2 * n_3.x) * n_3.x) * a)), (s_2 * b_18), (-(s_2) * n_3.x)), vec3(b_18, (s_2 + ((n_3.y * n_3.y) * a)), -(n_3.y)));
+    float b_19 = ((n_3.x * n_3.y) * a);
+    return Basis(vec3((1.0 + (((s_2 * n_3.x) * n_3.x) * a)), (s_2 * b_19), (-(s_2) * n_3.x)), vec3(b_19, (s_2 + ((n_3.y * n_3.y) * a)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
-    bool local_11 = false;
+    bool local_12 = false;
     float l_3 = length(v_5);
     if ((l_3 > 0.0)) {
         bool _e7 = finite(l_3);
-        local_11 = _e7;
+        local_12 = _e7;
     } else {
-        local_11 = false;
+        local_12 = false;
     }
-    bool _e9 = local_11;
+    bool _e9 = local_12;
     if (_e9) {
         return (v_5 / vec3(l_3));
     }
@@ -310,16 +310,16 @@ vec3 clean(vec3 c_4) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_23 = false;
+    bool local_24 = false;
     float z = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_23 = _e14;
+        local_24 = _e14;
     } else {
-        local_23 = false;
+        local_24 = false;
     }
-    bool _e16 = local_23;
+    bool _e16 = local_24;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -374,30 +374,30 @@ float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_7) {
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_3, uint j_3, vec3 b_14, vec3 local_24, SurfaceTaps shared_taps) {
-    bool local_25 = false;
+SurfaceTaps surface_warped_taps(uint i_3, uint j_3, vec3 b_15, vec3 local_25, SurfaceTaps shared_taps) {
     bool local_26 = false;
+    bool local_27 = false;
     SurfaceParams sp = _group_2_binding_1_cs;
     float s_3 = ((float(i_3) + 0.5) / float(sp.shape.x));
     float t_9 = ((float(j_3) + 0.5) / float(sp.shape.y));
     vec3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_3)) + (sp.edge_v.xyz * t_9)) + (sp.normal.xyz * sp.corner.w));
-    vec3 d_2 = (probe - b_14);
+    vec3 d_2 = (probe - b_15);
     vec3 ab = vec3(dot(d_2, sp.tangent.xyz), dot(d_2, sp.bitangent.xyz), dot(d_2, sp.normal.xyz));
     float _e48 = surface_tile_inv_distance(i_3, j_3, shared_taps);
-    vec3 v_9 = ((local_24 * max(((dot(local_24, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
+    vec3 v_9 = ((local_25 * max(((dot(local_25, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
     if ((_e48 > 0.0)) {
         bool _e62 = finite3_(v_9);
-        local_25 = _e62;
-    } else {
-        local_25 = false;
-    }
-    bool _e64 = local_25;
-    if (_e64) {
-        local_26 = (dot(v_9, v_9) > 0.0);
+        local_26 = _e62;
     } else {
         local_26 = false;
     }
-    bool _e71 = local_26;
+    bool _e64 = local_26;
+    if (_e64) {
+        local_27 = (dot(v_9, v_9) > 0.0);
+    } else {
+        local_27 = false;
+    }
+    bool _e71 = local_27;
     if (_e71) {
         vec2 _e72 = hemi_encode(v_9);
         SurfaceTaps _e73 = surface_taps(_e72);
@@ -416,7 +416,7 @@ vec3 surface_probe(uint i_4, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, floa
 }
 
 vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
-    vec3 b_15 = vec3(0.0);
+    vec3 b_16 = vec3(0.0);
     float lod_2 = 0.0;
     SurfaceTaps t00_ = SurfaceTaps(uvec2(0u), uvec2(0u), vec2(0.0));
     SurfaceTaps t10_ = SurfaceTaps(uvec2(0u), uvec2(0u), vec2(0.0));
@@ -427,12 +427,12 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
         return vec3(0.0);
     }
     SurfaceParams sp_1 = _group_2_binding_1_cs;
-    b_15 = sp_1.corner.xyz;
+    b_16 = sp_1.corner.xyz;
     bool _e15 = finite3_(b_in);
     if (_e15) {
-        b_15 = b_in;
+        b_16 = b_in;
     }
-    vec3 _e16 = b_15;
+    vec3 _e16 = b_16;
     vec3 d_3 = (_e16 - sp_1.corner.xyz);
     SurfaceAxis _e25 = surface_axis(dot(sp_1.dual_u.xyz, d_3), sp_1.shape.x);
     SurfaceAxis _e31 = surface_axis(dot(sp_1.dual_v.xyz, d_3), sp_1.shape.y);
@@ -446,26 +446,26 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     uint m1_1 = min((m0_1 + 1u), last);
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
-    vec3 dir_11 = _e4.xyz;
-    vec3 local_27 = vec3(dot(dir_11, sp_1.tangent.xyz), dot(dir_11, sp_1.bitangent.xyz), dot(dir_11, sp_1.normal.xyz));
-    vec2 _e64 = hemi_encode(local_27);
+    vec3 dir_12 = _e4.xyz;
+    vec3 local_28 = vec3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
+    vec2 _e64 = hemi_encode(local_28);
     SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
     t01_ = _e65;
     t11_ = _e65;
     if (warped) {
-        vec3 _e72 = b_15;
-        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_27, _e65);
+        vec3 _e72 = b_16;
+        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_28, _e65);
         t00_ = _e73;
-        vec3 _e76 = b_15;
-        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_27, _e65);
+        vec3 _e76 = b_16;
+        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_28, _e65);
         t10_ = _e77;
-        vec3 _e80 = b_15;
-        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_27, _e65);
+        vec3 _e80 = b_16;
+        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_28, _e65);
         t01_ = _e81;
-        vec3 _e84 = b_15;
-        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_27, _e65);
+        vec3 _e84 = b_16;
+        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_28, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;
@@ -486,13 +486,13 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     return vec3(0.0);
 }
 
-vec3 surface_specular(vec3 b_16, vec3 dir_9, float roughness_2) {
-    vec3 _e4 = surface_lookup(b_16, dir_9, roughness_2, false);
+vec3 surface_specular(vec3 b_17, vec3 dir_10, float roughness_2) {
+    vec3 _e4 = surface_lookup(b_17, dir_10, roughness_2, false);
     return _e4;
 }
 
-vec3 surface_specular_warped(vec3 b_17, vec3 dir_10, float roughness_3) {
-    vec3 _e4 = surface_lookup(b_17, dir_10, roughness_3, true);
+vec3 surface_specular_warped(vec3 b_18, vec3 dir_11, float roughness_3) {
+    vec3 _e4 = surface_lookup(b_18, dir_11, roughness_3, true);
     return _e4;
 }
 

@@ -440,28 +440,58 @@ uvec3 corner_cell(Lattice l_1, uint corner_1) {
     return min((l_1.base + o_1), (_e17.xyz - uvec3(1u)));
 }
 
-vec3 warp1_(vec3 b_2, vec3 dir) {
+vec2 warp1_exit(vec3 b_2, vec3 dir) {
+    bool local_10 = false;
     vec4 _e4 = _group_0_binding_7_cs.probe;
     vec3 a = _e4.xyz;
     float _e6 = inv_dist(dir);
     if ((_e6 == 0.0)) {
-        return dir;
+        return vec2(1e30, 1.0);
     }
     vec3 ab = (a - b_2);
     float dir_ab = dot(dir, ab);
     vec3 v_9 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
-    float _e20 = inv_dist(v_9);
-    float lambda = (length(v_9) * _e20);
-    float t_9 = max(((dir_ab * lambda) + dot(dir, v_9)), 0.0);
-    vec3 f_5 = ((dir * t_9) - (ab * lambda));
-    if ((lambda > 0.0)) {
-        vec3 _e34 = fetch_vector(vec3(0.0), f_5, dir);
-        return _e34;
+    float _e23 = inv_dist(v_9);
+    float lambda = (length(v_9) * _e23);
+    if (!((lambda > 0.0))) {
+        return vec2(1e30, 1.0);
     }
-    return dir;
+    float t_9 = (max(((dir_ab * lambda) + dot(dir, v_9)), 0.0) / lambda);
+    bool _e37 = finite(t_9);
+    if (_e37) {
+        local_10 = (t_9 < HUGE);
+    } else {
+        local_10 = false;
+    }
+    bool _e43 = local_10;
+    if (!(_e43)) {
+        return vec2(1e30, 1.0);
+    }
+    return vec2(t_9, 1.0);
 }
 
-vec2 box_exit(vec3 b_3, vec3 dir_1) {
+vec3 warp1_(vec3 b_3, vec3 dir_1) {
+    vec4 _e4 = _group_0_binding_7_cs.probe;
+    vec3 a_1 = _e4.xyz;
+    float _e6 = inv_dist(dir_1);
+    if ((_e6 == 0.0)) {
+        return dir_1;
+    }
+    vec3 ab_1 = (a_1 - b_3);
+    float dir_ab_1 = dot(dir_1, ab_1);
+    vec3 v_10 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
+    float _e20 = inv_dist(v_10);
+    float lambda_1 = (length(v_10) * _e20);
+    float t_10 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_10)), 0.0);
+    vec3 f_5 = ((dir_1 * t_10) - (ab_1 * lambda_1));
+    if ((lambda_1 > 0.0)) {
+        vec3 _e34 = fetch_vector(vec3(0.0), f_5, dir_1);
+        return _e34;
+    }
+    return dir_1;
+}
+
+vec2 box_exit(vec3 b_4, vec3 dir_2) {
     float t_3 = HUGE;
     int k = 0;
     vec4 _e4 = _group_0_binding_7_cs.box_x;
@@ -471,11 +501,11 @@ vec2 box_exit(vec3 b_3, vec3 dir_1) {
     vec4 _e17 = _group_0_binding_7_cs.box_half;
     vec3 h = _e17.xyz;
     vec4 _e21 = _group_0_binding_7_cs.box_centre;
-    vec3 o_2 = (m_2 * (b_3 - _e21.xyz));
+    vec3 o_2 = (m_2 * (b_4 - _e21.xyz));
     if (any(greaterThan(abs(o_2), h))) {
         return vec2(0.0, 0.0);
     }
-    vec3 d_2 = (m_2 * dir_1);
+    vec3 d_2 = (m_2 * dir_2);
     bool loop_init = true;
     while(true) {
         if (!loop_init) {
@@ -510,7 +540,7 @@ vec2 box_exit(vec3 b_3, vec3 dir_1) {
     return vec2(max(_e71, 0.0), 1.0);
 }
 
-vec2 kdop_exit(vec3 b_4, vec3 dir_2) {
+vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
     float t_4 = HUGE;
     uint k_1 = 0u;
     bool loop_init_1 = true;
@@ -536,11 +566,11 @@ vec2 kdop_exit(vec3 b_4, vec3 dir_2) {
             vec3 n_8 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e27].w;
-            float nb = dot(n_8, b_4);
+            float nb = dot(n_8, b_5);
             if ((nb > h_1)) {
                 return vec2(0.0, 0.0);
             }
-            float nd = dot(n_8, dir_2);
+            float nd = dot(n_8, dir_3);
             if ((nd > 0.0)) {
                 float _e39 = t_4;
                 t_4 = min(_e39, ((h_1 - nb) / nd));
@@ -551,78 +581,86 @@ vec2 kdop_exit(vec3 b_4, vec3 dir_2) {
     return vec2(_e46, 1.0);
 }
 
-vec2 proxy_exit(vec3 b_5, vec3 dir_3) {
+vec2 proxy_exit(vec3 b_6, vec3 dir_4) {
     uint _e2 = fallback_method();
-    if ((_e2 == 2u)) {
-        vec2 _e5 = kdop_exit(b_5, dir_3);
-        return _e5;
+    switch(_e2) {
+        case 0u: {
+            vec2 _e3 = warp1_exit(b_6, dir_4);
+            return _e3;
+        }
+        case 2u: {
+            vec2 _e4 = kdop_exit(b_6, dir_4);
+            return _e4;
+        }
+        default: {
+            vec2 _e5 = box_exit(b_6, dir_4);
+            return _e5;
+        }
     }
-    vec2 _e6 = box_exit(b_5, dir_3);
-    return _e6;
 }
 
-vec3 proxy_fetch(vec2 exit, vec3 b_6, vec3 dir_4) {
-    bool local_10 = false;
+vec3 proxy_fetch(vec2 exit, vec3 b_7, vec3 dir_5) {
+    bool local_11 = false;
     if (!((exit.y == 0.0))) {
-        local_10 = !((exit.x < HUGE));
+        local_11 = !((exit.x < HUGE));
     } else {
-        local_10 = true;
+        local_11 = true;
     }
-    bool _e14 = local_10;
+    bool _e14 = local_11;
     if (_e14) {
-        return dir_4;
+        return dir_5;
     }
     vec4 _e17 = _group_0_binding_7_cs.probe;
-    vec3 _e22 = fetch_vector(_e17.xyz, (b_6 + (dir_4 * exit.x)), dir_4);
+    vec3 _e22 = fetch_vector(_e17.xyz, (b_7 + (dir_5 * exit.x)), dir_5);
     return _e22;
 }
 
-vec3 box_fetch(vec3 b_7, vec3 dir_5) {
-    vec2 _e2 = box_exit(b_7, dir_5);
-    vec3 _e3 = proxy_fetch(_e2, b_7, dir_5);
+vec3 box_fetch(vec3 b_8, vec3 dir_6) {
+    vec2 _e2 = box_exit(b_8, dir_6);
+    vec3 _e3 = proxy_fetch(_e2, b_8, dir_6);
     return _e3;
 }
 
 Basis orthonormal_basis(vec3 n_3) {
     float s_2 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a_1 = (-1.0 / (s_2 + n_3.z));
-    float b_18 = ((n_3.x * n_3.y) * a_1);
-    return Basis(vec3((1.0 + (((s_2 * n_3.x) * n_3.x) * a_1)), (s_2 * b_18), (-(s_2) * n_3.x)), vec3(b_18, (s_2 + ((n_3.y * n_3.y) * a_1)), -(n_3.y)));
+    float a_2 = (-1.0 / (s_2 + n_3.z));
+    float b_19 = ((n_3.x * n_3.y) * a_2);
+    return Basis(vec3((1.0 + (((s_2 * n_3.x) * n_3.x) * a_2)), (s_2 * b_19), (-(s_2) * n_3.x)), vec3(b_19, (s_2 + ((n_3.y * n_3.y) * a_2)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
-    bool local_11 = false;
+    bool local_12 = false;
     float l_4 = length(v_5);
     if ((l_4 > 0.0)) {
         bool _e7 = finite(l_4);
-        local_11 = _e7;
+        local_12 = _e7;
     } else {
-        local_11 = false;
+        local_12 = false;
     }
-    bool _e9 = local_11;
+    bool _e9 = local_12;
     if (_e9) {
         return (v_5 / vec3(l_4));
     }
     return fallback_1;
 }
 
-vec3 fallback_fetch(vec3 b_8, vec3 dir_6) {
+vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
     vec3 plain = vec3(0.0);
     vec3 sum = vec3(0.0);
     uint s = 0u;
     vec3 d_1 = vec3(0.0);
     vec4 _e4 = _group_0_binding_7_cs.probe;
-    if (all(equal(b_8, _e4.xyz))) {
-        return dir_6;
+    if (all(equal(b_9, _e4.xyz))) {
+        return dir_7;
     }
     float relax = _group_0_binding_7_cs.warp.x;
     bool _e12 = relaxation_on();
     float _e18 = _group_0_binding_7_cs.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
-    Basis _e20 = orthonormal_basis(dir_6);
-    vec3 t_10 = (_e20.t * angle);
+    Basis _e20 = orthonormal_basis(dir_7);
+    vec3 t_11 = (_e20.t * angle);
     vec3 bt = (_e20.b * angle);
-    plain = dir_6;
+    plain = dir_7;
     bool loop_init_2 = true;
     while(true) {
         if (!loop_init_2) {
@@ -636,23 +674,23 @@ vec3 fallback_fetch(vec3 b_8, vec3 dir_6) {
             break;
         }
         {
-            d_1 = dir_6;
+            d_1 = dir_7;
             uint _e37 = s;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_6 + t_10));
+                    d_1 = normalize((dir_7 + t_11));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_6 - t_10));
+                    d_1 = normalize((dir_7 - t_11));
                     break;
                 }
                 case 3u: {
-                    d_1 = normalize((dir_6 + bt));
+                    d_1 = normalize((dir_7 + bt));
                     break;
                 }
                 case 4u: {
-                    d_1 = normalize((dir_6 - bt));
+                    d_1 = normalize((dir_7 - bt));
                     break;
                 }
                 default: {
@@ -660,15 +698,15 @@ vec3 fallback_fetch(vec3 b_8, vec3 dir_6) {
                 }
             }
             vec3 _e46 = d_1;
-            vec2 _e47 = proxy_exit(b_8, _e46);
+            vec2 _e47 = proxy_exit(b_9, _e46);
             vec3 _e48 = d_1;
-            vec3 _e49 = proxy_fetch(_e47, b_8, _e48);
+            vec3 _e49 = proxy_fetch(_e47, b_9, _e48);
             uint _e50 = s;
             if ((_e50 == 0u)) {
                 plain = _e49;
             }
             vec3 _e53 = sum;
-            vec3 _e54 = normalize_or(_e49, dir_6);
+            vec3 _e54 = normalize_or(_e49, dir_7);
             sum = (_e53 + _e54);
         }
     }
@@ -677,24 +715,24 @@ vec3 fallback_fetch(vec3 b_8, vec3 dir_6) {
         return _e60;
     }
     vec3 _e61 = sum;
-    vec3 _e62 = normalize_or(_e61, dir_6);
+    vec3 _e62 = normalize_or(_e61, dir_7);
     return _e62;
 }
 
-Aim shifted_aim(vec2 exit_1, float delta, vec3 b_9, vec3 dir_7) {
-    bool local_12 = false;
-    float u = HUGE;
+Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8) {
     bool local_13 = false;
-    float k_2 = 0.0;
+    float u = HUGE;
     bool local_14 = false;
+    float k_2 = 0.0;
+    bool local_15 = false;
     if (!((exit_1.y == 0.0))) {
-        local_12 = !((exit_1.x < HUGE));
+        local_13 = !((exit_1.x < HUGE));
     } else {
-        local_12 = true;
+        local_13 = true;
     }
-    bool _e15 = local_12;
+    bool _e15 = local_13;
     if (_e15) {
-        return Aim(dir_7, 1.0);
+        return Aim(dir_8, 1.0);
     }
     float s_3 = (exit_1.x + delta);
     if ((s_3 > 0.0)) {
@@ -702,33 +740,33 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_9, vec3 dir_7) {
     }
     float _e28 = u;
     vec4 _e34 = _group_0_binding_7_cs.probe;
-    vec3 v_10 = ((b_9 + (dir_7 / vec3(_e28))) - _e34.xyz);
-    bool _e37 = finite3_(v_10);
+    vec3 v_11 = ((b_10 + (dir_8 / vec3(_e28))) - _e34.xyz);
+    bool _e37 = finite3_(v_11);
     if (_e37) {
-        local_13 = any(notEqual(v_10, vec3(0.0)));
+        local_14 = any(notEqual(v_11, vec3(0.0)));
     } else {
-        local_13 = false;
+        local_14 = false;
     }
-    bool _e45 = local_13;
+    bool _e45 = local_14;
     if (_e45) {
         float _e47 = u;
-        k_2 = (length(v_10) * _e47);
+        k_2 = (length(v_11) * _e47);
         float _e50 = k_2;
         bool _e51 = finite(_e50);
         if (_e51) {
             float _e54 = k_2;
-            local_14 = (_e54 > 0.0);
+            local_15 = (_e54 > 0.0);
         } else {
-            local_14 = false;
+            local_15 = false;
         }
-        bool _e58 = local_14;
+        bool _e58 = local_15;
         if (!(_e58)) {
             k_2 = 1.0;
         }
         float _e61 = k_2;
-        return Aim(v_10, _e61);
+        return Aim(v_11, _e61);
     }
-    return Aim(dir_7, 1.0);
+    return Aim(dir_8, 1.0);
 }
 
 float mip_roughness(uint m) {
@@ -737,18 +775,18 @@ float mip_roughness(uint m) {
 }
 
 float lod_of_roughness(float r) {
-    bool local_16 = false;
+    bool local_17 = false;
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
     uint n_9 = _group_0_binding_7_cs.probe_info.x;
     if (!((n_9 < 2u))) {
         float _e11 = mip_roughness(0u);
-        local_16 = !((r > _e11));
+        local_17 = !((r > _e11));
     } else {
-        local_16 = true;
+        local_17 = true;
     }
-    bool _e15 = local_16;
+    bool _e15 = local_17;
     if (_e15) {
         return 0.0;
     }
@@ -789,11 +827,11 @@ float lod_of_roughness(float r) {
     return (float(i_5) + clamp(_e57, 0.0, 1.0));
 }
 
-float distance_ratio(vec3 b_11, vec3 v_6, vec2 uv_6) {
-    bool local_17 = false;
+float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_6) {
     bool local_18 = false;
     bool local_19 = false;
     bool local_20 = false;
+    bool local_21 = false;
     float l_5 = length(v_6);
     float _e8 = _group_0_binding_7_cs.probe.w;
     uint _e12 = _group_0_binding_7_cs.probe_info.y;
@@ -801,38 +839,38 @@ float distance_ratio(vec3 b_11, vec3 v_6, vec2 uv_6) {
     float w_2 = _e13.x;
     if ((l_5 > 0.0)) {
         bool _e19 = finite(l_5);
-        local_17 = _e19;
-    } else {
-        local_17 = false;
-    }
-    bool _e21 = local_17;
-    if (_e21) {
-        local_18 = (w_2 > 0.0);
+        local_18 = _e19;
     } else {
         local_18 = false;
     }
-    bool _e27 = local_18;
-    if (_e27) {
-        bool _e30 = finite(w_2);
-        local_19 = _e30;
+    bool _e21 = local_18;
+    if (_e21) {
+        local_19 = (w_2 > 0.0);
     } else {
         local_19 = false;
     }
-    bool _e32 = local_19;
+    bool _e27 = local_19;
+    if (_e27) {
+        bool _e30 = finite(w_2);
+        local_20 = _e30;
+    } else {
+        local_20 = false;
+    }
+    bool _e32 = local_20;
     if (!(_e32)) {
         return 1.0;
     }
     float d_probe = (1.0 / w_2);
     vec4 _e39 = _group_0_binding_7_cs.probe;
-    float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_11));
+    float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_12));
     float k_7 = (d_probe / d_surface);
     bool _e47 = finite(k_7);
     if (_e47) {
-        local_20 = (k_7 > 0.0);
+        local_21 = (k_7 > 0.0);
     } else {
-        local_20 = false;
+        local_21 = false;
     }
-    bool _e53 = local_20;
+    bool _e53 = local_21;
     if (_e53) {
         return k_7;
     }
@@ -855,16 +893,16 @@ vec3 clean(vec3 c_4) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_23 = false;
+    bool local_24 = false;
     float z = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_23 = _e14;
+        local_24 = _e14;
     } else {
-        local_23 = false;
+        local_24 = false;
     }
-    bool _e16 = local_23;
+    bool _e16 = local_24;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }

@@ -45,8 +45,9 @@ struct Params {
     grid_counts: vec4<u32>,
     // probe A: position (xyz) and the depth mip the warps read (w)
     probe: vec4<f32>,
-    // x radiance mips, y inverse-distance mips, z the proxy the maps shift (1 box, 2 kdop),
-    // w 1 when the roughness correction is present
+    // x radiance mips, y inverse-distance mips, z the proxy the maps shift (0 the probe's
+    // own depth as warp1 reads it, 1 box, 2 kdop), w 1 when the roughness correction is
+    // present
     probe_info: vec4<u32>,
     // x UV relaxation in probe texels (0 = off), y and z mip-0 resolution of the radiance
     // and of the inverse-distance map
@@ -82,7 +83,7 @@ struct Cell {
 }
 
 const DYNAMIC: u32 = 255u;
-// the proxy: 1 box, 2 kdop
+// the proxy: 0 warp1 (the probe's own depth), 1 box, 2 kdop
 override FALLBACK: u32 = DYNAMIC;
 // 0 the containing cell, 1 trilinear
 override BLEND: u32 = DYNAMIC;
@@ -392,6 +393,28 @@ fn corner_cell(l: Lattice, corner: u32) -> vec3<u32> {
 
 // ---- the unfitted warps (the fallback of cells without a map) --------------------------
 
+// Where seed 000's one-step warp aims along the ray from B (the probe's second hit
+// projected on it), as `box_exit`: x the distance (HUGE where the warp reads sky), y 1.
+fn warp1_exit(b: vec3<f32>, dir: vec3<f32>) -> vec2<f32> {
+    let a = params.probe.xyz;
+    let w1 = inv_dist(dir);
+    if w1 == 0.0 {
+        return vec2<f32>(HUGE, 1.0);
+    }
+    let ab = a - b;
+    let dir_ab = dot(dir, ab);
+    let v = dir * max(dir_ab * w1 + 1.0, 0.0) - ab * w1;
+    let lambda = length(v) * inv_dist(v);
+    if !(lambda > 0.0) {
+        return vec2<f32>(HUGE, 1.0);
+    }
+    let t = max(dir_ab * lambda + dot(dir, v), 0.0) / lambda;
+    if !(finite(t) && t < HUGE) {
+        return vec2<f32>(HUGE, 1.0);
+    }
+    return vec2<f32>(t, 1.0);
+}
+
 // Seed 000's plane warp, one step, in the homogeneous form the CPU uses.
 fn warp1(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     let a = params.probe.xyz;
@@ -458,10 +481,17 @@ fn kdop_exit(b: vec3<f32>, dir: vec3<f32>) -> vec2<f32> {
 
 // The grid's proxy's exit (see `box_exit`).
 fn proxy_exit(b: vec3<f32>, dir: vec3<f32>) -> vec2<f32> {
-    if fallback_method() == 2u {
-        return kdop_exit(b, dir);
+    switch fallback_method() {
+        case 0u: {
+            return warp1_exit(b, dir);
+        }
+        case 2u: {
+            return kdop_exit(b, dir);
+        }
+        default: {
+            return box_exit(b, dir);
+        }
     }
-    return box_exit(b, dir);
 }
 
 // A proxy's fetch vector: towards where the ray from B leaves it; the query direction when

@@ -289,8 +289,8 @@ struct FitArgs {
     /// (reflection directions), the rest in its volume (in [0, 1]).
     #[arg(long, default_value_t = FitSettings::standard().surface_fraction)]
     surface_fraction: f32,
-    /// The proxy the maps shift: measured (box, or the 18-DOP when it is 5% better), box or
-    /// kdop.
+    /// The proxy the maps shift: measured (the cheapest of box, kdop and warp1 within 5% of
+    /// the best), or one of them.
     #[arg(long, value_enum, default_value = "measured")]
     proxy: warpfit::fit::proxy::ProxyChoice,
 }
@@ -482,7 +482,7 @@ fn print_fit(f: &warpfit::fit::Fit, manifest: &warpfit::gridfile::GridManifest, 
         _ => String::new(),
     };
     let proxy = match f.proxy.measured {
-        Some([b, k]) => format!(" (measured: box {b:.4}, kdop {k:.4})"),
+        Some([b, k, w]) => format!(" (measured: box {b:.4}, kdop {k:.4}, warp1 {w:.4})"),
         None => " (set)".into(),
     };
     println!(

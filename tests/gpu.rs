@@ -333,7 +333,7 @@ fn every_fallback_blend_and_relaxation_answers_as_the_cpu_sampler() {
     let base = FittedGrid::load(torture_fit()).unwrap();
     let q = queries(&base, 1500);
     let floor = 1e-3 * mean_radiance(&base);
-    let variants = [Method::Box, Method::Kdop]
+    let variants = [Method::Warp1, Method::Box, Method::Kdop]
         .into_iter()
         .flat_map(|f| [Blend::Cell, Blend::Trilinear].map(|b| (f, b)))
         .flat_map(|(f, b)| [0.0, 0.7].map(|r| (f, b, r, true)))

@@ -198,6 +198,33 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
+    /// The distance the grid's maps shift from, with `warp1` as the proxy, is where seed
+    /// 000's one-step warp aims: the point it gives, seen from the probe, is `warp1`'s fetch
+    /// direction; where `warp1` reads sky it is infinite; it is never NaN.
+    #[test]
+    fn warp1_distance_is_where_warp1_aims(seed in 0u64..1000, bx in -3.0f32..3.0, by in -3.0f32..3.0,
+                                          bz in -3.0f32..3.0, u in 0.0f32..1.0, v in 0.0f32..1.0) {
+        let a = Vec3::new(0.5, 1.0, -0.5);
+        let p = synthetic_probe(a, 16, |d| {
+            let h = (libm::sinf(d.x * 12.9898 + d.y * 78.233 + d.z * 37.719 + seed as f32) * 43758.547).fract().abs();
+            if h < 0.2 { f32::INFINITY } else { 2.0 + h * 5.0 }
+        });
+        let w = context(&p, Vec3::splat(-8.0), Vec3::splat(8.0), WarpOptions::default());
+        let (b, d) = (Vec3::new(bx, by, bz), octa::decode(Vec2::new(u, v)));
+        let t = w.base_distance(Method::Warp1, b, d).unwrap();
+        prop_assert!(!t.is_nan() && t >= 0.0, "{t}");
+        let f = w.fetch_dir(Method::Warp1, b, d);
+        if t.is_finite() {
+            let aimed = (b + d * t - a).normalize();
+            prop_assert!((aimed - f).length() < 1e-4, "{aimed} vs {f}");
+        } else {
+            prop_assert_eq!(f, d);
+        }
+    }
+}
+
 /// Bit patterns of a vector: batched and per-lookup results must agree bit for bit.
 fn bits(v: Vec3) -> [u32; 3] {
     v.to_array().map(f32::to_bits)

@@ -74,9 +74,10 @@ impl Words {
 /// The shader's number for a grid's proxy (`Params::probe_info.z`, `FALLBACK`).
 fn fallback_code(m: Method) -> Result<u32, Unsupported> {
     match m {
+        Method::Warp1 => Ok(0),
         Method::Box => Ok(1),
         Method::Kdop => Ok(2),
-        m => Err(Unsupported(format!("`{}` is not a proxy the shader's maps shift (box or kdop)", m.name()))),
+        m => Err(Unsupported(format!("`{}` is not a proxy the shader's maps shift (box, kdop, warp1)", m.name()))),
     }
 }
 

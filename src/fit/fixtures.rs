@@ -64,7 +64,8 @@ pub fn wall_problem(warp: &Warp, scale: f32, samples: u32) -> WallProblem<'_> {
             if d.z > 0.0 { (z - origin.z) / d.z } else { f32::INFINITY }
         })
         .collect();
-    let truth = crate::warp::corrective::shift_map(warp, ctx.proxy, origin, res, |t, _| distance[t as usize]);
+    let truth =
+        ctx.proxy_distances().iter().zip(&distance).map(|(t, d)| if d.is_finite() { d - t } else { 0.0 }).collect();
     let samples = (0..samples)
         .map(|k| {
             let mut s = Sampler::new(5, 7, k);

@@ -175,7 +175,7 @@ impl CellContext<'_> {
         (0..self.res * self.res)
             .map(|t| {
                 let d = octa::texel_dir(self.res, t % self.res, t / self.res);
-                match self.glossy.warp.proxies.exit_distance(self.proxy, self.origin, d) {
+                match self.glossy.warp.base_distance(self.proxy, self.origin, d) {
                     Some(x) if x.is_finite() && x > 0.0 => x,
                     _ => f32::INFINITY,
                 }
@@ -218,7 +218,7 @@ impl<'a> CellProblem<'a> {
         let mut touching = vec![Vec::new(); n2];
         for (i, s) in samples.iter_mut().enumerate() {
             s.taps = octa::bilinear_taps(res, octa::encode(s.dir));
-            s.t_proxy = glossy.warp.proxies.exit_distance(proxy, s.b, s.dir);
+            s.t_proxy = glossy.warp.base_distance(proxy, s.b, s.dir);
             for &(k, w) in &s.taps {
                 if w > 0.0 && !touching[k as usize].contains(&(i as u32)) {
                     touching[k as usize].push(i as u32);

@@ -1,12 +1,15 @@
-//! The grid's proxy: the convex shape every lookup reads probe A through (seed 001), as it
-//! is in cells without a map, and whose surface the maps shift (`warp::corrective`).
+//! The grid's proxy: the surface every lookup reads probe A through, as it is in cells
+//! without a map, and which the maps shift (`warp::corrective`): the box or the 18-DOP
+//! (seed 001), or the probe's own depth as seed 000's one-step warp reads it (`warp1`: a
+//! room no box fits, a sphere).
 //!
-//! The box or the 18-DOP, chosen before any cell is fitted (a cell's map is a shift of it):
-//! both are measured on their own held-out queries spread over the grid (the cells' query
-//! mix of surface and volume positions, mirror and rough lookups; a stream no training or
-//! check set uses), and the k-DOP, which costs about twice the box per lookup, is kept only
-//! when its tone-mapped error is below [`KDOP_MARGIN`] × the box's. The measurement is
-//! seeded and cheap, so every shard of a sharded fit and the merge repeat it and agree.
+//! Chosen before any cell is fitted (a cell's map is a shift of it): the three are measured
+//! on their own held-out queries spread over the grid (the cells' query mix of surface and
+//! volume positions, mirror and rough lookups; a stream no training or check set uses), and
+//! the cheapest (box, then k-DOP, then `warp1`: the box's lookup costs about half the
+//! others') whose tone-mapped error is within [`MARGIN`] of the lowest is kept: a proxy
+//! that costs more must earn it. The measurement is seeded and cheap, so every shard of a
+//! sharded fit and the merge repeat it and agree.
 
 use super::objective::{CellContext, CellProblem};
 use super::{Baked, FitSettings, QuerySize, cell_samples, samples};
@@ -27,21 +30,26 @@ pub enum ProxyChoice {
     Box,
     /// The 18-DOP, unmeasured.
     Kdop,
+    /// The probe's own depth (`warp1`), unmeasured.
+    Warp1,
 }
 
 /// The proxy a fit uses and how it was chosen.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ProxyOutcome {
-    /// `Method::Box` or `Method::Kdop`.
+    /// `Method::Box`, `Method::Kdop` or `Method::Warp1`.
     pub method: Method,
     pub choice: ProxyChoice,
-    /// Held-out tone-mapped relative RMSE of the box and of the k-DOP (when measured).
-    pub measured: Option<[f64; 2]>,
+    /// Held-out tone-mapped relative RMSE of each of [`CANDIDATES`] (when measured).
+    pub measured: Option<[f64; 3]>,
 }
 
-/// The k-DOP is chosen only when its error is below this fraction of the box's: it costs
-/// about twice as much per lookup.
-pub const KDOP_MARGIN: f64 = 0.95;
+/// The proxies, cheapest first.
+pub const CANDIDATES: [Method; 3] = [Method::Box, Method::Kdop, Method::Warp1];
+
+/// A costlier proxy is kept only when the cheaper ones' errors are above the lowest by more
+/// than this factor's inverse (5%).
+pub const MARGIN: f64 = 0.95;
 
 /// Cells the measurement draws from (evenly spread over the active cells), and positions per
 /// cell.
@@ -58,6 +66,7 @@ pub fn choose(baked: Baked, glossy: Glossy, s: &FitSettings) -> ProxyOutcome {
     match choice {
         ProxyChoice::Box => return ProxyOutcome { method: Method::Box, choice, measured: None },
         ProxyChoice::Kdop => return ProxyOutcome { method: Method::Kdop, choice, measured: None },
+        ProxyChoice::Warp1 => return ProxyOutcome { method: Method::Warp1, choice, measured: None },
         ProxyChoice::Measured => {}
     }
     let renderer = Renderer::new(baked.scene, baked.tracer);
@@ -87,7 +96,8 @@ pub fn choose(baked: Baked, glossy: Glossy, s: &FitSettings) -> ProxyOutcome {
     };
     let n2 = (s.map_res * s.map_res) as usize;
     let problem = CellProblem::new(ctx, vec![0.0; n2], queries);
-    let errors = [Method::Box, Method::Kdop].map(|m| problem.relative_error_method(m));
-    let method = if errors[1] < KDOP_MARGIN * errors[0] { Method::Kdop } else { Method::Box };
-    ProxyOutcome { method, choice, measured: Some(errors) }
+    let errors = CANDIDATES.map(|m| problem.relative_error_method(m));
+    let best = errors.iter().copied().fold(f64::INFINITY, f64::min);
+    let pick = (0..CANDIDATES.len()).find(|&k| MARGIN * errors[k] <= best).unwrap_or(0);
+    ProxyOutcome { method: CANDIDATES[pick], choice, measured: Some(errors) }
 }

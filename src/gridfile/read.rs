@@ -587,8 +587,8 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     // warp
     let w = &m.warp;
     let fallback = match Method::parse(&w.fallback) {
-        Some(f @ (Method::Box | Method::Kdop)) => f,
-        _ => return Err(invalid(mp, "warp.fallback", format!("{:?} is not a proxy (box or kdop)", w.fallback))),
+        Some(f @ (Method::Box | Method::Kdop | Method::Warp1)) => f,
+        _ => return Err(invalid(mp, "warp.fallback", format!("{:?} is not a proxy (box, kdop or warp1)", w.fallback))),
     };
     let o = &w.options;
     if !(o.depth_lod.is_finite() && o.depth_lod >= 0.0 && o.relax_texels.is_finite() && o.relax_texels >= 0.0)

@@ -15,7 +15,7 @@ pub const GRID_FORMAT: &str = "warpfit-grid";
 /// estimate (no depth fetch), and the stored roughness correction is fitted for that.
 /// 3: the manifest's own checksum, structural limits, and the fitted irradiance corrections.
 /// 4: the maps shift the proxy's surface (`shift_maps`, scene units) instead of holding
-/// inverse distances from the cell's origin; the fallback is the proxy (box or kdop).
+/// inverse distances from the cell's origin; the fallback is the proxy (box, kdop, warp1).
 pub const GRID_VERSION: u32 = 4;
 pub const MANIFEST_FILE: &str = "manifest.json";
 pub const PROBE_FILE: &str = "probe.exr";
@@ -105,8 +105,8 @@ pub struct RadianceMip {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WarpSection {
-    /// The proxy every lookup reads through and the maps shift (`box` or `kdop`), as it is
-    /// in cells without a map.
+    /// The proxy every lookup reads through and the maps shift (`box`, `kdop` or `warp1`:
+    /// the probe's own depth as seed 000's warp reads it), as it is in cells without a map.
     pub fallback: String,
     pub options: WarpOptions,
     pub blend: Blend,

@@ -85,9 +85,9 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
     );
     let _ = writeln!(md, "| level | cells | bytes | meaning |\n|---|---:|---:|---|");
     let how = match s.proxy.and_then(|p| p.measured) {
-        Some([b, k]) => format!(
-            "measured on held-out queries: box {b:.4}, kdop {k:.4}; the k-DOP only when below {:.0}% of the box",
-            100.0 * crate::fit::proxy::KDOP_MARGIN
+        Some([b, k, w]) => format!(
+            "measured on held-out queries: box {b:.4}, kdop {k:.4}, warp1 {w:.4}; the cheapest within {:.0}% of the best",
+            100.0 * (1.0 / crate::fit::proxy::MARGIN - 1.0)
         ),
         None => "set".into(),
     };
@@ -127,7 +127,8 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
         "Mean held-out relative error per active cell: warp1 {:.4}, the proxy alone {:.4}, celldepth {:.4}, stored model {:.4}.\n",
         s.mean_check_err_warp1, s.mean_check_err_fallback, s.mean_check_err_celldepth, s.mean_check_err_stored
     );
-    let _ = writeln!(md, "## Stored error / the proxy's error per cell (level-2 cells)\n\n| ratio | cells |\n|---|---:|");
+    let _ =
+        writeln!(md, "## Stored error / the proxy's error per cell (level-2 cells)\n\n| ratio | cells |\n|---|---:|");
     let mut buckets = [0usize; 10];
     for c in fit.cells.iter().filter(|c| c.level == Level::Map) {
         let r = (c.check_err_fitted / c.check_err_fallback.max(1e-12)).clamp(0.0, 0.999);

@@ -1,8 +1,10 @@
 //! The corrective model and how it is evaluated at runtime.
 //!
 //! Every cell reads probe A through the grid's proxy, its fallback method: the box or the
-//! 18-DOP (seed 001), whichever the fit measured better. The ray from B leaves the proxy at
-//! distance `t_proxy(B, dir)`, and A is fetched towards that point.
+//! 18-DOP (seed 001), or the probe's own depth as seed 000's one-step warp reads it
+//! (`warp1`), whichever the fit measured best for its cost. The ray from B meets the proxy
+//! at distance `t_proxy(B, dir)` (`Warp::base_distance`), and A is fetched towards that
+//! point.
 //!
 //! - Level 0: nothing stored; the proxy as it is.
 //! - Level 2: a per-cell octahedral *shift map*. Per texel it holds Δ, how far along the
@@ -31,8 +33,9 @@
 //!   (cell-centre lattice), cells without a map counting Δ = 0.
 //!
 //! Degenerate cases (all tested): B at the probe reads the query direction; B outside the
-//! proxy, or a ray through an open side of the k-DOP, reads the query direction (the proxy
-//! itself does; sky); a shift that puts the surface at or behind B aims at B.
+//! proxy, a ray through an open side of the k-DOP or one `warp1` sends to the sky reads the
+//! query direction (the proxy itself does); a shift that puts the surface at or behind B
+//! aims at B.
 
 use super::glossy::Aim;
 use super::{Method, Warp};
@@ -58,8 +61,8 @@ pub struct Correctives {
     pub slot: Vec<u32>,
     /// Shift maps, `slot · N² + texel`: Δ in scene units.
     pub maps: Vec<f32>,
-    /// The proxy every lookup reads through (`Method::Box` or `Method::Kdop`): as it is in
-    /// cells without a map.
+    /// The proxy every lookup reads through (`Method::Box`, `Method::Kdop` or
+    /// `Method::Warp1`): as it is in cells without a map.
     pub fallback: Method,
 }
 
@@ -121,9 +124,9 @@ impl Correctives {
             Blend::Trilinear => self.trilinear_delta(b, dir),
         };
         match delta {
-            Some(delta) => shifted_aim(a, warp.proxies.exit_distance(self.fallback, b, dir), delta, b, dir),
+            Some(delta) => shifted_aim(a, warp.base_distance(self.fallback, b, dir), delta, b, dir),
             None if warp.options.relax_texels > 0.0 => warp.fetch_vector(self.fallback, b, dir).into(),
-            None => shifted_aim(a, warp.proxies.exit_distance(self.fallback, b, dir), 0.0, b, dir),
+            None => shifted_aim(a, warp.base_distance(self.fallback, b, dir), 0.0, b, dir),
         }
     }
 
@@ -174,7 +177,7 @@ impl Correctives {
             method => {
                 let (mut t, mut ok) = ([0.0f32; LANES], [false; LANES]);
                 for k in 0..LANES {
-                    if let Some(x) = warp.proxies.exit_distance(method, b[k], dir[k]) {
+                    if let Some(x) = warp.base_distance(method, b[k], dir[k]) {
                         (t[k], ok[k]) = (x, true);
                     }
                 }
@@ -283,30 +286,4 @@ pub fn shifted_aim(a: Vec3, t_proxy: Option<f32>, delta: f32, b: Vec3, dir: Vec3
 fn distance_ratio(v: Vec3, u: f32) -> f32 {
     let k = v.length() * u;
     if k.is_finite() && k > 0.0 { k } else { 1.0 }
-}
-
-/// The shift map a cell's probe at `origin` sees through `proxy` of `warp`, given what it
-/// sees at each texel direction of an N×N map (`distance(texel, dir)`: +inf for sky): Δ per
-/// texel, 0 where the proxy has no finite exit from the origin or the distance is not
-/// finite (nothing to shift towards).
-#[must_use]
-pub fn shift_map(
-    warp: &Warp,
-    proxy: Method,
-    origin: Vec3,
-    map_res: u32,
-    distance: impl Fn(u32, Vec3) -> f32,
-) -> Vec<f32> {
-    (0..map_res * map_res)
-        .map(|t| {
-            let d = octa::texel_dir(map_res, t % map_res, t / map_res);
-            match warp.proxies.exit_distance(proxy, origin, d) {
-                Some(tp) if tp.is_finite() => {
-                    let x = distance(t, d);
-                    if x.is_finite() { x - tp } else { 0.0 }
-                }
-                _ => 0.0,
-            }
-        })
-        .collect()
 }

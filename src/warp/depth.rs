@@ -75,6 +75,32 @@ pub fn plane_warp(p: &WarpProbe, b: Vec3, dir: Vec3, lod: f32, steps: u32, new_p
     if lambda > 0.0 { fetch_vector(Vec3::ZERO, f, dir) } else { dir }
 }
 
+/// Distance along the ray from B to the point seed 000's one-step warp aims at (the probe's
+/// second hit projected on the ray): the `plane_warp` of one step, the same operations, its
+/// homogeneous point divided out. `+inf` where that warp reads sky (and fetches the query
+/// direction); `None` for B at the probe.
+#[inline]
+#[must_use]
+pub fn warp1_distance(p: &WarpProbe, b: Vec3, dir: Vec3, lod: f32) -> Option<f32> {
+    let a = p.position;
+    if b == a {
+        return None;
+    }
+    let w1 = p.inv_dist(dir, lod);
+    if w1 == 0.0 {
+        return Some(f32::INFINITY);
+    }
+    let ab = a - b;
+    let dir_ab = dir.dot(ab);
+    let v = first_plane(dir, ab, dir_ab, w1);
+    let lambda = v.length() * p.inv_dist(v, lod);
+    if !(lambda > 0.0) {
+        return Some(f32::INFINITY);
+    }
+    let t = (dir_ab * lambda + dir.dot(v)).max(0.0) / lambda;
+    Some(if t.is_finite() { t } else { f32::INFINITY })
+}
+
 /// `w1·(I − A)`: I is where the ray from B crosses the plane perpendicular to Dir at the
 /// probe's hit `A + Dir/w1` (`w1 > 0`; `ab = A − B`, `dir_ab = Dir·ab`).
 #[inline]

@@ -251,6 +251,20 @@ pub struct Warp {
 }
 
 impl Warp {
+    /// Distance along unit `dir` from `b` to the surface the grid's maps shift, for base
+    /// `method`: the box's or the 18-DOP's exit (`Proxies::exit_distance`), or the point
+    /// seed 000's one-step warp aims at (`warp1`, the probe's own depth as the proxy).
+    /// `None` where the method makes no correction (B outside a proxy, at the probe, or a
+    /// method that aims at no point on the ray); `+inf` for sky.
+    #[inline]
+    #[must_use]
+    pub fn base_distance(&self, method: Method, b: Vec3, dir: Vec3) -> Option<f32> {
+        match method {
+            Method::Warp1 => depth::warp1_distance(&self.probe, b, dir, self.options.depth_lod),
+            m => self.proxies.exit_distance(m, b, dir),
+        }
+    }
+
     /// Unit fetch direction of a per-lookup method (`Reproject`/`Oracle` return `dir`).
     #[inline]
     #[must_use]
