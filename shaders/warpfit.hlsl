@@ -206,8 +206,8 @@ float4 unit_direction(float3 v_3)
     if (!(_e33)) {
         return float4(0.0, 0.0, 1.0, 0.0);
     }
-    float3 s_1 = (v_3 / (m_1).xxx);
-    float l_2 = length(s_1);
+    float3 s_2 = (v_3 / (m_1).xxx);
+    float l_2 = length(s_2);
     if ((l_2 > 0.0)) {
         const bool _e47 = finite(l_2);
         local_5 = _e47;
@@ -218,7 +218,7 @@ float4 unit_direction(float3 v_3)
     if (!(_e49)) {
         return float4(0.0, 0.0, 1.0, 0.0);
     }
-    return float4((s_1 / (l_2).xxx), 1.0);
+    return float4((s_2 / (l_2).xxx), 1.0);
 }
 
 float3 fetch_vector(float3 from, float3 to, float3 fallback)
@@ -466,8 +466,8 @@ uint naga_div(uint lhs, uint rhs) {
 
 float4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, float2 uv_4)
 {
-    uint s_2 = uint(tile);
-    int2 origin = int2((uint2(naga_mod(s_2, columns), naga_div(s_2, columns)) * (n_2 + 2u)));
+    uint s_3 = uint(tile);
+    int2 origin = int2((uint2(naga_mod(s_3, columns), naga_div(s_3, columns)) * (n_2 + 2u)));
     const Footprint _e13 = footprint(n_2, uv_4);
     int2 c_6 = asint(asuint(asint(asuint(origin) + asuint(_e13.corner))) + asuint(int2(int(1), int(1))));
     const float4 _e20 = atlas_texel(which_4, c_6);
@@ -768,10 +768,10 @@ Basis ConstructBasis(float3 arg0, float3 arg1) {
 
 Basis orthonormal_basis(float3 n_3)
 {
-    float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a_2 = (-1.0 / (s_3 + n_3.z));
+    float s_4 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
+    float a_2 = (-1.0 / (s_4 + n_3.z));
     float b_19 = ((n_3.x * n_3.y) * a_2);
-    const Basis basis = ConstructBasis(float3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_2)), (s_3 * b_19), (-(s_3) * n_3.x)), float3(b_19, (s_3 + ((n_3.y * n_3.y) * a_2)), -(n_3.y)));
+    const Basis basis = ConstructBasis(float3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_2)), (s_4 * b_19), (-(s_4) * n_3.x)), float3(b_19, (s_4 + ((n_3.y * n_3.y) * a_2)), -(n_3.y)));
     return basis;
 }
 
@@ -884,7 +884,7 @@ Aim ConstructAim(float3 arg0, float arg1) {
 Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_8)
 {
     bool local_13 = (bool)0;
-    float u = HUGE;
+    float s_1 = (float)0;
     bool local_14 = (bool)0;
     float k_2 = (float)0;
     bool local_15 = (bool)0;
@@ -899,37 +899,38 @@ Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_8)
         const Aim aim_1 = ConstructAim(dir_8, 1.0);
         return aim_1;
     }
-    float s_4 = (exit_1.x + delta);
-    if ((s_4 > 0.0)) {
-        u = min((1.0 / s_4), HUGE);
+    s_1 = (exit_1.x + delta);
+    float _e21 = s_1;
+    if (!((_e21 > 1e-30))) {
+        s_1 = 1e-30;
     }
-    float _e28 = u;
-    float4 _e34 = params.probe;
-    float3 v_11 = ((b_10 + (dir_8 / (_e28).xxx)) - _e34.xyz);
-    const bool _e37 = finite3_(v_11);
-    if (_e37) {
+    float _e26 = s_1;
+    float4 _e31 = params.probe;
+    float3 v_11 = ((b_10 + (dir_8 * _e26)) - _e31.xyz);
+    const bool _e34 = finite3_(v_11);
+    if (_e34) {
         local_14 = any((v_11 != (0.0).xxx));
     } else {
         local_14 = false;
     }
-    bool _e45 = local_14;
-    if (_e45) {
-        float _e47 = u;
-        k_2 = (length(v_11) * _e47);
-        float _e50 = k_2;
-        const bool _e51 = finite(_e50);
-        if (_e51) {
-            float _e54 = k_2;
-            local_15 = (_e54 > 0.0);
+    bool _e42 = local_14;
+    if (_e42) {
+        float _e44 = s_1;
+        k_2 = (length(v_11) / _e44);
+        float _e47 = k_2;
+        const bool _e48 = finite(_e47);
+        if (_e48) {
+            float _e51 = k_2;
+            local_15 = (_e51 > 0.0);
         } else {
             local_15 = false;
         }
-        bool _e58 = local_15;
-        if (!(_e58)) {
+        bool _e55 = local_15;
+        if (!(_e55)) {
             k_2 = 1.0;
         }
-        float _e61 = k_2;
-        const Aim aim_2 = ConstructAim(v_11, _e61);
+        float _e58 = k_2;
+        const Aim aim_2 = ConstructAim(v_11, _e58);
         return aim_2;
     }
     const Aim aim_3 = ConstructAim(dir_8, 1.0);
@@ -1342,13 +1343,13 @@ float3 irradiance(float3 position_1, float3 normal)
             }
             bool _e69 = local_23;
             if (_e69) {
-                float3 u_1 = (to_point / (dist).xxx);
-                float facing = ((dot(n_11, -(u_1)) + 1.0) * 0.5);
+                float3 u = (to_point / (dist).xxx);
+                float facing = ((dot(n_11, -(u)) + 1.0) * 0.5);
                 float _e78 = w;
                 w = (_e78 * ((facing * facing) + 0.2));
                 uint _e89 = params.atlas_b.x;
                 uint _e93 = params.atlas_b.y;
-                const float2 _e94 = oct_encode(u_1);
+                const float2 _e94 = oct_encode(u);
                 const float4 _e95 = atlas_bilinear(ATLAS_MOMENTS, cell_2.tiles.y, _e89, _e93, _e94);
                 float mean = _e95.x;
                 float mean_sq = _e95.y;

@@ -190,8 +190,8 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e33)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    vec3 s_1 = (v_3 / vec3(m_1));
-    float l_2 = length(s_1);
+    vec3 s_2 = (v_3 / vec3(m_1));
+    float l_2 = length(s_2);
     if ((l_2 > 0.0)) {
         bool _e47 = finite(l_2);
         local_5 = _e47;
@@ -202,7 +202,7 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    return vec4((s_1 / vec3(l_2)), 1.0);
+    return vec4((s_2 / vec3(l_2)), 1.0);
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
@@ -323,8 +323,8 @@ vec4 atlas_texel(uint which_3, ivec2 t_2) {
 }
 
 vec4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, vec2 uv_4) {
-    uint s_2 = uint(tile);
-    ivec2 origin = ivec2((uvec2((s_2 % columns), (s_2 / columns)) * (n_2 + 2u)));
+    uint s_3 = uint(tile);
+    ivec2 origin = ivec2((uvec2((s_3 % columns), (s_3 / columns)) * (n_2 + 2u)));
     Footprint _e13 = footprint(n_2, uv_4);
     ivec2 c_5 = ((origin + _e13.corner) + ivec2(1, 1));
     vec4 _e20 = atlas_texel(which_4, c_5);
@@ -511,10 +511,10 @@ vec3 box_fetch(vec3 b_8, vec3 dir_6) {
 }
 
 Basis orthonormal_basis(vec3 n_3) {
-    float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a = (-1.0 / (s_3 + n_3.z));
+    float s_4 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
+    float a = (-1.0 / (s_4 + n_3.z));
     float b_19 = ((n_3.x * n_3.y) * a);
-    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a)), (s_3 * b_19), (-(s_3) * n_3.x)), vec3(b_19, (s_3 + ((n_3.y * n_3.y) * a)), -(n_3.y)));
+    return Basis(vec3((1.0 + (((s_4 * n_3.x) * n_3.x) * a)), (s_4 * b_19), (-(s_4) * n_3.x)), vec3(b_19, (s_4 + ((n_3.y * n_3.y) * a)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
@@ -535,7 +535,7 @@ vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
 
 Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8) {
     bool local_13 = false;
-    float u = HUGE;
+    float s_1 = 0.0;
     bool local_14 = false;
     float k_2 = 0.0;
     bool local_15 = false;
@@ -548,37 +548,38 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8) {
     if (_e15) {
         return Aim(dir_8, 1.0);
     }
-    float s_4 = (exit_1.x + delta);
-    if ((s_4 > 0.0)) {
-        u = min((1.0 / s_4), HUGE);
+    s_1 = (exit_1.x + delta);
+    float _e21 = s_1;
+    if (!((_e21 > 1e-30))) {
+        s_1 = 1e-30;
     }
-    float _e28 = u;
-    vec4 _e34 = _group_0_binding_7_cs.probe;
-    vec3 v_9 = ((b_10 + (dir_8 / vec3(_e28))) - _e34.xyz);
-    bool _e37 = finite3_(v_9);
-    if (_e37) {
+    float _e26 = s_1;
+    vec4 _e31 = _group_0_binding_7_cs.probe;
+    vec3 v_9 = ((b_10 + (dir_8 * _e26)) - _e31.xyz);
+    bool _e34 = finite3_(v_9);
+    if (_e34) {
         local_14 = any(notEqual(v_9, vec3(0.0)));
     } else {
         local_14 = false;
     }
-    bool _e45 = local_14;
-    if (_e45) {
-        float _e47 = u;
-        k_2 = (length(v_9) * _e47);
-        float _e50 = k_2;
-        bool _e51 = finite(_e50);
-        if (_e51) {
-            float _e54 = k_2;
-            local_15 = (_e54 > 0.0);
+    bool _e42 = local_14;
+    if (_e42) {
+        float _e44 = s_1;
+        k_2 = (length(v_9) / _e44);
+        float _e47 = k_2;
+        bool _e48 = finite(_e47);
+        if (_e48) {
+            float _e51 = k_2;
+            local_15 = (_e51 > 0.0);
         } else {
             local_15 = false;
         }
-        bool _e58 = local_15;
-        if (!(_e58)) {
+        bool _e55 = local_15;
+        if (!(_e55)) {
             k_2 = 1.0;
         }
-        float _e61 = k_2;
-        return Aim(v_9, _e61);
+        float _e58 = k_2;
+        return Aim(v_9, _e58);
     }
     return Aim(dir_8, 1.0);
 }
@@ -734,13 +735,13 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             }
             bool _e69 = local_23;
             if (_e69) {
-                vec3 u_1 = (to_point / vec3(dist));
-                float facing = ((dot(n_9, -(u_1)) + 1.0) * 0.5);
+                vec3 u = (to_point / vec3(dist));
+                float facing = ((dot(n_9, -(u)) + 1.0) * 0.5);
                 float _e78 = w;
                 w = (_e78 * ((facing * facing) + 0.2));
                 uint _e89 = _group_0_binding_7_cs.atlas_b.x;
                 uint _e93 = _group_0_binding_7_cs.atlas_b.y;
-                vec2 _e94 = oct_encode(u_1);
+                vec2 _e94 = oct_encode(u);
                 vec4 _e95 = atlas_bilinear(ATLAS_MOMENTS, cell.tiles.y, _e89, _e93, _e94);
                 float mean = _e95.x;
                 float mean_sq = _e95.y;

@@ -152,8 +152,8 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e33)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    vec3 s_1 = (v_3 / vec3(m_1));
-    float l_2 = length(s_1);
+    vec3 s_2 = (v_3 / vec3(m_1));
+    float l_2 = length(s_2);
     if ((l_2 > 0.0)) {
         bool _e47 = finite(l_2);
         local_5 = _e47;
@@ -164,7 +164,7 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    return vec4((s_1 / vec3(l_2)), 1.0);
+    return vec4((s_2 / vec3(l_2)), 1.0);
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
@@ -272,10 +272,10 @@ float corner_weight(Lattice l, uint corner) {
 }
 
 Basis orthonormal_basis(vec3 n_3) {
-    float s_2 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a = (-1.0 / (s_2 + n_3.z));
+    float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
+    float a = (-1.0 / (s_3 + n_3.z));
     float b_19 = ((n_3.x * n_3.y) * a);
-    return Basis(vec3((1.0 + (((s_2 * n_3.x) * n_3.x) * a)), (s_2 * b_19), (-(s_2) * n_3.x)), vec3(b_19, (s_2 + ((n_3.y * n_3.y) * a)), -(n_3.y)));
+    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a)), (s_3 * b_19), (-(s_3) * n_3.x)), vec3(b_19, (s_3 + ((n_3.y * n_3.y) * a)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
@@ -378,9 +378,9 @@ SurfaceTaps surface_warped_taps(uint i_3, uint j_3, vec3 b_15, vec3 local_25, Su
     bool local_26 = false;
     bool local_27 = false;
     SurfaceParams sp = _group_2_binding_1_cs;
-    float s_3 = ((float(i_3) + 0.5) / float(sp.shape.x));
+    float s_4 = ((float(i_3) + 0.5) / float(sp.shape.x));
     float t_9 = ((float(j_3) + 0.5) / float(sp.shape.y));
-    vec3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_3)) + (sp.edge_v.xyz * t_9)) + (sp.normal.xyz * sp.corner.w));
+    vec3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_4)) + (sp.edge_v.xyz * t_9)) + (sp.normal.xyz * sp.corner.w));
     vec3 d_2 = (probe - b_15);
     vec3 ab = vec3(dot(d_2, sp.tangent.xyz), dot(d_2, sp.bitangent.xyz), dot(d_2, sp.normal.xyz));
     float _e48 = surface_tile_inv_distance(i_3, j_3, shared_taps);

@@ -592,14 +592,14 @@ fn shifted_aim(exit: vec2<f32>, delta: f32, b: vec3<f32>, dir: vec3<f32>) -> Aim
     if exit.y == 0.0 || !(exit.x < HUGE) {
         return Aim(dir, 1.0);
     }
-    let s = exit.x + delta;
-    var u = HUGE;
-    if s > 0.0 {
-        u = min(1.0 / s, HUGE);
+    // at or behind B: aim at B (the CPU's NEAREST)
+    var s = exit.x + delta;
+    if !(s > 1e-30) {
+        s = 1e-30;
     }
-    let v = b + dir / u - params.probe.xyz;
+    let v = b + dir * s - params.probe.xyz;
     if finite3(v) && any(v != vec3<f32>(0.0)) {
-        var k = length(v) * u;
+        var k = length(v) / s;
         if !(finite(k) && k > 0.0) {
             k = 1.0;
         }

@@ -541,13 +541,7 @@ pub fn assemble(
     let g = grid.geometry;
     let n2 = (s.map_res * s.map_res) as usize;
 
-    let mut correctives = Correctives {
-        geometry: g,
-        map_res: s.map_res,
-        slot: vec![NO_MAP; g.cell_count()],
-        maps: Vec::new(),
-        fallback: proxy.method,
-    };
+    let mut correctives = Correctives::new(g, s.map_res, vec![NO_MAP; g.cell_count()], Vec::new(), proxy.method);
     let mut celldepth = correctives.clone();
     let mut fitted_all = correctives.clone();
     let mut cells = Vec::with_capacity(results.len());

@@ -638,7 +638,7 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
             (c.map_res, slot, maps)
         }
     };
-    let correctives = Correctives { geometry, map_res, slot, maps, fallback };
+    let correctives = Correctives::new(geometry, map_res, slot, maps, fallback);
 
     // irradiance
     let ir = &m.irradiance;

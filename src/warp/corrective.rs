@@ -64,9 +64,24 @@ pub struct Correctives {
     /// The proxy every lookup reads through (`Method::Box`, `Method::Kdop` or
     /// `Method::Warp1`): as it is in cells without a map.
     pub fallback: Method,
+    /// `geometry.cell_size()`, kept: it costs three divisions a lookup.
+    cell_size: Vec3,
 }
 
 impl Correctives {
+    /// Correctives over `geometry` with maps of `map_res`² texels: `slot` per cell (into
+    /// `maps`, or [`NO_MAP`]) and the proxy `fallback`.
+    #[must_use]
+    pub fn new(geometry: GridGeometry, map_res: u32, slot: Vec<u32>, maps: Vec<f32>, fallback: Method) -> Self {
+        Correctives { geometry, map_res, slot, maps, fallback, cell_size: geometry.cell_size() }
+    }
+
+    /// The cell index of the cell a lookup at `b` reads (the containing cell, clamped).
+    #[inline]
+    fn cell_at(&self, b: Vec3) -> usize {
+        self.geometry.cell_index(self.geometry.cell_of_sized(b, self.cell_size))
+    }
+
     #[must_use]
     pub fn stored_cells(&self) -> usize {
         self.slot.iter().filter(|s| **s != NO_MAP).count()
@@ -116,11 +131,9 @@ impl Correctives {
             return Aim { v: dir, k: Some(1.0) };
         }
         let delta = match blend {
-            Blend::Cell => {
-                let cell = self.geometry.cell_of(b);
-                self.slot_of(self.geometry.cell_index(cell))
-                    .map(|slot| self.map_delta(slot, &octa::bilinear_taps(self.map_res, octa::encode(dir))))
-            }
+            Blend::Cell => self
+                .slot_of(self.cell_at(b))
+                .map(|slot| self.map_delta(slot, &octa::bilinear_taps(self.map_res, octa::encode(dir)))),
             Blend::Trilinear => self.trilinear_delta(b, dir),
         };
         match delta {
@@ -189,7 +202,7 @@ impl Correctives {
         let n = self.map_res as f32;
         let mut delta = [0.0f32; LANES];
         for k in 0..LANES {
-            let slot = self.slot[self.geometry.cell_index(self.geometry.cell_of(b[k]))];
+            let slot = self.slot[self.cell_at(b[k])];
             if slot != NO_MAP {
                 let (i0, j0, fx, fy) = octa::footprint_of(n, uv.u[k], uv.v[k]);
                 delta[k] = self.map_delta(slot, &octa::footprint_taps(self.map_res, i0, j0, fx, fy));
@@ -199,19 +212,18 @@ impl Correctives {
         let d = [dir.map(|v| v.x), dir.map(|v| v.y), dir.map(|v| v.z)];
         let bb = [b.map(|v| v.x), b.map(|v| v.y), b.map(|v| v.z)];
         let a3 = a.to_array();
-        let (mut v, mut u) = ([[0.0f32; LANES]; 3], [0.0f32; LANES]);
+        let (mut v, mut s) = ([[0.0f32; LANES]; 3], [0.0f32; LANES]);
         for k in 0..LANES {
-            let s = t[k] + delta[k];
-            u[k] = if s > 0.0 { (1.0 / s).min(1e30) } else { 1e30 };
+            s[k] = along(t[k] + delta[k]);
             for c in 0..3 {
-                v[c][k] = (bb[c][k] + d[c][k] / u[k]) - a3[c];
+                v[c][k] = (bb[c][k] + d[c][k] * s[k]) - a3[c];
             }
         }
         for k in 0..LANES {
             let p = Vec3::new(v[0][k], v[1][k], v[2][k]);
             let aims = has_t[k] && t[k].is_finite() && b[k] != a;
             out[k] = match (aims && p.is_finite() && p != Vec3::ZERO, RATIO) {
-                (true, true) => Aim { v: p, k: Some(distance_ratio(p, u[k])) },
+                (true, true) => Aim { v: p, k: Some(distance_ratio(p, s[k])) },
                 (true, false) => Aim { v: p, k: None },
                 (false, _) => Aim { v: dir[k], k: Some(1.0) },
             };
@@ -262,17 +274,16 @@ pub fn sample_map(map: &[f32], taps: &[(u32, f32); 4]) -> f32 {
 /// leaves the proxy at `t_proxy` (`None`: B is outside it); its surface shifted by `delta`
 /// along `dir` is where probe A (at `a`) is fetched towards. Outside the proxy and through
 /// an open side (`t_proxy` infinite) the query direction; a surface at or behind B aims at
-/// B.
+/// B (at `NEAREST` along the ray).
 #[inline]
 #[must_use]
 pub fn shifted_aim(a: Vec3, t_proxy: Option<f32>, delta: f32, b: Vec3, dir: Vec3) -> Aim {
     match t_proxy {
         Some(t) if t.is_finite() && b != a => {
-            let s = t + delta;
-            let u = if s > 0.0 { (1.0 / s).min(1e30) } else { 1e30 };
-            let v = (b + dir / u) - a;
+            let s = along(t + delta);
+            let v = (b + dir * s) - a;
             if v.is_finite() && v != Vec3::ZERO {
-                return Aim { v, k: Some(distance_ratio(v, u)) };
+                return Aim { v, k: Some(distance_ratio(v, s)) };
             }
             Aim { v: dir, k: Some(1.0) }
         }
@@ -280,10 +291,20 @@ pub fn shifted_aim(a: Vec3, t_proxy: Option<f32>, delta: f32, b: Vec3, dir: Vec3
     }
 }
 
-/// The distance ratio `|v| · u` of an aimed point `v` from A, `1/u` from B (1 where it
+/// How far along the ray a shifted surface at `s` is aimed at: `s`, or [`NEAREST`] for a
+/// surface at or behind B (and NaN).
+#[inline(always)]
+fn along(s: f32) -> f32 {
+    if s > NEAREST { s } else { NEAREST }
+}
+
+/// The nearest an aim comes to B along the ray: "at B" without a zero distance.
+const NEAREST: f32 = 1e-30;
+
+/// The distance ratio `|v| / s` of an aimed point `v` from A, `s` from B (1 where it
 /// degenerates).
 #[inline]
-fn distance_ratio(v: Vec3, u: f32) -> f32 {
-    let k = v.length() * u;
+fn distance_ratio(v: Vec3, s: f32) -> f32 {
+    let k = v.length() / s;
     if k.is_finite() && k > 0.0 { k } else { 1.0 }
 }
