@@ -21,6 +21,8 @@ pub struct BoxProxy {
     pub half_extents: Vec3,
     /// Inverse rotation, precomputed for lookups.
     world_to_local: Mat3,
+    /// The rotation is the identity (the scene-bounds box): lookups skip it.
+    axis_aligned: bool,
 }
 
 impl BoxProxy {
@@ -34,11 +36,13 @@ impl BoxProxy {
     #[must_use]
     pub fn oriented(centre: Vec3, rotation: Quat, half_extents: Vec3) -> Self {
         let rotation = rotation.normalize();
+        let world_to_local = Mat3::from_quat(rotation.conjugate());
         BoxProxy {
             centre,
             rotation,
             half_extents: half_extents.abs().max(Vec3::splat(f32::MIN_POSITIVE)),
-            world_to_local: Mat3::from_quat(rotation.conjugate()),
+            world_to_local,
+            axis_aligned: world_to_local == Mat3::IDENTITY,
         }
     }
 
@@ -53,11 +57,14 @@ impl BoxProxy {
     #[must_use]
     pub fn exit_distance(&self, b: Vec3, dir: Vec3) -> Option<f32> {
         let inv = self.world_to_local;
-        let o = inv * (b - self.centre);
+        // the identity's product is the vector itself for finite input (which a lookup's
+        // is), and the lane form takes the same path
+        let local = |v: Vec3| if self.axis_aligned { v } else { inv * v };
+        let o = local(b - self.centre);
         if o.abs().cmpgt(self.half_extents).any() {
             return None;
         }
-        let d = inv * dir;
+        let d = local(dir);
         let mut t = f32::INFINITY;
         for k in 0..3 {
             // selects, not branches: the signs of a random direction are unpredictable
@@ -82,8 +89,10 @@ impl BoxProxy {
         const L: usize = crate::octa::LANES;
         let m = self.world_to_local;
         let (h, c) = (self.half_extents, self.centre);
-        let local =
-            |v: [f32; 3], k: usize| -> f32 { ((m.x_axis[k] * v[0]) + (m.y_axis[k] * v[1])) + (m.z_axis[k] * v[2]) };
+        let aligned = self.axis_aligned;
+        let local = |v: [f32; 3], k: usize| -> f32 {
+            if aligned { v[k] } else { ((m.x_axis[k] * v[0]) + (m.y_axis[k] * v[1])) + (m.z_axis[k] * v[2]) }
+        };
         let (mut out, mut ok) = ([0.0f32; L], [false; L]);
         for l in 0..L {
             let (b3, d3) = (b[l].to_array(), dir[l].to_array());
