@@ -1295,99 +1295,101 @@ float3 irradiance(float3 position_1, float3 normal)
     float4 _e16 = params.grid_max;
     float4 _e20 = params.grid_min;
     p_3 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
-    const bool _e27 = finite3_(position_1);
-    if (_e27) {
-        p_3 = position_1;
+    float _e30 = params.grid_min.w;
+    float3 biased = (position_1 + (n_11 * _e30));
+    const bool _e33 = finite3_(biased);
+    if (_e33) {
+        p_3 = biased;
     }
-    float3 _e28 = p_3;
-    const Lattice _e29 = lattice(_e28, _e9);
-    const float2 _e30 = oct_encode(n_11);
+    float3 _e34 = p_3;
+    const Lattice _e35 = lattice(_e34, _e9);
+    const float2 _e36 = oct_encode(n_11);
     uint2 loop_bound_5 = uint2(4294967295u, 4294967295u);
     bool loop_init_5 = true;
     while(true) {
         if (all(loop_bound_5 == uint2(0u, 0u))) { break; }
         loop_bound_5 -= uint2(loop_bound_5.y == 0u, 1u);
         if (!loop_init_5) {
-            uint _e152 = corner_3;
-            corner_3 = (_e152 + 1u);
+            uint _e158 = corner_3;
+            corner_3 = (_e158 + 1u);
         }
         loop_init_5 = false;
-        uint _e38 = corner_3;
-        if ((_e38 < 8u)) {
+        uint _e44 = corner_3;
+        if ((_e44 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e41 = corner_3;
-            const float _e42 = corner_weight(_e29, _e41);
-            if ((_e42 <= 0.0)) {
+            uint _e47 = corner_3;
+            const float _e48 = corner_weight(_e35, _e47);
+            if ((_e48 <= 0.0)) {
                 continue;
             }
-            uint _e45 = corner_3;
-            const uint3 _e46 = corner_cell(_e29, _e45);
-            const uint _e48 = cell_index(_e46);
-            Cell cell_2 = ConstructCell(asint(cells.Load4(_e48*32+0)), asfloat(cells.Load4(_e48*32+16)));
+            uint _e51 = corner_3;
+            const uint3 _e52 = corner_cell(_e35, _e51);
+            const uint _e54 = cell_index(_e52);
+            Cell cell_2 = ConstructCell(asint(cells.Load4(_e54*32+0)), asfloat(cells.Load4(_e54*32+16)));
             if ((cell_2.tiles.y < int(0))) {
                 continue;
             }
-            float3 _e55 = p_3;
-            const float3 _e56 = cell_centre(_e46, _e9);
-            float3 to_point = (_e55 - (_e56 + cell_2.offset.xyz));
+            float3 _e61 = p_3;
+            const float3 _e62 = cell_centre(_e52, _e9);
+            float3 to_point = (_e61 - (_e62 + cell_2.offset.xyz));
             float dist = length(to_point);
-            w = _e42;
+            w = _e48;
             if ((dist > 0.0)) {
-                const bool _e67 = finite(dist);
-                local_23 = _e67;
+                const bool _e73 = finite(dist);
+                local_23 = _e73;
             } else {
                 local_23 = false;
             }
-            bool _e69 = local_23;
-            if (_e69) {
+            bool _e75 = local_23;
+            if (_e75) {
                 float3 u = (to_point / (dist).xxx);
                 float facing = ((dot(n_11, -(u)) + 1.0) * 0.5);
-                float _e78 = w;
-                w = (_e78 * ((facing * facing) + 0.2));
-                uint _e89 = params.atlas_b.x;
-                uint _e93 = params.atlas_b.y;
-                const float2 _e94 = oct_encode(u);
-                const float4 _e95 = atlas_bilinear(ATLAS_MOMENTS, cell_2.tiles.y, _e89, _e93, _e94);
-                float mean = _e95.x;
-                float mean_sq = _e95.y;
+                float _e84 = w;
+                w = (_e84 * ((facing * facing) + 0.2));
+                uint _e95 = params.atlas_b.x;
+                uint _e99 = params.atlas_b.y;
+                const float2 _e100 = oct_encode(u);
+                const float4 _e101 = atlas_bilinear(ATLAS_MOMENTS, cell_2.tiles.y, _e95, _e99, _e100);
+                float mean = _e101.x;
+                float mean_sq = _e101.y;
                 if ((dist > mean)) {
                     float variance = max(abs((mean_sq - (mean * mean))), ((1e-12 * mean) * mean));
                     float dd = (dist - mean);
                     float cheb = (variance / (variance + (dd * dd)));
-                    float _e110 = w;
-                    w = (_e110 * max(((cheb * cheb) * cheb), 0.0));
+                    float _e116 = w;
+                    w = (_e116 * max(((cheb * cheb) * cheb), 0.0));
                 }
             }
-            float _e116 = w;
-            w = max(_e116, (1e-6 * _e42));
+            float _e122 = w;
+            w = max(_e122, (1e-6 * _e48));
             k_6 = 1.0;
             if ((cell_2.tiles.z >= int(0))) {
-                uint _e132 = params.atlas_b.z;
-                uint _e136 = params.atlas_b.w;
-                const float4 _e137 = atlas_bilinear(ATLAS_SCALE, cell_2.tiles.z, _e132, _e136, _e30);
-                k_6 = _e137.x;
+                uint _e138 = params.atlas_b.z;
+                uint _e142 = params.atlas_b.w;
+                const float4 _e143 = atlas_bilinear(ATLAS_SCALE, cell_2.tiles.z, _e138, _e142, _e36);
+                k_6 = _e143.x;
             }
-            float3 _e139 = e;
-            const float3 _e142 = cell_irradiance(cell_2.tiles.y, n_11);
-            float _e143 = w;
-            float _e145 = k_6;
-            e = (_e139 + ((_e142 * _e143) * _e145));
-            float _e148 = wsum;
+            float3 _e145 = e;
+            const float3 _e148 = cell_irradiance(cell_2.tiles.y, n_11);
             float _e149 = w;
-            wsum = (_e148 + _e149);
+            float _e151 = k_6;
+            e = (_e145 + ((_e148 * _e149) * _e151));
+            float _e154 = wsum;
+            float _e155 = w;
+            wsum = (_e154 + _e155);
         }
     }
-    float _e154 = wsum;
-    if (!((_e154 > 0.0))) {
+    float _e160 = wsum;
+    if (!((_e160 > 0.0))) {
         return (0.0).xxx;
     }
-    float3 _e160 = e;
-    float _e161 = wsum;
-    const float3 _e164 = clean((_e160 / (_e161).xxx));
-    return _e164;
+    float3 _e166 = e;
+    float _e167 = wsum;
+    const float3 _e170 = clean((_e166 / (_e167).xxx));
+    return _e170;
 }
 
 float2 hemi_encode(float3 v_7)

@@ -39,7 +39,8 @@
 
 struct Params {
     // the grid: min (xyz), max (xyz), cell counts (xyz) and the corrective blend (w: 0 the
-    // containing cell, 1 trilinear over the eight cells around the point)
+    // containing cell, 1 trilinear over the eight cells around the point); grid_min.w: how
+    // far the irradiance blend moves a point along its normal (the surface bias, scene units)
     grid_min: vec4<f32>,
     grid_max: vec4<f32>,
     grid_counts: vec4<u32>,
@@ -775,9 +776,9 @@ fn cell_irradiance(tile: i32, n: vec3<f32>) -> vec3<f32> {
 }
 
 // Irradiance at `position` for surface normal `normal`: `FittedGrid::irradiance`. The
-// eight cells around the point, weighted trilinearly, by a smooth back-face term and by
-// Chebyshev visibility from the distance moments (DDGI), each cell's answer scaled by its
-// fitted correction.
+// eight cells around the point moved along the normal by the surface bias, weighted
+// trilinearly, by a smooth back-face term and by Chebyshev visibility from the distance
+// moments (DDGI), each cell's answer scaled by its fitted correction.
 fn irradiance(position: vec3<f32>, normal: vec3<f32>) -> vec3<f32> {
     let nd = unit_direction(normal);
     if nd.w == 0.0 {
@@ -786,8 +787,9 @@ fn irradiance(position: vec3<f32>, normal: vec3<f32>) -> vec3<f32> {
     let n = nd.xyz;
     let size = cell_size();
     var p = params.grid_min.xyz + (params.grid_max.xyz - params.grid_min.xyz) * 0.5;
-    if finite3(position) {
-        p = position;
+    let biased = position + n * params.grid_min.w;
+    if finite3(biased) {
+        p = biased;
     }
     let l = lattice(p, size);
     let uv_n = oct_encode(n);

@@ -520,6 +520,18 @@ fn print_fit(f: &warpfit::fit::Fit, manifest: &warpfit::gridfile::GridManifest, 
             s.diffuse_cells_stored, s.diffuse_cells_fitted, s.diffuse_check_before, s.diffuse_check_after
         );
     }
+    if !s.diffuse_bias_trials.is_empty() {
+        let trials: Vec<String> = s
+            .diffuse_bias_trials
+            .iter()
+            .map(|t| format!("{} → {:.4}/{:.4}", t.bias, t.blend_check_rmse, t.check_rmse))
+            .collect();
+        println!(
+            "diffuse surface bias {} of the smallest cell extent (check points' tone-mapped RMSE, blend/corrected: {})",
+            s.diffuse_surface_bias,
+            trials.join(", ")
+        );
+    }
     println!(
         "wrote the fitted grid {} ({} of payloads; `warpfit inspect {}`)",
         folder.dir.display(),

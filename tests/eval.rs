@@ -96,7 +96,7 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
     // the diffuse table: every method, finite errors, ꟻLIP in [0, 1]
     let diffuse = report.diffuse.as_ref().expect("a diffuse evaluation");
     assert!(diffuse.points > 0);
-    assert_eq!(diffuse.rows.len(), 6);
+    assert_eq!(diffuse.rows.len(), 7, "five blend steps, probe A, voxel GI");
     for row in &diffuse.rows {
         assert!(row.rel_rmse.is_finite() && row.tm_rmse.is_finite() && row.ns_per_lookup > 0.0, "{row:?}");
         assert!(row.flip.is_some_and(|f| (0.0..=1.0).contains(&f)), "{row:?}");

@@ -256,7 +256,7 @@ fn an_edited_manifest_is_refused() {
 #[test]
 fn every_structural_rule_of_the_manifest_is_checked() {
     type Edit = fn(&mut serde_json::Value);
-    let cases: [(&str, Edit, &str); 16] = [
+    let cases: [(&str, Edit, &str); 17] = [
         ("probe-resolution", |v| v["probe"]["resolution"] = 8192.into(), "probe.resolution"),
         ("mip-halving", |v| v["probe"]["radiance_mips"][1]["resolution"] = 15.into(), "radiance_mips[1].resolution"),
         ("mip-name", |v| v["probe"]["radiance_mips"][0]["layer"] = "distance_mip0".into(), "radiance_mips[0].layer"),
@@ -286,6 +286,7 @@ fn every_structural_rule_of_the_manifest_is_checked() {
             "irradiance.corrected_cells",
         ),
         ("correction-res", |v| v["irradiance"]["correction_resolution"] = 5.into(), "irradiance.correction_resolution"),
+        ("surface-bias", |v| v["irradiance"]["surface_bias"] = 2.5.into(), "irradiance.surface_bias"),
         ("relocated-far", |v| v["grid"]["relocated"] = serde_json::json!([[3, [0.0, 0.0, 50.0]]]), "grid.relocated"),
         (
             "relocated-order",

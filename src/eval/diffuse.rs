@@ -219,7 +219,7 @@ impl DiffuseMethod<'_> {
     pub fn name(&self) -> String {
         match self {
             DiffuseMethod::Grid(_, b) => format!("grid: {}", b.name()),
-            DiffuseMethod::Runtime(_) => "runtime: DDGI + fitted corrections".into(),
+            DiffuseMethod::Runtime(_) => "runtime: DDGI + fitted bias and corrections".into(),
             DiffuseMethod::ProbeA(_) => "probe A alone".into(),
             DiffuseMethod::Voxel(_) => "voxel GI (seed 004)".into(),
         }

@@ -133,7 +133,7 @@ pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupport
     let bx = &w.proxies.aabb;
     let m = bx.world_to_local();
     let mut out = Words(Vec::with_capacity(PARAMS_BYTES));
-    out.f(geo.min.extend(0.0).to_array())
+    out.f(geo.min.extend(grid.irradiance.surface_shift()).to_array())
         .f(geo.max.extend(0.0).to_array())
         .u([geo.counts.x, geo.counts.y, geo.counts.z, blend])
         .f(p.position.extend(w.options.depth_lod).to_array())

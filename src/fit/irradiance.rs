@@ -5,7 +5,10 @@
 //! (4×4 octahedral) inside the DDGI blend (`runtime::IrradianceGrid::irradiance`), so the
 //! answer stays continuous across cell faces. A cell's map therefore moves the answer at
 //! every point whose blend it takes part in (its support: the eight cells around its
-//! centre). The fit: training and held-out check points on the scene's surfaces
+//! centre). The maps are fitted for each candidate surface bias of the blend (how far a
+//! point moves along its normal before the cells are weighed, DDGI 2021; [`SURFACE_BIASES`]),
+//! and the grid keeps the smallest bias whose corrected field's error on the check points
+//! is within 1% of the best. The fit: training and held-out check points on the scene's surfaces
 //! (`trace::truth::surface_points` on the fit's own streams, never the evaluation's), each
 //! with a traced irradiance reference and the blend's terms there; then Jacobi rounds, in
 //! which every cell fits its map texel by texel with argmin's Brent (in [0.2, 5], mean
@@ -17,7 +20,7 @@
 use super::DOMAIN_FIT;
 use crate::bake::Baked;
 use crate::octa;
-use crate::runtime::{BlendTerms, IrradianceBlend, IrradianceCorrection, IrradianceGrid};
+use crate::runtime::{BlendTerms, IrradianceCorrection, IrradianceGrid};
 use crate::sampling::{Sampler, hash_pair};
 use crate::tonemap::reinhard;
 use crate::trace::{Renderer, truth};
@@ -42,6 +45,13 @@ const ROUNDS: usize = 2;
 /// A cell needs this many training points in its support, and half as many check points,
 /// to be fitted.
 const MIN_POINTS: usize = 6;
+/// The surface biases the fit chooses from (fractions of the smallest cell extent; DDGI's
+/// production setting, 0.75·(0.2·n + 0.8·v) of the probe spacing, puts 0.15 along n).
+pub const SURFACE_BIASES: [f32; 3] = [0.0, 0.1, 0.2];
+/// The fit keeps the smallest surface bias whose corrected field's check error is within
+/// this factor of the best: past a tenth of a cell the blend's error is flat, and a larger
+/// bias lifts points out of contact shadows (corners get brighter, relative error grows).
+pub const BIAS_TOLERANCE: f64 = 1.01;
 
 /// One cell's diffuse corrective.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -56,10 +66,25 @@ pub struct IrradianceCellFit {
     pub stored: bool,
 }
 
+/// One candidate surface bias: the tone-mapped RMSE of the blend on the check points, and
+/// of the corrected field (with the maps fitted and stored at that bias) on the training and
+/// the check points (which choose).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+pub struct BiasTrial {
+    pub bias: f32,
+    pub blend_check_rmse: f64,
+    pub train_rmse: f64,
+    pub check_rmse: f64,
+}
+
 /// The diffuse correctives of a grid.
 #[derive(Clone, Debug)]
 pub struct IrradianceFit {
+    /// The scale maps and the surface bias they were fitted with.
     pub correction: IrradianceCorrection,
+    /// Each candidate surface bias (the chosen one: the smallest within 1% of the lowest
+    /// check error of the corrected field).
+    pub bias_trials: Vec<BiasTrial>,
     pub cells: Vec<IrradianceCellFit>,
     pub reference_rays: u64,
     pub seconds: f64,
@@ -266,7 +291,8 @@ pub fn fit_irradiance(baked: Baked, grid: &IrradianceGrid, exposure: f32, seed: 
 }
 
 /// [`fit_irradiance`] from the surface points and their traced references (every point's,
-/// in order).
+/// in order): the scale maps fitted at each candidate surface bias, and the smallest bias
+/// whose corrected field's check error is within [`BIAS_TOLERANCE`] of the best kept.
 pub fn fit_from_references(
     grid: &IrradianceGrid,
     exposure: f32,
@@ -274,20 +300,41 @@ pub fn fit_from_references(
     references: References,
 ) -> IrradianceFit {
     let t0 = std::time::Instant::now();
+    let reference_rays = references.train.iter().chain(&references.check).map(|t| t.rays).sum();
+    let mut bias_trials = Vec::new();
+    let mut fits = Vec::new();
+    for &bias in &SURFACE_BIASES {
+        let (fit, trial) = fit_at_bias(grid, exposure, points, &references, bias);
+        bias_trials.push(trial);
+        fits.push(fit);
+    }
+    let best = bias_trials.iter().map(|t| t.check_rmse).filter(|e| e.is_finite()).fold(f64::INFINITY, f64::min);
+    let chosen = bias_trials.iter().position(|t| t.check_rmse <= best * BIAS_TOLERANCE).unwrap_or(0);
+    let (correction, cells) = fits.swap_remove(chosen);
+    IrradianceFit { correction, bias_trials, cells, reference_rays, seconds: t0.elapsed().as_secs_f64() }
+}
+
+/// The scale maps fitted for the blend at surface bias `bias`, and the trial's errors.
+fn fit_at_bias(
+    grid: &IrradianceGrid,
+    exposure: f32,
+    points: &SurfacePoints,
+    references: &References,
+    bias: f32,
+) -> ((IrradianceCorrection, Vec<IrradianceCellFit>), BiasTrial) {
     let g = grid.geometry;
     let prepare = |pts: &[(Vec3, Vec3)], refs: &[Traced]| -> Vec<Point> {
         pts.par_iter()
             .zip(refs)
             .map(|(&(p, n), t)| Point {
-                terms: grid.blend_terms(p, n, IrradianceBlend::Chebyshev),
+                terms: grid.biased_terms(p, n, bias),
                 reference: t.reference,
                 taps: octa::bilinear_taps(CORRECTION_RES, octa::encode(n)),
             })
             .collect()
     };
     let (train, check) = (prepare(&points.train, &references.train), prepare(&points.check, &references.check));
-    let reference_rays = references.train.iter().chain(&references.check).map(|t| t.rays).sum();
-    drop(references);
+    let none: Maps = vec![None; g.cell_count()];
     // each cell's support: the points whose blend it takes part in
     let support = |pts: &[Point]| {
         let mut by_cell: Vec<Vec<u32>> = vec![Vec::new(); g.cell_count()];
@@ -315,7 +362,6 @@ pub fn fit_from_references(
     // selection: a cell keeps its map where its support's check points improve by 5% with
     // the corrected field against the uncorrected blend (neighbouring maps share their
     // points, so one map alone rarely makes the difference: they are judged as a field)
-    let none: Maps = vec![None; g.cell_count()];
     let fits: Vec<IrradianceCellFit> = cells
         .par_iter()
         .map(|&c| {
@@ -331,13 +377,30 @@ pub fn fit_from_references(
             }
         })
         .collect();
-    let mut correction =
-        IrradianceCorrection { resolution: CORRECTION_RES, slot: vec![NO_MAP; g.cell_count()], scale: Vec::new() };
+    let mut correction = IrradianceCorrection {
+        resolution: CORRECTION_RES,
+        slot: vec![NO_MAP; g.cell_count()],
+        scale: Vec::new(),
+        surface_bias: bias,
+    };
     for f in fits.iter().filter(|f| f.stored) {
         if let Some(map) = &maps[f.cell as usize] {
             correction.slot[f.cell as usize] = (correction.scale.len() / map.len()) as u32;
             correction.scale.extend_from_slice(map);
         }
     }
-    IrradianceFit { correction, cells: fits, reference_rays, seconds: t0.elapsed().as_secs_f64() }
+    // the whole field's errors on every training and check point: the blend as it is and
+    // with the stored maps
+    let mut stored: Maps = vec![None; g.cell_count()];
+    for f in fits.iter().filter(|f| f.stored) {
+        stored[f.cell as usize] = maps[f.cell as usize];
+    }
+    let all = |pts: &[Point], maps: &Maps| rmse(&pts.iter().collect::<Vec<_>>(), maps, exposure);
+    let trial = BiasTrial {
+        bias,
+        blend_check_rmse: all(&check, &none),
+        train_rmse: all(&train, &stored),
+        check_rmse: all(&check, &stored),
+    };
+    ((correction, fits), trial)
 }

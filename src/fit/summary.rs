@@ -30,6 +30,13 @@ pub struct FitSummary {
     pub diffuse_cells_stored: usize,
     pub diffuse_check_before: f64,
     pub diffuse_check_after: f64,
+    /// Each candidate surface bias of the diffuse blend: the blend's and the corrected
+    /// field's tone-mapped RMSE (the stored bias is the smallest within 1% of the lowest
+    /// corrected check error).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub diffuse_bias_trials: Vec<super::irradiance::BiasTrial>,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub diffuse_surface_bias: f32,
     /// Where the fit's time went.
     #[serde(default)]
     pub times: super::FitTimes,
@@ -129,6 +136,8 @@ pub fn summary(fit: &Fit) -> FitSummary {
         diffuse_check_before: ir.iter().map(|c| c.check_before).sum::<f64>() / ir.len().max(1) as f64,
         diffuse_check_after: ir.iter().map(|c| if c.stored { c.check_after } else { c.check_before }).sum::<f64>()
             / ir.len().max(1) as f64,
+        diffuse_bias_trials: fit.irradiance.bias_trials.clone(),
+        diffuse_surface_bias: fit.irradiance.correction.surface_bias,
         times: fit.times,
         level1: level1_summary(fit),
     }
@@ -161,4 +170,11 @@ pub fn convergence(fit: &Fit, threads: usize) -> Vec<(f64, f64)> {
             (t / threads.max(1) as f64, cost / n)
         })
         .collect()
+}
+
+/// Whether `x` is 0: fields added with a default of 0 are left out, so summaries written
+/// before them keep their form (and the manifest holding them its checksum).
+#[allow(clippy::trivially_copy_pass_by_ref)]
+fn is_zero(x: &f32) -> bool {
+    *x == 0.0
 }

@@ -58,6 +58,10 @@ pub struct IrradianceCorrection {
     pub slot: Vec<u32>,
     /// `slot · N² + texel`: the scale.
     pub scale: Vec<f32>,
+    /// How far the runtime's blend moves a point along its normal before weighing the
+    /// cells, as a fraction of the smallest cell extent (DDGI's surface bias, Majercik et
+    /// al. 2021); 0 = not moved. Chosen by the fit on the scene's surface points.
+    pub surface_bias: f32,
 }
 
 impl IrradianceCorrection {
@@ -643,7 +647,10 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     // irradiance
     let ir = &m.irradiance;
     let islot = slots(&ir.stored_cells, cells, mp, "irradiance.stored_cells")?;
-    let mut correction = IrradianceCorrection::default();
+    if !(0.0..=1.0).contains(&ir.surface_bias) {
+        return Err(invalid(mp, "irradiance.surface_bias", format!("must be in [0, 1], got {}", ir.surface_bias)));
+    }
+    let mut correction = IrradianceCorrection { surface_bias: ir.surface_bias, ..IrradianceCorrection::default() };
     let (irradiance, depth_mean, depth_mean_sq) = if ir.stored_cells.is_empty() {
         (Vec::new(), Vec::new(), Vec::new())
     } else {
@@ -669,6 +676,7 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
                 resolution: cr,
                 slot: slots(&ir.corrected_cells, cells, mp, "irradiance.corrected_cells")?,
                 scale,
+                surface_bias: ir.surface_bias,
             };
         }
         let (r, dr, cols) = (ir.resolution, ir.depth_resolution, ir.atlas_columns);

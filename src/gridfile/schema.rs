@@ -162,6 +162,17 @@ pub struct IrradianceSection {
     pub corrected_cells: Vec<u32>,
     pub correction_resolution: u32,
     pub correction_columns: u32,
+    /// The blend's surface bias, a fraction of the smallest cell extent
+    /// (`runtime::IrradianceBlend::Biased`); absent = 0, as grids written before it.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub surface_bias: f32,
+}
+
+/// Whether `x` is 0 (serde's `skip_serializing_if` for fields added with a default of 0:
+/// manifests written before them keep their canonical form and checksum).
+#[allow(clippy::trivially_copy_pass_by_ref)]
+fn is_zero(x: &f32) -> bool {
+    *x == 0.0
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -313,6 +313,7 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
             corrected_cells: corrected,
             correction_resolution: src.correction.resolution.max(2),
             correction_columns,
+            surface_bias: src.correction.surface_bias,
         },
         roughness: g.roughness.cloned(),
         payloads,

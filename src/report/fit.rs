@@ -83,6 +83,18 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
         t.roughness,
         t.irradiance_fit
     );
+    if !s.diffuse_bias_trials.is_empty() {
+        let _ = writeln!(
+            md,
+            "Diffuse surface bias (the blend's point moved along its normal, in smallest cell extents; tone-mapped RMSE of the blend alone and of the field corrected by the maps fitted at that bias; the smallest bias within 1% of the lowest corrected check error is stored: {}):\n\n| bias | blend, check points | corrected, training | corrected, check |\n|---:|---:|---:|---:|",
+            s.diffuse_surface_bias
+        );
+        for t in &s.diffuse_bias_trials {
+            let _ =
+                writeln!(md, "| {} | {:.4} | {:.4} | {:.4} |", t.bias, t.blend_check_rmse, t.train_rmse, t.check_rmse);
+        }
+        let _ = writeln!(md);
+    }
     let _ = writeln!(md, "| level | cells | bytes | meaning |\n|---|---:|---:|---|");
     let how = match s.proxy.and_then(|p| p.measured) {
         Some([b, k, w]) => format!(

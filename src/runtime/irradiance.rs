@@ -18,14 +18,26 @@ pub enum IrradianceBlend {
     Trilinear,
     /// Trilinear, and cells behind the surface count less (smooth back-face weight).
     Backface,
-    /// Trilinear, back-face weight and Chebyshev visibility from the distance moments.
+    /// Trilinear, back-face weight and Chebyshev visibility from the distance moments
+    /// (DDGI as published in 2019).
     Chebyshev,
+    /// `Chebyshev` at the point moved along its normal by the grid's fitted surface bias
+    /// ([`IrradianceCorrection::surface_bias`](crate::runtime::IrradianceCorrection), DDGI's
+    /// surface bias, Majercik et al. 2021): a point on a wall is weighed from just off it,
+    /// so the wall's own probes see it in front of their moments and probes behind a thin
+    /// wall see it further behind.
+    Biased,
 }
 
 impl IrradianceBlend {
     /// Every step, simplest first.
-    pub const ALL: [IrradianceBlend; 4] =
-        [IrradianceBlend::Nearest, IrradianceBlend::Trilinear, IrradianceBlend::Backface, IrradianceBlend::Chebyshev];
+    pub const ALL: [IrradianceBlend; 5] = [
+        IrradianceBlend::Nearest,
+        IrradianceBlend::Trilinear,
+        IrradianceBlend::Backface,
+        IrradianceBlend::Chebyshev,
+        IrradianceBlend::Biased,
+    ];
 
     /// The step's name in tables.
     pub fn name(self) -> &'static str {
@@ -34,6 +46,7 @@ impl IrradianceBlend {
             IrradianceBlend::Trilinear => "trilinear",
             IrradianceBlend::Backface => "trilinear + back-face weight",
             IrradianceBlend::Chebyshev => "trilinear + back face + Chebyshev (DDGI)",
+            IrradianceBlend::Biased => "DDGI + fitted surface bias",
         }
     }
 }
@@ -49,9 +62,10 @@ pub struct BlendTerms {
 
 impl IrradianceGrid {
     /// Irradiance at `position` for surface normal `normal`: the eight cells around the
-    /// position, weighted trilinearly, by a smooth back-face term and by Chebyshev visibility
-    /// from the cells' distance moments (DDGI, Majercik et al. 2019); cells inside geometry
-    /// are skipped and the weights renormalised. Each cell's irradiance is multiplied by its
+    /// position moved along the normal by the fitted surface bias, weighted trilinearly, by
+    /// a smooth back-face term and by Chebyshev visibility from the cells' distance moments
+    /// (DDGI, Majercik et al. 2019 and 2021: [`IrradianceBlend::Biased`]); cells inside
+    /// geometry are skipped and the weights renormalised. Each cell's irradiance is multiplied by its
     /// fitted correction for the normal where it stores one, inside the blend, so the answer
     /// stays continuous across cell faces. Black when no stored cell is near.
     #[must_use]
@@ -59,7 +73,7 @@ impl IrradianceGrid {
         let Some(n) = crate::octa::unit_direction(normal) else {
             return Vec3::ZERO;
         };
-        let terms = self.blend_terms(position, n, IrradianceBlend::Chebyshev);
+        let terms = self.blend_terms(position, n, IrradianceBlend::Biased);
         let c = &self.correction;
         let ctaps = (!c.slot.is_empty()).then(|| octa::bilinear_taps(c.resolution, octa::encode(n)));
         let mut e = Vec3::ZERO;
@@ -100,6 +114,31 @@ impl IrradianceGrid {
     /// weight, the cell's irradiance for `n`). The weights sum to 1 when any cell counts.
     #[must_use]
     pub fn blend_terms(&self, position: Vec3, n: Vec3, blend: IrradianceBlend) -> BlendTerms {
+        match blend {
+            IrradianceBlend::Biased => self.biased_terms(position, n, self.correction.surface_bias),
+            _ => self.terms(position, n, blend),
+        }
+    }
+
+    /// The terms of [`IrradianceBlend::Biased`] with surface bias `bias` (a fraction of the
+    /// smallest cell extent) instead of the grid's: what the fit chooses the bias with.
+    #[must_use]
+    pub fn biased_terms(&self, position: Vec3, n: Vec3, bias: f32) -> BlendTerms {
+        self.terms(position + n * self.shift(bias), n, IrradianceBlend::Chebyshev)
+    }
+
+    /// How far [`IrradianceBlend::Biased`] moves a point along its normal, in scene units:
+    /// the fitted surface bias times the smallest cell extent.
+    #[must_use]
+    pub fn surface_shift(&self) -> f32 {
+        self.shift(self.correction.surface_bias)
+    }
+
+    fn shift(&self, bias: f32) -> f32 {
+        bias * self.geometry.cell_size().min_element()
+    }
+
+    fn terms(&self, position: Vec3, n: Vec3, blend: IrradianceBlend) -> BlendTerms {
         let mut out = BlendTerms { terms: [(0, 0.0, Vec3::ZERO); 8], count: 0 };
         let g = self;
         let geo = &g.geometry;

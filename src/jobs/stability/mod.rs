@@ -84,7 +84,7 @@ pub fn run(mode: Mode, mut on_row: impl FnMut(&CaseResult)) -> Vec<CaseResult> {
         ("thin feature (1e-3 thick wall)", "no ray leaks through it", Box::new(cases::thin_feature)),
         (
             "light through a 1e-3 wall",
-            "relocated probes and fitted corrections leak less than the DDGI blend at cell centres",
+            "the runtime (relocated probes, fitted surface bias and corrections) leaks at most 1/4 of the DDGI blend at cell centres",
             Box::new(cases::thin_wall_leak),
         ),
         (
