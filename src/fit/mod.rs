@@ -1,7 +1,8 @@
 //! Fitting per-cell correctives against raytraced references with argmin.
 //!
-//! First the grid's proxy (the box or the 18-DOP, `proxy::choose`): every lookup reads probe
-//! A through it, and the maps shift its surface (`warp::corrective`). Then, for every cell
+//! First the grid's proxy (the box, the 18-DOP or the probe's own depth, `proxy::choose`):
+//! every lookup reads probe A through it, and the maps shift its surface
+//! (`warp::corrective`). Then, for every cell
 //! that is not inside geometry: draw training queries (what a viewer sees, mostly: points on
 //! the surfaces around the cell with reflection directions over their hemisphere, and points
 //! in the cell's volume with directions over the sphere; their own sampler domain,
