@@ -28,6 +28,28 @@ pub struct RaySample {
     pub backface_two_sided: bool,
 }
 
+/// Radiance a ray received straight from a light next-event estimation samples, and the
+/// solid-angle pdf with which [`Renderer::light_samples`] picks that direction (0: none).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Emitted {
+    pub radiance: Vec3,
+    pub pdf: f32,
+}
+
+/// The cone a sphere light fills seen from `origin`: its axis and the cosine of its half
+/// angle (`None` inside the light).
+#[inline]
+fn sphere_cone(light: &crate::scene::SphereLight, origin: Vec3) -> Option<(Vec3, f32)> {
+    let to_c = light.position - origin;
+    let d2 = to_c.length_squared();
+    let r2 = light.radius * light.radius;
+    if d2 <= r2 {
+        return None;
+    }
+    let dist = d2.sqrt();
+    Some((to_c / dist, (1.0 - r2 / d2).max(0.0).sqrt()))
+}
+
 /// Scene + tracer: everything needed to answer radiance queries.
 pub struct Renderer<'a> {
     pub scene: &'a Scene,
@@ -54,12 +76,10 @@ impl<'a> Renderer<'a> {
         Renderer { scene, tracer, bounces: scene.config.bounces, emitters, emitter_cdf }
     }
 
-    /// Next-event estimate from the emissive triangles (picked by area, uniform point on the
-    /// picked triangle): radiance-weighted cosine term, divided by π by the caller's albedo/π.
-    fn emitter_irradiance(&self, origin: Vec3, n: Vec3, sampler: &mut Sampler, rays: &mut u64) -> Vec3 {
-        let Some(&total) = self.emitter_cdf.last() else {
-            return Vec3::ZERO;
-        };
+    /// A point on the emissive triangles, picked by area (uniform on the picked triangle):
+    /// the triangle, the point and the emitters' total area (the area pdf is 1 / total).
+    fn emitter_point(&self, sampler: &mut Sampler) -> Option<(usize, Vec3, f32)> {
+        let &total = self.emitter_cdf.last()?;
         let u = sampler.next_2d();
         let pick = sampler.next_1d() * total;
         let slot = self.emitter_cdf.partition_point(|&c| c <= pick).min(self.emitters.len() - 1);
@@ -68,7 +88,24 @@ impl<'a> Renderer<'a> {
         let (v0, v1, v2) = (tris.v0[k], tris.v1[k], tris.v2[k]);
         let su = u.x.sqrt();
         let (b0, b1) = (1.0 - su, u.y * su);
-        let p = v0 * b0 + v1 * b1 + v2 * (1.0 - b0 - b1);
+        Some((k, v0 * b0 + v1 * b1 + v2 * (1.0 - b0 - b1), total))
+    }
+
+    /// Cosine at emissive triangle `k` towards unit `l` (from the shading point to the
+    /// emitter) on its emitting side: ≤ 0 where it emits nothing that way.
+    fn emitter_cos(&self, k: usize, l: Vec3) -> f32 {
+        let tris = &self.scene.triangles;
+        let (v0, v1, v2) = (tris.v0[k], tris.v1[k], tris.v2[k]);
+        let nl = (v1 - v0).cross(v2 - v0).normalize_or_zero();
+        if self.scene.materials[tris.material[k] as usize].two_sided { nl.dot(l).abs() } else { -nl.dot(l) }
+    }
+
+    /// Next-event estimate from the emissive triangles (picked by area, uniform point on the
+    /// picked triangle): radiance-weighted cosine term, divided by π by the caller's albedo/π.
+    fn emitter_irradiance(&self, origin: Vec3, n: Vec3, sampler: &mut Sampler, rays: &mut u64) -> Vec3 {
+        let Some((k, p, total)) = self.emitter_point(sampler) else {
+            return Vec3::ZERO;
+        };
         let to_l = p - origin;
         let d2 = to_l.length_squared();
         if !(d2 > 0.0) {
@@ -77,9 +114,8 @@ impl<'a> Renderer<'a> {
         let d = d2.sqrt();
         let l = to_l / d;
         let cos_s = n.dot(l);
-        let mat = self.scene.materials[tris.material[k] as usize];
-        let nl = (v1 - v0).cross(v2 - v0).normalize_or_zero();
-        let cos_l = if mat.two_sided { nl.dot(l).abs() } else { -nl.dot(l) };
+        let mat = self.scene.materials[self.scene.triangles.material[k] as usize];
+        let cos_l = self.emitter_cos(k, l);
         if cos_s <= 0.0 || cos_l <= 0.0 {
             return Vec3::ZERO;
         }
@@ -91,11 +127,73 @@ impl<'a> Renderer<'a> {
         mat.emission * (cos_s * cos_l * total / d2)
     }
 
+    /// One sample of each light next-event estimation samples (each sphere light, then the
+    /// emissive triangles), seen from `origin`: `visit(l, radiance, pdf)` for each that
+    /// reaches it unoccluded with `facing · l > 0`, with the solid-angle pdf of its
+    /// technique. What multiple importance sampling pairs with a lobe's own samples.
+    pub fn light_samples(
+        &self,
+        origin: Vec3,
+        facing: Vec3,
+        sampler: &mut Sampler,
+        rays: &mut u64,
+        mut visit: impl FnMut(Vec3, Vec3, f32),
+    ) {
+        for light in &self.scene.lights.sphere_lights {
+            let Some((axis, cos_max)) = sphere_cone(light, origin) else { continue };
+            let l = uniform_cone(sampler.next_2d(), axis, cos_max);
+            if facing.dot(l) <= 0.0 {
+                continue;
+            }
+            let t_s = intersect_sphere(
+                Vec3A::from(origin),
+                Vec3A::from(l),
+                Vec3A::from(light.position),
+                light.radius,
+                0.0,
+                f32::INFINITY,
+            );
+            let falloff = light.falloff(-l);
+            if !t_s.is_finite() || falloff <= 0.0 {
+                continue;
+            }
+            *rays += 1;
+            if !self.tracer.occluded(origin, l, t_s * (1.0 - 1e-4)) {
+                visit(l, light.radiance * falloff, 1.0 / (TAU * (1.0 - cos_max)));
+            }
+        }
+        let Some((k, p, total)) = self.emitter_point(sampler) else { return };
+        let to_l = p - origin;
+        let d2 = to_l.length_squared();
+        if !(d2 > 0.0) {
+            return;
+        }
+        let d = d2.sqrt();
+        let l = to_l / d;
+        let cos_l = self.emitter_cos(k, l);
+        if facing.dot(l) <= 0.0 || cos_l <= 0.0 {
+            return;
+        }
+        *rays += 1;
+        if !self.tracer.occluded(origin, l, d * (1.0 - 1e-4)) {
+            let mat = self.scene.materials[self.scene.triangles.material[k] as usize];
+            visit(l, mat.emission, d2 / (cos_l * total));
+        }
+    }
+
     /// Radiance and distance along one ray (unit `dir`). `sampler` drives light and bounce
     /// sampling; `rays` counts every ray traced (primary, shadow and bounce).
     pub fn sample(&self, origin: Vec3, dir: Vec3, sampler: &mut Sampler, rays: &mut u64) -> RaySample {
+        self.sample_parts(origin, dir, sampler, rays).0
+    }
+
+    /// [`Renderer::sample`], and the part of its radiance emitted by what the ray hit first
+    /// when that is a light next-event estimation samples (a sphere light, an emissive
+    /// triangle), with the solid-angle pdf [`Renderer::light_samples`] draws it with.
+    pub fn sample_parts(&self, origin: Vec3, dir: Vec3, sampler: &mut Sampler, rays: &mut u64) -> (RaySample, Emitted) {
+        let none = Emitted::default();
         if !origin.is_finite() || !dir.is_finite() || dir.length_squared() == 0.0 {
-            return RaySample { radiance: Vec3::ZERO, distance: f32::INFINITY, ..Default::default() };
+            return (RaySample { radiance: Vec3::ZERO, distance: f32::INFINITY, ..Default::default() }, none);
         }
         let dir = dir.normalize();
         *rays += 1;
@@ -103,7 +201,7 @@ impl<'a> Renderer<'a> {
         let t_geom = hit.map_or(f32::INFINITY, |h| h.t);
         // Sphere lights are seen by primary rays when in front of the geometry.
         let mut t_light = t_geom;
-        let mut light_radiance = None;
+        let mut light_seen = None;
         for l in &self.scene.lights.sphere_lights {
             let t = intersect_sphere(
                 Vec3A::from(origin),
@@ -115,22 +213,42 @@ impl<'a> Renderer<'a> {
             );
             if t < t_light {
                 t_light = t;
-                light_radiance = Some(l.radiance * l.falloff(-dir));
+                light_seen = Some(l);
             }
         }
-        if let Some(radiance) = light_radiance {
-            return RaySample { radiance, distance: t_light, ..Default::default() };
+        if let Some(l) = light_seen {
+            let radiance = l.radiance * l.falloff(-dir);
+            let pdf = sphere_cone(l, origin).map_or(0.0, |(_, cos_max)| 1.0 / (TAU * (1.0 - cos_max)));
+            return (RaySample { radiance, distance: t_light, ..Default::default() }, Emitted { radiance, pdf });
         }
         let Some(hit) = hit else {
-            return RaySample { radiance: self.scene.sky.radiance(dir), distance: f32::INFINITY, ..Default::default() };
+            let radiance = self.scene.sky.radiance(dir);
+            return (RaySample { radiance, distance: f32::INFINITY, ..Default::default() }, none);
         };
         let mat = self.scene.materials[hit.material as usize];
         if hit.backface && !mat.two_sided {
-            return RaySample { radiance: Vec3::ZERO, distance: hit.t, backface: true, backface_two_sided: false };
+            return (
+                RaySample { radiance: Vec3::ZERO, distance: hit.t, backface: true, backface_two_sided: false },
+                none,
+            );
         }
         let n = if hit.backface { -hit.normal } else { hit.normal };
         let radiance = mat.emission + self.shade(hit.position, n, self.albedo(&hit), self.bounces, sampler, rays);
-        RaySample { radiance: sanitize(radiance), distance: hit.t, backface: false, backface_two_sided: hit.backface }
+        let emitted = if !hit.sphere && mat.emission.max_element() > 0.0 && !self.emitters.is_empty() {
+            let cos_l = self.emitter_cos(hit.prim as usize, dir);
+            let total = self.emitter_cdf[self.emitter_cdf.len() - 1];
+            let pdf = if cos_l > 0.0 { hit.t * hit.t / (cos_l * total) } else { 0.0 };
+            Emitted { radiance: mat.emission, pdf: if pdf.is_finite() { pdf } else { 0.0 } }
+        } else {
+            none
+        };
+        let sample = RaySample {
+            radiance: sanitize(radiance),
+            distance: hit.t,
+            backface: false,
+            backface_two_sided: hit.backface,
+        };
+        (sample, emitted)
     }
 
     /// Albedo at a hit: the material's, times its base-colour texture at the hit's texture
@@ -162,8 +280,24 @@ impl<'a> Renderer<'a> {
     /// Outgoing Lambertian radiance (without emission) at `p` with front normal `n`.
     fn shade(&self, p: Vec3, n: Vec3, albedo: Vec3, bounces_left: u32, sampler: &mut Sampler, rays: &mut u64) -> Vec3 {
         let origin = p + n * self.tracer.surface_offset(p);
+        let irradiance_over_pi = self.direct_over_pi(origin, n, true, sampler, rays);
+        let mut out = albedo * irradiance_over_pi;
+        if bounces_left > 0 {
+            let d = cosine_hemisphere(sampler.next_2d(), n);
+            *rays += 1;
+            // Cosine-weighted sampling: the estimator of ∫ albedo/π L cos dω is albedo · L.
+            let hit = self.tracer.closest_hit(origin, d, f32::INFINITY);
+            out += albedo * self.bounce_radiance(hit, d, bounces_left - 1, sampler, rays);
+        }
+        out
+    }
+
+    /// Direct irradiance over π at `origin` around front normal `n` by next-event estimation,
+    /// one sample of each light: the sun (when `sun`), each sphere light, the emissive
+    /// triangles.
+    fn direct_over_pi(&self, origin: Vec3, n: Vec3, sun: bool, sampler: &mut Sampler, rays: &mut u64) -> Vec3 {
         let mut irradiance_over_pi = Vec3::ZERO;
-        if let Some(sun) = self.scene.lights.sun {
+        if let (Some(sun), true) = (self.scene.lights.sun, sun) {
             let l = uniform_cone(sampler.next_2d(), sun.direction, sun.cos_angular_radius);
             let cos = n.dot(l);
             if cos > 0.0 {
@@ -175,15 +309,9 @@ impl<'a> Renderer<'a> {
             }
         }
         for light in &self.scene.lights.sphere_lights {
-            let to_c = light.position - origin;
-            let d2 = to_c.length_squared();
-            let r2 = light.radius * light.radius;
-            if d2 <= r2 {
+            let Some((axis, cos_max)) = sphere_cone(light, origin) else {
                 continue; // shading point inside the light
-            }
-            let dist = d2.sqrt();
-            let axis = to_c / dist;
-            let cos_max = (1.0 - r2 / d2).max(0.0).sqrt();
+            };
             let u = sampler.next_2d();
             let l = uniform_cone(u, axis, cos_max);
             let cos = n.dot(l);
@@ -211,29 +339,56 @@ impl<'a> Renderer<'a> {
                 irradiance_over_pi += light.radiance * (cos * solid_angle * FRAC_1_PI * falloff);
             }
         }
-        irradiance_over_pi += self.emitter_irradiance(origin, n, sampler, rays) * FRAC_1_PI;
-        let mut out = albedo * irradiance_over_pi;
-        if bounces_left > 0 {
-            let d = cosine_hemisphere(sampler.next_2d(), n);
-            *rays += 1;
-            // Cosine-weighted sampling: the estimator of ∫ albedo/π L cos dω is albedo · L.
-            let incoming = match self.tracer.closest_hit(origin, d, f32::INFINITY) {
-                None => self.scene.sky.radiance(d),
-                Some(h) => {
-                    let m = self.scene.materials[h.material as usize];
-                    if h.backface && !m.two_sided {
-                        Vec3::ZERO
-                    } else {
-                        let hn = if h.backface { -h.normal } else { h.normal };
-                        // Emissive triangles already arrived by next-event estimation.
-                        let emission = if h.sphere { m.emission } else { Vec3::ZERO };
-                        emission + self.shade(h.position, hn, self.albedo(&h), bounces_left - 1, sampler, rays)
-                    }
+        irradiance_over_pi + self.emitter_irradiance(origin, n, sampler, rays) * FRAC_1_PI
+    }
+
+    /// Radiance a bounce ray along `d` brings back from `hit` (`bounces` more after it):
+    /// the sky on a miss, black from the back of a one-sided surface, otherwise the hit's
+    /// shading plus the emission of emissive spheres (emissive triangles and sphere lights
+    /// arrive by next-event estimation instead).
+    fn bounce_radiance(
+        &self,
+        hit: Option<super::bvh::Hit>,
+        d: Vec3,
+        bounces: u32,
+        sampler: &mut Sampler,
+        rays: &mut u64,
+    ) -> Vec3 {
+        match hit {
+            None => self.scene.sky.radiance(d),
+            Some(h) => {
+                let m = self.scene.materials[h.material as usize];
+                if h.backface && !m.two_sided {
+                    Vec3::ZERO
+                } else {
+                    let hn = if h.backface { -h.normal } else { h.normal };
+                    let emission = if h.sphere { m.emission } else { Vec3::ZERO };
+                    emission + self.shade(h.position, hn, self.albedo(&h), bounces, sampler, rays)
                 }
-            };
-            out += albedo * incoming;
+            }
         }
-        out
+    }
+
+    /// One sample of the irradiance at `p` around unit normal `n` as the light probes carry
+    /// it (sky, emitters, bounced light; not the sun's disc, which rays never see), for the
+    /// cosine-distributed direction `d`: the sphere lights and emissive triangles by
+    /// next-event estimation, everything else by the ray along `d` (π · its radiance; a
+    /// sphere light in its way blocks it, as it blocks a primary ray). Its mean over
+    /// cosine-distributed `d` is `E = ∫ L cos dω` of what primary rays see, with far less
+    /// variance than π · L alone where a small bright emitter is in view.
+    pub fn irradiance_sample(&self, p: Vec3, n: Vec3, d: Vec3, sampler: &mut Sampler, rays: &mut u64) -> Vec3 {
+        if !(p.is_finite() && n.is_finite() && d.is_finite()) {
+            return Vec3::ZERO;
+        }
+        let direct = self.direct_over_pi(p, n, false, sampler, rays) * std::f32::consts::PI;
+        *rays += 1;
+        let hit = self.tracer.closest_hit(p, d, f32::INFINITY);
+        let t_geom = hit.map_or(f32::INFINITY, |h| h.t);
+        let blocked = self.scene.lights.sphere_lights.iter().any(|l| {
+            intersect_sphere(Vec3A::from(p), Vec3A::from(d), Vec3A::from(l.position), l.radius, 0.0, t_geom) < t_geom
+        });
+        let indirect = if blocked { Vec3::ZERO } else { self.bounce_radiance(hit, d, self.bounces, sampler, rays) };
+        sanitize(direct + indirect * std::f32::consts::PI)
     }
 }
 

@@ -7,6 +7,7 @@ use super::bvh::intersect_sphere;
 use super::{Renderer, Tracer};
 use crate::sampling::{Sampler, hash_pair, uniform_sphere};
 use crate::scene::Scene;
+use crate::tonemap::luminance;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -95,10 +96,13 @@ pub fn is_inside(scene: &Scene, tracer: &Tracer, p: Vec3, threshold: f32, sample
     inside_by_backfaces(b, threshold)
 }
 
-/// Cosine-weighted irradiance at `p` around unit `n` from `spp` traced radiance samples
-/// (`E = π · mean L` over cosine-distributed directions: exact for constant radiance), and the
-/// standard error of its luminance. The light probes carry: sky, emitters, bounced light (the
-/// sun's disc is not seen by rays, it reaches surfaces by next-event estimation).
+/// Irradiance at `p` around unit `n` from `spp` samples, and the standard error of its
+/// luminance: what the light probes carry (sky, emitters, bounced light; the sun's disc is
+/// not seen by rays, it reaches surfaces by next-event estimation). Each sample is
+/// [`Renderer::irradiance_sample`] for a cosine-distributed direction: sphere lights and
+/// emissive triangles by next-event estimation, the rest `π · L` along the direction
+/// (exact for constant radiance). Unbiased like `π · mean L`, but a small bright emitter no
+/// longer rules the variance (a lamp seen in a few samples of a thousand).
 pub fn irradiance_reference(
     renderer: &Renderer,
     p: Vec3,
@@ -112,15 +116,14 @@ pub fn irradiance_reference(
     for k in 0..spp {
         let mut s = sampler(k);
         let d = crate::sampling::cosine_hemisphere(s.next_2d(), n);
-        let l = renderer.sample(p, d, &mut s, rays).radiance;
-        sum += l;
-        let y = crate::tonemap::luminance(l) as f64;
+        let e = renderer.irradiance_sample(p, n, d, &mut s, rays);
+        sum += e;
+        let y = crate::tonemap::luminance(e) as f64;
         (y1, y2) = (y1 + y, y2 + y * y);
     }
     let m = spp as f64;
     let var = ((y2 - y1 * y1 / m) / (m - 1.0).max(1.0)).max(0.0);
-    let pi = std::f64::consts::PI;
-    (sum * (std::f32::consts::PI / spp as f32), (pi * (var / m).sqrt()) as f32)
+    (sum / spp as f32, (var / m).sqrt() as f32)
 }
 
 /// `count` points area-uniform on the scene's triangles inside `bounds`, each offset off the
@@ -274,10 +277,16 @@ pub struct Reference {
 
 /// The reference of query (B, unit `dir`, perceptual roughness `r`): radiance arriving at B
 /// through the GGX lobe the probe's mips are prefiltered with (N = V = dir, α = r²; Karis
-/// 2013): half vectors importance-sampled from D(h)(n·h), l reflected about h, each sample
-/// weighted by n·l; the weighted mean of the traced radiance along each l. At r = 0 the
-/// lobe is the mirror ray, and the mean of `spp` samples along it. `sampler(k)` drives
-/// sample k (lobe direction first, then the renderer's shading).
+/// 2013), `∫ L(l) D(h)(n·l) dl / ∫ D(h)(n·l) dl`. Each sample draws a half vector from
+/// D(h)(n·h) and reflects it (pdf D/4 over l, weight n·l), and one sample of each light
+/// next-event estimation samples. What those lights send straight at B is shared between
+/// the two techniques by the balance heuristic (Veach 1997): the lobe's share and all other
+/// light form the weighted mean of the lobe samples (exact for constant radiance), the
+/// lights' share is divided by the lobe's exact mass ([`lobe_mass`]). A small bright lamp
+/// in the lobe no longer rules the variance. At r = 0 the lobe is the mirror ray, and the
+/// mean of `spp` samples along it. `sampler(k)` drives sample k (lobe direction, the
+/// renderer's shading, then the light samples). The standard error adds the two parts'
+/// variances (their covariance is left out).
 pub fn lobe_reference(
     renderer: &Renderer,
     b: Vec3,
@@ -288,40 +297,82 @@ pub fn lobe_reference(
     rays: &mut u64,
 ) -> Reference {
     let alpha = r * r;
-    let (mut sum, mut w_sum) = (Vec3::ZERO, 0.0f64);
-    // moments for the ratio estimator's variance: Σw², Σw²Y, Σw²Y² (Y = luminance)
-    let (mut w2, mut w2y, mut w2y2) = (0.0f64, 0.0f64, 0.0f64);
+    // the lobe's pdf over l at N = V = dir (0 below its horizon)
+    let lobe_pdf = |l: Vec3| {
+        let h = (dir + l).normalize_or_zero();
+        let p = crate::sampling::ggx_d(dir.dot(h).max(0.0), alpha) * 0.25;
+        if p.is_finite() { p } else { 0.0 }
+    };
+    // balance-heuristic weight of the technique with pdf `own` against the other's `other`
+    let share = |own: f32, other: f32| if own + other > 0.0 { own / (own + other) } else { 0.0 };
+    let (mut sum, mut w_sum, mut lights) = (Vec3::ZERO, 0.0f64, Vec3::ZERO);
+    // moments for the ratio estimator's variance (a = luminance of a lobe sample's weighted
+    // radiance, w its weight): Σw², Σaw, Σa²; and of the light samples' luminance: Σc, Σc²
+    let (mut w2, mut aw, mut a2, mut c1, mut c2) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
     let spp = spp.max(1);
     for k in 0..spp {
         let mut s = sampler(k);
-        let (l, w) = if r > 0.0 {
+        let (weighted, w, light) = if r > 0.0 {
             let h = crate::sampling::ggx_half_vector(s.next_2d(), dir, alpha);
             let nh = dir.dot(h).max(0.0);
             let l = 2.0 * nh * h - dir;
             let nl = dir.dot(l);
-            if !(nl > 0.0) {
-                continue; // below the lobe's horizon: zero weight
+            let (mut weighted, mut w) = (Vec3::ZERO, 0.0);
+            if nl > 0.0 {
+                let (sample, emitted) = renderer.sample_parts(b, l, &mut s, rays);
+                let rest = (sample.radiance - emitted.radiance).max(Vec3::ZERO);
+                weighted = (rest + emitted.radiance * share(lobe_pdf(l), emitted.pdf)) * nl;
+                w = nl;
             }
-            (l, nl)
+            // (n·l)·(D/4)·L / pdf_light, weighted pdf_light / (pdf_lobe + pdf_light)
+            let mut light = Vec3::ZERO;
+            renderer.light_samples(b, dir, &mut s, rays, |l, radiance, pdf| {
+                let p = lobe_pdf(l);
+                light += radiance * (dir.dot(l) * p / (p + pdf));
+            });
+            (weighted, w, crate::trace::radiance::sanitize(light))
         } else {
-            (dir, 1.0)
+            (renderer.sample(b, dir, &mut s, rays).radiance, 1.0, Vec3::ZERO)
         };
-        let radiance = renderer.sample(b, l, &mut s, rays).radiance;
-        let (w, y) = (w as f64, crate::tonemap::luminance(radiance) as f64);
-        sum += radiance * w as f32;
+        let (w, a, c) = (w as f64, luminance(weighted) as f64, luminance(light) as f64);
+        sum += weighted;
+        lights += light;
         w_sum += w;
-        (w2, w2y, w2y2) = (w2 + w * w, w2y + w * w * y, w2y2 + w * w * y * y);
+        (w2, aw, a2, c1, c2) = (w2 + w * w, aw + a * w, a2 + a * a, c1 + c, c2 + c * c);
     }
-    if !(w_sum > 0.0) {
-        return Reference { radiance: Vec3::ZERO, se: 0.0 };
-    }
-    let mean = sum / w_sum as f32;
-    let m = crate::tonemap::luminance(mean) as f64;
-    // delta-method variance of Σw·Y / Σw, with the n/(n−1) small-sample correction
-    let var = (w2y2 - 2.0 * m * w2y + m * m * w2).max(0.0) / (w_sum * w_sum);
     let n = spp as f64;
-    let se = if n > 1.0 { (var * n / (n - 1.0)).sqrt() } else { 0.0 };
-    Reference { radiance: mean, se: se as f32 }
+    let mass = if r > 0.0 { lobe_mass(alpha) } else { 1.0 };
+    let from_lights = lights / (n * mass) as f32;
+    let (from_lobe, var_lobe) = if w_sum > 0.0 {
+        let mean = sum / w_sum as f32;
+        let m = luminance(mean) as f64;
+        // delta-method variance of Σa / Σw
+        (mean, (a2 - 2.0 * m * aw + m * m * w2).max(0.0) / (w_sum * w_sum))
+    } else {
+        (Vec3::ZERO, 0.0)
+    };
+    let var_lights = (c2 - c1 * c1 / n).max(0.0) / (n * n) / (mass * mass);
+    // the n/(n−1) small-sample correction
+    let se = if n > 1.0 { ((var_lobe + var_lights) * n / (n - 1.0)).sqrt() } else { 0.0 };
+    Reference { radiance: crate::trace::radiance::sanitize(from_lobe + from_lights), se: se as f32 }
+}
+
+/// The mass `∫ D(h)(n·l)/4 dl` of the GGX lobe at N = V (the expected n·l of a reflected
+/// half vector drawn from D(h)(n·h)), in closed form: with u uniform, n·h² =
+/// (1 − u)/(1 + (α² − 1)u), and n·l = 2 n·h² − 1 is positive for u < 1/(1 + α²).
+#[must_use]
+pub fn lobe_mass(alpha: f32) -> f64 {
+    let a2 = (alpha as f64 * alpha as f64).clamp(1e-12, 1.0);
+    let b = a2 - 1.0; // in (−1, 0]
+    let u = 1.0 / (1.0 + a2);
+    // ∫₀ᵘ (1 − t)/(1 + b t) dt: −u/b + (1 + 1/b)·ln(1 + b u)/b, and near b = 0 (where
+    // that cancels) its expansion u − u²/2 + b(u³/3 − u²/2) + O(b²)
+    let integral = if b.abs() < 1e-4 {
+        u - u * u / 2.0 + b * (u * u * u / 3.0 - u * u / 2.0)
+    } else {
+        -u / b + (1.0 + 1.0 / b) * libm::log1p(b * u) / b
+    };
+    (2.0 * integral - u).max(0.0)
 }
 
 /// Traces the references of `dirs_per_position` uniform directions at each position (over
