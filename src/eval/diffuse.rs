@@ -2,8 +2,9 @@
 //!
 //! - **References**: points area-uniform on the scene's triangles inside the grid (never
 //!   on a fitting set: the fit draws from other streams), offset off the surface along the
-//!   side they are seen from, each with the cosine-weighted irradiance of traced radiance
-//!   (`E = π · mean L` over cosine-distributed directions) and its standard error. As the
+//!   side they are seen from, each with its traced irradiance (`truth::irradiance_reference`:
+//!   lamps by next-event estimation, the rest `π · L` over cosine-distributed directions)
+//!   and its standard error. As the
 //!   grid stores it, this is the light probes carry: sky, emitters and light bounced off
 //!   surfaces, not the sun's disc itself (engines add direct sun by shadow maps).
 //! - **Rows**: the dense grid through each step of DDGI's blend (`runtime::IrradianceBlend`:

@@ -286,7 +286,7 @@ pub fn write_eval(folder: &RunFolder, r: &EvalReport) -> Result<(), FileError> {
     let _ = writeln!(md, "## Roughness buckets and the references' noise\n");
     md += &buckets_table(r);
     if r.diffuse.is_some() {
-        md += "\n## Diffuse lighting\n\nIrradiance at held-out surface points (area-uniform on triangles inside the grid), against cosine-weighted traced references: the light probes carry (sky, emitters, bounced light; direct sun is the renderer's job). Rows: the grid through each step of DDGI's blend, the runtime (the blend times the cell's fitted correction), probe A alone, and seed 004's voxel GI.\n\n";
+        md += "\n## Diffuse lighting\n\nIrradiance at held-out surface points (area-uniform on triangles inside the grid), against traced references (lamps sampled directly, the rest along cosine-distributed rays): what the light probes carry (sky, emitters, bounced light; direct sun is the renderer's job). Rows: the grid through each step of DDGI's blend, the runtime (the blend times the cell's fitted correction), probe A alone, and seed 004's voxel GI.\n\n";
         md += &diffuse_table(r);
         md += "\n![ꟻLIP, diffuse](flip_diffuse.png)\n";
     }
