@@ -128,11 +128,6 @@ fn err2(e: Vec3, reference: Vec3, exposure: f32) -> f64 {
     ((d.x as f64).powi(2) + (d.y as f64).powi(2) + (d.z as f64).powi(2)) / 3.0
 }
 
-/// The points of `pts` listed in `idx`.
-fn gather<'a>(pts: &'a [Point], idx: &[u32]) -> Vec<&'a Point> {
-    idx.iter().map(|&k| &pts[k as usize]).collect()
-}
-
 fn rmse(points: &[&Point], maps: &Maps, exposure: f32) -> f64 {
     let sq: f64 = points.iter().map(|p| err2(predict(p, maps, None), p.reference, exposure)).sum();
     (sq / points.len().max(1) as f64).sqrt()
@@ -314,7 +309,96 @@ pub fn fit_from_references(
     IrradianceFit { correction, bias_trials, cells, reference_rays, seconds: t0.elapsed().as_secs_f64() }
 }
 
+/// The points of one set (training or check) bucketed by the lowest layer (z) of the cells
+/// their blend weighs at one surface bias: a cell's support lies in the buckets of its
+/// layer and the one below, so the fit visits the layers in order holding two buckets'
+/// prepared points at a time, not every point's blend terms (memory stays bounded as the
+/// grid grows). Buckets list their points in increasing order.
+struct Layering {
+    /// Points of bucket z: `order[start[z]..start[z + 1]]`.
+    order: Vec<u32>,
+    start: Vec<u32>,
+}
+
+impl Layering {
+    /// Buckets `pts` by the lowest layer of their blend's cells (layer 0 for a point no cell
+    /// weighs), counting each cell's support (points it takes part in) into `support`.
+    fn new(grid: &IrradianceGrid, pts: &[(Vec3, Vec3)], bias: f32, support: &mut [u32]) -> Layering {
+        let g = grid.geometry;
+        let layer_cells = (g.counts.x * g.counts.y) as usize;
+        let layers = g.counts.z as usize;
+        let lowest: Vec<(u32, [u32; 8], usize)> = pts
+            .par_iter()
+            .map(|&(p, n)| {
+                let t = grid.biased_terms(p, n, bias);
+                let mut cells = [u32::MAX; 8];
+                let mut count = 0;
+                let mut z = u32::MAX;
+                for &(c, w, _) in &t.terms[..t.count] {
+                    if w > 0.0 {
+                        cells[count] = c;
+                        count += 1;
+                        z = z.min(c / layer_cells as u32);
+                    }
+                }
+                (if z == u32::MAX { 0 } else { z }, cells, count)
+            })
+            .collect();
+        let mut start = vec![0u32; layers + 1];
+        for &(z, cells, count) in &lowest {
+            start[z as usize + 1] += 1;
+            for &c in &cells[..count] {
+                support[c as usize] += 1;
+            }
+        }
+        for z in 0..layers {
+            start[z + 1] += start[z];
+        }
+        let mut next = start.clone();
+        let mut order = vec![0u32; pts.len()];
+        for (k, &(z, _, _)) in lowest.iter().enumerate() {
+            order[next[z as usize] as usize] = k as u32;
+            next[z as usize] += 1;
+        }
+        Layering { order, start }
+    }
+
+    fn bucket(&self, z: usize) -> &[u32] {
+        &self.order[self.start[z] as usize..self.start[z + 1] as usize]
+    }
+
+    /// Calls `visit(z, window)` for each layer z in order: `window` holds the prepared points
+    /// of buckets z − 1 and z (every point whose blend weighs a cell of layer z), in
+    /// increasing point order, as (point, prepared). A point is in the window of its own
+    /// bucket's layer ([`lowest_layer`]) and of the next.
+    fn visit(&self, prepare: impl Fn(usize) -> Point + Sync, mut visit: impl FnMut(usize, &[(u32, Point)])) {
+        let mut prev: Vec<(u32, Point)> = Vec::new();
+        for z in 0..self.start.len() - 1 {
+            let cur: Vec<(u32, Point)> = self.bucket(z).par_iter().map(|&k| (k, prepare(k as usize))).collect();
+            // merge the two buckets by point index (each is increasing)
+            let mut window = Vec::with_capacity(prev.len() + cur.len());
+            let (mut i, mut j) = (0, 0);
+            while i < prev.len() || j < cur.len() {
+                if j == cur.len() || (i < prev.len() && prev[i].0 < cur[j].0) {
+                    window.push(prev[i]);
+                    i += 1;
+                } else {
+                    window.push(cur[j]);
+                    j += 1;
+                }
+            }
+            visit(z, &window);
+            prev = cur;
+        }
+    }
+}
+
 /// The scale maps fitted for the blend at surface bias `bias`, and the trial's errors.
+///
+/// Layer by layer (see [`Layering`]): each Jacobi round and the selection visit the layers
+/// in order, preparing each point's blend terms when its layer comes; the maps, the
+/// supports and every sum are those of the whole set in point order, so the result does not
+/// depend on the layering.
 fn fit_at_bias(
     grid: &IrradianceGrid,
     exposure: f32,
@@ -323,84 +407,143 @@ fn fit_at_bias(
     bias: f32,
 ) -> ((IrradianceCorrection, Vec<IrradianceCellFit>), BiasTrial) {
     let g = grid.geometry;
-    let prepare = |pts: &[(Vec3, Vec3)], refs: &[Traced]| -> Vec<Point> {
-        pts.par_iter()
-            .zip(refs)
-            .map(|(&(p, n), t)| Point {
-                terms: grid.biased_terms(p, n, bias),
-                reference: t.reference,
-                taps: octa::bilinear_taps(CORRECTION_RES, octa::encode(n)),
-            })
-            .collect()
+    let layer_cells = (g.counts.x * g.counts.y) as usize;
+    let point = |pts: &[(Vec3, Vec3)], refs: &[Traced], k: usize| {
+        let (p, n) = pts[k];
+        Point {
+            terms: grid.biased_terms(p, n, bias),
+            reference: refs[k].reference,
+            taps: octa::bilinear_taps(CORRECTION_RES, octa::encode(n)),
+        }
     };
-    let (train, check) = (prepare(&points.train, &references.train), prepare(&points.check, &references.check));
-    let none: Maps = vec![None; g.cell_count()];
-    // each cell's support: the points whose blend it takes part in
-    let support = |pts: &[Point]| {
-        let mut by_cell: Vec<Vec<u32>> = vec![Vec::new(); g.cell_count()];
-        for (k, p) in pts.iter().enumerate() {
+    let (train_pts, check_pts) = (&points.train, &points.check);
+    let (train_refs, check_refs) = (&references.train, &references.check);
+    let (mut train_count, mut check_count) = (vec![0u32; g.cell_count()], vec![0u32; g.cell_count()]);
+    let train = Layering::new(grid, train_pts, bias, &mut train_count);
+    let check = Layering::new(grid, check_pts, bias, &mut check_count);
+    let fitted = |c: usize| {
+        grid.slot[c] != NO_MAP
+            && train_count[c] as usize >= MIN_POINTS
+            && check_count[c] as usize >= MIN_POINTS / 2
+    };
+    // the points of `window` in the support of each fitted cell of layer z, in point order
+    let supports = |z: usize, window: &[(u32, Point)]| -> Vec<(usize, Vec<u32>)> {
+        let mut of: Vec<Vec<u32>> = vec![Vec::new(); layer_cells];
+        for (i, (_, p)) in window.iter().enumerate() {
             for &(c, w, _) in &p.terms.terms[..p.terms.count] {
-                if w > 0.0 {
-                    by_cell[c as usize].push(k as u32);
+                if w > 0.0 && c as usize / layer_cells == z {
+                    of[c as usize % layer_cells].push(i as u32);
                 }
             }
         }
-        by_cell
+        of.into_iter().enumerate().map(|(i, s)| (z * layer_cells + i, s)).filter(|(c, _)| fitted(*c)).collect()
     };
-    let (train_of, check_of) = (support(&train), support(&check));
-    let cells: Vec<usize> = (0..g.cell_count())
-        .filter(|&c| grid.slot[c] != NO_MAP && train_of[c].len() >= MIN_POINTS && check_of[c].len() >= MIN_POINTS / 2)
-        .collect();
+    let gather = |window: &'_ [(u32, Point)], idx: &[u32]| -> Vec<Point> {
+        idx.iter().map(|&i| window[i as usize].1).collect()
+    };
+    let none: Maps = vec![None; g.cell_count()];
     let mut maps: Maps = vec![None; g.cell_count()];
     for _ in 0..ROUNDS {
-        let next: Vec<(usize, Map)> =
-            cells.par_iter().map(|&c| (c, fit_map(&gather(&train, &train_of[c]), &maps, c, exposure))).collect();
-        for (c, m) in next {
-            maps[c] = Some(m);
-        }
+        let mut next = maps.clone();
+        train.visit(
+            |k| point(train_pts, train_refs, k),
+            |z, window| {
+                let cells = supports(z, window);
+                let fits: Vec<(usize, Map)> = cells
+                    .par_iter()
+                    .map(|(c, idx)| {
+                        let pts = gather(window, idx);
+                        (*c, fit_map(&pts.iter().collect::<Vec<_>>(), &maps, *c, exposure))
+                    })
+                    .collect();
+                for (c, m) in fits {
+                    next[c] = Some(m);
+                }
+            },
+        );
+        maps = next;
     }
     // selection: a cell keeps its map where its support's check points improve by 5% with
     // the corrected field against the uncorrected blend (neighbouring maps share their
-    // points, so one map alone rarely makes the difference: they are judged as a field)
-    let fits: Vec<IrradianceCellFit> = cells
-        .par_iter()
-        .map(|&c| {
-            let refs = gather(&check, &check_of[c]);
-            let (before, after) = (rmse(&refs, &none, exposure), rmse(&refs, &maps, exposure));
-            IrradianceCellFit {
-                cell: c as u32,
-                train_points: train_of[c].len(),
-                check_points: check_of[c].len(),
-                check_before: before,
-                check_after: after,
-                stored: after < 0.95 * before,
+    // points, so one map alone rarely makes the difference: they are judged as a field);
+    // the same pass keeps each check point's error with the blend as it is
+    let mut fits: Vec<IrradianceCellFit> = Vec::new();
+    let mut blend_err = vec![0.0f64; check_pts.len()];
+    check.visit(
+        |k| point(check_pts, check_refs, k),
+        |z, window| {
+            for &(k, ref p) in window {
+                if p.terms.count == 0 || lowest_layer(p, layer_cells) == z {
+                    blend_err[k as usize] = err2(predict(p, &none, None), p.reference, exposure);
+                }
             }
-        })
-        .collect();
+            let cells = supports(z, window);
+            let judged: Vec<IrradianceCellFit> = cells
+                .par_iter()
+                .map(|(c, idx)| {
+                    let pts = gather(window, idx);
+                    let refs: Vec<&Point> = pts.iter().collect();
+                    let (before, after) = (rmse(&refs, &none, exposure), rmse(&refs, &maps, exposure));
+                    IrradianceCellFit {
+                        cell: *c as u32,
+                        train_points: train_count[*c] as usize,
+                        check_points: check_count[*c] as usize,
+                        check_before: before,
+                        check_after: after,
+                        stored: after < 0.95 * before,
+                    }
+                })
+                .collect();
+            fits.extend(judged);
+        },
+    );
     let mut correction = IrradianceCorrection {
         resolution: CORRECTION_RES,
         slot: vec![NO_MAP; g.cell_count()],
         scale: Vec::new(),
         surface_bias: bias,
     };
+    let mut stored: Maps = vec![None; g.cell_count()];
     for f in fits.iter().filter(|f| f.stored) {
         if let Some(map) = &maps[f.cell as usize] {
             correction.slot[f.cell as usize] = (correction.scale.len() / map.len()) as u32;
             correction.scale.extend_from_slice(map);
+            stored[f.cell as usize] = Some(*map);
         }
     }
+    drop(maps);
     // the whole field's errors on every training and check point: the blend as it is and
-    // with the stored maps
-    let mut stored: Maps = vec![None; g.cell_count()];
-    for f in fits.iter().filter(|f| f.stored) {
-        stored[f.cell as usize] = maps[f.cell as usize];
-    }
-    let all = |pts: &[Point], maps: &Maps| rmse(&pts.iter().collect::<Vec<_>>(), maps, exposure);
+    // with the stored maps (each point's error where its own bucket comes, summed in point
+    // order)
+    let field_rmse = |layering: &Layering, pts: &[(Vec3, Vec3)], refs: &[Traced], maps: &Maps| {
+        let mut e = vec![0.0f64; pts.len()];
+        layering.visit(
+            |k| point(pts, refs, k),
+            |z, window| {
+                for &(k, ref p) in window {
+                    if p.terms.count == 0 || lowest_layer(p, layer_cells) == z {
+                        e[k as usize] = err2(predict(p, maps, None), p.reference, exposure);
+                    }
+                }
+            },
+        );
+        (e.iter().sum::<f64>() / pts.len().max(1) as f64).sqrt()
+    };
     let trial = BiasTrial {
         bias,
-        blend_check_rmse: all(&check, &none),
-        train_rmse: all(&train, &stored),
-        check_rmse: all(&check, &stored),
+        blend_check_rmse: (blend_err.iter().sum::<f64>() / check_pts.len().max(1) as f64).sqrt(),
+        train_rmse: field_rmse(&train, train_pts, train_refs, &stored),
+        check_rmse: field_rmse(&check, check_pts, check_refs, &stored),
     };
     ((correction, fits), trial)
+}
+
+/// The lowest layer of the cells `p`'s blend weighs (its bucket in [`Layering`]).
+fn lowest_layer(p: &Point, layer_cells: usize) -> usize {
+    p.terms.terms[..p.terms.count]
+        .iter()
+        .filter(|t| t.1 > 0.0)
+        .map(|t| t.0 as usize / layer_cells)
+        .min()
+        .unwrap_or(0)
 }

@@ -219,7 +219,9 @@ pub fn cell_surface_points(
 /// in attempt order. Each attempt must depend on its index alone: blocks of them run in
 /// parallel and give the same answer as one attempt after another.
 pub fn first_successes<T: Send>(count: u32, limit: u32, attempt: impl Fn(u32) -> Option<T> + Sync) -> Vec<T> {
-    let mut out = Vec::new();
+    // exactly `count` slots: a growing vector would hold up to twice that (a fit draws 24
+    // surface points per active cell)
+    let mut out = Vec::with_capacity(count as usize);
     let mut next = 0u32;
     while out.len() < count as usize && next < limit {
         let block = ((count as usize - out.len()) * 5 / 4).clamp(256, 1 << 16) as u32;
@@ -228,6 +230,7 @@ pub fn first_successes<T: Send>(count: u32, limit: u32, attempt: impl Fn(u32) ->
         next = end;
         out.extend(found.into_iter().flatten().take(count as usize - out.len()));
     }
+    out.shrink_to_fit();
     out
 }
 
