@@ -53,6 +53,35 @@ impl ProbeGrid {
     pub fn active_cells(&self) -> usize {
         self.inside.iter().filter(|x| !**x).count()
     }
+
+    /// Each cell's slot in the grid's dense arrays: the cell itself, or
+    /// [`NO_MAP`](crate::warp::corrective::NO_MAP) inside geometry (for
+    /// [`ProbeGrid::irradiance_view`]).
+    #[must_use]
+    pub fn dense_slots(&self) -> Vec<u32> {
+        self.inside
+            .iter()
+            .enumerate()
+            .map(|(c, &inside)| if inside { crate::warp::corrective::NO_MAP } else { c as u32 })
+            .collect()
+    }
+
+    /// The cells outside geometry as the runtime's blend reads them, borrowed from the bake
+    /// (the same values a grid written from it holds, without copying them): `slots` from
+    /// [`ProbeGrid::dense_slots`].
+    #[must_use]
+    pub fn irradiance_view<'a>(&'a self, slots: &'a [u32]) -> crate::runtime::IrradianceView<'a> {
+        crate::runtime::IrradianceView {
+            geometry: self.geometry,
+            resolution: self.irradiance_resolution,
+            depth_resolution: self.depth_resolution,
+            slot: slots,
+            irradiance: &self.irradiance,
+            depth_mean: &self.depth_mean,
+            depth_mean_sq: &self.depth_mean_sq,
+            probe_offset: &self.probe_offset,
+        }
+    }
 }
 
 pub struct GridSettings {

@@ -20,7 +20,7 @@
 use super::DOMAIN_FIT;
 use crate::bake::Baked;
 use crate::octa;
-use crate::runtime::{BlendTerms, IrradianceCorrection, IrradianceGrid};
+use crate::runtime::{BlendTerms, IrradianceCorrection, IrradianceView};
 use crate::sampling::{Sampler, hash_pair};
 use crate::tonemap::reinhard;
 use crate::trace::{Renderer, truth};
@@ -276,10 +276,10 @@ pub fn trace_references(baked: Baked, points: &SurfacePoints, seed: u64, ranges:
     }
 }
 
-/// Fits the diffuse correctives of `grid` (its irradiance without corrections) for the
-/// baked scene: draws the surface points, traces their references and fits; `exposure` is
-/// the tone mapping's, `seed` the fit's.
-pub fn fit_irradiance(baked: Baked, grid: &IrradianceGrid, exposure: f32, seed: u64) -> IrradianceFit {
+/// Fits the diffuse correctives of `grid` (irradiance without corrections) for the baked
+/// scene: draws the surface points, traces their references and fits; `exposure` is the
+/// tone mapping's, `seed` the fit's.
+pub fn fit_irradiance(baked: Baked, grid: IrradianceView, exposure: f32, seed: u64) -> IrradianceFit {
     let points = SurfacePoints::draw(baked, seed);
     let references = trace_references(baked, &points, seed, &points.all());
     fit_from_references(grid, exposure, &points, references)
@@ -289,7 +289,7 @@ pub fn fit_irradiance(baked: Baked, grid: &IrradianceGrid, exposure: f32, seed: 
 /// in order): the scale maps fitted at each candidate surface bias, and the smallest bias
 /// whose corrected field's check error is within [`BIAS_TOLERANCE`] of the best kept.
 pub fn fit_from_references(
-    grid: &IrradianceGrid,
+    grid: IrradianceView,
     exposure: f32,
     points: &SurfacePoints,
     references: References,
@@ -323,7 +323,7 @@ struct Layering {
 impl Layering {
     /// Buckets `pts` by the lowest layer of their blend's cells (layer 0 for a point no cell
     /// weighs), counting each cell's support (points it takes part in) into `support`.
-    fn new(grid: &IrradianceGrid, pts: &[(Vec3, Vec3)], bias: f32, support: &mut [u32]) -> Layering {
+    fn new(grid: IrradianceView, pts: &[(Vec3, Vec3)], bias: f32, support: &mut [u32]) -> Layering {
         let g = grid.geometry;
         let layer_cells = (g.counts.x * g.counts.y) as usize;
         let layers = g.counts.z as usize;
@@ -400,7 +400,7 @@ impl Layering {
 /// supports and every sum are those of the whole set in point order, so the result does not
 /// depend on the layering.
 fn fit_at_bias(
-    grid: &IrradianceGrid,
+    grid: IrradianceView,
     exposure: f32,
     points: &SurfacePoints,
     references: &References,
@@ -422,9 +422,7 @@ fn fit_at_bias(
     let train = Layering::new(grid, train_pts, bias, &mut train_count);
     let check = Layering::new(grid, check_pts, bias, &mut check_count);
     let fitted = |c: usize| {
-        grid.slot[c] != NO_MAP
-            && train_count[c] as usize >= MIN_POINTS
-            && check_count[c] as usize >= MIN_POINTS / 2
+        grid.slot[c] != NO_MAP && train_count[c] as usize >= MIN_POINTS && check_count[c] as usize >= MIN_POINTS / 2
     };
     // the points of `window` in the support of each fitted cell of layer z, in point order
     let supports = |z: usize, window: &[(u32, Point)]| -> Vec<(usize, Vec<u32>)> {
@@ -438,9 +436,8 @@ fn fit_at_bias(
         }
         of.into_iter().enumerate().map(|(i, s)| (z * layer_cells + i, s)).filter(|(c, _)| fitted(*c)).collect()
     };
-    let gather = |window: &'_ [(u32, Point)], idx: &[u32]| -> Vec<Point> {
-        idx.iter().map(|&i| window[i as usize].1).collect()
-    };
+    let gather =
+        |window: &'_ [(u32, Point)], idx: &[u32]| -> Vec<Point> { idx.iter().map(|&i| window[i as usize].1).collect() };
     let none: Maps = vec![None; g.cell_count()];
     let mut maps: Maps = vec![None; g.cell_count()];
     for _ in 0..ROUNDS {
@@ -540,10 +537,5 @@ fn fit_at_bias(
 
 /// The lowest layer of the cells `p`'s blend weighs (its bucket in [`Layering`]).
 fn lowest_layer(p: &Point, layer_cells: usize) -> usize {
-    p.terms.terms[..p.terms.count]
-        .iter()
-        .filter(|t| t.1 > 0.0)
-        .map(|t| t.0 as usize / layer_cells)
-        .min()
-        .unwrap_or(0)
+    p.terms.terms[..p.terms.count].iter().filter(|t| t.1 > 0.0).map(|t| t.0 as usize / layer_cells).min().unwrap_or(0)
 }

@@ -574,16 +574,11 @@ pub fn assemble(
         .correction
         .filter(|_| rough_fraction > 0.0)
         .map(|lobe| roughness::fit_scene_correction(baked, warp, &correctives, lobe, s));
-    // the diffuse correctives, against the bake's irradiance
-    let blend = crate::runtime::IrradianceGrid::from_cells(
-        grid.geometry,
-        (grid.irradiance_resolution, grid.depth_resolution),
-        (&grid.irradiance, &grid.depth_mean, &grid.depth_mean_sq, &grid.probe_offset),
-        |c| !grid.inside[c],
-    );
     let roughness_s = t_roughness.elapsed().as_secs_f64();
+    // the diffuse correctives, against the bake's irradiance (read in place)
     let t_irradiance = Instant::now();
-    let irradiance = irradiance::fit_from_references(&blend, exposure, points, references);
+    let slots = grid.dense_slots();
+    let irradiance = irradiance::fit_from_references(grid.irradiance_view(&slots), exposure, points, references);
     let irradiance_fit = t_irradiance.elapsed().as_secs_f64();
     let reference_rays = reference_rays + irradiance.reference_rays;
     Fit {

@@ -3,6 +3,7 @@
 //! with Ray-Traced Irradiance Fields"). The data (`gridfile::IrradianceGrid`) is read by the
 //! grid file's reader; the sampling lives here.
 
+use crate::grid::GridGeometry;
 use crate::gridfile::IrradianceGrid;
 use crate::octa;
 use crate::warp::corrective::NO_MAP;
@@ -60,7 +61,46 @@ pub struct BlendTerms {
     pub count: usize,
 }
 
+/// What a blend reads, borrowed: a grid's irradiance maps and distance moments by slot.
+/// A loaded grid's own arrays ([`IrradianceGrid::view`]), or a bake's dense per-cell arrays
+/// with each cell its own slot (what the fit weighs with, without a copy of them).
+#[derive(Clone, Copy, Debug)]
+pub struct IrradianceView<'a> {
+    /// The grid's cells.
+    pub geometry: GridGeometry,
+    /// N of each cell's N×N irradiance map.
+    pub resolution: u32,
+    /// N of each cell's N×N distance-moment maps.
+    pub depth_resolution: u32,
+    /// Per grid cell: slot in the arrays below ([`NO_MAP`]: not stored).
+    pub slot: &'a [u32],
+    /// `slot · resolution² + texel`: the cosine-convolved irradiance.
+    pub irradiance: &'a [Vec3],
+    /// `slot · depth_resolution² + texel`: mean hit distance.
+    pub depth_mean: &'a [f32],
+    /// `slot · depth_resolution² + texel`: mean squared hit distance.
+    pub depth_mean_sq: &'a [f32],
+    /// Per grid cell: its probe's offset from the cell centre (may be empty: none moved).
+    pub probe_offset: &'a [Vec3],
+}
+
 impl IrradianceGrid {
+    /// The grid's arrays as a blend reads them.
+    #[inline]
+    #[must_use]
+    pub fn view(&self) -> IrradianceView<'_> {
+        IrradianceView {
+            geometry: self.geometry,
+            resolution: self.resolution,
+            depth_resolution: self.depth_resolution,
+            slot: &self.slot,
+            irradiance: &self.irradiance,
+            depth_mean: &self.depth_mean,
+            depth_mean_sq: &self.depth_mean_sq,
+            probe_offset: &self.probe_offset,
+        }
+    }
+
     /// Irradiance at `position` for surface normal `normal`: the eight cells around the
     /// position moved along the normal by the fitted surface bias, weighted trilinearly, by
     /// a smooth back-face term and by Chebyshev visibility from the cells' distance moments
@@ -84,20 +124,6 @@ impl IrradianceGrid {
         if e.is_finite() { e.max(Vec3::ZERO) } else { Vec3::ZERO }
     }
 
-    /// Irradiance of the stored cell `cell` for unit normal `n` (bilinear in its map), if
-    /// the cell is stored.
-    #[inline]
-    fn cell_irradiance(&self, cell: usize, n: Vec3) -> Option<Vec3> {
-        let slot = self.slot[cell];
-        if slot == NO_MAP {
-            return None;
-        }
-        let ir = self.resolution;
-        let base = slot as usize * (ir * ir) as usize;
-        let taps = octa::bilinear_taps(ir, octa::encode(n));
-        Some(taps.iter().map(|&(t, wt)| self.irradiance[base + t as usize] * wt).sum())
-    }
-
     /// [`IrradianceGrid::irradiance`] without the fitted corrections, with the blend's steps
     /// chosen by `blend`.
     #[must_use]
@@ -115,8 +141,8 @@ impl IrradianceGrid {
     #[must_use]
     pub fn blend_terms(&self, position: Vec3, n: Vec3, blend: IrradianceBlend) -> BlendTerms {
         match blend {
-            IrradianceBlend::Biased => self.biased_terms(position, n, self.correction.surface_bias),
-            _ => self.terms(position, n, blend),
+            IrradianceBlend::Biased => self.view().biased_terms(position, n, self.correction.surface_bias),
+            _ => self.view().terms(position, n, blend),
         }
     }
 
@@ -124,20 +150,45 @@ impl IrradianceGrid {
     /// smallest cell extent) instead of the grid's: what the fit chooses the bias with.
     #[must_use]
     pub fn biased_terms(&self, position: Vec3, n: Vec3, bias: f32) -> BlendTerms {
-        self.terms(position + n * self.shift(bias), n, IrradianceBlend::Chebyshev)
+        self.view().biased_terms(position, n, bias)
     }
 
     /// How far [`IrradianceBlend::Biased`] moves a point along its normal, in scene units:
     /// the fitted surface bias times the smallest cell extent.
     #[must_use]
     pub fn surface_shift(&self) -> f32 {
-        self.shift(self.correction.surface_bias)
+        self.view().shift(self.correction.surface_bias)
+    }
+}
+
+impl IrradianceView<'_> {
+    /// The terms of [`IrradianceBlend::Biased`] with surface bias `bias` (a fraction of the
+    /// smallest cell extent).
+    #[must_use]
+    pub fn biased_terms(&self, position: Vec3, n: Vec3, bias: f32) -> BlendTerms {
+        self.terms(position + n * self.shift(bias), n, IrradianceBlend::Chebyshev)
     }
 
+    /// `bias` (a fraction of the smallest cell extent) in scene units.
     fn shift(&self, bias: f32) -> f32 {
         bias * self.geometry.cell_size().min_element()
     }
 
+    /// Irradiance of the stored cell `cell` for unit normal `n` (bilinear in its map), if
+    /// the cell is stored.
+    #[inline]
+    fn cell_irradiance(&self, cell: usize, n: Vec3) -> Option<Vec3> {
+        let slot = self.slot[cell];
+        if slot == NO_MAP {
+            return None;
+        }
+        let ir = self.resolution;
+        let base = slot as usize * (ir * ir) as usize;
+        let taps = octa::bilinear_taps(ir, octa::encode(n));
+        Some(taps.iter().map(|&(t, wt)| self.irradiance[base + t as usize] * wt).sum())
+    }
+
+    /// The terms of `blend` (not `Biased`: see [`IrradianceView::biased_terms`]).
     fn terms(&self, position: Vec3, n: Vec3, blend: IrradianceBlend) -> BlendTerms {
         let mut out = BlendTerms { terms: [(0, 0.0, Vec3::ZERO); 8], count: 0 };
         let g = self;

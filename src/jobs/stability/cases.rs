@@ -463,7 +463,7 @@ pub fn leak_figures(mode: Mode) -> Result<([f64; 4], usize), String> {
             let baked = crate::bake::Baked { scene: &scene, tracer: &tracer, probe, grid: g };
             let exposure = crate::bake::warp(&scene, probe, WarpOptions::standard()).probe.key_exposure();
             let seed = crate::fit::FitSettings::standard().seed;
-            ir.correction = crate::fit::irradiance::fit_irradiance(baked, &ir, exposure, seed).correction;
+            ir.correction = crate::fit::irradiance::fit_irradiance(baked, ir.view(), exposure, seed).correction;
             out[2] = leak(&ir, Some(IrradianceBlend::Biased));
             out[3] = leak(&ir, None);
         }
