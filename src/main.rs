@@ -474,14 +474,31 @@ fn check_scene(scene: &warpfit::scene::Scene) -> Result<()> {
     Ok(())
 }
 
-fn print_fit(f: &warpfit::fit::Fit, manifest: &warpfit::gridfile::GridManifest, folder: &RunFolder) {
+/// What [`print_fit`] says of a fit, taken from it so that the fit can be dropped first.
+struct FitLines {
+    summary: warpfit::fit::summary::FitSummary,
+    selection_margin: f64,
+    measured: Option<[f64; 3]>,
+}
+
+impl FitLines {
+    fn of(f: &warpfit::fit::Fit) -> FitLines {
+        FitLines {
+            summary: warpfit::fit::summary::summary(f),
+            selection_margin: f.settings.selection_margin,
+            measured: f.proxy.measured,
+        }
+    }
+}
+
+fn print_fit(f: &FitLines, manifest: &warpfit::gridfile::GridManifest, folder: &RunFolder) {
     let bytes: u64 = manifest.payloads.iter().map(|p| p.bytes).sum();
-    let s = warpfit::fit::summary::summary(f);
-    let margin = match 100.0 * (1.0 - f.settings.selection_margin) {
+    let s = &f.summary;
+    let margin = match 100.0 * (1.0 - f.selection_margin) {
         m if m > 0.0 => format!(" by {m:.0}%"),
         _ => String::new(),
     };
-    let proxy = match f.proxy.measured {
+    let proxy = match f.measured {
         Some([b, k, w]) => format!(" (measured: box {b:.4}, kdop {k:.4}, warp1 {w:.4})"),
         None => " (set)".into(),
     };
@@ -712,7 +729,7 @@ fn run(cli: Cli) -> Result<()> {
                     b.grid.active_cells(),
                     b.grid.geometry.cell_count()
                 ),
-                farm::Merged::Fit(f) => print_fit(&f.0, &f.1, &folder),
+                farm::Merged::Fit(f) => print_fit(&FitLines::of(&f.0), &f.1, &folder),
             }
         }
         Command::Farm { target } => {
@@ -767,15 +784,19 @@ fn run(cli: Cli) -> Result<()> {
             let warp = p.baked().warp(WarpOptions::standard());
             let out = Output { folder: &p.folder, command: &command, progress: &progress };
             let (f, manifest) = job::fit(p.baked(), &warp, &settings, fit.store(), out)?;
+            let lines = FitLines::of(&f);
+            // the written grid loads back before it is committed: without the fit, the
+            // probe and the bake beside it (the peak of a big level's fit)
+            drop((f, warp, p));
             tx.commit(true)?;
-            print_fit(&f, &manifest, &folder);
+            print_fit(&lines, &manifest, &folder);
         }
         Command::Run { job: RunArgs { scene, eval, fit } } => {
             let settings = RunSettings { eval: eval.settings(), fit: fit.settings()?, store: fit.store() };
             let (p, tx, folder) = prepare(&scene, &progress)?;
             let outcome = job::run(&p, &settings, &command, &progress)?;
             tx.commit(true)?;
-            print_fit(&outcome.fit, &outcome.manifest, &folder);
+            print_fit(&FitLines::of(&outcome.fit), &outcome.manifest, &folder);
             print_eval(&outcome.eval, &folder);
             println!(
                 "wrote {0}/report.json, report.md, report.html (open report.html: every table, plot and ꟻLIP map of this run)",

@@ -405,6 +405,8 @@ pub fn merge(
             let out = Output { folder: &tx.out, command, progress };
             let manifest = run::write_fit(baked, &warp, &fitted, job.store, out)?;
             tx.keep(RunFolder::written_by_farm)?;
+            // the merged grid loads back before it is committed: without the bake beside it
+            drop((warp, lobes, points, tracer, probe, grid));
             tx.commit(true)?;
             Merged::Fit(Box::new((fitted, manifest)))
         }
