@@ -367,11 +367,15 @@ impl Layering {
         &self.order[self.start[z] as usize..self.start[z + 1] as usize]
     }
 
-    /// Calls `visit(z, window)` for each layer z in order: `window` holds the prepared points
-    /// of buckets z − 1 and z (every point whose blend weighs a cell of layer z), in
-    /// increasing point order, as (point, prepared). A point is in the window of its own
-    /// bucket's layer ([`lowest_layer`]) and of the next.
-    fn visit(&self, prepare: impl Fn(usize) -> Point + Sync, mut visit: impl FnMut(usize, &[(u32, Point)])) {
+    /// Calls `visit(z, window, own)` for each layer z in order: `window` holds the prepared
+    /// points of buckets z − 1 and z (every point whose blend weighs a cell of layer z), in
+    /// increasing point order, as (point, prepared); `own` is bucket z alone (each point is
+    /// in exactly one `own`).
+    fn visit(
+        &self,
+        prepare: impl Fn(usize) -> Point + Sync,
+        mut visit: impl FnMut(usize, &[(u32, Point)], &[(u32, Point)]),
+    ) {
         let mut prev: Vec<(u32, Point)> = Vec::new();
         for z in 0..self.start.len() - 1 {
             let cur: Vec<(u32, Point)> = self.bucket(z).par_iter().map(|&k| (k, prepare(k as usize))).collect();
@@ -387,7 +391,7 @@ impl Layering {
                     j += 1;
                 }
             }
-            visit(z, &window);
+            visit(z, &window, &cur);
             prev = cur;
         }
     }
@@ -436,23 +440,16 @@ fn fit_at_bias(
         }
         of.into_iter().enumerate().map(|(i, s)| (z * layer_cells + i, s)).filter(|(c, _)| fitted(*c)).collect()
     };
-    let gather =
-        |window: &'_ [(u32, Point)], idx: &[u32]| -> Vec<Point> { idx.iter().map(|&i| window[i as usize].1).collect() };
     let none: Maps = vec![None; g.cell_count()];
     let mut maps: Maps = vec![None; g.cell_count()];
     for _ in 0..ROUNDS {
         let mut next = maps.clone();
         train.visit(
             |k| point(train_pts, train_refs, k),
-            |z, window| {
+            |z, window, _| {
                 let cells = supports(z, window);
-                let fits: Vec<(usize, Map)> = cells
-                    .par_iter()
-                    .map(|(c, idx)| {
-                        let pts = gather(window, idx);
-                        (*c, fit_map(&pts.iter().collect::<Vec<_>>(), &maps, *c, exposure))
-                    })
-                    .collect();
+                let fits: Vec<(usize, Map)> =
+                    cells.par_iter().map(|(c, idx)| (*c, fit_map(&gather(window, idx), &maps, *c, exposure))).collect();
                 for (c, m) in fits {
                     next[c] = Some(m);
                 }
@@ -468,18 +465,13 @@ fn fit_at_bias(
     let mut blend_err = vec![0.0f64; check_pts.len()];
     check.visit(
         |k| point(check_pts, check_refs, k),
-        |z, window| {
-            for &(k, ref p) in window {
-                if p.terms.count == 0 || lowest_layer(p, layer_cells) == z {
-                    blend_err[k as usize] = err2(predict(p, &none, None), p.reference, exposure);
-                }
-            }
+        |z, window, own| {
+            point_errors(&mut blend_err, own, &none, exposure);
             let cells = supports(z, window);
             let judged: Vec<IrradianceCellFit> = cells
                 .par_iter()
                 .map(|(c, idx)| {
-                    let pts = gather(window, idx);
-                    let refs: Vec<&Point> = pts.iter().collect();
+                    let refs = gather(window, idx);
                     let (before, after) = (rmse(&refs, &none, exposure), rmse(&refs, &maps, exposure));
                     IrradianceCellFit {
                         cell: *c as u32,
@@ -514,28 +506,31 @@ fn fit_at_bias(
     // order)
     let field_rmse = |layering: &Layering, pts: &[(Vec3, Vec3)], refs: &[Traced], maps: &Maps| {
         let mut e = vec![0.0f64; pts.len()];
-        layering.visit(
-            |k| point(pts, refs, k),
-            |z, window| {
-                for &(k, ref p) in window {
-                    if p.terms.count == 0 || lowest_layer(p, layer_cells) == z {
-                        e[k as usize] = err2(predict(p, maps, None), p.reference, exposure);
-                    }
-                }
-            },
-        );
-        (e.iter().sum::<f64>() / pts.len().max(1) as f64).sqrt()
+        layering.visit(|k| point(pts, refs, k), |_, _, own| point_errors(&mut e, own, maps, exposure));
+        root_mean(&e)
     };
     let trial = BiasTrial {
         bias,
-        blend_check_rmse: (blend_err.iter().sum::<f64>() / check_pts.len().max(1) as f64).sqrt(),
+        blend_check_rmse: root_mean(&blend_err),
         train_rmse: field_rmse(&train, train_pts, train_refs, &stored),
         check_rmse: field_rmse(&check, check_pts, check_refs, &stored),
     };
     ((correction, fits), trial)
 }
 
-/// The lowest layer of the cells `p`'s blend weighs (its bucket in [`Layering`]).
-fn lowest_layer(p: &Point, layer_cells: usize) -> usize {
-    p.terms.terms[..p.terms.count].iter().filter(|t| t.1 > 0.0).map(|t| t.0 as usize / layer_cells).min().unwrap_or(0)
+/// The prepared points of `window` listed in `idx`.
+fn gather<'a>(window: &'a [(u32, Point)], idx: &[u32]) -> Vec<&'a Point> {
+    idx.iter().map(|&i| &window[i as usize].1).collect()
+}
+
+/// Each point of `own`'s tone-mapped squared error with `maps`, into `e` at its index.
+fn point_errors(e: &mut [f64], own: &[(u32, Point)], maps: &Maps, exposure: f32) {
+    for (k, p) in own {
+        e[*k as usize] = err2(predict(p, maps, None), p.reference, exposure);
+    }
+}
+
+/// √(mean of `e`), summed in order.
+fn root_mean(e: &[f64]) -> f64 {
+    (e.iter().sum::<f64>() / e.len().max(1) as f64).sqrt()
 }

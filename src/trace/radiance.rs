@@ -140,26 +140,8 @@ impl<'a> Renderer<'a> {
         mut visit: impl FnMut(Vec3, Vec3, f32),
     ) {
         for light in &self.scene.lights.sphere_lights {
-            let Some((axis, cos_max)) = sphere_cone(light, origin) else { continue };
-            let l = uniform_cone(sampler.next_2d(), axis, cos_max);
-            if facing.dot(l) <= 0.0 {
-                continue;
-            }
-            let t_s = intersect_sphere(
-                Vec3A::from(origin),
-                Vec3A::from(l),
-                Vec3A::from(light.position),
-                light.radius,
-                0.0,
-                f32::INFINITY,
-            );
-            let falloff = light.falloff(-l);
-            if !t_s.is_finite() || falloff <= 0.0 {
-                continue;
-            }
-            *rays += 1;
-            if !self.tracer.occluded(origin, l, t_s * (1.0 - 1e-4)) {
-                visit(l, light.radiance * falloff, 1.0 / (TAU * (1.0 - cos_max)));
+            if let Some((l, falloff, solid_angle)) = self.sphere_light_sample(light, origin, facing, sampler, rays) {
+                visit(l, light.radiance * falloff, 1.0 / solid_angle);
             }
         }
         let Some((k, p, total)) = self.emitter_point(sampler) else { return };
@@ -309,37 +291,44 @@ impl<'a> Renderer<'a> {
             }
         }
         for light in &self.scene.lights.sphere_lights {
-            let Some((axis, cos_max)) = sphere_cone(light, origin) else {
-                continue; // shading point inside the light
-            };
-            let u = sampler.next_2d();
-            let l = uniform_cone(u, axis, cos_max);
-            let cos = n.dot(l);
-            if cos <= 0.0 {
-                continue;
-            }
-            let t_s = intersect_sphere(
-                Vec3A::from(origin),
-                Vec3A::from(l),
-                Vec3A::from(light.position),
-                light.radius,
-                0.0,
-                f32::INFINITY,
-            );
-            if !t_s.is_finite() {
-                continue;
-            }
-            let falloff = light.falloff(-l);
-            if falloff <= 0.0 {
-                continue;
-            }
-            *rays += 1;
-            if !self.tracer.occluded(origin, l, t_s * (1.0 - 1e-4)) {
-                let solid_angle = TAU * (1.0 - cos_max);
-                irradiance_over_pi += light.radiance * (cos * solid_angle * FRAC_1_PI * falloff);
+            if let Some((l, falloff, solid_angle)) = self.sphere_light_sample(light, origin, n, sampler, rays) {
+                irradiance_over_pi += light.radiance * (n.dot(l) * solid_angle * FRAC_1_PI * falloff);
             }
         }
         irradiance_over_pi + self.emitter_irradiance(origin, n, sampler, rays) * FRAC_1_PI
+    }
+
+    /// One direction sampled uniformly in the cone `light` fills seen from `origin` (no
+    /// sample from inside the light), kept when `facing · l > 0`, the light emits that way and
+    /// the shadow ray reaches it: the direction, the light's falloff along it and the cone's
+    /// solid angle (1 / the technique's pdf).
+    fn sphere_light_sample(
+        &self,
+        light: &crate::scene::SphereLight,
+        origin: Vec3,
+        facing: Vec3,
+        sampler: &mut Sampler,
+        rays: &mut u64,
+    ) -> Option<(Vec3, f32, f32)> {
+        let (axis, cos_max) = sphere_cone(light, origin)?;
+        let l = uniform_cone(sampler.next_2d(), axis, cos_max);
+        if facing.dot(l) <= 0.0 {
+            return None;
+        }
+        let t_s = intersect_sphere(
+            Vec3A::from(origin),
+            Vec3A::from(l),
+            Vec3A::from(light.position),
+            light.radius,
+            0.0,
+            f32::INFINITY,
+        );
+        let falloff = light.falloff(-l);
+        if !t_s.is_finite() || falloff <= 0.0 {
+            return None;
+        }
+        *rays += 1;
+        (!self.tracer.occluded(origin, l, t_s * (1.0 - 1e-4))).then_some((l, falloff, TAU * (1.0 - cos_max)))
     }
 
     /// Radiance a bounce ray along `d` brings back from `hit` (`bounces` more after it):
