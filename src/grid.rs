@@ -63,6 +63,35 @@ impl GridGeometry {
         let f = if f.is_finite() { f.clamp(Vec3::ZERO, hi) } else { Vec3::ZERO };
         f.as_uvec3()
     }
+
+    /// `cell_index(cell_of_sized(p, cell_size))` for [`LANES`](crate::octa::LANES)
+    /// positions given as components ([`crate::octa::soa`]), the same values from the same
+    /// operations, each stage a plain loop over the lanes.
+    #[inline(always)]
+    #[must_use]
+    pub fn cell_index_soa(&self, p: &crate::octa::Soa3, cell_size: Vec3) -> [usize; crate::octa::LANES] {
+        const L: usize = crate::octa::LANES;
+        let (min, size) = (self.min.to_array(), cell_size.to_array());
+        let hi = (self.counts - UVec3::ONE).as_vec3().to_array();
+        let mut f = [[0.0f32; L]; 3];
+        for c in 0..3 {
+            for k in 0..L {
+                f[c][k] = crate::octa::floor_small((p[c][k] - min[c]) / size[c]).1;
+            }
+        }
+        let mut out = [0usize; L];
+        for k in 0..L {
+            let finite = f[0][k].is_finite() & f[1][k].is_finite() & f[2][k].is_finite();
+            // `Vec3::clamp` is `max(lo).min(hi)` with these comparisons
+            let at = |c: usize| {
+                let x = if f[c][k] > 0.0 { f[c][k] } else { 0.0 };
+                let x = if x < hi[c] { x } else { hi[c] };
+                if finite { x as u32 } else { 0 }
+            };
+            out[k] = self.cell_index(UVec3::new(at(0), at(1), at(2)));
+        }
+        out
+    }
 }
 
 /// The sparse form files store per-cell probe offsets in: the cells whose probe is off its

@@ -119,7 +119,7 @@ pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupport
         return Err(Unsupported("the correctives and the irradiance use different grids".into()));
     }
     let fallback = fallback_code(c.fallback)?;
-    if p.mip_roughness.len() > MAX_MIPS || p.radiance.levels.len() > MAX_MIPS {
+    if p.mip_roughness().len() > MAX_MIPS || p.radiance.levels.len() > MAX_MIPS {
         return Err(Unsupported(format!(
             "{} radiance mips; the shader holds up to {MAX_MIPS}",
             p.radiance.levels.len()
@@ -152,7 +152,7 @@ pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupport
     }
     out.u([open, 0, 0, 0]);
     let mut mips = [0.0f32; MAX_MIPS];
-    mips[..p.mip_roughness.len()].copy_from_slice(&p.mip_roughness);
+    mips[..p.mip_roughness().len()].copy_from_slice(p.mip_roughness());
     for q in mips.chunks_exact(4) {
         out.f([q[0], q[1], q[2], q[3]]);
     }

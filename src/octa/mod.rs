@@ -19,15 +19,13 @@ pub mod hemi;
 use glam::{Vec2, Vec3};
 use std::ops::{Add, Mul};
 
-/// Human-readable statement of the mapping, stored in manifests. Must match [`encode`].
 /// `v` made unit length, for any finite non-zero `v`: scaled by its largest component first,
 /// so lengths beyond f32's squared range (≈1.8e19) or below it (≈1e-19) still work. `None`
 /// for zero, NaN or infinite input. A vector already unit to rounding is returned as is.
 #[inline]
 #[must_use]
 pub fn unit_direction(v: Vec3) -> Option<Vec3> {
-    let l2 = v.length_squared();
-    if l2.is_finite() && (l2 - 1.0).abs() <= 4.0 * f32::EPSILON {
+    if is_unit(v) {
         return Some(v);
     }
     let m = v.abs().max_element();
@@ -39,6 +37,15 @@ pub fn unit_direction(v: Vec3) -> Option<Vec3> {
     (l > 0.0 && l.is_finite()).then(|| s / l)
 }
 
+/// Whether `unit_direction` takes `v` as it is: finite and of unit length to rounding.
+#[inline(always)]
+#[must_use]
+pub fn is_unit(v: Vec3) -> bool {
+    let l2 = v.length_squared();
+    l2.is_finite() && (l2 - 1.0).abs() <= 4.0 * f32::EPSILON
+}
+
+/// Human-readable statement of the mapping, stored in manifests. Must match [`encode`].
 pub const CONVENTION: &str = "octahedral full sphere: p = v.xy/(|x|+|y|+|z|); if v.z<0 then \
 p = (1-|p.yx|)*sign(p.xy), sign(0)=+1; uv = p*0.5+0.5; texel (i=column, j=row) centre at \
 uv=((i+0.5)/N,(j+0.5)/N), row 0 first, index j*N+i; world axes, +Z at the map centre";
@@ -258,15 +265,33 @@ impl UvLanes {
 #[inline]
 #[must_use]
 pub fn encode_lanes(dirs: &[Vec3; LANES]) -> UvLanes {
-    let (mut x, mut y, mut z) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
-    for k in 0..LANES {
-        (x[k], y[k], z[k]) = (dirs[k].x, dirs[k].y, dirs[k].z);
-    }
+    encode_soa(&soa(dirs))
+}
+
+/// `encode` for [`LANES`] directions given as components ([`soa`]), bit for bit the same.
+#[inline(always)]
+#[must_use]
+pub fn encode_soa(d: &Soa3) -> UvLanes {
     let mut uv = UvLanes::default();
     for k in 0..LANES {
-        (uv.u[k], uv.v[k]) = encode_xyz(x[k], y[k], z[k]);
+        (uv.u[k], uv.v[k]) = encode_xyz(d[0][k], d[1][k], d[2][k]);
     }
     uv
+}
+
+/// [`LANES`] vectors as three arrays of components (x, y, z): the layout lane loops
+/// vectorise over.
+pub type Soa3 = [[f32; LANES]; 3];
+
+/// `vectors` as components.
+#[inline(always)]
+#[must_use]
+pub fn soa(vectors: &[Vec3; LANES]) -> Soa3 {
+    let mut out = [[0.0f32; LANES]; 3];
+    for k in 0..LANES {
+        [out[0][k], out[1][k], out[2][k]] = vectors[k].to_array();
+    }
+    out
 }
 
 /// Lookups processed together by the `*_lanes` functions. Independent lookups advance
@@ -353,6 +378,14 @@ impl<T: Texel> OctMap<T> {
         blend(self.quad(f.i0, f.j0), f.fx, f.fy)
     }
 
+    /// `bilinear_uv`, always inlined: for lane loops that interleave many lookups (a call
+    /// per lane would serialise them). The scalar form stays an ordinary inline candidate.
+    #[inline(always)]
+    fn bilinear_uv_inline(&self, uv: Vec2) -> T {
+        let f = footprint(self.res, uv);
+        blend(self.quad(f.i0, f.j0), f.fx, f.fy)
+    }
+
     /// The 2×2 texels at `(i0, j0)`, seam wrap applied.
     #[inline]
     #[must_use]
@@ -367,7 +400,7 @@ impl<T: Texel> OctMap<T> {
     }
 
     /// `bilinear_uv` for [`LANES`] lookups at once, bit for bit the same values.
-    #[inline]
+    #[inline(always)]
     #[must_use]
     pub fn bilinear_uv_lanes(&self, uv: &UvLanes) -> [T; LANES] {
         // Each stage is a plain loop over lanes so that it vectorises; only the gather is
@@ -494,13 +527,55 @@ impl<T: Texel> OctMips<T> {
     #[inline]
     #[must_use]
     pub fn sample_lod_uv(&self, uv: Vec2, lod: f32) -> T {
+        self.lod_blend(uv, lod, OctMap::bilinear_uv)
+    }
+
+    /// `sample_lod_uv` with its reads always inlined: for a rough lookup, whose trilinear
+    /// read ends a long dependency chain (calls there cost more than the code they save).
+    #[inline(always)]
+    #[must_use]
+    pub(crate) fn sample_lod_uv_inline(&self, uv: Vec2, lod: f32) -> T {
+        self.lod_blend(
+            uv,
+            lod,
+            #[inline(always)]
+            |m, uv| m.bilinear_uv_inline(uv),
+        )
+    }
+
+    /// The two mips around `lod` read by `read` at `uv`, blended.
+    #[inline(always)]
+    fn lod_blend(&self, uv: Vec2, lod: f32, read: impl Fn(&OctMap<T>, Vec2) -> T) -> T {
         let (l0, f) = self.split_lod(lod);
-        let a = self.levels[l0].bilinear_uv(uv);
+        let a = read(&self.levels[l0], uv);
         if f == 0.0 || l0 + 1 >= self.levels.len() {
             return a;
         }
-        let b = self.levels[l0 + 1].bilinear_uv(uv);
+        let b = read(&self.levels[l0 + 1], uv);
         a * (1.0 - f) + b * f
+    }
+
+    /// `sample_lod_uv` for [`LANES`] lookups, each at its own `lod`, bit for bit the same
+    /// values: the mips and footprints of all lanes first, then the reads side by side.
+    #[inline]
+    #[must_use]
+    pub fn sample_each_lod_uv_lanes(&self, uv: &UvLanes, lod: &[f32; LANES]) -> [T; LANES] {
+        let last = self.levels.len().saturating_sub(1);
+        let (mut l0, mut f) = ([0usize; LANES], [0.0f32; LANES]);
+        for k in 0..LANES {
+            (l0[k], f[k]) = self.split_lod(lod[k]);
+        }
+        let mut out = [T::default(); LANES];
+        for k in 0..LANES {
+            let a = self.levels[l0[k]].bilinear_uv_inline(uv.at(k));
+            out[k] = if f[k] == 0.0 || l0[k] >= last {
+                a
+            } else {
+                let b = self.levels[l0[k] + 1].bilinear_uv_inline(uv.at(k));
+                a * (1.0 - f[k]) + b * f[k]
+            };
+        }
+        out
     }
 
     /// `sample_lod_uv` for [`LANES`] lookups at one `lod`, bit for bit the same values.

@@ -21,6 +21,7 @@ mod fit;
 #[cfg(feature = "bake")]
 pub use fit::*;
 
+use crate::octa::LANES;
 use serde::{Deserialize, Serialize};
 
 /// Which representation of α'(α, k) a correction uses.
@@ -202,20 +203,65 @@ impl Lookup {
 
     #[inline]
     fn roughness(&self, r: f32, k: f32) -> f32 {
-        let n = LOOKUP_NODES;
-        let last = (n - 1) as f32;
+        let (i, a) = self.row(r);
+        let (j, b) = self.column(k);
+        self.blend(i, a, j, b)
+    }
+
+    /// `roughness` for [`LANES`] lookups, bit for bit the same: the coordinates of all
+    /// lanes first (plain loops over lanes), then each lane's four nodes.
+    #[inline(always)]
+    fn roughness_lanes(&self, r: &[f32; LANES], k: &[f32; LANES]) -> [f32; LANES] {
+        let (mut i, mut a, mut j, mut b) = ([0usize; LANES], [0.0f32; LANES], [0usize; LANES], [0.0f32; LANES]);
+        for l in 0..LANES {
+            (i[l], a[l]) = self.row(r[l]);
+            (j[l], b[l]) = self.column(k[l]);
+        }
+        let mut out = [0.0f32; LANES];
+        for l in 0..LANES {
+            out[l] = self.blend(i[l], a[l], j[l], b[l]);
+        }
+        out
+    }
+
+    /// Row (roughness node) below `r` and the fraction towards the next.
+    #[inline(always)]
+    fn row(&self, r: f32) -> (usize, f32) {
+        let last = (LOOKUP_NODES - 1) as f32;
         let fr = if r.is_finite() { (r * last).clamp(0.0, last) } else { 0.0 };
-        let k = if k.is_finite() && k > 0.0 {
+        node_below(fr)
+    }
+
+    /// Column (k node) below `k` and the fraction towards the next.
+    #[inline(always)]
+    fn column(&self, k: f32) -> (usize, f32) {
+        let last = (LOOKUP_NODES - 1) as f32;
+        let k = if k.is_finite() & (k > 0.0) {
             k.clamp(self.k_min, self.k_max)
         } else {
             1.0f32.clamp(self.k_min, self.k_max)
         };
         let fx = ((pseudo_log2(k) - self.x0) * self.inv_dx).clamp(0.0, last);
-        let (i, j) = ((fr as usize).min(n - 2), (fx as usize).min(n - 2));
-        let (a, b) = (fr - i as f32, fx - j as f32);
+        node_below(fx)
+    }
+
+    /// Bilinear between the nodes at (row i, column j) with fractions (a, b).
+    #[inline(always)]
+    fn blend(&self, i: usize, a: f32, j: usize, b: f32) -> f32 {
+        let n = LOOKUP_NODES;
         let at = |i: usize, j: usize| self.values[i * n + j];
         (at(i, j) * (1.0 - b) + at(i, j + 1) * b) * (1.0 - a) + (at(i + 1, j) * (1.0 - b) + at(i + 1, j + 1) * b) * a
     }
+}
+
+/// The node at or below a coordinate `x` in [0, nodes − 1] (the last interval's lower
+/// node at its end) and the fraction past it: `x as usize` clamped, written with
+/// `octa::floor_small` because x86-64's baseline has no unsigned float → integer conversion
+/// (a float-to-usize cast there is a branchy sequence on every rough lookup).
+#[inline(always)]
+fn node_below(x: f32) -> (usize, f32) {
+    let below = crate::octa::floor_small(x).1.min((LOOKUP_NODES - 2) as f32);
+    (below as i32 as usize, x - below)
 }
 
 /// The resampled correction as a shader reads it (see [`RoughnessCorrection::lookup_table`]).
@@ -270,6 +316,13 @@ impl RoughnessCorrection {
     #[must_use]
     pub fn corrected_roughness(&self, r: f32, k: f32) -> f32 {
         self.lookup.roughness(r, k)
+    }
+
+    /// `corrected_roughness` for [`LANES`] lookups, bit for bit the same values.
+    #[inline]
+    #[must_use]
+    pub fn corrected_roughness_lanes(&self, r: &[f32; LANES], k: &[f32; LANES]) -> [f32; LANES] {
+        self.lookup.roughness_lanes(r, k)
     }
 
     /// Probe-side α' for surface α and distance ratio k = d_probe / d_surface, by the

@@ -131,57 +131,78 @@ impl FittedGrid {
         directions: &[Vec3; octa::LANES],
         roughness: &[f32; octa::LANES],
     ) -> [Vec3; octa::LANES] {
-        let mut q = [SpecularQuery { b: self.warp.probe.position, dir: Vec3::Z, r: 0.0 }; octa::LANES];
-        let mut valid = [false; octa::LANES];
+        // the lanes made safe as `specular_query` makes them; the usual case (finite
+        // positions, unit directions) is checked for all lanes at once and used as it is
+        let mut usual = true;
         for k in 0..octa::LANES {
-            if let Some(query) = self.specular_query(positions[k], directions[k], roughness[k]) {
-                (q[k], valid[k]) = (query, true);
-            }
+            usual &= positions[k].is_finite() & octa::is_unit(directions[k]);
         }
-        let (b, dir) = (q.map(|q| q.b), q.map(|q| q.dir));
-        let mut out = [Vec3::ZERO; octa::LANES];
-        if q.iter().all(|q| q.r == 0.0) {
-            // mirror lanes (invalid lanes hold a mirror placeholder and are zeroed): the
-            // fetch vectors alone
-            let v = self.correctives.fetch_vector_lanes(self.blend, &self.warp, &b, &dir);
-            let radiance = self.warp.probe.radiance_lanes(&v);
+        let safe;
+        let (b, dir, valid) = if usual {
+            (positions, directions, None)
+        } else {
+            safe = self.safe_lanes(positions, directions);
+            (&safe.0, &safe.1, Some(safe.2))
+        };
+        // `specular_query`'s roughness, lane by lane
+        let mut r = [0.0f32; octa::LANES];
+        for k in 0..octa::LANES {
+            r[k] = if roughness[k].is_finite() { roughness[k].clamp(0.0, 1.0) } else { 0.0 };
+        }
+        let mut out = if r.iter().all(|&r| r == 0.0) {
+            // mirror lanes: the fetch vectors alone
+            let v = self.correctives.fetch_vector_lanes(self.blend, &self.warp, b, dir);
+            self.warp.probe.radiance.levels[0].bilinear_uv_lanes(&octa::encode_soa(&v))
+        } else {
+            let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir);
+            self.shade_lanes(&r, &v, &ratio)
+        };
+        if let Some(valid) = valid {
             for k in 0..octa::LANES {
-                out[k] = if valid[k] { radiance[k] } else { Vec3::ZERO };
-            }
-            return out;
-        }
-        let aim = self.correctives.fetch_lanes(self.blend, &self.warp, &b, &dir);
-        let radiance = self.shade_lanes(&q, &aim);
-        for k in 0..octa::LANES {
-            if valid[k] {
-                out[k] = radiance[k];
+                if !valid[k] {
+                    out[k] = Vec3::ZERO;
+                }
             }
         }
         out
     }
 
+    /// The positions and directions of [`octa::LANES`] queries made safe lane by lane
+    /// (`specular_query`); a lane with no direction (black) reads a placeholder and is
+    /// `false` in the mask.
+    #[cold]
+    #[allow(clippy::type_complexity)]
+    fn safe_lanes(
+        &self,
+        positions: &[Vec3; octa::LANES],
+        directions: &[Vec3; octa::LANES],
+    ) -> ([Vec3; octa::LANES], [Vec3; octa::LANES], [bool; octa::LANES]) {
+        let (mut b, mut dir, mut valid) = (*positions, *directions, [true; octa::LANES]);
+        for k in 0..octa::LANES {
+            match self.specular_query(positions[k], directions[k], 0.0) {
+                Some(q) => (b[k], dir[k]) = (q.b, q.dir),
+                None => (b[k], dir[k], valid[k]) = (self.warp.probe.position, Vec3::Z, false),
+            }
+        }
+        (b, dir, valid)
+    }
+
     /// `shade` for [`octa::LANES`] queries, bit for bit the same, in stages over the lanes:
-    /// the aims' octahedral coordinates, each lane's mip (from its aim's distance ratio, no
-    /// depth fetch), then each lane's trilinear read (independent reads side by side).
-    #[inline]
-    fn shade_lanes(&self, q: &[SpecularQuery; octa::LANES], aim: &[Aim; octa::LANES]) -> [Vec3; octa::LANES] {
+    /// the fetch vectors' octahedral coordinates, each lane's mip (from its distance ratio),
+    /// then the trilinear reads side by side.
+    #[inline(always)]
+    fn shade_lanes(&self, r: &[f32; octa::LANES], v: &octa::Soa3, ratio: &[f32; octa::LANES]) -> [Vec3; octa::LANES] {
         let probe = &self.warp.probe;
-        let uv = octa::encode_lanes(&aim.map(|a| a.v));
+        let uv = octa::encode_soa(v);
+        let rough = match self.roughness.as_ref() {
+            None => *r,
+            Some(c) => c.corrected_roughness_lanes(r, ratio),
+        };
         let mut lod = [0.0f32; octa::LANES];
-        for k in 0..octa::LANES {
-            let r = q[k].r;
-            let rough = match (self.roughness.as_ref(), aim[k].k) {
-                (None, _) => r,
-                (Some(c), Some(ratio)) => c.corrected_roughness(r, ratio),
-                (Some(c), None) => c.corrected_roughness(r, aim[k].ratio(&self.warp, q[k].b, uv.at(k))),
-            };
-            lod[k] = if r == 0.0 { 0.0 } else { probe.lod_of_roughness(rough) };
+        for l in 0..octa::LANES {
+            lod[l] = if r[l] == 0.0 { 0.0 } else { probe.lod_of_roughness(rough[l]) };
         }
-        let mut out = [Vec3::ZERO; octa::LANES];
-        for k in 0..octa::LANES {
-            out[k] = probe.radiance.sample_lod_uv(uv.at(k), lod[k]);
-        }
-        out
+        probe.radiance.sample_each_lod_uv_lanes(&uv, &lod)
     }
 
     /// Irradiance at `position` for surface normal `normal` (see [`IrradianceGrid::irradiance`]).

@@ -143,50 +143,81 @@ impl Correctives {
         }
     }
 
-    /// `fetch` for [`LANES`] queries, bit for bit the same. With `Blend::Cell` every lane
-    /// runs the same steps side by side: the proxy's exit (the box in structure-of-arrays
-    /// form), each lane's map gathered (Δ = 0 where its cell stores none), the aim.
+    /// `fetch` for [`LANES`] queries, bit for bit the same, in structure-of-arrays form:
+    /// the fetch vectors as components ([`octa::soa`]) and each lane's distance ratio
+    /// ([`Aim::ratio`]: read from A's depth where the lookup aimed at no known point). With
+    /// `Blend::Cell` every lane runs the same steps side by side: the proxy's exit (the box
+    /// in structure-of-arrays form), each lane's map gathered (Δ = 0 where its cell stores
+    /// none), the aim.
     #[inline]
     #[must_use]
-    pub fn fetch_lanes(&self, blend: Blend, warp: &Warp, b: &[Vec3; LANES], dir: &[Vec3; LANES]) -> [Aim; LANES] {
-        self.lanes::<true>(blend, warp, b, dir)
+    pub fn fetch_lanes(
+        &self,
+        blend: Blend,
+        warp: &Warp,
+        b: &[Vec3; LANES],
+        dir: &[Vec3; LANES],
+    ) -> (octa::Soa3, [f32; LANES]) {
+        let Some(aims) = self.aim_lanes(blend, warp, b, dir) else {
+            let (mut v, mut ratio) = ([Vec3::Z; LANES], [1.0f32; LANES]);
+            for k in 0..LANES {
+                let aim = self.fetch(blend, warp, b[k], dir[k]);
+                (v[k], ratio[k]) = (aim.v, aim.ratio(warp, b[k], octa::encode(aim.v)));
+            }
+            return (octa::soa(&v), ratio);
+        };
+        // `distance_ratio`, the length as glam forms it (std's square root is the same
+        // correctly rounded `sqrtss`, and vectorises)
+        let (mut v, d) = (aims.v, octa::soa(dir));
+        let mut ratio = [1.0f32; LANES];
+        for k in 0..LANES {
+            let l = ((v[0][k] * v[0][k]) + (v[1][k] * v[1][k]) + (v[2][k] * v[2][k])).sqrt() / aims.s[k];
+            let l = if l.is_finite() && l > 0.0 { l } else { 1.0 };
+            ratio[k] = if aims.aims[k] { l } else { 1.0 };
+        }
+        for c in 0..3 {
+            for k in 0..LANES {
+                v[c][k] = if aims.aims[k] { v[c][k] } else { d[c][k] };
+            }
+        }
+        (v, ratio)
     }
 
     /// The fetch vectors of [`fetch_lanes`](Self::fetch_lanes) alone (what a mirror lookup
-    /// reads), without the distance ratios' square roots.
+    /// reads), as components ([`octa::soa`]), without the distance ratios.
     #[inline]
     #[must_use]
-    pub fn fetch_vector_lanes(
-        &self,
-        blend: Blend,
-        warp: &Warp,
-        b: &[Vec3; LANES],
-        dir: &[Vec3; LANES],
-    ) -> [Vec3; LANES] {
-        self.lanes::<false>(blend, warp, b, dir).map(|a| a.v)
+    pub fn fetch_vector_lanes(&self, blend: Blend, warp: &Warp, b: &[Vec3; LANES], dir: &[Vec3; LANES]) -> octa::Soa3 {
+        let Some(aims) = self.aim_lanes(blend, warp, b, dir) else {
+            let mut out = [Vec3::Z; LANES];
+            for k in 0..LANES {
+                out[k] = self.fetch(blend, warp, b[k], dir[k]).v;
+            }
+            return octa::soa(&out);
+        };
+        let (mut v, d) = (aims.v, octa::soa(dir));
+        for c in 0..3 {
+            for k in 0..LANES {
+                v[c][k] = if aims.aims[k] { v[c][k] } else { d[c][k] };
+            }
+        }
+        v
     }
 
-    /// `fetch_lanes`, with the aims carrying their distance ratio only if `RATIO`: the same
-    /// operations in the same order as `fetch` → `shifted_aim`, lane by lane.
+    /// The lane form of `fetch` → `shifted_aim` with `Blend::Cell` and no relaxation (the
+    /// same operations in the same order): the aimed points, how far along each ray they
+    /// are, and which lanes aim at all (the others read their query direction). `None` for
+    /// the other settings, which go lane by lane.
     #[inline(always)]
-    fn lanes<const RATIO: bool>(
-        &self,
-        blend: Blend,
-        warp: &Warp,
-        b: &[Vec3; LANES],
-        dir: &[Vec3; LANES],
-    ) -> [Aim; LANES] {
-        let mut out = dir.map(|v| Aim { v, k: Some(1.0) });
+    fn aim_lanes(&self, blend: Blend, warp: &Warp, b: &[Vec3; LANES], dir: &[Vec3; LANES]) -> Option<AimLanes> {
         if blend != Blend::Cell || warp.options.relax_texels > 0.0 {
-            for k in 0..LANES {
-                out[k] = self.fetch(blend, warp, b[k], dir[k]);
-            }
-            return out;
+            return None;
         }
         let a = warp.probe.position;
+        let (bb, d) = (octa::soa(b), octa::soa(dir));
         // the proxy's exit for every lane
         let (t, has_t) = match self.fallback {
-            Method::Box => warp.proxies.aabb.exit_distance_lanes(b, dir),
+            Method::Box => warp.proxies.aabb.exit_distance_soa(&bb, &d),
             method => {
                 let (mut t, mut ok) = ([0.0f32; LANES], [false; LANES]);
                 for k in 0..LANES {
@@ -197,38 +228,40 @@ impl Correctives {
                 (t, ok)
             }
         };
-        // each lane's shift: its cell's map, bilinear (a loop over the lanes with a map)
-        let uv = octa::encode_lanes(dir);
+        // each lane's shift: its cell's map, bilinear (a gather for the lanes with a map)
+        let uv = octa::encode_soa(&d);
+        let cells = self.geometry.cell_index_soa(&bb, self.cell_size);
         let n = self.map_res as f32;
+        let mut foot = ([0i32; LANES], [0i32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
+        for k in 0..LANES {
+            (foot.0[k], foot.1[k], foot.2[k], foot.3[k]) = octa::footprint_of(n, uv.u[k], uv.v[k]);
+        }
         let mut delta = [0.0f32; LANES];
         for k in 0..LANES {
-            let slot = self.slot[self.cell_at(b[k])];
+            let slot = self.slot[cells[k]];
             if slot != NO_MAP {
-                let (i0, j0, fx, fy) = octa::footprint_of(n, uv.u[k], uv.v[k]);
-                delta[k] = self.map_delta(slot, &octa::footprint_taps(self.map_res, i0, j0, fx, fy));
+                let taps = octa::footprint_taps(self.map_res, foot.0[k], foot.1[k], foot.2[k], foot.3[k]);
+                delta[k] = self.map_delta(slot, &taps);
             }
         }
         // the aim (`shifted_aim`) for every lane
-        let d = [dir.map(|v| v.x), dir.map(|v| v.y), dir.map(|v| v.z)];
-        let bb = [b.map(|v| v.x), b.map(|v| v.y), b.map(|v| v.z)];
         let a3 = a.to_array();
-        let (mut v, mut s) = ([[0.0f32; LANES]; 3], [0.0f32; LANES]);
+        let mut out = AimLanes { v: [[0.0f32; LANES]; 3], s: [0.0f32; LANES], aims: [false; LANES] };
         for k in 0..LANES {
-            s[k] = along(t[k] + delta[k]);
+            out.s[k] = along(t[k] + delta[k]);
             for c in 0..3 {
-                v[c][k] = (bb[c][k] + d[c][k] * s[k]) - a3[c];
+                out.v[c][k] = (bb[c][k] + d[c][k] * out.s[k]) - a3[c];
             }
         }
+        // (bitwise `&`: no short circuits, so the loop vectorises)
         for k in 0..LANES {
-            let p = Vec3::new(v[0][k], v[1][k], v[2][k]);
-            let aims = has_t[k] && t[k].is_finite() && b[k] != a;
-            out[k] = match (aims && p.is_finite() && p != Vec3::ZERO, RATIO) {
-                (true, true) => Aim { v: p, k: Some(distance_ratio(p, s[k])) },
-                (true, false) => Aim { v: p, k: None },
-                (false, _) => Aim { v: dir[k], k: Some(1.0) },
-            };
+            let v = [out.v[0][k], out.v[1][k], out.v[2][k]];
+            let finite = v[0].is_finite() & v[1].is_finite() & v[2].is_finite();
+            let zero = (v[0] == 0.0) & (v[1] == 0.0) & (v[2] == 0.0);
+            let at_a = (bb[0][k] == a3[0]) & (bb[1][k] == a3[1]) & (bb[2][k] == a3[2]);
+            out.aims[k] = has_t[k] & t[k].is_finite() & !at_a & finite & !zero;
         }
-        out
+        Some(out)
     }
 
     /// Δ blended over the eight cells around B (cell-centre lattice) with trilinear
@@ -258,6 +291,16 @@ impl Correctives {
         }
         any.then_some(sum)
     }
+}
+
+/// [`LANES`] aims in structure-of-arrays form (see `Correctives::aim_lanes`).
+struct AimLanes {
+    /// The aimed points seen from A, as components.
+    v: octa::Soa3,
+    /// How far along each query ray the aimed point lies (`along`).
+    s: [f32; LANES],
+    /// Whether the lane aims at `v` (otherwise it reads its query direction).
+    aims: [bool; LANES],
 }
 
 /// The slot value of a cell that stores no map.

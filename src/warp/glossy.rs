@@ -51,11 +51,11 @@ impl MipRule {
 
 impl WarpProbe {
     /// Fractional radiance mip of perceptual roughness `r` (linear between the mips' values,
-    /// clamped to the chain).
+    /// clamped to the chain; NaN reads as 0).
     #[inline]
     #[must_use]
     pub fn lod_of_roughness(&self, r: f32) -> f32 {
-        let m = &self.mip_roughness;
+        let m = self.mip_roughness();
         if m.len() < 2 || !(r > m[0]) {
             return 0.0;
         }
@@ -63,7 +63,23 @@ impl WarpProbe {
         if r >= m[last] {
             return last as f32;
         }
-        let i = m.iter().map(|&x| (x <= r) as usize).sum::<usize>().clamp(1, last) - 1;
+        // the mip below r: the last node ≤ r (m[0] < r < m[last], so 0 ≤ i < last)
+        let i = match self.uniform_lods {
+            // the chain every bake writes, r = m / (n − 1) at mip m: the product's floor is
+            // the node or one off it by rounding, settled by the same comparisons as the
+            // search (a search and its adds sat on every rough lookup's critical path)
+            Some(n) => {
+                let guess = ((r * n) as usize).min(last - 1);
+                if m[guess] > r {
+                    guess.saturating_sub(1)
+                } else if guess + 1 < last && m[guess + 1] <= r {
+                    guess + 1
+                } else {
+                    guess
+                }
+            }
+            None => m.iter().map(|&x| (x <= r) as usize).sum::<usize>().clamp(1, last) - 1,
+        };
         let span = m[i + 1] - m[i];
         let f = if span > 0.0 { (r - m[i]) / span } else { 0.0 };
         i as f32 + f.clamp(0.0, 1.0)
@@ -176,7 +192,7 @@ pub fn glossy_radiance(
                 let uv = octa::encode(v);
                 let k = aim.ratio(warp, b, uv);
                 let rough = c.corrected_roughness(r, k);
-                return probe.radiance.sample_lod_uv(uv, probe.lod_of_roughness(rough));
+                return probe.radiance.sample_lod_uv_inline(uv, probe.lod_of_roughness(rough));
             }
             None => (v, r),
         },
@@ -187,6 +203,44 @@ pub fn glossy_radiance(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_mip_of_a_baked_chain_is_the_searchs_mip_bit_for_bit() {
+        use crate::octa::{OctMap, OctMips};
+        // the general rule, as it reads any increasing chain
+        let search = |m: &[f32], r: f32| -> f32 {
+            if !(r > m[0]) {
+                return 0.0;
+            }
+            let last = m.len() - 1;
+            if r >= m[last] {
+                return last as f32;
+            }
+            let i = m.iter().map(|&x| (x <= r) as usize).sum::<usize>().clamp(1, last) - 1;
+            let f = (r - m[i]) / (m[i + 1] - m[i]);
+            i as f32 + f.clamp(0.0, 1.0)
+        };
+        for n in [2usize, 3, 6, 7, 9] {
+            let chain: Vec<f32> = (0..n).map(|m| m as f32 / (n - 1) as f32).collect();
+            let one = OctMips { levels: vec![OctMap::new(1, vec![1.0f32])] };
+            let probe = WarpProbe::from_distance_mips(
+                Vec3::ZERO,
+                &one,
+                OctMips { levels: vec![OctMap::new(1, vec![Vec3::ONE])] },
+                chain.clone(),
+            );
+            assert!(probe.uniform_lods.is_some());
+            // every node, its neighbouring floats, and a fine sweep
+            let mut rs: Vec<f32> =
+                chain.iter().flat_map(|&x| [x, f32::from_bits(x.to_bits() + 1), x.next_down()]).collect();
+            rs.extend((0..=10_000).map(|t| t as f32 / 10_000.0));
+            rs.extend([-1.0, 0.0, -0.0, 1.0, 2.0, f32::NAN, f32::INFINITY, f32::MIN_POSITIVE]);
+            for r in rs {
+                let (fast, slow) = (probe.lod_of_roughness(r), search(&chain, r));
+                assert_eq!(fast.to_bits(), slow.to_bits(), "n = {n}, r = {r}");
+            }
+        }
+    }
 
     #[test]
     fn the_engine_rule_is_frostbites() {

@@ -30,7 +30,10 @@ pub struct WarpProbe {
     pub inv_depth: OctMips<f32>,
     pub radiance: OctMips<Vec3>,
     /// Perceptual roughness of each radiance mip (increasing; mip 0 = 0, the mirror image).
-    pub mip_roughness: Vec<f32>,
+    mip_roughness: Vec<f32>,
+    /// `n − 1` for a chain of n mips at r = m / (n − 1), the chain every bake writes
+    /// (`lod_of_roughness` finds the mip below r from one product); `None` for any other.
+    uniform_lods: Option<f32>,
     /// Largest finite distance the probe saw (bounds ray marching).
     pub max_distance: f32,
 }
@@ -55,7 +58,16 @@ impl WarpProbe {
             .levels
             .first()
             .map_or(0.0, |l| l.texels.iter().copied().filter(|d| d.is_finite()).fold(0.0f32, f32::max));
-        WarpProbe { position, inv_depth, radiance, mip_roughness, max_distance }
+        let n = mip_roughness.len();
+        let uniform = n >= 2 && (0..n).all(|m| mip_roughness[m] == m as f32 / (n - 1) as f32);
+        let uniform_lods = uniform.then_some((n - 1) as f32);
+        WarpProbe { position, inv_depth, radiance, mip_roughness, uniform_lods, max_distance }
+    }
+
+    /// Perceptual roughness of each radiance mip (increasing; mip 0 = 0, the mirror image).
+    #[must_use]
+    pub fn mip_roughness(&self) -> &[f32] {
+        &self.mip_roughness
     }
 
     /// The exposure every tone-mapped error of this probe's scene is measured at: the key of

@@ -86,28 +86,55 @@ impl BoxProxy {
         b: &[Vec3; crate::octa::LANES],
         dir: &[Vec3; crate::octa::LANES],
     ) -> ([f32; crate::octa::LANES], [bool; crate::octa::LANES]) {
+        self.exit_distance_soa(&octa::soa(b), &octa::soa(dir))
+    }
+
+    /// [`exit_distance_lanes`](Self::exit_distance_lanes) with the queries given as
+    /// components ([`octa::soa`]).
+    #[inline(always)]
+    #[must_use]
+    pub fn exit_distance_soa(
+        &self,
+        b: &octa::Soa3,
+        dir: &octa::Soa3,
+    ) -> ([f32; crate::octa::LANES], [bool; crate::octa::LANES]) {
         const L: usize = crate::octa::LANES;
         let m = self.world_to_local;
-        let (h, c) = (self.half_extents, self.centre);
+        let (h, c) = (self.half_extents.to_array(), self.centre.to_array());
         let aligned = self.axis_aligned;
-        let local = |v: [f32; 3], k: usize| -> f32 {
-            if aligned { v[k] } else { ((m.x_axis[k] * v[0]) + (m.y_axis[k] * v[1])) + (m.z_axis[k] * v[2]) }
+        // the box-local components, as `world_to_local * v` forms them (identity: v itself)
+        let local = |v: [&[f32; L]; 3], k: usize, l: usize| -> f32 {
+            if aligned {
+                v[k][l]
+            } else {
+                ((m.x_axis[k] * v[0][l]) + (m.y_axis[k] * v[1][l])) + (m.z_axis[k] * v[2][l])
+            }
         };
+        let mut bc = [[0.0f32; L]; 3];
+        for k in 0..3 {
+            for l in 0..L {
+                bc[k][l] = b[k][l] - c[k];
+            }
+        }
+        let (mut o, mut d) = ([[0.0f32; L]; 3], [[0.0f32; L]; 3]);
+        for k in 0..3 {
+            for l in 0..L {
+                o[k][l] = local([&bc[0], &bc[1], &bc[2]], k, l);
+                d[k][l] = local([&dir[0], &dir[1], &dir[2]], k, l);
+            }
+        }
         let (mut out, mut ok) = ([0.0f32; L], [false; L]);
         for l in 0..L {
-            let (b3, d3) = (b[l].to_array(), dir[l].to_array());
-            let bc = [b3[0] - c.x, b3[1] - c.y, b3[2] - c.z];
-            let o = [local(bc, 0), local(bc, 1), local(bc, 2)];
-            let d = [local(d3, 0), local(d3, 1), local(d3, 2)];
-            let outside = o[0].abs() > h.x || o[1].abs() > h.y || o[2].abs() > h.z;
+            // (bitwise `|` and `&`: no short circuits, so the loop vectorises)
+            let outside = (o[0][l].abs() > h[0]) | (o[1][l].abs() > h[1]) | (o[2][l].abs() > h[2]);
             let mut t = f32::INFINITY;
             for k in 0..3 {
-                let face = if d[k] > 0.0 { h[k] } else { -h[k] };
-                let t_face = (face - o[k]) / d[k];
-                t = t.min(if d[k] != 0.0 { t_face } else { f32::INFINITY });
+                let face = if d[k][l] > 0.0 { h[k] } else { -h[k] };
+                let t_face = (face - o[k][l]) / d[k][l];
+                t = t.min(if d[k][l] != 0.0 { t_face } else { f32::INFINITY });
             }
             // `o.abs().cmpgt(h)` is false for NaN, as here
-            ok[l] = !outside && t.is_finite();
+            ok[l] = !outside & t.is_finite();
             out[l] = t.max(0.0);
         }
         (out, ok)
