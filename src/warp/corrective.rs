@@ -168,7 +168,7 @@ impl Correctives {
         };
         // `distance_ratio`, the length as glam forms it (std's square root is the same
         // correctly rounded `sqrtss`, and vectorises)
-        let (mut v, d) = (aims.v, octa::soa(dir));
+        let (mut v, d) = (aims.v, aims.d);
         let mut ratio = [1.0f32; LANES];
         for k in 0..LANES {
             let l = ((v[0][k] * v[0][k]) + (v[1][k] * v[1][k]) + (v[2][k] * v[2][k])).sqrt() / aims.s[k];
@@ -195,7 +195,7 @@ impl Correctives {
             }
             return octa::soa(&out);
         };
-        let (mut v, d) = (aims.v, octa::soa(dir));
+        let (mut v, d) = (aims.v, aims.d);
         for c in 0..3 {
             for k in 0..LANES {
                 v[c][k] = if aims.aims[k] { v[c][k] } else { d[c][k] };
@@ -246,7 +246,7 @@ impl Correctives {
         }
         // the aim (`shifted_aim`) for every lane
         let a3 = a.to_array();
-        let mut out = AimLanes { v: [[0.0f32; LANES]; 3], s: [0.0f32; LANES], aims: [false; LANES] };
+        let mut out = AimLanes { v: [[0.0f32; LANES]; 3], s: [0.0f32; LANES], aims: [false; LANES], d };
         for k in 0..LANES {
             out.s[k] = along(t[k] + delta[k]);
             for c in 0..3 {
@@ -301,6 +301,8 @@ struct AimLanes {
     s: [f32; LANES],
     /// Whether the lane aims at `v` (otherwise it reads its query direction).
     aims: [bool; LANES],
+    /// The query directions, as components (what a lane that does not aim reads).
+    d: octa::Soa3,
 }
 
 /// The slot value of a cell that stores no map.
