@@ -18,15 +18,26 @@ fn wall_radiance(p: Vec3, scale: f32) -> Vec3 {
 /// Closed-form fixture: a probe at the origin (`res`² map) before an infinite textured wall
 /// at z = 5·scale.
 pub fn wall_probe(scale: f32, res: u32) -> WarpProbe {
+    let (radiance, distance) = wall_maps(scale, res);
+    WarpProbe::from_distance_mips(Vec3::ZERO, &distance, OctMips { levels: vec![radiance] }, vec![0.0])
+}
+
+/// [`wall_probe`] with a box-filtered radiance chain down to 8², mip m standing for
+/// roughness m/(n−1) as a bake's does: for rough lookups.
+pub fn wall_probe_rough(scale: f32, res: u32) -> WarpProbe {
+    let (radiance, distance) = wall_maps(scale, res);
+    let chain = octa::build_mips(radiance, 8);
+    let n = chain.levels.len();
+    let mip_roughness = (0..n).map(|m| m as f32 / (n - 1).max(1) as f32).collect();
+    WarpProbe::from_distance_mips(Vec3::ZERO, &distance, chain, mip_roughness)
+}
+
+/// The wall's radiance map and distance chain as seen from the origin.
+fn wall_maps(scale: f32, res: u32) -> (OctMap<Vec3>, OctMips<f32>) {
     let z = 5.0 * scale;
     let rad = OctMap::from_fn(res, |_, _, d| if d.z > 0.0 { wall_radiance(d * (z / d.z), scale) } else { Vec3::ZERO });
     let dist = OctMap::from_fn(res, |_, _, d| if d.z > 0.0 { z / d.z } else { f32::INFINITY });
-    WarpProbe::from_distance_mips(
-        Vec3::ZERO,
-        &octa::build_distance_mips(dist, 8),
-        OctMips { levels: vec![rad] },
-        vec![0.0],
-    )
+    (rad, octa::build_distance_mips(dist, 8))
 }
 
 /// [`wall_probe`] as a warp context: a box proxy around the wall's half space whose far face

@@ -30,10 +30,10 @@
 //! at which the piecewise-smooth radiance changes), or Nelder-Mead.
 
 use super::Solver;
-use crate::octa::{self, wrap_texel};
+use crate::octa::{self, LANES, wrap_texel};
 use crate::tonemap::reinhard;
 use crate::warp::corrective::{sample_map, shifted_aim};
-use crate::warp::glossy::{Glossy, MipRule};
+use crate::warp::glossy::{Glossy, MipRule, corrected_lanes};
 use crate::warp::{Level1, Method, Warp};
 use argmin::core::{CostFunction, Error, Executor, Gradient, State};
 use argmin::solver::brent::BrentOpt;
@@ -145,6 +145,10 @@ pub struct CellProblem<'a> {
     /// The log-scales the solve starts from.
     start: Vec<f64>,
     samples: Vec<Sample>,
+    /// Per sample, its reference tone-mapped at `exposure`.
+    tm_reference: Vec<Vec3>,
+    /// Every sample's index, in order.
+    all: Vec<u32>,
     /// Per texel, the samples whose bilinear footprint includes it.
     touching: Vec<Vec<u32>>,
     /// Neighbouring texel pairs (right and down, seam-wrapped).
@@ -235,14 +239,9 @@ impl<'a> CellProblem<'a> {
                 }
             }
         }
-        let mean_reference = samples
-            .iter()
-            .map(|s| {
-                let t = reinhard(s.reference, exposure);
-                ((t.x + t.y + t.z) / 3.0) as f64
-            })
-            .sum::<f64>()
-            / samples.len().max(1) as f64;
+        let tm_reference: Vec<Vec3> = samples.iter().map(|s| reinhard(s.reference, exposure)).collect();
+        let mean_reference =
+            tm_reference.iter().map(|t| ((t.x + t.y + t.z) / 3.0) as f64).sum::<f64>() / samples.len().max(1) as f64;
         // floored: a cell that sees almost nothing would turn tiny absolute errors into
         // relative ones in the millions
         let mean_reference = mean_reference.max(MEAN_REFERENCE_FLOOR);
@@ -252,7 +251,9 @@ impl<'a> CellProblem<'a> {
             res,
             proxy_distance,
             start,
+            all: (0..samples.len() as u32).collect(),
             samples,
+            tm_reference,
             touching,
             pairs,
             mean_reference,
@@ -340,10 +341,51 @@ impl<'a> CellProblem<'a> {
         self.glossy.radiance(MipRule::Corrected, q.b, q.dir, aim, q.roughness)
     }
 
-    /// Tone-mapped absolute error of sample `i` under `map`.
-    #[inline]
+    /// Tone-mapped absolute error of sample `i` under `map` (what [`Self::errors`] computes
+    /// in lanes; kept as the reference its tests compare with).
+    #[cfg(test)]
     fn sample_error(&self, i: usize, map: &[f32]) -> f64 {
-        tm_error(self.lookup(i, map), self.samples[i].reference, self.exposure)
+        abs_error(reinhard(self.lookup(i, map), self.exposure), self.tm_reference[i])
+    }
+
+    /// [`Self::sample_error`] of each query in `idx`, in `idx`'s order and bit for bit the
+    /// same, the lookups made [`LANES`] at a time.
+    fn errors<'s>(&'s self, idx: &'s [u32], map: &'s [f32]) -> impl Iterator<Item = f64> + 's {
+        idx.chunks(LANES).flat_map(move |group| self.errors_lanes(group, map).into_iter().take(group.len()))
+    }
+
+    /// The errors of up to [`LANES`] queries (a shorter group repeats its last query): each
+    /// lane's shifted aim, then the lanes' probe reads together (`glossy::corrected_lanes`,
+    /// the runtime's batch lookup).
+    #[inline]
+    fn errors_lanes(&self, group: &[u32], map: &[f32]) -> [f64; LANES] {
+        let mut idx = [0usize; LANES];
+        for (l, i) in idx.iter_mut().enumerate() {
+            *i = group[l.min(group.len() - 1)] as usize;
+        }
+        let (warp, a) = (self.glossy.warp, self.glossy.warp.probe.position);
+        let mut v = [[0.0f32; LANES]; 3];
+        let (mut k, mut r) = ([1.0f32; LANES], [0.0f32; LANES]);
+        for l in 0..LANES {
+            let q = &self.samples[idx[l]];
+            let aim = shifted_aim(a, q.t_proxy, sample_map(map, &q.taps), q.b, q.dir);
+            [v[0][l], v[1][l], v[2][l]] = aim.v.to_array();
+            k[l] = match aim.k {
+                Some(k) => k,
+                None => aim.ratio(warp, q.b, octa::encode(aim.v)),
+            };
+            r[l] = q.roughness;
+        }
+        let est = if r.iter().all(|&r| r == 0.0) {
+            warp.probe.radiance.levels[0].bilinear_uv_lanes(&octa::encode_soa(&v))
+        } else {
+            corrected_lanes(&warp.probe, self.glossy.correction, &r, &v, &k)
+        };
+        let mut e = [0.0f64; LANES];
+        for l in 0..LANES {
+            e[l] = abs_error(reinhard(est[l], self.exposure), self.tm_reference[idx[l]]);
+        }
+        e
     }
 
     /// Each query's linear absolute error (mean over RGB) under `map`, in query order: what
@@ -357,9 +399,9 @@ impl<'a> CellProblem<'a> {
         (e * e + self.eps * self.eps).sqrt() - self.eps
     }
 
-    fn data_over(&self, idx: impl Iterator<Item = usize>, map: &[f32]) -> f64 {
+    fn data_over(&self, idx: &[u32], map: &[f32]) -> f64 {
         let n = self.samples.len().max(1) as f64;
-        idx.map(|i| self.rho(self.sample_error(i, map))).sum::<f64>() / (n * self.mean_reference)
+        self.errors(idx, map).map(|e| self.rho(e)).sum::<f64>() / (n * self.mean_reference)
     }
 
     fn regulariser(&self, s: &[f64]) -> f64 {
@@ -371,14 +413,14 @@ impl<'a> CellProblem<'a> {
 
     /// Data term of a whole map (no regularisation): compares candidate starting maps.
     pub fn data_cost_map(&self, map: &[f32]) -> f64 {
-        self.data_over(0..self.samples.len(), map)
+        self.data_over(&self.all, map)
     }
 
     /// Full objective at log-scales `s`.
     pub fn cost(&self, s: &[f64]) -> f64 {
         self.evaluations.set(self.evaluations.get() + 1);
         let map = self.map(s);
-        self.data_over(0..self.samples.len(), &map) + self.regulariser(s)
+        self.data_over(&self.all, &map) + self.regulariser(s)
     }
 
     /// Root-mean-square of the per-query tone-mapped errors of `map`, relative to the mean
@@ -386,7 +428,7 @@ impl<'a> CellProblem<'a> {
     /// misplaces edges loses to a method that does not; tone-mapped, so a lamp in view does
     /// not decide it alone).
     pub fn relative_error_map(&self, map: &[f32]) -> f64 {
-        let sq: f64 = (0..self.samples.len()).map(|i| self.sample_error(i, map).powi(2)).sum();
+        let sq: f64 = self.errors(&self.all, map).map(|e| e.powi(2)).sum();
         (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
     }
 
@@ -500,7 +542,7 @@ impl<'a> CellProblem<'a> {
         let relax = self.fit_relax(&s);
         let cost_end = {
             let map = self.map_with_relax(&s, relax);
-            self.data_over(0..self.samples.len(), &map) + self.regulariser(&s)
+            self.data_over(&self.all, &map) + self.regulariser(&s)
         };
         curve.push((clock.elapsed().as_secs_f64(), cost_end));
         Outcome {
@@ -635,7 +677,7 @@ impl CostFunction for TexelProblem<'_, '_> {
         c.evaluations.set(c.evaluations.get() + 1);
         let mut map = self.map.borrow_mut();
         map[self.k] = c.texel_shift(self.k, *x);
-        let data = c.data_over(c.touching[self.k].iter().map(|&i| i as usize), &map);
+        let data = c.data_over(&c.touching[self.k], &map);
         let mut smooth = 0.0;
         for &(a, b) in &c.pairs {
             if a as usize == self.k || b as usize == self.k {
@@ -738,7 +780,7 @@ impl CostFunction for RelaxProblem<'_, '_> {
         let c = self.cell;
         c.evaluations.set(c.evaluations.get() + 1);
         let map = c.map_with_relax(self.s, x.clamp(0.0, 1.0));
-        let v = c.data_over(0..c.samples.len(), &map);
+        let v = c.data_over(&c.all, &map);
         Ok(if v.is_finite() { v } else { f64::MAX })
     }
 }
@@ -746,8 +788,40 @@ impl CostFunction for RelaxProblem<'_, '_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::fixtures::{wall_problem, wall_warp};
+    use crate::fit::fixtures::{wall_probe_rough, wall_problem, wall_warp};
     use proptest::prelude::*;
+
+    /// The objective's lane lookups answer what the scalar lookup answers, bit for bit, for
+    /// mirror and rough queries, with and without the roughness correction, in whole groups
+    /// and in a short tail.
+    #[test]
+    fn the_lane_errors_are_the_scalar_errors_bit_for_bit() {
+        let mut warp = wall_warp(1.0, 64);
+        warp.probe = wall_probe_rough(1.0, 64);
+        let correction = crate::roughness::fit_correction();
+        for with_correction in [false, true] {
+            let mut w = wall_problem(&warp, 1.0, 299);
+            w.ctx.glossy.correction = with_correction.then_some(&correction);
+            for (i, s) in w.samples.iter_mut().enumerate() {
+                // the first two groups all mirror lookups, then every roughness mixed
+                s.roughness = if i < 32 { 0.0 } else { [0.0, 0.125, 0.3, 0.5, 0.77, 1.0][i % 6] };
+            }
+            let start = w.ctx.log_scales_of(&w.distance);
+            let cell = CellProblem::new(w.ctx, start, w.samples);
+            let s: Vec<f64> = (0..64).map(|k| ((k * 37 % 11) as f64 - 5.0) / 4.0).collect();
+            for map in [cell.map(&s), w.truth.clone()] {
+                let lanes: Vec<u64> = cell.errors(&cell.all, &map).map(f64::to_bits).collect();
+                let scalar: Vec<u64> = (0..cell.samples.len()).map(|i| cell.sample_error(i, &map).to_bits()).collect();
+                assert_eq!(lanes, scalar, "correction {with_correction}");
+                for k in 0..64 {
+                    let idx = &cell.touching[k];
+                    let lanes: Vec<u64> = cell.errors(idx, &map).map(f64::to_bits).collect();
+                    let scalar: Vec<u64> = idx.iter().map(|&i| cell.sample_error(i as usize, &map).to_bits()).collect();
+                    assert_eq!(lanes, scalar, "texel {k}, correction {with_correction}");
+                }
+            }
+        }
+    }
 
     proptest! {
         #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]

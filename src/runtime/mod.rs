@@ -39,7 +39,7 @@ use crate::octa;
 use crate::roughness::RoughnessCorrection;
 use crate::warp::Warp;
 use crate::warp::corrective::{Blend, Correctives};
-use crate::warp::glossy::{Aim, MipRule, glossy_radiance};
+use crate::warp::glossy::{Aim, MipRule, corrected_lanes, glossy_radiance};
 use glam::Vec3;
 use std::path::Path;
 
@@ -155,7 +155,7 @@ impl FittedGrid {
             self.warp.probe.radiance.levels[0].bilinear_uv_lanes(&octa::encode_soa(&v))
         } else {
             let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir);
-            self.shade_lanes(&r, &v, &ratio)
+            corrected_lanes(&self.warp.probe, self.roughness.as_ref(), &r, &v, &ratio)
         };
         if let Some(valid) = valid {
             for k in 0..octa::LANES {
@@ -185,24 +185,6 @@ impl FittedGrid {
             }
         }
         (b, dir, valid)
-    }
-
-    /// `shade` for [`octa::LANES`] queries, bit for bit the same, in stages over the lanes:
-    /// the fetch vectors' octahedral coordinates, each lane's mip (from its distance ratio),
-    /// then the trilinear reads side by side.
-    #[inline(always)]
-    fn shade_lanes(&self, r: &[f32; octa::LANES], v: &octa::Soa3, ratio: &[f32; octa::LANES]) -> [Vec3; octa::LANES] {
-        let probe = &self.warp.probe;
-        let uv = octa::encode_soa(v);
-        let rough = match self.roughness.as_ref() {
-            None => *r,
-            Some(c) => c.corrected_roughness_lanes(r, ratio),
-        };
-        let mut lod = [0.0f32; octa::LANES];
-        for l in 0..octa::LANES {
-            lod[l] = if r[l] == 0.0 { 0.0 } else { probe.lod_of_roughness(rough[l]) };
-        }
-        probe.radiance.sample_each_lod_uv_lanes(&uv, &lod)
     }
 
     /// Irradiance at `position` for surface normal `normal` (see [`IrradianceGrid::irradiance`]).

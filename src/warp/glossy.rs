@@ -200,6 +200,32 @@ pub fn glossy_radiance(
     probe.radiance.sample_lod_uv(octa::encode(v), probe.lod_of_roughness(r_mip))
 }
 
+/// [`glossy_radiance`] under the `Corrected` rule for [`octa::LANES`] lookups aimed at known
+/// points (fetch vectors `v` as components, distance ratios `k`, perceptual roughness `r`),
+/// bit for bit the same values, in stages over the lanes: the octahedral coordinates, each
+/// lane's mip (a mirror lane reads mip 0), then the trilinear reads side by side. Shared by
+/// the runtime's batches and the fit's objective.
+#[inline(always)]
+#[must_use]
+pub fn corrected_lanes(
+    probe: &WarpProbe,
+    correction: Option<&RoughnessCorrection>,
+    r: &[f32; octa::LANES],
+    v: &octa::Soa3,
+    k: &[f32; octa::LANES],
+) -> [Vec3; octa::LANES] {
+    let uv = octa::encode_soa(v);
+    let rough = match correction {
+        None => *r,
+        Some(c) => c.corrected_roughness_lanes(r, k),
+    };
+    let mut lod = [0.0f32; octa::LANES];
+    for l in 0..octa::LANES {
+        lod[l] = if r[l] == 0.0 { 0.0 } else { probe.lod_of_roughness(rough[l]) };
+    }
+    probe.radiance.sample_each_lod_uv_lanes(&uv, &lod)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
