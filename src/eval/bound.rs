@@ -36,26 +36,50 @@ const COARSE: u32 = 32;
 /// Halvings of the step around the best point after the coarse grid.
 const REFINE: u32 = 5;
 
-/// The radiance of the best single fetch for `reference` among the mips `lods`.
-fn best_fetch(warp: &Warp, reference: Vec3, lods: &[f32], exposure: f32) -> Vec3 {
+/// One mip's coarse search grid, the same for every query: its points' radiance and that
+/// radiance tone-mapped, row by row.
+struct CoarseGrid {
+    lod: f32,
+    n: u32,
+    radiance: Vec<Vec3>,
+    tone_mapped: Vec<Vec3>,
+}
+
+impl CoarseGrid {
+    fn new(warp: &Warp, lod: f32, exposure: f32) -> CoarseGrid {
+        let radiance_mips = &warp.probe.radiance;
+        let n = COARSE.min((radiance_mips.levels[0].res >> (lod as u32)).max(1));
+        let radiance: Vec<Vec3> =
+            (0..n * n).map(|k| radiance_mips.sample_lod_uv(coarse_uv(n, k % n, k / n), lod)).collect();
+        let tone_mapped = radiance.iter().map(|&l| reinhard(l, exposure)).collect();
+        CoarseGrid { lod, n, radiance, tone_mapped }
+    }
+}
+
+/// The octahedral coordinate of point (i, j) of an n × n coarse grid.
+#[inline]
+fn coarse_uv(n: u32, i: u32, j: u32) -> Vec2 {
+    (Vec2::new(i as f32, j as f32) + 0.5) / n as f32
+}
+
+/// The radiance of the best single fetch for `reference` among the mips of `grids` (each
+/// searched from its coarse grid).
+fn best_fetch(warp: &Warp, reference: Vec3, grids: &[CoarseGrid], exposure: f32) -> Vec3 {
     let target = reinhard(reference, exposure);
     let radiance = &warp.probe.radiance;
-    let res0 = radiance.levels[0].res;
     let mut best = (f32::INFINITY, Vec3::ZERO);
-    for &lod in lods {
+    for grid in grids {
+        let (lod, n) = (grid.lod, grid.n);
         let eval = |uv: Vec2| {
             let l = radiance.sample_lod_uv(uv, lod);
             ((reinhard(l, exposure) - target).length_squared(), l)
         };
-        let n = COARSE.min((res0 >> (lod as u32)).max(1));
         let mut at = (f32::INFINITY, Vec2::splat(0.5), Vec3::ZERO);
-        for j in 0..n {
-            for i in 0..n {
-                let uv = (Vec2::new(i as f32, j as f32) + 0.5) / n as f32;
-                let (e, l) = eval(uv);
-                if e < at.0 {
-                    at = (e, uv, l);
-                }
+        for (k, &t) in grid.tone_mapped.iter().enumerate() {
+            let e = (t - target).length_squared();
+            if e < at.0 {
+                let k = k as u32;
+                at = (e, coarse_uv(n, k % n, k / n), grid.radiance[k as usize]);
             }
         }
         let mut step = 1.0 / n as f32;
@@ -156,8 +180,11 @@ pub fn best_fetch_row(warp: &Warp, set: &ValidationSet, exposure: f32) -> Method
     let r = set.roughness.first().copied().unwrap_or(0.0);
     let lods = bound_lods(warp, r);
     let t0 = std::time::Instant::now();
-    let est: Vec<Vec3> =
-        (0..set.reference.len()).into_par_iter().map(|k| best_fetch(warp, set.reference[k], &lods, exposure)).collect();
+    let grids: Vec<CoarseGrid> = lods.iter().map(|&lod| CoarseGrid::new(warp, lod, exposure)).collect();
+    let est: Vec<Vec3> = (0..set.reference.len())
+        .into_par_iter()
+        .map(|k| best_fetch(warp, set.reference[k], &grids, exposure))
+        .collect();
     let threads = rayon::current_num_threads().max(1) as f64;
     let ns = t0.elapsed().as_secs_f64() * 1e9 * threads / set.reference.len().max(1) as f64;
     let note = format!(
