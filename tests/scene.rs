@@ -15,11 +15,14 @@ fn err_text(r: Result<Scene, SceneError>) -> String {
 
 #[test]
 fn builtin_scenes_load() {
-    for name in ["torture", "cornell", "courtyard", "sphere"] {
+    for name in ["torture", "cornell", "courtyard", "sphere", "gallery", "hall", "atrium"] {
         let s = load(name);
         assert!(s.triangles.len() + s.spheres.len() > 0, "{name}");
         assert_eq!(s.degenerate_skipped, 0, "{name} has degenerate triangles");
     }
+    // the level-sized scene the fit is timed on is the size it says
+    let atrium = load("atrium").triangles.len();
+    assert!((100_000..110_000).contains(&atrium), "atrium: {atrium} triangles");
 }
 
 #[test]
