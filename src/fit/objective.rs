@@ -32,7 +32,7 @@
 use super::Solver;
 use crate::octa::{self, LANES, wrap_texel};
 use crate::tonemap::reinhard;
-use crate::warp::corrective::{sample_map, shifted_aim};
+use crate::warp::corrective::{AimLanes, sample_map, shifted_aim};
 use crate::warp::glossy::{Glossy, MipRule, corrected_lanes};
 use crate::warp::{Level1, Method, Warp};
 use argmin::core::{CostFunction, Error, Executor, Gradient, State};
@@ -354,32 +354,33 @@ impl<'a> CellProblem<'a> {
         idx.chunks(LANES).flat_map(move |group| self.errors_lanes(group, map).into_iter().take(group.len()))
     }
 
-    /// The errors of up to [`LANES`] queries (a shorter group repeats its last query): each
-    /// lane's shifted aim, then the lanes' probe reads together (`glossy::corrected_lanes`,
-    /// the runtime's batch lookup).
+    /// The errors of up to [`LANES`] queries (a shorter group repeats its last query): the
+    /// lanes' shifted aims (`AimLanes::shifted`), then their probe reads together (a mirror
+    /// group at mip 0, otherwise `glossy::corrected_lanes`): the runtime's batch lookup.
     #[inline]
     fn errors_lanes(&self, group: &[u32], map: &[f32]) -> [f64; LANES] {
         let mut idx = [0usize; LANES];
         for (l, i) in idx.iter_mut().enumerate() {
             *i = group[l.min(group.len() - 1)] as usize;
         }
-        let (warp, a) = (self.glossy.warp, self.glossy.warp.probe.position);
-        let mut v = [[0.0f32; LANES]; 3];
-        let (mut k, mut r) = ([1.0f32; LANES], [0.0f32; LANES]);
+        let probe = &self.glossy.warp.probe;
+        let (mut b, mut d) = ([[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3]);
+        let (mut t, mut has_t) = ([0.0f32; LANES], [false; LANES]);
+        let (mut delta, mut r) = ([0.0f32; LANES], [0.0f32; LANES]);
         for l in 0..LANES {
             let q = &self.samples[idx[l]];
-            let aim = shifted_aim(a, q.t_proxy, sample_map(map, &q.taps), q.b, q.dir);
-            [v[0][l], v[1][l], v[2][l]] = aim.v.to_array();
-            k[l] = match aim.k {
-                Some(k) => k,
-                None => aim.ratio(warp, q.b, octa::encode(aim.v)),
-            };
+            [b[0][l], b[1][l], b[2][l]] = q.b.to_array();
+            [d[0][l], d[1][l], d[2][l]] = q.dir.to_array();
+            (t[l], has_t[l]) = (q.t_proxy.unwrap_or(0.0), q.t_proxy.is_some());
+            delta[l] = sample_map(map, &q.taps);
             r[l] = q.roughness;
         }
+        let aims = AimLanes::shifted(probe.position, &t, &has_t, &delta, &b, d);
         let est = if r.iter().all(|&r| r == 0.0) {
-            warp.probe.radiance.levels[0].bilinear_uv_lanes(&octa::encode_soa(&v))
+            probe.radiance.levels[0].bilinear_uv_lanes(&octa::encode_soa(&aims.vectors()))
         } else {
-            corrected_lanes(&warp.probe, self.glossy.correction, &r, &v, &k)
+            let (v, k) = aims.vectors_and_ratios();
+            corrected_lanes(probe, self.glossy.correction, &r, &v, &k)
         };
         let mut e = [0.0f64; LANES];
         for l in 0..LANES {

@@ -166,21 +166,7 @@ impl Correctives {
             }
             return (octa::soa(&v), ratio);
         };
-        // `distance_ratio`, the length as glam forms it (std's square root is the same
-        // correctly rounded `sqrtss`, and vectorises)
-        let (mut v, d) = (aims.v, aims.d);
-        let mut ratio = [1.0f32; LANES];
-        for k in 0..LANES {
-            let l = ((v[0][k] * v[0][k]) + (v[1][k] * v[1][k]) + (v[2][k] * v[2][k])).sqrt() / aims.s[k];
-            let l = if l.is_finite() && l > 0.0 { l } else { 1.0 };
-            ratio[k] = if aims.aims[k] { l } else { 1.0 };
-        }
-        for c in 0..3 {
-            for k in 0..LANES {
-                v[c][k] = if aims.aims[k] { v[c][k] } else { d[c][k] };
-            }
-        }
-        (v, ratio)
+        aims.vectors_and_ratios()
     }
 
     /// The fetch vectors of [`fetch_lanes`](Self::fetch_lanes) alone (what a mirror lookup
@@ -195,13 +181,7 @@ impl Correctives {
             }
             return octa::soa(&out);
         };
-        let (mut v, d) = (aims.v, aims.d);
-        for c in 0..3 {
-            for k in 0..LANES {
-                v[c][k] = if aims.aims[k] { v[c][k] } else { d[c][k] };
-            }
-        }
-        v
+        aims.vectors()
     }
 
     /// The lane form of `fetch` → `shifted_aim` with `Blend::Cell` and no relaxation (the
@@ -244,24 +224,7 @@ impl Correctives {
                 delta[k] = self.map_delta(slot, &taps);
             }
         }
-        // the aim (`shifted_aim`) for every lane
-        let a3 = a.to_array();
-        let mut out = AimLanes { v: [[0.0f32; LANES]; 3], s: [0.0f32; LANES], aims: [false; LANES], d };
-        for k in 0..LANES {
-            out.s[k] = along(t[k] + delta[k]);
-            for c in 0..3 {
-                out.v[c][k] = (bb[c][k] + d[c][k] * out.s[k]) - a3[c];
-            }
-        }
-        // (bitwise `&`: no short circuits, so the loop vectorises)
-        for k in 0..LANES {
-            let v = [out.v[0][k], out.v[1][k], out.v[2][k]];
-            let finite = v[0].is_finite() & v[1].is_finite() & v[2].is_finite();
-            let zero = (v[0] == 0.0) & (v[1] == 0.0) & (v[2] == 0.0);
-            let at_a = (bb[0][k] == a3[0]) & (bb[1][k] == a3[1]) & (bb[2][k] == a3[2]);
-            out.aims[k] = has_t[k] & t[k].is_finite() & !at_a & finite & !zero;
-        }
-        Some(out)
+        Some(AimLanes::shifted(a, &t, &has_t, &delta, &bb, d))
     }
 
     /// Δ blended over the eight cells around B (cell-centre lattice) with trilinear
@@ -294,7 +257,7 @@ impl Correctives {
 }
 
 /// [`LANES`] aims in structure-of-arrays form (see `Correctives::aim_lanes`).
-struct AimLanes {
+pub(crate) struct AimLanes {
     /// The aimed points seen from A, as components.
     v: octa::Soa3,
     /// How far along each query ray the aimed point lies (`along`).
@@ -303,6 +266,69 @@ struct AimLanes {
     aims: [bool; LANES],
     /// The query directions, as components (what a lane that does not aim reads).
     d: octa::Soa3,
+}
+
+impl AimLanes {
+    /// [`shifted_aim`] for [`LANES`] queries (B `bb` and directions `d` as components), the
+    /// same operations in the same order: lane k's ray leaves the proxy at `t[k]` where
+    /// `has_t[k]`, and its surface is shifted by `delta[k]`. Shared by the runtime's batches
+    /// and the fit's objective.
+    #[inline(always)]
+    pub(crate) fn shifted(
+        a: Vec3,
+        t: &[f32; LANES],
+        has_t: &[bool; LANES],
+        delta: &[f32; LANES],
+        bb: &octa::Soa3,
+        d: octa::Soa3,
+    ) -> AimLanes {
+        let a3 = a.to_array();
+        let mut out = AimLanes { v: [[0.0f32; LANES]; 3], s: [0.0f32; LANES], aims: [false; LANES], d };
+        for k in 0..LANES {
+            out.s[k] = along(t[k] + delta[k]);
+            for c in 0..3 {
+                out.v[c][k] = (bb[c][k] + d[c][k] * out.s[k]) - a3[c];
+            }
+        }
+        // (bitwise `&`: no short circuits, so the loop vectorises)
+        for k in 0..LANES {
+            let v = [out.v[0][k], out.v[1][k], out.v[2][k]];
+            let finite = v[0].is_finite() & v[1].is_finite() & v[2].is_finite();
+            let zero = (v[0] == 0.0) & (v[1] == 0.0) & (v[2] == 0.0);
+            let at_a = (bb[0][k] == a3[0]) & (bb[1][k] == a3[1]) & (bb[2][k] == a3[2]);
+            out.aims[k] = has_t[k] & t[k].is_finite() & !at_a & finite & !zero;
+        }
+        out
+    }
+
+    /// The fetch vectors as components: the aimed point, or the query direction where the
+    /// lane does not aim.
+    #[inline(always)]
+    pub(crate) fn vectors(&self) -> octa::Soa3 {
+        let mut v = self.v;
+        for c in 0..3 {
+            for k in 0..LANES {
+                v[c][k] = if self.aims[k] { v[c][k] } else { self.d[c][k] };
+            }
+        }
+        v
+    }
+
+    /// [`Self::vectors`] and each lane's distance ratio (1 where it does not aim), as
+    /// [`shifted_aim`]'s `Aim` carries it.
+    #[inline(always)]
+    pub(crate) fn vectors_and_ratios(&self) -> (octa::Soa3, [f32; LANES]) {
+        // `distance_ratio`, the length as glam forms it (std's square root is the same
+        // correctly rounded `sqrtss`, and vectorises)
+        let v = &self.v;
+        let mut ratio = [1.0f32; LANES];
+        for k in 0..LANES {
+            let l = ((v[0][k] * v[0][k]) + (v[1][k] * v[1][k]) + (v[2][k] * v[2][k])).sqrt() / self.s[k];
+            let l = if l.is_finite() && l > 0.0 { l } else { 1.0 };
+            ratio[k] = if self.aims[k] { l } else { 1.0 };
+        }
+        (self.vectors(), ratio)
+    }
 }
 
 /// The slot value of a cell that stores no map.
