@@ -357,6 +357,29 @@ mod lobe_reference {
         }
     }
 
+    /// A mirror reference traces its one ray once and continues each sample from the hit
+    /// (`Renderer::first_hit`, `sample_after`): the same sum, bit for bit, as tracing every
+    /// sample whole, with one closest-hit ray instead of `spp`.
+    #[test]
+    fn a_mirror_reference_is_the_mean_of_whole_samples_bit_for_bit() {
+        let scene = load("torture");
+        let tracer = Tracer::new(&scene);
+        let renderer = Renderer::new(&scene, &tracer);
+        for (k, dir) in dirs(64, 4).into_iter().enumerate() {
+            let b = Vec3::new(-2.0 + 0.06 * k as f32, 1.1, 0.7 - 0.03 * k as f32);
+            let sampler = |s: u32| Sampler::new(11, k as u64, s);
+            let (mut rays, mut whole_rays) = (0u64, 0u64);
+            let got = lobe_reference(&renderer, b, dir, 0.0, 8, sampler, &mut rays);
+            let mut sum = Vec3::ZERO;
+            for s in 0..8 {
+                sum += renderer.sample(b, dir, &mut sampler(s), &mut whole_rays).radiance;
+            }
+            let want = sum / 8.0;
+            assert_eq!(got.radiance.to_array().map(f32::to_bits), want.to_array().map(f32::to_bits), "query {k}");
+            assert_eq!(rays + 7, whole_rays, "query {k}: the first ray is traced once");
+        }
+    }
+
     /// GGX D (α), as the probe's prefilter uses it.
     fn ggx_d(alpha: f64, cos_h: f64) -> f64 {
         let a2 = alpha * alpha;

@@ -221,11 +221,14 @@ pub fn patch_view(
                     return Err(Vec3::ZERO);
                 }
                 // elsewhere: what the primary ray sees, the same in every image
+                // (traced once, shaded with 16 samples)
                 let mut rays = 0;
                 let mut sum = Vec3::ZERO;
-                for j in 0..16 {
-                    let mut s = Sampler::new(seed, hash_pair(stream, k as u64), j);
-                    sum += renderer.sample(eye, ray, &mut s, &mut rays).radiance;
+                if let Some(first) = renderer.first_hit(eye, ray, &mut rays) {
+                    for j in 0..16 {
+                        let mut s = Sampler::new(seed, hash_pair(stream, k as u64), j);
+                        sum += renderer.sample_after(&first, &mut s, &mut rays).0.radiance;
+                    }
                 }
                 Err(sum / 16.0)
             })

@@ -28,6 +28,15 @@ pub struct RaySample {
     pub backface_two_sided: bool,
 }
 
+/// What a ray meets first, before any sampling ([`Renderer::first_hit`]).
+#[derive(Clone, Copy, Debug)]
+pub struct FirstHit {
+    origin: Vec3,
+    /// The ray's unit direction.
+    dir: Vec3,
+    hit: Option<super::bvh::Hit>,
+}
+
 /// Radiance a ray received straight from a light next-event estimation samples, and the
 /// solid-angle pdf with which [`Renderer::light_samples`] picks that direction (0: none).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -173,13 +182,33 @@ impl<'a> Renderer<'a> {
     /// when that is a light next-event estimation samples (a sphere light, an emissive
     /// triangle), with the solid-angle pdf [`Renderer::light_samples`] draws it with.
     pub fn sample_parts(&self, origin: Vec3, dir: Vec3, sampler: &mut Sampler, rays: &mut u64) -> (RaySample, Emitted) {
-        let none = Emitted::default();
+        match self.first_hit(origin, dir, rays) {
+            Some(first) => self.sample_after(&first, sampler, rays),
+            None => {
+                (RaySample { radiance: Vec3::ZERO, distance: f32::INFINITY, ..Default::default() }, Emitted::default())
+            }
+        }
+    }
+
+    /// The first part of [`Renderer::sample_parts`], which draws nothing from a sampler:
+    /// what the ray from `origin` along `dir` meets first (`None`: no ray, a non-finite
+    /// origin or direction). Samples that start with the same ray (a mirror reference's)
+    /// trace it once and continue each with [`Renderer::sample_after`]: the same values as
+    /// tracing it for each.
+    pub fn first_hit(&self, origin: Vec3, dir: Vec3, rays: &mut u64) -> Option<FirstHit> {
         if !origin.is_finite() || !dir.is_finite() || dir.length_squared() == 0.0 {
-            return (RaySample { radiance: Vec3::ZERO, distance: f32::INFINITY, ..Default::default() }, none);
+            return None;
         }
         let dir = dir.normalize();
         *rays += 1;
-        let hit = self.tracer.closest_hit(origin, dir, f32::INFINITY);
+        Some(FirstHit { origin, dir, hit: self.tracer.closest_hit(origin, dir, f32::INFINITY) })
+    }
+
+    /// [`Renderer::sample_parts`] from its first hit on: the light or sky the ray sees, or
+    /// the shading of the surface it hit (drawing from `sampler`).
+    pub fn sample_after(&self, first: &FirstHit, sampler: &mut Sampler, rays: &mut u64) -> (RaySample, Emitted) {
+        let none = Emitted::default();
+        let FirstHit { origin, dir, hit } = *first;
         let t_geom = hit.map_or(f32::INFINITY, |h| h.t);
         // Sphere lights are seen by primary rays when in front of the geometry.
         let mut t_light = t_geom;

@@ -313,6 +313,8 @@ pub fn lobe_reference(
     // radiance, w its weight): Σw², Σaw, Σa²; and of the light samples' luminance: Σc, Σc²
     let (mut w2, mut aw, mut a2, mut c1, mut c2) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
     let spp = spp.max(1);
+    // a mirror reference's samples all start with the ray (b, dir): traced once
+    let mirror = if r > 0.0 { None } else { renderer.first_hit(b, dir, rays) };
     for k in 0..spp {
         let mut s = sampler(k);
         let (weighted, w, light) = if r > 0.0 {
@@ -335,7 +337,8 @@ pub fn lobe_reference(
             });
             (weighted, w, crate::trace::radiance::sanitize(light))
         } else {
-            (renderer.sample(b, dir, &mut s, rays).radiance, 1.0, Vec3::ZERO)
+            let radiance = mirror.as_ref().map_or(Vec3::ZERO, |f| renderer.sample_after(f, &mut s, rays).0.radiance);
+            (radiance, 1.0, Vec3::ZERO)
         };
         let (w, a, c) = (w as f64, luminance(weighted) as f64, luminance(light) as f64);
         sum += weighted;
