@@ -162,13 +162,8 @@ pub fn write_bake(dir: &Path, scene: &Scene, bake: &Bake) -> Result<(), FileErro
             grid_layers(&bake.grid)
         };
         let path = dir.join(file);
-        let bytes = exr::encode(&path, layers, |_| false)?;
-        crate::files::write_atomic(&path, &bytes)?;
-        files.push(FileEntry {
-            file: file.into(),
-            bytes: bytes.len() as u64,
-            checksum: crate::files::checksum(&bytes),
-        });
+        let (bytes, checksum) = exr::write_payload(&path, layers, |_| false)?;
+        files.push(FileEntry { file: file.into(), bytes, checksum });
     }
     write_json(&dir.join(MANIFEST_FILE), &BakeManifest { files, ..build_manifest(scene, bake) })
 }

@@ -92,21 +92,60 @@ impl FileError {
 /// the target, flushed to disk, renamed over it. A crash leaves the old file or the new one,
 /// never half of one.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FileError> {
+    replace_with(path, |f| f.write_all(bytes).map_err(FileError::io(path)))
+}
+
+/// [`write_atomic`] with the contents written by `fill` straight into the temporary file
+/// (no copy of them held in memory); returns the file's length and [`checksum`], read back
+/// from the file before it replaces the target.
+#[cfg(feature = "bake")]
+pub fn write_atomic_with(
+    path: &Path,
+    fill: impl FnOnce(&mut std::fs::File) -> Result<(), FileError>,
+) -> Result<(u64, String), FileError> {
+    let mut sum = None;
+    replace_with(path, |f| {
+        fill(f)?;
+        use std::io::{Read, Seek};
+        f.seek(std::io::SeekFrom::Start(0)).map_err(FileError::io(path))?;
+        let (mut hash, mut len, mut buf) = (Fnv::new(), 0u64, vec![0u8; 1 << 20]);
+        loop {
+            let n = f.read(&mut buf).map_err(FileError::io(path))?;
+            if n == 0 {
+                break;
+            }
+            hash.update(&buf[..n]);
+            len += n as u64;
+        }
+        sum = Some((len, hash.finish()));
+        Ok(())
+    })?;
+    Ok(sum.unwrap_or((0, checksum(&[]))))
+}
+
+/// The temporary file, filled, flushed and renamed over `path` (removed on failure).
+fn replace_with(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<(), FileError>) -> Result<(), FileError> {
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(FileError::io(dir))?;
     let name = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let tmp: PathBuf = dir.join(format!(".{name}.tmp-{}", std::process::id()));
     let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
+        let mut f = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(&tmp)
+            .map_err(FileError::io(path))?;
+        fill(&mut f)?;
+        f.sync_all().map_err(FileError::io(path))?;
         drop(f);
-        rename(&tmp, path)
+        rename(&tmp, path).map_err(FileError::io(path))
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
-    result.map_err(FileError::io(path))
+    result
 }
 
 /// Renames through the offline build's test hook (see `staged::set_rename_fault`).
@@ -196,10 +235,27 @@ pub fn human_bytes(n: u64) -> String {
 /// their manifests. Detects truncation and corruption; it is not a cryptographic hash.
 #[must_use]
 pub fn checksum(bytes: &[u8]) -> String {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for &b in bytes {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x0100_0000_01b3);
+    let mut h = Fnv::new();
+    h.update(bytes);
+    h.finish()
+}
+
+/// [`checksum`] over bytes that arrive in pieces.
+struct Fnv(u64);
+
+impl Fnv {
+    fn new() -> Fnv {
+        Fnv(0xcbf2_9ce4_8422_2325)
     }
-    format!("fnv1a64:{h:016x}")
+
+    fn update(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 ^= b as u64;
+            self.0 = self.0.wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+
+    fn finish(&self) -> String {
+        format!("fnv1a64:{:016x}", self.0)
+    }
 }

@@ -64,6 +64,31 @@ pub fn decode(path: &Path, bytes: &[u8]) -> Result<Vec<ExrLayer>, FileError> {
 /// f16 where every value fits).
 #[cfg(feature = "bake")]
 pub fn encode(path: &Path, layers: Vec<ExrLayer>, half: impl Fn(&str) -> bool) -> Result<Vec<u8>, FileError> {
+    let mut bytes = Vec::new();
+    encode_into(path, layers, half, std::io::Cursor::new(&mut bytes))?;
+    Ok(bytes)
+}
+
+/// Writes the payload `path` atomically from `layers` ([`encode`]'s layout), the encoder
+/// writing straight into the temporary file, so no encoded copy of the payload is held in
+/// memory; returns its length and checksum for the manifest.
+#[cfg(feature = "bake")]
+pub fn write_payload(
+    path: &Path,
+    layers: Vec<ExrLayer>,
+    half: impl Fn(&str) -> bool,
+) -> Result<(u64, String), FileError> {
+    crate::files::write_atomic_with(path, |f| encode_into(path, layers, half, f))
+}
+
+/// [`encode`] into `out`.
+#[cfg(feature = "bake")]
+fn encode_into(
+    path: &Path,
+    layers: Vec<ExrLayer>,
+    half: impl Fn(&str) -> bool,
+    out: impl std::io::Write + std::io::Seek,
+) -> Result<(), FileError> {
     use exr::prelude::*;
     let bad = |m: String| FileError::invalid(path, "layers", m);
     if layers.is_empty() {
@@ -108,20 +133,13 @@ pub fn encode(path: &Path, layers: Vec<ExrLayer>, half: impl Fn(&str) -> bool) -
         ));
     }
     let image = Image::from_layers(ImageAttributes::new(IntegerBounds::from_dimensions((max_w, max_h))), exr_layers);
-    let mut bytes = Vec::new();
-    image
-        .write()
-        .to_buffered(std::io::Cursor::new(&mut bytes))
-        .map_err(|e| FileError::Exr { path: path.to_path_buf(), message: e.to_string() })?;
-    Ok(bytes)
+    image.write().to_unbuffered(out).map_err(|e| FileError::Exr { path: path.to_path_buf(), message: e.to_string() })
 }
 
 /// Writes layers (all f32) to `path` atomically; returns the bytes written.
 #[cfg(feature = "bake")]
 pub fn write(path: &Path, layers: &[ExrLayer]) -> Result<u64, FileError> {
-    let bytes = encode(path, layers.to_vec(), |_| false)?;
-    crate::files::write_atomic(path, &bytes)?;
-    Ok(bytes.len() as u64)
+    Ok(write_payload(path, layers.to_vec(), |_| false)?.0)
 }
 
 /// Reads every layer of an EXR file as f32 channels.

@@ -121,18 +121,12 @@ pub fn write(dir: &Path, atlas: &SurfaceAtlas) -> Result<SurfaceManifest, FileEr
     });
     let entries = layers.iter().map(|l| LayerEntry::of(l, Precision::F32)).collect();
     let path = dir.join(SURFACE_ATLAS_FILE);
-    let bytes = super::exr::encode(&path, layers, |_| false)?;
-    crate::files::write_atomic(&path, &bytes)?;
+    let (bytes, checksum) = super::exr::write_payload(&path, layers, |_| false)?;
     let manifest = SurfaceManifest {
         format: SURFACE_FORMAT.into(),
         version: SURFACE_VERSION,
         surface: SurfaceDescription::of(atlas),
-        payload: Payload {
-            file: SURFACE_ATLAS_FILE.into(),
-            bytes: bytes.len() as u64,
-            checksum: crate::files::checksum(&bytes),
-            layers: entries,
-        },
+        payload: Payload { file: SURFACE_ATLAS_FILE.into(), bytes, checksum, layers: entries },
     };
     crate::files::write_json(&dir.join(SURFACE_MANIFEST), &manifest)?;
     Ok(manifest)

@@ -6,7 +6,7 @@
 
 use super::exr::{self, ExrLayer, F16_MAX};
 use super::schema::*;
-use crate::files::{FileError, checksum, write_atomic};
+use crate::files::FileError;
 use crate::grid::GridGeometry;
 use crate::octa::{self, OctMap, OctMips};
 use crate::roughness::RoughnessCorrection;
@@ -97,9 +97,8 @@ fn payload(dir: &Path, file: &str, layers: Vec<ExrLayer>, precision: Precision) 
     let half = |name: &str| precision == Precision::F16 && is_radiance(name) && !kept.iter().any(|k| k == name);
     let entries: Vec<LayerEntry> =
         layers.iter().map(|l| LayerEntry::of(l, if half(&l.name) { Precision::F16 } else { Precision::F32 })).collect();
-    let bytes = exr::encode(&path, layers, half)?;
-    write_atomic(&path, &bytes)?;
-    Ok(Payload { file: file.into(), bytes: bytes.len() as u64, checksum: checksum(&bytes), layers: entries })
+    let (bytes, checksum) = exr::write_payload(&path, layers, half)?;
+    Ok(Payload { file: file.into(), bytes, checksum, layers: entries })
 }
 
 /// Radiance layers may be stored as f16; distances and shift maps never are.
