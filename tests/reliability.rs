@@ -591,3 +591,26 @@ fn any_finite_direction_works_and_a_closed_pipe_ends_quietly() {
     assert!(!err.contains("panicked"), "{err}");
     assert_ne!(status.code(), Some(101), "{err}");
 }
+
+/// A payload streamed into its temporary file reports the length and checksum of what it
+/// wrote; a writer that fails half-way leaves the old file as it was and no temporary file.
+#[test]
+fn a_streamed_write_reports_what_it_wrote_and_fails_cleanly() {
+    use std::io::Write;
+    use warpfit::files::{FileError, checksum, write_atomic_with};
+    let dir = tmp_dir("streamed_write");
+    let path = dir.join("payload.bin");
+    let body: Vec<u8> = (0..3_000_000u32).map(|k| (k.wrapping_mul(2_654_435_761) >> 24) as u8).collect();
+    let (len, sum) = write_atomic_with(&path, |f| f.write_all(&body).map_err(FileError::io(&path))).unwrap();
+    assert_eq!((len, sum), (body.len() as u64, checksum(&body)));
+    assert_eq!(std::fs::read(&path).unwrap(), body);
+    let failed = write_atomic_with(&path, |f| {
+        f.write_all(b"half a payload").map_err(FileError::io(&path))?;
+        Err(FileError::invalid(&path, "layers", "the encoder failed"))
+    });
+    assert!(failed.is_err());
+    assert_eq!(std::fs::read(&path).unwrap(), body, "the old file is untouched");
+    let names: Vec<String> =
+        std::fs::read_dir(&dir).unwrap().flatten().map(|e| e.file_name().to_string_lossy().into_owned()).collect();
+    assert_eq!(names, ["payload.bin"], "no temporary file is left");
+}
