@@ -25,7 +25,7 @@ pub const SHADER_FILES: [(&str, &str); 8] = [
 
 /// Bytes of the WGSL `Params` struct: 38 vec4s.
 pub const PARAMS_BYTES: usize = 38 * 16;
-/// Bytes of one WGSL `Cell`: tiles (vec4<i32>) and offset (vec4<f32>).
+/// Bytes of one WGSL `Cell`: tiles (`vec4<i32>`) and offset (`vec4<f32>`).
 pub const CELL_BYTES: usize = 32;
 /// Bytes of the WGSL `SurfaceParams` struct (one surface-probe atlas): 9 vec4s.
 pub const SURFACE_PARAMS_BYTES: usize = 9 * 16;

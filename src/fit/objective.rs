@@ -307,7 +307,7 @@ impl<'a> CellProblem<'a> {
         &self.start
     }
 
-    /// Map with UV relaxation of strength `relax` ∈ [0,1]: blend towards its seam-aware 3×3
+    /// Map with UV relaxation of strength `relax` ∈ [0, 1]: blend towards its seam-aware 3×3
     /// box blur (in inverse distance).
     pub fn map_with_relax(&self, s: &[f64], relax: f64) -> Vec<f32> {
         let map = self.map(s);
@@ -341,15 +341,16 @@ impl<'a> CellProblem<'a> {
         self.glossy.radiance(MipRule::Corrected, q.b, q.dir, aim, q.roughness)
     }
 
-    /// Tone-mapped absolute error of sample `i` under `map` (what [`Self::errors`] computes
-    /// in lanes; kept as the reference its tests compare with).
+    /// Tone-mapped absolute error of sample `i` under `map`, one lookup at a time: the
+    /// reference the lane errors (`errors`) are tested against.
     #[cfg(test)]
     fn sample_error(&self, i: usize, map: &[f32]) -> f64 {
         abs_error(reinhard(self.lookup(i, map), self.exposure), self.tm_reference[i])
     }
 
-    /// [`Self::sample_error`] of each query in `idx`, in `idx`'s order and bit for bit the
-    /// same, the lookups made [`LANES`] at a time.
+    /// The tone-mapped absolute error of each query in `idx` under `map`, in `idx`'s order:
+    /// the scalar lookup's (`sample_error` in the tests) bit for bit, the lookups made
+    /// [`LANES`] at a time.
     fn errors<'s>(&'s self, idx: &'s [u32], map: &'s [f32]) -> impl Iterator<Item = f64> + 's {
         idx.chunks(LANES).flat_map(move |group| self.errors_lanes(group, map).into_iter().take(group.len()))
     }

@@ -20,7 +20,7 @@ pub const CONVENTION: &str = "hemi-octahedral: z clamped to >= 0; p = v.xy/(|x|+
 a = p.x+p.y, b = p.x-p.y; uv = (a,b)*0.5+0.5; texel (i,j) centre ((i+.5)/N,(j+.5)/N), index j*N+i; \
 +Z (the surface normal) at the centre, the horizon on the edges";
 
-/// Tangent-space direction → uv in [0,1]²; never NaN (see the module's convention).
+/// Tangent-space direction → uv in [0, 1]²; never NaN (see the module's convention).
 #[inline]
 #[must_use]
 pub fn encode(dir: Vec3) -> Vec2 {
@@ -33,7 +33,7 @@ pub fn encode(dir: Vec3) -> Vec2 {
     Vec2::new(((px + py) * 0.5 + 0.5).clamp(0.0, 1.0), ((px - py) * 0.5 + 0.5).clamp(0.0, 1.0))
 }
 
-/// uv → unit tangent-space direction (z ≥ 0). uv outside [0,1]² is clamped.
+/// uv → unit tangent-space direction (z ≥ 0). uv outside [0, 1]² is clamped.
 #[inline]
 #[must_use]
 pub fn decode(uv: Vec2) -> Vec3 {

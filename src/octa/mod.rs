@@ -55,7 +55,7 @@ fn sign_not_zero(x: f32) -> f32 {
     if x >= 0.0 { 1.0 } else { -1.0 }
 }
 
-/// Direction → uv in [0,1]². `dir` need not be normalised; a zero, subnormal or non-finite
+/// Direction → uv in [0, 1]². `dir` need not be normalised; a zero, subnormal or non-finite
 /// vector maps to the map centre (+Z), so no NaN ever leaves this function.
 ///
 /// Branch-free: both hemispheres' coordinates are computed and selected, because the sign
@@ -83,7 +83,7 @@ fn encode_xyz(x: f32, y: f32, z: f32) -> (f32, f32) {
     if usable { (u, v) } else { (0.5, 0.5) }
 }
 
-/// uv → unit direction. uv outside [0,1]² is clamped.
+/// uv → unit direction. uv outside [0, 1]² is clamped.
 #[inline]
 #[must_use]
 pub fn decode(uv: Vec2) -> Vec3 {
@@ -159,7 +159,7 @@ pub struct Footprint {
     pub fy: f32,
 }
 
-/// The bilinear footprint of `uv` (clamped to [0,1]²) on an N×N map.
+/// The bilinear footprint of `uv` (clamped to [0, 1]²) on an N×N map.
 #[inline]
 #[must_use]
 pub fn footprint(res: u32, uv: Vec2) -> Footprint {
