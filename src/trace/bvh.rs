@@ -164,6 +164,14 @@ fn intersect_watertight(s: &Shear, org: Vec3A, v0: Vec3A, v1: Vec3A, v2: Vec3A, 
     if t > tmin && t < tmax { t } else { f32::INFINITY }
 }
 
+/// Distance along the ray (origin, dir) to sphere light `light` within `tmax` (+inf: it
+/// misses): [`intersect_sphere`] from 0.
+#[inline]
+#[must_use]
+pub fn light_distance(light: &crate::scene::SphereLight, origin: Vec3, dir: Vec3, tmax: f32) -> f32 {
+    intersect_sphere(Vec3A::from(origin), Vec3A::from(dir), Vec3A::from(light.position), light.radius, 0.0, tmax)
+}
+
 /// Ray/sphere distance (nearest root beyond `tmin`), with the precision improvements of
 /// Haines et al., "Precision Improvements for Ray/Sphere Intersection" (Ray Tracing Gems 7).
 #[inline]

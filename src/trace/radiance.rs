@@ -9,10 +9,10 @@
 //! faces of one-sided surfaces are black. Sphere lights are visible to primary rays only
 //! (bounce rays skip them: their energy already arrives by next-event estimation).
 
-use super::bvh::{Tracer, intersect_sphere};
+use super::bvh::{Tracer, light_distance};
 use crate::sampling::{Sampler, cosine_hemisphere, uniform_cone};
 use crate::scene::Scene;
-use glam::{Vec3, Vec3A};
+use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, TAU};
 
 /// One primary ray's answer.
@@ -214,14 +214,7 @@ impl<'a> Renderer<'a> {
         let mut t_light = t_geom;
         let mut light_seen = None;
         for l in &self.scene.lights.sphere_lights {
-            let t = intersect_sphere(
-                Vec3A::from(origin),
-                Vec3A::from(dir),
-                Vec3A::from(l.position),
-                l.radius,
-                0.0,
-                t_light,
-            );
+            let t = light_distance(l, origin, dir, t_light);
             if t < t_light {
                 t_light = t;
                 light_seen = Some(l);
@@ -344,14 +337,7 @@ impl<'a> Renderer<'a> {
         if facing.dot(l) <= 0.0 {
             return None;
         }
-        let t_s = intersect_sphere(
-            Vec3A::from(origin),
-            Vec3A::from(l),
-            Vec3A::from(light.position),
-            light.radius,
-            0.0,
-            f32::INFINITY,
-        );
+        let t_s = light_distance(light, origin, l, f32::INFINITY);
         let falloff = light.falloff(-l);
         if !t_s.is_finite() || falloff <= 0.0 {
             return None;
@@ -402,9 +388,7 @@ impl<'a> Renderer<'a> {
         *rays += 1;
         let hit = self.tracer.closest_hit(p, d, f32::INFINITY);
         let t_geom = hit.map_or(f32::INFINITY, |h| h.t);
-        let blocked = self.scene.lights.sphere_lights.iter().any(|l| {
-            intersect_sphere(Vec3A::from(p), Vec3A::from(d), Vec3A::from(l.position), l.radius, 0.0, t_geom) < t_geom
-        });
+        let blocked = self.scene.lights.sphere_lights.iter().any(|l| light_distance(l, p, d, t_geom) < t_geom);
         let indirect = if blocked { Vec3::ZERO } else { self.bounce_radiance(hit, d, self.bounces, sampler, rays) };
         sanitize(direct + indirect * std::f32::consts::PI)
     }

@@ -3,7 +3,7 @@
 //! of queries. The evaluation's validation set and the fit's training and check sets both
 //! come from here, so judging and fitting can never disagree about the truth.
 
-use super::bvh::intersect_sphere;
+use super::bvh::light_distance;
 use super::{Renderer, Tracer};
 use crate::sampling::{Sampler, hash_pair, uniform_sphere};
 use crate::scene::Scene;
@@ -17,7 +17,7 @@ use rayon::prelude::*;
 pub fn first_visible(scene: &Scene, tracer: &Tracer, origin: Vec3, dir: Vec3) -> f32 {
     let mut t = tracer.closest_hit(origin, dir, f32::INFINITY).map_or(f32::INFINITY, |h| h.t);
     for l in &scene.lights.sphere_lights {
-        t = t.min(intersect_sphere(origin.into(), dir.into(), l.position.into(), l.radius, 0.0, t));
+        t = t.min(light_distance(l, origin, dir, t));
     }
     t
 }
@@ -40,7 +40,7 @@ pub fn oracle(scene: &Scene, tracer: &Tracer, a: Vec3, b: Vec3, dir: Vec3) -> (V
     let reach = dist * (1.0 - 1e-3);
     let mut hidden = dist > 0.0 && tracer.occluded(a, d, reach);
     for l in &scene.lights.sphere_lights {
-        hidden |= intersect_sphere(a.into(), d.into(), l.position.into(), l.radius, 0.0, reach).is_finite();
+        hidden |= light_distance(l, a, d, reach).is_finite();
     }
     (d, hidden)
 }
