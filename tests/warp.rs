@@ -335,7 +335,7 @@ proptest! {
             3 => { d[3] = Vec3::ZERO; b[4] = Vec3::splat(f32::NAN); }
             _ => {}
         }
-        let (t, has) = bx.exit_distance_lanes(&b, &d);
+        let (t, has) = bx.exit_distance_soa(&octa::soa(&b), &octa::soa(&d));
         for k in 0..octa::LANES {
             let one = bx.exit_distance(b[k], d[k]);
             let lane = has[k].then_some(t[k]);

@@ -103,7 +103,6 @@ pub fn write_atomic_with(
     path: &Path,
     fill: impl FnOnce(&mut std::fs::File) -> Result<(), FileError>,
 ) -> Result<(u64, String), FileError> {
-    let mut sum = None;
     replace_with(path, |f| {
         fill(f)?;
         use std::io::{Read, Seek};
@@ -117,14 +116,13 @@ pub fn write_atomic_with(
             hash.update(&buf[..n]);
             len += n as u64;
         }
-        sum = Some((len, hash.finish()));
-        Ok(())
-    })?;
-    Ok(sum.unwrap_or((0, checksum(&[]))))
+        Ok((len, hash.finish()))
+    })
 }
 
-/// The temporary file, filled, flushed and renamed over `path` (removed on failure).
-fn replace_with(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<(), FileError>) -> Result<(), FileError> {
+/// The temporary file, filled, flushed and renamed over `path` (removed on failure); what
+/// `fill` returns.
+fn replace_with<R>(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<R, FileError>) -> Result<R, FileError> {
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(FileError::io(dir))?;
     let name = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
@@ -137,10 +135,11 @@ fn replace_with(path: &Path, fill: impl FnOnce(&mut std::fs::File) -> Result<(),
             .truncate(true)
             .open(&tmp)
             .map_err(FileError::io(path))?;
-        fill(&mut f)?;
+        let out = fill(&mut f)?;
         f.sync_all().map_err(FileError::io(path))?;
         drop(f);
-        rename(&tmp, path).map_err(FileError::io(path))
+        rename(&tmp, path).map_err(FileError::io(path))?;
+        Ok(out)
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);

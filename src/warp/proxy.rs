@@ -75,22 +75,10 @@ impl BoxProxy {
         t.is_finite().then_some(t.max(0.0))
     }
 
-    /// [`exit_distance`](Self::exit_distance) for [`LANES`](crate::octa::LANES) queries, in
-    /// structure-of-arrays form with the same operations in the same order (the matrix
+    /// [`exit_distance`](Self::exit_distance) for [`LANES`](crate::octa::LANES) queries given
+    /// as components ([`octa::soa`]), with the same operations in the same order (the matrix
     /// products as glam forms them): each lane's distance and whether it has one (`Some`),
     /// bit for bit the scalar values, the lanes side by side.
-    #[inline]
-    #[must_use]
-    pub fn exit_distance_lanes(
-        &self,
-        b: &[Vec3; crate::octa::LANES],
-        dir: &[Vec3; crate::octa::LANES],
-    ) -> ([f32; crate::octa::LANES], [bool; crate::octa::LANES]) {
-        self.exit_distance_soa(&octa::soa(b), &octa::soa(dir))
-    }
-
-    /// [`exit_distance_lanes`](Self::exit_distance_lanes) with the queries given as
-    /// components ([`octa::soa`]).
     #[inline(always)]
     #[must_use]
     pub fn exit_distance_soa(
