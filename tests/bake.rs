@@ -91,6 +91,14 @@ fn foreign_and_damaged_bakes_are_errors() {
     std::fs::write(dir.join("probe.exr"), &probe[..probe.len() / 2]).unwrap();
     let e = bakefile::read_bake(&dir).unwrap_err().to_string();
     assert!(e.contains("probe.exr"), "{e}");
+    // one byte of the grid changed, its size kept: the checksum read through the file
+    std::fs::write(dir.join("probe.exr"), &probe).unwrap();
+    let mut grid = std::fs::read(dir.join("grid.exr")).unwrap();
+    let k = grid.len() / 2;
+    grid[k] ^= 0x40;
+    std::fs::write(dir.join("grid.exr"), &grid).unwrap();
+    let e = bakefile::read_bake(&dir).unwrap_err().to_string();
+    assert!(e.contains("grid.exr") && e.contains("checksum"), "{e}");
     // a JSON file where the EXR should be
     std::fs::copy(dir.join("manifest.json"), dir.join("probe.exr")).unwrap();
     let e = bakefile::read_bake(&dir).unwrap_err().to_string();

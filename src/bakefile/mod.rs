@@ -11,8 +11,8 @@ pub mod manifest;
 
 use crate::bake::{Bake, GridGeometry, ProbeGrid, SpecularProbe};
 use crate::files::{FileError, write_json};
-use crate::gridfile::exr::{self, ExrLayer};
-use crate::gridfile::{distance_layer, probe_layers, radiance_layer, rgb_channels};
+use crate::gridfile::exr::{self, ExrLayer, Samples};
+use crate::gridfile::{distance_layer, probe_layers, radiance_layer};
 use crate::octa::{CONVENTION, OctMap, OctMips};
 use crate::scene::Scene;
 use glam::{UVec3, Vec3};
@@ -23,53 +23,49 @@ pub const PROBE_FILE: &str = "probe.exr";
 pub const GRID_FILE: &str = "grid.exr";
 pub const MANIFEST_FILE: &str = "manifest.json";
 
-/// Rearranges cell-major per-cell maps into an atlas (row-major, see module docs).
-fn to_atlas<T: Copy + Default>(g: &GridGeometry, res: u32, per_cell: &[T]) -> (usize, usize, Vec<T>) {
-    let (nx, ny, nz) = (g.counts.x as usize, g.counts.y as usize, g.counts.z as usize);
-    let r = res as usize;
-    let (w, h) = (nx * r, ny * nz * r);
-    let mut atlas = vec![T::default(); w * h];
-    for cell in 0..g.cell_count() {
-        let c = g.cell_coords(cell);
-        let (tx, ty) = (c.x as usize, c.y as usize + ny * c.z as usize);
-        for j in 0..r {
-            for i in 0..r {
-                atlas[(ty * r + j) * w + tx * r + i] = per_cell[cell * r * r + j * r + i];
-            }
-        }
-    }
-    (w, h, atlas)
+/// A channel of per-cell maps (cell-major, `res²` texels each) laid out as the atlas (see
+/// the module docs), each sample read from `per_cell` when the encoder asks for it: the
+/// atlas is never built. Tile column x, row y + ny·z is cell x + nx·(y + ny·z).
+fn atlas_channel<'a, T: Copy + Sync>(
+    g: &GridGeometry,
+    res: u32,
+    per_cell: &'a [T],
+    value: impl Fn(T) -> f32 + Sync + 'a,
+) -> Samples<'a> {
+    let (nx, r) = (g.counts.x as usize, res as usize);
+    Samples::Computed(Box::new(move |k| value(per_cell[atlas_to_cell(nx, r, k)])))
 }
 
-fn from_atlas<T: Copy + Default>(g: &GridGeometry, res: u32, atlas: &[T]) -> Vec<T> {
-    let ny = g.counts.y as usize;
-    let r = res as usize;
-    let w = g.counts.x as usize * r;
-    let mut out = vec![T::default(); g.cell_count() * r * r];
-    for cell in 0..g.cell_count() {
-        let c = g.cell_coords(cell);
-        let (tx, ty) = (c.x as usize, c.y as usize + ny * c.z as usize);
-        for j in 0..r {
-            for i in 0..r {
-                out[cell * r * r + j * r + i] = atlas[(ty * r + j) * w + tx * r + i];
-            }
-        }
-    }
-    out
+/// Where sample `k` (row-major) of an atlas `nx` tiles of `r²` wide lands in the per-cell
+/// maps, cell-major (the layout [`atlas_channel`] writes).
+fn atlas_to_cell(nx: usize, r: usize, k: usize) -> usize {
+    let (x, y) = (k % (nx * r), k / (nx * r));
+    (x / r + nx * (y / r)) * r * r + (y % r) * r + x % r
 }
 
-pub fn grid_layers(g: &ProbeGrid) -> Vec<ExrLayer> {
-    let (w, h, irr) = to_atlas(&g.geometry, g.irradiance_resolution, &g.irradiance);
-    let (dw, dh, mean) = to_atlas(&g.geometry, g.depth_resolution, &g.depth_mean);
-    let (_, _, mean_sq) = to_atlas(&g.geometry, g.depth_resolution, &g.depth_mean_sq);
-    let (_, _, hit) = to_atlas(&g.geometry, g.depth_resolution, &g.hit_fraction);
+/// The layers of `grid.exr`: the grid's per-cell maps as atlases, read in place.
+pub fn grid_layers(g: &ProbeGrid) -> Vec<ExrLayer<Samples<'_>>> {
+    let geo = &g.geometry;
+    let (ir, dr) = (g.irradiance_resolution, g.depth_resolution);
+    let (nx, rows) = (geo.counts.x as usize, (geo.counts.y * geo.counts.z) as usize);
+    let irr = |f: fn(Vec3) -> f32| atlas_channel(geo, ir, &g.irradiance, f);
+    let depth = |v| atlas_channel(geo, dr, v, |x: f32| x);
     vec![
-        ExrLayer { name: "irradiance".into(), width: w, height: h, channels: rgb_channels(&irr) },
+        ExrLayer {
+            name: "irradiance".into(),
+            width: nx * ir as usize,
+            height: rows * ir as usize,
+            channels: vec![("R".into(), irr(|v| v.x)), ("G".into(), irr(|v| v.y)), ("B".into(), irr(|v| v.z))],
+        },
         ExrLayer {
             name: "depth_moments".into(),
-            width: dw,
-            height: dh,
-            channels: vec![("mean".into(), mean), ("mean_sq".into(), mean_sq), ("hit".into(), hit)],
+            width: nx * dr as usize,
+            height: rows * dr as usize,
+            channels: vec![
+                ("mean".into(), depth(&g.depth_mean)),
+                ("mean_sq".into(), depth(&g.depth_mean_sq)),
+                ("hit".into(), depth(&g.hit_fraction)),
+            ],
         },
     ]
 }
@@ -155,21 +151,26 @@ pub fn write_bake(dir: &Path, scene: &Scene, bake: &Bake) -> Result<(), FileErro
     std::fs::create_dir_all(dir).map_err(FileError::io(dir))?;
     let mut files = Vec::new();
     for file in [PROBE_FILE, GRID_FILE] {
-        // one payload's layers at a time
-        let layers = if file == PROBE_FILE {
-            probe_layers(&bake.probe.radiance, &bake.probe.depth)
-        } else {
-            grid_layers(&bake.grid)
-        };
+        // one payload's layers at a time; the grid's read in place
         let path = dir.join(file);
-        let (bytes, checksum) = exr::write_payload(&path, layers, |_| false)?;
+        let (bytes, checksum) = if file == PROBE_FILE {
+            exr::write_payload(&path, probe_layers(&bake.probe.radiance, &bake.probe.depth), |_| false)?
+        } else {
+            exr::write_payload(&path, grid_layers(&bake.grid), |_| false)?
+        };
         files.push(FileEntry { file: file.into(), bytes, checksum });
     }
     write_json(&dir.join(MANIFEST_FILE), &BakeManifest { files, ..build_manifest(scene, bake) })
 }
 
-/// A payload of the bake, checked against the manifest's size and checksum, decoded.
-fn read_payload(dir: &Path, m: &BakeManifest, file: &str) -> Result<Vec<ExrLayer>, FileError> {
+/// A payload of the bake, checked against the manifest's size and checksum, decoded with
+/// each layer's samples where `place` puts them.
+fn read_payload(
+    dir: &Path,
+    m: &BakeManifest,
+    file: &str,
+    place: impl Fn(&str, usize, usize) -> Option<exr::Placement> + 'static,
+) -> Result<Vec<ExrLayer>, FileError> {
     let mpath = dir.join(MANIFEST_FILE);
     let entry = m
         .files
@@ -177,19 +178,8 @@ fn read_payload(dir: &Path, m: &BakeManifest, file: &str) -> Result<Vec<ExrLayer
         .find(|f| f.file == file)
         .ok_or_else(|| FileError::invalid(&mpath, "files", format!("no entry for {file}")))?;
     let path = dir.join(file);
-    let bytes = crate::files::read_regular(&path, entry.bytes)?;
-    if bytes.len() as u64 != entry.bytes {
-        return Err(FileError::invalid(
-            &path,
-            "size",
-            format!("{} bytes, the manifest says {}", bytes.len(), entry.bytes),
-        ));
-    }
-    let found = crate::files::checksum(&bytes);
-    if found != entry.checksum {
-        return Err(FileError::Checksum { path, expected: entry.checksum.clone(), found });
-    }
-    exr::decode(&path, &bytes)
+    let f = crate::files::open_listed(&path, entry.bytes, &entry.checksum)?;
+    exr::decode_placed(&path, f, place)
 }
 
 fn find<'a>(layers: &'a [ExrLayer], path: &Path, name: &str, res: (usize, usize)) -> Result<&'a ExrLayer, FileError> {
@@ -251,7 +241,7 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
         return Err(FileError::invalid(&mpath, "probe.file/grid.file", "not this format's file names"));
     }
     let ppath = dir.join(PROBE_FILE);
-    let layers = read_payload(dir, &m, PROBE_FILE)?;
+    let layers = read_payload(dir, &m, PROBE_FILE, |_, _, _| None)?;
     let mut radiance = Vec::new();
     for mip in &m.probe.radiance_mips {
         let n = mip.resolution as usize;
@@ -284,7 +274,6 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
 
     drop(layers);
     let gpath = dir.join(GRID_FILE);
-    let mut layers = read_payload(dir, &m, GRID_FILE)?;
     let geometry = GridGeometry {
         min: Vec3::from_array(m.grid.min),
         max: Vec3::from_array(m.grid.max),
@@ -294,13 +283,21 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
     let c = geometry.counts;
     let irr_size = ((c.x * ir) as usize, (c.y * c.z * ir) as usize);
     let dep_size = ((c.x * dr) as usize, (c.y * c.z * dr) as usize);
+    // the atlases' tiles arrive as per-cell maps, cell-major, as they are decoded: a big
+    // grid's bake is read with one copy of it in memory
+    let nx = c.x as usize;
+    let place = move |layer: &str, w: usize, h: usize| -> Option<exr::Placement> {
+        let (r, size) = match layer {
+            "irradiance" => (ir as usize, irr_size),
+            "depth_moments" => (dr as usize, dep_size),
+            _ => return None,
+        };
+        (size == (w, h)).then(|| -> exr::Placement { std::sync::Arc::new(move |k| atlas_to_cell(nx, r, k)) })
+    };
+    let mut layers = read_payload(dir, &m, GRID_FILE, place)?;
     find(&layers, &gpath, "depth_moments", dep_size)?;
-    let irr = finite_rgb(find(&layers, &gpath, "irradiance", irr_size)?, &gpath)?;
-    // each layer and channel is dropped once converted: a big grid's bake is read with
-    // about one copy of it in memory, not three
+    let irradiance = finite_rgb(find(&layers, &gpath, "irradiance", irr_size)?, &gpath)?;
     layers.retain(|l| l.name != "irradiance");
-    let irradiance = from_atlas(&geometry, ir, &irr);
-    drop(irr);
     let mut moment = |name: &str| -> Result<Vec<f32>, FileError> {
         let l = layers.iter_mut().find(|l| l.name == "depth_moments");
         let c = l.and_then(|l| l.channels.iter_mut().find(|(n, _)| n == name)).ok_or_else(|| FileError::Invalid {
@@ -308,12 +305,12 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
             field: format!("depth_moments.{name}"),
             message: "channel missing".into(),
         })?;
-        let atlas = std::mem::take(&mut c.1);
-        Ok(from_atlas(&geometry, dr, &atlas))
+        Ok(std::mem::take(&mut c.1))
     };
     let depth_mean = moment("mean")?;
     let depth_mean_sq = moment("mean_sq")?;
     let hit_fraction = moment("hit")?;
+    drop(layers);
     let mut inside = vec![false; geometry.cell_count()];
     for &k in &m.grid.inside_cells {
         *inside.get_mut(k as usize).ok_or_else(|| FileError::Invalid {

@@ -165,6 +165,19 @@ pub fn write_json<T: Serialize + ?Sized>(path: &Path, value: &T) -> Result<(), F
 /// Reads `path`, which must be a regular file (a FIFO, device or folder could block, never
 /// end or be huge) of at most `max` bytes, with the size checked before a byte is read.
 pub fn read_regular(path: &Path, max: u64) -> Result<Vec<u8>, FileError> {
+    let (f, len) = open_regular(path, max)?;
+    let mut bytes = Vec::with_capacity(len as usize);
+    use std::io::Read;
+    f.take(max + 1).read_to_end(&mut bytes).map_err(FileError::io(path))?;
+    if bytes.len() as u64 > max {
+        return Err(FileError::invalid(path, "size", format!("more than the {max} bytes this reader accepts")));
+    }
+    Ok(bytes)
+}
+
+/// Opens `path`, which must be a regular file of at most `max` bytes (checked on the path
+/// and again on what was opened); returns it with its length.
+fn open_regular(path: &Path, max: u64) -> Result<(std::fs::File, u64), FileError> {
     let not_regular = |what: &str| FileError::invalid(path, "file", format!("is {what}, not a regular file"));
     let meta = std::fs::metadata(path).map_err(FileError::io(path))?;
     let kind = |m: &std::fs::Metadata| {
@@ -192,13 +205,42 @@ pub fn read_regular(path: &Path, max: u64) -> Result<Vec<u8>, FileError> {
     if let Some(k) = kind(&meta) {
         return Err(not_regular(k));
     }
-    let mut bytes = Vec::with_capacity(meta.len().min(max) as usize);
-    use std::io::Read;
-    f.take(max + 1).read_to_end(&mut bytes).map_err(FileError::io(path))?;
-    if bytes.len() as u64 > max {
-        return Err(FileError::invalid(path, "size", format!("more than the {max} bytes this reader accepts")));
+    Ok((f, meta.len().min(max)))
+}
+
+/// Opens the payload `path` that a manifest lists with `bytes` and `checksum`: a regular
+/// file of exactly that size whose contents hash to that checksum, read through once in
+/// pieces (never held whole), then rewound for the decoder, which reads the same open file.
+pub fn open_listed(path: &Path, bytes: u64, checksum: &str) -> Result<std::fs::File, FileError> {
+    use std::io::{Read, Seek};
+    let size_error = |n: u64| FileError::invalid(path, "size", format!("{n} bytes, the manifest says {bytes}"));
+    let (mut f, len) = open_regular(path, u64::MAX)?;
+    if len != bytes {
+        return Err(size_error(len));
     }
-    Ok(bytes)
+    let mut h = Fnv::new();
+    let mut buf = vec![0u8; 1 << 20];
+    let mut n = 0u64;
+    loop {
+        let k = f.read(&mut buf).map_err(FileError::io(path))?;
+        if k == 0 {
+            break;
+        }
+        n += k as u64;
+        if n > bytes {
+            return Err(size_error(n));
+        }
+        h.update(&buf[..k]);
+    }
+    if n != bytes {
+        return Err(size_error(n));
+    }
+    let found = h.finish();
+    if found != checksum {
+        return Err(FileError::Checksum { path: path.to_path_buf(), expected: checksum.to_string(), found });
+    }
+    f.rewind().map_err(FileError::io(path))?;
+    Ok(f)
 }
 
 /// Largest JSON file [`read_json`] reads.

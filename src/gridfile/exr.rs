@@ -9,13 +9,59 @@
 use crate::files::FileError;
 use std::path::Path;
 
-/// One layer: `width × height` pixels, row 0 first, each channel a flat row-major array.
+/// One layer: `width × height` pixels, row 0 first, each channel a flat row-major array
+/// (`S = Vec<f32>`, what decoding returns) or, for encoding, [`Samples`].
 #[derive(Clone, Debug, PartialEq)]
-pub struct ExrLayer {
+pub struct ExrLayer<S = Vec<f32>> {
     pub name: String,
     pub width: usize,
     pub height: usize,
-    pub channels: Vec<(String, Vec<f32>)>,
+    pub channels: Vec<(String, S)>,
+}
+
+/// A channel's samples as the encoder reads them: held, or computed from their flat
+/// row-major index when the encoder asks for their line. A layer gathered from other arrays
+/// (a grid's per-cell maps packed into an atlas) is then never copied whole: the encoder
+/// holds one block of lines at a time.
+#[cfg(feature = "bake")]
+pub enum Samples<'a> {
+    Held(Vec<f32>),
+    Computed(Box<dyn Fn(usize) -> f32 + Sync + 'a>),
+}
+
+#[cfg(feature = "bake")]
+impl Samples<'_> {
+    /// Sample `i` (row-major).
+    #[inline]
+    #[must_use]
+    pub fn get(&self, i: usize) -> f32 {
+        match self {
+            Samples::Held(v) => v[i],
+            Samples::Computed(f) => f(i),
+        }
+    }
+}
+
+#[cfg(feature = "bake")]
+impl From<Vec<f32>> for Samples<'_> {
+    fn from(v: Vec<f32>) -> Self {
+        Samples::Held(v)
+    }
+}
+
+#[cfg(feature = "bake")]
+impl<'a> From<ExrLayer> for ExrLayer<Samples<'a>> {
+    fn from(l: ExrLayer) -> Self {
+        let channels = l.channels.into_iter().map(|(n, v)| (n, Samples::Held(v))).collect();
+        ExrLayer { name: l.name, width: l.width, height: l.height, channels }
+    }
+}
+
+impl<S> ExrLayer<S> {
+    /// The names of its channels, in order.
+    pub fn channel_names(&self) -> impl Iterator<Item = &str> {
+        self.channels.iter().map(|(n, _)| n.as_str())
+    }
 }
 
 impl ExrLayer {
@@ -32,39 +78,125 @@ pub const F16_MAX: f32 = 65504.0;
 /// Decodes every layer of EXR bytes (largest resolution level, flat samples as f32); `path`
 /// only names the file in errors.
 pub fn decode(path: &Path, bytes: &[u8]) -> Result<Vec<ExrLayer>, FileError> {
-    use exr::prelude::{ReadChannels, ReadLayers, read};
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
+    decode_placed(path, std::io::Cursor::new(bytes), |_, _, _| None)
+}
+
+/// Where each decoded sample of a layer goes: its row-major index in the file's layer →
+/// its index in the channel's samples (a permutation of `0..width·height`).
+pub type Placement = std::sync::Arc<dyn Fn(usize) -> usize + Send + Sync>;
+
+/// [`decode`] from a reader, each sample put where `place(layer, width, height)` says as its
+/// line is decoded (row-major where it says `None`): a layer stored as an atlas of tiles
+/// arrives in its owner's order without a second copy, and the file's bytes are never held
+/// whole.
+pub fn decode_placed(
+    path: &Path,
+    reader: impl std::io::Read + std::io::Seek,
+    place: impl Fn(&str, usize, usize) -> Option<Placement> + 'static,
+) -> Result<Vec<ExrLayer>, FileError> {
+    use exr::prelude::{ReadChannels, ReadLayers};
+    let image = exr::image::read::any_channels::ReadAnyChannels { read_samples: PlacedSamples { place } }
         .all_layers()
         .all_attributes()
         .non_parallel()
-        .from_buffered(std::io::Cursor::new(bytes))
+        .from_buffered(std::io::BufReader::new(reader))
         .map_err(|e| FileError::Exr { path: path.to_path_buf(), message: e.to_string() })?;
     let mut out = Vec::new();
     for layer in image.layer_data {
         let name = layer.attributes.layer_name.as_ref().map(|n| n.to_string()).unwrap_or_default();
         let (width, height) = (layer.size.0, layer.size.1);
-        let mut channels = Vec::new();
-        for ch in layer.channel_data.list {
-            let v: Vec<f32> = ch.sample_data.values_as_f32().collect();
-            if v.len() != width * height {
-                return Err(FileError::invalid(path, format!("{name}.{}", ch.name), "wrong sample count"));
-            }
-            channels.push((ch.name.to_string(), v));
-        }
+        let channels = layer.channel_data.list.into_iter().map(|ch| (ch.name.to_string(), ch.sample_data)).collect();
         out.push(ExrLayer { name, width, height, channels });
     }
     Ok(out)
+}
+
+/// The exr crate's sample reading for [`decode_placed`]: flat f16/f32 channels of the
+/// largest level, each sample converted to f32 and put in place.
+struct PlacedSamples<F> {
+    place: F,
+}
+
+struct PlacedReader {
+    width: usize,
+    half: bool,
+    place: Option<Placement>,
+    samples: Vec<f32>,
+}
+
+impl<F: Fn(&str, usize, usize) -> Option<Placement>> exr::image::read::any_channels::ReadSamples for PlacedSamples<F> {
+    type Reader = PlacedReader;
+
+    fn create_sample_reader(
+        &self,
+        header: &exr::meta::header::Header,
+        channel: &exr::meta::attribute::ChannelDescription,
+    ) -> exr::error::Result<PlacedReader> {
+        use exr::error::Error;
+        use exr::meta::attribute::SampleType;
+        if header.deep {
+            return Err(Error::NotSupported("deep data".into()));
+        }
+        if channel.sampling != exr::math::Vec2(1, 1) {
+            return Err(Error::NotSupported("subsampled channels".into()));
+        }
+        let half = match channel.sample_type {
+            SampleType::F16 => true,
+            SampleType::F32 => false,
+            SampleType::U32 => return Err(Error::NotSupported("u32 channels".into())),
+        };
+        let (width, height) = (header.layer_size.width(), header.layer_size.height());
+        let name = header.own_attributes.layer_name.as_ref().map(|n| n.to_string()).unwrap_or_default();
+        Ok(PlacedReader { width, half, place: (self.place)(&name, width, height), samples: vec![0.0; width * height] })
+    }
+}
+
+impl exr::image::read::any_channels::SamplesReader for PlacedReader {
+    type Samples = Vec<f32>;
+
+    fn filter_block(&self, tile: exr::block::chunk::TileCoordinates) -> bool {
+        tile.level_index == exr::math::Vec2(0, 0)
+    }
+
+    fn read_line(&mut self, line: exr::block::lines::LineRef<'_>) -> exr::error::UnitResult {
+        use exr::error::Error;
+        let at = line.location;
+        let start = at.position.y() * self.width + at.position.x();
+        if at.position.x() + at.sample_count > self.width || start + at.sample_count > self.samples.len() {
+            return Err(Error::Invalid("a line outside its layer".into()));
+        }
+        let n = self.samples.len();
+        let place = |i: usize| self.place.as_ref().map_or(i, |p| p(i)).min(n - 1);
+        if self.half {
+            for (i, v) in line.read_samples::<exr::prelude::f16>().enumerate() {
+                let k = place(start + i);
+                self.samples[k] = v?.to_f32();
+            }
+        } else {
+            for (i, v) in line.read_samples::<f32>().enumerate() {
+                let k = place(start + i);
+                self.samples[k] = v?;
+            }
+        }
+        Ok(())
+    }
+
+    fn into_samples(self) -> Vec<f32> {
+        self.samples
+    }
 }
 
 /// Encodes layers into EXR bytes; layers for which `half(name)` holds are stored as f16
 /// (values clamped to ±65504 first, so nothing becomes +inf; the grid writer only asks for
 /// f16 where every value fits).
 #[cfg(feature = "bake")]
-pub fn encode(path: &Path, layers: Vec<ExrLayer>, half: impl Fn(&str) -> bool) -> Result<Vec<u8>, FileError> {
+pub fn encode<'a, L: Into<ExrLayer<Samples<'a>>>>(
+    path: &Path,
+    layers: impl IntoIterator<Item = L>,
+    half: impl Fn(&str) -> bool,
+) -> Result<Vec<u8>, FileError> {
     let mut bytes = Vec::new();
+    let layers = layers.into_iter().map(Into::into).collect();
     encode_into(path, layers, half, std::io::Cursor::new(&mut bytes))?;
     Ok(bytes)
 }
@@ -73,11 +205,12 @@ pub fn encode(path: &Path, layers: Vec<ExrLayer>, half: impl Fn(&str) -> bool) -
 /// writing straight into the temporary file, so no encoded copy of the payload is held in
 /// memory; returns its length and checksum for the manifest.
 #[cfg(feature = "bake")]
-pub fn write_payload(
+pub fn write_payload<'a, L: Into<ExrLayer<Samples<'a>>>>(
     path: &Path,
-    layers: Vec<ExrLayer>,
+    layers: impl IntoIterator<Item = L>,
     half: impl Fn(&str) -> bool,
 ) -> Result<(u64, String), FileError> {
+    let layers: Vec<ExrLayer<Samples>> = layers.into_iter().map(Into::into).collect();
     crate::files::write_atomic_with(path, |f| encode_into(path, layers, half, f))
 }
 
@@ -85,7 +218,7 @@ pub fn write_payload(
 #[cfg(feature = "bake")]
 fn encode_into(
     path: &Path,
-    layers: Vec<ExrLayer>,
+    layers: Vec<ExrLayer<Samples>>,
     half: impl Fn(&str) -> bool,
     out: impl std::io::Write + std::io::Seek,
 ) -> Result<(), FileError> {
@@ -101,7 +234,9 @@ fn encode_into(
             return Err(bad(format!("layer {:?} is empty", l.name)));
         }
         for (c, v) in &l.channels {
-            if v.len() != l.width * l.height {
+            if let Samples::Held(v) = v
+                && v.len() != l.width * l.height
+            {
                 return Err(bad(format!(
                     "layer {:?} channel {c:?} has {} samples, expected {}",
                     l.name,
@@ -111,20 +246,17 @@ fn encode_into(
             }
         }
     }
-    // the layers' samples move into the encoder: no copy of a payload is made
+    // the layers' samples move into the encoder, which reads them a line at a time: no
+    // copy of a payload is made
     for l in layers {
         max_w = max_w.max(l.width);
         max_h = max_h.max(l.height);
-        let to_half = half(&l.name);
-        let samples = |v: Vec<f32>| {
-            if to_half {
-                FlatSamples::F16(v.iter().map(|&x| f16::from_f32(x.clamp(-F16_MAX, F16_MAX))).collect())
-            } else {
-                FlatSamples::F32(v)
-            }
-        };
-        let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> =
-            l.channels.into_iter().map(|(name, v)| AnyChannel::new(name.as_str(), samples(v))).collect();
+        let half = half(&l.name);
+        let channels: SmallVec<[AnyChannel<LineSamples>; 4]> = l
+            .channels
+            .into_iter()
+            .map(|(name, samples)| AnyChannel::new(name.as_str(), LineSamples { samples, width: l.width, half }))
+            .collect();
         exr_layers.push(Layer::new(
             (l.width, l.height),
             LayerAttributes::named(l.name.as_str()),
@@ -136,10 +268,51 @@ fn encode_into(
     image.write().to_unbuffered(out).map_err(|e| FileError::Exr { path: path.to_path_buf(), message: e.to_string() })
 }
 
+/// One channel as the exr crate's encoder reads it: a line of samples at a time, as f16
+/// (clamped to ±65504 first) or f32.
+#[cfg(feature = "bake")]
+struct LineSamples<'a> {
+    samples: Samples<'a>,
+    width: usize,
+    half: bool,
+}
+
+#[cfg(feature = "bake")]
+impl<'s, 'a: 's> exr::image::write::samples::WritableSamples<'s> for LineSamples<'a> {
+    type Writer = &'s Self;
+
+    fn sample_type(&self) -> exr::meta::attribute::SampleType {
+        if self.half { exr::meta::attribute::SampleType::F16 } else { exr::meta::attribute::SampleType::F32 }
+    }
+
+    fn infer_level_modes(&self) -> (exr::meta::attribute::LevelMode, exr::math::RoundingMode) {
+        (exr::meta::attribute::LevelMode::Singular, exr::math::RoundingMode::Down)
+    }
+
+    fn create_samples_writer(&'s self, _: &exr::meta::header::Header) -> &'s Self {
+        self
+    }
+}
+
+#[cfg(feature = "bake")]
+impl exr::image::write::samples::SamplesWriter for &LineSamples<'_> {
+    fn extract_line(&self, line: exr::block::lines::LineRefMut<'_>) {
+        let start = line.location.position.y() * self.width + line.location.position.x();
+        let s = &self.samples;
+        let written = if self.half {
+            line.write_samples(|i| exr::prelude::f16::from_f32(s.get(start + i).clamp(-F16_MAX, F16_MAX)))
+        } else {
+            line.write_samples(|i| s.get(start + i))
+        };
+        // the line's bytes are sized by the encoder for exactly these samples
+        written.expect("writing a line of samples into its own buffer");
+    }
+}
+
 /// Writes layers (all f32) to `path` atomically; returns the bytes written.
 #[cfg(feature = "bake")]
 pub fn write(path: &Path, layers: &[ExrLayer]) -> Result<u64, FileError> {
-    Ok(write_payload(path, layers.to_vec(), |_| false)?.0)
+    Ok(write_payload(path, layers.iter().cloned(), |_| false)?.0)
 }
 
 /// Reads every layer of an EXR file as f32 channels.
@@ -147,4 +320,53 @@ pub fn write(path: &Path, layers: &[ExrLayer]) -> Result<u64, FileError> {
 pub fn read(path: &Path) -> Result<Vec<ExrLayer>, FileError> {
     let bytes = std::fs::read(path).map_err(FileError::io(path))?;
     decode(path, &bytes)
+}
+
+#[cfg(all(test, feature = "bake"))]
+mod tests {
+    use super::*;
+
+    fn layer(name: &str, w: usize, h: usize, f: impl Fn(usize) -> f32) -> ExrLayer {
+        let channels =
+            vec![("A".into(), (0..w * h).map(&f).collect()), ("B".into(), (0..w * h).map(|i| -f(i)).collect())];
+        ExrLayer { name: name.into(), width: w, height: h, channels }
+    }
+
+    #[test]
+    fn computed_samples_encode_to_the_bytes_of_held_ones() {
+        let p = Path::new("test.exr");
+        let value = |i: usize| (i as f32 * 0.37).sin() * 1e5;
+        let held = vec![layer("x", 37, 21, value), layer("radiance_mip0", 5, 3, |i| i as f32)];
+        let computed: Vec<ExrLayer<Samples>> = held
+            .iter()
+            .map(|l| {
+                let channels = l
+                    .channels
+                    .iter()
+                    .map(|(n, v)| {
+                        let v = v.clone();
+                        (n.clone(), Samples::Computed(Box::new(move |i| v[i])))
+                    })
+                    .collect();
+                ExrLayer { name: l.name.clone(), width: l.width, height: l.height, channels }
+            })
+            .collect();
+        let half = |n: &str| n.starts_with("radiance");
+        let a = encode(p, held.clone(), half).unwrap();
+        let b = encode(p, computed, half).unwrap();
+        assert_eq!(a, b);
+        // decoding puts samples where the placement says; f16 layers come back rounded
+        let reversed = decode_placed(p, std::io::Cursor::new(&a), |name, w, h| {
+            (name == "x").then(|| -> Placement { std::sync::Arc::new(move |k| w * h - 1 - k) })
+        })
+        .unwrap();
+        let x = reversed.iter().find(|l| l.name == "x").unwrap();
+        let want: Vec<f32> = (0..37 * 21).rev().map(value).collect();
+        assert_eq!(x.channel("A").unwrap(), want.as_slice());
+        let plain = decode(p, &a).unwrap();
+        for l in &held {
+            let got = plain.iter().find(|g| g.name == l.name).unwrap();
+            assert_eq!(got, l, "{}", l.name);
+        }
+    }
 }

@@ -6,7 +6,7 @@
 
 use super::exr::{self, ExrLayer as Layer};
 use super::schema::*;
-use crate::files::{FileError, checksum};
+use crate::files::FileError;
 use crate::grid::GridGeometry;
 use crate::octa::{self, OctMap, OctMips};
 use crate::roughness::RoughnessCorrection;
@@ -370,22 +370,12 @@ pub(crate) fn read_listed_payload(
         .find(|p| p.file == file)
         .ok_or_else(|| invalid(mpath, "payloads", format!("no entry for {file}")))?;
     let path = dir.join(file);
-    let meta = std::fs::metadata(&path).map_err(FileError::io(&path))?;
-    if meta.is_file() && meta.len() != entry.bytes {
-        return Err(invalid(&path, "size", format!("{} bytes, the manifest says {}", meta.len(), entry.bytes)));
-    }
-    let bytes = crate::files::read_regular(&path, entry.bytes)?;
-    if bytes.len() as u64 != entry.bytes {
-        return Err(invalid(&path, "size", format!("{} bytes, the manifest says {}", bytes.len(), entry.bytes)));
-    }
-    let found = checksum(&bytes);
-    if found != entry.checksum {
-        return Err(FileError::Checksum { path, expected: entry.checksum.clone(), found });
-    }
+    // size and checksum read through the file in pieces: its bytes are never held whole
+    let mut f = crate::files::open_listed(&path, entry.bytes, &entry.checksum)?;
     // Check the headers against the expected layers before decoding: a damaged header can
     // claim a layer of any size, and decoding would try to allocate it.
-    check_headers(&path, &bytes, expected)?;
-    let layers = exr::decode(&path, &bytes)?;
+    check_headers(&path, &mut f, expected)?;
+    let layers = exr::decode_placed(&path, f, |_, _, _| None)?;
     for l in expected {
         let got = layers
             .iter()
@@ -407,9 +397,11 @@ pub(crate) fn read_listed_payload(
     Ok(layers)
 }
 
-fn check_headers(path: &Path, bytes: &[u8], expected: &[Expected]) -> Result<(), FileError> {
-    let meta = ::exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+/// Checks the EXR headers of the open payload `f` against `expected`, and rewinds it.
+fn check_headers(path: &Path, f: &mut std::fs::File, expected: &[Expected]) -> Result<(), FileError> {
+    let meta = ::exr::meta::MetaData::read_from_buffered(std::io::BufReader::new(&mut *f), false)
         .map_err(|e| FileError::Exr { path: path.to_path_buf(), message: e.to_string() })?;
+    std::io::Seek::rewind(f).map_err(FileError::io(path))?;
     if meta.headers.len() != expected.len() {
         return Err(invalid(
             path,

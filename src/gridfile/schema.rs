@@ -198,12 +198,12 @@ pub struct LayerEntry {
 impl LayerEntry {
     /// The manifest's entry of `layer` stored at `precision`.
     #[must_use]
-    pub fn of(layer: &super::exr::ExrLayer, precision: Precision) -> LayerEntry {
+    pub fn of<S>(layer: &super::exr::ExrLayer<S>, precision: Precision) -> LayerEntry {
         LayerEntry {
             name: layer.name.clone(),
             width: layer.width as u32,
             height: layer.height as u32,
-            channels: layer.channels.iter().map(|(c, _)| c.clone()).collect(),
+            channels: layer.channel_names().map(String::from).collect(),
             precision,
         }
     }
@@ -284,6 +284,16 @@ pub fn atlas_index(k: usize, t: usize, res: u32, columns: u32) -> usize {
     let (tx, ty) = (k % cols, k / cols);
     let (i, j) = (t % r, t / r);
     (ty * r + j) * (cols * r) + tx * r + i
+}
+
+/// Tile and texel of the atlas's linear index `i`: the inverse of [`atlas_index`] (the
+/// tile may lie past the last one where the atlas's last row is not full).
+#[inline]
+#[must_use]
+pub fn atlas_texel(i: usize, res: u32, columns: u32) -> (usize, usize) {
+    let (r, cols) = (res as usize, columns.max(1) as usize);
+    let (x, y) = (i % (cols * r), i / (cols * r));
+    ((y / r) * cols + x / r, (y % r) * r + x % r)
 }
 
 /// Bounds every stored value must keep (the writer clamps to them, the reader refuses

@@ -4,7 +4,7 @@
 //! interrupted rewrite is reported as a checksum mismatch on load, never read as a silently
 //! mixed grid. Knows nothing of how the data was fitted: the fit hands over [`Provenance`].
 
-use super::exr::{self, ExrLayer, F16_MAX};
+use super::exr::{self, ExrLayer, F16_MAX, Samples};
 use super::schema::*;
 use crate::files::FileError;
 use crate::grid::GridGeometry;
@@ -67,25 +67,50 @@ pub struct GridContents<'a> {
     pub provenance: Provenance,
 }
 
-/// Packs per-cell tiles (`cell · res² + texel` in `src`) of the listed cells into an atlas.
-fn pack<T: Copy + Default>(src: &[T], cells: &[u32], res: u32, columns: u32) -> (usize, usize, Vec<T>) {
-    let (w, h) = atlas_size(cells.len(), res, columns);
+/// Per-cell tiles (`cell · res² + texel` in `src`) of the listed cells as an atlas channel
+/// (tile k = `cells[k]`), each sample read from `src` through `value` when the encoder asks
+/// for it, so the atlas is never built; tiles past the last are `value(T::default())`.
+fn packed<'a, T: Copy + Default + Sync>(
+    src: &'a [T],
+    cells: &'a [u32],
+    res: u32,
+    columns: u32,
+    value: impl Fn(T) -> f32 + Sync + 'a,
+) -> Samples<'a> {
     let n2 = (res * res) as usize;
-    let mut atlas = vec![T::default(); w * h];
-    for (k, &cell) in cells.iter().enumerate() {
-        for t in 0..n2 {
-            atlas[atlas_index(k, t, res, columns)] = src[cell as usize * n2 + t];
-        }
-    }
-    (w, h, atlas)
+    Samples::Computed(Box::new(move |i| {
+        let (k, t) = atlas_texel(i, res, columns);
+        value(cells.get(k).map_or_else(T::default, |&cell| src[cell as usize * n2 + t]))
+    }))
+}
+
+/// A layer of per-cell tiles: `channels` name and [`packed`] samples.
+fn packed_layer<'a>(
+    name: &str,
+    count: usize,
+    res: u32,
+    columns: u32,
+    channels: Vec<(&str, Samples<'a>)>,
+) -> ExrLayer<Samples<'a>> {
+    let (width, height) = atlas_size(count, res, columns);
+    let channels = channels.into_iter().map(|(n, s)| (n.to_string(), s)).collect();
+    ExrLayer { name: name.into(), width, height, channels }
 }
 
 /// Encodes `layers` into `file` in `dir` and returns its manifest entry.
-fn payload(dir: &Path, file: &str, layers: Vec<ExrLayer>, precision: Precision) -> Result<Payload, FileError> {
+fn payload<'a, L: Into<ExrLayer<Samples<'a>>>>(
+    dir: &Path,
+    file: &str,
+    layers: impl IntoIterator<Item = L>,
+    precision: Precision,
+) -> Result<Payload, FileError> {
     let path = dir.join(file);
+    let layers: Vec<ExrLayer<Samples>> = layers.into_iter().map(Into::into).collect();
     // f16 only where every value fits: a sun brighter than 65504 keeps its layer in f32
     // rather than saturating (the manifest records each layer's actual precision).
-    let fits_f16 = |l: &ExrLayer| l.channels.iter().all(|(_, v)| v.iter().all(|x| x.abs() <= F16_MAX));
+    let fits_f16 = |l: &ExrLayer<Samples>| {
+        l.channels.iter().all(|(_, s)| (0..l.width * l.height).all(|i| s.get(i).abs() <= F16_MAX))
+    };
     let kept: Vec<String> = layers
         .iter()
         .filter(|l| precision == Precision::F16 && is_radiance(&l.name) && !fits_f16(l))
@@ -179,11 +204,11 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
     } else {
         let columns = atlas_columns(stored_cells.len());
         let slots: Vec<u32> = stored.iter().map(|(slot, _)| *slot).collect();
-        let (w, h, atlas) = pack(&c.maps, &slots, c.map_res, columns);
         let dmax = bounds.max_distance;
-        let atlas: Vec<f32> = atlas.iter().map(|&x| if x.is_nan() { 0.0 } else { x.clamp(-dmax, dmax) }).collect();
-        let layers = [ExrLayer { name: "shift_maps".into(), width: w, height: h, channels: vec![("D".into(), atlas)] }];
-        payloads.push(payload(dir, CORRECTIVES_FILE, layers.into(), g.precision)?);
+        let shift =
+            packed(&c.maps, &slots, c.map_res, columns, |x| if x.is_nan() { 0.0 } else { x.clamp(-dmax, dmax) });
+        let layer = packed_layer("shift_maps", slots.len(), c.map_res, columns, vec![("D", shift)]);
+        payloads.push(payload(dir, CORRECTIVES_FILE, [layer], g.precision)?);
         Some(CorrectiveSection {
             map_res: c.map_res,
             stored_cells,
@@ -223,32 +248,35 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
         bytes_saved: uncorrected as u64 * (src.correction.resolution * src.correction.resolution) as u64 * 4,
     });
     if !active.is_empty() {
-        let (w, h, mut e) = pack(src.irradiance, &active, ir, columns);
-        e.iter_mut().for_each(|v| *v = v.min(Vec3::splat(MAX_RADIANCE)));
-        let (dw, dh, mut mean) = pack(src.depth_mean, &active, dr, columns);
-        let (_, _, mut mean_sq) = pack(src.depth_mean_sq, &active, dr, columns);
+        // the tiles are read from the grid's arrays as the encoder goes: nothing is copied
+        let slots: Vec<u32> = corrected.iter().map(|&c| src.correction.slot[c as usize]).collect();
         let dmax = bounds.max_distance;
-        mean.iter_mut().for_each(|x| *x = x.min(dmax));
-        mean_sq.iter_mut().for_each(|x| *x = x.min(dmax * dmax));
+        let e = |f: fn(Vec3) -> f32| {
+            packed(src.irradiance, &active, ir, columns, move |v| f(v.min(Vec3::splat(MAX_RADIANCE))))
+        };
         let mut layers = vec![
-            ExrLayer { name: "irradiance".into(), width: w, height: h, channels: rgb_channels(&e) },
-            ExrLayer {
-                name: "depth_moments".into(),
-                width: dw,
-                height: dh,
-                channels: vec![("mean".into(), mean), ("mean_sq".into(), mean_sq)],
-            },
+            packed_layer(
+                "irradiance",
+                active.len(),
+                ir,
+                columns,
+                vec![("R", e(|v| v.x)), ("G", e(|v| v.y)), ("B", e(|v| v.z))],
+            ),
+            packed_layer(
+                "depth_moments",
+                active.len(),
+                dr,
+                columns,
+                vec![
+                    ("mean", packed(src.depth_mean, &active, dr, columns, move |x| x.min(dmax))),
+                    ("mean_sq", packed(src.depth_mean_sq, &active, dr, columns, move |x| x.min(dmax * dmax))),
+                ],
+            ),
         ];
         if !corrected.is_empty() {
             let cr = src.correction.resolution;
-            let slots: Vec<u32> = corrected.iter().map(|&c| src.correction.slot[c as usize]).collect();
-            let (sw, sh, scale) = pack(&src.correction.scale, &slots, cr, correction_columns);
-            layers.push(ExrLayer {
-                name: "irradiance_scale".into(),
-                width: sw,
-                height: sh,
-                channels: vec![("S".into(), scale)],
-            });
+            let scale = packed(&src.correction.scale, &slots, cr, correction_columns, |x| x);
+            layers.push(packed_layer("irradiance_scale", slots.len(), cr, correction_columns, vec![("S", scale)]));
         }
         payloads.push(payload(dir, IRRADIANCE_FILE, layers, g.precision)?);
     }
