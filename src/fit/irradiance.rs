@@ -309,12 +309,17 @@ pub fn fit_from_references(
     IrradianceFit { correction, bias_trials, cells, reference_rays, seconds: t0.elapsed().as_secs_f64() }
 }
 
-/// The points of one set (training or check) bucketed by the lowest layer (z) of the cells
-/// their blend weighs at one surface bias: a cell's support lies in the buckets of its
-/// layer and the one below, so the fit visits the layers in order holding two buckets'
-/// prepared points at a time, not every point's blend terms (memory stays bounded as the
-/// grid grows). Buckets list their points in increasing order.
+/// The points of one set (training or check) bucketed by the lowest layer of the cells
+/// their blend weighs at one surface bias, layers taken along the grid axis that spreads
+/// the points most evenly (a level's big walls and floors lie in one layer of the axis
+/// across them): a cell's support lies in the buckets of its layer and the one below, so
+/// the fit visits the layers in order holding two buckets' prepared points at a time, not
+/// every point's blend terms (memory stays bounded as the grid grows). Buckets list their
+/// points in increasing order.
 struct Layering {
+    /// The axis the layers are taken along (0 = x, 1 = y, 2 = z) and the grid's counts.
+    axis: usize,
+    counts: [usize; 3],
     /// Points of bucket z: `order[start[z]..start[z + 1]]`.
     order: Vec<u32>,
     start: Vec<u32>,
@@ -322,76 +327,115 @@ struct Layering {
 
 impl Layering {
     /// Buckets `pts` by the lowest layer of their blend's cells (layer 0 for a point no cell
-    /// weighs), counting each cell's support (points it takes part in) into `support`.
+    /// weighs) along the axis whose largest pair of neighbouring buckets is smallest (z on a
+    /// tie), counting each cell's support (points it takes part in) into `support`.
     fn new(grid: IrradianceView, pts: &[(Vec3, Vec3)], bias: f32, support: &mut [u32]) -> Layering {
         let g = grid.geometry;
-        let layer_cells = (g.counts.x * g.counts.y) as usize;
-        let layers = g.counts.z as usize;
-        let lowest: Vec<(u32, [u32; 8], usize)> = pts
+        let counts = [g.counts.x as usize, g.counts.y as usize, g.counts.z as usize];
+        let lowest: Vec<([u32; 3], [u32; 8], u8)> = pts
             .par_iter()
             .map(|&(p, n)| {
                 let t = grid.biased_terms(p, n, bias);
                 let mut cells = [u32::MAX; 8];
                 let mut count = 0;
-                let mut z = u32::MAX;
+                let mut low = [u32::MAX; 3];
                 for &(c, w, _) in &t.terms[..t.count] {
                     if w > 0.0 {
                         cells[count] = c;
                         count += 1;
-                        z = z.min(c / layer_cells as u32);
+                        let xyz = coords(counts, c as usize);
+                        for a in 0..3 {
+                            low[a] = low[a].min(xyz[a] as u32);
+                        }
                     }
                 }
-                (if z == u32::MAX { 0 } else { z }, cells, count)
+                (low.map(|l| if l == u32::MAX { 0 } else { l }), cells, count as u8)
             })
             .collect();
-        let mut start = vec![0u32; layers + 1];
-        for &(z, cells, count) in &lowest {
-            start[z as usize + 1] += 1;
-            for &c in &cells[..count] {
+        let mut sizes: [Vec<u32>; 3] = counts.map(|n| vec![0u32; n]);
+        for (low, cells, count) in &lowest {
+            for a in 0..3 {
+                sizes[a][low[a] as usize] += 1;
+            }
+            for &c in &cells[..*count as usize] {
                 support[c as usize] += 1;
             }
         }
-        for z in 0..layers {
-            start[z + 1] += start[z];
+        let widest = |a: usize| (0..counts[a]).map(|k| sizes[a][k] + if k > 0 { sizes[a][k - 1] } else { 0 }).max();
+        let axis = [2, 0, 1].into_iter().min_by_key(|&a| widest(a)).unwrap_or(2);
+        let mut start = vec![0u32; counts[axis] + 1];
+        for (k, &n) in sizes[axis].iter().enumerate() {
+            start[k + 1] = start[k] + n;
         }
         let mut next = start.clone();
         let mut order = vec![0u32; pts.len()];
-        for (k, &(z, _, _)) in lowest.iter().enumerate() {
-            order[next[z as usize] as usize] = k as u32;
-            next[z as usize] += 1;
+        for (k, (low, _, _)) in lowest.iter().enumerate() {
+            let z = low[axis] as usize;
+            order[next[z] as usize] = k as u32;
+            next[z] += 1;
         }
-        Layering { order, start }
+        Layering { axis, counts, order, start }
+    }
+
+    /// The layer of cell `c`.
+    fn layer_of(&self, c: usize) -> usize {
+        coords(self.counts, c)[self.axis]
+    }
+
+    /// Cells in one layer.
+    fn layer_len(&self) -> usize {
+        self.counts.iter().product::<usize>() / self.counts[self.axis]
+    }
+
+    /// Cell `c`'s place in its layer, and back: the other two coordinates, lower axis first.
+    fn in_layer(&self, c: usize) -> usize {
+        let (xyz, (u, v)) = (coords(self.counts, c), self.others());
+        xyz[u] + self.counts[u] * xyz[v]
+    }
+
+    fn cell(&self, layer: usize, i: usize) -> usize {
+        let (u, v) = self.others();
+        let mut xyz = [0; 3];
+        xyz[self.axis] = layer;
+        xyz[u] = i % self.counts[u];
+        xyz[v] = i / self.counts[u];
+        xyz[0] + self.counts[0] * (xyz[1] + self.counts[1] * xyz[2])
+    }
+
+    fn others(&self) -> (usize, usize) {
+        match self.axis {
+            0 => (1, 2),
+            1 => (0, 2),
+            _ => (0, 1),
+        }
     }
 
     fn bucket(&self, z: usize) -> &[u32] {
         &self.order[self.start[z] as usize..self.start[z + 1] as usize]
     }
 
-    /// Calls `visit(z, window, own)` for each layer z in order: `window` holds the prepared
+    /// Calls `visit(z, window, own)` for each layer z in order: `window` borrows the prepared
     /// points of buckets z − 1 and z (every point whose blend weighs a cell of layer z), in
-    /// increasing point order, as (point, prepared); `own` is bucket z alone (each point is
-    /// in exactly one `own`).
-    fn visit(
-        &self,
-        prepare: impl Fn(usize) -> Point + Sync,
-        mut visit: impl FnMut(usize, &[(u32, Point)], &[(u32, Point)]),
-    ) {
+    /// increasing point order; `own` is bucket z alone as (point, prepared) (each point is in
+    /// exactly one `own`).
+    fn visit(&self, prepare: impl Fn(usize) -> Point + Sync, mut visit: impl FnMut(usize, &[&Point], &[(u32, Point)])) {
         let mut prev: Vec<(u32, Point)> = Vec::new();
         for z in 0..self.start.len() - 1 {
             let cur: Vec<(u32, Point)> = self.bucket(z).par_iter().map(|&k| (k, prepare(k as usize))).collect();
-            // merge the two buckets by point index (each is increasing)
+            // merge the two buckets by point index (each is increasing), borrowing the points
             let mut window = Vec::with_capacity(prev.len() + cur.len());
             let (mut i, mut j) = (0, 0);
             while i < prev.len() || j < cur.len() {
                 if j == cur.len() || (i < prev.len() && prev[i].0 < cur[j].0) {
-                    window.push(prev[i]);
+                    window.push(&prev[i].1);
                     i += 1;
                 } else {
-                    window.push(cur[j]);
+                    window.push(&cur[j].1);
                     j += 1;
                 }
             }
             visit(z, &window, &cur);
+            drop(window);
             prev = cur;
         }
     }
@@ -411,7 +455,6 @@ fn fit_at_bias(
     bias: f32,
 ) -> ((IrradianceCorrection, Vec<IrradianceCellFit>), BiasTrial) {
     let g = grid.geometry;
-    let layer_cells = (g.counts.x * g.counts.y) as usize;
     let point = |pts: &[(Vec3, Vec3)], refs: &[Traced], k: usize| {
         let (p, n) = pts[k];
         Point {
@@ -429,16 +472,16 @@ fn fit_at_bias(
         grid.slot[c] != NO_MAP && train_count[c] as usize >= MIN_POINTS && check_count[c] as usize >= MIN_POINTS / 2
     };
     // the points of `window` in the support of each fitted cell of layer z, in point order
-    let supports = |z: usize, window: &[(u32, Point)]| -> Vec<(usize, Vec<u32>)> {
-        let mut of: Vec<Vec<u32>> = vec![Vec::new(); layer_cells];
-        for (i, (_, p)) in window.iter().enumerate() {
+    let supports = |layering: &Layering, z: usize, window: &[&Point]| -> Vec<(usize, Vec<u32>)> {
+        let mut of: Vec<Vec<u32>> = vec![Vec::new(); layering.layer_len()];
+        for (i, p) in window.iter().enumerate() {
             for &(c, w, _) in &p.terms.terms[..p.terms.count] {
-                if w > 0.0 && c as usize / layer_cells == z {
-                    of[c as usize % layer_cells].push(i as u32);
+                if w > 0.0 && layering.layer_of(c as usize) == z {
+                    of[layering.in_layer(c as usize)].push(i as u32);
                 }
             }
         }
-        of.into_iter().enumerate().map(|(i, s)| (z * layer_cells + i, s)).filter(|(c, _)| fitted(*c)).collect()
+        of.into_iter().enumerate().map(|(i, s)| (layering.cell(z, i), s)).filter(|(c, _)| fitted(*c)).collect()
     };
     let none: Maps = vec![None; g.cell_count()];
     let mut maps: Maps = vec![None; g.cell_count()];
@@ -447,7 +490,7 @@ fn fit_at_bias(
         train.visit(
             |k| point(train_pts, train_refs, k),
             |z, window, _| {
-                let cells = supports(z, window);
+                let cells = supports(&train, z, window);
                 let fits: Vec<(usize, Map)> =
                     cells.par_iter().map(|(c, idx)| (*c, fit_map(&gather(window, idx), &maps, *c, exposure))).collect();
                 for (c, m) in fits {
@@ -467,7 +510,7 @@ fn fit_at_bias(
         |k| point(check_pts, check_refs, k),
         |z, window, own| {
             point_errors(&mut blend_err, own, &none, exposure);
-            let cells = supports(z, window);
+            let cells = supports(&check, z, window);
             let judged: Vec<IrradianceCellFit> = cells
                 .par_iter()
                 .map(|(c, idx)| {
@@ -486,6 +529,8 @@ fn fit_at_bias(
             fits.extend(judged);
         },
     );
+    // in cell order, whatever axis the layers were taken along
+    fits.sort_unstable_by_key(|f| f.cell);
     let mut correction = IrradianceCorrection {
         resolution: CORRECTION_RES,
         slot: vec![NO_MAP; g.cell_count()],
@@ -518,9 +563,14 @@ fn fit_at_bias(
     ((correction, fits), trial)
 }
 
+/// Grid coordinates of cell `c` (index x + nx·(y + ny·z)).
+fn coords(counts: [usize; 3], c: usize) -> [usize; 3] {
+    [c % counts[0], (c / counts[0]) % counts[1], c / (counts[0] * counts[1])]
+}
+
 /// The prepared points of `window` listed in `idx`.
-fn gather<'a>(window: &'a [(u32, Point)], idx: &[u32]) -> Vec<&'a Point> {
-    idx.iter().map(|&i| &window[i as usize].1).collect()
+fn gather<'a>(window: &[&'a Point], idx: &[u32]) -> Vec<&'a Point> {
+    idx.iter().map(|&i| window[i as usize]).collect()
 }
 
 /// Each point of `own`'s tone-mapped squared error with `maps`, into `e` at its index.
