@@ -152,12 +152,13 @@ pub fn write_bake(dir: &Path, scene: &Scene, bake: &Bake) -> Result<(), FileErro
     let mut files = Vec::new();
     for file in [PROBE_FILE, GRID_FILE] {
         // one payload's layers at a time; the grid's read in place
-        let path = dir.join(file);
-        let (bytes, checksum) = if file == PROBE_FILE {
-            exr::write_payload(&path, probe_layers(&bake.probe.radiance, &bake.probe.depth), |_| false)?
+        let layers: Vec<ExrLayer<Samples>> = if file == PROBE_FILE {
+            probe_layers(&bake.probe.radiance, &bake.probe.depth).into_iter().map(Into::into).collect()
         } else {
-            exr::write_payload(&path, grid_layers(&bake.grid), |_| false)?
+            grid_layers(&bake.grid)
         };
+        let path = dir.join(file);
+        let (bytes, checksum) = exr::write_payload(&path, layers, |_| false)?;
         files.push(FileEntry { file: file.into(), bytes, checksum });
     }
     write_json(&dir.join(MANIFEST_FILE), &BakeManifest { files, ..build_manifest(scene, bake) })

@@ -317,9 +317,9 @@ pub fn fit_from_references(
 /// every point's blend terms (memory stays bounded as the grid grows). Buckets list their
 /// points in increasing order.
 struct Layering {
-    /// The axis the layers are taken along (0 = x, 1 = y, 2 = z) and the grid's counts.
+    /// The axis the layers are taken along (0 = x, 1 = y, 2 = z), and the grid.
     axis: usize,
-    counts: [usize; 3],
+    g: crate::grid::GridGeometry,
     /// Points of bucket z: `order[start[z]..start[z + 1]]`.
     order: Vec<u32>,
     start: Vec<u32>,
@@ -331,25 +331,22 @@ impl Layering {
     /// tie), counting each cell's support (points it takes part in) into `support`.
     fn new(grid: IrradianceView, pts: &[(Vec3, Vec3)], bias: f32, support: &mut [u32]) -> Layering {
         let g = grid.geometry;
-        let counts = [g.counts.x as usize, g.counts.y as usize, g.counts.z as usize];
+        let counts = g.counts.to_array().map(|n| n as usize);
         let lowest: Vec<([u32; 3], [u32; 8], u8)> = pts
             .par_iter()
             .map(|&(p, n)| {
                 let t = grid.biased_terms(p, n, bias);
                 let mut cells = [u32::MAX; 8];
                 let mut count = 0;
-                let mut low = [u32::MAX; 3];
+                let mut low = glam::UVec3::MAX;
                 for &(c, w, _) in &t.terms[..t.count] {
                     if w > 0.0 {
                         cells[count] = c;
                         count += 1;
-                        let xyz = coords(counts, c as usize);
-                        for a in 0..3 {
-                            low[a] = low[a].min(xyz[a] as u32);
-                        }
+                        low = low.min(g.cell_coords(c as usize));
                     }
                 }
-                (low.map(|l| if l == u32::MAX { 0 } else { l }), cells, count as u8)
+                (low.to_array().map(|l| if l == u32::MAX { 0 } else { l }), cells, count as u8)
             })
             .collect();
         let mut sizes: [Vec<u32>; 3] = counts.map(|n| vec![0u32; n]);
@@ -374,32 +371,32 @@ impl Layering {
             order[next[z] as usize] = k as u32;
             next[z] += 1;
         }
-        Layering { axis, counts, order, start }
+        Layering { axis, g, order, start }
     }
 
     /// The layer of cell `c`.
     fn layer_of(&self, c: usize) -> usize {
-        coords(self.counts, c)[self.axis]
+        self.g.cell_coords(c)[self.axis] as usize
     }
 
     /// Cells in one layer.
     fn layer_len(&self) -> usize {
-        self.counts.iter().product::<usize>() / self.counts[self.axis]
+        self.g.cell_count() / self.g.counts[self.axis] as usize
     }
 
     /// Cell `c`'s place in its layer, and back: the other two coordinates, lower axis first.
     fn in_layer(&self, c: usize) -> usize {
-        let (xyz, (u, v)) = (coords(self.counts, c), self.others());
-        xyz[u] + self.counts[u] * xyz[v]
+        let (xyz, (u, v)) = (self.g.cell_coords(c), self.others());
+        (xyz[u] + self.g.counts[u] * xyz[v]) as usize
     }
 
     fn cell(&self, layer: usize, i: usize) -> usize {
         let (u, v) = self.others();
-        let mut xyz = [0; 3];
-        xyz[self.axis] = layer;
-        xyz[u] = i % self.counts[u];
-        xyz[v] = i / self.counts[u];
-        xyz[0] + self.counts[0] * (xyz[1] + self.counts[1] * xyz[2])
+        let mut xyz = glam::UVec3::ZERO;
+        xyz[self.axis] = layer as u32;
+        xyz[u] = i as u32 % self.g.counts[u];
+        xyz[v] = i as u32 / self.g.counts[u];
+        self.g.cell_index(xyz)
     }
 
     fn others(&self) -> (usize, usize) {
@@ -561,11 +558,6 @@ fn fit_at_bias(
         check_rmse: field_rmse(&check, check_pts, check_refs, &stored),
     };
     ((correction, fits), trial)
-}
-
-/// Grid coordinates of cell `c` (index x + nx·(y + ny·z)).
-fn coords(counts: [usize; 3], c: usize) -> [usize; 3] {
-    [c % counts[0], (c / counts[0]) % counts[1], c / (counts[0] * counts[1])]
 }
 
 /// The prepared points of `window` listed in `idx`.

@@ -43,13 +43,6 @@ impl Samples<'_> {
 }
 
 #[cfg(feature = "bake")]
-impl From<Vec<f32>> for Samples<'_> {
-    fn from(v: Vec<f32>) -> Self {
-        Samples::Held(v)
-    }
-}
-
-#[cfg(feature = "bake")]
 impl<'a> From<ExrLayer> for ExrLayer<Samples<'a>> {
     fn from(l: ExrLayer) -> Self {
         let channels = l.channels.into_iter().map(|(n, v)| (n, Samples::Held(v))).collect();
