@@ -157,9 +157,14 @@ fn rename(from: &Path, to: &Path) -> std::io::Result<()> {
 
 /// Pretty JSON of `value`, written atomically.
 pub fn write_json<T: Serialize + ?Sized>(path: &Path, value: &T) -> Result<(), FileError> {
-    let bytes = serde_json::to_vec_pretty(value)
-        .map_err(|e| FileError::Json { path: path.to_path_buf(), message: e.to_string() })?;
-    write_atomic(path, &bytes)
+    // serialised straight into the temporary file: a big level's residuals are never held
+    // as text
+    replace_with(path, |f| {
+        let mut w = std::io::BufWriter::new(f);
+        serde_json::to_writer_pretty(&mut w, value)
+            .map_err(|e| FileError::Json { path: path.to_path_buf(), message: e.to_string() })?;
+        w.flush().map_err(FileError::io(path))
+    })
 }
 
 /// Reads `path`, which must be a regular file (a FIFO, device or folder could block, never

@@ -163,6 +163,10 @@ pub(crate) struct Expected {
     pub(crate) width: usize,
     pub(crate) height: usize,
     pub(crate) channels: &'static [&'static str],
+    /// An atlas of square tiles (tile resolution, columns): its channels are delivered tile
+    /// by tile (texel t of tile k at `k·res² + t`, the padding tiles last), placed as they
+    /// are decoded, so no atlas-then-gather copy is held.
+    pub(crate) tiles: Option<(u32, u32)>,
 }
 
 /// The layers of every payload, from the manifest's structural fields; checks the structure
@@ -212,6 +216,7 @@ fn expected_payloads(
             width: n as usize,
             height: n as usize,
             channels: &["R", "G", "B"],
+            tiles: None,
         });
     }
     for (k, name) in p.distance_mips.iter().enumerate() {
@@ -222,7 +227,13 @@ fn expected_payloads(
         if *name != distance_layer(k) {
             return Err(invalid(mp, format!("probe.distance_mips[{k}]"), format!("must be {}", distance_layer(k))));
         }
-        probe.push(Expected { name: name.clone(), width: n as usize, height: n as usize, channels: &["Z"] });
+        probe.push(Expected {
+            name: name.clone(),
+            width: n as usize,
+            height: n as usize,
+            channels: &["Z"],
+            tiles: None,
+        });
     }
     out.push((PROBE_FILE, probe));
     let tile_ok = |r: u32| (2..=MAX_TILE_RESOLUTION).contains(&r) && r.is_multiple_of(2);
@@ -261,7 +272,13 @@ fn expected_payloads(
         let (w, h) = atlas_size(c.stored_cells.len(), c.map_res, c.atlas_columns);
         out.push((
             CORRECTIVES_FILE,
-            vec![Expected { name: "shift_maps".into(), width: w, height: h, channels: &["D"] }],
+            vec![Expected {
+                name: "shift_maps".into(),
+                width: w,
+                height: h,
+                channels: &["D"],
+                tiles: Some((c.map_res, c.atlas_columns)),
+            }],
         ));
     }
     let ir = &m.irradiance;
@@ -275,8 +292,20 @@ fn expected_payloads(
         let (w, h) = atlas_size(n, ir.resolution, ir.atlas_columns);
         let (dw, dh) = atlas_size(n, ir.depth_resolution, ir.atlas_columns);
         let mut layers = vec![
-            Expected { name: "irradiance".into(), width: w, height: h, channels: &["R", "G", "B"] },
-            Expected { name: "depth_moments".into(), width: dw, height: dh, channels: &["mean", "mean_sq"] },
+            Expected {
+                name: "irradiance".into(),
+                width: w,
+                height: h,
+                channels: &["R", "G", "B"],
+                tiles: Some((ir.resolution, ir.atlas_columns)),
+            },
+            Expected {
+                name: "depth_moments".into(),
+                width: dw,
+                height: dh,
+                channels: &["mean", "mean_sq"],
+                tiles: Some((ir.depth_resolution, ir.atlas_columns)),
+            },
         ];
         if !ir.corrected_cells.is_empty() {
             if !tile_ok(ir.correction_resolution) {
@@ -292,7 +321,13 @@ fn expected_payloads(
             }
             columns_ok(ir.corrected_cells.len(), ir.correction_columns, "irradiance.correction_columns")?;
             let (sw, sh) = atlas_size(ir.corrected_cells.len(), ir.correction_resolution, ir.correction_columns);
-            layers.push(Expected { name: "irradiance_scale".into(), width: sw, height: sh, channels: &["S"] });
+            layers.push(Expected {
+                name: "irradiance_scale".into(),
+                width: sw,
+                height: sh,
+                channels: &["S"],
+                tiles: Some((ir.correction_resolution, ir.correction_columns)),
+            });
         }
         out.push((IRRADIANCE_FILE, layers));
     } else if !ir.corrected_cells.is_empty() {
@@ -375,7 +410,18 @@ pub(crate) fn read_listed_payload(
     // Check the headers against the expected layers before decoding: a damaged header can
     // claim a layer of any size, and decoding would try to allocate it.
     check_headers(&path, &mut f, expected)?;
-    let layers = exr::decode_placed(&path, f, |_, _, _| None)?;
+    // (name, size, tiles) of the atlas layers
+    let atlases: Vec<_> =
+        expected.iter().filter_map(|l| Some((l.name.clone(), (l.width, l.height), l.tiles?))).collect();
+    let place = move |name: &str, w: usize, h: usize| -> Option<exr::Placement> {
+        let &(_, _, (res, columns)) = atlases.iter().find(|(n, size, _)| n == name && *size == (w, h))?;
+        let r2 = (res * res) as usize;
+        Some(std::sync::Arc::new(move |i| {
+            let (k, t) = atlas_texel(i, res, columns);
+            k * r2 + t
+        }))
+    };
+    let layers = exr::decode_placed(&path, f, place)?;
     for l in expected {
         let got = layers
             .iter()
@@ -463,24 +509,38 @@ fn check(path: &Path, field: &str, values: &[f32], what: &str, ok: impl Fn(f32) 
     }
 }
 
-fn rgb(l: &Layer, path: &Path) -> Result<Vec<Vec3>, FileError> {
+/// The first `count` RGB samples of a layer (every sample checked).
+fn rgb(l: &Layer, path: &Path, count: usize) -> Result<Vec<Vec3>, FileError> {
     let (r, g, b) = (channel(l, path, "R")?, channel(l, path, "G")?, channel(l, path, "B")?);
     for (c, v) in [("R", r), ("G", g), ("B", b)] {
         check(path, &format!("{}.{c}", l.name), v, &format!("in [0, {MAX_RADIANCE:e}]"), |x| {
             (0.0..=MAX_RADIANCE).contains(&x)
         })?;
     }
-    Ok((0..r.len()).map(|k| Vec3::new(r[k], g[k], b[k])).collect())
+    Ok((0..count.min(r.len())).map(|k| Vec3::new(r[k], g[k], b[k])).collect())
+}
+
+/// Channel `name` of layer `layer` (of `size`), moved out of the decoded layers.
+fn take_channel(
+    layers: &mut [Layer],
+    path: &Path,
+    layer_name: &str,
+    size: (usize, usize),
+    name: &str,
+) -> Result<Vec<f32>, FileError> {
+    layer(layers, path, layer_name, size)?;
+    let l =
+        layers.iter_mut().find(|l| l.name == layer_name).ok_or_else(|| invalid(path, layer_name, "layer missing"))?;
+    l.channels
+        .iter_mut()
+        .find(|(n, _)| n == name)
+        .map(|(_, v)| std::mem::take(v))
+        .ok_or_else(|| invalid(path, format!("{layer_name}.{name}"), "channel missing"))
 }
 
 fn finite3(v: [f32; 3], path: &Path, field: &str) -> Result<Vec3, FileError> {
     let v = Vec3::from_array(v);
     if v.is_finite() { Ok(v) } else { Err(invalid(path, field, "not finite")) }
-}
-
-/// Gathers tile `k` (res × res) of an atlas channel.
-fn tile(atlas: &[f32], k: usize, res: u32, columns: u32) -> impl Iterator<Item = f32> + '_ {
-    (0..(res * res) as usize).map(move |t| atlas[atlas_index(k, t, res, columns)])
 }
 
 /// Sparse cell list → per-cell slot (`u32::MAX` = not stored), validated.
@@ -559,7 +619,7 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     for mip in &p.radiance_mips {
         let n = mip.resolution as usize;
         let l = layer(&layers, &ppath, &mip.layer, (n, n))?;
-        radiance.push(OctMap::new(mip.resolution, rgb(l, &ppath)?));
+        radiance.push(OctMap::new(mip.resolution, rgb(l, &ppath, l.width * l.height)?));
         roughness_of_mips.push(mip.perceptual_roughness);
     }
     let mut distance = Vec::new();
@@ -616,27 +676,26 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     }
     let proxies = Proxies { aabb, kdop };
 
-    // correctives
+    // correctives (their atlas arrives tile by tile: the first tiles are the stored maps)
     let (map_res, slot, maps) = match &m.correctives {
         None => (8, vec![NO_MAP; cells], Vec::new()),
         Some(c) => {
             let slot = slots(&c.stored_cells, cells, mp, "correctives.stored_cells")?;
             let cpath = dir.join(CORRECTIVES_FILE);
-            let layers = read_payload(dir, &m, CORRECTIVES_FILE, expected_of(CORRECTIVES_FILE))?;
+            let mut layers = read_payload(dir, &m, CORRECTIVES_FILE, expected_of(CORRECTIVES_FILE))?;
             let size = atlas_size(c.stored_cells.len(), c.map_res, c.atlas_columns);
-            let atlas = channel(layer(&layers, &cpath, "shift_maps", size)?, &cpath, "D")?;
+            let mut maps = take_channel(&mut layers, &cpath, "shift_maps", size, "D")?;
             let dmax = bounds.max_distance;
-            check(&cpath, "shift_maps.D", atlas, &format!("a shift in [-{dmax:e}, {dmax:e}]"), |x| {
+            check(&cpath, "shift_maps.D", &maps, &format!("a shift in [-{dmax:e}, {dmax:e}]"), |x| {
                 (-dmax..=dmax).contains(&x)
             })?;
-            let maps: Vec<f32> =
-                (0..c.stored_cells.len()).flat_map(|k| tile(atlas, k, c.map_res, c.atlas_columns)).collect();
+            maps.truncate(c.stored_cells.len() * (c.map_res * c.map_res) as usize);
             (c.map_res, slot, maps)
         }
     };
     let correctives = Correctives::new(geometry, map_res, slot, maps, fallback);
 
-    // irradiance
+    // irradiance (atlases arrive tile by tile: the first tiles are the stored cells')
     let ir = &m.irradiance;
     let islot = slots(&ir.stored_cells, cells, mp, "irradiance.stored_cells")?;
     if !(0.0..=1.0).contains(&ir.surface_bias) {
@@ -647,22 +706,27 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
         (Vec::new(), Vec::new(), Vec::new())
     } else {
         let ipath = dir.join(IRRADIANCE_FILE);
-        let layers = read_payload(dir, &m, IRRADIANCE_FILE, expected_of(IRRADIANCE_FILE))?;
+        let mut layers = read_payload(dir, &m, IRRADIANCE_FILE, expected_of(IRRADIANCE_FILE))?;
         let n = ir.stored_cells.len();
-        let e = rgb(layer(&layers, &ipath, "irradiance", atlas_size(n, ir.resolution, ir.atlas_columns))?, &ipath)?;
-        let dm = layer(&layers, &ipath, "depth_moments", atlas_size(n, ir.depth_resolution, ir.atlas_columns))?;
-        let (mean, mean_sq) = (channel(dm, &ipath, "mean")?, channel(dm, &ipath, "mean_sq")?);
+        let (r2, dr2) =
+            ((ir.resolution * ir.resolution) as usize, (ir.depth_resolution * ir.depth_resolution) as usize);
+        let size = atlas_size(n, ir.resolution, ir.atlas_columns);
+        let mut e = rgb(layer(&layers, &ipath, "irradiance", size)?, &ipath, n * r2)?;
+        layers.retain(|l| l.name != "irradiance");
+        let dsize = atlas_size(n, ir.depth_resolution, ir.atlas_columns);
+        let mut mean = take_channel(&mut layers, &ipath, "depth_moments", dsize, "mean")?;
+        let mut mean_sq = take_channel(&mut layers, &ipath, "depth_moments", dsize, "mean_sq")?;
         let dmax = bounds.max_distance;
-        check(&ipath, "depth_moments.mean", mean, &format!("in [0, {dmax:e}]"), |x| (0.0..=dmax).contains(&x))?;
+        check(&ipath, "depth_moments.mean", &mean, &format!("in [0, {dmax:e}]"), |x| (0.0..=dmax).contains(&x))?;
         let d2 = dmax * dmax;
-        check(&ipath, "depth_moments.mean_sq", mean_sq, &format!("in [0, {d2:e}]"), |x| (0.0..=d2).contains(&x))?;
+        check(&ipath, "depth_moments.mean_sq", &mean_sq, &format!("in [0, {d2:e}]"), |x| (0.0..=d2).contains(&x))?;
         if !ir.corrected_cells.is_empty() {
             let cr = ir.correction_resolution;
             let k = ir.corrected_cells.len();
-            let sl = layer(&layers, &ipath, "irradiance_scale", atlas_size(k, cr, ir.correction_columns))?;
-            let atlas = channel(sl, &ipath, "S")?;
+            let ssize = atlas_size(k, cr, ir.correction_columns);
+            let mut scale = take_channel(&mut layers, &ipath, "irradiance_scale", ssize, "S")?;
             // the atlas's unused tail tiles are padding: only the cells' tiles are checked
-            let scale: Vec<f32> = (0..k).flat_map(|j| tile(atlas, j, cr, ir.correction_columns)).collect();
+            scale.truncate(k * (cr * cr) as usize);
             check(&ipath, "irradiance_scale.S", &scale, "a scale in (0, 100]", |x| x > 0.0 && x <= 100.0)?;
             correction = IrradianceCorrection {
                 resolution: cr,
@@ -671,15 +735,10 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
                 surface_bias: ir.surface_bias,
             };
         }
-        let (r, dr, cols) = (ir.resolution, ir.depth_resolution, ir.atlas_columns);
-        let e = &e;
-        let irr: Vec<Vec3> =
-            (0..n).flat_map(|k| (0..(r * r) as usize).map(move |t| e[atlas_index(k, t, r, cols)])).collect();
-        (
-            irr,
-            (0..n).flat_map(|k| tile(mean, k, dr, cols)).collect(),
-            (0..n).flat_map(|k| tile(mean_sq, k, dr, cols)).collect(),
-        )
+        e.truncate(n * r2);
+        mean.truncate(n * dr2);
+        mean_sq.truncate(n * dr2);
+        (e, mean, mean_sq)
     };
     let irradiance = IrradianceGrid {
         geometry,

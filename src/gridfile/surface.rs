@@ -190,9 +190,9 @@ pub fn read(dir: &Path) -> Result<SurfaceAtlas, FileError> {
     }
     let (w, h) = ((m.counts[0] * n) as usize, (m.counts[1] * n) as usize);
     let mut expected: Vec<Expected> = (0..r.len())
-        .map(|k| Expected { name: radiance_layer(k), width: w, height: h, channels: &["R", "G", "B"] })
+        .map(|k| Expected { name: radiance_layer(k), width: w, height: h, channels: &["R", "G", "B"], tiles: None })
         .collect();
-    expected.push(Expected { name: "inv_distance".into(), width: w, height: h, channels: &["W"] });
+    expected.push(Expected { name: "inv_distance".into(), width: w, height: h, channels: &["W"], tiles: None });
     let layers = read_listed_payload(dir, mp, std::slice::from_ref(&manifest.payload), SURFACE_ATLAS_FILE, &expected)?;
     let path = dir.join(SURFACE_ATLAS_FILE);
     let channel = |layer: &str, c: &str| -> Result<&[f32], FileError> {
