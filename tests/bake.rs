@@ -119,6 +119,29 @@ fn foreign_and_damaged_bakes_are_errors() {
 }
 
 #[test]
+fn hit_counts_are_read_back_as_counts() {
+    let scene = small_torture();
+    let baked = bake_with_threads(&scene, 2);
+    assert!(baked.grid.hits.contains(&1), "some texel has one of its two rays hit");
+    let dir = tmp_dir("hits");
+    bakefile::write_bake(&dir, &scene, &baked).unwrap();
+    let m = std::fs::read_to_string(dir.join("manifest.json")).unwrap();
+    assert!(m.contains("\"depth_samples\": 2"), "{m}");
+    // the stored fractions are halves: not counts of 3 rays
+    std::fs::write(dir.join("manifest.json"), m.replace("\"depth_samples\": 2", "\"depth_samples\": 3")).unwrap();
+    let e = bakefile::read_bake(&dir).unwrap_err().to_string();
+    assert!(e.contains("grid.exr") && e.contains("depth_moments.hit") && e.contains("3 rays"), "{e}");
+    // a count a byte cannot hold
+    std::fs::write(dir.join("manifest.json"), m.replace("\"depth_samples\": 2", "\"depth_samples\": 256")).unwrap();
+    let e = bakefile::read_bake(&dir).unwrap_err().to_string();
+    assert!(e.contains("manifest.json") && e.contains("grid.depth_samples"), "{e}");
+    std::fs::write(dir.join("manifest.json"), &m).unwrap();
+    let (_, _, grid) = bakefile::read_bake(&dir).unwrap();
+    assert_eq!(grid.hits, baked.grid.hits);
+    assert_eq!(grid.hit_fraction(0), f32::from(grid.hits[0]) / 2.0);
+}
+
+#[test]
 fn sphere_probe_distances_are_closed_form() {
     let scene = load("sphere");
     let tracer = Tracer::new(&scene);

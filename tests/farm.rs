@@ -43,7 +43,7 @@ fn single(scene: &Scene, dir: &Path) {
     let j = job();
     let warp = p.baked().warp(j.options);
     let out = Output { folder: &p.folder, command: "test", progress: &progress };
-    run::fit(p.baked(), &warp, &j.fit, j.store, out).unwrap();
+    run::fit(p.baked(), &warp, &j.fit, (j.store, warpfit::fit::MapSets::Stored), out).unwrap();
 }
 
 /// Bakes and fits `scene` in `n` shards into `dir`, merging each step.
@@ -169,7 +169,11 @@ fn merges_of_parts_that_do_not_belong_together_are_refused_by_name() {
     // a newer part: the header says version 99 (its length prefix rewritten to match)
     let (magic, rest) = bytes.split_at(13);
     let len = u64::from_le_bytes(rest[..8].try_into().unwrap()) as usize;
-    let head = String::from_utf8(rest[8..8 + len].to_vec()).unwrap().replacen("\"version\":1", "\"version\":99", 1);
+    let head = String::from_utf8(rest[8..8 + len].to_vec()).unwrap().replacen(
+        &format!("\"version\":{}", partfile::PART_VERSION),
+        "\"version\":99",
+        1,
+    );
     let mut newer = magic.to_vec();
     newer.extend_from_slice(&(head.len() as u64).to_le_bytes());
     newer.extend_from_slice(head.as_bytes());

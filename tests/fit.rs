@@ -95,11 +95,12 @@ fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
     // keeps maps that lose on held-out positions about as often as not
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        pool.install(|| fit::fit(b, glossy, &FitSettings::moderate(), &Progress::quiet()))
+        pool.install(|| fit::fit(b, glossy, &FitSettings::moderate(), fit::MapSets::WithUnfitted, &Progress::quiet()))
     };
     let (a, b) = (run(1), run(2));
     assert_eq!(a.correctives, b.correctives);
-    assert_eq!(a.celldepth, b.celldepth);
+    assert_eq!(a.unfitted, b.unfitted);
+    assert!(a.unfitted.is_some());
     assert_eq!(a.roughness, b.roughness, "the scene's roughness correction is deterministic too");
     let strip = |f: &fit::Fit| {
         f.cells.iter().map(|c| (c.cell, c.level, c.check_err_fitted.to_bits(), c.evaluations)).collect::<Vec<_>>()
@@ -169,7 +170,7 @@ fn a_cell_seeing_only_sky_stores_nothing() {
     let warp = warpfit::bake::warp(&scene, &baked.probe, warpfit::warp::WarpOptions::standard());
     let b = warpfit::bake::Baked { scene: &scene, tracer: &tracer, probe: &baked.probe, grid: &baked.grid };
     let glossy = warpfit::warp::glossy::Glossy { warp: &warp, correction: None };
-    let f = fit::fit(b, glossy, &quick_settings(), &Progress::quiet());
+    let f = fit::fit(b, glossy, &quick_settings(), fit::MapSets::Stored, &Progress::quiet());
     assert_eq!(f.correctives.stored_cells(), 0);
     assert!(f.correctives.maps.is_empty());
     for c in &f.cells {
@@ -197,9 +198,15 @@ fn level_one_is_measured_against_the_stored_model_when_asked() {
         let d = warpfit::sampling::uniform_sphere(s.next_2d());
         assert_eq!(warp.level1_vector(&plain, p, d), warp.fetch_vector(warpfit::warp::Method::Warp1, p, d));
     }
-    let without = fit::fit(b, glossy, &quick_settings(), &Progress::quiet());
+    let without = fit::fit(b, glossy, &quick_settings(), fit::MapSets::Stored, &Progress::quiet());
     assert!(without.cells.iter().all(|c| c.level1.is_none()) && fit::summary::summary(&without).level1.is_none());
-    let with = fit::fit(b, glossy, &FitSettings { level1: true, ..quick_settings() }, &Progress::quiet());
+    let with = fit::fit(
+        b,
+        glossy,
+        &FitSettings { level1: true, ..quick_settings() },
+        fit::MapSets::Stored,
+        &Progress::quiet(),
+    );
     // measuring level 1 changes nothing stored
     assert_eq!(with.correctives.maps, without.correctives.maps);
     for c in &with.cells {

@@ -139,6 +139,12 @@ fn bad_settings_are_named() {
     let text = HEADER.replace("resolution = 16", "resolution = 17");
     let e = err_text(Scene::parse(&format!("{text}\n{body}"), &fixture("x.toml")));
     assert!(e.contains("probe.resolution"), "{e}");
+    // a distance texel's hit count is kept in a byte
+    let text = HEADER.replace("depth_samples = 1", "depth_samples = 256");
+    let e = err_text(Scene::parse(&format!("{text}\n{body}"), &fixture("x.toml")));
+    assert!(e.contains("grid.depth_samples") && e.contains("1..=255"), "{e}");
+    let text = HEADER.replace("depth_samples = 1", "depth_samples = 255");
+    Scene::parse(&format!("{text}\n{body}"), &fixture("x.toml")).unwrap();
     let e = err_text(parse("[[geometry]]\ntype = \"box\"\nmin = [1.0,0.0,0.0]\nmax = [0.0,1.0,1.0]\n"));
     assert!(e.contains("geometry[0]") && e.contains("max must exceed min"), "{e}");
     let e =

@@ -39,8 +39,10 @@ pub struct ProbeGrid {
     pub depth_mean: Vec<f32>,
     /// Mean squared distance per depth texel (same convention).
     pub depth_mean_sq: Vec<f32>,
-    /// Fraction of the texel's rays that hit geometry.
-    pub hit_fraction: Vec<f32>,
+    /// Rays of the texel (of `depth_samples`) that hit geometry: a byte, not the fraction
+    /// (a quarter of the memory; [`ProbeGrid::hit_fraction`] gives the fraction exactly as
+    /// the bake computed it).
+    pub hits: Vec<u8>,
     /// Cell probe inside geometry (too many back-face hits).
     pub inside: Vec<bool>,
     /// Per cell: the probe's offset from the cell centre (zero where it was not moved).
@@ -50,6 +52,12 @@ pub struct ProbeGrid {
 }
 
 impl ProbeGrid {
+    /// The fraction of distance texel `t`'s rays (index into `hits`) that hit geometry.
+    #[must_use]
+    pub fn hit_fraction(&self, t: usize) -> f32 {
+        hit_fraction(self.hits[t], self.depth_samples)
+    }
+
     pub fn active_cells(&self) -> usize {
         self.inside.iter().filter(|x| !**x).count()
     }
@@ -95,13 +103,20 @@ pub struct GridSettings {
     pub seed: u64,
 }
 
+/// The fraction `hits` of `samples` rays: the value the bake files store.
+#[must_use]
+pub fn hit_fraction(hits: u8, samples: u32) -> f32 {
+    f32::from(hits) / samples.max(1) as f32
+}
+
 /// One cell's bake: what a shard of a bake hands to the merge.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CellBake {
     pub irradiance: Vec<Vec3>,
     pub mean: Vec<f32>,
     pub mean_sq: Vec<f32>,
-    pub hit: Vec<f32>,
+    /// Rays per texel that hit geometry (of `depth_samples`).
+    pub hits: Vec<u8>,
     pub inside: bool,
     pub offset: Vec3,
     pub rays: u64,
@@ -114,17 +129,52 @@ impl CellBake {
         self.irradiance.len() == i2
             && self.mean.len() == d2
             && self.mean_sq.len() == d2
-            && self.hit.len() == d2
+            && self.hits.len() == d2
+            && self.hits.iter().all(|&h| u32::from(h) <= s.depth_samples)
             && self.irradiance.iter().all(|e| e.is_finite())
-            && self.mean.iter().chain(&self.mean_sq).chain(&self.hit).all(|x| x.is_finite())
+            && self.mean.iter().chain(&self.mean_sq).all(|x| x.is_finite())
             && self.offset.is_finite()
     }
 }
 
-/// Bakes every cell; returns the grid and the number of rays traced.
+/// Bakes every cell; returns the grid and the number of rays traced. Each cell writes its
+/// maps straight into the grid's arrays (no per-cell copies: the bake's memory is the grid's).
 pub fn bake_grid(renderer: &Renderer, s: &GridSettings, progress: &Progress) -> (ProbeGrid, u64) {
-    let baked = bake_cells(renderer, s, 0..s.geometry.cell_count(), progress);
-    assemble(s, baked)
+    let cells = s.geometry.cell_count();
+    let (i2, d2) = ((s.irradiance_resolution.pow(2)) as usize, (s.depth_resolution.pow(2)) as usize);
+    let mut grid = ProbeGrid {
+        geometry: s.geometry,
+        irradiance_resolution: s.irradiance_resolution,
+        depth_resolution: s.depth_resolution,
+        depth_samples: s.depth_samples,
+        irradiance: vec![Vec3::ZERO; cells * i2],
+        depth_mean: vec![0.0; cells * d2],
+        depth_mean_sq: vec![0.0; cells * d2],
+        hits: vec![0; cells * d2],
+        inside: vec![false; cells],
+        probe_offset: vec![Vec3::ZERO; cells],
+        far_distance: s.far_distance,
+    };
+    let tables = CellTables::new(s);
+    let bar = progress.bar(cells as u64, "grid cells");
+    let rays = grid
+        .irradiance
+        .par_chunks_mut(i2)
+        .zip(grid.depth_mean.par_chunks_mut(d2))
+        .zip(grid.depth_mean_sq.par_chunks_mut(d2))
+        .zip(grid.hits.par_chunks_mut(d2))
+        .zip(grid.inside.par_iter_mut())
+        .zip(grid.probe_offset.par_iter_mut())
+        .enumerate()
+        .map(|(cell, (((((irradiance, mean), mean_sq), hits), inside), offset))| {
+            let rest = bake_cell(renderer, s, cell, &tables, CellMaps { irradiance, mean, mean_sq, hits });
+            (*inside, *offset) = (rest.inside, rest.offset);
+            bar.inc(1);
+            rest.rays
+        })
+        .sum();
+    bar.finish_and_clear();
+    (grid, rays)
 }
 
 /// Bakes the cells `cells`, in order (each cell on its own streams: any split bakes the
@@ -135,17 +185,19 @@ pub fn bake_cells(
     cells: std::ops::Range<usize>,
     progress: &Progress,
 ) -> Vec<CellBake> {
-    let dres = s.depth_resolution;
-    let ires = s.irradiance_resolution;
-    let depth_omega = texel_solid_angles(dres);
-    let irr_normals: Vec<Vec3> = (0..ires * ires).map(|t| octa::texel_dir(ires, t % ires, t / ires)).collect();
+    let (i2, d2) = ((s.irradiance_resolution.pow(2)) as usize, (s.depth_resolution.pow(2)) as usize);
+    let tables = CellTables::new(s);
     let bar = progress.bar(cells.len() as u64, "grid cells");
     let baked: Vec<CellBake> = cells
         .into_par_iter()
         .map(|cell| {
-            let r = bake_cell(renderer, s, cell, &depth_omega, &irr_normals);
+            let (mut irradiance, mut mean, mut mean_sq, mut hits) =
+                (vec![Vec3::ZERO; i2], vec![0.0; d2], vec![0.0; d2], vec![0; d2]);
+            let maps =
+                CellMaps { irradiance: &mut irradiance, mean: &mut mean, mean_sq: &mut mean_sq, hits: &mut hits };
+            let CellRest { inside, offset, rays } = bake_cell(renderer, s, cell, &tables, maps);
             bar.inc(1);
-            r
+            CellBake { irradiance, mean, mean_sq, hits, inside, offset, rays }
         })
         .collect();
     bar.finish_and_clear();
@@ -164,7 +216,7 @@ pub fn assemble(s: &GridSettings, baked: Vec<CellBake>) -> (ProbeGrid, u64) {
         irradiance: Vec::with_capacity(cells * (ires * ires) as usize),
         depth_mean: Vec::with_capacity(cells * (dres * dres) as usize),
         depth_mean_sq: Vec::with_capacity(cells * (dres * dres) as usize),
-        hit_fraction: Vec::with_capacity(cells * (dres * dres) as usize),
+        hits: Vec::with_capacity(cells * (dres * dres) as usize),
         inside: Vec::with_capacity(cells),
         probe_offset: Vec::with_capacity(cells),
         far_distance: s.far_distance,
@@ -174,7 +226,7 @@ pub fn assemble(s: &GridSettings, baked: Vec<CellBake>) -> (ProbeGrid, u64) {
         grid.irradiance.extend(c.irradiance);
         grid.depth_mean.extend(c.mean);
         grid.depth_mean_sq.extend(c.mean_sq);
-        grid.hit_fraction.extend(c.hit);
+        grid.hits.extend(c.hits);
         grid.inside.push(c.inside);
         grid.probe_offset.push(c.offset);
         rays += c.rays;
@@ -182,37 +234,62 @@ pub fn assemble(s: &GridSettings, baked: Vec<CellBake>) -> (ProbeGrid, u64) {
     (grid, rays)
 }
 
-fn bake_cell(
-    renderer: &Renderer,
-    s: &GridSettings,
-    cell: usize,
-    depth_omega: &[f32],
-    irr_normals: &[Vec3],
-) -> CellBake {
+/// What every cell's bake shares: the depth texels' solid angles and the irradiance texels'
+/// normals.
+struct CellTables {
+    depth_omega: Vec<f32>,
+    irr_normals: Vec<Vec3>,
+}
+
+impl CellTables {
+    fn new(s: &GridSettings) -> CellTables {
+        let ires = s.irradiance_resolution;
+        CellTables {
+            depth_omega: texel_solid_angles(s.depth_resolution),
+            irr_normals: (0..ires * ires).map(|t| octa::texel_dir(ires, t % ires, t / ires)).collect(),
+        }
+    }
+}
+
+/// One cell's maps, written in place (zeroed on entry): its slices of the grid's arrays, or a
+/// [`CellBake`]'s.
+struct CellMaps<'a> {
+    irradiance: &'a mut [Vec3],
+    mean: &'a mut [f32],
+    mean_sq: &'a mut [f32],
+    hits: &'a mut [u8],
+}
+
+/// The rest of a cell's bake.
+struct CellRest {
+    inside: bool,
+    offset: Vec3,
+    rays: u64,
+}
+
+fn bake_cell(renderer: &Renderer, s: &GridSettings, cell: usize, tables: &CellTables, maps: CellMaps) -> CellRest {
+    let CellTables { depth_omega, irr_normals } = tables;
+    let CellMaps { irradiance, mean, mean_sq, hits: hit_counts } = maps;
     let dres = s.depth_resolution;
     let cell_stream = hash_pair(DOMAIN_GRID, cell as u64);
     let mut rays = 0u64;
     let offset = relocate(renderer, s, cell, &mut rays);
     let centre = s.geometry.cell_centre(cell) + offset;
-    let mut irradiance = vec![Vec3::ZERO; irr_normals.len()];
     let mut cosine_sum = vec![0.0f32; irr_normals.len()];
-    let mut mean = Vec::with_capacity((dres * dres) as usize);
-    let mut mean_sq = Vec::with_capacity((dres * dres) as usize);
-    let mut hit = Vec::with_capacity((dres * dres) as usize);
     let mut backfaces = crate::trace::truth::Backfaces::default();
     let spp = s.depth_samples;
     for t in 0..dres * dres {
         let (i, j) = (t % dres, t / dres);
         let stream = hash_pair(cell_stream, t as u64);
         let weight = depth_omega[t as usize] / spp as f32;
-        let (mut d1, mut d2, mut hits) = (0.0f64, 0.0f64, 0u32);
+        let (mut d1, mut d2, mut hits) = (0.0f64, 0.0f64, 0u8);
         for k in 0..spp {
             let mut sampler = Sampler::new(s.seed, stream, k);
             let uv = (Vec2::new(i as f32, j as f32) + sampler.next_2d()) / dres as f32;
             let dir = octa::decode(uv);
             let r = renderer.sample(centre, dir, &mut sampler, &mut rays);
             let d = if r.distance.is_finite() {
-                hits += 1;
+                hits = hits.saturating_add(1); // depth_samples ≤ 255 (scene validation)
                 r.distance.min(s.far_distance)
             } else {
                 s.far_distance
@@ -228,9 +305,9 @@ fn bake_cell(
                 }
             }
         }
-        mean.push((d1 / spp as f64) as f32);
-        mean_sq.push((d2 / spp as f64) as f32);
-        hit.push(hits as f32 / spp as f32);
+        mean[t as usize] = (d1 / spp as f64) as f32;
+        mean_sq[t as usize] = (d2 / spp as f64) as f32;
+        hit_counts[t as usize] = hits;
     }
     // Ratio estimator: normalise by the quadrature of ∫cos = π itself, which makes a constant
     // environment exact and removes the quadrature's bias elsewhere.
@@ -240,7 +317,7 @@ fn bake_cell(
     let inside = crate::trace::truth::inside_by_backfaces(backfaces, s.inside_backface_fraction);
     // a probe the bake's own rays find inside is dropped: it keeps no offset
     let offset = if inside { Vec3::ZERO } else { offset };
-    CellBake { irradiance, mean, mean_sq, hit, inside, offset, rays }
+    CellRest { inside, offset, rays }
 }
 
 /// Directions of the clearance test: a Fibonacci sphere (the same for every candidate).

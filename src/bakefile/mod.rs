@@ -9,6 +9,7 @@
 
 pub mod manifest;
 
+use crate::bake::grid::hit_fraction;
 use crate::bake::{Bake, GridGeometry, ProbeGrid, SpecularProbe};
 use crate::files::{FileError, write_json};
 use crate::gridfile::exr::{self, ExrLayer, Samples};
@@ -64,7 +65,7 @@ pub fn grid_layers(g: &ProbeGrid) -> Vec<ExrLayer<Samples<'_>>> {
             channels: vec![
                 ("mean".into(), depth(&g.depth_mean)),
                 ("mean_sq".into(), depth(&g.depth_mean_sq)),
-                ("hit".into(), depth(&g.hit_fraction)),
+                ("hit".into(), atlas_channel(geo, dr, &g.hits, move |h| hit_fraction(h, g.depth_samples))),
             ],
         },
     ]
@@ -216,6 +217,24 @@ fn finite_rgb(l: &ExrLayer, path: &Path) -> Result<Vec<Vec3>, FileError> {
     Ok(v)
 }
 
+/// Each texel's hit count from its stored fraction of `samples` rays: a fraction that is
+/// not exactly a count's (as the bake writes them) is an error.
+fn hit_counts(fractions: &[f32], samples: u32, path: &Path) -> Result<Vec<u8>, FileError> {
+    let bad =
+        |field: &str, message: String| FileError::Invalid { path: path.to_path_buf(), field: field.into(), message };
+    fractions
+        .iter()
+        .enumerate()
+        .map(|(k, &f)| {
+            let n = (f * samples as f32).round();
+            match (0.0..=samples as f32).contains(&n).then_some(n as u8) {
+                Some(h) if hit_fraction(h, samples).to_bits() == f.to_bits() => Ok(h),
+                _ => Err(bad("depth_moments.hit", format!("texel {k}: {f} is not a count of {samples} rays"))),
+            }
+        })
+        .collect()
+}
+
 /// The content key a bake folder's manifest records, if it has a readable one.
 #[must_use]
 pub fn manifest_key(dir: &Path) -> Option<String> {
@@ -280,6 +299,14 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
         max: Vec3::from_array(m.grid.max),
         counts: UVec3::from_array(m.grid.counts),
     };
+    let max = crate::scene::MAX_DEPTH_SAMPLES;
+    if !(1..=max).contains(&m.grid.depth_samples) {
+        return Err(FileError::Invalid {
+            path: mpath.clone(),
+            field: "grid.depth_samples".into(),
+            message: format!("must be in 1..={max}, got {}", m.grid.depth_samples),
+        });
+    }
     let (ir, dr) = (m.grid.irradiance_resolution, m.grid.depth_resolution);
     let c = geometry.counts;
     let irr_size = ((c.x * ir) as usize, (c.y * c.z * ir) as usize);
@@ -310,7 +337,7 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
     };
     let depth_mean = moment("mean")?;
     let depth_mean_sq = moment("mean_sq")?;
-    let hit_fraction = moment("hit")?;
+    let hits = hit_counts(&moment("hit")?, m.grid.depth_samples, &gpath)?;
     drop(layers);
     let mut inside = vec![false; geometry.cell_count()];
     for &k in &m.grid.inside_cells {
@@ -338,7 +365,7 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
         irradiance,
         depth_mean,
         depth_mean_sq,
-        hit_fraction,
+        hits,
         inside,
         probe_offset,
         far_distance: m.grid.far_distance,

@@ -202,18 +202,13 @@ pub struct PointRanges {
     pub check: std::ops::Range<usize>,
 }
 
-/// A point's traced irradiance reference and the rays it took.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Traced {
-    pub reference: Vec3,
-    pub rays: u64,
-}
-
-/// The traced references of the points of some [`PointRanges`], in point order.
+/// The traced irradiance references of the points of some [`PointRanges`], in point order,
+/// and the rays they took.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct References {
-    pub train: Vec<Traced>,
-    pub check: Vec<Traced>,
+    pub train: Vec<Vec3>,
+    pub check: Vec<Vec3>,
+    pub rays: u64,
 }
 
 impl References {
@@ -221,6 +216,7 @@ impl References {
     pub fn append(&mut self, mut next: References) {
         self.train.append(&mut next.train);
         self.check.append(&mut next.check);
+        self.rays += next.rays;
     }
 }
 
@@ -258,22 +254,24 @@ impl SurfacePoints {
 /// stream, so any split traces the same values).
 pub fn trace_references(baked: Baked, points: &SurfacePoints, seed: u64, ranges: &PointRanges) -> References {
     let renderer = Renderer::new(baked.scene, baked.tracer);
-    let trace = |pts: &[(Vec3, Vec3)], first: usize, tag: u64| -> Vec<Traced> {
-        pts.par_iter()
+    let trace = |pts: &[(Vec3, Vec3)], first: usize, tag: u64| -> (Vec<Vec3>, u64) {
+        let traced: Vec<(Vec3, u64)> = pts
+            .par_iter()
             .enumerate()
             .map(|(i, &(p, n))| {
                 let mut rays = 0;
                 let stream = hash_pair(hash_pair(DOMAIN_FIT, tag), (first + i) as u64);
                 let (reference, _) =
                     truth::irradiance_reference(&renderer, p, n, SPP, |k| Sampler::new(seed, stream, k), &mut rays);
-                Traced { reference, rays }
+                (reference, rays)
             })
-            .collect()
+            .collect();
+        let rays = traced.iter().map(|t| t.1).sum();
+        (traced.into_iter().map(|t| t.0).collect(), rays)
     };
-    References {
-        train: trace(&points.train[ranges.train.clone()], ranges.train.start, 0x1C),
-        check: trace(&points.check[ranges.check.clone()], ranges.check.start, 0x1D),
-    }
+    let (train, train_rays) = trace(&points.train[ranges.train.clone()], ranges.train.start, 0x1C);
+    let (check, check_rays) = trace(&points.check[ranges.check.clone()], ranges.check.start, 0x1D);
+    References { train, check, rays: train_rays + check_rays }
 }
 
 /// Fits the diffuse correctives of `grid` (irradiance without corrections) for the baked
@@ -295,7 +293,7 @@ pub fn fit_from_references(
     references: References,
 ) -> IrradianceFit {
     let t0 = std::time::Instant::now();
-    let reference_rays = references.train.iter().chain(&references.check).map(|t| t.rays).sum();
+    let reference_rays = references.rays;
     let mut bias_trials = Vec::new();
     let mut fits = Vec::new();
     for &bias in &SURFACE_BIASES {
@@ -452,11 +450,11 @@ fn fit_at_bias(
     bias: f32,
 ) -> ((IrradianceCorrection, Vec<IrradianceCellFit>), BiasTrial) {
     let g = grid.geometry;
-    let point = |pts: &[(Vec3, Vec3)], refs: &[Traced], k: usize| {
+    let point = |pts: &[(Vec3, Vec3)], refs: &[Vec3], k: usize| {
         let (p, n) = pts[k];
         Point {
             terms: grid.biased_terms(p, n, bias),
-            reference: refs[k].reference,
+            reference: refs[k],
             taps: octa::bilinear_taps(CORRECTION_RES, octa::encode(n)),
         }
     };
@@ -546,7 +544,7 @@ fn fit_at_bias(
     // the whole field's errors on every training and check point: the blend as it is and
     // with the stored maps (each point's error where its own bucket comes, summed in point
     // order)
-    let field_rmse = |layering: &Layering, pts: &[(Vec3, Vec3)], refs: &[Traced], maps: &Maps| {
+    let field_rmse = |layering: &Layering, pts: &[(Vec3, Vec3)], refs: &[Vec3], maps: &Maps| {
         let mut e = vec![0.0f64; pts.len()];
         layering.visit(|k| point(pts, refs, k), |_, _, own| point_errors(&mut e, own, maps, exposure));
         root_mean(&e)

@@ -223,13 +223,45 @@ pub enum Start {
     Proxy,
 }
 
-/// A fitted grid: the correctives plus what happened in every cell.
-pub struct Fit {
-    pub correctives: Correctives,
+/// The map sets a fit keeps beside the stored ones.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MapSets {
+    /// The stored maps alone: what a grid is written from (`warpfit fit`, a merge of shards).
+    #[default]
+    Stored,
+    /// Also [`UnfittedMaps`]: the evaluation's rows for them (`warpfit run`).
+    WithUnfitted,
+}
+
+/// Map sets an evaluation compares with the stored model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UnfittedMaps {
     /// The maps of the grid's raytraced distances, unfitted, in every active cell: `celldepth`.
     pub celldepth: Correctives,
     /// The fitted map of every active cell, before model selection (level 2 everywhere).
     pub fitted_all: Correctives,
+}
+
+impl UnfittedMaps {
+    /// The two sets of the outcomes `results` (cells of `geometry`'s grid, maps of `proxy`).
+    fn of(geometry: GridGeometry, map_res: u32, proxy: Method, results: &[CellOutcome]) -> UnfittedMaps {
+        let set = |map: fn(&CellOutcome) -> &[f32]| {
+            let mut c = Correctives::new(geometry, map_res, vec![NO_MAP; geometry.cell_count()], Vec::new(), proxy);
+            for (k, r) in results.iter().enumerate() {
+                c.slot[r.fit.cell as usize] = k as u32;
+                c.maps.extend_from_slice(map(r));
+            }
+            c
+        };
+        UnfittedMaps { celldepth: set(|r| &r.init), fitted_all: set(|r| &r.fitted) }
+    }
+}
+
+/// A fitted grid: the correctives plus what happened in every cell.
+pub struct Fit {
+    pub correctives: Correctives,
+    /// The unfitted map sets, when the fit was asked to keep them ([`MapSets`]).
+    pub unfitted: Option<UnfittedMaps>,
     pub cells: Vec<CellFit>,
     /// The roughness correction chosen on this scene (`roughness::fit_scene_correction`):
     /// absent when the fit was given none to start from.
@@ -385,21 +417,29 @@ pub struct CellOutcome {
 ///
 /// The same as [`fit_cells`] over [`active_cells`], the irradiance references of
 /// [`irradiance::trace_references`] over all points, and [`assemble`]: the path a sharded
-/// fit takes, so that a merged fit is the same fit.
-pub fn fit(baked: Baked, glossy: Glossy, s: &FitSettings, progress: &Progress) -> Fit {
+/// fit takes, so that a merged fit is the same fit. `sets`: the map sets kept beside the
+/// stored ones. The diffuse correctives come first (they need nothing of the cells'), so
+/// their surface points and references are gone before the cells' results accumulate.
+pub fn fit(baked: Baked, glossy: Glossy, s: &FitSettings, sets: MapSets, progress: &Progress) -> Fit {
     let t0 = Instant::now();
-    let proxy = proxy::choose(baked, glossy, s);
-    let cells = fit_cells(baked, glossy, s, proxy.method, &active_cells(baked.grid), progress);
-    let t_cells = t0.elapsed().as_secs_f64();
     let points = irradiance::SurfacePoints::draw(baked, s.seed);
     let t_points = t0.elapsed().as_secs_f64();
-    let all = points.all();
-    let references = irradiance::trace_references(baked, &points, s.seed, &all);
+    let references = irradiance::trace_references(baked, &points, s.seed, &points.all());
     let t_references = t0.elapsed().as_secs_f64();
-    let mut f = assemble(baked, glossy, s, proxy, cells, &points, references);
-    f.times.cells = t_cells;
-    f.times.surface_points = t_points - t_cells;
+    let diffuse = fit_diffuse(baked, glossy, &points, references);
+    drop(points);
+    let t_diffuse = t0.elapsed().as_secs_f64();
+    let proxy = proxy::choose(baked, glossy, s);
+    let cells = fit_cells(baked, glossy, s, proxy.method, &active_cells(baked.grid), progress);
+    let unfitted =
+        (sets == MapSets::WithUnfitted).then(|| UnfittedMaps::of(baked.grid.geometry, s.map_res, proxy.method, &cells));
+    let t_cells = t0.elapsed().as_secs_f64();
+    let mut f = assemble_cells(baked, glossy, s, proxy, cells, diffuse);
+    f.unfitted = unfitted;
+    f.times.surface_points = t_points;
     f.times.irradiance_references = t_references - t_points;
+    f.times.irradiance_fit = t_diffuse - t_references;
+    f.times.cells = t_cells - t_diffuse;
     f.seconds = t0.elapsed().as_secs_f64();
     f
 }
@@ -443,7 +483,8 @@ pub fn fit_cells(
             let distance = model::celldepth_distances(
                 grid.depth_resolution,
                 &grid.depth_mean[cell * d2..(cell + 1) * d2],
-                &grid.hit_fraction[cell * d2..(cell + 1) * d2],
+                &grid.hits[cell * d2..(cell + 1) * d2],
+                grid.depth_samples,
                 grid.far_distance,
                 s.map_res,
             );
@@ -522,9 +563,9 @@ pub fn fit_cells(
 }
 
 /// Makes a fit of the outcomes of every active cell (in cell order), fitted for `proxy`,
-/// and the irradiance references of every surface point: the grid-wide steps. Selects each
-/// cell's model, fits the scene's roughness correction for the maps as stored and the
-/// diffuse correctives.
+/// and the irradiance references of every surface point: the grid-wide steps. Fits the
+/// diffuse correctives, selects each cell's model and fits the scene's roughness correction
+/// for the maps as stored.
 pub fn assemble(
     baked: Baked,
     glossy: Glossy,
@@ -535,19 +576,47 @@ pub fn assemble(
     references: irradiance::References,
 ) -> Fit {
     let t0 = Instant::now();
+    let diffuse = fit_diffuse(baked, glossy, points, references);
+    let irradiance_fit = t0.elapsed().as_secs_f64();
+    let mut f = assemble_cells(baked, glossy, s, proxy, results, diffuse);
+    f.times.irradiance_fit = irradiance_fit;
+    f.seconds = t0.elapsed().as_secs_f64();
+    f
+}
+
+/// The diffuse correctives of a bake, against its irradiance (read in place), from the
+/// surface points and their references.
+fn fit_diffuse(
+    baked: Baked,
+    glossy: Glossy,
+    points: &irradiance::SurfacePoints,
+    references: irradiance::References,
+) -> irradiance::IrradianceFit {
+    let slots = baked.grid.dense_slots();
+    irradiance::fit_from_references(baked.grid.irradiance_view(&slots), exposure_of(glossy.warp), points, references)
+}
+
+/// The cells' part of [`assemble`]: each cell's model selected, the scene's roughness
+/// correction fitted for the maps as stored; `irradiance` the diffuse correctives.
+fn assemble_cells(
+    baked: Baked,
+    glossy: Glossy,
+    s: &FitSettings,
+    proxy: proxy::ProxyOutcome,
+    results: Vec<CellOutcome>,
+    irradiance: irradiance::IrradianceFit,
+) -> Fit {
+    let t0 = Instant::now();
     let grid = baked.grid;
     let warp = glossy.warp;
-    let exposure = exposure_of(warp);
     let rough_fraction = rough_fraction(&glossy, s);
     let g = grid.geometry;
     let n2 = (s.map_res * s.map_res) as usize;
 
     let mut correctives = Correctives::new(g, s.map_res, vec![NO_MAP; g.cell_count()], Vec::new(), proxy.method);
-    let mut celldepth = correctives.clone();
-    let mut fitted_all = correctives.clone();
     let mut cells = Vec::with_capacity(results.len());
     let mut reference_rays = 0;
-    for CellOutcome { mut fit, fitted, init, sees_only_sky, rays } in results {
+    for CellOutcome { mut fit, fitted, sees_only_sky, rays, .. } in results {
         let cell = fit.cell as usize;
         fit.selection = if sees_only_sky {
             Selection::SeesOnlySky
@@ -555,10 +624,6 @@ pub fn assemble(
             choose_level(fit.check_err_fallback, fit.check_err_fitted, s.tol as f64, s.selection_margin)
         };
         fit.level = fit.selection.level();
-        celldepth.slot[cell] = (celldepth.maps.len() / n2) as u32;
-        celldepth.maps.extend_from_slice(&init);
-        fitted_all.slot[cell] = (fitted_all.maps.len() / n2) as u32;
-        fitted_all.maps.extend_from_slice(&fitted);
         if fit.level == Level::Map {
             correctives.slot[cell] = (correctives.maps.len() / n2) as u32;
             correctives.maps.extend_from_slice(&fitted);
@@ -575,23 +640,17 @@ pub fn assemble(
         .filter(|_| rough_fraction > 0.0)
         .map(|lobe| roughness::fit_scene_correction(baked, warp, &correctives, lobe, s));
     let roughness_s = t_roughness.elapsed().as_secs_f64();
-    // the diffuse correctives, against the bake's irradiance (read in place)
-    let t_irradiance = Instant::now();
-    let slots = grid.dense_slots();
-    let irradiance = irradiance::fit_from_references(grid.irradiance_view(&slots), exposure, points, references);
-    let irradiance_fit = t_irradiance.elapsed().as_secs_f64();
     let reference_rays = reference_rays + irradiance.reference_rays;
     Fit {
         correctives,
-        celldepth,
-        fitted_all,
+        unfitted: None,
         cells,
         roughness,
         irradiance,
         proxy,
         settings: s.clone(),
         seconds: t0.elapsed().as_secs_f64(),
-        times: FitTimes { cells_cpu, cells_tracing_cpu, roughness: roughness_s, irradiance_fit, ..FitTimes::default() },
+        times: FitTimes { cells_cpu, cells_tracing_cpu, roughness: roughness_s, ..FitTimes::default() },
         reference_rays,
     }
 }

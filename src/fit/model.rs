@@ -6,13 +6,22 @@ use crate::octa::OctMap;
 
 /// Per texel of a `map_res`² map, the distance a cell's probe saw, from the grid's distance
 /// moments: the mean hit distance (misses removed from the mean), reduced to `map_res` by
-/// averaging inverse distance; +inf where most rays missed (sky).
+/// averaging inverse distance; +inf where most rays missed (sky). `hits` counts each
+/// texel's rays that hit, of `samples`.
 #[must_use]
-pub fn celldepth_distances(depth_res: u32, mean: &[f32], hit: &[f32], far: f32, map_res: u32) -> Vec<f32> {
+pub fn celldepth_distances(
+    depth_res: u32,
+    mean: &[f32],
+    hits: &[u8],
+    samples: u32,
+    far: f32,
+    map_res: u32,
+) -> Vec<f32> {
     let inv: Vec<f32> = mean
         .iter()
-        .zip(hit)
-        .map(|(&m, &h)| {
+        .zip(hits)
+        .map(|(&m, &n)| {
+            let h = crate::bake::grid::hit_fraction(n, samples);
             if h < 0.5 {
                 return 0.0;
             }

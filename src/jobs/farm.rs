@@ -515,6 +515,9 @@ fn gather_fit(
         if part.references.train.len() != ranges.train.len() || part.references.check.len() != ranges.check.len() {
             return Err(FileError::invalid(path, "references", "not as many as its surface points"));
         }
+        if !part.references.train.iter().chain(&part.references.check).all(|r| r.is_finite()) {
+            return Err(FileError::invalid(path, "references", "a reference that is not finite"));
+        }
         cells.extend(part.cells);
         references.append(part.references);
     }

@@ -9,6 +9,7 @@ use crate::bake::{self, Bake, ProbeGrid, SpecularProbe};
 use crate::bakefile;
 use crate::eval::{self, CorrectiveRow, CorrectiveVariant, EvalReport, EvalSettings};
 use crate::files::FileError;
+use crate::fit::MapSets;
 use crate::fit::{Fit, FitSettings};
 use crate::gridfile::write::{GridContents, IrradianceSource, ProbeData, Provenance};
 use crate::gridfile::{GridManifest, Precision};
@@ -226,19 +227,20 @@ impl Transaction {
 }
 
 /// Fits the correctives of every active cell and writes the fitted grid (manifest.json +
-/// EXR payloads) and the fit's diagnostics into `folder`.
+/// EXR payloads) and the fit's diagnostics into `folder`; `sets`: the map sets the returned
+/// fit keeps beside the stored ones.
 pub fn fit(
     baked: Baked,
     warp: &Warp,
     settings: &FitSettings,
-    store: StoreOptions,
+    (store, sets): (StoreOptions, MapSets),
     out: Output,
 ) -> Result<(Fit, GridManifest), FileError> {
     // rough queries are fitted with the analytic-lobe correction; the fit then chooses the
     // correction the grid stores (lobes or fitted to this scene)
     let lobes = fit_lobes(baked);
     let glossy = Glossy { warp, correction: lobes.as_ref() };
-    let fitted = crate::fit::fit(baked, glossy, settings, out.progress);
+    let fitted = crate::fit::fit(baked, glossy, settings, sets, out.progress);
     let manifest = write_fit(baked, warp, &fitted, store, out)?;
     Ok((fitted, manifest))
 }
@@ -312,16 +314,17 @@ pub fn provenance(f: &Fit) -> Provenance {
 }
 
 /// The corrective rows of a fit, in table order.
+/// (`celldepth` and `fitted-L2-all` only when the fit kept its unfitted map sets).
 pub fn corrective_rows(f: &Fit) -> Vec<CorrectiveRow<'_>> {
     CorrectiveVariant::ALL
         .iter()
-        .map(|&variant| {
+        .filter_map(|&variant| {
             let correctives = match variant {
-                CorrectiveVariant::Celldepth => &f.celldepth,
+                CorrectiveVariant::Celldepth => &f.unfitted.as_ref()?.celldepth,
                 CorrectiveVariant::Fitted | CorrectiveVariant::FittedTrilinear => &f.correctives,
-                CorrectiveVariant::FittedL2All => &f.fitted_all,
+                CorrectiveVariant::FittedL2All => &f.unfitted.as_ref()?.fitted_all,
             };
-            CorrectiveRow { variant, correctives }
+            Some(CorrectiveRow { variant, correctives })
         })
         .collect()
 }
@@ -378,7 +381,8 @@ pub struct RunOutcome {
 pub fn run(p: &Prepared, s: &RunSettings, command: &str, progress: &Progress) -> Result<RunOutcome, FileError> {
     let out = Output { folder: &p.folder, command, progress };
     let warp = p.baked().warp(s.eval.options);
-    let (fit, manifest) = fit(p.baked(), &warp, &s.fit, s.store, out)?;
+    // the evaluation compares the stored model with the unfitted map sets
+    let (fit, manifest) = fit(p.baked(), &warp, &s.fit, (s.store, MapSets::WithUnfitted), out)?;
     let eval = evaluate(p.baked(), &warp, &s.eval, &Method::ALL, Some(&fit), out)?;
     report::page::write_report(&p.folder, command)?;
     Ok(RunOutcome { fit, manifest, eval })

@@ -100,7 +100,7 @@ pub struct GridConfig {
     /// N of each cell's N×N distance-moment map, 8..=16. Default 16.
     #[serde(default = "default_depth_res")]
     pub depth_resolution: u32,
-    /// Rays per distance texel (stratified inside the texel). Default 4.
+    /// Rays per distance texel (stratified inside the texel), 1..=255. Default 4.
     #[serde(default = "default_depth_spp")]
     pub depth_samples: u32,
     /// A cell is inside geometry when more than this fraction of its rays hit back faces.

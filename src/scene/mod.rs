@@ -196,6 +196,9 @@ pub const MAX_COORDINATE: f32 = 1e12;
 pub const MAX_RADIANCE_INPUT: f32 = 1e9;
 /// Largest sample count of any kind.
 pub const MAX_SAMPLES: u32 = 1 << 16;
+/// Largest `grid.depth_samples`: a distance texel's hit count is kept in a byte (the grid's
+/// memory per cell; 255 rays per texel is far past what a distance texel needs).
+pub const MAX_DEPTH_SAMPLES: u32 = u8::MAX as u32;
 /// Largest scene file.
 pub const MAX_SCENE_FILE_BYTES: u64 = 64 << 20;
 
@@ -419,13 +422,13 @@ fn validate_settings(f: &SceneFile, path: &Path) -> Result<(), SceneError> {
     if !(16..=2048).contains(&r) || !r.is_power_of_two() {
         return Err(invalid(path, "probe.resolution", format!("must be a power of two in 16..=2048, got {r}")));
     }
-    for (field, n) in [
-        ("probe.samples_per_texel", f.probe.samples_per_texel),
-        ("probe.ggx_samples", f.probe.ggx_samples),
-        ("grid.depth_samples", f.grid.depth_samples),
+    for (field, n, max) in [
+        ("probe.samples_per_texel", f.probe.samples_per_texel, MAX_SAMPLES),
+        ("probe.ggx_samples", f.probe.ggx_samples, MAX_SAMPLES),
+        ("grid.depth_samples", f.grid.depth_samples, MAX_DEPTH_SAMPLES),
     ] {
-        if !(1..=MAX_SAMPLES).contains(&n) {
-            return Err(invalid(path, field, format!("must be in 1..={MAX_SAMPLES}, got {n}")));
+        if !(1..=max).contains(&n) {
+            return Err(invalid(path, field, format!("must be in 1..={max}, got {n}")));
         }
     }
     let m = f.probe.min_mip_resolution;

@@ -96,7 +96,14 @@ impl SmallTorture {
         let b = job::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
         let warp = b.warp(warpfit::warp::WarpOptions::standard());
         let out = Output { folder: &warpfit::report::folder::RunFolder::new(dir), command: "test", progress: &quiet };
-        let (fit, _) = job::fit(b, &warp, &warpfit::fit::FitSettings::quick(), StoreOptions::default(), out).unwrap();
+        let (fit, _) = job::fit(
+            b,
+            &warp,
+            &warpfit::fit::FitSettings::quick(),
+            (StoreOptions::default(), warpfit::fit::MapSets::WithUnfitted),
+            out,
+        )
+        .unwrap();
         SmallTorture { scene, tracer, probe, grid, fit, warp }
     }
 

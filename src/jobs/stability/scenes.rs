@@ -5,6 +5,7 @@
 use super::Mode;
 use crate::bake::{self, Bake};
 use crate::fit::FitSettings;
+use crate::fit::MapSets;
 use crate::jobs::run::{self, Baked, Output, StoreOptions};
 use crate::progress::Progress;
 use crate::report::folder::RunFolder;
@@ -254,8 +255,8 @@ impl Fixture {
         let dir = TempDir::new(&self.scene.name);
         let folder = RunFolder::new(&dir.0);
         let out = Output { folder: &folder, command: "warpfit stability", progress: &Progress::quiet() };
-        let (fit, _) =
-            run::fit(self.baked(), &self.warp, &fit_settings(mode), store, out).map_err(|e| e.to_string())?;
+        let (fit, _) = run::fit(self.baked(), &self.warp, &fit_settings(mode), (store, MapSets::Stored), out)
+            .map_err(|e| e.to_string())?;
         let g = FittedGrid::load(&dir.0).map_err(|e| e.to_string())?;
         Ok((fit, g, dir))
     }
