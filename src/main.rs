@@ -792,7 +792,7 @@ fn run(cli: Cli) -> Result<()> {
             let (p, tx, folder) = prepare(&scene, &progress)?;
             let warp = p.baked().warp(WarpOptions::standard());
             let out = Output { folder: &p.folder, command: &command, progress: &progress };
-            let (f, manifest) = job::fit(p.baked(), &warp, &settings, (fit.store(), MapSets::Stored), out)?;
+            let (f, manifest) = job::fit(p.baked(), &warp, &settings, fit.store(), MapSets::Stored, out)?;
             let lines = FitLines::of(&f);
             // the written grid loads back before it is committed: without the fit, the
             // probe and the bake beside it (the peak of a big level's fit)

@@ -138,7 +138,7 @@ fn hit_counts_are_read_back_as_counts() {
     std::fs::write(dir.join("manifest.json"), &m).unwrap();
     let (_, _, grid) = bakefile::read_bake(&dir).unwrap();
     assert_eq!(grid.hits, baked.grid.hits);
-    assert_eq!(grid.hit_fraction(0), f32::from(grid.hits[0]) / 2.0);
+    assert_eq!(warpfit::bake::grid::hit_fraction(grid.hits[0], grid.depth_samples), f32::from(grid.hits[0]) / 2.0);
 }
 
 #[test]

@@ -43,7 +43,7 @@ fn single(scene: &Scene, dir: &Path) {
     let j = job();
     let warp = p.baked().warp(j.options);
     let out = Output { folder: &p.folder, command: "test", progress: &progress };
-    run::fit(p.baked(), &warp, &j.fit, (j.store, warpfit::fit::MapSets::Stored), out).unwrap();
+    run::fit(p.baked(), &warp, &j.fit, j.store, warpfit::fit::MapSets::Stored, out).unwrap();
 }
 
 /// Bakes and fits `scene` in `n` shards into `dir`, merging each step.

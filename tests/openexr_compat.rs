@@ -45,7 +45,7 @@ fn bake_and_grid_files_open_in_the_reference_openexr_library() {
     let warp = b.warp(warpfit::warp::WarpOptions::standard());
     let store = StoreOptions { precision: Precision::F16, roughness: true };
     let out = Output { folder: &folder, command: "test", progress: &quiet };
-    let (fit, manifest) = job::fit(b, &warp, &FitSettings::quick(), (store, Default::default()), out).unwrap();
+    let (fit, manifest) = job::fit(b, &warp, &FitSettings::quick(), store, Default::default(), out).unwrap();
     assert!(fit.correctives.stored_cells() > 0, "the check needs a correctives.exr");
     let files = [
         folder.bake().join(bakefile::PROBE_FILE),

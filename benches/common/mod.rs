@@ -19,7 +19,15 @@ pub fn fitted_torture() -> PathBuf {
     let p = warpfit::jobs::run::prepare(scene, folder.clone(), &quiet).unwrap();
     let warp = p.baked().warp(warpfit::warp::WarpOptions::standard());
     let o = warpfit::jobs::run::Output { folder: &folder, command: "bench", progress: &quiet };
-    warpfit::jobs::run::fit(p.baked(), &warp, &warpfit::fit::FitSettings::standard(), Default::default(), o).unwrap();
+    warpfit::jobs::run::fit(
+        p.baked(),
+        &warp,
+        &warpfit::fit::FitSettings::standard(),
+        Default::default(),
+        Default::default(),
+        o,
+    )
+    .unwrap();
     out
 }
 

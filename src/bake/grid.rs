@@ -40,8 +40,7 @@ pub struct ProbeGrid {
     /// Mean squared distance per depth texel (same convention).
     pub depth_mean_sq: Vec<f32>,
     /// Rays of the texel (of `depth_samples`) that hit geometry: a byte, not the fraction
-    /// (a quarter of the memory; [`ProbeGrid::hit_fraction`] gives the fraction exactly as
-    /// the bake computed it).
+    /// (a quarter of the memory; [`hit_fraction`] gives the fraction the bake files store).
     pub hits: Vec<u8>,
     /// Cell probe inside geometry (too many back-face hits).
     pub inside: Vec<bool>,
@@ -52,12 +51,6 @@ pub struct ProbeGrid {
 }
 
 impl ProbeGrid {
-    /// The fraction of distance texel `t`'s rays (index into `hits`) that hit geometry.
-    #[must_use]
-    pub fn hit_fraction(&self, t: usize) -> f32 {
-        hit_fraction(self.hits[t], self.depth_samples)
-    }
-
     pub fn active_cells(&self) -> usize {
         self.inside.iter().filter(|x| !**x).count()
     }

@@ -13,6 +13,7 @@ use crate::bake::grid::hit_fraction;
 use crate::bake::{Bake, GridGeometry, ProbeGrid, SpecularProbe};
 use crate::files::{FileError, write_json};
 use crate::gridfile::exr::{self, ExrLayer, Samples};
+use crate::gridfile::schema::tile_major;
 use crate::gridfile::{distance_layer, probe_layers, radiance_layer};
 use crate::octa::{CONVENTION, OctMap, OctMips};
 use crate::scene::Scene;
@@ -33,15 +34,8 @@ fn atlas_channel<'a, T: Copy + Sync>(
     per_cell: &'a [T],
     value: impl Fn(T) -> f32 + Sync + 'a,
 ) -> Samples<'a> {
-    let (nx, r) = (g.counts.x as usize, res as usize);
-    Samples::Computed(Box::new(move |k| value(per_cell[atlas_to_cell(nx, r, k)])))
-}
-
-/// Where sample `k` (row-major) of an atlas `nx` tiles of `r²` wide lands in the per-cell
-/// maps, cell-major (the layout [`atlas_channel`] writes).
-fn atlas_to_cell(nx: usize, r: usize, k: usize) -> usize {
-    let (x, y) = (k % (nx * r), k / (nx * r));
-    (x / r + nx * (y / r)) * r * r + (y % r) * r + x % r
+    let nx = g.counts.x;
+    Samples::Computed(Box::new(move |k| value(per_cell[tile_major(k, res, nx)])))
 }
 
 /// The layers of `grid.exr`: the grid's per-cell maps as atlases, read in place.
@@ -220,8 +214,6 @@ fn finite_rgb(l: &ExrLayer, path: &Path) -> Result<Vec<Vec3>, FileError> {
 /// Each texel's hit count from its stored fraction of `samples` rays: a fraction that is
 /// not exactly a count's (as the bake writes them) is an error.
 fn hit_counts(fractions: &[f32], samples: u32, path: &Path) -> Result<Vec<u8>, FileError> {
-    let bad =
-        |field: &str, message: String| FileError::Invalid { path: path.to_path_buf(), field: field.into(), message };
     fractions
         .iter()
         .enumerate()
@@ -229,7 +221,11 @@ fn hit_counts(fractions: &[f32], samples: u32, path: &Path) -> Result<Vec<u8>, F
             let n = (f * samples as f32).round();
             match (0.0..=samples as f32).contains(&n).then_some(n as u8) {
                 Some(h) if hit_fraction(h, samples).to_bits() == f.to_bits() => Ok(h),
-                _ => Err(bad("depth_moments.hit", format!("texel {k}: {f} is not a count of {samples} rays"))),
+                _ => Err(FileError::invalid(
+                    path,
+                    "depth_moments.hit",
+                    format!("texel {k}: {f} is not a count of {samples} rays"),
+                )),
             }
         })
         .collect()
@@ -313,14 +309,14 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
     let dep_size = ((c.x * dr) as usize, (c.y * c.z * dr) as usize);
     // the atlases' tiles arrive as per-cell maps, cell-major, as they are decoded: a big
     // grid's bake is read with one copy of it in memory
-    let nx = c.x as usize;
+    let nx = c.x;
     let place = move |layer: &str, w: usize, h: usize| -> Option<exr::Placement> {
         let (r, size) = match layer {
-            "irradiance" => (ir as usize, irr_size),
-            "depth_moments" => (dr as usize, dep_size),
+            "irradiance" => (ir, irr_size),
+            "depth_moments" => (dr, dep_size),
             _ => return None,
         };
-        (size == (w, h)).then(|| -> exr::Placement { std::sync::Arc::new(move |k| atlas_to_cell(nx, r, k)) })
+        (size == (w, h)).then(|| -> exr::Placement { std::sync::Arc::new(move |k| tile_major(k, r, nx)) })
     };
     let mut layers = read_payload(dir, &m, GRID_FILE, place)?;
     find(&layers, &gpath, "depth_moments", dep_size)?;

@@ -415,11 +415,7 @@ pub(crate) fn read_listed_payload(
         expected.iter().filter_map(|l| Some((l.name.clone(), (l.width, l.height), l.tiles?))).collect();
     let place = move |name: &str, w: usize, h: usize| -> Option<exr::Placement> {
         let &(_, _, (res, columns)) = atlases.iter().find(|(n, size, _)| n == name && *size == (w, h))?;
-        let r2 = (res * res) as usize;
-        Some(std::sync::Arc::new(move |i| {
-            let (k, t) = atlas_texel(i, res, columns);
-            k * r2 + t
-        }))
+        Some(std::sync::Arc::new(move |i| tile_major(i, res, columns)))
     };
     let layers = exr::decode_placed(&path, f, place)?;
     for l in expected {

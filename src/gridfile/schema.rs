@@ -296,6 +296,15 @@ pub fn atlas_texel(i: usize, res: u32, columns: u32) -> (usize, usize) {
     ((y / r) * cols + x / r, (y % r) * r + x % r)
 }
 
+/// Where the atlas's linear index `i` lands with its tiles laid end to end (texel t of tile
+/// k at `k·res² + t`, the padding tiles last): the order per-cell maps are held in.
+#[inline]
+#[must_use]
+pub fn tile_major(i: usize, res: u32, columns: u32) -> usize {
+    let (k, t) = atlas_texel(i, res, columns);
+    k * (res * res) as usize + t
+}
+
 /// Bounds every stored value must keep (the writer clamps to them, the reader refuses
 /// beyond them): a hit nearer the cell centre or probe than a millionth of the grid's
 /// diagonal, a distance or moment beyond a million diagonals, and radiance above 1e12 are

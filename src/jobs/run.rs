@@ -233,7 +233,8 @@ pub fn fit(
     baked: Baked,
     warp: &Warp,
     settings: &FitSettings,
-    (store, sets): (StoreOptions, MapSets),
+    store: StoreOptions,
+    sets: MapSets,
     out: Output,
 ) -> Result<(Fit, GridManifest), FileError> {
     // rough queries are fitted with the analytic-lobe correction; the fit then chooses the
@@ -382,7 +383,7 @@ pub fn run(p: &Prepared, s: &RunSettings, command: &str, progress: &Progress) ->
     let out = Output { folder: &p.folder, command, progress };
     let warp = p.baked().warp(s.eval.options);
     // the evaluation compares the stored model with the unfitted map sets
-    let (fit, manifest) = fit(p.baked(), &warp, &s.fit, (s.store, MapSets::WithUnfitted), out)?;
+    let (fit, manifest) = fit(p.baked(), &warp, &s.fit, s.store, MapSets::WithUnfitted, out)?;
     let eval = evaluate(p.baked(), &warp, &s.eval, &Method::ALL, Some(&fit), out)?;
     report::page::write_report(&p.folder, command)?;
     Ok(RunOutcome { fit, manifest, eval })

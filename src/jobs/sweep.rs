@@ -113,7 +113,7 @@ pub fn sweep(
             RunFolder::new(folder.dir.join("sweep").join(format!("{}-{}", c.knob.name().replace(' ', "-"), c.value)));
         let warp = baked.warp(eval_settings.options);
         let out = Output { folder: &row_folder, command, progress: &Progress::quiet() };
-        let (fit, manifest) = run::fit(baked, &warp, &c.settings, (StoreOptions::default(), MapSets::Stored), out)?;
+        let (fit, manifest) = run::fit(baked, &warp, &c.settings, StoreOptions::default(), MapSets::Stored, out)?;
         let grid = FittedGrid::load(&row_folder.dir)?;
         let est: Vec<glam::Vec3> =
             (0..set.dirs.len()).map(|k| grid.specular(set.position_of(k), set.dirs[k], 0.0)).collect();

@@ -100,7 +100,8 @@ impl SmallTorture {
             b,
             &warp,
             &warpfit::fit::FitSettings::quick(),
-            (StoreOptions::default(), warpfit::fit::MapSets::WithUnfitted),
+            StoreOptions::default(),
+            warpfit::fit::MapSets::WithUnfitted,
             out,
         )
         .unwrap();

@@ -255,7 +255,7 @@ impl Fixture {
         let dir = TempDir::new(&self.scene.name);
         let folder = RunFolder::new(&dir.0);
         let out = Output { folder: &folder, command: "warpfit stability", progress: &Progress::quiet() };
-        let (fit, _) = run::fit(self.baked(), &self.warp, &fit_settings(mode), (store, MapSets::Stored), out)
+        let (fit, _) = run::fit(self.baked(), &self.warp, &fit_settings(mode), store, MapSets::Stored, out)
             .map_err(|e| e.to_string())?;
         let g = FittedGrid::load(&dir.0).map_err(|e| e.to_string())?;
         Ok((fit, g, dir))
