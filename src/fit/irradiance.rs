@@ -30,6 +30,7 @@ use argmin::solver::brent::BrentOpt;
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicU32, Ordering};
 
 /// N of each cell's N×N map of scales.
 pub const CORRECTION_RES: u32 = 4;
@@ -102,20 +103,35 @@ struct Point {
 const N2: usize = (CORRECTION_RES * CORRECTION_RES) as usize;
 /// One cell's map of scales.
 type Map = [f32; N2];
-/// The maps of one round: per grid cell, its map (`None`: scale 1).
-type Maps = Vec<Option<Map>>;
+/// The maps of one round, held only for the cells the fit may give one: cell `c`'s is
+/// `maps[slot[c]]` (`None`, or a cell without a slot: scale 1). The uncorrected blend is
+/// [`Maps::NONE`].
+#[derive(Clone, Copy)]
+struct Maps<'a> {
+    slot: &'a [u32],
+    maps: &'a [Option<Map>],
+}
+
+impl<'a> Maps<'a> {
+    const NONE: Maps<'static> = Maps { slot: &[], maps: &[] };
+
+    fn of(self, c: usize) -> Option<&'a Map> {
+        let s = *self.slot.get(c)?;
+        self.maps.get(s as usize)?.as_ref()
+    }
+}
 
 fn scale_at(map: &Map, taps: &[(u32, f32); 4]) -> f32 {
     taps.iter().map(|&(t, w)| map[t as usize] * w).sum()
 }
 
 /// The corrected blend at `p` with `maps`, one cell's map replaced where `swap` says so.
-fn predict(p: &Point, maps: &Maps, swap: Option<(usize, &Map)>) -> Vec3 {
+fn predict(p: &Point, maps: Maps, swap: Option<(usize, &Map)>) -> Vec3 {
     let mut e = Vec3::ZERO;
     for &(c, w, ei) in &p.terms.terms[..p.terms.count] {
         let map = match swap {
             Some((cell, own)) if cell == c as usize => Some(own),
-            _ => maps[c as usize].as_ref(),
+            _ => maps.of(c as usize),
         };
         e += ei * (w * map.map_or(1.0, |m| scale_at(m, &p.taps)));
     }
@@ -128,7 +144,7 @@ fn err2(e: Vec3, reference: Vec3, exposure: f32) -> f64 {
     ((d.x as f64).powi(2) + (d.y as f64).powi(2) + (d.z as f64).powi(2)) / 3.0
 }
 
-fn rmse(points: &[&Point], maps: &Maps, exposure: f32) -> f64 {
+fn rmse(points: &[&Point], maps: Maps, exposure: f32) -> f64 {
     let sq: f64 = points.iter().map(|p| err2(predict(p, maps, None), p.reference, exposure)).sum();
     (sq / points.len().max(1) as f64).sqrt()
 }
@@ -136,7 +152,7 @@ fn rmse(points: &[&Point], maps: &Maps, exposure: f32) -> f64 {
 /// Texel `t` of cell `cell`'s map as a 1-D problem, the rest fixed.
 struct TexelProblem<'a> {
     points: &'a [&'a Point],
-    maps: &'a Maps,
+    maps: Maps<'a>,
     cell: usize,
     own: Map,
     t: usize,
@@ -161,8 +177,8 @@ impl CostFunction for TexelProblem<'_> {
 }
 
 /// Fits cell `cell`'s map on its support's training points, the neighbours' maps fixed.
-fn fit_map(points: &[&Point], maps: &Maps, cell: usize, exposure: f32) -> Map {
-    let mut own = maps[cell].unwrap_or([1.0; N2]);
+fn fit_map(points: &[&Point], maps: Maps, cell: usize, exposure: f32) -> Map {
+    let mut own = maps.of(cell).copied().unwrap_or([1.0; N2]);
     for _ in 0..2 {
         for t in 0..N2 {
             if !points.iter().any(|p| p.taps.iter().any(|&(k, w)| k as usize == t && w > 0.0)) {
@@ -330,30 +346,30 @@ impl Layering {
     fn new(grid: IrradianceView, pts: &[(Vec3, Vec3)], bias: f32, support: &mut [u32]) -> Layering {
         let g = grid.geometry;
         let counts = g.counts.to_array().map(|n| n as usize);
-        let lowest: Vec<([u32; 3], [u32; 8], u8)> = pts
+        // each point's lowest cell coordinates (12 bytes a point while the buckets are made);
+        // the supports are counted as the points go (integer sums: any order gives the same)
+        let counted: Vec<AtomicU32> = support.iter().map(|_| AtomicU32::new(0)).collect();
+        let lowest: Vec<[u32; 3]> = pts
             .par_iter()
             .map(|&(p, n)| {
                 let t = grid.biased_terms(p, n, bias);
-                let mut cells = [u32::MAX; 8];
-                let mut count = 0;
                 let mut low = glam::UVec3::MAX;
                 for &(c, w, _) in &t.terms[..t.count] {
                     if w > 0.0 {
-                        cells[count] = c;
-                        count += 1;
+                        counted[c as usize].fetch_add(1, Ordering::Relaxed);
                         low = low.min(g.cell_coords(c as usize));
                     }
                 }
-                (low.to_array().map(|l| if l == u32::MAX { 0 } else { l }), cells, count as u8)
+                low.to_array().map(|l| if l == u32::MAX { 0 } else { l })
             })
             .collect();
+        for (s, c) in support.iter_mut().zip(counted) {
+            *s += c.into_inner();
+        }
         let mut sizes: [Vec<u32>; 3] = counts.map(|n| vec![0u32; n]);
-        for (low, cells, count) in &lowest {
+        for low in &lowest {
             for a in 0..3 {
                 sizes[a][low[a] as usize] += 1;
-            }
-            for &c in &cells[..*count as usize] {
-                support[c as usize] += 1;
             }
         }
         let widest = |a: usize| (0..counts[a]).map(|k| sizes[a][k] + if k > 0 { sizes[a][k - 1] } else { 0 }).max();
@@ -364,7 +380,7 @@ impl Layering {
         }
         let mut next = start.clone();
         let mut order = vec![0u32; pts.len()];
-        for (k, (low, _, _)) in lowest.iter().enumerate() {
+        for (k, low) in lowest.iter().enumerate() {
             let z = low[axis] as usize;
             order[next[z] as usize] = k as u32;
             next[z] += 1;
@@ -478,23 +494,35 @@ fn fit_at_bias(
         }
         of.into_iter().enumerate().map(|(i, s)| (layering.cell(z, i), s)).filter(|(c, _)| fitted(*c)).collect()
     };
-    let none: Maps = vec![None; g.cell_count()];
-    let mut maps: Maps = vec![None; g.cell_count()];
+    // the cells that may get a map, each with its slot in a round's maps
+    let mut slot = vec![NO_MAP; g.cell_count()];
+    let mut n_fitted = 0;
+    for (c, s) in slot.iter_mut().enumerate() {
+        if fitted(c) {
+            *s = n_fitted;
+            n_fitted += 1;
+        }
+    }
+    let mut maps: Vec<Option<Map>> = vec![None; n_fitted as usize];
     for _ in 0..ROUNDS {
         let mut next = maps.clone();
+        let current = Maps { slot: &slot, maps: &maps };
         train.visit(
             |k| point(train_pts, train_refs, k),
             |z, window, _| {
                 let cells = supports(&train, z, window);
-                let fits: Vec<(usize, Map)> =
-                    cells.par_iter().map(|(c, idx)| (*c, fit_map(&gather(window, idx), &maps, *c, exposure))).collect();
+                let fits: Vec<(usize, Map)> = cells
+                    .par_iter()
+                    .map(|(c, idx)| (*c, fit_map(&gather(window, idx), current, *c, exposure)))
+                    .collect();
                 for (c, m) in fits {
-                    next[c] = Some(m);
+                    next[slot[c] as usize] = Some(m);
                 }
             },
         );
         maps = next;
     }
+    let fitted_maps = Maps { slot: &slot, maps: &maps };
     // selection: a cell keeps its map where its support's check points improve by 5% with
     // the corrected field against the uncorrected blend (neighbouring maps share their
     // points, so one map alone rarely makes the difference: they are judged as a field);
@@ -504,13 +532,13 @@ fn fit_at_bias(
     check.visit(
         |k| point(check_pts, check_refs, k),
         |z, window, own| {
-            point_errors(&mut blend_err, own, &none, exposure);
+            point_errors(&mut blend_err, own, Maps::NONE, exposure);
             let cells = supports(&check, z, window);
             let judged: Vec<IrradianceCellFit> = cells
                 .par_iter()
                 .map(|(c, idx)| {
                     let refs = gather(window, idx);
-                    let (before, after) = (rmse(&refs, &none, exposure), rmse(&refs, &maps, exposure));
+                    let (before, after) = (rmse(&refs, Maps::NONE, exposure), rmse(&refs, fitted_maps, exposure));
                     IrradianceCellFit {
                         cell: *c as u32,
                         train_points: train_count[*c] as usize,
@@ -532,19 +560,21 @@ fn fit_at_bias(
         scale: Vec::new(),
         surface_bias: bias,
     };
-    let mut stored: Maps = vec![None; g.cell_count()];
+    let mut stored: Vec<Option<Map>> = vec![None; n_fitted as usize];
     for f in fits.iter().filter(|f| f.stored) {
-        if let Some(map) = &maps[f.cell as usize] {
-            correction.slot[f.cell as usize] = (correction.scale.len() / map.len()) as u32;
+        let c = f.cell as usize;
+        if let Some(map) = fitted_maps.of(c) {
+            correction.slot[c] = (correction.scale.len() / map.len()) as u32;
             correction.scale.extend_from_slice(map);
-            stored[f.cell as usize] = Some(*map);
+            stored[slot[c] as usize] = Some(*map);
         }
     }
     drop(maps);
+    let stored = Maps { slot: &slot, maps: &stored };
     // the whole field's errors on every training and check point: the blend as it is and
     // with the stored maps (each point's error where its own bucket comes, summed in point
     // order)
-    let field_rmse = |layering: &Layering, pts: &[(Vec3, Vec3)], refs: &[Vec3], maps: &Maps| {
+    let field_rmse = |layering: &Layering, pts: &[(Vec3, Vec3)], refs: &[Vec3], maps: Maps| {
         let mut e = vec![0.0f64; pts.len()];
         layering.visit(|k| point(pts, refs, k), |_, _, own| point_errors(&mut e, own, maps, exposure));
         root_mean(&e)
@@ -552,8 +582,8 @@ fn fit_at_bias(
     let trial = BiasTrial {
         bias,
         blend_check_rmse: root_mean(&blend_err),
-        train_rmse: field_rmse(&train, train_pts, train_refs, &stored),
-        check_rmse: field_rmse(&check, check_pts, check_refs, &stored),
+        train_rmse: field_rmse(&train, train_pts, train_refs, stored),
+        check_rmse: field_rmse(&check, check_pts, check_refs, stored),
     };
     ((correction, fits), trial)
 }
@@ -564,7 +594,7 @@ fn gather<'a>(window: &[&'a Point], idx: &[u32]) -> Vec<&'a Point> {
 }
 
 /// Each point of `own`'s tone-mapped squared error with `maps`, into `e` at its index.
-fn point_errors(e: &mut [f64], own: &[(u32, Point)], maps: &Maps, exposure: f32) {
+fn point_errors(e: &mut [f64], own: &[(u32, Point)], maps: Maps, exposure: f32) {
     for (k, p) in own {
         e[*k as usize] = err2(predict(p, maps, None), p.reference, exposure);
     }

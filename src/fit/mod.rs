@@ -395,18 +395,18 @@ pub fn active_cells(grid: &crate::bake::ProbeGrid) -> Vec<usize> {
     (0..grid.geometry.cell_count()).filter(|&c| !grid.inside[c]).collect()
 }
 
-/// One cell's fit before the grid-wide choices (the grid's fallback, model selection): what
-/// a shard of a fit hands to the merge. `fit.level` and `fit.selection` are set by
-/// [`assemble`].
+/// One cell's fit, its model selected, before the grid-wide steps: what a shard of a fit
+/// hands to the merge.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct CellOutcome {
+    /// The cell's diagnostics, its model selected.
     pub fit: CellFit,
-    /// The refined shift map (level 2), `map_res²` shifts.
+    /// The refined shift map (level 2), `map_res²` shifts: kept where the cell stores it
+    /// (or every cell's, with [`MapSets::WithUnfitted`]), empty otherwise.
     pub fitted: Vec<f32>,
-    /// The unfitted shift map of the grid's raytraced distances (`celldepth`).
+    /// The unfitted shift map of the grid's raytraced distances (`celldepth`): kept only
+    /// with [`MapSets::WithUnfitted`].
     pub init: Vec<f32>,
-    /// The cell's probe saw nothing but sky (nothing to shift towards).
-    pub sees_only_sky: bool,
     /// Reference rays traced for the cell's training and check queries.
     pub rays: u64,
 }
@@ -430,7 +430,7 @@ pub fn fit(baked: Baked, glossy: Glossy, s: &FitSettings, sets: MapSets, progres
     drop(points);
     let t_diffuse = t0.elapsed().as_secs_f64();
     let proxy = proxy::choose(baked, glossy, s);
-    let cells = fit_cells(baked, glossy, s, proxy.method, &active_cells(baked.grid), progress);
+    let cells = fit_cells(baked, glossy, s, proxy.method, &active_cells(baked.grid), sets, progress);
     let unfitted =
         (sets == MapSets::WithUnfitted).then(|| UnfittedMaps::of(baked.grid.geometry, s.map_res, proxy.method, &cells));
     let t_cells = t0.elapsed().as_secs_f64();
@@ -450,13 +450,16 @@ fn rough_fraction(glossy: &Glossy, s: &FitSettings) -> f32 {
 }
 
 /// Fits the cells `cells` (active cells of the bake), in that order: each cell's shift map of
-/// `proxy` refined against its training references and judged on its check references.
+/// `proxy` refined against its training references, judged on its check references and its
+/// model selected; `sets` says which maps an outcome keeps (a map the cell does not store is
+/// dropped as soon as the cell is done, unless every cell's is asked for).
 pub fn fit_cells(
     baked: Baked,
     glossy: Glossy,
     s: &FitSettings,
     proxy: Method,
     cells: &[usize],
+    sets: MapSets,
     progress: &Progress,
 ) -> Vec<CellOutcome> {
     let Baked { scene, tracer, grid, .. } = baked;
@@ -526,6 +529,11 @@ pub fn fit_cells(
             let fallback = check_problem.relative_error_map(&vec![0.0; n2]);
             let celldepth = check_problem.relative_error_map(&init);
             let fitted_err = check_problem.relative_error_map(&fitted);
+            let selection = if sees_only_sky {
+                Selection::SeesOnlySky
+            } else {
+                choose_level(fallback, fitted_err, s.tol as f64, s.selection_margin)
+            };
             let level1 = s.level1.then(|| {
                 let p = CellProblem::new(ctx, vec![0.0; n2], level1_train).with_robust_scale(s.robust_scale);
                 let (params, evaluations) = p.fit_level1(g.cell_size(), warp.options.depth_lod);
@@ -534,8 +542,8 @@ pub fn fit_cells(
             bar.inc(1);
             let fit = CellFit {
                 cell: cell as u32,
-                level: Level::Fallback,
-                selection: Selection::KeptFallback,
+                level: selection.level(),
+                selection,
                 start,
                 check_err_warp1: warp1,
                 check_err_box: boxed_err,
@@ -555,7 +563,10 @@ pub fn fit_cells(
                 hidden_fraction: hidden,
                 level1,
             };
-            CellOutcome { fit, fitted, init, sees_only_sky, rays }
+            let keep_all = sets == MapSets::WithUnfitted;
+            let fitted = if keep_all || fit.level == Level::Map { fitted } else { Vec::new() };
+            let init = if keep_all { init } else { Vec::new() };
+            CellOutcome { fit, fitted, init, rays }
         })
         .collect();
     bar.finish_and_clear();
@@ -616,14 +627,8 @@ fn assemble_cells(
     let mut correctives = Correctives::new(g, s.map_res, vec![NO_MAP; g.cell_count()], Vec::new(), proxy.method);
     let mut cells = Vec::with_capacity(results.len());
     let mut reference_rays = 0;
-    for CellOutcome { mut fit, fitted, sees_only_sky, rays, .. } in results {
+    for CellOutcome { fit, fitted, rays, .. } in results {
         let cell = fit.cell as usize;
-        fit.selection = if sees_only_sky {
-            Selection::SeesOnlySky
-        } else {
-            choose_level(fit.check_err_fallback, fit.check_err_fitted, s.tol as f64, s.selection_margin)
-        };
-        fit.level = fit.selection.level();
         if fit.level == Level::Map {
             correctives.slot[cell] = (correctives.maps.len() / n2) as u32;
             correctives.maps.extend_from_slice(&fitted);

@@ -210,8 +210,9 @@ pub fn fit_shard(
     let log = ShardLog::new(format!("fit shard {shard}"), range.len());
     // every shard measures the proxy the same way (seeded), so they all fit for the same one
     let proxy = fit::proxy::choose(baked, glossy, &job.fit).method;
-    let cells: Vec<CellOutcome> =
-        in_chunks(&active[range.clone()], &log, |part| fit::fit_cells(baked, glossy, &job.fit, proxy, part, progress));
+    let cells: Vec<CellOutcome> = in_chunks(&active[range.clone()], &log, |part| {
+        fit::fit_cells(baked, glossy, &job.fit, proxy, part, fit::MapSets::Stored, progress)
+    });
     let points = irradiance::SurfacePoints::draw(baked, job.fit.seed);
     let ranges = points.part(k, n);
     tracing::info!(
@@ -504,10 +505,12 @@ fn gather_fit(
         };
         let right_cells = part.cells.len() == expected.len()
             && part.cells.iter().zip(&active[expected]).all(|(c, &a)| {
+                let stored = c.fit.level == fit::Level::Map;
                 c.fit.cell as usize == a
-                    && c.fitted.len() == n2
-                    && c.init.len() == n2
-                    && c.fitted.iter().chain(&c.init).all(|x| x.is_finite())
+                    && c.fit.level == c.fit.selection.level()
+                    && c.fitted.len() == if stored { n2 } else { 0 }
+                    && c.init.is_empty()
+                    && c.fitted.iter().all(|x| x.is_finite())
             });
         if !right_cells {
             return Err(FileError::invalid(path, "cells", "cells or maps that do not match the bake and the settings"));

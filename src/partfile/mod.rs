@@ -18,8 +18,9 @@ use std::path::{Path, PathBuf};
 
 pub const PART_FORMAT: &str = "warpfit-part";
 /// 2: a bake part's cells count each distance texel's hits in a byte (1 stored fractions);
-/// a fit part's irradiance references carry their rays as one total.
-pub const PART_VERSION: u32 = 2;
+/// a fit part's irradiance references carry their rays as one total. 3: a fit part's cells
+/// come with their model selected and keep only the maps they store.
+pub const PART_VERSION: u32 = 3;
 const MAGIC: &[u8] = b"warpfit-part\n";
 /// Largest header accepted (the header lists no per-cell data).
 const MAX_HEADER: u64 = 1 << 20;
