@@ -160,12 +160,12 @@ pub fn write_bake(dir: &Path, scene: &Scene, bake: &Bake) -> Result<(), FileErro
 }
 
 /// A payload of the bake, checked against the manifest's size and checksum, decoded with
-/// each layer's samples where `place` puts them.
+/// each channel's samples where `route` sends them.
 fn read_payload(
     dir: &Path,
     m: &BakeManifest,
     file: &str,
-    place: impl Fn(&str, usize, usize) -> Option<exr::Placement> + 'static,
+    route: impl Fn(&str, &str, usize, usize) -> exr::Destination + 'static,
 ) -> Result<Vec<ExrLayer>, FileError> {
     let mpath = dir.join(MANIFEST_FILE);
     let entry = m
@@ -175,7 +175,7 @@ fn read_payload(
         .ok_or_else(|| FileError::invalid(&mpath, "files", format!("no entry for {file}")))?;
     let path = dir.join(file);
     let f = crate::files::open_listed(&path, entry.bytes, &entry.checksum)?;
-    exr::decode_placed(&path, f, place)
+    exr::decode_routed(&path, f, route)
 }
 
 fn find<'a>(layers: &'a [ExrLayer], path: &Path, name: &str, res: (usize, usize)) -> Result<&'a ExrLayer, FileError> {
@@ -211,24 +211,54 @@ fn finite_rgb(l: &ExrLayer, path: &Path) -> Result<Vec<Vec3>, FileError> {
     Ok(v)
 }
 
-/// Each texel's hit count from its stored fraction of `samples` rays: a fraction that is
-/// not exactly a count's (as the bake writes them) is an error.
-fn hit_counts(fractions: &[f32], samples: u32, path: &Path) -> Result<Vec<u8>, FileError> {
-    fractions
-        .iter()
-        .enumerate()
-        .map(|(k, &f)| {
-            let n = (f * samples as f32).round();
-            match (0.0..=samples as f32).contains(&n).then_some(n as u8) {
-                Some(h) if hit_fraction(h, samples).to_bits() == f.to_bits() => Ok(h),
-                _ => Err(FileError::invalid(
-                    path,
-                    "depth_moments.hit",
-                    format!("texel {k}: {f} is not a count of {samples} rays"),
-                )),
+/// The hit fractions of a bake's distance texels decoded straight into counts (a byte
+/// each, in the grid's placed order): a fraction that is not exactly a count of `samples`
+/// rays (as the bake writes them) is an error naming the first such texel.
+struct HitSink {
+    counts: std::sync::Arc<std::sync::Mutex<(Vec<u8>, Option<(usize, f32)>)>>,
+    samples: u32,
+    place: exr::Placement,
+}
+
+impl HitSink {
+    fn new(len: usize, samples: u32, place: exr::Placement) -> HitSink {
+        HitSink { counts: std::sync::Arc::new(std::sync::Mutex::new((vec![0; len], None))), samples, place }
+    }
+
+    fn sink(&self) -> exr::Sink {
+        let (counts, samples, place) = (self.counts.clone(), self.samples, self.place.clone());
+        Box::new(move |start: usize, line: &[f32]| {
+            let mut guard = counts.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            let (counts, bad) = &mut *guard;
+            let last = counts.len().saturating_sub(1);
+            for (i, &f) in line.iter().enumerate() {
+                let k = place(start + i).min(last);
+                match hit_count(f, samples) {
+                    Some(h) => counts[k] = h,
+                    None if bad.is_none_or(|(b, _)| k < b) => *bad = Some((k, f)),
+                    None => {}
+                }
             }
         })
-        .collect()
+    }
+
+    fn take(self, path: &Path) -> Result<Vec<u8>, FileError> {
+        let (counts, bad) = std::mem::take(&mut *self.counts.lock().unwrap_or_else(std::sync::PoisonError::into_inner));
+        match bad {
+            Some((k, f)) => Err(FileError::invalid(
+                path,
+                "depth_moments.hit",
+                format!("texel {k}: {f} is not a count of {} rays", self.samples),
+            )),
+            None => Ok(counts),
+        }
+    }
+}
+
+/// The hit count whose fraction of `samples` rays is exactly `f`, if there is one.
+fn hit_count(f: f32, samples: u32) -> Option<u8> {
+    let n = (f * samples as f32).round();
+    (0.0..=samples as f32).contains(&n).then_some(n as u8).filter(|&h| hit_fraction(h, samples).to_bits() == f.to_bits())
 }
 
 /// The content key a bake folder's manifest records, if it has a readable one.
@@ -257,7 +287,7 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
         return Err(FileError::invalid(&mpath, "probe.file/grid.file", "not this format's file names"));
     }
     let ppath = dir.join(PROBE_FILE);
-    let layers = read_payload(dir, &m, PROBE_FILE, |_, _, _| None)?;
+    let layers = read_payload(dir, &m, PROBE_FILE, |_, _, _, _| exr::Destination::Own(None))?;
     let mut radiance = Vec::new();
     for mip in &m.probe.radiance_mips {
         let n = mip.resolution as usize;
@@ -307,8 +337,9 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
     let c = geometry.counts;
     let irr_size = ((c.x * ir) as usize, (c.y * c.z * ir) as usize);
     let dep_size = ((c.x * dr) as usize, (c.y * c.z * dr) as usize);
-    // the atlases' tiles arrive as per-cell maps, cell-major, as they are decoded: a big
-    // grid's bake is read with one copy of it in memory
+    // the atlases' tiles arrive as per-cell maps, cell-major, as they are decoded, the
+    // irradiance as triples and the hit fractions as counts: a big grid's bake is read with
+    // one copy of it in memory, in the grid's own form
     let nx = c.x;
     let place = move |layer: &str, w: usize, h: usize| -> Option<exr::Placement> {
         let (r, size) = match layer {
@@ -318,9 +349,21 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
         };
         (size == (w, h)).then(|| -> exr::Placement { std::sync::Arc::new(move |k| tile_major(k, r, nx)) })
     };
-    let mut layers = read_payload(dir, &m, GRID_FILE, place)?;
+    let irradiance = exr::RgbSink::new(irr_size.0 * irr_size.1, std::sync::Arc::new(move |k| tile_major(k, ir, nx)));
+    let hits = HitSink::new(dep_size.0 * dep_size.1, m.grid.depth_samples, std::sync::Arc::new(move |k| tile_major(k, dr, nx)));
+    let mut sinks = irradiance.sinks("irradiance");
+    sinks.push(("depth_moments".into(), "hit".into(), hits.sink()));
+    let mut layers = read_payload(dir, &m, GRID_FILE, exr::route_to_sinks(sinks, place))?;
     find(&layers, &gpath, "depth_moments", dep_size)?;
-    let irradiance = finite_rgb(find(&layers, &gpath, "irradiance", irr_size)?, &gpath)?;
+    for c in ["R", "G", "B"] {
+        channel(find(&layers, &gpath, "irradiance", irr_size)?, &gpath, c)?;
+    }
+    channel(find(&layers, &gpath, "depth_moments", dep_size)?, &gpath, "hit")?;
+    let irradiance = irradiance.take();
+    if let Some(k) = irradiance.iter().position(|x| !x.is_finite()) {
+        return Err(FileError::invalid(&gpath, "irradiance", format!("texel {k} is not finite")));
+    }
+    let hits = hits.take(&gpath)?;
     layers.retain(|l| l.name != "irradiance");
     let mut moment = |name: &str| -> Result<Vec<f32>, FileError> {
         let l = layers.iter_mut().find(|l| l.name == "depth_moments");
@@ -333,7 +376,6 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
     };
     let depth_mean = moment("mean")?;
     let depth_mean_sq = moment("mean_sq")?;
-    let hits = hit_counts(&moment("hit")?, m.grid.depth_samples, &gpath)?;
     drop(layers);
     let mut inside = vec![false; geometry.cell_count()];
     for &k in &m.grid.inside_cells {

@@ -71,24 +71,38 @@ pub const F16_MAX: f32 = 65504.0;
 /// Decodes every layer of EXR bytes (largest resolution level, flat samples as f32); `path`
 /// only names the file in errors.
 pub fn decode(path: &Path, bytes: &[u8]) -> Result<Vec<ExrLayer>, FileError> {
-    decode_placed(path, std::io::Cursor::new(bytes), |_, _, _| None)
+    decode_routed(path, std::io::Cursor::new(bytes), |_, _, _, _| Destination::Own(None))
 }
 
 /// Where each decoded sample of a layer goes: its row-major index in the file's layer →
 /// its index in the channel's samples (a permutation of `0..width·height`).
 pub type Placement = std::sync::Arc<dyn Fn(usize) -> usize + Send + Sync>;
 
-/// [`decode`] from a reader, each sample put where `place(layer, width, height)` says as its
-/// line is decoded (row-major where it says `None`): a layer stored as an atlas of tiles
-/// arrives in its owner's order without a second copy, and the file's bytes are never held
-/// whole.
-pub fn decode_placed(
+/// A caller's receiver of one channel's samples: called for each decoded line with the
+/// row-major index of the line's first sample in the file's layer and the line's samples.
+pub type Sink = Box<dyn FnMut(usize, &[f32])>;
+
+/// Where one channel's decoded samples go.
+pub enum Destination {
+    /// An array of the channel's own, each sample at its placed index (row-major where
+    /// `None`).
+    Own(Option<Placement>),
+    /// The caller's [`Sink`]; the channel's own array stays empty. The caller keeps what it
+    /// needs in the form it needs (three channels as one array of triples, counts in bytes),
+    /// so no f32 array of the channel is ever held.
+    Sink(Sink),
+}
+
+/// [`decode`] from a reader, each channel's samples sent where `route(layer, channel,
+/// width, height)` says as its lines are decoded: a layer stored as an atlas of tiles arrives
+/// in its owner's order without a second copy, and the file's bytes are never held whole.
+pub fn decode_routed(
     path: &Path,
     reader: impl std::io::Read + std::io::Seek,
-    place: impl Fn(&str, usize, usize) -> Option<Placement> + 'static,
+    route: impl Fn(&str, &str, usize, usize) -> Destination + 'static,
 ) -> Result<Vec<ExrLayer>, FileError> {
     use exr::prelude::{ReadChannels, ReadLayers};
-    let image = exr::image::read::any_channels::ReadAnyChannels { read_samples: PlacedSamples { place } }
+    let image = exr::image::read::any_channels::ReadAnyChannels { read_samples: RoutedSamples { route } }
         .all_layers()
         .all_attributes()
         .non_parallel()
@@ -104,27 +118,92 @@ pub fn decode_placed(
     Ok(out)
 }
 
-/// The exr crate's sample reading for [`decode_placed`]: flat f16/f32 channels of the
-/// largest level, each sample converted to f32 and put in place.
-struct PlacedSamples<F> {
-    place: F,
+/// A route for [`decode_routed`]: each listed (layer, channel, sink) takes that channel
+/// (once), every other channel gets an array of its own placed by `place`.
+pub fn route_to_sinks(
+    sinks: Vec<(String, String, Sink)>,
+    place: impl Fn(&str, usize, usize) -> Option<Placement> + 'static,
+) -> impl Fn(&str, &str, usize, usize) -> Destination + 'static {
+    let sinks = std::cell::RefCell::new(sinks);
+    move |layer, channel, w, h| {
+        let mut sinks = sinks.borrow_mut();
+        match sinks.iter().position(|(l, c, _)| l == layer && c == channel) {
+            Some(k) => Destination::Sink(sinks.swap_remove(k).2),
+            None => Destination::Own(place(layer, w, h)),
+        }
+    }
 }
 
-struct PlacedReader {
+/// A layer's R, G and B channels decoded into one array of triples, each texel at its
+/// placed index: the layer is never held as three channels and a copy.
+pub struct RgbSink {
+    rgb: std::sync::Arc<std::sync::Mutex<Vec<glam::Vec3>>>,
+    place: Placement,
+}
+
+impl RgbSink {
+    /// `len` texels (zero until decoded), placed by `place`.
+    #[must_use]
+    pub fn new(len: usize, place: Placement) -> RgbSink {
+        RgbSink { rgb: std::sync::Arc::new(std::sync::Mutex::new(vec![glam::Vec3::ZERO; len])), place }
+    }
+
+    /// The sinks of layer `layer`'s R, G and B channels, for [`route_to_sinks`].
+    #[must_use]
+    pub fn sinks(&self, layer: &str) -> Vec<(String, String, Sink)> {
+        ["R", "G", "B"].iter().enumerate().map(|(c, &name)| (layer.to_string(), name.to_string(), self.channel(c))).collect()
+    }
+
+    /// The sink of component `c` (0 = R, 1 = G, 2 = B).
+    fn channel(&self, c: usize) -> Sink {
+        let (rgb, place) = (self.rgb.clone(), self.place.clone());
+        Box::new(move |start: usize, line: &[f32]| {
+            let mut rgb = rgb.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            let n = rgb.len();
+            for (i, &v) in line.iter().enumerate() {
+                if let Some(t) = rgb.get_mut(place(start + i).min(n.saturating_sub(1))) {
+                    t[c] = v;
+                }
+            }
+        })
+    }
+
+    /// The triples decoded (a channel the file lacked stays 0: the caller checks the
+    /// channels' presence in the decoded layer).
+    #[must_use]
+    pub fn take(self) -> Vec<glam::Vec3> {
+        std::mem::take(&mut *self.rgb.lock().unwrap_or_else(std::sync::PoisonError::into_inner))
+    }
+}
+
+/// The exr crate's sample reading for [`decode_routed`]: flat f16/f32 channels of the
+/// largest level, each sample converted to f32 and sent where the route says.
+struct RoutedSamples<F> {
+    route: F,
+}
+
+enum Target {
+    Own { place: Option<Placement>, samples: Vec<f32> },
+    Sink(Sink),
+}
+
+struct RoutedReader {
     width: usize,
+    len: usize,
     half: bool,
-    place: Option<Placement>,
-    samples: Vec<f32>,
+    target: Target,
+    /// The line being read, as f32.
+    line: Vec<f32>,
 }
 
-impl<F: Fn(&str, usize, usize) -> Option<Placement>> exr::image::read::any_channels::ReadSamples for PlacedSamples<F> {
-    type Reader = PlacedReader;
+impl<F: Fn(&str, &str, usize, usize) -> Destination> exr::image::read::any_channels::ReadSamples for RoutedSamples<F> {
+    type Reader = RoutedReader;
 
     fn create_sample_reader(
         &self,
         header: &exr::meta::header::Header,
         channel: &exr::meta::attribute::ChannelDescription,
-    ) -> exr::error::Result<PlacedReader> {
+    ) -> exr::error::Result<RoutedReader> {
         use exr::error::Error;
         use exr::meta::attribute::SampleType;
         if header.deep {
@@ -140,11 +219,15 @@ impl<F: Fn(&str, usize, usize) -> Option<Placement>> exr::image::read::any_chann
         };
         let (width, height) = (header.layer_size.width(), header.layer_size.height());
         let name = header.own_attributes.layer_name.as_ref().map(|n| n.to_string()).unwrap_or_default();
-        Ok(PlacedReader { width, half, place: (self.place)(&name, width, height), samples: vec![0.0; width * height] })
+        let target = match (self.route)(&name, &channel.name.to_string(), width, height) {
+            Destination::Own(place) => Target::Own { place, samples: vec![0.0; width * height] },
+            Destination::Sink(sink) => Target::Sink(sink),
+        };
+        Ok(RoutedReader { width, len: width * height, half, target, line: Vec::with_capacity(width) })
     }
 }
 
-impl exr::image::read::any_channels::SamplesReader for PlacedReader {
+impl exr::image::read::any_channels::SamplesReader for RoutedReader {
     type Samples = Vec<f32>;
 
     fn filter_block(&self, tile: exr::block::chunk::TileCoordinates) -> bool {
@@ -155,27 +238,36 @@ impl exr::image::read::any_channels::SamplesReader for PlacedReader {
         use exr::error::Error;
         let at = line.location;
         let start = at.position.y() * self.width + at.position.x();
-        if at.position.x() + at.sample_count > self.width || start + at.sample_count > self.samples.len() {
+        if at.position.x() + at.sample_count > self.width || start + at.sample_count > self.len {
             return Err(Error::Invalid("a line outside its layer".into()));
         }
-        let n = self.samples.len();
-        let place = |i: usize| self.place.as_ref().map_or(i, |p| p(i)).min(n - 1);
+        self.line.clear();
         if self.half {
-            for (i, v) in line.read_samples::<exr::prelude::f16>().enumerate() {
-                let k = place(start + i);
-                self.samples[k] = v?.to_f32();
+            for v in line.read_samples::<exr::prelude::f16>() {
+                self.line.push(v?.to_f32());
             }
         } else {
-            for (i, v) in line.read_samples::<f32>().enumerate() {
-                let k = place(start + i);
-                self.samples[k] = v?;
+            for v in line.read_samples::<f32>() {
+                self.line.push(v?);
             }
+        }
+        match &mut self.target {
+            Target::Own { place, samples } => {
+                let n = samples.len();
+                for (i, &v) in self.line.iter().enumerate() {
+                    samples[place.as_ref().map_or(start + i, |p| p(start + i)).min(n - 1)] = v;
+                }
+            }
+            Target::Sink(sink) => sink(start, &self.line),
         }
         Ok(())
     }
 
     fn into_samples(self) -> Vec<f32> {
-        self.samples
+        match self.target {
+            Target::Own { samples, .. } => samples,
+            Target::Sink(_) => Vec::new(),
+        }
     }
 }
 

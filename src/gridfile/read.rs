@@ -387,7 +387,7 @@ fn expected_payloads(
 /// Reads a payload: a regular file whose size (from its metadata) and checksum match the
 /// manifest, whose EXR headers match the expected layers, then decoded.
 fn read_payload(dir: &Path, m: &GridManifest, file: &str, expected: &[Expected]) -> Result<Vec<Layer>, FileError> {
-    read_listed_payload(dir, &dir.join(MANIFEST_FILE), &m.payloads, file, expected)
+    Ok(read_listed_payload_rgb(dir, &dir.join(MANIFEST_FILE), &m.payloads, file, expected, None)?.0)
 }
 
 /// Reads payload `file` of `dir` as `payloads` (from the manifest at `mpath`) lists it:
@@ -400,6 +400,20 @@ pub(crate) fn read_listed_payload(
     file: &str,
     expected: &[Expected],
 ) -> Result<Vec<Layer>, FileError> {
+    Ok(read_listed_payload_rgb(dir, mpath, payloads, file, expected, None)?.0)
+}
+
+/// [`read_listed_payload`], the R, G and B channels of layer `rgb` (when named) decoded
+/// straight into triples in the layer's placed order (its channels come back empty): a big
+/// grid's irradiance is never held as three channels and a copy.
+pub(crate) fn read_listed_payload_rgb(
+    dir: &Path,
+    mpath: &Path,
+    payloads: &[Payload],
+    file: &str,
+    expected: &[Expected],
+    rgb: Option<&str>,
+) -> Result<(Vec<Layer>, Vec<Vec3>), FileError> {
     let entry = payloads
         .iter()
         .find(|p| p.file == file)
@@ -417,7 +431,15 @@ pub(crate) fn read_listed_payload(
         let &(_, _, (res, columns)) = atlases.iter().find(|(n, size, _)| n == name && *size == (w, h))?;
         Some(std::sync::Arc::new(move |i| tile_major(i, res, columns)))
     };
-    let layers = exr::decode_placed(&path, f, place)?;
+    // the triples' layer as the manifest lists it (its headers were checked against it)
+    let triples = rgb.and_then(|name| expected.iter().find(|l| l.name == name)).map(|l| {
+        let identity: exr::Placement = std::sync::Arc::new(|i| i);
+        let at = place(&l.name, l.width, l.height).unwrap_or(identity);
+        (l.name.clone(), exr::RgbSink::new(l.width * l.height, at))
+    });
+    let sinks = triples.as_ref().map(|(name, sink)| sink.sinks(name)).unwrap_or_default();
+    let layers = exr::decode_routed(&path, f, exr::route_to_sinks(sinks, place))?;
+    let triples = triples.map(|(_, sink)| sink.take()).unwrap_or_default();
     for l in expected {
         let got = layers
             .iter()
@@ -436,7 +458,7 @@ pub(crate) fn read_listed_payload(
             }
         }
     }
-    Ok(layers)
+    Ok((layers, triples))
 }
 
 /// Checks the EXR headers of the open payload `f` against `expected`, and rewinds it.
@@ -505,15 +527,27 @@ fn check(path: &Path, field: &str, values: &[f32], what: &str, ok: impl Fn(f32) 
     }
 }
 
-/// The first `count` RGB samples of a layer (every sample checked).
-fn rgb(l: &Layer, path: &Path, count: usize) -> Result<Vec<Vec3>, FileError> {
+/// The RGB samples of a layer (every sample checked).
+fn rgb(l: &Layer, path: &Path) -> Result<Vec<Vec3>, FileError> {
     let (r, g, b) = (channel(l, path, "R")?, channel(l, path, "G")?, channel(l, path, "B")?);
-    for (c, v) in [("R", r), ("G", g), ("B", b)] {
-        check(path, &format!("{}.{c}", l.name), v, &format!("in [0, {MAX_RADIANCE:e}]"), |x| {
-            (0.0..=MAX_RADIANCE).contains(&x)
-        })?;
+    let v: Vec<Vec3> = (0..r.len().min(g.len()).min(b.len())).map(|k| Vec3::new(r[k], g[k], b[k])).collect();
+    check_rgb(path, &l.name, &v)?;
+    Ok(v)
+}
+
+/// Checks every component of layer `layer`'s triples: R first, then G, then B, each
+/// failure naming the channel and the sample.
+fn check_rgb(path: &Path, layer: &str, v: &[Vec3]) -> Result<(), FileError> {
+    for (c, name) in ["R", "G", "B"].iter().enumerate() {
+        if let Some(k) = v.iter().position(|x| !(0.0..=MAX_RADIANCE).contains(&x[c])) {
+            return Err(invalid(
+                path,
+                format!("{layer}.{name}"),
+                format!("sample {k} is {}: expected in [0, {MAX_RADIANCE:e}]", v[k][c]),
+            ));
+        }
     }
-    Ok((0..count.min(r.len())).map(|k| Vec3::new(r[k], g[k], b[k])).collect())
+    Ok(())
 }
 
 /// Channel `name` of layer `layer` (of `size`), moved out of the decoded layers.
@@ -615,7 +649,7 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     for mip in &p.radiance_mips {
         let n = mip.resolution as usize;
         let l = layer(&layers, &ppath, &mip.layer, (n, n))?;
-        radiance.push(OctMap::new(mip.resolution, rgb(l, &ppath, l.width * l.height)?));
+        radiance.push(OctMap::new(mip.resolution, rgb(l, &ppath)?));
         roughness_of_mips.push(mip.perceptual_roughness);
     }
     let mut distance = Vec::new();
@@ -702,12 +736,21 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
         (Vec::new(), Vec::new(), Vec::new())
     } else {
         let ipath = dir.join(IRRADIANCE_FILE);
-        let mut layers = read_payload(dir, &m, IRRADIANCE_FILE, expected_of(IRRADIANCE_FILE))?;
+        let (mut layers, mut e) = read_listed_payload_rgb(
+            dir,
+            &dir.join(MANIFEST_FILE),
+            &m.payloads,
+            IRRADIANCE_FILE,
+            expected_of(IRRADIANCE_FILE),
+            Some("irradiance"),
+        )?;
         let n = ir.stored_cells.len();
         let (r2, dr2) =
             ((ir.resolution * ir.resolution) as usize, (ir.depth_resolution * ir.depth_resolution) as usize);
         let size = atlas_size(n, ir.resolution, ir.atlas_columns);
-        let mut e = rgb(layer(&layers, &ipath, "irradiance", size)?, &ipath, n * r2)?;
+        layer(&layers, &ipath, "irradiance", size)?;
+        check_rgb(&ipath, "irradiance", &e)?;
+        e.truncate(n * r2);
         layers.retain(|l| l.name != "irradiance");
         let dsize = atlas_size(n, ir.depth_resolution, ir.atlas_columns);
         let mut mean = take_channel(&mut layers, &ipath, "depth_moments", dsize, "mean")?;
