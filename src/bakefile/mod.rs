@@ -258,7 +258,10 @@ impl HitSink {
 /// The hit count whose fraction of `samples` rays is exactly `f`, if there is one.
 fn hit_count(f: f32, samples: u32) -> Option<u8> {
     let n = (f * samples as f32).round();
-    (0.0..=samples as f32).contains(&n).then_some(n as u8).filter(|&h| hit_fraction(h, samples).to_bits() == f.to_bits())
+    (0.0..=samples as f32)
+        .contains(&n)
+        .then_some(n as u8)
+        .filter(|&h| hit_fraction(h, samples).to_bits() == f.to_bits())
 }
 
 /// The content key a bake folder's manifest records, if it has a readable one.
@@ -350,7 +353,11 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
         (size == (w, h)).then(|| -> exr::Placement { std::sync::Arc::new(move |k| tile_major(k, r, nx)) })
     };
     let irradiance = exr::RgbSink::new(irr_size.0 * irr_size.1, std::sync::Arc::new(move |k| tile_major(k, ir, nx)));
-    let hits = HitSink::new(dep_size.0 * dep_size.1, m.grid.depth_samples, std::sync::Arc::new(move |k| tile_major(k, dr, nx)));
+    let hits = HitSink::new(
+        dep_size.0 * dep_size.1,
+        m.grid.depth_samples,
+        std::sync::Arc::new(move |k| tile_major(k, dr, nx)),
+    );
     let mut sinks = irradiance.sinks("irradiance");
     sinks.push(("depth_moments".into(), "hit".into(), hits.sink()));
     let mut layers = read_payload(dir, &m, GRID_FILE, exr::route_to_sinks(sinks, place))?;

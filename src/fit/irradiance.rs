@@ -204,11 +204,36 @@ fn fit_map(points: &[&Point], maps: Maps, cell: usize, exposure: f32) -> Map {
 
 /// The surface points of a diffuse fit, training and check, drawn over the grid's bounds
 /// (`POINTS_PER_CELL` per active cell each) on the fit's own streams.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SurfacePoints {
-    /// (position, shading normal) of each point.
-    pub train: Vec<(Vec3, Vec3)>,
-    pub check: Vec<(Vec3, Vec3)>,
+pub struct SurfacePoints<'a> {
+    pub train: PointSet<'a>,
+    pub check: PointSet<'a>,
+}
+
+/// One set of surface points, held as the draw's attempts that gave them (4 bytes a point;
+/// a 300k-cell fit draws 7 million): each point is computed again where it is used.
+pub struct PointSet<'a> {
+    draw: truth::SurfaceSampler<'a>,
+    attempts: Vec<u32>,
+}
+
+impl PointSet<'_> {
+    /// Points in the set.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.attempts.len()
+    }
+
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.attempts.is_empty()
+    }
+
+    /// Point `k`: (position, shading normal). An attempt that succeeded always gives its
+    /// candidate again.
+    #[must_use]
+    pub fn get(&self, k: usize) -> (Vec3, Vec3) {
+        self.draw.candidate(self.attempts[k]).unwrap_or((Vec3::ZERO, Vec3::Z))
+    }
 }
 
 /// A contiguous part of the training and check points (what one shard traces).
@@ -236,20 +261,15 @@ impl References {
     }
 }
 
-impl SurfacePoints {
+impl<'a> SurfacePoints<'a> {
     /// The points of a bake with `seed` (the fit's).
-    pub fn draw(baked: Baked, seed: u64) -> SurfacePoints {
+    pub fn draw(baked: Baked<'a>, seed: u64) -> SurfacePoints<'a> {
         let Baked { scene, tracer, grid, .. } = baked;
         let g = grid.geometry;
         let active = grid.active_cells() as u32;
         let draw = |tag: u64| {
-            truth::surface_points(
-                scene,
-                tracer,
-                (g.min, g.max),
-                active * POINTS_PER_CELL,
-                (seed, hash_pair(DOMAIN_FIT, tag)),
-            )
+            let draw = truth::SurfaceSampler::new(scene, tracer, (g.min, g.max), (seed, hash_pair(DOMAIN_FIT, tag)));
+            PointSet { attempts: draw.successes(active * POINTS_PER_CELL), draw }
         };
         SurfacePoints { train: draw(0x1A), check: draw(0x1B) }
     }
@@ -270,13 +290,13 @@ impl SurfacePoints {
 /// stream, so any split traces the same values).
 pub fn trace_references(baked: Baked, points: &SurfacePoints, seed: u64, ranges: &PointRanges) -> References {
     let renderer = Renderer::new(baked.scene, baked.tracer);
-    let trace = |pts: &[(Vec3, Vec3)], first: usize, tag: u64| -> (Vec<Vec3>, u64) {
-        let traced: Vec<(Vec3, u64)> = pts
-            .par_iter()
-            .enumerate()
-            .map(|(i, &(p, n))| {
+    let trace = |pts: &PointSet, range: std::ops::Range<usize>, tag: u64| -> (Vec<Vec3>, u64) {
+        let traced: Vec<(Vec3, u64)> = range
+            .into_par_iter()
+            .map(|i| {
+                let (p, n) = pts.get(i);
                 let mut rays = 0;
-                let stream = hash_pair(hash_pair(DOMAIN_FIT, tag), (first + i) as u64);
+                let stream = hash_pair(hash_pair(DOMAIN_FIT, tag), i as u64);
                 let (reference, _) =
                     truth::irradiance_reference(&renderer, p, n, SPP, |k| Sampler::new(seed, stream, k), &mut rays);
                 (reference, rays)
@@ -285,8 +305,8 @@ pub fn trace_references(baked: Baked, points: &SurfacePoints, seed: u64, ranges:
         let rays = traced.iter().map(|t| t.1).sum();
         (traced.into_iter().map(|t| t.0).collect(), rays)
     };
-    let (train, train_rays) = trace(&points.train[ranges.train.clone()], ranges.train.start, 0x1C);
-    let (check, check_rays) = trace(&points.check[ranges.check.clone()], ranges.check.start, 0x1D);
+    let (train, train_rays) = trace(&points.train, ranges.train.clone(), 0x1C);
+    let (check, check_rays) = trace(&points.check, ranges.check.clone(), 0x1D);
     References { train, check, rays: train_rays + check_rays }
 }
 
@@ -343,15 +363,16 @@ impl Layering {
     /// Buckets `pts` by the lowest layer of their blend's cells (layer 0 for a point no cell
     /// weighs) along the axis whose largest pair of neighbouring buckets is smallest (z on a
     /// tie), counting each cell's support (points it takes part in) into `support`.
-    fn new(grid: IrradianceView, pts: &[(Vec3, Vec3)], bias: f32, support: &mut [u32]) -> Layering {
+    fn new(grid: IrradianceView, pts: &PointSet, bias: f32, support: &mut [u32]) -> Layering {
         let g = grid.geometry;
         let counts = g.counts.to_array().map(|n| n as usize);
         // each point's lowest cell coordinates (12 bytes a point while the buckets are made);
         // the supports are counted as the points go (integer sums: any order gives the same)
         let counted: Vec<AtomicU32> = support.iter().map(|_| AtomicU32::new(0)).collect();
-        let lowest: Vec<[u32; 3]> = pts
-            .par_iter()
-            .map(|&(p, n)| {
+        let lowest: Vec<[u32; 3]> = (0..pts.len())
+            .into_par_iter()
+            .map(|k| {
+                let (p, n) = pts.get(k);
                 let t = grid.biased_terms(p, n, bias);
                 let mut low = glam::UVec3::MAX;
                 for &(c, w, _) in &t.terms[..t.count] {
@@ -466,8 +487,8 @@ fn fit_at_bias(
     bias: f32,
 ) -> ((IrradianceCorrection, Vec<IrradianceCellFit>), BiasTrial) {
     let g = grid.geometry;
-    let point = |pts: &[(Vec3, Vec3)], refs: &[Vec3], k: usize| {
-        let (p, n) = pts[k];
+    let point = |pts: &PointSet, refs: &[Vec3], k: usize| {
+        let (p, n) = pts.get(k);
         Point {
             terms: grid.biased_terms(p, n, bias),
             reference: refs[k],
@@ -574,7 +595,7 @@ fn fit_at_bias(
     // the whole field's errors on every training and check point: the blend as it is and
     // with the stored maps (each point's error where its own bucket comes, summed in point
     // order)
-    let field_rmse = |layering: &Layering, pts: &[(Vec3, Vec3)], refs: &[Vec3], maps: Maps| {
+    let field_rmse = |layering: &Layering, pts: &PointSet, refs: &[Vec3], maps: Maps| {
         let mut e = vec![0.0f64; pts.len()];
         layering.visit(|k| point(pts, refs, k), |_, _, own| point_errors(&mut e, own, maps, exposure));
         root_mean(&e)

@@ -151,7 +151,11 @@ impl RgbSink {
     /// The sinks of layer `layer`'s R, G and B channels, for [`route_to_sinks`].
     #[must_use]
     pub fn sinks(&self, layer: &str) -> Vec<(String, String, Sink)> {
-        ["R", "G", "B"].iter().enumerate().map(|(c, &name)| (layer.to_string(), name.to_string(), self.channel(c))).collect()
+        ["R", "G", "B"]
+            .iter()
+            .enumerate()
+            .map(|(c, &name)| (layer.to_string(), name.to_string(), self.channel(c)))
+            .collect()
     }
 
     /// The sink of component `c` (0 = R, 1 = G, 2 = B).

@@ -401,13 +401,14 @@ pub fn merge(
             let (cells, references) = gather_fit(&set, &fit::active_cells(&grid), &points, &job.fit)?;
             let proxy = fit::proxy::choose(baked, glossy, &job.fit);
             let mut fitted = fit::assemble(baked, glossy, &job.fit, proxy, cells, &points, references);
+            drop(points);
             fitted.seconds += set.iter().map(|(_, h)| h.seconds).sum::<f64>();
             crate::files::staged::link_or_copy_dir(&tx.previous.bake(), &tx.out.bake())?;
             let out = Output { folder: &tx.out, command, progress };
             let manifest = run::write_fit(baked, &warp, &fitted, job.store, out)?;
             tx.keep(RunFolder::written_by_farm)?;
             // the merged grid loads back before it is committed: without the bake beside it
-            drop((warp, lobes, points, tracer, probe, grid));
+            drop((warp, lobes, tracer, probe, grid));
             tx.commit(true)?;
             Merged::Fit(Box::new((fitted, manifest)))
         }

@@ -136,43 +136,84 @@ pub fn surface_points(
     tracer: &Tracer,
     bounds: (Vec3, Vec3),
     count: u32,
-    (seed, stream): (u64, u64),
+    streams: (u64, u64),
 ) -> Vec<(Vec3, Vec3)> {
-    let tris = &scene.triangles;
-    let mut cdf = Vec::with_capacity(tris.len());
-    let mut total = 0.0f64;
-    for k in 0..tris.len() {
-        total += 0.5 * (tris.v1[k] - tris.v0[k]).cross(tris.v2[k] - tris.v0[k]).length() as f64;
-        cdf.push(total);
+    let sampler = SurfaceSampler::new(scene, tracer, bounds, streams);
+    sampler.successes(count).into_iter().filter_map(|a| sampler.candidate(a)).collect()
+}
+
+/// The draw of [`surface_points`], attempt by attempt: attempt `a`'s candidate (a point and
+/// its normal) is a pure function of `a`, so a set of points can be kept as the attempts that
+/// succeeded (4 bytes a point instead of 24) and each point computed again where it is used.
+pub struct SurfaceSampler<'a> {
+    scene: &'a Scene,
+    tracer: &'a Tracer,
+    bounds: (Vec3, Vec3),
+    /// Cumulative triangle areas, and their total (0: nothing to draw on).
+    cdf: Vec<f64>,
+    total: f64,
+    streams: (u64, u64),
+}
+
+impl<'a> SurfaceSampler<'a> {
+    /// The draw on `scene`'s triangles inside `bounds`, on the streams `(seed, stream)`.
+    #[must_use]
+    pub fn new(scene: &'a Scene, tracer: &'a Tracer, bounds: (Vec3, Vec3), streams: (u64, u64)) -> Self {
+        let tris = &scene.triangles;
+        let mut cdf = Vec::with_capacity(tris.len());
+        let mut total = 0.0f64;
+        for k in 0..tris.len() {
+            total += 0.5 * (tris.v1[k] - tris.v0[k]).cross(tris.v2[k] - tris.v0[k]).length() as f64;
+            cdf.push(total);
+        }
+        let total = if total > 0.0 { total } else { 0.0 };
+        SurfaceSampler { scene, tracer, bounds, cdf, total, streams }
     }
-    if tris.is_empty() || !(total > 0.0) {
-        return Vec::new();
-    }
-    let threshold = scene.config.grid.inside_backface_fraction;
-    // attempt `a` is decided by its own sampler alone, so blocks of attempts run in
-    // parallel and are taken in attempt order: the same points as one attempt after another
-    let attempt = |a: u32| -> Option<(Vec3, Vec3)> {
+
+    /// Attempt `a`'s candidate before the inside test: a point area-uniform on the triangles,
+    /// off the surface along the side it is seen from, with that normal; `None` outside the
+    /// bounds or on a degenerate triangle.
+    #[must_use]
+    pub fn candidate(&self, a: u32) -> Option<(Vec3, Vec3)> {
+        let (tris, (seed, stream)) = (&self.scene.triangles, self.streams);
+        if tris.is_empty() || !(self.total > 0.0) {
+            return None;
+        }
         let mut s = Sampler::new(seed, stream, a);
-        let pick = s.next_1d() as f64 * total;
-        let k = cdf.partition_point(|&c| c <= pick).min(tris.len() - 1);
+        let pick = s.next_1d() as f64 * self.total;
+        let k = self.cdf.partition_point(|&c| c <= pick).min(tris.len() - 1);
         let (u, v) = (s.next_1d(), s.next_1d());
         let su = u.sqrt();
         let (b0, b1) = (1.0 - su, v * su);
         let p = tris.v0[k] * b0 + tris.v1[k] * b1 + tris.v2[k] * (1.0 - b0 - b1);
-        if !(p.cmpge(bounds.0).all() && p.cmple(bounds.1).all()) {
+        if !(p.cmpge(self.bounds.0).all() && p.cmple(self.bounds.1).all()) {
             return None;
         }
         let front = (tris.v1[k] - tris.v0[k]).cross(tris.v2[k] - tris.v0[k]).normalize_or_zero();
-        let two_sided = scene.materials[tris.material[k] as usize].two_sided;
+        let two_sided = self.scene.materials[tris.material[k] as usize].two_sided;
         let n = if two_sided && s.next_1d() < 0.5 { -front } else { front };
-        let b = p + n * tracer.surface_offset(p);
+        (n != Vec3::ZERO).then(|| (p + n * self.tracer.surface_offset(p), n))
+    }
+
+    /// Whether attempt `a` gives a point: a candidate the inside rule does not reject.
+    #[must_use]
+    pub fn succeeds(&self, a: u32) -> bool {
+        let threshold = self.scene.config.grid.inside_backface_fraction;
+        let (seed, stream) = self.streams;
         let inside_stream = hash_pair(stream, 0x1D ^ (a as u64 + 1));
-        if n == Vec3::ZERO || is_inside(scene, tracer, b, threshold, |j| Sampler::new(seed, inside_stream, j)) {
-            return None;
+        self.candidate(a).is_some_and(|(b, _)| {
+            !is_inside(self.scene, self.tracer, b, threshold, |j| Sampler::new(seed, inside_stream, j))
+        })
+    }
+
+    /// The first `count` attempts that succeed (at most `256 × count` attempts), in order.
+    #[must_use]
+    pub fn successes(&self, count: u32) -> Vec<u32> {
+        if !(self.total > 0.0) {
+            return Vec::new();
         }
-        Some((b, n))
-    };
-    first_successes(count, count.saturating_mul(256), attempt)
+        first_successes(count, count.saturating_mul(256), |a| self.succeeds(a).then_some(a))
+    }
 }
 
 /// Up to `count` points on the surfaces seen from inside the box `from` (rays from random
