@@ -211,11 +211,14 @@ fn finite_rgb(l: &ExrLayer, path: &Path) -> Result<Vec<Vec3>, FileError> {
     Ok(v)
 }
 
+/// Each texel's hit count, and the first texel whose fraction is no count (with it).
+type Counts = (Vec<u8>, Option<(usize, f32)>);
+
 /// The hit fractions of a bake's distance texels decoded straight into counts (a byte
 /// each, in the grid's placed order): a fraction that is not exactly a count of `samples`
 /// rays (as the bake writes them) is an error naming the first such texel.
 struct HitSink {
-    counts: std::sync::Arc<std::sync::Mutex<(Vec<u8>, Option<(usize, f32)>)>>,
+    counts: std::sync::Arc<std::sync::Mutex<Counts>>,
     samples: u32,
     place: exr::Placement,
 }

@@ -445,8 +445,8 @@ mod tests {
         let b = encode(p, computed, half).unwrap();
         assert_eq!(a, b);
         // decoding puts samples where the placement says; f16 layers come back rounded
-        let reversed = decode_placed(p, std::io::Cursor::new(&a), |name, w, h| {
-            (name == "x").then(|| -> Placement { std::sync::Arc::new(move |k| w * h - 1 - k) })
+        let reversed = decode_routed(p, std::io::Cursor::new(&a), |name, _, w, h| {
+            Destination::Own((name == "x").then(|| -> Placement { std::sync::Arc::new(move |k| w * h - 1 - k) }))
         })
         .unwrap();
         let x = reversed.iter().find(|l| l.name == "x").unwrap();
@@ -457,5 +457,26 @@ mod tests {
             let got = plain.iter().find(|g| g.name == l.name).unwrap();
             assert_eq!(got, l, "{}", l.name);
         }
+    }
+
+    #[test]
+    fn an_rgb_sink_gathers_the_placed_triples_and_leaves_the_channels_empty() {
+        let p = Path::new("rgb.exr");
+        let (w, h) = (5, 3);
+        let ch = |c: f32| (0..w * h).map(|i| i as f32 + c / 4.0).collect::<Vec<f32>>();
+        let channels = vec![("R".into(), ch(1.0)), ("G".into(), ch(2.0)), ("B".into(), ch(3.0)), ("Z".into(), ch(0.0))];
+        let layer = ExrLayer { name: "irr".into(), width: w, height: h, channels };
+        let bytes = encode(p, [layer.clone()], |_| false).unwrap();
+        let sink = RgbSink::new(w * h, std::sync::Arc::new(move |k| w * h - 1 - k));
+        let route = route_to_sinks(sink.sinks("irr"), |_, _, _| None);
+        let got = decode_routed(p, std::io::Cursor::new(&bytes), route).unwrap();
+        let triples = sink.take();
+        for k in 0..w * h {
+            let i = w * h - 1 - k;
+            assert_eq!(triples[k], glam::Vec3::new(ch(1.0)[i], ch(2.0)[i], ch(3.0)[i]));
+        }
+        let l = &got[0];
+        assert!(l.channel("R").unwrap().is_empty() && l.channel("B").unwrap().is_empty());
+        assert_eq!(l.channel("Z").unwrap(), ch(0.0).as_slice(), "a channel without a sink keeps its own array");
     }
 }
