@@ -30,7 +30,7 @@ use argmin::solver::brent::BrentOpt;
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 
 /// N of each cell's N×N map of scales.
 pub const CORRECTION_RES: u32 = 4;
@@ -291,19 +291,22 @@ impl<'a> SurfacePoints<'a> {
 pub fn trace_references(baked: Baked, points: &SurfacePoints, seed: u64, ranges: &PointRanges) -> References {
     let renderer = Renderer::new(baked.scene, baked.tracer);
     let trace = |pts: &PointSet, range: std::ops::Range<usize>, tag: u64| -> (Vec<Vec3>, u64) {
-        let traced: Vec<(Vec3, u64)> = range
+        // rays summed as they go (an integer sum: any order gives the same), the references
+        // collected straight into their vector
+        let rays = AtomicU64::new(0);
+        let traced: Vec<Vec3> = range
             .into_par_iter()
             .map(|i| {
                 let (p, n) = pts.get(i);
-                let mut rays = 0;
+                let mut k = 0;
                 let stream = hash_pair(hash_pair(DOMAIN_FIT, tag), i as u64);
                 let (reference, _) =
-                    truth::irradiance_reference(&renderer, p, n, SPP, |k| Sampler::new(seed, stream, k), &mut rays);
-                (reference, rays)
+                    truth::irradiance_reference(&renderer, p, n, SPP, |j| Sampler::new(seed, stream, j), &mut k);
+                rays.fetch_add(k, Ordering::Relaxed);
+                reference
             })
             .collect();
-        let rays = traced.iter().map(|t| t.1).sum();
-        (traced.into_iter().map(|t| t.0).collect(), rays)
+        (traced, rays.into_inner())
     };
     let (train, train_rays) = trace(&points.train, ranges.train.clone(), 0x1C);
     let (check, check_rays) = trace(&points.check, ranges.check.clone(), 0x1D);
@@ -366,33 +369,34 @@ impl Layering {
     fn new(grid: IrradianceView, pts: &PointSet, bias: f32, support: &mut [u32]) -> Layering {
         let g = grid.geometry;
         let counts = g.counts.to_array().map(|n| n as usize);
-        // each point's lowest cell coordinates (12 bytes a point while the buckets are made);
-        // the supports are counted as the points go (integer sums: any order gives the same)
-        let counted: Vec<AtomicU32> = support.iter().map(|_| AtomicU32::new(0)).collect();
-        let lowest: Vec<[u32; 3]> = (0..pts.len())
-            .into_par_iter()
-            .map(|k| {
-                let (p, n) = pts.get(k);
-                let t = grid.biased_terms(p, n, bias);
-                let mut low = glam::UVec3::MAX;
-                for &(c, w, _) in &t.terms[..t.count] {
-                    if w > 0.0 {
+        // each point's lowest cell coordinates along every axis, counted into the layers'
+        // sizes and the cells' supports as the points go (integer sums: any order gives the
+        // same); nothing is kept per point but the chosen axis's layer, computed again below
+        let lowest = |k: usize, counted: Option<&[AtomicU32]>| -> [u32; 3] {
+            let (p, n) = pts.get(k);
+            let t = grid.biased_terms(p, n, bias);
+            let mut low = glam::UVec3::MAX;
+            for &(c, w, _) in &t.terms[..t.count] {
+                if w > 0.0 {
+                    if let Some(counted) = counted {
                         counted[c as usize].fetch_add(1, Ordering::Relaxed);
-                        low = low.min(g.cell_coords(c as usize));
                     }
+                    low = low.min(g.cell_coords(c as usize));
                 }
-                low.to_array().map(|l| if l == u32::MAX { 0 } else { l })
-            })
-            .collect();
+            }
+            low.to_array().map(|l| if l == u32::MAX { 0 } else { l })
+        };
+        let counted: Vec<AtomicU32> = support.iter().map(|_| AtomicU32::new(0)).collect();
+        let sized: [Vec<AtomicU32>; 3] = counts.map(|n| (0..n).map(|_| AtomicU32::new(0)).collect());
+        (0..pts.len()).into_par_iter().for_each(|k| {
+            for (a, l) in lowest(k, Some(&counted)).into_iter().enumerate() {
+                sized[a][l as usize].fetch_add(1, Ordering::Relaxed);
+            }
+        });
         for (s, c) in support.iter_mut().zip(counted) {
             *s += c.into_inner();
         }
-        let mut sizes: [Vec<u32>; 3] = counts.map(|n| vec![0u32; n]);
-        for low in &lowest {
-            for a in 0..3 {
-                sizes[a][low[a] as usize] += 1;
-            }
-        }
+        let sizes: [Vec<u32>; 3] = sized.map(|v| v.into_iter().map(AtomicU32::into_inner).collect());
         let widest = |a: usize| (0..counts[a]).map(|k| sizes[a][k] + if k > 0 { sizes[a][k - 1] } else { 0 }).max();
         let axis = [2, 0, 1].into_iter().min_by_key(|&a| widest(a)).unwrap_or(2);
         let mut start = vec![0u32; counts[axis] + 1];
@@ -401,10 +405,10 @@ impl Layering {
         }
         let mut next = start.clone();
         let mut order = vec![0u32; pts.len()];
-        for (k, low) in lowest.iter().enumerate() {
-            let z = low[axis] as usize;
-            order[next[z] as usize] = k as u32;
-            next[z] += 1;
+        let layer: Vec<u32> = (0..pts.len()).into_par_iter().map(|k| lowest(k, None)[axis]).collect();
+        for (k, &z) in layer.iter().enumerate() {
+            order[next[z as usize] as usize] = k as u32;
+            next[z as usize] += 1;
         }
         Layering { axis, g, order, start }
     }
