@@ -369,34 +369,36 @@ impl Layering {
     fn new(grid: IrradianceView, pts: &PointSet, bias: f32, support: &mut [u32]) -> Layering {
         let g = grid.geometry;
         let counts = g.counts.to_array().map(|n| n as usize);
-        // each point's lowest cell coordinates along every axis, counted into the layers'
-        // sizes and the cells' supports as the points go (integer sums: any order gives the
-        // same); nothing is kept per point but the chosen axis's layer, computed again below
-        let lowest = |k: usize, counted: Option<&[AtomicU32]>| -> [u32; 3] {
-            let (p, n) = pts.get(k);
-            let t = grid.biased_terms(p, n, bias);
-            let mut low = glam::UVec3::MAX;
-            for &(c, w, _) in &t.terms[..t.count] {
-                if w > 0.0 {
-                    if let Some(counted) = counted {
-                        counted[c as usize].fetch_add(1, Ordering::Relaxed);
-                    }
-                    low = low.min(g.cell_coords(c as usize));
-                }
-            }
-            low.to_array().map(|l| if l == u32::MAX { 0 } else { l })
-        };
+        // each point's lowest cell coordinates, kept as the index of the cell there (4 bytes a
+        // point: the blend weighs a 2×2×2 block, so its lowest coordinates are a cell's; a
+        // point no cell weighs counts as cell 0); the supports are counted as the points go
+        // (integer sums: any order gives the same)
         let counted: Vec<AtomicU32> = support.iter().map(|_| AtomicU32::new(0)).collect();
-        let sized: [Vec<AtomicU32>; 3] = counts.map(|n| (0..n).map(|_| AtomicU32::new(0)).collect());
-        (0..pts.len()).into_par_iter().for_each(|k| {
-            for (a, l) in lowest(k, Some(&counted)).into_iter().enumerate() {
-                sized[a][l as usize].fetch_add(1, Ordering::Relaxed);
-            }
-        });
+        let lowest: Vec<u32> = (0..pts.len())
+            .into_par_iter()
+            .map(|k| {
+                let (p, n) = pts.get(k);
+                let t = grid.biased_terms(p, n, bias);
+                let mut low = glam::UVec3::MAX;
+                for &(c, w, _) in &t.terms[..t.count] {
+                    if w > 0.0 {
+                        counted[c as usize].fetch_add(1, Ordering::Relaxed);
+                        low = low.min(g.cell_coords(c as usize));
+                    }
+                }
+                if low == glam::UVec3::MAX { 0 } else { g.cell_index(low) as u32 }
+            })
+            .collect();
         for (s, c) in support.iter_mut().zip(counted) {
             *s += c.into_inner();
         }
-        let sizes: [Vec<u32>; 3] = sized.map(|v| v.into_iter().map(AtomicU32::into_inner).collect());
+        let mut sizes: [Vec<u32>; 3] = counts.map(|n| vec![0u32; n]);
+        for &low in &lowest {
+            let xyz = g.cell_coords(low as usize);
+            for a in 0..3 {
+                sizes[a][xyz[a] as usize] += 1;
+            }
+        }
         let widest = |a: usize| (0..counts[a]).map(|k| sizes[a][k] + if k > 0 { sizes[a][k - 1] } else { 0 }).max();
         let axis = [2, 0, 1].into_iter().min_by_key(|&a| widest(a)).unwrap_or(2);
         let mut start = vec![0u32; counts[axis] + 1];
@@ -405,10 +407,10 @@ impl Layering {
         }
         let mut next = start.clone();
         let mut order = vec![0u32; pts.len()];
-        let layer: Vec<u32> = (0..pts.len()).into_par_iter().map(|k| lowest(k, None)[axis]).collect();
-        for (k, &z) in layer.iter().enumerate() {
-            order[next[z as usize] as usize] = k as u32;
-            next[z as usize] += 1;
+        for (k, &low) in lowest.iter().enumerate() {
+            let z = g.cell_coords(low as usize)[axis] as usize;
+            order[next[z] as usize] = k as u32;
+            next[z] += 1;
         }
         Layering { axis, g, order, start }
     }
@@ -604,9 +606,12 @@ fn fit_at_bias(
         layering.visit(|k| point(pts, refs, k), |_, _, own| point_errors(&mut e, own, maps, exposure));
         root_mean(&e)
     };
+    // each error vector (8 bytes a point) is summed and freed before the next is made
+    let blend_check_rmse = root_mean(&blend_err);
+    drop(blend_err);
     let trial = BiasTrial {
         bias,
-        blend_check_rmse: root_mean(&blend_err),
+        blend_check_rmse,
         train_rmse: field_rmse(&train, train_pts, train_refs, stored),
         check_rmse: field_rmse(&check, check_pts, check_refs, stored),
     };
