@@ -183,6 +183,18 @@ fn merges_of_parts_that_do_not_belong_together_are_refused_by_name() {
     assert!(e.contains("version"), "{e}");
     let e = refused(&dir, &[part(0), dir.join("absent.part"), part(2)]);
     assert!(e.contains("absent.part"), "{e}");
+    // a well-formed part whose cells' maps disagree with their models: a stored map missing,
+    // or a map kept by a cell that does not store one
+    let (header, body) = partfile::read_part(&part(1)).unwrap();
+    let partfile::PartBody::Fit(fit_part) = body else { panic!("a fit part") };
+    for stored in [true, false] {
+        let mut tampered = fit_part.clone();
+        let c = tampered.cells.iter_mut().find(|c| (c.fit.level == warpfit::fit::Level::Map) == stored).unwrap();
+        c.fitted = if stored { Vec::new() } else { vec![0.0; (job().fit.map_res * job().fit.map_res) as usize] };
+        partfile::write_part(&broken, header.clone(), &partfile::PartBody::Fit(tampered)).unwrap();
+        let e = refused(&dir, &[part(0), broken.clone(), part(2)]);
+        assert!(e.contains("broken.part") && e.contains("maps"), "{e}");
+    }
 
     // and the right set still merges
     farm::merge(&folder, &[part(2), part(0), part(1)], "test", &progress).unwrap();
