@@ -624,18 +624,24 @@ fn assemble_cells(
     let g = grid.geometry;
     let n2 = (s.map_res * s.map_res) as usize;
 
-    let mut correctives = Correctives::new(g, s.map_res, vec![NO_MAP; g.cell_count()], Vec::new(), proxy.method);
-    let mut cells = Vec::with_capacity(results.len());
+    // the stored maps gathered into one exactly sized array, and the outcomes turned into
+    // their records in place (the records are smaller: the outcomes' buffer is reused, so
+    // the two are never held side by side)
+    let stored = results.iter().filter(|r| r.fit.level == Level::Map).count();
+    let mut correctives =
+        Correctives::new(g, s.map_res, vec![NO_MAP; g.cell_count()], Vec::with_capacity(stored * n2), proxy.method);
     let mut reference_rays = 0;
-    for CellOutcome { fit, fitted, rays, .. } in results {
-        let cell = fit.cell as usize;
-        if fit.level == Level::Map {
-            correctives.slot[cell] = (correctives.maps.len() / n2) as u32;
-            correctives.maps.extend_from_slice(&fitted);
-        }
-        reference_rays += rays;
-        cells.push(fit);
-    }
+    let cells: Vec<CellFit> = results
+        .into_iter()
+        .map(|CellOutcome { fit, fitted, rays, .. }| {
+            if fit.level == Level::Map {
+                correctives.slot[fit.cell as usize] = (correctives.maps.len() / n2) as u32;
+                correctives.maps.extend_from_slice(&fitted);
+            }
+            reference_rays += rays;
+            fit
+        })
+        .collect();
     let cells_cpu = cells.iter().map(|c| c.seconds).sum::<f64>();
     let cells_tracing_cpu = cells.iter().map(|c| c.trace_seconds).sum::<f64>();
     // the correction for the maps as stored: fitted to the scene, kept if it beats the lobes
