@@ -552,14 +552,11 @@ fn fit_at_bias(
     let fitted_maps = Maps { slot: &slot, maps: &maps };
     // selection: a cell keeps its map where its support's check points improve by 5% with
     // the corrected field against the uncorrected blend (neighbouring maps share their
-    // points, so one map alone rarely makes the difference: they are judged as a field);
-    // the same pass keeps each check point's error with the blend as it is
+    // points, so one map alone rarely makes the difference: they are judged as a field)
     let mut fits: Vec<IrradianceCellFit> = Vec::new();
-    let mut blend_err = vec![0.0f64; check_pts.len()];
     check.visit(
         |k| point(check_pts, check_refs, k),
-        |z, window, own| {
-            point_errors(&mut blend_err, own, Maps::NONE, exposure);
+        |z, window, _| {
             let cells = supports(&check, z, window);
             let judged: Vec<IrradianceCellFit> = cells
                 .par_iter()
@@ -599,21 +596,37 @@ fn fit_at_bias(
     drop(maps);
     let stored = Maps { slot: &slot, maps: &stored };
     // the whole field's errors on every training and check point: the blend as it is and
-    // with the stored maps (each point's error where its own bucket comes, summed in point
-    // order)
-    let field_rmse = |layering: &Layering, pts: &PointSet, refs: &[Vec3], maps: Maps| {
-        let mut e = vec![0.0f64; pts.len()];
-        layering.visit(|k| point(pts, refs, k), |_, _, own| point_errors(&mut e, own, maps, exposure));
-        root_mean(&e)
+    // with the stored maps, each point's error summed in point order (the points prepared a
+    // block at a time, so no error vector or layer window is held)
+    let field_rmse = |pts: &PointSet, refs: &[Vec3], sets: &[Maps]| -> Vec<f64> {
+        const BLOCK: usize = 1 << 16;
+        let blocks = (0..pts.len()).step_by(BLOCK).map(|start| {
+            (start..(start + BLOCK).min(pts.len()))
+                .into_par_iter()
+                .map(|k| {
+                    let p = point(pts, refs, k);
+                    sets.iter().map(|&m| err2(predict(&p, m, None), p.reference, exposure)).collect::<Vec<f64>>()
+                })
+                .collect::<Vec<Vec<f64>>>()
+        });
+        // one running sum per set, point after point, from the start `Iterator::sum` takes:
+        // the same floats as summing a vector of every point's error
+        let mut sums = vec![std::iter::empty::<f64>().sum::<f64>(); sets.len()];
+        for block in blocks {
+            for e in &block {
+                for (sum, &x) in sums.iter_mut().zip(e) {
+                    *sum += x;
+                }
+            }
+        }
+        sums.iter().map(|&sum| (sum / pts.len().max(1) as f64).sqrt()).collect()
     };
-    // each error vector (8 bytes a point) is summed and freed before the next is made
-    let blend_check_rmse = root_mean(&blend_err);
-    drop(blend_err);
+    let check_rmse = field_rmse(check_pts, check_refs, &[Maps::NONE, stored]);
     let trial = BiasTrial {
         bias,
-        blend_check_rmse,
-        train_rmse: field_rmse(&train, train_pts, train_refs, stored),
-        check_rmse: field_rmse(&check, check_pts, check_refs, stored),
+        blend_check_rmse: check_rmse[0],
+        train_rmse: field_rmse(train_pts, train_refs, &[stored])[0],
+        check_rmse: check_rmse[1],
     };
     ((correction, fits), trial)
 }
@@ -621,16 +634,4 @@ fn fit_at_bias(
 /// The prepared points of `window` listed in `idx`.
 fn gather<'a>(window: &[&'a Point], idx: &[u32]) -> Vec<&'a Point> {
     idx.iter().map(|&i| window[i as usize]).collect()
-}
-
-/// Each point of `own`'s tone-mapped squared error with `maps`, into `e` at its index.
-fn point_errors(e: &mut [f64], own: &[(u32, Point)], maps: Maps, exposure: f32) {
-    for (k, p) in own {
-        e[*k as usize] = err2(predict(p, maps, None), p.reference, exposure);
-    }
-}
-
-/// √(mean of `e`), summed in order.
-fn root_mean(e: &[f64]) -> f64 {
-    (e.iter().sum::<f64>() / e.len().max(1) as f64).sqrt()
 }
