@@ -452,11 +452,10 @@ impl Layering {
         &self.order[self.start[z] as usize..self.start[z + 1] as usize]
     }
 
-    /// Calls `visit(z, window, own)` for each layer z in order: `window` borrows the prepared
+    /// Calls `visit(z, window)` for each layer z in order: `window` borrows the prepared
     /// points of buckets z − 1 and z (every point whose blend weighs a cell of layer z), in
-    /// increasing point order; `own` is bucket z alone as (point, prepared) (each point is in
-    /// exactly one `own`).
-    fn visit(&self, prepare: impl Fn(usize) -> Point + Sync, mut visit: impl FnMut(usize, &[&Point], &[(u32, Point)])) {
+    /// increasing point order.
+    fn visit(&self, prepare: impl Fn(usize) -> Point + Sync, mut visit: impl FnMut(usize, &[&Point])) {
         let mut prev: Vec<(u32, Point)> = Vec::new();
         for z in 0..self.start.len() - 1 {
             let cur: Vec<(u32, Point)> = self.bucket(z).par_iter().map(|&k| (k, prepare(k as usize))).collect();
@@ -472,7 +471,7 @@ impl Layering {
                     j += 1;
                 }
             }
-            visit(z, &window, &cur);
+            visit(z, &window);
             drop(window);
             prev = cur;
         }
@@ -536,7 +535,7 @@ fn fit_at_bias(
         let current = Maps { slot: &slot, maps: &maps };
         train.visit(
             |k| point(train_pts, train_refs, k),
-            |z, window, _| {
+            |z, window| {
                 let cells = supports(&train, z, window);
                 let fits: Vec<(usize, Map)> = cells
                     .par_iter()
@@ -556,7 +555,7 @@ fn fit_at_bias(
     let mut fits: Vec<IrradianceCellFit> = Vec::new();
     check.visit(
         |k| point(check_pts, check_refs, k),
-        |z, window, _| {
+        |z, window| {
             let cells = supports(&check, z, window);
             let judged: Vec<IrradianceCellFit> = cells
                 .par_iter()
@@ -595,39 +594,31 @@ fn fit_at_bias(
     }
     drop(maps);
     let stored = Maps { slot: &slot, maps: &stored };
-    // the whole field's errors on every training and check point: the blend as it is and
-    // with the stored maps, each point's error summed in point order (the points prepared a
-    // block at a time, so no error vector or layer window is held)
-    let field_rmse = |pts: &PointSet, refs: &[Vec3], sets: &[Maps]| -> Vec<f64> {
+    // the whole field's errors on every training and check point, [the blend as it is, with
+    // the stored maps], each point's error summed in point order (the points prepared a block
+    // at a time, so no error vector or layer window is held)
+    let field_rmse = |pts: &PointSet, refs: &[Vec3]| -> [f64; 2] {
         const BLOCK: usize = 1 << 16;
-        let blocks = (0..pts.len()).step_by(BLOCK).map(|start| {
-            (start..(start + BLOCK).min(pts.len()))
+        // running sums from the start `Iterator::sum` takes, point after point: the same
+        // floats as summing a vector of every point's error
+        let mut sums = [std::iter::empty::<f64>().sum::<f64>(); 2];
+        for start in (0..pts.len()).step_by(BLOCK) {
+            let block: Vec<[f64; 2]> = (start..(start + BLOCK).min(pts.len()))
                 .into_par_iter()
                 .map(|k| {
                     let p = point(pts, refs, k);
-                    sets.iter().map(|&m| err2(predict(&p, m, None), p.reference, exposure)).collect::<Vec<f64>>()
+                    [Maps::NONE, stored].map(|m| err2(predict(&p, m, None), p.reference, exposure))
                 })
-                .collect::<Vec<Vec<f64>>>()
-        });
-        // one running sum per set, point after point, from the start `Iterator::sum` takes:
-        // the same floats as summing a vector of every point's error
-        let mut sums = vec![std::iter::empty::<f64>().sum::<f64>(); sets.len()];
-        for block in blocks {
+                .collect();
             for e in &block {
-                for (sum, &x) in sums.iter_mut().zip(e) {
-                    *sum += x;
-                }
+                sums[0] += e[0];
+                sums[1] += e[1];
             }
         }
-        sums.iter().map(|&sum| (sum / pts.len().max(1) as f64).sqrt()).collect()
+        sums.map(|sum| (sum / pts.len().max(1) as f64).sqrt())
     };
-    let check_rmse = field_rmse(check_pts, check_refs, &[Maps::NONE, stored]);
-    let trial = BiasTrial {
-        bias,
-        blend_check_rmse: check_rmse[0],
-        train_rmse: field_rmse(train_pts, train_refs, &[stored])[0],
-        check_rmse: check_rmse[1],
-    };
+    let [blend_check_rmse, check_rmse] = field_rmse(check_pts, check_refs);
+    let trial = BiasTrial { bias, blend_check_rmse, train_rmse: field_rmse(train_pts, train_refs)[1], check_rmse };
     ((correction, fits), trial)
 }
 
