@@ -4,9 +4,10 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
+use warpfit::bakefile;
 use warpfit::eval::EvalSettings;
 use warpfit::files;
-use warpfit::fit::{FitSettings, MapSets, Solver};
+use warpfit::fit::{FitSettings, Solver};
 use warpfit::jobs::run::{self as job, Output, RunSettings, StoreOptions};
 use warpfit::jobs::{cluster, farm, stability, sweep};
 use warpfit::progress::Progress;
@@ -444,13 +445,18 @@ fn command_line() -> String {
 }
 
 /// Opens a transaction on the scene's run folder and prepares the scene and its bake
-/// (reused from the folder or fresh) in it, saying which.
-fn prepare(args: &SceneArgs, progress: &Progress) -> Result<(job::Prepared, job::Transaction, RunFolder)> {
+/// (reused from the folder or fresh) in it, saying which; `hits`: when a reused bake's hit
+/// counts are read.
+fn prepare(
+    args: &SceneArgs,
+    hits: bakefile::Hits,
+    progress: &Progress,
+) -> Result<(job::Prepared, job::Transaction, RunFolder)> {
     let (scene, folder) = job::load_scene(&args.scene, args.out.as_deref())?;
     check_scene(&scene)?;
     job::check_bake_estimate(&scene, args.force)?;
     let tx = job::Transaction::begin(&folder)?;
-    let p = job::prepare_from(scene, &tx.previous, tx.out.clone(), progress)?;
+    let p = job::prepare_from(scene, &tx.previous, tx.out.clone(), hits, progress)?;
     if p.baked_now {
         println!("baked {} → {}", p.scene.name, folder.bake().display());
     } else {
@@ -698,7 +704,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Eval { scene, methods, eval } => {
             let methods = parse_methods(&methods)?;
-            let (p, tx, folder) = prepare(&scene, &progress)?;
+            let (p, tx, folder) = prepare(&scene, bakefile::Hits::WithGrid, &progress)?;
             let settings = eval.settings();
             let warp = p.baked().warp(settings.options);
             let out = Output { folder: &p.folder, command: &command, progress: &progress };
@@ -789,10 +795,10 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Fit { scene, fit, shard: None } => {
             let settings = fit.settings()?;
-            let (p, tx, folder) = prepare(&scene, &progress)?;
+            // a reused bake's hit counts stay on disk until the fit's cells stage reads them
+            let (mut p, tx, folder) = prepare(&scene, bakefile::Hits::Later, &progress)?;
             let warp = p.baked().warp(WarpOptions::standard());
-            let out = Output { folder: &p.folder, command: &command, progress: &progress };
-            let (f, manifest) = job::fit(p.baked(), &warp, &settings, fit.store(), MapSets::Stored, out)?;
+            let (f, manifest) = job::fit_staged(&mut p, &warp, &settings, fit.store(), &command, &progress)?;
             let lines = FitLines::of(&f);
             // the written grid loads back before it is committed: without the fit, the
             // probe and the bake beside it (the peak of a big level's fit)
@@ -802,7 +808,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Run { job: RunArgs { scene, eval, fit } } => {
             let settings = RunSettings { eval: eval.settings(), fit: fit.settings()?, store: fit.store() };
-            let (p, tx, folder) = prepare(&scene, &progress)?;
+            let (p, tx, folder) = prepare(&scene, bakefile::Hits::WithGrid, &progress)?;
             let outcome = job::run(&p, &settings, &command, &progress)?;
             tx.commit(true)?;
             print_fit(&FitLines::of(&outcome.fit), &outcome.manifest, &folder);

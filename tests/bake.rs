@@ -142,6 +142,28 @@ fn hit_counts_are_read_back_as_counts() {
 }
 
 #[test]
+fn hit_counts_left_for_later_read_back_the_same_from_the_same_bake_only() {
+    let scene = small_torture();
+    let baked = bake_with_threads(&scene, 2);
+    let dir = tmp_dir("hits-later");
+    bakefile::write_bake(&dir, &scene, &baked).unwrap();
+    let (m, _, mut grid) = bakefile::read_bake_with(&dir, bakefile::Hits::Later).unwrap();
+    assert!(grid.hits.is_empty() && !grid.holds_hits());
+    assert!(baked.grid.holds_hits());
+    grid.hits = bakefile::read_hits(&dir, &m.key, &grid).unwrap();
+    assert_eq!(grid, baked.grid, "the grid read in two steps is the grid read at once");
+    // a bake replaced in between (another key), or its grid file damaged: errors naming the file
+    let e = bakefile::read_hits(&dir, "fnv1a64:0000000000000000", &grid).unwrap_err().to_string();
+    assert!(e.contains("manifest.json") && e.contains("changed"), "{e}");
+    let mut bytes = std::fs::read(dir.join("grid.exr")).unwrap();
+    let k = bytes.len() / 3;
+    bytes[k] ^= 0x10;
+    std::fs::write(dir.join("grid.exr"), &bytes).unwrap();
+    let e = bakefile::read_hits(&dir, &m.key, &grid).unwrap_err().to_string();
+    assert!(e.contains("grid.exr") && e.contains("checksum"), "{e}");
+}
+
+#[test]
 fn sphere_probe_distances_are_closed_form() {
     let scene = load("sphere");
     let tracer = Tracer::new(&scene);

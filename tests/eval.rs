@@ -19,10 +19,14 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
     let tracer = Tracer::new(&scene);
     let dir = tmp_dir("eval");
     let folder = RunFolder::new(&dir);
-    let (probe, grid, baked) = job::load_or_bake(&scene, &tracer, &folder, &folder, &Progress::quiet()).unwrap();
+    let (probe, grid, baked) =
+        job::load_or_bake(&scene, &tracer, (&folder, &folder), warpfit::bakefile::Hits::WithGrid, &Progress::quiet())
+            .unwrap();
     assert!(baked);
     // a second call reuses the bake
-    let (_, _, baked_again) = job::load_or_bake(&scene, &tracer, &folder, &folder, &Progress::quiet()).unwrap();
+    let (_, _, baked_again) =
+        job::load_or_bake(&scene, &tracer, (&folder, &folder), warpfit::bakefile::Hits::WithGrid, &Progress::quiet())
+            .unwrap();
     assert!(!baked_again);
     let settings = EvalSettings { positions: 16, dirs_per_position: 64, reference_spp: 4, ..EvalSettings::quick() };
     let baked = job::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };

@@ -46,6 +46,18 @@ fn single(scene: &Scene, dir: &Path) {
     run::fit(p.baked(), &warp, &j.fit, j.store, warpfit::fit::MapSets::Stored, out).unwrap();
 }
 
+/// The fit `warpfit fit` runs on the bake of `from` brought into `dir`: stage by stage,
+/// the bake's hit counts read from disk only for the cells stage.
+fn staged(scene: &Scene, from: &Path, dir: &Path) {
+    let progress = Progress::quiet();
+    let (previous, folder) = (RunFolder::new(from), RunFolder::new(dir));
+    let mut p = run::prepare_from(scene.clone(), &previous, folder, warpfit::bakefile::Hits::Later, &progress).unwrap();
+    assert!(!p.baked_now && !p.grid.holds_hits(), "the bake is reused without its hit counts");
+    let j = job();
+    let warp = p.baked().warp(j.options);
+    run::fit_staged(&mut p, &warp, &j.fit, j.store, "test", &progress).unwrap();
+}
+
 /// Bakes and fits `scene` in `n` shards into `dir`, merging each step.
 fn sharded(scene: &Scene, dir: &Path, n: u32) -> Vec<PathBuf> {
     let progress = Progress::quiet();
@@ -61,11 +73,13 @@ fn sharded(scene: &Scene, dir: &Path, n: u32) -> Vec<PathBuf> {
 }
 
 #[test]
-fn merged_grids_equal_the_single_machine_grid_for_1_3_and_7_shards() {
+fn merged_and_staged_grids_equal_the_single_machine_grid_for_1_3_and_7_shards() {
     let scene = common::load("tiny");
     let base = common::tmp_dir("farm-equal");
     single(&scene, &base.join("single"));
     let want = payloads(&base.join("single"));
+    staged(&scene, &base.join("single"), &base.join("staged"));
+    assert_eq!(payloads(&base.join("staged")), want, "staged fit");
     for n in [1, 3, 7] {
         let dir = base.join(format!("shards{n}"));
         sharded(&scene, &dir, n);

@@ -41,6 +41,8 @@ pub struct ProbeGrid {
     pub depth_mean_sq: Vec<f32>,
     /// Rays of the texel (of `depth_samples`) that hit geometry: a byte, not the fraction
     /// (a quarter of the memory; [`hit_fraction`] gives the fraction the bake files store).
+    /// Empty when a bake was read without them (`bakefile::Hits::Later`): only a fit's cells
+    /// stage reads them.
     pub hits: Vec<u8>,
     /// Cell probe inside geometry (too many back-face hits).
     pub inside: Vec<bool>,
@@ -51,6 +53,13 @@ pub struct ProbeGrid {
 }
 
 impl ProbeGrid {
+    /// Whether the grid holds its hit counts (a bake read with `bakefile::Hits::Later` does
+    /// not until they are read).
+    #[must_use]
+    pub fn holds_hits(&self) -> bool {
+        self.hits.len() == self.geometry.cell_count() * (self.depth_resolution * self.depth_resolution) as usize
+    }
+
     pub fn active_cells(&self) -> usize {
         self.inside.iter().filter(|x| !**x).count()
     }

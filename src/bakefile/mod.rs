@@ -258,6 +258,42 @@ impl HitSink {
     }
 }
 
+/// The sink of a bake's hit fractions, placed in the grid's cell-major order.
+fn hit_sink(m: &BakeManifest, geometry: GridGeometry) -> HitSink {
+    let (dr, nx) = (m.grid.depth_resolution, geometry.counts.x);
+    let len = geometry.cell_count() * (dr * dr) as usize;
+    HitSink::new(len, m.grid.depth_samples, std::sync::Arc::new(move |k| tile_major(k, dr, nx)))
+}
+
+/// The hit counts of `grid`, a bake with content key `key` that [`read_bake_with`] read from
+/// `dir` without them: the grid file is read again (checked against its manifest, which
+/// must still be that bake's) and only its `hit` channel kept.
+pub fn read_hits(dir: &Path, key: &str, grid: &ProbeGrid) -> Result<Vec<u8>, FileError> {
+    let m = &read_manifest(dir)?;
+    let same = m.key == key
+        && m.grid.counts == grid.geometry.counts.to_array()
+        && m.grid.depth_resolution == grid.depth_resolution
+        && m.grid.depth_samples == grid.depth_samples;
+    if !same {
+        return Err(FileError::invalid(
+            &dir.join(MANIFEST_FILE),
+            "key",
+            format!("the bake changed since it was read (key {}, expected {key}): run again", m.key),
+        ));
+    }
+    let gpath = dir.join(GRID_FILE);
+    let hits = hit_sink(m, grid.geometry);
+    let sink = std::cell::RefCell::new(Some(hits.sink()));
+    let route = move |layer: &str, channel: &str, _: usize, _: usize| -> exr::Destination {
+        let taken = (layer == "depth_moments" && channel == "hit").then(|| sink.borrow_mut().take()).flatten();
+        exr::Destination::Sink(taken.unwrap_or_else(|| Box::new(|_: usize, _: &[f32]| {})))
+    };
+    let layers = read_payload(dir, m, GRID_FILE, route)?;
+    let (d, c) = (grid.depth_resolution as usize, grid.geometry.counts);
+    channel(find(&layers, &gpath, "depth_moments", (c.x as usize * d, (c.y * c.z) as usize * d))?, &gpath, "hit")?;
+    hits.take(&gpath)
+}
+
 /// The hit count whose fraction of `samples` rays is exactly `f`, if there is one.
 fn hit_count(f: f32, samples: u32) -> Option<u8> {
     let n = (f * samples as f32).round();
@@ -275,8 +311,8 @@ pub fn manifest_key(dir: &Path) -> Option<String> {
     v.get("key").and_then(|k| k.as_str()).map(str::to_string)
 }
 
-/// Reads a bake folder back, validating versions, sizes and values.
-pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid), FileError> {
+/// A bake folder's manifest, its format and version checked.
+fn read_manifest(dir: &Path) -> Result<BakeManifest, FileError> {
     let mpath = dir.join(MANIFEST_FILE);
     let bytes = crate::files::read_regular(&mpath, crate::files::MAX_JSON_BYTES)?;
     let probe_format: serde_json::Value =
@@ -286,9 +322,28 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
     if found != BAKE_FORMAT || version != BAKE_VERSION as u64 {
         return Err(FileError::Version { path: mpath, found, version, expected: BAKE_FORMAT, supported: BAKE_VERSION });
     }
-    let m: BakeManifest = serde_json::from_value(probe_format)
-        .map_err(|e| FileError::Json { path: mpath.clone(), message: e.to_string() })?;
+    serde_json::from_value(probe_format).map_err(|e| FileError::Json { path: mpath, message: e.to_string() })
+}
 
+/// When a bake's hit counts are read ([`ProbeGrid::hits`]): only a fit's cells stage reads
+/// them, so a fit of a big level can leave them on disk until then.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Hits {
+    /// With the rest of the grid.
+    WithGrid,
+    /// Not now: the grid's `hits` stay empty until [`read_hits`] reads them.
+    Later,
+}
+
+/// Reads a bake folder back, validating versions, sizes and values.
+pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid), FileError> {
+    read_bake_with(dir, Hits::WithGrid)
+}
+
+/// [`read_bake`], the grid's hit counts read now or left for [`read_hits`].
+pub fn read_bake_with(dir: &Path, when: Hits) -> Result<(BakeManifest, SpecularProbe, ProbeGrid), FileError> {
+    let mpath = dir.join(MANIFEST_FILE);
+    let m = read_manifest(dir)?;
     if m.probe.file != PROBE_FILE || m.grid.file != GRID_FILE {
         return Err(FileError::invalid(&mpath, "probe.file/grid.file", "not this format's file names"));
     }
@@ -356,13 +411,13 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
         (size == (w, h)).then(|| -> exr::Placement { std::sync::Arc::new(move |k| tile_major(k, r, nx)) })
     };
     let irradiance = exr::RgbSink::new(irr_size.0 * irr_size.1, std::sync::Arc::new(move |k| tile_major(k, ir, nx)));
-    let hits = HitSink::new(
-        dep_size.0 * dep_size.1,
-        m.grid.depth_samples,
-        std::sync::Arc::new(move |k| tile_major(k, dr, nx)),
-    );
+    let hits = (when == Hits::WithGrid).then(|| hit_sink(&m, geometry));
     let mut sinks = irradiance.sinks("irradiance");
-    sinks.push(("depth_moments".into(), "hit".into(), hits.sink()));
+    let hit_channel = match &hits {
+        Some(h) => h.sink(),
+        None => Box::new(|_: usize, _: &[f32]| {}),
+    };
+    sinks.push(("depth_moments".into(), "hit".into(), hit_channel));
     let mut layers = read_payload(dir, &m, GRID_FILE, exr::route_to_sinks(sinks, place))?;
     find(&layers, &gpath, "depth_moments", dep_size)?;
     for c in ["R", "G", "B"] {
@@ -373,7 +428,10 @@ pub fn read_bake(dir: &Path) -> Result<(BakeManifest, SpecularProbe, ProbeGrid),
     if let Some(k) = irradiance.iter().position(|x| !x.is_finite()) {
         return Err(FileError::invalid(&gpath, "irradiance", format!("texel {k} is not finite")));
     }
-    let hits = hits.take(&gpath)?;
+    let hits = match hits {
+        Some(h) => h.take(&gpath)?,
+        None => Vec::new(),
+    };
     layers.retain(|l| l.name != "irradiance");
     let mut moment = |name: &str| -> Result<Vec<f32>, FileError> {
         let l = layers.iter_mut().find(|l| l.name == "depth_moments");

@@ -418,29 +418,69 @@ pub struct CellOutcome {
 /// The same as [`fit_cells`] over [`active_cells`], the irradiance references of
 /// [`irradiance::trace_references`] over all points, and [`assemble`]: the path a sharded
 /// fit takes, so that a merged fit is the same fit. `sets`: the map sets kept beside the
-/// stored ones. The diffuse correctives come first (they need nothing of the cells'), so
-/// their surface points and references are gone before the cells' results accumulate.
+/// stored ones. Runs the stages [`diffuse_stage`], [`cells_stage`] and [`finish`] in turn;
+/// a caller that owns the bake can run them itself and hold the grid's hit counts for the
+/// cells stage alone (`jobs::run::fit_staged`).
 pub fn fit(baked: Baked, glossy: Glossy, s: &FitSettings, sets: MapSets, progress: &Progress) -> Fit {
+    let diffuse = diffuse_stage(baked, glossy, s);
+    let cells = cells_stage(baked, glossy, s, sets, progress);
+    finish(baked, glossy, s, diffuse, cells)
+}
+
+/// A fit's diffuse stage: the diffuse correctives and the wall seconds of its steps.
+pub struct DiffuseStage {
+    irradiance: irradiance::IrradianceFit,
+    /// Drawing the surface points, tracing their references, fitting.
+    seconds: [f64; 3],
+}
+
+/// The diffuse correctives of a fit: they need nothing of the cells' (nor the grid's hit
+/// counts), so they come first and their surface points and references are gone before
+/// the cells' results accumulate.
+pub fn diffuse_stage(baked: Baked, glossy: Glossy, s: &FitSettings) -> DiffuseStage {
     let t0 = Instant::now();
     let points = irradiance::SurfacePoints::draw(baked, s.seed);
     let t_points = t0.elapsed().as_secs_f64();
     let references = irradiance::trace_references(baked, &points, s.seed, &points.all());
     let t_references = t0.elapsed().as_secs_f64();
-    let diffuse = fit_diffuse(baked, glossy, &points, references);
-    drop(points);
+    let irradiance = fit_diffuse(baked, glossy, &points, references);
     let t_diffuse = t0.elapsed().as_secs_f64();
+    DiffuseStage { irradiance, seconds: [t_points, t_references - t_points, t_diffuse - t_references] }
+}
+
+/// A fit's cells stage: the proxy the maps shift, every active cell's outcome (in cell
+/// order), the unfitted map sets if asked for, and its wall seconds.
+pub struct CellsStage {
+    proxy: proxy::ProxyOutcome,
+    cells: Vec<CellOutcome>,
+    unfitted: Option<UnfittedMaps>,
+    seconds: f64,
+}
+
+/// Chooses the proxy and fits every active cell ([`fit_cells`]): the one stage that reads
+/// the grid's hit counts.
+pub fn cells_stage(baked: Baked, glossy: Glossy, s: &FitSettings, sets: MapSets, progress: &Progress) -> CellsStage {
+    let t0 = Instant::now();
     let proxy = proxy::choose(baked, glossy, s);
     let cells = fit_cells(baked, glossy, s, proxy.method, &active_cells(baked.grid), sets, progress);
     let unfitted =
         (sets == MapSets::WithUnfitted).then(|| UnfittedMaps::of(baked.grid.geometry, s.map_res, proxy.method, &cells));
-    let t_cells = t0.elapsed().as_secs_f64();
-    let mut f = assemble_cells(baked, glossy, s, proxy, cells, diffuse);
+    CellsStage { proxy, cells, unfitted, seconds: t0.elapsed().as_secs_f64() }
+}
+
+/// The fit of its two stages: each cell's model selected, the scene's roughness correction
+/// fitted for the maps as stored, the grid's records made ([`assemble`]'s last step).
+pub fn finish(baked: Baked, glossy: Glossy, s: &FitSettings, diffuse: DiffuseStage, cells: CellsStage) -> Fit {
+    let t0 = Instant::now();
+    let CellsStage { proxy, cells, unfitted, seconds } = cells;
+    let mut f = assemble_cells(baked, glossy, s, proxy, cells, diffuse.irradiance);
     f.unfitted = unfitted;
-    f.times.surface_points = t_points;
-    f.times.irradiance_references = t_references - t_points;
-    f.times.irradiance_fit = t_diffuse - t_references;
-    f.times.cells = t_cells - t_diffuse;
-    f.seconds = t0.elapsed().as_secs_f64();
+    let [points, references, fitted] = diffuse.seconds;
+    f.times.surface_points = points;
+    f.times.irradiance_references = references;
+    f.times.irradiance_fit = fitted;
+    f.times.cells = seconds;
+    f.seconds = points + references + fitted + seconds + t0.elapsed().as_secs_f64();
     f
 }
 
@@ -470,6 +510,11 @@ pub fn fit_cells(
     let renderer = Renderer::new(scene, tracer);
     let g = grid.geometry;
     let d2 = (grid.depth_resolution * grid.depth_resolution) as usize;
+    let hits = grid.hits.as_slice();
+    assert!(
+        hits.len() == g.cell_count() * d2,
+        "fit_cells: the grid's hit counts are not loaded (a bake read with `bakefile::Hits::Later` needs `bakefile::read_hits` first)"
+    );
     let bar = progress.bar(cells.len() as u64, "fit cells");
     let size = |positions, dirs| QuerySize {
         positions,
@@ -486,7 +531,7 @@ pub fn fit_cells(
             let distance = model::celldepth_distances(
                 grid.depth_resolution,
                 &grid.depth_mean[cell * d2..(cell + 1) * d2],
-                &grid.hits[cell * d2..(cell + 1) * d2],
+                &hits[cell * d2..(cell + 1) * d2],
                 grid.depth_samples,
                 grid.far_distance,
                 s.map_res,

@@ -198,7 +198,7 @@ pub fn fit_shard(
     progress: &Progress,
 ) -> Result<PathBuf, FileError> {
     let t0 = Instant::now();
-    let (m, probe, grid) = read_matching_bake(scene, folder)?;
+    let (m, probe, mut grid) = read_matching_bake(scene, folder)?;
     let tracer = Tracer::new(scene);
     let baked = Baked { scene, tracer: &tracer, probe: &probe, grid: &grid };
     let warp = baked.warp(job.options);
@@ -213,6 +213,9 @@ pub fn fit_shard(
     let cells: Vec<CellOutcome> = in_chunks(&active[range.clone()], &log, |part| {
         fit::fit_cells(baked, glossy, &job.fit, proxy, part, fit::MapSets::Stored, progress)
     });
+    // only the cells read the hit counts: not held while the references are traced
+    grid.hits = Vec::new();
+    let baked = Baked { scene, tracer: &tracer, probe: &probe, grid: &grid };
     let points = irradiance::SurfacePoints::draw(baked, job.fit.seed);
     let ranges = points.part(k, n);
     tracing::info!(

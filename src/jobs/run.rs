@@ -130,17 +130,18 @@ pub fn bake(scene: &Scene, tracer: &Tracer, folder: &RunFolder, progress: &Progr
 /// The bake in `previous` if it was made from exactly this scene (same content key: tool
 /// version, settings and the bytes of every input file) and its files are intact, brought
 /// into `folder` (hard links where possible); else a fresh bake written into `folder`.
-/// Returns the probe, the grid and whether it baked.
+/// Returns the probe, the grid and whether it baked. `hits`: when a reused bake's hit
+/// counts are read (a fresh bake has them).
 pub fn load_or_bake(
     scene: &Scene,
     tracer: &Tracer,
-    previous: &RunFolder,
-    folder: &RunFolder,
+    (previous, folder): (&RunFolder, &RunFolder),
+    hits: bakefile::Hits,
     progress: &Progress,
 ) -> Result<(SpecularProbe, ProbeGrid, bool), FileError> {
     let dir = previous.bake();
     if dir.join(bakefile::MANIFEST_FILE).is_file() {
-        match bakefile::read_bake(&dir) {
+        match bakefile::read_bake_with(&dir, hits) {
             Ok((m, probe, grid)) if m.key == scene.content_key() => {
                 tracing::info!("reusing bake in {} (key {})", dir.display(), m.key);
                 if previous.dir != folder.dir {
@@ -159,22 +160,25 @@ pub fn load_or_bake(
 }
 
 /// The scene with its tracer and its bake, reused from `previous` where it matches, written
-/// into `folder`.
+/// into `folder`; `hits`: when a reused bake's hit counts are read ([`fit_staged`] reads
+/// them when it needs them).
 pub fn prepare_from(
     scene: Scene,
     previous: &RunFolder,
     folder: RunFolder,
+    hits: bakefile::Hits,
     progress: &Progress,
 ) -> Result<Prepared, FileError> {
     let tracer = Tracer::new(&scene);
-    let (probe, grid, baked_now) = load_or_bake(&scene, &tracer, previous, &folder, progress)?;
+    let (probe, grid, baked_now) = load_or_bake(&scene, &tracer, (previous, &folder), hits, progress)?;
     Ok(Prepared { scene, tracer, probe, grid, baked_now, folder })
 }
 
-/// [`prepare_from`] reading and writing the same folder (tests, benches, scratch folders).
+/// [`prepare_from`] reading and writing the same folder (tests, benches, scratch folders),
+/// the bake read whole.
 pub fn prepare(scene: Scene, folder: RunFolder, progress: &Progress) -> Result<Prepared, FileError> {
     let previous = folder.clone();
-    prepare_from(scene, &previous, folder, progress)
+    prepare_from(scene, &previous, folder, bakefile::Hits::WithGrid, progress)
 }
 
 /// A run folder rewritten as a whole: the job writes into `out` (a staging folder beside the
@@ -243,6 +247,33 @@ pub fn fit(
     let glossy = Glossy { warp, correction: lobes.as_ref() };
     let fitted = crate::fit::fit(baked, glossy, settings, sets, out.progress);
     let manifest = write_fit(baked, warp, &fitted, store, out)?;
+    Ok((fitted, manifest))
+}
+
+/// [`fit`] on a prepared scene, stage by stage, so that the grid's hit counts are held only
+/// while the cells stage reads them: read from the bake after the diffuse stage if
+/// [`prepare_from`] left them on disk ([`bakefile::Hits::Later`]), dropped before the fit is
+/// finished. A big level's fit then never holds them beside the diffuse fit's points and
+/// references or beside the finished cells' records. Writes the same grid as [`fit`].
+pub fn fit_staged(
+    p: &mut Prepared,
+    warp: &Warp,
+    settings: &FitSettings,
+    store: StoreOptions,
+    command: &str,
+    progress: &Progress,
+) -> Result<(Fit, GridManifest), FileError> {
+    let lobes = fit_lobes(p.baked());
+    let glossy = Glossy { warp, correction: lobes.as_ref() };
+    let diffuse = crate::fit::diffuse_stage(p.baked(), glossy, settings);
+    if !p.grid.holds_hits() {
+        p.grid.hits = bakefile::read_hits(&p.folder.bake(), &p.scene.content_key(), &p.grid)?;
+    }
+    let cells = crate::fit::cells_stage(p.baked(), glossy, settings, MapSets::Stored, progress);
+    p.grid.hits = Vec::new();
+    let fitted = crate::fit::finish(p.baked(), glossy, settings, diffuse, cells);
+    let out = Output { folder: &p.folder, command, progress };
+    let manifest = write_fit(p.baked(), warp, &fitted, store, out)?;
     Ok((fitted, manifest))
 }
 
