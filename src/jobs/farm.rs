@@ -155,10 +155,12 @@ pub fn bake_shard(scene: &Scene, folder: &RunFolder, shard: Shard, progress: &Pr
     Ok(path)
 }
 
-/// The bake in `folder`, which must have been made from exactly this scene.
+/// The bake in `folder`, which must have been made from exactly this scene; `hits`: whether
+/// its hit counts are read.
 fn read_matching_bake(
     scene: &Scene,
     folder: &RunFolder,
+    hits: bakefile::Hits,
 ) -> Result<(bakefile::manifest::BakeManifest, bake::SpecularProbe, bake::ProbeGrid), FileError> {
     let dir = folder.bake();
     if !dir.join(bakefile::MANIFEST_FILE).is_file() {
@@ -172,7 +174,7 @@ fn read_matching_bake(
             ),
         ));
     }
-    let (m, probe, grid) = bakefile::read_bake(&dir)?;
+    let (m, probe, grid) = bakefile::read_bake_with(&dir, hits)?;
     if m.key != scene.content_key() {
         return Err(FileError::invalid(
             &dir.join(bakefile::MANIFEST_FILE),
@@ -198,7 +200,7 @@ pub fn fit_shard(
     progress: &Progress,
 ) -> Result<PathBuf, FileError> {
     let t0 = Instant::now();
-    let (m, probe, mut grid) = read_matching_bake(scene, folder)?;
+    let (m, probe, mut grid) = read_matching_bake(scene, folder, bakefile::Hits::WithGrid)?;
     let tracer = Tracer::new(scene);
     let baked = Baked { scene, tracer: &tracer, probe: &probe, grid: &grid };
     let warp = baked.warp(job.options);
@@ -383,7 +385,8 @@ pub fn merge(
             Merged::Bake(Box::new(bake))
         }
         PartKind::Fit => {
-            let (m, probe, grid) = read_matching_bake(&scene, &tx.previous)?;
+            // the grid-wide steps never read the hit counts: they stay on disk
+            let (m, probe, grid) = read_matching_bake(&scene, &tx.previous, bakefile::Hits::Later)?;
             let checksums: Vec<String> = m.files.iter().map(|f| f.checksum.clone()).collect();
             if checksums != h0.bake_checksums {
                 return Err(FileError::invalid(
