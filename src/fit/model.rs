@@ -6,8 +6,9 @@ use crate::octa::OctMap;
 
 /// Per texel of a `map_res`² map, the distance a cell's probe saw, from the grid's distance
 /// moments: the mean hit distance (misses removed from the mean), reduced to `map_res` by
-/// averaging inverse distance; +inf where most rays missed (sky). `hits` counts each
-/// texel's rays that hit, of `samples`.
+/// averaging inverse distance, or, for a map finer than the moments, each map texel taking
+/// the moment texel that holds it; +inf where most rays missed (sky). `hits` counts each
+/// texel's rays that hit, of `samples`. Both resolutions are powers of two.
 #[must_use]
 pub fn celldepth_distances(
     depth_res: u32,
@@ -33,5 +34,39 @@ pub fn celldepth_distances(
     while map.res > map_res && map.res.is_multiple_of(2) {
         map = map.downsample();
     }
+    if map.res < map_res && map_res.is_multiple_of(map.res) {
+        let f = map_res / map.res;
+        let texels = (0..map_res * map_res)
+            .map(|k| map.texels[((k / map_res / f) * map.res + (k % map_res) / f) as usize])
+            .collect();
+        map = OctMap::new(map_res, texels);
+    }
     map.texels.iter().map(|&w| crate::octa::distance_from_inverse(w)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_map_finer_than_the_moments_takes_the_texel_that_holds_each_of_its_texels() {
+        // 2×2 moments, every ray a hit, distances 1, 2, 3, 4 (far: 100, one sample)
+        let (mean, hits) = (vec![1.0, 2.0, 3.0, 4.0], vec![1u8; 4]);
+        let same = celldepth_distances(2, &mean, &hits, 1, 100.0, 2);
+        assert_eq!(same, vec![1.0, 2.0, 3.0, 4.0]);
+        let fine = celldepth_distances(2, &mean, &hits, 1, 100.0, 4);
+        assert_eq!(fine.len(), 16);
+        #[rustfmt::skip]
+        let want = [1.0, 1.0, 2.0, 2.0,
+                    1.0, 1.0, 2.0, 2.0,
+                    3.0, 3.0, 4.0, 4.0,
+                    3.0, 3.0, 4.0, 4.0];
+        for (k, (d, w)) in fine.iter().zip(want).enumerate() {
+            assert!((d - w).abs() <= 1e-6 * w, "texel {k}: {d} against {w}");
+        }
+        // coarser: one texel, the mean of the inverse distances
+        let coarse = celldepth_distances(2, &mean, &hits, 1, 100.0, 1);
+        let inv = (1.0 + 0.5 + 1.0 / 3.0 + 0.25) / 4.0;
+        assert!((coarse[0] - 1.0 / inv).abs() < 1e-5, "{coarse:?}");
+    }
 }
