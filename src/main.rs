@@ -278,6 +278,11 @@ struct FitArgs {
     /// report its held-out error beside the stored model's in fit.md (not stored).
     #[arg(long)]
     level1: bool,
+    /// Also fit every cell's map at 4², 8², 16² and 32² texels and report in fit.md what a
+    /// per-cell choice of resolution would give, judged by two-fold cross-validation over
+    /// each cell's check positions (not stored).
+    #[arg(long)]
+    resolution_study: bool,
     /// A cell stores its map only when the map's held-out error is below this fraction of
     /// the fallback's (at most 1).
     #[arg(long, default_value_t = FitSettings::standard().selection_margin)]
@@ -343,6 +348,9 @@ impl FitArgs {
         if self.level1 {
             f.push("--level1".into());
         }
+        if self.resolution_study {
+            f.push("--resolution-study".into());
+        }
         f
     }
 
@@ -370,6 +378,7 @@ impl FitArgs {
             reference_spp: self.fit_reference_spp.max(1),
             robust_scale: self.robust_scale,
             level1: self.level1,
+            resolution_study: self.resolution_study,
             selection_margin: self.selection_margin,
             size_weight: self.size_weight,
             surface_fraction: self.surface_fraction,

@@ -182,7 +182,7 @@ fn a_cell_seeing_only_sky_stores_nothing() {
 }
 
 #[test]
-fn level_one_is_measured_against_the_stored_model_when_asked() {
+fn level_one_and_map_resolutions_are_measured_against_the_stored_model_when_asked() {
     let scene = small_torture();
     let tracer = Tracer::new(&scene);
     let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
@@ -217,4 +217,33 @@ fn level_one_is_measured_against_the_stored_model_when_asked() {
     let s = fit::summary::summary(&with).level1.expect("a level-1 summary");
     assert_eq!(s.chosen.iter().sum::<usize>(), with.cells.len());
     assert!(s.bytes_chosen <= s.bytes_stored + s.chosen[1] * fit::summary::LEVEL1_BYTES);
+    assert!(fit::summary::summary(&without).resolutions.is_none());
+    let studied = fit::fit(
+        b,
+        glossy,
+        &FitSettings { resolution_study: true, ..quick_settings() },
+        fit::MapSets::Stored,
+        &Progress::quiet(),
+    );
+    // studying resolutions changes nothing stored
+    assert_eq!(studied.correctives.maps, without.correctives.maps);
+    let n = studied.cells.len() as f64;
+    let res = fit::STUDY_RESOLUTIONS;
+    for c in &studied.cells {
+        let r = c.resolutions.expect("every active cell studies its map's resolution");
+        assert!(r.errors.iter().flatten().all(|e| e.is_finite() && *e >= 0.0), "{r:?}");
+    }
+    let s = fit::summary::summary(&studied).resolutions.expect("a resolution summary");
+    assert_eq!(s.cells, studied.cells.len());
+    // the fallback everywhere stores nothing; a map of each size everywhere stores it in every cell
+    assert_eq!((s.rows[0].bytes, s.rows[0].cells_per_res.iter().sum::<f64>()), (0.0, 0.0));
+    for (k, r) in res.iter().enumerate() {
+        assert_eq!(s.rows[1 + k].bytes, n * f64::from(r * r) * 4.0);
+        assert_eq!(s.rows[1 + k].cells_per_res[k], n);
+    }
+    // every selection stores at most a map per cell, the largest at most
+    for row in &s.rows {
+        assert!(row.mean_err.is_finite() && row.cells_per_res.iter().sum::<f64>() <= n, "{row:?}");
+        assert!(row.bytes <= n * f64::from(res[res.len() - 1].pow(2)) * 4.0);
+    }
 }

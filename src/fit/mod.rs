@@ -86,6 +86,11 @@ pub struct FitSettings {
     /// queries, to compare with the stored model; it is not stored.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub level1: bool,
+    /// Also fit each cell's map at every resolution of [`STUDY_RESOLUTIONS`] and judge each
+    /// on the two halves of the cell's check positions ([`ResolutionStudy`]), to measure what
+    /// a per-cell choice of resolution would give; nothing of it is stored.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub resolution_study: bool,
     /// A cell stores its fitted map only when the map's held-out error is below this
     /// fraction of the fallback's ([`SELECTION_MARGIN`] unless set).
     #[serde(default = "default_margin", skip_serializing_if = "is_default_margin")]
@@ -129,6 +134,7 @@ impl FitSettings {
             robust_scale: 0.05,
             rough_fraction: 0.5,
             level1: false,
+            resolution_study: false,
             selection_margin: SELECTION_MARGIN,
             surface_fraction: 0.5,
             proxy: proxy::ProxyChoice::Measured,
@@ -203,6 +209,25 @@ pub struct CellFit {
     /// The level-1 corrective, when the settings ask for it (measured, not stored).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub level1: Option<Level1Fit>,
+    /// The cell's maps at every studied resolution, when the settings ask for it (measured,
+    /// not stored).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resolutions: Option<ResolutionStudy>,
+}
+
+/// Map resolutions the resolution study fits every cell at (`FitSettings::resolution_study`).
+pub const STUDY_RESOLUTIONS: [u32; 4] = [4, 8, 16, 32];
+
+/// A cell's map fitted at each of [`STUDY_RESOLUTIONS`] as the fit fits its map (the same
+/// training queries, starts and solver), and the held-out errors of the fallback and of
+/// each map on the two halves of the cell's check positions (even and odd positions): one
+/// half can choose what the cell stores and the other judge it, and the other way round
+/// (two-fold cross-validation; `summary::ResolutionSummary`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ResolutionStudy {
+    /// `errors[half]`: the fallback's relative error, then each resolution's map's, as
+    /// `check_err_fitted` is measured.
+    pub errors: [[f64; 1 + STUDY_RESOLUTIONS.len()]; 2],
 }
 
 /// A cell's level-1 corrective and its held-out error (`FitSettings::level1`).
@@ -546,28 +571,16 @@ pub fn fit_cells(
                 .count() as f64
                 / check.dirs.len().max(1) as f64;
             let trace_seconds = tt.elapsed().as_secs_f64();
+            let check_dirs = check.dirs_per_position;
             let (train, check) = (samples(&train), samples(&check));
             // the map's origin: the cell probe's position (its centre unless relocated)
             let origin = g.cell_centre(cell) + grid.probe_offset[cell];
             let ctx = CellContext { glossy, exposure, proxy, origin, res: s.map_res };
-            // Two starts: the proxy itself and the grid's raytraced distances; refine
-            // whichever explains the training queries better (the size term pulls towards
-            // the proxy either way).
             let n2 = (s.map_res * s.map_res) as usize;
-            let celldepth_start = ctx.log_scales_of(&distance);
             let level1_train: Vec<_> = if s.level1 { train.iter().step_by(4).copied().collect() } else { Vec::new() };
-            let mut problem = CellProblem::new(ctx, vec![0.0; n2], train)
-                .with_weights(s.smooth_weight, s.size_weight)
-                .with_robust_scale(s.robust_scale);
-            let start = if !sees_only_sky && problem.cost(&celldepth_start) < problem.cost(&vec![0.0; n2]) {
-                problem.set_start(celldepth_start.clone());
-                Start::Celldepth
-            } else {
-                Start::Proxy
-            };
-            let outcome = problem.solve(s.solver, s.iterations);
-            let fitted = problem.map_with_relax(&outcome.params, outcome.relax);
-            let init = problem.map(&celldepth_start);
+            // the study's inputs, kept only when it is asked for
+            let study = s.resolution_study.then(|| (train.clone(), check_halves(&check, check_dirs)));
+            let Refined { start, outcome, fitted, init } = refine(ctx, train, &distance, sees_only_sky, s);
             let check_problem = CellProblem::new(ctx, vec![0.0; n2], check);
             let [warp1, boxed_err, kdop] =
                 [Method::Warp1, Method::Box, Method::Kdop].map(|m| check_problem.relative_error_method(m));
@@ -583,6 +596,19 @@ pub fn fit_cells(
                 let p = CellProblem::new(ctx, vec![0.0; n2], level1_train).with_robust_scale(s.robust_scale);
                 let (params, evaluations) = p.fit_level1(g.cell_size(), warp.options.depth_lod);
                 Level1Fit { params, check_err: check_problem.relative_error_level1(&params), evaluations }
+            });
+            let resolutions = study.map(|(train, halves)| {
+                let depth_at = |res: u32| {
+                    model::celldepth_distances(
+                        grid.depth_resolution,
+                        &grid.depth_mean[cell * d2..(cell + 1) * d2],
+                        &hits[cell * d2..(cell + 1) * d2],
+                        grid.depth_samples,
+                        grid.far_distance,
+                        res,
+                    )
+                };
+                study_resolutions(ctx, (&train, &halves), &fitted, depth_at, s)
             });
             bar.inc(1);
             let fit = CellFit {
@@ -607,6 +633,7 @@ pub fn fit_cells(
                 curve: outcome.curve.clone(),
                 hidden_fraction: hidden,
                 level1,
+                resolutions,
             };
             let keep_all = sets == MapSets::WithUnfitted;
             let fitted = if keep_all || fit.level == Level::Map { fitted } else { Vec::new() };
@@ -616,6 +643,81 @@ pub fn fit_cells(
         .collect();
     bar.finish_and_clear();
     results
+}
+
+/// A cell's map refined from the better of its two starts, and the unfitted map.
+struct Refined {
+    start: Start,
+    outcome: objective::Outcome,
+    /// The refined map, its relaxation applied.
+    fitted: Vec<f32>,
+    /// The map of the grid's raytraced distances (`celldepth`).
+    init: Vec<f32>,
+}
+
+/// Refines a cell's map at `ctx.res` against `train`. Two starts: the proxy itself and the
+/// grid's raytraced distances `distance` (at the map's resolution); the one that explains the
+/// training queries better is refined (the size term pulls towards the proxy either way).
+fn refine(ctx: CellContext, train: Vec<Sample>, distance: &[f32], sees_only_sky: bool, s: &FitSettings) -> Refined {
+    let n2 = (ctx.res * ctx.res) as usize;
+    let celldepth_start = ctx.log_scales_of(distance);
+    let mut problem = CellProblem::new(ctx, vec![0.0; n2], train)
+        .with_weights(s.smooth_weight, s.size_weight)
+        .with_robust_scale(s.robust_scale);
+    let start = if !sees_only_sky && problem.cost(&celldepth_start) < problem.cost(&vec![0.0; n2]) {
+        problem.set_start(celldepth_start.clone());
+        Start::Celldepth
+    } else {
+        Start::Proxy
+    };
+    let outcome = problem.solve(s.solver, s.iterations);
+    let fitted = problem.map_with_relax(&outcome.params, outcome.relax);
+    let init = problem.map(&celldepth_start);
+    Refined { start, outcome, fitted, init }
+}
+
+/// The check queries of even and odd positions (`dirs` queries a position, in order).
+fn check_halves(check: &[Sample], dirs: usize) -> [Vec<Sample>; 2] {
+    let mut halves = [Vec::new(), Vec::new()];
+    for (k, q) in check.iter().enumerate() {
+        halves[(k / dirs.max(1)) % 2].push(*q);
+    }
+    halves
+}
+
+/// The resolution study of one cell: its map refined at each of [`STUDY_RESOLUTIONS`] from
+/// `train` (`fitted`, the fit's own map at `ctx.res`, is reused), each judged with the fallback
+/// on both halves of the check queries; `depth_at(res)`: the grid's raytraced distances at
+/// a map resolution.
+fn study_resolutions(
+    ctx: CellContext,
+    (train, halves): (&[Sample], &[Vec<Sample>; 2]),
+    fitted: &[f32],
+    depth_at: impl Fn(u32) -> Vec<f32>,
+    s: &FitSettings,
+) -> ResolutionStudy {
+    let maps: Vec<(u32, Vec<f32>)> = STUDY_RESOLUTIONS
+        .iter()
+        .map(|&res| {
+            if res == ctx.res {
+                return (res, fitted.to_vec());
+            }
+            let distance = depth_at(res);
+            let sees_only_sky = distance.iter().all(|d| !d.is_finite());
+            (res, refine(CellContext { res, ..ctx }, train.to_vec(), &distance, sees_only_sky, s).fitted)
+        })
+        .collect();
+    let mut errors = [[0.0; 1 + STUDY_RESOLUTIONS.len()]; 2];
+    for (h, half) in halves.iter().enumerate() {
+        for (k, (res, map)) in maps.iter().enumerate() {
+            let p = CellProblem::new(CellContext { res: *res, ..ctx }, vec![0.0; map.len()], half.clone());
+            if k == 0 {
+                errors[h][0] = p.relative_error_map(&vec![0.0; map.len()]);
+            }
+            errors[h][1 + k] = p.relative_error_map(map);
+        }
+    }
+    ResolutionStudy { errors }
 }
 
 /// Makes a fit of the outcomes of every active cell (in cell order), fitted for `proxy`,

@@ -43,6 +43,97 @@ pub struct FitSummary {
     /// The level-1 comparison, when the fit measured it (`FitSettings::level1`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub level1: Option<Level1Summary>,
+    /// The resolution study, when the fit measured it (`FitSettings::resolution_study`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resolutions: Option<ResolutionSummary>,
+}
+
+/// What per-cell map resolution would give, by two-fold cross-validation over each cell's
+/// check positions ([`super::ResolutionStudy`]): a selection chooses on one half and is judged
+/// on the other, both ways round, and errors and bytes are the two folds' means.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ResolutionSummary {
+    pub cells: usize,
+    /// The fit's own resolution.
+    pub map_res: u32,
+    /// One row per way of storing maps: the fallback everywhere, a map of each studied
+    /// resolution everywhere, the stored selection's rule at the fit's resolution, and the
+    /// per-cell choice over every resolution, and over those up to the fit's, at each
+    /// tolerance of [`STUDY_TOLERANCES`].
+    pub rows: Vec<ResolutionRow>,
+}
+
+/// One way of storing maps in the resolution study.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ResolutionRow {
+    pub name: String,
+    /// Mean held-out relative error per cell, on the half that did not choose.
+    pub mean_err: f64,
+    /// Bytes of the maps stored (f32), and cells storing a map of each studied resolution
+    /// (the folds' means).
+    pub bytes: f64,
+    pub cells_per_res: Vec<f64>,
+}
+
+/// Tolerances of the per-cell resolution choice: a cell stores the cheapest model (nothing,
+/// then the smallest map) whose error on the choosing half is within this fraction of the
+/// best there.
+pub const STUDY_TOLERANCES: [f64; 2] = [0.0, 0.02];
+
+fn resolution_summary(fit: &Fit) -> Option<ResolutionSummary> {
+    use super::STUDY_RESOLUTIONS as RES;
+    let cells: Vec<&super::ResolutionStudy> = fit.cells.iter().filter_map(|c| c.resolutions.as_ref()).collect();
+    if cells.is_empty() {
+        return None;
+    }
+    let n = cells.len() as f64;
+    let bytes_of = |k: usize| if k == 0 { 0 } else { RES[k - 1] as usize * RES[k - 1] as usize * 4 };
+    // a rule picks a candidate (0 = fallback, k = RES[k - 1]) from the choosing half's errors
+    let row = |name: String, pick: &dyn Fn(&[f64]) -> usize| {
+        let (mut err, mut bytes, mut per_res) = (0.0, 0.0, vec![0.0; RES.len()]);
+        for c in &cells {
+            for fold in 0..2 {
+                let k = pick(&c.errors[fold]);
+                err += c.errors[1 - fold][k] / 2.0;
+                bytes += bytes_of(k) as f64 / 2.0;
+                if k > 0 {
+                    per_res[k - 1] += 0.5;
+                }
+            }
+        }
+        ResolutionRow { name, mean_err: err / n, bytes, cells_per_res: per_res }
+    };
+    // the cheapest of `candidates` within `tol` of their best
+    let cheapest = |e: &[f64], candidates: &[usize], tol: f64| -> usize {
+        let best = candidates.iter().map(|&k| e[k]).fold(f64::INFINITY, f64::min);
+        candidates.iter().copied().find(|&k| e[k] <= best * (1.0 + tol)).unwrap_or(0)
+    };
+    let own = RES.iter().position(|&r| r == fit.settings.map_res).map(|i| i + 1);
+    let all: Vec<usize> = (0..=RES.len()).collect();
+    let mut rows = vec![row("the proxy alone".into(), &|_| 0)];
+    for k in 1..=RES.len() {
+        rows.push(row(format!("a {0}×{0} map everywhere", RES[k - 1]), &|_| k));
+    }
+    if let Some(own) = own {
+        let margin = fit.settings.selection_margin;
+        rows.push(row(format!("stored rule at {0}×{0} (a map where it beats the proxy)", RES[own - 1]), &|e| {
+            if e[own] < margin.min(1.0) * e[0] { own } else { 0 }
+        }));
+    }
+    // every resolution, and those up to the fit's own (a choice that never grows a map)
+    let up_to_own: Vec<usize> = (0..=RES.len()).filter(|&k| k == 0 || RES[k - 1] <= fit.settings.map_res).collect();
+    for tol in STUDY_TOLERANCES {
+        rows.push(row(format!("per-cell resolution, the cheapest within {:.0}% of the best", 100.0 * tol), &|e| {
+            cheapest(e, &all, tol)
+        }));
+        let name = format!(
+            "per-cell resolution up to {0}×{0}, the cheapest within {1:.0}% of the best",
+            fit.settings.map_res,
+            100.0 * tol
+        );
+        rows.push(row(name, &|e| cheapest(e, &up_to_own, tol)));
+    }
+    Some(ResolutionSummary { cells: cells.len(), map_res: fit.settings.map_res, rows })
 }
 
 /// Level 1 against the fallback and the fitted map on the cells' check queries, and what a
@@ -140,6 +231,7 @@ pub fn summary(fit: &Fit) -> FitSummary {
         diffuse_surface_bias: fit.irradiance.correction.surface_bias,
         times: fit.times,
         level1: level1_summary(fit),
+        resolutions: resolution_summary(fit),
     }
 }
 

@@ -134,6 +134,24 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
             l.evaluations
         );
     }
+    if let Some(r) = &s.resolutions {
+        let _ = writeln!(
+            md,
+            "Map resolution, per cell (measured, not stored): each of {} cells' maps fitted at {} texels a side as the {}×{} map is, judged with two-fold cross-validation over the cell's check positions (one half chooses, the other judges, both ways round; errors and bytes are the two folds' means):\n",
+            r.cells,
+            crate::fit::STUDY_RESOLUTIONS.map(|x| x.to_string()).join(", "),
+            r.map_res,
+            r.map_res
+        );
+        let heads: Vec<String> = crate::fit::STUDY_RESOLUTIONS.iter().map(|x| format!("cells {x}²")).collect();
+        let _ = writeln!(md, "| maps | mean held-out relative error | bytes (f32) | {} |", heads.join(" | "));
+        let _ = writeln!(md, "|---|---:|---:|{}", "---:|".repeat(heads.len()));
+        for row in &r.rows {
+            let counts: Vec<String> = row.cells_per_res.iter().map(|c| format!("{c:.1}")).collect();
+            let _ = writeln!(md, "| {} | {:.4} | {:.0} | {} |", row.name, row.mean_err, row.bytes, counts.join(" | "));
+        }
+        let _ = writeln!(md);
+    }
     let _ = writeln!(
         md,
         "Mean held-out relative error per active cell: warp1 {:.4}, the proxy alone {:.4}, celldepth {:.4}, stored model {:.4}.\n",
