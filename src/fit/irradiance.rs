@@ -149,11 +149,49 @@ fn rmse(points: &[&Point], maps: Maps, exposure: f32) -> f64 {
     (sq / points.len().max(1) as f64).sqrt()
 }
 
-/// Texel `t` of cell `cell`'s map as a 1-D problem, the rest fixed.
+/// A support point as one cell's map fit reads it: the blend's terms of the other cells
+/// as the round's maps give them (fixed while the cell's map is fitted), and the tone-mapped
+/// reference. [`FitPoint::error`] is the same float as `err2(predict(..))` with the cell's
+/// map swapped in: the terms are added in the same order, each computed as `predict` does.
+struct FitPoint<'a> {
+    point: &'a Point,
+    /// Per term: `None` for the fitted cell's own, else its value `eᵢ·(wᵢ·scale)`.
+    terms: [Option<Vec3>; 8],
+    reference: Vec3,
+}
+
+impl<'a> FitPoint<'a> {
+    fn new(point: &'a Point, maps: Maps, cell: usize, exposure: f32) -> FitPoint<'a> {
+        let mut terms = [None; 8];
+        for (k, &(c, w, ei)) in point.terms.terms[..point.terms.count].iter().enumerate() {
+            if c as usize != cell {
+                terms[k] = Some(ei * (w * maps.of(c as usize).map_or(1.0, |m| scale_at(m, &point.taps))));
+            }
+        }
+        FitPoint { point, terms, reference: reinhard(point.reference, exposure) }
+    }
+
+    /// Tone-mapped squared error with `own` as the fitted cell's map.
+    fn error(&self, own: &Map, exposure: f32) -> f64 {
+        let p = self.point;
+        let mut e = Vec3::ZERO;
+        for (k, &(_, w, ei)) in p.terms.terms[..p.terms.count].iter().enumerate() {
+            e += match self.terms[k] {
+                Some(term) => term,
+                None => ei * (w * scale_at(own, &p.taps)),
+            };
+        }
+        let d = reinhard(e, exposure) - self.reference;
+        ((d.x as f64).powi(2) + (d.y as f64).powi(2) + (d.z as f64).powi(2)) / 3.0
+    }
+}
+
+/// Texel `t` of a cell's map as a 1-D problem, the rest fixed: `touching` lists the support
+/// points whose taps weigh the texel (in point order), `n` is the support's size.
 struct TexelProblem<'a> {
-    points: &'a [&'a Point],
-    maps: Maps<'a>,
-    cell: usize,
+    points: &'a [FitPoint<'a>],
+    touching: &'a [u32],
+    n: usize,
     own: Map,
     t: usize,
     exposure: f32,
@@ -165,13 +203,8 @@ impl CostFunction for TexelProblem<'_> {
     fn cost(&self, x: &f64) -> Result<f64, Error> {
         let mut own = self.own;
         own[self.t] = *x as f32;
-        let data: f64 = self
-            .points
-            .iter()
-            .filter(|p| p.taps.iter().any(|&(t, w)| t as usize == self.t && w > 0.0))
-            .map(|p| err2(predict(p, self.maps, Some((self.cell, &own))), p.reference, self.exposure))
-            .sum::<f64>()
-            / self.points.len().max(1) as f64;
+        let data: f64 = self.touching.iter().map(|&i| self.points[i as usize].error(&own, self.exposure)).sum::<f64>()
+            / self.n.max(1) as f64;
         Ok(data + PULL * (x - 1.0).powi(2) / N2 as f64)
     }
 }
@@ -179,12 +212,21 @@ impl CostFunction for TexelProblem<'_> {
 /// Fits cell `cell`'s map on its support's training points, the neighbours' maps fixed.
 fn fit_map(points: &[&Point], maps: Maps, cell: usize, exposure: f32) -> Map {
     let mut own = maps.of(cell).copied().unwrap_or([1.0; N2]);
+    let prepared: Vec<FitPoint> = points.iter().map(|p| FitPoint::new(p, maps, cell, exposure)).collect();
+    let mut touching: Vec<Vec<u32>> = vec![Vec::new(); N2];
+    for (i, p) in points.iter().enumerate() {
+        for (t, list) in touching.iter_mut().enumerate() {
+            if p.taps.iter().any(|&(k, w)| k as usize == t && w > 0.0) {
+                list.push(i as u32);
+            }
+        }
+    }
     for _ in 0..2 {
         for t in 0..N2 {
-            if !points.iter().any(|p| p.taps.iter().any(|&(k, w)| k as usize == t && w > 0.0)) {
+            if touching[t].is_empty() {
                 continue;
             }
-            let problem = TexelProblem { points, maps, cell, own, t, exposure };
+            let problem = TexelProblem { points: &prepared, touching: &touching[t], n: points.len(), own, t, exposure };
             let current = problem.cost(&(own[t] as f64)).unwrap_or(f64::INFINITY);
             let solver = BrentOpt::new(0.2, 5.0).set_tolerance(1e-3, 1e-4);
             let res = Executor::new(problem, solver).configure(|st| st.param(own[t] as f64).max_iters(24)).run();
