@@ -209,24 +209,46 @@ impl CostFunction for TexelProblem<'_> {
     }
 }
 
-/// Fits cell `cell`'s map on its support's training points, the neighbours' maps fixed.
-fn fit_map(points: &[&Point], maps: Maps, cell: usize, exposure: f32) -> Map {
+/// Fits cell `cell`'s map on its support's training points, the neighbours' maps fixed;
+/// `prepared`: a buffer for the points as the fit reads them (reused from cell to cell).
+fn fit_map<'a>(
+    points: &[&'a Point],
+    maps: Maps,
+    (cell, exposure): (usize, f32),
+    prepared: &mut Vec<FitPoint<'a>>,
+) -> Map {
     let mut own = maps.of(cell).copied().unwrap_or([1.0; N2]);
-    let prepared: Vec<FitPoint> = points.iter().map(|p| FitPoint::new(p, maps, cell, exposure)).collect();
-    let mut touching: Vec<Vec<u32>> = vec![Vec::new(); N2];
+    prepared.clear();
+    prepared.extend(points.iter().map(|p| FitPoint::new(p, maps, cell, exposure)));
+    // the points each texel's taps weigh, in point order: texel t's are
+    // `touching[start[t]..start[t + 1]]` (one array, not one per texel)
+    let weighs = |p: &Point, t: usize| p.taps.iter().any(|&(k, w)| k as usize == t && w > 0.0);
+    let mut start = [0u32; N2 + 1];
+    for p in points {
+        for t in 0..N2 {
+            start[t + 1] += u32::from(weighs(p, t));
+        }
+    }
+    for t in 0..N2 {
+        start[t + 1] += start[t];
+    }
+    let mut next = start;
+    let mut touching = vec![0u32; start[N2] as usize];
     for (i, p) in points.iter().enumerate() {
-        for (t, list) in touching.iter_mut().enumerate() {
-            if p.taps.iter().any(|&(k, w)| k as usize == t && w > 0.0) {
-                list.push(i as u32);
+        for t in 0..N2 {
+            if weighs(p, t) {
+                touching[next[t] as usize] = i as u32;
+                next[t] += 1;
             }
         }
     }
     for _ in 0..2 {
         for t in 0..N2 {
-            if touching[t].is_empty() {
+            let touching = &touching[start[t] as usize..start[t + 1] as usize];
+            if touching.is_empty() {
                 continue;
             }
-            let problem = TexelProblem { points: &prepared, touching: &touching[t], n: points.len(), own, t, exposure };
+            let problem = TexelProblem { points: prepared, touching, n: points.len(), own, t, exposure };
             let current = problem.cost(&(own[t] as f64)).unwrap_or(f64::INFINITY);
             let solver = BrentOpt::new(0.2, 5.0).set_tolerance(1e-3, 1e-4);
             let res = Executor::new(problem, solver).configure(|st| st.param(own[t] as f64).max_iters(24)).run();
@@ -581,7 +603,9 @@ fn fit_at_bias(
                 let cells = supports(&train, z, window);
                 let fits: Vec<(usize, Map)> = cells
                     .par_iter()
-                    .map(|(c, idx)| (*c, fit_map(&gather(window, idx), current, *c, exposure)))
+                    .map_init(Vec::new, |prepared, (c, idx)| {
+                        (*c, fit_map(&gather(window, idx), current, (*c, exposure), prepared))
+                    })
                     .collect();
                 for (c, m) in fits {
                     next[slot[c] as usize] = Some(m);
