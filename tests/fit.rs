@@ -210,7 +210,7 @@ fn level_one_and_map_resolutions_are_measured_against_the_stored_model_when_aske
     // measuring level 1 changes nothing stored
     assert_eq!(with.correctives.maps, without.correctives.maps);
     for c in &with.cells {
-        let l = c.level1.expect("every active cell measures level 1");
+        let l = c.level1.as_deref().expect("every active cell measures level 1");
         assert!(l.check_err.is_finite() && l.evaluations > 0);
         assert!(l.params.offset.abs().cmple(b.grid.geometry.cell_size()).all() && l.params.relax_texels <= 3.0);
     }
@@ -230,7 +230,7 @@ fn level_one_and_map_resolutions_are_measured_against_the_stored_model_when_aske
     let n = studied.cells.len() as f64;
     let res = fit::STUDY_RESOLUTIONS;
     for c in &studied.cells {
-        let r = c.resolutions.expect("every active cell studies its map's resolution");
+        let r = c.resolutions.as_deref().expect("every active cell studies its map's resolution");
         assert!(r.errors.iter().flatten().all(|e| e.is_finite() && *e >= 0.0), "{r:?}");
     }
     let s = fit::summary::summary(&studied).resolutions.expect("a resolution summary");

@@ -206,13 +206,15 @@ pub struct CellFit {
     pub curve: Vec<(f64, f64)>,
     /// Fraction of the cell's check queries whose true hit is hidden from the probe.
     pub hidden_fraction: f64,
-    /// The level-1 corrective, when the settings ask for it (measured, not stored).
+    /// The level-1 corrective, when the settings ask for it (measured, not stored). Boxed,
+    /// as the study below: a record is held for every active cell until the fit is written,
+    /// and an absent study costs a null pointer, not its size.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub level1: Option<Level1Fit>,
+    pub level1: Option<Box<Level1Fit>>,
     /// The cell's maps at every studied resolution, when the settings ask for it (measured,
     /// not stored).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub resolutions: Option<ResolutionStudy>,
+    pub resolutions: Option<Box<ResolutionStudy>>,
 }
 
 /// Map resolutions the resolution study fits every cell at (`FitSettings::resolution_study`).
@@ -595,7 +597,7 @@ pub fn fit_cells(
             let level1 = s.level1.then(|| {
                 let p = CellProblem::new(ctx, vec![0.0; n2], level1_train).with_robust_scale(s.robust_scale);
                 let (params, evaluations) = p.fit_level1(g.cell_size(), warp.options.depth_lod);
-                Level1Fit { params, check_err: check_problem.relative_error_level1(&params), evaluations }
+                Box::new(Level1Fit { params, check_err: check_problem.relative_error_level1(&params), evaluations })
             });
             let resolutions = study.map(|(train, halves)| {
                 let depth_at = |res: u32| {
@@ -608,7 +610,7 @@ pub fn fit_cells(
                         res,
                     )
                 };
-                study_resolutions(ctx, (&train, &halves), &fitted, depth_at, s)
+                Box::new(study_resolutions(ctx, (&train, &halves), &fitted, depth_at, s))
             });
             bar.inc(1);
             let fit = CellFit {

@@ -82,7 +82,7 @@ pub const STUDY_TOLERANCES: [f64; 2] = [0.0, 0.02];
 
 fn resolution_summary(fit: &Fit) -> Option<ResolutionSummary> {
     use super::STUDY_RESOLUTIONS as RES;
-    let cells: Vec<&super::ResolutionStudy> = fit.cells.iter().filter_map(|c| c.resolutions.as_ref()).collect();
+    let cells: Vec<&super::ResolutionStudy> = fit.cells.iter().filter_map(|c| c.resolutions.as_deref()).collect();
     if cells.is_empty() {
         return None;
     }
@@ -168,7 +168,7 @@ pub const LEVEL1_BYTES: usize = 20;
 
 fn level1_summary(fit: &Fit) -> Option<Level1Summary> {
     let cells: Vec<(&CellFit, &super::Level1Fit)> =
-        fit.cells.iter().filter_map(|c| c.level1.as_ref().map(|l| (c, l))).collect();
+        fit.cells.iter().filter_map(|c| c.level1.as_deref().map(|l| (c, l))).collect();
     if cells.is_empty() {
         return None;
     }
