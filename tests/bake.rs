@@ -31,6 +31,15 @@ fn bake_with_threads(scene: &Scene, threads: usize) -> Bake {
     })
 }
 
+/// The small torture baked on 2 threads and written into a fresh folder `name`.
+fn written_bake(name: &str) -> (Bake, std::path::PathBuf) {
+    let scene = small_torture();
+    let baked = bake_with_threads(&scene, 2);
+    let dir = tmp_dir(name);
+    bakefile::write_bake(&dir, &scene, &baked).unwrap();
+    (baked, dir)
+}
+
 #[test]
 fn bake_is_bit_identical_at_any_thread_count() {
     let scene = small_torture();
@@ -56,10 +65,7 @@ fn bake_is_bit_identical_at_any_thread_count() {
 
 #[test]
 fn bake_folder_reads_back_exactly() {
-    let scene = small_torture();
-    let baked = bake_with_threads(&scene, 2);
-    let dir = tmp_dir("roundtrip");
-    bakefile::write_bake(&dir, &scene, &baked).unwrap();
+    let (baked, dir) = written_bake("roundtrip");
     for f in ["probe.exr", "grid.exr", "manifest.json"] {
         assert!(dir.join(f).is_file(), "{f} missing");
     }
@@ -82,10 +88,7 @@ fn bake_folder_reads_back_exactly() {
 
 #[test]
 fn foreign_and_damaged_bakes_are_errors() {
-    let scene = small_torture();
-    let baked = bake_with_threads(&scene, 2);
-    let dir = tmp_dir("damaged");
-    bakefile::write_bake(&dir, &scene, &baked).unwrap();
+    let (_, dir) = written_bake("damaged");
     // truncated EXR
     let probe = std::fs::read(dir.join("probe.exr")).unwrap();
     std::fs::write(dir.join("probe.exr"), &probe[..probe.len() / 2]).unwrap();
@@ -120,11 +123,8 @@ fn foreign_and_damaged_bakes_are_errors() {
 
 #[test]
 fn hit_counts_are_read_back_as_counts() {
-    let scene = small_torture();
-    let baked = bake_with_threads(&scene, 2);
+    let (baked, dir) = written_bake("hits");
     assert!(baked.grid.hits.contains(&1), "some texel has one of its two rays hit");
-    let dir = tmp_dir("hits");
-    bakefile::write_bake(&dir, &scene, &baked).unwrap();
     let m = std::fs::read_to_string(dir.join("manifest.json")).unwrap();
     assert!(m.contains("\"depth_samples\": 2"), "{m}");
     // the stored fractions are halves: not counts of 3 rays
@@ -143,10 +143,7 @@ fn hit_counts_are_read_back_as_counts() {
 
 #[test]
 fn hit_counts_left_for_later_read_back_the_same_from_the_same_bake_only() {
-    let scene = small_torture();
-    let baked = bake_with_threads(&scene, 2);
-    let dir = tmp_dir("hits-later");
-    bakefile::write_bake(&dir, &scene, &baked).unwrap();
+    let (baked, dir) = written_bake("hits-later");
     let (m, _, mut grid) = bakefile::read_bake_with(&dir, bakefile::Hits::Later).unwrap();
     assert!(grid.hits.is_empty() && !grid.holds_hits());
     assert!(baked.grid.holds_hits());

@@ -198,15 +198,10 @@ fn level_one_and_map_resolutions_are_measured_against_the_stored_model_when_aske
         let d = warpfit::sampling::uniform_sphere(s.next_2d());
         assert_eq!(warp.level1_vector(&plain, p, d), warp.fetch_vector(warpfit::warp::Method::Warp1, p, d));
     }
-    let without = fit::fit(b, glossy, &quick_settings(), fit::MapSets::Stored, &Progress::quiet());
+    let fit_with = |s: FitSettings| fit::fit(b, glossy, &s, fit::MapSets::Stored, &Progress::quiet());
+    let without = fit_with(quick_settings());
     assert!(without.cells.iter().all(|c| c.level1.is_none()) && fit::summary::summary(&without).level1.is_none());
-    let with = fit::fit(
-        b,
-        glossy,
-        &FitSettings { level1: true, ..quick_settings() },
-        fit::MapSets::Stored,
-        &Progress::quiet(),
-    );
+    let with = fit_with(FitSettings { level1: true, ..quick_settings() });
     // measuring level 1 changes nothing stored
     assert_eq!(with.correctives.maps, without.correctives.maps);
     for c in &with.cells {
@@ -218,13 +213,7 @@ fn level_one_and_map_resolutions_are_measured_against_the_stored_model_when_aske
     assert_eq!(s.chosen.iter().sum::<usize>(), with.cells.len());
     assert!(s.bytes_chosen <= s.bytes_stored + s.chosen[1] * fit::summary::LEVEL1_BYTES);
     assert!(fit::summary::summary(&without).resolutions.is_none());
-    let studied = fit::fit(
-        b,
-        glossy,
-        &FitSettings { resolution_study: true, ..quick_settings() },
-        fit::MapSets::Stored,
-        &Progress::quiet(),
-    );
+    let studied = fit_with(FitSettings { resolution_study: true, ..quick_settings() });
     // studying resolutions changes nothing stored
     assert_eq!(studied.correctives.maps, without.correctives.maps);
     let n = studied.cells.len() as f64;

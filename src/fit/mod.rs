@@ -537,9 +537,8 @@ pub fn fit_cells(
     let renderer = Renderer::new(scene, tracer);
     let g = grid.geometry;
     let d2 = (grid.depth_resolution * grid.depth_resolution) as usize;
-    let hits = grid.hits.as_slice();
     assert!(
-        hits.len() == g.cell_count() * d2,
+        grid.holds_hits(),
         "fit_cells: the grid's hit counts are not loaded (a bake read with `bakefile::Hits::Later` needs `bakefile::read_hits` first)"
     );
     let bar = progress.bar(cells.len() as u64, "fit cells");
@@ -555,14 +554,18 @@ pub fn fit_cells(
         .par_iter()
         .map(|&cell| {
             let tc = Instant::now();
-            let distance = model::celldepth_distances(
-                grid.depth_resolution,
-                &grid.depth_mean[cell * d2..(cell + 1) * d2],
-                &hits[cell * d2..(cell + 1) * d2],
-                grid.depth_samples,
-                grid.far_distance,
-                s.map_res,
-            );
+            // the grid's raytraced distances at a map resolution
+            let depth_at = |res: u32| {
+                model::celldepth_distances(
+                    grid.depth_resolution,
+                    &grid.depth_mean[cell * d2..(cell + 1) * d2],
+                    &grid.hits[cell * d2..(cell + 1) * d2],
+                    grid.depth_samples,
+                    grid.far_distance,
+                    res,
+                )
+            };
+            let distance = depth_at(s.map_res);
             let sees_only_sky = distance.iter().all(|d| !d.is_finite());
             let tt = Instant::now();
             let train = cell_samples(&renderer, &g, cell, train_size, s.seed, 1);
@@ -599,19 +602,8 @@ pub fn fit_cells(
                 let (params, evaluations) = p.fit_level1(g.cell_size(), warp.options.depth_lod);
                 Box::new(Level1Fit { params, check_err: check_problem.relative_error_level1(&params), evaluations })
             });
-            let resolutions = study.map(|(train, halves)| {
-                let depth_at = |res: u32| {
-                    model::celldepth_distances(
-                        grid.depth_resolution,
-                        &grid.depth_mean[cell * d2..(cell + 1) * d2],
-                        &hits[cell * d2..(cell + 1) * d2],
-                        grid.depth_samples,
-                        grid.far_distance,
-                        res,
-                    )
-                };
-                Box::new(study_resolutions(ctx, (&train, &halves), &fitted, depth_at, s))
-            });
+            let resolutions =
+                study.map(|(train, halves)| Box::new(study_resolutions(ctx, (&train, &halves), &fitted, depth_at, s)));
             bar.inc(1);
             let fit = CellFit {
                 cell: cell as u32,
