@@ -560,20 +560,31 @@ impl<T: Texel> OctMips<T> {
     #[inline]
     #[must_use]
     pub fn sample_each_lod_uv_lanes(&self, uv: &UvLanes, lod: &[f32; LANES]) -> [T; LANES] {
+        // Each stage is a plain loop over lanes so that it vectorises; only the gathers (a
+        // mip's size, its 2×2 texels) are per lane. Every lane reads two mips, the next one
+        // (or the last again) with weight 0 where `lod_blend` reads one.
         let last = self.levels.len().saturating_sub(1);
-        let (mut l0, mut f) = ([0usize; LANES], [0.0f32; LANES]);
+        let (mut l0, mut l1, mut f) = ([0usize; LANES], [0usize; LANES], [0.0f32; LANES]);
         for k in 0..LANES {
             (l0[k], f[k]) = self.split_lod(lod[k]);
+            l1[k] = (l0[k] + 1).min(last);
+        }
+        let (mut n0, mut n1) = ([0.0f32; LANES], [0.0f32; LANES]);
+        for k in 0..LANES {
+            (n0[k], n1[k]) = (self.levels[l0[k]].res as f32, self.levels[l1[k]].res as f32);
+        }
+        let mut at = [[0i32; LANES]; 4];
+        let mut frac = [[0.0f32; LANES]; 4];
+        for k in 0..LANES {
+            (at[0][k], at[1][k], frac[0][k], frac[1][k]) = footprint_of(n0[k], uv.u[k], uv.v[k]);
+            (at[2][k], at[3][k], frac[2][k], frac[3][k]) = footprint_of(n1[k], uv.u[k], uv.v[k]);
         }
         let mut out = [T::default(); LANES];
         for k in 0..LANES {
-            let a = self.levels[l0[k]].bilinear_uv_inline(uv.at(k));
-            out[k] = if f[k] == 0.0 || l0[k] >= last {
-                a
-            } else {
-                let b = self.levels[l0[k] + 1].bilinear_uv_inline(uv.at(k));
-                a * (1.0 - f[k]) + b * f[k]
-            };
+            let a = blend(self.levels[l0[k]].quad(at[0][k], at[1][k]), frac[0][k], frac[1][k]);
+            let b = blend(self.levels[l1[k]].quad(at[2][k], at[3][k]), frac[2][k], frac[3][k]);
+            // `lod_blend`'s choice: the lower mip alone at a whole lod or the chain's end
+            out[k] = if (f[k] == 0.0) | (l0[k] >= last) { a } else { a * (1.0 - f[k]) + b * f[k] };
         }
         out
     }
@@ -600,8 +611,9 @@ impl<T: Texel> OctMips<T> {
     fn split_lod(&self, lod: f32) -> (usize, f32) {
         let max = self.levels.len().saturating_sub(1) as u32 as f32;
         let lod = if lod.is_finite() { lod.max(0.0).min(max) } else { 0.0 };
-        let l0 = lod as u32; // lod ≥ 0: truncation is floor
-        (l0 as usize, lod - l0 as f32)
+        // lod ≥ 0 and small: its floor off the float's bits (`as u32` is branchy on x86-64)
+        let (l0, floor) = floor_small(lod);
+        (l0 as usize, lod - floor)
     }
 }
 

@@ -260,8 +260,11 @@ impl Lookup {
 /// (a float-to-usize cast there is a branchy sequence on every rough lookup).
 #[inline(always)]
 fn node_below(x: f32) -> (usize, f32) {
-    let below = crate::octa::floor_small(x).1.min((LOOKUP_NODES - 2) as f32);
-    (below as i32 as usize, x - below)
+    const LAST: usize = LOOKUP_NODES - 2;
+    let (i, below) = crate::octa::floor_small(x);
+    let below = below.min(LAST as f32);
+    // x ≥ 0, so i ≥ 0: the integer comes off the float's bits, not from a saturating cast
+    (i.clamp(0, LAST as i32) as usize, x - below)
 }
 
 /// The resampled correction as a shader reads it (see [`RoughnessCorrection::lookup_table`]).
