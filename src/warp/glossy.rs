@@ -51,10 +51,17 @@ impl MipRule {
 
 impl WarpProbe {
     /// Fractional radiance mip of perceptual roughness `r` (linear between the mips' values,
-    /// clamped to the chain; NaN reads as 0).
+    /// clamped to the chain; NaN reads as 0). For the chain every bake writes (mip m at
+    /// r = m / (n − 1)) that is r · (n − 1) itself: one product, where a search and a
+    /// division sat on every rough lookup's critical path.
     #[inline]
     #[must_use]
     pub fn lod_of_roughness(&self, r: f32) -> f32 {
+        if let Some(n) = self.uniform_lods {
+            let lod = r * n;
+            // (NaN and r ≤ 0 read mip 0, r past the chain its last mip)
+            return if lod > 0.0 { lod.min(n) } else { 0.0 };
+        }
         let m = self.mip_roughness();
         if m.len() < 2 || !(r > m[0]) {
             return 0.0;
@@ -64,22 +71,7 @@ impl WarpProbe {
             return last as f32;
         }
         // the mip below r: the last node ≤ r (m[0] < r < m[last], so 0 ≤ i < last)
-        let i = match self.uniform_lods {
-            // the chain every bake writes, r = m / (n − 1) at mip m: the product's floor is
-            // the node or one off it by rounding, settled by the same comparisons as the
-            // search (a search and its adds sat on every rough lookup's critical path)
-            Some(n) => {
-                let guess = ((r * n) as usize).min(last - 1);
-                if m[guess] > r {
-                    guess.saturating_sub(1)
-                } else if guess + 1 < last && m[guess + 1] <= r {
-                    guess + 1
-                } else {
-                    guess
-                }
-            }
-            None => m.iter().map(|&x| (x <= r) as usize).sum::<usize>().clamp(1, last) - 1,
-        };
+        let i = m.iter().map(|&x| (x <= r) as usize).sum::<usize>().clamp(1, last) - 1;
         let span = m[i + 1] - m[i];
         let f = if span > 0.0 { (r - m[i]) / span } else { 0.0 };
         i as f32 + f.clamp(0.0, 1.0)
@@ -231,7 +223,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_mip_of_a_baked_chain_is_the_searchs_mip_bit_for_bit() {
+    fn the_mip_of_a_baked_chain_is_the_product_and_the_searchs_mip_to_rounding() {
         use crate::octa::{OctMap, OctMips};
         // the general rule, as it reads any increasing chain
         let search = |m: &[f32], r: f32| -> f32 {
@@ -246,25 +238,47 @@ mod tests {
             let f = (r - m[i]) / (m[i + 1] - m[i]);
             i as f32 + f.clamp(0.0, 1.0)
         };
-        for n in [2usize, 3, 6, 7, 9] {
-            let chain: Vec<f32> = (0..n).map(|m| m as f32 / (n - 1) as f32).collect();
+        let probe_of = |chain: Vec<f32>| {
             let one = OctMips { levels: vec![OctMap::new(1, vec![1.0f32])] };
-            let probe = WarpProbe::from_distance_mips(
+            WarpProbe::from_distance_mips(
                 Vec3::ZERO,
                 &one,
                 OctMips { levels: vec![OctMap::new(1, vec![Vec3::ONE])] },
-                chain.clone(),
-            );
+                chain,
+            )
+        };
+        for n in [2usize, 3, 6, 7, 9] {
+            let chain: Vec<f32> = (0..n).map(|m| m as f32 / (n - 1) as f32).collect();
+            let probe = probe_of(chain.clone());
             assert!(probe.uniform_lods.is_some());
             // every node, its neighbouring floats, and a fine sweep
             let mut rs: Vec<f32> =
                 chain.iter().flat_map(|&x| [x, f32::from_bits(x.to_bits() + 1), x.next_down()]).collect();
             rs.extend((0..=10_000).map(|t| t as f32 / 10_000.0));
-            rs.extend([-1.0, 0.0, -0.0, 1.0, 2.0, f32::NAN, f32::INFINITY, f32::MIN_POSITIVE]);
             for r in rs {
                 let (fast, slow) = (probe.lod_of_roughness(r), search(&chain, r));
-                assert_eq!(fast.to_bits(), slow.to_bits(), "n = {n}, r = {r}");
+                assert_eq!(fast, (r * (n - 1) as f32).clamp(0.0, (n - 1) as f32), "n = {n}, r = {r}");
+                assert!((fast - slow).abs() <= 4.0 * f32::EPSILON * n as f32, "n = {n}, r = {r}: {fast} vs {slow}");
+                // a whole mip at its own node
+                if let Some(m) = chain.iter().position(|&x| x == r) {
+                    assert_eq!(fast, m as f32);
+                }
             }
+            for (r, lod) in [(-1.0, 0.0), (0.0, 0.0), (-0.0, 0.0), (1.0, (n - 1) as f32), (2.0, (n - 1) as f32)] {
+                assert_eq!(probe.lod_of_roughness(r), lod);
+            }
+            for r in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, f32::MIN_POSITIVE] {
+                let lod = probe.lod_of_roughness(r);
+                assert!(lod.is_finite() && (0.0..=(n - 1) as f32).contains(&lod), "r = {r}: {lod}");
+            }
+        }
+        // any other chain: the search
+        let chain = vec![0.0, 0.1, 0.5, 1.0];
+        let probe = probe_of(chain.clone());
+        assert!(probe.uniform_lods.is_none());
+        for t in 0..=1000 {
+            let r = t as f32 / 1000.0;
+            assert_eq!(probe.lod_of_roughness(r).to_bits(), search(&chain, r).to_bits(), "r = {r}");
         }
     }
 

@@ -32,7 +32,7 @@ pub struct WarpProbe {
     /// Perceptual roughness of each radiance mip (increasing; mip 0 = 0, the mirror image).
     mip_roughness: Vec<f32>,
     /// `n − 1` for a chain of n mips at r = m / (n − 1), the chain every bake writes
-    /// (`lod_of_roughness` finds the mip below r from one product); `None` for any other.
+    /// (`lod_of_roughness` is then r · (n − 1)); `None` for any other.
     uniform_lods: Option<f32>,
     /// Largest finite distance the probe saw (bounds ray marching).
     pub max_distance: f32,
