@@ -536,13 +536,14 @@ fn print_fit(f: &FitLines, manifest: &warpfit::gridfile::GridManifest, folder: &
     );
     let t = &s.times;
     println!(
-        "time: cells {:.1} s ({:.0}% of their CPU time tracing references), surface points {:.1} s, their references {:.1} s, roughness correction {:.1} s, diffuse fit {:.1} s",
+        "time: cells {:.1} s ({:.0}% of their CPU time tracing references), surface points {:.1} s, their references {:.1} s, roughness correction {:.1} s, diffuse fit {:.1} s{}",
         t.cells,
         100.0 * t.cells_tracing_cpu / t.cells_cpu.max(1e-9),
         t.surface_points,
         t.irradiance_references,
         t.roughness,
-        t.irradiance_fit
+        t.irradiance_fit,
+        t.counted()
     );
     if s.diffuse_cells_fitted == 0 {
         println!("diffuse: no cell holds enough surface points to fit a correction (none stored)");

@@ -68,7 +68,18 @@ fn sharded(scene: &Scene, dir: &Path, n: u32) -> Vec<PathBuf> {
     // shards run in any order
     let fit_parts: Vec<PathBuf> =
         (0..n).rev().map(|k| farm::fit_shard(scene, &folder, &job(), Shard { k, n }, &progress).unwrap()).collect();
-    farm::merge(&folder, &fit_parts, "test", &progress).unwrap();
+    let (farm::Merged::Fit(merged), _) = farm::merge(&folder, &fit_parts, "test", &progress).unwrap() else {
+        panic!("a merge of fit parts makes a fit");
+    };
+    // the merged fit's time line counts the shards' steps (summed), not zeros
+    let shards: Vec<_> = fit_parts.iter().map(|p| partfile::read_header(p).unwrap().fit_times.unwrap()).collect();
+    let t = merged.0.times;
+    assert_eq!(t.shards, n);
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs();
+    assert!(close(t.cells, shards.iter().map(|s| s.cells).sum::<f64>()), "{t:?}");
+    assert!(close(t.irradiance_references, shards.iter().map(|s| s.irradiance_references).sum::<f64>()), "{t:?}");
+    assert!(t.cells > 0.0 && t.irradiance_references > 0.0 && t.cells_cpu > 0.0, "{t:?}");
+    assert!(t.counted().contains(&format!("{n} shards")) || n == 1);
     fit_parts
 }
 

@@ -306,7 +306,7 @@ pub struct Fit {
 
 /// Where a fit's time goes: wall seconds per step, and the cells' CPU seconds (summed over
 /// threads) with the part of them spent tracing references.
-#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct FitTimes {
     /// Wall seconds fitting the cells (their reference tracing included).
     pub cells: f64,
@@ -320,6 +320,23 @@ pub struct FitTimes {
     /// queries traced) and the coupled diffuse fit.
     pub roughness: f64,
     pub irradiance_fit: f64,
+    /// 0 when one machine fitted: otherwise the merge of this many shards, whose cells,
+    /// surface points and their references are the shards' seconds summed (the grid-wide
+    /// steps ran in the merge).
+    #[serde(default)]
+    pub shards: u32,
+}
+
+impl FitTimes {
+    /// How the cells' and surface points' seconds were counted, for the printed time lines.
+    #[must_use]
+    pub fn counted(&self) -> String {
+        if self.shards > 1 {
+            format!(" (cells and surface points: seconds summed over {} shards)", self.shards)
+        } else {
+            String::new()
+        }
+    }
 }
 
 /// The streams of one cell's training (`tag` 1) or check (`tag` 2) queries: the last

@@ -122,6 +122,7 @@ fn header(scene: &Scene, kind: PartKind, shard: Shard, settings: serde_json::Val
         cells: 0..0,
         points: None,
         seconds: 0.0,
+        fit_times: None,
         host: host(),
         body_bytes: 0,
         body_checksum: String::new(),
@@ -212,26 +213,33 @@ pub fn fit_shard(
     let log = ShardLog::new(format!("fit shard {shard}"), range.len());
     // every shard measures the proxy the same way (seeded), so they all fit for the same one
     let proxy = fit::proxy::choose(baked, glossy, &job.fit).method;
+    let t_cells = Instant::now();
     let cells: Vec<CellOutcome> = in_chunks(&active[range.clone()], &log, |part| {
         fit::fit_cells(baked, glossy, &job.fit, proxy, part, fit::MapSets::Stored, progress)
     });
+    let mut times = fit::FitTimes { cells: t_cells.elapsed().as_secs_f64(), ..fit::FitTimes::default() };
     // only the cells read the hit counts: not held while the references are traced
     grid.hits = Vec::new();
     let baked = Baked { scene, tracer: &tracer, probe: &probe, grid: &grid };
+    let t_points = Instant::now();
     let points = irradiance::SurfacePoints::draw(baked, job.fit.seed);
+    times.surface_points = t_points.elapsed().as_secs_f64();
     let ranges = points.part(k, n);
     tracing::info!(
         "fit shard {shard}: irradiance references of {} + {} surface points",
         ranges.train.len(),
         ranges.check.len()
     );
+    let t_references = Instant::now();
     let references = irradiance::trace_references(baked, &points, job.fit.seed, &ranges);
+    times.irradiance_references = t_references.elapsed().as_secs_f64();
     let settings = serde_json::to_value(job).map_err(|e| FileError::invalid(&folder.dir, "settings", e.to_string()))?;
     let mut h = header(scene, PartKind::Fit, shard, settings);
     h.bake_checksums = m.files.iter().map(|f| f.checksum.clone()).collect();
     h.cells = range;
     h.points = Some(ranges);
     h.seconds = t0.elapsed().as_secs_f64();
+    h.fit_times = Some(times);
     let path = folder.parts().join(partfile::part_name(PartKind::Fit, shard.k, shard.n));
     partfile::write_part(&path, h, &PartBody::Fit(FitPart { cells, references }))?;
     Ok(path)
@@ -409,6 +417,14 @@ pub fn merge(
             let mut fitted = fit::assemble(baked, glossy, &job.fit, proxy, cells, &points, references);
             drop(points);
             fitted.seconds += set.iter().map(|(_, h)| h.seconds).sum::<f64>();
+            // the shards' steps, summed (the cells' CPU seconds come with their outcomes)
+            let t = &mut fitted.times;
+            for shard in set.iter().filter_map(|(_, h)| h.fit_times.as_ref()) {
+                t.cells += shard.cells;
+                t.surface_points += shard.surface_points;
+                t.irradiance_references += shard.irradiance_references;
+            }
+            t.shards = set.len() as u32;
             crate::files::staged::link_or_copy_dir(&tx.previous.bake(), &tx.out.bake())?;
             let out = Output { folder: &tx.out, command, progress };
             let manifest = run::write_fit(baked, &warp, &fitted, job.store, out)?;

@@ -72,6 +72,10 @@ pub struct PartHeader {
     pub points: Option<PointRanges>,
     /// Seconds the shard worked, and the host it ran on.
     pub seconds: f64,
+    /// Fit parts: the wall seconds of the shard's steps (its cells, the surface points and
+    /// its share of their references), which the merge sums into the fit's time line.
+    #[serde(default)]
+    pub fit_times: Option<crate::fit::FitTimes>,
     pub host: String,
     pub body_bytes: u64,
     pub body_checksum: String,

@@ -74,14 +74,15 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
     let t = &s.times;
     let _ = writeln!(
         md,
-        "Time: cells {:.1} s (CPU {:.1} s, {:.1} s of it tracing references), surface points {:.1} s, their references {:.1} s, roughness correction {:.1} s, diffuse fit {:.1} s.\n",
+        "Time: cells {:.1} s (CPU {:.1} s, {:.1} s of it tracing references), surface points {:.1} s, their references {:.1} s, roughness correction {:.1} s, diffuse fit {:.1} s{}.\n",
         t.cells,
         t.cells_cpu,
         t.cells_tracing_cpu,
         t.surface_points,
         t.irradiance_references,
         t.roughness,
-        t.irradiance_fit
+        t.irradiance_fit,
+        t.counted()
     );
     if !s.diffuse_bias_trials.is_empty() {
         let _ = writeln!(
