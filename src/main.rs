@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use warpfit::bakefile;
 use warpfit::eval::EvalSettings;
 use warpfit::files;
-use warpfit::fit::{FitSettings, Solver};
+use warpfit::fit::{FitSettings, MapSets, Solver};
 use warpfit::jobs::run::{self as job, Output, RunSettings, StoreOptions};
 use warpfit::jobs::{cluster, farm, stability, sweep};
 use warpfit::progress::Progress;
@@ -808,7 +808,8 @@ fn run(cli: Cli) -> Result<()> {
             // a reused bake's hit counts stay on disk until the fit's cells stage reads them
             let (mut p, tx, folder) = prepare(&scene, bakefile::Hits::Later, &progress)?;
             let warp = p.baked().warp(WarpOptions::standard());
-            let (f, manifest) = job::fit_staged(&mut p, &warp, &settings, fit.store(), &command, &progress)?;
+            let (f, manifest) =
+                job::fit_staged(&mut p, &warp, &settings, fit.store(), MapSets::Stored, (&command, &progress))?;
             let lines = FitLines::of(&f);
             // the written grid loads back before it is committed: without the fit, the
             // probe and the bake beside it (the peak of a big level's fit)
@@ -818,8 +819,9 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Run { job: RunArgs { scene, eval, fit } } => {
             let settings = RunSettings { eval: eval.settings(), fit: fit.settings()?, store: fit.store() };
-            let (p, tx, folder) = prepare(&scene, bakefile::Hits::WithGrid, &progress)?;
-            let outcome = job::run(&p, &settings, &command, &progress)?;
+            // a reused bake's hit counts stay on disk until the fit's cells stage reads them
+            let (mut p, tx, folder) = prepare(&scene, bakefile::Hits::Later, &progress)?;
+            let outcome = job::run(&mut p, &settings, &command, &progress)?;
             tx.commit(true)?;
             print_fit(&FitLines::of(&outcome.fit), &outcome.manifest, &folder);
             print_eval(&outcome.eval, &folder);

@@ -15,9 +15,9 @@ use warpfit::report::folder::RunFolder;
 
 fn small_run(dir: &Path) {
     let scene = load("tiny");
-    let p = job::prepare(scene, RunFolder::new(dir), &Progress::quiet()).unwrap();
+    let mut p = job::prepare(scene, RunFolder::new(dir), &Progress::quiet()).unwrap();
     let settings = job::RunSettings { eval: EvalSettings::quick(), fit: FitSettings::quick(), ..Default::default() };
-    job::run(&p, &settings, "test", &Progress::quiet()).unwrap();
+    job::run(&mut p, &settings, "test", &Progress::quiet()).unwrap();
 }
 
 fn chromium() -> Option<PathBuf> {

@@ -250,7 +250,8 @@ pub fn fit(
     Ok((fitted, manifest))
 }
 
-/// [`fit`] on a prepared scene, stage by stage, so that the grid's hit counts are held only
+/// [`fit`] on a prepared scene (`out`: the command line the fit records, and the progress
+/// display), stage by stage, so that the grid's hit counts are held only
 /// while the cells stage reads them: read from the bake after the diffuse stage if
 /// [`prepare_from`] left them on disk ([`bakefile::Hits::Later`]), dropped before the fit is
 /// finished. A big level's fit then never holds them beside the diffuse fit's points and
@@ -260,16 +261,17 @@ pub fn fit_staged(
     warp: &Warp,
     settings: &FitSettings,
     store: StoreOptions,
-    command: &str,
-    progress: &Progress,
+    sets: MapSets,
+    out: (&str, &Progress),
 ) -> Result<(Fit, GridManifest), FileError> {
+    let (command, progress) = out;
     let lobes = fit_lobes(p.baked());
     let glossy = Glossy { warp, correction: lobes.as_ref() };
     let diffuse = crate::fit::diffuse_stage(p.baked(), glossy, settings);
     if !p.grid.holds_hits() {
         p.grid.hits = bakefile::read_hits(&p.folder.bake(), &p.scene.content_key(), &p.grid)?;
     }
-    let cells = crate::fit::cells_stage(p.baked(), glossy, settings, MapSets::Stored, progress);
+    let cells = crate::fit::cells_stage(p.baked(), glossy, settings, sets, progress);
     p.grid.hits = Vec::new();
     let fitted = crate::fit::finish(p.baked(), glossy, settings, diffuse, cells);
     let out = Output { folder: &p.folder, command, progress };
@@ -409,12 +411,14 @@ pub struct RunOutcome {
 }
 
 /// The main job on a prepared scene: fit and write the grid, evaluate every method, write
-/// the run report. One warp context (the eval settings' options) serves fit and eval.
-pub fn run(p: &Prepared, s: &RunSettings, command: &str, progress: &Progress) -> Result<RunOutcome, FileError> {
-    let out = Output { folder: &p.folder, command, progress };
+/// the run report. One warp context (the eval settings' options) serves fit and eval. The
+/// fit runs in stages ([`fit_staged`]): the grid's hit counts are held only while its cells
+/// stage reads them, never beside the evaluation.
+pub fn run(p: &mut Prepared, s: &RunSettings, command: &str, progress: &Progress) -> Result<RunOutcome, FileError> {
     let warp = p.baked().warp(s.eval.options);
     // the evaluation compares the stored model with the unfitted map sets
-    let (fit, manifest) = fit(p.baked(), &warp, &s.fit, s.store, MapSets::WithUnfitted, out)?;
+    let (fit, manifest) = fit_staged(p, &warp, &s.fit, s.store, MapSets::WithUnfitted, (command, progress))?;
+    let out = Output { folder: &p.folder, command, progress };
     let eval = evaluate(p.baked(), &warp, &s.eval, &Method::ALL, Some(&fit), out)?;
     report::page::write_report(&p.folder, command)?;
     Ok(RunOutcome { fit, manifest, eval })
