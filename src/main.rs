@@ -714,7 +714,8 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Eval { scene, methods, eval } => {
             let methods = parse_methods(&methods)?;
-            let (p, tx, folder) = prepare(&scene, bakefile::Hits::WithGrid, &progress)?;
+            // the evaluation never reads the grid's hit counts: a reused bake's stay on disk
+            let (p, tx, folder) = prepare(&scene, bakefile::Hits::Later, &progress)?;
             let settings = eval.settings();
             let warp = p.baked().warp(settings.options);
             let out = Output { folder: &p.folder, command: &command, progress: &progress };
