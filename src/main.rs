@@ -810,7 +810,7 @@ fn run(cli: Cli) -> Result<()> {
             let (mut p, tx, folder) = prepare(&scene, bakefile::Hits::Later, &progress)?;
             let warp = p.baked().warp(WarpOptions::standard());
             let (f, manifest) =
-                job::fit_staged(&mut p, &warp, &settings, fit.store(), MapSets::Stored, (&command, &progress))?;
+                job::fit_staged(&mut p, &warp, &settings, fit.store(), MapSets::Stored, &command, &progress)?;
             let lines = FitLines::of(&f);
             // the written grid loads back before it is committed: without the fit, the
             // probe and the bake beside it (the peak of a big level's fit)

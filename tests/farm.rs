@@ -55,7 +55,7 @@ fn staged(scene: &Scene, from: &Path, dir: &Path) {
     assert!(!p.baked_now && !p.grid.holds_hits(), "the bake is reused without its hit counts");
     let j = job();
     let warp = p.baked().warp(j.options);
-    run::fit_staged(&mut p, &warp, &j.fit, j.store, warpfit::fit::MapSets::Stored, ("test", &progress)).unwrap();
+    run::fit_staged(&mut p, &warp, &j.fit, j.store, warpfit::fit::MapSets::Stored, "test", &progress).unwrap();
 }
 
 /// Bakes and fits `scene` in `n` shards into `dir`, merging each step.

@@ -250,8 +250,7 @@ pub fn fit(
     Ok((fitted, manifest))
 }
 
-/// [`fit`] on a prepared scene (`out`: the command line the fit records, and the progress
-/// display), stage by stage, so that the grid's hit counts are held only
+/// [`fit`] on a prepared scene, stage by stage, so that the grid's hit counts are held only
 /// while the cells stage reads them: read from the bake after the diffuse stage if
 /// [`prepare_from`] left them on disk ([`bakefile::Hits::Later`]), dropped before the fit is
 /// finished. A big level's fit then never holds them beside the diffuse fit's points and
@@ -262,9 +261,9 @@ pub fn fit_staged(
     settings: &FitSettings,
     store: StoreOptions,
     sets: MapSets,
-    out: (&str, &Progress),
+    command: &str,
+    progress: &Progress,
 ) -> Result<(Fit, GridManifest), FileError> {
-    let (command, progress) = out;
     let lobes = fit_lobes(p.baked());
     let glossy = Glossy { warp, correction: lobes.as_ref() };
     let diffuse = crate::fit::diffuse_stage(p.baked(), glossy, settings);
@@ -417,7 +416,7 @@ pub struct RunOutcome {
 pub fn run(p: &mut Prepared, s: &RunSettings, command: &str, progress: &Progress) -> Result<RunOutcome, FileError> {
     let warp = p.baked().warp(s.eval.options);
     // the evaluation compares the stored model with the unfitted map sets
-    let (fit, manifest) = fit_staged(p, &warp, &s.fit, s.store, MapSets::WithUnfitted, (command, progress))?;
+    let (fit, manifest) = fit_staged(p, &warp, &s.fit, s.store, MapSets::WithUnfitted, command, progress)?;
     let out = Output { folder: &p.folder, command, progress };
     let eval = evaluate(p.baked(), &warp, &s.eval, &Method::ALL, Some(&fit), out)?;
     report::page::write_report(&p.folder, command)?;
