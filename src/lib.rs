@@ -61,6 +61,8 @@ pub mod jobs;
 #[cfg(feature = "bake")]
 pub mod partfile;
 #[cfg(feature = "bake")]
+pub mod perceptual;
+#[cfg(feature = "bake")]
 pub mod preview;
 #[cfg(feature = "bake")]
 pub mod progress;

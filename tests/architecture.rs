@@ -13,7 +13,7 @@ const FLOORS: &[&[&str]] = &[
     &["gridfile"],
     &["runtime"],
     &["trace"],
-    &["bake"],
+    &["bake", "perceptual"],
     &["fit", "eval"],
     &["bakefile", "export", "partfile", "preview"],
     &["report"],

@@ -8,6 +8,7 @@ use warpfit::fit::{self, FitSettings, Solver};
 use warpfit::fit::{Level, Selection};
 use warpfit::octa;
 use warpfit::progress::Progress;
+use warpfit::roughness::{RoughnessCorrection, RowRule};
 use warpfit::trace::Tracer;
 
 fn fit_wall(scale: f32, solver: Solver) -> (Vec<f64>, f64, f64, Vec<f32>, Vec<f32>) {
@@ -82,6 +83,41 @@ fn quick_settings() -> FitSettings {
     FitSettings::quick()
 }
 
+/// Every roughness of the fit's mix has a row, rendered (ꟻLIP in (0, 1)), holding the scene
+/// fit unless another rule's views are clearly better, and the stored table holds that
+/// rule's α' at every k node.
+fn scene_rows_hold_their_chosen_rules(corr: &RoughnessCorrection, lobes: &RoughnessCorrection) {
+    let cmp = corr.heldout_scene.as_ref().expect("the comparison is recorded");
+    assert_eq!(cmp.rows.iter().map(|r| r.roughness).collect::<Vec<_>>(), fit::ROUGH_MIX.to_vec());
+    for (row, choice) in cmp.rows.iter().enumerate() {
+        for rule in RowRule::ALL {
+            let (f, t) = (choice.flip.get(rule), choice.tm_rmse.get(rule));
+            assert!(f > 0.0 && f < 1.0 && t.is_finite() && t > 0.0, "{choice:?}");
+        }
+        assert_eq!(choice.chosen, choice.flip.chosen_with(&choice.flip_se));
+        if choice.chosen != RowRule::SceneFit {
+            let clear = choice.flip.get(choice.chosen) + 2.0 * choice.flip_se.get(choice.chosen);
+            assert!(clear < choice.flip.scene_fit, "{choice:?}");
+        }
+        let r = choice.roughness;
+        let [up, down] = cmp.scene_exponents[row];
+        for &k in &corr.ratios {
+            let expected = match choice.chosen {
+                RowRule::SceneFit => {
+                    let e = if k > 1.0 { up } else { down };
+                    (corr.c0 as f64 * (r * r) as f64 * libm::exp(-(e as f64) * libm::log(k as f64))) as f32
+                }
+                RowRule::Lobes => lobes.corrected_alpha(r * r, k),
+                RowRule::Engine => warpfit::warp::glossy::engine_roughness(r, k).powi(2),
+                RowRule::Plain => r * r,
+            }
+            .clamp(1e-3, 1.0);
+            let stored = corr.from_table(r * r, k);
+            assert!((stored - expected).abs() <= 1e-5 * expected.max(1e-3), "r {r} k {k}: {stored} vs {expected}");
+        }
+    }
+}
+
 #[test]
 fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
     let scene = small_torture();
@@ -102,6 +138,7 @@ fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
     assert_eq!(a.unfitted, b.unfitted);
     assert!(a.unfitted.is_some());
     assert_eq!(a.roughness, b.roughness, "the scene's roughness correction is deterministic too");
+    scene_rows_hold_their_chosen_rules(a.roughness.as_ref().expect("rough queries: a scene correction"), &lobes);
     let strip = |f: &fit::Fit| {
         f.cells.iter().map(|c| (c.cell, c.level, c.check_err_fitted.to_bits(), c.evaluations)).collect::<Vec<_>>()
     };

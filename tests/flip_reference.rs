@@ -1,13 +1,13 @@
 //! The ꟻLIP this crate reports is NVIDIA's: on known pairs of images (a gradient with
 //! shapes against noisy, shifted, blurred and recoloured versions of itself), the error
-//! maps of `eval::flip` agree with NVIDIA's reference Python package `flip-evaluator`
+//! maps of `perceptual::flip` agree with NVIDIA's reference Python package `flip-evaluator`
 //! (`pip install flip-evaluator`, which `.ci/run` installs). Without the package the test
 //! says SKIPPED; in CI it fails.
 
 mod common;
 use common::*;
 use std::process::Command;
-use warpfit::eval::flip;
+use warpfit::perceptual::flip;
 
 const W: u32 = 96;
 const H: u32 = 64;

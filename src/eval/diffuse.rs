@@ -16,12 +16,12 @@
 //! - **ꟻLIP** on the cameras of the specular evaluation with every surface shaded diffuse
 //!   (white albedo: the image is E/π), references with the views' sample count.
 
-use super::flip;
 use super::metrics::{difference_se, error_stats};
-use super::renders::View;
 use super::timing::best_of_three_ns;
 use super::validation::DOMAIN_EVAL;
 use crate::octa::{self, OctMap};
+use crate::perceptual::View;
+use crate::perceptual::flip;
 use crate::runtime::IrradianceBlend;
 use crate::runtime::IrradianceGrid;
 use crate::sampling::{Sampler, hash_pair, uniform_sphere};

@@ -21,7 +21,6 @@
 
 pub mod bound;
 pub mod diffuse;
-pub mod flip;
 pub mod methods;
 pub mod metrics;
 pub mod options;
@@ -280,8 +279,10 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     let mirror = validation_set(scene, tracer, grid, warp.probe.position, settings);
     let mut reference_rays = mirror.rays;
     bar.inc(1);
-    let views =
-        settings.renders.map(|r| renders::views(scene, tracer, &mirror, warp.probe.position, &r)).unwrap_or_default();
+    let views = settings
+        .renders
+        .map(|r| renders::views(scene, tracer, &mirror.positions, warp.probe.position, &r))
+        .unwrap_or_default();
     let lookups = settings.timing_lookups as usize;
     let mut rows_out = Vec::new();
     let mut summaries = Vec::new();
@@ -537,7 +538,7 @@ fn flip_figure(
         let Some(row) = rows.iter().find(|row| row.name() == m.name && row.rule == m.mip_rule) else { continue };
         let image = renders::render(row, shading, view);
         let map = renders::flip_map(view, &image, exposure);
-        let mean = flip::mean(&map);
+        let mean = crate::perceptual::flip::mean(&map);
         tiles.push((m.label(), image, map, mean));
     }
     Some(FlipFigure {

@@ -13,12 +13,12 @@
 //!   shaded as a glossy reflector and everything else as the primary ray sees it (the same in
 //!   every image); the mean is taken over the patch's pixels.
 
-use super::flip;
 use super::methods::Row;
 use super::metrics::error_stats;
 use super::timing::best_of_three_ns;
 use super::validation::DOMAIN_EVAL;
 use super::{EvalSettings, FlipFigure, ROUGHNESS_BUCKETS};
+use crate::perceptual::flip;
 use crate::sampling::{Sampler, cosine_hemisphere, hash_pair};
 use crate::scene::Scene;
 use crate::trace::{Renderer, Tracer, truth};
@@ -264,7 +264,7 @@ fn view_reference(
         .map(|(k, px)| match *px {
             Err(c) => (c, c),
             Ok((b, dir)) => {
-                super::renders::lobe_halves(renderer, (b, dir, r), half, (seed, hash_pair(stream, k as u64)))
+                crate::perceptual::lobe_halves(renderer, (b, dir, r), half, (seed, hash_pair(stream, k as u64)))
             }
         })
         .collect();

@@ -9,14 +9,24 @@
 //! ꟻLIP got worse (0.375 → 0.418 at r = 0.5), so the scale is not the scene's to choose.
 //! Two exponents because the evidence is one-sided: Frostbite's rule, which never blurs
 //! beyond r where the surface is farther from the hit (k < 1), beat the lobes' power law at
-//! low roughness. Compared on held-out rough lookups with the analytic-lobe fit,
-//! plain r and Frostbite's heuristic by tone-mapped RMSE; the better of the lobe fit and the
-//! scene fit is what the grid stores.
+//! low roughness.
+//!
+//! Each row of the stored table (one per roughness of [`ROUGH_MIX`]) then holds the rule,
+//! of the scene fit's exponents, the analytic-lobe correction, Frostbite's rule and plain
+//! r, whose views look best on held-out positions: mean ꟻLIP of a camera and a sphere of
+//! directions rendered from them against their traced references. Tone-mapped RMSE fitted
+//! the exponents, and it rewards blur (blur hedges a misplaced fetch); which mip a viewer
+//! should see is exactly that trade, so ꟻLIP judges it. The held-out lookups' tone-mapped
+//! RMSE of every candidate, per row and overall, is recorded beside it (the manifest's
+//! `roughness.heldout_scene`).
 
 use super::{DOMAIN_FIT, FitSettings, ROUGH_MIX};
 use crate::bake::Baked;
 use crate::octa;
-use crate::roughness::{Representation, RoughnessCorrection, RoughnessFit, SceneComparison, Source};
+use crate::perceptual::{self, RenderSettings, ViewReference};
+use crate::roughness::{
+    PerRule, Representation, RoughnessCorrection, RoughnessFit, RowChoice, RowRule, SceneComparison, Source,
+};
 use crate::sampling::{Sampler, hash_pair};
 use crate::tonemap::reinhard;
 use crate::trace::Renderer;
@@ -34,6 +44,12 @@ use rayon::prelude::*;
 const POSITIONS: u32 = 512;
 const DIRS: usize = 16;
 const SPP: u32 = 16;
+
+/// The views each row's rule is chosen on: one camera and one sphere of directions from the
+/// most open held-out positions, references of 64 lobe samples (an eighth of the
+/// evaluation's pixels at a quarter of its samples: about a second of tracing on torture).
+const VIEWS: RenderSettings =
+    RenderSettings { camera: (64, 40), cameras: 1, fov_deg: 75.0, sphere_res: 32, spheres: 1, reference_spp: 64 };
 
 /// A rough query with what every candidate shares: the fetch's octahedral coordinate and the
 /// distance ratio there.
@@ -68,15 +84,23 @@ impl QueryStreams for Streams {
     }
 }
 
+/// The scene's rough queries, split by position.
+struct Queries {
+    train: Vec<Query>,
+    held: Vec<Query>,
+    /// The held-out queries' positions.
+    held_positions: Vec<Vec3>,
+}
+
 /// Rough queries over the active cells with the cells' own mix (`surface_fraction` of the
 /// positions on surfaces, reflecting over their hemisphere; the rest in the volume), traced,
-/// and prepared through `correctives`: (training, held-out), split by position.
-fn queries(baked: Baked, warp: &Warp, correctives: &Correctives, s: &FitSettings) -> (Vec<Query>, Vec<Query>) {
+/// and prepared through `correctives`, split by position into training and held-out halves.
+fn queries(baked: Baked, warp: &Warp, correctives: &Correctives, s: &FitSettings) -> Queries {
     let Baked { scene, tracer, grid, .. } = baked;
     let (g, seed) = (grid.geometry, s.seed);
     let active: Vec<usize> = (0..g.cell_count()).filter(|&c| !grid.inside[c]).collect();
     if active.is_empty() {
-        return (Vec::new(), Vec::new());
+        return Queries { train: Vec::new(), held: Vec::new(), held_positions: Vec::new() };
     }
     let renderer = Renderer::new(scene, tracer);
     let positions: Vec<(Vec3, Option<Vec3>)> = (0..POSITIONS)
@@ -106,14 +130,24 @@ fn queries(baked: Baked, warp: &Warp, correctives: &Correctives, s: &FitSettings
         .into_par_iter()
         .map(|k| {
             let (b, dir) = (q.position_of(k), q.dirs[k]);
-            let aim = correctives.fetch(Blend::Cell, warp, b, dir);
-            let uv = octa::encode(aim.v);
-            let k_ratio = aim.ratio(warp, b, uv);
+            let (uv, k_ratio) = fetch(warp, correctives, b, dir);
             (k / DIRS, Query { uv, k: k_ratio, r: q.roughness[k], reference: q.reference[k] })
         })
         .collect();
     let (train, held): (Vec<_>, Vec<_>) = prepared.into_iter().partition(|(p, _)| p % 2 == 0);
-    (train.into_iter().map(|x| x.1).collect(), held.into_iter().map(|x| x.1).collect())
+    Queries {
+        train: train.into_iter().map(|x| x.1).collect(),
+        held: held.into_iter().map(|x| x.1).collect(),
+        held_positions: positions.iter().skip(1).step_by(2).map(|p| p.0).collect(),
+    }
+}
+
+/// The fitted grid's fetch for query (b, dir): the octahedral coordinate it reads and the
+/// distance ratio there.
+fn fetch(warp: &Warp, correctives: &Correctives, b: Vec3, dir: Vec3) -> (Vec2, f32) {
+    let aim = correctives.fetch(Blend::Cell, warp, b, dir);
+    let uv = octa::encode(aim.v);
+    (uv, aim.ratio(warp, b, uv))
 }
 
 /// Tone-mapped RMSE of `queries` when each reads the mip of the roughness `rough(q)` gives.
@@ -131,21 +165,54 @@ fn tm_rmse(warp: &Warp, queries: &[Query], exposure: f32, rough: impl Fn(&Query)
     (sq / (3.0 * queries.len().max(1) as f64)).sqrt()
 }
 
-/// The scene's table: per roughness of [`ROUGH_MIX`], `α' = c0 · α · k^−e` with one exponent
-/// `e⁺` where the surface is nearer the hit than the probe (k > 1: sharper) and another `e⁻`
-/// where it is farther (k < 1: blurrier), on the lobe table's k axis; a row α = 0 → 0 keeps
-/// near-mirror lookups sharp. Stored as an ordinary table (bilinear in α and ln k).
-fn scene_table(lobe: &RoughnessFit, c0: f64, exponents: &[(f64, f64)]) -> RoughnessFit {
+/// The candidate rules of the scene table's rows.
+struct Rules<'a> {
+    lobe_fit: &'a RoughnessCorrection,
+    c0: f64,
+    /// The scene fit's exponents (e⁺, e⁻) per roughness of [`ROUGH_MIX`].
+    exponents: &'a [(f64, f64)],
+}
+
+impl Rules<'_> {
+    /// Perceptual roughness of the mip `rule` reads for a lookup of roughness `r` at
+    /// distance ratio `k`, in row `row` (the row's roughness is `r` itself).
+    fn roughness(&self, rule: RowRule, row: usize, r: f32, k: f32) -> f32 {
+        match rule {
+            RowRule::SceneFit => exponent_roughness(r, k, self.c0, self.exponents[row]),
+            RowRule::Lobes => self.lobe_fit.corrected_roughness(r, k),
+            RowRule::Engine => engine_roughness(r, k),
+            RowRule::Plain => r,
+        }
+    }
+
+    /// α' of `rule` for surface α = r² at ratio `k` (a table entry), in [1e-3, 1].
+    fn alpha(&self, rule: RowRule, row: usize, r: f32, k: f32) -> f32 {
+        let alpha = r * r;
+        let a = match rule {
+            RowRule::SceneFit => {
+                let lk = libm::log(k as f64);
+                let (up, down) = self.exponents[row];
+                (self.c0 * alpha as f64 * libm::exp(-(if lk > 0.0 { up } else { down }) * lk)) as f32
+            }
+            RowRule::Lobes => self.lobe_fit.corrected_alpha(alpha, k),
+            RowRule::Engine => engine_roughness(r, k).powi(2),
+            RowRule::Plain => alpha,
+        };
+        if a.is_finite() { a.clamp(1e-3, 1.0) } else { alpha.clamp(1e-3, 1.0) }
+    }
+}
+
+/// The scene's table: a row per roughness of [`ROUGH_MIX`] holding its chosen rule on the
+/// lobe table's k axis (the scene fit's is `α' = c0 · α · k^−e` with one exponent `e⁺` where
+/// the surface is nearer the hit than the probe (k > 1: sharper) and another `e⁻` where it
+/// is farther (k < 1: blurrier)); a row α = 0 → 0 keeps near-mirror lookups sharp. Stored
+/// as an ordinary table (bilinear in α and ln k).
+fn scene_table(lobe: &RoughnessFit, rules: &Rules, chosen: &[RowRule]) -> RoughnessFit {
     let mut alphas = vec![0.0f32];
     alphas.extend(ROUGH_MIX.iter().map(|r| r * r));
     let mut table = vec![0.0f32; lobe.ratios.len()];
-    for (&r, &(up, down)) in ROUGH_MIX.iter().zip(exponents) {
-        let alpha = (r * r) as f64;
-        table.extend(lobe.ratios.iter().map(|&k| {
-            let lk = libm::log(k as f64);
-            let e = if lk > 0.0 { up } else { down };
-            (c0 * alpha * libm::exp(-e * lk)).clamp(1e-3, 1.0) as f32
-        }));
+    for (row, (&r, &rule)) in ROUGH_MIX.iter().zip(chosen).enumerate() {
+        table.extend(lobe.ratios.iter().map(|&k| rules.alpha(rule, row, r, k)));
     }
     RoughnessFit {
         lobe_residual: vec![0.0; table.len()],
@@ -157,11 +224,11 @@ fn scene_table(lobe: &RoughnessFit, c0: f64, exponents: &[(f64, f64)]) -> Roughn
     }
 }
 
-/// The two exponents' roughness for query `q`.
-fn exponent_roughness(q: &Query, c0: f64, (up, down): (f64, f64)) -> f32 {
-    let lk = libm::log(q.k as f64);
+/// The two exponents' perceptual roughness for a lookup of roughness `r` at ratio `k`.
+fn exponent_roughness(r: f32, k: f32, c0: f64, (up, down): (f64, f64)) -> f32 {
+    let lk = libm::log(k as f64);
     let e = if lk > 0.0 { up } else { down };
-    let a = (c0 * (q.r * q.r) as f64 * libm::exp(-e * lk)).clamp(1e-3, 1.0);
+    let a = (c0 * (r * r) as f64 * libm::exp(-e * lk)).clamp(1e-3, 1.0);
     (a as f32).sqrt()
 }
 
@@ -194,14 +261,16 @@ impl CostFunction for Problem<'_> {
     type Output = f64;
     fn cost(&self, p: &Vec<f64>) -> Result<f64, Error> {
         let e = bounded(p, self.c1);
-        let err = tm_rmse(self.warp, self.queries, self.exposure, |q| exponent_roughness(q, self.c0, e));
+        let err = tm_rmse(self.warp, self.queries, self.exposure, |q| exponent_roughness(q.r, q.k, self.c0, e));
         Ok(if err.is_finite() { err } else { f64::MAX })
     }
 }
 
 /// Fits the correction to the scene through `correctives` (per roughness of [`ROUGH_MIX`],
-/// Nelder-Mead on the two exponents from the lobes' exponent) and returns the better of it
-/// and `lobe_fit` on held-out rough lookups, with the comparison recorded in it.
+/// Nelder-Mead on the two exponents from the lobes' exponent), then gives each roughness's
+/// row the candidate rule with the lowest mean ꟻLIP on views from held-out positions (the
+/// lowest held-out tone-mapped RMSE where no view can be rendered), with the comparison
+/// recorded in it. `lobe_fit` comes back unchanged when the scene has no rough queries.
 pub fn fit_scene_correction(
     baked: Baked,
     warp: &Warp,
@@ -210,7 +279,7 @@ pub fn fit_scene_correction(
     s: &FitSettings,
 ) -> RoughnessCorrection {
     let exposure = super::exposure_of(warp);
-    let (train, held) = queries(baked, warp, correctives, s);
+    let Queries { train, held, held_positions } = queries(baked, warp, correctives, s);
     if train.is_empty() || held.is_empty() {
         return lobe_fit.clone();
     }
@@ -230,7 +299,54 @@ pub fn fit_scene_correction(
                 .map_or((start, start), |p| bounded(&p, start))
         })
         .collect();
-    let candidate = RoughnessCorrection::try_from(scene_table(lobe_fit, c0, &exponents));
+    let rules = Rules { lobe_fit, c0, exponents: &exponents };
+    let views = perceptual::views(baked.scene, baked.tracer, &held_positions, warp.probe.position, &VIEWS);
+    let rows: Vec<RowChoice> = ROUGH_MIX
+        .iter()
+        .enumerate()
+        .map(|(row, &r)| {
+            let held_r: Vec<Query> = held.iter().copied().filter(|q| q.r == r).collect();
+            let tm =
+                PerRule::from_fn(|rule| tm_rmse(warp, &held_r, exposure, |q| rules.roughness(rule, row, q.r, q.k)));
+            let refs: Vec<ViewReference> = views
+                .iter()
+                .enumerate()
+                .map(|(v, view)| {
+                    let stream = hash_pair(hash_pair(DOMAIN_FIT, 0x5F), (row * 16 + v) as u64);
+                    perceptual::reference(
+                        baked.scene,
+                        baked.tracer,
+                        view,
+                        r,
+                        VIEWS.reference_spp,
+                        (s.seed, stream, exposure),
+                    )
+                })
+                .collect();
+            // per rule, the ꟻLIP maps' 8×8-pixel tiles: (mean, pixels) over every view
+            let tiles: Vec<Vec<(f64, usize)>> = RowRule::ALL
+                .iter()
+                .map(|&rule| {
+                    refs.iter()
+                        .flat_map(|v| {
+                            let image = perceptual::render(v, |b, dir, _| {
+                                let (uv, k) = fetch(warp, correctives, b, dir);
+                                let lod = warp.probe.lod_of_roughness(rules.roughness(rule, row, r, k));
+                                warp.probe.radiance.sample_lod_uv(uv, lod)
+                            });
+                            perceptual::tiles(&perceptual::flip_map(v, &image, exposure), v.view.width, 8)
+                        })
+                        .collect()
+                })
+                .collect();
+            let at = |rule: RowRule| &tiles[RowRule::ALL.iter().position(|&x| x == rule).unwrap_or(0)];
+            let flip = PerRule::from_fn(|rule| perceptual::weighted_mean(at(rule)));
+            let flip_se = PerRule::from_fn(|rule| perceptual::paired_standard_error(at(rule), at(RowRule::SceneFit)));
+            RowChoice { roughness: r, chosen: flip.chosen_with(&flip_se), flip, flip_se, tm_rmse: tm }
+        })
+        .collect();
+    let chosen: Vec<RowRule> = rows.iter().map(|row| row.chosen).collect();
+    let candidate = RoughnessCorrection::try_from(scene_table(lobe_fit, &rules, &chosen));
     let Ok(candidate) = candidate else { return lobe_fit.clone() };
     let comparison = SceneComparison {
         lookups: held.len(),
@@ -239,8 +355,8 @@ pub fn fit_scene_correction(
         lobe_fit: tm_rmse(warp, &held, exposure, |q| lobe_fit.corrected_roughness(q.r, q.k)),
         scene_fit: tm_rmse(warp, &held, exposure, |q| candidate.corrected_roughness(q.r, q.k)),
         scene_exponents: exponents.iter().map(|&(u, d)| [u as f32, d as f32]).collect(),
+        rows,
     };
-    let fit = if comparison.scene_fit < comparison.lobe_fit { (*candidate).clone() } else { (**lobe_fit).clone() };
-    RoughnessCorrection::try_from(RoughnessFit { heldout_scene: Some(comparison), ..fit })
+    RoughnessCorrection::try_from(RoughnessFit { heldout_scene: Some(comparison), ..(*candidate).clone() })
         .unwrap_or_else(|_| lobe_fit.clone())
 }

@@ -85,7 +85,7 @@ pub fn sweep(
         let (exposure, view_refs) = views.get_or_insert_with(|| {
             let exposure = bake.probe.warp_probe().key_exposure();
             let rs = eval_settings.renders.unwrap_or(RenderSettings::standard());
-            let vs = renders::views(scene, &tracer, set, bake.probe.position, &rs);
+            let vs = renders::views(scene, &tracer, &set.positions, bake.probe.position, &rs);
             let refs = FLIP_ROUGHNESS
                 .iter()
                 .enumerate()

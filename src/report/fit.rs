@@ -201,6 +201,7 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
             why
         );
     }
+    roughness_rows(&mut md, fit);
     let _ = writeln!(md, "\n## Convergence\n\n| fit time (s) | mean training objective |\n|---:|---:|");
     for (t, c) in convergence(fit, rayon::current_num_threads()) {
         let _ = writeln!(md, "| {t:.2} | {c:.4} |");
@@ -223,4 +224,37 @@ pub fn write_convergence(path: &Path, fit: &Fit, threads: usize) -> Result<(), F
         "training objective",
         &series,
     )
+}
+
+/// The scene's roughness correction, row by row: the rule each row holds and every
+/// candidate's views and held-out lookups.
+fn roughness_rows(md: &mut String, fit: &Fit) {
+    use crate::roughness::RowRule;
+    use std::fmt::Write as _;
+    let Some(cmp) = fit.roughness.as_ref().and_then(|r| r.heldout_scene.as_ref()) else { return };
+    if cmp.rows.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        md,
+        "\n## Roughness correction, per row\n\nEach row holds the rule with the lowest mean ꟻLIP on views rendered from held-out positions, the scene fit unless another is lower by more than twice the paired standard error (±). Held-out lookups' tone-mapped RMSE beside it.\n\n| r | holds | ꟻLIP: scene fit / lobes / Frostbite / plain | tone-mapped RMSE: scene fit / lobes / Frostbite / plain |\n|---:|---|---|---|"
+    );
+    let name = |r: RowRule| match r {
+        RowRule::SceneFit => "scene fit",
+        RowRule::Lobes => "lobes",
+        RowRule::Engine => "Frostbite",
+        RowRule::Plain => "plain r",
+    };
+    for row in &cmp.rows {
+        let flip: Vec<String> = RowRule::ALL
+            .iter()
+            .map(|&r| match r {
+                RowRule::SceneFit => format!("{:.4}", row.flip.get(r)),
+                _ => format!("{:.4} ± {:.4}", row.flip.get(r), 2.0 * row.flip_se.get(r)),
+            })
+            .collect();
+        let tm: Vec<String> = RowRule::ALL.iter().map(|&r| format!("{:.4}", row.tm_rmse.get(r))).collect();
+        let _ =
+            writeln!(md, "| {} | {} | {} | {} |", row.roughness, name(row.chosen), flip.join(" / "), tm.join(" / "));
+    }
 }

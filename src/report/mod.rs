@@ -232,7 +232,7 @@ fn write_flip_figure(folder: &RunFolder, r: &EvalReport, f: &crate::eval::FlipFi
     let mut maps = vec![tile(String::new(), vec![255; w * h * 3])];
     for (label, image, map, mean) in &f.tiles {
         images.push(tile(label.clone(), crate::tonemap::to_srgb8(image, r.exposure)));
-        maps.push(tile(format!("ꟻLIP {mean:.3}"), crate::eval::flip::magma(map, f.width, f.height)));
+        maps.push(tile(format!("ꟻLIP {mean:.3}"), crate::perceptual::flip::magma(map, f.width, f.height)));
     }
     if let Some(k) = f.surface {
         let title = format!(

@@ -147,6 +147,22 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_row_leaves_the_scene_fit_only_for_a_clear_flip_win() {
+        use crate::roughness::{PerRule, RowRule};
+        let s = |scene_fit, lobes, engine, plain| PerRule { scene_fit, lobes, engine, plain };
+        let se = s(0.0, 0.01, 0.01, 0.01);
+        // engine lower by 0.05 > 2·0.01: clear; lobes lower by 0.01 < 0.02: not
+        assert_eq!(s(0.30, 0.29, 0.25, 0.40).chosen_with(&se), RowRule::Engine);
+        assert_eq!(s(0.30, 0.29, 0.285, 0.40).chosen_with(&se), RowRule::SceneFit);
+        // of two clear wins the lower; equal ones: the earlier rule
+        assert_eq!(s(0.30, 0.20, 0.25, 0.40).chosen_with(&se), RowRule::Lobes);
+        assert_eq!(s(0.30, 0.20, 0.20, 0.20).chosen_with(&se), RowRule::Lobes);
+        // non-finite scores or errors never win
+        assert_eq!(s(0.30, f64::NAN, 0.1, 0.2).chosen_with(&s(0.0, 0.0, f64::INFINITY, f64::NAN)), RowRule::SceneFit);
+        assert_eq!(s(f64::NAN, 0.1, 0.1, 0.1).chosen_with(&se), RowRule::SceneFit);
+    }
+
+    #[test]
     fn equal_distances_need_no_correction() {
         for a in [0.05, 0.2, 0.5, 0.9] {
             let (ap, r) = fit_alpha(a, 1.0);

@@ -89,6 +89,97 @@ pub struct SceneComparison {
     pub scene_fit: f64,
     /// Its exponents per fitted roughness: (k > 1, k < 1).
     pub scene_exponents: Vec<[f32; 2]>,
+    /// Per fitted roughness (the scene table's rows after α = 0): the rule the row holds,
+    /// chosen by mean ꟻLIP on views rendered at held-out positions, and each candidate's
+    /// scores. Empty in grids fitted before rows were chosen (every row the exponents').
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub rows: Vec<RowChoice>,
+}
+
+/// What a row of the scene's table holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RowRule {
+    /// `α' = c0·α·k^−e` with the exponents fitted to the scene's tone-mapped error.
+    SceneFit,
+    /// The analytic-lobe correction.
+    Lobes,
+    /// Frostbite's distance-based roughness.
+    Engine,
+    /// The mip of r itself.
+    Plain,
+}
+
+impl RowRule {
+    /// The candidates in the order ties are broken.
+    pub const ALL: [RowRule; 4] = [RowRule::SceneFit, RowRule::Lobes, RowRule::Engine, RowRule::Plain];
+}
+
+/// A score per candidate rule.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PerRule {
+    pub scene_fit: f64,
+    pub lobes: f64,
+    pub engine: f64,
+    pub plain: f64,
+}
+
+impl PerRule {
+    #[must_use]
+    pub fn get(&self, rule: RowRule) -> f64 {
+        match rule {
+            RowRule::SceneFit => self.scene_fit,
+            RowRule::Lobes => self.lobes,
+            RowRule::Engine => self.engine,
+            RowRule::Plain => self.plain,
+        }
+    }
+
+    /// The scores of `f` per rule.
+    pub fn from_fn(mut f: impl FnMut(RowRule) -> f64) -> PerRule {
+        PerRule {
+            scene_fit: f(RowRule::SceneFit),
+            lobes: f(RowRule::Lobes),
+            engine: f(RowRule::Engine),
+            plain: f(RowRule::Plain),
+        }
+    }
+
+    /// The row's rule from its views: the scene fit unless another rule's mean ꟻLIP
+    /// (`self`) is lower than the scene fit's by more than twice `se`, the standard error of
+    /// that rule's paired difference from the scene fit; of those that are, the lowest
+    /// (ties: the earlier in [`RowRule::ALL`]). Non-finite scores never win.
+    #[must_use]
+    pub fn chosen_with(&self, se: &PerRule) -> RowRule {
+        let base = self.scene_fit;
+        let mut best = RowRule::SceneFit;
+        for rule in RowRule::ALL {
+            let (score, margin) = (self.get(rule), 2.0 * se.get(rule));
+            let clear = score.is_finite() && margin.is_finite() && score + margin < base;
+            if clear && (best == RowRule::SceneFit || score < self.get(best)) {
+                best = rule;
+            }
+        }
+        best
+    }
+}
+
+/// One row of a scene table: its roughness, the rule chosen, and why.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RowChoice {
+    /// Perceptual roughness of the row.
+    pub roughness: f32,
+    pub chosen: RowRule,
+    /// Mean ꟻLIP of the views at this roughness per rule (all 0 when no view could be
+    /// rendered: the row keeps the scene fit).
+    pub flip: PerRule,
+    /// Standard error of each rule's mean ꟻLIP difference from the scene fit's, over
+    /// 8×8-pixel tiles of the views (paired: the same pixels, the same reference).
+    pub flip_se: PerRule,
+    /// Tone-mapped RMSE of the held-out rough lookups at this roughness per rule.
+    pub tm_rmse: PerRule,
 }
 
 /// A roughness correction ready to look up: validated (finite, increasing axes, a table of
