@@ -46,6 +46,7 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
     // variant) with each of the four mip rules at every rough bucket
     let buckets = warpfit::eval::ROUGHNESS_BUCKETS;
     assert_eq!(report.buckets.len(), buckets.len());
+    assert!(report.buckets.iter().all(|b| (0.0..=1.0).contains(&b.emitter_queries)));
     // plus reproject-dilate at roughness 0, and the renormalized box row and the two bounds
     // at every bucket (no fitted grid here, so no runtime rows)
     assert_eq!(
@@ -81,6 +82,8 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
             assert!(m.get(key).is_some(), "{key} missing in {m}");
         }
         assert!(m["rel_rmse"].as_f64().unwrap().is_finite() && m["tm_rmse"].as_f64().unwrap().is_finite());
+        // the relative RMSE with the emitter queries left out, for every row
+        assert!(m["rel_rmse_no_emitters"].as_f64().is_some_and(|x| x.is_finite() && x >= 0.0), "{m}");
         assert!(m["ns_per_lookup"].as_f64().unwrap() > 0.0);
         // every row but reproject and the bound renders the views for ꟻLIP, in [0, 1]
         if !matches!(m["name"].as_str(), Some("reproject" | "reproject-dilate" | "best-fetch" | "best-aim")) {

@@ -434,11 +434,50 @@ mod lobe_reference {
             // 65,536 for 6%): 2%
             assert!(se > 0.0 && se < 0.02 * want, "r {r}: se {se} for {want}");
             assert!((y - want).abs() < 4.0 * se, "r {r}: {y} vs analytic {want} (se {se})");
-            // mirror: exactly Le on the axis
+            // all of it is the lamp seen straight from B, by lobe samples and light samples alike
+            assert!(got.emitter_share() > 0.999, "r {r}: emitter share {}", got.emitter_share());
         }
         let mut rays = 0;
+        // mirror: exactly Le on the axis, all of it the lamp's; beside the lamp, black: no share
         let mirror = lobe_reference(&renderer, b, Vec3::Z, 0.0, 4, |s| Sampler::new(11, 9, s), &mut rays);
         assert_eq!(mirror.radiance, Vec3::splat(le));
+        assert_eq!(mirror.emitter_share(), 1.0);
+        let beside = lobe_reference(&renderer, b, Vec3::X, 0.0, 4, |s| Sampler::new(11, 9, s), &mut rays);
+        assert_eq!((beside.radiance, beside.emitter_share()), (Vec3::ZERO, 0.0));
+    }
+
+    /// A mirror ray that meets a lit, non-emissive wall sees no emitter, and one that meets
+    /// an emissive triangle sees the emission's share of what it returns.
+    #[test]
+    fn the_emitter_share_of_a_wall_is_zero_and_of_a_lamp_its_emission() {
+        let scene = load("cornell");
+        let tracer = Tracer::new(&scene);
+        let renderer = Renderer::new(&scene, &tracer);
+        let (mut walls, mut lamps) = (0, 0);
+        let b = Vec3::new(0.278, 0.274, 0.28);
+        // random directions, and 16 aimed into the ceiling lamp (0.213–0.343 × 0.227–0.332)
+        let mut all = dirs(256, 5);
+        all.extend((0..16).map(|t| {
+            let target = Vec3::new(0.23 + 0.03 * (t % 4) as f32, 0.5478, 0.24 + 0.025 * (t / 4) as f32);
+            (target - b).normalize()
+        }));
+        for (k, dir) in all.into_iter().enumerate() {
+            let mut rays = 0;
+            let got = lobe_reference(&renderer, b, dir, 0.0, 4, |s| Sampler::new(5, k as u64, s), &mut rays);
+            let share = got.emitter_share();
+            assert!((0.0..=1.0).contains(&share));
+            let hit = tracer.closest_hit(b, dir, f32::INFINITY).expect("a closed box");
+            let emission = scene.materials[hit.material as usize].emission;
+            if emission.max_element() > 0.0 {
+                lamps += 1;
+                let want = warpfit::tonemap::luminance(emission) / warpfit::tonemap::luminance(got.radiance);
+                assert!((share - want.min(1.0)).abs() < 1e-4, "query {k}: {share} vs {want}");
+            } else {
+                walls += 1;
+                assert_eq!(share, 0.0, "query {k}");
+            }
+        }
+        assert!(walls > 100 && lamps >= 16, "walls {walls}, lamps {lamps}");
     }
 }
 

@@ -27,6 +27,12 @@ pub struct MethodResult {
     pub mip_rule: Option<MipRule>,
     /// RMSE of linear RGB radiance over the mean reference radiance.
     pub rel_rmse: f64,
+    /// The same over the queries whose reference is less than half light seen straight
+    /// from an emitter (`metrics::EMITTER_QUERY`): relative RMSE with the lamps and the
+    /// sun's disc separated out, which otherwise rule it (`BucketSummary::emitter_queries`
+    /// says how many were left out). Absent in files written before it.
+    #[serde(default)]
+    pub rel_rmse_no_emitters: Option<f64>,
     /// RMSE after tone mapping (see `metrics::ErrorStats::tm_rmse`).
     #[serde(default)]
     pub tm_rmse: f64,
@@ -334,6 +340,7 @@ pub(super) fn result(
         roughness: set.roughness.first().copied().unwrap_or(0.0),
         mip_rule: None,
         rel_rmse: e.rel_rmse,
+        rel_rmse_no_emitters: Some(super::metrics::rel_rmse_no_emitters(est, &set.reference, &set.emitter_share)),
         tm_rmse: e.tm_rmse,
         mae: e.mae,
         p95: e.p95,

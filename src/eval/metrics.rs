@@ -49,6 +49,21 @@ pub fn error_stats(estimate: &[Vec3], reference: &[Vec3], exposure: f32) -> Erro
     ErrorStats { rel_rmse: rmse / mean_ref, tm_rmse: (tm_sq / (3.0 * n)).sqrt(), mae, p95, max }
 }
 
+/// A query whose reference is at least this share light seen straight from an emitter is
+/// an emitter query: a lamp or the sun's disc seen in the lobe, whose few bright samples
+/// rule a linear error.
+pub const EMITTER_QUERY: f32 = 0.5;
+
+/// Relative RMSE of `estimate` over the queries that are not emitter queries (by
+/// `emitter_share`, [`EMITTER_QUERY`]); 0 when every query is one.
+#[must_use]
+pub fn rel_rmse_no_emitters(estimate: &[Vec3], reference: &[Vec3], emitter_share: &[f32]) -> f64 {
+    let keep: Vec<usize> =
+        (0..reference.len()).filter(|&k| emitter_share.get(k).is_none_or(|&s| s < EMITTER_QUERY)).collect();
+    let (e, r): (Vec<Vec3>, Vec<Vec3>) = keep.iter().map(|&k| (estimate[k], reference[k])).unzip();
+    if r.is_empty() { 0.0 } else { error_stats(&e, &r, 1.0).rel_rmse }
+}
+
 /// Mean angle between paired unit vectors, in degrees.
 #[must_use]
 pub fn mean_angle_deg(a: &[Vec3], b: &[Vec3]) -> f64 {

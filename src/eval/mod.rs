@@ -191,6 +191,10 @@ pub struct BucketSummary {
     pub reference_spp: u32,
     /// RMS standard error of a single reference's luminance over the mean reference.
     pub query_se_rel: f64,
+    /// Share of the bucket's queries that are emitter queries (`metrics::EMITTER_QUERY`),
+    /// left out of `rel_rmse_no_emitters`.
+    #[serde(default)]
+    pub emitter_queries: f64,
     /// The comparison the bucket's claim rests on: `claim.0` (the fitted grid through the
     /// runtime, or the best row costing ≤ 2× warp1 without one) against `claim.1`, the best
     /// row of a seed method costing ≤ 2× warp1 (by tone-mapped RMSE).
@@ -498,6 +502,7 @@ fn bucket_summary(
         lookups: set.dirs.len(),
         reference_spp: spp,
         query_se_rel: se2.sqrt() / mean_ref.max(1e-30),
+        emitter_queries: set.emitter_share.iter().filter(|&&s| s >= metrics::EMITTER_QUERY).count() as f64 / n,
         claim,
         difference_rel: diff.0,
         difference_tm: diff.1,

@@ -289,6 +289,9 @@ pub struct TracedQueries {
     pub reference: Vec<Vec3>,
     /// Standard error of each reference's luminance (the estimator's own noise).
     pub reference_se: Vec<f32>,
+    /// Share of each reference's luminance seen straight from an emitter, in [0, 1]
+    /// ([`Reference::emitted`]).
+    pub emitter_share: Vec<f32>,
     /// Rays traced for the references (primary, shadow and bounce).
     pub rays: u64,
 }
@@ -317,6 +320,10 @@ pub struct Reference {
     pub radiance: Vec3,
     /// Standard error of the luminance of `radiance`.
     pub se: f32,
+    /// The part of `radiance` that is light seen straight from B: lamps, emissive surfaces
+    /// and, through next-event estimation, the sun (what a lookup can only get right by
+    /// landing on the emitter's few texels).
+    pub emitted: Vec3,
 }
 
 /// The reference of query (B, unit `dir`, perceptual roughness `r`): radiance arriving at B
@@ -350,6 +357,8 @@ pub fn lobe_reference(
     // balance-heuristic weight of the technique with pdf `own` against the other's `other`
     let share = |own: f32, other: f32| if own + other > 0.0 { own / (own + other) } else { 0.0 };
     let (mut sum, mut w_sum, mut lights) = (Vec3::ZERO, 0.0f64, Vec3::ZERO);
+    // the weighted lobe samples' part that came straight from an emitter
+    let mut direct = Vec3::ZERO;
     // moments for the ratio estimator's variance (a = luminance of a lobe sample's weighted
     // radiance, w its weight): Σw², Σaw, Σa²; and of the light samples' luminance: Σc, Σc²
     let (mut w2, mut aw, mut a2, mut c1, mut c2) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
@@ -358,16 +367,18 @@ pub fn lobe_reference(
     let mirror = if r > 0.0 { None } else { renderer.first_hit(b, dir, rays) };
     for k in 0..spp {
         let mut s = sampler(k);
-        let (weighted, w, light) = if r > 0.0 {
+        let (weighted, w, light, seen) = if r > 0.0 {
             let h = crate::sampling::ggx_half_vector(s.next_2d(), dir, alpha);
             let nh = dir.dot(h).max(0.0);
             let l = 2.0 * nh * h - dir;
             let nl = dir.dot(l);
-            let (mut weighted, mut w) = (Vec3::ZERO, 0.0);
+            let (mut weighted, mut w, mut seen) = (Vec3::ZERO, 0.0, Vec3::ZERO);
             if nl > 0.0 {
                 let (sample, emitted) = renderer.sample_parts(b, l, &mut s, rays);
                 let rest = (sample.radiance - emitted.radiance).max(Vec3::ZERO);
-                weighted = (rest + emitted.radiance * share(lobe_pdf(l), emitted.pdf)) * nl;
+                let lobe_share = emitted.radiance * share(lobe_pdf(l), emitted.pdf);
+                weighted = (rest + lobe_share) * nl;
+                seen = lobe_share * nl;
                 w = nl;
             }
             // (n·l)·(D/4)·L / pdf_light, weighted pdf_light / (pdf_lobe + pdf_light)
@@ -376,13 +387,17 @@ pub fn lobe_reference(
                 let p = lobe_pdf(l);
                 light += radiance * (dir.dot(l) * p / (p + pdf));
             });
-            (weighted, w, crate::trace::radiance::sanitize(light))
+            (weighted, w, crate::trace::radiance::sanitize(light), seen)
         } else {
-            let radiance = mirror.as_ref().map_or(Vec3::ZERO, |f| renderer.sample_after(f, &mut s, rays).0.radiance);
-            (radiance, 1.0, Vec3::ZERO)
+            let (sample, emitted) = match mirror.as_ref() {
+                Some(f) => renderer.sample_after(f, &mut s, rays),
+                None => Default::default(),
+            };
+            (sample.radiance, 1.0, Vec3::ZERO, emitted.radiance.min(sample.radiance))
         };
         let (w, a, c) = (w as f64, luminance(weighted) as f64, luminance(light) as f64);
         sum += weighted;
+        direct += seen;
         lights += light;
         w_sum += w;
         (w2, aw, a2, c1, c2) = (w2 + w * w, aw + a * w, a2 + a * a, c1 + c, c2 + c * c);
@@ -390,6 +405,7 @@ pub fn lobe_reference(
     let n = spp as f64;
     let mass = if r > 0.0 { lobe_mass(alpha) } else { 1.0 };
     let from_lights = lights / (n * mass) as f32;
+    let direct_from_lobe = if w_sum > 0.0 { direct / w_sum as f32 } else { Vec3::ZERO };
     let (from_lobe, var_lobe) = if w_sum > 0.0 {
         let mean = sum / w_sum as f32;
         let m = luminance(mean) as f64;
@@ -401,7 +417,20 @@ pub fn lobe_reference(
     let var_lights = (c2 - c1 * c1 / n).max(0.0) / (n * n) / (mass * mass);
     // the n/(n−1) small-sample correction
     let se = if n > 1.0 { ((var_lobe + var_lights) * n / (n - 1.0)).sqrt() } else { 0.0 };
-    Reference { radiance: crate::trace::radiance::sanitize(from_lobe + from_lights), se: se as f32 }
+    let radiance = crate::trace::radiance::sanitize(from_lobe + from_lights);
+    let emitted = crate::trace::radiance::sanitize(direct_from_lobe + from_lights).min(radiance);
+    Reference { radiance, se: se as f32, emitted }
+}
+
+impl Reference {
+    /// Share of the reference's luminance seen straight from an emitter, in [0, 1] (0 for a
+    /// black reference).
+    #[must_use]
+    pub fn emitter_share(&self) -> f32 {
+        let total = luminance(self.radiance);
+        let share = luminance(self.emitted) / total;
+        if share.is_finite() { share.clamp(0.0, 1.0) } else { 0.0 }
+    }
 }
 
 /// The mass `∫ D(h)(n·l)/4 dl` of the GGX lobe at N = V (the expected n·l of a reflected
@@ -440,6 +469,7 @@ pub fn trace_queries(
         roughness: Vec::with_capacity(n),
         reference: Vec::with_capacity(n),
         reference_se: Vec::with_capacity(n),
+        emitter_share: Vec::with_capacity(n),
         rays: 0,
     };
     for (p, &b) in positions.iter().enumerate() {
@@ -456,6 +486,7 @@ pub fn trace_queries(
             q.roughness.push(r);
             q.reference.push(reference.radiance);
             q.reference_se.push(reference.se);
+            q.emitter_share.push(reference.emitter_share());
         }
     }
     q
@@ -481,6 +512,7 @@ impl TracedQueries {
             out.roughness.extend(p.roughness);
             out.reference.extend(p.reference);
             out.reference_se.extend(p.reference_se);
+            out.emitter_share.extend(p.emitter_share);
             out.rays += p.rays;
         }
         out
