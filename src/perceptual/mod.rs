@@ -20,14 +20,14 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RenderSettings {
     /// Camera image width and height in pixels, and how many cameras (from as many of the
-    /// most open validation positions: one viewpoint is a small, lucky or unlucky sample of
-    /// a level).
+    /// most open of the given positions: one viewpoint is a small, lucky or unlucky sample
+    /// of a level).
     pub camera: (u32, u32),
     #[serde(default = "one_camera")]
     pub cameras: u32,
     /// Horizontal field of view, degrees.
     pub fov_deg: f32,
-    /// Side of each sphere-of-directions map, and how many (from as many validation positions).
+    /// Side of each sphere-of-directions map, and how many (from as many positions).
     pub sphere_res: u32,
     pub spheres: u32,
     /// Lobe samples per reference pixel.
