@@ -47,6 +47,12 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
     let buckets = warpfit::eval::ROUGHNESS_BUCKETS;
     assert_eq!(report.buckets.len(), buckets.len());
     assert!(report.buckets.iter().all(|b| (0.0..=1.0).contains(&b.emitter_queries)));
+    // every bucket's ꟻLIP claim against the best seed method, with its tile standard error
+    for b in &report.buckets {
+        let c = b.flip_claim.as_ref().expect("views were rendered: a ꟻLIP claim");
+        assert!(c.difference.is_finite() && c.se.is_finite() && c.se > 0.0, "{c:?}");
+        assert!(warpfit::warp::Method::parse(c.challenger.split('/').next().unwrap()).is_some(), "{c:?}");
+    }
     // plus reproject-dilate at roughness 0, and the renormalized box row and the two bounds
     // at every bucket (no fitted grid here, so no runtime rows)
     assert_eq!(

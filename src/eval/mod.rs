@@ -38,6 +38,7 @@ pub use validation::{DOMAIN_EVAL, ValidationSet, validation_set};
 pub use views::Views;
 
 use crate::bake::Baked;
+use crate::perceptual;
 use crate::progress::Progress;
 use crate::roughness::RoughnessCorrection;
 use crate::runtime::FittedGrid;
@@ -214,6 +215,21 @@ pub struct BucketSummary {
     /// ꟻLIP between the two halves of each view's reference samples: how much of a row's
     /// ꟻLIP is the references' own noise (an upper bound: each half has half the samples).
     pub view_noise_flip: f64,
+    /// The ꟻLIP claim: `claim.0` against the seed method costing ≤ 2× warp1 with the lowest
+    /// mean ꟻLIP (its label), their difference (positive: `claim.0` lower) and that
+    /// difference's standard error over 8×8-pixel tiles of the views (paired: the same
+    /// pixels and references). It measures how the views' pixels scatter, not how other
+    /// viewpoints would score. Absent without views or in files written before it.
+    #[serde(default)]
+    pub flip_claim: Option<FlipClaim>,
+}
+
+/// See [`BucketSummary::flip_claim`].
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct FlipClaim {
+    pub challenger: String,
+    pub difference: f64,
+    pub se: f64,
 }
 
 /// What an evaluation judges: a scene with its tracer and bake, the warp context, the seed
@@ -492,6 +508,7 @@ fn bucket_summary(
             se = metrics::difference_se(&ea, &eb, &set.reference, &set.reference_se, exposure);
         }
     }
+    let flip_claim = flip_claim(champion, results, rows, shading, views, exposure);
     let (mut noise, mut pixels) = (0.0, 0usize);
     for v in views {
         noise += v.noise_flip * v.reference.len() as f64;
@@ -512,7 +529,48 @@ fn bucket_summary(
         view_pixels: pixels,
         view_reference_spp: views.first().map_or(0, |v| v.spp),
         view_noise_flip: noise / pixels.max(1) as f64,
+        flip_claim,
     }
+}
+
+/// `champion` against the seed method costing ≤ 2× warp1 with the lowest mean ꟻLIP (other
+/// than itself), with the difference's paired standard error over the views' 8×8-pixel
+/// tiles.
+fn flip_claim(
+    champion: Option<&MethodResult>,
+    results: &[MethodResult],
+    rows: &[methods::Row],
+    shading: Glossy,
+    views: &[renders::ViewReference],
+    exposure: f32,
+) -> Option<FlipClaim> {
+    let champion = champion?;
+    let budget =
+        results.iter().find(|m| m.name == Method::Warp1.name()).map_or(f64::INFINITY, |m| 2.0 * m.ns_per_lookup);
+    let challenger = results
+        .iter()
+        .filter(|m| m.ns_per_lookup <= budget && !is_bound(&m.name) && Method::parse(&m.name).is_some())
+        .filter(|m| m.flip.is_some() && m.label() != champion.label())
+        .min_by(|a, b| a.flip.unwrap_or(f64::INFINITY).total_cmp(&b.flip.unwrap_or(f64::INFINITY)))?;
+    let row_of = |m: &MethodResult| rows.iter().find(|row| row.name() == m.name && row.rule == m.mip_rule);
+    let (ra, rb) = (row_of(champion)?, row_of(challenger)?);
+    if views.is_empty() {
+        return None;
+    }
+    let tiles = |row: &methods::Row| -> Vec<(f64, usize)> {
+        views
+            .iter()
+            .flat_map(|v| {
+                perceptual::tiles(&renders::flip_map(v, &renders::render(row, shading, v), exposure), v.view.width, 8)
+            })
+            .collect()
+    };
+    let (a, b) = (tiles(ra), tiles(rb));
+    Some(FlipClaim {
+        challenger: challenger.label(),
+        difference: perceptual::weighted_mean(&b) - perceptual::weighted_mean(&a),
+        se: perceptual::paired_standard_error(&b, &a),
+    })
 }
 
 /// The camera view's figure for a bucket: the runtime, the best other row costing ≤ 2× warp1

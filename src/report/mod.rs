@@ -180,12 +180,12 @@ pub fn diffuse_table(r: &EvalReport) -> String {
 
 pub fn buckets_table(r: &EvalReport) -> String {
     let mut s = String::from(
-        "| roughness | lookups | reference samples | claim | difference (rel RMSE / tm RMSE) | its reference SE (rel / tm) | SE ≤ ¼ difference | single reference SE (rel) | emitter queries | view pixels | view reference samples | ꟻLIP of the views' reference noise |\n|---:|---:|---:|---|---|---|---|---:|---:|---:|---:|---:|\n",
+        "| roughness | lookups | reference samples | claim | difference (rel RMSE / tm RMSE) | its reference SE (rel / tm) | SE ≤ ¼ difference | single reference SE (rel) | emitter queries | view pixels | view reference samples | ꟻLIP of the views' reference noise | ꟻLIP claim: difference ± 2 SE (tiles) against |\n|---:|---:|---:|---|---|---|---|---:|---:|---:|---:|---:|---|\n",
     );
     for b in &r.buckets {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} vs {} | {:.4} / {:.4} | {:.4} / {:.4} | {} | {:.3} | {:.1}% | {} | {} | {:.4} |",
+            "| {} | {} | {} | {} vs {} | {:.4} / {:.4} | {:.4} / {:.4} | {} | {:.3} | {:.1}% | {} | {} | {:.4} | {} |",
             b.roughness,
             b.lookups,
             b.reference_spp,
@@ -200,7 +200,13 @@ pub fn buckets_table(r: &EvalReport) -> String {
             100.0 * b.emitter_queries,
             b.view_pixels,
             b.view_reference_spp,
-            b.view_noise_flip
+            b.view_noise_flip,
+            b.flip_claim.as_ref().map_or("–".to_string(), |c| format!(
+                "{:+.4} ± {:.4} against {}",
+                c.difference,
+                2.0 * c.se,
+                c.challenger
+            ))
         );
     }
     s
