@@ -928,15 +928,16 @@ fn run(cli: Cli) -> Result<()> {
             let _lock = files::staged::FolderLock::acquire(&folder.dir)?;
             let sw = sweep::sweep(&scene, &fit.settings()?, &eval.settings(), &folder, &command, &progress)?;
             println!(
-                "| knob | value | fit s | ꟻLIP r 0 | ꟻLIP r 0.5 | tone-mapped RMSE | rel RMSE | stored cells | payload bytes |\n|---|---|---:|---:|---:|---:|---:|---:|---:|"
+                "| knob | value | fit s | ꟻLIP r 0 | ± 2 SE of its difference from the given settings | ꟻLIP r 0.5 | tone-mapped RMSE | rel RMSE | stored cells | payload bytes |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"
             );
             for r in &sw.rows {
                 println!(
-                    "| {} | {} | {:.2} | {:.4} | {:.4} | {:.4} | {:.4} | {} | {} |",
+                    "| {} | {} | {:.2} | {:.4} | {} | {:.4} | {:.4} | {:.4} | {} | {} |",
                     r.knob.name(),
                     r.value,
                     r.fit_seconds,
                     r.flip_r0,
+                    r.flip_r0_se.map_or("–".to_string(), |se| format!("{:.4}", 2.0 * se)),
                     r.flip_r05,
                     r.tm_rmse,
                     r.rel_rmse,

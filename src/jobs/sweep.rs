@@ -9,6 +9,7 @@ use crate::eval::{self, EvalSettings, RenderSettings, renders};
 use crate::files::{FileError, write_json};
 use crate::fit::MapSets;
 use crate::fit::{FitSettings, Solver};
+use crate::perceptual;
 use crate::progress::Progress;
 use crate::report::folder::RunFolder;
 use crate::report::sweep::{Knob, Sweep, SweepRow};
@@ -27,24 +28,34 @@ struct Config {
     value: String,
     probe_resolution: u32,
     settings: FitSettings,
+    /// The row at the given settings (the one its knob's other rows are compared with).
+    given: bool,
 }
 
 /// The configurations around `base`: each knob at three values, the rest unchanged.
 fn configs(base_res: u32, base: &FitSettings) -> Vec<Config> {
-    let at = |knob, value: String, probe_resolution, settings| Config { knob, value, probe_resolution, settings };
+    let at = |knob, value: String, probe_resolution, settings, given| Config {
+        knob,
+        value,
+        probe_resolution,
+        settings,
+        given,
+    };
     let mut out = Vec::new();
     for res in [base_res / 4, base_res / 2, base_res].into_iter().filter(|&r| r >= 16) {
-        out.push(at(Knob::ProbeResolution, res.to_string(), res, base.clone()));
+        out.push(at(Knob::ProbeResolution, res.to_string(), res, base.clone(), res == base_res));
     }
     for d in [32u32, 64, 128] {
-        out.push(at(Knob::TrainingDirections, d.to_string(), base_res, FitSettings { train_dirs: d, ..base.clone() }));
+        let settings = FitSettings { train_dirs: d, ..base.clone() };
+        out.push(at(Knob::TrainingDirections, d.to_string(), base_res, settings, d == base.train_dirs));
     }
     for it in [1u32, 2, 3] {
-        out.push(at(Knob::Iterations, it.to_string(), base_res, FitSettings { iterations: it, ..base.clone() }));
+        let settings = FitSettings { iterations: it, ..base.clone() };
+        out.push(at(Knob::Iterations, it.to_string(), base_res, settings, it == base.iterations));
     }
     for s in [Solver::Brent, Solver::Lbfgs, Solver::NelderMead] {
         let value = format!("{s:?}").to_lowercase();
-        out.push(at(Knob::Solver, value, base_res, FitSettings { solver: s, ..base.clone() }));
+        out.push(at(Knob::Solver, value, base_res, FitSettings { solver: s, ..base.clone() }, s == base.solver));
     }
     out
 }
@@ -63,6 +74,8 @@ pub fn sweep(
     let tracer = Tracer::new(scene);
     let mut bakes: Vec<(u32, crate::bake::Bake)> = Vec::new();
     let mut rows = Vec::new();
+    // per row: its knob, whether it is at the given settings, and its r = 0 ꟻLIP tiles
+    let mut tiles: Vec<(Knob, bool, Vec<perceptual::Tile>)> = Vec::new();
     let mut convergence = Vec::new();
     let mut set = None;
     // rendered views and their references (r = 0 and 0.5), shared by every row, and the
@@ -121,6 +134,14 @@ pub fn sweep(
         let row = Row { fetch: Fetch::Runtime(&grid), rule: None, renorm: None };
         let shading = Glossy { warp: &warp, correction: grid.roughness.as_ref() };
         let flip = |b: usize| renders::mean_flip(&row, shading, &view_refs[b], exposure);
+        let tiles_r0 = view_refs[0]
+            .iter()
+            .flat_map(|v| {
+                let map = renders::flip_map(v, &renders::render(&row, shading, v), exposure);
+                perceptual::tiles(&map, v.view.width, 8)
+            })
+            .collect();
+        tiles.push((c.knob, c.given, tiles_r0));
         rows.push(SweepRow {
             knob: c.knob,
             value: c.value.clone(),
@@ -129,6 +150,7 @@ pub fn sweep(
             tm_rmse: stats.tm_rmse,
             flip_r0: flip(0),
             flip_r05: flip(1),
+            flip_r0_se: None,
             stored_cells: fit.correctives.stored_cells(),
             payload_bytes: manifest.payloads.iter().map(|p| p.bytes).sum(),
         });
@@ -140,6 +162,10 @@ pub fn sweep(
         bar.inc(1);
     }
     bar.finish_and_clear();
+    for (row, (knob, given, t)) in rows.iter_mut().zip(&tiles) {
+        let base = tiles.iter().find(|(k, g, _)| k == knob && *g).map(|x| &x.2);
+        row.flip_r0_se = base.filter(|_| !given).map(|b| perceptual::paired_standard_error(t, b));
+    }
     let _ = std::fs::remove_dir(folder.dir.join("sweep"));
     let set = set.expect("at least one row");
     let sweep = Sweep {

@@ -271,10 +271,13 @@ pub fn mean_flip(
     sum / n.max(1) as f64
 }
 
+/// One tile of an error map: its mean and its pixel count.
+pub type Tile = (f64, usize);
+
 /// The means of a `width`-wide error map over `tile × tile` pixel tiles (row-major; edge
 /// tiles partial), each with its pixel count.
 #[must_use]
-pub fn tiles(map: &[f32], width: u32, tile: u32) -> Vec<(f64, usize)> {
+pub fn tiles(map: &[f32], width: u32, tile: u32) -> Vec<Tile> {
     let (w, t) = (width.max(1) as usize, tile.max(1) as usize);
     let h = map.len() / w;
     let (tw, th) = (w.div_ceil(t), h.div_ceil(t));
@@ -289,7 +292,7 @@ pub fn tiles(map: &[f32], width: u32, tile: u32) -> Vec<(f64, usize)> {
 
 /// Mean over tiles weighted by their pixels: the map's mean.
 #[must_use]
-pub fn weighted_mean(tiles: &[(f64, usize)]) -> f64 {
+pub fn weighted_mean(tiles: &[Tile]) -> f64 {
     let n: usize = tiles.iter().map(|t| t.1).sum();
     tiles.iter().map(|&(m, k)| m * k as f64).sum::<f64>() / n.max(1) as f64
 }
@@ -298,7 +301,7 @@ pub fn weighted_mean(tiles: &[(f64, usize)]) -> f64 {
 /// tiles of two renderings): tiles, not pixels, are the samples, since neighbouring pixels'
 /// errors are not independent. 0 for identical maps; infinite with fewer than two tiles.
 #[must_use]
-pub fn paired_standard_error(a: &[(f64, usize)], b: &[(f64, usize)]) -> f64 {
+pub fn paired_standard_error(a: &[Tile], b: &[Tile]) -> f64 {
     let d: Vec<(f64, usize)> = a.iter().zip(b).map(|(x, y)| (x.0 - y.0, x.1)).collect();
     let n: usize = d.iter().map(|t| t.1).sum();
     if d.len() < 2 || n == 0 {

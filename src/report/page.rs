@@ -486,10 +486,19 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
 
     if let Some(sweep) = &r.sweep {
         let mut t = vec![
-            ["knob", "value", "fit seconds", "ꟻLIP r 0", "ꟻLIP r 0.5", "tone-mapped RMSE", "rel RMSE (held out)"]
-                .iter()
-                .map(|s| s.to_string())
-                .collect::<Vec<_>>(),
+            [
+                "knob",
+                "value",
+                "fit seconds",
+                "ꟻLIP r 0",
+                "± 2 SE (vs given)",
+                "ꟻLIP r 0.5",
+                "tone-mapped RMSE",
+                "rel RMSE (held out)",
+            ]
+            .iter()
+            .map(|s| s.to_string())
+            .collect::<Vec<_>>(),
         ];
         for row in &sweep.rows {
             t.push(vec![
@@ -497,6 +506,7 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
                 row.value.clone(),
                 format!("{:.1}", row.fit_seconds),
                 format!("{:.4}", row.flip_r0),
+                row.flip_r0_se.map_or("–".to_string(), |se| format!("{:.4}", 2.0 * se)),
                 format!("{:.4}", row.flip_r05),
                 format!("{:.4}", row.tm_rmse),
                 format!("{:.4}", row.rel_rmse),

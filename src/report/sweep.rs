@@ -46,6 +46,11 @@ pub struct SweepRow {
     pub flip_r0: f64,
     #[serde(default)]
     pub flip_r05: f64,
+    /// Standard error of this row's ꟻLIP at r = 0 minus that of its knob's row at the given
+    /// settings, over 8×8-pixel tiles of the views (paired: the same pixels and
+    /// references); absent for that row itself, or when the knob's values miss it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flip_r0_se: Option<f64>,
     pub stored_cells: usize,
     pub payload_bytes: u64,
 }
