@@ -46,8 +46,8 @@ const DIRS: usize = 16;
 const SPP: u32 = 16;
 
 /// The views each row's rule is chosen on: one camera and one sphere of directions from the
-/// most open held-out positions, references of 64 lobe samples (an eighth of the
-/// evaluation's pixels at a quarter of its samples: about a second of tracing on torture).
+/// most open held-out positions, references of 64 lobe samples (a sixth of the
+/// evaluation's pixels at a quarter of its samples: about 0.4 s of a torture fit).
 const VIEWS: RenderSettings =
     RenderSettings { camera: (64, 40), cameras: 1, fov_deg: 75.0, sphere_res: 32, spheres: 1, reference_spp: 64 };
 
