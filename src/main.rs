@@ -399,6 +399,11 @@ struct EvalArgs {
     /// Samples per reference ray.
     #[arg(long, default_value_t = EvalSettings::standard().reference_spp)]
     reference_spp: u32,
+    /// Lobe samples per rough (r > 0) reference: heavier references for quieter rough
+    /// buckets (eval.md says per bucket whether their noise is under a quarter of the
+    /// difference it reports).
+    #[arg(long, default_value_t = EvalSettings::standard().rough_reference_spp)]
+    rough_reference_spp: u32,
     /// Depth mip the depth-based warps read.
     #[arg(long, default_value_t = WarpOptions::standard().depth_lod)]
     depth_mip: f32,
@@ -416,6 +421,7 @@ impl EvalArgs {
             positions: self.positions.max(1),
             dirs_per_position: self.dirs.max(1),
             reference_spp: self.reference_spp.max(1),
+            rough_reference_spp: self.rough_reference_spp.max(1),
             seed: self.eval_seed,
             options: WarpOptions { depth_lod: self.depth_mip, relax_texels: self.relax, ..WarpOptions::standard() },
             ..EvalSettings::standard()

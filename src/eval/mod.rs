@@ -110,7 +110,7 @@ impl EvalSettings {
             timing_lookups: 32_768,
             rough_positions: 128,
             rough_dirs: 64,
-            rough_reference_spp: 64,
+            rough_reference_spp: 512,
             renders: Some(RenderSettings::standard()),
             diffuse_points: 1024,
             diffuse_spp: 1024,
