@@ -32,7 +32,7 @@ fn bake_with_threads(scene: &Scene, threads: usize) -> Bake {
 }
 
 /// The small torture baked on 2 threads and written into a fresh folder `name`.
-fn written_bake(name: &str) -> (Bake, std::path::PathBuf) {
+fn written_bake(name: &str) -> (Bake, TestDir) {
     let scene = small_torture();
     let baked = bake_with_threads(&scene, 2);
     let dir = tmp_dir(name);

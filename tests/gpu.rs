@@ -20,7 +20,7 @@ mod gpu_harness;
 use common::*;
 use glam::{Vec2, Vec3};
 use gpu_harness::{Gpu, Lookup, Pipeline};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use warpfit::runtime::FittedGrid;
 use warpfit::sampling::{Sampler, uniform_sphere};
 
@@ -38,7 +38,7 @@ fn gpu() -> Option<&'static Gpu> {
 
 /// A lit torture grid: stored warp maps, relocated probes and diffuse corrections.
 fn torture_fit() -> &'static Path {
-    static D: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    static D: std::sync::OnceLock<TestDir> = std::sync::OnceLock::new();
     D.get_or_init(|| {
         let dir = tmp_dir("gpu-torture");
         SmallTorture::fit_into(&dir);

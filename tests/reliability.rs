@@ -192,7 +192,7 @@ fn a_bake_is_reused_only_for_the_same_input_files() {
 
 // ---- the grid loader ---------------------------------------------------------------------
 
-fn copy_tiny(tag: &str) -> PathBuf {
+fn copy_tiny(tag: &str) -> TestDir {
     let dir = tmp_dir(tag);
     for f in ["manifest.json", "probe.exr", "correctives.exr", "irradiance.exr"] {
         std::fs::copy(repo().join("fits/tiny").join(f), dir.join(f)).unwrap();

@@ -68,8 +68,8 @@ fn the_committed_fit_keeps_loading_with_the_same_answers() {
 /// A small torture grid, written f32 and f16.
 struct Fixture {
     torture: SmallTorture,
-    f32_dir: PathBuf,
-    f16_dir: PathBuf,
+    f32_dir: TestDir,
+    f16_dir: TestDir,
 }
 
 impl std::ops::Deref for Fixture {
@@ -304,7 +304,7 @@ fn irradiance_at_a_cell_centre_is_that_cells_bake() {
 // ---- malformed input ---------------------------------------------------------------------
 
 /// Copies fits/tiny's grid files to a fresh folder.
-fn copy_tiny(tag: &str) -> PathBuf {
+fn copy_tiny(tag: &str) -> TestDir {
     let dir = tmp_dir(tag);
     for f in ["manifest.json", "probe.exr", "correctives.exr", "irradiance.exr"] {
         std::fs::copy(tiny().join(f), dir.join(f)).unwrap();

@@ -130,7 +130,8 @@ fn the_shipped_translations_compile_in_glslang() {
         return;
     }
     let shaders = common::repo().join("shaders");
-    let out = common::tmp_dir("glslang").join("out.spv");
+    let scratch = common::tmp_dir("glslang");
+    let out = scratch.join("out.spv");
     let run = |args: &[&str], file: &str| {
         let o = std::process::Command::new(tool).args(args).arg(shaders.join(file)).output().unwrap();
         assert!(

@@ -230,18 +230,20 @@ fn an_evaluation_judges_every_row_at_every_bucket() {
     assert_eq!(loaded.patch.counts, [4, 4]);
 }
 
-/// A small lit atlas written to a fresh folder.
-fn written(tag: &str) -> (SurfaceAtlas, std::path::PathBuf) {
+/// A small lit atlas written to a fresh folder (`surface0` in the scratch folder, which
+/// lives as long as the returned guard).
+fn written(tag: &str) -> (SurfaceAtlas, std::path::PathBuf, TestDir) {
     let s = scene("", &format!("[sky]\nzenith = [0.2, 0.4, 1.0]\nhorizon = [1.0, 0.9, 0.8]\n{FLOOR}{FLOOR_PROBES}"));
     let a = atlas(&s);
-    let dir = tmp_dir(tag).join("surface0");
+    let scratch = tmp_dir(tag);
+    let dir = scratch.join("surface0");
     warpfit::gridfile::surface::write(&dir, &a).unwrap();
-    (a, dir)
+    (a, dir, scratch)
 }
 
 #[test]
 fn a_written_atlas_loads_back_bit_for_bit() {
-    let (a, dir) = written("surface-file");
+    let (a, dir, _scratch) = written("surface-file");
     let b = warpfit::runtime::load_surface_atlas(&dir).unwrap();
     assert_eq!(a.patch, b.patch);
     assert_eq!(a.roughness, b.roughness);
@@ -258,7 +260,7 @@ fn a_written_atlas_loads_back_bit_for_bit() {
 
 #[test]
 fn damaged_or_foreign_atlas_files_are_named_errors() {
-    let (_, dir) = written("surface-damaged");
+    let (_, dir, _scratch) = written("surface-damaged");
     let manifest = std::fs::read_to_string(dir.join("manifest.json")).unwrap();
     let exr = std::fs::read(dir.join("atlas.exr")).unwrap();
     let check = |what: &str, want: &str, setup: &dyn Fn()| {

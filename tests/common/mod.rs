@@ -42,11 +42,43 @@ pub fn fixture(name: &str) -> PathBuf {
     repo().join("tests/fixtures").join(name)
 }
 
-pub fn tmp_dir(tag: &str) -> PathBuf {
+/// A test's scratch folder under the system's temp folder, removed when the test ends,
+/// passed or failed (it is dropped while unwinding too), so repeated runs leave nothing
+/// behind. `WARPFIT_KEEP_TEST_DIRS=1` keeps them for a look.
+pub struct TestDir(PathBuf);
+
+impl std::ops::Deref for TestDir {
+    type Target = PathBuf;
+    fn deref(&self) -> &PathBuf {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for TestDir {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl From<&TestDir> for PathBuf {
+    fn from(d: &TestDir) -> PathBuf {
+        d.0.clone()
+    }
+}
+
+impl Drop for TestDir {
+    fn drop(&mut self) {
+        if !std::env::var("WARPFIT_KEEP_TEST_DIRS").is_ok_and(|v| v == "1") {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+pub fn tmp_dir(tag: &str) -> TestDir {
     let d = std::env::temp_dir().join(format!("warpfit-test-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
-    d
+    TestDir(d)
 }
 
 pub fn exists(p: &Path) -> bool {
