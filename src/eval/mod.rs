@@ -498,17 +498,30 @@ fn bucket_summary(
             .filter(|m| Some(m.name.as_str()) != challenger.map(|c| c.name.as_str()))
             .min_by(by_tm)
     });
+    let row_of = |m: &MethodResult| rows.iter().find(|row| row.name() == m.name && row.rule == m.mip_rule);
     let (mut claim, mut diff, mut se) = ((String::new(), String::new()), (0.0, 0.0), (0.0, 0.0));
     if let (Some(a), Some(b)) = (champion, challenger) {
         claim = (a.label(), b.label());
         diff = (b.rel_rmse - a.rel_rmse, b.tm_rmse - a.tm_rmse);
-        let row_of = |m: &MethodResult| rows.iter().find(|row| row.name() == m.name && row.rule == m.mip_rule);
         if let (Some(ra), Some(rb)) = (row_of(a), row_of(b)) {
             let (ea, eb) = (methods::estimates(ra, shading, set), methods::estimates(rb, shading, set));
             se = metrics::difference_se(&ea, &eb, &set.reference, &set.reference_se, exposure);
         }
     }
-    let flip_claim = flip_claim(champion, results, rows, shading, views, exposure);
+    // the same against the cheap seed method with the lowest ꟻLIP (other than the champion)
+    let by_flip = |m: &&MethodResult| m.flip.unwrap_or(f64::INFINITY);
+    let flip_challenger = results
+        .iter()
+        .filter(cheap)
+        .filter(seed_method)
+        .filter(|m| m.flip.is_some() && Some(m.label()) != champion.map(|c| c.label()))
+        .min_by(|a, b| by_flip(a).total_cmp(&by_flip(b)));
+    let flip_claim = match (champion.and_then(row_of), flip_challenger) {
+        (Some(ra), Some(b)) if !views.is_empty() => {
+            row_of(b).map(|rb| flip_claim(ra, (rb, b.label()), shading, views, exposure))
+        }
+        _ => None,
+    };
     let (mut noise, mut pixels) = (0.0, 0usize);
     for v in views {
         noise += v.noise_flip * v.reference.len() as f64;
@@ -533,44 +546,24 @@ fn bucket_summary(
     }
 }
 
-/// `champion` against the seed method costing ≤ 2× warp1 with the lowest mean ꟻLIP (other
-/// than itself), with the difference's paired standard error over the views' 8×8-pixel
-/// tiles.
+/// The ꟻLIP claim of the champion's row `a` against the challenger's row and label, with
+/// the difference's paired standard error over the views' 8×8-pixel tiles.
 fn flip_claim(
-    champion: Option<&MethodResult>,
-    results: &[MethodResult],
-    rows: &[methods::Row],
+    a: &methods::Row,
+    (b, challenger): (&methods::Row, String),
     shading: Glossy,
     views: &[renders::ViewReference],
     exposure: f32,
-) -> Option<FlipClaim> {
-    let champion = champion?;
-    let budget =
-        results.iter().find(|m| m.name == Method::Warp1.name()).map_or(f64::INFINITY, |m| 2.0 * m.ns_per_lookup);
-    let challenger = results
-        .iter()
-        .filter(|m| m.ns_per_lookup <= budget && !is_bound(&m.name) && Method::parse(&m.name).is_some())
-        .filter(|m| m.flip.is_some() && m.label() != champion.label())
-        .min_by(|a, b| a.flip.unwrap_or(f64::INFINITY).total_cmp(&b.flip.unwrap_or(f64::INFINITY)))?;
-    let row_of = |m: &MethodResult| rows.iter().find(|row| row.name() == m.name && row.rule == m.mip_rule);
-    let (ra, rb) = (row_of(champion)?, row_of(challenger)?);
-    if views.is_empty() {
-        return None;
-    }
-    let tiles = |row: &methods::Row| -> Vec<(f64, usize)> {
-        views
-            .iter()
-            .flat_map(|v| {
-                perceptual::tiles(&renders::flip_map(v, &renders::render(row, shading, v), exposure), v.view.width, 8)
-            })
-            .collect()
+) -> FlipClaim {
+    let tiles = |row: &methods::Row| {
+        perceptual::flip_tiles(views, exposure, 8, |r, p, dir, oracle| row.estimate(shading, p, dir, oracle, r))
     };
-    let (a, b) = (tiles(ra), tiles(rb));
-    Some(FlipClaim {
-        challenger: challenger.label(),
-        difference: perceptual::weighted_mean(&b) - perceptual::weighted_mean(&a),
-        se: perceptual::paired_standard_error(&b, &a),
-    })
+    let (ta, tb) = (tiles(a), tiles(b));
+    FlipClaim {
+        challenger,
+        difference: perceptual::weighted_mean(&tb) - perceptual::weighted_mean(&ta),
+        se: perceptual::paired_standard_error(&tb, &ta),
+    }
 }
 
 /// The camera view's figure for a bucket: the runtime, the best other row costing ≤ 2× warp1

@@ -189,11 +189,7 @@ impl Rules<'_> {
     fn alpha(&self, rule: RowRule, row: usize, r: f32, k: f32) -> f32 {
         let alpha = r * r;
         let a = match rule {
-            RowRule::SceneFit => {
-                let lk = libm::log(k as f64);
-                let (up, down) = self.exponents[row];
-                (self.c0 * alpha as f64 * libm::exp(-(if lk > 0.0 { up } else { down }) * lk)) as f32
-            }
+            RowRule::SceneFit => exponent_alpha(r, k, self.c0, self.exponents[row]) as f32,
             RowRule::Lobes => self.lobe_fit.corrected_alpha(alpha, k),
             RowRule::Engine => engine_roughness(r, k).powi(2),
             RowRule::Plain => alpha,
@@ -224,12 +220,17 @@ fn scene_table(lobe: &RoughnessFit, rules: &Rules, chosen: &[RowRule]) -> Roughn
     }
 }
 
-/// The two exponents' perceptual roughness for a lookup of roughness `r` at ratio `k`.
-fn exponent_roughness(r: f32, k: f32, c0: f64, (up, down): (f64, f64)) -> f32 {
+/// The two exponents' α' = c0·α·k^−e (e⁺ for k > 1, e⁻ otherwise) for a lookup of
+/// roughness `r` at ratio `k`, in [1e-3, 1].
+fn exponent_alpha(r: f32, k: f32, c0: f64, (up, down): (f64, f64)) -> f64 {
     let lk = libm::log(k as f64);
     let e = if lk > 0.0 { up } else { down };
-    let a = (c0 * (r * r) as f64 * libm::exp(-e * lk)).clamp(1e-3, 1.0);
-    (a as f32).sqrt()
+    (c0 * (r * r) as f64 * libm::exp(-e * lk)).clamp(1e-3, 1.0)
+}
+
+/// The two exponents' perceptual roughness for a lookup of roughness `r` at ratio `k`.
+fn exponent_roughness(r: f32, k: f32, c0: f64, e: (f64, f64)) -> f32 {
+    (exponent_alpha(r, k, c0, e) as f32).sqrt()
 }
 
 /// The exponents stay within the lobes' geometry on the sharp side of the lobe fit's own
@@ -323,20 +324,15 @@ pub fn fit_scene_correction(
                     )
                 })
                 .collect();
-            // per rule, the ꟻLIP maps' 8×8-pixel tiles: (mean, pixels) over every view
-            let tiles: Vec<Vec<(f64, usize)>> = RowRule::ALL
+            // per rule, the ꟻLIP maps' 8×8-pixel tiles over every view
+            let tiles: Vec<Vec<perceptual::Tile>> = RowRule::ALL
                 .iter()
                 .map(|&rule| {
-                    refs.iter()
-                        .flat_map(|v| {
-                            let image = perceptual::render(v, |b, dir, _| {
-                                let (uv, k) = fetch(warp, correctives, b, dir);
-                                let lod = warp.probe.lod_of_roughness(rules.roughness(rule, row, r, k));
-                                warp.probe.radiance.sample_lod_uv(uv, lod)
-                            });
-                            perceptual::tiles(&perceptual::flip_map(v, &image, exposure), v.view.width, 8)
-                        })
-                        .collect()
+                    perceptual::flip_tiles(&refs, exposure, 8, |r, b, dir, _| {
+                        let (uv, k) = fetch(warp, correctives, b, dir);
+                        let lod = warp.probe.lod_of_roughness(rules.roughness(rule, row, r, k));
+                        warp.probe.radiance.sample_lod_uv(uv, lod)
+                    })
                 })
                 .collect();
             let at = |rule: RowRule| &tiles[RowRule::ALL.iter().position(|&x| x == rule).unwrap_or(0)];

@@ -134,13 +134,8 @@ pub fn sweep(
         let row = Row { fetch: Fetch::Runtime(&grid), rule: None, renorm: None };
         let shading = Glossy { warp: &warp, correction: grid.roughness.as_ref() };
         let flip = |b: usize| renders::mean_flip(&row, shading, &view_refs[b], exposure);
-        let tiles_r0 = view_refs[0]
-            .iter()
-            .flat_map(|v| {
-                let map = renders::flip_map(v, &renders::render(&row, shading, v), exposure);
-                perceptual::tiles(&map, v.view.width, 8)
-            })
-            .collect();
+        let tiles_r0 =
+            perceptual::flip_tiles(&view_refs[0], exposure, 8, |r, b, dir, o| row.estimate(shading, b, dir, o, r));
         tiles.push((c.knob, c.given, tiles_r0));
         rows.push(SweepRow {
             knob: c.knob,

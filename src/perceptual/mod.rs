@@ -271,6 +271,23 @@ pub fn mean_flip(
     sum / n.max(1) as f64
 }
 
+/// The ꟻLIP maps of what `estimate` renders for each view (as [`mean_flip`] calls it),
+/// as [`tiles`] of `tile` × `tile` pixels, view after view.
+pub fn flip_tiles(
+    views: &[ViewReference],
+    exposure: f32,
+    tile: u32,
+    estimate: impl Fn(f32, Vec3, Vec3, Vec3) -> Vec3 + Sync,
+) -> Vec<Tile> {
+    views
+        .iter()
+        .flat_map(|v| {
+            let image = render(v, |b, dir, oracle| estimate(v.roughness, b, dir, oracle));
+            tiles(&flip_map(v, &image, exposure), v.view.width, tile)
+        })
+        .collect()
+}
+
 /// One tile of an error map: its mean and its pixel count.
 pub type Tile = (f64, usize);
 
