@@ -133,9 +133,10 @@ pub fn sweep(
         let stats = eval::error_stats(&est, &set.reference, exposure);
         let row = Row { fetch: Fetch::Runtime(&grid), rule: None, renorm: None };
         let shading = Glossy { warp: &warp, correction: grid.roughness.as_ref() };
-        let flip = |b: usize| renders::mean_flip(&row, shading, &view_refs[b], exposure);
+        // r = 0 as tiles (its mean, and its difference from the given row's), r = 0.5 as a mean
         let tiles_r0 =
             perceptual::flip_tiles(&view_refs[0], exposure, 8, |r, b, dir, o| row.estimate(shading, b, dir, o, r));
+        let flip_r0 = perceptual::weighted_mean(&tiles_r0);
         tiles.push((c.knob, c.given, tiles_r0));
         rows.push(SweepRow {
             knob: c.knob,
@@ -143,8 +144,8 @@ pub fn sweep(
             fit_seconds: fit.seconds,
             rel_rmse: stats.rel_rmse,
             tm_rmse: stats.tm_rmse,
-            flip_r0: flip(0),
-            flip_r05: flip(1),
+            flip_r0,
+            flip_r05: renders::mean_flip(&row, shading, &view_refs[1], exposure),
             flip_r0_se: None,
             stored_cells: fit.correctives.stored_cells(),
             payload_bytes: manifest.payloads.iter().map(|p| p.bytes).sum(),
