@@ -285,10 +285,13 @@ fn the_bvh_finds_what_a_scan_of_every_primitive_finds() {
     assert!(checked > 2000, "only {checked} unambiguous rays");
 }
 
-/// The tracer walks obvhs's CWBVH itself, with a node test chosen for the CPU at run time.
-/// Whichever test runs, it must find what obvhs's own traversal finds, bit for bit: same
-/// distance, same leaf slot (so same primitive, normal and material), for closest hit and
-/// occlusion, on rays from inside and outside, axis rays and rays that end early.
+/// The tracer walks obvhs's CWBVH itself (nearest child first), with a node test chosen for
+/// the CPU at run time. Whichever test runs, it must find what obvhs's own traversal finds,
+/// bit for bit: the same distance, and the same leaf slot (so the same primitive, normal
+/// and material) unless primitives tie at that distance (coplanar faces, a shared edge):
+/// then obvhs's pick depends on its visiting order and the tracer's is the one facing the
+/// ray, then the lowest slot, whatever the order. For closest hit and occlusion, on rays from inside and
+/// outside, axis rays and rays that end early.
 #[test]
 fn every_node_test_finds_what_obvhs_finds_bit_for_bit() {
     for name in ["torture", "cornell"] {
@@ -297,7 +300,7 @@ fn every_node_test_finds_what_obvhs_finds_bit_for_bit() {
         let portable = Tracer::new(&scene).with_node_test(NodeTest::Portable);
         assert_eq!(portable.node_test(), NodeTest::Portable);
         let (lo, hi) = scene.bounds();
-        let mut hits = 0;
+        let (mut hits, mut ties) = (0, 0);
         for k in 0..20_000u32 {
             let mut s = Sampler::new(43, 9, k);
             let u = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
@@ -310,7 +313,17 @@ fn every_node_test_finds_what_obvhs_finds_bit_for_bit() {
             let reference = wide.closest_slot_obvhs(o, d).map(|(t, slot)| (t.to_bits(), slot));
             for t in [&wide, &portable] {
                 let got = t.closest_slot(o, d).map(|(t, slot)| (t.to_bits(), slot));
-                assert_eq!(got, reference, "{name}, ray {k} from {o} along {d}, {:?}", t.node_test());
+                let same = match (got, reference) {
+                    (Some((a, s)), Some((b, r))) if a == b && s != r => {
+                        // a tie: both hit at exactly that distance, ours facing the ray if
+                        // obvhs's does, and the lower slot if they face alike
+                        ties += 1;
+                        let ((ts, back_s), (tr, back_r)) = (t.slot_distance(o, d, s), t.slot_distance(o, d, r));
+                        ts.to_bits() == a && tr.to_bits() == a && (back_s, s) < (back_r, r)
+                    }
+                    _ => got == reference,
+                };
+                assert!(same, "{name}, ray {k} from {o} along {d}, {:?}: {got:?} against {reference:?}", t.node_test());
                 let a = t.closest_hit(o, d, f32::INFINITY);
                 let b = wide.closest_hit(o, d, f32::INFINITY);
                 assert_eq!(format!("{a:?}"), format!("{b:?}"), "{name}, ray {k}");
@@ -325,6 +338,7 @@ fn every_node_test_finds_what_obvhs_finds_bit_for_bit() {
             hits += reference.is_some() as u32;
         }
         assert!(hits > 10_000, "{name}: only {hits} hits");
+        eprintln!("{name}: {hits} hits, {ties} ties between primitives at one distance");
     }
 }
 

@@ -368,7 +368,9 @@ impl Tracer {
 
     /// The same query walked by obvhs's own traversal (`CwBvh::ray_traverse`) with the same
     /// primitive tests: distance (normalised frame) and leaf slot. Tests check that the
-    /// tracer's walk finds exactly this.
+    /// tracer's walk finds the same distance, and the same slot unless several primitives
+    /// are hit at exactly that distance (then the tracer's faces the ray if any does, and
+    /// is the lowest slot of those).
     #[doc(hidden)]
     pub fn closest_slot_obvhs(&self, origin: Vec3, dir: Vec3) -> Option<(f32, u32)> {
         let ray = self.normalised_ray(origin, dir, f32::INFINITY);
@@ -378,6 +380,15 @@ impl Tracer {
             cwbvh::Leaves::intersect(&leaves, slot as u32, r.tmax)
         });
         found.then_some((hit.t, hit.primitive_id))
+    }
+
+    /// Distance (normalised frame) at which the primitive in leaf `slot` is hit (+∞: not
+    /// hit), and whether the ray meets its back side.
+    #[doc(hidden)]
+    pub fn slot_distance(&self, origin: Vec3, dir: Vec3, slot: u32) -> (f32, bool) {
+        let ray = self.normalised_ray(origin, dir, f32::INFINITY);
+        let leaves = self.leaves(&ray);
+        (cwbvh::Leaves::intersect(&leaves, slot, ray.tmax), cwbvh::Leaves::back(&leaves, slot))
     }
 
     /// The closest hit's distance (normalised frame) and leaf slot, as `closest_hit` finds it.
@@ -435,6 +446,16 @@ struct SlotLeaves<'a> {
 }
 
 impl cwbvh::Leaves for SlotLeaves<'_> {
+    fn back(&self, slot: u32) -> bool {
+        match self.tracer.slot_tri.get(slot as usize) {
+            Some(&[v0, v1, v2]) if v0.w.to_bits() == SLOT_TRIANGLE => {
+                let (v0, v1, v2) = (Vec3A::from_vec4(v0), Vec3A::from_vec4(v1), Vec3A::from_vec4(v2));
+                (v1 - v0).cross(v2 - v0).dot(self.dir) > 0.0
+            }
+            _ => false,
+        }
+    }
+
     #[inline(always)]
     fn intersect(&self, slot: u32, tmax: f32) -> f32 {
         let Some([v0, v1, v2]) = self.tracer.slot_tri.get(slot as usize) else {
