@@ -523,3 +523,43 @@ fn axis_rays_with_negative_zero_components_hit_like_positive_zero() {
         }
     }
 }
+
+/// Two boxes touching at x = 1: their faces there coincide, one facing each way. A ray
+/// crossing that plane meets both at one distance; it must see the face turned towards it
+/// (front side, the far box's material), from either side and with either box listed first
+/// (the walk's order, and obvhs's, would otherwise decide).
+#[test]
+fn coinciding_faces_show_the_one_facing_the_ray() {
+    let red = "{ albedo = [0.9, 0.1, 0.1] }";
+    let green = "{ albedo = [0.1, 0.9, 0.1] }";
+    let a = format!("[[geometry]]\ntype = \"box\"\nmin = [0.0, 0.0, 0.0]\nmax = [1.0, 1.0, 1.0]\nmaterial = {red}\n");
+    let b = format!("[[geometry]]\ntype = \"box\"\nmin = [1.0, 0.0, 0.0]\nmax = [2.0, 1.0, 1.0]\nmaterial = {green}\n");
+    for body in [format!("{a}{b}"), format!("{b}{a}")] {
+        let scene = parse(&body).unwrap();
+        let albedo = |m: u32| scene.materials[m as usize].albedo;
+        for test in [NodeTest::Wide, NodeTest::Portable] {
+            let tracer = Tracer::new(&scene).with_node_test(test);
+            let mut checked = 0;
+            for k in 0..64u32 {
+                let mut s = Sampler::new(5, 17, k);
+                let (y, z) = (0.1 + 0.8 * s.next_1d(), 0.1 + 0.8 * s.next_1d());
+                let d = Vec3::new(1.0, 0.4 * s.next_1d() - 0.2, 0.4 * s.next_1d() - 0.2).normalize();
+                // from inside the red box towards +x, and from inside the green one back
+                for (o, dir, want, normal) in [
+                    (Vec3::new(0.5, y, z), d, Vec3::new(0.1, 0.9, 0.1), -Vec3::X),
+                    (Vec3::new(1.5, y, z), -d, Vec3::new(0.9, 0.1, 0.1), Vec3::X),
+                ] {
+                    let hit = tracer.closest_hit(o, dir, f32::INFINITY).expect("the shared face is hit");
+                    if (hit.position.x - 1.0).abs() > 1e-5 {
+                        continue; // left through another face first
+                    }
+                    assert!(!hit.backface, "{test:?}, ray {k} from {o}: the back face was reported");
+                    assert_eq!(hit.normal, normal, "{test:?}, ray {k} from {o}");
+                    assert_eq!(albedo(hit.material), want, "{test:?}, ray {k} from {o}");
+                    checked += 1;
+                }
+            }
+            assert!(checked > 64, "only {checked} rays reached the shared face");
+        }
+    }
+}
