@@ -294,9 +294,7 @@ pub trait Leaves {
     fn intersect(&self, slot: u32, tmax: f32) -> f32;
     /// The ray meets the primitive in `slot` from its back side (asked only to break ties
     /// between primitives hit at one distance).
-    fn back(&self, _slot: u32) -> bool {
-        false
-    }
+    fn back(&self, slot: u32) -> bool;
 }
 
 /// Of two primitives hit at exactly one distance, `slot` takes the place of `best` when it
@@ -311,8 +309,8 @@ fn wins_tie(leaves: &impl Leaves, slot: u32, best: u32) -> bool {
 
 /// Walks the tree for `ray` with the node test `entered` (which also writes each child's
 /// entry distance). Closest hit (`ANY` false): the slot of the nearest hit, with `ray.tmax`
-/// its distance ([`walk_nearest`]). `ANY`: the first slot
-/// hit, in obvhs's order ([`walk_any`]).
+/// its distance ([`walk_nearest`]). `ANY`: the first slot hit, in obvhs's order
+/// ([`walk_any`]).
 #[inline(always)]
 fn walk<const ANY: bool>(
     nodes: &[CwBvhNode],
@@ -376,11 +374,12 @@ fn walk_nearest(
                 }
             }
         }
-        // the inner children by entry distance (then node index), nearest first
+        // the inner children by entry distance, nearest first (equal distances in any
+        // order: the result does not depend on it)
         for a in 1..n_inner {
             let x = inner[a];
             let mut b = a;
-            while b > 0 && (inner[b - 1].0 > x.0 || (inner[b - 1].0 == x.0 && inner[b - 1].1 > x.1)) {
+            while b > 0 && inner[b - 1].0 > x.0 {
                 inner[b] = inner[b - 1];
                 b -= 1;
             }
