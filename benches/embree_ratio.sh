@@ -10,6 +10,8 @@
 #
 # Each round runs Embree (3 passes), warpfit with the node test this CPU picks, and warpfit
 # with the portable node test (5 passes each); the best pass of each over all rounds counts.
+# To compare two builds in one sitting, copy the other build's ray_rate somewhere and name
+# it in BEFORE: it runs in every round too and its ratio is printed beside.
 set -euo pipefail
 case=$1
 rounds=${2:-5}
@@ -17,11 +19,19 @@ python=${EMBREE_PYTHON:-/tmp/embree/bin/python}
 here=$(cd "$(dirname "$0")/.." && pwd)
 rate=$here/target/release/examples/ray_rate
 best() { sed -n 's/.*best of [0-9]* passes \([0-9.]*\) Mrays.*/\1/p'; }
-e=0 w=0 p=0
+before=${BEFORE:-}
+e=0 w=0 p=0 b=0 bp=0
 max() { python3 -c "print(max($1, $2))"; }
 for _ in $(seq "$rounds"); do
     e=$(max "$e" "$("$python" "$here/benches/embree_reference.py" "$case" 3 | best)")
     w=$(max "$w" "$("$rate" "$case" 5 | best)")
     p=$(max "$p" "$("$rate" "$case" 5 portable | best)")
+    if [ -n "$before" ]; then
+        b=$(max "$b" "$("$before" "$case" 5 | best)")
+        bp=$(max "$bp" "$("$before" "$case" 5 portable | best)")
+    fi
 done
 python3 -c "print(f'$case: Embree $e, warpfit $w ({$w/$e:.2f}x), portable node test $p ({$p/$e:.2f}x) Mrays/s, best of $rounds rounds')"
+if [ -n "$before" ]; then
+    python3 -c "print(f'$case: BEFORE $b ({$b/$e:.2f}x), portable node test $bp ({$bp/$e:.2f}x) Mrays/s')"
+fi

@@ -90,28 +90,22 @@ pub struct Tracer {
 }
 
 /// Per-ray constants of the watertight test: the axis permutation that makes z the
-/// dominant direction axis (as a swizzle id, so the per-triangle code has no dynamic
-/// indexing) and the shear.
+/// dominant direction axis (as lane indices, read with an indexed load, not a branch: a
+/// `match` on the permutation was a jump table whose target changed with every ray) and
+/// the shear.
 #[derive(Clone, Copy)]
 struct Shear {
-    perm: u8,
+    k: [usize; 3],
     sx: f32,
     sy: f32,
     sz: f32,
 }
 
-/// Reorders (x, y, z) to (kx, ky, kz).
+/// (v[kx], v[ky], v[kz]).
 #[inline(always)]
-fn permute(v: Vec3A, perm: u8) -> Vec3A {
-    use glam::Vec3Swizzles;
-    match perm {
-        0 => v.yzx(), // kz = x: (y, z, x)
-        1 => v.zyx(), // kz = x, swapped
-        2 => v.zxy(), // kz = y: (z, x, y)
-        3 => v.xzy(), // kz = y, swapped
-        4 => v,       // kz = z: (x, y, z)
-        _ => v.yxz(), // kz = z, swapped
-    }
+fn permute(v: Vec3A, k: [usize; 3]) -> Vec3A {
+    let a = v.to_array();
+    Vec3A::new(a[k[0]], a[k[1]], a[k[2]])
 }
 
 impl Shear {
@@ -125,19 +119,20 @@ impl Shear {
         } else {
             2
         };
+        let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
         // Swap kx and ky when the dominant component is negative, to keep winding.
-        let perm = kz * 2 + (dir[kz as usize] < 0.0) as u8;
-        let d = permute(dir, perm);
-        Shear { perm, sx: d.x / d.z, sy: d.y / d.z, sz: 1.0 / d.z }
+        let k = if dir[kz] < 0.0 { [ky, kx, kz] } else { [kx, ky, kz] };
+        let d = permute(dir, k);
+        Shear { k, sx: d.x / d.z, sy: d.y / d.z, sz: 1.0 / d.z }
     }
 }
 
 /// Watertight ray/triangle test (Woop, Benthin & Wald 2013). Returns t or +inf.
 #[inline]
 fn intersect_watertight(s: &Shear, org: Vec3A, v0: Vec3A, v1: Vec3A, v2: Vec3A, tmin: f32, tmax: f32) -> f32 {
-    let a = permute(v0 - org, s.perm);
-    let b = permute(v1 - org, s.perm);
-    let c = permute(v2 - org, s.perm);
+    let a = permute(v0 - org, s.k);
+    let b = permute(v1 - org, s.k);
+    let c = permute(v2 - org, s.k);
     let ax = a.x - s.sx * a.z;
     let ay = a.y - s.sy * a.z;
     let bx = b.x - s.sx * b.z;
@@ -147,13 +142,14 @@ fn intersect_watertight(s: &Shear, org: Vec3A, v0: Vec3A, v1: Vec3A, v2: Vec3A, 
     let mut u = cx * by - cy * bx;
     let mut v = ax * cy - ay * cx;
     let mut w = bx * ay - by * ax;
-    if u == 0.0 || v == 0.0 || w == 0.0 {
+    // (`&` and `|` on the comparisons rather than `&&` and `||`: no branch per comparison)
+    if (u == 0.0) | (v == 0.0) | (w == 0.0) {
         // Edge cases: redo the edge functions in double precision so shared edges are exact.
         u = (cx as f64 * by as f64 - cy as f64 * bx as f64) as f32;
         v = (ax as f64 * cy as f64 - ay as f64 * cx as f64) as f32;
         w = (bx as f64 * ay as f64 - by as f64 * ax as f64) as f32;
     }
-    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+    if ((u < 0.0) | (v < 0.0) | (w < 0.0)) & ((u > 0.0) | (v > 0.0) | (w > 0.0)) {
         return f32::INFINITY;
     }
     let det = u + v + w;

@@ -59,7 +59,10 @@ impl NodeTest {
 fn wide_available() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
+        // every AVX2 CPU has these too; the wide walk counts and scans child masks with them
         std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("popcnt")
+            && std::arch::is_x86_feature_detected!("bmi1")
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
@@ -253,22 +256,25 @@ mod x86 {
     }
 }
 
-/// A small traversal stack: 64 groups inline (deeper than any sane CWBVH), spilling to the
+/// A small traversal stack: 64 entries inline (deeper than any sane CWBVH), spilling to the
 /// heap beyond that so a degenerate tree is slow, not a crash. The inline array is left
-/// uninitialised: zeroing 512 bytes per ray cost about 2% of a ray.
-struct Stack {
-    inline: [MaybeUninit<UVec2>; 64],
+/// uninitialised (built with `MaybeUninit::uninit().assume_init()` of the array, which
+/// writes nothing): zeroing it cost a 520-byte `memset` per ray.
+struct Stack<T: Copy> {
+    inline: [MaybeUninit<T>; 64],
     len: usize,
-    spill: Vec<UVec2>,
+    spill: Vec<T>,
 }
 
-impl Stack {
+impl<T: Copy> Stack<T> {
     #[inline(always)]
-    fn new() -> Stack {
-        Stack { inline: [MaybeUninit::uninit(); 64], len: 0, spill: Vec::new() }
+    fn new() -> Stack<T> {
+        // SAFETY: an array of `MaybeUninit` needs no initialisation.
+        let inline = unsafe { MaybeUninit::<[MaybeUninit<T>; 64]>::uninit().assume_init() };
+        Stack { inline, len: 0, spill: Vec::new() }
     }
     #[inline(always)]
-    fn push(&mut self, v: UVec2) {
+    fn push(&mut self, v: T) {
         match self.inline.get_mut(self.len) {
             Some(slot) => {
                 slot.write(v);
@@ -278,7 +284,7 @@ impl Stack {
         self.len += 1;
     }
     #[inline(always)]
-    fn pop(&mut self) -> Option<UVec2> {
+    fn pop(&mut self) -> Option<T> {
         self.len = self.len.checked_sub(1)?;
         match self.inline.get(self.len) {
             // SAFETY: every index below the length before this pop was written by `push`.
@@ -339,30 +345,26 @@ fn walk_nearest(
     leaves: &impl Leaves,
 ) -> Option<u32> {
     let mut best: Option<u32> = None;
-    let mut stack = Stack::new();
+    // inner children to visit, as `nearest_key`s
+    let mut stack = Stack::<u64>::new();
     let mut entry = [0.0f32; 8];
     let mut current = 0u32;
     // (a malformed tree, or none, ends the walk rather than panic)
     while let Some(node) = nodes.get(current as usize) {
-        let mut hit = entered(node, ray, &mut entry);
-        let mut inner = [(0.0f32, 0u32); 8];
-        let mut n_inner = 0;
-        while hit != 0 {
-            let j = hit.trailing_zeros();
-            hit &= hit - 1;
-            if node.imask & (1 << j) != 0 {
-                // inner child: its node follows the inner children of lower slots
-                let below = (node.imask as u32 & ((1u32 << j) - 1)).count_ones();
-                inner[n_inner] = (entry[j as usize], node.child_base_idx.wrapping_add(below));
-                n_inner += 1;
-                continue;
-            }
-            if entry[j as usize] > ray.tmax {
+        let hit = entered(node, ray, &mut entry);
+        let imask = node.imask as u32;
+        // leaf children first, so their hits shorten the ray before the inner children
+        // are ordered
+        let mut leaf = hit & !imask;
+        while leaf != 0 {
+            let j = (leaf.trailing_zeros() & 7) as usize;
+            leaf &= leaf - 1;
+            if entry[j] > ray.tmax {
                 continue; // a leaf of this node already hit nearer than this box
             }
-            // leaf child: the high 3 bits of its meta count its primitives (unary), the low
-            // 5 their offset from the node's first
-            let meta = node.child_meta[j as usize] as u32;
+            // the high 3 bits of the child's meta count its primitives (unary), the low 5
+            // their offset from the node's first
+            let meta = node.child_meta[j] as u32;
             let first = node.primitive_base_idx.wrapping_add(meta & 0x1f);
             for slot in first..first.saturating_add((meta >> 5).count_ones()) {
                 // with a hit found, a primitive at exactly its distance is a tie to break
@@ -374,31 +376,34 @@ fn walk_nearest(
                 }
             }
         }
-        // the inner children by entry distance, nearest first (equal distances in any
-        // order: the result does not depend on it)
-        for a in 1..n_inner {
-            let x = inner[a];
-            let mut b = a;
-            while b > 0 && inner[b - 1].0 > x.0 {
-                inner[b] = inner[b - 1];
-                b -= 1;
-            }
-            inner[b] = x;
+        // the inner children the ray enters before its closest hit so far, as sort keys;
+        // an inner child's node follows the inner children of lower slots
+        let mut inner = hit & imask;
+        let mut keys = [0u64; 8];
+        let mut n = 0usize;
+        while inner != 0 {
+            let j = inner.trailing_zeros() & 7;
+            inner &= inner - 1;
+            let t = entry[j as usize];
+            let index = node.child_base_idx.wrapping_add((imask & ((1u32 << j) - 1)).count_ones());
+            keys[n & 7] = nearest_key(t, index);
+            n += (t <= ray.tmax) as usize;
         }
-        let mut next = None;
-        for &(t, index) in inner[..n_inner].iter().rev() {
-            if t <= ray.tmax {
-                if let Some((t, index)) = next {
-                    stack.push(UVec2::new(index, f32::to_bits(t)));
-                }
-                next = Some((t, index));
+        // nearest first (equal distances in any order: the result does not depend on it)
+        sort_keys(&mut keys, n);
+        let next = if n == 0 {
+            None
+        } else {
+            for &k in keys[1..n].iter().rev() {
+                stack.push(k);
             }
-        }
+            Some(keys[0])
+        };
         current = match next {
-            Some((_, index)) => index,
+            Some(k) => k as u32,
             None => loop {
                 match stack.pop() {
-                    Some(e) if f32::from_bits(e.y) <= ray.tmax => break e.x,
+                    Some(k) if key_distance(k) <= ray.tmax => break k as u32,
                     Some(_) => {}
                     None => return best,
                 }
@@ -406,6 +411,50 @@ fn walk_nearest(
         };
     }
     best
+}
+
+/// An inner child as one integer that sorts as its entry distance: the distance's bits in
+/// the high half (entry distances are positive, at least the node test's clamp, and the
+/// bits of positive floats order as the floats do), the node index in the low half.
+#[inline(always)]
+fn nearest_key(t: f32, index: u32) -> u64 {
+    ((t.to_bits() as u64) << 32) | index as u64
+}
+
+/// The entry distance of a [`nearest_key`].
+#[inline(always)]
+fn key_distance(key: u64) -> f32 {
+    f32::from_bits((key >> 32) as u32)
+}
+
+/// Sorts the first `n` keys ascending: one or two compare-exchanges without branches for
+/// the common two and three children, insertion beyond.
+#[inline(always)]
+fn sort_keys(keys: &mut [u64; 8], n: usize) {
+    let exchange = |keys: &mut [u64; 8], a: usize, b: usize| {
+        let (x, y) = (keys[a], keys[b]);
+        keys[a] = x.min(y);
+        keys[b] = x.max(y);
+    };
+    // (an `if` chain: a `match` here became a jump table, an indirect branch the CPU
+    // mispredicted at most nodes)
+    if n == 2 {
+        exchange(keys, 0, 1);
+    } else if n == 3 {
+        exchange(keys, 0, 1);
+        exchange(keys, 1, 2);
+        exchange(keys, 0, 1);
+    } else if n > 3 {
+        for a in 1..n.min(8) {
+            let x = keys[a];
+            let mut b = a;
+            while b > 0 && keys[b - 1] > x {
+                keys[b] = keys[b - 1];
+                b -= 1;
+            }
+            keys[b] = x;
+        }
+    }
 }
 
 /// obvhs's `traverse!` loop with the node test `entered`: the first slot hit. About 40% of
@@ -421,7 +470,7 @@ fn walk_any(
     if nodes.is_empty() {
         return None;
     }
-    let mut stack = Stack::new();
+    let mut stack = Stack::<UVec2>::new();
     let mut current = UVec2::new(0, 0x8000_0000);
     let mut prims = UVec2::ZERO;
     let mut entry = [0.0f32; 8];
@@ -465,9 +514,10 @@ fn walk_any(
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,popcnt,bmi1")]
 fn walk_avx2<const ANY: bool>(nodes: &[CwBvhNode], ray: &mut NodeRay, leaves: &impl Leaves) -> Option<u32> {
-    // Runs only after `wide_available()` said the CPU has AVX2 (see `traverse`).
+    // Runs only after `wide_available()` said the CPU has AVX2, POPCNT and BMI1 (see
+    // `traverse`).
     walk::<ANY>(nodes, ray, |n, r, e| x86::entered_avx2(n, r, e), leaves)
 }
 
