@@ -427,8 +427,8 @@ fn key_distance(key: u64) -> f32 {
     f32::from_bits((key >> 32) as u32)
 }
 
-/// Sorts the first `n` keys ascending: one or two compare-exchanges without branches for
-/// the common two and three children, insertion beyond.
+/// Sorts the first `n` keys ascending: compare-exchanges without branches for the common
+/// two and three children (one and three of them), insertion beyond.
 #[inline(always)]
 fn sort_keys(keys: &mut [u64; 8], n: usize) {
     let exchange = |keys: &mut [u64; 8], a: usize, b: usize| {
@@ -533,7 +533,8 @@ pub fn traverse<const ANY: bool>(
     #[cfg(target_arch = "x86_64")]
     {
         if test == NodeTest::Wide && wide_available() {
-            // SAFETY: the CPU has AVX2 (checked just above; the check is a cached load).
+            // SAFETY: the CPU has AVX2, POPCNT and BMI1 (checked just above; the check is a
+            // cached load).
             return unsafe { walk_avx2::<ANY>(nodes, ray, leaves) };
         }
         walk::<ANY>(nodes, ray, x86::entered_sse2, leaves)
