@@ -198,6 +198,37 @@ mod tests {
     }
 
     #[test]
+    fn the_lane_lookup_is_the_single_lookup_bit_for_bit() {
+        use crate::octa::LANES;
+        let c = fit_correction();
+        // a sweep over and past both axes, and every degenerate input, in groups of lanes
+        let mut inputs: Vec<(f32, f32)> = Vec::new();
+        for i in 0..=50 {
+            for j in 0..=70 {
+                inputs.push((-0.1 + 1.2 * i as f32 / 50.0, libm::powf(2f32, -8.0 + 16.0 * j as f32 / 70.0)));
+            }
+        }
+        let odd = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 0.0, -0.0, -1.0, f32::MIN_POSITIVE, 1e-40, f32::MAX];
+        for &x in &odd {
+            for &y in &odd {
+                inputs.push((x, y));
+            }
+            inputs.push((x, 1.5));
+            inputs.push((0.5, x));
+        }
+        for group in inputs.chunks(LANES) {
+            let (mut r, mut k) = ([0.0f32; LANES], [1.0f32; LANES]);
+            for (l, &(x, y)) in group.iter().enumerate() {
+                (r[l], k[l]) = (x, y);
+            }
+            let lanes = c.corrected_roughness_lanes(&r, &k);
+            for l in 0..LANES {
+                assert_eq!(lanes[l].to_bits(), c.corrected_roughness(r[l], k[l]).to_bits(), "r {}, k {}", r[l], k[l]);
+            }
+        }
+    }
+
+    #[test]
     fn the_resampled_lookup_follows_the_exact_correction() {
         let c = fit_correction();
         let mut worst = 0.0f32;

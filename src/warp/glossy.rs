@@ -58,9 +58,7 @@ impl WarpProbe {
     #[must_use]
     pub fn lod_of_roughness(&self, r: f32) -> f32 {
         if let Some(n) = self.uniform_lods {
-            let lod = r * n;
-            // (NaN and r ≤ 0 read mip 0, r past the chain its last mip)
-            return if lod > 0.0 { lod.min(n) } else { 0.0 };
+            return lod_on_even_chain(r, n);
         }
         let m = self.mip_roughness();
         if m.len() < 2 || !(r > m[0]) {
@@ -93,6 +91,15 @@ impl WarpProbe {
         let k = d_probe / d_surface;
         if k.is_finite() && k > 0.0 { k } else { 1.0 }
     }
+}
+
+/// The mip of perceptual roughness `r` on a chain whose mip m has roughness m / n: r · n,
+/// clamped to the chain (NaN and r ≤ 0 read mip 0, r past the chain its last mip).
+#[inline(always)]
+fn lod_on_even_chain(r: f32, n: f32) -> f32 {
+    let lod = r * n;
+    let lod = if lod > 0.0 { lod } else { 0.0 };
+    lod.min(n)
 }
 
 /// Where a lookup reads probe A: the fetch vector `v` and, when the lookup aimed at a known
@@ -212,8 +219,19 @@ pub fn corrected_lanes(
         Some(c) => c.corrected_roughness_lanes(r, k),
     };
     let mut lod = [0.0f32; octa::LANES];
-    for l in 0..octa::LANES {
-        lod[l] = if r[l] == 0.0 { 0.0 } else { probe.lod_of_roughness(rough[l]) };
+    match probe.uniform_lods {
+        // `lod_of_roughness`'s evenly spaced chain, for all lanes at once
+        Some(n) => {
+            for l in 0..octa::LANES {
+                let at = lod_on_even_chain(rough[l], n);
+                lod[l] = if r[l] == 0.0 { 0.0 } else { at };
+            }
+        }
+        None => {
+            for l in 0..octa::LANES {
+                lod[l] = if r[l] == 0.0 { 0.0 } else { probe.lod_of_roughness(rough[l]) };
+            }
+        }
     }
     probe.radiance.sample_each_lod_uv_lanes(&uv, &lod)
 }
