@@ -53,6 +53,21 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
         assert!(c.difference.is_finite() && c.se.is_finite() && c.se > 0.0, "{c:?}");
         assert!(warpfit::warp::Method::parse(c.challenger.split('/').next().unwrap()).is_some(), "{c:?}");
     }
+    // the mirror bucket's references' own noise, measured on its first queries traced again
+    // with quieter references: the bounds, chosen on the bucket's noisy references, lose
+    // most of their lead against the quiet ones; the rough buckets do not measure it
+    let c = report.buckets[0].noise_ceiling.as_ref().expect("the mirror bucket's noise ceiling");
+    assert_eq!((c.queries, c.spp), (settings.quiet_positions as usize * 64, settings.quiet_spp));
+    for (on_set, on_quiet) in [c.none, c.best_fetch, c.best_aim] {
+        assert!(on_set.is_finite() && on_quiet.is_finite() && on_set >= 0.0 && on_quiet >= 0.0, "{c:?}");
+    }
+    assert!(c.best_fetch.1 > 2.0 * c.best_fetch.0, "best-fetch fits the references' noise: {c:?}");
+    assert!(c.reference_vs_quiet > 0.0 && c.ceiling_fetch.is_finite() && c.ceiling_fetch <= 1.0, "{c:?}");
+    // (best-aim only searches the query's own ray: a lookup with no error can beat it, and
+    // its ceiling can pass 1)
+    assert!(c.ceiling_aim.is_finite(), "{c:?}");
+    assert!(report.buckets[1..].iter().all(|b| b.noise_ceiling.is_none()));
+    assert!(std::fs::read_to_string(dir.join("eval.md")).unwrap().contains("The references' own noise at r = 0"));
     // plus reproject-dilate at roughness 0, and the renormalized box row and the two bounds
     // at every bucket (no fitted grid here, so no runtime rows)
     assert_eq!(

@@ -19,6 +19,7 @@ use crate::tonemap::reinhard;
 use crate::warp::Warp;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 
 /// The bounds' row names.
 pub const NAME: &str = "best-fetch";
@@ -207,4 +208,87 @@ pub fn set_gap_closed(results: &mut [MethodResult]) {
             m.gap_closed = Some((none - m.tm_rmse) / (none - best));
         }
     }
+}
+
+/// How much of a bucket's errors is its references' own noise: some of its queries traced
+/// again with quieter references from streams of their own (`validation::quiet_references`).
+///
+/// Both bounds pick, per query, the fetch nearest its reference, noise included: against
+/// 16-sample mirror references `best-fetch` reproduces the reference's noise rather than
+/// the radiance it estimates. Scored against the quiet references instead (still chosen on
+/// the set's own), they lose that advantage. And a lookup with no error at all would still
+/// score the references' noise against them: the quiet references themselves, scored
+/// against the set's, show how far any lookup can get, so `ceiling_*` is the largest share
+/// of the `none` → bound gap any row can close in the bucket's table.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct NoiseCeiling {
+    /// Queries traced again (the set's first), and samples per quiet reference.
+    pub queries: usize,
+    pub spp: u32,
+    /// Tone-mapped RMSE of the set's references against the quiet ones.
+    pub reference_vs_quiet: f64,
+    /// Tone-mapped RMSE on these queries against the set's references and against the
+    /// quiet ones: `none`, `best-fetch` and `best-aim` (both chosen on the set's references).
+    pub none: (f64, f64),
+    pub best_fetch: (f64, f64),
+    pub best_aim: (f64, f64),
+    /// Share of the `none` → `best-fetch` (`best-aim`) gap, against the set's references,
+    /// that the quiet references close as a lookup: no row can close more. (`best-aim` only
+    /// searches the query's own ray, so with quiet enough references a lookup with no error
+    /// beats it and its ceiling passes 1.)
+    pub ceiling_fetch: f64,
+    pub ceiling_aim: f64,
+    /// The bucket claim's champion (the runtime where there is one): its name, its
+    /// tone-mapped RMSE against the set's and the quiet references, and its share of the
+    /// `none` → `best-fetch` and → `best-aim` gaps against the quiet references.
+    pub champion: Option<(String, f64, f64)>,
+    pub champion_gap_quiet: Option<(f64, f64)>,
+}
+
+/// The [`NoiseCeiling`] of `set` on the queries `quiet` traced again (its first queries,
+/// the same directions; `None` if they are not), given the `none` row's and the champion's
+/// estimates for them.
+pub fn noise_ceiling(
+    warp: &Warp,
+    set: &ValidationSet,
+    (quiet, spp): (&crate::trace::truth::TracedQueries, u32),
+    none: &[Vec3],
+    champion: Option<(String, Vec<Vec3>)>,
+    exposure: f32,
+) -> Option<NoiseCeiling> {
+    let n = quiet.dirs.len();
+    if n == 0 || n > set.dirs.len() || quiet.dirs[..] != set.dirs[..n] || none.len() != n {
+        return None;
+    }
+    let (reference, quiet_ref) = (&set.reference[..n], &quiet.reference[..]);
+    let tm = |est: &[Vec3], r: &[Vec3]| super::metrics::error_stats(est, r, exposure).tm_rmse;
+    let both = |est: &[Vec3]| (tm(est, reference), tm(est, quiet_ref));
+    let lods = bound_lods(warp, 0.0);
+    let grids: Vec<CoarseGrid> = lods.iter().map(|&lod| CoarseGrid::new(warp, lod, exposure)).collect();
+    let fetch: Vec<Vec3> = (0..n).into_par_iter().map(|k| best_fetch(warp, reference[k], &grids, exposure)).collect();
+    let aim: Vec<Vec3> = (0..n)
+        .into_par_iter()
+        .map(|k| best_aim(warp, set.position_of(k), set.dirs[k], reference[k], &lods, exposure))
+        .collect();
+    let (none, best_fetch, best_aim) = (both(none), both(&fetch), both(&aim));
+    let reference_vs_quiet = tm(quiet_ref, reference);
+    let share = |from: f64, to: f64, bound: f64| if from > bound { (from - to) / (from - bound) } else { 0.0 };
+    let champion = champion.filter(|(_, e)| e.len() == n).map(|(name, e)| {
+        let (a, b) = both(&e);
+        (name, a, b)
+    });
+    let champion_gap_quiet =
+        champion.as_ref().map(|c| (share(none.1, c.2, best_fetch.1), share(none.1, c.2, best_aim.1)));
+    Some(NoiseCeiling {
+        queries: n,
+        spp,
+        reference_vs_quiet,
+        none,
+        best_fetch,
+        best_aim,
+        ceiling_fetch: share(none.0, reference_vs_quiet, best_fetch.0),
+        ceiling_aim: share(none.0, reference_vs_quiet, best_aim.0),
+        champion,
+        champion_gap_quiet,
+    })
 }

@@ -84,6 +84,14 @@ pub struct EvalSettings {
     pub surface_points: u32,
     #[serde(default)]
     pub surface_dirs: u32,
+    /// The mirror set's first `quiet_positions` positions (every direction) traced again
+    /// with `quiet_spp` samples from streams of their own, to measure how much of the
+    /// mirror bucket's errors is its 16-sample references' own noise
+    /// ([`bound::NoiseCeiling`]; 0: not measured).
+    #[serde(default)]
+    pub quiet_positions: u32,
+    #[serde(default)]
+    pub quiet_spp: u32,
 }
 
 /// The roughness buckets every row is judged on (perceptual roughness; α = r²).
@@ -116,6 +124,8 @@ impl EvalSettings {
             diffuse_spp: 1024,
             surface_points: 256,
             surface_dirs: 32,
+            quiet_positions: 16,
+            quiet_spp: 256,
         }
     }
 
@@ -134,6 +144,8 @@ impl EvalSettings {
             diffuse_spp: 16,
             surface_points: 16,
             surface_dirs: 8,
+            quiet_positions: 4,
+            quiet_spp: 32,
             ..Self::standard()
         }
     }
@@ -222,6 +234,11 @@ pub struct BucketSummary {
     /// viewpoints would score. Absent without views or in files written before it.
     #[serde(default)]
     pub flip_claim: Option<FlipClaim>,
+    /// How much of the bucket's errors is its references' own noise, measured against
+    /// quieter references of some of its queries (the mirror bucket; absent elsewhere and
+    /// in files written before it).
+    #[serde(default)]
+    pub noise_ceiling: Option<bound::NoiseCeiling>,
 }
 
 /// See [`BucketSummary::flip_claim`].
@@ -369,7 +386,16 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         }
         bar.inc(1);
         let spp = if r == 0.0 { settings.reference_spp } else { settings.rough_reference_spp };
-        summaries.push(bucket_summary(set, r, spp, (&rows, &results), shading, exposure, &view_refs));
+        let mut summary = bucket_summary(set, r, spp, (&rows, &results), shading, exposure, &view_refs);
+        if r == 0.0 && settings.quiet_positions > 0 && settings.quiet_spp > 0 {
+            bar.set_message("eval: quiet references");
+            let positions = settings.quiet_positions as usize;
+            let quiet = validation::quiet_references(scene, tracer, set, positions, settings.quiet_spp, settings.seed);
+            reference_rays += quiet.rays;
+            let quiet = (&quiet, settings.quiet_spp);
+            summary.noise_ceiling = noise_ceiling(set, quiet, (&rows, &summary.claim.0), shading, exposure);
+        }
+        summaries.push(summary);
         rows_out.extend(results);
     }
     let fitted_levels = corrective_rows
@@ -543,7 +569,29 @@ fn bucket_summary(
         view_reference_spp: views.first().map_or(0, |v| v.spp),
         view_noise_flip: noise / pixels.max(1) as f64,
         flip_claim,
+        noise_ceiling: None,
     }
+}
+
+/// The bucket's [`bound::NoiseCeiling`] on the queries `quiet` traced again: `none` and the
+/// claim's champion (`label`, when it is a row) estimated as their rows answer.
+fn noise_ceiling(
+    set: &ValidationSet,
+    quiet: (&crate::trace::truth::TracedQueries, u32),
+    (rows, champion): (&[methods::Row], &str),
+    shading: Glossy,
+    exposure: f32,
+) -> Option<bound::NoiseCeiling> {
+    // (the mirror bucket's labels are the rows' names: one mip rule)
+    let row = |label: &str| rows.iter().find(|row| row.name() == label);
+    let n = quiet.0.dirs.len();
+    let on_quiet = |row: &methods::Row| {
+        let all = methods::estimates(row, shading, set);
+        all[..n.min(all.len())].to_vec()
+    };
+    let none = on_quiet(row(Method::None.name())?);
+    let champion = row(champion).map(|r| (r.name(), on_quiet(r)));
+    bound::noise_ceiling(shading.warp, set, quiet, &none, champion, exposure)
 }
 
 /// The ꟻLIP claim of the champion's row `a` against the challenger's row and label, with

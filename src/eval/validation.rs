@@ -140,3 +140,32 @@ pub fn rough_set(
     let hidden = (0..queries.dirs.len()).map(|k| mirror.hidden[base(k)]).collect();
     ValidationSet { queries, oracle_dir, hidden }
 }
+
+/// Streams of the quiet references: apart from the mirror set's (0) and the rough
+/// buckets' (1 to 5).
+const QUIET_BUCKET: u64 = 0x51E7;
+
+/// The mirror set's first `positions` positions, every direction, traced again with `spp`
+/// samples each from streams of their own: the same queries (the same directions), with
+/// references independent of the set's and quieter (see `bound::NoiseCeiling`).
+pub fn quiet_references(
+    scene: &Scene,
+    tracer: &Tracer,
+    mirror: &ValidationSet,
+    positions: usize,
+    spp: u32,
+    seed: u64,
+) -> TracedQueries {
+    let renderer = Renderer::new(scene, tracer);
+    let dpp = mirror.dirs_per_position;
+    let positions = positions.min(mirror.positions.len());
+    let parts: Vec<TracedQueries> = mirror.positions[..positions]
+        .par_iter()
+        .enumerate()
+        .map(|(p, b)| {
+            let streams = Streams { seed, dirs_per_position: dpp, first: p, roughness: 0.0, bucket: QUIET_BUCKET };
+            truth::trace_queries(&renderer, std::slice::from_ref(b), dpp, spp, &streams)
+        })
+        .collect();
+    TracedQueries::concat(parts)
+}

@@ -209,6 +209,31 @@ pub fn buckets_table(r: &EvalReport) -> String {
             ))
         );
     }
+    for b in &r.buckets {
+        let Some(c) = &b.noise_ceiling else { continue };
+        let _ = writeln!(
+            s,
+            "\nThe references' own noise at r = {}: {} of these queries traced again with {} samples each from streams of their own. Tone-mapped RMSE against the bucket's references / against the quiet ones: none {:.4} / {:.4}, best-fetch {:.4} / {:.4}, best-aim {:.4} / {:.4} (both bounds chosen on the bucket's references){}. The quiet references themselves score {:.4} against the bucket's: a lookup with no error at all, so no row can close more than {:.2} of the none → best-fetch gap or {:.2} of the none → best-aim gap in the table above.",
+            b.roughness,
+            c.queries,
+            c.spp,
+            c.none.0,
+            c.none.1,
+            c.best_fetch.0,
+            c.best_fetch.1,
+            c.best_aim.0,
+            c.best_aim.1,
+            match (&c.champion, c.champion_gap_quiet) {
+                (Some((name, a, q)), Some((f, g))) => format!(
+                    ", {name} {a:.4} / {q:.4}: against the quiet references it closes {f:.2} of the none → best-fetch gap and {g:.2} of the none → best-aim gap"
+                ),
+                _ => String::new(),
+            },
+            c.reference_vs_quiet,
+            c.ceiling_fetch,
+            c.ceiling_aim
+        );
+    }
     s
 }
 
