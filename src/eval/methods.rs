@@ -282,7 +282,12 @@ pub fn rows<'a>(
 
 /// Estimates of `row` for every query of `set` (parallel, deterministic).
 pub fn estimates(row: &Row, shading: Glossy, set: &ValidationSet) -> Vec<Vec3> {
-    (0..set.dirs.len())
+    estimates_of_first(row, shading, set, set.dirs.len())
+}
+
+/// [`estimates`] of the set's first `n` queries.
+pub fn estimates_of_first(row: &Row, shading: Glossy, set: &ValidationSet, n: usize) -> Vec<Vec3> {
+    (0..n.min(set.dirs.len()))
         .into_par_iter()
         .map(|k| row.estimate(shading, set.position_of(k), set.dirs[k], set.oracle_dir[k], set.roughness[k]))
         .collect()

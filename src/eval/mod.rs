@@ -585,10 +585,7 @@ fn noise_ceiling(
     // (the mirror bucket's labels are the rows' names: one mip rule)
     let row = |label: &str| rows.iter().find(|row| row.name() == label);
     let n = quiet.0.dirs.len();
-    let on_quiet = |row: &methods::Row| {
-        let all = methods::estimates(row, shading, set);
-        all[..n.min(all.len())].to_vec()
-    };
+    let on_quiet = |row: &methods::Row| methods::estimates_of_first(row, shading, set, n);
     let none = on_quiet(row(Method::None.name())?);
     let champion = row(champion).map(|r| (r.name(), on_quiet(r)));
     bound::noise_ceiling(shading.warp, set, quiet, &none, champion, exposure)

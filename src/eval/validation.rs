@@ -94,15 +94,7 @@ pub fn validation_set(
         positions.push(p);
     }
     let dpp = s.dirs_per_position as usize;
-    let parts: Vec<TracedQueries> = positions
-        .par_iter()
-        .enumerate()
-        .map(|(p, b)| {
-            let streams = Streams { seed: s.seed, dirs_per_position: dpp, first: p, roughness: 0.0, bucket: 0 };
-            truth::trace_queries(&renderer, std::slice::from_ref(b), dpp, s.reference_spp, &streams)
-        })
-        .collect();
-    let queries = TracedQueries::concat(parts);
+    let queries = trace_at(&renderer, &positions, (dpp, dpp), s.reference_spp, (s.seed, 0.0, 0));
     let (oracle_dir, hidden): (Vec<Vec3>, Vec<bool>) = (0..queries.dirs.len())
         .into_par_iter()
         .map(|k| truth::oracle(scene, tracer, probe_pos, queries.position_of(k), queries.dirs[k]))
@@ -126,15 +118,7 @@ pub fn rough_set(
     let renderer = Renderer::new(scene, tracer);
     let base_dpp = mirror.dirs_per_position;
     let (positions, dirs) = (positions.min(mirror.positions.len()), dirs.min(base_dpp));
-    let parts: Vec<TracedQueries> = mirror.positions[..positions]
-        .par_iter()
-        .enumerate()
-        .map(|(p, b)| {
-            let streams = Streams { seed, dirs_per_position: base_dpp, first: p, roughness: r, bucket };
-            truth::trace_queries(&renderer, std::slice::from_ref(b), dirs, spp, &streams)
-        })
-        .collect();
-    let queries = TracedQueries::concat(parts);
+    let queries = trace_at(&renderer, &mirror.positions[..positions], (dirs, base_dpp), spp, (seed, r, bucket));
     let base = |k: usize| (k / dirs) * base_dpp + k % dirs;
     let oracle_dir = (0..queries.dirs.len()).map(|k| mirror.oracle_dir[base(k)]).collect();
     let hidden = (0..queries.dirs.len()).map(|k| mirror.hidden[base(k)]).collect();
@@ -159,12 +143,26 @@ pub fn quiet_references(
     let renderer = Renderer::new(scene, tracer);
     let dpp = mirror.dirs_per_position;
     let positions = positions.min(mirror.positions.len());
-    let parts: Vec<TracedQueries> = mirror.positions[..positions]
+    trace_at(&renderer, &mirror.positions[..positions], (dpp, dpp), spp, (seed, 0.0, QUIET_BUCKET))
+}
+
+/// The queries of the validation set's first `positions.len()` positions, `dirs` of each
+/// position's `dirs_per_position` directions, traced with `spp`-sample references of
+/// roughness `r` from the streams of `bucket` (0: the mirror set's), in parallel over the
+/// positions.
+fn trace_at(
+    renderer: &Renderer,
+    positions: &[Vec3],
+    (dirs, dirs_per_position): (usize, usize),
+    spp: u32,
+    (seed, roughness, bucket): (u64, f32, u64),
+) -> TracedQueries {
+    let parts: Vec<TracedQueries> = positions
         .par_iter()
         .enumerate()
         .map(|(p, b)| {
-            let streams = Streams { seed, dirs_per_position: dpp, first: p, roughness: 0.0, bucket: QUIET_BUCKET };
-            truth::trace_queries(&renderer, std::slice::from_ref(b), dpp, spp, &streams)
+            let streams = Streams { seed, dirs_per_position, first: p, roughness, bucket };
+            truth::trace_queries(renderer, std::slice::from_ref(b), dirs, spp, &streams)
         })
         .collect();
     TracedQueries::concat(parts)

@@ -337,7 +337,7 @@ impl Lookup {
         // each lane's interval corners, as four arrays, then the blend of all lanes at once
         let mut q = [[0.0f32; LANES]; 4];
         for l in 0..LANES {
-            [q[0][l], q[1][l], q[2][l], q[3][l]] = self.cells[i[l] * (LOOKUP_NODES - 1) + j[l]];
+            [q[0][l], q[1][l], q[2][l], q[3][l]] = self.cell(i[l], j[l]);
         }
         let mut out = [0.0f32; LANES];
         for l in 0..LANES {
@@ -376,8 +376,14 @@ impl Lookup {
     /// Bilinear between the nodes at (row i, column j) with fractions (a, b).
     #[inline(always)]
     fn blend(&self, i: usize, a: f32, j: usize, b: f32) -> f32 {
-        // (i, j ≤ nodes − 2: `node_below` clamps them)
-        bilinear(self.cells[i * (LOOKUP_NODES - 1) + j], a, b)
+        bilinear(self.cell(i, j), a, b)
+    }
+
+    /// The corners of the interval at (row i, column j), both ≤ nodes − 2 (`node_below`
+    /// clamps them).
+    #[inline(always)]
+    fn cell(&self, i: usize, j: usize) -> [f32; 4] {
+        self.cells[i * (LOOKUP_NODES - 1) + j]
     }
 }
 
