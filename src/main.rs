@@ -5,7 +5,7 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use warpfit::bakefile;
-use warpfit::eval::EvalSettings;
+use warpfit::eval::{EvalSettings, RenderSettings};
 use warpfit::files;
 use warpfit::fit::{FitSettings, MapSets, Solver};
 use warpfit::jobs::run::{self as job, Output, RunSettings, StoreOptions};
@@ -287,10 +287,14 @@ struct FitArgs {
     /// the fallback's (at most 1).
     #[arg(long, default_value_t = FitSettings::standard().selection_margin)]
     selection_margin: f64,
-    /// Weight of the pull of every map towards the proxy (mean squared log-scale of the
-    /// shifted distance over the proxy's).
+    /// Weight of the pull of every map towards its anchor (mean squared log-scale of the
+    /// shifted distance over the anchor's).
     #[arg(long, default_value_t = FitSettings::standard().size_weight)]
     size_weight: f64,
+    /// Where the maps' anchor lies: this fraction of the way (in log-scale) from the proxy
+    /// (0) to the grid's raytraced distances (1).
+    #[arg(long, default_value_t = FitSettings::standard().depth_prior)]
+    depth_prior: f64,
     /// Fraction of each cell's training and check positions on the surfaces around it
     /// (reflection directions), the rest in its volume (in [0, 1]).
     #[arg(long, default_value_t = FitSettings::standard().surface_fraction)]
@@ -339,6 +343,7 @@ impl FitArgs {
             format!("--precision={}", name(self.precision.to_possible_value())),
             format!("--selection-margin={}", self.selection_margin),
             format!("--size-weight={}", self.size_weight),
+            format!("--depth-prior={}", self.depth_prior),
             format!("--surface-fraction={}", self.surface_fraction),
             format!("--proxy={}", name(self.proxy.to_possible_value())),
         ];
@@ -365,6 +370,7 @@ impl FitArgs {
             "--selection-margin must be in (0, 1]"
         );
         anyhow::ensure!(self.size_weight.is_finite() && self.size_weight >= 0.0, "--size-weight must be ≥ 0");
+        anyhow::ensure!((0.0..=1.0).contains(&self.depth_prior), "--depth-prior must be in [0, 1]");
         anyhow::ensure!((0.0..=1.0).contains(&self.surface_fraction), "--surface-fraction must be in [0, 1]");
         Ok(FitSettings {
             map_res: self.map_res,
@@ -381,6 +387,7 @@ impl FitArgs {
             resolution_study: self.resolution_study,
             selection_margin: self.selection_margin,
             size_weight: self.size_weight,
+            depth_prior: self.depth_prior,
             surface_fraction: self.surface_fraction,
             proxy: self.proxy,
             ..FitSettings::standard()
@@ -404,6 +411,10 @@ struct EvalArgs {
     /// difference it reports).
     #[arg(long, default_value_t = EvalSettings::standard().rough_reference_spp)]
     rough_reference_spp: u32,
+    /// Lobe samples per pixel of the rendered views' references (the views behind each
+    /// row's ꟻLIP; eval.md states the ꟻLIP their own noise scores).
+    #[arg(long, default_value_t = RenderSettings::standard().reference_spp)]
+    view_reference_spp: u32,
     /// Depth mip the depth-based warps read.
     #[arg(long, default_value_t = WarpOptions::standard().depth_lod)]
     depth_mip: f32,
@@ -422,6 +433,10 @@ impl EvalArgs {
             dirs_per_position: self.dirs.max(1),
             reference_spp: self.reference_spp.max(1),
             rough_reference_spp: self.rough_reference_spp.max(1),
+            renders: Some(RenderSettings {
+                reference_spp: self.view_reference_spp.max(1),
+                ..RenderSettings::standard()
+            }),
             seed: self.eval_seed,
             options: WarpOptions { depth_lod: self.depth_mip, relax_texels: self.relax, ..WarpOptions::standard() },
             ..EvalSettings::standard()

@@ -72,8 +72,13 @@ pub struct FitSettings {
     pub iterations: u32,
     /// Weight of the tile-smoothness term (squared differences of neighbouring log-scales).
     pub smooth_weight: f64,
-    /// Weight of the size term (squared log-scales: stay near the proxy).
+    /// Weight of the size term (squared log-scales from the anchor: stay near it).
     pub size_weight: f64,
+    /// Where the size term's anchor lies, per texel: this fraction of the way in log-scale
+    /// from the proxy (0) to the grid's raytraced distance (1). Fits written before it
+    /// existed pulled towards the proxy (0).
+    #[serde(default)]
+    pub depth_prior: f64,
     /// Charbonnier ε as a fraction of the cell's mean reference radiance: errors far above
     /// it are penalised linearly (robust), errors below it quadratically.
     pub robust_scale: f64,
@@ -131,6 +136,7 @@ impl FitSettings {
             iterations: 2,
             smooth_weight: 1e-3,
             size_weight: 1.0,
+            depth_prior: 0.5,
             robust_scale: 0.05,
             rough_fraction: 0.5,
             level1: false,
@@ -672,8 +678,11 @@ struct Refined {
 fn refine(ctx: CellContext, train: Vec<Sample>, distance: &[f32], sees_only_sky: bool, s: &FitSettings) -> Refined {
     let n2 = (ctx.res * ctx.res) as usize;
     let celldepth_start = ctx.log_scales_of(distance);
+    let prior = if sees_only_sky { 0.0 } else { s.depth_prior };
+    let anchor = celldepth_start.iter().map(|x| x * prior).collect();
     let mut problem = CellProblem::new(ctx, vec![0.0; n2], train)
         .with_weights(s.smooth_weight, s.size_weight)
+        .with_anchor(anchor)
         .with_robust_scale(s.robust_scale);
     let start = if !sees_only_sky && problem.cost(&celldepth_start) < problem.cost(&vec![0.0; n2]) {
         problem.set_start(celldepth_start.clone());

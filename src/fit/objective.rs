@@ -19,9 +19,13 @@
 //!   keeps reference noise and queries no single fetch can fix (hidden from A) from
 //!   dragging the map;
 //! - `smooth_weight` × mean squared difference of neighbouring texels' `s` (tile smoothness);
-//! - `size_weight` × mean `s²`: stay near the proxy unless the data pays, so that a map
-//!   departs from its neighbours (and from cells without a map) only where the scene makes
-//!   it (seams between cells are what a viewer sees first: ARCHITECTURE.md).
+//! - `size_weight` × mean `(s − a)²`: stay near the anchor `a` unless the data pays. The
+//!   anchor lies between the proxy (`a = 0`) and the grid's raytraced distances, a fraction
+//!   `depth_prior` of the way in log-scale (`FitSettings::depth_prior`): the proxy alone
+//!   keeps a map near its neighbours (and cells without a map; seams between cells are
+//!   what a viewer sees first: ARCHITECTURE.md), but a texel the data leaves free then
+//!   falls back to a surface that is not there, which rough lookups, averaging many
+//!   texels, show; halfway between, both hold (measured: ARCHITECTURE.md).
 //!
 //! Solvers (chosen by measurement, see ARCHITECTURE.md): Brent's method per texel in
 //! coordinate-descent sweeps (each texel only touches the queries in its bilinear
@@ -157,6 +161,8 @@ pub struct CellProblem<'a> {
     eps: f64,
     smooth_weight: f64,
     size_weight: f64,
+    /// The log-scales the size term pulls towards.
+    anchor: Vec<f64>,
     evaluations: Cell<u64>,
 }
 
@@ -260,6 +266,7 @@ impl<'a> CellProblem<'a> {
             eps: 0.05 * mean_reference,
             smooth_weight: 0.0,
             size_weight: 0.0,
+            anchor: vec![0.0; n2],
             evaluations: Cell::new(0),
         }
     }
@@ -273,6 +280,13 @@ impl<'a> CellProblem<'a> {
     /// Sets the weights of the tile-smoothness and size terms.
     pub fn with_weights(mut self, smooth_weight: f64, size_weight: f64) -> Self {
         (self.smooth_weight, self.size_weight) = (smooth_weight, size_weight);
+        self
+    }
+
+    /// Sets the log-scales the size term pulls towards (the proxy itself, all 0, unless set).
+    pub fn with_anchor(mut self, anchor: Vec<f64>) -> Self {
+        debug_assert_eq!(anchor.len(), self.anchor.len());
+        self.anchor = anchor;
         self
     }
 
@@ -409,7 +423,7 @@ impl<'a> CellProblem<'a> {
     fn regulariser(&self, s: &[f64]) -> f64 {
         let smooth = self.pairs.iter().map(|&(a, b)| (s[a as usize] - s[b as usize]).powi(2)).sum::<f64>()
             / self.pairs.len().max(1) as f64;
-        let size = s.iter().map(|x| x * x).sum::<f64>() / s.len().max(1) as f64;
+        let size = s.iter().zip(&self.anchor).map(|(x, a)| (x - a) * (x - a)).sum::<f64>() / s.len().max(1) as f64;
         self.smooth_weight * smooth + self.size_weight * size
     }
 
@@ -689,7 +703,9 @@ impl CostFunction for TexelProblem<'_, '_> {
             }
         }
         let n = self.s.len().max(1) as f64;
-        let cost = data + c.smooth_weight * smooth / c.pairs.len().max(1) as f64 + c.size_weight * x * x / n;
+        let cost = data
+            + c.smooth_weight * smooth / c.pairs.len().max(1) as f64
+            + c.size_weight * (x - c.anchor[self.k]).powi(2) / n;
         Ok(if cost.is_finite() { cost } else { f64::MAX })
     }
 }
@@ -825,6 +841,31 @@ mod tests {
         }
     }
 
+    /// The size term pulls towards the anchor, not towards the proxy: where it outweighs the
+    /// data, a solved texel lands on its anchor, and with no pull it does not.
+    #[test]
+    fn the_size_term_pulls_each_texel_towards_its_anchor() {
+        let warp = wall_warp(1.0, 64);
+        let w = wall_problem(&warp, 1.0, 300);
+        let anchor: Vec<f64> = (0..64).map(|i| ((i * 13 % 7) as f64 - 3.0) / 4.0).collect();
+        let solve = |size_weight: f64| {
+            let mut cell = CellProblem::new(w.ctx, vec![0.0; 64], w.samples.clone())
+                .with_weights(0.0, size_weight)
+                .with_anchor(anchor.clone())
+                .with_robust_scale(0.05);
+            let free = cell.free_texels();
+            assert!(free.len() > 8, "the wall's queries touch {} texels", free.len());
+            (cell.solve(Solver::Brent, 2).params, free)
+        };
+        let (pulled, free) = solve(1e6);
+        for &k in &free {
+            assert!((pulled[k] - anchor[k]).abs() < 1e-3, "texel {k}: {} against anchor {}", pulled[k], anchor[k]);
+        }
+        let (free_fit, _) = solve(0.0);
+        let off = free.iter().filter(|&&k| (free_fit[k] - anchor[k]).abs() > 0.05).count();
+        assert!(off > free.len() / 2, "without the pull only {off} of {} texels leave the anchor", free.len());
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
         /// Coordinate descent is only right if a texel's 1-D problem changes exactly as the
@@ -837,7 +878,11 @@ mod tests {
             let warp = wall_warp(1.0, 64);
             let w = wall_problem(&warp, 1.0, 300);
             let start = w.ctx.log_scales_of(&w.distance).iter().map(|s| s * 1.3).collect();
-            let cell = CellProblem::new(w.ctx, start, w.samples).with_weights(1e-3, 1e-4).with_robust_scale(0.05);
+            let anchor = (0..64).map(|i| ((i * 13 % 7) as f64 - 3.0) / 4.0).collect();
+            let cell = CellProblem::new(w.ctx, start, w.samples)
+                .with_weights(1e-3, 1e-4)
+                .with_anchor(anchor)
+                .with_robust_scale(0.05);
             let s: Vec<f64> = (0..64)
                 .map(|i| (((i as u32).wrapping_mul(2654435761) ^ seed) % 1000) as f64 / 500.0 - 1.0)
                 .collect();
