@@ -674,7 +674,7 @@ struct Refined {
 
 /// Refines a cell's map at `ctx.res` against `train`. Two starts: the proxy itself and the
 /// grid's raytraced distances `distance` (at the map's resolution); the one that explains the
-/// training queries better is refined (the size term pulls towards the proxy either way).
+/// training queries better is refined (the size term pulls towards the anchor either way).
 fn refine(ctx: CellContext, train: Vec<Sample>, distance: &[f32], sees_only_sky: bool, s: &FitSettings) -> Refined {
     let n2 = (ctx.res * ctx.res) as usize;
     let celldepth_start = ctx.log_scales_of(distance);
