@@ -291,6 +291,10 @@ struct FitArgs {
     /// shifted distance over the anchor's).
     #[arg(long, default_value_t = FitSettings::standard().size_weight)]
     size_weight: f64,
+    /// Fraction of each cell's training and check queries that are rough lookups (the rest
+    /// mirror lookups), in [0, 1].
+    #[arg(long, default_value_t = FitSettings::standard().rough_fraction)]
+    rough_fraction: f32,
     /// Where the maps' anchor lies: this fraction of the way (in log-scale) from the proxy
     /// (0) to the grid's raytraced distances (1).
     #[arg(long, default_value_t = FitSettings::standard().depth_prior)]
@@ -344,6 +348,7 @@ impl FitArgs {
             format!("--selection-margin={}", self.selection_margin),
             format!("--size-weight={}", self.size_weight),
             format!("--depth-prior={}", self.depth_prior),
+            format!("--rough-fraction={}", self.rough_fraction),
             format!("--surface-fraction={}", self.surface_fraction),
             format!("--proxy={}", name(self.proxy.to_possible_value())),
         ];
@@ -371,6 +376,7 @@ impl FitArgs {
         );
         anyhow::ensure!(self.size_weight.is_finite() && self.size_weight >= 0.0, "--size-weight must be ≥ 0");
         anyhow::ensure!((0.0..=1.0).contains(&self.depth_prior), "--depth-prior must be in [0, 1]");
+        anyhow::ensure!((0.0..=1.0).contains(&self.rough_fraction), "--rough-fraction must be in [0, 1]");
         anyhow::ensure!((0.0..=1.0).contains(&self.surface_fraction), "--surface-fraction must be in [0, 1]");
         Ok(FitSettings {
             map_res: self.map_res,
@@ -388,6 +394,7 @@ impl FitArgs {
             selection_margin: self.selection_margin,
             size_weight: self.size_weight,
             depth_prior: self.depth_prior,
+            rough_fraction: self.rough_fraction,
             surface_fraction: self.surface_fraction,
             proxy: self.proxy,
             ..FitSettings::standard()
