@@ -91,8 +91,8 @@ impl std::fmt::Display for Selection {
 
 /// A stored map must beat the proxy alone by this factor on held-out queries. 1: any win.
 /// When maps held planes of their own and level-0 cells read another method, a map that won
-/// by noise left a seam, and 0.95 was kept; a map is now the proxy's surface pulled back
-/// towards the proxy unless the data pays, so one that wins by noise costs little, and the
+/// by noise left a seam, and 0.95 was kept; a map now shifts the proxy's surface and is
+/// pulled towards its anchor unless the data pays, so one that wins by noise costs little, and the
 /// margin only discarded maps that helped: on `courtyard` 0.95 stored 183 maps and lost to
 /// the box at r = 0.25 (tone-mapped RMSE), 1.0 stored 833 and did not; `cornell` and
 /// `torture` were unchanged within 1% (ARCHITECTURE.md).
