@@ -127,8 +127,21 @@ impl Shear {
     }
 }
 
+/// The edge functions of [`intersect_watertight`] in double precision, for a ray through a
+/// vertex or along an edge (some single-precision function exactly 0): shared edges stay
+/// exact. Rare, so kept out of line and out of the hot test.
+#[cold]
+#[inline(never)]
+fn edge_functions_f64(ax: f32, ay: f32, bx: f32, by: f32, cx: f32, cy: f32) -> (f32, f32, f32) {
+    (
+        (cx as f64 * by as f64 - cy as f64 * bx as f64) as f32,
+        (ax as f64 * cy as f64 - ay as f64 * cx as f64) as f32,
+        (bx as f64 * ay as f64 - by as f64 * ax as f64) as f32,
+    )
+}
+
 /// Watertight ray/triangle test (Woop, Benthin & Wald 2013). Returns t or +inf.
-#[inline]
+#[inline(always)]
 fn intersect_watertight(s: &Shear, org: Vec3A, v0: Vec3A, v1: Vec3A, v2: Vec3A, tmin: f32, tmax: f32) -> f32 {
     let a = permute(v0 - org, s.k);
     let b = permute(v1 - org, s.k);
@@ -144,10 +157,7 @@ fn intersect_watertight(s: &Shear, org: Vec3A, v0: Vec3A, v1: Vec3A, v2: Vec3A, 
     let mut w = bx * ay - by * ax;
     // (`&` and `|` on the comparisons rather than `&&` and `||`: no branch per comparison)
     if (u == 0.0) | (v == 0.0) | (w == 0.0) {
-        // Edge cases: redo the edge functions in double precision so shared edges are exact.
-        u = (cx as f64 * by as f64 - cy as f64 * bx as f64) as f32;
-        v = (ax as f64 * cy as f64 - ay as f64 * cx as f64) as f32;
-        w = (bx as f64 * ay as f64 - by as f64 * ax as f64) as f32;
+        (u, v, w) = edge_functions_f64(ax, ay, bx, by, cx, cy);
     }
     if ((u < 0.0) | (v < 0.0) | (w < 0.0)) & ((u > 0.0) | (v > 0.0) | (w > 0.0)) {
         return f32::INFINITY;
