@@ -72,10 +72,11 @@ pub struct Tracer {
     /// Per leaf slot (the order of `bvh.primitive_indices`), so a leaf's primitives are
     /// read from consecutive memory: a triangle's vertices in the normalised frame, and in
     /// the first vertex's `w` the slot's kind (`SLOT_TRIANGLE`, `SLOT_PADDING` or the
-    /// sphere's index), so the hot loop never reads `primitive_indices`.
+    /// sphere's index), so the hot loop never reads `primitive_indices`; a triangle's second
+    /// and third `w` hold its index and material (as bits), so a hit reads them from the
+    /// vertices it was just tested with rather than from two arrays in input order.
     slot_tri: Vec<[Vec4; 3]>,
     tri_count: usize,
-    tri_material: Vec<u32>,
     sphere_center: Vec<Vec3A>,
     sphere_radius: Vec<f32>,
     sphere_inward: Vec<bool>,
@@ -252,7 +253,8 @@ impl Tracer {
                 let nt = tri_v0.len();
                 let tag = |v: Vec3A, tag: u32| v.extend(f32::from_bits(tag));
                 if p < nt {
-                    [tag(tri_v0[p], SLOT_TRIANGLE), tri_v1[p].extend(0.0), tri_v2[p].extend(0.0)]
+                    let material = scene.triangles.material.get(p).copied().unwrap_or(0);
+                    [tag(tri_v0[p], SLOT_TRIANGLE), tag(tri_v1[p], p as u32), tag(tri_v2[p], material)]
                 } else if p - nt < sphere_center.len() {
                     [tag(Vec3A::ZERO, (p - nt) as u32), Vec4::ZERO, Vec4::ZERO]
                 } else {
@@ -264,7 +266,6 @@ impl Tracer {
             bvh,
             slot_tri,
             tri_count: tri_v0.len(),
-            tri_material: scene.triangles.material.clone(),
             sphere_center,
             sphere_radius,
             sphere_inward: scene.spheres.inward.clone(),
@@ -336,13 +337,18 @@ impl Tracer {
         if !t.is_finite() {
             return None;
         }
-        let prim = self.bvh.primitive_indices[slot as usize] as usize;
         let t_world = t / self.scale;
         let position = origin + dir * t_world;
         let nt = self.tri_count;
+        let [w0, w1, w2] = self.slot_tri[slot as usize];
+        let prim = if w0.w.to_bits() == SLOT_TRIANGLE {
+            w1.w.to_bits() as usize
+        } else {
+            self.bvh.primitive_indices[slot as usize] as usize
+        };
         let (normal, material) = if prim < nt {
-            let [v0, v1, v2] = self.slot_tri[slot as usize].map(Vec3A::from_vec4);
-            (Vec3::from((v1 - v0).cross(v2 - v0).normalize_or_zero()), self.tri_material[prim])
+            let [v0, v1, v2] = [w0, w1, w2].map(Vec3A::from_vec4);
+            (Vec3::from((v1 - v0).cross(v2 - v0).normalize_or_zero()), w2.w.to_bits())
         } else {
             let k = prim - nt;
             let p = o + d * t;
