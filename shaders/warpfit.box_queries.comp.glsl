@@ -73,6 +73,8 @@ const uint ATLAS_CORRECTIVE = 0u;
 const uint ATLAS_IRRADIANCE = 1u;
 const uint ATLAS_MOMENTS = 2u;
 const uint ATLAS_SCALE = 3u;
+const float ROUGH_MAP_FROM = 0.5;
+const float ROUGH_MAP_TO = 0.75;
 const uint FALLBACK = 255u;
 const uint BLEND = 255u;
 const uint RELAX = 255u;
@@ -363,16 +365,16 @@ float inv_dist(vec3 v_4) {
     float _e6 = _group_0_binding_7_cs.probe.w;
     uint _e10 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e11 = probe_sample_lod(1u, _e2, _e6, _e10);
-    float w_1 = _e11.x;
-    if ((w_1 > 0.0)) {
-        bool _e17 = finite(w_1);
+    float w_2 = _e11.x;
+    if ((w_2 > 0.0)) {
+        bool _e17 = finite(w_2);
         local_9 = _e17;
     } else {
         local_9 = false;
     }
     bool _e19 = local_9;
     if (_e19) {
-        return w_1;
+        return w_2;
     }
     return 0.0;
 }
@@ -775,7 +777,7 @@ float mip_roughness(uint m) {
     return _e9;
 }
 
-float lod_of_roughness(float r) {
+float lod_of_roughness(float r_2) {
     bool local_17 = false;
     uint below = 0u;
     uint t_5 = 0u;
@@ -783,7 +785,7 @@ float lod_of_roughness(float r) {
     uint n_9 = _group_0_binding_7_cs.probe_info.x;
     if (!((n_9 < 2u))) {
         float _e11 = mip_roughness(0u);
-        local_17 = !((r > _e11));
+        local_17 = !((r_2 > _e11));
     } else {
         local_17 = true;
     }
@@ -793,7 +795,7 @@ float lod_of_roughness(float r) {
     }
     uint last = (n_9 - 1u);
     float _e19 = mip_roughness(last);
-    if ((r >= _e19)) {
+    if ((r_2 >= _e19)) {
         return float(last);
     }
     bool loop_init_3 = true;
@@ -812,7 +814,7 @@ float lod_of_roughness(float r) {
             uint _e28 = below;
             uint _e31 = t_5;
             float _e32 = mip_roughness(_e31);
-            below = (_e28 + ((_e32 <= r) ? 1u : 0u));
+            below = (_e28 + ((_e32 <= r_2) ? 1u : 0u));
         }
     }
     uint _e39 = below;
@@ -822,13 +824,13 @@ float lod_of_roughness(float r) {
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
         float _e53 = mip_roughness(i_5);
-        f_2 = ((r - _e53) / span);
+        f_2 = ((r_2 - _e53) / span);
     }
     float _e57 = f_2;
     return (float(i_5) + clamp(_e57, 0.0, 1.0));
 }
 
-float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_6) {
+float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
     bool local_18 = false;
     bool local_19 = false;
     bool local_20 = false;
@@ -836,8 +838,8 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_6) {
     float l_5 = length(v_6);
     float _e8 = _group_0_binding_7_cs.probe.w;
     uint _e12 = _group_0_binding_7_cs.probe_info.y;
-    vec4 _e13 = probe_sample_lod(1u, uv_6, _e8, _e12);
-    float w_2 = _e13.x;
+    vec4 _e13 = probe_sample_lod(1u, uv_7, _e8, _e12);
+    float w_3 = _e13.x;
     if ((l_5 > 0.0)) {
         bool _e19 = finite(l_5);
         local_18 = _e19;
@@ -846,13 +848,13 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_6) {
     }
     bool _e21 = local_18;
     if (_e21) {
-        local_19 = (w_2 > 0.0);
+        local_19 = (w_3 > 0.0);
     } else {
         local_19 = false;
     }
     bool _e27 = local_19;
     if (_e27) {
-        bool _e30 = finite(w_2);
+        bool _e30 = finite(w_3);
         local_20 = _e30;
     } else {
         local_20 = false;
@@ -861,7 +863,7 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_6) {
     if (!(_e32)) {
         return 1.0;
     }
-    float d_probe = (1.0 / w_2);
+    float d_probe = (1.0 / w_3);
     vec4 _e39 = _group_0_binding_7_cs.probe;
     float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_12));
     float k_7 = (d_probe / d_surface);

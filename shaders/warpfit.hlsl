@@ -81,6 +81,8 @@ static const uint ATLAS_CORRECTIVE = 0u;
 static const uint ATLAS_IRRADIANCE = 1u;
 static const uint ATLAS_MOMENTS = 2u;
 static const uint ATLAS_SCALE = 3u;
+static const float ROUGH_MAP_FROM = 0.5;
+static const float ROUGH_MAP_TO = 0.75;
 static const uint FALLBACK = 255u;
 static const uint BLEND = 255u;
 static const uint RELAX = 255u;
@@ -420,16 +422,16 @@ float inv_dist(float3 v_4)
     float _e6 = params.probe.w;
     uint _e10 = params.probe_info.y;
     const float4 _e11 = probe_sample_lod(1u, _e2, _e6, _e10);
-    float w_1 = _e11.x;
-    if ((w_1 > 0.0)) {
-        const bool _e17 = finite(w_1);
+    float w_2 = _e11.x;
+    if ((w_2 > 0.0)) {
+        const bool _e17 = finite(w_2);
         local_9 = _e17;
     } else {
         local_9 = false;
     }
     bool _e19 = local_9;
     if (_e19) {
-        return w_1;
+        return w_2;
     }
     return 0.0;
 }
@@ -945,6 +947,31 @@ float map_delta(int tile_1, float2 uv_5)
     return _e11.x;
 }
 
+float cell_delta(Cell cell, float2 uv_6, float r)
+{
+    float w = (float)0;
+
+    if ((cell.tiles.w < int(0))) {
+        const float _e9 = map_delta(cell.tiles.x, uv_6);
+        return _e9;
+    }
+    w = ((r - ROUGH_MAP_FROM) / 0.25);
+    float _e15 = w;
+    if (!((_e15 > 0.0))) {
+        const float _e21 = map_delta(cell.tiles.x, uv_6);
+        return _e21;
+    }
+    float _e22 = w;
+    if ((_e22 >= 1.0)) {
+        const float _e27 = map_delta(cell.tiles.w, uv_6);
+        return _e27;
+    }
+    const float _e30 = map_delta(cell.tiles.x, uv_6);
+    const float _e33 = map_delta(cell.tiles.w, uv_6);
+    float _e35 = w;
+    return (_e30 + ((_e33 - _e30) * _e35));
+}
+
 Cell ConstructCell(int4 arg0, float4 arg1) {
     Cell ret = (Cell)0;
     ret.tiles = arg0;
@@ -952,80 +979,80 @@ Cell ConstructCell(int4 arg0, float4 arg1) {
     return ret;
 }
 
-Aim fetch(float3 b_11, float3 dir_9)
+Aim fetch(float3 b_11, float3 dir_9, float r_1)
 {
     float delta_1 = 0.0;
     bool mapped = false;
     uint corner_2 = 0u;
     bool local_16 = (bool)0;
 
-    float4 _e4 = params.probe;
-    if (all((b_11 == _e4.xyz))) {
+    float4 _e5 = params.probe;
+    if (all((b_11 == _e5.xyz))) {
         const Aim aim_4 = ConstructAim(dir_9, 1.0);
         return aim_4;
     }
-    const float2 _e10 = oct_encode(dir_9);
-    const float3 _e11 = cell_size();
-    const uint _e16 = blend_mode();
-    if ((_e16 == 0u)) {
-        const uint3 _e20 = cell_of(b_11, _e11);
-        const uint _e21 = cell_index(_e20);
-        Cell cell = ConstructCell(asint(cells.Load4(_e21*32+0)), asfloat(cells.Load4(_e21*32+16)));
-        if ((cell.tiles.x >= int(0))) {
-            const float _e30 = map_delta(cell.tiles.x, _e10);
-            delta_1 = _e30;
+    const float2 _e11 = oct_encode(dir_9);
+    const float3 _e12 = cell_size();
+    const uint _e17 = blend_mode();
+    if ((_e17 == 0u)) {
+        const uint3 _e21 = cell_of(b_11, _e12);
+        const uint _e22 = cell_index(_e21);
+        Cell cell_1 = ConstructCell(asint(cells.Load4(_e22*32+0)), asfloat(cells.Load4(_e22*32+16)));
+        if ((cell_1.tiles.x >= int(0))) {
+            const float _e29 = cell_delta(cell_1, _e11, r_1);
+            delta_1 = _e29;
             mapped = true;
         }
     } else {
-        const Lattice _e32 = lattice(b_11, _e11);
+        const Lattice _e31 = lattice(b_11, _e12);
         uint2 loop_bound_3 = uint2(4294967295u, 4294967295u);
         bool loop_init_3 = true;
         while(true) {
             if (all(loop_bound_3 == uint2(0u, 0u))) { break; }
             loop_bound_3 -= uint2(loop_bound_3.y == 0u, 1u);
             if (!loop_init_3) {
-                uint _e58 = corner_2;
-                corner_2 = (_e58 + 1u);
+                uint _e55 = corner_2;
+                corner_2 = (_e55 + 1u);
             }
             loop_init_3 = false;
-            uint _e35 = corner_2;
-            if ((_e35 < 8u)) {
+            uint _e34 = corner_2;
+            if ((_e34 < 8u)) {
             } else {
                 break;
             }
             {
-                uint _e39 = corner_2;
-                const uint3 _e40 = corner_cell(_e32, _e39);
-                const uint _e41 = cell_index(_e40);
-                Cell cell_1 = ConstructCell(asint(cells.Load4(_e41*32+0)), asfloat(cells.Load4(_e41*32+16)));
-                if ((cell_1.tiles.x >= int(0))) {
-                    float _e48 = delta_1;
-                    uint _e49 = corner_2;
-                    const float _e50 = corner_weight(_e32, _e49);
-                    const float _e53 = map_delta(cell_1.tiles.x, _e10);
-                    delta_1 = (_e48 + (_e50 * _e53));
+                uint _e38 = corner_2;
+                const uint3 _e39 = corner_cell(_e31, _e38);
+                const uint _e40 = cell_index(_e39);
+                Cell cell_2 = ConstructCell(asint(cells.Load4(_e40*32+0)), asfloat(cells.Load4(_e40*32+16)));
+                if ((cell_2.tiles.x >= int(0))) {
+                    float _e47 = delta_1;
+                    uint _e48 = corner_2;
+                    const float _e49 = corner_weight(_e31, _e48);
+                    const float _e50 = cell_delta(cell_2, _e11, r_1);
+                    delta_1 = (_e47 + (_e49 * _e50));
                     mapped = true;
                 }
             }
         }
     }
-    bool _e60 = mapped;
-    if (!(_e60)) {
-        const bool _e64 = relaxation_on();
-        local_16 = _e64;
+    bool _e57 = mapped;
+    if (!(_e57)) {
+        const bool _e61 = relaxation_on();
+        local_16 = _e61;
     } else {
         local_16 = false;
     }
-    bool _e66 = local_16;
-    if (_e66) {
-        const float3 _e67 = fallback_fetch(b_11, dir_9);
-        const Aim aim_5 = ConstructAim(_e67, -1.0);
+    bool _e63 = local_16;
+    if (_e63) {
+        const float3 _e64 = fallback_fetch(b_11, dir_9);
+        const Aim aim_5 = ConstructAim(_e64, -1.0);
         return aim_5;
     }
-    const float2 _e70 = proxy_exit(b_11, dir_9);
-    float _e71 = delta_1;
-    const Aim _e72 = shifted_aim(_e70, _e71, b_11, dir_9);
-    const Aim aim_6 = _e72;
+    const float2 _e67 = proxy_exit(b_11, dir_9);
+    float _e68 = delta_1;
+    const Aim _e69 = shifted_aim(_e67, _e68, b_11, dir_9);
+    const Aim aim_6 = _e69;
     return aim_6;
 }
 
@@ -1035,7 +1062,7 @@ float mip_roughness(uint m)
     return _e9;
 }
 
-float lod_of_roughness(float r)
+float lod_of_roughness(float r_2)
 {
     bool local_17 = (bool)0;
     uint below = 0u;
@@ -1045,7 +1072,7 @@ float lod_of_roughness(float r)
     uint n_9 = params.probe_info.x;
     if (!((n_9 < 2u))) {
         const float _e11 = mip_roughness(0u);
-        local_17 = !((r > _e11));
+        local_17 = !((r_2 > _e11));
     } else {
         local_17 = true;
     }
@@ -1055,7 +1082,7 @@ float lod_of_roughness(float r)
     }
     uint last = (n_9 - 1u);
     const float _e19 = mip_roughness(last);
-    if ((r >= _e19)) {
+    if ((r_2 >= _e19)) {
         return float(last);
     }
     uint2 loop_bound_4 = uint2(4294967295u, 4294967295u);
@@ -1077,7 +1104,7 @@ float lod_of_roughness(float r)
             uint _e28 = below;
             uint _e31 = t_5;
             const float _e32 = mip_roughness(_e31);
-            below = (_e28 + ((_e32 <= r) ? 1u : 0u));
+            below = (_e28 + ((_e32 <= r_2) ? 1u : 0u));
         }
     }
     uint _e39 = below;
@@ -1087,13 +1114,13 @@ float lod_of_roughness(float r)
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
         const float _e53 = mip_roughness(i_5);
-        f_2 = ((r - _e53) / span);
+        f_2 = ((r_2 - _e53) / span);
     }
     float _e57 = f_2;
     return (float(i_5) + clamp(_e57, 0.0, 1.0));
 }
 
-float distance_ratio(float3 b_12, float3 v_6, float2 uv_6)
+float distance_ratio(float3 b_12, float3 v_6, float2 uv_7)
 {
     bool local_18 = (bool)0;
     bool local_19 = (bool)0;
@@ -1103,8 +1130,8 @@ float distance_ratio(float3 b_12, float3 v_6, float2 uv_6)
     float l_5 = length(v_6);
     float _e8 = params.probe.w;
     uint _e12 = params.probe_info.y;
-    const float4 _e13 = probe_sample_lod(1u, uv_6, _e8, _e12);
-    float w_2 = _e13.x;
+    const float4 _e13 = probe_sample_lod(1u, uv_7, _e8, _e12);
+    float w_3 = _e13.x;
     if ((l_5 > 0.0)) {
         const bool _e19 = finite(l_5);
         local_18 = _e19;
@@ -1113,13 +1140,13 @@ float distance_ratio(float3 b_12, float3 v_6, float2 uv_6)
     }
     bool _e21 = local_18;
     if (_e21) {
-        local_19 = (w_2 > 0.0);
+        local_19 = (w_3 > 0.0);
     } else {
         local_19 = false;
     }
     bool _e27 = local_19;
     if (_e27) {
-        const bool _e30 = finite(w_2);
+        const bool _e30 = finite(w_3);
         local_20 = _e30;
     } else {
         local_20 = false;
@@ -1128,7 +1155,7 @@ float distance_ratio(float3 b_12, float3 v_6, float2 uv_6)
     if (!(_e32)) {
         return 1.0;
     }
-    float d_probe = (1.0 / w_2);
+    float d_probe = (1.0 / w_3);
     float4 _e39 = params.probe;
     float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_12));
     float k_7 = (d_probe / d_surface);
@@ -1153,7 +1180,7 @@ float pseudo_log2_(float k_3)
     return (float(e_1) + (m_3 - 1.0));
 }
 
-float corrected_roughness(float r_1, float k_in)
+float corrected_roughness(float r_3, float k_in)
 {
     float fr = 0.0;
     float k_4 = 1.0;
@@ -1161,9 +1188,9 @@ float corrected_roughness(float r_1, float k_in)
 
     uint n_10 = params.lut_info.x;
     float last_1 = float((n_10 - 1u));
-    const bool _e11 = finite(r_1);
+    const bool _e11 = finite(r_3);
     if (_e11) {
-        fr = clamp((r_1 * last_1), 0.0, last_1);
+        fr = clamp((r_3 * last_1), 0.0, last_1);
     }
     const bool _e17 = finite(k_in);
     if (_e17) {
@@ -1201,18 +1228,18 @@ float corrected_roughness(float r_1, float k_in)
     return ((((v00_ * (1.0 - b_20)) + (v01_ * b_20)) * (1.0 - a_3)) + (((v10_ * (1.0 - b_20)) + (v11_ * b_20)) * a_3));
 }
 
-float3 shade(float3 b_13, Aim aim, float r_2)
+float3 shade(float3 b_13, Aim aim, float r_4)
 {
     float k_5 = (float)0;
 
     const float2 _e4 = oct_encode(aim.v);
-    if ((r_2 == 0.0)) {
+    if ((r_4 == 0.0)) {
         const float3 _e8 = radiance_lod(_e4, 0.0);
         return _e8;
     }
     const bool _e9 = roughness_corrected();
     if (!(_e9)) {
-        const float _e11 = lod_of_roughness(r_2);
+        const float _e11 = lod_of_roughness(r_4);
         const float3 _e12 = radiance_lod(_e4, _e11);
         return _e12;
     }
@@ -1223,7 +1250,7 @@ float3 shade(float3 b_13, Aim aim, float r_2)
         k_5 = _e19;
     }
     float _e20 = k_5;
-    const float _e21 = corrected_roughness(r_2, _e20);
+    const float _e21 = corrected_roughness(r_4, _e20);
     const float _e22 = lod_of_roughness(_e21);
     const float3 _e23 = radiance_lod(_e4, _e22);
     return _e23;
@@ -1241,7 +1268,7 @@ float3 clean(float3 c_4)
 float3 specular(float3 position, float3 direction, float roughness)
 {
     float3 b_14 = (float3)0;
-    float r_3 = 0.0;
+    float r_5 = 0.0;
 
     const float4 _e3 = unit_direction(direction);
     if ((_e3.w == 0.0)) {
@@ -1255,15 +1282,16 @@ float3 specular(float3 position, float3 direction, float roughness)
     }
     const bool _e17 = finite(roughness);
     if (_e17) {
-        r_3 = clamp(roughness, 0.0, 1.0);
+        r_5 = clamp(roughness, 0.0, 1.0);
     }
     float3 _e21 = b_14;
     float3 _e22 = b_14;
-    const Aim _e24 = fetch(_e22, _e3.xyz);
-    float _e25 = r_3;
-    const float3 _e26 = shade(_e21, _e24, _e25);
-    const float3 _e27 = clean(_e26);
-    return _e27;
+    float _e24 = r_5;
+    const Aim _e25 = fetch(_e22, _e3.xyz, _e24);
+    float _e26 = r_5;
+    const float3 _e27 = shade(_e21, _e25, _e26);
+    const float3 _e28 = clean(_e27);
+    return _e28;
 }
 
 float3 cell_irradiance(int tile_2, float3 n_4)
@@ -1281,7 +1309,7 @@ float3 irradiance(float3 position_1, float3 normal)
     float3 e = (0.0).xxx;
     float wsum = 0.0;
     uint corner_3 = 0u;
-    float w = (float)0;
+    float w_1 = (float)0;
     bool local_23 = (bool)0;
     float k_6 = (float)0;
 
@@ -1328,15 +1356,15 @@ float3 irradiance(float3 position_1, float3 normal)
             uint _e51 = corner_3;
             const uint3 _e52 = corner_cell(_e35, _e51);
             const uint _e54 = cell_index(_e52);
-            Cell cell_2 = ConstructCell(asint(cells.Load4(_e54*32+0)), asfloat(cells.Load4(_e54*32+16)));
-            if ((cell_2.tiles.y < int(0))) {
+            Cell cell_3 = ConstructCell(asint(cells.Load4(_e54*32+0)), asfloat(cells.Load4(_e54*32+16)));
+            if ((cell_3.tiles.y < int(0))) {
                 continue;
             }
             float3 _e61 = p_3;
             const float3 _e62 = cell_centre(_e52, _e9);
-            float3 to_point = (_e61 - (_e62 + cell_2.offset.xyz));
+            float3 to_point = (_e61 - (_e62 + cell_3.offset.xyz));
             float dist = length(to_point);
-            w = _e48;
+            w_1 = _e48;
             if ((dist > 0.0)) {
                 const bool _e73 = finite(dist);
                 local_23 = _e73;
@@ -1347,38 +1375,38 @@ float3 irradiance(float3 position_1, float3 normal)
             if (_e75) {
                 float3 u = (to_point / (dist).xxx);
                 float facing = ((dot(n_11, -(u)) + 1.0) * 0.5);
-                float _e84 = w;
-                w = (_e84 * ((facing * facing) + 0.2));
+                float _e84 = w_1;
+                w_1 = (_e84 * ((facing * facing) + 0.2));
                 uint _e95 = params.atlas_b.x;
                 uint _e99 = params.atlas_b.y;
                 const float2 _e100 = oct_encode(u);
-                const float4 _e101 = atlas_bilinear(ATLAS_MOMENTS, cell_2.tiles.y, _e95, _e99, _e100);
+                const float4 _e101 = atlas_bilinear(ATLAS_MOMENTS, cell_3.tiles.y, _e95, _e99, _e100);
                 float mean = _e101.x;
                 float mean_sq = _e101.y;
                 if ((dist > mean)) {
                     float variance = max(abs((mean_sq - (mean * mean))), ((1e-12 * mean) * mean));
                     float dd = (dist - mean);
                     float cheb = (variance / (variance + (dd * dd)));
-                    float _e116 = w;
-                    w = (_e116 * max(((cheb * cheb) * cheb), 0.0));
+                    float _e116 = w_1;
+                    w_1 = (_e116 * max(((cheb * cheb) * cheb), 0.0));
                 }
             }
-            float _e122 = w;
-            w = max(_e122, (1e-6 * _e48));
+            float _e122 = w_1;
+            w_1 = max(_e122, (1e-6 * _e48));
             k_6 = 1.0;
-            if ((cell_2.tiles.z >= int(0))) {
+            if ((cell_3.tiles.z >= int(0))) {
                 uint _e138 = params.atlas_b.z;
                 uint _e142 = params.atlas_b.w;
-                const float4 _e143 = atlas_bilinear(ATLAS_SCALE, cell_2.tiles.z, _e138, _e142, _e36);
+                const float4 _e143 = atlas_bilinear(ATLAS_SCALE, cell_3.tiles.z, _e138, _e142, _e36);
                 k_6 = _e143.x;
             }
             float3 _e145 = e;
-            const float3 _e148 = cell_irradiance(cell_2.tiles.y, n_11);
-            float _e149 = w;
+            const float3 _e148 = cell_irradiance(cell_3.tiles.y, n_11);
+            float _e149 = w_1;
             float _e151 = k_6;
             e = (_e145 + ((_e148 * _e149) * _e151));
             float _e154 = wsum;
-            float _e155 = w;
+            float _e155 = w_1;
             wsum = (_e154 + _e155);
         }
     }
@@ -1444,12 +1472,12 @@ SurfaceTaps ConstructSurfaceTaps(uint2 arg0, uint2 arg1, float2 arg2) {
     return ret;
 }
 
-SurfaceTaps surface_taps(float2 uv_7)
+SurfaceTaps surface_taps(float2 uv_8)
 {
     uint n_12 = surface_params.shape.z;
     float nf = float(n_12);
-    float x_4 = clamp(((uv_7.x * nf) - 0.5), 0.0, (nf - 1.0));
-    float y = clamp(((uv_7.y * nf) - 0.5), 0.0, (nf - 1.0));
+    float x_4 = clamp(((uv_8.x * nf) - 0.5), 0.0, (nf - 1.0));
+    float y = clamp(((uv_8.y * nf) - 0.5), 0.0, (nf - 1.0));
     float x0_1 = floor(x_4);
     float y0_ = floor(y);
     uint2 lo = uint2(naga_f2u32(x0_1), naga_f2u32(y0_));

@@ -73,6 +73,8 @@ const uint ATLAS_CORRECTIVE = 0u;
 const uint ATLAS_IRRADIANCE = 1u;
 const uint ATLAS_MOMENTS = 2u;
 const uint ATLAS_SCALE = 3u;
+const float ROUGH_MAP_FROM = 0.5;
+const float ROUGH_MAP_TO = 0.75;
 const uint FALLBACK = 255u;
 const uint BLEND = 255u;
 const uint RELAX = 255u;
@@ -591,12 +593,35 @@ float map_delta(int tile_1, vec2 uv_5) {
     return _e11.x;
 }
 
+float cell_delta(Cell cell, vec2 uv_6, float r) {
+    float w = 0.0;
+    if ((cell.tiles.w < 0)) {
+        float _e9 = map_delta(cell.tiles.x, uv_6);
+        return _e9;
+    }
+    w = ((r - ROUGH_MAP_FROM) / 0.25);
+    float _e15 = w;
+    if (!((_e15 > 0.0))) {
+        float _e21 = map_delta(cell.tiles.x, uv_6);
+        return _e21;
+    }
+    float _e22 = w;
+    if ((_e22 >= 1.0)) {
+        float _e27 = map_delta(cell.tiles.w, uv_6);
+        return _e27;
+    }
+    float _e30 = map_delta(cell.tiles.x, uv_6);
+    float _e33 = map_delta(cell.tiles.w, uv_6);
+    float _e35 = w;
+    return (_e30 + ((_e33 - _e30) * _e35));
+}
+
 float mip_roughness(uint m) {
     float _e9 = _group_0_binding_7_cs.mip_roughness[(m / 4u)][(m % 4u)];
     return _e9;
 }
 
-float lod_of_roughness(float r) {
+float lod_of_roughness(float r_2) {
     bool local_17 = false;
     uint below = 0u;
     uint t_5 = 0u;
@@ -604,7 +629,7 @@ float lod_of_roughness(float r) {
     uint n_8 = _group_0_binding_7_cs.probe_info.x;
     if (!((n_8 < 2u))) {
         float _e11 = mip_roughness(0u);
-        local_17 = !((r > _e11));
+        local_17 = !((r_2 > _e11));
     } else {
         local_17 = true;
     }
@@ -614,7 +639,7 @@ float lod_of_roughness(float r) {
     }
     uint last = (n_8 - 1u);
     float _e19 = mip_roughness(last);
-    if ((r >= _e19)) {
+    if ((r_2 >= _e19)) {
         return float(last);
     }
     bool loop_init_2 = true;
@@ -633,7 +658,7 @@ float lod_of_roughness(float r) {
             uint _e28 = below;
             uint _e31 = t_5;
             float _e32 = mip_roughness(_e31);
-            below = (_e28 + ((_e32 <= r) ? 1u : 0u));
+            below = (_e28 + ((_e32 <= r_2) ? 1u : 0u));
         }
     }
     uint _e39 = below;
@@ -643,7 +668,7 @@ float lod_of_roughness(float r) {
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
         float _e53 = mip_roughness(i_5);
-        f_2 = ((r - _e53) / span);
+        f_2 = ((r_2 - _e53) / span);
     }
     float _e57 = f_2;
     return (float(i_5) + clamp(_e57, 0.0, 1.0));
@@ -677,7 +702,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     vec3 e = vec3(0.0);
     float wsum = 0.0;
     uint corner_3 = 0u;
-    float w = 0.0;
+    float w_1 = 0.0;
     bool local_23 = false;
     float k_6 = 0.0;
     vec4 _e2 = unit_direction(normal);
@@ -720,15 +745,15 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             uint _e51 = corner_3;
             uvec3 _e52 = corner_cell(_e35, _e51);
             uint _e54 = cell_index(_e52);
-            Cell cell = _group_0_binding_8_cs[_e54];
-            if ((cell.tiles.y < 0)) {
+            Cell cell_1 = _group_0_binding_8_cs[_e54];
+            if ((cell_1.tiles.y < 0)) {
                 continue;
             }
             vec3 _e61 = p_3;
             vec3 _e62 = cell_centre(_e52, _e9);
-            vec3 to_point = (_e61 - (_e62 + cell.offset.xyz));
+            vec3 to_point = (_e61 - (_e62 + cell_1.offset.xyz));
             float dist = length(to_point);
-            w = _e48;
+            w_1 = _e48;
             if ((dist > 0.0)) {
                 bool _e73 = finite(dist);
                 local_23 = _e73;
@@ -739,38 +764,38 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             if (_e75) {
                 vec3 u = (to_point / vec3(dist));
                 float facing = ((dot(n_9, -(u)) + 1.0) * 0.5);
-                float _e84 = w;
-                w = (_e84 * ((facing * facing) + 0.2));
+                float _e84 = w_1;
+                w_1 = (_e84 * ((facing * facing) + 0.2));
                 uint _e95 = _group_0_binding_7_cs.atlas_b.x;
                 uint _e99 = _group_0_binding_7_cs.atlas_b.y;
                 vec2 _e100 = oct_encode(u);
-                vec4 _e101 = atlas_bilinear(ATLAS_MOMENTS, cell.tiles.y, _e95, _e99, _e100);
+                vec4 _e101 = atlas_bilinear(ATLAS_MOMENTS, cell_1.tiles.y, _e95, _e99, _e100);
                 float mean = _e101.x;
                 float mean_sq = _e101.y;
                 if ((dist > mean)) {
                     float variance = max(abs((mean_sq - (mean * mean))), ((1e-12 * mean) * mean));
                     float dd = (dist - mean);
                     float cheb = (variance / (variance + (dd * dd)));
-                    float _e116 = w;
-                    w = (_e116 * max(((cheb * cheb) * cheb), 0.0));
+                    float _e116 = w_1;
+                    w_1 = (_e116 * max(((cheb * cheb) * cheb), 0.0));
                 }
             }
-            float _e122 = w;
-            w = max(_e122, (1e-6 * _e48));
+            float _e122 = w_1;
+            w_1 = max(_e122, (1e-6 * _e48));
             k_6 = 1.0;
-            if ((cell.tiles.z >= 0)) {
+            if ((cell_1.tiles.z >= 0)) {
                 uint _e138 = _group_0_binding_7_cs.atlas_b.z;
                 uint _e142 = _group_0_binding_7_cs.atlas_b.w;
-                vec4 _e143 = atlas_bilinear(ATLAS_SCALE, cell.tiles.z, _e138, _e142, _e36);
+                vec4 _e143 = atlas_bilinear(ATLAS_SCALE, cell_1.tiles.z, _e138, _e142, _e36);
                 k_6 = _e143.x;
             }
             vec3 _e145 = e;
-            vec3 _e148 = cell_irradiance(cell.tiles.y, n_9);
-            float _e149 = w;
+            vec3 _e148 = cell_irradiance(cell_1.tiles.y, n_9);
+            float _e149 = w_1;
             float _e151 = k_6;
             e = (_e145 + ((_e148 * _e149) * _e151));
             float _e154 = wsum;
-            float _e155 = w;
+            float _e155 = w_1;
             wsum = (_e154 + _e155);
         }
     }

@@ -73,6 +73,8 @@ const uint ATLAS_CORRECTIVE = 0u;
 const uint ATLAS_IRRADIANCE = 1u;
 const uint ATLAS_MOMENTS = 2u;
 const uint ATLAS_SCALE = 3u;
+const float ROUGH_MAP_FROM = 0.5;
+const float ROUGH_MAP_TO = 0.75;
 const uint FALLBACK = 255u;
 const uint BLEND = 255u;
 const uint RELAX = 255u;
@@ -340,11 +342,11 @@ SurfaceAxis surface_axis(float x_in, uint n_5) {
     return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_5 - float(i0_)));
 }
 
-SurfaceTaps surface_taps(vec2 uv_7) {
+SurfaceTaps surface_taps(vec2 uv_8) {
     uint n_6 = _group_2_binding_1_cs.shape.z;
     float nf = float(n_6);
-    float x_4 = clamp(((uv_7.x * nf) - 0.5), 0.0, (nf - 1.0));
-    float y = clamp(((uv_7.y * nf) - 0.5), 0.0, (nf - 1.0));
+    float x_4 = clamp(((uv_8.x * nf) - 0.5), 0.0, (nf - 1.0));
+    float y = clamp(((uv_8.y * nf) - 0.5), 0.0, (nf - 1.0));
     float x0_1 = floor(x_4);
     float y0_ = floor(y);
     uvec2 lo = uvec2(uint(x0_1), uint(y0_));

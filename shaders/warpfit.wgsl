@@ -9,7 +9,7 @@
 // Bindings (group 0), all from the export folder:
 //   0 probe_radiance      probe_radiance.ktx2      RGBA16F (or RGBA32F), every GGX mip
 //   1 probe_inv_distance  probe_inv_distance.ktx2  R32F, every mip (1/distance, 0 = sky)
-//   2 corrective_atlas    correctives.ktx2         R32F shift maps, guttered tiles (1x1 dummy if none)
+//   2 corrective_atlas    correctives.ktx2         R32F shift maps (and rough maps), guttered tiles (1x1 dummy if none)
 //   3 irradiance_atlas    irradiance.ktx2          RGBA16F (or RGBA32F), guttered tiles
 //   4 moments_atlas       moments.ktx2             RG32F, guttered tiles
 //   5 scale_atlas         irradiance_scale.ktx2    R32F, guttered tiles (1x1 dummy if none)
@@ -76,8 +76,9 @@ struct Params {
     lut_info: vec4<u32>,
 }
 
-// One grid cell: its tiles (x shift map, y irradiance, z irradiance scale; -1 = none) and
-// its irradiance probe's relocation offset from the cell centre (xyz).
+// One grid cell: its tiles (x shift map, y irradiance, z irradiance scale, w rough shift
+// map in the corrective atlas; -1 = none) and its irradiance probe's relocation offset from
+// the cell centre (xyz).
 struct Cell {
     tiles: vec4<i32>,
     offset: vec4<f32>,
@@ -614,10 +615,34 @@ fn map_delta(tile: i32, uv: vec2<f32>) -> f32 {
     return atlas_bilinear(ATLAS_CORRECTIVE, tile, params.atlas_a.x, params.atlas_a.y, uv).x;
 }
 
-// Where query (B, unit dir) reads probe A: the proxy's surface shifted by the containing
-// cell's map (or the trilinear blend of the eight maps around B, cells without one counting
-// 0); the proxy as it is where no map applies (relaxed when the grid relaxes).
-fn fetch(b: vec3<f32>, dir: vec3<f32>) -> Aim {
+// With a rough map, the roughness up to which a lookup reads the cell's map alone, and
+// from which it reads the rough map alone (`warp::corrective::ROUGH_MAP_FROM`, `_TO`).
+const ROUGH_MAP_FROM: f32 = 0.5;
+const ROUGH_MAP_TO: f32 = 0.75;
+
+// The shift of `cell` (which stores a map) along the direction of uv for a lookup of
+// roughness r: its map's, or with a rough map the two blended by r
+// (`warp::corrective::sample_maps`).
+fn cell_delta(cell: Cell, uv: vec2<f32>, r: f32) -> f32 {
+    if cell.tiles.w < 0 {
+        return map_delta(cell.tiles.x, uv);
+    }
+    var w = (r - ROUGH_MAP_FROM) / (ROUGH_MAP_TO - ROUGH_MAP_FROM);
+    if !(w > 0.0) {
+        return map_delta(cell.tiles.x, uv);
+    }
+    if w >= 1.0 {
+        return map_delta(cell.tiles.w, uv);
+    }
+    let m = map_delta(cell.tiles.x, uv);
+    return m + (map_delta(cell.tiles.w, uv) - m) * w;
+}
+
+// Where query (B, unit dir) of roughness r reads probe A: the proxy's surface shifted by the
+// containing cell's maps (or the trilinear blend of the eight cells' shifts around B, cells
+// without a map counting 0); the proxy as it is where no map applies (relaxed when the grid
+// relaxes).
+fn fetch(b: vec3<f32>, dir: vec3<f32>, r: f32) -> Aim {
     if all(b == params.probe.xyz) {
         return Aim(dir, 1.0);
     }
@@ -628,7 +653,7 @@ fn fetch(b: vec3<f32>, dir: vec3<f32>) -> Aim {
     if blend_mode() == 0u {
         let cell = cells[cell_index(cell_of(b, size))];
         if cell.tiles.x >= 0 {
-            delta = map_delta(cell.tiles.x, uv);
+            delta = cell_delta(cell, uv, r);
             mapped = true;
         }
     } else {
@@ -636,7 +661,7 @@ fn fetch(b: vec3<f32>, dir: vec3<f32>) -> Aim {
         for (var corner = 0u; corner < 8u; corner++) {
             let cell = cells[cell_index(corner_cell(l, corner))];
             if cell.tiles.x >= 0 {
-                delta += corner_weight(l, corner) * map_delta(cell.tiles.x, uv);
+                delta += corner_weight(l, corner) * cell_delta(cell, uv, r);
                 mapped = true;
             }
         }
@@ -767,7 +792,7 @@ fn specular(position: vec3<f32>, direction: vec3<f32>, roughness: f32) -> vec3<f
     if finite(roughness) {
         r = clamp(roughness, 0.0, 1.0);
     }
-    return clean(shade(b, fetch(b, d.xyz), r));
+    return clean(shade(b, fetch(b, d.xyz, r), r));
 }
 
 // Irradiance of stored cell tile `tile` for unit normal n (bilinear in its map).

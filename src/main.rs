@@ -299,6 +299,13 @@ struct FitArgs {
     /// (0) to the grid's raytraced distances (1).
     #[arg(long, default_value_t = FitSettings::standard().depth_prior)]
     depth_prior: f64,
+    /// Store one map per cell for every roughness, as version-4 grids did, instead of a
+    /// map and a rough map.
+    #[arg(long)]
+    one_map: bool,
+    /// Where the rough maps' anchor lies (as --depth-prior).
+    #[arg(long, default_value_t = FitSettings::standard().rough_depth_prior)]
+    rough_depth_prior: f64,
     /// Fraction of each cell's training and check positions on the surfaces around it
     /// (reflection directions), the rest in its volume (in [0, 1]).
     #[arg(long, default_value_t = FitSettings::standard().surface_fraction)]
@@ -348,12 +355,16 @@ impl FitArgs {
             format!("--selection-margin={}", self.selection_margin),
             format!("--size-weight={}", self.size_weight),
             format!("--depth-prior={}", self.depth_prior),
+            format!("--rough-depth-prior={}", self.rough_depth_prior),
             format!("--rough-fraction={}", self.rough_fraction),
             format!("--surface-fraction={}", self.surface_fraction),
             format!("--proxy={}", name(self.proxy.to_possible_value())),
         ];
         if self.no_roughness {
             f.push("--no-roughness".into());
+        }
+        if self.one_map {
+            f.push("--one-map".into());
         }
         if self.level1 {
             f.push("--level1".into());
@@ -376,6 +387,7 @@ impl FitArgs {
         );
         anyhow::ensure!(self.size_weight.is_finite() && self.size_weight >= 0.0, "--size-weight must be ≥ 0");
         anyhow::ensure!((0.0..=1.0).contains(&self.depth_prior), "--depth-prior must be in [0, 1]");
+        anyhow::ensure!((0.0..=1.0).contains(&self.rough_depth_prior), "--rough-depth-prior must be in [0, 1]");
         anyhow::ensure!((0.0..=1.0).contains(&self.rough_fraction), "--rough-fraction must be in [0, 1]");
         anyhow::ensure!((0.0..=1.0).contains(&self.surface_fraction), "--surface-fraction must be in [0, 1]");
         Ok(FitSettings {
@@ -394,6 +406,8 @@ impl FitArgs {
             selection_margin: self.selection_margin,
             size_weight: self.size_weight,
             depth_prior: self.depth_prior,
+            rough_map: !self.one_map,
+            rough_depth_prior: self.rough_depth_prior,
             rough_fraction: self.rough_fraction,
             surface_fraction: self.surface_fraction,
             proxy: self.proxy,
@@ -546,11 +560,12 @@ fn print_fit(f: &FitLines, manifest: &warpfit::gridfile::GridManifest, folder: &
         None => " (set)".into(),
     };
     println!(
-        "fitted {} active cells in {:.1} s ({} threads): {} store a shift map, {} in all; {} keep the proxy {}{} alone ({} of them kept it over a fitted map that did not beat it{}); mean held-out tone-mapped relative error per cell: warp1 {:.4}, proxy {:.4}, unfitted cell maps {:.4}, stored model {:.4}",
+        "fitted {} active cells in {:.1} s ({} threads): {} store a shift map{}, {} in all; {} keep the proxy {}{} alone ({} of them kept it over a fitted map that did not beat it{}); mean held-out tone-mapped relative error per cell: warp1 {:.4}, proxy {:.4}, unfitted cell maps {:.4}, stored model {:.4}",
         s.active_cells,
         s.fit_seconds,
         rayon::current_num_threads(),
         s.cells_level2,
+        if s.rough_maps { " and a rough map" } else { "" },
         files::human_bytes(s.bytes_level2 as u64),
         s.cells_level0,
         s.fallback_method,

@@ -35,34 +35,39 @@ fn tiny_queries() -> Vec<(Vec3, Vec3, f32)> {
 fn the_committed_fit_keeps_loading_with_the_same_answers() {
     // A format change that breaks this grid must bump GRID_VERSION knowingly and re-fit
     // fits/tiny (`warpfit fit --scene data/scenes/tiny.toml --out fits/tiny --train-positions 8
-    // --train-dirs 64`, then WARPFIT_BLESS=1 cargo test --test runtime).
-    let g = FittedGrid::load(tiny()).expect("fits/tiny loads");
-    assert_eq!(g.manifest.version, GRID_VERSION);
-    let got: Vec<[f32; 6]> = tiny_queries()
-        .iter()
-        .map(|&(p, d, r)| {
-            let s = g.specular(p, d, r);
-            let e = g.irradiance(p, d);
-            [s.x, s.y, s.z, e.x, e.y, e.z]
-        })
-        .collect();
-    let expected_path = tiny().join("expected_samples.json");
-    if std::env::var("WARPFIT_BLESS").is_ok() {
-        std::fs::write(&expected_path, serde_json::to_vec_pretty(&got).unwrap()).unwrap();
-    }
-    let expected: Vec<[f32; 6]> = serde_json::from_slice(&std::fs::read(&expected_path).unwrap()).unwrap();
-    assert_eq!(got.len(), expected.len());
-    for (k, (a, b)) in got.iter().zip(&expected).enumerate() {
-        for c in 0..6 {
-            assert!(
-                (a[c] - b[c]).abs() <= 1e-6 * b[c].abs().max(1e-3),
-                "query {k} component {c}: {} vs {}",
-                a[c],
-                b[c]
-            );
+    // --train-dirs 64`, then WARPFIT_BLESS=1 cargo test --test runtime), keeping the grid of
+    // the oldest version still read beside it: fits/tiny_v4 (one map per cell) never changes.
+    for (dir, version, bless) in [(tiny(), GRID_VERSION, true), (repo().join("fits/tiny_v4"), 4, false)] {
+        let g = FittedGrid::load(&dir).unwrap_or_else(|e| panic!("{} loads: {e}", dir.display()));
+        assert_eq!(g.manifest.version, version, "{}", dir.display());
+        assert_eq!(g.correctives.has_rough_maps(), version >= 5, "{}: rough maps", dir.display());
+        let got: Vec<[f32; 6]> = tiny_queries()
+            .iter()
+            .map(|&(p, d, r)| {
+                let s = g.specular(p, d, r);
+                let e = g.irradiance(p, d);
+                [s.x, s.y, s.z, e.x, e.y, e.z]
+            })
+            .collect();
+        let expected_path = dir.join("expected_samples.json");
+        if bless && std::env::var("WARPFIT_BLESS").is_ok() {
+            std::fs::write(&expected_path, serde_json::to_vec_pretty(&got).unwrap()).unwrap();
         }
+        let expected: Vec<[f32; 6]> = serde_json::from_slice(&std::fs::read(&expected_path).unwrap()).unwrap();
+        assert_eq!(got.len(), expected.len());
+        for (k, (a, b)) in got.iter().zip(&expected).enumerate() {
+            for c in 0..6 {
+                assert!(
+                    (a[c] - b[c]).abs() <= 1e-6 * b[c].abs().max(1e-3),
+                    "{}: query {k} component {c}: {} vs {}",
+                    dir.display(),
+                    a[c],
+                    b[c]
+                );
+            }
+        }
+        assert!(got.iter().flatten().all(|x| x.is_finite() && *x >= 0.0));
     }
-    assert!(got.iter().flatten().all(|x| x.is_finite() && *x >= 0.0));
 }
 
 /// A small torture grid, written f32 and f16.
@@ -141,11 +146,13 @@ fn the_fits_per_query_error_is_the_error_through_the_runtime() {
                 let b = lo + Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * geo.cell_size();
                 let dir = warpfit::sampling::uniform_sphere(s.next_2d());
                 let reference = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
-                let roughness = [0.0, 0.25, 0.5, 1.0][k as usize % 4];
+                // mirror, the map's band, the blend of map and rough map, the rough map's
+                let roughness = [0.0, 0.25, 0.5, 0.625, 0.75, 1.0][k as usize % 6];
                 warpfit::fit::objective::Sample::new(b, dir, roughness, reference)
             })
             .collect();
         let map = c.maps[slot * n2..(slot + 1) * n2].to_vec();
+        let rough = c.rough_maps.get(slot * n2..(slot + 1) * n2).unwrap_or(&[]).to_vec();
         let glossy = warpfit::warp::glossy::Glossy { warp: &f.warp, correction: f.fit.roughness.as_ref() };
         let ctx = warpfit::fit::objective::CellContext {
             glossy,
@@ -156,7 +163,7 @@ fn the_fits_per_query_error_is_the_error_through_the_runtime() {
         };
         let start = vec![0.0; n2];
         let problem = warpfit::fit::objective::CellProblem::new(ctx, start, queries.clone());
-        for (q, fit_err) in queries.iter().zip(problem.query_errors(&map)) {
+        for (q, fit_err) in queries.iter().zip(problem.query_errors(&map, &rough)) {
             let d = g.specular(q.b, q.dir, q.roughness) - q.reference;
             let runtime_err = ((d.x.abs() + d.y.abs() + d.z.abs()) / 3.0) as f64;
             assert_eq!(fit_err.to_bits(), runtime_err.to_bits(), "cell {cell} query {q:?}");
@@ -164,6 +171,7 @@ fn the_fits_per_query_error_is_the_error_through_the_runtime() {
         }
     }
     assert!(compared >= 64, "no stored cell to compare");
+    assert!(c.has_rough_maps(), "the standard fit stores rough maps: the test covers them");
 }
 
 #[test]
@@ -268,6 +276,50 @@ fn specular_batch_is_bitwise_the_single_call() {
         }
         assert!(lit > n / 4, "too few lit queries ({lit} of {n}) for the comparison to mean much");
     }
+}
+
+#[test]
+fn a_lookup_reads_the_map_of_its_roughness() {
+    // Up to ROUGH_MAP_FROM a lookup reads the cell's map alone, from ROUGH_MAP_TO its rough
+    // map alone (the same answers as correctives holding only that map), and between them
+    // a blend of the two (`warp::corrective::sample_maps`, tested there).
+    use warpfit::warp::corrective::{Correctives, ROUGH_MAP_FROM, ROUGH_MAP_TO};
+    let f = fixture();
+    let c = &f.fit.correctives;
+    assert!(c.has_rough_maps() && c.stored_cells() > 0, "the standard fit stores rough maps");
+    let only = |maps: &Vec<f32>| Correctives::new(c.geometry, c.map_res, c.slot.clone(), maps.clone(), c.fallback);
+    let (mirror, rough) = (only(&c.maps), only(&c.rough_maps));
+    let geo = c.geometry;
+    let (mut differ, mut compared) = (0, 0);
+    for cell in (0..geo.cell_count()).filter(|&k| c.stores_map(k)) {
+        for k in 0..16u32 {
+            let mut s = warpfit::sampling::Sampler::new(37, cell as u64, k);
+            let lo = geo.min + geo.cell_coords(cell).as_vec3() * geo.cell_size();
+            let b = lo + Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * geo.cell_size();
+            let d = warpfit::sampling::uniform_sphere(s.next_2d());
+            let bits = |a: warpfit::warp::glossy::Aim| (a.v.to_array().map(f32::to_bits), a.k.map(f32::to_bits));
+            let at = |g: &Correctives, r: f32| bits(g.fetch(Blend::Cell, &f.warp, b, d, r));
+            for r in [0.0, 0.25, ROUGH_MAP_FROM] {
+                assert_eq!(at(c, r), at(&mirror, r), "cell {cell} r {r}: the map's");
+            }
+            for r in [ROUGH_MAP_TO, 0.9, 1.0] {
+                assert_eq!(at(c, r), at(&rough, r), "cell {cell} r {r}: the rough map's");
+            }
+            // in the band, a shifted surface between the two maps' surfaces: the aimed point's
+            // distance along the ray lies between theirs
+            let mid = 0.5 * (ROUGH_MAP_FROM + ROUGH_MAP_TO);
+            let along =
+                |g: &Correctives| (f.warp.probe.position + g.fetch(Blend::Cell, &f.warp, b, d, mid).v - b).dot(d);
+            let [m, q, x] = [&mirror, &rough, c].map(along);
+            if at(&mirror, mid) != at(&rough, mid) {
+                differ += 1;
+                let slack = 1e-4 * m.abs().max(q.abs());
+                assert!(x >= m.min(q) - slack && x <= m.max(q) + slack, "cell {cell}: {x} not between {m} and {q}");
+            }
+            compared += 1;
+        }
+    }
+    assert!(compared > 0 && differ * 4 > compared, "the maps differ in only {differ} of {compared} lookups");
 }
 
 #[test]

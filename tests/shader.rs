@@ -147,3 +147,18 @@ fn the_shipped_translations_compile_in_glslang() {
         run(&["-D", "-V", "-S", "comp", "-e", ep, "-o", out], "warpfit.hlsl");
     }
 }
+
+/// The shader blends a cell's map and rough map over the roughness band the CPU runtime
+/// uses (`warp::corrective::ROUGH_MAP_FROM`, `ROUGH_MAP_TO`): its constants are those.
+#[test]
+fn the_shaders_rough_map_band_is_the_runtimes() {
+    use warpfit::warp::corrective::{ROUGH_MAP_FROM, ROUGH_MAP_TO};
+    let src = std::fs::read_to_string(common::repo().join("shaders/warpfit.wgsl")).unwrap();
+    for (name, want) in [("ROUGH_MAP_FROM", ROUGH_MAP_FROM), ("ROUGH_MAP_TO", ROUGH_MAP_TO)] {
+        let prefix = format!("const {name}: f32 = ");
+        let line =
+            src.lines().find(|l| l.starts_with(&prefix)).unwrap_or_else(|| panic!("warpfit.wgsl: no `{prefix}`"));
+        let got: f32 = line[prefix.len()..].trim_end_matches(';').parse().unwrap();
+        assert_eq!(got, want, "warpfit.wgsl: {name}");
+    }
+}

@@ -217,11 +217,11 @@ impl Row<'_> {
     /// Fetch vector of query (B, dir) (the oracle's direction given), or `None` for the
     /// runtime, which shades on its own.
     #[inline]
-    fn aim(&self, warp: &Warp, b: Vec3, dir: Vec3, oracle: Vec3) -> Option<Aim> {
+    fn aim(&self, warp: &Warp, b: Vec3, dir: Vec3, oracle: Vec3, r: f32) -> Option<Aim> {
         match self.fetch {
             Fetch::Method(Method::Oracle) => Some(oracle.into()),
             Fetch::Method(m) => Some(warp.fetch_vector(m, b, dir).into()),
-            Fetch::Grid(r) => Some(r.correctives.fetch(r.variant.blend(), warp, b, dir)),
+            Fetch::Grid(g) => Some(g.correctives.fetch(g.variant.blend(), warp, b, dir, r)),
             Fetch::Runtime(_) => None,
         }
     }
@@ -229,7 +229,7 @@ impl Row<'_> {
     /// The row's radiance for query (B, dir, roughness r).
     #[inline]
     pub fn estimate(&self, shading: Glossy, b: Vec3, dir: Vec3, oracle: Vec3, r: f32) -> Vec3 {
-        let l = match (self.fetch, self.aim(shading.warp, b, dir, oracle)) {
+        let l = match (self.fetch, self.aim(shading.warp, b, dir, oracle, r)) {
             (Fetch::Runtime(g), _) => g.specular(b, dir, r),
             (_, Some(aim)) => shading.radiance(self.rule.unwrap_or(MipRule::Plain), b, dir, aim, r),
             (_, None) => Vec3::ZERO,
@@ -244,7 +244,7 @@ impl Row<'_> {
     fn fetch_dir(&self, warp: &Warp, b: Vec3, dir: Vec3, oracle: Vec3) -> Vec3 {
         let v = match self.fetch {
             Fetch::Runtime(g) => g.fetch_vector(b, dir),
-            _ => self.aim(warp, b, dir, oracle).map_or(dir, |a| a.v),
+            _ => self.aim(warp, b, dir, oracle, 0.0).map_or(dir, |a| a.v),
         };
         if v == dir { dir } else { v.try_normalize().unwrap_or(dir) }
     }

@@ -50,6 +50,10 @@ pub struct AtlasLayout {
     pub height: u32,
     /// Per grid cell (`x + nx·(y + ny·z)`): its tile, or −1 (none).
     pub cell_tile: Vec<i64>,
+    /// The corrective atlas with rough maps: a cell's rough map is tile `cell_tile` + this
+    /// (see the grid manifest's `correctives.rough_maps` for how a lookup blends the two).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rough_tile_offset: Option<u32>,
 }
 
 /// `export.json`.
@@ -221,6 +225,7 @@ fn write_atlas<const C: usize>(
         width,
         height,
         cell_tile: cell_tiles(slot),
+        rough_tile_offset: None,
     })
 }
 
@@ -244,11 +249,16 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
     let c = &grid.correctives;
     let (n, n2) = (c.map_res, (c.map_res * c.map_res) as usize);
     let stored = c.maps.len() / n2.max(1);
+    // rough maps, if any, follow the maps in the same atlas: a cell's rough tile is its
+    // tile + `rough_tile_offset`
+    let tiles = if c.has_rough_maps() { 2 * stored } else { stored };
     let correctives = (stored > 0)
         .then(|| {
-            write_atlas::<1>(dir, "correctives.ktx2", Format::R32F, n, &c.slot, stored, |s| {
-                c.maps[s * n2..(s + 1) * n2].iter().map(|&x| [x]).collect()
+            write_atlas::<1>(dir, "correctives.ktx2", Format::R32F, n, &c.slot, tiles, |s| {
+                let (maps, s) = if s < stored { (&c.maps, s) } else { (&c.rough_maps, s - stored) };
+                maps[s * n2..(s + 1) * n2].iter().map(|&x| [x]).collect()
             })
+            .map(|l| AtlasLayout { rough_tile_offset: c.has_rough_maps().then_some(stored as u32), ..l })
         })
         .transpose()?;
 

@@ -175,10 +175,14 @@ pub fn cells(grid: &FittedGrid) -> Vec<u8> {
     let c = &grid.correctives;
     let ir = &grid.irradiance;
     let n = c.geometry.cell_count();
+    // a cell's rough map follows the maps in the corrective atlas (`export`)
+    let stored = (c.maps.len() / ((c.map_res * c.map_res) as usize).max(1)) as i32;
+    let rough = |map: i32| if c.has_rough_maps() && map >= 0 { map + stored } else { -1 };
     let mut out = Words(Vec::with_capacity(n * CELL_BYTES));
     for cell in 0..n {
         let offset = ir.probe_offset.get(cell).copied().unwrap_or_default();
-        out.i([tile(c.slot.get(cell)), tile(ir.slot.get(cell)), tile(ir.correction.slot.get(cell)), 0])
+        let map = tile(c.slot.get(cell));
+        out.i([map, tile(ir.slot.get(cell)), tile(ir.correction.slot.get(cell)), rough(map)])
             .f(offset.extend(0.0).to_array());
     }
     out.0

@@ -29,7 +29,7 @@ use crate::roughness::RoughnessCorrection;
 use crate::sampling::{Sampler, hash_pair};
 use crate::trace::Renderer;
 use crate::trace::truth::{self, QueryStreams, TracedQueries};
-use crate::warp::corrective::{Correctives, NO_MAP};
+use crate::warp::corrective::{Correctives, NO_MAP, rough_weight};
 use crate::warp::glossy::Glossy;
 use crate::warp::{Method, Warp};
 use glam::Vec3;
@@ -79,6 +79,15 @@ pub struct FitSettings {
     /// existed pulled towards the proxy (0).
     #[serde(default)]
     pub depth_prior: f64,
+    /// Fit a second map per cell for rough lookups (`warp::corrective::sample_maps`): the
+    /// cell's map on its training queries of roughness up to `ROUGH_MAP_FROM`, the rough
+    /// map on those from `ROUGH_MAP_TO` (each judged with the other on the check queries).
+    /// Fits written before it existed stored one map.
+    #[serde(default)]
+    pub rough_map: bool,
+    /// The rough map's anchor, as `depth_prior` is the map's.
+    #[serde(default)]
+    pub rough_depth_prior: f64,
     /// Charbonnier ε as a fraction of the cell's mean reference radiance: errors far above
     /// it are penalised linearly (robust), errors below it quadratically.
     pub robust_scale: f64,
@@ -137,6 +146,8 @@ impl FitSettings {
             smooth_weight: 1e-3,
             size_weight: 1.0,
             depth_prior: 0.5,
+            rough_map: true,
+            rough_depth_prior: 1.0,
             robust_scale: 0.05,
             rough_fraction: 0.5,
             level1: false,
@@ -210,6 +221,10 @@ pub struct CellFit {
     pub trace_seconds: f64,
     /// Training objective against solve time (see `objective::Outcome::curve`).
     pub curve: Vec<(f64, f64)>,
+    /// The rough map's solve, with `FitSettings::rough_map` (the fields above are the
+    /// mirror map's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rough_map: Option<RoughMapFit>,
     /// Fraction of the cell's check queries whose true hit is hidden from the probe.
     pub hidden_fraction: f64,
     /// The level-1 corrective, when the settings ask for it (measured, not stored). Boxed,
@@ -221,6 +236,16 @@ pub struct CellFit {
     /// not stored).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub resolutions: Option<Box<ResolutionStudy>>,
+}
+
+/// How a cell's rough map was refined (`FitSettings::rough_map`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RoughMapFit {
+    pub start: Start,
+    pub train_cost_start: f64,
+    pub train_cost_end: f64,
+    pub relax: f64,
+    pub evaluations: u64,
 }
 
 /// Map resolutions the resolution study fits every cell at (`FitSettings::resolution_study`).
@@ -278,15 +303,16 @@ pub struct UnfittedMaps {
 impl UnfittedMaps {
     /// The two sets of the outcomes `results` (cells of `geometry`'s grid, maps of `proxy`).
     fn of(geometry: GridGeometry, map_res: u32, proxy: Method, results: &[CellOutcome]) -> UnfittedMaps {
-        let set = |map: fn(&CellOutcome) -> &[f32]| {
+        let set = |map: fn(&CellOutcome) -> &[f32], rough: fn(&CellOutcome) -> &[f32]| {
             let mut c = Correctives::new(geometry, map_res, vec![NO_MAP; geometry.cell_count()], Vec::new(), proxy);
             for (k, r) in results.iter().enumerate() {
                 c.slot[r.fit.cell as usize] = k as u32;
                 c.maps.extend_from_slice(map(r));
+                c.rough_maps.extend_from_slice(rough(r));
             }
             c
         };
-        UnfittedMaps { celldepth: set(|r| &r.init), fitted_all: set(|r| &r.fitted) }
+        UnfittedMaps { celldepth: set(|r| &r.init, |_| &[]), fitted_all: set(|r| &r.fitted, |r| &r.fitted_rough) }
     }
 }
 
@@ -454,6 +480,9 @@ pub struct CellOutcome {
     /// The refined shift map (level 2), `map_res²` shifts: kept where the cell stores it
     /// (or every cell's, with [`MapSets::WithUnfitted`]), empty otherwise.
     pub fitted: Vec<f32>,
+    /// The refined rough map, kept as `fitted` is (empty without `FitSettings::rough_map`).
+    #[serde(default)]
+    pub fitted_rough: Vec<f32>,
     /// The unfitted shift map of the grid's raytraced distances (`celldepth`): kept only
     /// with [`MapSets::WithUnfitted`].
     pub init: Vec<f32>,
@@ -573,6 +602,7 @@ pub fn fit_cells(
         surface_fraction: s.surface_fraction,
     };
     let (train_size, check_size) = (size(s.train_positions, s.train_dirs), size(s.check_positions, s.check_dirs));
+    let two_maps = two_maps(&glossy, s);
     let results: Vec<CellOutcome> = cells
         .par_iter()
         .map(|&cell| {
@@ -608,13 +638,19 @@ pub fn fit_cells(
             let level1_train: Vec<_> = if s.level1 { train.iter().step_by(4).copied().collect() } else { Vec::new() };
             // the study's inputs, kept only when it is asked for
             let study = s.resolution_study.then(|| (train.clone(), check_halves(&check, check_dirs)));
-            let Refined { start, outcome, fitted, init } = refine(ctx, train, &distance, sees_only_sky, s);
+            let (train, rough_train) = split_rough(train, two_maps);
+            let Refined { start, outcome, fitted, init } =
+                refine(ctx, train, &distance, sees_only_sky, s.depth_prior, s);
+            let rough = rough_train.map(|t| refine(ctx, t, &distance, sees_only_sky, s.rough_depth_prior, s));
             let check_problem = CellProblem::new(ctx, vec![0.0; n2], check);
             let [warp1, boxed_err, kdop] =
                 [Method::Warp1, Method::Box, Method::Kdop].map(|m| check_problem.relative_error_method(m));
             let fallback = check_problem.relative_error_map(&vec![0.0; n2]);
             let celldepth = check_problem.relative_error_map(&init);
-            let fitted_err = check_problem.relative_error_map(&fitted);
+            let fitted_err = match &rough {
+                Some(r) => check_problem.relative_error_maps(&fitted, &r.fitted),
+                None => check_problem.relative_error_map(&fitted),
+            };
             let selection = if sees_only_sky {
                 Selection::SeesOnlySky
             } else {
@@ -648,18 +684,42 @@ pub fn fit_cells(
                 seconds: tc.elapsed().as_secs_f64(),
                 trace_seconds,
                 curve: outcome.curve.clone(),
+                rough_map: rough.as_ref().map(|r| RoughMapFit {
+                    start: r.start,
+                    train_cost_start: r.outcome.cost_start,
+                    train_cost_end: r.outcome.cost_end,
+                    relax: r.outcome.relax,
+                    evaluations: r.outcome.evaluations,
+                }),
                 hidden_fraction: hidden,
                 level1,
                 resolutions,
             };
             let keep_all = sets == MapSets::WithUnfitted;
-            let fitted = if keep_all || fit.level == Level::Map { fitted } else { Vec::new() };
+            let keep = keep_all || fit.level == Level::Map;
+            let fitted_rough = rough.filter(|_| keep).map_or(Vec::new(), |r| r.fitted);
+            let fitted = if keep { fitted } else { Vec::new() };
             let init = if keep_all { init } else { Vec::new() };
-            CellOutcome { fit, fitted, init, rays }
+            CellOutcome { fit, fitted, fitted_rough, init, rays }
         })
         .collect();
     bar.finish_and_clear();
     results
+}
+
+/// Whether a fit stores a rough map per cell: asked for, and the probe has rough mips.
+fn two_maps(glossy: &Glossy, s: &FitSettings) -> bool {
+    s.rough_map && rough_fraction(glossy, s) > 0.0
+}
+
+/// A cell's training queries for its map and, with `two_maps`, for its rough map: the
+/// queries the runtime reads mostly from the rough map (`rough_weight` ≥ ½) go to it.
+fn split_rough(train: Vec<Sample>, two_maps: bool) -> (Vec<Sample>, Option<Vec<Sample>>) {
+    if !two_maps {
+        return (train, None);
+    }
+    let (rough, mirror): (Vec<Sample>, Vec<Sample>) = train.into_iter().partition(|q| rough_weight(q.roughness) >= 0.5);
+    (mirror, Some(rough))
 }
 
 /// A cell's map refined from the better of its two starts, and the unfitted map.
@@ -674,11 +734,19 @@ struct Refined {
 
 /// Refines a cell's map at `ctx.res` against `train`. Two starts: the proxy itself and the
 /// grid's raytraced distances `distance` (at the map's resolution); the one that explains the
-/// training queries better is refined (the size term pulls towards the anchor either way).
-fn refine(ctx: CellContext, train: Vec<Sample>, distance: &[f32], sees_only_sky: bool, s: &FitSettings) -> Refined {
+/// training queries better is refined (the size term pulls towards the anchor, `depth_prior`
+/// of the way to the raytraced distances, either way).
+fn refine(
+    ctx: CellContext,
+    train: Vec<Sample>,
+    distance: &[f32],
+    sees_only_sky: bool,
+    depth_prior: f64,
+    s: &FitSettings,
+) -> Refined {
     let n2 = (ctx.res * ctx.res) as usize;
     let celldepth_start = ctx.log_scales_of(distance);
-    let prior = if sees_only_sky { 0.0 } else { s.depth_prior };
+    let prior = if sees_only_sky { 0.0 } else { depth_prior };
     let anchor = celldepth_start.iter().map(|x| x * prior).collect();
     let mut problem = CellProblem::new(ctx, vec![0.0; n2], train)
         .with_weights(s.smooth_weight, s.size_weight)
@@ -724,7 +792,7 @@ fn study_resolutions(
             }
             let distance = depth_at(res);
             let sees_only_sky = distance.iter().all(|d| !d.is_finite());
-            (res, refine(CellContext { res, ..ctx }, train.to_vec(), &distance, sees_only_sky, s).fitted)
+            (res, refine(CellContext { res, ..ctx }, train.to_vec(), &distance, sees_only_sky, s.depth_prior, s).fitted)
         })
         .collect();
     let mut errors = [[0.0; 1 + STUDY_RESOLUTIONS.len()]; 2];
@@ -795,15 +863,18 @@ fn assemble_cells(
     // their records in place (the records are smaller: the outcomes' buffer is reused, so
     // the two are never held side by side)
     let stored = results.iter().filter(|r| r.fit.level == Level::Map).count();
+    let two_maps = two_maps(&glossy, s);
     let mut correctives =
-        Correctives::new(g, s.map_res, vec![NO_MAP; g.cell_count()], Vec::with_capacity(stored * n2), proxy.method);
+        Correctives::new(g, s.map_res, vec![NO_MAP; g.cell_count()], Vec::with_capacity(stored * n2), proxy.method)
+            .with_rough_maps(Vec::with_capacity(if two_maps { stored * n2 } else { 0 }));
     let mut reference_rays = 0;
     let cells: Vec<CellFit> = results
         .into_iter()
-        .map(|CellOutcome { fit, fitted, rays, .. }| {
+        .map(|CellOutcome { fit, fitted, fitted_rough, rays, .. }| {
             if fit.level == Level::Map {
                 correctives.slot[fit.cell as usize] = (correctives.maps.len() / n2) as u32;
                 correctives.maps.extend_from_slice(&fitted);
+                correctives.rough_maps.extend_from_slice(&fitted_rough);
             }
             reference_rays += rays;
             fit

@@ -36,7 +36,7 @@
 use super::Solver;
 use crate::octa::{self, LANES, wrap_texel};
 use crate::tonemap::reinhard;
-use crate::warp::corrective::{AimLanes, sample_map, shifted_aim};
+use crate::warp::corrective::{AimLanes, sample_map, sample_maps, shifted_aim};
 use crate::warp::glossy::{Glossy, MipRule, corrected_lanes};
 use crate::warp::{Level1, Method, Warp};
 use argmin::core::{CostFunction, Error, Executor, Gradient, State};
@@ -349,9 +349,10 @@ impl<'a> CellProblem<'a> {
     /// Radiance of sample `i`'s lookup under `map`: the runtime's corrective fetch
     /// (`shifted_aim`) and, for a rough query, its mip (`warp::glossy`).
     #[inline]
-    fn lookup(&self, i: usize, map: &[f32]) -> Vec3 {
+    fn lookup(&self, i: usize, map: &[f32], rough: &[f32]) -> Vec3 {
         let q = &self.samples[i];
-        let aim = shifted_aim(self.glossy.warp.probe.position, q.t_proxy, sample_map(map, &q.taps), q.b, q.dir);
+        let delta = sample_maps(map, rough, &q.taps, q.roughness);
+        let aim = shifted_aim(self.glossy.warp.probe.position, q.t_proxy, delta, q.b, q.dir);
         self.glossy.radiance(MipRule::Corrected, q.b, q.dir, aim, q.roughness)
     }
 
@@ -359,21 +360,26 @@ impl<'a> CellProblem<'a> {
     /// reference the lane errors (`errors`) are tested against.
     #[cfg(test)]
     fn sample_error(&self, i: usize, map: &[f32]) -> f64 {
-        abs_error(reinhard(self.lookup(i, map), self.exposure), self.tm_reference[i])
+        abs_error(reinhard(self.lookup(i, map, &[]), self.exposure), self.tm_reference[i])
     }
 
     /// The tone-mapped absolute error of each query in `idx` under `map`, in `idx`'s order:
     /// the scalar lookup's (`sample_error` in the tests) bit for bit, the lookups made
     /// [`LANES`] at a time.
     fn errors<'s>(&'s self, idx: &'s [u32], map: &'s [f32]) -> impl Iterator<Item = f64> + 's {
-        idx.chunks(LANES).flat_map(move |group| self.errors_lanes(group, map).into_iter().take(group.len()))
+        self.errors_by(idx, move |q: &Sample| sample_map(map, &q.taps))
+    }
+
+    /// [`Self::errors`] with each query's shift given by `delta`.
+    fn errors_by<'s>(&'s self, idx: &'s [u32], delta: impl Fn(&Sample) -> f32 + 's) -> impl Iterator<Item = f64> + 's {
+        idx.chunks(LANES).flat_map(move |group| self.errors_lanes(group, &delta).into_iter().take(group.len()))
     }
 
     /// The errors of up to [`LANES`] queries (a shorter group repeats its last query): the
     /// lanes' shifted aims (`AimLanes::shifted`), then their probe reads together (a mirror
     /// group at mip 0, otherwise `glossy::corrected_lanes`): the runtime's batch lookup.
     #[inline]
-    fn errors_lanes(&self, group: &[u32], map: &[f32]) -> [f64; LANES] {
+    fn errors_lanes(&self, group: &[u32], delta_of: impl Fn(&Sample) -> f32) -> [f64; LANES] {
         let mut idx = [0usize; LANES];
         for (l, i) in idx.iter_mut().enumerate() {
             *i = group[l.min(group.len() - 1)] as usize;
@@ -387,7 +393,7 @@ impl<'a> CellProblem<'a> {
             [b[0][l], b[1][l], b[2][l]] = q.b.to_array();
             [d[0][l], d[1][l], d[2][l]] = q.dir.to_array();
             (t[l], has_t[l]) = (q.t_proxy.unwrap_or(0.0), q.t_proxy.is_some());
-            delta[l] = sample_map(map, &q.taps);
+            delta[l] = delta_of(q);
             r[l] = q.roughness;
         }
         let aims = AimLanes::shifted(probe.position, &t, &has_t, &delta, &b, d);
@@ -404,10 +410,11 @@ impl<'a> CellProblem<'a> {
         e
     }
 
-    /// Each query's linear absolute error (mean over RGB) under `map`, in query order: what
-    /// the runtime's `specular` answers against the same references.
-    pub fn query_errors(&self, map: &[f32]) -> Vec<f64> {
-        (0..self.samples.len()).map(|i| abs_error(self.lookup(i, map), self.samples[i].reference)).collect()
+    /// Each query's linear absolute error (mean over RGB) under `map` and the rough map
+    /// `rough` (empty: none), in query order: what the runtime's `specular` answers against
+    /// the same references.
+    pub fn query_errors(&self, map: &[f32], rough: &[f32]) -> Vec<f64> {
+        (0..self.samples.len()).map(|i| abs_error(self.lookup(i, map, rough), self.samples[i].reference)).collect()
     }
 
     #[inline]
@@ -445,6 +452,15 @@ impl<'a> CellProblem<'a> {
     /// not decide it alone).
     pub fn relative_error_map(&self, map: &[f32]) -> f64 {
         let sq: f64 = self.errors(&self.all, map).map(|e| e.powi(2)).sum();
+        (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
+    }
+
+    /// [`Self::relative_error_map`] of a mirror map and a rough map, each query's shift
+    /// blended from the two by its roughness as the runtime blends them
+    /// (`warp::corrective::sample_maps`).
+    pub fn relative_error_maps(&self, mirror: &[f32], rough: &[f32]) -> f64 {
+        let delta = |q: &Sample| sample_maps(mirror, rough, &q.taps, q.roughness);
+        let sq: f64 = self.errors_by(&self.all, delta).map(|e| e.powi(2)).sum();
         (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
     }
 

@@ -130,7 +130,7 @@ fn queries(baked: Baked, warp: &Warp, correctives: &Correctives, s: &FitSettings
         .into_par_iter()
         .map(|k| {
             let (b, dir) = (q.position_of(k), q.dirs[k]);
-            let (uv, k_ratio) = fetch(warp, correctives, b, dir);
+            let (uv, k_ratio) = fetch(warp, correctives, b, dir, q.roughness[k]);
             (k / DIRS, Query { uv, k: k_ratio, r: q.roughness[k], reference: q.reference[k] })
         })
         .collect();
@@ -142,10 +142,10 @@ fn queries(baked: Baked, warp: &Warp, correctives: &Correctives, s: &FitSettings
     }
 }
 
-/// The fitted grid's fetch for query (b, dir): the octahedral coordinate it reads and the
-/// distance ratio there.
-fn fetch(warp: &Warp, correctives: &Correctives, b: Vec3, dir: Vec3) -> (Vec2, f32) {
-    let aim = correctives.fetch(Blend::Cell, warp, b, dir);
+/// The fitted grid's fetch for query (b, dir) of roughness `r`: the octahedral coordinate
+/// it reads and the distance ratio there.
+fn fetch(warp: &Warp, correctives: &Correctives, b: Vec3, dir: Vec3, r: f32) -> (Vec2, f32) {
+    let aim = correctives.fetch(Blend::Cell, warp, b, dir, r);
     let uv = octa::encode(aim.v);
     (uv, aim.ratio(warp, b, uv))
 }
@@ -329,7 +329,7 @@ pub fn fit_scene_correction(
                 .iter()
                 .map(|&rule| {
                     perceptual::flip_tiles(&refs, exposure, 8, |r, b, dir, _| {
-                        let (uv, k) = fetch(warp, correctives, b, dir);
+                        let (uv, k) = fetch(warp, correctives, b, dir, r);
                         let lod = warp.probe.lod_of_roughness(rules.roughness(rule, row, r, k));
                         warp.probe.radiance.sample_lod_uv(uv, lod)
                     })

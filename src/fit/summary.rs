@@ -13,6 +13,9 @@ pub struct FitSummary {
     /// Cells whose fitted map lost to the fallback on held-out queries (kept the fallback).
     pub kept_fallback: usize,
     pub bytes_level2: usize,
+    /// Stored cells keep a rough map beside their map (`bytes_level2` counts both).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub rough_maps: bool,
     pub fit_seconds: f64,
     pub reference_rays: u64,
     pub evaluations: u64,
@@ -173,7 +176,8 @@ fn level1_summary(fit: &Fit) -> Option<Level1Summary> {
         return None;
     }
     let n = cells.len() as f64;
-    let map_bytes = (fit.settings.map_res * fit.settings.map_res) as usize * 4;
+    let maps_per_cell = if fit.correctives.has_rough_maps() { 2 } else { 1 };
+    let map_bytes = (fit.settings.map_res * fit.settings.map_res) as usize * 4 * maps_per_cell;
     let margin = fit.settings.selection_margin;
     let (mut chosen, mut err, mut bytes) = ([0usize; 3], 0.0, 0usize);
     for (c, l) in &cells {
@@ -212,10 +216,11 @@ pub fn summary(fit: &Fit) -> FitSummary {
         cells_level0: fit.cells.iter().filter(|c| c.level == Level::Fallback).count(),
         cells_level2: fit.cells.iter().filter(|c| c.level == Level::Map).count(),
         kept_fallback: fit.cells.iter().filter(|c| c.selection == super::Selection::KeptFallback).count(),
-        bytes_level2: fit.correctives.maps.len() * 4,
+        bytes_level2: (fit.correctives.maps.len() + fit.correctives.rough_maps.len()) * 4,
+        rough_maps: fit.correctives.has_rough_maps(),
         fit_seconds: fit.seconds,
         reference_rays: fit.reference_rays,
-        evaluations: fit.cells.iter().map(|c| c.evaluations).sum(),
+        evaluations: fit.cells.iter().map(|c| c.evaluations + c.rough_map.as_ref().map_or(0, |r| r.evaluations)).sum(),
         fallback_method: fit.correctives.fallback.name().to_string(),
         proxy: Some(fit.proxy),
         mean_check_err_warp1: fit.cells.iter().map(|c| c.check_err_warp1).sum::<f64>() / n,

@@ -144,7 +144,7 @@ pub fn read_manifest(dir: &Path) -> Result<GridManifest, FileError> {
         serde_json::from_slice(&bytes).map_err(|e| FileError::Json { path: path.clone(), message: e.to_string() })?;
     let found = value.get("format").and_then(|v| v.as_str()).unwrap_or("").to_string();
     let version = value.get("version").and_then(|v| v.as_u64()).unwrap_or(0);
-    if found != GRID_FORMAT || version != GRID_VERSION as u64 {
+    if found != GRID_FORMAT || !(GRID_VERSION_OLDEST as u64..=GRID_VERSION as u64).contains(&version) {
         return Err(FileError::Version { path, found, version, expected: GRID_FORMAT, supported: GRID_VERSION });
     }
     let m: GridManifest =
@@ -269,17 +269,22 @@ fn expected_payloads(
         }
         cells_ok(&c.stored_cells, "correctives.stored_cells")?;
         columns_ok(c.stored_cells.len(), c.atlas_columns, "correctives.atlas_columns")?;
+        if c.rough_maps.is_some() && m.version < 5 {
+            return Err(invalid(mp, "correctives.rough_maps", "rough maps need format version 5"));
+        }
         let (w, h) = atlas_size(c.stored_cells.len(), c.map_res, c.atlas_columns);
-        out.push((
-            CORRECTIVES_FILE,
-            vec![Expected {
-                name: "shift_maps".into(),
-                width: w,
-                height: h,
-                channels: &["D"],
-                tiles: Some((c.map_res, c.atlas_columns)),
-            }],
-        ));
+        let layer = |name: &str| Expected {
+            name: name.into(),
+            width: w,
+            height: h,
+            channels: &["D"],
+            tiles: Some((c.map_res, c.atlas_columns)),
+        };
+        let mut layers = vec![layer("shift_maps")];
+        if c.rough_maps.is_some() {
+            layers.push(layer("rough_shift_maps"));
+        }
+        out.push((CORRECTIVES_FILE, layers));
     }
     let ir = &m.irradiance;
     if !tile_ok(ir.resolution) || !tile_ok(ir.depth_resolution) {
@@ -707,23 +712,28 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     let proxies = Proxies { aabb, kdop };
 
     // correctives (their atlas arrives tile by tile: the first tiles are the stored maps)
-    let (map_res, slot, maps) = match &m.correctives {
-        None => (8, vec![NO_MAP; cells], Vec::new()),
+    let (map_res, slot, maps, rough_maps) = match &m.correctives {
+        None => (8, vec![NO_MAP; cells], Vec::new(), Vec::new()),
         Some(c) => {
             let slot = slots(&c.stored_cells, cells, mp, "correctives.stored_cells")?;
             let cpath = dir.join(CORRECTIVES_FILE);
             let mut layers = read_payload(dir, &m, CORRECTIVES_FILE, expected_of(CORRECTIVES_FILE))?;
             let size = atlas_size(c.stored_cells.len(), c.map_res, c.atlas_columns);
-            let mut maps = take_channel(&mut layers, &cpath, "shift_maps", size, "D")?;
             let dmax = bounds.max_distance;
-            check(&cpath, "shift_maps.D", &maps, &format!("a shift in [-{dmax:e}, {dmax:e}]"), |x| {
-                (-dmax..=dmax).contains(&x)
-            })?;
-            maps.truncate(c.stored_cells.len() * (c.map_res * c.map_res) as usize);
-            (c.map_res, slot, maps)
+            let mut take = |layer: &str| -> Result<Vec<f32>, FileError> {
+                let mut maps = take_channel(&mut layers, &cpath, layer, size, "D")?;
+                check(&cpath, &format!("{layer}.D"), &maps, &format!("a shift in [-{dmax:e}, {dmax:e}]"), |x| {
+                    (-dmax..=dmax).contains(&x)
+                })?;
+                maps.truncate(c.stored_cells.len() * (c.map_res * c.map_res) as usize);
+                Ok(maps)
+            };
+            let maps = take("shift_maps")?;
+            let rough_maps = if c.rough_maps.is_some() { take("rough_shift_maps")? } else { Vec::new() };
+            (c.map_res, slot, maps, rough_maps)
         }
     };
-    let correctives = Correctives::new(geometry, map_res, slot, maps, fallback);
+    let correctives = Correctives::new(geometry, map_res, slot, maps, fallback).with_rough_maps(rough_maps);
 
     // irradiance (atlases arrive tile by tile: the first tiles are the stored cells')
     let ir = &m.irradiance;

@@ -16,7 +16,11 @@ pub const GRID_FORMAT: &str = "warpfit-grid";
 /// 3: the manifest's own checksum, structural limits, and the fitted irradiance corrections.
 /// 4: the maps shift the proxy's surface (`shift_maps`, scene units) instead of holding
 /// inverse distances from the cell's origin; the fallback is the proxy (box, kdop, warp1).
-pub const GRID_VERSION: u32 = 4;
+/// 5: a stored cell may keep a second map for rough lookups (`rough_shift_maps`); a version-4
+/// grid is read as one with none.
+pub const GRID_VERSION: u32 = 5;
+/// The oldest version this build reads.
+pub const GRID_VERSION_OLDEST: u32 = 4;
 pub const MANIFEST_FILE: &str = "manifest.json";
 pub const PROBE_FILE: &str = "probe.exr";
 pub const CORRECTIVES_FILE: &str = "correctives.exr";
@@ -142,7 +146,15 @@ pub struct CorrectiveSection {
     pub atlas_columns: u32,
     /// [`SHIFT_MAP_ENCODING`].
     pub encoding: String,
+    /// Present when `correctives.exr` also holds layer `rough_shift_maps` (channel `D`, the
+    /// same tiles): each stored cell's map for rough lookups, read as this says
+    /// ([`ROUGH_MAP_ENCODING`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rough_maps: Option<String>,
 }
+
+/// How a lookup reads the rough maps (the manifest's `correctives.rough_maps`).
+pub const ROUGH_MAP_ENCODING: &str = "with rough_maps, a lookup of perceptual roughness r shifts by the shift_maps value for r <= 0.25, by the rough_shift_maps value for r >= 0.5, and by shift + (rough_shift - shift) * (r - 0.25) / 0.25 between (each map sampled bilinearly as shift_maps)";
 
 /// What a shift map's texels mean (the manifest's `correctives.encoding`).
 pub const SHIFT_MAP_ENCODING: &str = "per stored cell, an N×N octahedral map of shifts (scene units) of the proxy's surface along the lookup direction: a lookup from B along dir aims at t_proxy(B, dir) + bilinear shift(dir), where t_proxy is the distance to the proxy (warp.fallback) from B; negative = nearer";

@@ -183,7 +183,7 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
     // correctives: shift maps of level-2 cells, in cell order (tile k = k-th stored cell)
     let stored: Vec<(u32, u32)> = (0..cells).filter_map(|cell| c.slot_of(cell).map(|s| (s, cell as u32))).collect();
     let stored_cells: Vec<u32> = stored.iter().map(|(_, cell)| *cell).collect();
-    let n2 = (c.map_res * c.map_res) as u64;
+    let n2 = (c.map_res * c.map_res) as u64 * if c.has_rough_maps() { 2 } else { 1 };
     let level0 = g.provenance.level0_cells as u64;
     left_out.push(LeftOut {
         what: format!("shift maps of {level0} level-0 cells"),
@@ -205,15 +205,20 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
         let columns = atlas_columns(stored_cells.len());
         let slots: Vec<u32> = stored.iter().map(|(slot, _)| *slot).collect();
         let dmax = bounds.max_distance;
-        let shift =
-            packed(&c.maps, &slots, c.map_res, columns, |x| if x.is_nan() { 0.0 } else { x.clamp(-dmax, dmax) });
-        let layer = packed_layer("shift_maps", slots.len(), c.map_res, columns, vec![("D", shift)]);
-        payloads.push(payload(dir, CORRECTIVES_FILE, [layer], g.precision)?);
+        let clamp = move |x: f32| if x.is_nan() { 0.0 } else { x.clamp(-dmax, dmax) };
+        let shift = packed(&c.maps, &slots, c.map_res, columns, clamp);
+        let mut layers = vec![packed_layer("shift_maps", slots.len(), c.map_res, columns, vec![("D", shift)])];
+        if c.has_rough_maps() {
+            let rough = packed(&c.rough_maps, &slots, c.map_res, columns, clamp);
+            layers.push(packed_layer("rough_shift_maps", slots.len(), c.map_res, columns, vec![("D", rough)]));
+        }
+        payloads.push(payload(dir, CORRECTIVES_FILE, layers, g.precision)?);
         Some(CorrectiveSection {
             map_res: c.map_res,
             stored_cells,
             atlas_columns: columns,
             encoding: SHIFT_MAP_ENCODING.into(),
+            rough_maps: c.has_rough_maps().then(|| ROUGH_MAP_ENCODING.into()),
         })
     };
 

@@ -107,8 +107,12 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
     let _ = writeln!(md, "| 0 | {} | 0 | the grid's proxy `{}` alone ({how}) |", s.cells_level0, s.fallback_method);
     let _ = writeln!(
         md,
-        "| 2 | {} | {} | {}×{} shift map of the proxy, f32 scene units |",
-        s.cells_level2, s.bytes_level2, fit.settings.map_res, fit.settings.map_res
+        "| 2 | {} | {} | {}×{} shift map of the proxy{}, f32 scene units |",
+        s.cells_level2,
+        s.bytes_level2,
+        fit.settings.map_res,
+        fit.settings.map_res,
+        if s.rough_maps { " and one for rough lookups" } else { "" }
     );
     let _ = writeln!(
         md,

@@ -100,7 +100,7 @@ impl FittedGrid {
         let Some(q) = self.specular_query(position, direction, roughness) else {
             return Vec3::ZERO;
         };
-        let aim = self.correctives.fetch(self.blend, &self.warp, q.b, q.dir);
+        let aim = self.correctives.fetch(self.blend, &self.warp, q.b, q.dir, q.r);
         self.shade(q, aim)
     }
 
@@ -154,7 +154,7 @@ impl FittedGrid {
             let v = self.correctives.fetch_vector_lanes(self.blend, &self.warp, b, dir);
             self.warp.probe.radiance.levels[0].bilinear_uv_lanes(&octa::encode_soa(&v))
         } else {
-            let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir);
+            let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &r);
             corrected_lanes(&self.warp.probe, self.roughness.as_ref(), &r, &v, &ratio)
         };
         if let Some(valid) = valid {
@@ -236,7 +236,7 @@ impl FittedGrid {
         let c = &self.correctives;
         let g = &self.irradiance;
         probe
-            + c.maps.len() * 4
+            + (c.maps.len() + c.rough_maps.len()) * 4
             + c.slot.len() * 4
             + g.irradiance.len() * 12
             + (g.depth_mean.len() + g.depth_mean_sq.len()) * 4

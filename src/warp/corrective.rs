@@ -59,8 +59,13 @@ pub struct Correctives {
     pub map_res: u32,
     /// Per grid cell: index into `maps` ([`NO_MAP`] = level 0, nothing stored).
     pub slot: Vec<u32>,
-    /// Shift maps, `slot · N² + texel`: Δ in scene units.
+    /// Shift maps, `slot · N² + texel`: Δ in scene units. With `rough_maps`, the maps of
+    /// mirror and near-mirror lookups.
     pub maps: Vec<f32>,
+    /// Empty, or a second map per stored cell (same slots) for rough lookups: a lookup of
+    /// roughness r reads `maps` up to [`ROUGH_MAP_FROM`], `rough_maps` from
+    /// [`ROUGH_MAP_TO`], and blends the two shifts between ([`rough_weight`]).
+    pub rough_maps: Vec<f32>,
     /// The proxy every lookup reads through (`Method::Box`, `Method::Kdop` or
     /// `Method::Warp1`): as it is in cells without a map.
     pub fallback: Method,
@@ -73,7 +78,21 @@ impl Correctives {
     /// `maps`, or [`NO_MAP`]) and the proxy `fallback`.
     #[must_use]
     pub fn new(geometry: GridGeometry, map_res: u32, slot: Vec<u32>, maps: Vec<f32>, fallback: Method) -> Self {
-        Correctives { geometry, map_res, slot, maps, fallback, cell_size: geometry.cell_size() }
+        Correctives { geometry, map_res, slot, maps, rough_maps: Vec::new(), fallback, cell_size: geometry.cell_size() }
+    }
+
+    /// The same correctives with a rough map per stored cell (`rough_maps`, as `maps`).
+    #[must_use]
+    pub fn with_rough_maps(mut self, rough_maps: Vec<f32>) -> Self {
+        self.rough_maps = rough_maps;
+        self
+    }
+
+    /// Whether stored cells keep a second map for rough lookups.
+    #[inline]
+    #[must_use]
+    pub fn has_rough_maps(&self) -> bool {
+        !self.rough_maps.is_empty()
     }
 
     /// The cell index of the cell a lookup at `b` reads (the containing cell, clamped).
@@ -108,24 +127,32 @@ impl Correctives {
         self.slot[cell] != NO_MAP
     }
 
-    /// The map in `slot` sampled with bilinear `taps`: the shift Δ.
+    /// The rough map in `slot` (empty without `rough_maps`).
     #[inline]
-    fn map_delta(&self, slot: u32, taps: &[(u32, f32); 4]) -> f32 {
-        sample_map(self.map(slot), taps)
+    fn rough_map(&self, slot: u32) -> &[f32] {
+        let n2 = (self.map_res * self.map_res) as usize;
+        self.rough_maps.get(slot as usize * n2..(slot as usize + 1) * n2).unwrap_or(&[])
     }
 
-    /// Fetch vector for query (B, dir).
+    /// The shift Δ of slot `slot` for a lookup of roughness `r`, its maps sampled with
+    /// bilinear `taps` ([`sample_maps`]).
+    #[inline]
+    fn map_delta(&self, slot: u32, taps: &[(u32, f32); 4], r: f32) -> f32 {
+        sample_maps(self.map(slot), self.rough_map(slot), taps, r)
+    }
+
+    /// Fetch vector for the mirror query (B, dir).
     #[inline]
     #[must_use]
     pub fn fetch_vector(&self, blend: Blend, warp: &Warp, b: Vec3, dir: Vec3) -> Vec3 {
-        self.fetch(blend, warp, b, dir).v
+        self.fetch(blend, warp, b, dir, 0.0).v
     }
 
-    /// Where query (B, dir) reads probe A: the aimed point and its distance ratio (no depth
-    /// fetch needed for a rough lookup).
+    /// Where query (B, dir) of roughness `r` reads probe A: the aimed point and its
+    /// distance ratio (no depth fetch needed for a rough lookup).
     #[inline]
     #[must_use]
-    pub fn fetch(&self, blend: Blend, warp: &Warp, b: Vec3, dir: Vec3) -> Aim {
+    pub fn fetch(&self, blend: Blend, warp: &Warp, b: Vec3, dir: Vec3, r: f32) -> Aim {
         let a = warp.probe.position;
         if b == a {
             return Aim { v: dir, k: Some(1.0) };
@@ -133,8 +160,8 @@ impl Correctives {
         let delta = match blend {
             Blend::Cell => self
                 .slot_of(self.cell_at(b))
-                .map(|slot| self.map_delta(slot, &octa::bilinear_taps(self.map_res, octa::encode(dir)))),
-            Blend::Trilinear => self.trilinear_delta(b, dir),
+                .map(|slot| self.map_delta(slot, &octa::bilinear_taps(self.map_res, octa::encode(dir)), r)),
+            Blend::Trilinear => self.trilinear_delta(b, dir, r),
         };
         match delta {
             Some(delta) => shifted_aim(a, warp.base_distance(self.fallback, b, dir), delta, b, dir),
@@ -143,7 +170,8 @@ impl Correctives {
         }
     }
 
-    /// `fetch` for [`LANES`] queries, bit for bit the same, in structure-of-arrays form:
+    /// `fetch` for [`LANES`] queries of roughness `r`, bit for bit the same, in
+    /// structure-of-arrays form:
     /// the fetch vectors as components ([`octa::soa`]) and each lane's distance ratio
     /// ([`Aim::ratio`]: read from A's depth where the lookup aimed at no known point). With
     /// `Blend::Cell` every lane runs the same steps side by side: the proxy's exit (the box
@@ -157,11 +185,12 @@ impl Correctives {
         warp: &Warp,
         b: &[Vec3; LANES],
         dir: &[Vec3; LANES],
+        r: &[f32; LANES],
     ) -> (octa::Soa3, [f32; LANES]) {
-        let Some(aims) = self.aim_lanes(blend, warp, b, dir) else {
+        let Some(aims) = self.aim_lanes(blend, warp, b, dir, r) else {
             let (mut v, mut ratio) = ([Vec3::Z; LANES], [1.0f32; LANES]);
             for k in 0..LANES {
-                let aim = self.fetch(blend, warp, b[k], dir[k]);
+                let aim = self.fetch(blend, warp, b[k], dir[k], r[k]);
                 (v[k], ratio[k]) = (aim.v, aim.ratio(warp, b[k], octa::encode(aim.v)));
             }
             return (octa::soa(&v), ratio);
@@ -174,10 +203,10 @@ impl Correctives {
     #[inline]
     #[must_use]
     pub fn fetch_vector_lanes(&self, blend: Blend, warp: &Warp, b: &[Vec3; LANES], dir: &[Vec3; LANES]) -> octa::Soa3 {
-        let Some(aims) = self.aim_lanes(blend, warp, b, dir) else {
+        let Some(aims) = self.aim_lanes(blend, warp, b, dir, &[0.0; LANES]) else {
             let mut out = [Vec3::Z; LANES];
             for k in 0..LANES {
-                out[k] = self.fetch(blend, warp, b[k], dir[k]).v;
+                out[k] = self.fetch(blend, warp, b[k], dir[k], 0.0).v;
             }
             return octa::soa(&out);
         };
@@ -189,7 +218,14 @@ impl Correctives {
     /// are, and which lanes aim at all (the others read their query direction). `None` for
     /// the other settings, which go lane by lane.
     #[inline(always)]
-    fn aim_lanes(&self, blend: Blend, warp: &Warp, b: &[Vec3; LANES], dir: &[Vec3; LANES]) -> Option<AimLanes> {
+    fn aim_lanes(
+        &self,
+        blend: Blend,
+        warp: &Warp,
+        b: &[Vec3; LANES],
+        dir: &[Vec3; LANES],
+        r: &[f32; LANES],
+    ) -> Option<AimLanes> {
         if blend != Blend::Cell || warp.options.relax_texels > 0.0 {
             return None;
         }
@@ -221,7 +257,7 @@ impl Correctives {
             let slot = self.slot[cells[k]];
             if slot != NO_MAP {
                 let taps = octa::footprint_taps(self.map_res, foot.0[k], foot.1[k], foot.2[k], foot.3[k]);
-                delta[k] = self.map_delta(slot, &taps);
+                delta[k] = self.map_delta(slot, &taps, r[k]);
             }
         }
         Some(AimLanes::shifted(a, &t, &has_t, &delta, &bb, d))
@@ -229,7 +265,7 @@ impl Correctives {
 
     /// Δ blended over the eight cells around B (cell-centre lattice) with trilinear
     /// weights, cells without a map counting 0; `None` when none of them stores one.
-    fn trilinear_delta(&self, b: Vec3, dir: Vec3) -> Option<f32> {
+    fn trilinear_delta(&self, b: Vec3, dir: Vec3, r: f32) -> Option<f32> {
         let g = &self.geometry;
         let taps = octa::bilinear_taps(self.map_res, octa::encode(dir));
         // position in the lattice of cell centres
@@ -248,7 +284,7 @@ impl Correctives {
                 * (if o.y == 1 { frac.y } else { 1.0 - frac.y })
                 * (if o.z == 1 { frac.z } else { 1.0 - frac.z });
             if let Some(slot) = self.slot_of(g.cell_index(c)) {
-                sum += w * self.map_delta(slot, &taps);
+                sum += w * self.map_delta(slot, &taps, r);
                 any = true;
             }
         }
@@ -334,6 +370,45 @@ impl AimLanes {
 /// The slot value of a cell that stores no map.
 pub const NO_MAP: u32 = u32::MAX;
 
+/// With rough maps, the roughness up to which a lookup reads the (mirror) map alone.
+pub const ROUGH_MAP_FROM: f32 = 0.5;
+/// With rough maps, the roughness from which a lookup reads the rough map alone.
+pub const ROUGH_MAP_TO: f32 = 0.75;
+
+/// How much of the rough map's shift a lookup of roughness `r` takes: 0 up to
+/// [`ROUGH_MAP_FROM`], 1 from [`ROUGH_MAP_TO`], linear between (0 for NaN).
+#[inline]
+#[must_use]
+pub fn rough_weight(r: f32) -> f32 {
+    let w = (r - ROUGH_MAP_FROM) / (ROUGH_MAP_TO - ROUGH_MAP_FROM);
+    if w > 0.0 { w.min(1.0) } else { 0.0 }
+}
+
+/// The shift of a lookup of roughness `r` from a cell's `mirror` map and its `rough` map
+/// (empty: none), sampled with bilinear `taps`: the mirror map's up to [`ROUGH_MAP_FROM`],
+/// the rough map's from [`ROUGH_MAP_TO`], blended between ([`blend_shift`]). Shared by the
+/// runtime and the fit's objective.
+#[inline]
+#[must_use]
+pub fn sample_maps(mirror: &[f32], rough: &[f32], taps: &[(u32, f32); 4], r: f32) -> f32 {
+    if rough.is_empty() {
+        return sample_map(mirror, taps);
+    }
+    match rough_weight(r) {
+        w if w <= 0.0 => sample_map(mirror, taps),
+        w if w >= 1.0 => sample_map(rough, taps),
+        w => blend_shift(sample_map(mirror, taps), sample_map(rough, taps), w),
+    }
+}
+
+/// The shift between a mirror map's `mirror` and a rough map's `rough` at rough weight `w`
+/// ∈ (0, 1) (the fit and the runtime share it; shaders write the same `mix`).
+#[inline]
+#[must_use]
+pub fn blend_shift(mirror: f32, rough: f32, w: f32) -> f32 {
+    mirror + (rough - mirror) * w
+}
+
 /// A shift map sampled with bilinear `taps`.
 #[inline]
 #[must_use]
@@ -378,4 +453,33 @@ const NEAREST: f32 = 1e-30;
 fn distance_ratio(v: Vec3, s: f32) -> f32 {
     let k = v.length() / s;
     if k.is_finite() && k > 0.0 { k } else { 1.0 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_lookup_blends_the_two_maps_over_the_band_only() {
+        assert_eq!(rough_weight(0.0), 0.0);
+        assert_eq!(rough_weight(ROUGH_MAP_FROM), 0.0);
+        assert_eq!(rough_weight(ROUGH_MAP_TO), 1.0);
+        assert_eq!(rough_weight(1.0), 1.0);
+        assert_eq!(rough_weight(f32::NAN), 0.0);
+        let mid = 0.5 * (ROUGH_MAP_FROM + ROUGH_MAP_TO);
+        assert!((rough_weight(mid) - 0.5).abs() < 1e-6);
+        // a 2×2 map of 1s and one of 3s, read at a texel's centre
+        let (mirror, rough) = ([1.0f32; 4], [3.0f32; 4]);
+        let taps = [(0, 1.0), (1, 0.0), (2, 0.0), (3, 0.0)];
+        assert_eq!(sample_maps(&mirror, &[], &taps, 1.0), 1.0, "no rough map: the map at any roughness");
+        assert_eq!(sample_maps(&mirror, &rough, &taps, ROUGH_MAP_FROM), 1.0);
+        assert_eq!(sample_maps(&mirror, &rough, &taps, ROUGH_MAP_TO), 3.0);
+        assert!((sample_maps(&mirror, &rough, &taps, mid) - 2.0).abs() < 1e-6);
+        let mut last = 1.0;
+        for k in 0..=64 {
+            let x = sample_maps(&mirror, &rough, &taps, k as f32 / 64.0);
+            assert!(x >= last && x.is_finite(), "monotone in roughness");
+            last = x;
+        }
+    }
 }
