@@ -45,7 +45,8 @@ fn runtime(c: &mut Criterion) {
             black_box(acc)
         })
     });
-    for r in [0.0f32, 0.5] {
+    // mirror, a rough lookup on the cell's map, one blending the map and the rough map
+    for r in [0.0f32, 0.5, 0.625] {
         g.bench_function(format!("specular_r{r}"), |b| {
             b.iter(|| {
                 let mut acc = Vec3::ZERO;
@@ -67,7 +68,7 @@ fn runtime(c: &mut Criterion) {
             black_box(&out);
         })
     });
-    for r in [0.0f32, 0.5] {
+    for r in [0.0f32, 0.5, 0.625] {
         let roughness = vec![r; q.len()];
         g.bench_function(format!("specular_batch_r{r}"), |b| {
             b.iter(|| {
