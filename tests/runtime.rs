@@ -323,30 +323,6 @@ fn a_lookup_reads_the_map_of_its_roughness() {
 }
 
 #[test]
-fn a_stored_cell_keeps_each_map_only_where_it_beats_the_proxy() {
-    // Each of a cell's two maps is judged on the check queries it serves; one that does not
-    // beat the proxy there is stored as the proxy itself (all shifts 0).
-    let f = fixture();
-    let c = &f.fit.correctives;
-    let n2 = (c.map_res * c.map_res) as usize;
-    let (mut stored, mut dropped) = (0, 0);
-    for cell in f.fit.cells.iter().filter(|x| x.level == warpfit::fit::Level::Map) {
-        let r = cell.rough_map.as_ref().expect("the standard fit fits a rough map per cell");
-        let slot = c.slot_of(cell.cell as usize).expect("a stored cell has a slot") as usize;
-        for (k, maps) in [&c.maps, &c.rough_maps].into_iter().enumerate() {
-            let [proxy, map] = r.check_errors[k];
-            assert_eq!(r.kept[k], map < proxy && proxy > f.fit.settings.tol as f64, "cell {}: map {k}", cell.cell);
-            let zero = maps[slot * n2..(slot + 1) * n2].iter().all(|&x| x == 0.0);
-            assert!(r.kept[k] || zero, "cell {}: map {k} lost to the proxy but is stored", cell.cell);
-            dropped += !r.kept[k] as usize;
-        }
-        stored += 1;
-    }
-    assert!(stored > 0, "no stored cell");
-    eprintln!("{stored} stored cells, {dropped} of their maps stored as the proxy");
-}
-
-#[test]
 fn irradiance_at_a_cell_centre_is_that_cells_bake() {
     let g = FittedGrid::load(tiny()).unwrap();
     let ig = &g.irradiance;

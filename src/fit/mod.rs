@@ -10,9 +10,7 @@
 //! references, start the cell's shift map from the proxy itself or from the grid's raytraced
 //! distances (`celldepth`), refine it against the radiance error, fit the UV relaxation
 //! strength, and keep it only if it beats the proxy alone on the held-out check set
-//! (otherwise level 0). With `FitSettings::rough_map` (the default) a cell refines two maps
-//! this way, each on the training queries the runtime reads it for (`split_rough`): its map
-//! and its rough map, judged together and stored together. Cells are independent: rayon runs them in parallel and every random
+//! (otherwise level 0). Cells are independent: rayon runs them in parallel and every random
 //! choice is seeded per cell, so results are bit-identical at any thread count.
 
 pub mod fixtures;
@@ -243,11 +241,6 @@ pub struct CellFit {
 /// How a cell's rough map was refined (`FitSettings::rough_map`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RoughMapFit {
-    /// Whether the map and the rough map each beat the proxy on the check queries they
-    /// serve; a stored cell stores one that does not as the proxy itself (no shift).
-    pub kept: [bool; 2],
-    /// On the check queries each map serves: the proxy's relative error and the map's.
-    pub check_errors: [[f64; 2]; 2],
     pub start: Start,
     pub train_cost_start: f64,
     pub train_cost_end: f64,
@@ -649,33 +642,14 @@ pub fn fit_cells(
             let Refined { start, outcome, fitted, init } =
                 refine(ctx, train, &distance, sees_only_sky, s.depth_prior, s);
             let rough = rough_train.map(|t| refine(ctx, t, &distance, sees_only_sky, s.rough_depth_prior, s));
-            // with a rough map, each map is judged on the check queries it serves, against the
-            // proxy there: one that does not beat it is stored as the proxy (no shift), so a
-            // cell whose rough lookups gain keeps its rough map even where its mirror
-            // lookups do not, and the other way round
-            let judged = rough.as_ref().map(|r| {
-                let (mirror_check, rough_check) = split_rough(check.clone(), true);
-                let errors = |queries: Vec<Sample>, map: &[f32]| {
-                    let p = CellProblem::new(ctx, vec![0.0; n2], queries);
-                    [p.relative_error_map(&vec![0.0; n2]), p.relative_error_map(map)]
-                };
-                [errors(mirror_check, &fitted), errors(rough_check.unwrap_or_default(), &r.fitted)]
-            });
-            let kept = judged.map(|e| {
-                e.map(|[proxy, map]| choose_level(proxy, map, s.tol as f64, s.selection_margin).level() == Level::Map)
-            });
             let check_problem = CellProblem::new(ctx, vec![0.0; n2], check);
             let [warp1, boxed_err, kdop] =
                 [Method::Warp1, Method::Box, Method::Kdop].map(|m| check_problem.relative_error_method(m));
             let fallback = check_problem.relative_error_map(&vec![0.0; n2]);
             let celldepth = check_problem.relative_error_map(&init);
-            // the maps as the cell would store them
-            let fitted_err = match (&rough, kept) {
-                (Some(r), Some(kept)) => {
-                    let [m, q] = as_kept(kept, &fitted, &r.fitted, n2);
-                    check_problem.relative_error_maps(&m, &q)
-                }
-                _ => check_problem.relative_error_map(&fitted),
+            let fitted_err = match &rough {
+                Some(r) => check_problem.relative_error_maps(&fitted, &r.fitted),
+                None => check_problem.relative_error_map(&fitted),
             };
             let selection = if sees_only_sky {
                 Selection::SeesOnlySky
@@ -711,8 +685,6 @@ pub fn fit_cells(
                 trace_seconds,
                 curve: outcome.curve.clone(),
                 rough_map: rough.as_ref().map(|r| RoughMapFit {
-                    kept: kept.unwrap_or([true; 2]),
-                    check_errors: judged.unwrap_or_default(),
                     start: r.start,
                     train_cost_start: r.outcome.cost_start,
                     train_cost_end: r.outcome.cost_end,
@@ -724,8 +696,6 @@ pub fn fit_cells(
                 resolutions,
             };
             let keep_all = sets == MapSets::WithUnfitted;
-            // the maps as fitted (a stored cell's map that lost is stored as the proxy by
-            // `assemble_cells`, from `kept`)
             let keep = keep_all || fit.level == Level::Map;
             let fitted_rough = rough.filter(|_| keep).map_or(Vec::new(), |r| r.fitted);
             let fitted = if keep { fitted } else { Vec::new() };
@@ -750,13 +720,6 @@ fn split_rough(train: Vec<Sample>, two_maps: bool) -> (Vec<Sample>, Option<Vec<S
     }
     let (rough, mirror): (Vec<Sample>, Vec<Sample>) = train.into_iter().partition(|q| rough_weight(q.roughness) >= 0.5);
     (mirror, Some(rough))
-}
-
-/// A cell's map and rough map as it stores them (`n2` shifts each): each as fitted if
-/// `kept`, else the proxy itself (no shift).
-fn as_kept(kept: [bool; 2], map: &[f32], rough: &[f32], n2: usize) -> [Vec<f32>; 2] {
-    let keep = |k: bool, m: &[f32]| if k && m.len() == n2 { m.to_vec() } else { vec![0.0; n2] };
-    [keep(kept[0], map), keep(kept[1], rough)]
 }
 
 /// A cell's map refined from the better of its two starts, and the unfitted map.
@@ -910,15 +873,8 @@ fn assemble_cells(
         .map(|CellOutcome { fit, fitted, fitted_rough, rays, .. }| {
             if fit.level == Level::Map {
                 correctives.slot[fit.cell as usize] = (correctives.maps.len() / n2) as u32;
-                if two_maps {
-                    // (a cell fitted without a rough map reads the proxy for rough lookups)
-                    let kept = fit.rough_map.as_ref().map_or([true, false], |r| r.kept);
-                    let [m, q] = as_kept(kept, &fitted, &fitted_rough, n2);
-                    correctives.maps.extend_from_slice(&m);
-                    correctives.rough_maps.extend_from_slice(&q);
-                } else {
-                    correctives.maps.extend_from_slice(&fitted);
-                }
+                correctives.maps.extend_from_slice(&fitted);
+                correctives.rough_maps.extend_from_slice(&fitted_rough);
             }
             reference_rays += rays;
             fit
