@@ -396,10 +396,14 @@ impl GridManifest {
         );
         let stored = self.correctives.as_ref().map_or(0, |c| c.stored_cells.len());
         let map_res = self.correctives.as_ref().map_or(0, |c| c.map_res);
+        let rough = self.correctives.as_ref().is_some_and(|c| c.rough_maps.is_some());
         let _ = writeln!(
             s,
-            "correctives: {stored} of {cells} cells store a {map_res}×{map_res} shift map of the proxy `{}`; the others read it as it is (depth mip {}, blend {:?})",
-            self.warp.fallback, self.warp.options.depth_lod, self.warp.blend
+            "correctives: {stored} of {cells} cells store a {map_res}×{map_res} shift map of the proxy `{}`{}; the others read it as it is (depth mip {}, blend {:?})",
+            self.warp.fallback,
+            if rough { " and one for rough lookups" } else { "" },
+            self.warp.options.depth_lod,
+            self.warp.blend
         );
         let _ = writeln!(
             s,
@@ -451,8 +455,9 @@ impl GridManifest {
         if let Some(c) = &self.correctives {
             let _ = writeln!(
                 s,
-                "  bytes per stored cell: {} (shift map) + {} (irradiance and moments)",
-                c.map_res as u64 * c.map_res as u64 * 4,
+                "  bytes per stored cell: {} ({}) + {} (irradiance and moments)",
+                c.map_res as u64 * c.map_res as u64 * 4 * if c.rough_maps.is_some() { 2 } else { 1 },
+                if c.rough_maps.is_some() { "shift map and rough map" } else { "shift map" },
                 {
                     let ir = self.irradiance.resolution as u64;
                     let dr = self.irradiance.depth_resolution as u64;
