@@ -138,6 +138,10 @@ impl Correctives {
     /// bilinear `taps` ([`sample_maps`]).
     #[inline]
     fn map_delta(&self, slot: u32, taps: &[(u32, f32); 4], r: f32) -> f32 {
+        // (the map alone, the usual case, without slicing the rough maps: the same value)
+        if self.rough_maps.is_empty() || rough_weight(r) <= 0.0 {
+            return sample_map(self.map(slot), taps);
+        }
         sample_maps(self.map(slot), self.rough_map(slot), taps, r)
     }
 
