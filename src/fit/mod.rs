@@ -661,8 +661,12 @@ pub fn fit_cells(
                 let (params, evaluations) = p.fit_level1(g.cell_size(), warp.options.depth_lod);
                 Box::new(Level1Fit { params, check_err: check_problem.relative_error_level1(&params), evaluations })
             });
-            let resolutions =
-                study.map(|(train, halves)| Box::new(study_resolutions(ctx, (&train, &halves), &fitted, depth_at, s)));
+            let resolutions = study.map(|(train, halves)| {
+                // (a one-map study: with rough maps the fit's own map saw only part of
+                // the queries, so it is refined again like the other resolutions)
+                let own = rough.is_none().then_some(fitted.as_slice());
+                Box::new(study_resolutions(ctx, (&train, &halves), own, depth_at, s))
+            });
             bar.inc(1);
             let fit = CellFit {
                 cell: cell as u32,
@@ -774,20 +778,21 @@ fn check_halves(check: &[Sample], dirs: usize) -> [Vec<Sample>; 2] {
 }
 
 /// The resolution study of one cell: its map refined at each of [`STUDY_RESOLUTIONS`] from
-/// `train` (`fitted`, the fit's own map at `ctx.res`, is reused), each judged with the fallback
+/// `train` (`fitted`, the fit's own map at `ctx.res` when it was fitted on all of `train`, is
+/// reused), one map per cell for every roughness, each judged with the fallback
 /// on both halves of the check queries; `depth_at(res)`: the grid's raytraced distances at
 /// a map resolution.
 fn study_resolutions(
     ctx: CellContext,
     (train, halves): (&[Sample], &[Vec<Sample>; 2]),
-    fitted: &[f32],
+    fitted: Option<&[f32]>,
     depth_at: impl Fn(u32) -> Vec<f32>,
     s: &FitSettings,
 ) -> ResolutionStudy {
     let maps: Vec<(u32, Vec<f32>)> = STUDY_RESOLUTIONS
         .iter()
         .map(|&res| {
-            if res == ctx.res {
+            if let Some(fitted) = fitted.filter(|_| res == ctx.res) {
                 return (res, fitted.to_vec());
             }
             let distance = depth_at(res);
