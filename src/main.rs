@@ -884,7 +884,7 @@ fn run(cli: Cli) -> Result<()> {
                 bytes += e.metadata().map(|m| m.len()).unwrap_or(0);
             }
             println!(
-                "exported {} → {}: probe ({} mips), irradiance and moments atlases ({}×{} tiles of {}², 1-texel gutters), {} corrective tiles, {} irradiance-scale tiles, {} surface-probe atlas(es), the reference shader ({}) and its buffers; {} in all (export.json describes them)",
+                "exported {} → {}: probe ({} mips), irradiance and moments atlases ({}×{} tiles of {}², 1-texel gutters), {} corrective tiles{}, {} irradiance-scale tiles, {} surface-probe atlas(es), the reference shader ({}) and its buffers; {} in all (export.json describes them)",
                 fit.display(),
                 out.display(),
                 s.probe_mips,
@@ -892,6 +892,11 @@ fn run(cli: Cli) -> Result<()> {
                 s.irradiance.height / (s.irradiance.tile_resolution + 2),
                 s.irradiance.tile_resolution,
                 s.correctives.as_ref().map_or(0, |c| c.cell_tile.iter().filter(|t| **t >= 0).count()),
+                if s.correctives.as_ref().is_some_and(|c| c.rough_tile_offset.is_some()) {
+                    " (and as many rough-map tiles)"
+                } else {
+                    ""
+                },
                 s.irradiance_scale.as_ref().map_or(0, |c| c.cell_tile.iter().filter(|t| **t >= 0).count()),
                 s.surfaces.len(),
                 s.shader.sources.join(", "),
