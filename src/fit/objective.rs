@@ -451,12 +451,11 @@ impl<'a> CellProblem<'a> {
     /// misplaces edges loses to a method that does not; tone-mapped, so a lamp in view does
     /// not decide it alone).
     pub fn relative_error_map(&self, map: &[f32]) -> f64 {
-        let sq: f64 = self.errors(&self.all, map).map(|e| e.powi(2)).sum();
-        (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
+        self.relative_error_maps(map, &[])
     }
 
-    /// [`Self::relative_error_map`] of a mirror map and a rough map, each query's shift
-    /// blended from the two by its roughness as the runtime blends them
+    /// [`Self::relative_error_map`] of a mirror map and a rough map (empty: none), each
+    /// query's shift blended from the two by its roughness as the runtime blends them
     /// (`warp::corrective::sample_maps`).
     pub fn relative_error_maps(&self, mirror: &[f32], rough: &[f32]) -> f64 {
         let delta = |q: &Sample| sample_maps(mirror, rough, &q.taps, q.roughness);

@@ -148,13 +148,22 @@ pub struct CorrectiveSection {
     pub encoding: String,
     /// Present when `correctives.exr` also holds layer `rough_shift_maps` (channel `D`, the
     /// same tiles): each stored cell's map for rough lookups, read as this says
-    /// ([`ROUGH_MAP_ENCODING`]).
+    /// ([`rough_map_encoding`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rough_maps: Option<String>,
 }
 
 /// How a lookup reads the rough maps (the manifest's `correctives.rough_maps`).
-pub const ROUGH_MAP_ENCODING: &str = "with rough_maps, a lookup of perceptual roughness r shifts by the shift_maps value for r <= 0.25, by the rough_shift_maps value for r >= 0.5, and by shift + (rough_shift - shift) * (r - 0.25) / 0.25 between (each map sampled bilinearly as shift_maps)";
+/// Written from the runtime's own band (`warp::corrective::ROUGH_MAP_FROM`, `ROUGH_MAP_TO`),
+/// so the words cannot drift from what `sample_maps` does.
+#[must_use]
+pub fn rough_map_encoding() -> String {
+    use crate::warp::corrective::{ROUGH_MAP_FROM as FROM, ROUGH_MAP_TO as TO};
+    format!(
+        "with rough_maps, a lookup of perceptual roughness r shifts by the shift_maps value for r <= {FROM}, by the rough_shift_maps value for r >= {TO}, and by shift + (rough_shift - shift) * (r - {FROM}) / {} between (each map sampled bilinearly as shift_maps)",
+        TO - FROM
+    )
+}
 
 /// What a shift map's texels mean (the manifest's `correctives.encoding`).
 pub const SHIFT_MAP_ENCODING: &str = "per stored cell, an N×N octahedral map of shifts (scene units) of the proxy's surface along the lookup direction: a lookup from B along dir aims at t_proxy(B, dir) + bilinear shift(dir), where t_proxy is the distance to the proxy (warp.fallback) from B; negative = nearer";

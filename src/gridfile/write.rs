@@ -183,7 +183,7 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
     // correctives: shift maps of level-2 cells, in cell order (tile k = k-th stored cell)
     let stored: Vec<(u32, u32)> = (0..cells).filter_map(|cell| c.slot_of(cell).map(|s| (s, cell as u32))).collect();
     let stored_cells: Vec<u32> = stored.iter().map(|(_, cell)| *cell).collect();
-    let n2 = (c.map_res * c.map_res) as u64 * if c.has_rough_maps() { 2 } else { 1 };
+    let shifts_per_cell = (c.map_res * c.map_res) as u64 * if c.has_rough_maps() { 2 } else { 1 };
     let level0 = g.provenance.level0_cells as u64;
     left_out.push(LeftOut {
         what: format!("shift maps of {level0} level-0 cells"),
@@ -191,7 +191,7 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
             "the proxy `{}` alone is as good on held-out queries (within the selection margin)",
             c.fallback.name()
         ),
-        bytes_saved: level0 * n2 * 4,
+        bytes_saved: level0 * shifts_per_cell * 4,
     });
     let correctives = if stored_cells.is_empty() {
         let _ = std::fs::remove_file(dir.join(CORRECTIVES_FILE));
@@ -218,7 +218,7 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
             stored_cells,
             atlas_columns: columns,
             encoding: SHIFT_MAP_ENCODING.into(),
-            rough_maps: c.has_rough_maps().then(|| ROUGH_MAP_ENCODING.into()),
+            rough_maps: c.has_rough_maps().then(rough_map_encoding),
         })
     };
 
