@@ -398,9 +398,13 @@ impl QueryStreams for CellStreams {
     }
 }
 
+/// Draws per volume position before a cell's volume positions are taken as they come.
+const VOLUME_ATTEMPTS: u32 = 64;
+
 /// Training or check queries of one cell: `surface_fraction` of the positions on the
 /// surfaces seen from inside the cell (reflection directions over their hemisphere), the
-/// rest uniform in the cell (uniform directions); references traced by `trace::truth`.
+/// rest uniform in the cell where the inside rule does not reject them (uniform
+/// directions); references traced by `trace::truth`.
 fn cell_samples(
     renderer: &Renderer,
     geometry: &GridGeometry,
@@ -415,11 +419,27 @@ fn cell_samples(
     let surface = cell_surface_points(renderer, geometry, cell, on_surfaces, (seed, hash_pair(stream, 0x5EF)));
     let mut positions: Vec<Vec3> = surface.iter().map(|&(b, _)| b).collect();
     let mut normals: Vec<Option<Vec3>> = surface.iter().map(|&(_, n)| Some(n)).collect();
-    for p in positions.len() as u32..q.positions {
-        let mut s = Sampler::new(seed, stream, p);
-        positions.push(lo + Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * size);
-        normals.push(None);
+    // the rest uniform in the cell, redrawn where the inside rule rejects them (as the
+    // evaluation's positions are: no lookup is ever made from inside a solid); a cell where
+    // every attempt is inside keeps its first draws
+    let first = positions.len() as u32;
+    let volume = q.positions.saturating_sub(first);
+    let candidate = |a: u32| {
+        let mut s = Sampler::new(seed, stream, first + a);
+        lo + Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * size
+    };
+    let (scene, tracer) = (renderer.scene, renderer.tracer);
+    let threshold = scene.config.grid.inside_backface_fraction;
+    let mut open = truth::first_successes(volume, volume.saturating_mul(VOLUME_ATTEMPTS), |a| {
+        let b = candidate(a);
+        let inside_stream = hash_pair(stream, 0x1F ^ (a as u64 + 1));
+        (!truth::is_inside(scene, tracer, b, threshold, |j| Sampler::new(seed, inside_stream, j))).then_some(b)
+    });
+    if open.is_empty() {
+        open = (0..volume).map(candidate).collect();
     }
+    normals.extend(open.iter().map(|_| None));
+    positions.extend(open);
     let dirs = q.dirs as usize;
     let rough = ((dirs as f32 * q.rough_fraction).round() as usize).min(dirs);
     truth::trace_queries(renderer, &positions, dirs, q.spp, &CellStreams { seed, stream, dirs, rough, normals })
