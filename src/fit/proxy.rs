@@ -5,7 +5,9 @@
 //!
 //! Chosen before any cell is fitted (a cell's map is a shift of it): the three are measured
 //! on their own held-out queries spread over the grid (the cells' query mix of surface and
-//! volume positions, mirror and rough lookups; a stream no training or check set uses), and
+//! volume positions, mirror and rough lookups; a stream no training or check set uses), each
+//! as a cell without a map serves it (the proxy's surface unshifted, a rough lookup's mip
+//! from that surface's distance ratio, as `warp::corrective` reads it), and
 //! the cheapest (box, then k-DOP, then `warp1`: the box's lookup costs about half the
 //! others') whose tone-mapped error is within [`MARGIN`] of the lowest is kept: a proxy
 //! that costs more must earn it. The measurement is seeded and cheap, so every shard of a
@@ -95,8 +97,14 @@ pub fn choose(baked: Baked, glossy: Glossy, s: &FitSettings) -> ProxyOutcome {
         res: s.map_res,
     };
     let n2 = (s.map_res * s.map_res) as usize;
-    let problem = CellProblem::new(ctx, vec![0.0; n2], queries);
-    let errors = CANDIDATES.map(|m| problem.relative_error_method(m));
+    // each candidate as a cell without a map serves it (`Correctives::fetch`: the proxy's
+    // surface unshifted, the distance ratio of a rough lookup from that surface), or as the
+    // warp serves it with UV relaxation
+    let relaxed = glossy.warp.options.relax_texels > 0.0;
+    let errors = CANDIDATES.map(|m| {
+        let problem = CellProblem::new(CellContext { proxy: m, ..ctx }, vec![0.0; n2], queries.clone());
+        if relaxed { problem.relative_error_method(m) } else { problem.relative_error_map(&vec![0.0; n2]) }
+    });
     let best = errors.iter().copied().fold(f64::INFINITY, f64::min);
     let pick = (0..CANDIDATES.len()).find(|&k| MARGIN * errors[k] <= best).unwrap_or(0);
     ProxyOutcome { method: CANDIDATES[pick], choice, measured: Some(errors) }
