@@ -262,6 +262,10 @@ struct FitArgs {
     /// Check directions per position.
     #[arg(long, default_value_t = FitSettings::standard().check_dirs)]
     check_dirs: u32,
+    /// Check positions a cell adds when its first ones cannot tell its fitted maps from the
+    /// proxy alone (their per-position difference within two standard errors of 0); 0: never.
+    #[arg(long, default_value_t = FitSettings::standard().extra_check_positions)]
+    extra_check_positions: u32,
     /// Samples per training and check reference (`--reference-spp` is the evaluation's).
     #[arg(long, default_value_t = FitSettings::standard().reference_spp)]
     fit_reference_spp: u32,
@@ -349,6 +353,7 @@ impl FitArgs {
             format!("--train-dirs={}", self.train_dirs),
             format!("--check-positions={}", self.check_positions),
             format!("--check-dirs={}", self.check_dirs),
+            format!("--extra-check-positions={}", self.extra_check_positions),
             format!("--fit-reference-spp={}", self.fit_reference_spp),
             format!("--robust-scale={}", self.robust_scale),
             format!("--precision={}", name(self.precision.to_possible_value())),
@@ -399,6 +404,7 @@ impl FitArgs {
             train_dirs: self.train_dirs.max(1),
             check_positions: self.check_positions.max(1),
             check_dirs: self.check_dirs.max(1),
+            extra_check_positions: self.extra_check_positions,
             reference_spp: self.fit_reference_spp.max(1),
             robust_scale: self.robust_scale,
             level1: self.level1,
@@ -536,6 +542,8 @@ struct FitLines {
     summary: warpfit::fit::summary::FitSummary,
     selection_margin: f64,
     measured: Option<[f64; 3]>,
+    check_positions: u32,
+    extra_check_positions: u32,
 }
 
 impl FitLines {
@@ -544,6 +552,8 @@ impl FitLines {
             summary: warpfit::fit::summary::summary(f),
             selection_margin: f.settings.selection_margin,
             measured: f.proxy.measured,
+            check_positions: f.settings.check_positions,
+            extra_check_positions: f.settings.extra_check_positions,
         }
     }
 }
@@ -577,6 +587,12 @@ fn print_fit(f: &FitLines, manifest: &warpfit::gridfile::GridManifest, folder: &
         s.mean_check_err_celldepth,
         s.mean_check_err_stored
     );
+    if s.cells_more_checked > 0 {
+        println!(
+            "selection: {} cells could not tell their maps from the proxy on their first {} check positions and were judged on {} more",
+            s.cells_more_checked, f.check_positions, f.extra_check_positions
+        );
+    }
     let t = &s.times;
     println!(
         "time: cells {:.1} s ({:.0}% of their CPU time tracing references), surface points {:.1} s, their references {:.1} s, roughness correction {:.1} s, diffuse fit {:.1} s{}",

@@ -140,9 +140,18 @@ fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
     assert_eq!(a.roughness, b.roughness, "the scene's roughness correction is deterministic too");
     scene_rows_hold_their_chosen_rules(a.roughness.as_ref().expect("rough queries: a scene correction"), &lobes);
     let strip = |f: &fit::Fit| {
-        f.cells.iter().map(|c| (c.cell, c.level, c.check_err_fitted.to_bits(), c.evaluations)).collect::<Vec<_>>()
+        f.cells
+            .iter()
+            .map(|c| (c.cell, c.level, c.check_err_fitted.to_bits(), c.evaluations, c.check_positions))
+            .collect::<Vec<_>>()
     };
     assert_eq!(strip(&a), strip(&b));
+    // a cell is judged on its check positions, or on more where they could not decide
+    let s = FitSettings::moderate();
+    let first = s.check_positions;
+    assert!(a.cells.iter().all(|c| c.check_positions == first || c.check_positions > first), "{:?}", strip(&a));
+    assert!(a.cells.iter().all(|c| c.check_positions <= first + s.extra_check_positions));
+    assert!(a.cells.iter().any(|c| c.check_positions > first), "no cell was undecided on its first check positions");
     assert!(a.correctives.maps.iter().all(|d| d.is_finite()));
     // Stored maps beat the fallback where it can fail: on the evaluation's held-out
     // validation set (other positions, other directions, other references than the check

@@ -116,6 +116,11 @@ pub struct FitSettings {
     pub surface_fraction: f32,
     /// The proxy the maps shift: chosen by measurement, or set.
     pub proxy: proxy::ProxyChoice,
+    /// Check positions a cell adds when its first check positions cannot tell its fitted
+    /// maps from the fallback (`selection::undecided`): the choice is then made on all of
+    /// them. 0: never. Fits written before it existed added none.
+    #[serde(default)]
+    pub extra_check_positions: u32,
 }
 
 fn default_margin() -> f64 {
@@ -155,6 +160,7 @@ impl FitSettings {
             selection_margin: SELECTION_MARGIN,
             surface_fraction: 0.5,
             proxy: proxy::ProxyChoice::Measured,
+            extra_check_positions: 48,
         }
     }
 
@@ -165,6 +171,7 @@ impl FitSettings {
             train_dirs: 32,
             check_positions: 4,
             check_dirs: 16,
+            extra_check_positions: 12,
             reference_spp: 1,
             iterations: 1,
             ..Self::standard()
@@ -178,6 +185,7 @@ impl FitSettings {
             train_dirs: 64,
             check_positions: 8,
             check_dirs: 32,
+            extra_check_positions: 24,
             reference_spp: 2,
             iterations: 1,
             ..Self::standard()
@@ -227,6 +235,10 @@ pub struct CellFit {
     pub rough_map: Option<RoughMapFit>,
     /// Fraction of the cell's check queries whose true hit is hidden from the probe.
     pub hidden_fraction: f64,
+    /// Check positions the selection was made on: `FitSettings::check_positions`, plus
+    /// the extra ones of an undecided cell (0 in fits written before they existed).
+    #[serde(default)]
+    pub check_positions: u32,
     /// The level-1 corrective, when the settings ask for it (measured, not stored). Boxed,
     /// as the study below: a record is held for every active cell until the fit is written,
     /// and an absent study costs a null pointer, not its size.
@@ -662,7 +674,26 @@ pub fn fit_cells(
             let Refined { start, outcome, fitted, init } =
                 refine(ctx, train, &distance, sees_only_sky, s.depth_prior, s);
             let rough = rough_train.map(|t| refine(ctx, t, &distance, sees_only_sky, s.rough_depth_prior, s));
-            let check_problem = CellProblem::new(ctx, vec![0.0; n2], check);
+            let mut check_problem = CellProblem::new(ctx, vec![0.0; n2], check.clone());
+            // a cell whose check positions cannot tell its maps from the fallback judges
+            // them on more positions (a stream of their own)
+            let (mut extra_rays, mut extra_seconds, mut check_positions) = (0, 0.0, s.check_positions);
+            let rough_fitted = rough.as_ref().map_or(&[][..], |r| r.fitted.as_slice());
+            if !sees_only_sky
+                && s.extra_check_positions > 0
+                && selection::undecided(
+                    &check_problem.position_square_errors(&vec![0.0; n2], &[], check_dirs),
+                    &check_problem.position_square_errors(&fitted, rough_fitted, check_dirs),
+                )
+            {
+                let te = Instant::now();
+                let extra = cell_samples(&renderer, &g, cell, size(s.extra_check_positions, s.check_dirs), s.seed, 4);
+                (extra_rays, check_positions) = (extra.rays, check_positions + extra.positions.len() as u32);
+                let mut check = check;
+                check.extend(samples(&extra));
+                check_problem = CellProblem::new(ctx, vec![0.0; n2], check);
+                extra_seconds = te.elapsed().as_secs_f64();
+            }
             let [warp1, boxed_err, kdop] =
                 [Method::Warp1, Method::Box, Method::Kdop].map(|m| check_problem.relative_error_method(m));
             let fallback = check_problem.relative_error_map(&vec![0.0; n2]);
@@ -706,7 +737,8 @@ pub fn fit_cells(
                 evaluations: outcome.evaluations,
                 termination: outcome.termination,
                 seconds: tc.elapsed().as_secs_f64(),
-                trace_seconds,
+                trace_seconds: trace_seconds + extra_seconds,
+                check_positions,
                 curve: outcome.curve.clone(),
                 rough_map: rough.as_ref().map(|r| RoughMapFit {
                     start: r.start,
@@ -724,7 +756,7 @@ pub fn fit_cells(
             let fitted_rough = rough.filter(|_| keep).map_or(Vec::new(), |r| r.fitted);
             let fitted = if keep { fitted } else { Vec::new() };
             let init = if keep_all { init } else { Vec::new() };
-            CellOutcome { fit, fitted, fitted_rough, init, rays }
+            CellOutcome { fit, fitted, fitted_rough, init, rays: rays + extra_rays }
         })
         .collect();
     bar.finish_and_clear();
@@ -926,5 +958,34 @@ fn assemble_cells(
         seconds: t0.elapsed().as_secs_f64(),
         times: FitTimes { cells_cpu, cells_tracing_cpu, roughness: roughness_s, ..FitTimes::default() },
         reference_rays,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Scene;
+    use crate::trace::Tracer;
+    use glam::UVec3;
+
+    #[test]
+    fn a_cells_volume_positions_are_never_inside_a_solid() {
+        // one 2 m cell in a room, its lower three quarters inside a solid box
+        let scene = Scene::parse(
+            "[probe]\nposition = [0.0, 1.8, 0.0]\n[grid]\nmin = [-1.0, 0.0, -1.0]\nmax = [1.0, 2.0, 1.0]\ncounts = [1, 1, 1]\n\
+             [[geometry]]\ntype = \"room\"\nmin = [-3.0, -1.0, -3.0]\nmax = [3.0, 4.0, 3.0]\n\
+             [[geometry]]\ntype = \"box\"\nmin = [-1.5, -0.5, -1.5]\nmax = [1.5, 1.5, 1.5]\n",
+            std::path::Path::new("half_solid.toml"),
+        )
+        .expect("the test scene parses");
+        let tracer = Tracer::new(&scene);
+        let renderer = Renderer::new(&scene, &tracer);
+        let g = GridGeometry { min: Vec3::new(-1.0, 0.0, -1.0), max: Vec3::new(1.0, 2.0, 1.0), counts: UVec3::ONE };
+        let size = QuerySize { positions: 32, dirs: 4, spp: 1, rough_fraction: 0.0, surface_fraction: 0.0 };
+        let q = cell_samples(&renderer, &g, 0, size, 7, 1);
+        assert_eq!(q.positions.len(), 32, "the open quarter of the cell has room for every position");
+        // every position above the box's top, where uniform draws would put three in four
+        // inside it
+        assert!(q.positions.iter().all(|p| p.y > 1.5), "{:?}", q.positions);
     }
 }

@@ -459,14 +459,26 @@ impl<'a> CellProblem<'a> {
     /// (`warp::corrective::sample_maps`).
     pub fn relative_error_maps(&self, mirror: &[f32], rough: &[f32]) -> f64 {
         let delta = |q: &Sample| sample_maps(mirror, rough, &q.taps, q.roughness);
-        let sq: f64 = self.errors_by(&self.all, delta).map(|e| e.powi(2)).sum();
-        (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
+        self.rms(self.errors_by(&self.all, delta)) / self.mean_reference
+    }
+
+    /// Root-mean-square of one error per query.
+    fn rms(&self, errors: impl Iterator<Item = f64>) -> f64 {
+        (errors.map(|e| e * e).sum::<f64>() / self.samples.len().max(1) as f64).sqrt()
+    }
+
+    /// Per position (each run of `per` queries, in query order), the sum of the squared
+    /// tone-mapped errors that [`Self::relative_error_maps`] adds up: what the selection
+    /// compares position by position (`selection::undecided`).
+    pub fn position_square_errors(&self, mirror: &[f32], rough: &[f32], per: usize) -> Vec<f64> {
+        let delta = |q: &Sample| sample_maps(mirror, rough, &q.taps, q.roughness);
+        let sq: Vec<f64> = self.errors_by(&self.all, delta).map(|e| e.powi(2)).collect();
+        sq.chunks(per.max(1)).map(|c| c.iter().sum()).collect()
     }
 
     /// The same error for the level-1 corrective `l`.
     pub fn relative_error_level1(&self, l: &Level1) -> f64 {
-        let sq: f64 = (0..self.samples.len()).map(|i| self.level1_error(i, l).powi(2)).sum();
-        (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
+        self.rms((0..self.samples.len()).map(|i| self.level1_error(i, l))) / self.mean_reference
     }
 
     fn level1_error(&self, i: usize, l: &Level1) -> f64 {
@@ -512,9 +524,8 @@ impl<'a> CellProblem<'a> {
     /// The same error for an unfitted per-lookup method of the problem's warp.
     pub fn relative_error_method(&self, method: Method) -> f64 {
         let warp: &Warp = self.glossy.warp;
-        let sq: f64 =
-            self.samples.iter().map(|q| self.fetch_error(q, warp.fetch_vector(method, q.b, q.dir)).powi(2)).sum();
-        (sq / self.samples.len().max(1) as f64).sqrt() / self.mean_reference
+        let errors = self.samples.iter().map(|q| self.fetch_error(q, warp.fetch_vector(method, q.b, q.dir)));
+        self.rms(errors) / self.mean_reference
     }
 
     /// Refines the map from the start with `solver`, then fits the relaxation strength

@@ -111,3 +111,48 @@ pub fn choose_level(check_err_fallback: f64, check_err_fitted: f64, tol: f64, ma
         Selection::KeptFallback
     }
 }
+
+/// Standard errors by which the check positions' paired difference must separate the
+/// fitted maps from the fallback for the choice to stand without more check positions.
+pub const DECIDED_AT: f64 = 2.0;
+
+/// Whether a cell's check positions cannot tell its fitted maps from the fallback: per
+/// position p, `fallback[p]` and `fitted[p]` are the sums of the squared errors of its
+/// queries (what the selection's RMSE adds up), and the mean of their differences lies
+/// within [`DECIDED_AT`] standard errors of 0 (positions, not queries, are the samples:
+/// a position's queries share its surroundings). A cell's errors are dominated by a few
+/// positions where one bright thing is close (a lamp in the cell): those are exactly the
+/// cells where sixteen positions decide by chance.
+#[must_use]
+pub fn undecided(fallback: &[f64], fitted: &[f64]) -> bool {
+    let n = fallback.len().min(fitted.len());
+    if n < 2 {
+        return n == 1;
+    }
+    let d: Vec<f64> = fallback.iter().zip(fitted).map(|(a, b)| a - b).collect();
+    if d.iter().all(|x| *x == 0.0) {
+        return false; // the same errors everywhere: more positions would not tell them apart
+    }
+    let mean = d.iter().sum::<f64>() / n as f64;
+    let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+    let se = (var / n as f64).sqrt();
+    !(mean.abs() > DECIDED_AT * se)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_difference_is_decided_when_it_stands_out_of_its_scatter() {
+        // the map better at every position by about the same: decided
+        assert!(!undecided(&[2.0, 2.1, 1.9, 2.0], &[1.0, 1.1, 0.9, 1.0]));
+        // the same mean difference carried by one position: undecided
+        assert!(undecided(&[1.0, 1.0, 1.0, 5.0], &[1.0, 1.0, 1.0, 1.0]));
+        // identical errors: nothing more positions could tell apart
+        assert!(!undecided(&[1.0, 2.0], &[1.0, 2.0]));
+        // one position, or none
+        assert!(undecided(&[1.0], &[0.0]));
+        assert!(!undecided(&[], &[]));
+    }
+}

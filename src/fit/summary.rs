@@ -12,6 +12,10 @@ pub struct FitSummary {
     pub cells_level2: usize,
     /// Cells whose fitted map lost to the fallback on held-out queries (kept the fallback).
     pub kept_fallback: usize,
+    /// Cells whose first check positions could not tell their maps from the fallback, so
+    /// that more decided (`FitSettings::extra_check_positions`).
+    #[serde(default)]
+    pub cells_more_checked: usize,
     pub bytes_level2: usize,
     /// Stored cells keep a rough map beside their map (`bytes_level2` counts both).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
@@ -216,6 +220,7 @@ pub fn summary(fit: &Fit) -> FitSummary {
         cells_level0: fit.cells.iter().filter(|c| c.level == Level::Fallback).count(),
         cells_level2: fit.cells.iter().filter(|c| c.level == Level::Map).count(),
         kept_fallback: fit.cells.iter().filter(|c| c.selection == super::Selection::KeptFallback).count(),
+        cells_more_checked: fit.cells.iter().filter(|c| c.check_positions > fit.settings.check_positions).count(),
         bytes_level2: (fit.correctives.maps.len() + fit.correctives.rough_maps.len()) * 4,
         rough_maps: fit.correctives.has_rough_maps(),
         fit_seconds: fit.seconds,

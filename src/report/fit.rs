@@ -119,6 +119,16 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
         "| left out | {} | 0 | inside geometry |\n",
         fit.correctives.geometry.cell_count() - s.active_cells
     );
+    if s.cells_more_checked > 0 {
+        let _ = writeln!(
+            md,
+            "Selection: {} cells could not tell their maps from the proxy on their first {} check positions (the per-position difference within {} standard errors of 0) and were judged on {} more.\n",
+            s.cells_more_checked,
+            fit.settings.check_positions,
+            crate::fit::selection::DECIDED_AT,
+            fit.settings.extra_check_positions
+        );
+    }
     if let Some(l) = &s.level1 {
         let _ = writeln!(
             md,
