@@ -324,20 +324,25 @@ impl Lookup {
     /// lanes first (plain loops over lanes), then each lane's four nodes.
     #[inline(always)]
     fn roughness_lanes(&self, r: &[f32; LANES], k: &[f32; LANES]) -> [f32; LANES] {
-        let (mut i, mut a, mut j, mut b) = ([0usize; LANES], [0.0f32; LANES], [0usize; LANES], [0.0f32; LANES]);
+        // `row` and `column` in 32-bit lanes (the interval's flat index as i32, not two
+        // usizes: 64-bit lanes kept this loop from vectorising, and it cost a quarter of a
+        // batched rough lookup), the same operations on the same floats
+        let (mut cell, mut a, mut b) = ([0i32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
+        let last = (LOOKUP_NODES - 1) as f32;
         for l in 0..LANES {
-            (i[l], a[l]) = self.row(r[l]);
+            let fr = if r[l].is_finite() { (r[l] * last).clamp(0.0, last) } else { 0.0 };
+            let (i, fa) = node_below_i32(fr);
             // `column`'s k clamped by max then min: the same values for the finite k here
-            // (the axis is increasing) without `clamp`'s check of its bounds in every lane,
-            // about 30 instructions a lane fewer (a single lookup, whose latency counts,
-            // is faster with `clamp`)
+            // (the axis is increasing) without `clamp`'s check of its bounds in every lane
             let k = if k[l].is_finite() & (k[l] > 0.0) { k[l] } else { 1.0 };
-            (j[l], b[l]) = self.column_of(k.max(self.k_min).min(self.k_max));
+            let fx = ((pseudo_log2(k.max(self.k_min).min(self.k_max)) - self.x0) * self.inv_dx).clamp(0.0, last);
+            let (j, fb) = node_below_i32(fx);
+            (cell[l], a[l], b[l]) = (i * (LOOKUP_NODES - 1) as i32 + j, fa, fb);
         }
         // each lane's interval corners, as four arrays, then the blend of all lanes at once
         let mut q = [[0.0f32; LANES]; 4];
         for l in 0..LANES {
-            [q[0][l], q[1][l], q[2][l], q[3][l]] = self.cell(i[l], j[l]);
+            [q[0][l], q[1][l], q[2][l], q[3][l]] = self.cells[cell[l] as usize];
         }
         let mut out = [0.0f32; LANES];
         for l in 0..LANES {
@@ -405,6 +410,15 @@ fn node_below(x: f32) -> (usize, f32) {
     let below = below.min(LAST as f32);
     // x ≥ 0, so i ≥ 0: the integer comes off the float's bits, not from a saturating cast
     (i.clamp(0, LAST as i32) as usize, x - below)
+}
+
+/// [`node_below`] with the node as an `i32`, for lane loops.
+#[inline(always)]
+fn node_below_i32(x: f32) -> (i32, f32) {
+    const LAST: i32 = LOOKUP_NODES as i32 - 2;
+    let (i, below) = crate::octa::floor_small(x);
+    let below = below.min(LAST as f32);
+    (i.clamp(0, LAST), x - below)
 }
 
 /// The resampled correction as a shader reads it (see [`RoughnessCorrection::lookup_table`]).
