@@ -655,6 +655,18 @@ fn print_eval(r: &warpfit::eval::EvalReport, folder: &RunFolder) {
     for sr in &r.surface {
         print!("{}", report::surface_section(sr));
     }
+    let t = &r.times;
+    println!(
+        "time: {:.1} s in all: mirror references {:.1} s, rough references {:.1} s, views and their references {:.1} s, rows {:.1} s, their views' ꟻLIP {:.1} s, bucket summaries {:.1} s, diffuse and surfaces {:.1} s",
+        r.seconds,
+        t.mirror_references,
+        t.rough_references,
+        t.view_references,
+        t.rows,
+        t.flip,
+        t.summaries,
+        t.diffuse_and_surfaces
+    );
     println!("wrote {}/eval.json, eval.md, eval_error_vs_cost.png", folder.dir.display());
 }
 

@@ -157,6 +157,26 @@ impl Default for EvalSettings {
     }
 }
 
+/// Wall-clock seconds of an evaluation's stages (`EvalReport::times`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct EvalTimes {
+    /// The mirror validation set and its 16-sample references.
+    pub mirror_references: f64,
+    /// The rough buckets' validation sets and their lobe references.
+    pub rough_references: f64,
+    /// The rendered views and their references (every bucket).
+    pub view_references: f64,
+    /// Every row's lookups, errors and timing loops, reprojection, the two bounds, the
+    /// fitted levels' errors and the `warp1` options sweep.
+    pub rows: f64,
+    /// Every row's views rendered and judged by ꟻLIP.
+    pub flip: f64,
+    /// The bucket summaries with the quiet references' noise ceiling.
+    pub summaries: f64,
+    /// The diffuse table (its references and views) and the surface probes.
+    pub diffuse_and_surfaces: f64,
+}
+
 /// Everything `eval.json` holds.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct EvalReport {
@@ -192,6 +212,9 @@ pub struct EvalReport {
     /// Wall time of the evaluation (references, methods, timings) and its traced rays.
     #[serde(default)]
     pub seconds: f64,
+    /// Where `seconds` went.
+    #[serde(default)]
+    pub times: EvalTimes,
     #[serde(default)]
     pub reference_rays: u64,
 }
@@ -313,13 +336,22 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     let buckets: Vec<f32> = ROUGHNESS_BUCKETS.iter().copied().filter(|&r| r == 0.0 || rough).collect();
     let bar = progress.bar(2 + 3 * buckets.len() as u64, "eval");
     bar.set_message("eval: references");
+    let mut times = EvalTimes::default();
+    let mut clock = std::time::Instant::now();
+    // the seconds since the last lap, added to `field`
+    let mut lap = |field: &mut f64| {
+        *field += clock.elapsed().as_secs_f64();
+        clock = std::time::Instant::now();
+    };
     let mirror = validation_set(scene, tracer, grid, warp.probe.position, settings);
     let mut reference_rays = mirror.rays;
+    lap(&mut times.mirror_references);
     bar.inc(1);
     let views = settings
         .renders
         .map(|r| renders::views(scene, tracer, &mirror.positions, warp.probe.position, &r))
         .unwrap_or_default();
+    lap(&mut times.view_references);
     let lookups = settings.timing_lookups as usize;
     let mut rows_out = Vec::new();
     let mut summaries = Vec::new();
@@ -342,6 +374,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             reference_rays += s.rays;
             Some(s)
         };
+        lap(&mut times.rough_references);
         let set = set.as_ref().unwrap_or(&mirror);
         let view_refs: Vec<renders::ViewReference> = match settings.renders {
             Some(rs) => views
@@ -354,6 +387,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
                 .collect(),
             None => Vec::new(),
         };
+        lap(&mut times.view_references);
         bar.inc(1);
         bar.set_message(format!("eval: r {r} rows"));
         let rules: &[MipRule] = if r == 0.0 { &[MipRule::Plain] } else { &MipRule::ALL };
@@ -372,6 +406,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         results.insert(at, bound::best_fetch_row(warp, set, exposure));
         results.insert(at + 1, bound::best_aim_row(warp, set, exposure));
         bound::set_gap_closed(&mut results);
+        lap(&mut times.rows);
         bar.inc(1);
         bar.set_message(format!("eval: r {r} ꟻLIP"));
         if !view_refs.is_empty() {
@@ -384,6 +419,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             }
             flip_figures.extend(flip_figure(&rows, &results, shading, &view_refs[0], exposure));
         }
+        lap(&mut times.flip);
         bar.inc(1);
         let spp = if r == 0.0 { settings.reference_spp } else { settings.rough_reference_spp };
         let mut summary = bucket_summary(set, r, spp, (&rows, &results), shading, exposure, &view_refs);
@@ -397,6 +433,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         }
         summaries.push(summary);
         rows_out.extend(results);
+        lap(&mut times.summaries);
     }
     let fitted_levels = corrective_rows
         .iter()
@@ -405,6 +442,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         .unwrap_or_default();
     bar.set_message("eval: warp1 options");
     let warp1_sweep = options::warp1_options(warp, &mirror, exposure);
+    lap(&mut times.rows);
     bar.inc(1);
     bar.set_message("eval: diffuse");
     let diffuse = (settings.diffuse_points > 0)
@@ -473,6 +511,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             surface_atlases.push(atlas);
         }
     }
+    lap(&mut times.diffuse_and_surfaces);
     bar.finish_and_clear();
     let renderer = Renderer::new(scene, tracer);
     let report = EvalReport {
@@ -491,6 +530,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         diffuse,
         surface,
         seconds: t0.elapsed().as_secs_f64(),
+        times,
         reference_rays,
     };
     let views = views::views(scene, tracer, warp, &mirror, settings.reference_spp, settings.seed, corrective_rows);
