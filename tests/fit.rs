@@ -149,7 +149,7 @@ fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
     // a cell is judged on its check positions, or on more where they could not decide
     let s = FitSettings::moderate();
     let first = s.check_positions;
-    assert!(a.cells.iter().all(|c| c.check_positions == first || c.check_positions > first), "{:?}", strip(&a));
+    assert!(a.cells.iter().all(|c| c.check_positions >= first), "{:?}", strip(&a));
     assert!(a.cells.iter().all(|c| c.check_positions <= first + s.extra_check_positions));
     assert!(a.cells.iter().any(|c| c.check_positions > first), "no cell was undecided on its first check positions");
     assert!(a.correctives.maps.iter().all(|d| d.is_finite()));
