@@ -256,13 +256,43 @@ impl Correctives {
         for k in 0..LANES {
             (foot.0[k], foot.1[k], foot.2[k], foot.3[k]) = octa::footprint_of(n, uv.u[k], uv.v[k]);
         }
-        let mut delta = [0.0f32; LANES];
+        // each lane's map and, in the blend band and above, its rough map, sampled with
+        // the same taps; then `sample_maps`' choice for all lanes at once
+        let n2 = (self.map_res * self.map_res) as usize;
+        let mut w = [0.0f32; LANES];
+        if !self.rough_maps.is_empty() {
+            for k in 0..LANES {
+                w[k] = rough_weight(r[k]);
+            }
+        }
+        let (mut mirror, mut rough) = ([0.0f32; LANES], [0.0f32; LANES]);
         for k in 0..LANES {
             let slot = self.slot[cells[k]];
             if slot != NO_MAP {
                 let taps = octa::footprint_taps(self.map_res, foot.0[k], foot.1[k], foot.2[k], foot.3[k]);
-                delta[k] = self.map_delta(slot, &taps, r[k]);
+                let at = slot as usize * n2;
+                // (a slot with no rough map reads its map alone, as `rough_map` gives it)
+                let rough_map = if w[k] > 0.0 { self.rough_maps.get(at..at + n2) } else { None };
+                if rough_map.is_none() {
+                    w[k] = 0.0;
+                }
+                if w[k] < 1.0 {
+                    mirror[k] = sample_map(&self.maps[at..at + n2], &taps);
+                }
+                if let Some(map) = rough_map {
+                    rough[k] = sample_map(map, &taps);
+                }
             }
+        }
+        let mut delta = [0.0f32; LANES];
+        for k in 0..LANES {
+            delta[k] = if w[k] <= 0.0 {
+                mirror[k]
+            } else if w[k] >= 1.0 {
+                rough[k]
+            } else {
+                blend_shift(mirror[k], rough[k], w[k])
+            };
         }
         Some(AimLanes::shifted(a, &t, &has_t, &delta, &bb, d))
     }
