@@ -674,7 +674,7 @@ pub fn fit_cells(
             let Refined { start, outcome, fitted, init } =
                 refine(ctx, train, &distance, sees_only_sky, s.depth_prior, s);
             let rough = rough_train.map(|t| refine(ctx, t, &distance, sees_only_sky, s.rough_depth_prior, s));
-            let mut check_problem = CellProblem::new(ctx, vec![0.0; n2], check.clone());
+            let mut check_problem = CellProblem::new(ctx, vec![0.0; n2], check);
             // a cell whose check positions cannot tell its maps from the fallback judges
             // them on more positions (a stream of their own)
             let (mut extra_rays, mut extra_seconds, mut check_positions) = (0, 0.0, s.check_positions);
@@ -689,7 +689,7 @@ pub fn fit_cells(
                 let te = Instant::now();
                 let extra = cell_samples(&renderer, &g, cell, size(s.extra_check_positions, s.check_dirs), s.seed, 4);
                 (extra_rays, check_positions) = (extra.rays, check_positions + extra.positions.len() as u32);
-                let mut check = check;
+                let mut check = check_problem.into_samples();
                 check.extend(samples(&extra));
                 check_problem = CellProblem::new(ctx, vec![0.0; n2], check);
                 extra_seconds = te.elapsed().as_secs_f64();

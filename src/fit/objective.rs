@@ -273,6 +273,12 @@ impl<'a> CellProblem<'a> {
         }
     }
 
+    /// The problem's queries, given back (to judge them again with more).
+    #[must_use]
+    pub fn into_samples(self) -> Vec<Sample> {
+        self.samples
+    }
+
     /// Starts the solve from log-scales `start` instead.
     pub fn set_start(&mut self, start: Vec<f64>) {
         debug_assert_eq!(start.len(), self.start.len());

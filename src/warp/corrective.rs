@@ -257,7 +257,7 @@ impl Correctives {
             (foot.0[k], foot.1[k], foot.2[k], foot.3[k]) = octa::footprint_of(n, uv.u[k], uv.v[k]);
         }
         // each lane's map and, in the blend band and above, its rough map, sampled with
-        // the same taps; then `sample_maps`' choice for all lanes at once
+        // the same taps; then `weighted_shift` for all lanes at once
         let n2 = (self.map_res * self.map_res) as usize;
         let mut w = [0.0f32; LANES];
         if !self.rough_maps.is_empty() {
@@ -286,13 +286,7 @@ impl Correctives {
         }
         let mut delta = [0.0f32; LANES];
         for k in 0..LANES {
-            delta[k] = if w[k] <= 0.0 {
-                mirror[k]
-            } else if w[k] >= 1.0 {
-                rough[k]
-            } else {
-                blend_shift(mirror[k], rough[k], w[k])
-            };
+            delta[k] = weighted_shift(mirror[k], rough[k], w[k]);
         }
         Some(AimLanes::shifted(a, &t, &has_t, &delta, &bb, d))
     }
@@ -428,10 +422,25 @@ pub fn sample_maps(mirror: &[f32], rough: &[f32], taps: &[(u32, f32); 4], r: f32
     if rough.is_empty() {
         return sample_map(mirror, taps);
     }
-    match rough_weight(r) {
-        w if w <= 0.0 => sample_map(mirror, taps),
-        w if w >= 1.0 => sample_map(rough, taps),
-        w => blend_shift(sample_map(mirror, taps), sample_map(rough, taps), w),
+    let w = rough_weight(r);
+    // (each map sampled only where its weight is not 0)
+    let m = if w < 1.0 { sample_map(mirror, taps) } else { 0.0 };
+    let g = if w > 0.0 { sample_map(rough, taps) } else { 0.0 };
+    weighted_shift(m, g, w)
+}
+
+/// The shift a lookup of rough weight `w` takes from its map's sample `mirror` and its
+/// rough map's `rough`: the one where `w` is 0 or 1, [`blend_shift`] between. The rule of
+/// [`sample_maps`], also applied to lanes of samples (`Correctives::aim_lanes`).
+#[inline]
+#[must_use]
+pub fn weighted_shift(mirror: f32, rough: f32, w: f32) -> f32 {
+    if w <= 0.0 {
+        mirror
+    } else if w >= 1.0 {
+        rough
+    } else {
+        blend_shift(mirror, rough, w)
     }
 }
 
