@@ -8,8 +8,10 @@
 #   cargo build --release --example ray_rate
 #   benches/embree_ratio.sh /tmp/rays/atrium 5
 #
-# Each round runs Embree (3 passes), warpfit with the node test this CPU picks, and warpfit
-# with the portable node test (5 passes each); the best pass of each over all rounds counts.
+# Each round runs Embree (3 passes) with its default triangle test and with its watertight
+# one (RTC_SCENE_FLAG_ROBUST, what warpfit's tracer always does), warpfit with the node test
+# this CPU picks, and warpfit with the portable node test (5 passes each); the best pass of
+# each over all rounds counts. The ratios are printed against both Embree modes.
 # To compare two builds in one sitting, copy the other build's ray_rate somewhere and name
 # it in BEFORE: it runs in every round too and its ratio is printed beside.
 set -euo pipefail
@@ -20,10 +22,11 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 rate=$here/target/release/examples/ray_rate
 best() { sed -n 's/.*best of [0-9]* passes \([0-9.]*\) Mrays.*/\1/p'; }
 before=${BEFORE:-}
-e=0 w=0 p=0 b=0 bp=0
+e=0 er=0 w=0 p=0 b=0 bp=0
 max() { python3 -c "print(max($1, $2))"; }
 for _ in $(seq "$rounds"); do
     e=$(max "$e" "$("$python" "$here/benches/embree_reference.py" "$case" 3 | best)")
+    er=$(max "$er" "$("$python" "$here/benches/embree_reference.py" "$case" 3 robust | best)")
     w=$(max "$w" "$("$rate" "$case" 5 | best)")
     p=$(max "$p" "$("$rate" "$case" 5 portable | best)")
     if [ -n "$before" ]; then
@@ -31,7 +34,7 @@ for _ in $(seq "$rounds"); do
         bp=$(max "$bp" "$("$before" "$case" 5 portable | best)")
     fi
 done
-python3 -c "print(f'$case: Embree $e, warpfit $w ({$w/$e:.2f}x), portable node test $p ({$p/$e:.2f}x) Mrays/s, best of $rounds rounds')"
+python3 -c "print(f'$case: Embree $e (robust $er), warpfit $w ({$w/$e:.2f}x; {$w/$er:.2f}x robust), portable node test $p ({$p/$e:.2f}x; {$p/$er:.2f}x robust) Mrays/s, best of $rounds rounds')"
 if [ -n "$before" ]; then
-    python3 -c "print(f'$case: BEFORE $b ({$b/$e:.2f}x), portable node test $bp ({$bp/$e:.2f}x) Mrays/s')"
+    python3 -c "print(f'$case: BEFORE $b ({$b/$e:.2f}x; {$b/$er:.2f}x robust), portable node test $bp ({$bp/$e:.2f}x; {$bp/$er:.2f}x robust) Mrays/s')"
 fi

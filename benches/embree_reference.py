@@ -4,8 +4,11 @@ the README's tracer ratios are measured against (one thread, closest hit).
     WARPFIT_DUMP_RAYS=/tmp/rays cargo bench --bench trace -- rays/atrium
     python3 -m venv /tmp/embree && /tmp/embree/bin/pip install numpy embreex
     /tmp/embree/bin/python benches/embree_reference.py /tmp/rays/atrium 5
+    /tmp/embree/bin/python benches/embree_reference.py /tmp/rays/atrium 5 robust
 
-Reads CASE.tris.f32 (float32 LE: triangles × 3 vertices × xyz, world units) and
+The optional third argument `robust` builds the scene with RTC_SCENE_FLAG_ROBUST: Embree's
+watertight triangle test, the guarantee warpfit's tracer always gives (its default test
+lets a ray slip through a shared edge). Reads CASE.tris.f32 (float32 LE: triangles × 3 vertices × xyz, world units) and
 CASE.rays.f32 (float32 LE: rays × origin xyz, unit direction xyz); prints one line per round
 with Mrays/s. Compare only with a warpfit figure measured in the same sitting."""
 import sys
@@ -16,15 +19,16 @@ from embreex import rtcore_scene
 from embreex.mesh_construction import TriangleMesh
 
 case, rounds = sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else 5
+robust = len(sys.argv) > 3 and sys.argv[3] == "robust"
 triangles = np.fromfile(case + ".tris.f32", dtype="<f4").reshape(-1, 3, 3)
 rays = np.fromfile(case + ".rays.f32", dtype="<f4").reshape(-1, 6)
 origins = np.ascontiguousarray(rays[:, :3])
 directions = np.ascontiguousarray(rays[:, 3:])
-scene = rtcore_scene.EmbreeScene()
+scene = rtcore_scene.EmbreeScene(robust=robust)
 TriangleMesh(scene, triangles)
 start = time.perf_counter()
 scene.run(origins[:1], directions[:1])  # Embree builds its BVH on the first query
-print(f"{case}: {len(triangles)} triangles, {len(rays)} rays, BVH build {time.perf_counter() - start:.3f} s")
+print(f"{case}: {len(triangles)} triangles, {len(rays)} rays, {'robust' if robust else 'default'} triangle test, BVH build {time.perf_counter() - start:.3f} s")
 best = float("inf")
 for r in range(rounds):
     start = time.perf_counter()
