@@ -438,6 +438,11 @@ struct EvalArgs {
     /// difference it reports).
     #[arg(long, default_value_t = EvalSettings::standard().rough_reference_spp)]
     rough_reference_spp: u32,
+    /// A rough bucket whose references' noise exceeds a quarter of the difference it
+    /// reports is traced again with twice the samples, up to this many per reference
+    /// (at or below --rough-reference-spp: never).
+    #[arg(long, default_value_t = EvalSettings::standard().rough_reference_spp_max)]
+    rough_reference_spp_max: u32,
     /// Lobe samples per pixel of the rendered views' references (the views behind each
     /// row's ꟻLIP; eval.md states the ꟻLIP their own noise scores).
     #[arg(long, default_value_t = RenderSettings::standard().reference_spp)]
@@ -460,6 +465,7 @@ impl EvalArgs {
             dirs_per_position: self.dirs.max(1),
             reference_spp: self.reference_spp.max(1),
             rough_reference_spp: self.rough_reference_spp.max(1),
+            rough_reference_spp_max: self.rough_reference_spp_max,
             renders: Some(RenderSettings {
                 reference_spp: self.view_reference_spp.max(1),
                 ..RenderSettings::standard()

@@ -160,3 +160,60 @@ fn validation_positions_avoid_cell_centres_and_geometry() {
     assert_eq!(set.positions, again.positions);
     assert_eq!(set.reference, again.reference);
 }
+
+/// A rough bucket whose references are too noisy for the difference it reports is traced
+/// again with twice the samples, up to the cap: every bucket ends quiet enough or at the
+/// cap, and a refined bucket's errors are those of an evaluation asked for that many
+/// samples from the start.
+#[test]
+fn noisy_rough_buckets_are_traced_again_with_more_samples() {
+    let mut scene = load("cornell");
+    scene.config.probe.resolution = 64;
+    scene.config.probe.samples_per_texel = 4;
+    scene.config.grid.counts = [4, 4, 4];
+    let tracer = Tracer::new(&scene);
+    let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
+    let (probe, grid) = (baked.probe, baked.grid);
+    let baked = job::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
+    let methods = [Method::None, Method::Box, Method::Kdop, Method::Warp1];
+    let eval = |spp: u32, max: u32| {
+        let settings = EvalSettings {
+            positions: 16,
+            dirs_per_position: 32,
+            reference_spp: 2,
+            rough_reference_spp: spp,
+            rough_reference_spp_max: max,
+            renders: None,
+            diffuse_points: 0,
+            surface_points: 0,
+            quiet_positions: 0,
+            ..EvalSettings::quick()
+        };
+        let dir = tmp_dir("eval-refine");
+        let folder = RunFolder::new(&dir);
+        let out = Output { folder: &folder, command: "test", progress: &Progress::quiet() };
+        job::evaluate(baked, &baked.warp(settings.options), &settings, &methods, None, out).unwrap()
+    };
+    let (base, cap) = (2, 16);
+    let report = eval(base, cap);
+    let rough = &report.buckets[1..];
+    for b in rough {
+        assert!(b.reference_ok || b.reference_spp == cap, "{b:?}");
+        assert!(b.reference_spp.is_power_of_two() && (base..=cap).contains(&b.reference_spp), "{b:?}");
+    }
+    let refined = rough.iter().find(|b| b.reference_spp > base).expect("two-sample references are too noisy somewhere");
+    let again = eval(refined.reference_spp, refined.reference_spp);
+    let bucket = |r: &warpfit::eval::EvalReport| {
+        let b = r.buckets.iter().find(|b| b.roughness == refined.roughness).unwrap().clone();
+        let rows: Vec<_> = r
+            .methods
+            .iter()
+            .filter(|m| m.roughness == refined.roughness)
+            .map(|m| {
+                (m.label(), m.rel_rmse.to_bits(), m.tm_rmse.to_bits(), m.p95.to_bits(), m.gap_closed.map(f64::to_bits))
+            })
+            .collect();
+        (b.reference_spp, b.query_se_rel.to_bits(), rows)
+    };
+    assert_eq!(bucket(&report), bucket(&again));
+}

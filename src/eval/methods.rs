@@ -328,6 +328,20 @@ pub fn evaluate_row(
     out
 }
 
+/// `old`, the row's result on an earlier tracing of the same queries, with its errors
+/// measured again against `set`'s references: the lookups are the same, so their costs,
+/// fetch directions and ꟻLIP (judged on the rendered views) stand.
+pub fn rescore_row(row: &Row, shading: Glossy, set: &ValidationSet, exposure: f32, old: &MethodResult) -> MethodResult {
+    let est = estimates(row, shading, set);
+    let mut out =
+        result(set, &old.name, old.note.clone(), &est, None, (old.ns_per_lookup, old.ns_per_lookup_random), exposure);
+    out.mip_rule = old.mip_rule;
+    out.angular_deg = old.angular_deg;
+    out.flip = old.flip;
+    out.ns_per_lookup_batched = old.ns_per_lookup_batched;
+    out
+}
+
 /// One table row from estimates, fetch directions (none for methods without a single fetch)
 /// and coherent/random-order costs.
 pub(super) fn result(
