@@ -60,8 +60,9 @@ fn main() -> Result<(), String> {
         best = best.min(start.elapsed().as_secs_f64());
     }
     println!(
-        "{case}: {} triangles, {} rays, node test {:?}, BVH build {:.3} s: best of {passes} passes {:.2} Mrays/s closest hit, 1 thread ({hits} hits)",
+        "{case}: {} triangles, {} nodes, {} rays, node test {:?}, BVH build {:.3} s: best of {passes} passes {:.2} Mrays/s closest hit, 1 thread ({hits} hits)",
         scene.triangles.v0.len(),
+        tracer.node_count(),
         rays.len(),
         tracer.node_test(),
         tracer.build_time.as_secs_f64(),

@@ -69,6 +69,8 @@ impl BuildQuality {
 /// Acceleration structure plus primitives in the normalised frame.
 pub struct Tracer {
     bvh: CwBvh,
+    /// The first `cwbvh::TOP_NODES` nodes (breadth first) with float boxes.
+    top: Vec<cwbvh::FloatNode>,
     /// Per leaf slot (the order of `bvh.primitive_indices`), so a leaf's primitives are
     /// read from consecutive memory: a triangle's vertices in the normalised frame, and in
     /// the first vertex's `w` the slot's kind (`SLOT_TRIANGLE`, `SLOT_PADDING` or the
@@ -262,8 +264,12 @@ impl Tracer {
                 }
             })
             .collect();
+        let mut bvh = bvh;
+        bvh.nodes = cwbvh::breadth_first(&bvh.nodes);
+        let top = bvh.nodes.iter().take(cwbvh::TOP_NODES).map(cwbvh::FloatNode::from_cwbvh).collect();
         Tracer {
             bvh,
+            top,
             slot_tri,
             tri_count: tri_v0.len(),
             sphere_center,
@@ -288,6 +294,12 @@ impl Tracer {
     /// The node test this tracer runs on this CPU.
     pub fn node_test(&self) -> NodeTest {
         self.node_test
+    }
+
+    /// Number of CWBVH nodes.
+    #[doc(hidden)]
+    pub fn node_count(&self) -> usize {
+        self.bvh.nodes.len()
     }
 
     /// Number of real primitives (triangles + spheres).
@@ -316,6 +328,12 @@ impl Tracer {
         NodeRay::new(o, Vec3A::from(dir) + Vec3A::ZERO, tmax_n)
     }
 
+    /// The tree the walks read.
+    #[inline(always)]
+    fn tree(&self) -> cwbvh::Tree<'_> {
+        cwbvh::Tree { nodes: &self.bvh.nodes, top: &self.top }
+    }
+
     /// The leaf slots as `ray` sees them (its origin, direction and watertight shear).
     #[inline(always)]
     fn leaves(&self, ray: &NodeRay) -> SlotLeaves<'_> {
@@ -332,7 +350,7 @@ impl Tracer {
         let mut ray = self.normalised_ray(origin, dir, tmax);
         let (o, d) = (ray.origin, ray.dir);
         let leaves = self.leaves(&ray);
-        let slot = cwbvh::traverse::<false>(&self.bvh.nodes, &mut ray, self.node_test, &leaves)?;
+        let slot = cwbvh::traverse::<false>(self.tree(), &mut ray, self.node_test, &leaves)?;
         let t = ray.tmax;
         if !t.is_finite() {
             return None;
@@ -375,7 +393,7 @@ impl Tracer {
         }
         let mut ray = self.normalised_ray(origin, dir, tmax);
         let leaves = self.leaves(&ray);
-        cwbvh::traverse::<true>(&self.bvh.nodes, &mut ray, self.node_test, &leaves).is_some()
+        cwbvh::traverse::<true>(self.tree(), &mut ray, self.node_test, &leaves).is_some()
     }
 
     /// The same query walked by obvhs's own traversal (`CwBvh::ray_traverse`) with the same
@@ -408,7 +426,7 @@ impl Tracer {
     pub fn closest_slot(&self, origin: Vec3, dir: Vec3) -> Option<(f32, u32)> {
         let mut ray = self.normalised_ray(origin, dir, f32::INFINITY);
         let leaves = self.leaves(&ray);
-        let slot = cwbvh::traverse::<false>(&self.bvh.nodes, &mut ray, self.node_test, &leaves)?;
+        let slot = cwbvh::traverse::<false>(self.tree(), &mut ray, self.node_test, &leaves)?;
         Some((ray.tmax, slot))
     }
 

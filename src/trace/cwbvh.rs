@@ -81,6 +81,9 @@ pub struct NodeRay {
     /// Byte offsets, inside a node, of the near-plane arrays of x, y and z (the far plane's
     /// array is the next or previous 8 bytes).
     near: [usize; 3],
+    /// Index, in a [`FloatNode`]'s planes, of the near-plane array of x, y and z (the far
+    /// plane's is the index xor 1).
+    near_plane: [usize; 3],
     /// obvhs's octant code, which orders children front to back.
     oct_inv4: u32,
     /// Current far end of the ray (shrinks with each closer hit).
@@ -107,6 +110,7 @@ impl NodeRay {
             dir,
             inv_dir: Vec3A::new(safe_inverse(dir.x), safe_inverse(dir.y), safe_inverse(dir.z)),
             near: [pick(neg[0], MIN_X, MAX_X), pick(neg[1], MIN_Y, MAX_Y), pick(neg[2], MIN_Z, MAX_Z)],
+            near_plane: [neg[0] as usize, 2 + neg[1] as usize, 4 + neg[2] as usize],
             oct_inv4: (if neg[0] { 0 } else { 0x0404_0404 })
                 | (if neg[1] { 0 } else { 0x0202_0202 })
                 | (if neg[2] { 0 } else { 0x0101_0101 }),
@@ -120,6 +124,95 @@ impl NodeRay {
         // min and max arrays of one axis are adjacent 8-byte blocks
         self.near[axis] ^ 8
     }
+}
+
+/// A tree to walk: obvhs's CWBVH nodes, numbered breadth first ([`breadth_first`]), and
+/// the first of them again as [`FloatNode`]s (`top`), which the closest-hit walk tests
+/// instead.
+#[derive(Clone, Copy)]
+pub struct Tree<'a> {
+    pub nodes: &'a [CwBvhNode],
+    pub top: &'a [FloatNode],
+}
+
+/// How many of a tree's first nodes (breadth first: its top levels) the closest-hit walk
+/// reads as [`FloatNode`]s: 2,048 of them, 512 KB. Every ray visits the top levels, where
+/// a float node saves the eight children's dequantisation (about a third of the node
+/// test's work) and costs no memory traffic, as they stay in cache; the deep levels keep
+/// the 80-byte compressed nodes, since three times the bytes there cost a ray more in
+/// cache misses than the dequantisation (measured: ARCHITECTURE.md).
+pub const TOP_NODES: usize = 2048;
+
+/// obvhs's CWBVH node with its children's boxes as floats: each plane `p + 2^e · q`
+/// rounded outwards, so every box holds the quantised one.
+#[repr(C, align(64))]
+#[derive(Clone, Copy, Debug)]
+pub struct FloatNode {
+    /// `planes[2·axis]`: the eight children's minima on `axis`; `planes[2·axis + 1]` their maxima.
+    planes: [[f32; 8]; 6],
+    child_base_idx: u32,
+    primitive_base_idx: u32,
+    imask: u32,
+    child_meta: [u8; 8],
+}
+
+impl FloatNode {
+    pub fn from_cwbvh(n: &CwBvhNode) -> FloatNode {
+        let e = n.compute_extent();
+        let plane = |q: &[u8; 8], p: f32, e: f32, up: bool| {
+            q.map(|q| {
+                let v = p + e * q as f32;
+                if up { v.next_up() } else { v.next_down() }
+            })
+        };
+        FloatNode {
+            planes: [
+                plane(&n.child_min_x, n.p.x, e.x, false),
+                plane(&n.child_max_x, n.p.x, e.x, true),
+                plane(&n.child_min_y, n.p.y, e.y, false),
+                plane(&n.child_max_y, n.p.y, e.y, true),
+                plane(&n.child_min_z, n.p.z, e.z, false),
+                plane(&n.child_max_z, n.p.z, e.z, true),
+            ],
+            child_base_idx: n.child_base_idx,
+            primitive_base_idx: n.primitive_base_idx,
+            imask: n.imask as u32,
+            child_meta: n.child_meta,
+        }
+    }
+}
+
+/// The nodes renumbered breadth first (each node's children stay one contiguous block, in
+/// their order), so a tree's top levels are its first nodes.
+pub fn breadth_first(nodes: &[CwBvhNode]) -> Vec<CwBvhNode> {
+    if nodes.is_empty() {
+        return Vec::new();
+    }
+    let mut order = vec![0usize];
+    let mut new_index = vec![u32::MAX; nodes.len()];
+    new_index[0] = 0;
+    let mut head = 0;
+    while head < order.len() {
+        let n = &nodes[order[head]];
+        head += 1;
+        for c in 0..n.imask.count_ones() as usize {
+            let old = n.child_base_idx as usize + c;
+            if old < nodes.len() && new_index[old] == u32::MAX {
+                new_index[old] = order.len() as u32;
+                order.push(old);
+            }
+        }
+    }
+    order
+        .iter()
+        .map(|&o| {
+            let mut n = nodes[o];
+            if n.imask != 0 {
+                n.child_base_idx = new_index.get(n.child_base_idx as usize).copied().unwrap_or(u32::MAX);
+            }
+            n
+        })
+        .collect()
 }
 
 /// obvhs's `ray::safe_inverse`: 1/x, or ±1/ε for |x| ≤ ε.
@@ -147,8 +240,8 @@ fn node_frame(node: &CwBvhNode, ray: &NodeRay) -> (Vec3A, Vec3A) {
 /// From the bit set of children whose boxes the ray enters to obvhs's hit mask (inner
 /// children in the high byte by traversal priority, leaf primitives in the low 24 bits).
 #[inline(always)]
-fn hit_mask(node: &CwBvhNode, oct_inv4: u32, mut entered: u32) -> u32 {
-    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
+fn hit_mask(meta8: u64, oct_inv4: u32, mut entered: u32) -> u32 {
+    let (child_bits8, bit_index8) = child_and_index_bits(meta8, oct_inv4);
     let mut mask = 0u32;
     while entered != 0 {
         let j = entered.trailing_zeros();
@@ -158,6 +251,20 @@ fn hit_mask(node: &CwBvhNode, oct_inv4: u32, mut entered: u32) -> u32 {
         entered &= entered - 1;
     }
     mask
+}
+
+/// obvhs's `CwBvhNode::get_child_and_index_bits` on a node's eight child metas (byte `j`
+/// child `j`'s), so float top nodes, which carry the metas, give the same masks.
+#[inline(always)]
+fn child_and_index_bits(meta8: u64, oct_inv4: u32) -> (u64, u64) {
+    let mut oct_inv8 = oct_inv4 as u64;
+    oct_inv8 |= oct_inv8 << 32;
+    // an inner child's meta is in [24, 32): bits 3 and 4 both set, never both for a leaf's
+    let is_inner8 = (meta8 & (meta8 << 1)) & 0x1010_1010_1010_1010;
+    let inner_mask8 = (is_inner8 >> 4) * 0xff;
+    let bit_index8 = (meta8 ^ (oct_inv8 & inner_mask8)) & 0x1f1f_1f1f_1f1f_1f1f;
+    let child_bits8 = (meta8 >> 5) & 0x0707_0707_0707_0707;
+    (child_bits8, bit_index8)
 }
 
 /// The node test, one child at a time (non-x86 targets, and the reference the vector tests
@@ -183,6 +290,26 @@ fn entered_scalar(node: &CwBvhNode, ray: &NodeRay, entry: &mut [f32; 8]) -> u32 
         let min = |a: f32, b: f32| if a < b { a } else { b };
         let tmin = max(max(t0x, max(t0y, t0z)), NODE_TMIN);
         let tmax = min(min(t1x, min(t1y, t1z)), ray.tmax);
+        entry[j] = tmin;
+        entered |= ((tmin <= tmax) as u32) << j;
+    }
+    entered
+}
+
+/// The top nodes' test one child at a time (non-x86 targets, and the reference the vector
+/// tests are checked against).
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+#[inline(always)]
+fn entered_top_scalar(node: &FloatNode, ray: &NodeRay, entry: &mut [f32; 8]) -> u32 {
+    let o = ray.origin.to_array();
+    let inv = ray.inv_dir.to_array();
+    let t = |a: usize, far: bool, j: usize| (node.planes[ray.near_plane[a] ^ far as usize][j] - o[a]) * inv[a];
+    let max = |a: f32, b: f32| if a > b { a } else { b };
+    let min = |a: f32, b: f32| if a < b { a } else { b };
+    let mut entered = 0u32;
+    for j in 0..8 {
+        let tmin = max(max(t(0, false, j), max(t(1, false, j), t(2, false, j))), NODE_TMIN);
+        let tmax = min(min(t(0, true, j), min(t(1, true, j), t(2, true, j))), ray.tmax);
         entry[j] = tmin;
         entered |= ((tmin <= tmax) as u32) << j;
     }
@@ -225,6 +352,57 @@ mod x86 {
                 _mm_movemask_ps(_mm_cmple_ps(tmin, tmax)) as u32
             };
             test(nx0, ny0, nz0, fx0, fy0, fz0, 0) | (test(nx1, ny1, nz1, fx1, fy1, fz1, 1) << 4)
+        }
+    }
+
+    /// The top nodes' test in two 4-wide passes (SSE2).
+    #[inline(always)]
+    pub(super) fn entered_top_sse2(node: &FloatNode, ray: &NodeRay, entry: &mut [f32; 8]) -> u32 {
+        // SAFETY: SSE2 is part of the x86-64 baseline; loads read 4 floats of the node's
+        // plane arrays, stores write 4 of `entry`.
+        unsafe {
+            let half = |h: usize| {
+                let axis = |a: usize, o: f32, i: f32| {
+                    let (o, i) = (_mm_set1_ps(o), _mm_set1_ps(i));
+                    let near = _mm_loadu_ps(node.planes[ray.near_plane[a]][4 * h..].as_ptr());
+                    let far = _mm_loadu_ps(node.planes[ray.near_plane[a] ^ 1][4 * h..].as_ptr());
+                    (_mm_mul_ps(_mm_sub_ps(near, o), i), _mm_mul_ps(_mm_sub_ps(far, o), i))
+                };
+                let (nx, fx) = axis(0, ray.origin.x, ray.inv_dir.x);
+                let (ny, fy) = axis(1, ray.origin.y, ray.inv_dir.y);
+                let (nz, fz) = axis(2, ray.origin.z, ray.inv_dir.z);
+                let tmin = _mm_max_ps(_mm_max_ps(nx, _mm_max_ps(ny, nz)), _mm_set1_ps(NODE_TMIN));
+                let tmax = _mm_min_ps(_mm_min_ps(fx, _mm_min_ps(fy, fz)), _mm_set1_ps(ray.tmax));
+                (tmin, _mm_movemask_ps(_mm_cmple_ps(tmin, tmax)) as u32)
+            };
+            let (t0, m0) = half(0);
+            let (t1, m1) = half(1);
+            _mm_storeu_ps(entry.as_mut_ptr(), t0);
+            _mm_storeu_ps(entry[4..].as_mut_ptr(), t1);
+            m0 | (m1 << 4)
+        }
+    }
+
+    /// The top nodes' test in one 8-wide pass. Callers must have checked that the CPU has
+    /// AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) fn entered_top_avx2(node: &FloatNode, ray: &NodeRay, entry: &mut [f32; 8]) -> u32 {
+        // SAFETY: loads read 8 floats of the node's plane arrays; AVX2 is enabled here.
+        unsafe {
+            let axis = |a: usize, o: f32, i: f32| {
+                let (o, i) = (_mm256_set1_ps(o), _mm256_set1_ps(i));
+                let near = _mm256_loadu_ps(node.planes[ray.near_plane[a]].as_ptr());
+                let far = _mm256_loadu_ps(node.planes[ray.near_plane[a] ^ 1].as_ptr());
+                (_mm256_mul_ps(_mm256_sub_ps(near, o), i), _mm256_mul_ps(_mm256_sub_ps(far, o), i))
+            };
+            let (nx, fx) = axis(0, ray.origin.x, ray.inv_dir.x);
+            let (ny, fy) = axis(1, ray.origin.y, ray.inv_dir.y);
+            let (nz, fz) = axis(2, ray.origin.z, ray.inv_dir.z);
+            let tmin = _mm256_max_ps(_mm256_max_ps(nx, _mm256_max_ps(ny, nz)), _mm256_set1_ps(NODE_TMIN));
+            let tmax = _mm256_min_ps(_mm256_min_ps(fx, _mm256_min_ps(fy, fz)), _mm256_set1_ps(ray.tmax));
+            _mm256_storeu_ps(entry.as_mut_ptr(), tmin);
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tmin, tmax)) as u32
         }
     }
 
@@ -313,18 +491,70 @@ fn wins_tie(leaves: &impl Leaves, slot: u32, best: u32) -> bool {
     (leaves.back(slot), slot) < (leaves.back(best), best)
 }
 
+/// What the closest-hit walk needs of the node it is at: the children the ray enters (the
+/// node test has written their entry distances), which children are inner nodes, the
+/// node's first primitive slot and first child node, and the children's metas (byte `j`
+/// is child `j`'s).
+#[derive(Clone, Copy)]
+struct Visit {
+    hit: u32,
+    imask: u32,
+    primitive_base: u32,
+    child_base: u32,
+    meta: u64,
+}
+
+/// [`Visit`] of a CWBVH node under the node test `entered`.
+#[inline(always)]
+fn visit_cwbvh(
+    node: &CwBvhNode,
+    ray: &NodeRay,
+    entry: &mut [f32; 8],
+    entered: impl Fn(&CwBvhNode, &NodeRay, &mut [f32; 8]) -> u32,
+) -> Visit {
+    Visit {
+        hit: entered(node, ray, entry),
+        imask: node.imask as u32,
+        primitive_base: node.primitive_base_idx,
+        child_base: node.child_base_idx,
+        meta: u64::from_le_bytes(node.child_meta),
+    }
+}
+
+/// [`Visit`] of a top node under the float node test `entered`.
+#[inline(always)]
+fn visit_float(
+    node: &FloatNode,
+    ray: &NodeRay,
+    entry: &mut [f32; 8],
+    entered: impl Fn(&FloatNode, &NodeRay, &mut [f32; 8]) -> u32,
+) -> Visit {
+    Visit {
+        hit: entered(node, ray, entry),
+        imask: node.imask,
+        primitive_base: node.primitive_base_idx,
+        child_base: node.child_base_idx,
+        meta: u64::from_le_bytes(node.child_meta),
+    }
+}
+
 /// Walks the tree for `ray` with the node test `entered` (which also writes each child's
 /// entry distance). Closest hit (`ANY` false): the slot of the nearest hit, with `ray.tmax`
 /// its distance ([`walk_nearest`]). `ANY`: the first slot hit, in obvhs's order
 /// ([`walk_any`]).
 #[inline(always)]
 fn walk<const ANY: bool>(
-    nodes: &[CwBvhNode],
+    tree: Tree<'_>,
     ray: &mut NodeRay,
     entered: impl Fn(&CwBvhNode, &NodeRay, &mut [f32; 8]) -> u32,
+    entered_top: impl Fn(&FloatNode, &NodeRay, &mut [f32; 8]) -> u32,
     leaves: &impl Leaves,
 ) -> Option<u32> {
-    if ANY { walk_any(nodes, ray, entered, leaves) } else { walk_nearest(nodes, ray, entered, leaves) }
+    let visit = |k: u32, r: &NodeRay, e: &mut [f32; 8]| match tree.top.get(k as usize) {
+        Some(f) => Some(visit_float(f, r, e, &entered_top)),
+        None => tree.nodes.get(k as usize).map(|n| visit_cwbvh(n, r, e, &entered)),
+    };
+    if ANY { walk_any(ray, visit, leaves) } else { walk_nearest(ray, visit, leaves) }
 }
 
 /// Closest hit, nearest child first (Embree's order for closest-hit rays). At each node the
@@ -339,9 +569,8 @@ fn walk<const ANY: bool>(
 /// the ray, then the lowest slot ([`wins_tie`]).
 #[inline(always)]
 fn walk_nearest(
-    nodes: &[CwBvhNode],
     ray: &mut NodeRay,
-    entered: impl Fn(&CwBvhNode, &NodeRay, &mut [f32; 8]) -> u32,
+    visit: impl Fn(u32, &NodeRay, &mut [f32; 8]) -> Option<Visit>,
     leaves: &impl Leaves,
 ) -> Option<u32> {
     let mut best: Option<u32> = None;
@@ -350,9 +579,9 @@ fn walk_nearest(
     let mut entry = [0.0f32; 8];
     let mut current = 0u32;
     // (a malformed tree, or none, ends the walk rather than panic)
-    while let Some(node) = nodes.get(current as usize) {
-        let hit = entered(node, ray, &mut entry);
-        let imask = node.imask as u32;
+    while let Some(node) = visit(current, ray, &mut entry) {
+        let hit = node.hit;
+        let imask = node.imask;
         // leaf children first, so their hits shorten the ray before the inner children
         // are ordered
         let mut leaf = hit & !imask;
@@ -364,8 +593,8 @@ fn walk_nearest(
             }
             // the high 3 bits of the child's meta count its primitives (unary), the low 5
             // their offset from the node's first
-            let meta = node.child_meta[j] as u32;
-            let first = node.primitive_base_idx.wrapping_add(meta & 0x1f);
+            let meta = ((node.meta >> (8 * j)) & 0xff) as u32;
+            let first = node.primitive_base.wrapping_add(meta & 0x1f);
             for slot in first..first.saturating_add((meta >> 5).count_ones()) {
                 // with a hit found, a primitive at exactly its distance is a tie to break
                 let limit = if best.is_some() { ray.tmax.next_up() } else { ray.tmax };
@@ -385,7 +614,7 @@ fn walk_nearest(
             let j = inner.trailing_zeros() & 7;
             inner &= inner - 1;
             let t = entry[j as usize];
-            let index = node.child_base_idx.wrapping_add((imask & ((1u32 << j) - 1)).count_ones());
+            let index = node.child_base.wrapping_add((imask & ((1u32 << j) - 1)).count_ones());
             keys[n & 7] = nearest_key(t, index);
             n += (t <= ray.tmax) as usize;
         }
@@ -462,14 +691,10 @@ fn sort_keys(keys: &mut [u64; 8], n: usize) {
 /// triangles as soon as a node is tested did not pay (measured on the atrium).
 #[inline(always)]
 fn walk_any(
-    nodes: &[CwBvhNode],
     ray: &mut NodeRay,
-    entered: impl Fn(&CwBvhNode, &NodeRay, &mut [f32; 8]) -> u32,
+    visit: impl Fn(u32, &NodeRay, &mut [f32; 8]) -> Option<Visit>,
     leaves: &impl Leaves,
 ) -> Option<u32> {
-    if nodes.is_empty() {
-        return None;
-    }
     let mut stack = Stack::<UVec2>::new();
     let mut current = UVec2::new(0, 0x8000_0000);
     let mut prims = UVec2::ZERO;
@@ -494,12 +719,12 @@ fn walk_any(
             }
             let slot_index = (child_offset - 24) ^ (ray.oct_inv4 & 0xff);
             let relative = (hits_imask & !(0xffff_ffffu32 << slot_index)).count_ones();
-            let Some(node) = nodes.get((base + relative) as usize) else {
-                break; // malformed tree: stop rather than panic
+            let Some(node) = visit(base.wrapping_add(relative), ray, &mut entry) else {
+                break; // malformed tree, or none: stop rather than panic
             };
-            let mask = hit_mask(node, ray.oct_inv4, entered(node, ray, &mut entry));
-            current = UVec2::new(node.child_base_idx, (mask & 0xff00_0000) | node.imask as u32);
-            prims = UVec2::new(node.primitive_base_idx, mask & 0x00ff_ffff);
+            let mask = hit_mask(node.meta, ray.oct_inv4, node.hit);
+            current = UVec2::new(node.child_base, (mask & 0xff00_0000) | node.imask);
+            prims = UVec2::new(node.primitive_base, mask & 0x00ff_ffff);
         } else {
             current = UVec2::ZERO;
         }
@@ -515,17 +740,17 @@ fn walk_any(
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,popcnt,bmi1")]
-fn walk_avx2<const ANY: bool>(nodes: &[CwBvhNode], ray: &mut NodeRay, leaves: &impl Leaves) -> Option<u32> {
+fn walk_avx2<const ANY: bool>(tree: Tree<'_>, ray: &mut NodeRay, leaves: &impl Leaves) -> Option<u32> {
     // Runs only after `wide_available()` said the CPU has AVX2, POPCNT and BMI1 (see
     // `traverse`).
-    walk::<ANY>(nodes, ray, |n, r, e| x86::entered_avx2(n, r, e), leaves)
+    walk::<ANY>(tree, ray, |n, r, e| x86::entered_avx2(n, r, e), |n, r, e| x86::entered_top_avx2(n, r, e), leaves)
 }
 
-/// Walks `nodes` for `ray` with the node test `test` (resolved to what the CPU has).
+/// Walks `tree` for `ray` with the node test `test` (resolved to what the CPU has).
 /// Closest hit unless `ANY`; see `walk`.
 #[inline(always)]
 pub fn traverse<const ANY: bool>(
-    nodes: &[CwBvhNode],
+    tree: Tree<'_>,
     ray: &mut NodeRay,
     test: NodeTest,
     leaves: &impl Leaves,
@@ -535,14 +760,14 @@ pub fn traverse<const ANY: bool>(
         if test == NodeTest::Wide && wide_available() {
             // SAFETY: the CPU has AVX2, POPCNT and BMI1 (checked just above; the check is a
             // cached load).
-            return unsafe { walk_avx2::<ANY>(nodes, ray, leaves) };
+            return unsafe { walk_avx2::<ANY>(tree, ray, leaves) };
         }
-        walk::<ANY>(nodes, ray, x86::entered_sse2, leaves)
+        walk::<ANY>(tree, ray, x86::entered_sse2, x86::entered_top_sse2, leaves)
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
         let _ = test;
-        walk::<ANY>(nodes, ray, entered_scalar, leaves)
+        walk::<ANY>(tree, ray, entered_scalar, entered_top_scalar, leaves)
     }
 }
 
@@ -596,10 +821,24 @@ mod tests {
             let mut entry = [0.0f32; 8];
             let scalar = entered_scalar(&n, &ray, &mut entry);
             entered_any += (scalar != 0) as u32;
+            // the same node as a float top node: the same test on every path
+            let top = FloatNode::from_cwbvh(&n);
+            let mut top_entry = [0.0f32; 8];
+            let top_scalar = entered_top_scalar(&top, &ray, &mut top_entry);
+            // (its boxes hold the quantised ones: every child the quantised test enters,
+            // it enters; the clamped entry distances differ by rounding alone)
+            assert_eq!(top_scalar & scalar, scalar, "node {k}: a float box misses a child");
             #[cfg(target_arch = "x86_64")]
             {
                 let bits = |e: [f32; 8]| e.map(f32::to_bits);
                 let mut e = [0.0f32; 8];
+                assert_eq!(x86::entered_top_sse2(&top, &ray, &mut e), top_scalar, "node {k}");
+                assert_eq!(bits(e), bits(top_entry), "node {k}: top entry distances");
+                if wide_available() {
+                    // SAFETY: the CPU has AVX2.
+                    assert_eq!(unsafe { x86::entered_top_avx2(&top, &ray, &mut e) }, top_scalar, "node {k}");
+                    assert_eq!(bits(e), bits(top_entry), "node {k}: top entry distances");
+                }
                 assert_eq!(x86::entered_sse2(&n, &ray, &mut e), scalar, "node {k}");
                 assert_eq!(bits(e), bits(entry), "node {k}: entry distances");
                 if wide_available() {
@@ -610,5 +849,89 @@ mod tests {
             }
         }
         assert!(entered_any > 2_000, "only {entered_any} nodes entered: the test would prove little");
+    }
+
+    /// A float top node's planes hold the quantised box (each within one rounding of
+    /// `p + 2^e · q`, outwards), and its metas give obvhs's masks.
+    #[test]
+    fn float_nodes_hold_the_quantised_boxes_and_give_obvhs_masks() {
+        let mut seed = 11u64;
+        for k in 0..5_000 {
+            let mut n = node(&mut seed);
+            n.child_meta = [0b0010_0000, 0b1110_0001, 24, 25, 0, 0b0110_0100, 30, 0b0010_0111];
+            n.imask = 0b0100_1100;
+            let f = FloatNode::from_cwbvh(&n);
+            let e = n.compute_extent();
+            let arrays = [
+                (&n.child_min_x, n.p.x, e.x),
+                (&n.child_max_x, n.p.x, e.x),
+                (&n.child_min_y, n.p.y, e.y),
+                (&n.child_max_y, n.p.y, e.y),
+                (&n.child_min_z, n.p.z, e.z),
+                (&n.child_max_z, n.p.z, e.z),
+            ];
+            for (a, (q, p, e)) in arrays.iter().enumerate() {
+                for j in 0..8 {
+                    let exact = *p as f64 + *e as f64 * q[j] as f64;
+                    let plane = f.planes[a][j] as f64;
+                    if a % 2 == 0 {
+                        assert!(plane <= exact, "node {k}: min plane {a} of child {j} above the box");
+                    } else {
+                        assert!(plane >= exact, "node {k}: max plane {a} of child {j} below the box");
+                    }
+                }
+            }
+            for oct in [0u32, 0x0101_0101, 0x0606_0606, 0x0707_0707] {
+                let mine = child_and_index_bits(u64::from_le_bytes(f.child_meta), oct);
+                assert_eq!(mine, n.get_child_and_index_bits(oct), "node {k}, octant {oct:#x}");
+            }
+        }
+    }
+
+    /// Breadth-first numbering keeps the tree: each node's children stay one block in their
+    /// order, every child follows its parent, and the walk from the root reaches the same
+    /// leaves.
+    #[test]
+    fn breadth_first_keeps_the_tree() {
+        let scene = crate::scene::Scene::parse(
+            include_str!("../../data/scenes/torture.toml"),
+            std::path::Path::new("data/scenes/torture.toml"),
+        )
+        .unwrap();
+        let t = &scene.triangles;
+        let aabbs: Vec<obvhs::aabb::Aabb> = (0..t.v0.len())
+            .map(|k| obvhs::aabb::Aabb::from_points(&[t.v0[k].into(), t.v1[k].into(), t.v2[k].into()]))
+            .collect();
+        let mut time = std::time::Duration::default();
+        let bvh = obvhs::cwbvh::builder::build_cwbvh(&aabbs, obvhs::BvhBuildParams::medium_build(), &mut time);
+        let bfs = breadth_first(&bvh.nodes);
+        assert_eq!(bfs.len(), bvh.nodes.len());
+        assert!(bvh.nodes.len() > 9, "a tree of more than two levels");
+        // the leaves' primitive ranges, in the order a depth-first walk meets them
+        fn leaves(nodes: &[CwBvhNode], k: usize, out: &mut Vec<(u32, u8)>) {
+            let n = &nodes[k];
+            let mut child = n.child_base_idx as usize;
+            for j in 0..8 {
+                if n.imask & (1 << j) != 0 {
+                    assert!(child > k, "child {child} of {k} comes first");
+                    leaves(nodes, child, out);
+                    child += 1;
+                } else if n.child_meta[j] != 0 {
+                    out.push((n.primitive_base_idx + (n.child_meta[j] & 0x1f) as u32, n.child_meta[j] >> 5));
+                }
+            }
+        }
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        leaves(&bvh.nodes, 0, &mut a);
+        leaves(&bfs, 0, &mut b);
+        assert_eq!(a, b);
+        // breadth first: a node's depth never decreases with its index
+        let mut depth = vec![0usize; bfs.len()];
+        for (k, n) in bfs.iter().enumerate() {
+            for c in 0..n.imask.count_ones() as usize {
+                depth[n.child_base_idx as usize + c] = depth[k] + 1;
+            }
+        }
+        assert!(depth.windows(2).all(|w| w[0] <= w[1]), "{depth:?}");
     }
 }
