@@ -17,6 +17,12 @@
 //!   compare, no fused multiply-add), so they give the same bits: `tests/trace.rs` compares
 //!   them ray by ray.
 //!
+//! - the nodes are numbered breadth first, and the first [`TOP_NODES`] of them (the top
+//!   levels, which every ray visits and which stay in cache) are also kept with their
+//!   children's boxes as floats ([`FloatNode`], rounded outwards): their test reads the
+//!   planes instead of dequantising them, while the deep levels keep the 80-byte nodes,
+//!   whose memory traffic matters more there than the arithmetic.
+//!
 //! Primitive tests go through the `Leaves` trait by leaf *slot* (index into
 //! `primitive_indices`), so the caller can lay its primitives out in slot order and read
 //! them sequentially.
