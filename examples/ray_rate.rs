@@ -6,8 +6,10 @@
 //!     cargo run --release --example ray_rate -- /tmp/rays/atrium 5
 //!     cargo run --release --example ray_rate -- /tmp/rays/atrium 5 portable
 //!
-//! The optional third argument forces the portable (SSE2) node test instead of the widest
-//! this CPU has.
+//! Optional arguments after PASSES: `portable` forces the portable (SSE2) node test instead
+//! of the widest this CPU has; `occluded` times occlusion rays instead (each ray to 90% of
+//! its closest hit, so they walk the tree and find nothing: `cargo run --release --example
+//! ray_rate -- /tmp/rays/atrium 5 occluded`).
 
 use glam::Vec3;
 use std::path::Path;
@@ -27,7 +29,12 @@ fn main() -> Result<(), String> {
     let args: Vec<String> = std::env::args().collect();
     let case = args.get(1).ok_or("usage: ray_rate CASE [PASSES] [portable]")?;
     let passes: usize = args.get(2).map_or(Ok(5), |p| p.parse().map_err(|e| format!("passes {p:?}: {e}")))?;
-    let test = if args.get(3).map(String::as_str) == Some("portable") { NodeTest::Portable } else { NodeTest::Auto };
+    let flag = |f: &str| args.iter().skip(3).any(|a| a == f);
+    let test = if flag("portable") { NodeTest::Portable } else { NodeTest::Auto };
+    // occlusion rays instead: the same rays, each to 90% of its closest hit's distance (so
+    // about every one ends unblocked, the case that walks the most of the tree) or to 100
+    // scene units where it escapes
+    let occluded = flag("occluded");
 
     // an empty scene, then the dumped world-space triangles (material 0)
     let mut scene = Scene::parse(
@@ -52,21 +59,30 @@ fn main() -> Result<(), String> {
         .collect();
 
     let tracer = Tracer::new(&scene).with_node_test(test);
+    let rays: Vec<(Vec3, Vec3, f32)> = rays
+        .iter()
+        .map(|&(o, d)| (o, d, tracer.closest_hit(o, d, f32::INFINITY).map_or(100.0, |h| h.t * 0.9)))
+        .collect();
     let mut best = f64::INFINITY;
     let mut hits = 0;
     for _ in 0..passes.max(1) {
         let start = Instant::now();
-        hits = rays.iter().filter(|(o, d)| tracer.closest_hit(*o, *d, f32::INFINITY).is_some()).count();
+        hits = if occluded {
+            rays.iter().filter(|(o, d, t)| tracer.occluded(*o, *d, *t)).count()
+        } else {
+            rays.iter().filter(|(o, d, _)| tracer.closest_hit(*o, *d, f32::INFINITY).is_some()).count()
+        };
         best = best.min(start.elapsed().as_secs_f64());
     }
     println!(
-        "{case}: {} triangles, {} nodes, {} rays, node test {:?}, BVH build {:.3} s: best of {passes} passes {:.2} Mrays/s closest hit, 1 thread ({hits} hits)",
+        "{case}: {} triangles, {} nodes, {} rays, node test {:?}, BVH build {:.3} s: best of {passes} passes {:.2} Mrays/s {}, 1 thread ({hits} hits)",
         scene.triangles.v0.len(),
         tracer.node_count(),
         rays.len(),
         tracer.node_test(),
         tracer.build_time.as_secs_f64(),
-        rays.len() as f64 / best / 1e6
+        rays.len() as f64 / best / 1e6,
+        if occluded { "occlusion" } else { "closest hit" }
     );
     Ok(())
 }
