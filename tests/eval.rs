@@ -10,12 +10,18 @@ use warpfit::report::folder::RunFolder;
 use warpfit::trace::Tracer;
 use warpfit::warp::Method;
 
-#[test]
-fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
+/// The Cornell box with a small probe and grid: an evaluation in seconds.
+fn small_cornell() -> warpfit::scene::Scene {
     let mut scene = load("cornell");
     scene.config.probe.resolution = 64;
     scene.config.probe.samples_per_texel = 4;
     scene.config.grid.counts = [4, 4, 4];
+    scene
+}
+
+#[test]
+fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
+    let scene = small_cornell();
     let tracer = Tracer::new(&scene);
     let dir = tmp_dir("eval");
     let folder = RunFolder::new(&dir);
@@ -167,10 +173,7 @@ fn validation_positions_avoid_cell_centres_and_geometry() {
 /// samples from the start.
 #[test]
 fn noisy_rough_buckets_are_traced_again_with_more_samples() {
-    let mut scene = load("cornell");
-    scene.config.probe.resolution = 64;
-    scene.config.probe.samples_per_texel = 4;
-    scene.config.grid.counts = [4, 4, 4];
+    let scene = small_cornell();
     let tracer = Tracer::new(&scene);
     let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
     let (probe, grid) = (baked.probe, baked.grid);

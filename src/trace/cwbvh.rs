@@ -510,38 +510,36 @@ struct Visit {
     meta: u64,
 }
 
-/// [`Visit`] of a CWBVH node under the node test `entered`.
-#[inline(always)]
-fn visit_cwbvh(
-    node: &CwBvhNode,
-    ray: &NodeRay,
-    entry: &mut [f32; 8],
-    entered: impl Fn(&CwBvhNode, &NodeRay, &mut [f32; 8]) -> u32,
-) -> Visit {
-    Visit {
-        hit: entered(node, ray, entry),
-        imask: node.imask as u32,
-        primitive_base: node.primitive_base_idx,
-        child_base: node.child_base_idx,
-        meta: u64::from_le_bytes(node.child_meta),
+/// A node's fields the walks read besides its boxes: (inner-child mask, first primitive
+/// slot, first child node, the eight child metas).
+trait NodeFields {
+    fn fields(&self) -> (u32, u32, u32, u64);
+}
+
+impl NodeFields for CwBvhNode {
+    #[inline(always)]
+    fn fields(&self) -> (u32, u32, u32, u64) {
+        (self.imask as u32, self.primitive_base_idx, self.child_base_idx, u64::from_le_bytes(self.child_meta))
     }
 }
 
-/// [`Visit`] of a top node under the float node test `entered`.
+impl NodeFields for FloatNode {
+    #[inline(always)]
+    fn fields(&self) -> (u32, u32, u32, u64) {
+        (self.imask, self.primitive_base_idx, self.child_base_idx, u64::from_le_bytes(self.child_meta))
+    }
+}
+
+/// [`Visit`] of a node under the node test `entered`.
 #[inline(always)]
-fn visit_float(
-    node: &FloatNode,
+fn visit<N: NodeFields>(
+    node: &N,
     ray: &NodeRay,
     entry: &mut [f32; 8],
-    entered: impl Fn(&FloatNode, &NodeRay, &mut [f32; 8]) -> u32,
+    entered: impl Fn(&N, &NodeRay, &mut [f32; 8]) -> u32,
 ) -> Visit {
-    Visit {
-        hit: entered(node, ray, entry),
-        imask: node.imask,
-        primitive_base: node.primitive_base_idx,
-        child_base: node.child_base_idx,
-        meta: u64::from_le_bytes(node.child_meta),
-    }
+    let (imask, primitive_base, child_base, meta) = node.fields();
+    Visit { hit: entered(node, ray, entry), imask, primitive_base, child_base, meta }
 }
 
 /// Walks the tree for `ray` with the node test `entered` (which also writes each child's
@@ -557,8 +555,8 @@ fn walk<const ANY: bool>(
     leaves: &impl Leaves,
 ) -> Option<u32> {
     let visit = |k: u32, r: &NodeRay, e: &mut [f32; 8]| match tree.top.get(k as usize) {
-        Some(f) => Some(visit_float(f, r, e, &entered_top)),
-        None => tree.nodes.get(k as usize).map(|n| visit_cwbvh(n, r, e, &entered)),
+        Some(f) => Some(visit(f, r, e, &entered_top)),
+        None => tree.nodes.get(k as usize).map(|n| visit(n, r, e, &entered)),
     };
     if ANY { walk_any(ray, visit, leaves) } else { walk_nearest(ray, visit, leaves) }
 }
