@@ -365,19 +365,14 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     let mut flip_figures = Vec::new();
     for (bucket, &r) in buckets.iter().enumerate() {
         bar.set_message(format!("eval: r {r} references"));
+        // the rough bucket's queries, traced with `spp`-sample references
+        let size = (settings.rough_positions as usize, settings.rough_dirs as usize);
+        let trace_rough =
+            |spp: u32| validation::rough_set(scene, tracer, &mirror, (r, bucket as u64), size, spp, settings.seed);
         let set = if r == 0.0 {
             None
         } else {
-            let size = (settings.rough_positions as usize, settings.rough_dirs as usize);
-            let s = validation::rough_set(
-                scene,
-                tracer,
-                &mirror,
-                (r, bucket as u64),
-                size,
-                settings.rough_reference_spp,
-                settings.seed,
-            );
+            let s = trace_rough(settings.rough_reference_spp);
             reference_rays += s.rays;
             Some(s)
         };
@@ -437,8 +432,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         while r > 0.0 && !summary.reference_ok && spp.saturating_mul(2) <= settings.rough_reference_spp_max {
             spp *= 2;
             bar.set_message(format!("eval: r {r} references, {spp} samples"));
-            let size = (settings.rough_positions as usize, settings.rough_dirs as usize);
-            let traced = validation::rough_set(scene, tracer, &mirror, (r, bucket as u64), size, spp, settings.seed);
+            let traced = trace_rough(spp);
             reference_rays += traced.rays;
             lap(&mut times.rough_references);
             let traced = refined.insert(traced);

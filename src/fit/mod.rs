@@ -674,6 +674,8 @@ pub fn fit_cells(
             let Refined { start, outcome, fitted, init } =
                 refine(ctx, train, &distance, sees_only_sky, s.depth_prior, s);
             let rough = rough_train.map(|t| refine(ctx, t, &distance, sees_only_sky, s.rough_depth_prior, s));
+            // the fallback: the proxy unshifted, a map of zero shifts
+            let no_map = vec![0.0f32; n2];
             let mut check_problem = CellProblem::new(ctx, vec![0.0; n2], check);
             // a cell whose check positions cannot tell its maps from the fallback judges
             // them on more positions (a stream of their own)
@@ -682,7 +684,7 @@ pub fn fit_cells(
             if !sees_only_sky
                 && s.extra_check_positions > 0
                 && selection::undecided(
-                    &check_problem.position_square_errors(&vec![0.0; n2], &[], check_dirs),
+                    &check_problem.position_square_errors(&no_map, &[], check_dirs),
                     &check_problem.position_square_errors(&fitted, rough_fitted, check_dirs),
                 )
             {
@@ -696,7 +698,7 @@ pub fn fit_cells(
             }
             let [warp1, boxed_err, kdop] =
                 [Method::Warp1, Method::Box, Method::Kdop].map(|m| check_problem.relative_error_method(m));
-            let fallback = check_problem.relative_error_map(&vec![0.0; n2]);
+            let fallback = check_problem.relative_error_map(&no_map);
             let celldepth = check_problem.relative_error_map(&init);
             let fitted_err = match &rough {
                 Some(r) => check_problem.relative_error_maps(&fitted, &r.fitted),

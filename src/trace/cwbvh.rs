@@ -133,16 +133,15 @@ impl NodeRay {
 }
 
 /// A tree to walk: obvhs's CWBVH nodes, numbered breadth first ([`breadth_first`]), and
-/// the first of them again as [`FloatNode`]s (`top`), which the closest-hit walk tests
-/// instead.
+/// the first of them again as [`FloatNode`]s (`top`), which both walks test instead.
 #[derive(Clone, Copy)]
 pub struct Tree<'a> {
     pub nodes: &'a [CwBvhNode],
     pub top: &'a [FloatNode],
 }
 
-/// How many of a tree's first nodes (breadth first: its top levels) the closest-hit walk
-/// reads as [`FloatNode`]s: 2,048 of them, 512 KB. Every ray visits the top levels, where
+/// How many of a tree's first nodes (breadth first: its top levels) the walks read as
+/// [`FloatNode`]s: 2,048 of them, 512 KB. Every ray visits the top levels, where
 /// a float node saves the eight children's dequantisation (about a third of the node
 /// test's work) and costs no memory traffic, as they stay in cache; the deep levels keep
 /// the 80-byte compressed nodes, since three times the bytes there cost a ray more in
@@ -497,7 +496,7 @@ fn wins_tie(leaves: &impl Leaves, slot: u32, best: u32) -> bool {
     (leaves.back(slot), slot) < (leaves.back(best), best)
 }
 
-/// What the closest-hit walk needs of the node it is at: the children the ray enters (the
+/// What a walk needs of the node it is at: the children the ray enters (the
 /// node test has written their entry distances), which children are inner nodes, the
 /// node's first primitive slot and first child node, and the children's metas (byte `j`
 /// is child `j`'s).
@@ -690,7 +689,7 @@ fn sort_keys(keys: &mut [u64; 8], n: usize) {
     }
 }
 
-/// obvhs's `traverse!` loop with the node test `entered`: the first slot hit. About 40% of
+/// obvhs's `traverse!` loop over the nodes `visit` tests: the first slot hit. About 40% of
 /// its time waits on node and triangle loads; prefetching the hit children and leaf
 /// triangles as soon as a node is tested did not pay (measured on the atrium).
 #[inline(always)]
