@@ -216,3 +216,68 @@ fn irradiance_of_uniform_sky_is_pi_times_radiance() {
         assert!((*e - want).length() < 1e-5 * want.length(), "{e} vs {want}");
     }
 }
+
+/// Probe A's emitted chain (what the evaluation takes out of every lookup to measure the
+/// light apart from the emitters) is the bake's own rays' emitted part: all of the probe
+/// where the lamp is all it sees, none where it sees a lit wall, nothing without emitters.
+#[test]
+fn the_emitted_chain_is_the_probes_lamp_and_nothing_else() {
+    let lamp = "[[sphere_lights]]\nposition = [0.0, 1.0, 2.0]\nradius = 0.5\nradiance = [40.0, 40.0, 40.0]\n";
+    let black_sky = "[sky]\nzenith = [0.0, 0.0, 0.0]\nhorizon = [0.0, 0.0, 0.0]\nground = [0.0, 0.0, 0.0]\n";
+    let room = |albedo: f32| {
+        format!(
+            "[[geometry]]\ntype = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 6.0\ninward = true\nmaterial = {{ albedo = [{albedo}, {albedo}, {albedo}] }}\n"
+        )
+    };
+    let emitted_of = |scene: &Scene| {
+        let tracer = Tracer::new(scene);
+        let renderer = warpfit::trace::Renderer::new(scene, &tracer);
+        let baked = bake::bake(scene, &tracer, &Progress::quiet());
+        let settings = bake::probe_settings(scene);
+        let (emitted, rays) = bake::probe::emitted_mips(&renderer, &settings, &Progress::quiet());
+        (baked.probe.radiance, emitted, rays)
+    };
+
+    // black walls and sky: every bit of the probe is the lamp, mips included
+    let at_top =
+        |body: String| Scene::parse(&format!("bounces = 0\n{HEADER}\n{body}"), &fixture("emitted.toml")).unwrap();
+    let scene = at_top(format!("{black_sky}{lamp}{}", room(0.0)));
+    let (radiance, emitted, rays) = emitted_of(&scene);
+    assert!(rays > 0);
+    assert_eq!(emitted.levels.len(), radiance.levels.len());
+    for (e, r) in emitted.levels.iter().zip(&radiance.levels) {
+        assert_eq!(e.res, r.res);
+        assert!(e.texels == r.texels, "the emitted chain is the probe itself where only the lamp shines");
+    }
+    assert!(emitted.levels[0].texels.iter().any(|l| l.x > 0.0), "the lamp covers some texels");
+
+    // lit walls: the walls' texels carry light but no emitted part; the lamp's carry both
+    let scene = at_top(format!("{black_sky}{lamp}{}", room(0.5)));
+    let (radiance, emitted, _) = emitted_of(&scene);
+    let (r0, e0) = (&radiance.levels[0], &emitted.levels[0]);
+    let (mut walls, mut lamp_texels) = (0, 0);
+    for j in 0..r0.res {
+        for i in 0..r0.res {
+            let (r, e) = (r0.get(i, j), e0.get(i, j));
+            assert!(e.cmple(r + Vec3::splat(1e-4)).all(), "texel ({i},{j}): emitted {e} above radiance {r}");
+            let d = octa::texel_dir(r0.res, i, j);
+            if d.z < -0.5 {
+                walls += 1;
+                assert!(r.x > 0.0 && e == Vec3::ZERO, "texel ({i},{j}) sees a lit wall: {r}, {e}");
+            }
+            // (one ray per texel: a texel with an emitted part is one whose ray met the lamp)
+            if e != Vec3::ZERO {
+                lamp_texels += 1;
+                assert!(d.z > 0.5 && r == e, "texel ({i},{j}) sees the lamp: {r}, {e}");
+            }
+        }
+    }
+    assert!(walls > 10 && lamp_texels > 0, "walls {walls}, lamp texels {lamp_texels}");
+
+    // nothing that emits: zeros, and no ray traced for them
+    let scene = at_top(room(0.5));
+    let (radiance, emitted, rays) = emitted_of(&scene);
+    assert_eq!(rays, 0);
+    assert_eq!(emitted.levels.len(), radiance.levels.len());
+    assert!(emitted.levels.iter().all(|l| l.texels.iter().all(|&x| x == Vec3::ZERO)));
+}

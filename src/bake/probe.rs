@@ -79,19 +79,15 @@ pub fn bake_probe(renderer: &Renderer, s: &ProbeSettings, progress: &Progress) -
             let mut rad = Vec::with_capacity(n as usize);
             let mut dist = Vec::with_capacity(n as usize);
             for i in 0..n {
-                let texel = (j * n + i) as u64;
-                let stream = hash_pair(DOMAIN_PROBE_RADIANCE, texel);
                 let mut sum = Vec3::ZERO;
                 for k in 0..s.samples_per_texel {
-                    let mut sampler = Sampler::new(s.seed, stream, k);
-                    let jitter = sampler.next_2d();
-                    let uv = (Vec2::new(i as f32, j as f32) + jitter) / n as f32;
-                    let d = octa::decode(uv);
+                    let (mut sampler, d) = texel_sample(s, i, j, k);
                     sum += renderer.sample(s.position, d, &mut sampler, &mut rays).radiance;
                 }
                 rad.push(sum / s.samples_per_texel as f32);
                 // Distance of the texel-centre ray (geometry only matters, no shading needed).
                 let centre = octa::texel_dir(n, i, j);
+                let stream = hash_pair(DOMAIN_PROBE_RADIANCE, (j * n + i) as u64);
                 let mut sampler = Sampler::new(s.seed, stream, u32::MAX);
                 dist.push(renderer.sample(s.position, centre, &mut sampler, &mut rays).distance);
             }
@@ -108,7 +104,25 @@ pub fn bake_probe(renderer: &Renderer, s: &ProbeSettings, progress: &Progress) -
         distance.extend(d);
         rays += k;
     }
-    let base = OctMap::new(n, radiance);
+    let (radiance, roughness) = ggx_chain(OctMap::new(n, radiance), s, progress);
+    let depth = build_distance_mips(OctMap::new(n, distance), s.min_mip_resolution);
+    let probe = SpecularProbe { position: s.position, radiance, roughness, depth };
+    (probe, rays)
+}
+
+/// Sample `k` of texel (i, j): its sampler (the jitter drawn) and its direction.
+fn texel_sample(s: &ProbeSettings, i: u32, j: u32, k: u32) -> (Sampler, Vec3) {
+    let n = s.resolution;
+    let stream = hash_pair(DOMAIN_PROBE_RADIANCE, (j * n + i) as u64);
+    let mut sampler = Sampler::new(s.seed, stream, k);
+    let jitter = sampler.next_2d();
+    let uv = (Vec2::new(i as f32, j as f32) + jitter) / n as f32;
+    (sampler, octa::decode(uv))
+}
+
+/// The probe's mip chain from its mirror image: GGX-prefiltered levels and their perceptual
+/// roughness.
+fn ggx_chain(base: OctMap<Vec3>, s: &ProbeSettings, progress: &Progress) -> (OctMips<Vec3>, Vec<f32>) {
     let box_chain = build_mips(base.clone(), s.min_mip_resolution);
     let levels = box_chain.levels.len();
     let roughness: Vec<f32> = (0..levels).map(|m| mip_roughness(m, levels)).collect();
@@ -121,9 +135,50 @@ pub fn bake_probe(renderer: &Renderer, s: &ProbeSettings, progress: &Progress) -
         bar.inc(1);
     }
     bar.finish_and_clear();
-    let depth = build_distance_mips(OctMap::new(n, distance), s.min_mip_resolution);
-    let probe = SpecularProbe { position: s.position, radiance: OctMips { levels: radiance_levels }, roughness, depth };
-    (probe, rays)
+    (OctMips { levels: radiance_levels }, roughness)
+}
+
+/// The part of a probe baked with `s` that its rays received straight from an emitter (a
+/// sphere light, an emissive triangle; `Renderer::emitted_along`), as radiance mips
+/// prefiltered as the probe's are: each texel's samples are the bake's own rays, so a
+/// texel's emitted part never exceeds its radiance where the bake's estimate holds, and a
+/// lookup of this chain at the same fetch and mip reads the emitted part of what the same
+/// lookup of the probe reads (bilinear reads and prefiltering are linear). The evaluation
+/// separates the emitters from its linear errors with it. All zero, with no ray traced,
+/// when the scene has no such emitter.
+pub fn emitted_mips(renderer: &Renderer, s: &ProbeSettings, progress: &Progress) -> (OctMips<Vec3>, u64) {
+    let n = s.resolution;
+    let texels = (n * n) as usize;
+    if !renderer.has_emitters() {
+        return (build_mips(OctMap::new(n, vec![Vec3::ZERO; texels]), s.min_mip_resolution), 0);
+    }
+    let rows: Vec<(Vec<Vec3>, u64)> = (0..n)
+        .into_par_iter()
+        .map(|j| {
+            let mut rays = 0u64;
+            let row = (0..n)
+                .map(|i| {
+                    let mut sum = Vec3::ZERO;
+                    for k in 0..s.samples_per_texel {
+                        let (_, d) = texel_sample(s, i, j, k);
+                        if let Some(first) = renderer.first_hit(s.position, d, &mut rays) {
+                            sum += renderer.emitted_along(&first);
+                        }
+                    }
+                    sum / s.samples_per_texel.max(1) as f32
+                })
+                .collect();
+            (row, rays)
+        })
+        .collect();
+    let mut rays = 0;
+    let mut base = Vec::with_capacity(texels);
+    for (row, k) in rows {
+        base.extend(row);
+        rays += k;
+    }
+    let (mips, _) = ggx_chain(OctMap::new(n, base), s, progress);
+    (mips, rays)
 }
 
 /// GGX-prefiltered map of resolution `res` from a box mip chain (split-sum, N = V = R).

@@ -172,7 +172,7 @@ pub fn best_aim_row(warp: &Warp, set: &ValidationSet, exposure: f32) -> MethodRe
     let threads = rayon::current_num_threads().max(1) as f64;
     let ns = t0.elapsed().as_secs_f64() * 1e9 * threads / set.reference.len().max(1) as f64;
     let note = "bound: the best point on the query ray to fetch A towards (what every warp aims at); cost = the search";
-    result(set, AIM_NAME, note.into(), &est, None, (ns, ns), exposure)
+    result(set, AIM_NAME, note.into(), (&est, None), None, (ns, ns), exposure)
 }
 
 /// The `best-fetch` row of a bucket: mirror queries search mip 0; rough ones every mip of the
@@ -192,7 +192,7 @@ pub fn best_fetch_row(warp: &Warp, set: &ValidationSet, exposure: f32) -> Method
         "bound: the single fetch of A (any direction, mips {}) nearest each reference; cost = the search",
         if r > 0.0 { "all" } else { "0" }
     );
-    result(set, NAME, note, &est, None, (ns, ns), exposure)
+    result(set, NAME, note, (&est, None), None, (ns, ns), exposure)
 }
 
 /// Sets every row's share of the `none` → `best-aim` gap it closes, in tone-mapped RMSE

@@ -27,12 +27,12 @@ pub struct MethodResult {
     pub mip_rule: Option<MipRule>,
     /// RMSE of linear RGB radiance over the mean reference radiance.
     pub rel_rmse: f64,
-    /// The same over the queries whose reference is less than half light seen straight
-    /// from an emitter (`metrics::EMITTER_QUERY`): relative RMSE with the lamps and the
-    /// sun's disc separated out, which otherwise rule it (`BucketSummary::emitter_queries`
-    /// says how many were left out). Absent in files written before it.
+    /// The same for the light apart from the emitters (`metrics::rel_rmse_emitters_apart`):
+    /// lookup and reference each without the part seen straight from a lamp or an emissive
+    /// surface, which otherwise rule it. Absent for the bounds (their lookups are searches)
+    /// and in files written before it.
     #[serde(default)]
-    pub rel_rmse_no_emitters: Option<f64>,
+    pub rel_rmse_emitters_apart: Option<f64>,
     /// RMSE after tone mapping (see `metrics::ErrorStats::tm_rmse`).
     #[serde(default)]
     pub tm_rmse: f64,
@@ -280,6 +280,29 @@ pub fn rows<'a>(
     out
 }
 
+/// Probe A's emitted part as every row reads it: the evaluation's warp context and, for the
+/// runtime's rows, the loaded grid, each with probe A's radiance replaced by its emitted
+/// chain (`bake::probe::emitted_mips`), so a row's lookup of it is the emitted part of its
+/// lookup of probe A (fetches read only depth and proxies; reads and mips are linear).
+#[derive(Clone, Copy)]
+pub struct Emitters<'a> {
+    pub shading: Glossy<'a>,
+    pub runtime: Option<&'a FittedGrid>,
+}
+
+/// The emitted part of every lookup of `row` on `set`: zero where the scene has no emitter
+/// (`emitters` is `None`), `None` for a runtime row without its emitted twin.
+pub fn emitted_estimates(row: &Row, emitters: Option<&Emitters>, set: &ValidationSet) -> Option<Vec<Vec3>> {
+    let Some(em) = emitters else {
+        return Some(vec![Vec3::ZERO; set.dirs.len()]);
+    };
+    let row = match row.fetch {
+        Fetch::Runtime(_) => Row { fetch: Fetch::Runtime(em.runtime?), ..*row },
+        _ => *row,
+    };
+    Some(estimates(&row, em.shading, set))
+}
+
 /// Estimates of `row` for every query of `set` (parallel, deterministic).
 pub fn estimates(row: &Row, shading: Glossy, set: &ValidationSet) -> Vec<Vec3> {
     estimates_of_first(row, shading, set, set.dirs.len())
@@ -297,12 +320,13 @@ pub fn estimates_of_first(row: &Row, shading: Glossy, set: &ValidationSet, n: us
 /// `timing_lookups` queries.
 pub fn evaluate_row(
     row: &Row,
-    shading: Glossy,
+    (shading, emitters): (Glossy, Option<&Emitters>),
     set: &ValidationSet,
     exposure: f32,
     timing_lookups: usize,
 ) -> MethodResult {
     let est = estimates(row, shading, set);
+    let emitted = emitted_estimates(row, emitters, set);
     let warp = shading.warp;
     let dirs: Vec<Vec3> = (0..set.dirs.len())
         .into_par_iter()
@@ -320,7 +344,7 @@ pub fn evaluate_row(
         }
         None => row.fetch.note(),
     };
-    let mut out = result(set, &row.name(), note, &est, Some(&dirs), ns, exposure);
+    let mut out = result(set, &row.name(), note, (&est, emitted.as_deref()), Some(&dirs), ns, exposure);
     out.mip_rule = row.rule;
     if matches!(row.fetch, Fetch::Method(Method::Warp1)) && warp.options.relax_texels == 0.0 && r == 0.0 {
         out.ns_per_lookup_batched = Some(timing::time_warp1_batched(warp, set, timing_lookups));
@@ -331,10 +355,17 @@ pub fn evaluate_row(
 /// `old`, the row's result on an earlier tracing of the same queries, with its errors
 /// measured again against `set`'s references: the lookups are the same, so their costs,
 /// fetch directions and ꟻLIP (judged on the rendered views) stand.
-pub fn rescore_row(row: &Row, shading: Glossy, set: &ValidationSet, exposure: f32, old: &MethodResult) -> MethodResult {
+pub fn rescore_row(
+    row: &Row,
+    (shading, emitters): (Glossy, Option<&Emitters>),
+    set: &ValidationSet,
+    exposure: f32,
+    old: &MethodResult,
+) -> MethodResult {
     let est = estimates(row, shading, set);
-    let mut out =
-        result(set, &old.name, old.note.clone(), &est, None, (old.ns_per_lookup, old.ns_per_lookup_random), exposure);
+    let emitted = emitted_estimates(row, emitters, set);
+    let ns = (old.ns_per_lookup, old.ns_per_lookup_random);
+    let mut out = result(set, &old.name, old.note.clone(), (&est, emitted.as_deref()), None, ns, exposure);
     out.mip_rule = old.mip_rule;
     out.angular_deg = old.angular_deg;
     out.flip = old.flip;
@@ -348,18 +379,19 @@ pub(super) fn result(
     set: &ValidationSet,
     name: &str,
     note: String,
-    est: &[Vec3],
+    (est, emitted): (&[Vec3], Option<&[Vec3]>),
     dirs: Option<&[Vec3]>,
     (ns_per_lookup, ns_per_lookup_random): (f64, f64),
     exposure: f32,
 ) -> MethodResult {
     let e = error_stats(est, &set.reference, exposure);
+    let apart = emitted.map(|em| super::metrics::rel_rmse_emitters_apart(est, em, &set.reference, &set.emitted));
     MethodResult {
         name: name.into(),
         roughness: set.roughness.first().copied().unwrap_or(0.0),
         mip_rule: None,
         rel_rmse: e.rel_rmse,
-        rel_rmse_no_emitters: Some(super::metrics::rel_rmse_no_emitters(est, &set.reference, &set.emitter_share)),
+        rel_rmse_emitters_apart: apart,
         tm_rmse: e.tm_rmse,
         mae: e.mae,
         p95: e.p95,
@@ -400,8 +432,19 @@ pub fn reproject_estimates(warp: &Warp, set: &ValidationSet, fill: HoleFill) -> 
 /// `reproject` on the mirror bucket: per-location scatter + hole filling (`fill`), its build
 /// amortised over the lookups it serves (rough buckets have no reprojected prefiltered
 /// chain). Push-pull is the `reproject` row, seed 002's median + dilation `reproject-dilate`.
-pub fn evaluate_reproject(warp: &Warp, set: &ValidationSet, exposure: f32, fill: HoleFill) -> MethodResult {
+///
+/// `emitted_warp` is the warp context reading probe A's emitted chain (`None`: the scene has
+/// no emitter); the reprojection of that chain, holes filled the same way, is the part of
+/// the row's lookups taken out as emitted (exact for push-pull, which is linear; the median
+/// is not, so for `reproject-dilate` it is the reprojected emitters' own median).
+pub fn evaluate_reproject(
+    (warp, emitted_warp): (&Warp, Option<&Warp>),
+    set: &ValidationSet,
+    exposure: f32,
+    fill: HoleFill,
+) -> MethodResult {
     let est = reproject_estimates(warp, set, fill);
+    let emitted = emitted_warp.map_or_else(|| vec![Vec3::ZERO; est.len()], |w| reproject_estimates(w, set, fill));
     // one per-location pass serves a location's lookups in any order: timed once
     let ns = timing::time_reproject(warp, set, fill);
     let (name, how) = match fill {
@@ -409,5 +452,5 @@ pub fn evaluate_reproject(warp: &Warp, set: &ValidationSet, exposure: f32, fill:
         HoleFill::MedianDilate => ("reproject-dilate", "seed 002's median + farthest-neighbour dilation"),
     };
     let note = format!("per-location scatter + {how} amortised over {} lookups per location", set.dirs_per_position);
-    result(set, name, note, &est, None, (ns, ns), exposure)
+    result(set, name, note, (&est, Some(&emitted)), None, (ns, ns), exposure)
 }

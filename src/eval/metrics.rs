@@ -50,18 +50,27 @@ pub fn error_stats(estimate: &[Vec3], reference: &[Vec3], exposure: f32) -> Erro
 }
 
 /// A query whose reference is at least this share light seen straight from an emitter is
-/// an emitter query: a lamp or the sun's disc seen in the lobe, whose few bright samples
-/// rule a linear error.
+/// an emitter query: a lamp seen in the lobe, whose few bright samples rule a linear error
+/// (`BucketSummary::emitter_queries` counts them).
 pub const EMITTER_QUERY: f32 = 0.5;
 
-/// Relative RMSE of `estimate` over the queries that are not emitter queries (by
-/// `emitter_share`, [`EMITTER_QUERY`]); 0 when every query is one.
+/// Relative RMSE of the light apart from the emitters: every lookup and every reference
+/// with its part seen straight from an emitter taken out (`estimate_emitted`: the same
+/// lookups of probe A's emitted chain, `bake::probe::emitted_mips`; `reference_emitted`:
+/// the references' own, `TracedQueries::emitted`), over every query. A lamp read where the
+/// reference sees none, or seen where the lookup reads none, then costs nothing here, and
+/// the light the lamps send onto the surfaces counts as any light does. Parts below 0
+/// (a non-linear lookup, a sanitised sample) count as 0.
 #[must_use]
-pub fn rel_rmse_no_emitters(estimate: &[Vec3], reference: &[Vec3], emitter_share: &[f32]) -> f64 {
-    let keep: Vec<usize> =
-        (0..reference.len()).filter(|&k| emitter_share.get(k).is_none_or(|&s| s < EMITTER_QUERY)).collect();
-    let (e, r): (Vec<Vec3>, Vec<Vec3>) = keep.iter().map(|&k| (estimate[k], reference[k])).unzip();
-    if r.is_empty() { 0.0 } else { error_stats(&e, &r, 1.0).rel_rmse }
+pub fn rel_rmse_emitters_apart(
+    estimate: &[Vec3],
+    estimate_emitted: &[Vec3],
+    reference: &[Vec3],
+    reference_emitted: &[Vec3],
+) -> f64 {
+    let apart =
+        |a: &[Vec3], b: &[Vec3]| -> Vec<Vec3> { a.iter().zip(b).map(|(x, y)| (*x - *y).max(Vec3::ZERO)).collect() };
+    error_stats(&apart(estimate, estimate_emitted), &apart(reference, reference_emitted), 1.0).rel_rmse
 }
 
 /// Mean angle between paired unit vectors, in degrees.
@@ -160,4 +169,35 @@ pub fn difference_se(a: &[Vec3], b: &[Vec3], reference: &[Vec3], reference_se: &
         (exposure / (1.0 + y).powi(2)) as f64
     };
     (rel, var(&tm, &tm_slope).sqrt())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A lookup that reads a lamp the reference does not see, and a reference that sees a
+    /// lamp the lookup misses, rule the relative RMSE; with the emitters apart only the rest
+    /// of the light counts, and a lookup wrong in that rest is wrong there too.
+    #[test]
+    fn emitters_apart_leaves_out_the_lamps_and_nothing_else() {
+        let wall = Vec3::splat(0.5);
+        let lamp = Vec3::splat(500.0);
+        let reference = [wall, wall + lamp, wall, wall];
+        let reference_emitted = [Vec3::ZERO, lamp, Vec3::ZERO, Vec3::ZERO];
+        // the lookup reads the lamp at query 0 (where the reference sees a wall) and misses it at 1
+        let estimate = [wall + lamp, wall, wall, wall];
+        let estimate_emitted = [lamp, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO];
+        let all = error_stats(&estimate, &reference, 1.0).rel_rmse;
+        assert!(all > 1.0, "{all}");
+        assert_eq!(rel_rmse_emitters_apart(&estimate, &estimate_emitted, &reference, &reference_emitted), 0.0);
+        // an error in the light apart from the lamps stays: wall 0.5 read as 0.25 at one query
+        let wrong = [wall + lamp, wall, Vec3::splat(0.25), wall];
+        let got = rel_rmse_emitters_apart(&wrong, &estimate_emitted, &reference, &reference_emitted);
+        let want = error_stats(&[wall, wall, Vec3::splat(0.25), wall], &[wall; 4], 1.0).rel_rmse;
+        assert!(got > 0.0 && (got - want).abs() < 1e-12, "{got} vs {want}");
+        // no emitters anywhere: the relative RMSE itself
+        let zero = [Vec3::ZERO; 4];
+        let e = [wall, Vec3::splat(0.3), wall, wall];
+        assert_eq!(rel_rmse_emitters_apart(&e, &zero, &[wall; 4], &zero), error_stats(&e, &[wall; 4], 1.0).rel_rmse);
+    }
 }

@@ -173,6 +173,10 @@ pub struct EvalTimes {
     pub rough_references: f64,
     /// The rendered views and their references (every bucket).
     pub view_references: f64,
+    /// Probe A's emitted chain (what the rows' linear error with the emitters apart takes
+    /// out of their lookups).
+    #[serde(default)]
+    pub emitted: f64,
     /// Every row's lookups, errors and timing loops, reprojection, the two bounds, the
     /// fitted levels' errors and the `warp1` options sweep.
     pub rows: f64,
@@ -359,6 +363,36 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         .map(|r| renders::views(scene, tracer, &mirror.positions, warp.probe.position, &r))
         .unwrap_or_default();
     lap(&mut times.view_references);
+    // probe A's emitted part, read by every row as it reads probe A (the linear error with
+    // the emitters apart): a warp context and a loaded grid with that chain as radiance
+    let emitted: Option<(Warp, Option<FittedGrid>)> = {
+        let renderer = Renderer::new(scene, tracer);
+        renderer.has_emitters().then(|| {
+            let probe = crate::bake::probe::ProbeSettings {
+                position: warp.probe.position,
+                ..crate::bake::probe_settings(scene)
+            };
+            let (chain, rays) = crate::bake::probe::emitted_mips(&renderer, &probe, progress);
+            reference_rays += rays;
+            let with_chain = |w: &Warp| {
+                let mut w = w.clone();
+                w.probe.radiance = chain.clone();
+                w
+            };
+            // (a grid whose probe has other mips than the bake's has no twin: its rows report none)
+            let same = |w: &Warp| {
+                let sizes = |m: &crate::octa::OctMips<Vec3>| m.levels.iter().map(|l| l.res).collect::<Vec<_>>();
+                sizes(&w.probe.radiance) == sizes(&chain)
+            };
+            let grid = runtime.filter(|g| same(&g.warp)).map(|g| FittedGrid { warp: with_chain(&g.warp), ..g.clone() });
+            (with_chain(warp), grid)
+        })
+    };
+    let emitters = emitted
+        .as_ref()
+        .map(|(w, g)| methods::Emitters { shading: Glossy { warp: w, correction }, runtime: g.as_ref() });
+    let emitters = emitters.as_ref();
+    lap(&mut times.emitted);
     let lookups = settings.timing_lookups as usize;
     let mut rows_out = Vec::new();
     let mut summaries = Vec::new();
@@ -396,13 +430,14 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         let rows = methods::rows(methods, corrective_rows, runtime, rules, Some(&renorm));
         let timing = if r == 0.0 { lookups } else { (lookups / 4).max(1) };
         let mut results: Vec<MethodResult> =
-            rows.iter().map(|row| methods::evaluate_row(row, shading, set, exposure, timing)).collect();
+            rows.iter().map(|row| methods::evaluate_row(row, (shading, emitters), set, exposure, timing)).collect();
         if r == 0.0 && methods.contains(&Method::Reproject) {
             // reproject has no rough variant: no reprojected prefiltered chain is built
             let at = results.iter().position(|m| m.name == Method::Oracle.name()).unwrap_or(results.len());
             use crate::warp::reproject::HoleFill;
-            results.insert(at, methods::evaluate_reproject(warp, set, exposure, HoleFill::MedianDilate));
-            results.insert(at, methods::evaluate_reproject(warp, set, exposure, HoleFill::PushPull));
+            let warps = (warp, emitted.as_ref().map(|e| &e.0));
+            results.insert(at, methods::evaluate_reproject(warps, set, exposure, HoleFill::MedianDilate));
+            results.insert(at, methods::evaluate_reproject(warps, set, exposure, HoleFill::PushPull));
         }
         let at = results.iter().position(|m| m.name == Method::Oracle.name()).map_or(results.len(), |k| k + 1);
         results.insert(at, bound::best_fetch_row(warp, set, exposure));
@@ -436,7 +471,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             reference_rays += traced.rays;
             lap(&mut times.rough_references);
             let traced = refined.insert(traced);
-            rescore(&mut results, &rows, shading, traced, exposure);
+            rescore(&mut results, &rows, (shading, emitters), traced, exposure);
             summary = bucket_summary(traced, r, spp, (&rows, &results), shading, exposure, &view_refs);
             lap(&mut times.rows);
         }
@@ -616,7 +651,8 @@ fn bucket_summary(
         lookups: set.dirs.len(),
         reference_spp: spp,
         query_se_rel: se2.sqrt() / mean_ref.max(1e-30),
-        emitter_queries: set.emitter_share.iter().filter(|&&s| s >= metrics::EMITTER_QUERY).count() as f64 / n,
+        emitter_queries: (0..set.dirs.len()).filter(|&k| set.emitter_share(k) >= metrics::EMITTER_QUERY).count() as f64
+            / n,
         claim,
         difference_rel: diff.0,
         difference_tm: diff.1,
@@ -635,14 +671,20 @@ fn bucket_summary(
 /// Every result of a bucket measured again against `set`, the same queries traced anew:
 /// rows through [`methods::rescore_row`], the two bounds searched again against the new
 /// references, the gap each row closes recomputed.
-fn rescore(results: &mut [MethodResult], rows: &[methods::Row], shading: Glossy, set: &ValidationSet, exposure: f32) {
+fn rescore(
+    results: &mut [MethodResult],
+    rows: &[methods::Row],
+    (shading, emitters): (Glossy, Option<&methods::Emitters>),
+    set: &ValidationSet,
+    exposure: f32,
+) {
     for m in results.iter_mut() {
         if m.name == bound::NAME {
             *m = bound::best_fetch_row(shading.warp, set, exposure);
         } else if m.name == bound::AIM_NAME {
             *m = bound::best_aim_row(shading.warp, set, exposure);
         } else if let Some(row) = rows.iter().find(|row| row.name() == m.name && row.rule == m.mip_rule) {
-            *m = methods::rescore_row(row, shading, set, exposure, m);
+            *m = methods::rescore_row(row, (shading, emitters), set, exposure, m);
         }
     }
     bound::set_gap_closed(results);

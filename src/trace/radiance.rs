@@ -28,6 +28,17 @@ pub struct RaySample {
     pub backface_two_sided: bool,
 }
 
+/// What a first ray sees, before any shading ([`Renderer::seen`]).
+#[derive(Clone, Copy, Debug)]
+enum Seen {
+    /// A sphere light, at this distance.
+    Light(f32),
+    Sky,
+    /// The back of a one-sided surface, at this distance.
+    BackFace(f32),
+    Surface(super::bvh::Hit),
+}
+
 /// What a ray meets first, before any sampling ([`Renderer::first_hit`]).
 #[derive(Clone, Copy, Debug)]
 pub struct FirstHit {
@@ -208,10 +219,42 @@ impl<'a> Renderer<'a> {
     /// the shading of the surface it hit (drawing from `sampler`).
     pub fn sample_after(&self, first: &FirstHit, sampler: &mut Sampler, rays: &mut u64) -> (RaySample, Emitted) {
         let none = Emitted::default();
+        let (seen, emitted) = self.seen(first);
+        let hit = match seen {
+            Seen::Light(t) => {
+                let sample = RaySample { radiance: emitted.radiance, distance: t, ..Default::default() };
+                return (sample, emitted);
+            }
+            Seen::Sky => {
+                let radiance = self.scene.sky.radiance(first.dir);
+                return (RaySample { radiance, distance: f32::INFINITY, ..Default::default() }, none);
+            }
+            Seen::BackFace(t) => {
+                let sample = RaySample { radiance: Vec3::ZERO, distance: t, backface: true, backface_two_sided: false };
+                return (sample, none);
+            }
+            Seen::Surface(hit) => hit,
+        };
+        let mat = self.scene.materials[hit.material as usize];
+        let n = if hit.backface { -hit.normal } else { hit.normal };
+        let radiance = mat.emission + self.shade(hit.position, n, self.albedo(&hit), self.bounces, sampler, rays);
+        let sample = RaySample {
+            radiance: sanitize(radiance),
+            distance: hit.t,
+            backface: false,
+            backface_two_sided: hit.backface,
+        };
+        (sample, emitted)
+    }
+
+    /// What the first ray sees before any shading, and the radiance it receives straight
+    /// from a light next-event estimation samples (with that light technique's pdf):
+    /// sphere lights in front of the geometry (primary rays see them), the sky, a one-sided
+    /// surface's back (black), or a surface, whose emission counts when it is an emissive
+    /// triangle.
+    fn seen(&self, first: &FirstHit) -> (Seen, Emitted) {
         let FirstHit { origin, dir, hit } = *first;
-        let t_geom = hit.map_or(f32::INFINITY, |h| h.t);
-        // Sphere lights are seen by primary rays when in front of the geometry.
-        let mut t_light = t_geom;
+        let mut t_light = hit.map_or(f32::INFINITY, |h| h.t);
         let mut light_seen = None;
         for l in &self.scene.lights.sphere_lights {
             let t = light_distance(l, origin, dir, t_light);
@@ -223,36 +266,39 @@ impl<'a> Renderer<'a> {
         if let Some(l) = light_seen {
             let radiance = l.radiance * l.falloff(-dir);
             let pdf = sphere_cone(l, origin).map_or(0.0, |(_, cos_max)| 1.0 / (TAU * (1.0 - cos_max)));
-            return (RaySample { radiance, distance: t_light, ..Default::default() }, Emitted { radiance, pdf });
+            return (Seen::Light(t_light), Emitted { radiance, pdf });
         }
         let Some(hit) = hit else {
-            let radiance = self.scene.sky.radiance(dir);
-            return (RaySample { radiance, distance: f32::INFINITY, ..Default::default() }, none);
+            return (Seen::Sky, Emitted::default());
         };
         let mat = self.scene.materials[hit.material as usize];
         if hit.backface && !mat.two_sided {
-            return (
-                RaySample { radiance: Vec3::ZERO, distance: hit.t, backface: true, backface_two_sided: false },
-                none,
-            );
+            return (Seen::BackFace(hit.t), Emitted::default());
         }
-        let n = if hit.backface { -hit.normal } else { hit.normal };
-        let radiance = mat.emission + self.shade(hit.position, n, self.albedo(&hit), self.bounces, sampler, rays);
         let emitted = if !hit.sphere && mat.emission.max_element() > 0.0 && !self.emitters.is_empty() {
             let cos_l = self.emitter_cos(hit.prim as usize, dir);
             let total = self.emitter_cdf[self.emitter_cdf.len() - 1];
             let pdf = if cos_l > 0.0 { hit.t * hit.t / (cos_l * total) } else { 0.0 };
             Emitted { radiance: mat.emission, pdf: if pdf.is_finite() { pdf } else { 0.0 } }
         } else {
-            none
+            Emitted::default()
         };
-        let sample = RaySample {
-            radiance: sanitize(radiance),
-            distance: hit.t,
-            backface: false,
-            backface_two_sided: hit.backface,
-        };
-        (sample, emitted)
+        (Seen::Surface(hit), emitted)
+    }
+
+    /// Whether anything in the scene emits light that rays can see straight: a sphere
+    /// light or an emissive triangle (what [`Renderer::emitted_along`] reports).
+    #[must_use]
+    pub fn has_emitters(&self) -> bool {
+        !self.scene.lights.sphere_lights.is_empty() || !self.emitters.is_empty()
+    }
+
+    /// The radiance a ray receives straight from an emitter next-event estimation samples
+    /// (a sphere light, an emissive triangle): the `Emitted` part of
+    /// [`Renderer::sample_after`], with no shading and nothing drawn from a sampler.
+    #[must_use]
+    pub fn emitted_along(&self, first: &FirstHit) -> Vec3 {
+        self.seen(first).1.radiance
     }
 
     /// Albedo at a hit: the material's, times its base-colour texture at the hit's texture

@@ -289,9 +289,10 @@ pub struct TracedQueries {
     pub reference: Vec<Vec3>,
     /// Standard error of each reference's luminance (the estimator's own noise).
     pub reference_se: Vec<f32>,
-    /// Share of each reference's luminance seen straight from an emitter, in [0, 1]
-    /// ([`Reference::emitted`]).
-    pub emitter_share: Vec<f32>,
+    /// The part of each reference seen straight from an emitter ([`Reference::emitted`]):
+    /// what the evaluation takes out of reference and lookup alike to measure the light
+    /// apart from the emitters.
+    pub emitted: Vec<Vec3>,
     /// Rays traced for the references (primary, shadow and bounce).
     pub rays: u64,
 }
@@ -427,10 +428,16 @@ impl Reference {
     /// black reference).
     #[must_use]
     pub fn emitter_share(&self) -> f32 {
-        let total = luminance(self.radiance);
-        let share = luminance(self.emitted) / total;
-        if share.is_finite() { share.clamp(0.0, 1.0) } else { 0.0 }
+        emitter_share(self.radiance, self.emitted)
     }
+}
+
+/// Share of `radiance`'s luminance that `emitted`, its part seen straight from an emitter,
+/// makes up, in [0, 1] (0 for black).
+#[must_use]
+pub fn emitter_share(radiance: Vec3, emitted: Vec3) -> f32 {
+    let share = luminance(emitted) / luminance(radiance);
+    if share.is_finite() { share.clamp(0.0, 1.0) } else { 0.0 }
 }
 
 /// The mass `∫ D(h)(n·l)/4 dl` of the GGX lobe at N = V (the expected n·l of a reflected
@@ -469,7 +476,7 @@ pub fn trace_queries(
         roughness: Vec::with_capacity(n),
         reference: Vec::with_capacity(n),
         reference_se: Vec::with_capacity(n),
-        emitter_share: Vec::with_capacity(n),
+        emitted: Vec::with_capacity(n),
         rays: 0,
     };
     for (p, &b) in positions.iter().enumerate() {
@@ -486,7 +493,7 @@ pub fn trace_queries(
             q.roughness.push(r);
             q.reference.push(reference.radiance);
             q.reference_se.push(reference.se);
-            q.emitter_share.push(reference.emitter_share());
+            q.emitted.push(reference.emitted);
         }
     }
     q
@@ -498,6 +505,13 @@ impl TracedQueries {
     #[must_use]
     pub fn position_of(&self, k: usize) -> Vec3 {
         self.positions[k / self.dirs_per_position.max(1)]
+    }
+
+    /// Share of query `k`'s reference seen straight from an emitter ([`emitter_share`]).
+    #[inline]
+    #[must_use]
+    pub fn emitter_share(&self, k: usize) -> f32 {
+        emitter_share(self.reference[k], self.emitted[k])
     }
 
     /// Concatenates sets traced in parts (e.g. per position, in parallel), in order.
@@ -512,7 +526,7 @@ impl TracedQueries {
             out.roughness.extend(p.roughness);
             out.reference.extend(p.reference);
             out.reference_se.extend(p.reference_se);
-            out.emitter_share.extend(p.emitter_share);
+            out.emitted.extend(p.emitted);
             out.rays += p.rays;
         }
         out
