@@ -374,18 +374,16 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             };
             let (chain, rays) = crate::bake::probe::emitted_mips(&renderer, &probe, progress);
             reference_rays += rays;
-            let with_chain = |w: &Warp| {
-                let mut w = w.clone();
-                w.probe.radiance = chain.clone();
-                w
-            };
             // (a grid whose probe has other mips than the bake's has no twin: its rows report none)
-            let same = |w: &Warp| {
-                let sizes = |m: &crate::octa::OctMips<Vec3>| m.levels.iter().map(|l| l.res).collect::<Vec<_>>();
-                sizes(&w.probe.radiance) == sizes(&chain)
-            };
-            let grid = runtime.filter(|g| same(&g.warp)).map(|g| FittedGrid { warp: with_chain(&g.warp), ..g.clone() });
-            (with_chain(warp), grid)
+            let sizes = |m: &crate::octa::OctMips<Vec3>| m.levels.iter().map(|l| l.res).collect::<Vec<_>>();
+            let grid = runtime.filter(|g| sizes(&g.warp.probe.radiance) == sizes(&chain)).map(|g| {
+                let mut g = g.clone();
+                g.warp.probe.radiance = chain.clone();
+                g
+            });
+            let mut w = warp.clone();
+            w.probe.radiance = chain;
+            (w, grid)
         })
     };
     let emitters = emitted
