@@ -281,3 +281,55 @@ fn the_emitted_chain_is_the_probes_lamp_and_nothing_else() {
     assert_eq!(emitted.levels.len(), radiance.levels.len());
     assert!(emitted.levels.iter().all(|l| l.texels.iter().all(|&x| x == Vec3::ZERO)));
 }
+
+#[test]
+fn the_emitted_irradiance_is_the_grids_lamp_and_nothing_else() {
+    let lamp = "[[sphere_lights]]\nposition = [0.0, 1.0, 2.0]\nradius = 0.5\nradiance = [40.0, 40.0, 40.0]\n";
+    let black_sky = "[sky]\nzenith = [0.0, 0.0, 0.0]\nhorizon = [0.0, 0.0, 0.0]\nground = [0.0, 0.0, 0.0]\n";
+    let room = |albedo: f32| {
+        format!(
+            "[[geometry]]\ntype = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 6.0\ninward = true\nmaterial = {{ albedo = [{albedo}, {albedo}, {albedo}] }}\n"
+        )
+    };
+    let scene_of =
+        |body: String| Scene::parse(&format!("bounces = 0\n{HEADER}\n{body}"), &fixture("emitted.toml")).unwrap();
+    let emitted_of = |scene: &Scene| {
+        let tracer = Tracer::new(scene);
+        let renderer = warpfit::trace::Renderer::new(scene, &tracer);
+        let baked = bake::bake(scene, &tracer, &Progress::quiet());
+        let (emitted, rays) = bake::grid::emitted_irradiance(&renderer, &bake::grid_settings(scene), &baked.grid);
+        (baked.grid, emitted, rays)
+    };
+    let i2 = |grid: &bake::grid::ProbeGrid| (grid.irradiance_resolution * grid.irradiance_resolution) as usize;
+
+    // black walls and sky: every cell's irradiance is the lamp's, bit for bit
+    let (grid, emitted, rays) = emitted_of(&scene_of(format!("{black_sky}{lamp}{}", room(0.0))));
+    assert!(rays > 0);
+    assert_eq!(emitted.len(), grid.irradiance.len());
+    let outside: Vec<usize> = (0..grid.inside.len()).filter(|&c| !grid.inside[c]).collect();
+    assert!(!outside.is_empty());
+    for &c in &outside {
+        let span = c * i2(&grid)..(c + 1) * i2(&grid);
+        assert!(emitted[span.clone()] == grid.irradiance[span], "cell {c}: the emitted part is all of it");
+    }
+    assert!(emitted.iter().any(|e| e.x > 0.0), "the lamp lights some texels");
+
+    // lit walls: the walls add irradiance the emitted part does not hold
+    let (grid, emitted, _) = emitted_of(&scene_of(format!("{black_sky}{lamp}{}", room(0.5))));
+    let (mut below, mut lit) = (0, 0);
+    for &c in &outside {
+        let span = c * i2(&grid)..(c + 1) * i2(&grid);
+        for (t, (&e, &r)) in emitted[span.clone()].iter().zip(&grid.irradiance[span]).enumerate() {
+            assert!(e.cmple(r + Vec3::splat(1e-4)).all(), "cell {c} texel {t}: emitted {e} above irradiance {r}");
+            below += usize::from(e.x < r.x - 1e-3);
+            lit += usize::from(e.x > 0.0);
+        }
+    }
+    assert!(below > 0 && lit > 0, "texels below the irradiance {below}, lit by the lamp {lit}");
+
+    // nothing that emits: zeros, and no ray traced for them
+    let (grid, emitted, rays) = emitted_of(&scene_of(room(0.5)));
+    assert_eq!(rays, 0);
+    assert_eq!(emitted.len(), grid.irradiance.len());
+    assert!(emitted.iter().all(|&e| e == Vec3::ZERO));
+}

@@ -281,14 +281,10 @@ fn bake_cell(renderer: &Renderer, s: &GridSettings, cell: usize, tables: &CellTa
     let mut backfaces = crate::trace::truth::Backfaces::default();
     let spp = s.depth_samples;
     for t in 0..dres * dres {
-        let (i, j) = (t % dres, t / dres);
-        let stream = hash_pair(cell_stream, t as u64);
         let weight = depth_omega[t as usize] / spp as f32;
         let (mut d1, mut d2, mut hits) = (0.0f64, 0.0f64, 0u8);
         for k in 0..spp {
-            let mut sampler = Sampler::new(s.seed, stream, k);
-            let uv = (Vec2::new(i as f32, j as f32) + sampler.next_2d()) / dres as f32;
-            let dir = octa::decode(uv);
+            let (mut sampler, dir) = texel_ray(s, cell_stream, t, k);
             let r = renderer.sample(centre, dir, &mut sampler, &mut rays);
             let d = if r.distance.is_finite() {
                 hits = hits.saturating_add(1); // depth_samples ≤ 255 (scene validation)
@@ -320,6 +316,69 @@ fn bake_cell(renderer: &Renderer, s: &GridSettings, cell: usize, tables: &CellTa
     // a probe the bake's own rays find inside is dropped: it keeps no offset
     let offset = if inside { Vec3::ZERO } else { offset };
     CellRest { inside, offset, rays }
+}
+
+/// Ray `k` of distance texel `t` of the cell with stream `cell_stream`: its sampler, past
+/// the two numbers that placed it in the texel, and its direction.
+#[inline]
+fn texel_ray(s: &GridSettings, cell_stream: u64, t: u32, k: u32) -> (Sampler, Vec3) {
+    let dres = s.depth_resolution;
+    let mut sampler = Sampler::new(s.seed, hash_pair(cell_stream, t as u64), k);
+    let uv = (Vec2::new((t % dres) as f32, (t / dres) as f32) + sampler.next_2d()) / dres as f32;
+    (sampler, octa::decode(uv))
+}
+
+/// The part of every cell's irradiance map seen straight from an emitter next-event
+/// estimation samples (a sphere light, an emissive triangle): the bake's own rays again,
+/// from where the bake put each probe (`grid.probe_offset`), weighted as the bake weighs
+/// them, with [`Renderer::emitted_along`] for their radiance. The convolution is linear, so
+/// this is exactly the emitted part of `grid.irradiance` (what the evaluation takes out of
+/// a lookup that blends the irradiance in, to measure the light apart from the emitters).
+/// Cell-major as `grid.irradiance`; zero for cells inside geometry, and everywhere, with
+/// no ray traced, in a scene without such emitters.
+pub fn emitted_irradiance(renderer: &Renderer, s: &GridSettings, grid: &ProbeGrid) -> (Vec<Vec3>, u64) {
+    let i2 = (s.irradiance_resolution.pow(2)) as usize;
+    let mut out = vec![Vec3::ZERO; grid.inside.len() * i2];
+    if !renderer.has_emitters() {
+        return (out, 0);
+    }
+    let tables = CellTables::new(s);
+    let rays: u64 = out
+        .par_chunks_mut(i2)
+        .enumerate()
+        .map(|(cell, irradiance)| {
+            if grid.inside[cell] {
+                return 0;
+            }
+            let centre = s.geometry.cell_centre(cell) + grid.probe_offset.get(cell).copied().unwrap_or(Vec3::ZERO);
+            let cell_stream = hash_pair(DOMAIN_GRID, cell as u64);
+            let mut cosine_sum = vec![0.0f32; i2];
+            let mut rays = 0u64;
+            let dres = s.depth_resolution;
+            for t in 0..dres * dres {
+                let weight = tables.depth_omega[t as usize] / s.depth_samples as f32;
+                for k in 0..s.depth_samples {
+                    let (_, dir) = texel_ray(s, cell_stream, t, k);
+                    let seen =
+                        renderer.first_hit(centre, dir, &mut rays).map_or(Vec3::ZERO, |f| renderer.emitted_along(&f));
+                    for ((e, cs), n) in irradiance.iter_mut().zip(&mut cosine_sum).zip(&tables.irr_normals) {
+                        let c = n.dot(dir);
+                        if c > 0.0 {
+                            *e += seen * (c * weight);
+                            *cs += c * weight;
+                        }
+                    }
+                }
+            }
+            for (e, cs) in irradiance.iter_mut().zip(&cosine_sum) {
+                *e = if *cs > 0.0 { *e * (std::f32::consts::PI / *cs) } else { Vec3::ZERO };
+            }
+            rays
+        })
+        .collect::<Vec<u64>>()
+        .iter()
+        .sum();
+    (out, rays)
 }
 
 /// Directions of the clearance test: a Fibonacci sphere (the same for every candidate).
