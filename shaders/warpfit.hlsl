@@ -17,6 +17,8 @@ struct Params {
     uint4 atlas_b;
     float4 lut;
     uint4 lut_info;
+    float4 blend_r[2];
+    float4 blend_w[2];
 };
 
 struct Cell {
@@ -364,16 +366,16 @@ float4 probe_bilinear(uint which_1, float2 uv_1, uint level_1)
     float res0_ = ((which_1 == 0u) ? _e10 : _e6);
     uint n_6 = max((naga_f2u32(res0_) >> level_1), 1u);
     const Footprint _e18 = footprint(n_6, uv_1);
-    int2 c_5 = _e18.corner;
+    int2 c_6 = _e18.corner;
     int l_3 = int(level_1);
     int ni = int(n_6);
-    const int2 _e22 = wrap_texel(ni, c_5);
+    const int2 _e22 = wrap_texel(ni, c_6);
     const float4 _e23 = probe_texel(which_1, _e22, l_3);
-    const int2 _e28 = wrap_texel(ni, asint(asuint(c_5) + asuint(int2(int(1), int(0)))));
+    const int2 _e28 = wrap_texel(ni, asint(asuint(c_6) + asuint(int2(int(1), int(0)))));
     const float4 _e29 = probe_texel(which_1, _e28, l_3);
-    const int2 _e34 = wrap_texel(ni, asint(asuint(c_5) + asuint(int2(int(0), int(1)))));
+    const int2 _e34 = wrap_texel(ni, asint(asuint(c_6) + asuint(int2(int(0), int(1)))));
     const float4 _e35 = probe_texel(which_1, _e34, l_3);
-    const int2 _e40 = wrap_texel(ni, asint(asuint(c_5) + asuint(int2(int(1), int(1)))));
+    const int2 _e40 = wrap_texel(ni, asint(asuint(c_6) + asuint(int2(int(1), int(1)))));
     const float4 _e41 = probe_texel(which_1, _e40, l_3);
     const float4 _e43 = blend4_(_e23, _e29, _e35, _e41, _e18.f);
     return _e43;
@@ -471,11 +473,11 @@ float4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, float2 uv_
     uint s_3 = uint(tile);
     int2 origin = int2((uint2(naga_mod(s_3, columns), naga_div(s_3, columns)) * (n_2 + 2u)));
     const Footprint _e13 = footprint(n_2, uv_4);
-    int2 c_6 = asint(asuint(asint(asuint(origin) + asuint(_e13.corner))) + asuint(int2(int(1), int(1))));
-    const float4 _e20 = atlas_texel(which_4, c_6);
-    const float4 _e25 = atlas_texel(which_4, asint(asuint(c_6) + asuint(int2(int(1), int(0)))));
-    const float4 _e30 = atlas_texel(which_4, asint(asuint(c_6) + asuint(int2(int(0), int(1)))));
-    const float4 _e35 = atlas_texel(which_4, asint(asuint(c_6) + asuint(int2(int(1), int(1)))));
+    int2 c_7 = asint(asuint(asint(asuint(origin) + asuint(_e13.corner))) + asuint(int2(int(1), int(1))));
+    const float4 _e20 = atlas_texel(which_4, c_7);
+    const float4 _e25 = atlas_texel(which_4, asint(asuint(c_7) + asuint(int2(int(1), int(0)))));
+    const float4 _e30 = atlas_texel(which_4, asint(asuint(c_7) + asuint(int2(int(0), int(1)))));
+    const float4 _e35 = atlas_texel(which_4, asint(asuint(c_7) + asuint(int2(int(1), int(1)))));
     const float4 _e37 = blend4_(_e20, _e25, _e30, _e35, _e13.f);
     return _e37;
 }
@@ -581,10 +583,10 @@ float2 warp1_exit(float3 b_2, float3 dir)
     if (!((lambda > 0.0))) {
         return float2(1e30, 1.0);
     }
-    float t_9 = (max(((dir_ab * lambda) + dot(dir, v_9)), 0.0) / lambda);
-    const bool _e37 = finite(t_9);
+    float t_10 = (max(((dir_ab * lambda) + dot(dir, v_9)), 0.0) / lambda);
+    const bool _e37 = finite(t_10);
     if (_e37) {
-        local_10 = (t_9 < HUGE);
+        local_10 = (t_10 < HUGE);
     } else {
         local_10 = false;
     }
@@ -592,7 +594,7 @@ float2 warp1_exit(float3 b_2, float3 dir)
     if (!(_e43)) {
         return float2(1e30, 1.0);
     }
-    return float2(t_9, 1.0);
+    return float2(t_10, 1.0);
 }
 
 float3 warp1_(float3 b_3, float3 dir_1)
@@ -608,8 +610,8 @@ float3 warp1_(float3 b_3, float3 dir_1)
     float3 v_10 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
     const float _e20 = inv_dist(v_10);
     float lambda_1 = (length(v_10) * _e20);
-    float t_10 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_10)), 0.0);
-    float3 f_5 = ((dir_1 * t_10) - (ab_1 * lambda_1));
+    float t_11 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_10)), 0.0);
+    float3 f_5 = ((dir_1 * t_11) - (ab_1 * lambda_1));
     if ((lambda_1 > 0.0)) {
         const float3 _e34 = fetch_vector((0.0).xxx, f_5, dir_1);
         return _e34;
@@ -811,7 +813,7 @@ float3 fallback_fetch(float3 b_9, float3 dir_7)
     float _e18 = params.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
     const Basis _e20 = orthonormal_basis(dir_7);
-    float3 t_11 = (_e20.t * angle);
+    float3 t_12 = (_e20.t * angle);
     float3 bt = (_e20.b * angle);
     plain = dir_7;
     uint2 loop_bound_2 = uint2(4294967295u, 4294967295u);
@@ -835,11 +837,11 @@ float3 fallback_fetch(float3 b_9, float3 dir_7)
             bool should_continue = false;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_7 + t_11));
+                    d_1 = normalize((dir_7 + t_12));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_7 - t_11));
+                    d_1 = normalize((dir_7 - t_12));
                     break;
                 }
                 case 3u: {
@@ -1158,16 +1160,16 @@ float distance_ratio(float3 b_12, float3 v_6, float2 uv_7)
     float d_probe = (1.0 / w_3);
     float4 _e39 = params.probe;
     float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_12));
-    float k_7 = (d_probe / d_surface);
-    const bool _e47 = finite(k_7);
+    float k_10 = (d_probe / d_surface);
+    const bool _e47 = finite(k_10);
     if (_e47) {
-        local_21 = (k_7 > 0.0);
+        local_21 = (k_10 > 0.0);
     } else {
         local_21 = false;
     }
     bool _e53 = local_21;
     if (_e53) {
-        return k_7;
+        return k_10;
     }
     return 1.0;
 }
@@ -1256,6 +1258,82 @@ float3 shade(float3 b_13, Aim aim, float r_4)
     return _e23;
 }
 
+float blend_node_r(uint k_6)
+{
+    float _e9 = params.blend_r[naga_div(k_6, 4u)][naga_mod(k_6, 4u)];
+    return _e9;
+}
+
+float blend_node_w(uint k_7)
+{
+    float _e9 = params.blend_w[naga_div(k_7, 4u)][naga_mod(k_7, 4u)];
+    return _e9;
+}
+
+float irradiance_weight(float r_5)
+{
+    bool local_23 = (bool)0;
+    uint k_8 = 1u;
+    float t_6 = (float)0;
+
+    uint n_11 = params.lut_info.y;
+    if (!((n_11 == 0u))) {
+        local_23 = !((r_5 > 0.0));
+    } else {
+        local_23 = true;
+    }
+    bool _e14 = local_23;
+    if (_e14) {
+        return 0.0;
+    }
+    const float _e17 = blend_node_r(0u);
+    if ((r_5 <= _e17)) {
+        const float _e20 = blend_node_w(0u);
+        return _e20;
+    }
+    const float _e23 = blend_node_r((n_11 - 1u));
+    if ((r_5 >= _e23)) {
+        const float _e27 = blend_node_w((n_11 - 1u));
+        return _e27;
+    }
+    uint2 loop_bound_5 = uint2(4294967295u, 4294967295u);
+    bool loop_init_5 = true;
+    while(true) {
+        if (all(loop_bound_5 == uint2(0u, 0u))) { break; }
+        loop_bound_5 -= uint2(loop_bound_5.y == 0u, 1u);
+        if (!loop_init_5) {
+            uint _e59 = k_8;
+            k_8 = (_e59 + 1u);
+        }
+        loop_init_5 = false;
+        uint _e30 = k_8;
+        if ((_e30 < n_11)) {
+        } else {
+            break;
+        }
+        {
+            uint _e32 = k_8;
+            const float _e33 = blend_node_r(_e32);
+            if ((r_5 <= _e33)) {
+                uint _e35 = k_8;
+                const float _e38 = blend_node_r((_e35 - 1u));
+                uint _e39 = k_8;
+                const float _e42 = blend_node_w((_e39 - 1u));
+                t_6 = 1.0;
+                if ((_e33 > _e38)) {
+                    t_6 = ((r_5 - _e38) / (_e33 - _e38));
+                }
+                uint _e49 = k_8;
+                const float _e50 = blend_node_w(_e49);
+                float _e52 = t_6;
+                return clamp((_e42 + ((_e50 - _e42) * _e52)), 0.0, 1.0);
+            }
+        }
+    }
+    const float _e63 = blend_node_w((n_11 - 1u));
+    return _e63;
+}
+
 float3 clean(float3 c_4)
 {
     const bool _e1 = finite3_(c_4);
@@ -1265,10 +1343,20 @@ float3 clean(float3 c_4)
     return (0.0).xxx;
 }
 
+float3 cell_irradiance(int tile_2, float3 n_4)
+{
+    uint _e6 = params.atlas_a.z;
+    uint _e10 = params.atlas_a.w;
+    const float2 _e11 = oct_encode(n_4);
+    const float4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
+    return _e12.xyz;
+}
+
 float3 specular(float3 position, float3 direction, float roughness)
 {
     float3 b_14 = (float3)0;
-    float r_5 = 0.0;
+    float r_6 = 0.0;
+    float3 c_5 = (float3)0;
 
     const float4 _e3 = unit_direction(direction);
     if ((_e3.w == 0.0)) {
@@ -1282,25 +1370,32 @@ float3 specular(float3 position, float3 direction, float roughness)
     }
     const bool _e17 = finite(roughness);
     if (_e17) {
-        r_5 = clamp(roughness, 0.0, 1.0);
+        r_6 = clamp(roughness, 0.0, 1.0);
     }
     float3 _e21 = b_14;
     float3 _e22 = b_14;
-    float _e24 = r_5;
+    float _e24 = r_6;
     const Aim _e25 = fetch(_e22, _e3.xyz, _e24);
-    float _e26 = r_5;
+    float _e26 = r_6;
     const float3 _e27 = shade(_e21, _e25, _e26);
-    const float3 _e28 = clean(_e27);
-    return _e28;
-}
-
-float3 cell_irradiance(int tile_2, float3 n_4)
-{
-    uint _e6 = params.atlas_a.z;
-    uint _e10 = params.atlas_a.w;
-    const float2 _e11 = oct_encode(n_4);
-    const float4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
-    return _e12.xyz;
+    c_5 = _e27;
+    float _e29 = r_6;
+    const float _e30 = irradiance_weight(_e29);
+    if ((_e30 > 0.0)) {
+        float3 _e34 = b_14;
+        const float3 _e35 = cell_size();
+        const uint3 _e36 = cell_of(_e34, _e35);
+        const uint _e37 = cell_index(_e36);
+        Cell cell_3 = ConstructCell(asint(cells.Load4(_e37*32+0)), asfloat(cells.Load4(_e37*32+16)));
+        if ((cell_3.tiles.y >= int(0))) {
+            float3 _e44 = c_5;
+            const float3 _e51 = cell_irradiance(cell_3.tiles.y, _e3.xyz);
+            c_5 = ((_e44 * (1.0 - _e30)) + (_e51 * (_e30 * 0.31830987)));
+        }
+    }
+    float3 _e56 = c_5;
+    const float3 _e57 = clean(_e56);
+    return _e57;
 }
 
 float3 irradiance(float3 position_1, float3 normal)
@@ -1310,38 +1405,38 @@ float3 irradiance(float3 position_1, float3 normal)
     float wsum = 0.0;
     uint corner_3 = 0u;
     float w_1 = (float)0;
-    bool local_23 = (bool)0;
-    float k_6 = (float)0;
+    bool local_24 = (bool)0;
+    float k_9 = (float)0;
 
     const float4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
         return (0.0).xxx;
     }
-    float3 n_11 = _e2.xyz;
+    float3 n_12 = _e2.xyz;
     const float3 _e9 = cell_size();
     float4 _e12 = params.grid_min;
     float4 _e16 = params.grid_max;
     float4 _e20 = params.grid_min;
     p_3 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = params.grid_min.w;
-    float3 biased = (position_1 + (n_11 * _e30));
+    float3 biased = (position_1 + (n_12 * _e30));
     const bool _e33 = finite3_(biased);
     if (_e33) {
         p_3 = biased;
     }
     float3 _e34 = p_3;
     const Lattice _e35 = lattice(_e34, _e9);
-    const float2 _e36 = oct_encode(n_11);
-    uint2 loop_bound_5 = uint2(4294967295u, 4294967295u);
-    bool loop_init_5 = true;
+    const float2 _e36 = oct_encode(n_12);
+    uint2 loop_bound_6 = uint2(4294967295u, 4294967295u);
+    bool loop_init_6 = true;
     while(true) {
-        if (all(loop_bound_5 == uint2(0u, 0u))) { break; }
-        loop_bound_5 -= uint2(loop_bound_5.y == 0u, 1u);
-        if (!loop_init_5) {
+        if (all(loop_bound_6 == uint2(0u, 0u))) { break; }
+        loop_bound_6 -= uint2(loop_bound_6.y == 0u, 1u);
+        if (!loop_init_6) {
             uint _e158 = corner_3;
             corner_3 = (_e158 + 1u);
         }
-        loop_init_5 = false;
+        loop_init_6 = false;
         uint _e44 = corner_3;
         if ((_e44 < 8u)) {
         } else {
@@ -1356,31 +1451,31 @@ float3 irradiance(float3 position_1, float3 normal)
             uint _e51 = corner_3;
             const uint3 _e52 = corner_cell(_e35, _e51);
             const uint _e54 = cell_index(_e52);
-            Cell cell_3 = ConstructCell(asint(cells.Load4(_e54*32+0)), asfloat(cells.Load4(_e54*32+16)));
-            if ((cell_3.tiles.y < int(0))) {
+            Cell cell_4 = ConstructCell(asint(cells.Load4(_e54*32+0)), asfloat(cells.Load4(_e54*32+16)));
+            if ((cell_4.tiles.y < int(0))) {
                 continue;
             }
             float3 _e61 = p_3;
             const float3 _e62 = cell_centre(_e52, _e9);
-            float3 to_point = (_e61 - (_e62 + cell_3.offset.xyz));
+            float3 to_point = (_e61 - (_e62 + cell_4.offset.xyz));
             float dist = length(to_point);
             w_1 = _e48;
             if ((dist > 0.0)) {
                 const bool _e73 = finite(dist);
-                local_23 = _e73;
+                local_24 = _e73;
             } else {
-                local_23 = false;
+                local_24 = false;
             }
-            bool _e75 = local_23;
+            bool _e75 = local_24;
             if (_e75) {
                 float3 u = (to_point / (dist).xxx);
-                float facing = ((dot(n_11, -(u)) + 1.0) * 0.5);
+                float facing = ((dot(n_12, -(u)) + 1.0) * 0.5);
                 float _e84 = w_1;
                 w_1 = (_e84 * ((facing * facing) + 0.2));
                 uint _e95 = params.atlas_b.x;
                 uint _e99 = params.atlas_b.y;
                 const float2 _e100 = oct_encode(u);
-                const float4 _e101 = atlas_bilinear(ATLAS_MOMENTS, cell_3.tiles.y, _e95, _e99, _e100);
+                const float4 _e101 = atlas_bilinear(ATLAS_MOMENTS, cell_4.tiles.y, _e95, _e99, _e100);
                 float mean = _e101.x;
                 float mean_sq = _e101.y;
                 if ((dist > mean)) {
@@ -1393,17 +1488,17 @@ float3 irradiance(float3 position_1, float3 normal)
             }
             float _e122 = w_1;
             w_1 = max(_e122, (1e-6 * _e48));
-            k_6 = 1.0;
-            if ((cell_3.tiles.z >= int(0))) {
+            k_9 = 1.0;
+            if ((cell_4.tiles.z >= int(0))) {
                 uint _e138 = params.atlas_b.z;
                 uint _e142 = params.atlas_b.w;
-                const float4 _e143 = atlas_bilinear(ATLAS_SCALE, cell_3.tiles.z, _e138, _e142, _e36);
-                k_6 = _e143.x;
+                const float4 _e143 = atlas_bilinear(ATLAS_SCALE, cell_4.tiles.z, _e138, _e142, _e36);
+                k_9 = _e143.x;
             }
             float3 _e145 = e;
-            const float3 _e148 = cell_irradiance(cell_3.tiles.y, n_11);
+            const float3 _e148 = cell_irradiance(cell_4.tiles.y, n_12);
             float _e149 = w_1;
-            float _e151 = k_6;
+            float _e151 = k_9;
             e = (_e145 + ((_e148 * _e149) * _e151));
             float _e154 = wsum;
             float _e155 = w_1;
@@ -1422,17 +1517,17 @@ float3 irradiance(float3 position_1, float3 normal)
 
 float2 hemi_encode(float3 v_7)
 {
-    bool local_24 = (bool)0;
+    bool local_25 = (bool)0;
 
     float z = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         const bool _e14 = finite(l1_1);
-        local_24 = _e14;
+        local_25 = _e14;
     } else {
-        local_24 = false;
+        local_25 = false;
     }
-    bool _e16 = local_24;
+    bool _e16 = local_25;
     if (!(_e16)) {
         return float2(0.5, 0.5);
     }
@@ -1458,9 +1553,9 @@ SurfaceAxis surface_axis(float x_in, uint n_5)
         x_2 = x_in;
     }
     float _e5 = x_2;
-    float c_7 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
-    uint i0_ = naga_f2u32(floor(c_7));
-    const SurfaceAxis surfaceaxis = ConstructSurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_7 - float(i0_)));
+    float c_8 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
+    uint i0_ = naga_f2u32(floor(c_8));
+    const SurfaceAxis surfaceaxis = ConstructSurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_8 - float(i0_)));
     return surfaceaxis;
 }
 
@@ -1474,68 +1569,68 @@ SurfaceTaps ConstructSurfaceTaps(uint2 arg0, uint2 arg1, float2 arg2) {
 
 SurfaceTaps surface_taps(float2 uv_8)
 {
-    uint n_12 = surface_params.shape.z;
-    float nf = float(n_12);
+    uint n_13 = surface_params.shape.z;
+    float nf = float(n_13);
     float x_4 = clamp(((uv_8.x * nf) - 0.5), 0.0, (nf - 1.0));
     float y = clamp(((uv_8.y * nf) - 0.5), 0.0, (nf - 1.0));
     float x0_1 = floor(x_4);
     float y0_ = floor(y);
     uint2 lo = uint2(naga_f2u32(x0_1), naga_f2u32(y0_));
-    const SurfaceTaps surfacetaps = ConstructSurfaceTaps(lo, min((lo + (1u).xx), ((n_12 - 1u)).xx), float2((x_4 - x0_1), (y - y0_)));
+    const SurfaceTaps surfacetaps = ConstructSurfaceTaps(lo, min((lo + (1u).xx), ((n_13 - 1u)).xx), float2((x_4 - x0_1), (y - y0_)));
     return surfacetaps;
 }
 
-float3 surface_tile(uint i_1, uint j_1, uint layer, SurfaceTaps t_6)
+float3 surface_tile(uint i_1, uint j_1, uint layer, SurfaceTaps t_7)
 {
     uint _e8 = surface_params.shape.z;
     uint2 o_3 = (uint2(i_1, j_1) * _e8);
     int l_6 = int(layer);
-    float4 q00_1 = surface_radiance.Load(int4(int2((o_3 + t_6.lo)), l_6, int(0)));
-    float4 q10_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.hi.x, t_6.lo.y))), l_6, int(0)));
-    float4 q01_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.lo.x, t_6.hi.y))), l_6, int(0)));
-    float4 q11_1 = surface_radiance.Load(int4(int2((o_3 + t_6.hi)), l_6, int(0)));
-    const float4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_6.f);
+    float4 q00_1 = surface_radiance.Load(int4(int2((o_3 + t_7.lo)), l_6, int(0)));
+    float4 q10_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_7.hi.x, t_7.lo.y))), l_6, int(0)));
+    float4 q01_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_7.lo.x, t_7.hi.y))), l_6, int(0)));
+    float4 q11_1 = surface_radiance.Load(int4(int2((o_3 + t_7.hi)), l_6, int(0)));
+    const float4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_7.f);
     return _e44.xyz;
 }
 
-float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_7)
+float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_8)
 {
     uint _e7 = surface_params.shape.z;
     uint2 o_4 = (uint2(i_2, j_2) * _e7);
-    float4 q00_2 = surface_inv_distance.Load(int3(int2((o_4 + t_7.lo)), int(0)));
-    float4 q10_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(t_7.hi.x, t_7.lo.y))), int(0)));
-    float4 q01_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(t_7.lo.x, t_7.hi.y))), int(0)));
-    float4 q11_2 = surface_inv_distance.Load(int3(int2((o_4 + t_7.hi)), int(0)));
-    const float4 _e42 = blend4_(q00_2, q10_2, q01_2, q11_2, t_7.f);
+    float4 q00_2 = surface_inv_distance.Load(int3(int2((o_4 + t_8.lo)), int(0)));
+    float4 q10_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(t_8.hi.x, t_8.lo.y))), int(0)));
+    float4 q01_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(t_8.lo.x, t_8.hi.y))), int(0)));
+    float4 q11_2 = surface_inv_distance.Load(int3(int2((o_4 + t_8.hi)), int(0)));
+    const float4 _e42 = blend4_(q00_2, q10_2, q01_2, q11_2, t_8.f);
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_3, uint j_3, float3 b_15, float3 local_25, SurfaceTaps shared_taps)
+SurfaceTaps surface_warped_taps(uint i_3, uint j_3, float3 b_15, float3 local_26, SurfaceTaps shared_taps)
 {
-    bool local_26 = (bool)0;
     bool local_27 = (bool)0;
+    bool local_28 = (bool)0;
 
     SurfaceParams sp = surface_params;
     float s_5 = ((float(i_3) + 0.5) / float(sp.shape.x));
-    float t_12 = ((float(j_3) + 0.5) / float(sp.shape.y));
-    float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_5)) + (sp.edge_v.xyz * t_12)) + (sp.normal.xyz * sp.corner.w));
+    float t_13 = ((float(j_3) + 0.5) / float(sp.shape.y));
+    float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_5)) + (sp.edge_v.xyz * t_13)) + (sp.normal.xyz * sp.corner.w));
     float3 d_3 = (probe - b_15);
     float3 ab_2 = float3(dot(d_3, sp.tangent.xyz), dot(d_3, sp.bitangent.xyz), dot(d_3, sp.normal.xyz));
     const float _e48 = surface_tile_inv_distance(i_3, j_3, shared_taps);
-    float3 v_12 = ((local_25 * max(((dot(local_25, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
+    float3 v_12 = ((local_26 * max(((dot(local_26, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
     if ((_e48 > 0.0)) {
         const bool _e62 = finite3_(v_12);
-        local_26 = _e62;
-    } else {
-        local_26 = false;
-    }
-    bool _e64 = local_26;
-    if (_e64) {
-        local_27 = (dot(v_12, v_12) > 0.0);
+        local_27 = _e62;
     } else {
         local_27 = false;
     }
-    bool _e71 = local_27;
+    bool _e64 = local_27;
+    if (_e64) {
+        local_28 = (dot(v_12, v_12) > 0.0);
+    } else {
+        local_28 = false;
+    }
+    bool _e71 = local_28;
     if (_e71) {
         const float2 _e72 = hemi_encode(v_12);
         const SurfaceTaps _e73 = surface_taps(_e72);
@@ -1546,11 +1641,11 @@ SurfaceTaps surface_warped_taps(uint i_3, uint j_3, float3 b_15, float3 local_25
     return surfacetaps_2;
 }
 
-float3 surface_probe(uint i_4, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, float fm)
+float3 surface_probe(uint i_4, uint j_4, SurfaceTaps t_9, uint m0_, uint m1_, float fm)
 {
-    const float3 _e6 = surface_tile(i_4, j_4, m0_, t_8);
+    const float3 _e6 = surface_tile(i_4, j_4, m0_, t_9);
     if ((fm > 0.0)) {
-        const float3 _e9 = surface_tile(i_4, j_4, m1_, t_8);
+        const float3 _e9 = surface_tile(i_4, j_4, m1_, t_9);
         return lerp(_e6, _e9, fm);
     }
     return _e6;
@@ -1590,8 +1685,8 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
     float3 dir_12 = _e4.xyz;
-    float3 local_28 = float3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
-    const float2 _e64 = hemi_encode(local_28);
+    float3 local_29 = float3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
+    const float2 _e64 = hemi_encode(local_29);
     const SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
@@ -1599,16 +1694,16 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     t11_ = _e65;
     if (warped) {
         float3 _e72 = b_16;
-        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_28, _e65);
+        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_29, _e65);
         t00_ = _e73;
         float3 _e76 = b_16;
-        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_28, _e65);
+        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_29, _e65);
         t10_ = _e77;
         float3 _e80 = b_16;
-        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_28, _e65);
+        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_29, _e65);
         t01_ = _e81;
         float3 _e84 = b_16;
-        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_28, _e65);
+        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_29, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;
@@ -1656,30 +1751,30 @@ uint query_count()
 [numthreads(64, 1, 1)]
 void specular_queries(uint3 id : SV_DispatchThreadID)
 {
-    uint k_8 = id.x;
+    uint k_11 = id.x;
     const uint _e2 = query_count();
-    if ((k_8 >= _e2)) {
+    if ((k_11 >= _e2)) {
         return;
     }
-    float4 p_4 = asfloat(queries.Load4((2u * k_8)*16));
-    float4 d_5 = asfloat(queries.Load4(((2u * k_8) + 1u)*16));
+    float4 p_4 = asfloat(queries.Load4((2u * k_11)*16));
+    float4 d_5 = asfloat(queries.Load4(((2u * k_11) + 1u)*16));
     const float3 _e21 = specular(p_4.xyz, d_5.xyz, p_4.w);
-    results.Store4(k_8*16, asuint(float4(_e21, 1.0)));
+    results.Store4(k_11*16, asuint(float4(_e21, 1.0)));
     return;
 }
 
 [numthreads(64, 1, 1)]
 void irradiance_queries(uint3 id_1 : SV_DispatchThreadID)
 {
-    uint k_9 = id_1.x;
+    uint k_12 = id_1.x;
     const uint _e2 = query_count();
-    if ((k_9 >= _e2)) {
+    if ((k_12 >= _e2)) {
         return;
     }
-    float4 p_5 = asfloat(queries.Load4((2u * k_9)*16));
-    float4 n_13 = asfloat(queries.Load4(((2u * k_9) + 1u)*16));
-    const float3 _e20 = irradiance(p_5.xyz, n_13.xyz);
-    results.Store4(k_9*16, asuint(float4(_e20, 1.0)));
+    float4 p_5 = asfloat(queries.Load4((2u * k_12)*16));
+    float4 n_14 = asfloat(queries.Load4(((2u * k_12) + 1u)*16));
+    const float3 _e20 = irradiance(p_5.xyz, n_14.xyz);
+    results.Store4(k_12*16, asuint(float4(_e20, 1.0)));
     return;
 }
 
@@ -1690,20 +1785,20 @@ void warp1_queries(uint3 id_2 : SV_DispatchThreadID)
     float3 c = (0.0).xxx;
     float3 v = (float3)0;
 
-    uint k_10 = id_2.x;
+    uint k_13 = id_2.x;
     const uint _e2 = query_count();
-    if ((k_10 >= _e2)) {
+    if ((k_13 >= _e2)) {
         return;
     }
     float4 _e6 = params.probe;
     b = _e6.xyz;
-    float4 _e13 = asfloat(queries.Load4((2u * k_10)*16));
+    float4 _e13 = asfloat(queries.Load4((2u * k_13)*16));
     const bool _e15 = finite3_(_e13.xyz);
     if (_e15) {
-        float4 _e20 = asfloat(queries.Load4((2u * k_10)*16));
+        float4 _e20 = asfloat(queries.Load4((2u * k_13)*16));
         b = _e20.xyz;
     }
-    float4 _e28 = asfloat(queries.Load4(((2u * k_10) + 1u)*16));
+    float4 _e28 = asfloat(queries.Load4(((2u * k_13) + 1u)*16));
     const float4 _e30 = unit_direction(_e28.xyz);
     if ((_e30.w != 0.0)) {
         v = _e30.xyz;
@@ -1721,7 +1816,7 @@ void warp1_queries(uint3 id_2 : SV_DispatchThreadID)
         c = _e53;
     }
     float3 _e56 = c;
-    results.Store4(k_10*16, asuint(float4(_e56, 1.0)));
+    results.Store4(k_13*16, asuint(float4(_e56, 1.0)));
     return;
 }
 
@@ -1732,20 +1827,20 @@ void box_queries(uint3 id_3 : SV_DispatchThreadID)
     float3 c_1 = (0.0).xxx;
     float3 v_1 = (float3)0;
 
-    uint k_11 = id_3.x;
+    uint k_14 = id_3.x;
     const uint _e2 = query_count();
-    if ((k_11 >= _e2)) {
+    if ((k_14 >= _e2)) {
         return;
     }
     float4 _e6 = params.probe;
     b_1 = _e6.xyz;
-    float4 _e13 = asfloat(queries.Load4((2u * k_11)*16));
+    float4 _e13 = asfloat(queries.Load4((2u * k_14)*16));
     const bool _e15 = finite3_(_e13.xyz);
     if (_e15) {
-        float4 _e20 = asfloat(queries.Load4((2u * k_11)*16));
+        float4 _e20 = asfloat(queries.Load4((2u * k_14)*16));
         b_1 = _e20.xyz;
     }
-    float4 _e28 = asfloat(queries.Load4(((2u * k_11) + 1u)*16));
+    float4 _e28 = asfloat(queries.Load4(((2u * k_14) + 1u)*16));
     const float4 _e30 = unit_direction(_e28.xyz);
     if ((_e30.w != 0.0)) {
         v_1 = _e30.xyz;
@@ -1763,36 +1858,36 @@ void box_queries(uint3 id_3 : SV_DispatchThreadID)
         c_1 = _e53;
     }
     float3 _e56 = c_1;
-    results.Store4(k_11*16, asuint(float4(_e56, 1.0)));
+    results.Store4(k_14*16, asuint(float4(_e56, 1.0)));
     return;
 }
 
 [numthreads(64, 1, 1)]
 void surface_queries(uint3 id_4 : SV_DispatchThreadID)
 {
-    uint k_12 = id_4.x;
+    uint k_15 = id_4.x;
     const uint _e2 = query_count();
-    if ((k_12 >= _e2)) {
+    if ((k_15 >= _e2)) {
         return;
     }
-    float4 p_6 = asfloat(queries.Load4((2u * k_12)*16));
-    float4 d_6 = asfloat(queries.Load4(((2u * k_12) + 1u)*16));
+    float4 p_6 = asfloat(queries.Load4((2u * k_15)*16));
+    float4 d_6 = asfloat(queries.Load4(((2u * k_15) + 1u)*16));
     const float3 _e21 = surface_specular(p_6.xyz, d_6.xyz, p_6.w);
-    results.Store4(k_12*16, asuint(float4(_e21, 1.0)));
+    results.Store4(k_15*16, asuint(float4(_e21, 1.0)));
     return;
 }
 
 [numthreads(64, 1, 1)]
 void surface_warped_queries(uint3 id_5 : SV_DispatchThreadID)
 {
-    uint k_13 = id_5.x;
+    uint k_16 = id_5.x;
     const uint _e2 = query_count();
-    if ((k_13 >= _e2)) {
+    if ((k_16 >= _e2)) {
         return;
     }
-    float4 p_7 = asfloat(queries.Load4((2u * k_13)*16));
-    float4 d_7 = asfloat(queries.Load4(((2u * k_13) + 1u)*16));
+    float4 p_7 = asfloat(queries.Load4((2u * k_16)*16));
+    float4 d_7 = asfloat(queries.Load4(((2u * k_16) + 1u)*16));
     const float3 _e21 = surface_specular_warped(p_7.xyz, d_7.xyz, p_7.w);
-    results.Store4(k_13*16, asuint(float4(_e21, 1.0)));
+    results.Store4(k_16*16, asuint(float4(_e21, 1.0)));
     return;
 }

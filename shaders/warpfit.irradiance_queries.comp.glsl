@@ -22,6 +22,8 @@ struct Params {
     uvec4 atlas_b;
     vec4 lut;
     uvec4 lut_info;
+    vec4 blend_r[2];
+    vec4 blend_w[2];
 };
 struct Cell {
     ivec4 tiles;
@@ -90,11 +92,11 @@ layout(binding = 5) uniform sampler2D _group_0_binding_5_cs;
 
 layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_binding_7_cs; };
 
-layout(std430, binding = 0) readonly buffer type_9_block_1Compute { Cell _group_0_binding_8_cs[]; };
+layout(std430, binding = 0) readonly buffer type_10_block_1Compute { Cell _group_0_binding_8_cs[]; };
 
-layout(std430, binding = 1) readonly buffer type_18_block_2Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_19_block_2Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_18_block_3Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_19_block_3Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 uint fallback_method() {
@@ -328,11 +330,11 @@ vec4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, vec2 uv_4) {
     uint s_3 = uint(tile);
     ivec2 origin = ivec2((uvec2((s_3 % columns), (s_3 / columns)) * (n_2 + 2u)));
     Footprint _e13 = footprint(n_2, uv_4);
-    ivec2 c_5 = ((origin + _e13.corner) + ivec2(1, 1));
-    vec4 _e20 = atlas_texel(which_4, c_5);
-    vec4 _e25 = atlas_texel(which_4, (c_5 + ivec2(1, 0)));
-    vec4 _e30 = atlas_texel(which_4, (c_5 + ivec2(0, 1)));
-    vec4 _e35 = atlas_texel(which_4, (c_5 + ivec2(1, 1)));
+    ivec2 c_6 = ((origin + _e13.corner) + ivec2(1, 1));
+    vec4 _e20 = atlas_texel(which_4, c_6);
+    vec4 _e25 = atlas_texel(which_4, (c_6 + ivec2(1, 0)));
+    vec4 _e30 = atlas_texel(which_4, (c_6 + ivec2(0, 1)));
+    vec4 _e35 = atlas_texel(which_4, (c_6 + ivec2(1, 1)));
     vec4 _e37 = blend4_(_e20, _e25, _e30, _e35, _e13.f);
     return _e37;
 }
@@ -681,6 +683,75 @@ float pseudo_log2_(float k_3) {
     return (float(e_1) + (m_3 - 1.0));
 }
 
+float blend_node_r(uint k_6) {
+    float _e9 = _group_0_binding_7_cs.blend_r[(k_6 / 4u)][(k_6 % 4u)];
+    return _e9;
+}
+
+float blend_node_w(uint k_7) {
+    float _e9 = _group_0_binding_7_cs.blend_w[(k_7 / 4u)][(k_7 % 4u)];
+    return _e9;
+}
+
+float irradiance_weight(float r_5) {
+    bool local_23 = false;
+    uint k_8 = 1u;
+    float t_6 = 0.0;
+    uint n_9 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_9 == 0u))) {
+        local_23 = !((r_5 > 0.0));
+    } else {
+        local_23 = true;
+    }
+    bool _e14 = local_23;
+    if (_e14) {
+        return 0.0;
+    }
+    float _e17 = blend_node_r(0u);
+    if ((r_5 <= _e17)) {
+        float _e20 = blend_node_w(0u);
+        return _e20;
+    }
+    float _e23 = blend_node_r((n_9 - 1u));
+    if ((r_5 >= _e23)) {
+        float _e27 = blend_node_w((n_9 - 1u));
+        return _e27;
+    }
+    bool loop_init_3 = true;
+    while(true) {
+        if (!loop_init_3) {
+            uint _e59 = k_8;
+            k_8 = (_e59 + 1u);
+        }
+        loop_init_3 = false;
+        uint _e30 = k_8;
+        if ((_e30 < n_9)) {
+        } else {
+            break;
+        }
+        {
+            uint _e32 = k_8;
+            float _e33 = blend_node_r(_e32);
+            if ((r_5 <= _e33)) {
+                uint _e35 = k_8;
+                float _e38 = blend_node_r((_e35 - 1u));
+                uint _e39 = k_8;
+                float _e42 = blend_node_w((_e39 - 1u));
+                t_6 = 1.0;
+                if ((_e33 > _e38)) {
+                    t_6 = ((r_5 - _e38) / (_e33 - _e38));
+                }
+                uint _e49 = k_8;
+                float _e50 = blend_node_w(_e49);
+                float _e52 = t_6;
+                return clamp((_e42 + ((_e50 - _e42) * _e52)), 0.0, 1.0);
+            }
+        }
+    }
+    float _e63 = blend_node_w((n_9 - 1u));
+    return _e63;
+}
+
 vec3 clean(vec3 c_4) {
     bool _e1 = finite3_(c_4);
     if (_e1) {
@@ -703,34 +774,34 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     float wsum = 0.0;
     uint corner_3 = 0u;
     float w_1 = 0.0;
-    bool local_23 = false;
-    float k_6 = 0.0;
+    bool local_24 = false;
+    float k_9 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
         return vec3(0.0);
     }
-    vec3 n_9 = _e2.xyz;
+    vec3 n_10 = _e2.xyz;
     vec3 _e9 = cell_size();
     vec4 _e12 = _group_0_binding_7_cs.grid_min;
     vec4 _e16 = _group_0_binding_7_cs.grid_max;
     vec4 _e20 = _group_0_binding_7_cs.grid_min;
     p_3 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = _group_0_binding_7_cs.grid_min.w;
-    vec3 biased = (position_1 + (n_9 * _e30));
+    vec3 biased = (position_1 + (n_10 * _e30));
     bool _e33 = finite3_(biased);
     if (_e33) {
         p_3 = biased;
     }
     vec3 _e34 = p_3;
     Lattice _e35 = lattice(_e34, _e9);
-    vec2 _e36 = oct_encode(n_9);
-    bool loop_init_3 = true;
+    vec2 _e36 = oct_encode(n_10);
+    bool loop_init_4 = true;
     while(true) {
-        if (!loop_init_3) {
+        if (!loop_init_4) {
             uint _e158 = corner_3;
             corner_3 = (_e158 + 1u);
         }
-        loop_init_3 = false;
+        loop_init_4 = false;
         uint _e44 = corner_3;
         if ((_e44 < 8u)) {
         } else {
@@ -756,14 +827,14 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             w_1 = _e48;
             if ((dist > 0.0)) {
                 bool _e73 = finite(dist);
-                local_23 = _e73;
+                local_24 = _e73;
             } else {
-                local_23 = false;
+                local_24 = false;
             }
-            bool _e75 = local_23;
+            bool _e75 = local_24;
             if (_e75) {
                 vec3 u = (to_point / vec3(dist));
-                float facing = ((dot(n_9, -(u)) + 1.0) * 0.5);
+                float facing = ((dot(n_10, -(u)) + 1.0) * 0.5);
                 float _e84 = w_1;
                 w_1 = (_e84 * ((facing * facing) + 0.2));
                 uint _e95 = _group_0_binding_7_cs.atlas_b.x;
@@ -782,17 +853,17 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             }
             float _e122 = w_1;
             w_1 = max(_e122, (1e-6 * _e48));
-            k_6 = 1.0;
+            k_9 = 1.0;
             if ((cell_1.tiles.z >= 0)) {
                 uint _e138 = _group_0_binding_7_cs.atlas_b.z;
                 uint _e142 = _group_0_binding_7_cs.atlas_b.w;
                 vec4 _e143 = atlas_bilinear(ATLAS_SCALE, cell_1.tiles.z, _e138, _e142, _e36);
-                k_6 = _e143.x;
+                k_9 = _e143.x;
             }
             vec3 _e145 = e;
-            vec3 _e148 = cell_irradiance(cell_1.tiles.y, n_9);
+            vec3 _e148 = cell_irradiance(cell_1.tiles.y, n_10);
             float _e149 = w_1;
-            float _e151 = k_6;
+            float _e151 = k_9;
             e = (_e145 + ((_e148 * _e149) * _e151));
             float _e154 = wsum;
             float _e155 = w_1;
@@ -810,16 +881,16 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_24 = false;
+    bool local_25 = false;
     float z = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_24 = _e14;
+        local_25 = _e14;
     } else {
-        local_24 = false;
+        local_25 = false;
     }
-    bool _e16 = local_24;
+    bool _e16 = local_25;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -835,9 +906,9 @@ SurfaceAxis surface_axis(float x_in, uint n_5) {
         x_2 = x_in;
     }
     float _e5 = x_2;
-    float c_6 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
-    uint i0_ = uint(floor(c_6));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_6 - float(i0_)));
+    float c_7 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
+    uint i0_ = uint(floor(c_7));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_7 - float(i0_)));
 }
 
 uint query_count() {
@@ -846,15 +917,15 @@ uint query_count() {
 
 void main() {
     uvec3 id_1 = gl_GlobalInvocationID;
-    uint k_7 = id_1.x;
+    uint k_10 = id_1.x;
     uint _e2 = query_count();
-    if ((k_7 >= _e2)) {
+    if ((k_10 >= _e2)) {
         return;
     }
-    vec4 p_4 = _group_1_binding_0_cs[(2u * k_7)];
-    vec4 n_10 = _group_1_binding_0_cs[((2u * k_7) + 1u)];
-    vec3 _e20 = irradiance(p_4.xyz, n_10.xyz);
-    _group_1_binding_1_cs[k_7] = vec4(_e20, 1.0);
+    vec4 p_4 = _group_1_binding_0_cs[(2u * k_10)];
+    vec4 n_11 = _group_1_binding_0_cs[((2u * k_10) + 1u)];
+    vec3 _e20 = irradiance(p_4.xyz, n_11.xyz);
+    _group_1_binding_1_cs[k_10] = vec4(_e20, 1.0);
     return;
 }
 

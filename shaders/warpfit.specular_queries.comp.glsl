@@ -22,6 +22,8 @@ struct Params {
     uvec4 atlas_b;
     vec4 lut;
     uvec4 lut_info;
+    vec4 blend_r[2];
+    vec4 blend_w[2];
 };
 struct Cell {
     ivec4 tiles;
@@ -96,11 +98,11 @@ layout(binding = 6) uniform sampler2D _group_0_binding_6_cs;
 
 layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_binding_7_cs; };
 
-layout(std430, binding = 0) readonly buffer type_9_block_1Compute { Cell _group_0_binding_8_cs[]; };
+layout(std430, binding = 0) readonly buffer type_10_block_1Compute { Cell _group_0_binding_8_cs[]; };
 
-layout(std430, binding = 1) readonly buffer type_18_block_2Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_19_block_2Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_18_block_3Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_19_block_3Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 uint fallback_method() {
@@ -324,16 +326,16 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1) {
     float res0_ = ((which_1 == 0u) ? _e10 : _e6);
     uint n_6 = max((uint(res0_) >> level_1), 1u);
     Footprint _e18 = footprint(n_6, uv_1);
-    ivec2 c_5 = _e18.corner;
+    ivec2 c_6 = _e18.corner;
     int l_3 = int(level_1);
     int ni = int(n_6);
-    ivec2 _e22 = wrap_texel(ni, c_5);
+    ivec2 _e22 = wrap_texel(ni, c_6);
     vec4 _e23 = probe_texel(which_1, _e22, l_3);
-    ivec2 _e28 = wrap_texel(ni, (c_5 + ivec2(1, 0)));
+    ivec2 _e28 = wrap_texel(ni, (c_6 + ivec2(1, 0)));
     vec4 _e29 = probe_texel(which_1, _e28, l_3);
-    ivec2 _e34 = wrap_texel(ni, (c_5 + ivec2(0, 1)));
+    ivec2 _e34 = wrap_texel(ni, (c_6 + ivec2(0, 1)));
     vec4 _e35 = probe_texel(which_1, _e34, l_3);
-    ivec2 _e40 = wrap_texel(ni, (c_5 + ivec2(1, 1)));
+    ivec2 _e40 = wrap_texel(ni, (c_6 + ivec2(1, 1)));
     vec4 _e41 = probe_texel(which_1, _e40, l_3);
     vec4 _e43 = blend4_(_e23, _e29, _e35, _e41, _e18.f);
     return _e43;
@@ -416,11 +418,11 @@ vec4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, vec2 uv_4) {
     uint s_3 = uint(tile);
     ivec2 origin = ivec2((uvec2((s_3 % columns), (s_3 / columns)) * (n_2 + 2u)));
     Footprint _e13 = footprint(n_2, uv_4);
-    ivec2 c_6 = ((origin + _e13.corner) + ivec2(1, 1));
-    vec4 _e20 = atlas_texel(which_4, c_6);
-    vec4 _e25 = atlas_texel(which_4, (c_6 + ivec2(1, 0)));
-    vec4 _e30 = atlas_texel(which_4, (c_6 + ivec2(0, 1)));
-    vec4 _e35 = atlas_texel(which_4, (c_6 + ivec2(1, 1)));
+    ivec2 c_7 = ((origin + _e13.corner) + ivec2(1, 1));
+    vec4 _e20 = atlas_texel(which_4, c_7);
+    vec4 _e25 = atlas_texel(which_4, (c_7 + ivec2(1, 0)));
+    vec4 _e30 = atlas_texel(which_4, (c_7 + ivec2(0, 1)));
+    vec4 _e35 = atlas_texel(which_4, (c_7 + ivec2(1, 1)));
     vec4 _e37 = blend4_(_e20, _e25, _e30, _e35, _e13.f);
     return _e37;
 }
@@ -504,10 +506,10 @@ vec2 warp1_exit(vec3 b_2, vec3 dir) {
     if (!((lambda > 0.0))) {
         return vec2(1e30, 1.0);
     }
-    float t_9 = (max(((dir_ab * lambda) + dot(dir, v_9)), 0.0) / lambda);
-    bool _e37 = finite(t_9);
+    float t_10 = (max(((dir_ab * lambda) + dot(dir, v_9)), 0.0) / lambda);
+    bool _e37 = finite(t_10);
     if (_e37) {
-        local_10 = (t_9 < HUGE);
+        local_10 = (t_10 < HUGE);
     } else {
         local_10 = false;
     }
@@ -515,7 +517,7 @@ vec2 warp1_exit(vec3 b_2, vec3 dir) {
     if (!(_e43)) {
         return vec2(1e30, 1.0);
     }
-    return vec2(t_9, 1.0);
+    return vec2(t_10, 1.0);
 }
 
 vec3 warp1_(vec3 b_3, vec3 dir_1) {
@@ -530,8 +532,8 @@ vec3 warp1_(vec3 b_3, vec3 dir_1) {
     vec3 v_10 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
     float _e20 = inv_dist(v_10);
     float lambda_1 = (length(v_10) * _e20);
-    float t_10 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_10)), 0.0);
-    vec3 f_5 = ((dir_1 * t_10) - (ab_1 * lambda_1));
+    float t_11 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_10)), 0.0);
+    vec3 f_5 = ((dir_1 * t_11) - (ab_1 * lambda_1));
     if ((lambda_1 > 0.0)) {
         vec3 _e34 = fetch_vector(vec3(0.0), f_5, dir_1);
         return _e34;
@@ -706,7 +708,7 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
     float _e18 = _group_0_binding_7_cs.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
     Basis _e20 = orthonormal_basis(dir_7);
-    vec3 t_11 = (_e20.t * angle);
+    vec3 t_12 = (_e20.t * angle);
     vec3 bt = (_e20.b * angle);
     plain = dir_7;
     bool loop_init_2 = true;
@@ -726,11 +728,11 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
             uint _e37 = s;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_7 + t_11));
+                    d_1 = normalize((dir_7 + t_12));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_7 - t_11));
+                    d_1 = normalize((dir_7 - t_12));
                     break;
                 }
                 case 3u: {
@@ -1011,16 +1013,16 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
     float d_probe = (1.0 / w_3);
     vec4 _e39 = _group_0_binding_7_cs.probe;
     float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_12));
-    float k_7 = (d_probe / d_surface);
-    bool _e47 = finite(k_7);
+    float k_10 = (d_probe / d_surface);
+    bool _e47 = finite(k_10);
     if (_e47) {
-        local_21 = (k_7 > 0.0);
+        local_21 = (k_10 > 0.0);
     } else {
         local_21 = false;
     }
     bool _e53 = local_21;
     if (_e53) {
-        return k_7;
+        return k_10;
     }
     return 1.0;
 }
@@ -1104,6 +1106,75 @@ vec3 shade(vec3 b_13, Aim aim, float r_4) {
     return _e23;
 }
 
+float blend_node_r(uint k_6) {
+    float _e9 = _group_0_binding_7_cs.blend_r[(k_6 / 4u)][(k_6 % 4u)];
+    return _e9;
+}
+
+float blend_node_w(uint k_7) {
+    float _e9 = _group_0_binding_7_cs.blend_w[(k_7 / 4u)][(k_7 % 4u)];
+    return _e9;
+}
+
+float irradiance_weight(float r_5) {
+    bool local_23 = false;
+    uint k_8 = 1u;
+    float t_6 = 0.0;
+    uint n_11 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_11 == 0u))) {
+        local_23 = !((r_5 > 0.0));
+    } else {
+        local_23 = true;
+    }
+    bool _e14 = local_23;
+    if (_e14) {
+        return 0.0;
+    }
+    float _e17 = blend_node_r(0u);
+    if ((r_5 <= _e17)) {
+        float _e20 = blend_node_w(0u);
+        return _e20;
+    }
+    float _e23 = blend_node_r((n_11 - 1u));
+    if ((r_5 >= _e23)) {
+        float _e27 = blend_node_w((n_11 - 1u));
+        return _e27;
+    }
+    bool loop_init_5 = true;
+    while(true) {
+        if (!loop_init_5) {
+            uint _e59 = k_8;
+            k_8 = (_e59 + 1u);
+        }
+        loop_init_5 = false;
+        uint _e30 = k_8;
+        if ((_e30 < n_11)) {
+        } else {
+            break;
+        }
+        {
+            uint _e32 = k_8;
+            float _e33 = blend_node_r(_e32);
+            if ((r_5 <= _e33)) {
+                uint _e35 = k_8;
+                float _e38 = blend_node_r((_e35 - 1u));
+                uint _e39 = k_8;
+                float _e42 = blend_node_w((_e39 - 1u));
+                t_6 = 1.0;
+                if ((_e33 > _e38)) {
+                    t_6 = ((r_5 - _e38) / (_e33 - _e38));
+                }
+                uint _e49 = k_8;
+                float _e50 = blend_node_w(_e49);
+                float _e52 = t_6;
+                return clamp((_e42 + ((_e50 - _e42) * _e52)), 0.0, 1.0);
+            }
+        }
+    }
+    float _e63 = blend_node_w((n_11 - 1u));
+    return _e63;
+}
+
 vec3 clean(vec3 c_4) {
     bool _e1 = finite3_(c_4);
     if (_e1) {
@@ -1112,9 +1183,18 @@ vec3 clean(vec3 c_4) {
     return vec3(0.0);
 }
 
+vec3 cell_irradiance(int tile_2, vec3 n_4) {
+    uint _e6 = _group_0_binding_7_cs.atlas_a.z;
+    uint _e10 = _group_0_binding_7_cs.atlas_a.w;
+    vec2 _e11 = oct_encode(n_4);
+    vec4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
+    return _e12.xyz;
+}
+
 vec3 specular(vec3 position, vec3 direction, float roughness) {
     vec3 b_14 = vec3(0.0);
-    float r_5 = 0.0;
+    float r_6 = 0.0;
+    vec3 c_5 = vec3(0.0);
     vec4 _e3 = unit_direction(direction);
     if ((_e3.w == 0.0)) {
         return vec3(0.0);
@@ -1127,24 +1207,32 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     }
     bool _e17 = finite(roughness);
     if (_e17) {
-        r_5 = clamp(roughness, 0.0, 1.0);
+        r_6 = clamp(roughness, 0.0, 1.0);
     }
     vec3 _e21 = b_14;
     vec3 _e22 = b_14;
-    float _e24 = r_5;
+    float _e24 = r_6;
     Aim _e25 = fetch(_e22, _e3.xyz, _e24);
-    float _e26 = r_5;
+    float _e26 = r_6;
     vec3 _e27 = shade(_e21, _e25, _e26);
-    vec3 _e28 = clean(_e27);
-    return _e28;
-}
-
-vec3 cell_irradiance(int tile_2, vec3 n_4) {
-    uint _e6 = _group_0_binding_7_cs.atlas_a.z;
-    uint _e10 = _group_0_binding_7_cs.atlas_a.w;
-    vec2 _e11 = oct_encode(n_4);
-    vec4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
-    return _e12.xyz;
+    c_5 = _e27;
+    float _e29 = r_6;
+    float _e30 = irradiance_weight(_e29);
+    if ((_e30 > 0.0)) {
+        vec3 _e34 = b_14;
+        vec3 _e35 = cell_size();
+        uvec3 _e36 = cell_of(_e34, _e35);
+        uint _e37 = cell_index(_e36);
+        Cell cell_3 = _group_0_binding_8_cs[_e37];
+        if ((cell_3.tiles.y >= 0)) {
+            vec3 _e44 = c_5;
+            vec3 _e51 = cell_irradiance(cell_3.tiles.y, _e3.xyz);
+            c_5 = ((_e44 * (1.0 - _e30)) + (_e51 * (_e30 * 0.31830987)));
+        }
+    }
+    vec3 _e56 = c_5;
+    vec3 _e57 = clean(_e56);
+    return _e57;
 }
 
 vec3 irradiance(vec3 position_1, vec3 normal) {
@@ -1153,34 +1241,34 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     float wsum = 0.0;
     uint corner_3 = 0u;
     float w_1 = 0.0;
-    bool local_23 = false;
-    float k_6 = 0.0;
+    bool local_24 = false;
+    float k_9 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
         return vec3(0.0);
     }
-    vec3 n_11 = _e2.xyz;
+    vec3 n_12 = _e2.xyz;
     vec3 _e9 = cell_size();
     vec4 _e12 = _group_0_binding_7_cs.grid_min;
     vec4 _e16 = _group_0_binding_7_cs.grid_max;
     vec4 _e20 = _group_0_binding_7_cs.grid_min;
     p_3 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = _group_0_binding_7_cs.grid_min.w;
-    vec3 biased = (position_1 + (n_11 * _e30));
+    vec3 biased = (position_1 + (n_12 * _e30));
     bool _e33 = finite3_(biased);
     if (_e33) {
         p_3 = biased;
     }
     vec3 _e34 = p_3;
     Lattice _e35 = lattice(_e34, _e9);
-    vec2 _e36 = oct_encode(n_11);
-    bool loop_init_5 = true;
+    vec2 _e36 = oct_encode(n_12);
+    bool loop_init_6 = true;
     while(true) {
-        if (!loop_init_5) {
+        if (!loop_init_6) {
             uint _e158 = corner_3;
             corner_3 = (_e158 + 1u);
         }
-        loop_init_5 = false;
+        loop_init_6 = false;
         uint _e44 = corner_3;
         if ((_e44 < 8u)) {
         } else {
@@ -1195,31 +1283,31 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             uint _e51 = corner_3;
             uvec3 _e52 = corner_cell(_e35, _e51);
             uint _e54 = cell_index(_e52);
-            Cell cell_3 = _group_0_binding_8_cs[_e54];
-            if ((cell_3.tiles.y < 0)) {
+            Cell cell_4 = _group_0_binding_8_cs[_e54];
+            if ((cell_4.tiles.y < 0)) {
                 continue;
             }
             vec3 _e61 = p_3;
             vec3 _e62 = cell_centre(_e52, _e9);
-            vec3 to_point = (_e61 - (_e62 + cell_3.offset.xyz));
+            vec3 to_point = (_e61 - (_e62 + cell_4.offset.xyz));
             float dist = length(to_point);
             w_1 = _e48;
             if ((dist > 0.0)) {
                 bool _e73 = finite(dist);
-                local_23 = _e73;
+                local_24 = _e73;
             } else {
-                local_23 = false;
+                local_24 = false;
             }
-            bool _e75 = local_23;
+            bool _e75 = local_24;
             if (_e75) {
                 vec3 u = (to_point / vec3(dist));
-                float facing = ((dot(n_11, -(u)) + 1.0) * 0.5);
+                float facing = ((dot(n_12, -(u)) + 1.0) * 0.5);
                 float _e84 = w_1;
                 w_1 = (_e84 * ((facing * facing) + 0.2));
                 uint _e95 = _group_0_binding_7_cs.atlas_b.x;
                 uint _e99 = _group_0_binding_7_cs.atlas_b.y;
                 vec2 _e100 = oct_encode(u);
-                vec4 _e101 = atlas_bilinear(ATLAS_MOMENTS, cell_3.tiles.y, _e95, _e99, _e100);
+                vec4 _e101 = atlas_bilinear(ATLAS_MOMENTS, cell_4.tiles.y, _e95, _e99, _e100);
                 float mean = _e101.x;
                 float mean_sq = _e101.y;
                 if ((dist > mean)) {
@@ -1232,17 +1320,17 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             }
             float _e122 = w_1;
             w_1 = max(_e122, (1e-6 * _e48));
-            k_6 = 1.0;
-            if ((cell_3.tiles.z >= 0)) {
+            k_9 = 1.0;
+            if ((cell_4.tiles.z >= 0)) {
                 uint _e138 = _group_0_binding_7_cs.atlas_b.z;
                 uint _e142 = _group_0_binding_7_cs.atlas_b.w;
-                vec4 _e143 = atlas_bilinear(ATLAS_SCALE, cell_3.tiles.z, _e138, _e142, _e36);
-                k_6 = _e143.x;
+                vec4 _e143 = atlas_bilinear(ATLAS_SCALE, cell_4.tiles.z, _e138, _e142, _e36);
+                k_9 = _e143.x;
             }
             vec3 _e145 = e;
-            vec3 _e148 = cell_irradiance(cell_3.tiles.y, n_11);
+            vec3 _e148 = cell_irradiance(cell_4.tiles.y, n_12);
             float _e149 = w_1;
-            float _e151 = k_6;
+            float _e151 = k_9;
             e = (_e145 + ((_e148 * _e149) * _e151));
             float _e154 = wsum;
             float _e155 = w_1;
@@ -1260,16 +1348,16 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_24 = false;
+    bool local_25 = false;
     float z = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_24 = _e14;
+        local_25 = _e14;
     } else {
-        local_24 = false;
+        local_25 = false;
     }
-    bool _e16 = local_24;
+    bool _e16 = local_25;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -1285,9 +1373,9 @@ SurfaceAxis surface_axis(float x_in, uint n_5) {
         x_2 = x_in;
     }
     float _e5 = x_2;
-    float c_7 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
-    uint i0_ = uint(floor(c_7));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_7 - float(i0_)));
+    float c_8 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
+    uint i0_ = uint(floor(c_8));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_8 - float(i0_)));
 }
 
 uint query_count() {
@@ -1296,15 +1384,15 @@ uint query_count() {
 
 void main() {
     uvec3 id = gl_GlobalInvocationID;
-    uint k_8 = id.x;
+    uint k_11 = id.x;
     uint _e2 = query_count();
-    if ((k_8 >= _e2)) {
+    if ((k_11 >= _e2)) {
         return;
     }
-    vec4 p_4 = _group_1_binding_0_cs[(2u * k_8)];
-    vec4 d_3 = _group_1_binding_0_cs[((2u * k_8) + 1u)];
+    vec4 p_4 = _group_1_binding_0_cs[(2u * k_11)];
+    vec4 d_3 = _group_1_binding_0_cs[((2u * k_11) + 1u)];
     vec3 _e21 = specular(p_4.xyz, d_3.xyz, p_4.w);
-    _group_1_binding_1_cs[k_8] = vec4(_e21, 1.0);
+    _group_1_binding_1_cs[k_11] = vec4(_e21, 1.0);
     return;
 }
 

@@ -22,6 +22,8 @@ struct Params {
     uvec4 atlas_b;
     vec4 lut;
     uvec4 lut_info;
+    vec4 blend_r[2];
+    vec4 blend_w[2];
 };
 struct Cell {
     ivec4 tiles;
@@ -86,9 +88,9 @@ layout(std140, binding = 1) uniform SurfaceParams_block_0Compute { SurfaceParams
 
 layout(binding = 8) uniform sampler2D _group_2_binding_2_cs;
 
-layout(std430, binding = 1) readonly buffer type_18_block_1Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_19_block_1Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_18_block_2Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_19_block_2Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 bool finite(float x) {
@@ -312,16 +314,16 @@ vec3 clean(vec3 c_4) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_24 = false;
+    bool local_25 = false;
     float z = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_24 = _e14;
+        local_25 = _e14;
     } else {
-        local_24 = false;
+        local_25 = false;
     }
-    bool _e16 = local_24;
+    bool _e16 = local_25;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -337,9 +339,9 @@ SurfaceAxis surface_axis(float x_in, uint n_5) {
         x_2 = x_in;
     }
     float _e5 = x_2;
-    float c_5 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
-    uint i0_ = uint(floor(c_5));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_5 - float(i0_)));
+    float c_6 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
+    uint i0_ = uint(floor(c_6));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_6 - float(i0_)));
 }
 
 SurfaceTaps surface_taps(vec2 uv_8) {
@@ -353,53 +355,53 @@ SurfaceTaps surface_taps(vec2 uv_8) {
     return SurfaceTaps(lo, min((lo + uvec2(1u)), uvec2((n_6 - 1u))), vec2((x_4 - x0_1), (y - y0_)));
 }
 
-vec3 surface_tile(uint i_1, uint j_1, uint layer, SurfaceTaps t_6) {
+vec3 surface_tile(uint i_1, uint j_1, uint layer, SurfaceTaps t_7) {
     uint _e8 = _group_2_binding_1_cs.shape.z;
     uvec2 o_1 = (uvec2(i_1, j_1) * _e8);
     int l_4 = int(layer);
-    vec4 q00_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.lo)), l_4), 0);
-    vec4 q10_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.hi.x, t_6.lo.y))), l_4), 0);
-    vec4 q01_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.lo.x, t_6.hi.y))), l_4), 0);
-    vec4 q11_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.hi)), l_4), 0);
-    vec4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_6.f);
+    vec4 q00_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_7.lo)), l_4), 0);
+    vec4 q10_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_7.hi.x, t_7.lo.y))), l_4), 0);
+    vec4 q01_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_7.lo.x, t_7.hi.y))), l_4), 0);
+    vec4 q11_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_7.hi)), l_4), 0);
+    vec4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_7.f);
     return _e44.xyz;
 }
 
-float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_7) {
+float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_8) {
     uint _e7 = _group_2_binding_1_cs.shape.z;
     uvec2 o_2 = (uvec2(i_2, j_2) * _e7);
-    vec4 q00_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + t_7.lo)), 0);
-    vec4 q10_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(t_7.hi.x, t_7.lo.y))), 0);
-    vec4 q01_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(t_7.lo.x, t_7.hi.y))), 0);
-    vec4 q11_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + t_7.hi)), 0);
-    vec4 _e42 = blend4_(q00_2, q10_2, q01_2, q11_2, t_7.f);
+    vec4 q00_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + t_8.lo)), 0);
+    vec4 q10_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(t_8.hi.x, t_8.lo.y))), 0);
+    vec4 q01_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(t_8.lo.x, t_8.hi.y))), 0);
+    vec4 q11_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + t_8.hi)), 0);
+    vec4 _e42 = blend4_(q00_2, q10_2, q01_2, q11_2, t_8.f);
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_3, uint j_3, vec3 b_15, vec3 local_25, SurfaceTaps shared_taps) {
-    bool local_26 = false;
+SurfaceTaps surface_warped_taps(uint i_3, uint j_3, vec3 b_15, vec3 local_26, SurfaceTaps shared_taps) {
     bool local_27 = false;
+    bool local_28 = false;
     SurfaceParams sp = _group_2_binding_1_cs;
     float s_4 = ((float(i_3) + 0.5) / float(sp.shape.x));
-    float t_9 = ((float(j_3) + 0.5) / float(sp.shape.y));
-    vec3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_4)) + (sp.edge_v.xyz * t_9)) + (sp.normal.xyz * sp.corner.w));
+    float t_10 = ((float(j_3) + 0.5) / float(sp.shape.y));
+    vec3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_4)) + (sp.edge_v.xyz * t_10)) + (sp.normal.xyz * sp.corner.w));
     vec3 d_2 = (probe - b_15);
     vec3 ab = vec3(dot(d_2, sp.tangent.xyz), dot(d_2, sp.bitangent.xyz), dot(d_2, sp.normal.xyz));
     float _e48 = surface_tile_inv_distance(i_3, j_3, shared_taps);
-    vec3 v_9 = ((local_25 * max(((dot(local_25, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
+    vec3 v_9 = ((local_26 * max(((dot(local_26, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
     if ((_e48 > 0.0)) {
         bool _e62 = finite3_(v_9);
-        local_26 = _e62;
-    } else {
-        local_26 = false;
-    }
-    bool _e64 = local_26;
-    if (_e64) {
-        local_27 = (dot(v_9, v_9) > 0.0);
+        local_27 = _e62;
     } else {
         local_27 = false;
     }
-    bool _e71 = local_27;
+    bool _e64 = local_27;
+    if (_e64) {
+        local_28 = (dot(v_9, v_9) > 0.0);
+    } else {
+        local_28 = false;
+    }
+    bool _e71 = local_28;
     if (_e71) {
         vec2 _e72 = hemi_encode(v_9);
         SurfaceTaps _e73 = surface_taps(_e72);
@@ -408,10 +410,10 @@ SurfaceTaps surface_warped_taps(uint i_3, uint j_3, vec3 b_15, vec3 local_25, Su
     return shared_taps;
 }
 
-vec3 surface_probe(uint i_4, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, float fm) {
-    vec3 _e6 = surface_tile(i_4, j_4, m0_, t_8);
+vec3 surface_probe(uint i_4, uint j_4, SurfaceTaps t_9, uint m0_, uint m1_, float fm) {
+    vec3 _e6 = surface_tile(i_4, j_4, m0_, t_9);
     if ((fm > 0.0)) {
-        vec3 _e9 = surface_tile(i_4, j_4, m1_, t_8);
+        vec3 _e9 = surface_tile(i_4, j_4, m1_, t_9);
         return mix(_e6, _e9, fm);
     }
     return _e6;
@@ -449,8 +451,8 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
     vec3 dir_12 = _e4.xyz;
-    vec3 local_28 = vec3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
-    vec2 _e64 = hemi_encode(local_28);
+    vec3 local_29 = vec3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
+    vec2 _e64 = hemi_encode(local_29);
     SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
@@ -458,16 +460,16 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     t11_ = _e65;
     if (warped) {
         vec3 _e72 = b_16;
-        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_28, _e65);
+        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_29, _e65);
         t00_ = _e73;
         vec3 _e76 = b_16;
-        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_28, _e65);
+        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_29, _e65);
         t10_ = _e77;
         vec3 _e80 = b_16;
-        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_28, _e65);
+        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_29, _e65);
         t01_ = _e81;
         vec3 _e84 = b_16;
-        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_28, _e65);
+        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_29, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;
@@ -504,15 +506,15 @@ uint query_count() {
 
 void main() {
     uvec3 id_5 = gl_GlobalInvocationID;
-    uint k_7 = id_5.x;
+    uint k_10 = id_5.x;
     uint _e2 = query_count();
-    if ((k_7 >= _e2)) {
+    if ((k_10 >= _e2)) {
         return;
     }
-    vec4 p_4 = _group_1_binding_0_cs[(2u * k_7)];
-    vec4 d_4 = _group_1_binding_0_cs[((2u * k_7) + 1u)];
+    vec4 p_4 = _group_1_binding_0_cs[(2u * k_10)];
+    vec4 d_4 = _group_1_binding_0_cs[((2u * k_10) + 1u)];
     vec3 _e21 = surface_specular_warped(p_4.xyz, d_4.xyz, p_4.w);
-    _group_1_binding_1_cs[k_7] = vec4(_e21, 1.0);
+    _group_1_binding_1_cs[k_10] = vec4(_e21, 1.0);
     return;
 }
 

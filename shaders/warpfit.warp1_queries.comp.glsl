@@ -22,6 +22,8 @@ struct Params {
     uvec4 atlas_b;
     vec4 lut;
     uvec4 lut_info;
+    vec4 blend_r[2];
+    vec4 blend_w[2];
 };
 struct Cell {
     ivec4 tiles;
@@ -86,9 +88,9 @@ layout(binding = 1) uniform sampler2D _group_0_binding_1_cs;
 
 layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_binding_7_cs; };
 
-layout(std430, binding = 1) readonly buffer type_18_block_1Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_19_block_1Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_18_block_2Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_19_block_2Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 uint fallback_method() {
@@ -312,16 +314,16 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1) {
     float res0_ = ((which_1 == 0u) ? _e10 : _e6);
     uint n_6 = max((uint(res0_) >> level_1), 1u);
     Footprint _e18 = footprint(n_6, uv_1);
-    ivec2 c_5 = _e18.corner;
+    ivec2 c_6 = _e18.corner;
     int l_3 = int(level_1);
     int ni = int(n_6);
-    ivec2 _e22 = wrap_texel(ni, c_5);
+    ivec2 _e22 = wrap_texel(ni, c_6);
     vec4 _e23 = probe_texel(which_1, _e22, l_3);
-    ivec2 _e28 = wrap_texel(ni, (c_5 + ivec2(1, 0)));
+    ivec2 _e28 = wrap_texel(ni, (c_6 + ivec2(1, 0)));
     vec4 _e29 = probe_texel(which_1, _e28, l_3);
-    ivec2 _e34 = wrap_texel(ni, (c_5 + ivec2(0, 1)));
+    ivec2 _e34 = wrap_texel(ni, (c_6 + ivec2(0, 1)));
     vec4 _e35 = probe_texel(which_1, _e34, l_3);
-    ivec2 _e40 = wrap_texel(ni, (c_5 + ivec2(1, 1)));
+    ivec2 _e40 = wrap_texel(ni, (c_6 + ivec2(1, 1)));
     vec4 _e41 = probe_texel(which_1, _e40, l_3);
     vec4 _e43 = blend4_(_e23, _e29, _e35, _e41, _e18.f);
     return _e43;
@@ -458,10 +460,10 @@ vec2 warp1_exit(vec3 b_2, vec3 dir) {
     if (!((lambda > 0.0))) {
         return vec2(1e30, 1.0);
     }
-    float t_9 = (max(((dir_ab * lambda) + dot(dir, v_9)), 0.0) / lambda);
-    bool _e37 = finite(t_9);
+    float t_10 = (max(((dir_ab * lambda) + dot(dir, v_9)), 0.0) / lambda);
+    bool _e37 = finite(t_10);
     if (_e37) {
-        local_10 = (t_9 < HUGE);
+        local_10 = (t_10 < HUGE);
     } else {
         local_10 = false;
     }
@@ -469,7 +471,7 @@ vec2 warp1_exit(vec3 b_2, vec3 dir) {
     if (!(_e43)) {
         return vec2(1e30, 1.0);
     }
-    return vec2(t_9, 1.0);
+    return vec2(t_10, 1.0);
 }
 
 vec3 warp1_(vec3 b_3, vec3 dir_1) {
@@ -484,8 +486,8 @@ vec3 warp1_(vec3 b_3, vec3 dir_1) {
     vec3 v_10 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
     float _e20 = inv_dist(v_10);
     float lambda_1 = (length(v_10) * _e20);
-    float t_10 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_10)), 0.0);
-    vec3 f_5 = ((dir_1 * t_10) - (ab_1 * lambda_1));
+    float t_11 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_10)), 0.0);
+    vec3 f_5 = ((dir_1 * t_11) - (ab_1 * lambda_1));
     if ((lambda_1 > 0.0)) {
         vec3 _e34 = fetch_vector(vec3(0.0), f_5, dir_1);
         return _e34;
@@ -660,7 +662,7 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
     float _e18 = _group_0_binding_7_cs.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
     Basis _e20 = orthonormal_basis(dir_7);
-    vec3 t_11 = (_e20.t * angle);
+    vec3 t_12 = (_e20.t * angle);
     vec3 bt = (_e20.b * angle);
     plain = dir_7;
     bool loop_init_2 = true;
@@ -680,11 +682,11 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
             uint _e37 = s;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_7 + t_11));
+                    d_1 = normalize((dir_7 + t_12));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_7 - t_11));
+                    d_1 = normalize((dir_7 - t_12));
                     break;
                 }
                 case 3u: {
@@ -866,16 +868,16 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
     float d_probe = (1.0 / w_3);
     vec4 _e39 = _group_0_binding_7_cs.probe;
     float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_12));
-    float k_7 = (d_probe / d_surface);
-    bool _e47 = finite(k_7);
+    float k_10 = (d_probe / d_surface);
+    bool _e47 = finite(k_10);
     if (_e47) {
-        local_21 = (k_7 > 0.0);
+        local_21 = (k_10 > 0.0);
     } else {
         local_21 = false;
     }
     bool _e53 = local_21;
     if (_e53) {
-        return k_7;
+        return k_10;
     }
     return 1.0;
 }
@@ -887,6 +889,75 @@ float pseudo_log2_(float k_3) {
     return (float(e_1) + (m_3 - 1.0));
 }
 
+float blend_node_r(uint k_6) {
+    float _e9 = _group_0_binding_7_cs.blend_r[(k_6 / 4u)][(k_6 % 4u)];
+    return _e9;
+}
+
+float blend_node_w(uint k_7) {
+    float _e9 = _group_0_binding_7_cs.blend_w[(k_7 / 4u)][(k_7 % 4u)];
+    return _e9;
+}
+
+float irradiance_weight(float r_5) {
+    bool local_23 = false;
+    uint k_8 = 1u;
+    float t_6 = 0.0;
+    uint n_10 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_10 == 0u))) {
+        local_23 = !((r_5 > 0.0));
+    } else {
+        local_23 = true;
+    }
+    bool _e14 = local_23;
+    if (_e14) {
+        return 0.0;
+    }
+    float _e17 = blend_node_r(0u);
+    if ((r_5 <= _e17)) {
+        float _e20 = blend_node_w(0u);
+        return _e20;
+    }
+    float _e23 = blend_node_r((n_10 - 1u));
+    if ((r_5 >= _e23)) {
+        float _e27 = blend_node_w((n_10 - 1u));
+        return _e27;
+    }
+    bool loop_init_4 = true;
+    while(true) {
+        if (!loop_init_4) {
+            uint _e59 = k_8;
+            k_8 = (_e59 + 1u);
+        }
+        loop_init_4 = false;
+        uint _e30 = k_8;
+        if ((_e30 < n_10)) {
+        } else {
+            break;
+        }
+        {
+            uint _e32 = k_8;
+            float _e33 = blend_node_r(_e32);
+            if ((r_5 <= _e33)) {
+                uint _e35 = k_8;
+                float _e38 = blend_node_r((_e35 - 1u));
+                uint _e39 = k_8;
+                float _e42 = blend_node_w((_e39 - 1u));
+                t_6 = 1.0;
+                if ((_e33 > _e38)) {
+                    t_6 = ((r_5 - _e38) / (_e33 - _e38));
+                }
+                uint _e49 = k_8;
+                float _e50 = blend_node_w(_e49);
+                float _e52 = t_6;
+                return clamp((_e42 + ((_e50 - _e42) * _e52)), 0.0, 1.0);
+            }
+        }
+    }
+    float _e63 = blend_node_w((n_10 - 1u));
+    return _e63;
+}
+
 vec3 clean(vec3 c_4) {
     bool _e1 = finite3_(c_4);
     if (_e1) {
@@ -896,16 +967,16 @@ vec3 clean(vec3 c_4) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_24 = false;
+    bool local_25 = false;
     float z = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_24 = _e14;
+        local_25 = _e14;
     } else {
-        local_24 = false;
+        local_25 = false;
     }
-    bool _e16 = local_24;
+    bool _e16 = local_25;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -921,9 +992,9 @@ SurfaceAxis surface_axis(float x_in, uint n_5) {
         x_2 = x_in;
     }
     float _e5 = x_2;
-    float c_6 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
-    uint i0_ = uint(floor(c_6));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_6 - float(i0_)));
+    float c_7 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
+    uint i0_ = uint(floor(c_7));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_7 - float(i0_)));
 }
 
 uint query_count() {
@@ -935,20 +1006,20 @@ void main() {
     vec3 b = vec3(0.0);
     vec3 c = vec3(0.0);
     vec3 v = vec3(0.0);
-    uint k_8 = id_2.x;
+    uint k_11 = id_2.x;
     uint _e2 = query_count();
-    if ((k_8 >= _e2)) {
+    if ((k_11 >= _e2)) {
         return;
     }
     vec4 _e6 = _group_0_binding_7_cs.probe;
     b = _e6.xyz;
-    vec4 _e13 = _group_1_binding_0_cs[(2u * k_8)];
+    vec4 _e13 = _group_1_binding_0_cs[(2u * k_11)];
     bool _e15 = finite3_(_e13.xyz);
     if (_e15) {
-        vec4 _e20 = _group_1_binding_0_cs[(2u * k_8)];
+        vec4 _e20 = _group_1_binding_0_cs[(2u * k_11)];
         b = _e20.xyz;
     }
-    vec4 _e28 = _group_1_binding_0_cs[((2u * k_8) + 1u)];
+    vec4 _e28 = _group_1_binding_0_cs[((2u * k_11) + 1u)];
     vec4 _e30 = unit_direction(_e28.xyz);
     if ((_e30.w != 0.0)) {
         v = _e30.xyz;
@@ -966,7 +1037,7 @@ void main() {
         c = _e53;
     }
     vec3 _e56 = c;
-    _group_1_binding_1_cs[k_8] = vec4(_e56, 1.0);
+    _group_1_binding_1_cs[k_11] = vec4(_e56, 1.0);
     return;
 }
 

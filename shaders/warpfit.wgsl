@@ -72,8 +72,12 @@ struct Params {
     atlas_b: vec4<u32>,
     // the roughness table: x0, inv_dx, k_min, k_max (see export.json's roughness_lookup)
     lut: vec4<f32>,
-    // x nodes per axis of the roughness table
+    // x nodes per axis of the roughness table, y nodes of the irradiance blend
     lut_info: vec4<u32>,
+    // the irradiance blend of rough lookups (`RoughnessCorrection::irradiance_weight`):
+    // node k's perceptual roughness at blend_r[k / 4][k % 4], its weight likewise in blend_w
+    blend_r: array<vec4<f32>, 2>,
+    blend_w: array<vec4<f32>, 2>,
 }
 
 // One grid cell: its tiles (x shift map, y irradiance, z irradiance scale, w rough shift
@@ -768,6 +772,42 @@ fn shade(b: vec3<f32>, aim: Aim, r: f32) -> vec3<f32> {
     return radiance_lod(uv, lod_of_roughness(corrected_roughness(r, k)));
 }
 
+fn blend_node_r(k: u32) -> f32 {
+    return params.blend_r[k / 4u][k % 4u];
+}
+
+fn blend_node_w(k: u32) -> f32 {
+    return params.blend_w[k / 4u][k % 4u];
+}
+
+// Share of a lookup of perceptual roughness r taken from the containing cell's irradiance:
+// `RoughnessCorrection::irradiance_weight` (linear in r between the nodes).
+fn irradiance_weight(r: f32) -> f32 {
+    let n = params.lut_info.y;
+    if n == 0u || !(r > 0.0) {
+        return 0.0;
+    }
+    if r <= blend_node_r(0u) {
+        return blend_node_w(0u);
+    }
+    if r >= blend_node_r(n - 1u) {
+        return blend_node_w(n - 1u);
+    }
+    for (var k = 1u; k < n; k++) {
+        let rb = blend_node_r(k);
+        if r <= rb {
+            let ra = blend_node_r(k - 1u);
+            let wa = blend_node_w(k - 1u);
+            var t = 1.0;
+            if rb > ra {
+                t = (r - ra) / (rb - ra);
+            }
+            return clamp(wa + (blend_node_w(k) - wa) * t, 0.0, 1.0);
+        }
+    }
+    return blend_node_w(n - 1u);
+}
+
 // ---- the two lookups -------------------------------------------------------------------
 
 fn clean(c: vec3<f32>) -> vec3<f32> {
@@ -792,7 +832,16 @@ fn specular(position: vec3<f32>, direction: vec3<f32>, roughness: f32) -> vec3<f
     if finite(roughness) {
         r = clamp(roughness, 0.0, 1.0);
     }
-    return clean(shade(b, fetch(b, d.xyz, r), r));
+    var c = shade(b, fetch(b, d.xyz, r), r);
+    // rough lookups: blended with the containing cell's irradiance over π
+    let w = irradiance_weight(r);
+    if w > 0.0 {
+        let cell = cells[cell_index(cell_of(b, cell_size()))];
+        if cell.tiles.y >= 0 {
+            c = c * (1.0 - w) + cell_irradiance(cell.tiles.y, d.xyz) * (w * 0.31830987);
+        }
+    }
+    return clean(c);
 }
 
 // Irradiance of stored cell tile `tile` for unit normal n (bilinear in its map).

@@ -133,9 +133,15 @@ fn the_fits_per_query_error_is_the_error_through_the_runtime() {
     // The objective the fit minimises and the lookup the runtime answers share one fetch
     // function and one rough lookup: for mirror and rough queries in stored cells, the fit's
     // per-query error under the stored map equals the error of `FittedGrid::specular`
-    // against the same reference.
+    // against the same reference. (The irradiance blend of rough lookups is fitted after
+    // the maps, on top of them: the maps' objective is probe A's part, the grid read
+    // without the blend.)
     let f = fixture();
-    let g = FittedGrid::load(&f.f32_dir).unwrap();
+    let mut g = FittedGrid::load(&f.f32_dir).unwrap();
+    g.roughness = g.roughness.map(|c| {
+        let fit = warpfit::roughness::RoughnessFit { irradiance_weight: Vec::new(), ..c.into() };
+        warpfit::roughness::RoughnessCorrection::try_from(fit).unwrap()
+    });
     let c = &f.fit.correctives;
     let geo = c.geometry;
     let n2 = (c.map_res * c.map_res) as usize;
@@ -560,4 +566,58 @@ fn corrected_irradiance_is_continuous_across_cell_faces() {
         }
     }
     assert!(faces > 0, "the witness grid stores corrections at inner faces");
+}
+
+#[test]
+fn rough_lookups_blend_the_cells_irradiance_by_the_stored_weight() {
+    use warpfit::roughness::{RoughnessCorrection, RoughnessFit};
+    let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+    let base = FittedGrid::load(tiny()).unwrap();
+    let c = base.roughness.clone().expect("the committed grid has a roughness correction");
+    assert!(c.irradiance_nodes().is_empty(), "a grid fitted before the blend reads probe A alone");
+    let n = c.alphas.len();
+    let mut fit: RoughnessFit = c.into();
+    fit.irradiance_weight = (0..n).map(|i| i as f32 / (n - 1) as f32).collect();
+    let mut g = base.clone();
+    g.roughness = Some(RoughnessCorrection::try_from(fit.clone()).unwrap());
+    let corr = g.roughness.as_ref().unwrap();
+    let view = g.irradiance.view();
+    let mut blended = 0;
+    for (p, d, _) in tiny_queries() {
+        let d = d.normalize();
+        assert_eq!(bits(g.specular(p, d, 0.0)), bits(base.specular(p, d, 0.0)), "mirror lookups are untouched");
+        for r in [0.3, 0.7, 1.0] {
+            let spec = base.specular(p, d, r);
+            let want = match view.nearest(p, d) {
+                Some(e) => warpfit::runtime::mix_irradiance(spec, e, corr.irradiance_weight(r)),
+                None => spec,
+            };
+            assert_eq!(bits(g.specular(p, d, r)), bits(want), "{p} {d} r {r}");
+            blended += usize::from(view.nearest(p, d).is_some() && want != spec);
+        }
+        // at the roughest row the weight is 1: the cell's irradiance over π alone
+        if let Some(e) = view.nearest(p, d) {
+            let got = g.specular(p, d, 1.0);
+            assert!((got - e * std::f32::consts::FRAC_1_PI).abs().max_element() <= 1e-6 * (1.0 + e.max_element()));
+        }
+    }
+    assert!(blended > 10, "only {blended} lookups blended");
+
+    // the batch API blends lane by lane, bit for bit the single call
+    let qs = tiny_queries();
+    let p: Vec<Vec3> = qs.iter().map(|q| q.0).collect();
+    let d: Vec<Vec3> = qs.iter().map(|q| q.1).collect();
+    let r: Vec<f32> = qs.iter().map(|q| q.2).collect();
+    let mut out = vec![Vec3::ZERO; qs.len()];
+    g.specular_batch(&p, &d, &r, &mut out).unwrap();
+    for k in 0..qs.len() {
+        assert_eq!(bits(out[k]), bits(g.specular(p[k], d[k], r[k])), "query {k}");
+    }
+
+    // weights that are not one per row in [0, 1] are refused
+    for bad in [vec![0.5; n - 1], vec![1.5; n], vec![f32::NAN; n], vec![-0.1; n]] {
+        let f = RoughnessFit { irradiance_weight: bad.clone(), ..fit.clone() };
+        let e = RoughnessCorrection::try_from(f).unwrap_err();
+        assert!(e.contains("irradiance_weight"), "{bad:?}: {e}");
+    }
 }

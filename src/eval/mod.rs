@@ -379,6 +379,21 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             let grid = runtime.filter(|g| sizes(&g.warp.probe.radiance) == sizes(&chain)).map(|g| {
                 let mut g = g.clone();
                 g.warp.probe.radiance = chain.clone();
+                // a grid that blends the cells' irradiance into rough lookups: that
+                // irradiance's emitted part too, for the cells the grid stores
+                let blends = g.roughness.as_ref().is_some_and(|c| !c.irradiance_nodes().is_empty());
+                let i2 = (g.irradiance.resolution * g.irradiance.resolution) as usize;
+                if blends && i2 == (grid.irradiance_resolution * grid.irradiance_resolution) as usize {
+                    let (emitted, rays) =
+                        crate::bake::grid::emitted_irradiance(&renderer, &crate::bake::grid_settings(scene), grid);
+                    reference_rays += rays;
+                    for (cell, &slot) in g.irradiance.slot.iter().enumerate() {
+                        if slot != crate::warp::corrective::NO_MAP {
+                            let (to, from) = (slot as usize * i2, cell * i2);
+                            g.irradiance.irradiance[to..to + i2].copy_from_slice(&emitted[from..from + i2]);
+                        }
+                    }
+                }
                 g
             });
             let mut w = warp.clone();

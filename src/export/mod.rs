@@ -12,7 +12,8 @@
 //!   weights the CPU's seam-aware bilinear blends (`tests/export.rs` checks it).
 //!
 //! `roughness_lookup.ktx2` (R32F) is the roughness correction's table exactly as the
-//! runtime interpolates it, its coordinates in the sidecar.
+//! runtime interpolates it, its coordinates in the sidecar, with the nodes of the rough
+//! lookups' irradiance blend (`irradiance_blend`).
 //!
 //! The sidecar holds what a shader needs besides the textures: the grid, the sparse
 //! cell → tile tables, the atlas layout and the uv formula, and the grid's own manifest
@@ -73,6 +74,12 @@ pub struct Sidecar {
     /// The roughness correction as the runtime interpolates it (`roughness_lookup.ktx2`:
     /// R32F, `nodes × nodes`, row = roughness node): absent when the grid stores none.
     pub roughness_lookup: Option<crate::roughness::LookupTable>,
+    /// Rough lookups' irradiance blend as the runtime applies it: (perceptual roughness,
+    /// weight) nodes by increasing roughness, the weight linear in r between them (the
+    /// first node's below, the last one's beyond; 0 at r = 0); a lookup is
+    /// `probe·(1 − w) + E(dir)/π·w` with E the `irradiance` tile of the cell containing the
+    /// point, where that cell has one. Empty: probe A alone.
+    pub irradiance_blend: Vec<[f32; 2]>,
     /// The reference shader and its buffers.
     pub shader: ShaderSection,
     /// The fitted grid's manifest: grid, conventions, fallback, proxies, roughness table.
@@ -326,6 +333,10 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
         moments,
         irradiance_scale,
         roughness_lookup,
+        irradiance_blend: grid
+            .roughness
+            .as_ref()
+            .map_or(Vec::new(), |r| r.irradiance_nodes().iter().map(|&(r, w)| [r, w]).collect()),
         shader,
         grid_manifest: grid.manifest.clone(),
         surfaces: Vec::new(),

@@ -23,14 +23,16 @@ pub const SHADER_FILES: [(&str, &str); 8] = [
     ),
 ];
 
-/// Bytes of the WGSL `Params` struct: 38 vec4s.
-pub const PARAMS_BYTES: usize = 38 * 16;
+/// Bytes of the WGSL `Params` struct: 42 vec4s.
+pub const PARAMS_BYTES: usize = 42 * 16;
 /// Bytes of one WGSL `Cell`: tiles (`vec4<i32>`) and offset (`vec4<f32>`).
 pub const CELL_BYTES: usize = 32;
 /// Bytes of the WGSL `SurfaceParams` struct (one surface-probe atlas): 9 vec4s.
 pub const SURFACE_PARAMS_BYTES: usize = 9 * 16;
 /// Radiance mips `Params::mip_roughness` holds.
 pub const MAX_MIPS: usize = 16;
+/// Nodes of the irradiance blend `Params::blend_r`/`blend_w` hold.
+pub const MAX_BLEND_NODES: usize = 8;
 
 /// Tiles per atlas row and tile resolution of the four atlases (0 when an atlas is absent).
 #[derive(Clone, Copy, Debug, Default)]
@@ -159,10 +161,24 @@ pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupport
     let a = atlases;
     out.u([a.corrective.tile_resolution, a.corrective.columns, a.irradiance.tile_resolution, a.irradiance.columns]);
     out.u([a.moments.tile_resolution, a.moments.columns, a.scale.tile_resolution, a.scale.columns]);
+    let nodes = grid.roughness.as_ref().map_or(&[][..], |r| r.irradiance_nodes());
+    if nodes.len() > MAX_BLEND_NODES {
+        return Err(Unsupported(format!(
+            "{} irradiance blend nodes; the shader holds up to {MAX_BLEND_NODES}",
+            nodes.len()
+        )));
+    }
     match grid.roughness.as_ref().map(|r| r.lookup_table()) {
-        Some(t) => out.f([t.x0, t.inv_dx, t.k_min, t.k_max]).u([t.nodes, 0, 0, 0]),
+        Some(t) => out.f([t.x0, t.inv_dx, t.k_min, t.k_max]).u([t.nodes, nodes.len() as u32, 0, 0]),
         None => out.f([0.0, 0.0, 1.0, 1.0]).u([2, 0, 0, 0]),
     };
+    let (mut rs, mut ws) = ([0.0f32; MAX_BLEND_NODES], [0.0f32; MAX_BLEND_NODES]);
+    for (k, &(r, w)) in nodes.iter().enumerate() {
+        (rs[k], ws[k]) = (r, w);
+    }
+    for q in rs.chunks_exact(4).chain(ws.chunks_exact(4)) {
+        out.f([q[0], q[1], q[2], q[3]]);
+    }
     debug_assert_eq!(out.0.len(), PARAMS_BYTES);
     Ok(out.0)
 }

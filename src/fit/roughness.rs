@@ -59,6 +59,9 @@ struct Query {
     k: f32,
     r: f32,
     reference: Vec3,
+    /// The containing cell's irradiance for the query's direction (`None`: no stored
+    /// cell), what the runtime blends in.
+    irradiance: Option<Vec3>,
 }
 
 struct Streams {
@@ -126,12 +129,15 @@ fn queries(baked: Baked, warp: &Warp, correctives: &Correctives, s: &FitSettings
         })
         .collect();
     let q = TracedQueries::concat(parts);
+    let slots = grid.dense_slots();
+    let irradiance = grid.irradiance_view(&slots);
     let prepared: Vec<(usize, Query)> = (0..q.dirs.len())
         .into_par_iter()
         .map(|k| {
             let (b, dir) = (q.position_of(k), q.dirs[k]);
             let (uv, k_ratio) = fetch(warp, correctives, b, dir, q.roughness[k]);
-            (k / DIRS, Query { uv, k: k_ratio, r: q.roughness[k], reference: q.reference[k] })
+            let irradiance = irradiance.nearest(b, dir);
+            (k / DIRS, Query { uv, k: k_ratio, r: q.roughness[k], reference: q.reference[k], irradiance })
         })
         .collect();
     let (train, held): (Vec<_>, Vec<_>) = prepared.into_iter().partition(|(p, _)| p % 2 == 0);
@@ -152,10 +158,26 @@ fn fetch(warp: &Warp, correctives: &Correctives, b: Vec3, dir: Vec3, r: f32) -> 
 
 /// Tone-mapped RMSE of `queries` when each reads the mip of the roughness `rough(q)` gives.
 fn tm_rmse(warp: &Warp, queries: &[Query], exposure: f32, rough: impl Fn(&Query) -> f32 + Sync) -> f64 {
+    tm_rmse_blended(warp, queries, exposure, rough, |_| 0.0)
+}
+
+/// [`tm_rmse`] with each lookup blended with its cell's irradiance by weight `weight(q)`
+/// as the runtime blends (`runtime::mix_irradiance`).
+fn tm_rmse_blended(
+    warp: &Warp,
+    queries: &[Query],
+    exposure: f32,
+    rough: impl Fn(&Query) -> f32 + Sync,
+    weight: impl Fn(&Query) -> f32 + Sync,
+) -> f64 {
     let per_query: Vec<f64> = queries
         .par_iter()
         .map(|q| {
-            let est = warp.probe.radiance.sample_lod_uv(q.uv, warp.probe.lod_of_roughness(rough(q)));
+            let spec = warp.probe.radiance.sample_lod_uv(q.uv, warp.probe.lod_of_roughness(rough(q)));
+            let est = match q.irradiance {
+                Some(e) if weight(q) > 0.0 => crate::runtime::mix_irradiance(spec, e, weight(q)),
+                _ => spec,
+            };
             let d = reinhard(est, exposure) - reinhard(q.reference, exposure);
             (d.x as f64).powi(2) + (d.y as f64).powi(2) + (d.z as f64).powi(2)
         })
@@ -267,6 +289,44 @@ impl CostFunction for Problem<'_> {
     }
 }
 
+/// Candidate weights of the irradiance blend, tried per row: 0, 0.05, …, 1.
+const BLEND_STEPS: u32 = 20;
+
+/// The irradiance blend's weight for `queries` (of one roughness) reading the mips
+/// `rough` gives: of [`BLEND_STEPS`] steps, the one with the lowest tone-mapped RMSE (ties
+/// keep the smaller weight).
+fn blend_weight(warp: &Warp, queries: &[Query], exposure: f32, rough: impl Fn(&Query) -> f32 + Sync) -> f32 {
+    (0..=BLEND_STEPS)
+        .map(|i| i as f32 / BLEND_STEPS as f32)
+        .fold((0.0f32, f64::INFINITY), |best, w| {
+            let e = tm_rmse_blended(warp, queries, exposure, &rough, |_| w);
+            if e < best.1 { (w, e) } else { best }
+        })
+        .0
+}
+
+/// `candidate` with the irradiance blend (`RoughnessFit::irradiance_weight`: 0 for the
+/// mirror row, then `weights`, one per roughness of [`ROUGH_MIX`]), kept only when it lowers
+/// the held-out queries' tone-mapped RMSE, which comes back with it (`None`: not kept).
+fn with_irradiance_blend(
+    candidate: RoughnessCorrection,
+    weights: &[f32],
+    warp: &Warp,
+    held: &[Query],
+    exposure: f32,
+) -> (RoughnessCorrection, Option<f64>) {
+    if weights.iter().all(|&w| w == 0.0) {
+        return (candidate, None);
+    }
+    let irradiance_weight = std::iter::once(0.0).chain(weights.iter().copied()).collect();
+    let blended = RoughnessFit { irradiance_weight, ..(*candidate).clone() };
+    let Ok(blended) = RoughnessCorrection::try_from(blended) else { return (candidate, None) };
+    let rough = |q: &Query| candidate.corrected_roughness(q.r, q.k);
+    let without = tm_rmse(warp, held, exposure, rough);
+    let with = tm_rmse_blended(warp, held, exposure, rough, |q| blended.irradiance_weight(q.r));
+    if with < without { (blended, Some(with)) } else { (candidate, None) }
+}
+
 /// Fits the correction to the scene through `correctives` (per roughness of [`ROUGH_MIX`],
 /// Nelder-Mead on the two exponents from the lobes' exponent), then gives each roughness's
 /// row the candidate rule with the lowest mean ꟻLIP on views from held-out positions (the
@@ -302,7 +362,9 @@ pub fn fit_scene_correction(
         .collect();
     let rules = Rules { lobe_fit, c0, exponents: &exponents };
     let views = perceptual::views(baked.scene, baked.tracer, &held_positions, warp.probe.position, &VIEWS);
-    let rows: Vec<RowChoice> = ROUGH_MIX
+    let slots = baked.grid.dense_slots();
+    let irradiance = baked.grid.irradiance_view(&slots);
+    let rows: Vec<(RowChoice, f32)> = ROUGH_MIX
         .iter()
         .enumerate()
         .map(|(row, &r)| {
@@ -338,12 +400,44 @@ pub fn fit_scene_correction(
             let at = |rule: RowRule| &tiles[RowRule::ALL.iter().position(|&x| x == rule).unwrap_or(0)];
             let flip = PerRule::from_fn(|rule| perceptual::weighted_mean(at(rule)));
             let flip_se = PerRule::from_fn(|rule| perceptual::paired_standard_error(at(rule), at(RowRule::SceneFit)));
-            RowChoice { roughness: r, chosen: flip.chosen_with(&flip_se), flip, flip_se, tm_rmse: tm }
+            let chosen = flip.chosen_with(&flip_se);
+            // the irradiance blend of the chosen rule's mips: fitted on the training
+            // queries, kept where the views do not look worse for it
+            let train_r: Vec<Query> = train.iter().copied().filter(|q| q.r == r).collect();
+            let fitted = blend_weight(warp, &train_r, exposure, |q| rules.roughness(chosen, row, q.r, q.k));
+            let blended_tiles = |w: f32| {
+                perceptual::flip_tiles(&refs, exposure, 8, |r, b, dir, _| {
+                    let (uv, k) = fetch(warp, correctives, b, dir, r);
+                    let lod = warp.probe.lod_of_roughness(rules.roughness(chosen, row, r, k));
+                    let spec = warp.probe.radiance.sample_lod_uv(uv, lod);
+                    irradiance.nearest(b, dir).map_or(spec, |e| crate::runtime::mix_irradiance(spec, e, w))
+                })
+            };
+            // the largest of the fitted weight, its half and its quarter whose views look no
+            // worse than the unblended rule's (mean ꟻLIP): the tone-mapped error alone also
+            // pays for blur that hedges a misplaced fetch, which a viewer sees as lost detail
+            let mut kept = (0.0, None);
+            for w in [fitted, 0.5 * fitted, 0.25 * fitted] {
+                if !(w > 0.0) {
+                    break;
+                }
+                let f = perceptual::weighted_mean(&blended_tiles(w));
+                if f.is_finite() && f <= flip.get(chosen) {
+                    kept = (w, Some(f));
+                    break;
+                }
+                kept.1 = kept.1.or(Some(f));
+            }
+            let (w, flip_blended) = kept;
+            let row = RowChoice { roughness: r, chosen, flip, flip_se, tm_rmse: tm, flip_blended };
+            (row, w)
         })
         .collect();
+    let (rows, weights): (Vec<RowChoice>, Vec<f32>) = rows.into_iter().unzip();
     let chosen: Vec<RowRule> = rows.iter().map(|row| row.chosen).collect();
     let candidate = RoughnessCorrection::try_from(scene_table(lobe_fit, &rules, &chosen));
     let Ok(candidate) = candidate else { return lobe_fit.clone() };
+    let (candidate, scene_fit_blended) = with_irradiance_blend(candidate, &weights, warp, &held, exposure);
     let comparison = SceneComparison {
         lookups: held.len(),
         plain: tm_rmse(warp, &held, exposure, |q| q.r),
@@ -351,6 +445,7 @@ pub fn fit_scene_correction(
         lobe_fit: tm_rmse(warp, &held, exposure, |q| lobe_fit.corrected_roughness(q.r, q.k)),
         scene_fit: tm_rmse(warp, &held, exposure, |q| candidate.corrected_roughness(q.r, q.k)),
         scene_exponents: exponents.iter().map(|&(u, d)| [u as f32, d as f32]).collect(),
+        scene_fit_blended,
         rows,
     };
     RoughnessCorrection::try_from(RoughnessFit { heldout_scene: Some(comparison), ..(*candidate).clone() })

@@ -121,6 +121,7 @@ pub fn fit_correction() -> RoughnessCorrection {
         chosen: Representation::Table,
         source: Source::AnalyticLobes,
         heldout_scene: None,
+        irradiance_weight: Vec::new(),
     };
     let corr = RoughnessCorrection::try_from(fit.clone()).expect("the fitted axes are finite and increasing");
     // Held-out points: midway between table nodes (in α and log k).

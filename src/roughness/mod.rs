@@ -61,6 +61,13 @@ pub struct RoughnessFit {
     /// each candidate, when the correction was chosen on the scene.
     #[serde(default)]
     pub heldout_scene: Option<SceneComparison>,
+    /// Per row of `alphas`: the share of a rough lookup the runtime takes from the dense
+    /// grid's irradiance for the lookup's direction (over π) instead of probe A
+    /// ([`RoughnessCorrection::irradiance_weight`]); linear in perceptual roughness between
+    /// the rows. Empty: probe A alone (every grid fitted before the blend, and corrections
+    /// not fitted to a scene).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub irradiance_weight: Vec<f32>,
 }
 
 /// What a roughness correction was fitted to.
@@ -89,6 +96,10 @@ pub struct SceneComparison {
     pub scene_fit: f64,
     /// Its exponents per fitted roughness: (k > 1, k < 1).
     pub scene_exponents: Vec<[f32; 2]>,
+    /// The scene fit with the fitted irradiance blend ([`RoughnessFit::irradiance_weight`];
+    /// absent when no blend was fitted).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene_fit_blended: Option<f64>,
     /// Per fitted roughness (the scene table's rows after α = 0): the rule the row holds,
     /// chosen by mean ꟻLIP on views rendered at held-out positions, and each candidate's
     /// scores. Empty in grids fitted before rows were chosen (every row the exponents').
@@ -180,6 +191,12 @@ pub struct RowChoice {
     pub flip_se: PerRule,
     /// Tone-mapped RMSE of the held-out rough lookups at this roughness per rule.
     pub tm_rmse: PerRule,
+    /// Mean ꟻLIP of the views with the chosen rule's lookups blended with the irradiance:
+    /// by the weight the row keeps, or when it keeps none, by the weight fitted for this
+    /// roughness (absent: the fitted weight is 0). A row keeps the largest of the fitted
+    /// weight, its half and its quarter whose views score no higher than the chosen rule's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flip_blended: Option<f64>,
 }
 
 /// A roughness correction ready to look up: validated (finite, increasing axes, a table of
@@ -191,6 +208,8 @@ pub struct RoughnessCorrection {
     fit: RoughnessFit,
     log_ratios: Vec<f32>,
     lookup: Lookup,
+    /// (perceptual roughness, weight) of each row with `irradiance_weight`, r increasing.
+    blend: Vec<(f32, f32)>,
 }
 
 /// Nodes per axis of [`Lookup`].
@@ -271,8 +290,20 @@ impl TryFrom<RoughnessFit> for RoughnessCorrection {
         if !(fit.c0.is_finite() && fit.c1.is_finite()) {
             return Err("c0 and c1 must be finite".into());
         }
+        let w = &fit.irradiance_weight;
+        if !w.is_empty() && (w.len() != fit.alphas.len() || !w.iter().all(|x| (0.0..=1.0).contains(x))) {
+            return Err(format!(
+                "irradiance_weight must hold one value in [0, 1] per α row ({}), found {:?}",
+                fit.alphas.len(),
+                w
+            ));
+        }
+        if !w.is_empty() && !(fit.alphas[0] >= 0.0) {
+            return Err("irradiance_weight needs α rows ≥ 0".into());
+        }
+        let blend = fit.alphas.iter().zip(w).map(|(&a, &w)| (a.sqrt(), w)).collect();
         let log_ratios = fit.ratios.iter().map(|&r| libm::logf(r)).collect();
-        let mut c = RoughnessCorrection { fit, log_ratios, lookup: Lookup::default() };
+        let mut c = RoughnessCorrection { fit, log_ratios, lookup: Lookup::default(), blend };
         c.lookup = Lookup::resample(&c);
         Ok(c)
     }
@@ -475,6 +506,45 @@ impl RoughnessCorrection {
         self.lookup.roughness(r, k)
     }
 
+    /// Share of a lookup of perceptual roughness `r` taken from the dense grid's irradiance
+    /// ([`RoughnessFit::irradiance_weight`]): linear in r between the rows, the last row's
+    /// beyond them; 0 without weights, at r ≤ 0 and for a non-finite r. Always in [0, 1].
+    ///
+    /// Why the irradiance: the lobe the probe's mips and the references hold,
+    /// `∫ L(l) D(h)(n·l) dl / ∫ D(h)(n·l) dl` at N = V = dir, is at α = 1 (D = 1/π) the
+    /// clamped cosine itself, so the reference there is E(B, dir)/π exactly, and the dense
+    /// grid stores E traced next to B, where probe A saw from elsewhere.
+    #[inline]
+    #[must_use]
+    pub fn irradiance_weight(&self, r: f32) -> f32 {
+        let b = &self.blend;
+        let (Some(&(r0, w0)), Some(&(rn, wn))) = (b.first(), b.last()) else { return 0.0 };
+        if !(r > 0.0) {
+            return 0.0;
+        }
+        if r <= r0 {
+            return w0;
+        }
+        if r >= rn {
+            return wn;
+        }
+        for pair in b.windows(2) {
+            let ((ra, wa), (rb, wb)) = (pair[0], pair[1]);
+            if r <= rb {
+                let t = if rb > ra { (r - ra) / (rb - ra) } else { 1.0 };
+                return (wa + (wb - wa) * t).clamp(0.0, 1.0);
+            }
+        }
+        wn
+    }
+
+    /// The blend's nodes, (perceptual roughness, weight) by increasing roughness (empty:
+    /// no blend): for a shader or an engine that ports [`Self::irradiance_weight`].
+    #[must_use]
+    pub fn irradiance_nodes(&self) -> &[(f32, f32)] {
+        &self.blend
+    }
+
     /// `corrected_roughness` for [`LANES`] lookups, bit for bit the same values.
     #[inline]
     #[must_use]
@@ -531,4 +601,38 @@ fn bracket(n: usize, node: impl Fn(usize) -> f32, v: f32) -> (usize, f32) {
 
 pub(crate) fn analytic(c0: f64, c1: f64, alpha: f64, k: f64) -> f64 {
     (c0 * alpha * libm::pow(k, -c1)).clamp(1e-3, 1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_irradiance_weight_is_linear_in_roughness_between_the_rows() {
+        let alphas = vec![0.0, 0.25, 1.0]; // perceptual r 0, 0.5, 1
+        let ratios = vec![0.5, 1.0, 2.0];
+        let fit = RoughnessFit {
+            table: vec![0.5; alphas.len() * ratios.len()],
+            lobe_residual: vec![0.0; alphas.len() * ratios.len()],
+            alphas,
+            ratios,
+            c0: 1.0,
+            c1: 1.0,
+            heldout_rms_table: 0.0,
+            heldout_rms_analytic: 0.0,
+            chosen: Representation::Table,
+            source: Source::AnalyticLobes,
+            heldout_scene: None,
+            irradiance_weight: Vec::new(),
+        };
+        let plain = RoughnessCorrection::try_from(fit.clone()).unwrap();
+        assert_eq!(plain.irradiance_weight(1.0), 0.0, "no weights: probe A alone");
+        let c = RoughnessCorrection::try_from(RoughnessFit { irradiance_weight: vec![0.0, 0.5, 0.9], ..fit }).unwrap();
+        assert_eq!(c.irradiance_nodes(), &[(0.0, 0.0), (0.5, 0.5), (1.0, 0.9)]);
+        for (r, w) in [(0.0, 0.0), (0.25, 0.25), (0.5, 0.5), (0.75, 0.7), (1.0, 0.9), (2.0, 0.9), (-1.0, 0.0)] {
+            assert!((c.irradiance_weight(r) - w).abs() < 1e-6, "r {r}: {} against {w}", c.irradiance_weight(r));
+        }
+        assert_eq!(c.irradiance_weight(f32::NAN), 0.0);
+        assert_eq!(c.irradiance_weight(f32::INFINITY), 0.9);
+    }
 }

@@ -174,6 +174,16 @@ impl IrradianceView<'_> {
         bias * self.geometry.cell_size().min_element()
     }
 
+    /// Irradiance for unit direction `n` of the cell that contains `position` (finite), if
+    /// that cell is stored: [`IrradianceBlend::Nearest`] without its bookkeeping, what a
+    /// rough specular lookup blends in (`FittedGrid::specular`).
+    #[inline]
+    #[must_use]
+    pub fn nearest(&self, position: Vec3, n: Vec3) -> Option<Vec3> {
+        let geo = &self.geometry;
+        self.cell_irradiance(geo.cell_index(geo.cell_of(position)), n).filter(|e| e.is_finite())
+    }
+
     /// Irradiance of the stored cell `cell` for unit normal `n` (bilinear in its map), if
     /// the cell is stored.
     #[inline]

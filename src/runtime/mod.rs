@@ -118,7 +118,26 @@ impl FittedGrid {
     /// roughness correction (`warp::glossy`, shared with the fit and eval).
     #[inline]
     fn shade(&self, q: SpecularQuery, aim: Aim) -> Vec3 {
-        glossy_radiance(&self.warp, self.roughness.as_ref(), MipRule::Corrected, q.b, q.dir, aim, q.r)
+        // the irradiance first: its loads are independent of probe A's and overlap them
+        let blend = self.irradiance_blend(q);
+        let spec = glossy_radiance(&self.warp, self.roughness.as_ref(), MipRule::Corrected, q.b, q.dir, aim, q.r);
+        match blend {
+            Some((e, w)) => mix_irradiance(spec, e, w),
+            None => spec,
+        }
+    }
+
+    /// What a rough lookup blends into its probe-A radiance: the containing cell's
+    /// irradiance for the query direction and the stored weight of its roughness
+    /// (`RoughnessCorrection::irradiance_weight`); `None` without a weight, for a mirror
+    /// query and in a cell without irradiance.
+    #[inline]
+    fn irradiance_blend(&self, q: SpecularQuery) -> Option<(Vec3, f32)> {
+        let w = self.roughness.as_ref().map_or(0.0, |c| c.irradiance_weight(q.r));
+        if !(w > 0.0) {
+            return None;
+        }
+        self.irradiance.view().nearest(q.b, q.dir).map(|e| (e, w))
     }
 
     /// `specular` for [`octa::LANES`] queries at once, bit for bit the same values: the
@@ -155,7 +174,13 @@ impl FittedGrid {
             self.warp.probe.radiance.levels[0].bilinear_uv_lanes(&octa::encode_soa(&v))
         } else {
             let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &r);
-            corrected_lanes(&self.warp.probe, self.roughness.as_ref(), &r, &v, &ratio)
+            let mut out = corrected_lanes(&self.warp.probe, self.roughness.as_ref(), &r, &v, &ratio);
+            for k in 0..octa::LANES {
+                if let Some((e, w)) = self.irradiance_blend(SpecularQuery { b: b[k], dir: dir[k], r: r[k] }) {
+                    out[k] = mix_irradiance(out[k], e, w);
+                }
+            }
+            out
         };
         if let Some(valid) = valid {
             for k in 0..octa::LANES {
@@ -260,3 +285,11 @@ impl std::fmt::Display for BatchError {
 }
 
 impl std::error::Error for BatchError {}
+
+/// `spec` and the irradiance `e` (for the lookup's direction) blended by weight `w`:
+/// `spec·(1 − w) + (e/π)·w`. The one formula the runtime, the fit and the shader use.
+#[inline]
+#[must_use]
+pub fn mix_irradiance(spec: Vec3, e: Vec3, w: f32) -> Vec3 {
+    spec * (1.0 - w) + e * (w * std::f32::consts::FRAC_1_PI)
+}
