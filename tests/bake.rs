@@ -217,18 +217,22 @@ fn irradiance_of_uniform_sky_is_pi_times_radiance() {
     }
 }
 
+/// A scene inside an inward sphere of albedo `albedo` (0: black walls), with a lamp and
+/// a black sky when `lamp`: what the emitted-part tests bake.
+fn lamp_room(albedo: f32, lamp: bool) -> Scene {
+    let lights = "[sky]\nzenith = [0.0, 0.0, 0.0]\nhorizon = [0.0, 0.0, 0.0]\nground = [0.0, 0.0, 0.0]\n[[sphere_lights]]\nposition = [0.0, 1.0, 2.0]\nradius = 0.5\nradiance = [40.0, 40.0, 40.0]\n";
+    let room = format!(
+        "[[geometry]]\ntype = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 6.0\ninward = true\nmaterial = {{ albedo = [{albedo}, {albedo}, {albedo}] }}\n"
+    );
+    let body = if lamp { format!("{lights}{room}") } else { room };
+    Scene::parse(&format!("bounces = 0\n{HEADER}\n{body}"), &fixture("emitted.toml")).unwrap()
+}
+
 /// Probe A's emitted chain (what the evaluation takes out of every lookup to measure the
 /// light apart from the emitters) is the bake's own rays' emitted part: all of the probe
 /// where the lamp is all it sees, none where it sees a lit wall, nothing without emitters.
 #[test]
 fn the_emitted_chain_is_the_probes_lamp_and_nothing_else() {
-    let lamp = "[[sphere_lights]]\nposition = [0.0, 1.0, 2.0]\nradius = 0.5\nradiance = [40.0, 40.0, 40.0]\n";
-    let black_sky = "[sky]\nzenith = [0.0, 0.0, 0.0]\nhorizon = [0.0, 0.0, 0.0]\nground = [0.0, 0.0, 0.0]\n";
-    let room = |albedo: f32| {
-        format!(
-            "[[geometry]]\ntype = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 6.0\ninward = true\nmaterial = {{ albedo = [{albedo}, {albedo}, {albedo}] }}\n"
-        )
-    };
     let emitted_of = |scene: &Scene| {
         let tracer = Tracer::new(scene);
         let renderer = warpfit::trace::Renderer::new(scene, &tracer);
@@ -239,9 +243,7 @@ fn the_emitted_chain_is_the_probes_lamp_and_nothing_else() {
     };
 
     // black walls and sky: every bit of the probe is the lamp, mips included
-    let at_top =
-        |body: String| Scene::parse(&format!("bounces = 0\n{HEADER}\n{body}"), &fixture("emitted.toml")).unwrap();
-    let scene = at_top(format!("{black_sky}{lamp}{}", room(0.0)));
+    let scene = lamp_room(0.0, true);
     let (radiance, emitted, rays) = emitted_of(&scene);
     assert!(rays > 0);
     assert_eq!(emitted.levels.len(), radiance.levels.len());
@@ -252,7 +254,7 @@ fn the_emitted_chain_is_the_probes_lamp_and_nothing_else() {
     assert!(emitted.levels[0].texels.iter().any(|l| l.x > 0.0), "the lamp covers some texels");
 
     // lit walls: the walls' texels carry light but no emitted part; the lamp's carry both
-    let scene = at_top(format!("{black_sky}{lamp}{}", room(0.5)));
+    let scene = lamp_room(0.5, true);
     let (radiance, emitted, _) = emitted_of(&scene);
     let (r0, e0) = (&radiance.levels[0], &emitted.levels[0]);
     let (mut walls, mut lamp_texels) = (0, 0);
@@ -275,7 +277,7 @@ fn the_emitted_chain_is_the_probes_lamp_and_nothing_else() {
     assert!(walls > 10 && lamp_texels > 0, "walls {walls}, lamp texels {lamp_texels}");
 
     // nothing that emits: zeros, and no ray traced for them
-    let scene = at_top(room(0.5));
+    let scene = lamp_room(0.5, false);
     let (radiance, emitted, rays) = emitted_of(&scene);
     assert_eq!(rays, 0);
     assert_eq!(emitted.levels.len(), radiance.levels.len());
@@ -284,15 +286,6 @@ fn the_emitted_chain_is_the_probes_lamp_and_nothing_else() {
 
 #[test]
 fn the_emitted_irradiance_is_the_grids_lamp_and_nothing_else() {
-    let lamp = "[[sphere_lights]]\nposition = [0.0, 1.0, 2.0]\nradius = 0.5\nradiance = [40.0, 40.0, 40.0]\n";
-    let black_sky = "[sky]\nzenith = [0.0, 0.0, 0.0]\nhorizon = [0.0, 0.0, 0.0]\nground = [0.0, 0.0, 0.0]\n";
-    let room = |albedo: f32| {
-        format!(
-            "[[geometry]]\ntype = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 6.0\ninward = true\nmaterial = {{ albedo = [{albedo}, {albedo}, {albedo}] }}\n"
-        )
-    };
-    let scene_of =
-        |body: String| Scene::parse(&format!("bounces = 0\n{HEADER}\n{body}"), &fixture("emitted.toml")).unwrap();
     let emitted_of = |scene: &Scene| {
         let tracer = Tracer::new(scene);
         let renderer = warpfit::trace::Renderer::new(scene, &tracer);
@@ -303,7 +296,7 @@ fn the_emitted_irradiance_is_the_grids_lamp_and_nothing_else() {
     let i2 = |grid: &bake::grid::ProbeGrid| (grid.irradiance_resolution * grid.irradiance_resolution) as usize;
 
     // black walls and sky: every cell's irradiance is the lamp's, bit for bit
-    let (grid, emitted, rays) = emitted_of(&scene_of(format!("{black_sky}{lamp}{}", room(0.0))));
+    let (grid, emitted, rays) = emitted_of(&lamp_room(0.0, true));
     assert!(rays > 0);
     assert_eq!(emitted.len(), grid.irradiance.len());
     let outside: Vec<usize> = (0..grid.inside.len()).filter(|&c| !grid.inside[c]).collect();
@@ -315,7 +308,7 @@ fn the_emitted_irradiance_is_the_grids_lamp_and_nothing_else() {
     assert!(emitted.iter().any(|e| e.x > 0.0), "the lamp lights some texels");
 
     // lit walls: the walls add irradiance the emitted part does not hold
-    let (grid, emitted, _) = emitted_of(&scene_of(format!("{black_sky}{lamp}{}", room(0.5))));
+    let (grid, emitted, _) = emitted_of(&lamp_room(0.5, true));
     let (mut below, mut lit) = (0, 0);
     for &c in &outside {
         let span = c * i2(&grid)..(c + 1) * i2(&grid);
@@ -328,7 +321,7 @@ fn the_emitted_irradiance_is_the_grids_lamp_and_nothing_else() {
     assert!(below > 0 && lit > 0, "texels below the irradiance {below}, lit by the lamp {lit}");
 
     // nothing that emits: zeros, and no ray traced for them
-    let (grid, emitted, rays) = emitted_of(&scene_of(room(0.5)));
+    let (grid, emitted, rays) = emitted_of(&lamp_room(0.5, false));
     assert_eq!(rays, 0);
     assert_eq!(emitted.len(), grid.irradiance.len());
     assert!(emitted.iter().all(|&e| e == Vec3::ZERO));

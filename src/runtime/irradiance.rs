@@ -184,17 +184,61 @@ impl IrradianceView<'_> {
         self.cell_irradiance(geo.cell_index(geo.cell_of(position)), n).filter(|e| e.is_finite())
     }
 
+    /// [`IrradianceView::nearest`] for [`octa::LANES`] points (finite) and unit directions,
+    /// bit for bit the same: the cells and the octahedral coordinates found lane by lane in
+    /// plain loops, then each lane's four taps, so the lanes' loads are in flight together.
+    #[inline]
+    #[must_use]
+    pub fn nearest_lanes(
+        &self,
+        positions: &[Vec3; octa::LANES],
+        n: &[Vec3; octa::LANES],
+    ) -> [Option<Vec3>; octa::LANES] {
+        const L: usize = octa::LANES;
+        let geo = &self.geometry;
+        let cells = geo.cell_index_soa(&octa::soa(positions), geo.cell_size());
+        let uv = octa::encode_lanes(n);
+        let ir = self.resolution;
+        // each stage a plain loop over the lanes (`OctMap::bilinear_uv_lanes`'s layout)
+        let (mut i0, mut j0, mut fx, mut fy) = ([0i32; L], [0i32; L], [0f32; L], [0f32; L]);
+        for k in 0..L {
+            (i0[k], j0[k], fx[k], fy[k]) = octa::footprint_of(ir as f32, uv.u[k], uv.v[k]);
+        }
+        let mut out = [None; L];
+        for k in 0..L {
+            let slot = self.slot[cells[k]];
+            if slot == NO_MAP {
+                continue;
+            }
+            let base = slot as usize * (ir * ir) as usize;
+            let taps = octa::footprint_taps(ir, i0[k], j0[k], fx[k], fy[k]);
+            // `cell_irradiance_at`'s sum, in its order
+            let mut e = Vec3::ZERO;
+            for (t, wt) in taps {
+                e += self.irradiance[base + t as usize] * wt;
+            }
+            out[k] = Some(e).filter(|e| e.is_finite());
+        }
+        out
+    }
+
     /// Irradiance of the stored cell `cell` for unit normal `n` (bilinear in its map), if
     /// the cell is stored.
     #[inline]
     fn cell_irradiance(&self, cell: usize, n: Vec3) -> Option<Vec3> {
+        self.cell_irradiance_at(cell, octa::encode(n))
+    }
+
+    /// [`IrradianceView::cell_irradiance`] at octahedral coordinate `uv`.
+    #[inline]
+    fn cell_irradiance_at(&self, cell: usize, uv: glam::Vec2) -> Option<Vec3> {
         let slot = self.slot[cell];
         if slot == NO_MAP {
             return None;
         }
         let ir = self.resolution;
         let base = slot as usize * (ir * ir) as usize;
-        let taps = octa::bilinear_taps(ir, octa::encode(n));
+        let taps = octa::bilinear_taps(ir, uv);
         Some(taps.iter().map(|&(t, wt)| self.irradiance[base + t as usize] * wt).sum())
     }
 

@@ -173,11 +173,20 @@ impl FittedGrid {
             let v = self.correctives.fetch_vector_lanes(self.blend, &self.warp, b, dir);
             self.warp.probe.radiance.levels[0].bilinear_uv_lanes(&octa::encode_soa(&v))
         } else {
+            // the irradiance blend's weights and reads first (`irradiance_blend`, lane by
+            // lane): their loads are independent of probe A's
+            let w: [f32; octa::LANES] =
+                std::array::from_fn(|k| self.roughness.as_ref().map_or(0.0, |c| c.irradiance_weight(r[k])));
+            let e = if w.iter().any(|&w| w > 0.0) {
+                self.irradiance.view().nearest_lanes(b, dir)
+            } else {
+                [None; octa::LANES]
+            };
             let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &r);
             let mut out = corrected_lanes(&self.warp.probe, self.roughness.as_ref(), &r, &v, &ratio);
             for k in 0..octa::LANES {
-                if let Some((e, w)) = self.irradiance_blend(SpecularQuery { b: b[k], dir: dir[k], r: r[k] }) {
-                    out[k] = mix_irradiance(out[k], e, w);
+                if let (true, Some(e)) = (w[k] > 0.0, e[k]) {
+                    out[k] = mix_irradiance(out[k], e, w[k]);
                 }
             }
             out
