@@ -163,6 +163,17 @@ fn the_shader_answers_as_the_cpu_sampler_on_a_torture_grid_with_maps_and_correct
     if g.irradiance.correction.surface_bias == 0.0 {
         g.irradiance.correction.surface_bias = 0.1;
     }
+    // the rough lookups' irradiance blend as fitted, or weights rising to 1 where the fit
+    // kept none, so the shader's blend is always checked
+    let c = g.roughness.clone().expect("the fit stores a roughness correction");
+    if c.irradiance_nodes().is_empty() {
+        let n = c.alphas.len();
+        let fit = warpfit::roughness::RoughnessFit {
+            irradiance_weight: (0..n).map(|i| i as f32 / (n - 1) as f32).collect(),
+            ..c.into()
+        };
+        g.roughness = Some(warpfit::roughness::RoughnessCorrection::try_from(fit).unwrap());
+    }
     check_grid("torture", &g);
 }
 
