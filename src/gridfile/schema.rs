@@ -434,6 +434,13 @@ impl GridManifest {
                     r.c1,
                     r.heldout_rms_analytic
                 );
+                let nodes = r.irradiance_nodes();
+                if nodes.is_empty() {
+                    let _ = writeln!(s, "rough lookups: probe A alone (no irradiance blend)");
+                } else {
+                    let w: Vec<String> = nodes.iter().map(|(r, w)| format!("{w:.3} at r {r:.3}")).collect();
+                    let _ = writeln!(s, "rough lookups blend the containing cell's irradiance / π: {}", w.join(", "));
+                }
             }
             None => {
                 let _ = writeln!(s, "roughness correction: none");
