@@ -967,16 +967,16 @@ vec3 clean(vec3 c_4) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_25 = false;
+    bool local_26 = false;
     float z = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_25 = _e14;
+        local_26 = _e14;
     } else {
-        local_25 = false;
+        local_26 = false;
     }
-    bool _e16 = local_25;
+    bool _e16 = local_26;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }

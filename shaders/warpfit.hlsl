@@ -1356,6 +1356,8 @@ float3 specular(float3 position, float3 direction, float roughness)
 {
     float3 b_14 = (float3)0;
     float r_6 = 0.0;
+    int tile_3 = int(-1);
+    bool local_24 = (bool)0;
     float3 c_5 = (float3)0;
 
     const float4 _e3 = unit_direction(direction);
@@ -1372,30 +1374,46 @@ float3 specular(float3 position, float3 direction, float roughness)
     if (_e17) {
         r_6 = clamp(roughness, 0.0, 1.0);
     }
-    float3 _e21 = b_14;
-    float3 _e22 = b_14;
-    float _e24 = r_6;
-    const Aim _e25 = fetch(_e22, _e3.xyz, _e24);
-    float _e26 = r_6;
-    const float3 _e27 = shade(_e21, _e25, _e26);
-    c_5 = _e27;
-    float _e29 = r_6;
-    const float _e30 = irradiance_weight(_e29);
-    if ((_e30 > 0.0)) {
-        float3 _e34 = b_14;
-        const float3 _e35 = cell_size();
-        const uint3 _e36 = cell_of(_e34, _e35);
-        const uint _e37 = cell_index(_e36);
-        Cell cell_3 = ConstructCell(asint(cells.Load4(_e37*32+0)), asfloat(cells.Load4(_e37*32+16)));
-        if ((cell_3.tiles.y >= int(0))) {
-            float3 _e44 = c_5;
-            const float3 _e51 = cell_irradiance(cell_3.tiles.y, _e3.xyz);
-            c_5 = ((_e44 * (1.0 - _e30)) + (_e51 * (_e30 * 0.31830987)));
-        }
+    float _e21 = r_6;
+    const float _e22 = irradiance_weight(_e21);
+    if ((_e22 > 0.0)) {
+        float3 _e28 = b_14;
+        const float3 _e29 = cell_size();
+        const uint3 _e30 = cell_of(_e28, _e29);
+        const uint _e31 = cell_index(_e30);
+        int _e35 = asint(cells.Load(4+0+_e31*32));
+        tile_3 = _e35;
     }
-    float3 _e56 = c_5;
-    const float3 _e57 = clean(_e56);
-    return _e57;
+    int _e36 = tile_3;
+    if ((_e36 >= int(0))) {
+        local_24 = (_e22 >= 1.0);
+    } else {
+        local_24 = false;
+    }
+    bool _e44 = local_24;
+    if (_e44) {
+        int _e45 = tile_3;
+        const float3 _e47 = cell_irradiance(_e45, _e3.xyz);
+        const float3 _e51 = clean((_e47 * (_e22 * 0.31830987)));
+        return _e51;
+    }
+    float3 _e52 = b_14;
+    float3 _e53 = b_14;
+    float _e55 = r_6;
+    const Aim _e56 = fetch(_e53, _e3.xyz, _e55);
+    float _e57 = r_6;
+    const float3 _e58 = shade(_e52, _e56, _e57);
+    c_5 = _e58;
+    int _e60 = tile_3;
+    if ((_e60 >= int(0))) {
+        float3 _e63 = c_5;
+        int _e67 = tile_3;
+        const float3 _e69 = cell_irradiance(_e67, _e3.xyz);
+        c_5 = ((_e63 * (1.0 - _e22)) + (_e69 * (_e22 * 0.31830987)));
+    }
+    float3 _e74 = c_5;
+    const float3 _e75 = clean(_e74);
+    return _e75;
 }
 
 float3 irradiance(float3 position_1, float3 normal)
@@ -1405,7 +1423,7 @@ float3 irradiance(float3 position_1, float3 normal)
     float wsum = 0.0;
     uint corner_3 = 0u;
     float w_1 = (float)0;
-    bool local_24 = (bool)0;
+    bool local_25 = (bool)0;
     float k_9 = (float)0;
 
     const float4 _e2 = unit_direction(normal);
@@ -1451,22 +1469,22 @@ float3 irradiance(float3 position_1, float3 normal)
             uint _e51 = corner_3;
             const uint3 _e52 = corner_cell(_e35, _e51);
             const uint _e54 = cell_index(_e52);
-            Cell cell_4 = ConstructCell(asint(cells.Load4(_e54*32+0)), asfloat(cells.Load4(_e54*32+16)));
-            if ((cell_4.tiles.y < int(0))) {
+            Cell cell_3 = ConstructCell(asint(cells.Load4(_e54*32+0)), asfloat(cells.Load4(_e54*32+16)));
+            if ((cell_3.tiles.y < int(0))) {
                 continue;
             }
             float3 _e61 = p_3;
             const float3 _e62 = cell_centre(_e52, _e9);
-            float3 to_point = (_e61 - (_e62 + cell_4.offset.xyz));
+            float3 to_point = (_e61 - (_e62 + cell_3.offset.xyz));
             float dist = length(to_point);
             w_1 = _e48;
             if ((dist > 0.0)) {
                 const bool _e73 = finite(dist);
-                local_24 = _e73;
+                local_25 = _e73;
             } else {
-                local_24 = false;
+                local_25 = false;
             }
-            bool _e75 = local_24;
+            bool _e75 = local_25;
             if (_e75) {
                 float3 u = (to_point / (dist).xxx);
                 float facing = ((dot(n_12, -(u)) + 1.0) * 0.5);
@@ -1475,7 +1493,7 @@ float3 irradiance(float3 position_1, float3 normal)
                 uint _e95 = params.atlas_b.x;
                 uint _e99 = params.atlas_b.y;
                 const float2 _e100 = oct_encode(u);
-                const float4 _e101 = atlas_bilinear(ATLAS_MOMENTS, cell_4.tiles.y, _e95, _e99, _e100);
+                const float4 _e101 = atlas_bilinear(ATLAS_MOMENTS, cell_3.tiles.y, _e95, _e99, _e100);
                 float mean = _e101.x;
                 float mean_sq = _e101.y;
                 if ((dist > mean)) {
@@ -1489,14 +1507,14 @@ float3 irradiance(float3 position_1, float3 normal)
             float _e122 = w_1;
             w_1 = max(_e122, (1e-6 * _e48));
             k_9 = 1.0;
-            if ((cell_4.tiles.z >= int(0))) {
+            if ((cell_3.tiles.z >= int(0))) {
                 uint _e138 = params.atlas_b.z;
                 uint _e142 = params.atlas_b.w;
-                const float4 _e143 = atlas_bilinear(ATLAS_SCALE, cell_4.tiles.z, _e138, _e142, _e36);
+                const float4 _e143 = atlas_bilinear(ATLAS_SCALE, cell_3.tiles.z, _e138, _e142, _e36);
                 k_9 = _e143.x;
             }
             float3 _e145 = e;
-            const float3 _e148 = cell_irradiance(cell_4.tiles.y, n_12);
+            const float3 _e148 = cell_irradiance(cell_3.tiles.y, n_12);
             float _e149 = w_1;
             float _e151 = k_9;
             e = (_e145 + ((_e148 * _e149) * _e151));
@@ -1517,17 +1535,17 @@ float3 irradiance(float3 position_1, float3 normal)
 
 float2 hemi_encode(float3 v_7)
 {
-    bool local_25 = (bool)0;
+    bool local_26 = (bool)0;
 
     float z = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         const bool _e14 = finite(l1_1);
-        local_25 = _e14;
+        local_26 = _e14;
     } else {
-        local_25 = false;
+        local_26 = false;
     }
-    bool _e16 = local_25;
+    bool _e16 = local_26;
     if (!(_e16)) {
         return float2(0.5, 0.5);
     }
@@ -1605,10 +1623,10 @@ float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_8)
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_3, uint j_3, float3 b_15, float3 local_26, SurfaceTaps shared_taps)
+SurfaceTaps surface_warped_taps(uint i_3, uint j_3, float3 b_15, float3 local_27, SurfaceTaps shared_taps)
 {
-    bool local_27 = (bool)0;
     bool local_28 = (bool)0;
+    bool local_29 = (bool)0;
 
     SurfaceParams sp = surface_params;
     float s_5 = ((float(i_3) + 0.5) / float(sp.shape.x));
@@ -1617,20 +1635,20 @@ SurfaceTaps surface_warped_taps(uint i_3, uint j_3, float3 b_15, float3 local_26
     float3 d_3 = (probe - b_15);
     float3 ab_2 = float3(dot(d_3, sp.tangent.xyz), dot(d_3, sp.bitangent.xyz), dot(d_3, sp.normal.xyz));
     const float _e48 = surface_tile_inv_distance(i_3, j_3, shared_taps);
-    float3 v_12 = ((local_26 * max(((dot(local_26, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
+    float3 v_12 = ((local_27 * max(((dot(local_27, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
     if ((_e48 > 0.0)) {
         const bool _e62 = finite3_(v_12);
-        local_27 = _e62;
-    } else {
-        local_27 = false;
-    }
-    bool _e64 = local_27;
-    if (_e64) {
-        local_28 = (dot(v_12, v_12) > 0.0);
+        local_28 = _e62;
     } else {
         local_28 = false;
     }
-    bool _e71 = local_28;
+    bool _e64 = local_28;
+    if (_e64) {
+        local_29 = (dot(v_12, v_12) > 0.0);
+    } else {
+        local_29 = false;
+    }
+    bool _e71 = local_29;
     if (_e71) {
         const float2 _e72 = hemi_encode(v_12);
         const SurfaceTaps _e73 = surface_taps(_e72);
@@ -1685,8 +1703,8 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
     float3 dir_12 = _e4.xyz;
-    float3 local_29 = float3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
-    const float2 _e64 = hemi_encode(local_29);
+    float3 local_30 = float3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
+    const float2 _e64 = hemi_encode(local_30);
     const SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
@@ -1694,16 +1712,16 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     t11_ = _e65;
     if (warped) {
         float3 _e72 = b_16;
-        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_29, _e65);
+        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_30, _e65);
         t00_ = _e73;
         float3 _e76 = b_16;
-        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_29, _e65);
+        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_30, _e65);
         t10_ = _e77;
         float3 _e80 = b_16;
-        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_29, _e65);
+        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_30, _e65);
         t01_ = _e81;
         float3 _e84 = b_16;
-        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_29, _e65);
+        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_30, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;

@@ -774,7 +774,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     float wsum = 0.0;
     uint corner_3 = 0u;
     float w_1 = 0.0;
-    bool local_24 = false;
+    bool local_25 = false;
     float k_9 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
@@ -827,11 +827,11 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             w_1 = _e48;
             if ((dist > 0.0)) {
                 bool _e73 = finite(dist);
-                local_24 = _e73;
+                local_25 = _e73;
             } else {
-                local_24 = false;
+                local_25 = false;
             }
-            bool _e75 = local_24;
+            bool _e75 = local_25;
             if (_e75) {
                 vec3 u = (to_point / vec3(dist));
                 float facing = ((dot(n_10, -(u)) + 1.0) * 0.5);
@@ -881,16 +881,16 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_25 = false;
+    bool local_26 = false;
     float z = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_25 = _e14;
+        local_26 = _e14;
     } else {
-        local_25 = false;
+        local_26 = false;
     }
-    bool _e16 = local_25;
+    bool _e16 = local_26;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }

@@ -1194,6 +1194,8 @@ vec3 cell_irradiance(int tile_2, vec3 n_4) {
 vec3 specular(vec3 position, vec3 direction, float roughness) {
     vec3 b_14 = vec3(0.0);
     float r_6 = 0.0;
+    int tile_3 = -1;
+    bool local_24 = false;
     vec3 c_5 = vec3(0.0);
     vec4 _e3 = unit_direction(direction);
     if ((_e3.w == 0.0)) {
@@ -1209,30 +1211,46 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     if (_e17) {
         r_6 = clamp(roughness, 0.0, 1.0);
     }
-    vec3 _e21 = b_14;
-    vec3 _e22 = b_14;
-    float _e24 = r_6;
-    Aim _e25 = fetch(_e22, _e3.xyz, _e24);
-    float _e26 = r_6;
-    vec3 _e27 = shade(_e21, _e25, _e26);
-    c_5 = _e27;
-    float _e29 = r_6;
-    float _e30 = irradiance_weight(_e29);
-    if ((_e30 > 0.0)) {
-        vec3 _e34 = b_14;
-        vec3 _e35 = cell_size();
-        uvec3 _e36 = cell_of(_e34, _e35);
-        uint _e37 = cell_index(_e36);
-        Cell cell_3 = _group_0_binding_8_cs[_e37];
-        if ((cell_3.tiles.y >= 0)) {
-            vec3 _e44 = c_5;
-            vec3 _e51 = cell_irradiance(cell_3.tiles.y, _e3.xyz);
-            c_5 = ((_e44 * (1.0 - _e30)) + (_e51 * (_e30 * 0.31830987)));
-        }
+    float _e21 = r_6;
+    float _e22 = irradiance_weight(_e21);
+    if ((_e22 > 0.0)) {
+        vec3 _e28 = b_14;
+        vec3 _e29 = cell_size();
+        uvec3 _e30 = cell_of(_e28, _e29);
+        uint _e31 = cell_index(_e30);
+        int _e35 = _group_0_binding_8_cs[_e31].tiles.y;
+        tile_3 = _e35;
     }
-    vec3 _e56 = c_5;
-    vec3 _e57 = clean(_e56);
-    return _e57;
+    int _e36 = tile_3;
+    if ((_e36 >= 0)) {
+        local_24 = (_e22 >= 1.0);
+    } else {
+        local_24 = false;
+    }
+    bool _e44 = local_24;
+    if (_e44) {
+        int _e45 = tile_3;
+        vec3 _e47 = cell_irradiance(_e45, _e3.xyz);
+        vec3 _e51 = clean((_e47 * (_e22 * 0.31830987)));
+        return _e51;
+    }
+    vec3 _e52 = b_14;
+    vec3 _e53 = b_14;
+    float _e55 = r_6;
+    Aim _e56 = fetch(_e53, _e3.xyz, _e55);
+    float _e57 = r_6;
+    vec3 _e58 = shade(_e52, _e56, _e57);
+    c_5 = _e58;
+    int _e60 = tile_3;
+    if ((_e60 >= 0)) {
+        vec3 _e63 = c_5;
+        int _e67 = tile_3;
+        vec3 _e69 = cell_irradiance(_e67, _e3.xyz);
+        c_5 = ((_e63 * (1.0 - _e22)) + (_e69 * (_e22 * 0.31830987)));
+    }
+    vec3 _e74 = c_5;
+    vec3 _e75 = clean(_e74);
+    return _e75;
 }
 
 vec3 irradiance(vec3 position_1, vec3 normal) {
@@ -1241,7 +1259,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     float wsum = 0.0;
     uint corner_3 = 0u;
     float w_1 = 0.0;
-    bool local_24 = false;
+    bool local_25 = false;
     float k_9 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
@@ -1283,22 +1301,22 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             uint _e51 = corner_3;
             uvec3 _e52 = corner_cell(_e35, _e51);
             uint _e54 = cell_index(_e52);
-            Cell cell_4 = _group_0_binding_8_cs[_e54];
-            if ((cell_4.tiles.y < 0)) {
+            Cell cell_3 = _group_0_binding_8_cs[_e54];
+            if ((cell_3.tiles.y < 0)) {
                 continue;
             }
             vec3 _e61 = p_3;
             vec3 _e62 = cell_centre(_e52, _e9);
-            vec3 to_point = (_e61 - (_e62 + cell_4.offset.xyz));
+            vec3 to_point = (_e61 - (_e62 + cell_3.offset.xyz));
             float dist = length(to_point);
             w_1 = _e48;
             if ((dist > 0.0)) {
                 bool _e73 = finite(dist);
-                local_24 = _e73;
+                local_25 = _e73;
             } else {
-                local_24 = false;
+                local_25 = false;
             }
-            bool _e75 = local_24;
+            bool _e75 = local_25;
             if (_e75) {
                 vec3 u = (to_point / vec3(dist));
                 float facing = ((dot(n_12, -(u)) + 1.0) * 0.5);
@@ -1307,7 +1325,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                 uint _e95 = _group_0_binding_7_cs.atlas_b.x;
                 uint _e99 = _group_0_binding_7_cs.atlas_b.y;
                 vec2 _e100 = oct_encode(u);
-                vec4 _e101 = atlas_bilinear(ATLAS_MOMENTS, cell_4.tiles.y, _e95, _e99, _e100);
+                vec4 _e101 = atlas_bilinear(ATLAS_MOMENTS, cell_3.tiles.y, _e95, _e99, _e100);
                 float mean = _e101.x;
                 float mean_sq = _e101.y;
                 if ((dist > mean)) {
@@ -1321,14 +1339,14 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             float _e122 = w_1;
             w_1 = max(_e122, (1e-6 * _e48));
             k_9 = 1.0;
-            if ((cell_4.tiles.z >= 0)) {
+            if ((cell_3.tiles.z >= 0)) {
                 uint _e138 = _group_0_binding_7_cs.atlas_b.z;
                 uint _e142 = _group_0_binding_7_cs.atlas_b.w;
-                vec4 _e143 = atlas_bilinear(ATLAS_SCALE, cell_4.tiles.z, _e138, _e142, _e36);
+                vec4 _e143 = atlas_bilinear(ATLAS_SCALE, cell_3.tiles.z, _e138, _e142, _e36);
                 k_9 = _e143.x;
             }
             vec3 _e145 = e;
-            vec3 _e148 = cell_irradiance(cell_4.tiles.y, n_12);
+            vec3 _e148 = cell_irradiance(cell_3.tiles.y, n_12);
             float _e149 = w_1;
             float _e151 = k_9;
             e = (_e145 + ((_e148 * _e149) * _e151));
@@ -1348,16 +1366,16 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_25 = false;
+    bool local_26 = false;
     float z = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_25 = _e14;
+        local_26 = _e14;
     } else {
-        local_25 = false;
+        local_26 = false;
     }
-    bool _e16 = local_25;
+    bool _e16 = local_26;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }

@@ -314,16 +314,16 @@ vec3 clean(vec3 c_4) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_25 = false;
+    bool local_26 = false;
     float z = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_25 = _e14;
+        local_26 = _e14;
     } else {
-        local_25 = false;
+        local_26 = false;
     }
-    bool _e16 = local_25;
+    bool _e16 = local_26;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -378,9 +378,9 @@ float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_8) {
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_3, uint j_3, vec3 b_15, vec3 local_26, SurfaceTaps shared_taps) {
-    bool local_27 = false;
+SurfaceTaps surface_warped_taps(uint i_3, uint j_3, vec3 b_15, vec3 local_27, SurfaceTaps shared_taps) {
     bool local_28 = false;
+    bool local_29 = false;
     SurfaceParams sp = _group_2_binding_1_cs;
     float s_4 = ((float(i_3) + 0.5) / float(sp.shape.x));
     float t_10 = ((float(j_3) + 0.5) / float(sp.shape.y));
@@ -388,20 +388,20 @@ SurfaceTaps surface_warped_taps(uint i_3, uint j_3, vec3 b_15, vec3 local_26, Su
     vec3 d_2 = (probe - b_15);
     vec3 ab = vec3(dot(d_2, sp.tangent.xyz), dot(d_2, sp.bitangent.xyz), dot(d_2, sp.normal.xyz));
     float _e48 = surface_tile_inv_distance(i_3, j_3, shared_taps);
-    vec3 v_9 = ((local_26 * max(((dot(local_26, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
+    vec3 v_9 = ((local_27 * max(((dot(local_27, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
     if ((_e48 > 0.0)) {
         bool _e62 = finite3_(v_9);
-        local_27 = _e62;
-    } else {
-        local_27 = false;
-    }
-    bool _e64 = local_27;
-    if (_e64) {
-        local_28 = (dot(v_9, v_9) > 0.0);
+        local_28 = _e62;
     } else {
         local_28 = false;
     }
-    bool _e71 = local_28;
+    bool _e64 = local_28;
+    if (_e64) {
+        local_29 = (dot(v_9, v_9) > 0.0);
+    } else {
+        local_29 = false;
+    }
+    bool _e71 = local_29;
     if (_e71) {
         vec2 _e72 = hemi_encode(v_9);
         SurfaceTaps _e73 = surface_taps(_e72);
@@ -451,8 +451,8 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
     vec3 dir_12 = _e4.xyz;
-    vec3 local_29 = vec3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
-    vec2 _e64 = hemi_encode(local_29);
+    vec3 local_30 = vec3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
+    vec2 _e64 = hemi_encode(local_30);
     SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
@@ -460,16 +460,16 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     t11_ = _e65;
     if (warped) {
         vec3 _e72 = b_16;
-        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_29, _e65);
+        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_30, _e65);
         t00_ = _e73;
         vec3 _e76 = b_16;
-        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_29, _e65);
+        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_30, _e65);
         t10_ = _e77;
         vec3 _e80 = b_16;
-        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_29, _e65);
+        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_30, _e65);
         t01_ = _e81;
         vec3 _e84 = b_16;
-        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_29, _e65);
+        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_30, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;

@@ -832,14 +832,19 @@ fn specular(position: vec3<f32>, direction: vec3<f32>, roughness: f32) -> vec3<f
     if finite(roughness) {
         r = clamp(roughness, 0.0, 1.0);
     }
-    var c = shade(b, fetch(b, d.xyz, r), r);
-    // rough lookups: blended with the containing cell's irradiance over π
+    // rough lookups: blended with the containing cell's irradiance over π; at weight 1
+    // probe A is not read
     let w = irradiance_weight(r);
+    var tile = -1;
     if w > 0.0 {
-        let cell = cells[cell_index(cell_of(b, cell_size()))];
-        if cell.tiles.y >= 0 {
-            c = c * (1.0 - w) + cell_irradiance(cell.tiles.y, d.xyz) * (w * 0.31830987);
-        }
+        tile = cells[cell_index(cell_of(b, cell_size()))].tiles.y;
+    }
+    if tile >= 0 && w >= 1.0 {
+        return clean(cell_irradiance(tile, d.xyz) * (w * 0.31830987));
+    }
+    var c = shade(b, fetch(b, d.xyz, r), r);
+    if tile >= 0 {
+        c = c * (1.0 - w) + cell_irradiance(tile, d.xyz) * (w * 0.31830987);
     }
     return clean(c);
 }
