@@ -100,18 +100,8 @@ impl FittedGrid {
         let Some(q) = self.specular_query(position, direction, roughness) else {
             return Vec3::ZERO;
         };
-        // the irradiance first: its loads are independent of probe A's and overlap them
-        let blend = self.irradiance_blend(q);
-        if let Some((e, w)) = blend.filter(|&(_, w)| w >= 1.0) {
-            // probe A's part has weight 0: `mix_irradiance(spec, e, 1)` for any finite spec
-            return mix_irradiance(Vec3::ZERO, e, w);
-        }
         let aim = self.correctives.fetch(self.blend, &self.warp, q.b, q.dir, q.r);
-        let spec = self.shade(q, aim);
-        match blend {
-            Some((e, w)) => mix_irradiance(spec, e, w),
-            None => spec,
-        }
+        self.shade(q, aim)
     }
 
     /// A specular query made safe (see the module conventions); `None` means black.
@@ -128,7 +118,17 @@ impl FittedGrid {
     /// roughness correction (`warp::glossy`, shared with the fit and eval).
     #[inline]
     fn shade(&self, q: SpecularQuery, aim: Aim) -> Vec3 {
-        glossy_radiance(&self.warp, self.roughness.as_ref(), MipRule::Corrected, q.b, q.dir, aim, q.r)
+        // the irradiance first: its loads are independent of probe A's and overlap them
+        let blend = self.irradiance_blend(q);
+        if let Some((e, w)) = blend.filter(|&(_, w)| w >= 1.0) {
+            // probe A's part has weight 0: `mix_irradiance(spec, e, 1)` for any finite spec
+            return mix_irradiance(Vec3::ZERO, e, w);
+        }
+        let spec = glossy_radiance(&self.warp, self.roughness.as_ref(), MipRule::Corrected, q.b, q.dir, aim, q.r);
+        match blend {
+            Some((e, w)) => mix_irradiance(spec, e, w),
+            None => spec,
+        }
     }
 
     /// What a rough lookup blends into its probe-A radiance: the containing cell's
@@ -186,19 +186,14 @@ impl FittedGrid {
             } else {
                 [None; octa::LANES]
             };
-            if (0..octa::LANES).all(|k| w[k] >= 1.0 && e[k].is_some()) {
-                // every lane's probe-A part has weight 0 (as `specular` skips it)
-                std::array::from_fn(|k| e[k].map_or(Vec3::ZERO, |e| mix_irradiance(Vec3::ZERO, e, w[k])))
-            } else {
-                let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &r);
-                let mut out = corrected_lanes(&self.warp.probe, self.roughness.as_ref(), &r, &v, &ratio);
-                for k in 0..octa::LANES {
-                    if let (true, Some(e)) = (w[k] > 0.0, e[k]) {
-                        out[k] = mix_irradiance(out[k], e, w[k]);
-                    }
+            let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &r);
+            let mut out = corrected_lanes(&self.warp.probe, self.roughness.as_ref(), &r, &v, &ratio);
+            for k in 0..octa::LANES {
+                if let (true, Some(e)) = (w[k] > 0.0, e[k]) {
+                    out[k] = mix_irradiance(out[k], e, w[k]);
                 }
-                out
             }
+            out
         };
         if let Some(valid) = valid {
             for k in 0..octa::LANES {
