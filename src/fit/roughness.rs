@@ -19,6 +19,13 @@
 //! should see is exactly that trade, so ꟻLIP judges it. The held-out lookups' tone-mapped
 //! RMSE of every candidate, per row and overall, is recorded beside it (the manifest's
 //! `roughness.heldout_scene`).
+//!
+//! Last, the rough lookups' irradiance blend (`RoughnessFit::irradiance_weight`): the
+//! runtime mixes the containing cell's irradiance over π into a rough lookup, since at
+//! α = 1 the lobe is the clamped cosine and the reference is that irradiance itself. Per
+//! row, the weight with the lowest training tone-mapped RMSE through the row's chosen
+//! mips, or its half or quarter, the largest whose views' ꟻLIP is no worse than without;
+//! the grid keeps the weights only if the held-out tone-mapped RMSE falls.
 
 use super::{DOMAIN_FIT, FitSettings, ROUGH_MIX};
 use crate::bake::Baked;
@@ -331,7 +338,8 @@ fn with_irradiance_blend(
 /// Nelder-Mead on the two exponents from the lobes' exponent), then gives each roughness's
 /// row the candidate rule with the lowest mean ꟻLIP on views from held-out positions (the
 /// lowest held-out tone-mapped RMSE where no view can be rendered), with the comparison
-/// recorded in it. `lobe_fit` comes back unchanged when the scene has no rough queries.
+/// recorded in it, and fits each row's irradiance blend (module docs). `lobe_fit` comes
+/// back unchanged when the scene has no rough queries.
 pub fn fit_scene_correction(
     baked: Baked,
     warp: &Warp,
