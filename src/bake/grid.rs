@@ -295,27 +295,46 @@ fn bake_cell(renderer: &Renderer, s: &GridSettings, cell: usize, tables: &CellTa
             d1 += d as f64;
             d2 += (d as f64) * (d as f64);
             backfaces.add(r.backface || r.backface_two_sided, r.backface_two_sided);
-            for ((e, cs), n) in irradiance.iter_mut().zip(&mut cosine_sum).zip(irr_normals) {
-                let c = n.dot(dir);
-                if c > 0.0 {
-                    *e += r.radiance * (c * weight);
-                    *cs += c * weight;
-                }
-            }
+            splat_cosine(irradiance, &mut cosine_sum, irr_normals, dir, r.radiance, weight);
         }
         mean[t as usize] = (d1 / spp as f64) as f32;
         mean_sq[t as usize] = (d2 / spp as f64) as f32;
         hit_counts[t as usize] = hits;
     }
-    // Ratio estimator: normalise by the quadrature of ∫cos = π itself, which makes a constant
-    // environment exact and removes the quadrature's bias elsewhere.
-    for (e, cs) in irradiance.iter_mut().zip(&cosine_sum) {
-        *e = if *cs > 0.0 { *e * (std::f32::consts::PI / *cs) } else { Vec3::ZERO };
-    }
+    normalise_cosine(irradiance, &cosine_sum);
     let inside = crate::trace::truth::inside_by_backfaces(backfaces, s.inside_backface_fraction);
     // a probe the bake's own rays find inside is dropped: it keeps no offset
     let offset = if inside { Vec3::ZERO } else { offset };
     CellRest { inside, offset, rays }
+}
+
+/// One ray's part of a cell's irradiance map: `radiance` from `dir`, weighted by
+/// `weight` (its texel's solid angle per ray) and each texel normal's clamped cosine, with
+/// the cosines summed beside it for [`normalise_cosine`].
+#[inline]
+fn splat_cosine(
+    irradiance: &mut [Vec3],
+    cosine_sum: &mut [f32],
+    normals: &[Vec3],
+    dir: Vec3,
+    radiance: Vec3,
+    weight: f32,
+) {
+    for ((e, cs), n) in irradiance.iter_mut().zip(cosine_sum).zip(normals) {
+        let c = n.dot(dir);
+        if c > 0.0 {
+            *e += radiance * (c * weight);
+            *cs += c * weight;
+        }
+    }
+}
+
+/// Ratio estimator: normalise by the quadrature of ∫cos = π itself, which makes a constant
+/// environment exact and removes the quadrature's bias elsewhere.
+fn normalise_cosine(irradiance: &mut [Vec3], cosine_sum: &[f32]) {
+    for (e, cs) in irradiance.iter_mut().zip(cosine_sum) {
+        *e = if *cs > 0.0 { *e * (std::f32::consts::PI / *cs) } else { Vec3::ZERO };
+    }
 }
 
 /// Ray `k` of distance texel `t` of the cell with stream `cell_stream`: its sampler, past
@@ -361,18 +380,10 @@ pub fn emitted_irradiance(renderer: &Renderer, s: &GridSettings, grid: &ProbeGri
                     let (_, dir) = texel_ray(s, cell_stream, t, k);
                     let seen =
                         renderer.first_hit(centre, dir, &mut rays).map_or(Vec3::ZERO, |f| renderer.emitted_along(&f));
-                    for ((e, cs), n) in irradiance.iter_mut().zip(&mut cosine_sum).zip(&tables.irr_normals) {
-                        let c = n.dot(dir);
-                        if c > 0.0 {
-                            *e += seen * (c * weight);
-                            *cs += c * weight;
-                        }
-                    }
+                    splat_cosine(irradiance, &mut cosine_sum, &tables.irr_normals, dir, seen, weight);
                 }
             }
-            for (e, cs) in irradiance.iter_mut().zip(&cosine_sum) {
-                *e = if *cs > 0.0 { *e * (std::f32::consts::PI / *cs) } else { Vec3::ZERO };
-            }
+            normalise_cosine(irradiance, &cosine_sum);
             rays
         })
         .collect::<Vec<u64>>()

@@ -34,6 +34,7 @@ use crate::perceptual::{self, RenderSettings, ViewReference};
 use crate::roughness::{
     PerRule, Representation, RoughnessCorrection, RoughnessFit, RowChoice, RowRule, SceneComparison, Source,
 };
+use crate::runtime::IrradianceView;
 use crate::sampling::{Sampler, hash_pair};
 use crate::tonemap::reinhard;
 use crate::trace::Renderer;
@@ -105,7 +106,13 @@ struct Queries {
 /// Rough queries over the active cells with the cells' own mix (`surface_fraction` of the
 /// positions on surfaces, reflecting over their hemisphere; the rest in the volume), traced,
 /// and prepared through `correctives`, split by position into training and held-out halves.
-fn queries(baked: Baked, warp: &Warp, correctives: &Correctives, s: &FitSettings) -> Queries {
+fn queries(
+    baked: Baked,
+    warp: &Warp,
+    correctives: &Correctives,
+    irradiance: &IrradianceView,
+    s: &FitSettings,
+) -> Queries {
     let Baked { scene, tracer, grid, .. } = baked;
     let (g, seed) = (grid.geometry, s.seed);
     let active: Vec<usize> = (0..g.cell_count()).filter(|&c| !grid.inside[c]).collect();
@@ -136,8 +143,6 @@ fn queries(baked: Baked, warp: &Warp, correctives: &Correctives, s: &FitSettings
         })
         .collect();
     let q = TracedQueries::concat(parts);
-    let slots = grid.dense_slots();
-    let irradiance = grid.irradiance_view(&slots);
     let prepared: Vec<(usize, Query)> = (0..q.dirs.len())
         .into_par_iter()
         .map(|k| {
@@ -181,8 +186,9 @@ fn tm_rmse_blended(
         .par_iter()
         .map(|q| {
             let spec = warp.probe.radiance.sample_lod_uv(q.uv, warp.probe.lod_of_roughness(rough(q)));
+            let w = weight(q);
             let est = match q.irradiance {
-                Some(e) if weight(q) > 0.0 => crate::runtime::mix_irradiance(spec, e, weight(q)),
+                Some(e) if w > 0.0 => crate::runtime::mix_irradiance(spec, e, w),
                 _ => spec,
             };
             let d = reinhard(est, exposure) - reinhard(q.reference, exposure);
@@ -348,7 +354,10 @@ pub fn fit_scene_correction(
     s: &FitSettings,
 ) -> RoughnessCorrection {
     let exposure = super::exposure_of(warp);
-    let Queries { train, held, held_positions } = queries(baked, warp, correctives, s);
+    // the irradiance a rough lookup blends in, as the grid written from this bake holds it
+    let slots = baked.grid.dense_slots();
+    let irradiance = baked.grid.irradiance_view(&slots);
+    let Queries { train, held, held_positions } = queries(baked, warp, correctives, &irradiance, s);
     if train.is_empty() || held.is_empty() {
         return lobe_fit.clone();
     }
@@ -370,8 +379,6 @@ pub fn fit_scene_correction(
         .collect();
     let rules = Rules { lobe_fit, c0, exponents: &exponents };
     let views = perceptual::views(baked.scene, baked.tracer, &held_positions, warp.probe.position, &VIEWS);
-    let slots = baked.grid.dense_slots();
-    let irradiance = baked.grid.irradiance_view(&slots);
     let rows: Vec<(RowChoice, f32)> = ROUGH_MIX
         .iter()
         .enumerate()

@@ -207,17 +207,10 @@ impl IrradianceView<'_> {
         let mut out = [None; L];
         for k in 0..L {
             let slot = self.slot[cells[k]];
-            if slot == NO_MAP {
-                continue;
+            if slot != NO_MAP {
+                let taps = octa::footprint_taps(ir, i0[k], j0[k], fx[k], fy[k]);
+                out[k] = Some(self.slot_irradiance(slot as usize, &taps)).filter(|e| e.is_finite());
             }
-            let base = slot as usize * (ir * ir) as usize;
-            let taps = octa::footprint_taps(ir, i0[k], j0[k], fx[k], fy[k]);
-            // `cell_irradiance_at`'s sum, in its order
-            let mut e = Vec3::ZERO;
-            for (t, wt) in taps {
-                e += self.irradiance[base + t as usize] * wt;
-            }
-            out[k] = Some(e).filter(|e| e.is_finite());
         }
         out
     }
@@ -226,20 +219,17 @@ impl IrradianceView<'_> {
     /// the cell is stored.
     #[inline]
     fn cell_irradiance(&self, cell: usize, n: Vec3) -> Option<Vec3> {
-        self.cell_irradiance_at(cell, octa::encode(n))
+        let slot = self.slot[cell];
+        (slot != NO_MAP)
+            .then(|| self.slot_irradiance(slot as usize, &octa::bilinear_taps(self.resolution, octa::encode(n))))
     }
 
-    /// [`IrradianceView::cell_irradiance`] at octahedral coordinate `uv`.
+    /// The irradiance map of slot `slot` blended over bilinear `taps` (texel, weight), summed
+    /// in tap order: every read of one cell's map goes through it.
     #[inline]
-    fn cell_irradiance_at(&self, cell: usize, uv: glam::Vec2) -> Option<Vec3> {
-        let slot = self.slot[cell];
-        if slot == NO_MAP {
-            return None;
-        }
-        let ir = self.resolution;
-        let base = slot as usize * (ir * ir) as usize;
-        let taps = octa::bilinear_taps(ir, uv);
-        Some(taps.iter().map(|&(t, wt)| self.irradiance[base + t as usize] * wt).sum())
+    fn slot_irradiance(&self, slot: usize, taps: &[(u32, f32); 4]) -> Vec3 {
+        let base = slot * (self.resolution * self.resolution) as usize;
+        taps.iter().map(|&(t, wt)| self.irradiance[base + t as usize] * wt).sum()
     }
 
     /// The terms of `blend` (not `Biased`: see [`IrradianceView::biased_terms`]).
@@ -265,7 +255,7 @@ impl IrradianceView<'_> {
         let base = base.as_uvec3();
         let taps_n = octa::bilinear_taps(g.resolution, octa::encode(n));
         let cell_size = geo.cell_size();
-        let (ir, dr) = (g.resolution, g.depth_resolution);
+        let dr = g.depth_resolution;
         let mut wsum = 0.0f32;
         for corner in 0..8u32 {
             let o = UVec3::new(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
@@ -309,8 +299,7 @@ impl IrradianceView<'_> {
             }
             // keep a trace of every stored neighbour so a fully occluded blend stays defined
             let w = w.max(1e-6 * tri);
-            let base = slot * (ir * ir) as usize;
-            let e: Vec3 = taps_n.iter().map(|&(t, wt)| g.irradiance[base + t as usize] * wt).sum();
+            let e = g.slot_irradiance(slot, &taps_n);
             out.terms[out.count] = (cell as u32, w, e);
             out.count += 1;
             wsum += w;
