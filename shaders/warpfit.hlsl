@@ -24,6 +24,7 @@ struct Params {
 struct Cell {
     int4 tiles;
     float4 offset;
+    float4 sh[9];
 };
 
 struct Footprint {
@@ -364,11 +365,11 @@ float4 probe_bilinear(uint which_1, float2 uv_1, uint level_1)
     float _e6 = params.warp.z;
     float _e10 = params.warp.y;
     float res0_ = ((which_1 == 0u) ? _e10 : _e6);
-    uint n_6 = max((naga_f2u32(res0_) >> level_1), 1u);
-    const Footprint _e18 = footprint(n_6, uv_1);
+    uint n_7 = max((naga_f2u32(res0_) >> level_1), 1u);
+    const Footprint _e18 = footprint(n_7, uv_1);
     int2 c_6 = _e18.corner;
     int l_3 = int(level_1);
-    int ni = int(n_6);
+    int ni = int(n_7);
     const int2 _e22 = wrap_texel(ni, c_6);
     const float4 _e23 = probe_texel(which_1, _e22, l_3);
     const int2 _e28 = wrap_texel(ni, asint(asuint(c_6) + asuint(int2(int(1), int(0)))));
@@ -424,16 +425,16 @@ float inv_dist(float3 v_4)
     float _e6 = params.probe.w;
     uint _e10 = params.probe_info.y;
     const float4 _e11 = probe_sample_lod(1u, _e2, _e6, _e10);
-    float w_2 = _e11.x;
-    if ((w_2 > 0.0)) {
-        const bool _e17 = finite(w_2);
+    float w_3 = _e11.x;
+    if ((w_3 > 0.0)) {
+        const bool _e17 = finite(w_3);
         local_9 = _e17;
     } else {
         local_9 = false;
     }
     bool _e19 = local_9;
     if (_e19) {
-        return w_2;
+        return w_3;
     }
     return 0.0;
 }
@@ -492,8 +493,8 @@ float3 cell_size()
 
 uint cell_index(uint3 c_2)
 {
-    uint4 n_7 = params.grid_counts;
-    return (c_2.x + (n_7.x * (c_2.y + (n_7.y * c_2.z))));
+    uint4 n_8 = params.grid_counts;
+    return (c_2.x + (n_8.x * (c_2.y + (n_8.y * c_2.z))));
 }
 
 uint3 naga_f2u32(float3 value) {
@@ -583,10 +584,10 @@ float2 warp1_exit(float3 b_2, float3 dir)
     if (!((lambda > 0.0))) {
         return float2(1e30, 1.0);
     }
-    float t_10 = (max(((dir_ab * lambda) + dot(dir, v_9)), 0.0) / lambda);
-    const bool _e37 = finite(t_10);
+    float t_9 = (max(((dir_ab * lambda) + dot(dir, v_9)), 0.0) / lambda);
+    const bool _e37 = finite(t_9);
     if (_e37) {
-        local_10 = (t_10 < HUGE);
+        local_10 = (t_9 < HUGE);
     } else {
         local_10 = false;
     }
@@ -594,7 +595,7 @@ float2 warp1_exit(float3 b_2, float3 dir)
     if (!(_e43)) {
         return float2(1e30, 1.0);
     }
-    return float2(t_10, 1.0);
+    return float2(t_9, 1.0);
 }
 
 float3 warp1_(float3 b_3, float3 dir_1)
@@ -610,8 +611,8 @@ float3 warp1_(float3 b_3, float3 dir_1)
     float3 v_10 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
     const float _e20 = inv_dist(v_10);
     float lambda_1 = (length(v_10) * _e20);
-    float t_11 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_10)), 0.0);
-    float3 f_5 = ((dir_1 * t_11) - (ab_1 * lambda_1));
+    float t_10 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_10)), 0.0);
+    float3 f_5 = ((dir_1 * t_10) - (ab_1 * lambda_1));
     if ((lambda_1 > 0.0)) {
         const float3 _e34 = fetch_vector((0.0).xxx, f_5, dir_1);
         return _e34;
@@ -701,14 +702,14 @@ float2 kdop_exit(float3 b_5, float3 dir_3)
             }
             uint _e21 = k_1;
             float4 _e23 = params.kdop[_e21];
-            float3 n_8 = _e23.xyz;
+            float3 n_9 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = params.kdop[_e27].w;
-            float nb = dot(n_8, b_5);
+            float nb = dot(n_9, b_5);
             if ((nb > h_1)) {
                 return float2(0.0, 0.0);
             }
-            float nd = dot(n_8, dir_3);
+            float nd = dot(n_9, dir_3);
             if ((nd > 0.0)) {
                 float _e39 = t_4;
                 t_4 = min(_e39, ((h_1 - nb) / nd));
@@ -813,7 +814,7 @@ float3 fallback_fetch(float3 b_9, float3 dir_7)
     float _e18 = params.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
     const Basis _e20 = orthonormal_basis(dir_7);
-    float3 t_12 = (_e20.t * angle);
+    float3 t_11 = (_e20.t * angle);
     float3 bt = (_e20.b * angle);
     plain = dir_7;
     uint2 loop_bound_2 = uint2(4294967295u, 4294967295u);
@@ -837,11 +838,11 @@ float3 fallback_fetch(float3 b_9, float3 dir_7)
             bool should_continue = false;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_7 + t_12));
+                    d_1 = normalize((dir_7 + t_11));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_7 - t_12));
+                    d_1 = normalize((dir_7 - t_11));
                     break;
                 }
                 case 3u: {
@@ -949,36 +950,29 @@ float map_delta(int tile_1, float2 uv_5)
     return _e11.x;
 }
 
-float cell_delta(Cell cell, float2 uv_6, float r)
+float cell_delta(int4 tiles, float2 uv_6, float r)
 {
     float w = (float)0;
 
-    if ((cell.tiles.w < int(0))) {
-        const float _e9 = map_delta(cell.tiles.x, uv_6);
-        return _e9;
+    if ((tiles.w < int(0))) {
+        const float _e7 = map_delta(tiles.x, uv_6);
+        return _e7;
     }
     w = ((r - ROUGH_MAP_FROM) / 0.25);
-    float _e15 = w;
-    if (!((_e15 > 0.0))) {
-        const float _e21 = map_delta(cell.tiles.x, uv_6);
-        return _e21;
+    float _e13 = w;
+    if (!((_e13 > 0.0))) {
+        const float _e18 = map_delta(tiles.x, uv_6);
+        return _e18;
     }
-    float _e22 = w;
-    if ((_e22 >= 1.0)) {
-        const float _e27 = map_delta(cell.tiles.w, uv_6);
-        return _e27;
+    float _e19 = w;
+    if ((_e19 >= 1.0)) {
+        const float _e23 = map_delta(tiles.w, uv_6);
+        return _e23;
     }
-    const float _e30 = map_delta(cell.tiles.x, uv_6);
-    const float _e33 = map_delta(cell.tiles.w, uv_6);
-    float _e35 = w;
-    return (_e30 + ((_e33 - _e30) * _e35));
-}
-
-Cell ConstructCell(int4 arg0, float4 arg1) {
-    Cell ret = (Cell)0;
-    ret.tiles = arg0;
-    ret.offset = arg1;
-    return ret;
+    const float _e25 = map_delta(tiles.x, uv_6);
+    const float _e27 = map_delta(tiles.w, uv_6);
+    float _e29 = w;
+    return (_e25 + ((_e27 - _e25) * _e29));
 }
 
 Aim fetch(float3 b_11, float3 dir_9, float r_1)
@@ -999,9 +993,9 @@ Aim fetch(float3 b_11, float3 dir_9, float r_1)
     if ((_e17 == 0u)) {
         const uint3 _e21 = cell_of(b_11, _e12);
         const uint _e22 = cell_index(_e21);
-        Cell cell_1 = ConstructCell(asint(cells.Load4(_e22*32+0)), asfloat(cells.Load4(_e22*32+16)));
-        if ((cell_1.tiles.x >= int(0))) {
-            const float _e29 = cell_delta(cell_1, _e11, r_1);
+        int4 tiles_1 = asint(cells.Load4(0+_e22*176));
+        if ((tiles_1.x >= int(0))) {
+            const float _e29 = cell_delta(tiles_1, _e11, r_1);
             delta_1 = _e29;
             mapped = true;
         }
@@ -1026,12 +1020,12 @@ Aim fetch(float3 b_11, float3 dir_9, float r_1)
                 uint _e38 = corner_2;
                 const uint3 _e39 = corner_cell(_e31, _e38);
                 const uint _e40 = cell_index(_e39);
-                Cell cell_2 = ConstructCell(asint(cells.Load4(_e40*32+0)), asfloat(cells.Load4(_e40*32+16)));
-                if ((cell_2.tiles.x >= int(0))) {
+                int4 tiles_2 = asint(cells.Load4(0+_e40*176));
+                if ((tiles_2.x >= int(0))) {
                     float _e47 = delta_1;
                     uint _e48 = corner_2;
                     const float _e49 = corner_weight(_e31, _e48);
-                    const float _e50 = cell_delta(cell_2, _e11, r_1);
+                    const float _e50 = cell_delta(tiles_2, _e11, r_1);
                     delta_1 = (_e47 + (_e49 * _e50));
                     mapped = true;
                 }
@@ -1071,8 +1065,8 @@ float lod_of_roughness(float r_2)
     uint t_5 = 0u;
     float f_2 = 0.0;
 
-    uint n_9 = params.probe_info.x;
-    if (!((n_9 < 2u))) {
+    uint n_10 = params.probe_info.x;
+    if (!((n_10 < 2u))) {
         const float _e11 = mip_roughness(0u);
         local_17 = !((r_2 > _e11));
     } else {
@@ -1082,7 +1076,7 @@ float lod_of_roughness(float r_2)
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_9 - 1u);
+    uint last = (n_10 - 1u);
     const float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
@@ -1098,7 +1092,7 @@ float lod_of_roughness(float r_2)
         }
         loop_init_4 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_9)) {
+        if ((_e26 < n_10)) {
         } else {
             break;
         }
@@ -1133,7 +1127,7 @@ float distance_ratio(float3 b_12, float3 v_6, float2 uv_7)
     float _e8 = params.probe.w;
     uint _e12 = params.probe_info.y;
     const float4 _e13 = probe_sample_lod(1u, uv_7, _e8, _e12);
-    float w_3 = _e13.x;
+    float w_4 = _e13.x;
     if ((l_5 > 0.0)) {
         const bool _e19 = finite(l_5);
         local_18 = _e19;
@@ -1142,13 +1136,13 @@ float distance_ratio(float3 b_12, float3 v_6, float2 uv_7)
     }
     bool _e21 = local_18;
     if (_e21) {
-        local_19 = (w_3 > 0.0);
+        local_19 = (w_4 > 0.0);
     } else {
         local_19 = false;
     }
     bool _e27 = local_19;
     if (_e27) {
-        const bool _e30 = finite(w_3);
+        const bool _e30 = finite(w_4);
         local_20 = _e30;
     } else {
         local_20 = false;
@@ -1157,7 +1151,7 @@ float distance_ratio(float3 b_12, float3 v_6, float2 uv_7)
     if (!(_e32)) {
         return 1.0;
     }
-    float d_probe = (1.0 / w_3);
+    float d_probe = (1.0 / w_4);
     float4 _e39 = params.probe;
     float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_12));
     float k_10 = (d_probe / d_surface);
@@ -1177,9 +1171,9 @@ float distance_ratio(float3 b_12, float3 v_6, float2 uv_7)
 float pseudo_log2_(float k_3)
 {
     uint bits = asuint(k_3);
-    int e_1 = asint(asuint(int(((bits >> 23u) & 255u))) - asuint(int(127)));
+    int e_2 = asint(asuint(int(((bits >> 23u) & 255u))) - asuint(int(127)));
     float m_3 = asfloat(((bits & 8388607u) | 1065353216u));
-    return (float(e_1) + (m_3 - 1.0));
+    return (float(e_2) + (m_3 - 1.0));
 }
 
 float corrected_roughness(float r_3, float k_in)
@@ -1188,8 +1182,8 @@ float corrected_roughness(float r_3, float k_in)
     float k_4 = 1.0;
     bool local_22 = (bool)0;
 
-    uint n_10 = params.lut_info.x;
-    float last_1 = float((n_10 - 1u));
+    uint n_11 = params.lut_info.x;
+    float last_1 = float((n_11 - 1u));
     const bool _e11 = finite(r_3);
     if (_e11) {
         fr = clamp((r_3 * last_1), 0.0, last_1);
@@ -1214,8 +1208,8 @@ float corrected_roughness(float r_3, float k_in)
     float _e44 = params.lut.y;
     float fx = clamp(((_e35 - _e39) * _e44), 0.0, last_1);
     float _e48 = fr;
-    uint i_6 = min(naga_f2u32(_e48), (n_10 - 2u));
-    uint j_5 = min(naga_f2u32(fx), (n_10 - 2u));
+    uint i_6 = min(naga_f2u32(_e48), (n_11 - 2u));
+    uint j_5 = min(naga_f2u32(fx), (n_11 - 2u));
     float _e57 = fr;
     float a_3 = (_e57 - float(i_6));
     float b_20 = (fx - float(j_5));
@@ -1273,11 +1267,11 @@ float blend_node_w(uint k_7)
 float irradiance_weight(float r_5)
 {
     bool local_23 = (bool)0;
+    float w_1 = (float)0;
     uint k_8 = 1u;
-    float t_6 = (float)0;
 
-    uint n_11 = params.lut_info.y;
-    if (!((n_11 == 0u))) {
+    uint n_12 = params.lut_info.y;
+    if (!((n_12 == 0u))) {
         local_23 = !((r_5 > 0.0));
     } else {
         local_23 = true;
@@ -1286,52 +1280,40 @@ float irradiance_weight(float r_5)
     if (_e14) {
         return 0.0;
     }
-    const float _e17 = blend_node_r(0u);
-    if ((r_5 <= _e17)) {
-        const float _e20 = blend_node_w(0u);
-        return _e20;
-    }
-    const float _e23 = blend_node_r((n_11 - 1u));
-    if ((r_5 >= _e23)) {
-        const float _e27 = blend_node_w((n_11 - 1u));
-        return _e27;
-    }
+    const float _e17 = blend_node_w(0u);
+    w_1 = _e17;
     uint2 loop_bound_5 = uint2(4294967295u, 4294967295u);
     bool loop_init_5 = true;
     while(true) {
         if (all(loop_bound_5 == uint2(0u, 0u))) { break; }
         loop_bound_5 -= uint2(loop_bound_5.y == 0u, 1u);
         if (!loop_init_5) {
-            uint _e59 = k_8;
-            k_8 = (_e59 + 1u);
+            uint _e49 = k_8;
+            k_8 = (_e49 + 1u);
         }
         loop_init_5 = false;
-        uint _e30 = k_8;
-        if ((_e30 < n_11)) {
+        uint _e21 = k_8;
+        if ((_e21 < n_12)) {
         } else {
             break;
         }
         {
-            uint _e32 = k_8;
-            const float _e33 = blend_node_r(_e32);
-            if ((r_5 <= _e33)) {
-                uint _e35 = k_8;
-                const float _e38 = blend_node_r((_e35 - 1u));
-                uint _e39 = k_8;
-                const float _e42 = blend_node_w((_e39 - 1u));
-                t_6 = 1.0;
-                if ((_e33 > _e38)) {
-                    t_6 = ((r_5 - _e38) / (_e33 - _e38));
-                }
-                uint _e49 = k_8;
-                const float _e50 = blend_node_w(_e49);
-                float _e52 = t_6;
-                return clamp((_e42 + ((_e50 - _e42) * _e52)), 0.0, 1.0);
+            uint _e23 = k_8;
+            const float _e26 = blend_node_r((_e23 - 1u));
+            if ((r_5 > _e26)) {
+                uint _e29 = k_8;
+                const float _e30 = blend_node_r(_e29);
+                float t_12 = min(max(((r_5 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                uint _e37 = k_8;
+                const float _e40 = blend_node_w((_e37 - 1u));
+                uint _e44 = k_8;
+                const float _e45 = blend_node_w(_e44);
+                w_1 = ((_e40 * (1.0 - t_12)) + (_e45 * t_12));
             }
         }
     }
-    const float _e63 = blend_node_w((n_11 - 1u));
-    return _e63;
+    float _e51 = w_1;
+    return min(max(_e51, 0.0), 1.0);
 }
 
 float3 clean(float3 c_4)
@@ -1343,20 +1325,49 @@ float3 clean(float3 c_4)
     return (0.0).xxx;
 }
 
-float3 cell_irradiance(int tile_2, float3 n_4)
+float3 cell_sh_irradiance(uint cell, float3 n_4)
 {
-    uint _e6 = params.atlas_a.z;
-    uint _e10 = params.atlas_a.w;
-    const float2 _e11 = oct_encode(n_4);
-    const float4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
-    return _e12.xyz;
+    float3 e = (float3)0;
+
+    float x_4 = n_4.x;
+    float y = n_4.y;
+    float z = n_4.z;
+    float4 _e9 = asfloat(cells.Load4(0+32+cell*176));
+    e = (_e9.xyz * 0.2820948);
+    float3 _e14 = e;
+    float4 _e19 = asfloat(cells.Load4(16+32+cell*176));
+    e = (_e14 + (_e19.xyz * (0.4886025 * y)));
+    float3 _e25 = e;
+    float4 _e30 = asfloat(cells.Load4(32+32+cell*176));
+    e = (_e25 + (_e30.xyz * (0.4886025 * z)));
+    float3 _e36 = e;
+    float4 _e41 = asfloat(cells.Load4(48+32+cell*176));
+    e = (_e36 + (_e41.xyz * (0.4886025 * x_4)));
+    float3 _e47 = e;
+    float4 _e52 = asfloat(cells.Load4(64+32+cell*176));
+    e = (_e47 + (_e52.xyz * (1.0925484 * (x_4 * y))));
+    float3 _e59 = e;
+    float4 _e64 = asfloat(cells.Load4(80+32+cell*176));
+    e = (_e59 + (_e64.xyz * (1.0925484 * (y * z))));
+    float3 _e71 = e;
+    float4 _e76 = asfloat(cells.Load4(96+32+cell*176));
+    e = (_e71 + (_e76.xyz * (0.31539157 * ((3.0 * (z * z)) - 1.0))));
+    float3 _e87 = e;
+    float4 _e92 = asfloat(cells.Load4(112+32+cell*176));
+    e = (_e87 + (_e92.xyz * (1.0925484 * (x_4 * z))));
+    float3 _e99 = e;
+    float4 _e104 = asfloat(cells.Load4(128+32+cell*176));
+    e = (_e99 + (_e104.xyz * (0.5462742 * ((x_4 * x_4) - (y * y)))));
+    float3 _e113 = e;
+    return max(_e113, (0.0).xxx);
 }
 
 float3 specular(float3 position, float3 direction, float roughness)
 {
     float3 b_14 = (float3)0;
     float r_6 = 0.0;
-    int tile_3 = int(-1);
+    uint cell_1 = 0u;
+    bool stored = false;
     bool local_24 = (bool)0;
     float3 c_5 = (float3)0;
 
@@ -1377,52 +1388,63 @@ float3 specular(float3 position, float3 direction, float roughness)
     float _e21 = r_6;
     const float _e22 = irradiance_weight(_e21);
     if ((_e22 > 0.0)) {
-        float3 _e28 = b_14;
-        const float3 _e29 = cell_size();
-        const uint3 _e30 = cell_of(_e28, _e29);
-        const uint _e31 = cell_index(_e30);
-        int _e35 = asint(cells.Load(4+0+_e31*32));
-        tile_3 = _e35;
+        float3 _e29 = b_14;
+        const float3 _e30 = cell_size();
+        const uint3 _e31 = cell_of(_e29, _e30);
+        const uint _e32 = cell_index(_e31);
+        cell_1 = _e32;
+        uint _e34 = cell_1;
+        int _e38 = asint(cells.Load(4+0+_e34*176));
+        stored = (_e38 >= int(0));
     }
-    int _e36 = tile_3;
-    if ((_e36 >= int(0))) {
+    bool _e41 = stored;
+    if (_e41) {
         local_24 = (_e22 >= 1.0);
     } else {
         local_24 = false;
     }
-    bool _e44 = local_24;
-    if (_e44) {
-        int _e45 = tile_3;
-        const float3 _e47 = cell_irradiance(_e45, _e3.xyz);
-        const float3 _e51 = clean((_e47 * (_e22 * 0.31830987)));
-        return _e51;
+    bool _e47 = local_24;
+    if (_e47) {
+        uint _e48 = cell_1;
+        const float3 _e50 = cell_sh_irradiance(_e48, _e3.xyz);
+        const float3 _e54 = clean((_e50 * (_e22 * 0.31830987)));
+        return _e54;
     }
-    float3 _e52 = b_14;
-    float3 _e53 = b_14;
-    float _e55 = r_6;
-    const Aim _e56 = fetch(_e53, _e3.xyz, _e55);
-    float _e57 = r_6;
-    const float3 _e58 = shade(_e52, _e56, _e57);
-    c_5 = _e58;
-    int _e60 = tile_3;
-    if ((_e60 >= int(0))) {
-        float3 _e63 = c_5;
-        int _e67 = tile_3;
-        const float3 _e69 = cell_irradiance(_e67, _e3.xyz);
-        c_5 = ((_e63 * (1.0 - _e22)) + (_e69 * (_e22 * 0.31830987)));
+    float3 _e55 = b_14;
+    float3 _e56 = b_14;
+    float _e58 = r_6;
+    const Aim _e59 = fetch(_e56, _e3.xyz, _e58);
+    float _e60 = r_6;
+    const float3 _e61 = shade(_e55, _e59, _e60);
+    c_5 = _e61;
+    bool _e63 = stored;
+    if (_e63) {
+        float3 _e64 = c_5;
+        uint _e68 = cell_1;
+        const float3 _e70 = cell_sh_irradiance(_e68, _e3.xyz);
+        c_5 = ((_e64 * (1.0 - _e22)) + (_e70 * (_e22 * 0.31830987)));
     }
-    float3 _e74 = c_5;
-    const float3 _e75 = clean(_e74);
-    return _e75;
+    float3 _e75 = c_5;
+    const float3 _e76 = clean(_e75);
+    return _e76;
+}
+
+float3 cell_irradiance(int tile_2, float3 n_5)
+{
+    uint _e6 = params.atlas_a.z;
+    uint _e10 = params.atlas_a.w;
+    const float2 _e11 = oct_encode(n_5);
+    const float4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
+    return _e12.xyz;
 }
 
 float3 irradiance(float3 position_1, float3 normal)
 {
     float3 p_3 = (float3)0;
-    float3 e = (0.0).xxx;
+    float3 e_1 = (0.0).xxx;
     float wsum = 0.0;
     uint corner_3 = 0u;
-    float w_1 = (float)0;
+    float w_2 = (float)0;
     bool local_25 = (bool)0;
     float k_9 = (float)0;
 
@@ -1430,29 +1452,29 @@ float3 irradiance(float3 position_1, float3 normal)
     if ((_e2.w == 0.0)) {
         return (0.0).xxx;
     }
-    float3 n_12 = _e2.xyz;
+    float3 n_13 = _e2.xyz;
     const float3 _e9 = cell_size();
     float4 _e12 = params.grid_min;
     float4 _e16 = params.grid_max;
     float4 _e20 = params.grid_min;
     p_3 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = params.grid_min.w;
-    float3 biased = (position_1 + (n_12 * _e30));
+    float3 biased = (position_1 + (n_13 * _e30));
     const bool _e33 = finite3_(biased);
     if (_e33) {
         p_3 = biased;
     }
     float3 _e34 = p_3;
     const Lattice _e35 = lattice(_e34, _e9);
-    const float2 _e36 = oct_encode(n_12);
+    const float2 _e36 = oct_encode(n_13);
     uint2 loop_bound_6 = uint2(4294967295u, 4294967295u);
     bool loop_init_6 = true;
     while(true) {
         if (all(loop_bound_6 == uint2(0u, 0u))) { break; }
         loop_bound_6 -= uint2(loop_bound_6.y == 0u, 1u);
         if (!loop_init_6) {
-            uint _e158 = corner_3;
-            corner_3 = (_e158 + 1u);
+            uint _e157 = corner_3;
+            corner_3 = (_e157 + 1u);
         }
         loop_init_6 = false;
         uint _e44 = corner_3;
@@ -1468,77 +1490,78 @@ float3 irradiance(float3 position_1, float3 normal)
             }
             uint _e51 = corner_3;
             const uint3 _e52 = corner_cell(_e35, _e51);
-            const uint _e54 = cell_index(_e52);
-            Cell cell_3 = ConstructCell(asint(cells.Load4(_e54*32+0)), asfloat(cells.Load4(_e54*32+16)));
-            if ((cell_3.tiles.y < int(0))) {
+            const uint _e53 = cell_index(_e52);
+            int4 tiles_3 = asint(cells.Load4(0+_e53*176));
+            if ((tiles_3.y < int(0))) {
                 continue;
             }
             float3 _e61 = p_3;
             const float3 _e62 = cell_centre(_e52, _e9);
-            float3 to_point = (_e61 - (_e62 + cell_3.offset.xyz));
+            float4 _e66 = asfloat(cells.Load4(16+_e53*176));
+            float3 to_point = (_e61 - (_e62 + _e66.xyz));
             float dist = length(to_point);
-            w_1 = _e48;
+            w_2 = _e48;
             if ((dist > 0.0)) {
-                const bool _e73 = finite(dist);
-                local_25 = _e73;
+                const bool _e76 = finite(dist);
+                local_25 = _e76;
             } else {
                 local_25 = false;
             }
-            bool _e75 = local_25;
-            if (_e75) {
+            bool _e78 = local_25;
+            if (_e78) {
                 float3 u = (to_point / (dist).xxx);
-                float facing = ((dot(n_12, -(u)) + 1.0) * 0.5);
-                float _e84 = w_1;
-                w_1 = (_e84 * ((facing * facing) + 0.2));
-                uint _e95 = params.atlas_b.x;
-                uint _e99 = params.atlas_b.y;
-                const float2 _e100 = oct_encode(u);
-                const float4 _e101 = atlas_bilinear(ATLAS_MOMENTS, cell_3.tiles.y, _e95, _e99, _e100);
-                float mean = _e101.x;
-                float mean_sq = _e101.y;
+                float facing = ((dot(n_13, -(u)) + 1.0) * 0.5);
+                float _e87 = w_2;
+                w_2 = (_e87 * ((facing * facing) + 0.2));
+                uint _e97 = params.atlas_b.x;
+                uint _e101 = params.atlas_b.y;
+                const float2 _e102 = oct_encode(u);
+                const float4 _e103 = atlas_bilinear(ATLAS_MOMENTS, tiles_3.y, _e97, _e101, _e102);
+                float mean = _e103.x;
+                float mean_sq = _e103.y;
                 if ((dist > mean)) {
                     float variance = max(abs((mean_sq - (mean * mean))), ((1e-12 * mean) * mean));
                     float dd = (dist - mean);
                     float cheb = (variance / (variance + (dd * dd)));
-                    float _e116 = w_1;
-                    w_1 = (_e116 * max(((cheb * cheb) * cheb), 0.0));
+                    float _e118 = w_2;
+                    w_2 = (_e118 * max(((cheb * cheb) * cheb), 0.0));
                 }
             }
-            float _e122 = w_1;
-            w_1 = max(_e122, (1e-6 * _e48));
+            float _e124 = w_2;
+            w_2 = max(_e124, (1e-6 * _e48));
             k_9 = 1.0;
-            if ((cell_3.tiles.z >= int(0))) {
+            if ((tiles_3.z >= int(0))) {
                 uint _e138 = params.atlas_b.z;
                 uint _e142 = params.atlas_b.w;
-                const float4 _e143 = atlas_bilinear(ATLAS_SCALE, cell_3.tiles.z, _e138, _e142, _e36);
+                const float4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_3.z, _e138, _e142, _e36);
                 k_9 = _e143.x;
             }
-            float3 _e145 = e;
-            const float3 _e148 = cell_irradiance(cell_3.tiles.y, n_12);
-            float _e149 = w_1;
-            float _e151 = k_9;
-            e = (_e145 + ((_e148 * _e149) * _e151));
-            float _e154 = wsum;
-            float _e155 = w_1;
-            wsum = (_e154 + _e155);
+            float3 _e145 = e_1;
+            const float3 _e147 = cell_irradiance(tiles_3.y, n_13);
+            float _e148 = w_2;
+            float _e150 = k_9;
+            e_1 = (_e145 + ((_e147 * _e148) * _e150));
+            float _e153 = wsum;
+            float _e154 = w_2;
+            wsum = (_e153 + _e154);
         }
     }
-    float _e160 = wsum;
-    if (!((_e160 > 0.0))) {
+    float _e159 = wsum;
+    if (!((_e159 > 0.0))) {
         return (0.0).xxx;
     }
-    float3 _e166 = e;
-    float _e167 = wsum;
-    const float3 _e170 = clean((_e166 / (_e167).xxx));
-    return _e170;
+    float3 _e165 = e_1;
+    float _e166 = wsum;
+    const float3 _e169 = clean((_e165 / (_e166).xxx));
+    return _e169;
 }
 
 float2 hemi_encode(float3 v_7)
 {
     bool local_26 = (bool)0;
 
-    float z = max(v_7.z, 0.0);
-    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
+    float z_1 = max(v_7.z, 0.0);
+    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         const bool _e14 = finite(l1_1);
         local_26 = _e14;
@@ -1562,7 +1585,7 @@ SurfaceAxis ConstructSurfaceAxis(uint arg0, uint arg1, float arg2) {
     return ret;
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_5)
+SurfaceAxis surface_axis(float x_in, uint n_6)
 {
     float x_2 = 0.5;
 
@@ -1571,9 +1594,9 @@ SurfaceAxis surface_axis(float x_in, uint n_5)
         x_2 = x_in;
     }
     float _e5 = x_2;
-    float c_8 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
+    float c_8 = clamp(((_e5 * float(n_6)) - 0.5), 0.0, float((n_6 - 1u)));
     uint i0_ = naga_f2u32(floor(c_8));
-    const SurfaceAxis surfaceaxis = ConstructSurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_8 - float(i0_)));
+    const SurfaceAxis surfaceaxis = ConstructSurfaceAxis(i0_, min((i0_ + 1u), (n_6 - 1u)), (c_8 - float(i0_)));
     return surfaceaxis;
 }
 
@@ -1587,39 +1610,39 @@ SurfaceTaps ConstructSurfaceTaps(uint2 arg0, uint2 arg1, float2 arg2) {
 
 SurfaceTaps surface_taps(float2 uv_8)
 {
-    uint n_13 = surface_params.shape.z;
-    float nf = float(n_13);
-    float x_4 = clamp(((uv_8.x * nf) - 0.5), 0.0, (nf - 1.0));
-    float y = clamp(((uv_8.y * nf) - 0.5), 0.0, (nf - 1.0));
-    float x0_1 = floor(x_4);
-    float y0_ = floor(y);
+    uint n_14 = surface_params.shape.z;
+    float nf = float(n_14);
+    float x_5 = clamp(((uv_8.x * nf) - 0.5), 0.0, (nf - 1.0));
+    float y_1 = clamp(((uv_8.y * nf) - 0.5), 0.0, (nf - 1.0));
+    float x0_1 = floor(x_5);
+    float y0_ = floor(y_1);
     uint2 lo = uint2(naga_f2u32(x0_1), naga_f2u32(y0_));
-    const SurfaceTaps surfacetaps = ConstructSurfaceTaps(lo, min((lo + (1u).xx), ((n_13 - 1u)).xx), float2((x_4 - x0_1), (y - y0_)));
+    const SurfaceTaps surfacetaps = ConstructSurfaceTaps(lo, min((lo + (1u).xx), ((n_14 - 1u)).xx), float2((x_5 - x0_1), (y_1 - y0_)));
     return surfacetaps;
 }
 
-float3 surface_tile(uint i_1, uint j_1, uint layer, SurfaceTaps t_7)
+float3 surface_tile(uint i_1, uint j_1, uint layer, SurfaceTaps t_6)
 {
     uint _e8 = surface_params.shape.z;
     uint2 o_3 = (uint2(i_1, j_1) * _e8);
     int l_6 = int(layer);
-    float4 q00_1 = surface_radiance.Load(int4(int2((o_3 + t_7.lo)), l_6, int(0)));
-    float4 q10_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_7.hi.x, t_7.lo.y))), l_6, int(0)));
-    float4 q01_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_7.lo.x, t_7.hi.y))), l_6, int(0)));
-    float4 q11_1 = surface_radiance.Load(int4(int2((o_3 + t_7.hi)), l_6, int(0)));
-    const float4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_7.f);
+    float4 q00_1 = surface_radiance.Load(int4(int2((o_3 + t_6.lo)), l_6, int(0)));
+    float4 q10_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.hi.x, t_6.lo.y))), l_6, int(0)));
+    float4 q01_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.lo.x, t_6.hi.y))), l_6, int(0)));
+    float4 q11_1 = surface_radiance.Load(int4(int2((o_3 + t_6.hi)), l_6, int(0)));
+    const float4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_6.f);
     return _e44.xyz;
 }
 
-float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_8)
+float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_7)
 {
     uint _e7 = surface_params.shape.z;
     uint2 o_4 = (uint2(i_2, j_2) * _e7);
-    float4 q00_2 = surface_inv_distance.Load(int3(int2((o_4 + t_8.lo)), int(0)));
-    float4 q10_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(t_8.hi.x, t_8.lo.y))), int(0)));
-    float4 q01_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(t_8.lo.x, t_8.hi.y))), int(0)));
-    float4 q11_2 = surface_inv_distance.Load(int3(int2((o_4 + t_8.hi)), int(0)));
-    const float4 _e42 = blend4_(q00_2, q10_2, q01_2, q11_2, t_8.f);
+    float4 q00_2 = surface_inv_distance.Load(int3(int2((o_4 + t_7.lo)), int(0)));
+    float4 q10_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(t_7.hi.x, t_7.lo.y))), int(0)));
+    float4 q01_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(t_7.lo.x, t_7.hi.y))), int(0)));
+    float4 q11_2 = surface_inv_distance.Load(int3(int2((o_4 + t_7.hi)), int(0)));
+    const float4 _e42 = blend4_(q00_2, q10_2, q01_2, q11_2, t_7.f);
     return _e42.x;
 }
 
@@ -1659,11 +1682,11 @@ SurfaceTaps surface_warped_taps(uint i_3, uint j_3, float3 b_15, float3 local_27
     return surfacetaps_2;
 }
 
-float3 surface_probe(uint i_4, uint j_4, SurfaceTaps t_9, uint m0_, uint m1_, float fm)
+float3 surface_probe(uint i_4, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, float fm)
 {
-    const float3 _e6 = surface_tile(i_4, j_4, m0_, t_9);
+    const float3 _e6 = surface_tile(i_4, j_4, m0_, t_8);
     if ((fm > 0.0)) {
-        const float3 _e9 = surface_tile(i_4, j_4, m1_, t_9);
+        const float3 _e9 = surface_tile(i_4, j_4, m1_, t_8);
         return lerp(_e6, _e9, fm);
     }
     return _e6;
@@ -1790,8 +1813,8 @@ void irradiance_queries(uint3 id_1 : SV_DispatchThreadID)
         return;
     }
     float4 p_5 = asfloat(queries.Load4((2u * k_12)*16));
-    float4 n_14 = asfloat(queries.Load4(((2u * k_12) + 1u)*16));
-    const float3 _e20 = irradiance(p_5.xyz, n_14.xyz);
+    float4 n_15 = asfloat(queries.Load4(((2u * k_12) + 1u)*16));
+    const float3 _e20 = irradiance(p_5.xyz, n_15.xyz);
     results.Store4(k_12*16, asuint(float4(_e20, 1.0)));
     return;
 }

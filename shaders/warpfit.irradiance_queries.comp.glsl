@@ -28,6 +28,7 @@ struct Params {
 struct Cell {
     ivec4 tiles;
     vec4 offset;
+    vec4 sh[9];
 };
 struct Footprint {
     ivec2 corner;
@@ -92,11 +93,11 @@ layout(binding = 5) uniform sampler2D _group_0_binding_5_cs;
 
 layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_binding_7_cs; };
 
-layout(std430, binding = 0) readonly buffer type_10_block_1Compute { Cell _group_0_binding_8_cs[]; };
+layout(std430, binding = 0) readonly buffer type_11_block_1Compute { Cell _group_0_binding_8_cs[]; };
 
-layout(std430, binding = 1) readonly buffer type_19_block_2Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_20_block_2Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_19_block_3Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_20_block_3Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 uint fallback_method() {
@@ -347,8 +348,8 @@ vec3 cell_size() {
 }
 
 uint cell_index(uvec3 c_2) {
-    uvec4 n_6 = _group_0_binding_7_cs.grid_counts;
-    return (c_2.x + (n_6.x * (c_2.y + (n_6.y * c_2.z))));
+    uvec4 n_7 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_7.x * (c_2.y + (n_7.y * c_2.z))));
 }
 
 uvec3 cell_of(vec3 p_1, vec3 size) {
@@ -474,14 +475,14 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
             }
             uint _e21 = k_1;
             vec4 _e23 = _group_0_binding_7_cs.kdop[_e21];
-            vec3 n_7 = _e23.xyz;
+            vec3 n_8 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e27].w;
-            float nb = dot(n_7, b_5);
+            float nb = dot(n_8, b_5);
             if ((nb > h_1)) {
                 return vec2(0.0, 0.0);
             }
-            float nd = dot(n_7, dir_3);
+            float nd = dot(n_8, dir_3);
             if ((nd > 0.0)) {
                 float _e39 = t_4;
                 t_4 = min(_e39, ((h_1 - nb) / nd));
@@ -595,27 +596,27 @@ float map_delta(int tile_1, vec2 uv_5) {
     return _e11.x;
 }
 
-float cell_delta(Cell cell, vec2 uv_6, float r) {
+float cell_delta(ivec4 tiles, vec2 uv_6, float r) {
     float w = 0.0;
-    if ((cell.tiles.w < 0)) {
-        float _e9 = map_delta(cell.tiles.x, uv_6);
-        return _e9;
+    if ((tiles.w < 0)) {
+        float _e7 = map_delta(tiles.x, uv_6);
+        return _e7;
     }
     w = ((r - ROUGH_MAP_FROM) / 0.25);
-    float _e15 = w;
-    if (!((_e15 > 0.0))) {
-        float _e21 = map_delta(cell.tiles.x, uv_6);
-        return _e21;
+    float _e13 = w;
+    if (!((_e13 > 0.0))) {
+        float _e18 = map_delta(tiles.x, uv_6);
+        return _e18;
     }
-    float _e22 = w;
-    if ((_e22 >= 1.0)) {
-        float _e27 = map_delta(cell.tiles.w, uv_6);
-        return _e27;
+    float _e19 = w;
+    if ((_e19 >= 1.0)) {
+        float _e23 = map_delta(tiles.w, uv_6);
+        return _e23;
     }
-    float _e30 = map_delta(cell.tiles.x, uv_6);
-    float _e33 = map_delta(cell.tiles.w, uv_6);
-    float _e35 = w;
-    return (_e30 + ((_e33 - _e30) * _e35));
+    float _e25 = map_delta(tiles.x, uv_6);
+    float _e27 = map_delta(tiles.w, uv_6);
+    float _e29 = w;
+    return (_e25 + ((_e27 - _e25) * _e29));
 }
 
 float mip_roughness(uint m) {
@@ -628,8 +629,8 @@ float lod_of_roughness(float r_2) {
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
-    uint n_8 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_8 < 2u))) {
+    uint n_9 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_9 < 2u))) {
         float _e11 = mip_roughness(0u);
         local_17 = !((r_2 > _e11));
     } else {
@@ -639,7 +640,7 @@ float lod_of_roughness(float r_2) {
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_8 - 1u);
+    uint last = (n_9 - 1u);
     float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
@@ -652,7 +653,7 @@ float lod_of_roughness(float r_2) {
         }
         loop_init_2 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_8)) {
+        if ((_e26 < n_9)) {
         } else {
             break;
         }
@@ -678,9 +679,9 @@ float lod_of_roughness(float r_2) {
 
 float pseudo_log2_(float k_3) {
     uint bits = floatBitsToUint(k_3);
-    int e_1 = (int(((bits >> 23u) & 255u)) - 127);
+    int e_2 = (int(((bits >> 23u) & 255u)) - 127);
     float m_3 = uintBitsToFloat(((bits & 8388607u) | 1065353216u));
-    return (float(e_1) + (m_3 - 1.0));
+    return (float(e_2) + (m_3 - 1.0));
 }
 
 float blend_node_r(uint k_6) {
@@ -695,10 +696,10 @@ float blend_node_w(uint k_7) {
 
 float irradiance_weight(float r_5) {
     bool local_23 = false;
+    float w_1 = 0.0;
     uint k_8 = 1u;
-    float t_6 = 0.0;
-    uint n_9 = _group_0_binding_7_cs.lut_info.y;
-    if (!((n_9 == 0u))) {
+    uint n_10 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_10 == 0u))) {
         local_23 = !((r_5 > 0.0));
     } else {
         local_23 = true;
@@ -707,49 +708,37 @@ float irradiance_weight(float r_5) {
     if (_e14) {
         return 0.0;
     }
-    float _e17 = blend_node_r(0u);
-    if ((r_5 <= _e17)) {
-        float _e20 = blend_node_w(0u);
-        return _e20;
-    }
-    float _e23 = blend_node_r((n_9 - 1u));
-    if ((r_5 >= _e23)) {
-        float _e27 = blend_node_w((n_9 - 1u));
-        return _e27;
-    }
+    float _e17 = blend_node_w(0u);
+    w_1 = _e17;
     bool loop_init_3 = true;
     while(true) {
         if (!loop_init_3) {
-            uint _e59 = k_8;
-            k_8 = (_e59 + 1u);
+            uint _e49 = k_8;
+            k_8 = (_e49 + 1u);
         }
         loop_init_3 = false;
-        uint _e30 = k_8;
-        if ((_e30 < n_9)) {
+        uint _e21 = k_8;
+        if ((_e21 < n_10)) {
         } else {
             break;
         }
         {
-            uint _e32 = k_8;
-            float _e33 = blend_node_r(_e32);
-            if ((r_5 <= _e33)) {
-                uint _e35 = k_8;
-                float _e38 = blend_node_r((_e35 - 1u));
-                uint _e39 = k_8;
-                float _e42 = blend_node_w((_e39 - 1u));
-                t_6 = 1.0;
-                if ((_e33 > _e38)) {
-                    t_6 = ((r_5 - _e38) / (_e33 - _e38));
-                }
-                uint _e49 = k_8;
-                float _e50 = blend_node_w(_e49);
-                float _e52 = t_6;
-                return clamp((_e42 + ((_e50 - _e42) * _e52)), 0.0, 1.0);
+            uint _e23 = k_8;
+            float _e26 = blend_node_r((_e23 - 1u));
+            if ((r_5 > _e26)) {
+                uint _e29 = k_8;
+                float _e30 = blend_node_r(_e29);
+                float t_9 = min(max(((r_5 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                uint _e37 = k_8;
+                float _e40 = blend_node_w((_e37 - 1u));
+                uint _e44 = k_8;
+                float _e45 = blend_node_w(_e44);
+                w_1 = ((_e40 * (1.0 - t_9)) + (_e45 * t_9));
             }
         }
     }
-    float _e63 = blend_node_w((n_9 - 1u));
-    return _e63;
+    float _e51 = w_1;
+    return min(max(_e51, 0.0), 1.0);
 }
 
 vec3 clean(vec3 c_4) {
@@ -760,46 +749,81 @@ vec3 clean(vec3 c_4) {
     return vec3(0.0);
 }
 
-vec3 cell_irradiance(int tile_2, vec3 n_4) {
+vec3 cell_sh_irradiance(uint cell, vec3 n_4) {
+    vec3 e = vec3(0.0);
+    float x_4 = n_4.x;
+    float y = n_4.y;
+    float z = n_4.z;
+    vec4 _e9 = _group_0_binding_8_cs[cell].sh[0];
+    e = (_e9.xyz * 0.2820948);
+    vec3 _e14 = e;
+    vec4 _e19 = _group_0_binding_8_cs[cell].sh[1];
+    e = (_e14 + (_e19.xyz * (0.4886025 * y)));
+    vec3 _e25 = e;
+    vec4 _e30 = _group_0_binding_8_cs[cell].sh[2];
+    e = (_e25 + (_e30.xyz * (0.4886025 * z)));
+    vec3 _e36 = e;
+    vec4 _e41 = _group_0_binding_8_cs[cell].sh[3];
+    e = (_e36 + (_e41.xyz * (0.4886025 * x_4)));
+    vec3 _e47 = e;
+    vec4 _e52 = _group_0_binding_8_cs[cell].sh[4];
+    e = (_e47 + (_e52.xyz * (1.0925484 * (x_4 * y))));
+    vec3 _e59 = e;
+    vec4 _e64 = _group_0_binding_8_cs[cell].sh[5];
+    e = (_e59 + (_e64.xyz * (1.0925484 * (y * z))));
+    vec3 _e71 = e;
+    vec4 _e76 = _group_0_binding_8_cs[cell].sh[6];
+    e = (_e71 + (_e76.xyz * (0.31539157 * ((3.0 * (z * z)) - 1.0))));
+    vec3 _e87 = e;
+    vec4 _e92 = _group_0_binding_8_cs[cell].sh[7];
+    e = (_e87 + (_e92.xyz * (1.0925484 * (x_4 * z))));
+    vec3 _e99 = e;
+    vec4 _e104 = _group_0_binding_8_cs[cell].sh[8];
+    e = (_e99 + (_e104.xyz * (0.5462742 * ((x_4 * x_4) - (y * y)))));
+    vec3 _e113 = e;
+    return max(_e113, vec3(0.0));
+}
+
+vec3 cell_irradiance(int tile_2, vec3 n_5) {
     uint _e6 = _group_0_binding_7_cs.atlas_a.z;
     uint _e10 = _group_0_binding_7_cs.atlas_a.w;
-    vec2 _e11 = oct_encode(n_4);
+    vec2 _e11 = oct_encode(n_5);
     vec4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
     return _e12.xyz;
 }
 
 vec3 irradiance(vec3 position_1, vec3 normal) {
     vec3 p_3 = vec3(0.0);
-    vec3 e = vec3(0.0);
+    vec3 e_1 = vec3(0.0);
     float wsum = 0.0;
     uint corner_3 = 0u;
-    float w_1 = 0.0;
+    float w_2 = 0.0;
     bool local_25 = false;
     float k_9 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
         return vec3(0.0);
     }
-    vec3 n_10 = _e2.xyz;
+    vec3 n_11 = _e2.xyz;
     vec3 _e9 = cell_size();
     vec4 _e12 = _group_0_binding_7_cs.grid_min;
     vec4 _e16 = _group_0_binding_7_cs.grid_max;
     vec4 _e20 = _group_0_binding_7_cs.grid_min;
     p_3 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = _group_0_binding_7_cs.grid_min.w;
-    vec3 biased = (position_1 + (n_10 * _e30));
+    vec3 biased = (position_1 + (n_11 * _e30));
     bool _e33 = finite3_(biased);
     if (_e33) {
         p_3 = biased;
     }
     vec3 _e34 = p_3;
     Lattice _e35 = lattice(_e34, _e9);
-    vec2 _e36 = oct_encode(n_10);
+    vec2 _e36 = oct_encode(n_11);
     bool loop_init_4 = true;
     while(true) {
         if (!loop_init_4) {
-            uint _e158 = corner_3;
-            corner_3 = (_e158 + 1u);
+            uint _e157 = corner_3;
+            corner_3 = (_e157 + 1u);
         }
         loop_init_4 = false;
         uint _e44 = corner_3;
@@ -815,75 +839,76 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             }
             uint _e51 = corner_3;
             uvec3 _e52 = corner_cell(_e35, _e51);
-            uint _e54 = cell_index(_e52);
-            Cell cell_1 = _group_0_binding_8_cs[_e54];
-            if ((cell_1.tiles.y < 0)) {
+            uint _e53 = cell_index(_e52);
+            ivec4 tiles_1 = _group_0_binding_8_cs[_e53].tiles;
+            if ((tiles_1.y < 0)) {
                 continue;
             }
             vec3 _e61 = p_3;
             vec3 _e62 = cell_centre(_e52, _e9);
-            vec3 to_point = (_e61 - (_e62 + cell_1.offset.xyz));
+            vec4 _e66 = _group_0_binding_8_cs[_e53].offset;
+            vec3 to_point = (_e61 - (_e62 + _e66.xyz));
             float dist = length(to_point);
-            w_1 = _e48;
+            w_2 = _e48;
             if ((dist > 0.0)) {
-                bool _e73 = finite(dist);
-                local_25 = _e73;
+                bool _e76 = finite(dist);
+                local_25 = _e76;
             } else {
                 local_25 = false;
             }
-            bool _e75 = local_25;
-            if (_e75) {
+            bool _e78 = local_25;
+            if (_e78) {
                 vec3 u = (to_point / vec3(dist));
-                float facing = ((dot(n_10, -(u)) + 1.0) * 0.5);
-                float _e84 = w_1;
-                w_1 = (_e84 * ((facing * facing) + 0.2));
-                uint _e95 = _group_0_binding_7_cs.atlas_b.x;
-                uint _e99 = _group_0_binding_7_cs.atlas_b.y;
-                vec2 _e100 = oct_encode(u);
-                vec4 _e101 = atlas_bilinear(ATLAS_MOMENTS, cell_1.tiles.y, _e95, _e99, _e100);
-                float mean = _e101.x;
-                float mean_sq = _e101.y;
+                float facing = ((dot(n_11, -(u)) + 1.0) * 0.5);
+                float _e87 = w_2;
+                w_2 = (_e87 * ((facing * facing) + 0.2));
+                uint _e97 = _group_0_binding_7_cs.atlas_b.x;
+                uint _e101 = _group_0_binding_7_cs.atlas_b.y;
+                vec2 _e102 = oct_encode(u);
+                vec4 _e103 = atlas_bilinear(ATLAS_MOMENTS, tiles_1.y, _e97, _e101, _e102);
+                float mean = _e103.x;
+                float mean_sq = _e103.y;
                 if ((dist > mean)) {
                     float variance = max(abs((mean_sq - (mean * mean))), ((1e-12 * mean) * mean));
                     float dd = (dist - mean);
                     float cheb = (variance / (variance + (dd * dd)));
-                    float _e116 = w_1;
-                    w_1 = (_e116 * max(((cheb * cheb) * cheb), 0.0));
+                    float _e118 = w_2;
+                    w_2 = (_e118 * max(((cheb * cheb) * cheb), 0.0));
                 }
             }
-            float _e122 = w_1;
-            w_1 = max(_e122, (1e-6 * _e48));
+            float _e124 = w_2;
+            w_2 = max(_e124, (1e-6 * _e48));
             k_9 = 1.0;
-            if ((cell_1.tiles.z >= 0)) {
+            if ((tiles_1.z >= 0)) {
                 uint _e138 = _group_0_binding_7_cs.atlas_b.z;
                 uint _e142 = _group_0_binding_7_cs.atlas_b.w;
-                vec4 _e143 = atlas_bilinear(ATLAS_SCALE, cell_1.tiles.z, _e138, _e142, _e36);
+                vec4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_1.z, _e138, _e142, _e36);
                 k_9 = _e143.x;
             }
-            vec3 _e145 = e;
-            vec3 _e148 = cell_irradiance(cell_1.tiles.y, n_10);
-            float _e149 = w_1;
-            float _e151 = k_9;
-            e = (_e145 + ((_e148 * _e149) * _e151));
-            float _e154 = wsum;
-            float _e155 = w_1;
-            wsum = (_e154 + _e155);
+            vec3 _e145 = e_1;
+            vec3 _e147 = cell_irradiance(tiles_1.y, n_11);
+            float _e148 = w_2;
+            float _e150 = k_9;
+            e_1 = (_e145 + ((_e147 * _e148) * _e150));
+            float _e153 = wsum;
+            float _e154 = w_2;
+            wsum = (_e153 + _e154);
         }
     }
-    float _e160 = wsum;
-    if (!((_e160 > 0.0))) {
+    float _e159 = wsum;
+    if (!((_e159 > 0.0))) {
         return vec3(0.0);
     }
-    vec3 _e166 = e;
-    float _e167 = wsum;
-    vec3 _e170 = clean((_e166 / vec3(_e167)));
-    return _e170;
+    vec3 _e165 = e_1;
+    float _e166 = wsum;
+    vec3 _e169 = clean((_e165 / vec3(_e166)));
+    return _e169;
 }
 
 vec2 hemi_encode(vec3 v_7) {
     bool local_26 = false;
-    float z = max(v_7.z, 0.0);
-    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
+    float z_1 = max(v_7.z, 0.0);
+    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
         local_26 = _e14;
@@ -899,16 +924,16 @@ vec2 hemi_encode(vec3 v_7) {
     return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_5) {
+SurfaceAxis surface_axis(float x_in, uint n_6) {
     float x_2 = 0.5;
     bool _e4 = finite(x_in);
     if (_e4) {
         x_2 = x_in;
     }
     float _e5 = x_2;
-    float c_7 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
+    float c_7 = clamp(((_e5 * float(n_6)) - 0.5), 0.0, float((n_6 - 1u)));
     uint i0_ = uint(floor(c_7));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_7 - float(i0_)));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_6 - 1u)), (c_7 - float(i0_)));
 }
 
 uint query_count() {
@@ -923,8 +948,8 @@ void main() {
         return;
     }
     vec4 p_4 = _group_1_binding_0_cs[(2u * k_10)];
-    vec4 n_11 = _group_1_binding_0_cs[((2u * k_10) + 1u)];
-    vec3 _e20 = irradiance(p_4.xyz, n_11.xyz);
+    vec4 n_12 = _group_1_binding_0_cs[((2u * k_10) + 1u)];
+    vec3 _e20 = irradiance(p_4.xyz, n_12.xyz);
     _group_1_binding_1_cs[k_10] = vec4(_e20, 1.0);
     return;
 }

@@ -28,6 +28,7 @@ struct Params {
 struct Cell {
     ivec4 tiles;
     vec4 offset;
+    vec4 sh[9];
 };
 struct Footprint {
     ivec2 corner;
@@ -88,9 +89,9 @@ layout(std140, binding = 1) uniform SurfaceParams_block_0Compute { SurfaceParams
 
 layout(binding = 8) uniform sampler2D _group_2_binding_2_cs;
 
-layout(std430, binding = 1) readonly buffer type_19_block_1Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_20_block_1Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_19_block_2Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_20_block_2Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 bool finite(float x) {
@@ -300,9 +301,9 @@ vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
 
 float pseudo_log2_(float k_3) {
     uint bits = floatBitsToUint(k_3);
-    int e_1 = (int(((bits >> 23u) & 255u)) - 127);
+    int e_2 = (int(((bits >> 23u) & 255u)) - 127);
     float m_2 = uintBitsToFloat(((bits & 8388607u) | 1065353216u));
-    return (float(e_1) + (m_2 - 1.0));
+    return (float(e_2) + (m_2 - 1.0));
 }
 
 vec3 clean(vec3 c_4) {
@@ -332,49 +333,49 @@ vec2 hemi_encode(vec3 v_7) {
     return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_5) {
+SurfaceAxis surface_axis(float x_in, uint n_6) {
     float x_2 = 0.5;
     bool _e4 = finite(x_in);
     if (_e4) {
         x_2 = x_in;
     }
     float _e5 = x_2;
-    float c_6 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
+    float c_6 = clamp(((_e5 * float(n_6)) - 0.5), 0.0, float((n_6 - 1u)));
     uint i0_ = uint(floor(c_6));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_6 - float(i0_)));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_6 - 1u)), (c_6 - float(i0_)));
 }
 
 SurfaceTaps surface_taps(vec2 uv_8) {
-    uint n_6 = _group_2_binding_1_cs.shape.z;
-    float nf = float(n_6);
+    uint n_7 = _group_2_binding_1_cs.shape.z;
+    float nf = float(n_7);
     float x_4 = clamp(((uv_8.x * nf) - 0.5), 0.0, (nf - 1.0));
     float y = clamp(((uv_8.y * nf) - 0.5), 0.0, (nf - 1.0));
     float x0_1 = floor(x_4);
     float y0_ = floor(y);
     uvec2 lo = uvec2(uint(x0_1), uint(y0_));
-    return SurfaceTaps(lo, min((lo + uvec2(1u)), uvec2((n_6 - 1u))), vec2((x_4 - x0_1), (y - y0_)));
+    return SurfaceTaps(lo, min((lo + uvec2(1u)), uvec2((n_7 - 1u))), vec2((x_4 - x0_1), (y - y0_)));
 }
 
-vec3 surface_tile(uint i_1, uint j_1, uint layer, SurfaceTaps t_7) {
+vec3 surface_tile(uint i_1, uint j_1, uint layer, SurfaceTaps t_6) {
     uint _e8 = _group_2_binding_1_cs.shape.z;
     uvec2 o_1 = (uvec2(i_1, j_1) * _e8);
     int l_4 = int(layer);
-    vec4 q00_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_7.lo)), l_4), 0);
-    vec4 q10_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_7.hi.x, t_7.lo.y))), l_4), 0);
-    vec4 q01_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_7.lo.x, t_7.hi.y))), l_4), 0);
-    vec4 q11_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_7.hi)), l_4), 0);
-    vec4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_7.f);
+    vec4 q00_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.lo)), l_4), 0);
+    vec4 q10_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.hi.x, t_6.lo.y))), l_4), 0);
+    vec4 q01_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.lo.x, t_6.hi.y))), l_4), 0);
+    vec4 q11_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.hi)), l_4), 0);
+    vec4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_6.f);
     return _e44.xyz;
 }
 
-float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_8) {
+float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_7) {
     uint _e7 = _group_2_binding_1_cs.shape.z;
     uvec2 o_2 = (uvec2(i_2, j_2) * _e7);
-    vec4 q00_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + t_8.lo)), 0);
-    vec4 q10_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(t_8.hi.x, t_8.lo.y))), 0);
-    vec4 q01_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(t_8.lo.x, t_8.hi.y))), 0);
-    vec4 q11_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + t_8.hi)), 0);
-    vec4 _e42 = blend4_(q00_2, q10_2, q01_2, q11_2, t_8.f);
+    vec4 q00_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + t_7.lo)), 0);
+    vec4 q10_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(t_7.hi.x, t_7.lo.y))), 0);
+    vec4 q01_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(t_7.lo.x, t_7.hi.y))), 0);
+    vec4 q11_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + t_7.hi)), 0);
+    vec4 _e42 = blend4_(q00_2, q10_2, q01_2, q11_2, t_7.f);
     return _e42.x;
 }
 
@@ -383,8 +384,8 @@ SurfaceTaps surface_warped_taps(uint i_3, uint j_3, vec3 b_15, vec3 local_27, Su
     bool local_29 = false;
     SurfaceParams sp = _group_2_binding_1_cs;
     float s_4 = ((float(i_3) + 0.5) / float(sp.shape.x));
-    float t_10 = ((float(j_3) + 0.5) / float(sp.shape.y));
-    vec3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_4)) + (sp.edge_v.xyz * t_10)) + (sp.normal.xyz * sp.corner.w));
+    float t_9 = ((float(j_3) + 0.5) / float(sp.shape.y));
+    vec3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_4)) + (sp.edge_v.xyz * t_9)) + (sp.normal.xyz * sp.corner.w));
     vec3 d_2 = (probe - b_15);
     vec3 ab = vec3(dot(d_2, sp.tangent.xyz), dot(d_2, sp.bitangent.xyz), dot(d_2, sp.normal.xyz));
     float _e48 = surface_tile_inv_distance(i_3, j_3, shared_taps);
@@ -410,10 +411,10 @@ SurfaceTaps surface_warped_taps(uint i_3, uint j_3, vec3 b_15, vec3 local_27, Su
     return shared_taps;
 }
 
-vec3 surface_probe(uint i_4, uint j_4, SurfaceTaps t_9, uint m0_, uint m1_, float fm) {
-    vec3 _e6 = surface_tile(i_4, j_4, m0_, t_9);
+vec3 surface_probe(uint i_4, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, float fm) {
+    vec3 _e6 = surface_tile(i_4, j_4, m0_, t_8);
     if ((fm > 0.0)) {
-        vec3 _e9 = surface_tile(i_4, j_4, m1_, t_9);
+        vec3 _e9 = surface_tile(i_4, j_4, m1_, t_8);
         return mix(_e6, _e9, fm);
     }
     return _e6;

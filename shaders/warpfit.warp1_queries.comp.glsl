@@ -28,6 +28,7 @@ struct Params {
 struct Cell {
     ivec4 tiles;
     vec4 offset;
+    vec4 sh[9];
 };
 struct Footprint {
     ivec2 corner;
@@ -88,9 +89,9 @@ layout(binding = 1) uniform sampler2D _group_0_binding_1_cs;
 
 layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_binding_7_cs; };
 
-layout(std430, binding = 1) readonly buffer type_19_block_1Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_20_block_1Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_19_block_2Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_20_block_2Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 uint fallback_method() {
@@ -312,11 +313,11 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1) {
     float _e6 = _group_0_binding_7_cs.warp.z;
     float _e10 = _group_0_binding_7_cs.warp.y;
     float res0_ = ((which_1 == 0u) ? _e10 : _e6);
-    uint n_6 = max((uint(res0_) >> level_1), 1u);
-    Footprint _e18 = footprint(n_6, uv_1);
+    uint n_7 = max((uint(res0_) >> level_1), 1u);
+    Footprint _e18 = footprint(n_7, uv_1);
     ivec2 c_6 = _e18.corner;
     int l_3 = int(level_1);
-    int ni = int(n_6);
+    int ni = int(n_7);
     ivec2 _e22 = wrap_texel(ni, c_6);
     vec4 _e23 = probe_texel(which_1, _e22, l_3);
     ivec2 _e28 = wrap_texel(ni, (c_6 + ivec2(1, 0)));
@@ -367,16 +368,16 @@ float inv_dist(vec3 v_4) {
     float _e6 = _group_0_binding_7_cs.probe.w;
     uint _e10 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e11 = probe_sample_lod(1u, _e2, _e6, _e10);
-    float w_2 = _e11.x;
-    if ((w_2 > 0.0)) {
-        bool _e17 = finite(w_2);
+    float w_3 = _e11.x;
+    if ((w_3 > 0.0)) {
+        bool _e17 = finite(w_3);
         local_9 = _e17;
     } else {
         local_9 = false;
     }
     bool _e19 = local_9;
     if (_e19) {
-        return w_2;
+        return w_3;
     }
     return 0.0;
 }
@@ -389,8 +390,8 @@ vec3 cell_size() {
 }
 
 uint cell_index(uvec3 c_2) {
-    uvec4 n_7 = _group_0_binding_7_cs.grid_counts;
-    return (c_2.x + (n_7.x * (c_2.y + (n_7.y * c_2.z))));
+    uvec4 n_8 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_8.x * (c_2.y + (n_8.y * c_2.z))));
 }
 
 uvec3 cell_of(vec3 p_1, vec3 size) {
@@ -460,10 +461,10 @@ vec2 warp1_exit(vec3 b_2, vec3 dir) {
     if (!((lambda > 0.0))) {
         return vec2(1e30, 1.0);
     }
-    float t_10 = (max(((dir_ab * lambda) + dot(dir, v_9)), 0.0) / lambda);
-    bool _e37 = finite(t_10);
+    float t_9 = (max(((dir_ab * lambda) + dot(dir, v_9)), 0.0) / lambda);
+    bool _e37 = finite(t_9);
     if (_e37) {
-        local_10 = (t_10 < HUGE);
+        local_10 = (t_9 < HUGE);
     } else {
         local_10 = false;
     }
@@ -471,7 +472,7 @@ vec2 warp1_exit(vec3 b_2, vec3 dir) {
     if (!(_e43)) {
         return vec2(1e30, 1.0);
     }
-    return vec2(t_10, 1.0);
+    return vec2(t_9, 1.0);
 }
 
 vec3 warp1_(vec3 b_3, vec3 dir_1) {
@@ -486,8 +487,8 @@ vec3 warp1_(vec3 b_3, vec3 dir_1) {
     vec3 v_10 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
     float _e20 = inv_dist(v_10);
     float lambda_1 = (length(v_10) * _e20);
-    float t_11 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_10)), 0.0);
-    vec3 f_5 = ((dir_1 * t_11) - (ab_1 * lambda_1));
+    float t_10 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_10)), 0.0);
+    vec3 f_5 = ((dir_1 * t_10) - (ab_1 * lambda_1));
     if ((lambda_1 > 0.0)) {
         vec3 _e34 = fetch_vector(vec3(0.0), f_5, dir_1);
         return _e34;
@@ -567,14 +568,14 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
             }
             uint _e21 = k_1;
             vec4 _e23 = _group_0_binding_7_cs.kdop[_e21];
-            vec3 n_8 = _e23.xyz;
+            vec3 n_9 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e27].w;
-            float nb = dot(n_8, b_5);
+            float nb = dot(n_9, b_5);
             if ((nb > h_1)) {
                 return vec2(0.0, 0.0);
             }
-            float nd = dot(n_8, dir_3);
+            float nd = dot(n_9, dir_3);
             if ((nd > 0.0)) {
                 float _e39 = t_4;
                 t_4 = min(_e39, ((h_1 - nb) / nd));
@@ -662,7 +663,7 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
     float _e18 = _group_0_binding_7_cs.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
     Basis _e20 = orthonormal_basis(dir_7);
-    vec3 t_12 = (_e20.t * angle);
+    vec3 t_11 = (_e20.t * angle);
     vec3 bt = (_e20.b * angle);
     plain = dir_7;
     bool loop_init_2 = true;
@@ -682,11 +683,11 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
             uint _e37 = s;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_7 + t_12));
+                    d_1 = normalize((dir_7 + t_11));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_7 - t_12));
+                    d_1 = normalize((dir_7 - t_11));
                     break;
                 }
                 case 3u: {
@@ -784,8 +785,8 @@ float lod_of_roughness(float r_2) {
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
-    uint n_9 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_9 < 2u))) {
+    uint n_10 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_10 < 2u))) {
         float _e11 = mip_roughness(0u);
         local_17 = !((r_2 > _e11));
     } else {
@@ -795,7 +796,7 @@ float lod_of_roughness(float r_2) {
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_9 - 1u);
+    uint last = (n_10 - 1u);
     float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
@@ -808,7 +809,7 @@ float lod_of_roughness(float r_2) {
         }
         loop_init_3 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_9)) {
+        if ((_e26 < n_10)) {
         } else {
             break;
         }
@@ -841,7 +842,7 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
     float _e8 = _group_0_binding_7_cs.probe.w;
     uint _e12 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e13 = probe_sample_lod(1u, uv_7, _e8, _e12);
-    float w_3 = _e13.x;
+    float w_4 = _e13.x;
     if ((l_5 > 0.0)) {
         bool _e19 = finite(l_5);
         local_18 = _e19;
@@ -850,13 +851,13 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
     }
     bool _e21 = local_18;
     if (_e21) {
-        local_19 = (w_3 > 0.0);
+        local_19 = (w_4 > 0.0);
     } else {
         local_19 = false;
     }
     bool _e27 = local_19;
     if (_e27) {
-        bool _e30 = finite(w_3);
+        bool _e30 = finite(w_4);
         local_20 = _e30;
     } else {
         local_20 = false;
@@ -865,7 +866,7 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
     if (!(_e32)) {
         return 1.0;
     }
-    float d_probe = (1.0 / w_3);
+    float d_probe = (1.0 / w_4);
     vec4 _e39 = _group_0_binding_7_cs.probe;
     float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_12));
     float k_10 = (d_probe / d_surface);
@@ -884,9 +885,9 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
 
 float pseudo_log2_(float k_3) {
     uint bits = floatBitsToUint(k_3);
-    int e_1 = (int(((bits >> 23u) & 255u)) - 127);
+    int e_2 = (int(((bits >> 23u) & 255u)) - 127);
     float m_3 = uintBitsToFloat(((bits & 8388607u) | 1065353216u));
-    return (float(e_1) + (m_3 - 1.0));
+    return (float(e_2) + (m_3 - 1.0));
 }
 
 float blend_node_r(uint k_6) {
@@ -901,10 +902,10 @@ float blend_node_w(uint k_7) {
 
 float irradiance_weight(float r_5) {
     bool local_23 = false;
+    float w_1 = 0.0;
     uint k_8 = 1u;
-    float t_6 = 0.0;
-    uint n_10 = _group_0_binding_7_cs.lut_info.y;
-    if (!((n_10 == 0u))) {
+    uint n_11 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_11 == 0u))) {
         local_23 = !((r_5 > 0.0));
     } else {
         local_23 = true;
@@ -913,49 +914,37 @@ float irradiance_weight(float r_5) {
     if (_e14) {
         return 0.0;
     }
-    float _e17 = blend_node_r(0u);
-    if ((r_5 <= _e17)) {
-        float _e20 = blend_node_w(0u);
-        return _e20;
-    }
-    float _e23 = blend_node_r((n_10 - 1u));
-    if ((r_5 >= _e23)) {
-        float _e27 = blend_node_w((n_10 - 1u));
-        return _e27;
-    }
+    float _e17 = blend_node_w(0u);
+    w_1 = _e17;
     bool loop_init_4 = true;
     while(true) {
         if (!loop_init_4) {
-            uint _e59 = k_8;
-            k_8 = (_e59 + 1u);
+            uint _e49 = k_8;
+            k_8 = (_e49 + 1u);
         }
         loop_init_4 = false;
-        uint _e30 = k_8;
-        if ((_e30 < n_10)) {
+        uint _e21 = k_8;
+        if ((_e21 < n_11)) {
         } else {
             break;
         }
         {
-            uint _e32 = k_8;
-            float _e33 = blend_node_r(_e32);
-            if ((r_5 <= _e33)) {
-                uint _e35 = k_8;
-                float _e38 = blend_node_r((_e35 - 1u));
-                uint _e39 = k_8;
-                float _e42 = blend_node_w((_e39 - 1u));
-                t_6 = 1.0;
-                if ((_e33 > _e38)) {
-                    t_6 = ((r_5 - _e38) / (_e33 - _e38));
-                }
-                uint _e49 = k_8;
-                float _e50 = blend_node_w(_e49);
-                float _e52 = t_6;
-                return clamp((_e42 + ((_e50 - _e42) * _e52)), 0.0, 1.0);
+            uint _e23 = k_8;
+            float _e26 = blend_node_r((_e23 - 1u));
+            if ((r_5 > _e26)) {
+                uint _e29 = k_8;
+                float _e30 = blend_node_r(_e29);
+                float t_12 = min(max(((r_5 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                uint _e37 = k_8;
+                float _e40 = blend_node_w((_e37 - 1u));
+                uint _e44 = k_8;
+                float _e45 = blend_node_w(_e44);
+                w_1 = ((_e40 * (1.0 - t_12)) + (_e45 * t_12));
             }
         }
     }
-    float _e63 = blend_node_w((n_10 - 1u));
-    return _e63;
+    float _e51 = w_1;
+    return min(max(_e51, 0.0), 1.0);
 }
 
 vec3 clean(vec3 c_4) {
@@ -985,16 +974,16 @@ vec2 hemi_encode(vec3 v_7) {
     return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_5) {
+SurfaceAxis surface_axis(float x_in, uint n_6) {
     float x_2 = 0.5;
     bool _e4 = finite(x_in);
     if (_e4) {
         x_2 = x_in;
     }
     float _e5 = x_2;
-    float c_7 = clamp(((_e5 * float(n_5)) - 0.5), 0.0, float((n_5 - 1u)));
+    float c_7 = clamp(((_e5 * float(n_6)) - 0.5), 0.0, float((n_6 - 1u)));
     uint i0_ = uint(floor(c_7));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_5 - 1u)), (c_7 - float(i0_)));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_6 - 1u)), (c_7 - float(i0_)));
 }
 
 uint query_count() {

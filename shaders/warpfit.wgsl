@@ -81,11 +81,13 @@ struct Params {
 }
 
 // One grid cell: its tiles (x shift map, y irradiance, z irradiance scale, w rough shift
-// map in the corrective atlas; -1 = none) and its irradiance probe's relocation offset from
-// the cell centre (xyz).
+// map in the corrective atlas; -1 = none), its irradiance probe's relocation offset from
+// the cell centre (xyz) and its irradiance as nine spherical-harmonic coefficients (rgb;
+// zero where y is -1: `IrradianceSh`), what rough lookups blend in.
 struct Cell {
     tiles: vec4<i32>,
     offset: vec4<f32>,
+    sh: array<vec4<f32>, 9>,
 }
 
 const DYNAMIC: u32 = 255u;
@@ -627,19 +629,19 @@ const ROUGH_MAP_TO: f32 = 0.75;
 // The shift of `cell` (which stores a map) along the direction of uv for a lookup of
 // roughness r: its map's, or with a rough map the two blended by r
 // (`warp::corrective::sample_maps`).
-fn cell_delta(cell: Cell, uv: vec2<f32>, r: f32) -> f32 {
-    if cell.tiles.w < 0 {
-        return map_delta(cell.tiles.x, uv);
+fn cell_delta(tiles: vec4<i32>, uv: vec2<f32>, r: f32) -> f32 {
+    if tiles.w < 0 {
+        return map_delta(tiles.x, uv);
     }
     var w = (r - ROUGH_MAP_FROM) / (ROUGH_MAP_TO - ROUGH_MAP_FROM);
     if !(w > 0.0) {
-        return map_delta(cell.tiles.x, uv);
+        return map_delta(tiles.x, uv);
     }
     if w >= 1.0 {
-        return map_delta(cell.tiles.w, uv);
+        return map_delta(tiles.w, uv);
     }
-    let m = map_delta(cell.tiles.x, uv);
-    return m + (map_delta(cell.tiles.w, uv) - m) * w;
+    let m = map_delta(tiles.x, uv);
+    return m + (map_delta(tiles.w, uv) - m) * w;
 }
 
 // Where query (B, unit dir) of roughness r reads probe A: the proxy's surface shifted by the
@@ -655,17 +657,17 @@ fn fetch(b: vec3<f32>, dir: vec3<f32>, r: f32) -> Aim {
     var delta = 0.0;
     var mapped = false;
     if blend_mode() == 0u {
-        let cell = cells[cell_index(cell_of(b, size))];
-        if cell.tiles.x >= 0 {
-            delta = cell_delta(cell, uv, r);
+        let tiles = cells[cell_index(cell_of(b, size))].tiles;
+        if tiles.x >= 0 {
+            delta = cell_delta(tiles, uv, r);
             mapped = true;
         }
     } else {
         let l = lattice(b, size);
         for (var corner = 0u; corner < 8u; corner++) {
-            let cell = cells[cell_index(corner_cell(l, corner))];
-            if cell.tiles.x >= 0 {
-                delta += corner_weight(l, corner) * cell_delta(cell, uv, r);
+            let tiles = cells[cell_index(corner_cell(l, corner))].tiles;
+            if tiles.x >= 0 {
+                delta += corner_weight(l, corner) * cell_delta(tiles, uv, r);
                 mapped = true;
             }
         }
@@ -781,31 +783,22 @@ fn blend_node_w(k: u32) -> f32 {
 }
 
 // Share of a lookup of perceptual roughness r taken from the containing cell's irradiance:
-// `RoughnessCorrection::irradiance_weight` (linear in r between the nodes).
+// `RoughnessCorrection::irradiance_weight` (linear in r between the nodes: on the last
+// segment starting below r, wa (1 - t) + wb t).
 fn irradiance_weight(r: f32) -> f32 {
     let n = params.lut_info.y;
     if n == 0u || !(r > 0.0) {
         return 0.0;
     }
-    if r <= blend_node_r(0u) {
-        return blend_node_w(0u);
-    }
-    if r >= blend_node_r(n - 1u) {
-        return blend_node_w(n - 1u);
-    }
+    var w = blend_node_w(0u);
     for (var k = 1u; k < n; k++) {
-        let rb = blend_node_r(k);
-        if r <= rb {
-            let ra = blend_node_r(k - 1u);
-            let wa = blend_node_w(k - 1u);
-            var t = 1.0;
-            if rb > ra {
-                t = (r - ra) / (rb - ra);
-            }
-            return clamp(wa + (blend_node_w(k) - wa) * t, 0.0, 1.0);
+        let ra = blend_node_r(k - 1u);
+        if r > ra {
+            let t = min(max((r - ra) / (blend_node_r(k) - ra), 0.0), 1.0);
+            w = blend_node_w(k - 1u) * (1.0 - t) + blend_node_w(k) * t;
         }
     }
-    return blend_node_w(n - 1u);
+    return min(max(w, 0.0), 1.0);
 }
 
 // ---- the two lookups -------------------------------------------------------------------
@@ -835,16 +828,18 @@ fn specular(position: vec3<f32>, direction: vec3<f32>, roughness: f32) -> vec3<f
     // rough lookups: blended with the containing cell's irradiance over π; at weight 1
     // probe A is not read
     let w = irradiance_weight(r);
-    var tile = -1;
+    var cell = 0u;
+    var stored = false;
     if w > 0.0 {
-        tile = cells[cell_index(cell_of(b, cell_size()))].tiles.y;
+        cell = cell_index(cell_of(b, cell_size()));
+        stored = cells[cell].tiles.y >= 0;
     }
-    if tile >= 0 && w >= 1.0 {
-        return clean(cell_irradiance(tile, d.xyz) * (w * 0.31830987));
+    if stored && w >= 1.0 {
+        return clean(cell_sh_irradiance(cell, d.xyz) * (w * 0.31830987));
     }
     var c = shade(b, fetch(b, d.xyz, r), r);
-    if tile >= 0 {
-        c = c * (1.0 - w) + cell_irradiance(tile, d.xyz) * (w * 0.31830987);
+    if stored {
+        c = c * (1.0 - w) + cell_sh_irradiance(cell, d.xyz) * (w * 0.31830987);
     }
     return clean(c);
 }
@@ -852,6 +847,24 @@ fn specular(position: vec3<f32>, direction: vec3<f32>, roughness: f32) -> vec3<f
 // Irradiance of stored cell tile `tile` for unit normal n (bilinear in its map).
 fn cell_irradiance(tile: i32, n: vec3<f32>) -> vec3<f32> {
     return atlas_bilinear(ATLAS_IRRADIANCE, tile, params.atlas_a.z, params.atlas_a.w, oct_encode(n)).xyz;
+}
+
+// Irradiance of cell `cell` for unit direction n from its harmonics: `sh::eval`, the
+// nine real harmonics of bands 0-2 summed in order and clamped at 0.
+fn cell_sh_irradiance(cell: u32, n: vec3<f32>) -> vec3<f32> {
+    let x = n.x;
+    let y = n.y;
+    let z = n.z;
+    var e = cells[cell].sh[0].xyz * 0.2820948;
+    e += cells[cell].sh[1].xyz * (0.4886025 * y);
+    e += cells[cell].sh[2].xyz * (0.4886025 * z);
+    e += cells[cell].sh[3].xyz * (0.4886025 * x);
+    e += cells[cell].sh[4].xyz * (1.0925484 * (x * y));
+    e += cells[cell].sh[5].xyz * (1.0925484 * (y * z));
+    e += cells[cell].sh[6].xyz * (0.31539157 * (3.0 * (z * z) - 1.0));
+    e += cells[cell].sh[7].xyz * (1.0925484 * (x * z));
+    e += cells[cell].sh[8].xyz * (0.5462742 * (x * x - y * y));
+    return max(e, vec3<f32>(0.0));
 }
 
 // Irradiance at `position` for surface normal `normal`: `FittedGrid::irradiance`. The
@@ -880,18 +893,19 @@ fn irradiance(position: vec3<f32>, normal: vec3<f32>) -> vec3<f32> {
             continue;
         }
         let c = corner_cell(l, corner);
-        let cell = cells[cell_index(c)];
-        if cell.tiles.y < 0 {
+        let index = cell_index(c);
+        let tiles = cells[index].tiles;
+        if tiles.y < 0 {
             continue;
         }
-        let to_point = p - (cell_centre(c, size) + cell.offset.xyz);
+        let to_point = p - (cell_centre(c, size) + cells[index].offset.xyz);
         let dist = length(to_point);
         var w = tri;
         if dist > 0.0 && finite(dist) {
             let u = to_point / dist;
             let facing = (dot(n, -u) + 1.0) * 0.5;
             w *= facing * facing + 0.2;
-            let m = atlas_bilinear(ATLAS_MOMENTS, cell.tiles.y, params.atlas_b.x, params.atlas_b.y, oct_encode(u));
+            let m = atlas_bilinear(ATLAS_MOMENTS, tiles.y, params.atlas_b.x, params.atlas_b.y, oct_encode(u));
             let mean = m.x;
             let mean_sq = m.y;
             if dist > mean {
@@ -903,10 +917,10 @@ fn irradiance(position: vec3<f32>, normal: vec3<f32>) -> vec3<f32> {
         }
         w = max(w, 1e-6 * tri);
         var k = 1.0;
-        if cell.tiles.z >= 0 {
-            k = atlas_bilinear(ATLAS_SCALE, cell.tiles.z, params.atlas_b.z, params.atlas_b.w, uv_n).x;
+        if tiles.z >= 0 {
+            k = atlas_bilinear(ATLAS_SCALE, tiles.z, params.atlas_b.z, params.atlas_b.w, uv_n).x;
         }
-        e += cell_irradiance(cell.tiles.y, n) * w * k;
+        e += cell_irradiance(tiles.y, n) * w * k;
         wsum += w;
     }
     if !(wsum > 0.0) {

@@ -42,6 +42,7 @@ pub mod roughness;
 #[warn(missing_docs)]
 pub mod runtime;
 pub mod sampling;
+pub mod sh;
 pub mod tonemap;
 pub mod warp;
 

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 /// Floors, bottom first: a module may use modules on lower floors only (and itself).
 const FLOORS: &[&[&str]] = &[
     &["octa", "sampling", "files", "progress", "tonemap"],
-    &["grid", "roughness", "scene"],
+    &["grid", "sh", "roughness", "scene"],
     &["warp"],
     &["gridfile"],
     &["runtime"],
@@ -22,7 +22,7 @@ const FLOORS: &[&[&str]] = &[
 
 /// What a game links (`default-features = false`): never imports the offline tool.
 const RUNTIME_LAYER: &[&str] =
-    &["octa", "sampling", "tonemap", "grid", "files", "roughness", "warp", "gridfile", "runtime"];
+    &["octa", "sh", "sampling", "tonemap", "grid", "files", "roughness", "warp", "gridfile", "runtime"];
 
 /// Pairs the floors would allow but the design forbids: (module, what it never uses, why).
 const NEVER: &[(&str, &str, &str)] = &[

@@ -5,7 +5,7 @@
 
 mod common;
 use common::*;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 use warpfit::eval::{self, EvalSettings};
@@ -581,7 +581,7 @@ fn rough_lookups_blend_the_cells_irradiance_by_the_stored_weight() {
     let mut g = base.clone();
     g.roughness = Some(RoughnessCorrection::try_from(fit.clone()).unwrap());
     let corr = g.roughness.as_ref().unwrap();
-    let view = g.irradiance.view();
+    let view = &g.irradiance_sh;
     let mut blended = 0;
     for (p, d, _) in tiny_queries() {
         let d = d.normalize();
@@ -602,6 +602,12 @@ fn rough_lookups_blend_the_cells_irradiance_by_the_stored_weight() {
         }
     }
     assert!(blended > 10, "only {blended} lookups blended");
+    // the weight's lane form is the single call, bit for bit, between and beyond the nodes
+    let rs: [f32; 8] = [0.0, 0.05, 0.3, 0.5, 0.61, 0.99, 1.0, f32::NAN];
+    let lanes = corr.irradiance_weight_lanes(&rs);
+    for k in 0..rs.len() {
+        assert_eq!(lanes[k].to_bits(), corr.irradiance_weight(rs[k]).to_bits(), "r {}", rs[k]);
+    }
 
     // the batch API blends lane by lane, bit for bit the single call
     let qs = tiny_queries();
@@ -619,5 +625,42 @@ fn rough_lookups_blend_the_cells_irradiance_by_the_stored_weight() {
         let f = RoughnessFit { irradiance_weight: bad.clone(), ..fit.clone() };
         let e = RoughnessCorrection::try_from(f).unwrap_err();
         assert!(e.contains("irradiance_weight"), "{bad:?}: {e}");
+    }
+}
+
+#[test]
+fn the_blends_harmonics_hold_each_cells_irradiance_map() {
+    // the nine coefficients a rough lookup reads against the bilinear map they come from,
+    // per stored cell at directions between the texels, relative to the cell's mean. Bands
+    // 0-2 hold a smooth irradiance within a few percent; the committed grid's maps are
+    // 4×4, whose bilinear read is itself coarse, and one bright source nearby costs up to
+    // about 10% (the clamped cosine's own band-2 error)
+    let g = FittedGrid::load(tiny()).unwrap();
+    let (ir, sh) = (&g.irradiance, &g.irradiance_sh);
+    let view = ir.view();
+    let mut relative = Vec::new();
+    for cell in 0..ir.slot.len() {
+        if ir.slot[cell] == warpfit::warp::corrective::NO_MAP {
+            continue;
+        }
+        let centre = ir.geometry.cell_centre(cell);
+        let (mut err, mut sum) = (0.0f64, 0.0f64);
+        for k in 0..200u32 {
+            let (a, b) = ((k as f32 + 0.5) / 200.0, (k as f32 * 0.618_034).fract());
+            let d = warpfit::octa::decode(Vec2::new(a, b));
+            let (map, harm) = (view.nearest(centre, d).unwrap(), sh.nearest(centre, d).unwrap());
+            assert!(harm.is_finite() && harm.min_element() >= 0.0);
+            err += (harm - map).length_squared() as f64;
+            sum += map.length() as f64;
+        }
+        relative.push((err / 200.0).sqrt() / (sum / 200.0).max(1e-12));
+    }
+    relative.sort_by(f64::total_cmp);
+    let (median, worst) = (relative[relative.len() / 2], relative[relative.len() - 1]);
+    assert!(relative.len() >= 8 && median < 0.15 && worst < 0.3, "median {median}, worst {worst}: {relative:?}");
+    // a cell that stores no map reads none through either
+    if let Some(cell) = ir.slot.iter().position(|&s| s == warpfit::warp::corrective::NO_MAP) {
+        let c = ir.geometry.cell_centre(cell);
+        assert!(sh.nearest(c, Vec3::Y).is_none() && view.nearest(c, Vec3::Y).is_none());
     }
 }

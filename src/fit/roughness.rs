@@ -34,7 +34,7 @@ use crate::perceptual::{self, RenderSettings, ViewReference};
 use crate::roughness::{
     PerRule, Representation, RoughnessCorrection, RoughnessFit, RowChoice, RowRule, SceneComparison, Source,
 };
-use crate::runtime::IrradianceView;
+use crate::runtime::IrradianceSh;
 use crate::sampling::{Sampler, hash_pair};
 use crate::tonemap::reinhard;
 use crate::trace::Renderer;
@@ -110,7 +110,7 @@ fn queries(
     baked: Baked,
     warp: &Warp,
     correctives: &Correctives,
-    irradiance: &IrradianceView,
+    irradiance: &IrradianceSh,
     s: &FitSettings,
 ) -> Queries {
     let Baked { scene, tracer, grid, .. } = baked;
@@ -356,7 +356,7 @@ pub fn fit_scene_correction(
     let exposure = super::exposure_of(warp);
     // the irradiance a rough lookup blends in, as the grid written from this bake holds it
     let slots = baked.grid.dense_slots();
-    let irradiance = baked.grid.irradiance_view(&slots);
+    let irradiance = crate::runtime::IrradianceSh::project(&baked.grid.irradiance_view(&slots));
     let Queries { train, held, held_positions } = queries(baked, warp, correctives, &irradiance, s);
     if train.is_empty() || held.is_empty() {
         return lobe_fit.clone();

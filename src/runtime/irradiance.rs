@@ -84,6 +84,63 @@ pub struct IrradianceView<'a> {
     pub probe_offset: &'a [Vec3],
 }
 
+/// Each stored cell's irradiance as nine spherical-harmonic coefficients (bands 0–2,
+/// [`crate::sh`]), projected from its octahedral map: what a rough specular lookup blends in
+/// (`FittedGrid::specular`). Derived from the maps when a grid is loaded, so files carry
+/// nothing new; smooth over directions and read without the map's seams.
+#[derive(Clone, Debug, PartialEq)]
+pub struct IrradianceSh {
+    /// The grid's cells.
+    pub geometry: GridGeometry,
+    /// Per grid cell: slot in `coeffs` ([`NO_MAP`]: not stored).
+    pub slot: Vec<u32>,
+    /// Per slot: the nine coefficients (RGB).
+    pub coeffs: Vec<[glam::Vec3A; crate::sh::COEFFS]>,
+}
+
+impl IrradianceSh {
+    /// The coefficients of every slot of `view`'s irradiance maps.
+    #[must_use]
+    pub fn project(view: &IrradianceView) -> IrradianceSh {
+        let texels = (view.resolution * view.resolution) as usize;
+        let weights = crate::sh::projection_weights(view.resolution);
+        let coeffs = view.irradiance.chunks_exact(texels.max(1)).map(|map| crate::sh::project(map, &weights)).collect();
+        IrradianceSh { geometry: view.geometry, slot: view.slot.to_vec(), coeffs }
+    }
+
+    /// Irradiance for unit direction `n` of the cell that contains `position` (finite), if
+    /// that cell is stored.
+    #[inline]
+    #[must_use]
+    pub fn nearest(&self, position: Vec3, n: Vec3) -> Option<Vec3> {
+        let geo = &self.geometry;
+        let slot = *self.slot.get(geo.cell_index(geo.cell_of(position)))?;
+        let c = self.coeffs.get(slot as usize)?;
+        Some(crate::sh::eval(c, n)).filter(|e| e.is_finite())
+    }
+
+    /// [`IrradianceSh::nearest`] for [`octa::LANES`] points (finite) and unit directions,
+    /// bit for bit the same: the cells found for all lanes at once, then each lane's sum.
+    #[inline]
+    #[must_use]
+    pub fn nearest_lanes(
+        &self,
+        positions: &[Vec3; octa::LANES],
+        n: &[Vec3; octa::LANES],
+    ) -> [Option<Vec3>; octa::LANES] {
+        let geo = &self.geometry;
+        let cells = geo.cell_index_soa(&octa::soa(positions), geo.cell_size());
+        let mut out = [None; octa::LANES];
+        for k in 0..octa::LANES {
+            if let Some(c) = self.slot.get(cells[k]).and_then(|&s| self.coeffs.get(s as usize)) {
+                let e = crate::sh::eval(c, n[k]);
+                out[k] = e.is_finite().then_some(e);
+            }
+        }
+        out
+    }
+}
+
 impl IrradianceGrid {
     /// The grid's arrays as a blend reads them.
     #[inline]

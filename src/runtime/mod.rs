@@ -30,7 +30,7 @@
 mod irradiance;
 pub use crate::gridfile::surface::{read as load_surface_atlas, read_all as load_surface_atlases};
 pub use crate::warp::surface::SurfaceAtlas;
-pub use irradiance::{BlendTerms, IrradianceBlend, IrradianceView};
+pub use irradiance::{BlendTerms, IrradianceBlend, IrradianceSh, IrradianceView};
 
 pub use crate::files::FileError as LoadError;
 pub use crate::gridfile::{GridManifest, IrradianceCorrection, IrradianceGrid, Precision, read_manifest};
@@ -55,6 +55,9 @@ pub struct FittedGrid {
     pub correctives: Correctives,
     /// The dense grid's irradiance, distance moments and diffuse corrections.
     pub irradiance: IrradianceGrid,
+    /// `irradiance`'s maps as harmonics, what rough lookups blend in: derived from them at
+    /// load ([`IrradianceSh::project`]); project again after changing the maps.
+    pub irradiance_sh: IrradianceSh,
     /// The GGX distance-ratio roughness correction (absent: plain roughness picks the mip).
     pub roughness: Option<RoughnessCorrection>,
     /// The manifest the grid was loaded from (conventions, provenance, residuals).
@@ -75,6 +78,7 @@ impl FittedGrid {
     pub fn load(dir: impl AsRef<Path>) -> Result<FittedGrid, LoadError> {
         let d = crate::gridfile::read(dir.as_ref())?;
         Ok(FittedGrid {
+            irradiance_sh: IrradianceSh::project(&d.irradiance.view()),
             warp: d.warp,
             blend: d.manifest.warp.blend,
             correctives: d.correctives,
@@ -141,7 +145,7 @@ impl FittedGrid {
         if !(w > 0.0) {
             return None;
         }
-        self.irradiance.view().nearest(q.b, q.dir).map(|e| (e, w))
+        self.irradiance_sh.nearest(q.b, q.dir).map(|e| (e, w))
     }
 
     /// `specular` for [`octa::LANES`] queries at once, bit for bit the same values: the
@@ -180,12 +184,9 @@ impl FittedGrid {
             // the irradiance blend's weights and reads first (`irradiance_blend`, lane by
             // lane): their loads are independent of probe A's
             let w: [f32; octa::LANES] =
-                std::array::from_fn(|k| self.roughness.as_ref().map_or(0.0, |c| c.irradiance_weight(r[k])));
-            let e = if w.iter().any(|&w| w > 0.0) {
-                self.irradiance.view().nearest_lanes(b, dir)
-            } else {
-                [None; octa::LANES]
-            };
+                self.roughness.as_ref().map_or([0.0; octa::LANES], |c| c.irradiance_weight_lanes(&r));
+            let e =
+                if w.iter().any(|&w| w > 0.0) { self.irradiance_sh.nearest_lanes(b, dir) } else { [None; octa::LANES] };
             let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &r);
             let mut out = corrected_lanes(&self.warp.probe, self.roughness.as_ref(), &r, &v, &ratio);
             for k in 0..octa::LANES {
