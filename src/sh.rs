@@ -54,7 +54,7 @@ pub fn eval(c: &[Vec3A; COEFFS], d: Vec3) -> Vec3 {
 
 /// Per texel of an N×N octahedral map, the nine integrals ∫ tap_t(ω) Y_i(ω) dω, where
 /// tap_t is texel t's weight in [`octa::bilinear_taps`] (seams folded): the coefficients of
-/// a map with texel values E_t are Σ_t E_t · w[t][i]. The integral is a midpoint sum over
+/// a map with texel values E_t are Σ_t E_t · `w[t][i]`. The integral is a midpoint sum over
 /// 16×16 points per texel with the octahedral map's solid angle, dω = 4 du dv · ‖p‖₁³ / ‖p‖₂³
 /// for the unit direction p, rescaled so the whole sum is exactly 4π.
 #[must_use]

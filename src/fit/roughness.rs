@@ -21,7 +21,8 @@
 //! `roughness.heldout_scene`).
 //!
 //! Last, the rough lookups' irradiance blend (`RoughnessFit::irradiance_weight`): the
-//! runtime mixes the containing cell's irradiance over π into a rough lookup, since at
+//! runtime mixes the containing cell's irradiance over π (its band-2 harmonics,
+//! `runtime::IrradianceSh`) into a rough lookup, since at
 //! α = 1 the lobe is the clamped cosine and the reference is that irradiance itself. Per
 //! row, the weight with the lowest training tone-mapped RMSE through the row's chosen
 //! mips, or its half or quarter, the largest whose views' ꟻLIP is no worse than without;
@@ -354,7 +355,7 @@ pub fn fit_scene_correction(
     s: &FitSettings,
 ) -> RoughnessCorrection {
     let exposure = super::exposure_of(warp);
-    // the irradiance a rough lookup blends in, as the grid written from this bake holds it
+    // the irradiance a rough lookup blends in, as a grid written from this bake loads it
     let slots = baked.grid.dense_slots();
     let irradiance = crate::runtime::IrradianceSh::project(&baked.grid.irradiance_view(&slots));
     let Queries { train, held, held_positions } = queries(baked, warp, correctives, &irradiance, s);

@@ -232,8 +232,9 @@ impl IrradianceView<'_> {
     }
 
     /// Irradiance for unit direction `n` of the cell that contains `position` (finite), if
-    /// that cell is stored: [`IrradianceBlend::Nearest`] without its bookkeeping, what a
-    /// rough specular lookup blends in (`FittedGrid::specular`).
+    /// that cell is stored, bilinear in its map: [`IrradianceBlend::Nearest`] without its
+    /// bookkeeping. (Rough specular lookups read the same cell's harmonics instead,
+    /// [`IrradianceSh::nearest`].)
     #[inline]
     #[must_use]
     pub fn nearest(&self, position: Vec3, n: Vec3) -> Option<Vec3> {

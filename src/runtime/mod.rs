@@ -280,6 +280,8 @@ impl FittedGrid {
             + g.irradiance.len() * 12
             + (g.depth_mean.len() + g.depth_mean_sq.len()) * 4
             + g.slot.len() * 4
+            + self.irradiance_sh.coeffs.len() * std::mem::size_of::<[glam::Vec3A; crate::sh::COEFFS]>()
+            + self.irradiance_sh.slot.len() * 4
     }
 }
 
