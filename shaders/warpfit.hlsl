@@ -1171,9 +1171,9 @@ float distance_ratio(float3 b_12, float3 v_6, float2 uv_7)
 float pseudo_log2_(float k_3)
 {
     uint bits = asuint(k_3);
-    int e_2 = asint(asuint(int(((bits >> 23u) & 255u))) - asuint(int(127)));
+    int e_1 = asint(asuint(int(((bits >> 23u) & 255u))) - asuint(int(127)));
     float m_3 = asfloat(((bits & 8388607u) | 1065353216u));
-    return (float(e_2) + (m_3 - 1.0));
+    return (float(e_1) + (m_3 - 1.0));
 }
 
 float corrected_roughness(float r_3, float k_in)
@@ -1327,39 +1327,29 @@ float3 clean(float3 c_4)
 
 float3 cell_sh_irradiance(uint cell, float3 n_4)
 {
-    float3 e = (float3)0;
-
     float x_4 = n_4.x;
     float y = n_4.y;
     float z = n_4.z;
     float4 _e9 = asfloat(cells.Load4(0+32+cell*176));
-    e = (_e9.xyz * 0.2820948);
-    float3 _e14 = e;
-    float4 _e19 = asfloat(cells.Load4(16+32+cell*176));
-    e = (_e14 + (_e19.xyz * (0.4886025 * y)));
-    float3 _e25 = e;
-    float4 _e30 = asfloat(cells.Load4(32+32+cell*176));
-    e = (_e25 + (_e30.xyz * (0.4886025 * z)));
-    float3 _e36 = e;
-    float4 _e41 = asfloat(cells.Load4(48+32+cell*176));
-    e = (_e36 + (_e41.xyz * (0.4886025 * x_4)));
-    float3 _e47 = e;
-    float4 _e52 = asfloat(cells.Load4(64+32+cell*176));
-    e = (_e47 + (_e52.xyz * (1.0925484 * (x_4 * y))));
-    float3 _e59 = e;
-    float4 _e64 = asfloat(cells.Load4(80+32+cell*176));
-    e = (_e59 + (_e64.xyz * (1.0925484 * (y * z))));
-    float3 _e71 = e;
-    float4 _e76 = asfloat(cells.Load4(96+32+cell*176));
-    e = (_e71 + (_e76.xyz * (0.31539157 * ((3.0 * (z * z)) - 1.0))));
-    float3 _e87 = e;
-    float4 _e92 = asfloat(cells.Load4(112+32+cell*176));
-    e = (_e87 + (_e92.xyz * (1.0925484 * (x_4 * z))));
-    float3 _e99 = e;
-    float4 _e104 = asfloat(cells.Load4(128+32+cell*176));
-    e = (_e99 + (_e104.xyz * (0.5462742 * ((x_4 * x_4) - (y * y)))));
-    float3 _e113 = e;
-    return max(_e113, (0.0).xxx);
+    float3 t0_ = (_e9.xyz * 0.2820948);
+    float4 _e17 = asfloat(cells.Load4(16+32+cell*176));
+    float3 t1_ = (_e17.xyz * (0.4886025 * y));
+    float4 _e26 = asfloat(cells.Load4(32+32+cell*176));
+    float3 t2_ = (_e26.xyz * (0.4886025 * z));
+    float4 _e35 = asfloat(cells.Load4(48+32+cell*176));
+    float3 t3_ = (_e35.xyz * (0.4886025 * x_4));
+    float4 _e44 = asfloat(cells.Load4(64+32+cell*176));
+    float3 t4_ = (_e44.xyz * (1.0925484 * (x_4 * y)));
+    float4 _e54 = asfloat(cells.Load4(80+32+cell*176));
+    float3 t5_ = (_e54.xyz * (1.0925484 * (y * z)));
+    float4 _e64 = asfloat(cells.Load4(96+32+cell*176));
+    float3 t6_ = (_e64.xyz * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    float4 _e78 = asfloat(cells.Load4(112+32+cell*176));
+    float3 t7_ = (_e78.xyz * (1.0925484 * (x_4 * z)));
+    float4 _e88 = asfloat(cells.Load4(128+32+cell*176));
+    float3 t8_ = (_e88.xyz * (0.5462742 * ((x_4 * x_4) - (y * y))));
+    float3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
+    return max(e_2, (0.0).xxx);
 }
 
 float3 specular(float3 position, float3 direction, float roughness)
@@ -1441,7 +1431,7 @@ float3 cell_irradiance(int tile_2, float3 n_5)
 float3 irradiance(float3 position_1, float3 normal)
 {
     float3 p_3 = (float3)0;
-    float3 e_1 = (0.0).xxx;
+    float3 e = (0.0).xxx;
     float wsum = 0.0;
     uint corner_3 = 0u;
     float w_2 = (float)0;
@@ -1536,11 +1526,11 @@ float3 irradiance(float3 position_1, float3 normal)
                 const float4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_3.z, _e138, _e142, _e36);
                 k_9 = _e143.x;
             }
-            float3 _e145 = e_1;
+            float3 _e145 = e;
             const float3 _e147 = cell_irradiance(tiles_3.y, n_13);
             float _e148 = w_2;
             float _e150 = k_9;
-            e_1 = (_e145 + ((_e147 * _e148) * _e150));
+            e = (_e145 + ((_e147 * _e148) * _e150));
             float _e153 = wsum;
             float _e154 = w_2;
             wsum = (_e153 + _e154);
@@ -1550,7 +1540,7 @@ float3 irradiance(float3 position_1, float3 normal)
     if (!((_e159 > 0.0))) {
         return (0.0).xxx;
     }
-    float3 _e165 = e_1;
+    float3 _e165 = e;
     float _e166 = wsum;
     const float3 _e169 = clean((_e165 / (_e166).xxx));
     return _e169;

@@ -1030,9 +1030,9 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
 
 float pseudo_log2_(float k_3) {
     uint bits = floatBitsToUint(k_3);
-    int e_2 = (int(((bits >> 23u) & 255u)) - 127);
+    int e_1 = (int(((bits >> 23u) & 255u)) - 127);
     float m_3 = uintBitsToFloat(((bits & 8388607u) | 1065353216u));
-    return (float(e_2) + (m_3 - 1.0));
+    return (float(e_1) + (m_3 - 1.0));
 }
 
 float corrected_roughness(float r_3, float k_in) {
@@ -1173,38 +1173,29 @@ vec3 clean(vec3 c_4) {
 }
 
 vec3 cell_sh_irradiance(uint cell, vec3 n_4) {
-    vec3 e = vec3(0.0);
     float x_4 = n_4.x;
     float y = n_4.y;
     float z = n_4.z;
     vec4 _e9 = _group_0_binding_8_cs[cell].sh[0];
-    e = (_e9.xyz * 0.2820948);
-    vec3 _e14 = e;
-    vec4 _e19 = _group_0_binding_8_cs[cell].sh[1];
-    e = (_e14 + (_e19.xyz * (0.4886025 * y)));
-    vec3 _e25 = e;
-    vec4 _e30 = _group_0_binding_8_cs[cell].sh[2];
-    e = (_e25 + (_e30.xyz * (0.4886025 * z)));
-    vec3 _e36 = e;
-    vec4 _e41 = _group_0_binding_8_cs[cell].sh[3];
-    e = (_e36 + (_e41.xyz * (0.4886025 * x_4)));
-    vec3 _e47 = e;
-    vec4 _e52 = _group_0_binding_8_cs[cell].sh[4];
-    e = (_e47 + (_e52.xyz * (1.0925484 * (x_4 * y))));
-    vec3 _e59 = e;
-    vec4 _e64 = _group_0_binding_8_cs[cell].sh[5];
-    e = (_e59 + (_e64.xyz * (1.0925484 * (y * z))));
-    vec3 _e71 = e;
-    vec4 _e76 = _group_0_binding_8_cs[cell].sh[6];
-    e = (_e71 + (_e76.xyz * (0.31539157 * ((3.0 * (z * z)) - 1.0))));
-    vec3 _e87 = e;
-    vec4 _e92 = _group_0_binding_8_cs[cell].sh[7];
-    e = (_e87 + (_e92.xyz * (1.0925484 * (x_4 * z))));
-    vec3 _e99 = e;
-    vec4 _e104 = _group_0_binding_8_cs[cell].sh[8];
-    e = (_e99 + (_e104.xyz * (0.5462742 * ((x_4 * x_4) - (y * y)))));
-    vec3 _e113 = e;
-    return max(_e113, vec3(0.0));
+    vec3 t0_ = (_e9.xyz * 0.2820948);
+    vec4 _e17 = _group_0_binding_8_cs[cell].sh[1];
+    vec3 t1_ = (_e17.xyz * (0.4886025 * y));
+    vec4 _e26 = _group_0_binding_8_cs[cell].sh[2];
+    vec3 t2_ = (_e26.xyz * (0.4886025 * z));
+    vec4 _e35 = _group_0_binding_8_cs[cell].sh[3];
+    vec3 t3_ = (_e35.xyz * (0.4886025 * x_4));
+    vec4 _e44 = _group_0_binding_8_cs[cell].sh[4];
+    vec3 t4_ = (_e44.xyz * (1.0925484 * (x_4 * y)));
+    vec4 _e54 = _group_0_binding_8_cs[cell].sh[5];
+    vec3 t5_ = (_e54.xyz * (1.0925484 * (y * z)));
+    vec4 _e64 = _group_0_binding_8_cs[cell].sh[6];
+    vec3 t6_ = (_e64.xyz * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    vec4 _e78 = _group_0_binding_8_cs[cell].sh[7];
+    vec3 t7_ = (_e78.xyz * (1.0925484 * (x_4 * z)));
+    vec4 _e88 = _group_0_binding_8_cs[cell].sh[8];
+    vec3 t8_ = (_e88.xyz * (0.5462742 * ((x_4 * x_4) - (y * y))));
+    vec3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
+    return max(e_2, vec3(0.0));
 }
 
 vec3 specular(vec3 position, vec3 direction, float roughness) {
@@ -1282,7 +1273,7 @@ vec3 cell_irradiance(int tile_2, vec3 n_5) {
 
 vec3 irradiance(vec3 position_1, vec3 normal) {
     vec3 p_3 = vec3(0.0);
-    vec3 e_1 = vec3(0.0);
+    vec3 e = vec3(0.0);
     float wsum = 0.0;
     uint corner_3 = 0u;
     float w_2 = 0.0;
@@ -1373,11 +1364,11 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                 vec4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_3.z, _e138, _e142, _e36);
                 k_9 = _e143.x;
             }
-            vec3 _e145 = e_1;
+            vec3 _e145 = e;
             vec3 _e147 = cell_irradiance(tiles_3.y, n_13);
             float _e148 = w_2;
             float _e150 = k_9;
-            e_1 = (_e145 + ((_e147 * _e148) * _e150));
+            e = (_e145 + ((_e147 * _e148) * _e150));
             float _e153 = wsum;
             float _e154 = w_2;
             wsum = (_e153 + _e154);
@@ -1387,7 +1378,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     if (!((_e159 > 0.0))) {
         return vec3(0.0);
     }
-    vec3 _e165 = e_1;
+    vec3 _e165 = e;
     float _e166 = wsum;
     vec3 _e169 = clean((_e165 / vec3(_e166)));
     return _e169;

@@ -301,9 +301,9 @@ vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
 
 float pseudo_log2_(float k_3) {
     uint bits = floatBitsToUint(k_3);
-    int e_2 = (int(((bits >> 23u) & 255u)) - 127);
+    int e_1 = (int(((bits >> 23u) & 255u)) - 127);
     float m_2 = uintBitsToFloat(((bits & 8388607u) | 1065353216u));
-    return (float(e_2) + (m_2 - 1.0));
+    return (float(e_1) + (m_2 - 1.0));
 }
 
 vec3 clean(vec3 c_4) {

@@ -885,9 +885,9 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
 
 float pseudo_log2_(float k_3) {
     uint bits = floatBitsToUint(k_3);
-    int e_2 = (int(((bits >> 23u) & 255u)) - 127);
+    int e_1 = (int(((bits >> 23u) & 255u)) - 127);
     float m_3 = uintBitsToFloat(((bits & 8388607u) | 1065353216u));
-    return (float(e_2) + (m_3 - 1.0));
+    return (float(e_1) + (m_3 - 1.0));
 }
 
 float blend_node_r(uint k_6) {

@@ -850,20 +850,22 @@ fn cell_irradiance(tile: i32, n: vec3<f32>) -> vec3<f32> {
 }
 
 // Irradiance of cell `cell` for unit direction n from its harmonics: `sh::eval`, the
-// nine real harmonics of bands 0-2 summed in order and clamped at 0.
+// nine real harmonics of bands 0-2 weighted by the coefficients, summed as the same tree,
+// clamped at 0.
 fn cell_sh_irradiance(cell: u32, n: vec3<f32>) -> vec3<f32> {
     let x = n.x;
     let y = n.y;
     let z = n.z;
-    var e = cells[cell].sh[0].xyz * 0.2820948;
-    e += cells[cell].sh[1].xyz * (0.4886025 * y);
-    e += cells[cell].sh[2].xyz * (0.4886025 * z);
-    e += cells[cell].sh[3].xyz * (0.4886025 * x);
-    e += cells[cell].sh[4].xyz * (1.0925484 * (x * y));
-    e += cells[cell].sh[5].xyz * (1.0925484 * (y * z));
-    e += cells[cell].sh[6].xyz * (0.31539157 * (3.0 * (z * z) - 1.0));
-    e += cells[cell].sh[7].xyz * (1.0925484 * (x * z));
-    e += cells[cell].sh[8].xyz * (0.5462742 * (x * x - y * y));
+    let t0 = cells[cell].sh[0].xyz * 0.2820948;
+    let t1 = cells[cell].sh[1].xyz * (0.4886025 * y);
+    let t2 = cells[cell].sh[2].xyz * (0.4886025 * z);
+    let t3 = cells[cell].sh[3].xyz * (0.4886025 * x);
+    let t4 = cells[cell].sh[4].xyz * (1.0925484 * (x * y));
+    let t5 = cells[cell].sh[5].xyz * (1.0925484 * (y * z));
+    let t6 = cells[cell].sh[6].xyz * (0.31539157 * (3.0 * (z * z) - 1.0));
+    let t7 = cells[cell].sh[7].xyz * (1.0925484 * (x * z));
+    let t8 = cells[cell].sh[8].xyz * (0.5462742 * (x * x - y * y));
+    let e = ((t0 + t1) + (t2 + t3)) + ((t4 + t5) + (t6 + t7)) + t8;
     return max(e, vec3<f32>(0.0));
 }
 

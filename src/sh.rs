@@ -45,10 +45,9 @@ pub fn basis(d: Vec3) -> [f32; COEFFS] {
 #[must_use]
 pub fn eval(c: &[Vec3A; COEFFS], d: Vec3) -> Vec3 {
     let y = basis(d);
-    let mut sum = c[0] * y[0];
-    for i in 1..COEFFS {
-        sum += c[i] * y[i];
-    }
+    let t = |i: usize| c[i] * y[i];
+    // summed as a tree, so a single lookup waits for four additions, not eight
+    let sum = ((t(0) + t(1)) + (t(2) + t(3))) + ((t(4) + t(5)) + (t(6) + t(7))) + t(8);
     Vec3::from(sum.max(Vec3A::ZERO))
 }
 

@@ -602,13 +602,6 @@ fn rough_lookups_blend_the_cells_irradiance_by_the_stored_weight() {
         }
     }
     assert!(blended > 10, "only {blended} lookups blended");
-    // the weight's lane form is the single call, bit for bit, between and beyond the nodes
-    let rs: [f32; 8] = [0.0, 0.05, 0.3, 0.5, 0.61, 0.99, 1.0, f32::NAN];
-    let lanes = corr.irradiance_weight_lanes(&rs);
-    for k in 0..rs.len() {
-        assert_eq!(lanes[k].to_bits(), corr.irradiance_weight(rs[k]).to_bits(), "r {}", rs[k]);
-    }
-
     // the batch API blends lane by lane, bit for bit the single call
     let qs = tiny_queries();
     let p: Vec<Vec3> = qs.iter().map(|q| q.0).collect();

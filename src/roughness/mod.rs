@@ -517,7 +517,8 @@ impl RoughnessCorrection {
     #[inline]
     #[must_use]
     pub fn irradiance_weight(&self, r: f32) -> f32 {
-        // the lane form's value: its last segment starting below r, computed once
+        // on the last segment starting below r (ra, wa)–(rb, wb): wa·(1 − t) + wb·t with
+        // t = (r − ra)/(rb − ra) clamped, exact at the nodes
         let b = &self.blend;
         let Some(&(_, w0)) = b.first() else { return 0.0 };
         if !(r > 0.0) {
@@ -527,32 +528,6 @@ impl RoughnessCorrection {
         let ((ra, wa), (rb, wb)) = (pair[0], pair[1]);
         let t = ((r - ra) / (rb - ra)).clamp(0.0, 1.0);
         (wa * (1.0 - t) + wb * t).clamp(0.0, 1.0)
-    }
-
-    /// [`Self::irradiance_weight`] for `N` roughnesses, each bit for bit the single call:
-    /// every segment is evaluated and the last one starting below r kept (a select, not a
-    /// branch), so a loop over lanes runs on SIMD registers. On segment (ra, wa)–(rb, wb),
-    /// w = wa·(1 − t) + wb·t with t = (r − ra)/(rb − ra) clamped to [0, 1], exact at the nodes.
-    #[inline]
-    #[must_use]
-    pub fn irradiance_weight_lanes<const N: usize>(&self, r: &[f32; N]) -> [f32; N] {
-        let b = &self.blend;
-        let Some(&(_, w0)) = b.first() else { return [0.0; N] };
-        let mut w = [w0; N];
-        for pair in b.windows(2) {
-            let ((ra, wa), (rb, wb)) = (pair[0], pair[1]);
-            let span = rb - ra;
-            for k in 0..N {
-                // rb = ra gives ±∞ or NaN here only where r > ra is false or t clamps to 1
-                let t = ((r[k] - ra) / span).clamp(0.0, 1.0);
-                let on = wa * (1.0 - t) + wb * t;
-                w[k] = if r[k] > ra { on } else { w[k] };
-            }
-        }
-        for k in 0..N {
-            w[k] = if r[k] > 0.0 { w[k].clamp(0.0, 1.0) } else { 0.0 };
-        }
-        w
     }
 
     /// The blend's nodes, (perceptual roughness, weight) by increasing roughness (empty:

@@ -96,6 +96,8 @@ pub struct IrradianceSh {
     pub slot: Vec<u32>,
     /// Per slot: the nine coefficients (RGB).
     pub coeffs: Vec<[glam::Vec3A; crate::sh::COEFFS]>,
+    /// `geometry.cell_size()`, kept: it costs three divisions a lookup.
+    pub cell_size: Vec3,
 }
 
 impl IrradianceSh {
@@ -105,7 +107,8 @@ impl IrradianceSh {
         let texels = (view.resolution * view.resolution) as usize;
         let weights = crate::sh::projection_weights(view.resolution);
         let coeffs = view.irradiance.chunks_exact(texels.max(1)).map(|map| crate::sh::project(map, &weights)).collect();
-        IrradianceSh { geometry: view.geometry, slot: view.slot.to_vec(), coeffs }
+        let cell_size = view.geometry.cell_size();
+        IrradianceSh { geometry: view.geometry, slot: view.slot.to_vec(), coeffs, cell_size }
     }
 
     /// Irradiance for unit direction `n` of the cell that contains `position` (finite), if
@@ -114,30 +117,35 @@ impl IrradianceSh {
     #[must_use]
     pub fn nearest(&self, position: Vec3, n: Vec3) -> Option<Vec3> {
         let geo = &self.geometry;
-        let slot = *self.slot.get(geo.cell_index(geo.cell_of(position)))?;
+        let slot = *self.slot.get(geo.cell_index(geo.cell_of_sized(position, self.cell_size)))?;
         let c = self.coeffs.get(slot as usize)?;
         Some(crate::sh::eval(c, n)).filter(|e| e.is_finite())
     }
 
-    /// [`IrradianceSh::nearest`] for [`octa::LANES`] points (finite) and unit directions,
-    /// bit for bit the same: the cells found for all lanes at once, then each lane's sum.
+    /// `out[k]` blended with lane k's [`IrradianceSh::nearest`] by weight `w[k]`
+    /// ([`super::mix_irradiance`]) where the weight is positive and the cell stored; bit
+    /// for bit the single calls.
     #[inline]
-    #[must_use]
-    pub fn nearest_lanes(
+    pub fn mix_lanes(
         &self,
         positions: &[Vec3; octa::LANES],
         n: &[Vec3; octa::LANES],
-    ) -> [Option<Vec3>; octa::LANES] {
+        w: &[f32; octa::LANES],
+        out: &mut [Vec3; octa::LANES],
+    ) {
         let geo = &self.geometry;
-        let cells = geo.cell_index_soa(&octa::soa(positions), geo.cell_size());
-        let mut out = [None; octa::LANES];
+        let cells = geo.cell_index_soa(&octa::soa(positions), self.cell_size);
         for k in 0..octa::LANES {
+            if !(w[k] > 0.0) {
+                continue;
+            }
             if let Some(c) = self.slot.get(cells[k]).and_then(|&s| self.coeffs.get(s as usize)) {
                 let e = crate::sh::eval(c, n[k]);
-                out[k] = e.is_finite().then_some(e);
+                if e.is_finite() {
+                    out[k] = super::mix_irradiance(out[k], e, w[k]);
+                }
             }
         }
-        out
     }
 }
 

@@ -181,18 +181,13 @@ impl FittedGrid {
             let v = self.correctives.fetch_vector_lanes(self.blend, &self.warp, b, dir);
             self.warp.probe.radiance.levels[0].bilinear_uv_lanes(&octa::encode_soa(&v))
         } else {
-            // the irradiance blend's weights and reads first (`irradiance_blend`, lane by
-            // lane): their loads are independent of probe A's
-            let w: [f32; octa::LANES] =
-                self.roughness.as_ref().map_or([0.0; octa::LANES], |c| c.irradiance_weight_lanes(&r));
-            let e =
-                if w.iter().any(|&w| w > 0.0) { self.irradiance_sh.nearest_lanes(b, dir) } else { [None; octa::LANES] };
+            // probe A's part, then the irradiance blend lane by lane (`irradiance_blend`)
             let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &r);
             let mut out = corrected_lanes(&self.warp.probe, self.roughness.as_ref(), &r, &v, &ratio);
-            for k in 0..octa::LANES {
-                if let (true, Some(e)) = (w[k] > 0.0, e[k]) {
-                    out[k] = mix_irradiance(out[k], e, w[k]);
-                }
+            let w: [f32; octa::LANES] =
+                std::array::from_fn(|k| self.roughness.as_ref().map_or(0.0, |c| c.irradiance_weight(r[k])));
+            if w.iter().any(|&w| w > 0.0) {
+                self.irradiance_sh.mix_lanes(b, dir, &w, &mut out);
             }
             out
         };
