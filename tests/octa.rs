@@ -1,4 +1,5 @@
-//! Octahedral mapping: round trips, seam continuity, exact solid angles, mip topology.
+//! Octahedral mapping: round trips, seam continuity, exact solid angles, mip topology; and
+//! the band-2 harmonics projected from octahedral maps.
 
 use glam::{Vec2, Vec3};
 use proptest::prelude::*;
@@ -156,4 +157,37 @@ fn seam_convention_pinned() {
     assert!(d.z < 0.0 && d.x < 0.0 && d.y < 0.0, "{d}");
     let d = octa::texel_dir(4, 1, 1);
     assert!(d.z > 0.0 && d.x < 0.0 && d.y < 0.0, "{d}");
+}
+
+// The band-2 harmonics a rough lookup blends in (`warpfit::sh`), projected from maps on
+// this octahedral layout.
+proptest! {
+    #[test]
+    fn harmonics_are_linear_in_the_map_and_finite_and_non_negative_everywhere(
+        a in proptest::collection::vec(0.0f32..100.0, 64),
+        b in proptest::collection::vec(0.0f32..100.0, 64),
+        k in 0.001f32..1000.0,
+        x in -1.0f32..1.0, y in -1.0f32..1.0, z in -1.0f32..1.0,
+    ) {
+        use warpfit::sh;
+        let w = sh::projection_weights(8);
+        let map = |v: &[f32]| v.iter().map(|&e| Vec3::new(e, 0.5 * e, 0.25 * e)).collect::<Vec<_>>();
+        let (ma, mb) = (map(&a), map(&b));
+        let sum: Vec<Vec3> = ma.iter().zip(&mb).map(|(p, q)| *p + *q).collect();
+        let scaled: Vec<Vec3> = ma.iter().map(|p| *p * k).collect();
+        let (ca, cb, cs, ck) = (sh::project(&ma, &w), sh::project(&mb, &w), sh::project(&sum, &w), sh::project(&scaled, &w));
+        // linear to rounding: what keeps the evaluation's emitted/rest split of the blend
+        // exact wherever the clamp at 0 does not act
+        let scale = ca.iter().chain(&cb).map(|c| c.abs().max_element()).fold(1e-6f32, f32::max);
+        for i in 0..sh::COEFFS {
+            prop_assert!((cs[i] - (ca[i] + cb[i])).abs().max_element() <= 1e-5 * scale, "coefficient {i}");
+            prop_assert!((ck[i] - ca[i] * k).abs().max_element() <= 1e-5 * scale * k, "coefficient {i} scaled");
+        }
+        if let Some(d) = unit(x, y, z) {
+            for c in [&ca, &cb, &cs, &ck] {
+                let e = sh::eval(c, d);
+                prop_assert!(e.is_finite() && e.min_element() >= 0.0, "{d}: {e}");
+            }
+        }
+    }
 }
