@@ -169,7 +169,7 @@ pub fn footprint(res: u32, uv: Vec2) -> Footprint {
 
 /// `footprint` on components: the one implementation behind `footprint` and the lane loops.
 #[inline(always)]
-pub fn footprint_of(n: f32, u: f32, v: f32) -> (i32, i32, f32, f32) {
+pub(crate) fn footprint_of(n: f32, u: f32, v: f32) -> (i32, i32, f32, f32) {
     let x = u.clamp(0.0, 1.0) * n - 0.5;
     let y = v.clamp(0.0, 1.0) * n - 0.5;
     let (i0, x0) = floor_small(x);

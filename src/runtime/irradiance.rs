@@ -117,8 +117,14 @@ impl IrradianceSh {
     #[must_use]
     pub fn nearest(&self, position: Vec3, n: Vec3) -> Option<Vec3> {
         let geo = &self.geometry;
-        let slot = *self.slot.get(geo.cell_index(geo.cell_of_sized(position, self.cell_size)))?;
-        let c = self.coeffs.get(slot as usize)?;
+        self.cell(geo.cell_index(geo.cell_of_sized(position, self.cell_size)), n)
+    }
+
+    /// Irradiance of grid cell `cell` for unit direction `n`, if the cell is stored and the
+    /// sum is finite: every read of the harmonics goes through it.
+    #[inline]
+    fn cell(&self, cell: usize, n: Vec3) -> Option<Vec3> {
+        let c = self.slot.get(cell).and_then(|&s| self.coeffs.get(s as usize))?;
         Some(crate::sh::eval(c, n)).filter(|e| e.is_finite())
     }
 
@@ -139,11 +145,8 @@ impl IrradianceSh {
             if !(w[k] > 0.0) {
                 continue;
             }
-            if let Some(c) = self.slot.get(cells[k]).and_then(|&s| self.coeffs.get(s as usize)) {
-                let e = crate::sh::eval(c, n[k]);
-                if e.is_finite() {
-                    out[k] = super::mix_irradiance(out[k], e, w[k]);
-                }
+            if let Some(e) = self.cell(cells[k], n[k]) {
+                out[k] = super::mix_irradiance(out[k], e, w[k]);
             }
         }
     }
@@ -248,37 +251,6 @@ impl IrradianceView<'_> {
     pub fn nearest(&self, position: Vec3, n: Vec3) -> Option<Vec3> {
         let geo = &self.geometry;
         self.cell_irradiance(geo.cell_index(geo.cell_of(position)), n).filter(|e| e.is_finite())
-    }
-
-    /// [`IrradianceView::nearest`] for [`octa::LANES`] points (finite) and unit directions,
-    /// bit for bit the same: the cells and the octahedral coordinates found lane by lane in
-    /// plain loops, then each lane's four taps, so the lanes' loads are in flight together.
-    #[inline]
-    #[must_use]
-    pub fn nearest_lanes(
-        &self,
-        positions: &[Vec3; octa::LANES],
-        n: &[Vec3; octa::LANES],
-    ) -> [Option<Vec3>; octa::LANES] {
-        const L: usize = octa::LANES;
-        let geo = &self.geometry;
-        let cells = geo.cell_index_soa(&octa::soa(positions), geo.cell_size());
-        let uv = octa::encode_lanes(n);
-        let ir = self.resolution;
-        // each stage a plain loop over the lanes (`OctMap::bilinear_uv_lanes`'s layout)
-        let (mut i0, mut j0, mut fx, mut fy) = ([0i32; L], [0i32; L], [0f32; L], [0f32; L]);
-        for k in 0..L {
-            (i0[k], j0[k], fx[k], fy[k]) = octa::footprint_of(ir as f32, uv.u[k], uv.v[k]);
-        }
-        let mut out = [None; L];
-        for k in 0..L {
-            let slot = self.slot[cells[k]];
-            if slot != NO_MAP {
-                let taps = octa::footprint_taps(ir, i0[k], j0[k], fx[k], fy[k]);
-                out[k] = Some(self.slot_irradiance(slot as usize, &taps)).filter(|e| e.is_finite());
-            }
-        }
-        out
     }
 
     /// Irradiance of the stored cell `cell` for unit normal `n` (bilinear in its map), if
