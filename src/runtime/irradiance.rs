@@ -128,19 +128,25 @@ impl IrradianceSh {
         Some(crate::sh::eval(c, n)).filter(|e| e.is_finite())
     }
 
+    /// The grid cells that contain `positions` (finite or not), as
+    /// [`IrradianceSh::nearest`] finds each.
+    #[inline]
+    #[must_use]
+    pub fn lane_cells(&self, positions: &[Vec3; octa::LANES]) -> [usize; octa::LANES] {
+        self.geometry.cell_index_soa(&octa::soa(positions), self.cell_size)
+    }
+
     /// `out[k]` blended with lane k's [`IrradianceSh::nearest`] by weight `w[k]`
     /// ([`super::mix_irradiance`]) where the weight is positive and the cell stored; bit
-    /// for bit the single calls.
+    /// for bit the single calls. `cells` are the lanes' [`IrradianceSh::lane_cells`].
     #[inline]
     pub fn mix_lanes(
         &self,
-        positions: &[Vec3; octa::LANES],
+        cells: &[usize; octa::LANES],
         n: &[Vec3; octa::LANES],
         w: &[f32; octa::LANES],
         out: &mut [Vec3; octa::LANES],
     ) {
-        let geo = &self.geometry;
-        let cells = geo.cell_index_soa(&octa::soa(positions), self.cell_size);
         for k in 0..octa::LANES {
             if !(w[k] > 0.0) {
                 continue;

@@ -182,12 +182,17 @@ impl FittedGrid {
             self.warp.probe.radiance.levels[0].bilinear_uv_lanes(&octa::encode_soa(&v))
         } else {
             // probe A's part, then the irradiance blend lane by lane (`irradiance_blend`)
-            let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &r);
+            // the lanes' cells, found once: the correctives and the harmonics share the
+            // grid whenever it was loaded from one file
+            let cells = self.correctives.lane_cells(b);
+            let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &cells, &r);
             let mut out = corrected_lanes(&self.warp.probe, self.roughness.as_ref(), &r, &v, &ratio);
             let w: [f32; octa::LANES] =
                 std::array::from_fn(|k| self.roughness.as_ref().map_or(0.0, |c| c.irradiance_weight(r[k])));
             if w.iter().any(|&w| w > 0.0) {
-                self.irradiance_sh.mix_lanes(b, dir, &w, &mut out);
+                let sh = &self.irradiance_sh;
+                let cells = if sh.geometry == self.correctives.geometry { cells } else { sh.lane_cells(b) };
+                sh.mix_lanes(&cells, dir, &w, &mut out);
             }
             out
         };
