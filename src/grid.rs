@@ -58,10 +58,9 @@ impl GridGeometry {
         // floor without libm calls (the x86-64 baseline has no round instruction); exact for
         // |f| < 2²², far beyond any grid, and larger values are clamped below anyway
         let f = ((p - self.min) / cell_size).to_array().map(|x| crate::octa::floor_small(x).1);
-        let f = Vec3::from_array(f);
-        let hi = (self.counts - UVec3::ONE).as_vec3();
-        let f = if f.is_finite() { f.clamp(Vec3::ZERO, hi) } else { Vec3::ZERO };
-        f.as_uvec3()
+        let finite = f[0].is_finite() & f[1].is_finite() & f[2].is_finite();
+        let hi = self.counts - UVec3::ONE;
+        UVec3::new(coord(f[0], hi.x, finite), coord(f[1], hi.y, finite), coord(f[2], hi.z, finite))
     }
 
     /// `cell_index(cell_of_sized(p, cell_size))` for [`LANES`](crate::octa::LANES)
@@ -72,26 +71,40 @@ impl GridGeometry {
     pub fn cell_index_soa(&self, p: &crate::octa::Soa3, cell_size: Vec3) -> [usize; crate::octa::LANES] {
         const L: usize = crate::octa::LANES;
         let (min, size) = (self.min.to_array(), cell_size.to_array());
-        let hi = (self.counts - UVec3::ONE).as_vec3().to_array();
+        let hi = (self.counts - UVec3::ONE).to_array();
         let mut f = [[0.0f32; L]; 3];
         for c in 0..3 {
             for k in 0..L {
                 f[c][k] = crate::octa::floor_small((p[c][k] - min[c]) / size[c]).1;
             }
         }
-        let mut out = [0usize; L];
+        // `cell_index`'s arithmetic in u32, as it does it; the loop vectorises
+        let (nx, ny) = (self.counts.x, self.counts.y);
+        let mut index = [0u32; L];
         for k in 0..L {
             let finite = f[0][k].is_finite() & f[1][k].is_finite() & f[2][k].is_finite();
-            // `Vec3::clamp` is `max(lo).min(hi)` with these comparisons
-            let at = |c: usize| {
-                let x = if f[c][k] > 0.0 { f[c][k] } else { 0.0 };
-                let x = if x < hi[c] { x } else { hi[c] };
-                if finite { x as u32 } else { 0 }
-            };
-            out[k] = self.cell_index(UVec3::new(at(0), at(1), at(2)));
+            let at = |c: usize| coord(f[c][k], hi[c], finite);
+            index[k] = at(0) + nx * (at(1) + ny * at(2));
         }
-        out
+        index.map(|i| i as usize)
     }
+}
+
+/// A cell coordinate from `f`, the floor of a position in cell units: clamped to
+/// [0, `hi`] (`Vec3::clamp`'s `max(0).min(hi)` by these comparisons), 0 where the position
+/// is not finite. Converted by adding 1.5·2²³ and reading the bits, which a loop over lanes
+/// vectorises (`as u32` saturates, and the x86-64 baseline has no instruction for it): exact
+/// below 2²², as `floor_small` is, and held to `hi` above it.
+#[inline(always)]
+fn coord(f: f32, hi: u32, finite: bool) -> u32 {
+    const SHIFT: f32 = 12_582_912.0;
+    let top = hi as f32;
+    let x = if f > 0.0 { f } else { 0.0 };
+    let x = if x < top { x } else { top };
+    let x = if finite { x } else { 0.0 };
+    let i = ((x + SHIFT).to_bits() - SHIFT.to_bits()) as i32;
+    // (a u32 minimum is SSE4.1; both are below 2³¹)
+    (if i < hi as i32 { i } else { hi as i32 }) as u32
 }
 
 /// The sparse form files store per-cell probe offsets in: the cells whose probe is off its

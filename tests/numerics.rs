@@ -130,6 +130,36 @@ fn cell_lookups_clamp_every_position_into_the_grid() {
 }
 
 #[test]
+fn the_lanes_find_the_cells_the_single_lookup_finds() {
+    use warpfit::octa::{LANES, soa};
+    // a small grid, and one with an axis past 2²² cells, where the float → integer step is
+    // no longer exact and must still stay inside the grid
+    let grids = [
+        GridGeometry { min: Vec3::splat(-1.0), max: Vec3::splat(1.0), counts: glam::UVec3::new(4, 2, 3) },
+        GridGeometry { min: Vec3::ZERO, max: Vec3::new(1.0, 1.0, 16.0), counts: glam::UVec3::new(1, 1, 1 << 23) },
+    ];
+    for g in grids {
+        let size = g.cell_size();
+        let mut points: Vec<Vec3> = Vec::new();
+        for x in EDGES.into_iter().chain([0.5, 0.999_999_9, 1.0, 8.000_001, 15.999_999, 16.0]) {
+            points.push(Vec3::new(x, 0.3, -x));
+            points.push(Vec3::new(0.25, -x, x));
+            points.push(Vec3::splat(x));
+        }
+        for chunk in points.chunks(LANES) {
+            let mut lanes = [Vec3::ZERO; LANES];
+            lanes[..chunk.len()].copy_from_slice(chunk);
+            let cells = g.cell_index_soa(&soa(&lanes), size);
+            for (k, p) in lanes.iter().enumerate() {
+                let c = g.cell_of_sized(*p, size);
+                assert!(c.cmplt(g.counts).all(), "{p}: {c}");
+                assert_eq!(cells[k], g.cell_index(c), "{p}");
+            }
+        }
+    }
+}
+
+#[test]
 fn the_roughness_lookup_stays_in_range() {
     let lut = warpfit::roughness::fit_correction();
     for a in EDGES.into_iter().chain([0.3, 1.0, 2.0]) {
