@@ -29,6 +29,7 @@ struct Cell {
     ivec4 tiles;
     vec4 offset;
     vec4 sh[9];
+    uvec4 links;
 };
 struct Footprint {
     ivec2 corner;
@@ -89,9 +90,9 @@ layout(binding = 1) uniform sampler2D _group_0_binding_1_cs;
 
 layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_binding_7_cs; };
 
-layout(std430, binding = 1) readonly buffer type_20_block_1Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_21_block_1Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_20_block_2Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_21_block_2Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 uint fallback_method() {
@@ -291,9 +292,9 @@ ivec2 wrap_texel(int n, ivec2 t) {
 }
 
 Footprint footprint(uint n_1, vec2 uv) {
-    vec2 x_3 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
-    vec2 x0_ = floor(x_3);
-    return Footprint(ivec2(x0_), (x_3 - x0_));
+    vec2 x_4 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
+    vec2 x0_ = floor(x_4);
+    return Footprint(ivec2(x0_), (x_4 - x0_));
 }
 
 vec4 blend4_(vec4 q00_, vec4 q10_, vec4 q01_, vec4 q11_, vec2 f) {
@@ -313,18 +314,18 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1) {
     float _e6 = _group_0_binding_7_cs.warp.z;
     float _e10 = _group_0_binding_7_cs.warp.y;
     float res0_ = ((which_1 == 0u) ? _e10 : _e6);
-    uint n_7 = max((uint(res0_) >> level_1), 1u);
-    Footprint _e18 = footprint(n_7, uv_1);
-    ivec2 c_6 = _e18.corner;
+    uint n_9 = max((uint(res0_) >> level_1), 1u);
+    Footprint _e18 = footprint(n_9, uv_1);
+    ivec2 c_8 = _e18.corner;
     int l_3 = int(level_1);
-    int ni = int(n_7);
-    ivec2 _e22 = wrap_texel(ni, c_6);
+    int ni = int(n_9);
+    ivec2 _e22 = wrap_texel(ni, c_8);
     vec4 _e23 = probe_texel(which_1, _e22, l_3);
-    ivec2 _e28 = wrap_texel(ni, (c_6 + ivec2(1, 0)));
+    ivec2 _e28 = wrap_texel(ni, (c_8 + ivec2(1, 0)));
     vec4 _e29 = probe_texel(which_1, _e28, l_3);
-    ivec2 _e34 = wrap_texel(ni, (c_6 + ivec2(0, 1)));
+    ivec2 _e34 = wrap_texel(ni, (c_8 + ivec2(0, 1)));
     vec4 _e35 = probe_texel(which_1, _e34, l_3);
-    ivec2 _e40 = wrap_texel(ni, (c_6 + ivec2(1, 1)));
+    ivec2 _e40 = wrap_texel(ni, (c_8 + ivec2(1, 1)));
     vec4 _e41 = probe_texel(which_1, _e40, l_3);
     vec4 _e43 = blend4_(_e23, _e29, _e35, _e41, _e18.f);
     return _e43;
@@ -368,16 +369,16 @@ float inv_dist(vec3 v_4) {
     float _e6 = _group_0_binding_7_cs.probe.w;
     uint _e10 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e11 = probe_sample_lod(1u, _e2, _e6, _e10);
-    float w_3 = _e11.x;
-    if ((w_3 > 0.0)) {
-        bool _e17 = finite(w_3);
+    float w_5 = _e11.x;
+    if ((w_5 > 0.0)) {
+        bool _e17 = finite(w_5);
         local_9 = _e17;
     } else {
         local_9 = false;
     }
     bool _e19 = local_9;
     if (_e19) {
-        return w_3;
+        return w_5;
     }
     return 0.0;
 }
@@ -390,8 +391,8 @@ vec3 cell_size() {
 }
 
 uint cell_index(uvec3 c_2) {
-    uvec4 n_8 = _group_0_binding_7_cs.grid_counts;
-    return (c_2.x + (n_8.x * (c_2.y + (n_8.y * c_2.z))));
+    uvec4 n_10 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_10.x * (c_2.y + (n_10.y * c_2.z))));
 }
 
 uvec3 cell_of(vec3 p_1, vec3 size) {
@@ -426,9 +427,9 @@ Lattice lattice(vec3 p_2, vec3 size_2) {
         f_1 = vec3(0.0);
     }
     vec3 _e28 = f_1;
-    vec3 base = floor(_e28);
+    vec3 base_1 = floor(_e28);
     vec3 _e31 = f_1;
-    return Lattice(uvec3(base), (_e31 - base));
+    return Lattice(uvec3(base_1), (_e31 - base_1));
 }
 
 float corner_weight(Lattice l, uint corner) {
@@ -448,12 +449,12 @@ uvec3 corner_cell(Lattice l_1, uint corner_1) {
 vec2 warp1_exit(vec3 b_2, vec3 dir) {
     bool local_10 = false;
     vec4 _e4 = _group_0_binding_7_cs.probe;
-    vec3 a = _e4.xyz;
+    vec3 a_1 = _e4.xyz;
     float _e6 = inv_dist(dir);
     if ((_e6 == 0.0)) {
         return vec2(1e30, 1.0);
     }
-    vec3 ab = (a - b_2);
+    vec3 ab = (a_1 - b_2);
     float dir_ab = dot(dir, ab);
     vec3 v_9 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
     float _e23 = inv_dist(v_9);
@@ -477,12 +478,12 @@ vec2 warp1_exit(vec3 b_2, vec3 dir) {
 
 vec3 warp1_(vec3 b_3, vec3 dir_1) {
     vec4 _e4 = _group_0_binding_7_cs.probe;
-    vec3 a_1 = _e4.xyz;
+    vec3 a_2 = _e4.xyz;
     float _e6 = inv_dist(dir_1);
     if ((_e6 == 0.0)) {
         return dir_1;
     }
-    vec3 ab_1 = (a_1 - b_3);
+    vec3 ab_1 = (a_2 - b_3);
     float dir_ab_1 = dot(dir_1, ab_1);
     vec3 v_10 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
     float _e20 = inv_dist(v_10);
@@ -568,14 +569,14 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
             }
             uint _e21 = k_1;
             vec4 _e23 = _group_0_binding_7_cs.kdop[_e21];
-            vec3 n_9 = _e23.xyz;
+            vec3 n_11 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e27].w;
-            float nb = dot(n_9, b_5);
+            float nb = dot(n_11, b_5);
             if ((nb > h_1)) {
                 return vec2(0.0, 0.0);
             }
-            float nd = dot(n_9, dir_3);
+            float nd = dot(n_11, dir_3);
             if ((nd > 0.0)) {
                 float _e39 = t_4;
                 t_4 = min(_e39, ((h_1 - nb) / nd));
@@ -628,9 +629,9 @@ vec3 box_fetch(vec3 b_8, vec3 dir_6) {
 
 Basis orthonormal_basis(vec3 n_3) {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a_2 = (-1.0 / (s_3 + n_3.z));
-    float b_19 = ((n_3.x * n_3.y) * a_2);
-    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_2)), (s_3 * b_19), (-(s_3) * n_3.x)), vec3(b_19, (s_3 + ((n_3.y * n_3.y) * a_2)), -(n_3.y)));
+    float a_3 = (-1.0 / (s_3 + n_3.z));
+    float b_20 = ((n_3.x * n_3.y) * a_3);
+    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_20), (-(s_3) * n_3.x)), vec3(b_20, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
@@ -785,8 +786,8 @@ float lod_of_roughness(float r_2) {
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
-    uint n_10 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_10 < 2u))) {
+    uint n_12 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_12 < 2u))) {
         float _e11 = mip_roughness(0u);
         local_17 = !((r_2 > _e11));
     } else {
@@ -796,7 +797,7 @@ float lod_of_roughness(float r_2) {
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_10 - 1u);
+    uint last = (n_12 - 1u);
     float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
@@ -809,7 +810,7 @@ float lod_of_roughness(float r_2) {
         }
         loop_init_3 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_10)) {
+        if ((_e26 < n_12)) {
         } else {
             break;
         }
@@ -821,16 +822,16 @@ float lod_of_roughness(float r_2) {
         }
     }
     uint _e39 = below;
-    uint i_5 = (min(max(_e39, 1u), last) - 1u);
-    float _e46 = mip_roughness((i_5 + 1u));
-    float _e47 = mip_roughness(i_5);
+    uint i_6 = (min(max(_e39, 1u), last) - 1u);
+    float _e46 = mip_roughness((i_6 + 1u));
+    float _e47 = mip_roughness(i_6);
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
-        float _e53 = mip_roughness(i_5);
+        float _e53 = mip_roughness(i_6);
         f_2 = ((r_2 - _e53) / span);
     }
     float _e57 = f_2;
-    return (float(i_5) + clamp(_e57, 0.0, 1.0));
+    return (float(i_6) + clamp(_e57, 0.0, 1.0));
 }
 
 float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
@@ -842,7 +843,7 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
     float _e8 = _group_0_binding_7_cs.probe.w;
     uint _e12 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e13 = probe_sample_lod(1u, uv_7, _e8, _e12);
-    float w_4 = _e13.x;
+    float w_6 = _e13.x;
     if ((l_5 > 0.0)) {
         bool _e19 = finite(l_5);
         local_18 = _e19;
@@ -851,13 +852,13 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
     }
     bool _e21 = local_18;
     if (_e21) {
-        local_19 = (w_4 > 0.0);
+        local_19 = (w_6 > 0.0);
     } else {
         local_19 = false;
     }
     bool _e27 = local_19;
     if (_e27) {
-        bool _e30 = finite(w_4);
+        bool _e30 = finite(w_6);
         local_20 = _e30;
     } else {
         local_20 = false;
@@ -866,27 +867,27 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
     if (!(_e32)) {
         return 1.0;
     }
-    float d_probe = (1.0 / w_4);
+    float d_probe = (1.0 / w_6);
     vec4 _e39 = _group_0_binding_7_cs.probe;
     float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_12));
-    float k_10 = (d_probe / d_surface);
-    bool _e47 = finite(k_10);
+    float k_12 = (d_probe / d_surface);
+    bool _e47 = finite(k_12);
     if (_e47) {
-        local_21 = (k_10 > 0.0);
+        local_21 = (k_12 > 0.0);
     } else {
         local_21 = false;
     }
     bool _e53 = local_21;
     if (_e53) {
-        return k_10;
+        return k_12;
     }
     return 1.0;
 }
 
 float pseudo_log2_(float k_3) {
-    uint bits = floatBitsToUint(k_3);
-    int e_1 = (int(((bits >> 23u) & 255u)) - 127);
-    float m_3 = uintBitsToFloat(((bits & 8388607u) | 1065353216u));
+    uint bits_1 = floatBitsToUint(k_3);
+    int e_1 = (int(((bits_1 >> 23u) & 255u)) - 127);
+    float m_3 = uintBitsToFloat(((bits_1 & 8388607u) | 1065353216u));
     return (float(e_1) + (m_3 - 1.0));
 }
 
@@ -904,8 +905,8 @@ float irradiance_weight(float r_5) {
     bool local_23 = false;
     float w_1 = 0.0;
     uint k_8 = 1u;
-    uint n_11 = _group_0_binding_7_cs.lut_info.y;
-    if (!((n_11 == 0u))) {
+    uint n_13 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_13 == 0u))) {
         local_23 = !((r_5 > 0.0));
     } else {
         local_23 = true;
@@ -924,7 +925,7 @@ float irradiance_weight(float r_5) {
         }
         loop_init_4 = false;
         uint _e21 = k_8;
-        if ((_e21 < n_11)) {
+        if ((_e21 < n_13)) {
         } else {
             break;
         }
@@ -955,17 +956,34 @@ vec3 clean(vec3 c_4) {
     return vec3(0.0);
 }
 
+vec3 sh_eval(vec3 c_5[9], vec3 n_4) {
+    float x_5 = n_4.x;
+    float y = n_4.y;
+    float z = n_4.z;
+    vec3 t0_ = (c_5[0] * 0.2820948);
+    vec3 t1_ = (c_5[1] * (0.4886025 * y));
+    vec3 t2_ = (c_5[2] * (0.4886025 * z));
+    vec3 t3_ = (c_5[3] * (0.4886025 * x_5));
+    vec3 t4_ = (c_5[4] * (1.0925484 * (x_5 * y)));
+    vec3 t5_ = (c_5[5] * (1.0925484 * (y * z)));
+    vec3 t6_ = (c_5[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    vec3 t7_ = (c_5[7] * (1.0925484 * (x_5 * z)));
+    vec3 t8_ = (c_5[8] * (0.5462742 * ((x_5 * x_5) - (y * y))));
+    vec3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
+    return max(e_2, vec3(0.0));
+}
+
 vec2 hemi_encode(vec3 v_7) {
-    bool local_26 = false;
-    float z = max(v_7.z, 0.0);
-    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
+    bool local_28 = false;
+    float z_1 = max(v_7.z, 0.0);
+    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_26 = _e14;
+        local_28 = _e14;
     } else {
-        local_26 = false;
+        local_28 = false;
     }
-    bool _e16 = local_26;
+    bool _e16 = local_28;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -974,16 +992,16 @@ vec2 hemi_encode(vec3 v_7) {
     return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_6) {
-    float x_2 = 0.5;
+SurfaceAxis surface_axis(float x_in, uint n_8) {
+    float x_3 = 0.5;
     bool _e4 = finite(x_in);
     if (_e4) {
-        x_2 = x_in;
+        x_3 = x_in;
     }
-    float _e5 = x_2;
-    float c_7 = clamp(((_e5 * float(n_6)) - 0.5), 0.0, float((n_6 - 1u)));
-    uint i0_ = uint(floor(c_7));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_6 - 1u)), (c_7 - float(i0_)));
+    float _e5 = x_3;
+    float c_9 = clamp(((_e5 * float(n_8)) - 0.5), 0.0, float((n_8 - 1u)));
+    uint i0_ = uint(floor(c_9));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_8 - 1u)), (c_9 - float(i0_)));
 }
 
 uint query_count() {
@@ -995,20 +1013,20 @@ void main() {
     vec3 b_1 = vec3(0.0);
     vec3 c_1 = vec3(0.0);
     vec3 v_1 = vec3(0.0);
-    uint k_11 = id_3.x;
+    uint k_13 = id_3.x;
     uint _e2 = query_count();
-    if ((k_11 >= _e2)) {
+    if ((k_13 >= _e2)) {
         return;
     }
     vec4 _e6 = _group_0_binding_7_cs.probe;
     b_1 = _e6.xyz;
-    vec4 _e13 = _group_1_binding_0_cs[(2u * k_11)];
+    vec4 _e13 = _group_1_binding_0_cs[(2u * k_13)];
     bool _e15 = finite3_(_e13.xyz);
     if (_e15) {
-        vec4 _e20 = _group_1_binding_0_cs[(2u * k_11)];
+        vec4 _e20 = _group_1_binding_0_cs[(2u * k_13)];
         b_1 = _e20.xyz;
     }
-    vec4 _e28 = _group_1_binding_0_cs[((2u * k_11) + 1u)];
+    vec4 _e28 = _group_1_binding_0_cs[((2u * k_13) + 1u)];
     vec4 _e30 = unit_direction(_e28.xyz);
     if ((_e30.w != 0.0)) {
         v_1 = _e30.xyz;
@@ -1026,7 +1044,7 @@ void main() {
         c_1 = _e53;
     }
     vec3 _e56 = c_1;
-    _group_1_binding_1_cs[k_11] = vec4(_e56, 1.0);
+    _group_1_binding_1_cs[k_13] = vec4(_e56, 1.0);
     return;
 }
 

@@ -25,6 +25,7 @@ struct Cell {
     int4 tiles;
     float4 offset;
     float4 sh[9];
+    uint4 links;
 };
 
 struct Footprint {
@@ -335,9 +336,9 @@ int2 naga_f2i32(float2 value) {
 
 Footprint footprint(uint n_1, float2 uv)
 {
-    float2 x_3 = ((clamp(uv, (0.0).xx, (1.0).xx) * float(n_1)) - (0.5).xx);
-    float2 x0_ = floor(x_3);
-    const Footprint footprint_1 = ConstructFootprint(naga_f2i32(x0_), (x_3 - x0_));
+    float2 x_4 = ((clamp(uv, (0.0).xx, (1.0).xx) * float(n_1)) - (0.5).xx);
+    float2 x0_ = floor(x_4);
+    const Footprint footprint_1 = ConstructFootprint(naga_f2i32(x0_), (x_4 - x0_));
     return footprint_1;
 }
 
@@ -365,18 +366,18 @@ float4 probe_bilinear(uint which_1, float2 uv_1, uint level_1)
     float _e6 = params.warp.z;
     float _e10 = params.warp.y;
     float res0_ = ((which_1 == 0u) ? _e10 : _e6);
-    uint n_7 = max((naga_f2u32(res0_) >> level_1), 1u);
-    const Footprint _e18 = footprint(n_7, uv_1);
-    int2 c_6 = _e18.corner;
+    uint n_9 = max((naga_f2u32(res0_) >> level_1), 1u);
+    const Footprint _e18 = footprint(n_9, uv_1);
+    int2 c_8 = _e18.corner;
     int l_3 = int(level_1);
-    int ni = int(n_7);
-    const int2 _e22 = wrap_texel(ni, c_6);
+    int ni = int(n_9);
+    const int2 _e22 = wrap_texel(ni, c_8);
     const float4 _e23 = probe_texel(which_1, _e22, l_3);
-    const int2 _e28 = wrap_texel(ni, asint(asuint(c_6) + asuint(int2(int(1), int(0)))));
+    const int2 _e28 = wrap_texel(ni, asint(asuint(c_8) + asuint(int2(int(1), int(0)))));
     const float4 _e29 = probe_texel(which_1, _e28, l_3);
-    const int2 _e34 = wrap_texel(ni, asint(asuint(c_6) + asuint(int2(int(0), int(1)))));
+    const int2 _e34 = wrap_texel(ni, asint(asuint(c_8) + asuint(int2(int(0), int(1)))));
     const float4 _e35 = probe_texel(which_1, _e34, l_3);
-    const int2 _e40 = wrap_texel(ni, asint(asuint(c_6) + asuint(int2(int(1), int(1)))));
+    const int2 _e40 = wrap_texel(ni, asint(asuint(c_8) + asuint(int2(int(1), int(1)))));
     const float4 _e41 = probe_texel(which_1, _e40, l_3);
     const float4 _e43 = blend4_(_e23, _e29, _e35, _e41, _e18.f);
     return _e43;
@@ -425,16 +426,16 @@ float inv_dist(float3 v_4)
     float _e6 = params.probe.w;
     uint _e10 = params.probe_info.y;
     const float4 _e11 = probe_sample_lod(1u, _e2, _e6, _e10);
-    float w_3 = _e11.x;
-    if ((w_3 > 0.0)) {
-        const bool _e17 = finite(w_3);
+    float w_5 = _e11.x;
+    if ((w_5 > 0.0)) {
+        const bool _e17 = finite(w_5);
         local_9 = _e17;
     } else {
         local_9 = false;
     }
     bool _e19 = local_9;
     if (_e19) {
-        return w_3;
+        return w_5;
     }
     return 0.0;
 }
@@ -474,11 +475,11 @@ float4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, float2 uv_
     uint s_3 = uint(tile);
     int2 origin = int2((uint2(naga_mod(s_3, columns), naga_div(s_3, columns)) * (n_2 + 2u)));
     const Footprint _e13 = footprint(n_2, uv_4);
-    int2 c_7 = asint(asuint(asint(asuint(origin) + asuint(_e13.corner))) + asuint(int2(int(1), int(1))));
-    const float4 _e20 = atlas_texel(which_4, c_7);
-    const float4 _e25 = atlas_texel(which_4, asint(asuint(c_7) + asuint(int2(int(1), int(0)))));
-    const float4 _e30 = atlas_texel(which_4, asint(asuint(c_7) + asuint(int2(int(0), int(1)))));
-    const float4 _e35 = atlas_texel(which_4, asint(asuint(c_7) + asuint(int2(int(1), int(1)))));
+    int2 c_9 = asint(asuint(asint(asuint(origin) + asuint(_e13.corner))) + asuint(int2(int(1), int(1))));
+    const float4 _e20 = atlas_texel(which_4, c_9);
+    const float4 _e25 = atlas_texel(which_4, asint(asuint(c_9) + asuint(int2(int(1), int(0)))));
+    const float4 _e30 = atlas_texel(which_4, asint(asuint(c_9) + asuint(int2(int(0), int(1)))));
+    const float4 _e35 = atlas_texel(which_4, asint(asuint(c_9) + asuint(int2(int(1), int(1)))));
     const float4 _e37 = blend4_(_e20, _e25, _e30, _e35, _e13.f);
     return _e37;
 }
@@ -493,8 +494,8 @@ float3 cell_size()
 
 uint cell_index(uint3 c_2)
 {
-    uint4 n_8 = params.grid_counts;
-    return (c_2.x + (n_8.x * (c_2.y + (n_8.y * c_2.z))));
+    uint4 n_10 = params.grid_counts;
+    return (c_2.x + (n_10.x * (c_2.y + (n_10.y * c_2.z))));
 }
 
 uint3 naga_f2u32(float3 value) {
@@ -544,9 +545,9 @@ Lattice lattice(float3 p_2, float3 size_2)
         f_1 = (0.0).xxx;
     }
     float3 _e28 = f_1;
-    float3 base = floor(_e28);
+    float3 base_1 = floor(_e28);
     float3 _e31 = f_1;
-    const Lattice lattice_1 = ConstructLattice(naga_f2u32(base), (_e31 - base));
+    const Lattice lattice_1 = ConstructLattice(naga_f2u32(base_1), (_e31 - base_1));
     return lattice_1;
 }
 
@@ -571,12 +572,12 @@ float2 warp1_exit(float3 b_2, float3 dir)
     bool local_10 = (bool)0;
 
     float4 _e4 = params.probe;
-    float3 a = _e4.xyz;
+    float3 a_1 = _e4.xyz;
     const float _e6 = inv_dist(dir);
     if ((_e6 == 0.0)) {
         return float2(1e30, 1.0);
     }
-    float3 ab = (a - b_2);
+    float3 ab = (a_1 - b_2);
     float dir_ab = dot(dir, ab);
     float3 v_9 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
     const float _e23 = inv_dist(v_9);
@@ -601,12 +602,12 @@ float2 warp1_exit(float3 b_2, float3 dir)
 float3 warp1_(float3 b_3, float3 dir_1)
 {
     float4 _e4 = params.probe;
-    float3 a_1 = _e4.xyz;
+    float3 a_2 = _e4.xyz;
     const float _e6 = inv_dist(dir_1);
     if ((_e6 == 0.0)) {
         return dir_1;
     }
-    float3 ab_1 = (a_1 - b_3);
+    float3 ab_1 = (a_2 - b_3);
     float dir_ab_1 = dot(dir_1, ab_1);
     float3 v_10 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
     const float _e20 = inv_dist(v_10);
@@ -702,14 +703,14 @@ float2 kdop_exit(float3 b_5, float3 dir_3)
             }
             uint _e21 = k_1;
             float4 _e23 = params.kdop[_e21];
-            float3 n_9 = _e23.xyz;
+            float3 n_11 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = params.kdop[_e27].w;
-            float nb = dot(n_9, b_5);
+            float nb = dot(n_11, b_5);
             if ((nb > h_1)) {
                 return float2(0.0, 0.0);
             }
-            float nd = dot(n_9, dir_3);
+            float nd = dot(n_11, dir_3);
             if ((nd > 0.0)) {
                 float _e39 = t_4;
                 t_4 = min(_e39, ((h_1 - nb) / nd));
@@ -774,9 +775,9 @@ Basis ConstructBasis(float3 arg0, float3 arg1) {
 Basis orthonormal_basis(float3 n_3)
 {
     float s_4 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a_2 = (-1.0 / (s_4 + n_3.z));
-    float b_19 = ((n_3.x * n_3.y) * a_2);
-    const Basis basis = ConstructBasis(float3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_2)), (s_4 * b_19), (-(s_4) * n_3.x)), float3(b_19, (s_4 + ((n_3.y * n_3.y) * a_2)), -(n_3.y)));
+    float a_3 = (-1.0 / (s_4 + n_3.z));
+    float b_20 = ((n_3.x * n_3.y) * a_3);
+    const Basis basis = ConstructBasis(float3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_3)), (s_4 * b_20), (-(s_4) * n_3.x)), float3(b_20, (s_4 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
     return basis;
 }
 
@@ -993,7 +994,7 @@ Aim fetch(float3 b_11, float3 dir_9, float r_1)
     if ((_e17 == 0u)) {
         const uint3 _e21 = cell_of(b_11, _e12);
         const uint _e22 = cell_index(_e21);
-        int4 tiles_1 = asint(cells.Load4(0+_e22*176));
+        int4 tiles_1 = asint(cells.Load4(0+_e22*192));
         if ((tiles_1.x >= int(0))) {
             const float _e29 = cell_delta(tiles_1, _e11, r_1);
             delta_1 = _e29;
@@ -1020,7 +1021,7 @@ Aim fetch(float3 b_11, float3 dir_9, float r_1)
                 uint _e38 = corner_2;
                 const uint3 _e39 = corner_cell(_e31, _e38);
                 const uint _e40 = cell_index(_e39);
-                int4 tiles_2 = asint(cells.Load4(0+_e40*176));
+                int4 tiles_2 = asint(cells.Load4(0+_e40*192));
                 if ((tiles_2.x >= int(0))) {
                     float _e47 = delta_1;
                     uint _e48 = corner_2;
@@ -1065,8 +1066,8 @@ float lod_of_roughness(float r_2)
     uint t_5 = 0u;
     float f_2 = 0.0;
 
-    uint n_10 = params.probe_info.x;
-    if (!((n_10 < 2u))) {
+    uint n_12 = params.probe_info.x;
+    if (!((n_12 < 2u))) {
         const float _e11 = mip_roughness(0u);
         local_17 = !((r_2 > _e11));
     } else {
@@ -1076,7 +1077,7 @@ float lod_of_roughness(float r_2)
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_10 - 1u);
+    uint last = (n_12 - 1u);
     const float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
@@ -1092,7 +1093,7 @@ float lod_of_roughness(float r_2)
         }
         loop_init_4 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_10)) {
+        if ((_e26 < n_12)) {
         } else {
             break;
         }
@@ -1104,16 +1105,16 @@ float lod_of_roughness(float r_2)
         }
     }
     uint _e39 = below;
-    uint i_5 = (clamp(_e39, 1u, last) - 1u);
-    const float _e46 = mip_roughness((i_5 + 1u));
-    const float _e47 = mip_roughness(i_5);
+    uint i_6 = (clamp(_e39, 1u, last) - 1u);
+    const float _e46 = mip_roughness((i_6 + 1u));
+    const float _e47 = mip_roughness(i_6);
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
-        const float _e53 = mip_roughness(i_5);
+        const float _e53 = mip_roughness(i_6);
         f_2 = ((r_2 - _e53) / span);
     }
     float _e57 = f_2;
-    return (float(i_5) + clamp(_e57, 0.0, 1.0));
+    return (float(i_6) + clamp(_e57, 0.0, 1.0));
 }
 
 float distance_ratio(float3 b_12, float3 v_6, float2 uv_7)
@@ -1127,7 +1128,7 @@ float distance_ratio(float3 b_12, float3 v_6, float2 uv_7)
     float _e8 = params.probe.w;
     uint _e12 = params.probe_info.y;
     const float4 _e13 = probe_sample_lod(1u, uv_7, _e8, _e12);
-    float w_4 = _e13.x;
+    float w_6 = _e13.x;
     if ((l_5 > 0.0)) {
         const bool _e19 = finite(l_5);
         local_18 = _e19;
@@ -1136,13 +1137,13 @@ float distance_ratio(float3 b_12, float3 v_6, float2 uv_7)
     }
     bool _e21 = local_18;
     if (_e21) {
-        local_19 = (w_4 > 0.0);
+        local_19 = (w_6 > 0.0);
     } else {
         local_19 = false;
     }
     bool _e27 = local_19;
     if (_e27) {
-        const bool _e30 = finite(w_4);
+        const bool _e30 = finite(w_6);
         local_20 = _e30;
     } else {
         local_20 = false;
@@ -1151,28 +1152,28 @@ float distance_ratio(float3 b_12, float3 v_6, float2 uv_7)
     if (!(_e32)) {
         return 1.0;
     }
-    float d_probe = (1.0 / w_4);
+    float d_probe = (1.0 / w_6);
     float4 _e39 = params.probe;
     float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_12));
-    float k_10 = (d_probe / d_surface);
-    const bool _e47 = finite(k_10);
+    float k_12 = (d_probe / d_surface);
+    const bool _e47 = finite(k_12);
     if (_e47) {
-        local_21 = (k_10 > 0.0);
+        local_21 = (k_12 > 0.0);
     } else {
         local_21 = false;
     }
     bool _e53 = local_21;
     if (_e53) {
-        return k_10;
+        return k_12;
     }
     return 1.0;
 }
 
 float pseudo_log2_(float k_3)
 {
-    uint bits = asuint(k_3);
-    int e_1 = asint(asuint(int(((bits >> 23u) & 255u))) - asuint(int(127)));
-    float m_3 = asfloat(((bits & 8388607u) | 1065353216u));
+    uint bits_1 = asuint(k_3);
+    int e_1 = asint(asuint(int(((bits_1 >> 23u) & 255u))) - asuint(int(127)));
+    float m_3 = asfloat(((bits_1 & 8388607u) | 1065353216u));
     return (float(e_1) + (m_3 - 1.0));
 }
 
@@ -1182,8 +1183,8 @@ float corrected_roughness(float r_3, float k_in)
     float k_4 = 1.0;
     bool local_22 = (bool)0;
 
-    uint n_11 = params.lut_info.x;
-    float last_1 = float((n_11 - 1u));
+    uint n_13 = params.lut_info.x;
+    float last_1 = float((n_13 - 1u));
     const bool _e11 = finite(r_3);
     if (_e11) {
         fr = clamp((r_3 * last_1), 0.0, last_1);
@@ -1208,20 +1209,20 @@ float corrected_roughness(float r_3, float k_in)
     float _e44 = params.lut.y;
     float fx = clamp(((_e35 - _e39) * _e44), 0.0, last_1);
     float _e48 = fr;
-    uint i_6 = min(naga_f2u32(_e48), (n_11 - 2u));
-    uint j_5 = min(naga_f2u32(fx), (n_11 - 2u));
+    uint i_7 = min(naga_f2u32(_e48), (n_13 - 2u));
+    uint j_5 = min(naga_f2u32(fx), (n_13 - 2u));
     float _e57 = fr;
-    float a_3 = (_e57 - float(i_6));
-    float b_20 = (fx - float(j_5));
-    float4 _e67 = roughness_lut.Load(int3(int2(int(j_5), int(i_6)), int(0)));
+    float a_4 = (_e57 - float(i_7));
+    float b_21 = (fx - float(j_5));
+    float4 _e67 = roughness_lut.Load(int3(int2(int(j_5), int(i_7)), int(0)));
     float v00_ = _e67.x;
-    float4 _e76 = roughness_lut.Load(int3(int2(int((j_5 + 1u)), int(i_6)), int(0)));
+    float4 _e76 = roughness_lut.Load(int3(int2(int((j_5 + 1u)), int(i_7)), int(0)));
     float v01_ = _e76.x;
-    float4 _e85 = roughness_lut.Load(int3(int2(int(j_5), int((i_6 + 1u))), int(0)));
+    float4 _e85 = roughness_lut.Load(int3(int2(int(j_5), int((i_7 + 1u))), int(0)));
     float v10_ = _e85.x;
-    float4 _e96 = roughness_lut.Load(int3(int2(int((j_5 + 1u)), int((i_6 + 1u))), int(0)));
+    float4 _e96 = roughness_lut.Load(int3(int2(int((j_5 + 1u)), int((i_7 + 1u))), int(0)));
     float v11_ = _e96.x;
-    return ((((v00_ * (1.0 - b_20)) + (v01_ * b_20)) * (1.0 - a_3)) + (((v10_ * (1.0 - b_20)) + (v11_ * b_20)) * a_3));
+    return ((((v00_ * (1.0 - b_21)) + (v01_ * b_21)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_21)) + (v11_ * b_21)) * a_4));
 }
 
 float3 shade(float3 b_13, Aim aim, float r_4)
@@ -1270,8 +1271,8 @@ float irradiance_weight(float r_5)
     float w_1 = (float)0;
     uint k_8 = 1u;
 
-    uint n_12 = params.lut_info.y;
-    if (!((n_12 == 0u))) {
+    uint n_14 = params.lut_info.y;
+    if (!((n_14 == 0u))) {
         local_23 = !((r_5 > 0.0));
     } else {
         local_23 = true;
@@ -1293,7 +1294,7 @@ float irradiance_weight(float r_5)
         }
         loop_init_5 = false;
         uint _e21 = k_8;
-        if ((_e21 < n_12)) {
+        if ((_e21 < n_14)) {
         } else {
             break;
         }
@@ -1325,51 +1326,344 @@ float3 clean(float3 c_4)
     return (0.0).xxx;
 }
 
-float3 cell_sh_irradiance(uint cell, float3 n_4)
+float3 sh_eval(float3 c_5[9], float3 n_4)
 {
-    float x_4 = n_4.x;
+    float x_5 = n_4.x;
     float y = n_4.y;
     float z = n_4.z;
-    float4 _e9 = asfloat(cells.Load4(0+32+cell*176));
-    float3 t0_ = (_e9.xyz * 0.2820948);
-    float4 _e17 = asfloat(cells.Load4(16+32+cell*176));
-    float3 t1_ = (_e17.xyz * (0.4886025 * y));
-    float4 _e26 = asfloat(cells.Load4(32+32+cell*176));
-    float3 t2_ = (_e26.xyz * (0.4886025 * z));
-    float4 _e35 = asfloat(cells.Load4(48+32+cell*176));
-    float3 t3_ = (_e35.xyz * (0.4886025 * x_4));
-    float4 _e44 = asfloat(cells.Load4(64+32+cell*176));
-    float3 t4_ = (_e44.xyz * (1.0925484 * (x_4 * y)));
-    float4 _e54 = asfloat(cells.Load4(80+32+cell*176));
-    float3 t5_ = (_e54.xyz * (1.0925484 * (y * z)));
-    float4 _e64 = asfloat(cells.Load4(96+32+cell*176));
-    float3 t6_ = (_e64.xyz * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
-    float4 _e78 = asfloat(cells.Load4(112+32+cell*176));
-    float3 t7_ = (_e78.xyz * (1.0925484 * (x_4 * z)));
-    float4 _e88 = asfloat(cells.Load4(128+32+cell*176));
-    float3 t8_ = (_e88.xyz * (0.5462742 * ((x_4 * x_4) - (y * y))));
+    float3 t0_ = (c_5[0] * 0.2820948);
+    float3 t1_ = (c_5[1] * (0.4886025 * y));
+    float3 t2_ = (c_5[2] * (0.4886025 * z));
+    float3 t3_ = (c_5[3] * (0.4886025 * x_5));
+    float3 t4_ = (c_5[4] * (1.0925484 * (x_5 * y)));
+    float3 t5_ = (c_5[5] * (1.0925484 * (y * z)));
+    float3 t6_ = (c_5[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    float3 t7_ = (c_5[7] * (1.0925484 * (x_5 * z)));
+    float3 t8_ = (c_5[8] * (0.5462742 * ((x_5 * x_5) - (y * y))));
     float3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
     return max(e_2, (0.0).xxx);
 }
 
+typedef float3 ret_Constructarray9_float3_[9];
+ret_Constructarray9_float3_ Constructarray9_float3_(float3 arg0, float3 arg1, float3 arg2, float3 arg3, float3 arg4, float3 arg5, float3 arg6, float3 arg7, float3 arg8) {
+    float3 ret[9] = { arg0, arg1, arg2, arg3, arg4, arg5, arg6, arg7, arg8 };
+    return ret;
+}
+
+float3 cell_sh_irradiance(uint cell, float3 n_5)
+{
+    float4 _e6 = asfloat(cells.Load4(0+32+cell*192));
+    float4 _e12 = asfloat(cells.Load4(16+32+cell*192));
+    float4 _e18 = asfloat(cells.Load4(32+32+cell*192));
+    float4 _e24 = asfloat(cells.Load4(48+32+cell*192));
+    float4 _e30 = asfloat(cells.Load4(64+32+cell*192));
+    float4 _e36 = asfloat(cells.Load4(80+32+cell*192));
+    float4 _e42 = asfloat(cells.Load4(96+32+cell*192));
+    float4 _e48 = asfloat(cells.Load4(112+32+cell*192));
+    float4 _e54 = asfloat(cells.Load4(128+32+cell*192));
+    float3 c_10[9] = Constructarray9_float3_(_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
+    const float3 _e57 = sh_eval(c_10, n_5);
+    return _e57;
+}
+
+float3 sh_blend4_(uint4 at, float4 w_2, uint i_1)
+{
+    float4 _e8 = asfloat(cells.Load4(i_1*16+32+at.x*192));
+    float4 _e17 = asfloat(cells.Load4(i_1*16+32+at.y*192));
+    float4 _e27 = asfloat(cells.Load4(i_1*16+32+at.z*192));
+    float4 _e36 = asfloat(cells.Load4(i_1*16+32+at.w*192));
+    return (((_e8.xyz * w_2.x) + (_e17.xyz * w_2.y)) + ((_e27.xyz * w_2.z) + (_e36.xyz * w_2.w)));
+}
+
+uint NagaBufferLength(ByteAddressBuffer buffer)
+{
+    uint ret;
+    buffer.GetDimensions(ret);
+    return ret;
+}
+
+float3 sh_read(uint home, float3 b_14, float3 n_6)
+{
+    uint3 base = (uint3)0;
+    float3 frac_ = (float3)0;
+    uint a = 0u;
+    uint bx = 1u;
+    uint c_6 = 2u;
+    uint3 top_v = (uint3)0;
+    uint3 home_v = (uint3)0;
+    uint bit0_ = 0u;
+    uint x_2 = 0u;
+    uint rel = (uint)0;
+    uint4 corner_cell_1 = (uint4)0;
+    uint4 bits = (uint4)0;
+    uint k_9 = 1u;
+    uint cs = (uint)0;
+    uint bs = (uint)0;
+    float4 w_3 = (float4)0;
+    uint4 at_1 = (uint4)0;
+    uint k_10 = 0u;
+    bool kept = (bool)0;
+    bool local_24 = (bool)0;
+    bool local_25 = (bool)0;
+
+    const float3 _e3 = cell_size();
+    uint4 _e6 = params.grid_counts;
+    uint3 counts = _e6.xyz;
+    uint3 top_1 = (counts - (1u).xxx);
+    float4 _e13 = params.grid_min;
+    float3 units = ((b_14 - _e13.xyz) / _e3);
+    const uint3 _e17 = cell_of(b_14, _e3);
+    float3 f0_ = (units - (0.5).xxx);
+    const bool _e21 = finite3_(f0_);
+    if (!(_e21)) {
+        const float3 _e23 = cell_sh_irradiance(home, n_6);
+        return _e23;
+    }
+    float3 f_6 = clamp(f0_, (0.0).xxx, float3(top_1));
+    float3 fl = floor(f_6);
+    base = naga_f2u32(fl);
+    frac_ = (f_6 - fl);
+    uint _e39 = bx;
+    float _e41 = frac_[min(uint(_e39), 2u)];
+    uint _e42 = a;
+    float _e44 = frac_[min(uint(_e42), 2u)];
+    if ((_e41 > _e44)) {
+        uint t_13 = a;
+        uint _e47 = bx;
+        a = _e47;
+        bx = t_13;
+    }
+    uint _e48 = c_6;
+    float _e50 = frac_[min(uint(_e48), 2u)];
+    uint _e51 = bx;
+    float _e53 = frac_[min(uint(_e51), 2u)];
+    if ((_e50 > _e53)) {
+        uint t_14 = bx;
+        uint _e56 = c_6;
+        bx = _e56;
+        c_6 = t_14;
+        uint _e57 = bx;
+        float _e59 = frac_[min(uint(_e57), 2u)];
+        uint _e60 = a;
+        float _e62 = frac_[min(uint(_e60), 2u)];
+        if ((_e59 > _e62)) {
+            uint u = a;
+            uint _e65 = bx;
+            a = _e65;
+            bx = u;
+        }
+    }
+    uint _e66 = a;
+    float _e68 = frac_[min(uint(_e66), 2u)];
+    uint _e71 = a;
+    float _e73 = frac_[min(uint(_e71), 2u)];
+    uint _e74 = bx;
+    float _e76 = frac_[min(uint(_e74), 2u)];
+    uint _e78 = bx;
+    float _e80 = frac_[min(uint(_e78), 2u)];
+    uint _e81 = c_6;
+    float _e83 = frac_[min(uint(_e81), 2u)];
+    uint _e85 = c_6;
+    float _e87 = frac_[min(uint(_e85), 2u)];
+    float4 weights = float4((1.0 - _e68), (_e73 - _e76), (_e80 - _e83), _e87);
+    top_v = top_1;
+    home_v = _e17;
+    uint3 cell_stride = uint3(1u, counts.x, (counts.x * counts.y));
+    uint3 bit_stride = uint3(1u, 3u, 9u);
+    uint _e102 = base.x;
+    uint _e105 = base.y;
+    uint _e108 = base.z;
+    uint cell0_ = (_e102 + (counts.x * (_e105 + (counts.y * _e108))));
+    uint2 loop_bound_6 = uint2(4294967295u, 4294967295u);
+    bool loop_init_6 = true;
+    while(true) {
+        if (all(loop_bound_6 == uint2(0u, 0u))) { break; }
+        loop_bound_6 -= uint2(loop_bound_6.y == 0u, 1u);
+        if (!loop_init_6) {
+            uint _e144 = x_2;
+            x_2 = (_e144 + 1u);
+        }
+        loop_init_6 = false;
+        uint _e117 = x_2;
+        if ((_e117 < 3u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e120 = x_2;
+            uint _e122 = base[min(uint(_e120), 2u)];
+            uint up = (_e122 + 1u);
+            rel = 0u;
+            uint _e127 = x_2;
+            uint _e129 = home_v[min(uint(_e127), 2u)];
+            if ((up > _e129)) {
+                uint _e131 = x_2;
+                uint _e133 = home_v[min(uint(_e131), 2u)];
+                rel = min((up - _e133), 2u);
+            }
+            uint _e137 = bit0_;
+            uint _e138 = rel;
+            uint _e139 = x_2;
+            bit0_ = (_e137 + (_e138 * bit_stride[min(uint(_e139), 2u)]));
+        }
+    }
+    corner_cell_1 = (cell0_).xxxx;
+    uint _e148 = bit0_;
+    bits = (_e148).xxxx;
+    uint _e151 = a;
+    uint _e152 = bx;
+    uint _e153 = c_6;
+    uint3 axes = uint3(_e151, _e152, _e153);
+    uint2 loop_bound_7 = uint2(4294967295u, 4294967295u);
+    bool loop_init_7 = true;
+    while(true) {
+        if (all(loop_bound_7 == uint2(0u, 0u))) { break; }
+        loop_bound_7 -= uint2(loop_bound_7.y == 0u, 1u);
+        if (!loop_init_7) {
+            uint _e194 = k_9;
+            k_9 = (_e194 + 1u);
+        }
+        loop_init_7 = false;
+        uint _e157 = k_9;
+        if ((_e157 < 4u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e160 = k_9;
+            uint x_6 = axes[min(uint((_e160 - 1u)), 2u)];
+            cs = 0u;
+            bs = 0u;
+            uint _e169 = base[min(uint(x_6), 2u)];
+            uint _e171 = top_v[min(uint(x_6), 2u)];
+            if ((_e169 < _e171)) {
+                cs = cell_stride[min(uint(x_6), 2u)];
+                bs = bit_stride[min(uint(x_6), 2u)];
+            }
+            uint _e175 = k_9;
+            uint _e177 = k_9;
+            uint _e181 = corner_cell_1[min(uint((_e177 - 1u)), 3u)];
+            uint _e182 = cs;
+            corner_cell_1[min(uint(_e175), 3u)] = (_e181 + _e182);
+            uint _e184 = k_9;
+            uint _e186 = k_9;
+            uint _e190 = bits[min(uint((_e186 - 1u)), 3u)];
+            uint _e191 = bs;
+            bits[min(uint(_e184), 3u)] = (_e190 + _e191);
+        }
+    }
+    uint links = asuint(cells.Load(0+176+home*192));
+    w_3 = weights;
+    at_1 = (home).xxxx;
+    uint count = ((NagaBufferLength(cells) - 0) / 192);
+    uint2 loop_bound_8 = uint2(4294967295u, 4294967295u);
+    bool loop_init_8 = true;
+    while(true) {
+        if (all(loop_bound_8 == uint2(0u, 0u))) { break; }
+        loop_bound_8 -= uint2(loop_bound_8.y == 0u, 1u);
+        if (!loop_init_8) {
+            uint _e252 = k_10;
+            k_10 = (_e252 + 1u);
+        }
+        loop_init_8 = false;
+        uint _e208 = k_10;
+        if ((_e208 < 4u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e211 = k_10;
+            uint ck = corner_cell_1[min(uint(_e211), 3u)];
+            kept = false;
+            uint _e216 = k_10;
+            uint _e218 = bits[min(uint(_e216), 3u)];
+            if ((_e218 < 27u)) {
+                uint _e223 = k_10;
+                uint _e225 = bits[min(uint(_e223), 3u)];
+                local_24 = (((links >> _e225) & 1u) != 0u);
+            } else {
+                local_24 = false;
+            }
+            bool _e232 = local_24;
+            if (_e232) {
+                local_25 = (ck < count);
+            } else {
+                local_25 = false;
+            }
+            bool _e237 = local_25;
+            if (_e237) {
+                int _e242 = asint(cells.Load(4+0+ck*192));
+                kept = (_e242 >= int(0));
+            }
+            bool _e245 = kept;
+            if (_e245) {
+                uint _e246 = k_10;
+                at_1[min(uint(_e246), 3u)] = ck;
+            } else {
+                uint _e248 = k_10;
+                w_3[min(uint(_e248), 3u)] = 0.0;
+            }
+        }
+    }
+    float _e255 = w_3.x;
+    float _e257 = w_3.y;
+    float _e260 = w_3.z;
+    float _e262 = w_3.w;
+    float wsum_1 = ((_e255 + _e257) + (_e260 + _e262));
+    if (!((wsum_1 > 0.0))) {
+        const float3 _e268 = cell_sh_irradiance(home, n_6);
+        return _e268;
+    }
+    uint4 _e269 = at_1;
+    float4 _e270 = w_3;
+    const float3 _e272 = sh_blend4_(_e269, _e270, 0u);
+    uint4 _e273 = at_1;
+    float4 _e274 = w_3;
+    const float3 _e276 = sh_blend4_(_e273, _e274, 1u);
+    uint4 _e277 = at_1;
+    float4 _e278 = w_3;
+    const float3 _e280 = sh_blend4_(_e277, _e278, 2u);
+    uint4 _e281 = at_1;
+    float4 _e282 = w_3;
+    const float3 _e284 = sh_blend4_(_e281, _e282, 3u);
+    uint4 _e285 = at_1;
+    float4 _e286 = w_3;
+    const float3 _e288 = sh_blend4_(_e285, _e286, 4u);
+    uint4 _e289 = at_1;
+    float4 _e290 = w_3;
+    const float3 _e292 = sh_blend4_(_e289, _e290, 5u);
+    uint4 _e293 = at_1;
+    float4 _e294 = w_3;
+    const float3 _e296 = sh_blend4_(_e293, _e294, 6u);
+    uint4 _e297 = at_1;
+    float4 _e298 = w_3;
+    const float3 _e300 = sh_blend4_(_e297, _e298, 7u);
+    uint4 _e301 = at_1;
+    float4 _e302 = w_3;
+    const float3 _e304 = sh_blend4_(_e301, _e302, 8u);
+    float3 acc[9] = Constructarray9_float3_(_e272, _e276, _e280, _e284, _e288, _e292, _e296, _e300, _e304);
+    const float3 _e306 = sh_eval(acc, n_6);
+    return (_e306 / (wsum_1).xxx);
+}
+
 float3 specular(float3 position, float3 direction, float roughness)
 {
-    float3 b_14 = (float3)0;
+    float3 b_15 = (float3)0;
     float r_6 = 0.0;
     uint cell_1 = 0u;
     bool stored = false;
-    bool local_24 = (bool)0;
-    float3 c_5 = (float3)0;
+    bool local_26 = (bool)0;
+    float3 c_7 = (float3)0;
 
     const float4 _e3 = unit_direction(direction);
     if ((_e3.w == 0.0)) {
         return (0.0).xxx;
     }
     float4 _e11 = params.probe;
-    b_14 = _e11.xyz;
+    b_15 = _e11.xyz;
     const bool _e14 = finite3_(position);
     if (_e14) {
-        b_14 = position;
+        b_15 = position;
     }
     const bool _e17 = finite(roughness);
     if (_e17) {
@@ -1378,52 +1672,54 @@ float3 specular(float3 position, float3 direction, float roughness)
     float _e21 = r_6;
     const float _e22 = irradiance_weight(_e21);
     if ((_e22 > 0.0)) {
-        float3 _e29 = b_14;
+        float3 _e29 = b_15;
         const float3 _e30 = cell_size();
         const uint3 _e31 = cell_of(_e29, _e30);
         const uint _e32 = cell_index(_e31);
         cell_1 = _e32;
         uint _e34 = cell_1;
-        int _e38 = asint(cells.Load(4+0+_e34*176));
+        int _e38 = asint(cells.Load(4+0+_e34*192));
         stored = (_e38 >= int(0));
     }
     bool _e41 = stored;
     if (_e41) {
-        local_24 = (_e22 >= 1.0);
+        local_26 = (_e22 >= 1.0);
     } else {
-        local_24 = false;
+        local_26 = false;
     }
-    bool _e47 = local_24;
+    bool _e47 = local_26;
     if (_e47) {
         uint _e48 = cell_1;
-        const float3 _e50 = cell_sh_irradiance(_e48, _e3.xyz);
-        const float3 _e54 = clean((_e50 * (_e22 * 0.31830987)));
-        return _e54;
+        float3 _e49 = b_15;
+        const float3 _e51 = sh_read(_e48, _e49, _e3.xyz);
+        const float3 _e55 = clean((_e51 * (_e22 * 0.31830987)));
+        return _e55;
     }
-    float3 _e55 = b_14;
-    float3 _e56 = b_14;
-    float _e58 = r_6;
-    const Aim _e59 = fetch(_e56, _e3.xyz, _e58);
-    float _e60 = r_6;
-    const float3 _e61 = shade(_e55, _e59, _e60);
-    c_5 = _e61;
-    bool _e63 = stored;
-    if (_e63) {
-        float3 _e64 = c_5;
-        uint _e68 = cell_1;
-        const float3 _e70 = cell_sh_irradiance(_e68, _e3.xyz);
-        c_5 = ((_e64 * (1.0 - _e22)) + (_e70 * (_e22 * 0.31830987)));
+    float3 _e56 = b_15;
+    float3 _e57 = b_15;
+    float _e59 = r_6;
+    const Aim _e60 = fetch(_e57, _e3.xyz, _e59);
+    float _e61 = r_6;
+    const float3 _e62 = shade(_e56, _e60, _e61);
+    c_7 = _e62;
+    bool _e64 = stored;
+    if (_e64) {
+        float3 _e65 = c_7;
+        uint _e69 = cell_1;
+        float3 _e70 = b_15;
+        const float3 _e72 = sh_read(_e69, _e70, _e3.xyz);
+        c_7 = ((_e65 * (1.0 - _e22)) + (_e72 * (_e22 * 0.31830987)));
     }
-    float3 _e75 = c_5;
-    const float3 _e76 = clean(_e75);
-    return _e76;
+    float3 _e77 = c_7;
+    const float3 _e78 = clean(_e77);
+    return _e78;
 }
 
-float3 cell_irradiance(int tile_2, float3 n_5)
+float3 cell_irradiance(int tile_2, float3 n_7)
 {
     uint _e6 = params.atlas_a.z;
     uint _e10 = params.atlas_a.w;
-    const float2 _e11 = oct_encode(n_5);
+    const float2 _e11 = oct_encode(n_7);
     const float4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
     return _e12.xyz;
 }
@@ -1434,39 +1730,39 @@ float3 irradiance(float3 position_1, float3 normal)
     float3 e = (0.0).xxx;
     float wsum = 0.0;
     uint corner_3 = 0u;
-    float w_2 = (float)0;
-    bool local_25 = (bool)0;
-    float k_9 = (float)0;
+    float w_4 = (float)0;
+    bool local_27 = (bool)0;
+    float k_11 = (float)0;
 
     const float4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
         return (0.0).xxx;
     }
-    float3 n_13 = _e2.xyz;
+    float3 n_15 = _e2.xyz;
     const float3 _e9 = cell_size();
     float4 _e12 = params.grid_min;
     float4 _e16 = params.grid_max;
     float4 _e20 = params.grid_min;
     p_3 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = params.grid_min.w;
-    float3 biased = (position_1 + (n_13 * _e30));
+    float3 biased = (position_1 + (n_15 * _e30));
     const bool _e33 = finite3_(biased);
     if (_e33) {
         p_3 = biased;
     }
     float3 _e34 = p_3;
     const Lattice _e35 = lattice(_e34, _e9);
-    const float2 _e36 = oct_encode(n_13);
-    uint2 loop_bound_6 = uint2(4294967295u, 4294967295u);
-    bool loop_init_6 = true;
+    const float2 _e36 = oct_encode(n_15);
+    uint2 loop_bound_9 = uint2(4294967295u, 4294967295u);
+    bool loop_init_9 = true;
     while(true) {
-        if (all(loop_bound_6 == uint2(0u, 0u))) { break; }
-        loop_bound_6 -= uint2(loop_bound_6.y == 0u, 1u);
-        if (!loop_init_6) {
+        if (all(loop_bound_9 == uint2(0u, 0u))) { break; }
+        loop_bound_9 -= uint2(loop_bound_9.y == 0u, 1u);
+        if (!loop_init_9) {
             uint _e157 = corner_3;
             corner_3 = (_e157 + 1u);
         }
-        loop_init_6 = false;
+        loop_init_9 = false;
         uint _e44 = corner_3;
         if ((_e44 < 8u)) {
         } else {
@@ -1481,31 +1777,31 @@ float3 irradiance(float3 position_1, float3 normal)
             uint _e51 = corner_3;
             const uint3 _e52 = corner_cell(_e35, _e51);
             const uint _e53 = cell_index(_e52);
-            int4 tiles_3 = asint(cells.Load4(0+_e53*176));
+            int4 tiles_3 = asint(cells.Load4(0+_e53*192));
             if ((tiles_3.y < int(0))) {
                 continue;
             }
             float3 _e61 = p_3;
             const float3 _e62 = cell_centre(_e52, _e9);
-            float4 _e66 = asfloat(cells.Load4(16+_e53*176));
+            float4 _e66 = asfloat(cells.Load4(16+_e53*192));
             float3 to_point = (_e61 - (_e62 + _e66.xyz));
             float dist = length(to_point);
-            w_2 = _e48;
+            w_4 = _e48;
             if ((dist > 0.0)) {
                 const bool _e76 = finite(dist);
-                local_25 = _e76;
+                local_27 = _e76;
             } else {
-                local_25 = false;
+                local_27 = false;
             }
-            bool _e78 = local_25;
+            bool _e78 = local_27;
             if (_e78) {
-                float3 u = (to_point / (dist).xxx);
-                float facing = ((dot(n_13, -(u)) + 1.0) * 0.5);
-                float _e87 = w_2;
-                w_2 = (_e87 * ((facing * facing) + 0.2));
+                float3 u_1 = (to_point / (dist).xxx);
+                float facing = ((dot(n_15, -(u_1)) + 1.0) * 0.5);
+                float _e87 = w_4;
+                w_4 = (_e87 * ((facing * facing) + 0.2));
                 uint _e97 = params.atlas_b.x;
                 uint _e101 = params.atlas_b.y;
-                const float2 _e102 = oct_encode(u);
+                const float2 _e102 = oct_encode(u_1);
                 const float4 _e103 = atlas_bilinear(ATLAS_MOMENTS, tiles_3.y, _e97, _e101, _e102);
                 float mean = _e103.x;
                 float mean_sq = _e103.y;
@@ -1513,26 +1809,26 @@ float3 irradiance(float3 position_1, float3 normal)
                     float variance = max(abs((mean_sq - (mean * mean))), ((1e-12 * mean) * mean));
                     float dd = (dist - mean);
                     float cheb = (variance / (variance + (dd * dd)));
-                    float _e118 = w_2;
-                    w_2 = (_e118 * max(((cheb * cheb) * cheb), 0.0));
+                    float _e118 = w_4;
+                    w_4 = (_e118 * max(((cheb * cheb) * cheb), 0.0));
                 }
             }
-            float _e124 = w_2;
-            w_2 = max(_e124, (1e-6 * _e48));
-            k_9 = 1.0;
+            float _e124 = w_4;
+            w_4 = max(_e124, (1e-6 * _e48));
+            k_11 = 1.0;
             if ((tiles_3.z >= int(0))) {
                 uint _e138 = params.atlas_b.z;
                 uint _e142 = params.atlas_b.w;
                 const float4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_3.z, _e138, _e142, _e36);
-                k_9 = _e143.x;
+                k_11 = _e143.x;
             }
             float3 _e145 = e;
-            const float3 _e147 = cell_irradiance(tiles_3.y, n_13);
-            float _e148 = w_2;
-            float _e150 = k_9;
+            const float3 _e147 = cell_irradiance(tiles_3.y, n_15);
+            float _e148 = w_4;
+            float _e150 = k_11;
             e = (_e145 + ((_e147 * _e148) * _e150));
             float _e153 = wsum;
-            float _e154 = w_2;
+            float _e154 = w_4;
             wsum = (_e153 + _e154);
         }
     }
@@ -1548,17 +1844,17 @@ float3 irradiance(float3 position_1, float3 normal)
 
 float2 hemi_encode(float3 v_7)
 {
-    bool local_26 = (bool)0;
+    bool local_28 = (bool)0;
 
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         const bool _e14 = finite(l1_1);
-        local_26 = _e14;
+        local_28 = _e14;
     } else {
-        local_26 = false;
+        local_28 = false;
     }
-    bool _e16 = local_26;
+    bool _e16 = local_28;
     if (!(_e16)) {
         return float2(0.5, 0.5);
     }
@@ -1575,18 +1871,18 @@ SurfaceAxis ConstructSurfaceAxis(uint arg0, uint arg1, float arg2) {
     return ret;
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_6)
+SurfaceAxis surface_axis(float x_in, uint n_8)
 {
-    float x_2 = 0.5;
+    float x_3 = 0.5;
 
     const bool _e4 = finite(x_in);
     if (_e4) {
-        x_2 = x_in;
+        x_3 = x_in;
     }
-    float _e5 = x_2;
-    float c_8 = clamp(((_e5 * float(n_6)) - 0.5), 0.0, float((n_6 - 1u)));
-    uint i0_ = naga_f2u32(floor(c_8));
-    const SurfaceAxis surfaceaxis = ConstructSurfaceAxis(i0_, min((i0_ + 1u), (n_6 - 1u)), (c_8 - float(i0_)));
+    float _e5 = x_3;
+    float c_11 = clamp(((_e5 * float(n_8)) - 0.5), 0.0, float((n_8 - 1u)));
+    uint i0_ = naga_f2u32(floor(c_11));
+    const SurfaceAxis surfaceaxis = ConstructSurfaceAxis(i0_, min((i0_ + 1u), (n_8 - 1u)), (c_11 - float(i0_)));
     return surfaceaxis;
 }
 
@@ -1600,21 +1896,21 @@ SurfaceTaps ConstructSurfaceTaps(uint2 arg0, uint2 arg1, float2 arg2) {
 
 SurfaceTaps surface_taps(float2 uv_8)
 {
-    uint n_14 = surface_params.shape.z;
-    float nf = float(n_14);
-    float x_5 = clamp(((uv_8.x * nf) - 0.5), 0.0, (nf - 1.0));
+    uint n_16 = surface_params.shape.z;
+    float nf = float(n_16);
+    float x_7 = clamp(((uv_8.x * nf) - 0.5), 0.0, (nf - 1.0));
     float y_1 = clamp(((uv_8.y * nf) - 0.5), 0.0, (nf - 1.0));
-    float x0_1 = floor(x_5);
+    float x0_1 = floor(x_7);
     float y0_ = floor(y_1);
     uint2 lo = uint2(naga_f2u32(x0_1), naga_f2u32(y0_));
-    const SurfaceTaps surfacetaps = ConstructSurfaceTaps(lo, min((lo + (1u).xx), ((n_14 - 1u)).xx), float2((x_5 - x0_1), (y_1 - y0_)));
+    const SurfaceTaps surfacetaps = ConstructSurfaceTaps(lo, min((lo + (1u).xx), ((n_16 - 1u)).xx), float2((x_7 - x0_1), (y_1 - y0_)));
     return surfacetaps;
 }
 
-float3 surface_tile(uint i_1, uint j_1, uint layer, SurfaceTaps t_6)
+float3 surface_tile(uint i_2, uint j_1, uint layer, SurfaceTaps t_6)
 {
     uint _e8 = surface_params.shape.z;
-    uint2 o_3 = (uint2(i_1, j_1) * _e8);
+    uint2 o_3 = (uint2(i_2, j_1) * _e8);
     int l_6 = int(layer);
     float4 q00_1 = surface_radiance.Load(int4(int2((o_3 + t_6.lo)), l_6, int(0)));
     float4 q10_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.hi.x, t_6.lo.y))), l_6, int(0)));
@@ -1624,10 +1920,10 @@ float3 surface_tile(uint i_1, uint j_1, uint layer, SurfaceTaps t_6)
     return _e44.xyz;
 }
 
-float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_7)
+float surface_tile_inv_distance(uint i_3, uint j_2, SurfaceTaps t_7)
 {
     uint _e7 = surface_params.shape.z;
-    uint2 o_4 = (uint2(i_2, j_2) * _e7);
+    uint2 o_4 = (uint2(i_3, j_2) * _e7);
     float4 q00_2 = surface_inv_distance.Load(int3(int2((o_4 + t_7.lo)), int(0)));
     float4 q10_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(t_7.hi.x, t_7.lo.y))), int(0)));
     float4 q01_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(t_7.lo.x, t_7.hi.y))), int(0)));
@@ -1636,32 +1932,32 @@ float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_7)
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_3, uint j_3, float3 b_15, float3 local_27, SurfaceTaps shared_taps)
+SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_16, float3 local_29, SurfaceTaps shared_taps)
 {
-    bool local_28 = (bool)0;
-    bool local_29 = (bool)0;
+    bool local_30 = (bool)0;
+    bool local_31 = (bool)0;
 
     SurfaceParams sp = surface_params;
-    float s_5 = ((float(i_3) + 0.5) / float(sp.shape.x));
-    float t_13 = ((float(j_3) + 0.5) / float(sp.shape.y));
-    float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_5)) + (sp.edge_v.xyz * t_13)) + (sp.normal.xyz * sp.corner.w));
-    float3 d_3 = (probe - b_15);
+    float s_5 = ((float(i_4) + 0.5) / float(sp.shape.x));
+    float t_15 = ((float(j_3) + 0.5) / float(sp.shape.y));
+    float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_5)) + (sp.edge_v.xyz * t_15)) + (sp.normal.xyz * sp.corner.w));
+    float3 d_3 = (probe - b_16);
     float3 ab_2 = float3(dot(d_3, sp.tangent.xyz), dot(d_3, sp.bitangent.xyz), dot(d_3, sp.normal.xyz));
-    const float _e48 = surface_tile_inv_distance(i_3, j_3, shared_taps);
-    float3 v_12 = ((local_27 * max(((dot(local_27, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
+    const float _e48 = surface_tile_inv_distance(i_4, j_3, shared_taps);
+    float3 v_12 = ((local_29 * max(((dot(local_29, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
     if ((_e48 > 0.0)) {
         const bool _e62 = finite3_(v_12);
-        local_28 = _e62;
+        local_30 = _e62;
     } else {
-        local_28 = false;
+        local_30 = false;
     }
-    bool _e64 = local_28;
+    bool _e64 = local_30;
     if (_e64) {
-        local_29 = (dot(v_12, v_12) > 0.0);
+        local_31 = (dot(v_12, v_12) > 0.0);
     } else {
-        local_29 = false;
+        local_31 = false;
     }
-    bool _e71 = local_29;
+    bool _e71 = local_31;
     if (_e71) {
         const float2 _e72 = hemi_encode(v_12);
         const SurfaceTaps _e73 = surface_taps(_e72);
@@ -1672,11 +1968,11 @@ SurfaceTaps surface_warped_taps(uint i_3, uint j_3, float3 b_15, float3 local_27
     return surfacetaps_2;
 }
 
-float3 surface_probe(uint i_4, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, float fm)
+float3 surface_probe(uint i_5, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, float fm)
 {
-    const float3 _e6 = surface_tile(i_4, j_4, m0_, t_8);
+    const float3 _e6 = surface_tile(i_5, j_4, m0_, t_8);
     if ((fm > 0.0)) {
-        const float3 _e9 = surface_tile(i_4, j_4, m1_, t_8);
+        const float3 _e9 = surface_tile(i_5, j_4, m1_, t_8);
         return lerp(_e6, _e9, fm);
     }
     return _e6;
@@ -1684,7 +1980,7 @@ float3 surface_probe(uint i_4, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, fl
 
 float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped)
 {
-    float3 b_16 = (float3)0;
+    float3 b_17 = (float3)0;
     float lod_2 = 0.0;
     SurfaceTaps t00_ = (SurfaceTaps)0;
     SurfaceTaps t10_ = (SurfaceTaps)0;
@@ -1696,12 +1992,12 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
         return (0.0).xxx;
     }
     SurfaceParams sp_1 = surface_params;
-    b_16 = sp_1.corner.xyz;
+    b_17 = sp_1.corner.xyz;
     const bool _e15 = finite3_(b_in);
     if (_e15) {
-        b_16 = b_in;
+        b_17 = b_in;
     }
-    float3 _e16 = b_16;
+    float3 _e16 = b_17;
     float3 d_4 = (_e16 - sp_1.corner.xyz);
     const SurfaceAxis _e25 = surface_axis(dot(sp_1.dual_u.xyz, d_4), sp_1.shape.x);
     const SurfaceAxis _e31 = surface_axis(dot(sp_1.dual_v.xyz, d_4), sp_1.shape.y);
@@ -1716,38 +2012,38 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
     float3 dir_12 = _e4.xyz;
-    float3 local_30 = float3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
-    const float2 _e64 = hemi_encode(local_30);
+    float3 local_32 = float3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
+    const float2 _e64 = hemi_encode(local_32);
     const SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
     t01_ = _e65;
     t11_ = _e65;
     if (warped) {
-        float3 _e72 = b_16;
-        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_30, _e65);
+        float3 _e72 = b_17;
+        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_32, _e65);
         t00_ = _e73;
-        float3 _e76 = b_16;
-        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_30, _e65);
+        float3 _e76 = b_17;
+        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_32, _e65);
         t10_ = _e77;
-        float3 _e80 = b_16;
-        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_30, _e65);
+        float3 _e80 = b_17;
+        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_32, _e65);
         t01_ = _e81;
-        float3 _e84 = b_16;
-        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_30, _e65);
+        float3 _e84 = b_17;
+        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_32, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;
     const float3 _e89 = surface_probe(_e25.i0_, _e31.i0_, _e88, m0_1, m1_1, fm_1);
     SurfaceTaps _e92 = t10_;
     const float3 _e93 = surface_probe(_e25.i1_, _e31.i0_, _e92, m0_1, m1_1, fm_1);
-    float3 top_1 = lerp(_e89, _e93, _e25.f);
+    float3 top_2 = lerp(_e89, _e93, _e25.f);
     SurfaceTaps _e98 = t01_;
     const float3 _e99 = surface_probe(_e25.i0_, _e31.i1_, _e98, m0_1, m1_1, fm_1);
     SurfaceTaps _e102 = t11_;
     const float3 _e103 = surface_probe(_e25.i1_, _e31.i1_, _e102, m0_1, m1_1, fm_1);
     float3 bottom = lerp(_e99, _e103, _e25.f);
-    float3 l_7 = lerp(top_1, bottom, _e31.f);
+    float3 l_7 = lerp(top_2, bottom, _e31.f);
     const bool _e108 = finite3_(l_7);
     if (_e108) {
         return max(l_7, (0.0).xxx);
@@ -1755,15 +2051,15 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     return (0.0).xxx;
 }
 
-float3 surface_specular(float3 b_17, float3 dir_10, float roughness_2)
+float3 surface_specular(float3 b_18, float3 dir_10, float roughness_2)
 {
-    const float3 _e4 = surface_lookup(b_17, dir_10, roughness_2, false);
+    const float3 _e4 = surface_lookup(b_18, dir_10, roughness_2, false);
     return _e4;
 }
 
-float3 surface_specular_warped(float3 b_18, float3 dir_11, float roughness_3)
+float3 surface_specular_warped(float3 b_19, float3 dir_11, float roughness_3)
 {
-    const float3 _e4 = surface_lookup(b_18, dir_11, roughness_3, true);
+    const float3 _e4 = surface_lookup(b_19, dir_11, roughness_3, true);
     return _e4;
 }
 
@@ -1782,30 +2078,30 @@ uint query_count()
 [numthreads(64, 1, 1)]
 void specular_queries(uint3 id : SV_DispatchThreadID)
 {
-    uint k_11 = id.x;
+    uint k_13 = id.x;
     const uint _e2 = query_count();
-    if ((k_11 >= _e2)) {
+    if ((k_13 >= _e2)) {
         return;
     }
-    float4 p_4 = asfloat(queries.Load4((2u * k_11)*16));
-    float4 d_5 = asfloat(queries.Load4(((2u * k_11) + 1u)*16));
+    float4 p_4 = asfloat(queries.Load4((2u * k_13)*16));
+    float4 d_5 = asfloat(queries.Load4(((2u * k_13) + 1u)*16));
     const float3 _e21 = specular(p_4.xyz, d_5.xyz, p_4.w);
-    results.Store4(k_11*16, asuint(float4(_e21, 1.0)));
+    results.Store4(k_13*16, asuint(float4(_e21, 1.0)));
     return;
 }
 
 [numthreads(64, 1, 1)]
 void irradiance_queries(uint3 id_1 : SV_DispatchThreadID)
 {
-    uint k_12 = id_1.x;
+    uint k_14 = id_1.x;
     const uint _e2 = query_count();
-    if ((k_12 >= _e2)) {
+    if ((k_14 >= _e2)) {
         return;
     }
-    float4 p_5 = asfloat(queries.Load4((2u * k_12)*16));
-    float4 n_15 = asfloat(queries.Load4(((2u * k_12) + 1u)*16));
-    const float3 _e20 = irradiance(p_5.xyz, n_15.xyz);
-    results.Store4(k_12*16, asuint(float4(_e20, 1.0)));
+    float4 p_5 = asfloat(queries.Load4((2u * k_14)*16));
+    float4 n_17 = asfloat(queries.Load4(((2u * k_14) + 1u)*16));
+    const float3 _e20 = irradiance(p_5.xyz, n_17.xyz);
+    results.Store4(k_14*16, asuint(float4(_e20, 1.0)));
     return;
 }
 
@@ -1816,20 +2112,20 @@ void warp1_queries(uint3 id_2 : SV_DispatchThreadID)
     float3 c = (0.0).xxx;
     float3 v = (float3)0;
 
-    uint k_13 = id_2.x;
+    uint k_15 = id_2.x;
     const uint _e2 = query_count();
-    if ((k_13 >= _e2)) {
+    if ((k_15 >= _e2)) {
         return;
     }
     float4 _e6 = params.probe;
     b = _e6.xyz;
-    float4 _e13 = asfloat(queries.Load4((2u * k_13)*16));
+    float4 _e13 = asfloat(queries.Load4((2u * k_15)*16));
     const bool _e15 = finite3_(_e13.xyz);
     if (_e15) {
-        float4 _e20 = asfloat(queries.Load4((2u * k_13)*16));
+        float4 _e20 = asfloat(queries.Load4((2u * k_15)*16));
         b = _e20.xyz;
     }
-    float4 _e28 = asfloat(queries.Load4(((2u * k_13) + 1u)*16));
+    float4 _e28 = asfloat(queries.Load4(((2u * k_15) + 1u)*16));
     const float4 _e30 = unit_direction(_e28.xyz);
     if ((_e30.w != 0.0)) {
         v = _e30.xyz;
@@ -1847,7 +2143,7 @@ void warp1_queries(uint3 id_2 : SV_DispatchThreadID)
         c = _e53;
     }
     float3 _e56 = c;
-    results.Store4(k_13*16, asuint(float4(_e56, 1.0)));
+    results.Store4(k_15*16, asuint(float4(_e56, 1.0)));
     return;
 }
 
@@ -1858,20 +2154,20 @@ void box_queries(uint3 id_3 : SV_DispatchThreadID)
     float3 c_1 = (0.0).xxx;
     float3 v_1 = (float3)0;
 
-    uint k_14 = id_3.x;
+    uint k_16 = id_3.x;
     const uint _e2 = query_count();
-    if ((k_14 >= _e2)) {
+    if ((k_16 >= _e2)) {
         return;
     }
     float4 _e6 = params.probe;
     b_1 = _e6.xyz;
-    float4 _e13 = asfloat(queries.Load4((2u * k_14)*16));
+    float4 _e13 = asfloat(queries.Load4((2u * k_16)*16));
     const bool _e15 = finite3_(_e13.xyz);
     if (_e15) {
-        float4 _e20 = asfloat(queries.Load4((2u * k_14)*16));
+        float4 _e20 = asfloat(queries.Load4((2u * k_16)*16));
         b_1 = _e20.xyz;
     }
-    float4 _e28 = asfloat(queries.Load4(((2u * k_14) + 1u)*16));
+    float4 _e28 = asfloat(queries.Load4(((2u * k_16) + 1u)*16));
     const float4 _e30 = unit_direction(_e28.xyz);
     if ((_e30.w != 0.0)) {
         v_1 = _e30.xyz;
@@ -1889,36 +2185,36 @@ void box_queries(uint3 id_3 : SV_DispatchThreadID)
         c_1 = _e53;
     }
     float3 _e56 = c_1;
-    results.Store4(k_14*16, asuint(float4(_e56, 1.0)));
+    results.Store4(k_16*16, asuint(float4(_e56, 1.0)));
     return;
 }
 
 [numthreads(64, 1, 1)]
 void surface_queries(uint3 id_4 : SV_DispatchThreadID)
 {
-    uint k_15 = id_4.x;
+    uint k_17 = id_4.x;
     const uint _e2 = query_count();
-    if ((k_15 >= _e2)) {
+    if ((k_17 >= _e2)) {
         return;
     }
-    float4 p_6 = asfloat(queries.Load4((2u * k_15)*16));
-    float4 d_6 = asfloat(queries.Load4(((2u * k_15) + 1u)*16));
+    float4 p_6 = asfloat(queries.Load4((2u * k_17)*16));
+    float4 d_6 = asfloat(queries.Load4(((2u * k_17) + 1u)*16));
     const float3 _e21 = surface_specular(p_6.xyz, d_6.xyz, p_6.w);
-    results.Store4(k_15*16, asuint(float4(_e21, 1.0)));
+    results.Store4(k_17*16, asuint(float4(_e21, 1.0)));
     return;
 }
 
 [numthreads(64, 1, 1)]
 void surface_warped_queries(uint3 id_5 : SV_DispatchThreadID)
 {
-    uint k_16 = id_5.x;
+    uint k_18 = id_5.x;
     const uint _e2 = query_count();
-    if ((k_16 >= _e2)) {
+    if ((k_18 >= _e2)) {
         return;
     }
-    float4 p_7 = asfloat(queries.Load4((2u * k_16)*16));
-    float4 d_7 = asfloat(queries.Load4(((2u * k_16) + 1u)*16));
+    float4 p_7 = asfloat(queries.Load4((2u * k_18)*16));
+    float4 d_7 = asfloat(queries.Load4(((2u * k_18) + 1u)*16));
     const float3 _e21 = surface_specular_warped(p_7.xyz, d_7.xyz, p_7.w);
-    results.Store4(k_16*16, asuint(float4(_e21, 1.0)));
+    results.Store4(k_18*16, asuint(float4(_e21, 1.0)));
     return;
 }

@@ -29,6 +29,7 @@ struct Cell {
     ivec4 tiles;
     vec4 offset;
     vec4 sh[9];
+    uvec4 links;
 };
 struct Footprint {
     ivec2 corner;
@@ -95,9 +96,9 @@ layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_bind
 
 layout(std430, binding = 0) readonly buffer type_11_block_1Compute { Cell _group_0_binding_8_cs[]; };
 
-layout(std430, binding = 1) readonly buffer type_20_block_2Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_21_block_2Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_20_block_3Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_21_block_3Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 uint fallback_method() {
@@ -297,9 +298,9 @@ ivec2 wrap_texel(int n, ivec2 t) {
 }
 
 Footprint footprint(uint n_1, vec2 uv) {
-    vec2 x_3 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
-    vec2 x0_ = floor(x_3);
-    return Footprint(ivec2(x0_), (x_3 - x0_));
+    vec2 x_4 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
+    vec2 x0_ = floor(x_4);
+    return Footprint(ivec2(x0_), (x_4 - x0_));
 }
 
 vec4 blend4_(vec4 q00_, vec4 q10_, vec4 q01_, vec4 q11_, vec2 f) {
@@ -331,11 +332,11 @@ vec4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, vec2 uv_4) {
     uint s_3 = uint(tile);
     ivec2 origin = ivec2((uvec2((s_3 % columns), (s_3 / columns)) * (n_2 + 2u)));
     Footprint _e13 = footprint(n_2, uv_4);
-    ivec2 c_6 = ((origin + _e13.corner) + ivec2(1, 1));
-    vec4 _e20 = atlas_texel(which_4, c_6);
-    vec4 _e25 = atlas_texel(which_4, (c_6 + ivec2(1, 0)));
-    vec4 _e30 = atlas_texel(which_4, (c_6 + ivec2(0, 1)));
-    vec4 _e35 = atlas_texel(which_4, (c_6 + ivec2(1, 1)));
+    ivec2 c_8 = ((origin + _e13.corner) + ivec2(1, 1));
+    vec4 _e20 = atlas_texel(which_4, c_8);
+    vec4 _e25 = atlas_texel(which_4, (c_8 + ivec2(1, 0)));
+    vec4 _e30 = atlas_texel(which_4, (c_8 + ivec2(0, 1)));
+    vec4 _e35 = atlas_texel(which_4, (c_8 + ivec2(1, 1)));
     vec4 _e37 = blend4_(_e20, _e25, _e30, _e35, _e13.f);
     return _e37;
 }
@@ -348,8 +349,8 @@ vec3 cell_size() {
 }
 
 uint cell_index(uvec3 c_2) {
-    uvec4 n_7 = _group_0_binding_7_cs.grid_counts;
-    return (c_2.x + (n_7.x * (c_2.y + (n_7.y * c_2.z))));
+    uvec4 n_9 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_9.x * (c_2.y + (n_9.y * c_2.z))));
 }
 
 uvec3 cell_of(vec3 p_1, vec3 size) {
@@ -384,9 +385,9 @@ Lattice lattice(vec3 p_2, vec3 size_2) {
         f_1 = vec3(0.0);
     }
     vec3 _e28 = f_1;
-    vec3 base = floor(_e28);
+    vec3 base_1 = floor(_e28);
     vec3 _e31 = f_1;
-    return Lattice(uvec3(base), (_e31 - base));
+    return Lattice(uvec3(base_1), (_e31 - base_1));
 }
 
 float corner_weight(Lattice l, uint corner) {
@@ -475,14 +476,14 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
             }
             uint _e21 = k_1;
             vec4 _e23 = _group_0_binding_7_cs.kdop[_e21];
-            vec3 n_8 = _e23.xyz;
+            vec3 n_10 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e27].w;
-            float nb = dot(n_8, b_5);
+            float nb = dot(n_10, b_5);
             if ((nb > h_1)) {
                 return vec2(0.0, 0.0);
             }
-            float nd = dot(n_8, dir_3);
+            float nd = dot(n_10, dir_3);
             if ((nd > 0.0)) {
                 float _e39 = t_4;
                 t_4 = min(_e39, ((h_1 - nb) / nd));
@@ -517,9 +518,9 @@ vec3 box_fetch(vec3 b_8, vec3 dir_6) {
 
 Basis orthonormal_basis(vec3 n_3) {
     float s_4 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a = (-1.0 / (s_4 + n_3.z));
-    float b_19 = ((n_3.x * n_3.y) * a);
-    return Basis(vec3((1.0 + (((s_4 * n_3.x) * n_3.x) * a)), (s_4 * b_19), (-(s_4) * n_3.x)), vec3(b_19, (s_4 + ((n_3.y * n_3.y) * a)), -(n_3.y)));
+    float a_1 = (-1.0 / (s_4 + n_3.z));
+    float b_20 = ((n_3.x * n_3.y) * a_1);
+    return Basis(vec3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_1)), (s_4 * b_20), (-(s_4) * n_3.x)), vec3(b_20, (s_4 + ((n_3.y * n_3.y) * a_1)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
@@ -629,8 +630,8 @@ float lod_of_roughness(float r_2) {
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
-    uint n_9 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_9 < 2u))) {
+    uint n_11 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_11 < 2u))) {
         float _e11 = mip_roughness(0u);
         local_17 = !((r_2 > _e11));
     } else {
@@ -640,7 +641,7 @@ float lod_of_roughness(float r_2) {
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_9 - 1u);
+    uint last = (n_11 - 1u);
     float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
@@ -653,7 +654,7 @@ float lod_of_roughness(float r_2) {
         }
         loop_init_2 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_9)) {
+        if ((_e26 < n_11)) {
         } else {
             break;
         }
@@ -665,22 +666,22 @@ float lod_of_roughness(float r_2) {
         }
     }
     uint _e39 = below;
-    uint i_5 = (min(max(_e39, 1u), last) - 1u);
-    float _e46 = mip_roughness((i_5 + 1u));
-    float _e47 = mip_roughness(i_5);
+    uint i_6 = (min(max(_e39, 1u), last) - 1u);
+    float _e46 = mip_roughness((i_6 + 1u));
+    float _e47 = mip_roughness(i_6);
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
-        float _e53 = mip_roughness(i_5);
+        float _e53 = mip_roughness(i_6);
         f_2 = ((r_2 - _e53) / span);
     }
     float _e57 = f_2;
-    return (float(i_5) + clamp(_e57, 0.0, 1.0));
+    return (float(i_6) + clamp(_e57, 0.0, 1.0));
 }
 
 float pseudo_log2_(float k_3) {
-    uint bits = floatBitsToUint(k_3);
-    int e_1 = (int(((bits >> 23u) & 255u)) - 127);
-    float m_3 = uintBitsToFloat(((bits & 8388607u) | 1065353216u));
+    uint bits_1 = floatBitsToUint(k_3);
+    int e_1 = (int(((bits_1 >> 23u) & 255u)) - 127);
+    float m_3 = uintBitsToFloat(((bits_1 & 8388607u) | 1065353216u));
     return (float(e_1) + (m_3 - 1.0));
 }
 
@@ -698,8 +699,8 @@ float irradiance_weight(float r_5) {
     bool local_23 = false;
     float w_1 = 0.0;
     uint k_8 = 1u;
-    uint n_10 = _group_0_binding_7_cs.lut_info.y;
-    if (!((n_10 == 0u))) {
+    uint n_12 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_12 == 0u))) {
         local_23 = !((r_5 > 0.0));
     } else {
         local_23 = true;
@@ -718,7 +719,7 @@ float irradiance_weight(float r_5) {
         }
         loop_init_3 = false;
         uint _e21 = k_8;
-        if ((_e21 < n_10)) {
+        if ((_e21 < n_12)) {
         } else {
             break;
         }
@@ -749,36 +750,50 @@ vec3 clean(vec3 c_4) {
     return vec3(0.0);
 }
 
-vec3 cell_sh_irradiance(uint cell, vec3 n_4) {
-    float x_4 = n_4.x;
+vec3 sh_eval(vec3 c_5[9], vec3 n_4) {
+    float x_5 = n_4.x;
     float y = n_4.y;
     float z = n_4.z;
-    vec4 _e9 = _group_0_binding_8_cs[cell].sh[0];
-    vec3 t0_ = (_e9.xyz * 0.2820948);
-    vec4 _e17 = _group_0_binding_8_cs[cell].sh[1];
-    vec3 t1_ = (_e17.xyz * (0.4886025 * y));
-    vec4 _e26 = _group_0_binding_8_cs[cell].sh[2];
-    vec3 t2_ = (_e26.xyz * (0.4886025 * z));
-    vec4 _e35 = _group_0_binding_8_cs[cell].sh[3];
-    vec3 t3_ = (_e35.xyz * (0.4886025 * x_4));
-    vec4 _e44 = _group_0_binding_8_cs[cell].sh[4];
-    vec3 t4_ = (_e44.xyz * (1.0925484 * (x_4 * y)));
-    vec4 _e54 = _group_0_binding_8_cs[cell].sh[5];
-    vec3 t5_ = (_e54.xyz * (1.0925484 * (y * z)));
-    vec4 _e64 = _group_0_binding_8_cs[cell].sh[6];
-    vec3 t6_ = (_e64.xyz * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
-    vec4 _e78 = _group_0_binding_8_cs[cell].sh[7];
-    vec3 t7_ = (_e78.xyz * (1.0925484 * (x_4 * z)));
-    vec4 _e88 = _group_0_binding_8_cs[cell].sh[8];
-    vec3 t8_ = (_e88.xyz * (0.5462742 * ((x_4 * x_4) - (y * y))));
+    vec3 t0_ = (c_5[0] * 0.2820948);
+    vec3 t1_ = (c_5[1] * (0.4886025 * y));
+    vec3 t2_ = (c_5[2] * (0.4886025 * z));
+    vec3 t3_ = (c_5[3] * (0.4886025 * x_5));
+    vec3 t4_ = (c_5[4] * (1.0925484 * (x_5 * y)));
+    vec3 t5_ = (c_5[5] * (1.0925484 * (y * z)));
+    vec3 t6_ = (c_5[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    vec3 t7_ = (c_5[7] * (1.0925484 * (x_5 * z)));
+    vec3 t8_ = (c_5[8] * (0.5462742 * ((x_5 * x_5) - (y * y))));
     vec3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
     return max(e_2, vec3(0.0));
 }
 
-vec3 cell_irradiance(int tile_2, vec3 n_5) {
+vec3 cell_sh_irradiance(uint cell, vec3 n_5) {
+    vec4 _e6 = _group_0_binding_8_cs[cell].sh[0];
+    vec4 _e12 = _group_0_binding_8_cs[cell].sh[1];
+    vec4 _e18 = _group_0_binding_8_cs[cell].sh[2];
+    vec4 _e24 = _group_0_binding_8_cs[cell].sh[3];
+    vec4 _e30 = _group_0_binding_8_cs[cell].sh[4];
+    vec4 _e36 = _group_0_binding_8_cs[cell].sh[5];
+    vec4 _e42 = _group_0_binding_8_cs[cell].sh[6];
+    vec4 _e48 = _group_0_binding_8_cs[cell].sh[7];
+    vec4 _e54 = _group_0_binding_8_cs[cell].sh[8];
+    vec3 c_9[9] = vec3[9](_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
+    vec3 _e57 = sh_eval(c_9, n_5);
+    return _e57;
+}
+
+vec3 sh_blend4_(uvec4 at, vec4 w_2, uint i_1) {
+    vec4 _e8 = _group_0_binding_8_cs[at.x].sh[i_1];
+    vec4 _e17 = _group_0_binding_8_cs[at.y].sh[i_1];
+    vec4 _e27 = _group_0_binding_8_cs[at.z].sh[i_1];
+    vec4 _e36 = _group_0_binding_8_cs[at.w].sh[i_1];
+    return (((_e8.xyz * w_2.x) + (_e17.xyz * w_2.y)) + ((_e27.xyz * w_2.z) + (_e36.xyz * w_2.w)));
+}
+
+vec3 cell_irradiance(int tile_2, vec3 n_7) {
     uint _e6 = _group_0_binding_7_cs.atlas_a.z;
     uint _e10 = _group_0_binding_7_cs.atlas_a.w;
-    vec2 _e11 = oct_encode(n_5);
+    vec2 _e11 = oct_encode(n_7);
     vec4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
     return _e12.xyz;
 }
@@ -788,28 +803,28 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     vec3 e = vec3(0.0);
     float wsum = 0.0;
     uint corner_3 = 0u;
-    float w_2 = 0.0;
-    bool local_25 = false;
-    float k_9 = 0.0;
+    float w_4 = 0.0;
+    bool local_27 = false;
+    float k_11 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
         return vec3(0.0);
     }
-    vec3 n_11 = _e2.xyz;
+    vec3 n_13 = _e2.xyz;
     vec3 _e9 = cell_size();
     vec4 _e12 = _group_0_binding_7_cs.grid_min;
     vec4 _e16 = _group_0_binding_7_cs.grid_max;
     vec4 _e20 = _group_0_binding_7_cs.grid_min;
     p_3 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = _group_0_binding_7_cs.grid_min.w;
-    vec3 biased = (position_1 + (n_11 * _e30));
+    vec3 biased = (position_1 + (n_13 * _e30));
     bool _e33 = finite3_(biased);
     if (_e33) {
         p_3 = biased;
     }
     vec3 _e34 = p_3;
     Lattice _e35 = lattice(_e34, _e9);
-    vec2 _e36 = oct_encode(n_11);
+    vec2 _e36 = oct_encode(n_13);
     bool loop_init_4 = true;
     while(true) {
         if (!loop_init_4) {
@@ -840,19 +855,19 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             vec4 _e66 = _group_0_binding_8_cs[_e53].offset;
             vec3 to_point = (_e61 - (_e62 + _e66.xyz));
             float dist = length(to_point);
-            w_2 = _e48;
+            w_4 = _e48;
             if ((dist > 0.0)) {
                 bool _e76 = finite(dist);
-                local_25 = _e76;
+                local_27 = _e76;
             } else {
-                local_25 = false;
+                local_27 = false;
             }
-            bool _e78 = local_25;
+            bool _e78 = local_27;
             if (_e78) {
                 vec3 u = (to_point / vec3(dist));
-                float facing = ((dot(n_11, -(u)) + 1.0) * 0.5);
-                float _e87 = w_2;
-                w_2 = (_e87 * ((facing * facing) + 0.2));
+                float facing = ((dot(n_13, -(u)) + 1.0) * 0.5);
+                float _e87 = w_4;
+                w_4 = (_e87 * ((facing * facing) + 0.2));
                 uint _e97 = _group_0_binding_7_cs.atlas_b.x;
                 uint _e101 = _group_0_binding_7_cs.atlas_b.y;
                 vec2 _e102 = oct_encode(u);
@@ -863,26 +878,26 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                     float variance = max(abs((mean_sq - (mean * mean))), ((1e-12 * mean) * mean));
                     float dd = (dist - mean);
                     float cheb = (variance / (variance + (dd * dd)));
-                    float _e118 = w_2;
-                    w_2 = (_e118 * max(((cheb * cheb) * cheb), 0.0));
+                    float _e118 = w_4;
+                    w_4 = (_e118 * max(((cheb * cheb) * cheb), 0.0));
                 }
             }
-            float _e124 = w_2;
-            w_2 = max(_e124, (1e-6 * _e48));
-            k_9 = 1.0;
+            float _e124 = w_4;
+            w_4 = max(_e124, (1e-6 * _e48));
+            k_11 = 1.0;
             if ((tiles_1.z >= 0)) {
                 uint _e138 = _group_0_binding_7_cs.atlas_b.z;
                 uint _e142 = _group_0_binding_7_cs.atlas_b.w;
                 vec4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_1.z, _e138, _e142, _e36);
-                k_9 = _e143.x;
+                k_11 = _e143.x;
             }
             vec3 _e145 = e;
-            vec3 _e147 = cell_irradiance(tiles_1.y, n_11);
-            float _e148 = w_2;
-            float _e150 = k_9;
+            vec3 _e147 = cell_irradiance(tiles_1.y, n_13);
+            float _e148 = w_4;
+            float _e150 = k_11;
             e = (_e145 + ((_e147 * _e148) * _e150));
             float _e153 = wsum;
-            float _e154 = w_2;
+            float _e154 = w_4;
             wsum = (_e153 + _e154);
         }
     }
@@ -897,16 +912,16 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_26 = false;
+    bool local_28 = false;
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_26 = _e14;
+        local_28 = _e14;
     } else {
-        local_26 = false;
+        local_28 = false;
     }
-    bool _e16 = local_26;
+    bool _e16 = local_28;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -915,16 +930,16 @@ vec2 hemi_encode(vec3 v_7) {
     return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_6) {
-    float x_2 = 0.5;
+SurfaceAxis surface_axis(float x_in, uint n_8) {
+    float x_3 = 0.5;
     bool _e4 = finite(x_in);
     if (_e4) {
-        x_2 = x_in;
+        x_3 = x_in;
     }
-    float _e5 = x_2;
-    float c_7 = clamp(((_e5 * float(n_6)) - 0.5), 0.0, float((n_6 - 1u)));
-    uint i0_ = uint(floor(c_7));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_6 - 1u)), (c_7 - float(i0_)));
+    float _e5 = x_3;
+    float c_10 = clamp(((_e5 * float(n_8)) - 0.5), 0.0, float((n_8 - 1u)));
+    uint i0_ = uint(floor(c_10));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_8 - 1u)), (c_10 - float(i0_)));
 }
 
 uint query_count() {
@@ -933,15 +948,15 @@ uint query_count() {
 
 void main() {
     uvec3 id_1 = gl_GlobalInvocationID;
-    uint k_10 = id_1.x;
+    uint k_12 = id_1.x;
     uint _e2 = query_count();
-    if ((k_10 >= _e2)) {
+    if ((k_12 >= _e2)) {
         return;
     }
-    vec4 p_4 = _group_1_binding_0_cs[(2u * k_10)];
-    vec4 n_12 = _group_1_binding_0_cs[((2u * k_10) + 1u)];
-    vec3 _e20 = irradiance(p_4.xyz, n_12.xyz);
-    _group_1_binding_1_cs[k_10] = vec4(_e20, 1.0);
+    vec4 p_4 = _group_1_binding_0_cs[(2u * k_12)];
+    vec4 n_14 = _group_1_binding_0_cs[((2u * k_12) + 1u)];
+    vec3 _e20 = irradiance(p_4.xyz, n_14.xyz);
+    _group_1_binding_1_cs[k_12] = vec4(_e20, 1.0);
     return;
 }
 

@@ -29,6 +29,7 @@ struct Cell {
     ivec4 tiles;
     vec4 offset;
     vec4 sh[9];
+    uvec4 links;
 };
 struct Footprint {
     ivec2 corner;
@@ -101,9 +102,9 @@ layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_bind
 
 layout(std430, binding = 0) readonly buffer type_11_block_1Compute { Cell _group_0_binding_8_cs[]; };
 
-layout(std430, binding = 1) readonly buffer type_20_block_2Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_21_block_2Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_20_block_3Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_21_block_3Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 uint fallback_method() {
@@ -303,9 +304,9 @@ ivec2 wrap_texel(int n, ivec2 t) {
 }
 
 Footprint footprint(uint n_1, vec2 uv) {
-    vec2 x_3 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
-    vec2 x0_ = floor(x_3);
-    return Footprint(ivec2(x0_), (x_3 - x0_));
+    vec2 x_4 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
+    vec2 x0_ = floor(x_4);
+    return Footprint(ivec2(x0_), (x_4 - x0_));
 }
 
 vec4 blend4_(vec4 q00_, vec4 q10_, vec4 q01_, vec4 q11_, vec2 f) {
@@ -325,18 +326,18 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1) {
     float _e6 = _group_0_binding_7_cs.warp.z;
     float _e10 = _group_0_binding_7_cs.warp.y;
     float res0_ = ((which_1 == 0u) ? _e10 : _e6);
-    uint n_7 = max((uint(res0_) >> level_1), 1u);
-    Footprint _e18 = footprint(n_7, uv_1);
-    ivec2 c_6 = _e18.corner;
+    uint n_9 = max((uint(res0_) >> level_1), 1u);
+    Footprint _e18 = footprint(n_9, uv_1);
+    ivec2 c_8 = _e18.corner;
     int l_3 = int(level_1);
-    int ni = int(n_7);
-    ivec2 _e22 = wrap_texel(ni, c_6);
+    int ni = int(n_9);
+    ivec2 _e22 = wrap_texel(ni, c_8);
     vec4 _e23 = probe_texel(which_1, _e22, l_3);
-    ivec2 _e28 = wrap_texel(ni, (c_6 + ivec2(1, 0)));
+    ivec2 _e28 = wrap_texel(ni, (c_8 + ivec2(1, 0)));
     vec4 _e29 = probe_texel(which_1, _e28, l_3);
-    ivec2 _e34 = wrap_texel(ni, (c_6 + ivec2(0, 1)));
+    ivec2 _e34 = wrap_texel(ni, (c_8 + ivec2(0, 1)));
     vec4 _e35 = probe_texel(which_1, _e34, l_3);
-    ivec2 _e40 = wrap_texel(ni, (c_6 + ivec2(1, 1)));
+    ivec2 _e40 = wrap_texel(ni, (c_8 + ivec2(1, 1)));
     vec4 _e41 = probe_texel(which_1, _e40, l_3);
     vec4 _e43 = blend4_(_e23, _e29, _e35, _e41, _e18.f);
     return _e43;
@@ -380,16 +381,16 @@ float inv_dist(vec3 v_4) {
     float _e6 = _group_0_binding_7_cs.probe.w;
     uint _e10 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e11 = probe_sample_lod(1u, _e2, _e6, _e10);
-    float w_3 = _e11.x;
-    if ((w_3 > 0.0)) {
-        bool _e17 = finite(w_3);
+    float w_5 = _e11.x;
+    if ((w_5 > 0.0)) {
+        bool _e17 = finite(w_5);
         local_9 = _e17;
     } else {
         local_9 = false;
     }
     bool _e19 = local_9;
     if (_e19) {
-        return w_3;
+        return w_5;
     }
     return 0.0;
 }
@@ -419,11 +420,11 @@ vec4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, vec2 uv_4) {
     uint s_3 = uint(tile);
     ivec2 origin = ivec2((uvec2((s_3 % columns), (s_3 / columns)) * (n_2 + 2u)));
     Footprint _e13 = footprint(n_2, uv_4);
-    ivec2 c_7 = ((origin + _e13.corner) + ivec2(1, 1));
-    vec4 _e20 = atlas_texel(which_4, c_7);
-    vec4 _e25 = atlas_texel(which_4, (c_7 + ivec2(1, 0)));
-    vec4 _e30 = atlas_texel(which_4, (c_7 + ivec2(0, 1)));
-    vec4 _e35 = atlas_texel(which_4, (c_7 + ivec2(1, 1)));
+    ivec2 c_9 = ((origin + _e13.corner) + ivec2(1, 1));
+    vec4 _e20 = atlas_texel(which_4, c_9);
+    vec4 _e25 = atlas_texel(which_4, (c_9 + ivec2(1, 0)));
+    vec4 _e30 = atlas_texel(which_4, (c_9 + ivec2(0, 1)));
+    vec4 _e35 = atlas_texel(which_4, (c_9 + ivec2(1, 1)));
     vec4 _e37 = blend4_(_e20, _e25, _e30, _e35, _e13.f);
     return _e37;
 }
@@ -436,8 +437,8 @@ vec3 cell_size() {
 }
 
 uint cell_index(uvec3 c_2) {
-    uvec4 n_8 = _group_0_binding_7_cs.grid_counts;
-    return (c_2.x + (n_8.x * (c_2.y + (n_8.y * c_2.z))));
+    uvec4 n_10 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_10.x * (c_2.y + (n_10.y * c_2.z))));
 }
 
 uvec3 cell_of(vec3 p_1, vec3 size) {
@@ -472,9 +473,9 @@ Lattice lattice(vec3 p_2, vec3 size_2) {
         f_1 = vec3(0.0);
     }
     vec3 _e28 = f_1;
-    vec3 base = floor(_e28);
+    vec3 base_1 = floor(_e28);
     vec3 _e31 = f_1;
-    return Lattice(uvec3(base), (_e31 - base));
+    return Lattice(uvec3(base_1), (_e31 - base_1));
 }
 
 float corner_weight(Lattice l, uint corner) {
@@ -494,12 +495,12 @@ uvec3 corner_cell(Lattice l_1, uint corner_1) {
 vec2 warp1_exit(vec3 b_2, vec3 dir) {
     bool local_10 = false;
     vec4 _e4 = _group_0_binding_7_cs.probe;
-    vec3 a = _e4.xyz;
+    vec3 a_1 = _e4.xyz;
     float _e6 = inv_dist(dir);
     if ((_e6 == 0.0)) {
         return vec2(1e30, 1.0);
     }
-    vec3 ab = (a - b_2);
+    vec3 ab = (a_1 - b_2);
     float dir_ab = dot(dir, ab);
     vec3 v_9 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
     float _e23 = inv_dist(v_9);
@@ -523,12 +524,12 @@ vec2 warp1_exit(vec3 b_2, vec3 dir) {
 
 vec3 warp1_(vec3 b_3, vec3 dir_1) {
     vec4 _e4 = _group_0_binding_7_cs.probe;
-    vec3 a_1 = _e4.xyz;
+    vec3 a_2 = _e4.xyz;
     float _e6 = inv_dist(dir_1);
     if ((_e6 == 0.0)) {
         return dir_1;
     }
-    vec3 ab_1 = (a_1 - b_3);
+    vec3 ab_1 = (a_2 - b_3);
     float dir_ab_1 = dot(dir_1, ab_1);
     vec3 v_10 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
     float _e20 = inv_dist(v_10);
@@ -614,14 +615,14 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
             }
             uint _e21 = k_1;
             vec4 _e23 = _group_0_binding_7_cs.kdop[_e21];
-            vec3 n_9 = _e23.xyz;
+            vec3 n_11 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e27].w;
-            float nb = dot(n_9, b_5);
+            float nb = dot(n_11, b_5);
             if ((nb > h_1)) {
                 return vec2(0.0, 0.0);
             }
-            float nd = dot(n_9, dir_3);
+            float nd = dot(n_11, dir_3);
             if ((nd > 0.0)) {
                 float _e39 = t_4;
                 t_4 = min(_e39, ((h_1 - nb) / nd));
@@ -674,9 +675,9 @@ vec3 box_fetch(vec3 b_8, vec3 dir_6) {
 
 Basis orthonormal_basis(vec3 n_3) {
     float s_4 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a_2 = (-1.0 / (s_4 + n_3.z));
-    float b_19 = ((n_3.x * n_3.y) * a_2);
-    return Basis(vec3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_2)), (s_4 * b_19), (-(s_4) * n_3.x)), vec3(b_19, (s_4 + ((n_3.y * n_3.y) * a_2)), -(n_3.y)));
+    float a_3 = (-1.0 / (s_4 + n_3.z));
+    float b_20 = ((n_3.x * n_3.y) * a_3);
+    return Basis(vec3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_3)), (s_4 * b_20), (-(s_4) * n_3.x)), vec3(b_20, (s_4 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
@@ -930,8 +931,8 @@ float lod_of_roughness(float r_2) {
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
-    uint n_10 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_10 < 2u))) {
+    uint n_12 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_12 < 2u))) {
         float _e11 = mip_roughness(0u);
         local_17 = !((r_2 > _e11));
     } else {
@@ -941,7 +942,7 @@ float lod_of_roughness(float r_2) {
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_10 - 1u);
+    uint last = (n_12 - 1u);
     float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
@@ -954,7 +955,7 @@ float lod_of_roughness(float r_2) {
         }
         loop_init_4 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_10)) {
+        if ((_e26 < n_12)) {
         } else {
             break;
         }
@@ -966,16 +967,16 @@ float lod_of_roughness(float r_2) {
         }
     }
     uint _e39 = below;
-    uint i_5 = (min(max(_e39, 1u), last) - 1u);
-    float _e46 = mip_roughness((i_5 + 1u));
-    float _e47 = mip_roughness(i_5);
+    uint i_6 = (min(max(_e39, 1u), last) - 1u);
+    float _e46 = mip_roughness((i_6 + 1u));
+    float _e47 = mip_roughness(i_6);
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
-        float _e53 = mip_roughness(i_5);
+        float _e53 = mip_roughness(i_6);
         f_2 = ((r_2 - _e53) / span);
     }
     float _e57 = f_2;
-    return (float(i_5) + clamp(_e57, 0.0, 1.0));
+    return (float(i_6) + clamp(_e57, 0.0, 1.0));
 }
 
 float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
@@ -987,7 +988,7 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
     float _e8 = _group_0_binding_7_cs.probe.w;
     uint _e12 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e13 = probe_sample_lod(1u, uv_7, _e8, _e12);
-    float w_4 = _e13.x;
+    float w_6 = _e13.x;
     if ((l_5 > 0.0)) {
         bool _e19 = finite(l_5);
         local_18 = _e19;
@@ -996,13 +997,13 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
     }
     bool _e21 = local_18;
     if (_e21) {
-        local_19 = (w_4 > 0.0);
+        local_19 = (w_6 > 0.0);
     } else {
         local_19 = false;
     }
     bool _e27 = local_19;
     if (_e27) {
-        bool _e30 = finite(w_4);
+        bool _e30 = finite(w_6);
         local_20 = _e30;
     } else {
         local_20 = false;
@@ -1011,27 +1012,27 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
     if (!(_e32)) {
         return 1.0;
     }
-    float d_probe = (1.0 / w_4);
+    float d_probe = (1.0 / w_6);
     vec4 _e39 = _group_0_binding_7_cs.probe;
     float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_12));
-    float k_10 = (d_probe / d_surface);
-    bool _e47 = finite(k_10);
+    float k_12 = (d_probe / d_surface);
+    bool _e47 = finite(k_12);
     if (_e47) {
-        local_21 = (k_10 > 0.0);
+        local_21 = (k_12 > 0.0);
     } else {
         local_21 = false;
     }
     bool _e53 = local_21;
     if (_e53) {
-        return k_10;
+        return k_12;
     }
     return 1.0;
 }
 
 float pseudo_log2_(float k_3) {
-    uint bits = floatBitsToUint(k_3);
-    int e_1 = (int(((bits >> 23u) & 255u)) - 127);
-    float m_3 = uintBitsToFloat(((bits & 8388607u) | 1065353216u));
+    uint bits_1 = floatBitsToUint(k_3);
+    int e_1 = (int(((bits_1 >> 23u) & 255u)) - 127);
+    float m_3 = uintBitsToFloat(((bits_1 & 8388607u) | 1065353216u));
     return (float(e_1) + (m_3 - 1.0));
 }
 
@@ -1039,8 +1040,8 @@ float corrected_roughness(float r_3, float k_in) {
     float fr = 0.0;
     float k_4 = 1.0;
     bool local_22 = false;
-    uint n_11 = _group_0_binding_7_cs.lut_info.x;
-    float last_1 = float((n_11 - 1u));
+    uint n_13 = _group_0_binding_7_cs.lut_info.x;
+    float last_1 = float((n_13 - 1u));
     bool _e11 = finite(r_3);
     if (_e11) {
         fr = clamp((r_3 * last_1), 0.0, last_1);
@@ -1065,20 +1066,20 @@ float corrected_roughness(float r_3, float k_in) {
     float _e44 = _group_0_binding_7_cs.lut.y;
     float fx = clamp(((_e35 - _e39) * _e44), 0.0, last_1);
     float _e48 = fr;
-    uint i_6 = min(uint(_e48), (n_11 - 2u));
-    uint j_5 = min(uint(fx), (n_11 - 2u));
+    uint i_7 = min(uint(_e48), (n_13 - 2u));
+    uint j_5 = min(uint(fx), (n_13 - 2u));
     float _e57 = fr;
-    float a_3 = (_e57 - float(i_6));
-    float b_20 = (fx - float(j_5));
-    vec4 _e67 = texelFetch(_group_0_binding_6_cs, ivec2(int(j_5), int(i_6)), 0);
+    float a_4 = (_e57 - float(i_7));
+    float b_21 = (fx - float(j_5));
+    vec4 _e67 = texelFetch(_group_0_binding_6_cs, ivec2(int(j_5), int(i_7)), 0);
     float v00_ = _e67.x;
-    vec4 _e76 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_5 + 1u)), int(i_6)), 0);
+    vec4 _e76 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_5 + 1u)), int(i_7)), 0);
     float v01_ = _e76.x;
-    vec4 _e85 = texelFetch(_group_0_binding_6_cs, ivec2(int(j_5), int((i_6 + 1u))), 0);
+    vec4 _e85 = texelFetch(_group_0_binding_6_cs, ivec2(int(j_5), int((i_7 + 1u))), 0);
     float v10_ = _e85.x;
-    vec4 _e96 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_5 + 1u)), int((i_6 + 1u))), 0);
+    vec4 _e96 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_5 + 1u)), int((i_7 + 1u))), 0);
     float v11_ = _e96.x;
-    return ((((v00_ * (1.0 - b_20)) + (v01_ * b_20)) * (1.0 - a_3)) + (((v10_ * (1.0 - b_20)) + (v11_ * b_20)) * a_3));
+    return ((((v00_ * (1.0 - b_21)) + (v01_ * b_21)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_21)) + (v11_ * b_21)) * a_4));
 }
 
 vec3 shade(vec3 b_13, Aim aim, float r_4) {
@@ -1121,8 +1122,8 @@ float irradiance_weight(float r_5) {
     bool local_23 = false;
     float w_1 = 0.0;
     uint k_8 = 1u;
-    uint n_12 = _group_0_binding_7_cs.lut_info.y;
-    if (!((n_12 == 0u))) {
+    uint n_14 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_14 == 0u))) {
         local_23 = !((r_5 > 0.0));
     } else {
         local_23 = true;
@@ -1141,7 +1142,7 @@ float irradiance_weight(float r_5) {
         }
         loop_init_5 = false;
         uint _e21 = k_8;
-        if ((_e21 < n_12)) {
+        if ((_e21 < n_14)) {
         } else {
             break;
         }
@@ -1172,48 +1173,315 @@ vec3 clean(vec3 c_4) {
     return vec3(0.0);
 }
 
-vec3 cell_sh_irradiance(uint cell, vec3 n_4) {
-    float x_4 = n_4.x;
+vec3 sh_eval(vec3 c_5[9], vec3 n_4) {
+    float x_5 = n_4.x;
     float y = n_4.y;
     float z = n_4.z;
-    vec4 _e9 = _group_0_binding_8_cs[cell].sh[0];
-    vec3 t0_ = (_e9.xyz * 0.2820948);
-    vec4 _e17 = _group_0_binding_8_cs[cell].sh[1];
-    vec3 t1_ = (_e17.xyz * (0.4886025 * y));
-    vec4 _e26 = _group_0_binding_8_cs[cell].sh[2];
-    vec3 t2_ = (_e26.xyz * (0.4886025 * z));
-    vec4 _e35 = _group_0_binding_8_cs[cell].sh[3];
-    vec3 t3_ = (_e35.xyz * (0.4886025 * x_4));
-    vec4 _e44 = _group_0_binding_8_cs[cell].sh[4];
-    vec3 t4_ = (_e44.xyz * (1.0925484 * (x_4 * y)));
-    vec4 _e54 = _group_0_binding_8_cs[cell].sh[5];
-    vec3 t5_ = (_e54.xyz * (1.0925484 * (y * z)));
-    vec4 _e64 = _group_0_binding_8_cs[cell].sh[6];
-    vec3 t6_ = (_e64.xyz * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
-    vec4 _e78 = _group_0_binding_8_cs[cell].sh[7];
-    vec3 t7_ = (_e78.xyz * (1.0925484 * (x_4 * z)));
-    vec4 _e88 = _group_0_binding_8_cs[cell].sh[8];
-    vec3 t8_ = (_e88.xyz * (0.5462742 * ((x_4 * x_4) - (y * y))));
+    vec3 t0_ = (c_5[0] * 0.2820948);
+    vec3 t1_ = (c_5[1] * (0.4886025 * y));
+    vec3 t2_ = (c_5[2] * (0.4886025 * z));
+    vec3 t3_ = (c_5[3] * (0.4886025 * x_5));
+    vec3 t4_ = (c_5[4] * (1.0925484 * (x_5 * y)));
+    vec3 t5_ = (c_5[5] * (1.0925484 * (y * z)));
+    vec3 t6_ = (c_5[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    vec3 t7_ = (c_5[7] * (1.0925484 * (x_5 * z)));
+    vec3 t8_ = (c_5[8] * (0.5462742 * ((x_5 * x_5) - (y * y))));
     vec3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
     return max(e_2, vec3(0.0));
 }
 
+vec3 cell_sh_irradiance(uint cell, vec3 n_5) {
+    vec4 _e6 = _group_0_binding_8_cs[cell].sh[0];
+    vec4 _e12 = _group_0_binding_8_cs[cell].sh[1];
+    vec4 _e18 = _group_0_binding_8_cs[cell].sh[2];
+    vec4 _e24 = _group_0_binding_8_cs[cell].sh[3];
+    vec4 _e30 = _group_0_binding_8_cs[cell].sh[4];
+    vec4 _e36 = _group_0_binding_8_cs[cell].sh[5];
+    vec4 _e42 = _group_0_binding_8_cs[cell].sh[6];
+    vec4 _e48 = _group_0_binding_8_cs[cell].sh[7];
+    vec4 _e54 = _group_0_binding_8_cs[cell].sh[8];
+    vec3 c_10[9] = vec3[9](_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
+    vec3 _e57 = sh_eval(c_10, n_5);
+    return _e57;
+}
+
+vec3 sh_blend4_(uvec4 at, vec4 w_2, uint i_1) {
+    vec4 _e8 = _group_0_binding_8_cs[at.x].sh[i_1];
+    vec4 _e17 = _group_0_binding_8_cs[at.y].sh[i_1];
+    vec4 _e27 = _group_0_binding_8_cs[at.z].sh[i_1];
+    vec4 _e36 = _group_0_binding_8_cs[at.w].sh[i_1];
+    return (((_e8.xyz * w_2.x) + (_e17.xyz * w_2.y)) + ((_e27.xyz * w_2.z) + (_e36.xyz * w_2.w)));
+}
+
+vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
+    uvec3 base = uvec3(0u);
+    vec3 frac = vec3(0.0);
+    uint a = 0u;
+    uint bx = 1u;
+    uint c_6 = 2u;
+    uvec3 top_v = uvec3(0u);
+    uvec3 home_v = uvec3(0u);
+    uint bit0_ = 0u;
+    uint x_2 = 0u;
+    uint rel = 0u;
+    uvec4 corner_cell_1 = uvec4(0u);
+    uvec4 bits = uvec4(0u);
+    uint k_9 = 1u;
+    uint cs = 0u;
+    uint bs = 0u;
+    vec4 w_3 = vec4(0.0);
+    uvec4 at_1 = uvec4(0u);
+    uint k_10 = 0u;
+    bool kept = false;
+    bool local_24 = false;
+    bool local_25 = false;
+    vec3 _e3 = cell_size();
+    uvec4 _e6 = _group_0_binding_7_cs.grid_counts;
+    uvec3 counts = _e6.xyz;
+    uvec3 top_1 = (counts - uvec3(1u));
+    vec4 _e13 = _group_0_binding_7_cs.grid_min;
+    vec3 units = ((b_14 - _e13.xyz) / _e3);
+    uvec3 _e17 = cell_of(b_14, _e3);
+    vec3 f0_ = (units - vec3(0.5));
+    bool _e21 = finite3_(f0_);
+    if (!(_e21)) {
+        vec3 _e23 = cell_sh_irradiance(home, n_6);
+        return _e23;
+    }
+    vec3 f_6 = clamp(f0_, vec3(0.0), vec3(top_1));
+    vec3 fl = floor(f_6);
+    base = uvec3(fl);
+    frac = (f_6 - fl);
+    uint _e39 = bx;
+    float _e41 = frac[_e39];
+    uint _e42 = a;
+    float _e44 = frac[_e42];
+    if ((_e41 > _e44)) {
+        uint t_13 = a;
+        uint _e47 = bx;
+        a = _e47;
+        bx = t_13;
+    }
+    uint _e48 = c_6;
+    float _e50 = frac[_e48];
+    uint _e51 = bx;
+    float _e53 = frac[_e51];
+    if ((_e50 > _e53)) {
+        uint t_14 = bx;
+        uint _e56 = c_6;
+        bx = _e56;
+        c_6 = t_14;
+        uint _e57 = bx;
+        float _e59 = frac[_e57];
+        uint _e60 = a;
+        float _e62 = frac[_e60];
+        if ((_e59 > _e62)) {
+            uint u = a;
+            uint _e65 = bx;
+            a = _e65;
+            bx = u;
+        }
+    }
+    uint _e66 = a;
+    float _e68 = frac[_e66];
+    uint _e71 = a;
+    float _e73 = frac[_e71];
+    uint _e74 = bx;
+    float _e76 = frac[_e74];
+    uint _e78 = bx;
+    float _e80 = frac[_e78];
+    uint _e81 = c_6;
+    float _e83 = frac[_e81];
+    uint _e85 = c_6;
+    float _e87 = frac[_e85];
+    vec4 weights = vec4((1.0 - _e68), (_e73 - _e76), (_e80 - _e83), _e87);
+    top_v = top_1;
+    home_v = _e17;
+    uvec3 cell_stride = uvec3(1u, counts.x, (counts.x * counts.y));
+    uvec3 bit_stride = uvec3(1u, 3u, 9u);
+    uint _e102 = base.x;
+    uint _e105 = base.y;
+    uint _e108 = base.z;
+    uint cell0_ = (_e102 + (counts.x * (_e105 + (counts.y * _e108))));
+    bool loop_init_6 = true;
+    while(true) {
+        if (!loop_init_6) {
+            uint _e144 = x_2;
+            x_2 = (_e144 + 1u);
+        }
+        loop_init_6 = false;
+        uint _e117 = x_2;
+        if ((_e117 < 3u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e120 = x_2;
+            uint _e122 = base[_e120];
+            uint up = (_e122 + 1u);
+            rel = 0u;
+            uint _e127 = x_2;
+            uint _e129 = home_v[_e127];
+            if ((up > _e129)) {
+                uint _e131 = x_2;
+                uint _e133 = home_v[_e131];
+                rel = min((up - _e133), 2u);
+            }
+            uint _e137 = bit0_;
+            uint _e138 = rel;
+            uint _e139 = x_2;
+            bit0_ = (_e137 + (_e138 * bit_stride[_e139]));
+        }
+    }
+    corner_cell_1 = uvec4(cell0_);
+    uint _e148 = bit0_;
+    bits = uvec4(_e148);
+    uint _e151 = a;
+    uint _e152 = bx;
+    uint _e153 = c_6;
+    uvec3 axes = uvec3(_e151, _e152, _e153);
+    bool loop_init_7 = true;
+    while(true) {
+        if (!loop_init_7) {
+            uint _e194 = k_9;
+            k_9 = (_e194 + 1u);
+        }
+        loop_init_7 = false;
+        uint _e157 = k_9;
+        if ((_e157 < 4u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e160 = k_9;
+            uint x_6 = axes[(_e160 - 1u)];
+            cs = 0u;
+            bs = 0u;
+            uint _e169 = base[x_6];
+            uint _e171 = top_v[x_6];
+            if ((_e169 < _e171)) {
+                cs = cell_stride[x_6];
+                bs = bit_stride[x_6];
+            }
+            uint _e175 = k_9;
+            uint _e177 = k_9;
+            uint _e181 = corner_cell_1[(_e177 - 1u)];
+            uint _e182 = cs;
+            corner_cell_1[_e175] = (_e181 + _e182);
+            uint _e184 = k_9;
+            uint _e186 = k_9;
+            uint _e190 = bits[(_e186 - 1u)];
+            uint _e191 = bs;
+            bits[_e184] = (_e190 + _e191);
+        }
+    }
+    uint links = _group_0_binding_8_cs[home].links.x;
+    w_3 = weights;
+    at_1 = uvec4(home);
+    uint count = uint(_group_0_binding_8_cs.length());
+    bool loop_init_8 = true;
+    while(true) {
+        if (!loop_init_8) {
+            uint _e252 = k_10;
+            k_10 = (_e252 + 1u);
+        }
+        loop_init_8 = false;
+        uint _e208 = k_10;
+        if ((_e208 < 4u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e211 = k_10;
+            uint ck = corner_cell_1[_e211];
+            kept = false;
+            uint _e216 = k_10;
+            uint _e218 = bits[_e216];
+            if ((_e218 < 27u)) {
+                uint _e223 = k_10;
+                uint _e225 = bits[_e223];
+                local_24 = (((links >> _e225) & 1u) != 0u);
+            } else {
+                local_24 = false;
+            }
+            bool _e232 = local_24;
+            if (_e232) {
+                local_25 = (ck < count);
+            } else {
+                local_25 = false;
+            }
+            bool _e237 = local_25;
+            if (_e237) {
+                int _e242 = _group_0_binding_8_cs[ck].tiles.y;
+                kept = (_e242 >= 0);
+            }
+            bool _e245 = kept;
+            if (_e245) {
+                uint _e246 = k_10;
+                at_1[_e246] = ck;
+            } else {
+                uint _e248 = k_10;
+                w_3[_e248] = 0.0;
+            }
+        }
+    }
+    float _e255 = w_3.x;
+    float _e257 = w_3.y;
+    float _e260 = w_3.z;
+    float _e262 = w_3.w;
+    float wsum_1 = ((_e255 + _e257) + (_e260 + _e262));
+    if (!((wsum_1 > 0.0))) {
+        vec3 _e268 = cell_sh_irradiance(home, n_6);
+        return _e268;
+    }
+    uvec4 _e269 = at_1;
+    vec4 _e270 = w_3;
+    vec3 _e272 = sh_blend4_(_e269, _e270, 0u);
+    uvec4 _e273 = at_1;
+    vec4 _e274 = w_3;
+    vec3 _e276 = sh_blend4_(_e273, _e274, 1u);
+    uvec4 _e277 = at_1;
+    vec4 _e278 = w_3;
+    vec3 _e280 = sh_blend4_(_e277, _e278, 2u);
+    uvec4 _e281 = at_1;
+    vec4 _e282 = w_3;
+    vec3 _e284 = sh_blend4_(_e281, _e282, 3u);
+    uvec4 _e285 = at_1;
+    vec4 _e286 = w_3;
+    vec3 _e288 = sh_blend4_(_e285, _e286, 4u);
+    uvec4 _e289 = at_1;
+    vec4 _e290 = w_3;
+    vec3 _e292 = sh_blend4_(_e289, _e290, 5u);
+    uvec4 _e293 = at_1;
+    vec4 _e294 = w_3;
+    vec3 _e296 = sh_blend4_(_e293, _e294, 6u);
+    uvec4 _e297 = at_1;
+    vec4 _e298 = w_3;
+    vec3 _e300 = sh_blend4_(_e297, _e298, 7u);
+    uvec4 _e301 = at_1;
+    vec4 _e302 = w_3;
+    vec3 _e304 = sh_blend4_(_e301, _e302, 8u);
+    vec3 acc[9] = vec3[9](_e272, _e276, _e280, _e284, _e288, _e292, _e296, _e300, _e304);
+    vec3 _e306 = sh_eval(acc, n_6);
+    return (_e306 / vec3(wsum_1));
+}
+
 vec3 specular(vec3 position, vec3 direction, float roughness) {
-    vec3 b_14 = vec3(0.0);
+    vec3 b_15 = vec3(0.0);
     float r_6 = 0.0;
     uint cell_1 = 0u;
     bool stored = false;
-    bool local_24 = false;
-    vec3 c_5 = vec3(0.0);
+    bool local_26 = false;
+    vec3 c_7 = vec3(0.0);
     vec4 _e3 = unit_direction(direction);
     if ((_e3.w == 0.0)) {
         return vec3(0.0);
     }
     vec4 _e11 = _group_0_binding_7_cs.probe;
-    b_14 = _e11.xyz;
+    b_15 = _e11.xyz;
     bool _e14 = finite3_(position);
     if (_e14) {
-        b_14 = position;
+        b_15 = position;
     }
     bool _e17 = finite(roughness);
     if (_e17) {
@@ -1222,7 +1490,7 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     float _e21 = r_6;
     float _e22 = irradiance_weight(_e21);
     if ((_e22 > 0.0)) {
-        vec3 _e29 = b_14;
+        vec3 _e29 = b_15;
         vec3 _e30 = cell_size();
         uvec3 _e31 = cell_of(_e29, _e30);
         uint _e32 = cell_index(_e31);
@@ -1233,40 +1501,42 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     }
     bool _e41 = stored;
     if (_e41) {
-        local_24 = (_e22 >= 1.0);
+        local_26 = (_e22 >= 1.0);
     } else {
-        local_24 = false;
+        local_26 = false;
     }
-    bool _e47 = local_24;
+    bool _e47 = local_26;
     if (_e47) {
         uint _e48 = cell_1;
-        vec3 _e50 = cell_sh_irradiance(_e48, _e3.xyz);
-        vec3 _e54 = clean((_e50 * (_e22 * 0.31830987)));
-        return _e54;
+        vec3 _e49 = b_15;
+        vec3 _e51 = sh_read(_e48, _e49, _e3.xyz);
+        vec3 _e55 = clean((_e51 * (_e22 * 0.31830987)));
+        return _e55;
     }
-    vec3 _e55 = b_14;
-    vec3 _e56 = b_14;
-    float _e58 = r_6;
-    Aim _e59 = fetch(_e56, _e3.xyz, _e58);
-    float _e60 = r_6;
-    vec3 _e61 = shade(_e55, _e59, _e60);
-    c_5 = _e61;
-    bool _e63 = stored;
-    if (_e63) {
-        vec3 _e64 = c_5;
-        uint _e68 = cell_1;
-        vec3 _e70 = cell_sh_irradiance(_e68, _e3.xyz);
-        c_5 = ((_e64 * (1.0 - _e22)) + (_e70 * (_e22 * 0.31830987)));
+    vec3 _e56 = b_15;
+    vec3 _e57 = b_15;
+    float _e59 = r_6;
+    Aim _e60 = fetch(_e57, _e3.xyz, _e59);
+    float _e61 = r_6;
+    vec3 _e62 = shade(_e56, _e60, _e61);
+    c_7 = _e62;
+    bool _e64 = stored;
+    if (_e64) {
+        vec3 _e65 = c_7;
+        uint _e69 = cell_1;
+        vec3 _e70 = b_15;
+        vec3 _e72 = sh_read(_e69, _e70, _e3.xyz);
+        c_7 = ((_e65 * (1.0 - _e22)) + (_e72 * (_e22 * 0.31830987)));
     }
-    vec3 _e75 = c_5;
-    vec3 _e76 = clean(_e75);
-    return _e76;
+    vec3 _e77 = c_7;
+    vec3 _e78 = clean(_e77);
+    return _e78;
 }
 
-vec3 cell_irradiance(int tile_2, vec3 n_5) {
+vec3 cell_irradiance(int tile_2, vec3 n_7) {
     uint _e6 = _group_0_binding_7_cs.atlas_a.z;
     uint _e10 = _group_0_binding_7_cs.atlas_a.w;
-    vec2 _e11 = oct_encode(n_5);
+    vec2 _e11 = oct_encode(n_7);
     vec4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
     return _e12.xyz;
 }
@@ -1276,35 +1546,35 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     vec3 e = vec3(0.0);
     float wsum = 0.0;
     uint corner_3 = 0u;
-    float w_2 = 0.0;
-    bool local_25 = false;
-    float k_9 = 0.0;
+    float w_4 = 0.0;
+    bool local_27 = false;
+    float k_11 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
         return vec3(0.0);
     }
-    vec3 n_13 = _e2.xyz;
+    vec3 n_15 = _e2.xyz;
     vec3 _e9 = cell_size();
     vec4 _e12 = _group_0_binding_7_cs.grid_min;
     vec4 _e16 = _group_0_binding_7_cs.grid_max;
     vec4 _e20 = _group_0_binding_7_cs.grid_min;
     p_3 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = _group_0_binding_7_cs.grid_min.w;
-    vec3 biased = (position_1 + (n_13 * _e30));
+    vec3 biased = (position_1 + (n_15 * _e30));
     bool _e33 = finite3_(biased);
     if (_e33) {
         p_3 = biased;
     }
     vec3 _e34 = p_3;
     Lattice _e35 = lattice(_e34, _e9);
-    vec2 _e36 = oct_encode(n_13);
-    bool loop_init_6 = true;
+    vec2 _e36 = oct_encode(n_15);
+    bool loop_init_9 = true;
     while(true) {
-        if (!loop_init_6) {
+        if (!loop_init_9) {
             uint _e157 = corner_3;
             corner_3 = (_e157 + 1u);
         }
-        loop_init_6 = false;
+        loop_init_9 = false;
         uint _e44 = corner_3;
         if ((_e44 < 8u)) {
         } else {
@@ -1328,22 +1598,22 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             vec4 _e66 = _group_0_binding_8_cs[_e53].offset;
             vec3 to_point = (_e61 - (_e62 + _e66.xyz));
             float dist = length(to_point);
-            w_2 = _e48;
+            w_4 = _e48;
             if ((dist > 0.0)) {
                 bool _e76 = finite(dist);
-                local_25 = _e76;
+                local_27 = _e76;
             } else {
-                local_25 = false;
+                local_27 = false;
             }
-            bool _e78 = local_25;
+            bool _e78 = local_27;
             if (_e78) {
-                vec3 u = (to_point / vec3(dist));
-                float facing = ((dot(n_13, -(u)) + 1.0) * 0.5);
-                float _e87 = w_2;
-                w_2 = (_e87 * ((facing * facing) + 0.2));
+                vec3 u_1 = (to_point / vec3(dist));
+                float facing = ((dot(n_15, -(u_1)) + 1.0) * 0.5);
+                float _e87 = w_4;
+                w_4 = (_e87 * ((facing * facing) + 0.2));
                 uint _e97 = _group_0_binding_7_cs.atlas_b.x;
                 uint _e101 = _group_0_binding_7_cs.atlas_b.y;
-                vec2 _e102 = oct_encode(u);
+                vec2 _e102 = oct_encode(u_1);
                 vec4 _e103 = atlas_bilinear(ATLAS_MOMENTS, tiles_3.y, _e97, _e101, _e102);
                 float mean = _e103.x;
                 float mean_sq = _e103.y;
@@ -1351,26 +1621,26 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                     float variance = max(abs((mean_sq - (mean * mean))), ((1e-12 * mean) * mean));
                     float dd = (dist - mean);
                     float cheb = (variance / (variance + (dd * dd)));
-                    float _e118 = w_2;
-                    w_2 = (_e118 * max(((cheb * cheb) * cheb), 0.0));
+                    float _e118 = w_4;
+                    w_4 = (_e118 * max(((cheb * cheb) * cheb), 0.0));
                 }
             }
-            float _e124 = w_2;
-            w_2 = max(_e124, (1e-6 * _e48));
-            k_9 = 1.0;
+            float _e124 = w_4;
+            w_4 = max(_e124, (1e-6 * _e48));
+            k_11 = 1.0;
             if ((tiles_3.z >= 0)) {
                 uint _e138 = _group_0_binding_7_cs.atlas_b.z;
                 uint _e142 = _group_0_binding_7_cs.atlas_b.w;
                 vec4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_3.z, _e138, _e142, _e36);
-                k_9 = _e143.x;
+                k_11 = _e143.x;
             }
             vec3 _e145 = e;
-            vec3 _e147 = cell_irradiance(tiles_3.y, n_13);
-            float _e148 = w_2;
-            float _e150 = k_9;
+            vec3 _e147 = cell_irradiance(tiles_3.y, n_15);
+            float _e148 = w_4;
+            float _e150 = k_11;
             e = (_e145 + ((_e147 * _e148) * _e150));
             float _e153 = wsum;
-            float _e154 = w_2;
+            float _e154 = w_4;
             wsum = (_e153 + _e154);
         }
     }
@@ -1385,16 +1655,16 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_26 = false;
+    bool local_28 = false;
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_26 = _e14;
+        local_28 = _e14;
     } else {
-        local_26 = false;
+        local_28 = false;
     }
-    bool _e16 = local_26;
+    bool _e16 = local_28;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -1403,16 +1673,16 @@ vec2 hemi_encode(vec3 v_7) {
     return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_6) {
-    float x_2 = 0.5;
+SurfaceAxis surface_axis(float x_in, uint n_8) {
+    float x_3 = 0.5;
     bool _e4 = finite(x_in);
     if (_e4) {
-        x_2 = x_in;
+        x_3 = x_in;
     }
-    float _e5 = x_2;
-    float c_8 = clamp(((_e5 * float(n_6)) - 0.5), 0.0, float((n_6 - 1u)));
-    uint i0_ = uint(floor(c_8));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_6 - 1u)), (c_8 - float(i0_)));
+    float _e5 = x_3;
+    float c_11 = clamp(((_e5 * float(n_8)) - 0.5), 0.0, float((n_8 - 1u)));
+    uint i0_ = uint(floor(c_11));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_8 - 1u)), (c_11 - float(i0_)));
 }
 
 uint query_count() {
@@ -1421,15 +1691,15 @@ uint query_count() {
 
 void main() {
     uvec3 id = gl_GlobalInvocationID;
-    uint k_11 = id.x;
+    uint k_13 = id.x;
     uint _e2 = query_count();
-    if ((k_11 >= _e2)) {
+    if ((k_13 >= _e2)) {
         return;
     }
-    vec4 p_4 = _group_1_binding_0_cs[(2u * k_11)];
-    vec4 d_3 = _group_1_binding_0_cs[((2u * k_11) + 1u)];
+    vec4 p_4 = _group_1_binding_0_cs[(2u * k_13)];
+    vec4 d_3 = _group_1_binding_0_cs[((2u * k_13) + 1u)];
     vec3 _e21 = specular(p_4.xyz, d_3.xyz, p_4.w);
-    _group_1_binding_1_cs[k_11] = vec4(_e21, 1.0);
+    _group_1_binding_1_cs[k_13] = vec4(_e21, 1.0);
     return;
 }
 

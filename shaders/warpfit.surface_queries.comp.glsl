@@ -29,6 +29,7 @@ struct Cell {
     ivec4 tiles;
     vec4 offset;
     vec4 sh[9];
+    uvec4 links;
 };
 struct Footprint {
     ivec2 corner;
@@ -89,9 +90,9 @@ layout(std140, binding = 1) uniform SurfaceParams_block_0Compute { SurfaceParams
 
 layout(binding = 8) uniform sampler2D _group_2_binding_2_cs;
 
-layout(std430, binding = 1) readonly buffer type_20_block_1Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_21_block_1Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_20_block_2Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_21_block_2Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 bool finite(float x) {
@@ -259,9 +260,9 @@ ivec2 wrap_texel(int n, ivec2 t) {
 }
 
 Footprint footprint(uint n_1, vec2 uv) {
-    vec2 x_3 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
-    vec2 x0_ = floor(x_3);
-    return Footprint(ivec2(x0_), (x_3 - x0_));
+    vec2 x_4 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
+    vec2 x0_ = floor(x_4);
+    return Footprint(ivec2(x0_), (x_4 - x0_));
 }
 
 vec4 blend4_(vec4 q00_, vec4 q10_, vec4 q01_, vec4 q11_, vec2 f) {
@@ -278,9 +279,9 @@ float corner_weight(Lattice l, uint corner) {
 
 Basis orthonormal_basis(vec3 n_3) {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a = (-1.0 / (s_3 + n_3.z));
-    float b_19 = ((n_3.x * n_3.y) * a);
-    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a)), (s_3 * b_19), (-(s_3) * n_3.x)), vec3(b_19, (s_3 + ((n_3.y * n_3.y) * a)), -(n_3.y)));
+    float a_1 = (-1.0 / (s_3 + n_3.z));
+    float b_20 = ((n_3.x * n_3.y) * a_1);
+    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_1)), (s_3 * b_20), (-(s_3) * n_3.x)), vec3(b_20, (s_3 + ((n_3.y * n_3.y) * a_1)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
@@ -300,9 +301,9 @@ vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
 }
 
 float pseudo_log2_(float k_3) {
-    uint bits = floatBitsToUint(k_3);
-    int e_1 = (int(((bits >> 23u) & 255u)) - 127);
-    float m_2 = uintBitsToFloat(((bits & 8388607u) | 1065353216u));
+    uint bits_1 = floatBitsToUint(k_3);
+    int e_1 = (int(((bits_1 >> 23u) & 255u)) - 127);
+    float m_2 = uintBitsToFloat(((bits_1 & 8388607u) | 1065353216u));
     return (float(e_1) + (m_2 - 1.0));
 }
 
@@ -314,17 +315,34 @@ vec3 clean(vec3 c_4) {
     return vec3(0.0);
 }
 
+vec3 sh_eval(vec3 c_5[9], vec3 n_4) {
+    float x_5 = n_4.x;
+    float y = n_4.y;
+    float z = n_4.z;
+    vec3 t0_ = (c_5[0] * 0.2820948);
+    vec3 t1_ = (c_5[1] * (0.4886025 * y));
+    vec3 t2_ = (c_5[2] * (0.4886025 * z));
+    vec3 t3_ = (c_5[3] * (0.4886025 * x_5));
+    vec3 t4_ = (c_5[4] * (1.0925484 * (x_5 * y)));
+    vec3 t5_ = (c_5[5] * (1.0925484 * (y * z)));
+    vec3 t6_ = (c_5[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    vec3 t7_ = (c_5[7] * (1.0925484 * (x_5 * z)));
+    vec3 t8_ = (c_5[8] * (0.5462742 * ((x_5 * x_5) - (y * y))));
+    vec3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
+    return max(e_2, vec3(0.0));
+}
+
 vec2 hemi_encode(vec3 v_7) {
-    bool local_26 = false;
-    float z = max(v_7.z, 0.0);
-    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z);
+    bool local_28 = false;
+    float z_1 = max(v_7.z, 0.0);
+    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_26 = _e14;
+        local_28 = _e14;
     } else {
-        local_26 = false;
+        local_28 = false;
     }
-    bool _e16 = local_26;
+    bool _e16 = local_28;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -333,32 +351,32 @@ vec2 hemi_encode(vec3 v_7) {
     return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_6) {
-    float x_2 = 0.5;
+SurfaceAxis surface_axis(float x_in, uint n_8) {
+    float x_3 = 0.5;
     bool _e4 = finite(x_in);
     if (_e4) {
-        x_2 = x_in;
+        x_3 = x_in;
     }
-    float _e5 = x_2;
-    float c_6 = clamp(((_e5 * float(n_6)) - 0.5), 0.0, float((n_6 - 1u)));
-    uint i0_ = uint(floor(c_6));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_6 - 1u)), (c_6 - float(i0_)));
+    float _e5 = x_3;
+    float c_8 = clamp(((_e5 * float(n_8)) - 0.5), 0.0, float((n_8 - 1u)));
+    uint i0_ = uint(floor(c_8));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_8 - 1u)), (c_8 - float(i0_)));
 }
 
 SurfaceTaps surface_taps(vec2 uv_8) {
-    uint n_7 = _group_2_binding_1_cs.shape.z;
-    float nf = float(n_7);
-    float x_4 = clamp(((uv_8.x * nf) - 0.5), 0.0, (nf - 1.0));
-    float y = clamp(((uv_8.y * nf) - 0.5), 0.0, (nf - 1.0));
-    float x0_1 = floor(x_4);
-    float y0_ = floor(y);
+    uint n_9 = _group_2_binding_1_cs.shape.z;
+    float nf = float(n_9);
+    float x_6 = clamp(((uv_8.x * nf) - 0.5), 0.0, (nf - 1.0));
+    float y_1 = clamp(((uv_8.y * nf) - 0.5), 0.0, (nf - 1.0));
+    float x0_1 = floor(x_6);
+    float y0_ = floor(y_1);
     uvec2 lo = uvec2(uint(x0_1), uint(y0_));
-    return SurfaceTaps(lo, min((lo + uvec2(1u)), uvec2((n_7 - 1u))), vec2((x_4 - x0_1), (y - y0_)));
+    return SurfaceTaps(lo, min((lo + uvec2(1u)), uvec2((n_9 - 1u))), vec2((x_6 - x0_1), (y_1 - y0_)));
 }
 
-vec3 surface_tile(uint i_1, uint j_1, uint layer, SurfaceTaps t_6) {
+vec3 surface_tile(uint i_2, uint j_1, uint layer, SurfaceTaps t_6) {
     uint _e8 = _group_2_binding_1_cs.shape.z;
-    uvec2 o_1 = (uvec2(i_1, j_1) * _e8);
+    uvec2 o_1 = (uvec2(i_2, j_1) * _e8);
     int l_4 = int(layer);
     vec4 q00_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.lo)), l_4), 0);
     vec4 q10_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.hi.x, t_6.lo.y))), l_4), 0);
@@ -368,9 +386,9 @@ vec3 surface_tile(uint i_1, uint j_1, uint layer, SurfaceTaps t_6) {
     return _e44.xyz;
 }
 
-float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_7) {
+float surface_tile_inv_distance(uint i_3, uint j_2, SurfaceTaps t_7) {
     uint _e7 = _group_2_binding_1_cs.shape.z;
-    uvec2 o_2 = (uvec2(i_2, j_2) * _e7);
+    uvec2 o_2 = (uvec2(i_3, j_2) * _e7);
     vec4 q00_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + t_7.lo)), 0);
     vec4 q10_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(t_7.hi.x, t_7.lo.y))), 0);
     vec4 q01_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(t_7.lo.x, t_7.hi.y))), 0);
@@ -379,30 +397,30 @@ float surface_tile_inv_distance(uint i_2, uint j_2, SurfaceTaps t_7) {
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_3, uint j_3, vec3 b_15, vec3 local_27, SurfaceTaps shared_taps) {
-    bool local_28 = false;
-    bool local_29 = false;
+SurfaceTaps surface_warped_taps(uint i_4, uint j_3, vec3 b_16, vec3 local_29, SurfaceTaps shared_taps) {
+    bool local_30 = false;
+    bool local_31 = false;
     SurfaceParams sp = _group_2_binding_1_cs;
-    float s_4 = ((float(i_3) + 0.5) / float(sp.shape.x));
+    float s_4 = ((float(i_4) + 0.5) / float(sp.shape.x));
     float t_9 = ((float(j_3) + 0.5) / float(sp.shape.y));
     vec3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_4)) + (sp.edge_v.xyz * t_9)) + (sp.normal.xyz * sp.corner.w));
-    vec3 d_2 = (probe - b_15);
+    vec3 d_2 = (probe - b_16);
     vec3 ab = vec3(dot(d_2, sp.tangent.xyz), dot(d_2, sp.bitangent.xyz), dot(d_2, sp.normal.xyz));
-    float _e48 = surface_tile_inv_distance(i_3, j_3, shared_taps);
-    vec3 v_9 = ((local_27 * max(((dot(local_27, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
+    float _e48 = surface_tile_inv_distance(i_4, j_3, shared_taps);
+    vec3 v_9 = ((local_29 * max(((dot(local_29, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
     if ((_e48 > 0.0)) {
         bool _e62 = finite3_(v_9);
-        local_28 = _e62;
+        local_30 = _e62;
     } else {
-        local_28 = false;
+        local_30 = false;
     }
-    bool _e64 = local_28;
+    bool _e64 = local_30;
     if (_e64) {
-        local_29 = (dot(v_9, v_9) > 0.0);
+        local_31 = (dot(v_9, v_9) > 0.0);
     } else {
-        local_29 = false;
+        local_31 = false;
     }
-    bool _e71 = local_29;
+    bool _e71 = local_31;
     if (_e71) {
         vec2 _e72 = hemi_encode(v_9);
         SurfaceTaps _e73 = surface_taps(_e72);
@@ -411,17 +429,17 @@ SurfaceTaps surface_warped_taps(uint i_3, uint j_3, vec3 b_15, vec3 local_27, Su
     return shared_taps;
 }
 
-vec3 surface_probe(uint i_4, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, float fm) {
-    vec3 _e6 = surface_tile(i_4, j_4, m0_, t_8);
+vec3 surface_probe(uint i_5, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, float fm) {
+    vec3 _e6 = surface_tile(i_5, j_4, m0_, t_8);
     if ((fm > 0.0)) {
-        vec3 _e9 = surface_tile(i_4, j_4, m1_, t_8);
+        vec3 _e9 = surface_tile(i_5, j_4, m1_, t_8);
         return mix(_e6, _e9, fm);
     }
     return _e6;
 }
 
 vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
-    vec3 b_16 = vec3(0.0);
+    vec3 b_17 = vec3(0.0);
     float lod_2 = 0.0;
     SurfaceTaps t00_ = SurfaceTaps(uvec2(0u), uvec2(0u), vec2(0.0));
     SurfaceTaps t10_ = SurfaceTaps(uvec2(0u), uvec2(0u), vec2(0.0));
@@ -432,12 +450,12 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
         return vec3(0.0);
     }
     SurfaceParams sp_1 = _group_2_binding_1_cs;
-    b_16 = sp_1.corner.xyz;
+    b_17 = sp_1.corner.xyz;
     bool _e15 = finite3_(b_in);
     if (_e15) {
-        b_16 = b_in;
+        b_17 = b_in;
     }
-    vec3 _e16 = b_16;
+    vec3 _e16 = b_17;
     vec3 d_3 = (_e16 - sp_1.corner.xyz);
     SurfaceAxis _e25 = surface_axis(dot(sp_1.dual_u.xyz, d_3), sp_1.shape.x);
     SurfaceAxis _e31 = surface_axis(dot(sp_1.dual_v.xyz, d_3), sp_1.shape.y);
@@ -452,25 +470,25 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
     vec3 dir_12 = _e4.xyz;
-    vec3 local_30 = vec3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
-    vec2 _e64 = hemi_encode(local_30);
+    vec3 local_32 = vec3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
+    vec2 _e64 = hemi_encode(local_32);
     SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
     t01_ = _e65;
     t11_ = _e65;
     if (warped) {
-        vec3 _e72 = b_16;
-        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_30, _e65);
+        vec3 _e72 = b_17;
+        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_32, _e65);
         t00_ = _e73;
-        vec3 _e76 = b_16;
-        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_30, _e65);
+        vec3 _e76 = b_17;
+        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_32, _e65);
         t10_ = _e77;
-        vec3 _e80 = b_16;
-        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_30, _e65);
+        vec3 _e80 = b_17;
+        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_32, _e65);
         t01_ = _e81;
-        vec3 _e84 = b_16;
-        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_30, _e65);
+        vec3 _e84 = b_17;
+        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_32, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;
@@ -491,13 +509,13 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     return vec3(0.0);
 }
 
-vec3 surface_specular(vec3 b_17, vec3 dir_10, float roughness_2) {
-    vec3 _e4 = surface_lookup(b_17, dir_10, roughness_2, false);
+vec3 surface_specular(vec3 b_18, vec3 dir_10, float roughness_2) {
+    vec3 _e4 = surface_lookup(b_18, dir_10, roughness_2, false);
     return _e4;
 }
 
-vec3 surface_specular_warped(vec3 b_18, vec3 dir_11, float roughness_3) {
-    vec3 _e4 = surface_lookup(b_18, dir_11, roughness_3, true);
+vec3 surface_specular_warped(vec3 b_19, vec3 dir_11, float roughness_3) {
+    vec3 _e4 = surface_lookup(b_19, dir_11, roughness_3, true);
     return _e4;
 }
 
@@ -507,15 +525,15 @@ uint query_count() {
 
 void main() {
     uvec3 id_4 = gl_GlobalInvocationID;
-    uint k_10 = id_4.x;
+    uint k_12 = id_4.x;
     uint _e2 = query_count();
-    if ((k_10 >= _e2)) {
+    if ((k_12 >= _e2)) {
         return;
     }
-    vec4 p_4 = _group_1_binding_0_cs[(2u * k_10)];
-    vec4 d_4 = _group_1_binding_0_cs[((2u * k_10) + 1u)];
+    vec4 p_4 = _group_1_binding_0_cs[(2u * k_12)];
+    vec4 d_4 = _group_1_binding_0_cs[((2u * k_12) + 1u)];
     vec3 _e21 = surface_specular(p_4.xyz, d_4.xyz, p_4.w);
-    _group_1_binding_1_cs[k_10] = vec4(_e21, 1.0);
+    _group_1_binding_1_cs[k_12] = vec4(_e21, 1.0);
     return;
 }
 

@@ -83,11 +83,14 @@ struct Params {
 // One grid cell: its tiles (x shift map, y irradiance, z irradiance scale, w rough shift
 // map in the corrective atlas; -1 = none), its irradiance probe's relocation offset from
 // the cell centre (xyz) and its irradiance as nine spherical-harmonic coefficients (rgb;
-// zero where y is -1: `IrradianceSh`), what rough lookups blend in.
+// zero where y is -1: `IrradianceSh`), what rough lookups blend in, and (links.x) the
+// neighbours a rough lookup's read blends it with: bit (ox+1) + 3(oy+1) + 9(oz+1) for
+// the cell at offset o in {-1, 0, 1}^3 (`IrradianceSh::links`).
 struct Cell {
     tiles: vec4<i32>,
     offset: vec4<f32>,
     sh: array<vec4<f32>, 9>,
+    links: vec4<u32>,
 }
 
 const DYNAMIC: u32 = 255u;
@@ -835,11 +838,11 @@ fn specular(position: vec3<f32>, direction: vec3<f32>, roughness: f32) -> vec3<f
         stored = cells[cell].tiles.y >= 0;
     }
     if stored && w >= 1.0 {
-        return clean(cell_sh_irradiance(cell, d.xyz) * (w * 0.31830987));
+        return clean(sh_read(cell, b, d.xyz) * (w * 0.31830987));
     }
     var c = shade(b, fetch(b, d.xyz, r), r);
     if stored {
-        c = c * (1.0 - w) + cell_sh_irradiance(cell, d.xyz) * (w * 0.31830987);
+        c = c * (1.0 - w) + sh_read(cell, b, d.xyz) * (w * 0.31830987);
     }
     return clean(c);
 }
@@ -849,24 +852,138 @@ fn cell_irradiance(tile: i32, n: vec3<f32>) -> vec3<f32> {
     return atlas_bilinear(ATLAS_IRRADIANCE, tile, params.atlas_a.z, params.atlas_a.w, oct_encode(n)).xyz;
 }
 
-// Irradiance of cell `cell` for unit direction n from its harmonics: `sh::eval`, the
-// nine real harmonics of bands 0-2 weighted by the coefficients, summed as the same tree,
+// The function with harmonic coefficients c at unit direction n: `sh::eval`, the nine
+// real harmonics of bands 0-2 weighted by the coefficients, summed as the same tree,
 // clamped at 0.
-fn cell_sh_irradiance(cell: u32, n: vec3<f32>) -> vec3<f32> {
+fn sh_eval(c: array<vec3<f32>, 9>, n: vec3<f32>) -> vec3<f32> {
     let x = n.x;
     let y = n.y;
     let z = n.z;
-    let t0 = cells[cell].sh[0].xyz * 0.2820948;
-    let t1 = cells[cell].sh[1].xyz * (0.4886025 * y);
-    let t2 = cells[cell].sh[2].xyz * (0.4886025 * z);
-    let t3 = cells[cell].sh[3].xyz * (0.4886025 * x);
-    let t4 = cells[cell].sh[4].xyz * (1.0925484 * (x * y));
-    let t5 = cells[cell].sh[5].xyz * (1.0925484 * (y * z));
-    let t6 = cells[cell].sh[6].xyz * (0.31539157 * (3.0 * (z * z) - 1.0));
-    let t7 = cells[cell].sh[7].xyz * (1.0925484 * (x * z));
-    let t8 = cells[cell].sh[8].xyz * (0.5462742 * (x * x - y * y));
+    let t0 = c[0] * 0.2820948;
+    let t1 = c[1] * (0.4886025 * y);
+    let t2 = c[2] * (0.4886025 * z);
+    let t3 = c[3] * (0.4886025 * x);
+    let t4 = c[4] * (1.0925484 * (x * y));
+    let t5 = c[5] * (1.0925484 * (y * z));
+    let t6 = c[6] * (0.31539157 * (3.0 * (z * z) - 1.0));
+    let t7 = c[7] * (1.0925484 * (x * z));
+    let t8 = c[8] * (0.5462742 * (x * x - y * y));
     let e = ((t0 + t1) + (t2 + t3)) + ((t4 + t5) + (t6 + t7)) + t8;
     return max(e, vec3<f32>(0.0));
+}
+
+// Irradiance of cell `cell` for unit direction n from its own harmonics.
+fn cell_sh_irradiance(cell: u32, n: vec3<f32>) -> vec3<f32> {
+    let c = array<vec3<f32>, 9>(
+        cells[cell].sh[0].xyz, cells[cell].sh[1].xyz, cells[cell].sh[2].xyz,
+        cells[cell].sh[3].xyz, cells[cell].sh[4].xyz, cells[cell].sh[5].xyz,
+        cells[cell].sh[6].xyz, cells[cell].sh[7].xyz, cells[cell].sh[8].xyz,
+    );
+    return sh_eval(c, n);
+}
+
+// Coefficient i of four cells' harmonics weighted by w, summed as `IrradianceSh::read`
+// sums them.
+fn sh_blend4(at: vec4<u32>, w: vec4<f32>, i: u32) -> vec3<f32> {
+    return (cells[at[0]].sh[i].xyz * w[0] + cells[at[1]].sh[i].xyz * w[1])
+        + (cells[at[2]].sh[i].xyz * w[2] + cells[at[3]].sh[i].xyz * w[3]);
+}
+
+// Irradiance at b (finite) for unit direction n, smooth across cells, `home` the stored
+// cell that contains b: `IrradianceSh::read`. The four cells of the tetrahedron of the
+// cell-centre lattice that holds b (Kuhn's split of the lattice cube, corners in the
+// order of b's fractions), those `home` does not link to weighing 0, the weights
+// renormalised; the coefficients summed, then read once.
+fn sh_read(home: u32, b: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let size = cell_size();
+    let counts = params.grid_counts.xyz;
+    let top = counts - vec3<u32>(1u);
+    let units = (b - params.grid_min.xyz) / size;
+    let home_at = cell_of(b, size);
+    let f0 = units - 0.5;
+    if !finite3(f0) {
+        return cell_sh_irradiance(home, n);
+    }
+    let f = clamp(f0, vec3<f32>(0.0), vec3<f32>(top));
+    let fl = floor(f);
+    var base = vec3<u32>(fl);
+    var frac = f - fl;
+    // the axes by decreasing fraction (ties in axis order)
+    var a = 0u;
+    var bx = 1u;
+    var c = 2u;
+    if frac[bx] > frac[a] {
+        let t = a;
+        a = bx;
+        bx = t;
+    }
+    if frac[c] > frac[bx] {
+        let t = bx;
+        bx = c;
+        c = t;
+        if frac[bx] > frac[a] {
+            let u = a;
+            a = bx;
+            bx = u;
+        }
+    }
+    let weights = vec4<f32>(1.0 - frac[a], frac[a] - frac[bx], frac[bx] - frac[c], frac[c]);
+    // each corner's index and its bit in the links, stepped along with it
+    var top_v = top;
+    var home_v = home_at;
+    let cell_stride = vec3<u32>(1u, counts.x, counts.x * counts.y);
+    let bit_stride = vec3<u32>(1u, 3u, 9u);
+    let cell0 = base.x + counts.x * (base.y + counts.y * base.z);
+    var bit0 = 0u;
+    for (var x = 0u; x < 3u; x++) {
+        let up = base[x] + 1u;
+        var rel = 0u;
+        if up > home_v[x] {
+            rel = min(up - home_v[x], 2u);
+        }
+        bit0 = bit0 + rel * bit_stride[x];
+    }
+    // (vectors, not arrays: a local array's HLSL form is one glslang refuses)
+    var corner_cell = vec4<u32>(cell0);
+    var bits = vec4<u32>(bit0);
+    let axes = vec3<u32>(a, bx, c);
+    for (var k = 1u; k < 4u; k++) {
+        let x = axes[k - 1u];
+        var cs = 0u;
+        var bs = 0u;
+        if base[x] < top_v[x] {
+            cs = cell_stride[x];
+            bs = bit_stride[x];
+        }
+        corner_cell[k] = corner_cell[k - 1u] + cs;
+        bits[k] = bits[k - 1u] + bs;
+    }
+    let links = cells[home].links.x;
+    var w = weights;
+    var at = vec4<u32>(home);
+    let count = arrayLength(&cells);
+    for (var k = 0u; k < 4u; k++) {
+        let ck = corner_cell[k];
+        var kept = false;
+        if bits[k] < 27u && ((links >> bits[k]) & 1u) != 0u && ck < count {
+            kept = cells[ck].tiles.y >= 0;
+        }
+        if kept {
+            at[k] = ck;
+        } else {
+            w[k] = 0.0;
+        }
+    }
+    let wsum = (w[0] + w[1]) + (w[2] + w[3]);
+    if !(wsum > 0.0) {
+        return cell_sh_irradiance(home, n);
+    }
+    let acc = array<vec3<f32>, 9>(
+        sh_blend4(at, w, 0u), sh_blend4(at, w, 1u), sh_blend4(at, w, 2u),
+        sh_blend4(at, w, 3u), sh_blend4(at, w, 4u), sh_blend4(at, w, 5u),
+        sh_blend4(at, w, 6u), sh_blend4(at, w, 7u), sh_blend4(at, w, 8u),
+    );
+    return sh_eval(acc, n) / wsum;
 }
 
 // Irradiance at `position` for surface normal `normal`: `FittedGrid::irradiance`. The

@@ -55,9 +55,15 @@ impl GridGeometry {
     #[inline]
     #[must_use]
     pub fn cell_of_sized(&self, p: Vec3, cell_size: Vec3) -> UVec3 {
+        self.cell_of_units((p - self.min) / cell_size)
+    }
+    /// The cell at `u`, a position in cell units from `min` (`(p − min) / cell_size`).
+    #[inline]
+    #[must_use]
+    pub fn cell_of_units(&self, u: Vec3) -> UVec3 {
         // floor without libm calls (the x86-64 baseline has no round instruction); exact for
         // |f| < 2²², far beyond any grid, and larger values are clamped below anyway
-        let f = ((p - self.min) / cell_size).to_array().map(|x| crate::octa::floor_small(x).1);
+        let f = u.to_array().map(|x| crate::octa::floor_small(x).1);
         let finite = f[0].is_finite() & f[1].is_finite() & f[2].is_finite();
         let hi = self.counts - UVec3::ONE;
         UVec3::new(coord(f[0], hi.x, finite), coord(f[1], hi.y, finite), coord(f[2], hi.z, finite))

@@ -44,11 +44,18 @@ pub fn basis(d: Vec3) -> [f32; COEFFS] {
 #[inline(always)]
 #[must_use]
 pub fn eval(c: &[Vec3A; COEFFS], d: Vec3) -> Vec3 {
+    Vec3::from(eval_a(c, d))
+}
+
+/// [`eval`] as a 16-byte vector.
+#[inline(always)]
+#[must_use]
+pub fn eval_a(c: &[Vec3A; COEFFS], d: Vec3) -> Vec3A {
     let y = basis(d);
     let t = |i: usize| c[i] * y[i];
     // summed as a tree, so a single lookup waits for four additions, not eight
     let sum = ((t(0) + t(1)) + (t(2) + t(3))) + ((t(4) + t(5)) + (t(6) + t(7))) + t(8);
-    Vec3::from(sum.max(Vec3A::ZERO))
+    sum.max(Vec3A::ZERO)
 }
 
 /// Per texel of an N×N octahedral map, the nine integrals ∫ tap_t(ω) Y_i(ω) dω, where

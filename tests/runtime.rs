@@ -588,15 +588,15 @@ fn rough_lookups_blend_the_cells_irradiance_by_the_stored_weight() {
         assert_eq!(bits(g.specular(p, d, 0.0)), bits(base.specular(p, d, 0.0)), "mirror lookups are untouched");
         for r in [0.3, 0.7, 1.0] {
             let spec = base.specular(p, d, r);
-            let want = match view.nearest(p, d) {
+            let want = match view.read(p, d) {
                 Some(e) => warpfit::runtime::mix_irradiance(spec, e, corr.irradiance_weight(r)),
                 None => spec,
             };
             assert_eq!(bits(g.specular(p, d, r)), bits(want), "{p} {d} r {r}");
-            blended += usize::from(view.nearest(p, d).is_some() && want != spec);
+            blended += usize::from(view.read(p, d).is_some() && want != spec);
         }
         // at the roughest row the weight is 1: the cell's irradiance over π alone
-        if let Some(e) = view.nearest(p, d) {
+        if let Some(e) = view.read(p, d) {
             let got = g.specular(p, d, 1.0);
             assert!((got - e * std::f32::consts::FRAC_1_PI).abs().max_element() <= 1e-6 * (1.0 + e.max_element()));
         }
@@ -655,5 +655,100 @@ fn the_blends_harmonics_hold_each_cells_irradiance_map() {
     if let Some(cell) = ir.slot.iter().position(|&s| s == warpfit::warp::corrective::NO_MAP) {
         let c = ir.geometry.cell_centre(cell);
         assert!(sh.nearest(c, Vec3::Y).is_none() && view.nearest(c, Vec3::Y).is_none());
+    }
+}
+
+/// A 4×4×4 grid of unit cells whose irradiance maps are constant per cell, `value(cell
+/// coordinates)`, and whose probes see `seen` scene units in every direction.
+fn constant_cells(
+    value: impl Fn(glam::UVec3) -> f32,
+    seen: impl Fn(glam::UVec3) -> f32,
+) -> warpfit::runtime::IrradianceSh {
+    use warpfit::grid::GridGeometry;
+    let geometry = GridGeometry { min: Vec3::ZERO, max: Vec3::splat(4.0), counts: glam::UVec3::splat(4) };
+    let (res, dres) = (4u32, 4u32);
+    let n = geometry.cell_count();
+    let (mut irradiance, mut mean, mut mean_sq) = (Vec::new(), Vec::new(), Vec::new());
+    for cell in 0..n {
+        let c = geometry.cell_coords(cell);
+        irradiance.extend(std::iter::repeat_n(Vec3::splat(value(c)), (res * res) as usize));
+        mean.extend(std::iter::repeat_n(seen(c), (dres * dres) as usize));
+        mean_sq.extend(std::iter::repeat_n(seen(c) * seen(c), (dres * dres) as usize));
+    }
+    let slot: Vec<u32> = (0..n as u32).collect();
+    let view = warpfit::runtime::IrradianceView {
+        geometry,
+        resolution: res,
+        depth_resolution: dres,
+        slot: &slot,
+        irradiance: &irradiance,
+        depth_mean: &mean,
+        depth_mean_sq: &mean_sq,
+        probe_offset: &[],
+    };
+    warpfit::runtime::IrradianceSh::project(&view)
+}
+
+#[test]
+fn the_blends_read_is_smooth_between_linked_cells_and_stops_at_walls_and_lamps() {
+    let up = Vec3::new(0.3, 0.8, -0.52).normalize();
+    // a field linear in position, every probe seeing far: every neighbour is linked, the
+    // read interpolates the cells (linear inside each tetrahedron of cell centres, so a
+    // linear field is read back), is the cell's own value at its centre and is continuous
+    // across cell faces, where the containing cell's own harmonics jump
+    let linear = |c: glam::UVec3| 1.0 + 0.1 * c.x as f32 + 0.2 * c.y as f32 + 0.05 * c.z as f32;
+    let sh = constant_cells(linear, |_| 100.0);
+    assert!(sh.links.iter().all(|&l| l.count_ones() >= 8), "corner cells link to their 7 neighbours and themselves");
+    let own = |p: Vec3| sh.nearest(p, up).unwrap().x;
+    let read = |p: Vec3| sh.read(p, up).unwrap().x;
+    // (a constant map projects to band 0 alone, to rounding: E = c₀·Y₀)
+    let scale = own(Vec3::splat(0.5)) / linear(glam::UVec3::ZERO);
+    for p in [Vec3::new(1.5, 2.5, 0.5), Vec3::new(0.9, 1.2, 2.7), Vec3::new(2.2, 0.6, 1.1), Vec3::new(3.49, 3.1, 0.51)]
+    {
+        let lattice = (p - 0.5).clamp(Vec3::ZERO, Vec3::splat(3.0));
+        let want = 1.0 + 0.1 * lattice.x + 0.2 * lattice.y + 0.05 * lattice.z;
+        assert!((read(p) / scale - want).abs() < 1e-4 * want, "{p}: read {} want {want}", read(p) / scale);
+    }
+    for face in [Vec3::new(2.0, 1.3, 1.7), Vec3::new(0.4, 3.0, 2.2), Vec3::new(1.1, 2.6, 1.0)] {
+        let axis = if face.x == 2.0 {
+            Vec3::X
+        } else if face.y == 3.0 {
+            Vec3::Y
+        } else {
+            Vec3::Z
+        };
+        let (below, above) = (face - axis * 1e-4, face + axis * 1e-4);
+        assert!((read(below) - read(above)).abs() < 1e-3 * read(below), "{face}: {} vs {}", read(below), read(above));
+        assert!((own(below) - own(above)).abs() > 0.02 * own(below), "{face}: the cells themselves differ");
+    }
+
+    // a wall: the probes of cells with x ≥ 2 see only 0.2 units, so nothing links across
+    // x = 2 (nor inside that half): a read never takes a cell behind it
+    let walled = constant_cells(linear, |c| if c.x >= 2 { 0.2 } else { 100.0 });
+    for p in [Vec3::new(1.9, 1.5, 1.5), Vec3::new(2.1, 1.5, 1.5), Vec3::new(2.6, 0.7, 3.2)] {
+        let (r, o) = (walled.read(p, up).unwrap(), walled.nearest(p, up).unwrap());
+        if p.x >= 2.0 {
+            assert_eq!(r, o, "{p}: a cell that sees nothing reads itself alone");
+        } else {
+            // x < 2 blends only cells with x < 2: the value of lattice x clamped to ≤ 1
+            let want = 1.0 + 0.1 * 1.0 + 0.2 * (p.y - 0.5) + 0.05 * (p.z - 0.5);
+            assert!((r.x / scale - want).abs() < 1e-4 * want, "{p}: {} want {want}", r.x / scale);
+        }
+    }
+
+    // a lamp: one cell 10× brighter than its neighbours links to none of them, so its
+    // light stays in its own cell and theirs stays out of it
+    let lamp = glam::UVec3::new(1, 1, 1);
+    let lit = constant_cells(|c| if c == lamp { 10.0 } else { 1.0 }, |_| 100.0);
+    let at = lit.geometry.cell_index(lamp);
+    assert_eq!(lit.links[at], 1 << 13, "the lamp's cell links only to itself");
+    for p in [Vec3::new(1.05, 1.5, 1.5), Vec3::new(0.95, 1.5, 1.5), Vec3::new(1.5, 2.02, 1.1)] {
+        let (r, o) = (lit.read(p, up).unwrap(), lit.nearest(p, up).unwrap());
+        assert!((r - o).abs().max_element() <= 1e-6 * o.max_element(), "{p}: {r} vs its own {o}");
+    }
+    // every read is finite and non-negative, in the grid and outside it
+    for p in [Vec3::splat(-1e30), Vec3::splat(1e30), Vec3::new(4.0, 4.0, 4.0), Vec3::ZERO, Vec3::new(-0.0, 2.0, 9.0)] {
+        let r = sh.read(p, up).unwrap();
+        assert!(r.is_finite() && r.min_element() >= 0.0, "{p}: {r}");
     }
 }

@@ -393,7 +393,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
                             g.irradiance.irradiance[to..to + i2].copy_from_slice(&emitted[from..from + i2]);
                         }
                     }
-                    g.irradiance_sh = crate::runtime::IrradianceSh::project(&g.irradiance.view());
+                    g.irradiance_sh = g.irradiance_sh.reproject(&g.irradiance.view());
                 }
                 g
             });

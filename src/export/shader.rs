@@ -25,9 +25,9 @@ pub const SHADER_FILES: [(&str, &str); 8] = [
 
 /// Bytes of the WGSL `Params` struct: 42 vec4s.
 pub const PARAMS_BYTES: usize = 42 * 16;
-/// Bytes of one WGSL `Cell`: tiles (`vec4<i32>`), offset (`vec4<f32>`) and nine harmonic
-/// coefficients (`array<vec4<f32>, 9>`, rgb).
-pub const CELL_BYTES: usize = 32 + 9 * 16;
+/// Bytes of one WGSL `Cell`: tiles (`vec4<i32>`), offset (`vec4<f32>`), nine harmonic
+/// coefficients (`array<vec4<f32>, 9>`, rgb) and its links (`vec4<u32>`, x).
+pub const CELL_BYTES: usize = 32 + 9 * 16 + 16;
 /// Bytes of the WGSL `SurfaceParams` struct (one surface-probe atlas): 9 vec4s.
 pub const SURFACE_PARAMS_BYTES: usize = 9 * 16;
 /// Radiance mips `Params::mip_roughness` holds.
@@ -185,8 +185,9 @@ pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupport
 }
 
 /// The `array<Cell>`: per grid cell (`x + nx·(y + ny·z)`) its shift-map, irradiance and
-/// irradiance-scale tiles (−1: none), its irradiance probe's offset from the cell centre
-/// and its irradiance harmonics (`FittedGrid::irradiance_sh`; zero where none is stored).
+/// irradiance-scale tiles (−1: none), its irradiance probe's offset from the cell centre,
+/// its irradiance harmonics (`FittedGrid::irradiance_sh`; zero where none is stored) and
+/// their links.
 #[must_use]
 pub fn cells(grid: &FittedGrid) -> Vec<u8> {
     let c = &grid.correctives;
@@ -205,6 +206,7 @@ pub fn cells(grid: &FittedGrid) -> Vec<u8> {
         for k in 0..crate::sh::COEFFS {
             out.f(sh.map_or([0.0; 4], |c| c[k].extend(0.0).to_array()));
         }
+        out.u([grid.irradiance_sh.links.get(cell).copied().unwrap_or(0), 0, 0, 0]);
     }
     out.0
 }

@@ -21,8 +21,8 @@
 //! `roughness.heldout_scene`).
 //!
 //! Last, the rough lookups' irradiance blend (`RoughnessFit::irradiance_weight`): the
-//! runtime mixes the containing cell's irradiance over π (its band-2 harmonics,
-//! `runtime::IrradianceSh`) into a rough lookup, since at
+//! runtime mixes the grid's irradiance over π (the band-2 harmonics of the cells around
+//! the point, read smoothly: `runtime::IrradianceSh::read`) into a rough lookup, since at
 //! α = 1 the lobe is the clamped cosine and the reference is that irradiance itself. Per
 //! row, the weight with the lowest training tone-mapped RMSE through the row's chosen
 //! mips, or its half or quarter, the largest whose views' ꟻLIP is no worse than without;
@@ -149,7 +149,7 @@ fn queries(
         .map(|k| {
             let (b, dir) = (q.position_of(k), q.dirs[k]);
             let (uv, k_ratio) = fetch(warp, correctives, b, dir, q.roughness[k]);
-            let irradiance = irradiance.nearest(b, dir);
+            let irradiance = irradiance.read(b, dir);
             (k / DIRS, Query { uv, k: k_ratio, r: q.roughness[k], reference: q.reference[k], irradiance })
         })
         .collect();
@@ -426,7 +426,7 @@ pub fn fit_scene_correction(
                     let (uv, k) = fetch(warp, correctives, b, dir, r);
                     let lod = warp.probe.lod_of_roughness(rules.roughness(chosen, row, r, k));
                     let spec = warp.probe.radiance.sample_lod_uv(uv, lod);
-                    irradiance.nearest(b, dir).map_or(spec, |e| crate::runtime::mix_irradiance(spec, e, w))
+                    irradiance.read(b, dir).map_or(spec, |e| crate::runtime::mix_irradiance(spec, e, w))
                 })
             };
             // the largest of the fitted weight, its half and its quarter whose views look no

@@ -85,9 +85,11 @@ pub struct IrradianceView<'a> {
 }
 
 /// Each stored cell's irradiance as nine spherical-harmonic coefficients (bands 0–2,
-/// [`crate::sh`]), projected from its octahedral map: what a rough specular lookup blends in
-/// (`FittedGrid::specular`). Derived from the maps when a grid is loaded, so files carry
-/// nothing new; smooth over directions and read without the map's seams.
+/// [`crate::sh`]), projected from its octahedral map, and which of its 26 neighbours a
+/// read may blend it with: what a rough specular lookup blends in (`FittedGrid::specular`,
+/// [`IrradianceSh::read`]). Derived from the maps and distance moments when a grid is
+/// loaded, so files carry nothing new; smooth over directions and read without the map's
+/// seams.
 #[derive(Clone, Debug, PartialEq)]
 pub struct IrradianceSh {
     /// The grid's cells.
@@ -96,23 +98,54 @@ pub struct IrradianceSh {
     pub slot: Vec<u32>,
     /// Per slot: the nine coefficients (RGB).
     pub coeffs: Vec<[glam::Vec3A; crate::sh::COEFFS]>,
+    /// Per grid cell: bit [`link_bit`]`(o)` set where the cell at offset `o` ∈ {−1, 0, 1}³
+    /// is stored and linked to it ([`IrradianceSh::project`]); 0 for a cell not stored,
+    /// and a stored cell links to itself.
+    pub links: Vec<u32>,
     /// `geometry.cell_size()`, kept: it costs three divisions a lookup.
     pub cell_size: Vec3,
 }
 
+/// Two neighbouring probes see each other when each one's mean hit distance towards the
+/// other (its distance moments, bilinear) reaches this fraction of their distance.
+pub const LINK_SEES: f32 = 0.9;
+/// Two neighbouring cells link only when their irradiance (band 0, summed over RGB) is
+/// within this factor either way: a cell beside a small lamp would otherwise spread its
+/// light into cells the lamp does not reach.
+pub const LINK_RATIO: f32 = 4.0;
+
+/// The bit of offset `o` ∈ {−1, 0, 1}³ in [`IrradianceSh::links`].
+#[inline(always)]
+#[must_use]
+pub fn link_bit(o: glam::IVec3) -> u32 {
+    1 << ((o.x + 1) + 3 * (o.y + 1) + 9 * (o.z + 1))
+}
+
 impl IrradianceSh {
-    /// The coefficients of every slot of `view`'s irradiance maps.
+    /// The coefficients of every slot of `view`'s irradiance maps, and each stored cell's
+    /// links: a neighbour (of the 26) is linked when it is stored, the two probes see each
+    /// other ([`LINK_SEES`]) and their irradiance is within [`LINK_RATIO`].
     #[must_use]
     pub fn project(view: &IrradianceView) -> IrradianceSh {
         let texels = (view.resolution * view.resolution) as usize;
         let weights = crate::sh::projection_weights(view.resolution);
-        let coeffs = view.irradiance.chunks_exact(texels.max(1)).map(|map| crate::sh::project(map, &weights)).collect();
+        let coeffs: Vec<[glam::Vec3A; crate::sh::COEFFS]> =
+            view.irradiance.chunks_exact(texels.max(1)).map(|map| crate::sh::project(map, &weights)).collect();
+        let links = links(view, &coeffs);
         let cell_size = view.geometry.cell_size();
-        IrradianceSh { geometry: view.geometry, slot: view.slot.to_vec(), coeffs, cell_size }
+        IrradianceSh { geometry: view.geometry, slot: view.slot.to_vec(), coeffs, links, cell_size }
+    }
+
+    /// The coefficients of `view`'s maps with `self`'s links (the same grid): for maps that
+    /// hold a part of the irradiance (the evaluation's emitted part), read over the cells
+    /// the whole irradiance links.
+    #[must_use]
+    pub fn reproject(&self, view: &IrradianceView) -> IrradianceSh {
+        IrradianceSh { links: self.links.clone(), ..IrradianceSh::project(view) }
     }
 
     /// Irradiance for unit direction `n` of the cell that contains `position` (finite), if
-    /// that cell is stored.
+    /// that cell is stored: its own harmonics.
     #[inline]
     #[must_use]
     pub fn nearest(&self, position: Vec3, n: Vec3) -> Option<Vec3> {
@@ -121,28 +154,103 @@ impl IrradianceSh {
     }
 
     /// Irradiance of grid cell `cell` for unit direction `n`, if the cell is stored and the
-    /// sum is finite: every read of the harmonics goes through it.
+    /// sum is finite.
     #[inline]
     fn cell(&self, cell: usize, n: Vec3) -> Option<Vec3> {
         let c = self.slot.get(cell).and_then(|&s| self.coeffs.get(s as usize))?;
         Some(crate::sh::eval(c, n)).filter(|e| e.is_finite())
     }
 
-    /// The grid cells that contain `positions` (finite or not), as
-    /// [`IrradianceSh::nearest`] finds each.
+    /// Irradiance for unit direction `n` at `position` (finite), smooth across cells, if
+    /// the cell that contains the point is stored: what a rough lookup blends in. The cells
+    /// whose centres surround the point are interpolated over the tetrahedron of their
+    /// lattice cube that holds it (the cube split along its diagonal into six, the corners
+    /// taken in the order of the point's fractions: four cells, linear inside each
+    /// tetrahedron and continuous across them). The containing cell is always one of the
+    /// four; the others count only where it links to them ([`IrradianceSh::links`]), and
+    /// the kept weights are renormalised. The coefficients are summed, then read once.
     #[inline]
     #[must_use]
-    pub fn lane_cells(&self, positions: &[Vec3; octa::LANES]) -> [usize; octa::LANES] {
-        self.geometry.cell_index_soa(&octa::soa(positions), self.cell_size)
+    pub fn read(&self, position: Vec3, n: Vec3) -> Option<Vec3> {
+        let geo = &self.geometry;
+        // the point in cell units: its cell (as `cell_of_sized` finds it) and its place in
+        // the lattice of cell centres
+        let units = (position - geo.min) / self.cell_size;
+        let home_at = geo.cell_of_units(units);
+        let home = geo.cell_index(home_at);
+        let links = *self.links.get(home)?;
+        if links == 0 {
+            return None;
+        }
+        let f = units - 0.5;
+        if !f.is_finite() {
+            return self.cell(home, n);
+        }
+        let (counts, home_at) = (geo.counts.to_array(), home_at.to_array());
+        let top = [counts[0] - 1, counts[1] - 1, counts[2] - 1];
+        let f = f.clamp(Vec3::ZERO, UVec3::from_array(top).as_vec3()).to_array();
+        let (mut base, mut frac) = ([0u32; 3], [0.0f32; 3]);
+        for x in 0..3 {
+            let (i, fl) = octa::floor_small(f[x]);
+            (base[x], frac[x]) = (i as u32, f[x] - fl);
+        }
+        // the axes by decreasing fraction (ties in axis order): the tetrahedron's corners
+        // are base, then base plus each axis in turn (held to the grid's last cell); its
+        // weights the fractions' steps
+        let (mut a, mut b, mut c) = (0usize, 1usize, 2usize);
+        if frac[b] > frac[a] {
+            (a, b) = (b, a);
+        }
+        if frac[c] > frac[b] {
+            (b, c) = (c, b);
+            if frac[b] > frac[a] {
+                (a, b) = (b, a);
+            }
+        }
+        let weights = [1.0 - frac[a], frac[a] - frac[b], frac[b] - frac[c], frac[c]];
+        // each corner's index and its bit in `links` (base is the containing cell or the
+        // one below it on each axis), stepped along with it
+        let cell_stride = [1, counts[0], counts[0] * counts[1]];
+        let bit_stride = [1u32, 3, 9];
+        let (mut cells, mut bits) = ([base[0] + counts[0] * (base[1] + counts[1] * base[2]); 4], [0u32; 4]);
+        for x in 0..3 {
+            // 0 or 1 (held there for coordinates past 2²², where floors are not exact)
+            bits[0] += (base[x] + 1).saturating_sub(home_at[x]).min(2) * bit_stride[x];
+        }
+        let axes = [a, b, c];
+        for k in 1..4 {
+            let x = axes[k - 1];
+            let step = base[x] < top[x];
+            cells[k] = cells[k - 1] + if step { cell_stride[x] } else { 0 };
+            bits[k] = bits[k - 1] + if step { bit_stride[x] } else { 0 };
+        }
+        // the corners the containing cell links to keep their weights; the others weigh 0
+        // and read the containing cell, so the sum below runs the same for every point
+        let home_slot = self.slot.get(home).copied().filter(|&s| (s as usize) < self.coeffs.len())?;
+        let (mut w, mut slot) = ([0.0f32; 4], [home_slot; 4]);
+        for k in 0..4 {
+            let s = self.slot.get(cells[k] as usize).copied().unwrap_or(NO_MAP);
+            if links.checked_shr(bits[k]).unwrap_or(0) & 1 != 0 && (s as usize) < self.coeffs.len() {
+                (w[k], slot[k]) = (weights[k], s);
+            }
+        }
+        let wsum = (w[0] + w[1]) + (w[2] + w[3]);
+        if !(wsum > 0.0) {
+            return self.cell(home, n);
+        }
+        let cs = slot.map(|s| &self.coeffs[s as usize]);
+        let acc: [glam::Vec3A; crate::sh::COEFFS] =
+            std::array::from_fn(|i| (cs[0][i] * w[0] + cs[1][i] * w[1]) + (cs[2][i] * w[2] + cs[3][i] * w[3]));
+        Some(Vec3::from(crate::sh::eval_a(&acc, n) / wsum)).filter(|e| e.is_finite())
     }
 
-    /// `out[k]` blended with lane k's [`IrradianceSh::nearest`] by weight `w[k]`
+    /// `out[k]` blended with lane k's [`IrradianceSh::read`] by weight `w[k]`
     /// ([`super::mix_irradiance`]) where the weight is positive and the cell stored; bit
-    /// for bit the single calls. `cells` are the lanes' [`IrradianceSh::lane_cells`].
+    /// for bit the single calls.
     #[inline]
     pub fn mix_lanes(
         &self,
-        cells: &[usize; octa::LANES],
+        positions: &[Vec3; octa::LANES],
         n: &[Vec3; octa::LANES],
         w: &[f32; octa::LANES],
         out: &mut [Vec3; octa::LANES],
@@ -151,11 +259,64 @@ impl IrradianceSh {
             if !(w[k] > 0.0) {
                 continue;
             }
-            if let Some(e) = self.cell(cells[k], n[k]) {
+            if let Some(e) = self.read(positions[k], n[k]) {
                 out[k] = super::mix_irradiance(out[k], e, w[k]);
             }
         }
     }
+}
+
+/// [`IrradianceSh::links`] of every cell of `view`, whose slots hold `coeffs`.
+fn links(view: &IrradianceView, coeffs: &[[glam::Vec3A; crate::sh::COEFFS]]) -> Vec<u32> {
+    let geo = view.geometry;
+    let size = geo.cell_size();
+    let d2 = (view.depth_resolution * view.depth_resolution) as usize;
+    let slot = |cell: usize| view.slot.get(cell).copied().filter(|&s| s != NO_MAP && (s as usize) < coeffs.len());
+    let probe = |cell: usize| {
+        geo.centre_of_sized(geo.cell_coords(cell), size) + view.probe_offset.get(cell).copied().unwrap_or(Vec3::ZERO)
+    };
+    // the mean hit distance of the probe in slot `s` towards unit direction u
+    let mean = |s: u32, u: Vec3| -> f32 {
+        let base = s as usize * d2;
+        let taps = octa::bilinear_taps(view.depth_resolution, octa::encode(u));
+        taps.iter().map(|&(t, w)| view.depth_mean.get(base + t as usize).copied().unwrap_or(0.0) * w).sum()
+    };
+    let sees = |from: usize, sf: u32, to: usize| {
+        let v = probe(to) - probe(from);
+        let d = v.length();
+        !(d > 0.0) || mean(sf, v / d) >= LINK_SEES * d
+    };
+    let level = |s: u32| {
+        let c = coeffs[s as usize][0];
+        c.x + c.y + c.z
+    };
+    let counts = geo.counts.as_ivec3();
+    (0..geo.cell_count())
+        .map(|cell| {
+            let Some(sc) = slot(cell) else { return 0 };
+            let at = geo.cell_coords(cell).as_ivec3();
+            let mut bits = link_bit(glam::IVec3::ZERO);
+            for dz in -1..=1 {
+                for dy in -1..=1 {
+                    for dx in -1..=1 {
+                        let o = glam::IVec3::new(dx, dy, dz);
+                        let other = at + o;
+                        if o == glam::IVec3::ZERO || other.cmplt(glam::IVec3::ZERO).any() || other.cmpge(counts).any() {
+                            continue;
+                        }
+                        let oc = geo.cell_index(other.as_uvec3());
+                        let Some(so) = slot(oc) else { continue };
+                        let (l, lo) = (level(sc), level(so));
+                        let similar = l <= LINK_RATIO * lo && lo <= LINK_RATIO * l;
+                        if similar && sees(cell, sc, oc) && sees(oc, so, cell) {
+                            bits |= link_bit(o);
+                        }
+                    }
+                }
+            }
+            bits
+        })
+        .collect()
 }
 
 impl IrradianceGrid {

@@ -145,7 +145,7 @@ impl FittedGrid {
         if !(w > 0.0) {
             return None;
         }
-        self.irradiance_sh.nearest(q.b, q.dir).map(|e| (e, w))
+        self.irradiance_sh.read(q.b, q.dir).map(|e| (e, w))
     }
 
     /// `specular` for [`octa::LANES`] queries at once, bit for bit the same values: the
@@ -182,17 +182,12 @@ impl FittedGrid {
             self.warp.probe.radiance.levels[0].bilinear_uv_lanes(&octa::encode_soa(&v))
         } else {
             // probe A's part, then the irradiance blend lane by lane (`irradiance_blend`)
-            // the lanes' cells, found once: the correctives and the harmonics share the
-            // grid whenever it was loaded from one file
-            let cells = self.correctives.lane_cells(b);
-            let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &cells, &r);
+            let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &r);
             let mut out = corrected_lanes(&self.warp.probe, self.roughness.as_ref(), &r, &v, &ratio);
             let w: [f32; octa::LANES] =
                 std::array::from_fn(|k| self.roughness.as_ref().map_or(0.0, |c| c.irradiance_weight(r[k])));
             if w.iter().any(|&w| w > 0.0) {
-                let sh = &self.irradiance_sh;
-                let cells = if sh.geometry == self.correctives.geometry { cells } else { sh.lane_cells(b) };
-                sh.mix_lanes(&cells, dir, &w, &mut out);
+                self.irradiance_sh.mix_lanes(b, dir, &w, &mut out);
             }
             out
         };
@@ -281,7 +276,7 @@ impl FittedGrid {
             + (g.depth_mean.len() + g.depth_mean_sq.len()) * 4
             + g.slot.len() * 4
             + self.irradiance_sh.coeffs.len() * std::mem::size_of::<[glam::Vec3A; crate::sh::COEFFS]>()
-            + self.irradiance_sh.slot.len() * 4
+            + (self.irradiance_sh.slot.len() + self.irradiance_sh.links.len()) * 4
     }
 }
 

@@ -174,9 +174,7 @@ impl Correctives {
         }
     }
 
-    /// `fetch` for [`LANES`] queries of roughness `r` in grid cells `cells` (the lanes'
-    /// [`Self::lane_cells`], found once by a caller that reads other cell data too), bit
-    /// for bit the same, in
+    /// `fetch` for [`LANES`] queries of roughness `r`, bit for bit the same, in
     /// structure-of-arrays form:
     /// the fetch vectors as components ([`octa::soa`]) and each lane's distance ratio
     /// ([`Aim::ratio`]: read from A's depth where the lookup aimed at no known point). With
@@ -191,10 +189,9 @@ impl Correctives {
         warp: &Warp,
         b: &[Vec3; LANES],
         dir: &[Vec3; LANES],
-        cells: &[usize; LANES],
         r: &[f32; LANES],
     ) -> (octa::Soa3, [f32; LANES]) {
-        let Some(aims) = self.aim_lanes(blend, warp, b, dir, cells, r) else {
+        let Some(aims) = self.aim_lanes(blend, warp, b, dir, r) else {
             let (mut v, mut ratio) = ([Vec3::Z; LANES], [1.0f32; LANES]);
             for k in 0..LANES {
                 let aim = self.fetch(blend, warp, b[k], dir[k], r[k]);
@@ -205,19 +202,12 @@ impl Correctives {
         aims.vectors_and_ratios()
     }
 
-    /// The grid cells that contain positions `b` (finite or not: as `cell_at`).
-    #[inline]
-    #[must_use]
-    pub fn lane_cells(&self, b: &[Vec3; LANES]) -> [usize; LANES] {
-        self.geometry.cell_index_soa(&octa::soa(b), self.cell_size)
-    }
-
     /// The fetch vectors of [`fetch_lanes`](Self::fetch_lanes) alone (what a mirror lookup
     /// reads), as components ([`octa::soa`]), without the distance ratios.
     #[inline]
     #[must_use]
     pub fn fetch_vector_lanes(&self, blend: Blend, warp: &Warp, b: &[Vec3; LANES], dir: &[Vec3; LANES]) -> octa::Soa3 {
-        let Some(aims) = self.aim_lanes(blend, warp, b, dir, &self.lane_cells(b), &[0.0; LANES]) else {
+        let Some(aims) = self.aim_lanes(blend, warp, b, dir, &[0.0; LANES]) else {
             let mut out = [Vec3::Z; LANES];
             for k in 0..LANES {
                 out[k] = self.fetch(blend, warp, b[k], dir[k], 0.0).v;
@@ -238,7 +228,6 @@ impl Correctives {
         warp: &Warp,
         b: &[Vec3; LANES],
         dir: &[Vec3; LANES],
-        cells: &[usize; LANES],
         r: &[f32; LANES],
     ) -> Option<AimLanes> {
         if blend != Blend::Cell || warp.options.relax_texels > 0.0 {
@@ -261,6 +250,7 @@ impl Correctives {
         };
         // each lane's shift: its cell's map, bilinear (a gather for the lanes with a map)
         let uv = octa::encode_soa(&d);
+        let cells = self.geometry.cell_index_soa(&bb, self.cell_size);
         let n = self.map_res as f32;
         let mut foot = ([0i32; LANES], [0i32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
         for k in 0..LANES {
