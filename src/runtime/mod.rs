@@ -30,7 +30,7 @@
 mod irradiance;
 pub use crate::gridfile::surface::{read as load_surface_atlas, read_all as load_surface_atlases};
 pub use crate::warp::surface::SurfaceAtlas;
-pub use irradiance::{BlendTerms, IrradianceBlend, IrradianceSh, IrradianceView};
+pub use irradiance::{BlendTerms, IrradianceBlend, IrradianceSh, IrradianceView, LINK_RATIO, LINK_SEES, link_bit};
 
 pub use crate::files::FileError as LoadError;
 pub use crate::gridfile::{GridManifest, IrradianceCorrection, IrradianceGrid, Precision, read_manifest};
