@@ -174,6 +174,9 @@ fn the_shader_answers_as_the_cpu_sampler_on_a_torture_grid_with_maps_and_correct
         };
         g.roughness = Some(warpfit::roughness::RoughnessCorrection::try_from(fit).unwrap());
     }
+    // the blend's smooth read must blend neighbours here, not only each cell alone
+    let linked = g.irradiance_sh.links.iter().filter(|l| l.count_ones() > 1).count();
+    assert!(linked > g.irradiance_sh.links.len() / 2, "only {linked} cells link to a neighbour");
     check_grid("torture", &g);
 }
 
