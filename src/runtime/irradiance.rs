@@ -212,7 +212,7 @@ impl IrradianceSh {
         // one below it on each axis), stepped along with it
         let cell_stride = [1, counts[0], counts[0] * counts[1]];
         let bit_stride = [1u32, 3, 9];
-        let (mut cells, mut bits) = ([base[0] + counts[0] * (base[1] + counts[1] * base[2]); 4], [0u32; 4]);
+        let (mut cells, mut bits) = ([geo.cell_index(UVec3::from_array(base)) as u32; 4], [0u32; 4]);
         for x in 0..3 {
             // 0 or 1 (held there for coordinates past 2²², where floors are not exact)
             bits[0] += (base[x] + 1).saturating_sub(home_at[x]).min(2) * bit_stride[x];
@@ -270,21 +270,12 @@ impl IrradianceSh {
 fn links(view: &IrradianceView, coeffs: &[[glam::Vec3A; crate::sh::COEFFS]]) -> Vec<u32> {
     let geo = view.geometry;
     let size = geo.cell_size();
-    let d2 = (view.depth_resolution * view.depth_resolution) as usize;
     let slot = |cell: usize| view.slot.get(cell).copied().filter(|&s| s != NO_MAP && (s as usize) < coeffs.len());
-    let probe = |cell: usize| {
-        geo.centre_of_sized(geo.cell_coords(cell), size) + view.probe_offset.get(cell).copied().unwrap_or(Vec3::ZERO)
-    };
-    // the mean hit distance of the probe in slot `s` towards unit direction u
-    let mean = |s: u32, u: Vec3| -> f32 {
-        let base = s as usize * d2;
-        let taps = octa::bilinear_taps(view.depth_resolution, octa::encode(u));
-        taps.iter().map(|&(t, w)| view.depth_mean.get(base + t as usize).copied().unwrap_or(0.0) * w).sum()
-    };
+    let probe = |cell: usize| view.probe_at(geo.cell_coords(cell), cell, size);
     let sees = |from: usize, sf: u32, to: usize| {
         let v = probe(to) - probe(from);
         let d = v.length();
-        !(d > 0.0) || mean(sf, v / d) >= LINK_SEES * d
+        !(d > 0.0) || view.moments(sf as usize, v / d).0 >= LINK_SEES * d
     };
     let level = |s: u32| {
         let c = coeffs[s as usize][0];
@@ -409,6 +400,28 @@ impl IrradianceView<'_> {
         bias * self.geometry.cell_size().min_element()
     }
 
+    /// The probe of grid cell `cell` at coordinates `c`: the cell centre (cells of
+    /// `cell_size`) moved by its relocation offset.
+    #[inline]
+    fn probe_at(&self, c: UVec3, cell: usize, cell_size: Vec3) -> Vec3 {
+        self.geometry.centre_of_sized(c, cell_size) + self.probe_offset.get(cell).copied().unwrap_or(Vec3::ZERO)
+    }
+
+    /// The distance moments (mean, mean square) of the probe in slot `slot` towards unit
+    /// direction `u`, bilinear in its maps (0 where the grid holds none).
+    #[inline]
+    fn moments(&self, slot: usize, u: Vec3) -> (f32, f32) {
+        let dr = self.depth_resolution;
+        let base = slot * (dr * dr) as usize;
+        let (mut mean, mut mean_sq) = (0.0f32, 0.0f32);
+        for (t, wt) in octa::bilinear_taps(dr, octa::encode(u)) {
+            let at = base + t as usize;
+            mean += self.depth_mean.get(at).copied().unwrap_or(0.0) * wt;
+            mean_sq += self.depth_mean_sq.get(at).copied().unwrap_or(0.0) * wt;
+        }
+        (mean, mean_sq)
+    }
+
     /// Irradiance for unit direction `n` of the cell that contains `position` (finite), if
     /// that cell is stored, bilinear in its map: [`IrradianceBlend::Nearest`] without its
     /// bookkeeping. (Rough specular lookups read the same cell's harmonics instead,
@@ -460,7 +473,6 @@ impl IrradianceView<'_> {
         let base = base.as_uvec3();
         let taps_n = octa::bilinear_taps(g.resolution, octa::encode(n));
         let cell_size = geo.cell_size();
-        let dr = g.depth_resolution;
         let mut wsum = 0.0f32;
         for corner in 0..8u32 {
             let o = UVec3::new(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
@@ -477,9 +489,7 @@ impl IrradianceView<'_> {
                 continue;
             }
             let slot = slot as usize;
-            let probe =
-                geo.min + (c.as_vec3() + 0.5) * cell_size + g.probe_offset.get(cell).copied().unwrap_or(Vec3::ZERO);
-            let to_point = p - probe;
+            let to_point = p - g.probe_at(c, cell, cell_size);
             let dist = to_point.length();
             let mut w = tri;
             if dist > 0.0 && dist.is_finite() && backface {
@@ -488,13 +498,7 @@ impl IrradianceView<'_> {
                 let facing = (n.dot(-u) + 1.0) * 0.5;
                 w *= facing * facing + 0.2;
                 // Chebyshev visibility of the point from the cell
-                let taps = octa::bilinear_taps(dr, octa::encode(u));
-                let (mut mean, mut mean_sq) = (0.0f32, 0.0f32);
-                let base = slot * (dr * dr) as usize;
-                for (t, wt) in taps {
-                    mean += g.depth_mean[base + t as usize] * wt;
-                    mean_sq += g.depth_mean_sq[base + t as usize] * wt;
-                }
+                let (mean, mean_sq) = g.moments(slot, u);
                 if visibility && dist > mean {
                     let var = (mean_sq - mean * mean).abs().max(1e-12 * mean * mean);
                     let d = dist - mean;
