@@ -6,7 +6,7 @@ use common::*;
 use glam::Vec3;
 use warpfit::sampling::{Sampler, uniform_sphere};
 use warpfit::scene::Scene;
-use warpfit::trace::{NodeTest, Renderer, Tracer, trace_batch};
+use warpfit::trace::{NodeTest, Renderer, Tracer, coherent_order, trace_batch};
 
 fn dirs(n: u32, seed: u64) -> Vec<Vec3> {
     (0..n).map(|k| uniform_sphere(Sampler::new(seed, 0, k).next_2d())).collect()
@@ -562,4 +562,94 @@ fn coinciding_faces_show_the_one_facing_the_ray() {
             assert!(checked > 64, "only {checked} rays reached the shared face");
         }
     }
+}
+
+/// The batch walk (`Tracer::closest_hits`, packets of rays walked together) finds for every
+/// ray exactly what `closest_hit` finds for it alone, with either node test: rays from
+/// one point in coherent order (a probe's), in random order, from scattered points, with
+/// a finite `tmax`, partial packets, rays with no direction or a non-finite origin, and
+/// the grid's probe rays from cell centres (some on a surface).
+#[test]
+fn packets_of_rays_find_what_single_rays_find() {
+    for name in ["torture", "cornell", "sphere"] {
+        let scene = load(name);
+        let (lo, hi) = scene.bounds();
+        for test in [NodeTest::Wide, NodeTest::Portable] {
+            let tracer = Tracer::new(&scene).with_node_test(test);
+            let centre = Vec3::from_array(scene.config.probe.position);
+            let mut cases: Vec<(String, Vec<Vec3>, Vec<Vec3>, f32)> = Vec::new();
+            let random = dirs(5_003, 17);
+            let order = coherent_order(&random);
+            let sorted: Vec<Vec3> = order.iter().map(|&i| random[i as usize]).collect();
+            cases.push(("one point, coherent".into(), vec![centre; sorted.len()], sorted, f32::INFINITY));
+            cases.push(("one point, random".into(), vec![centre; random.len()], random.clone(), f32::INFINITY));
+            let scattered: Vec<Vec3> = (0..random.len() as u32)
+                .map(|k| {
+                    let mut s = Sampler::new(5, 1, k);
+                    lo + (hi - lo) * Vec3::new(s.next_1d(), s.next_1d(), s.next_1d())
+                })
+                .collect();
+            cases.push(("scattered points".into(), scattered.clone(), random.clone(), f32::INFINITY));
+            cases.push(("scattered points, tmax 0.7".into(), scattered, random.clone(), 0.7));
+            let mut odd = random[..37].to_vec();
+            odd[3] = Vec3::ZERO;
+            odd[20] = Vec3::NAN;
+            let mut odd_origins = vec![centre; odd.len()];
+            odd_origins[9] = Vec3::INFINITY;
+            cases.push(("degenerate rays".into(), odd_origins, odd, f32::INFINITY));
+            // each grid cell's probe rays from its centre, some of which lie on surfaces:
+            // a hit closer than the node test's entry clamp must not depend on the order
+            let gc = &scene.config.grid;
+            let (gmin, gmax) = (Vec3::from_array(gc.min), Vec3::from_array(gc.max));
+            let counts = glam::UVec3::from_array(gc.counts);
+            let (mut cell_origins, mut cell_dirs) = (Vec::new(), Vec::new());
+            for z in 0..counts.z {
+                for y in 0..counts.y {
+                    for x in 0..counts.x {
+                        let centre =
+                            gmin + (gmax - gmin) * (glam::UVec3::new(x, y, z).as_vec3() + 0.5) / counts.as_vec3();
+                        for t in 0..256u32 {
+                            let uv = glam::Vec2::new(((t % 16) as f32 + 0.3) / 16.0, ((t / 16) as f32 + 0.6) / 16.0);
+                            cell_origins.push(centre);
+                            cell_dirs.push(warpfit::octa::decode(uv));
+                        }
+                    }
+                }
+            }
+            cases.push(("cell centres".into(), cell_origins, cell_dirs, f32::INFINITY));
+            for (what, origins, ds, tmax) in &cases {
+                let mut out = vec![None; ds.len()];
+                tracer.closest_hits(origins, ds, *tmax, &mut out);
+                for k in 0..ds.len() {
+                    let single = tracer.closest_hit(origins[k], ds[k], *tmax);
+                    assert_eq!(
+                        format!("{:?}", out[k]),
+                        format!("{single:?}"),
+                        "{name}, {test:?}, {what}: ray {k} from {} along {}",
+                        origins[k],
+                        ds[k]
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// `coherent_order` is a permutation of the rays, the same for the same input, and puts
+/// neighbours in neighbouring directions.
+#[test]
+fn coherent_order_is_a_permutation_of_neighbouring_directions() {
+    let random = dirs(10_000, 23);
+    let order = coherent_order(&random);
+    assert_eq!(order, coherent_order(&random));
+    let mut seen = order.clone();
+    seen.sort_unstable();
+    assert!(seen.iter().enumerate().all(|(k, &i)| i == k as u32), "not a permutation");
+    let mean_step = |v: &mut dyn Iterator<Item = Vec3>| {
+        let v: Vec<Vec3> = v.collect();
+        v.windows(2).map(|w| w[0].angle_between(w[1])).sum::<f32>() / (v.len() - 1) as f32
+    };
+    let (given, sorted) =
+        (mean_step(&mut random.iter().copied()), mean_step(&mut order.iter().map(|&i| random[i as usize])));
+    assert!(sorted < given / 10.0, "mean angle between neighbours {sorted} against {given} unsorted");
 }

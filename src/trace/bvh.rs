@@ -348,9 +348,43 @@ impl Tracer {
             return None;
         }
         let mut ray = self.normalised_ray(origin, dir, tmax);
-        let (o, d) = (ray.origin, ray.dir);
         let leaves = self.leaves(&ray);
         let slot = cwbvh::traverse::<false>(self.tree(), &mut ray, self.node_test, &leaves)?;
+        self.hit_record(origin, dir, &ray, slot)
+    }
+
+    /// Closest hits of many rays (`origins[k]`, unit `dirs[k]`, up to `tmax` world units),
+    /// the same as [`Tracer::closest_hit`] of each, walked [`cwbvh::PACKET`] consecutive
+    /// rays at a time: rays that start at one point in neighbouring directions (a probe's
+    /// texels in tiles, or sorted by [`coherent_order`]) share the node loads a single
+    /// walk waits on. Rays in any order give the same hits, only slower.
+    pub fn closest_hits(&self, origins: &[Vec3], dirs: &[Vec3], tmax: f32, out: &mut [Option<Hit>]) {
+        let n = out.len().min(origins.len()).min(dirs.len());
+        let placeholder = self.normalised_ray(Vec3::ZERO, Vec3::X, 0.0);
+        for start in (0..n).step_by(cwbvh::PACKET) {
+            let end = (start + cwbvh::PACKET).min(n);
+            let mut rays = [placeholder; cwbvh::PACKET];
+            let mut active: cwbvh::RayMask = 0;
+            for k in start..end {
+                let (o, d) = (origins[k], dirs[k]);
+                if o.is_finite() && d.is_finite() && d != Vec3::ZERO {
+                    rays[k - start] = self.normalised_ray(o, d, tmax);
+                    active |= 1 << (k - start);
+                }
+            }
+            let leaves: [SlotLeaves<'_>; cwbvh::PACKET] = std::array::from_fn(|i| self.leaves(&rays[i]));
+            let slots = cwbvh::traverse_packet(self.tree(), &mut rays, active, self.node_test, &leaves);
+            for k in start..end {
+                let i = k - start;
+                out[k] = slots[i].and_then(|slot| self.hit_record(origins[k], dirs[k], &rays[i], slot));
+            }
+        }
+    }
+
+    /// The hit record of the walk that ended with `ray` at leaf `slot`.
+    #[inline(always)]
+    fn hit_record(&self, origin: Vec3, dir: Vec3, ray: &NodeRay, slot: u32) -> Option<Hit> {
+        let (o, d) = (ray.origin, ray.dir);
         let t = ray.tmax;
         if !t.is_finite() {
             return None;
@@ -511,4 +545,51 @@ impl cwbvh::Leaves for SlotLeaves<'_> {
             }
         }
     }
+}
+
+/// An order of the rays `dirs` (indices) in which neighbours point in neighbouring
+/// directions: their octahedral coordinates ([`crate::octa::encode`]) on a 4096 × 4096
+/// grid, in Morton order, ties in input order (a stable radix sort in two passes, linear
+/// in the rays). What [`Tracer::closest_hits`] wants of rays that start at one point.
+#[must_use]
+pub fn coherent_order(dirs: &[Vec3]) -> Vec<u32> {
+    const BITS: u32 = 12;
+    let key = |d: Vec3| {
+        let uv = crate::octa::encode(d);
+        let q = |x: f32| if x.is_finite() { (x.clamp(0.0, 1.0) * ((1 << BITS) - 1) as f32) as u32 } else { 0 };
+        morton2(q(uv.x), q(uv.y))
+    };
+    let keys: Vec<u32> = dirs.iter().map(|&d| key(d)).collect();
+    let mut order: Vec<u32> = (0..dirs.len() as u32).collect();
+    let mut scratch = vec![0u32; order.len()];
+    let mut start = vec![0usize; (1 << BITS) + 1];
+    for pass in 0..2 {
+        let digit = |k: u32| ((keys[k as usize] >> (BITS * pass)) & ((1 << BITS) - 1)) as usize;
+        start.fill(0);
+        for &k in &order {
+            start[digit(k) + 1] += 1;
+        }
+        for b in 0..1 << BITS {
+            start[b + 1] += start[b];
+        }
+        for &k in &order {
+            let b = digit(k);
+            scratch[start[b]] = k;
+            start[b] += 1;
+        }
+        std::mem::swap(&mut order, &mut scratch);
+    }
+    order
+}
+
+/// The bits of `x` and `y` (16 each) interleaved, x in the even bits.
+fn morton2(x: u32, y: u32) -> u32 {
+    let spread = |v: u32| {
+        let mut v = v & 0xffff;
+        v = (v | (v << 8)) & 0x00ff_00ff;
+        v = (v | (v << 4)) & 0x0f0f_0f0f;
+        v = (v | (v << 2)) & 0x3333_3333;
+        (v | (v << 1)) & 0x5555_5555
+    };
+    spread(x) | (spread(y) << 1)
 }

@@ -124,6 +124,17 @@ impl NodeRay {
         }
     }
 
+    /// The far end the node tests and the walks' culling use: the closest hit so far, but
+    /// never below the node test's entry clamp (1e-4, obvhs's). Every entry distance is at
+    /// least the clamp, so with a hit closer than it (a ray starting on a surface) a box
+    /// holding a still closer hit would otherwise be skipped or not, by the order the walk
+    /// met them in; this way every such box is entered and the nearest hit wins whatever
+    /// the order.
+    #[inline(always)]
+    pub fn cull(&self) -> f32 {
+        self.tmax.max(NODE_TMIN)
+    }
+
     /// Far-plane array offset of `axis`.
     #[inline(always)]
     fn far(&self, axis: usize) -> usize {
@@ -294,7 +305,7 @@ fn entered_scalar(node: &CwBvhNode, ray: &NodeRay, entry: &mut [f32; 8]) -> u32 
         let max = |a: f32, b: f32| if a > b { a } else { b };
         let min = |a: f32, b: f32| if a < b { a } else { b };
         let tmin = max(max(t0x, max(t0y, t0z)), NODE_TMIN);
-        let tmax = min(min(t1x, min(t1y, t1z)), ray.tmax);
+        let tmax = min(min(t1x, min(t1y, t1z)), ray.cull());
         entry[j] = tmin;
         entered |= ((tmin <= tmax) as u32) << j;
     }
@@ -314,7 +325,7 @@ fn entered_top_scalar(node: &FloatNode, ray: &NodeRay, entry: &mut [f32; 8]) -> 
     let mut entered = 0u32;
     for j in 0..8 {
         let tmin = max(max(t(0, false, j), max(t(1, false, j), t(2, false, j))), NODE_TMIN);
-        let tmax = min(min(t(0, true, j), min(t(1, true, j), t(2, true, j))), ray.tmax);
+        let tmax = min(min(t(0, true, j), min(t(1, true, j), t(2, true, j))), ray.cull());
         entry[j] = tmin;
         entered |= ((tmin <= tmax) as u32) << j;
     }
@@ -349,7 +360,7 @@ mod x86 {
             let (ny0, ny1, fy0, fy1) = axis(1, scale.y, shift.y);
             let (nz0, nz1, fz0, fz1) = axis(2, scale.z, shift.z);
             let lo = _mm_set1_ps(NODE_TMIN);
-            let hi = _mm_set1_ps(ray.tmax);
+            let hi = _mm_set1_ps(ray.cull());
             let mut test = |nx, ny, nz, fx, fy, fz, half: usize| {
                 let tmin = _mm_max_ps(_mm_max_ps(nx, _mm_max_ps(ny, nz)), lo);
                 let tmax = _mm_min_ps(_mm_min_ps(fx, _mm_min_ps(fy, fz)), hi);
@@ -377,7 +388,7 @@ mod x86 {
                 let (ny, fy) = axis(1, ray.origin.y, ray.inv_dir.y);
                 let (nz, fz) = axis(2, ray.origin.z, ray.inv_dir.z);
                 let tmin = _mm_max_ps(_mm_max_ps(nx, _mm_max_ps(ny, nz)), _mm_set1_ps(NODE_TMIN));
-                let tmax = _mm_min_ps(_mm_min_ps(fx, _mm_min_ps(fy, fz)), _mm_set1_ps(ray.tmax));
+                let tmax = _mm_min_ps(_mm_min_ps(fx, _mm_min_ps(fy, fz)), _mm_set1_ps(ray.cull()));
                 (tmin, _mm_movemask_ps(_mm_cmple_ps(tmin, tmax)) as u32)
             };
             let (t0, m0) = half(0);
@@ -405,7 +416,7 @@ mod x86 {
             let (ny, fy) = axis(1, ray.origin.y, ray.inv_dir.y);
             let (nz, fz) = axis(2, ray.origin.z, ray.inv_dir.z);
             let tmin = _mm256_max_ps(_mm256_max_ps(nx, _mm256_max_ps(ny, nz)), _mm256_set1_ps(NODE_TMIN));
-            let tmax = _mm256_min_ps(_mm256_min_ps(fx, _mm256_min_ps(fy, fz)), _mm256_set1_ps(ray.tmax));
+            let tmax = _mm256_min_ps(_mm256_min_ps(fx, _mm256_min_ps(fy, fz)), _mm256_set1_ps(ray.cull()));
             _mm256_storeu_ps(entry.as_mut_ptr(), tmin);
             _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tmin, tmax)) as u32
         }
@@ -432,9 +443,43 @@ mod x86 {
             let (ny, fy) = axis(1, scale.y, shift.y);
             let (nz, fz) = axis(2, scale.z, shift.z);
             let tmin = _mm256_max_ps(_mm256_max_ps(nx, _mm256_max_ps(ny, nz)), _mm256_set1_ps(NODE_TMIN));
-            let tmax = _mm256_min_ps(_mm256_min_ps(fx, _mm256_min_ps(fy, fz)), _mm256_set1_ps(ray.tmax));
+            let tmax = _mm256_min_ps(_mm256_min_ps(fx, _mm256_min_ps(fy, fz)), _mm256_set1_ps(ray.cull()));
             _mm256_storeu_ps(entry.as_mut_ptr(), tmin);
             _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tmin, tmax)) as u32
+        }
+    }
+
+    /// `least_scalar` in two 4-wide passes (SSE2).
+    #[inline(always)]
+    pub(super) fn least_sse2(hit: u32, entry: &[f32; 8], nearest: &mut [f32; 8]) {
+        // SAFETY: SSE2 is part of the x86-64 baseline; loads and stores of 4 floats of the
+        // arrays.
+        unsafe {
+            let h = _mm_set1_epi32(hit as i32);
+            for half in 0..2 {
+                let bits = if half == 0 { _mm_setr_epi32(1, 2, 4, 8) } else { _mm_setr_epi32(16, 32, 64, 128) };
+                let lanes = _mm_castsi128_ps(_mm_cmpeq_epi32(_mm_and_si128(h, bits), bits));
+                let e = _mm_loadu_ps(entry[4 * half..].as_ptr());
+                let n = _mm_loadu_ps(nearest[4 * half..].as_ptr());
+                let lower = _mm_and_ps(lanes, _mm_cmplt_ps(e, n));
+                let out = _mm_or_ps(_mm_and_ps(lower, e), _mm_andnot_ps(lower, n));
+                _mm_storeu_ps(nearest[4 * half..].as_mut_ptr(), out);
+            }
+        }
+    }
+
+    /// `least_scalar` in one 8-wide pass. Callers must have checked that the CPU has AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) fn least_avx2(hit: u32, entry: &[f32; 8], nearest: &mut [f32; 8]) {
+        // SAFETY: loads and stores of 8 floats of the arrays; AVX2 is enabled here.
+        unsafe {
+            let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+            let lanes = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(hit as i32), bits), bits);
+            let e = _mm256_loadu_ps(entry.as_ptr());
+            let n = _mm256_loadu_ps(nearest.as_ptr());
+            let lower = _mm256_and_ps(_mm256_castsi256_ps(lanes), _mm256_cmp_ps::<_CMP_LT_OQ>(e, n));
+            _mm256_storeu_ps(nearest.as_mut_ptr(), _mm256_blendv_ps(n, e, lower));
         }
     }
 }
@@ -591,7 +636,7 @@ fn walk_nearest(
         while leaf != 0 {
             let j = (leaf.trailing_zeros() & 7) as usize;
             leaf &= leaf - 1;
-            if entry[j] > ray.tmax {
+            if entry[j] > ray.cull() {
                 continue; // a leaf of this node already hit nearer than this box
             }
             // the high 3 bits of the child's meta count its primitives (unary), the low 5
@@ -619,7 +664,7 @@ fn walk_nearest(
             let t = entry[j as usize];
             let index = node.child_base.wrapping_add((imask & ((1u32 << j) - 1)).count_ones());
             keys[n & 7] = nearest_key(t, index);
-            n += (t <= ray.tmax) as usize;
+            n += (t <= ray.cull()) as usize;
         }
         // nearest first (equal distances in any order: the result does not depend on it)
         sort_keys(&mut keys, n);
@@ -635,7 +680,7 @@ fn walk_nearest(
             Some(k) => k as u32,
             None => loop {
                 match stack.pop() {
-                    Some(k) if key_distance(k) <= ray.tmax => break k as u32,
+                    Some(k) if key_distance(k) <= ray.cull() => break k as u32,
                     Some(_) => {}
                     None => return best,
                 }
@@ -741,6 +786,219 @@ fn walk_any(
     None
 }
 
+/// Rays a packet walk ([`traverse_packet`]) carries at most: one bit each in its masks.
+pub const PACKET: usize = 64;
+
+/// A set of a packet's rays, bit i for ray i.
+pub type RayMask = u64;
+
+/// `nearest[j]` lowered to `entry[j]` for each child j in `hit`: the packet walk's least
+/// entry per child (the one path off x86-64, and what the vector ones are checked against).
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+#[inline(always)]
+fn least_scalar(hit: u32, entry: &[f32; 8], nearest: &mut [f32; 8]) {
+    for j in 0..8 {
+        if (hit >> j) & 1 != 0 && entry[j] < nearest[j] {
+            nearest[j] = entry[j];
+        }
+    }
+}
+
+/// Per child slot j, the rays (bit i) whose byte `hits[i]` has bit j set: the packet's
+/// hit bytes transposed, eight rays at a time (bit j of each of eight bytes gathered into
+/// one byte by a multiply).
+#[inline(always)]
+fn rays_per_child(hits: &[u8; PACKET]) -> [RayMask; 8] {
+    let mut child_rays: [RayMask; 8] = [0; 8];
+    for (w, bytes) in hits.chunks_exact(8).enumerate() {
+        let word = u64::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3], bytes[4], bytes[5], bytes[6], bytes[7]]);
+        if word == 0 {
+            continue;
+        }
+        for (j, rays) in child_rays.iter_mut().enumerate() {
+            let bits = ((word >> j) & 0x0101_0101_0101_0101).wrapping_mul(0x0102_0408_1020_4080) >> 56;
+            *rays |= (bits as RayMask) << (8 * w);
+        }
+    }
+    child_rays
+}
+
+/// Closest hits of up to [`PACKET`] rays (those in `active`) walked together: each node is
+/// loaded once for every ray of the packet that enters it, and each ray is tested against
+/// it with its own node test, so the loads the single walk waits on are shared where the
+/// rays are coherent (from one point in neighbouring directions, a probe's texels). A
+/// ray's result is what [`walk_nearest`] gives it: every primitive in a box the ray enters
+/// before its closest hit so far is tested, the nearest distance wins and exact ties go
+/// by [`wins_tie`], whatever the order; the order here is the packet's (children nearest
+/// first by the least entry distance among the rays entering them).
+#[inline(always)]
+fn walk_packet<L: Leaves>(
+    tree: Tree<'_>,
+    rays: &mut [NodeRay; PACKET],
+    active: RayMask,
+    entered: impl Fn(&CwBvhNode, &NodeRay, &mut [f32; 8]) -> u32,
+    entered_top: impl Fn(&FloatNode, &NodeRay, &mut [f32; 8]) -> u32,
+    least: impl Fn(u32, &[f32; 8], &mut [f32; 8]),
+    leaves: &[L; PACKET],
+) -> [Option<u32>; PACKET] {
+    let mut best = [None::<u32>; PACKET];
+    // inner children to visit: a `nearest_key` of the least entry distance, and the rays
+    let mut stack = Stack::<(u64, RayMask)>::new();
+    let (mut current, mut mask) = (0u32, active & (RayMask::MAX >> (RayMask::BITS as usize - PACKET)));
+    loop {
+        // every ray's node test: its children entered (a byte per ray), and per child the
+        // least entry distance of the rays entering it (the node test has already held each
+        // entry to its ray's closest hit)
+        let mut hits = [0u8; PACKET];
+        let mut nearest = [f32::INFINITY; 8];
+        let mut entry = [0.0f32; 8];
+        let mut test = |hit: u32, entry: &[f32; 8], i: usize| {
+            hits[i] = hit as u8;
+            least(hit, entry, &mut nearest);
+        };
+        let (imask, primitive_base, child_base, meta) = match tree.top.get(current as usize) {
+            Some(node) => {
+                let mut m = mask;
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize % PACKET;
+                    m &= m - 1;
+                    let hit = entered_top(node, &rays[i], &mut entry);
+                    test(hit, &entry, i);
+                }
+                node.fields()
+            }
+            None => match tree.nodes.get(current as usize) {
+                Some(node) => {
+                    let mut m = mask;
+                    while m != 0 {
+                        let i = m.trailing_zeros() as usize % PACKET;
+                        m &= m - 1;
+                        let hit = entered(node, &rays[i], &mut entry);
+                        test(hit, &entry, i);
+                    }
+                    node.fields()
+                }
+                None => return best, // a malformed tree, or none: stop rather than panic
+            },
+        };
+        let child_rays = rays_per_child(&hits);
+        let mut any = 0u32;
+        for (j, &r) in child_rays.iter().enumerate() {
+            any |= ((r != 0) as u32) << j;
+        }
+        // leaf children first, for each ray entering them, as the single walk does
+        let mut leaf = any & !imask;
+        while leaf != 0 {
+            let j = (leaf.trailing_zeros() & 7) as usize;
+            leaf &= leaf - 1;
+            let m = ((meta >> (8 * j)) & 0xff) as u32;
+            let first = primitive_base.wrapping_add(m & 0x1f);
+            for slot in first..first.saturating_add((m >> 5).count_ones()) {
+                let mut r = child_rays[j];
+                while r != 0 {
+                    let i = r.trailing_zeros() as usize % PACKET;
+                    r &= r - 1;
+                    let ray = &mut rays[i];
+                    let limit = if best[i].is_some() { ray.tmax.next_up() } else { ray.tmax };
+                    let t = leaves[i].intersect(slot, limit);
+                    if t < ray.tmax || (t == ray.tmax && best[i].is_some_and(|b| wins_tie(&leaves[i], slot, b))) {
+                        best[i] = Some(slot);
+                        ray.tmax = t;
+                    }
+                }
+            }
+        }
+        // the inner children, nearest first by their least entry distance (a key's low
+        // bits: the child's slot)
+        let mut inner = any & imask;
+        let mut keys = [0u64; 8];
+        let mut n = 0usize;
+        while inner != 0 {
+            let j = inner.trailing_zeros() & 7;
+            inner &= inner - 1;
+            keys[n & 7] = nearest_key(nearest[j as usize], j);
+            n += 1;
+        }
+        sort_keys(&mut keys, n);
+        let node_of = |key: u64| {
+            let j = (key & 7) as u32;
+            (child_base.wrapping_add((imask & ((1u32 << j) - 1)).count_ones()), child_rays[j as usize])
+        };
+        for &k in keys[1..n.max(1)].iter().rev() {
+            let (index, rays_in) = node_of(k);
+            stack.push(((k & !0xffff_ffff) | index as u64, rays_in));
+        }
+        (current, mask) = if n > 0 {
+            node_of(keys[0])
+        } else {
+            // the next pushed child some ray still reaches before its closest hit
+            loop {
+                let Some((k, m)) = stack.pop() else { return best };
+                let t = key_distance(k);
+                let (mut r, mut keep) = (m, 0 as RayMask);
+                while r != 0 {
+                    let i = r.trailing_zeros() as usize % PACKET;
+                    r &= r - 1;
+                    keep |= ((t <= rays[i].cull()) as RayMask) << i;
+                }
+                if keep != 0 {
+                    break (k as u32, keep);
+                }
+            }
+        };
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,popcnt,bmi1")]
+fn walk_packet_avx2<L: Leaves>(
+    tree: Tree<'_>,
+    rays: &mut [NodeRay; PACKET],
+    active: RayMask,
+    leaves: &[L; PACKET],
+) -> [Option<u32>; PACKET] {
+    // Runs only after `wide_available()` said the CPU has AVX2, POPCNT and BMI1.
+    walk_packet(
+        tree,
+        rays,
+        active,
+        |n, r, e| x86::entered_avx2(n, r, e),
+        |n, r, e| x86::entered_top_avx2(n, r, e),
+        |h, e, n| x86::least_avx2(h, e, n),
+        leaves,
+    )
+}
+
+/// Closest hits of the rays in `active` (bit i: `rays[i]`) walked as one packet with the
+/// node test `test`: each node is read once for all the rays that enter it and tested
+/// with each ray's own node test, leaf primitives are tested for each ray that enters
+/// their box, and children are visited nearest first by the least entry distance among
+/// their rays. For each ray the slot and, in its `tmax`, the distance [`traverse`] finds
+/// for it alone (every primitive in a box the ray enters before its closest hit so far is
+/// tested, and the nearest hit with its ties rule wins whatever the order).
+#[inline]
+pub fn traverse_packet<L: Leaves>(
+    tree: Tree<'_>,
+    rays: &mut [NodeRay; PACKET],
+    active: RayMask,
+    test: NodeTest,
+    leaves: &[L; PACKET],
+) -> [Option<u32>; PACKET] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if test == NodeTest::Wide && wide_available() {
+            // SAFETY: the CPU has AVX2, POPCNT and BMI1 (checked just above).
+            return unsafe { walk_packet_avx2(tree, rays, active, leaves) };
+        }
+        walk_packet(tree, rays, active, x86::entered_sse2, x86::entered_top_sse2, x86::least_sse2, leaves)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = test;
+        walk_packet(tree, rays, active, entered_scalar, entered_top_scalar, least_scalar, leaves)
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,popcnt,bmi1")]
 fn walk_avx2<const ANY: bool>(tree: Tree<'_>, ray: &mut NodeRay, leaves: &impl Leaves) -> Option<u32> {
@@ -801,6 +1059,50 @@ mod tests {
 
     /// Every node test says the same children are entered, on random nodes and rays
     /// (axis-aligned and grazing directions included, finite and short rays).
+    #[test]
+    fn the_packet_walks_bookkeeping_matches_its_plain_form() {
+        let mut seed = 11u64;
+        let mut next = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 33) as u32
+        };
+        for _ in 0..2_000 {
+            // each ray's children entered, transposed to each child's rays
+            let mut hits = [0u8; PACKET];
+            for h in hits.iter_mut() {
+                *h = if next() % 4 == 0 { 0 } else { next() as u8 };
+            }
+            let per_child = rays_per_child(&hits);
+            for j in 0..8 {
+                let want = (0..PACKET).fold(0 as RayMask, |m, i| m | ((((hits[i] >> j) & 1) as RayMask) << i));
+                assert_eq!(per_child[j], want, "child {j}");
+            }
+            // the least entry of the children hit, on every path
+            let hit = next() & 0xff;
+            let entry: [f32; 8] = std::array::from_fn(|_| 1e-4 + (next() % 1000) as f32 * 0.37);
+            let start: [f32; 8] =
+                std::array::from_fn(|_| if next() % 3 == 0 { f32::INFINITY } else { (next() % 1000) as f32 * 0.37 });
+            let mut want = start;
+            least_scalar(hit, &entry, &mut want);
+            for j in 0..8 {
+                let lowered = if (hit >> j) & 1 != 0 { start[j].min(entry[j]) } else { start[j] };
+                assert_eq!(want[j].to_bits(), lowered.to_bits());
+            }
+            #[cfg(target_arch = "x86_64")]
+            {
+                let mut sse2 = start;
+                x86::least_sse2(hit, &entry, &mut sse2);
+                assert_eq!(sse2.map(f32::to_bits), want.map(f32::to_bits));
+                if wide_available() {
+                    let mut avx2 = start;
+                    // SAFETY: the CPU has AVX2 (checked just above).
+                    unsafe { x86::least_avx2(hit, &entry, &mut avx2) };
+                    assert_eq!(avx2.map(f32::to_bits), want.map(f32::to_bits));
+                }
+            }
+        }
+    }
+
     #[test]
     fn vector_node_tests_match_the_scalar_one() {
         let mut seed = 7u64;

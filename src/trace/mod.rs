@@ -6,7 +6,7 @@ pub mod cwbvh;
 pub mod radiance;
 pub mod truth;
 
-pub use bvh::{BuildQuality, Hit, Tracer};
+pub use bvh::{BuildQuality, Hit, Tracer, coherent_order};
 pub use cwbvh::NodeTest;
 pub use radiance::{RaySample, Renderer};
 
