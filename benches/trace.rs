@@ -1,4 +1,5 @@
-//! Ray throughput: our closest-hit and occlusion paths against bare obvhs traversal on the
+//! Ray throughput: our closest-hit (one ray at a time, and sorted into coherent packets)
+//! and occlusion paths against bare obvhs traversal on the
 //! same BVH and rays, on `torture`, on a procedural two-storey atrium of about 100k
 //! triangles (columns, arches, a gallery around a light well) and on a ~1M-triangle closed
 //! room; 1 vs 2 threads; BVH build presets; bake time of the default scene.
@@ -14,7 +15,7 @@ use std::hint::black_box;
 use std::path::Path;
 use warpfit::sampling::{Sampler, uniform_sphere};
 use warpfit::scene::Scene;
-use warpfit::trace::{BuildQuality, NodeTest, Tracer};
+use warpfit::trace::{BuildQuality, NodeTest, Tracer, coherent_order};
 
 const RAYS: u32 = 65_536;
 
@@ -179,6 +180,19 @@ fn bench_scene(c: &mut Criterion, name: &str, scene: &Scene, origin: Vec3) {
     g.sample_size(20);
     g.bench_function("closest_hit/ours/1t", |b| {
         b.iter(|| rays.iter().filter(|(o, d)| tracer.closest_hit(*o, *d, f32::INFINITY).is_some()).count())
+    });
+    // the batch API: the rays put in a coherent order, then walked in packets (the sort is
+    // timed with them)
+    let (origins, dirs): (Vec<Vec3>, Vec<Vec3>) = rays.iter().copied().unzip();
+    let (mut so, mut sd, mut out) = (origins.clone(), dirs.clone(), vec![None; rays.len()]);
+    g.bench_function("closest_hit/ours_packets/1t", |b| {
+        b.iter(|| {
+            for (k, &i) in coherent_order(&dirs).iter().enumerate() {
+                (so[k], sd[k]) = (origins[i as usize], dirs[i as usize]);
+            }
+            tracer.closest_hits(&so, &sd, f32::INFINITY, &mut out);
+            out.iter().filter(|h| h.is_some()).count()
+        })
     });
     let portable = Tracer::new(scene).with_node_test(NodeTest::Portable);
     g.bench_function("closest_hit/ours_portable/1t", |b| {

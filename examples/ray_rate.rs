@@ -63,11 +63,46 @@ fn main() -> Result<(), String> {
         .iter()
         .map(|&(o, d)| (o, d, tracer.closest_hit(o, d, f32::INFINITY).map_or(100.0, |h| h.t * 0.9)))
         .collect();
+    // the batch API instead: the rays put in a coherent order (timed with the pass), then
+    // walked in packets
+    let packets = flag("packets");
+    let (origins, dirs): (Vec<Vec3>, Vec<Vec3>) = rays.iter().map(|&(o, d, _)| (o, d)).unzip();
+    if packets {
+        // the same hits as one ray at a time, or the figure means nothing
+        let mut out = vec![None; rays.len()];
+        tracer.closest_hits(&origins, &dirs, f32::INFINITY, &mut out);
+        let differ =
+            (0..rays.len()).filter(|&k| out[k] != tracer.closest_hit(origins[k], dirs[k], f32::INFINITY)).count();
+        if differ > 0 {
+            return Err(format!("{differ} rays hit differently in packets"));
+        }
+    }
+    if flag("write-coherent") {
+        // the rays in the packets' order, for the reference to trace in that order too
+        let path = format!("{case}_coherent.rays.f32");
+        let order = warpfit::trace::coherent_order(&dirs);
+        let bytes: Vec<u8> = order
+            .iter()
+            .flat_map(|&i| origins[i as usize].to_array().into_iter().chain(dirs[i as usize].to_array()))
+            .flat_map(f32::to_le_bytes)
+            .collect();
+        std::fs::write(&path, bytes).map_err(|e| format!("{path}: {e}"))?;
+        println!("wrote {path}");
+    }
     let mut best = f64::INFINITY;
     let mut hits = 0;
+    let mut out = vec![None; rays.len()];
+    let (mut so, mut sd) = (vec![Vec3::ZERO; rays.len()], vec![Vec3::ZERO; rays.len()]);
     for _ in 0..passes.max(1) {
         let start = Instant::now();
-        hits = if occluded {
+        hits = if packets {
+            let order = warpfit::trace::coherent_order(&dirs);
+            for (k, &i) in order.iter().enumerate() {
+                (so[k], sd[k]) = (origins[i as usize], dirs[i as usize]);
+            }
+            tracer.closest_hits(&so, &sd, f32::INFINITY, &mut out);
+            out.iter().filter(|h| h.is_some()).count()
+        } else if occluded {
             rays.iter().filter(|(o, d, t)| tracer.occluded(*o, *d, *t)).count()
         } else {
             rays.iter().filter(|(o, d, _)| tracer.closest_hit(*o, *d, f32::INFINITY).is_some()).count()
@@ -82,7 +117,13 @@ fn main() -> Result<(), String> {
         tracer.node_test(),
         tracer.build_time.as_secs_f64(),
         rays.len() as f64 / best / 1e6,
-        if occluded { "occlusion" } else { "closest hit" }
+        if occluded {
+            "occlusion"
+        } else if packets {
+            "closest hit in coherent packets"
+        } else {
+            "closest hit"
+        }
     );
     Ok(())
 }
