@@ -541,6 +541,20 @@ fn wins_tie(leaves: &impl Leaves, slot: u32, best: u32) -> bool {
     (leaves.back(slot), slot) < (leaves.back(best), best)
 }
 
+/// The primitive in `slot` tested for `ray`: a hit nearer than the closest so far (`best`,
+/// at `ray.tmax`), or at exactly that distance and winning the tie ([`wins_tie`]), becomes
+/// the closest.
+#[inline(always)]
+fn test_primitive(leaves: &impl Leaves, slot: u32, ray: &mut NodeRay, best: &mut Option<u32>) {
+    // with a hit found, a primitive at exactly its distance is a tie to break
+    let limit = if best.is_some() { ray.tmax.next_up() } else { ray.tmax };
+    let t = leaves.intersect(slot, limit);
+    if t < ray.tmax || (t == ray.tmax && best.is_some_and(|b| wins_tie(leaves, slot, b))) {
+        *best = Some(slot);
+        ray.tmax = t;
+    }
+}
+
 /// What a walk needs of the node it is at: the children the ray enters (the
 /// node test has written their entry distances), which children are inner nodes, the
 /// node's first primitive slot and first child node, and the children's metas (byte `j`
@@ -644,13 +658,7 @@ fn walk_nearest(
             let meta = ((node.meta >> (8 * j)) & 0xff) as u32;
             let first = node.primitive_base.wrapping_add(meta & 0x1f);
             for slot in first..first.saturating_add((meta >> 5).count_ones()) {
-                // with a hit found, a primitive at exactly its distance is a tie to break
-                let limit = if best.is_some() { ray.tmax.next_up() } else { ray.tmax };
-                let t = leaves.intersect(slot, limit);
-                if t < ray.tmax || (t == ray.tmax && best.is_some_and(|b| wins_tie(leaves, slot, b))) {
-                    best = Some(slot);
-                    ray.tmax = t;
-                }
+                test_primitive(leaves, slot, ray, &mut best);
             }
         }
         // the inner children the ray enters before its closest hit so far, as sort keys;
@@ -898,13 +906,7 @@ fn walk_packet<L: Leaves>(
                 while r != 0 {
                     let i = r.trailing_zeros() as usize % PACKET;
                     r &= r - 1;
-                    let ray = &mut rays[i];
-                    let limit = if best[i].is_some() { ray.tmax.next_up() } else { ray.tmax };
-                    let t = leaves[i].intersect(slot, limit);
-                    if t < ray.tmax || (t == ray.tmax && best[i].is_some_and(|b| wins_tie(&leaves[i], slot, b))) {
-                        best[i] = Some(slot);
-                        ray.tmax = t;
-                    }
+                    test_primitive(&leaves[i], slot, &mut rays[i], &mut best[i]);
                 }
             }
         }
