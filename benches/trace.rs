@@ -183,15 +183,13 @@ fn bench_scene(c: &mut Criterion, name: &str, scene: &Scene, origin: Vec3) {
     });
     // the batch API: the rays put in a coherent order, then walked in packets (the sort is
     // timed with them)
-    let (origins, dirs): (Vec<Vec3>, Vec<Vec3>) = rays.iter().copied().unzip();
-    let (mut so, mut sd, mut out) = (origins.clone(), dirs.clone(), vec![None; rays.len()]);
+    let mut sorted = rays.clone();
     g.bench_function("closest_hit/ours_packets/1t", |b| {
         b.iter(|| {
-            for (k, &i) in coherent_order(&dirs).iter().enumerate() {
-                (so[k], sd[k]) = (origins[i as usize], dirs[i as usize]);
+            for (k, &i) in coherent_order(&rays).iter().enumerate() {
+                sorted[k] = rays[i as usize];
             }
-            tracer.closest_hits(&so, &sd, f32::INFINITY, &mut out);
-            out.iter().filter(|h| h.is_some()).count()
+            tracer.closest_hits(&sorted, f32::INFINITY).iter().filter(|h| h.is_some()).count()
         })
     });
     let portable = Tracer::new(scene).with_node_test(NodeTest::Portable);

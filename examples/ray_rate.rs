@@ -69,13 +69,12 @@ fn main() -> Result<(), String> {
     // the batch API instead: the rays put in a coherent order (timed with the pass), then
     // walked in packets
     let packets = flag("packets");
-    let (origins, dirs): (Vec<Vec3>, Vec<Vec3>) = rays.iter().map(|&(o, d, _)| (o, d)).unzip();
+    let pairs: Vec<(Vec3, Vec3)> = rays.iter().map(|&(o, d, _)| (o, d)).collect();
     if packets {
         // the same hits as one ray at a time, or the figure means nothing
-        let mut out = vec![None; rays.len()];
-        tracer.closest_hits(&origins, &dirs, f32::INFINITY, &mut out);
+        let out = tracer.closest_hits(&pairs, f32::INFINITY);
         let differ =
-            (0..rays.len()).filter(|&k| out[k] != tracer.closest_hit(origins[k], dirs[k], f32::INFINITY)).count();
+            pairs.iter().zip(&out).filter(|&(&(o, d), h)| *h != tracer.closest_hit(o, d, f32::INFINITY)).count();
         if differ > 0 {
             return Err(format!("{differ} rays hit differently in packets"));
         }
@@ -83,10 +82,9 @@ fn main() -> Result<(), String> {
     if flag("write-coherent") {
         // the rays in the packets' order, for the reference to trace in that order too
         let path = format!("{case}_coherent.rays.f32");
-        let order = warpfit::trace::coherent_order(&dirs);
-        let bytes: Vec<u8> = order
+        let bytes: Vec<u8> = warpfit::trace::coherent_order(&pairs)
             .iter()
-            .flat_map(|&i| origins[i as usize].to_array().into_iter().chain(dirs[i as usize].to_array()))
+            .flat_map(|&i| pairs[i as usize].0.to_array().into_iter().chain(pairs[i as usize].1.to_array()))
             .flat_map(f32::to_le_bytes)
             .collect();
         std::fs::write(&path, bytes).map_err(|e| format!("{path}: {e}"))?;
@@ -94,18 +92,16 @@ fn main() -> Result<(), String> {
     }
     let mut best = f64::INFINITY;
     let mut hits = 0;
-    let mut out = vec![None; rays.len()];
-    let (mut so, mut sd) = (vec![Vec3::ZERO; rays.len()], vec![Vec3::ZERO; rays.len()]);
+    let mut sorted = pairs.clone();
     for _ in 0..passes.max(1) {
         let start = Instant::now();
         hits = if packets {
             let order: Vec<u32> =
-                if flag("nosort") { (0..dirs.len() as u32).collect() } else { warpfit::trace::coherent_order(&dirs) };
+                if flag("nosort") { (0..pairs.len() as u32).collect() } else { warpfit::trace::coherent_order(&pairs) };
             for (k, &i) in order.iter().enumerate() {
-                (so[k], sd[k]) = (origins[i as usize], dirs[i as usize]);
+                sorted[k] = pairs[i as usize];
             }
-            tracer.closest_hits(&so, &sd, f32::INFINITY, &mut out);
-            out.iter().filter(|h| h.is_some()).count()
+            tracer.closest_hits(&sorted, f32::INFINITY).iter().filter(|h| h.is_some()).count()
         } else if occluded {
             rays.iter().filter(|(o, d, t)| tracer.occluded(*o, *d, *t)).count()
         } else {

@@ -579,7 +579,7 @@ fn packets_of_rays_find_what_single_rays_find() {
             let centre = Vec3::from_array(scene.config.probe.position);
             let mut cases: Vec<(String, Vec<Vec3>, Vec<Vec3>, f32)> = Vec::new();
             let random = dirs(5_003, 17);
-            let order = coherent_order(&random);
+            let order = coherent_order(&random.iter().map(|&d| (centre, d)).collect::<Vec<_>>());
             let sorted: Vec<Vec3> = order.iter().map(|&i| random[i as usize]).collect();
             cases.push(("one point, coherent".into(), vec![centre; sorted.len()], sorted, f32::INFINITY));
             cases.push(("one point, random".into(), vec![centre; random.len()], random.clone(), f32::INFINITY));
@@ -618,8 +618,9 @@ fn packets_of_rays_find_what_single_rays_find() {
             }
             cases.push(("cell centres".into(), cell_origins, cell_dirs, f32::INFINITY));
             for (what, origins, ds, tmax) in &cases {
-                let mut out = vec![None; ds.len()];
-                tracer.closest_hits(origins, ds, *tmax, &mut out);
+                let rays: Vec<(Vec3, Vec3)> = origins.iter().copied().zip(ds.iter().copied()).collect();
+                let out = tracer.closest_hits(&rays, *tmax);
+                assert_eq!(out.len(), rays.len());
                 for k in 0..ds.len() {
                     let single = tracer.closest_hit(origins[k], ds[k], *tmax);
                     assert_eq!(
@@ -640,8 +641,9 @@ fn packets_of_rays_find_what_single_rays_find() {
 #[test]
 fn coherent_order_is_a_permutation_of_neighbouring_directions() {
     let random = dirs(10_000, 23);
-    let order = coherent_order(&random);
-    assert_eq!(order, coherent_order(&random));
+    let rays: Vec<(Vec3, Vec3)> = random.iter().map(|&d| (Vec3::ZERO, d)).collect();
+    let order = coherent_order(&rays);
+    assert_eq!(order, coherent_order(&rays));
     let mut seen = order.clone();
     seen.sort_unstable();
     assert!(seen.iter().enumerate().all(|(k, &i)| i == k as u32), "not a permutation");

@@ -353,32 +353,32 @@ impl Tracer {
         self.hit_record(origin, dir, &ray, slot)
     }
 
-    /// Closest hits of many rays (`origins[k]`, unit `dirs[k]`, up to `tmax` world units),
-    /// the same as [`Tracer::closest_hit`] of each, walked [`cwbvh::PACKET`] consecutive
-    /// rays at a time: rays that start at one point in neighbouring directions (a probe's
-    /// texels in tiles, or sorted by [`coherent_order`]) share the node loads a single
-    /// walk waits on. Rays in any order give the same hits, only slower.
-    pub fn closest_hits(&self, origins: &[Vec3], dirs: &[Vec3], tmax: f32, out: &mut [Option<Hit>]) {
-        let n = out.len().min(origins.len()).min(dirs.len());
+    /// Closest hits of many rays (origin, unit direction; up to `tmax` world units), each
+    /// the same as [`Tracer::closest_hit`] of that ray, walked [`cwbvh::PACKET`]
+    /// consecutive rays at a time: rays that start at one point in neighbouring directions
+    /// (sorted by [`coherent_order`]) share the node loads a single walk waits on. Rays in
+    /// any order give the same hits, but diverging rays share few nodes and are slower in
+    /// packets than one at a time.
+    #[must_use]
+    pub fn closest_hits(&self, rays: &[(Vec3, Vec3)], tmax: f32) -> Vec<Option<Hit>> {
+        let mut out = vec![None; rays.len()];
         let placeholder = self.normalised_ray(Vec3::ZERO, Vec3::X, 0.0);
-        for start in (0..n).step_by(cwbvh::PACKET) {
-            let end = (start + cwbvh::PACKET).min(n);
-            let mut rays = [placeholder; cwbvh::PACKET];
+        for (batch, out) in rays.chunks(cwbvh::PACKET).zip(out.chunks_mut(cwbvh::PACKET)) {
+            let mut node_rays = [placeholder; cwbvh::PACKET];
             let mut active: cwbvh::RayMask = 0;
-            for k in start..end {
-                let (o, d) = (origins[k], dirs[k]);
+            for (i, &(o, d)) in batch.iter().enumerate() {
                 if o.is_finite() && d.is_finite() && d != Vec3::ZERO {
-                    rays[k - start] = self.normalised_ray(o, d, tmax);
-                    active |= 1 << (k - start);
+                    node_rays[i] = self.normalised_ray(o, d, tmax);
+                    active |= 1 << i;
                 }
             }
-            let leaves: [SlotLeaves<'_>; cwbvh::PACKET] = std::array::from_fn(|i| self.leaves(&rays[i]));
-            let slots = cwbvh::traverse_packet(self.tree(), &mut rays, active, self.node_test, &leaves);
-            for k in start..end {
-                let i = k - start;
-                out[k] = slots[i].and_then(|slot| self.hit_record(origins[k], dirs[k], &rays[i], slot));
+            let leaves: [SlotLeaves<'_>; cwbvh::PACKET] = std::array::from_fn(|i| self.leaves(&node_rays[i]));
+            let slots = cwbvh::traverse_packet(self.tree(), &mut node_rays, active, self.node_test, &leaves);
+            for (i, &(o, d)) in batch.iter().enumerate() {
+                out[i] = slots[i].and_then(|slot| self.hit_record(o, d, &node_rays[i], slot));
             }
         }
+        out
     }
 
     /// The hit record of the walk that ended with `ray` at leaf `slot`.
@@ -547,20 +547,20 @@ impl cwbvh::Leaves for SlotLeaves<'_> {
     }
 }
 
-/// An order of the rays `dirs` (indices) in which neighbours point in neighbouring
-/// directions: their octahedral coordinates ([`crate::octa::encode`]) on a 4096 × 4096
+/// An order of `rays` (indices) in which neighbours point in neighbouring directions:
+/// their directions' octahedral coordinates ([`crate::octa::encode`]) on a 4096 × 4096
 /// grid, in Morton order, ties in input order (a stable radix sort in two passes, linear
 /// in the rays). What [`Tracer::closest_hits`] wants of rays that start at one point.
 #[must_use]
-pub fn coherent_order(dirs: &[Vec3]) -> Vec<u32> {
+pub fn coherent_order(rays: &[(Vec3, Vec3)]) -> Vec<u32> {
     const BITS: u32 = 12;
     let key = |d: Vec3| {
         let uv = crate::octa::encode(d);
         let q = |x: f32| if x.is_finite() { (x.clamp(0.0, 1.0) * ((1 << BITS) - 1) as f32) as u32 } else { 0 };
         morton2(q(uv.x), q(uv.y))
     };
-    let keys: Vec<u32> = dirs.iter().map(|&d| key(d)).collect();
-    let mut order: Vec<u32> = (0..dirs.len() as u32).collect();
+    let keys: Vec<u32> = rays.iter().map(|&(_, d)| key(d)).collect();
+    let mut order: Vec<u32> = (0..rays.len() as u32).collect();
     let mut scratch = vec![0u32; order.len()];
     let mut start = vec![0usize; (1 << BITS) + 1];
     for pass in 0..2 {
