@@ -1059,8 +1059,8 @@ mod tests {
         n
     }
 
-    /// Every node test says the same children are entered, on random nodes and rays
-    /// (axis-aligned and grazing directions included, finite and short rays).
+    /// The packet walk's per-child ray masks (a transposition by multiplies) and least entry
+    /// distances (8-wide min-selects) are their plain loops' results.
     #[test]
     fn the_packet_walks_bookkeeping_matches_its_plain_form() {
         let mut seed = 11u64;
@@ -1105,6 +1105,8 @@ mod tests {
         }
     }
 
+    /// Every node test says the same children are entered, on random nodes and rays
+    /// (axis-aligned and grazing directions included, finite and short rays).
     #[test]
     fn vector_node_tests_match_the_scalar_one() {
         let mut seed = 7u64;
