@@ -831,6 +831,31 @@ fn rays_per_child(hits: &[u8; PACKET]) -> [RayMask; 8] {
     child_rays
 }
 
+/// The node test of `node` for each ray in `mask`: `hits[i]`, the children ray i enters,
+/// and `nearest[j]` lowered to each entering ray's entry distance of child j (the node
+/// test has already held each entry to its ray's closest hit); the node's other fields.
+#[inline(always)]
+fn test_rays<N: NodeFields>(
+    node: &N,
+    rays: &[NodeRay; PACKET],
+    mask: RayMask,
+    entered: &impl Fn(&N, &NodeRay, &mut [f32; 8]) -> u32,
+    least: &impl Fn(u32, &[f32; 8], &mut [f32; 8]),
+    hits: &mut [u8; PACKET],
+    nearest: &mut [f32; 8],
+) -> (u32, u32, u32, u64) {
+    let mut entry = [0.0f32; 8];
+    let mut m = mask;
+    while m != 0 {
+        let i = m.trailing_zeros() as usize % PACKET;
+        m &= m - 1;
+        let hit = entered(node, &rays[i], &mut entry);
+        hits[i] = hit as u8;
+        least(hit, &entry, nearest);
+    }
+    node.fields()
+}
+
 /// Closest hits of up to [`PACKET`] rays (those in `active`) walked together: each node is
 /// loaded once for every ray of the packet that enters it, and each ray is tested against
 /// it with its own node test, so the loads the single walk waits on are shared where the
@@ -855,37 +880,13 @@ fn walk_packet<L: Leaves>(
     let (mut current, mut mask) = (0u32, active & (RayMask::MAX >> (RayMask::BITS as usize - PACKET)));
     loop {
         // every ray's node test: its children entered (a byte per ray), and per child the
-        // least entry distance of the rays entering it (the node test has already held each
-        // entry to its ray's closest hit)
+        // least entry distance of the rays entering it
         let mut hits = [0u8; PACKET];
         let mut nearest = [f32::INFINITY; 8];
-        let mut entry = [0.0f32; 8];
-        let mut test = |hit: u32, entry: &[f32; 8], i: usize| {
-            hits[i] = hit as u8;
-            least(hit, entry, &mut nearest);
-        };
         let (imask, primitive_base, child_base, meta) = match tree.top.get(current as usize) {
-            Some(node) => {
-                let mut m = mask;
-                while m != 0 {
-                    let i = m.trailing_zeros() as usize % PACKET;
-                    m &= m - 1;
-                    let hit = entered_top(node, &rays[i], &mut entry);
-                    test(hit, &entry, i);
-                }
-                node.fields()
-            }
+            Some(node) => test_rays(node, rays, mask, &entered_top, &least, &mut hits, &mut nearest),
             None => match tree.nodes.get(current as usize) {
-                Some(node) => {
-                    let mut m = mask;
-                    while m != 0 {
-                        let i = m.trailing_zeros() as usize % PACKET;
-                        m &= m - 1;
-                        let hit = entered(node, &rays[i], &mut entry);
-                        test(hit, &entry, i);
-                    }
-                    node.fields()
-                }
+                Some(node) => test_rays(node, rays, mask, &entered, &least, &mut hits, &mut nearest),
                 None => return best, // a malformed tree, or none: stop rather than panic
             },
         };
