@@ -127,13 +127,9 @@ impl IrradianceSh {
     /// other ([`LINK_SEES`]) and their irradiance is within [`LINK_RATIO`].
     #[must_use]
     pub fn project(view: &IrradianceView) -> IrradianceSh {
-        let texels = (view.resolution * view.resolution) as usize;
-        let weights = crate::sh::projection_weights(view.resolution);
-        let coeffs: Vec<[glam::Vec3A; crate::sh::COEFFS]> =
-            view.irradiance.chunks_exact(texels.max(1)).map(|map| crate::sh::project(map, &weights)).collect();
+        let coeffs = coefficients(view);
         let links = links(view, &coeffs);
-        let cell_size = view.geometry.cell_size();
-        IrradianceSh { geometry: view.geometry, slot: view.slot.to_vec(), coeffs, links, cell_size }
+        IrradianceSh::with_links(view, coeffs, links)
     }
 
     /// The coefficients of `view`'s maps with `self`'s links (the same grid): for maps that
@@ -141,7 +137,16 @@ impl IrradianceSh {
     /// the whole irradiance links.
     #[must_use]
     pub fn reproject(&self, view: &IrradianceView) -> IrradianceSh {
-        IrradianceSh { links: self.links.clone(), ..IrradianceSh::project(view) }
+        IrradianceSh::with_links(view, coefficients(view), self.links.clone())
+    }
+
+    fn with_links(
+        view: &IrradianceView,
+        coeffs: Vec<[glam::Vec3A; crate::sh::COEFFS]>,
+        links: Vec<u32>,
+    ) -> IrradianceSh {
+        let cell_size = view.geometry.cell_size();
+        IrradianceSh { geometry: view.geometry, slot: view.slot.to_vec(), coeffs, links, cell_size }
     }
 
     /// Irradiance for unit direction `n` of the cell that contains `position` (finite), if
@@ -264,6 +269,13 @@ impl IrradianceSh {
             }
         }
     }
+}
+
+/// The nine coefficients of every slot of `view`'s irradiance maps.
+fn coefficients(view: &IrradianceView) -> Vec<[glam::Vec3A; crate::sh::COEFFS]> {
+    let texels = (view.resolution * view.resolution) as usize;
+    let weights = crate::sh::projection_weights(view.resolution);
+    view.irradiance.chunks_exact(texels.max(1)).map(|map| crate::sh::project(map, &weights)).collect()
 }
 
 /// [`IrradianceSh::links`] of every cell of `view`, whose slots hold `coeffs`.
