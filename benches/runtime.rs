@@ -1,6 +1,7 @@
-//! The runtime sampler, single-threaded: ns per `specular` sample (mirror and rough) and per
-//! `irradiance` sample, next to `warp1` on the same probe and queries; the load time of the
-//! fitted grid; and its bytes per stored cell (printed).
+//! The runtime sampler, single-threaded: ns per `specular` sample (mirror and rough, in both
+//! quality tiers of `SpecularRead`) and per `irradiance` sample, next to `warp1` on the same
+//! probe and queries; the load time of the fitted grid; and its bytes per stored cell
+//! (printed).
 //!
 //! Uses `fits/torture` (written by `cargo run --release -- run`); if it is missing or
 //! unreadable, fits the torture scene first into a temporary folder (about a minute).
@@ -14,7 +15,7 @@ use common::fitted_torture;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use std::hint::black_box;
-use warpfit::runtime::FittedGrid;
+use warpfit::runtime::{FittedGrid, SpecularRead};
 use warpfit::warp::{self, Method};
 
 fn runtime(c: &mut Criterion) {
@@ -45,17 +46,23 @@ fn runtime(c: &mut Criterion) {
             black_box(acc)
         })
     });
-    // mirror, a rough lookup on the cell's map, one blending the map and the rough map
-    for r in [0.0f32, 0.5, 0.625] {
-        g.bench_function(format!("specular_r{r}"), |b| {
-            b.iter(|| {
-                let mut acc = Vec3::ZERO;
-                for &(p, d) in &q {
-                    acc += grid.specular(p, d, r);
-                }
-                black_box(acc)
-            })
-        });
+    // mirror, a rough lookup on the cell's map, one blending the map and the rough map;
+    // then the rough ones reading probe A alone (`SpecularRead::ProbeOnly`)
+    let probe_only = grid.clone().with_read(SpecularRead::ProbeOnly);
+    let tiers = [(&grid, ""), (&probe_only, "_probe_only")];
+    let cases = |tier: &str| if tier.is_empty() { vec![0.0f32, 0.5, 0.625] } else { vec![0.5, 0.625] };
+    for (grid, tier) in tiers {
+        for r in cases(tier) {
+            g.bench_function(format!("specular{tier}_r{r}"), |b| {
+                b.iter(|| {
+                    let mut acc = Vec3::ZERO;
+                    for &(p, d) in &q {
+                        acc += grid.specular(p, d, r);
+                    }
+                    black_box(acc)
+                })
+            });
+        }
     }
     // The batch APIs on the same queries (`octa::LANES` lookups in lockstep).
     let (positions, directions): (Vec<Vec3>, Vec<Vec3>) = q.iter().copied().unzip();
@@ -68,14 +75,16 @@ fn runtime(c: &mut Criterion) {
             black_box(&out);
         })
     });
-    for r in [0.0f32, 0.5, 0.625] {
-        let roughness = vec![r; q.len()];
-        g.bench_function(format!("specular_batch_r{r}"), |b| {
-            b.iter(|| {
-                grid.specular_batch(&positions, &directions, &roughness, &mut out).unwrap();
-                black_box(&out);
-            })
-        });
+    for (grid, tier) in tiers {
+        for r in cases(tier) {
+            let roughness = vec![r; q.len()];
+            g.bench_function(format!("specular{tier}_batch_r{r}"), |b| {
+                b.iter(|| {
+                    grid.specular_batch(&positions, &directions, &roughness, &mut out).unwrap();
+                    black_box(&out);
+                })
+            });
+        }
     }
     g.bench_function("irradiance", |b| {
         b.iter(|| {

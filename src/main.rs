@@ -116,6 +116,10 @@ enum Command {
         /// Surface normal x,y,z for the irradiance (default: the direction).
         #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
         normal: Option<glam::Vec3>,
+        /// What a rough lookup reads: "blended" (probe A and the cells' irradiance, the
+        /// lowest error) or "probe-only" (probe A alone, cheaper).
+        #[arg(long, default_value = "blended")]
+        read: warpfit::runtime::SpecularRead,
     },
     /// Run the stability suite of stiff and extreme cases; exits non-zero on any failure.
     Stability {
@@ -150,6 +154,10 @@ enum Command {
         /// Where the textures and export.json go.
         #[arg(long)]
         out: PathBuf,
+        /// What the shader's rough lookups read: "blended" (probe A and the cells'
+        /// irradiance) or "probe-only" (probe A alone, cheaper; no blend nodes exported).
+        #[arg(long, default_value = "blended")]
+        read: warpfit::runtime::SpecularRead,
     },
     /// Summarise a fitted grid: contents, bytes per layer, residuals, what was left out.
     Inspect {
@@ -908,8 +916,8 @@ fn run(cli: Cli) -> Result<()> {
                 folder.dir.display()
             );
         }
-        Command::Export { fit, format: ExportFormat::Ktx2, out } => {
-            let grid = FittedGrid::load(&fit)?;
+        Command::Export { fit, format: ExportFormat::Ktx2, out, read } => {
+            let grid = FittedGrid::load(&fit)?.with_read(read);
             let surfaces = warpfit::runtime::load_surface_atlases(&fit)?;
             let _lock = files::staged::FolderLock::acquire(&out)?;
             let s = warpfit::export::export_with_surfaces(&grid, &surfaces, &out)?;
@@ -951,8 +959,8 @@ fn run(cli: Cli) -> Result<()> {
                 folder.dir.display()
             );
         }
-        Command::Sample { fit, pos, dir, roughness, normal } => {
-            let grid = FittedGrid::load(&fit)?;
+        Command::Sample { fit, pos, dir, roughness, normal, read } => {
+            let grid = FittedGrid::load(&fit)?.with_read(read);
             let spec = grid.specular(pos, dir, roughness);
             let v = grid.fetch_vector(pos, dir.normalize_or_zero());
             let g = &grid.correctives.geometry;

@@ -12,7 +12,7 @@ use warpfit::eval::{self, EvalSettings};
 use warpfit::gridfile::{GRID_VERSION, MANIFEST_FILE};
 use warpfit::jobs::run::{self as job, StoreOptions};
 use warpfit::report::folder::RunFolder;
-use warpfit::runtime::{FittedGrid, IrradianceBlend, LoadError, Precision};
+use warpfit::runtime::{FittedGrid, IrradianceBlend, LoadError, Precision, SpecularRead};
 use warpfit::warp::corrective::Blend;
 
 fn tiny() -> PathBuf {
@@ -253,7 +253,8 @@ fn specular_batch_is_bitwise_the_single_call() {
     // Mirror groups take the lane sampler; groups with a rough, black or degenerate query
     // shade per lane; the tail shorter than a group calls `specular`. All must agree bit
     // for bit with `specular`, on the committed grid and on a lit torture grid.
-    for g in [FittedGrid::load(tiny()).unwrap(), FittedGrid::load(&fixture().f32_dir).unwrap()] {
+    let grids = [FittedGrid::load(tiny()).unwrap(), FittedGrid::load(&fixture().f32_dir).unwrap()];
+    for g in grids.into_iter().flat_map(|g| SpecularRead::ALL.map(|read| g.clone().with_read(read))) {
         let lanes = warpfit::octa::LANES;
         let n = lanes * 5 + 3;
         let geo = &g.irradiance.geometry;
@@ -611,6 +612,15 @@ fn rough_lookups_blend_the_cells_irradiance_by_the_stored_weight() {
     g.specular_batch(&p, &d, &r, &mut out).unwrap();
     for k in 0..qs.len() {
         assert_eq!(bits(out[k]), bits(g.specular(p[k], d[k], r[k])), "query {k}");
+    }
+    // read probe A alone, the blending grid answers what the grid without weights does,
+    // single and batched
+    let probe_only = g.clone().with_read(SpecularRead::ProbeOnly);
+    probe_only.specular_batch(&p, &d, &r, &mut out).unwrap();
+    for k in 0..qs.len() {
+        let want = bits(base.specular(p[k], d[k], r[k]));
+        assert_eq!(bits(probe_only.specular(p[k], d[k], r[k])), want, "query {k}");
+        assert_eq!(bits(out[k]), want, "query {k}, batched");
     }
 
     // weights that are not one per row in [0, 1] are refused

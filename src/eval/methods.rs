@@ -5,7 +5,7 @@
 use super::metrics::{error_stats, mean_angle_deg};
 use super::timing;
 use super::validation::ValidationSet;
-use crate::runtime::FittedGrid;
+use crate::runtime::{FittedGrid, SpecularRead};
 use crate::warp::corrective::{Blend, Correctives};
 use crate::warp::glossy::{Aim, Glossy, MipRule};
 use crate::warp::reproject::{HoleFill, reproject_with};
@@ -145,7 +145,10 @@ impl Fetch<'_> {
         match self {
             Fetch::Method(m) => m.name(),
             Fetch::Grid(r) => r.variant.name(),
-            Fetch::Runtime(_) => "runtime",
+            Fetch::Runtime(g) => match g.read {
+                SpecularRead::Blended => "runtime",
+                SpecularRead::ProbeOnly => "runtime-probe-only",
+            },
         }
     }
 
@@ -166,8 +169,12 @@ impl Fetch<'_> {
                     .flat_map(|p| &p.layers)
                     .any(|l| l.precision == crate::runtime::Precision::F16);
                 format!(
-                    "the fitted grid loaded from disk ({}), runtime::FittedGrid::specular with its stored roughness correction",
-                    if f16 { "f16 radiance" } else { "f32" }
+                    "the fitted grid loaded from disk ({}), runtime::FittedGrid::specular with its stored roughness correction{}",
+                    if f16 { "f16 radiance" } else { "f32" },
+                    match g.read {
+                        SpecularRead::Blended => "",
+                        SpecularRead::ProbeOnly => ", probe A alone (SpecularRead::ProbeOnly: no irradiance blend)",
+                    }
                 )
             }
         }
@@ -251,14 +258,16 @@ impl Row<'_> {
 }
 
 /// The rows of one bucket: every method with the given rules, every corrective grid with
-/// them, then the runtime. At roughness 0 the rules coincide, so `rules` is `[Plain]` there.
+/// them, then the runtime (and, on a rough bucket, the runtime reading probe A alone, the
+/// grid in `runtime.1`). At roughness 0 the rules coincide, so `rules` is `[Plain]` there.
 pub fn rows<'a>(
     methods: &[Method],
     grids: &[CorrectiveRow<'a>],
-    runtime: Option<&'a FittedGrid>,
+    runtime: (Option<&'a FittedGrid>, Option<&'a FittedGrid>),
     rules: &[MipRule],
     renorm: Option<&'a Renorm<'a>>,
 ) -> Vec<Row<'a>> {
+    let (runtime, probe_only) = runtime;
     let rough = rules.len() > 1;
     let rule_of = |r: MipRule| rough.then_some(r);
     let mut out = Vec::new();
@@ -269,6 +278,9 @@ pub fn rows<'a>(
         out.extend(rules.iter().map(|&r| Row { fetch: Fetch::Grid(g), rule: rule_of(r), renorm: None }));
     }
     out.extend(runtime.map(|g| Row { fetch: Fetch::Runtime(g), rule: None, renorm: None }));
+    if rough {
+        out.extend(probe_only.map(|g| Row { fetch: Fetch::Runtime(g), rule: None, renorm: None }));
+    }
     // renormalized: the parallax-corrected cubemap engines ship (box, the plain mip) and the
     // runtime, each scaled by the grid's irradiance
     if let Some(n) = renorm {
@@ -281,13 +293,14 @@ pub fn rows<'a>(
 }
 
 /// Probe A's emitted part as every row reads it: the evaluation's warp context and, for the
-/// runtime's rows, the loaded grid, each with probe A's radiance replaced by its emitted
-/// chain (`bake::probe::emitted_mips`), so a row's lookup of it is the emitted part of its
-/// lookup of probe A (fetches read only depth and proxies; reads and mips are linear).
+/// runtime's rows, the loaded grid (in each read, [`SpecularRead::ALL`]'s order), each with
+/// probe A's radiance replaced by its emitted chain (`bake::probe::emitted_mips`), so a
+/// row's lookup of it is the emitted part of its lookup of probe A (fetches read only depth
+/// and proxies; reads and mips are linear).
 #[derive(Clone, Copy)]
 pub struct Emitters<'a> {
     pub shading: Glossy<'a>,
-    pub runtime: Option<&'a FittedGrid>,
+    pub runtime: [Option<&'a FittedGrid>; 2],
 }
 
 /// The emitted part of every lookup of `row` on `set`: zero where the scene has no emitter
@@ -297,7 +310,10 @@ pub fn emitted_estimates(row: &Row, emitters: Option<&Emitters>, set: &Validatio
         return Some(vec![Vec3::ZERO; set.dirs.len()]);
     };
     let row = match row.fetch {
-        Fetch::Runtime(_) => Row { fetch: Fetch::Runtime(em.runtime?), ..*row },
+        Fetch::Runtime(g) => {
+            let read = SpecularRead::ALL.iter().position(|&r| r == g.read)?;
+            Row { fetch: Fetch::Runtime(em.runtime[read]?), ..*row }
+        }
         _ => *row,
     };
     Some(estimates(&row, em.shading, set))

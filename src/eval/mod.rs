@@ -102,6 +102,13 @@ pub struct EvalSettings {
 /// The roughness buckets every row is judged on (perceptual roughness; α = r²).
 pub const ROUGHNESS_BUCKETS: [f32; 6] = [0.0, 0.125, 0.25, 0.5, 0.75, 1.0];
 
+/// Whether a row (by name or label) is the runtime's own, in any read tier, renormalized or
+/// not: the subject of the comparisons, never "the best other row".
+#[must_use]
+pub fn is_runtime(name: &str) -> bool {
+    name.starts_with("runtime")
+}
+
 /// Whether a row (by name or label) is a bound rather than a method (`oracle`, `best-fetch`,
 /// `best-aim`): never on the Pareto front, never "the best other row".
 #[must_use]
@@ -402,9 +409,15 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             (w, grid)
         })
     };
-    let emitters = emitted
-        .as_ref()
-        .map(|(w, g)| methods::Emitters { shading: Glossy { warp: w, correction }, runtime: g.as_ref() });
+    // the runtime reading probe A alone, and its emitted twin
+    let probe_only = |g: &FittedGrid| g.clone().with_read(crate::runtime::SpecularRead::ProbeOnly);
+    let runtime_probe_only = runtime.map(probe_only);
+    let emitted_probe_only = emitted.as_ref().and_then(|(_, g)| g.as_ref().map(probe_only));
+    let runtimes = (runtime, runtime_probe_only.as_ref());
+    let emitters = emitted.as_ref().map(|(w, g)| methods::Emitters {
+        shading: Glossy { warp: w, correction },
+        runtime: [g.as_ref(), emitted_probe_only.as_ref()],
+    });
     let emitters = emitters.as_ref();
     lap(&mut times.emitted);
     let lookups = settings.timing_lookups as usize;
@@ -441,7 +454,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         bar.inc(1);
         bar.set_message(format!("eval: r {r} rows"));
         let rules: &[MipRule] = if r == 0.0 { &[MipRule::Plain] } else { &MipRule::ALL };
-        let rows = methods::rows(methods, corrective_rows, runtime, rules, Some(&renorm));
+        let rows = methods::rows(methods, corrective_rows, runtimes, rules, Some(&renorm));
         let timing = if r == 0.0 { lookups } else { (lookups / 4).max(1) };
         let mut results: Vec<MethodResult> =
             rows.iter().map(|row| methods::evaluate_row(row, (shading, emitters), set, exposure, timing)).collect();
@@ -562,7 +575,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
                     .filter(|m| matches!(m, Method::None | Method::Box | Method::Kdop | Method::Warp1))
                     .collect::<Vec<_>>(),
                 &[],
-                runtime,
+                (runtime, None),
                 &[MipRule::Plain],
                 None,
             );
@@ -742,8 +755,8 @@ fn flip_claim(
     }
 }
 
-/// The camera view's figure for a bucket: the runtime, the best other row costing ≤ 2× warp1
-/// by ꟻLIP, warp1 and box (plain mips), each with its ꟻLIP map.
+/// The camera view's figure for a bucket: the runtime (both read tiers), the best other row
+/// costing ≤ 2× warp1 by ꟻLIP, warp1 and box (plain mips), each with its ꟻLIP map.
 fn flip_figure(
     rows: &[methods::Row],
     results: &[MethodResult],
@@ -754,11 +767,12 @@ fn flip_figure(
     let budget = results.iter().find(|m| m.name == Method::Warp1.name()).map(|m| 2.0 * m.ns_per_lookup)?;
     let best_other = results
         .iter()
-        .filter(|m| m.ns_per_lookup <= budget && m.name != "runtime" && !is_bound(&m.name))
+        .filter(|m| m.ns_per_lookup <= budget && !is_runtime(&m.name) && !is_bound(&m.name))
         .filter(|m| m.flip.is_some())
         .min_by(|a, b| a.flip.unwrap_or(1.0).total_cmp(&b.flip.unwrap_or(1.0)));
     let plain = |m: &MethodResult| m.mip_rule.is_none() || m.mip_rule == Some(MipRule::Plain);
-    let mut wanted: Vec<&MethodResult> = results.iter().filter(|m| m.name == "runtime").collect();
+    let mut wanted: Vec<&MethodResult> =
+        results.iter().filter(|m| m.name == "runtime" || m.name == "runtime-probe-only").collect();
     wanted.extend(best_other);
     for name in [Method::Warp1.name(), Method::Box.name()] {
         wanted.extend(results.iter().find(|m| m.name == name && plain(m)));

@@ -333,10 +333,7 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
         moments,
         irradiance_scale,
         roughness_lookup,
-        irradiance_blend: grid
-            .roughness
-            .as_ref()
-            .map_or(Vec::new(), |r| r.irradiance_nodes().iter().map(|&(r, w)| [r, w]).collect()),
+        irradiance_blend: grid.irradiance_blend_nodes().iter().map(|&(r, w)| [r, w]).collect(),
         shader,
         grid_manifest: grid.manifest.clone(),
         surfaces: Vec::new(),

@@ -162,7 +162,8 @@ pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupport
     let a = atlases;
     out.u([a.corrective.tile_resolution, a.corrective.columns, a.irradiance.tile_resolution, a.irradiance.columns]);
     out.u([a.moments.tile_resolution, a.moments.columns, a.scale.tile_resolution, a.scale.columns]);
-    let nodes = grid.roughness.as_ref().map_or(&[][..], |r| r.irradiance_nodes());
+    // none for a grid read as probe A alone: the shader's weight is 0 without nodes
+    let nodes = grid.irradiance_blend_nodes();
     if nodes.len() > MAX_BLEND_NODES {
         return Err(Unsupported(format!(
             "{} irradiance blend nodes; the shader holds up to {MAX_BLEND_NODES}",

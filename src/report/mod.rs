@@ -78,7 +78,9 @@ pub fn summary_table(r: &EvalReport) -> String {
         let best = rows
             .iter()
             .copied()
-            .filter(|m| m.ns_per_lookup <= budget && m.name != "runtime" && !crate::eval::is_bound(&m.name))
+            .filter(|m| {
+                m.ns_per_lookup <= budget && !crate::eval::is_runtime(&m.name) && !crate::eval::is_bound(&m.name)
+            })
             .min_by(|a, b| key(a).total_cmp(&key(b)));
         let cell = |m: Option<&crate::eval::MethodResult>| m.map_or("–".into(), fmt);
         let _ = writeln!(

@@ -22,6 +22,9 @@
 //!   the position into the lattice of cell centres.
 //! - Results are always finite and ≥ 0 (the payloads are validated on load).
 //! - `FittedGrid` is `Send + Sync` and immutable; sampling never allocates.
+//! - Rough lookups come in two quality tiers ([`SpecularRead`]): blended with the cells'
+//!   irradiance (loaded) or probe A alone (`grid.with_read(SpecularRead::ProbeOnly)`),
+//!   cheaper and less exact; mirror lookups are the same in both.
 //!
 //! A run of a scene with `[[surface_probes]]` also writes each patch's atlas (seed 003) in
 //! `surface{k}/`; [`load_surface_atlas`] reads it, and `SurfaceAtlas::radiance(p, dir, r)`
@@ -62,6 +65,49 @@ pub struct FittedGrid {
     pub roughness: Option<RoughnessCorrection>,
     /// The manifest the grid was loaded from (conventions, provenance, residuals).
     pub manifest: GridManifest,
+    /// What a rough lookup reads: [`SpecularRead::Blended`] (loaded) or the cheaper
+    /// [`SpecularRead::ProbeOnly`] ([`FittedGrid::with_read`]).
+    pub read: SpecularRead,
+}
+
+/// What a rough specular lookup reads: a quality tier chosen once per grid.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum SpecularRead {
+    /// Probe A through the fitted warp and roughness correction, blended with the
+    /// irradiance harmonics of the cells around the point by the weight the fit stored for
+    /// the roughness: the lowest error, what `warpfit run` evaluates as `runtime`.
+    #[default]
+    Blended,
+    /// Probe A alone through the same warp and roughness correction, without the
+    /// irradiance blend: a rough lookup costs about what a mirror one does, and loses the
+    /// blend's gain (the evaluation's `runtime-probe-only` row). Mirror lookups are the
+    /// same in both tiers.
+    ProbeOnly,
+}
+
+impl SpecularRead {
+    /// Both tiers, the default first.
+    pub const ALL: [SpecularRead; 2] = [SpecularRead::Blended, SpecularRead::ProbeOnly];
+
+    /// The name the command line and the evaluation use.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            SpecularRead::Blended => "blended",
+            SpecularRead::ProbeOnly => "probe-only",
+        }
+    }
+}
+
+impl std::str::FromStr for SpecularRead {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        SpecularRead::ALL
+            .into_iter()
+            .find(|r| r.name() == s)
+            .ok_or_else(|| format!("unknown specular read {s:?} (blended, probe-only)"))
+    }
 }
 
 /// A valid specular query: position (finite), unit direction, roughness in [0, 1].
@@ -85,7 +131,35 @@ impl FittedGrid {
             irradiance: d.irradiance,
             roughness: d.roughness,
             manifest: d.manifest,
+            read: SpecularRead::Blended,
         })
+    }
+
+    /// The grid reading rough lookups as `read` says.
+    #[must_use]
+    pub fn with_read(self, read: SpecularRead) -> FittedGrid {
+        FittedGrid { read, ..self }
+    }
+
+    /// The irradiance blend's weight at perceptual roughness `r`: the stored one, 0 without
+    /// a roughness correction or when this grid reads probe A alone.
+    #[inline]
+    fn irradiance_weight(&self, r: f32) -> f32 {
+        match (&self.roughness, self.read) {
+            (Some(c), SpecularRead::Blended) => c.irradiance_weight(r),
+            _ => 0.0,
+        }
+    }
+
+    /// The (perceptual roughness, weight) nodes of the irradiance blend this grid's rough
+    /// lookups apply (`RoughnessCorrection::irradiance_nodes`): none when it reads probe A
+    /// alone. What an export hands the shader.
+    #[must_use]
+    pub fn irradiance_blend_nodes(&self) -> &[(f32, f32)] {
+        match (&self.roughness, self.read) {
+            (Some(c), SpecularRead::Blended) => c.irradiance_nodes(),
+            _ => &[],
+        }
     }
 
     /// Fetch vector of probe A for the query (unit `dir`): exactly what the fit evaluated.
@@ -97,7 +171,9 @@ impl FittedGrid {
     }
 
     /// Radiance reflected towards `dir` from `position` for perceptual roughness `roughness`:
-    /// the fitted warp picks where to read probe A, the roughness correction picks the mip.
+    /// the fitted warp picks where to read probe A, the roughness correction picks the mip,
+    /// and a rough lookup blends in the irradiance around the point unless the grid reads
+    /// probe A alone ([`FittedGrid::read`]).
     #[inline]
     #[must_use]
     pub fn specular(&self, position: Vec3, direction: Vec3, roughness: f32) -> Vec3 {
@@ -141,7 +217,7 @@ impl FittedGrid {
     /// query and in a cell without irradiance.
     #[inline]
     fn irradiance_blend(&self, q: SpecularQuery) -> Option<(Vec3, f32)> {
-        let w = self.roughness.as_ref().map_or(0.0, |c| c.irradiance_weight(q.r));
+        let w = self.irradiance_weight(q.r);
         if !(w > 0.0) {
             return None;
         }
@@ -184,8 +260,7 @@ impl FittedGrid {
             // probe A's part, then the irradiance blend lane by lane (`irradiance_blend`)
             let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &r);
             let mut out = corrected_lanes(&self.warp.probe, self.roughness.as_ref(), &r, &v, &ratio);
-            let w: [f32; octa::LANES] =
-                std::array::from_fn(|k| self.roughness.as_ref().map_or(0.0, |c| c.irradiance_weight(r[k])));
+            let w: [f32; octa::LANES] = std::array::from_fn(|k| self.irradiance_weight(r[k]));
             if w.iter().any(|&w| w > 0.0) {
                 self.irradiance_sh.mix_lanes(b, dir, &w, &mut out);
             }
