@@ -206,6 +206,23 @@ fn an_evaluation_judges_every_row_at_every_bucket() {
     let out = Output { folder: &folder, command: "test", progress: &Progress::quiet() };
     let methods = [warpfit::warp::Method::None, warpfit::warp::Method::Box, warpfit::warp::Method::Warp1];
     let report = job::evaluate(baked, &fixture.warp, &settings, &methods, Some(&fixture.fit), out).unwrap();
+    // the runtime in every bucket; its probe-only tier in every rough one, where it is the
+    // stored maps with the stored correction, which the `fitted/corrected` row reads too
+    for &r in &warpfit::eval::ROUGHNESS_BUCKETS {
+        let row = |name: &str| report.methods.iter().find(|m| m.roughness == r && m.name == name);
+        assert!(row("runtime").is_some(), "r {r}: no runtime row");
+        let tier = row("runtime-probe-only");
+        assert_eq!(tier.is_some(), r > 0.0, "r {r}: the probe-only row belongs to the rough buckets");
+        if let Some(tier) = tier {
+            let fitted = report
+                .methods
+                .iter()
+                .find(|m| m.roughness == r && m.label() == "fitted/corrected")
+                .expect("the fitted row");
+            assert!((tier.tm_rmse - fitted.tm_rmse).abs() <= 1e-9 * fitted.tm_rmse, "r {r}: {tier:?} vs {fitted:?}");
+            assert!(tier.flip.is_some_and(f64::is_finite), "{tier:?}");
+        }
+    }
     assert_eq!(report.surface.len(), 1);
     let sr = &report.surface[0];
     assert!(sr.points > 0 && sr.bytes > 0 && sr.camera.is_some());
