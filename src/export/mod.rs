@@ -78,7 +78,8 @@ pub struct Sidecar {
     /// weight) nodes by increasing roughness, the weight linear in r between them (the
     /// first node's below, the last one's beyond; 0 at r = 0); a lookup is
     /// `probe·(1 − w) + E(dir)/π·w` with E the `irradiance` tile of the cell containing the
-    /// point, where that cell has one. Empty: probe A alone.
+    /// point, where that cell has one. Empty: probe A alone (a grid fitted without the
+    /// blend, or exported to read probe A alone: `SpecularRead::ProbeOnly`).
     pub irradiance_blend: Vec<[f32; 2]>,
     /// The reference shader and its buffers.
     pub shader: ShaderSection,
