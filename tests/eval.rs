@@ -72,6 +72,9 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
     // (best-aim only searches the query's own ray: a lookup with no error can beat it, and
     // its ceiling can pass 1)
     assert!(c.ceiling_aim.is_finite(), "{c:?}");
+    // the exact fetch towards the true hit, scored the same way
+    let (o, (f, g)) = (c.oracle.expect("the oracle's row"), c.oracle_gap_quiet.expect("the oracle's shares"));
+    assert!(o.0.is_finite() && o.1.is_finite() && f.is_finite() && g.is_finite(), "{c:?}");
     assert!(report.buckets[1..].iter().all(|b| b.noise_ceiling.is_none()));
     assert!(std::fs::read_to_string(dir.join("eval.md")).unwrap().contains("The references' own noise at r = 0"));
     // plus reproject-dilate at roughness 0, and the renormalized box row and the two bounds

@@ -243,17 +243,22 @@ pub struct NoiseCeiling {
     /// `none` → `best-fetch` and → `best-aim` gaps against the quiet references.
     pub champion: Option<(String, f64, f64)>,
     pub champion_gap_quiet: Option<(f64, f64)>,
+    /// The same for `oracle`, the exact fetch towards the true hit: how much of those gaps
+    /// a geometrically exact single fetch closes (absent in files written before it).
+    #[serde(default)]
+    pub oracle: Option<(f64, f64)>,
+    #[serde(default)]
+    pub oracle_gap_quiet: Option<(f64, f64)>,
 }
 
 /// The [`NoiseCeiling`] of `set` on the queries `quiet` traced again (its first queries,
-/// the same directions; `None` if they are not), given the `none` row's and the champion's
-/// estimates for them.
+/// the same directions; `None` if they are not), given the `none` row's, the champion's
+/// and the oracle's estimates for them.
 pub fn noise_ceiling(
     warp: &Warp,
     set: &ValidationSet,
     (quiet, spp): (&crate::trace::truth::TracedQueries, u32),
-    none: &[Vec3],
-    champion: Option<(String, Vec<Vec3>)>,
+    (none, champion, oracle): (&[Vec3], Option<(String, Vec<Vec3>)>, Option<Vec<Vec3>>),
     exposure: f32,
 ) -> Option<NoiseCeiling> {
     let n = quiet.dirs.len();
@@ -277,8 +282,10 @@ pub fn noise_ceiling(
         let (a, b) = both(&e);
         (name, a, b)
     });
-    let champion_gap_quiet =
-        champion.as_ref().map(|c| (share(none.1, c.2, best_fetch.1), share(none.1, c.2, best_aim.1)));
+    let gaps = |quiet: f64| (share(none.1, quiet, best_fetch.1), share(none.1, quiet, best_aim.1));
+    let champion_gap_quiet = champion.as_ref().map(|c| gaps(c.2));
+    let oracle = oracle.filter(|e| e.len() == n).map(|e| both(&e));
+    let oracle_gap_quiet = oracle.map(|o| gaps(o.1));
     Some(NoiseCeiling {
         queries: n,
         spp,
@@ -290,5 +297,7 @@ pub fn noise_ceiling(
         ceiling_aim: share(none.0, reference_vs_quiet, best_aim.0),
         champion,
         champion_gap_quiet,
+        oracle,
+        oracle_gap_quiet,
     })
 }

@@ -56,8 +56,8 @@ pub struct MethodResult {
     /// lookups in lockstep), for methods that have one.
     #[serde(default)]
     pub ns_per_lookup_batched: Option<f64>,
-    /// Share of the `none` → `best-fetch` gap in tone-mapped RMSE the row closes (1: as good
-    /// as the best single fetch).
+    /// Share of the `none` → `best-aim` gap in tone-mapped RMSE the row closes (1: as good
+    /// as the best point on the query's ray; `bound::set_gap_closed`).
     #[serde(default)]
     pub gap_closed: Option<f64>,
     pub note: String,

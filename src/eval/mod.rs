@@ -717,8 +717,9 @@ fn rescore(
     bound::set_gap_closed(results);
 }
 
-/// The bucket's [`bound::NoiseCeiling`] on the queries `quiet` traced again: `none` and the
-/// claim's champion (`label`, when it is a row) estimated as their rows answer.
+/// The bucket's [`bound::NoiseCeiling`] on the queries `quiet` traced again: `none`, the
+/// claim's champion (`label`, when it is a row) and the oracle estimated as their rows
+/// answer.
 fn noise_ceiling(
     set: &ValidationSet,
     quiet: (&crate::trace::truth::TracedQueries, u32),
@@ -732,7 +733,8 @@ fn noise_ceiling(
     let on_quiet = |row: &methods::Row| methods::estimates_of_first(row, shading, set, n);
     let none = on_quiet(row(Method::None.name())?);
     let champion = row(champion).map(|r| (r.name(), on_quiet(r)));
-    bound::noise_ceiling(shading.warp, set, quiet, &none, champion, exposure)
+    let oracle = row(Method::Oracle.name()).map(on_quiet);
+    bound::noise_ceiling(shading.warp, set, quiet, (&none, champion, oracle), exposure)
 }
 
 /// The ꟻLIP claim of the champion's row `a` against the challenger's row and label, with

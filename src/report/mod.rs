@@ -230,6 +230,11 @@ pub fn buckets_table(r: &EvalReport) -> String {
                     ", {name} {a:.4} / {q:.4}: against the quiet references it closes {f:.2} of the none → best-fetch gap and {g:.2} of the none → best-aim gap"
                 ),
                 _ => String::new(),
+            } + &match (c.oracle, c.oracle_gap_quiet) {
+                (Some((a, q)), Some((f, g))) => format!(
+                    "; the oracle, the exact fetch towards the true hit, {a:.4} / {q:.4}: it closes {f:.2} of the none → best-fetch gap and {g:.2} of the none → best-aim gap"
+                ),
+                _ => String::new(),
             },
             c.reference_vs_quiet,
             c.ceiling_fetch,
