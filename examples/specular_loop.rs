@@ -5,12 +5,13 @@
 //!     cargo build --profile profiling --example specular_loop
 //!     valgrind --tool=callgrind --toggle-collect='*specular_batch*' \
 //!         target/profiling/examples/specular_loop fits/torture 0.5 20
-//!     target/profiling/examples/specular_loop fits/torture 0.5 300 [percall] [plain]
+//!     target/profiling/examples/specular_loop fits/torture 0.5 300 [percall] [plain] [probe-only]
 //!
 //! Arguments: a fitted grid folder, the roughness of every query, the passes; `percall`
 //! calls `specular` once per query instead of the batch API; `plain` drops the grid's
 //! roughness correction after loading (the mip of plain r), to see what the correction
-//! costs. Prints ns per lookup (one timed run of all passes).
+//! costs; `probe-only` reads probe A alone (`SpecularRead::ProbeOnly`), to see what the
+//! irradiance blend costs. Prints ns per lookup (one timed run of all passes).
 
 #[path = "../benches/common/mod.rs"]
 #[allow(dead_code)]
@@ -22,7 +23,7 @@ use warpfit::runtime::FittedGrid;
 
 fn main() -> Result<(), String> {
     let args: Vec<String> = std::env::args().collect();
-    let usage = "usage: specular_loop FIT_DIR ROUGHNESS PASSES [percall] [plain]";
+    let usage = "usage: specular_loop FIT_DIR ROUGHNESS PASSES [percall] [plain] [probe-only]";
     let dir = args.get(1).ok_or(usage)?;
     let r: f32 = args.get(2).ok_or(usage)?.parse().map_err(|e| format!("roughness: {e}"))?;
     let passes: usize = args.get(3).ok_or(usage)?.parse().map_err(|e| format!("passes: {e}"))?;
@@ -31,6 +32,9 @@ fn main() -> Result<(), String> {
     let mut grid = FittedGrid::load(dir).map_err(|e| e.to_string())?;
     if flag("plain") {
         grid.roughness = None;
+    }
+    if flag("probe-only") {
+        grid = grid.with_read(warpfit::runtime::SpecularRead::ProbeOnly);
     }
     let (positions, directions): (Vec<Vec3>, Vec<Vec3>) = common::queries(&grid, 64, 256).into_iter().unzip();
     let roughness = vec![r; positions.len()];
