@@ -258,7 +258,9 @@ pub fn noise_ceiling(
     warp: &Warp,
     set: &ValidationSet,
     (quiet, spp): (&crate::trace::truth::TracedQueries, u32),
-    (none, champion, oracle): (&[Vec3], Option<(String, Vec<Vec3>)>, Option<Vec<Vec3>>),
+    none: &[Vec3],
+    champion: Option<(String, Vec<Vec3>)>,
+    oracle: Option<Vec<Vec3>>,
     exposure: f32,
 ) -> Option<NoiseCeiling> {
     let n = quiet.dirs.len();

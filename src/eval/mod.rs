@@ -734,7 +734,7 @@ fn noise_ceiling(
     let none = on_quiet(row(Method::None.name())?);
     let champion = row(champion).map(|r| (r.name(), on_quiet(r)));
     let oracle = row(Method::Oracle.name()).map(on_quiet);
-    bound::noise_ceiling(shading.warp, set, quiet, (&none, champion, oracle), exposure)
+    bound::noise_ceiling(shading.warp, set, quiet, &none, champion, oracle, exposure)
 }
 
 /// The ꟻLIP claim of the champion's row `a` against the challenger's row and label, with
