@@ -357,6 +357,12 @@ pub fn evaluate(
         logs.iter().map(|l| (l - mean) * (l - mean)).sum::<f64>() / n
     };
     let shown = (0..cams.len()).max_by(|&a, &b| contrast(a).total_cmp(&contrast(b)));
+    // each camera's reference side of ꟻLIP, found once for every row
+    let flip_refs: Vec<flip::FlipReference> = cams
+        .iter()
+        .zip(&refs)
+        .map(|(v, (reference, _))| flip::FlipReference::new(reference, v.width, v.height, exposure))
+        .collect();
     let mut figure = shown.map(|k| (&cams[k], &refs[k])).map(|(v, (reference, _))| super::FlipFigure {
         roughness: 1.0,
         diffuse: true,
@@ -380,7 +386,7 @@ pub fn evaluate(
         });
         let flip = (!cams.is_empty()).then(|| {
             let (mut sum, mut px) = (0.0, 0usize);
-            for (i, (view, (reference, _))) in cams.iter().zip(&refs).enumerate() {
+            for (i, (view, flip_ref)) in cams.iter().zip(&flip_refs).enumerate() {
                 let img: Vec<Vec3> = view
                     .surfaces()
                     .par_iter()
@@ -389,7 +395,7 @@ pub fn evaluate(
                         Err(bg) => bg,
                     })
                     .collect();
-                let map = flip::flip_hdr(reference, &img, view.width, view.height, exposure);
+                let map = flip_ref.error_map(&img);
                 sum += flip::mean(&map) * map.len() as f64;
                 px += map.len();
                 if let (Some(f), Some(label)) = (figure.as_mut().filter(|_| Some(i) == shown), m.figure_label()) {

@@ -350,6 +350,11 @@ pub fn evaluate(
                     tiles: Vec::new(),
                 }
             });
+        // the view reference's side of ꟻLIP, found once for every row
+        let flip_ref = view_ref
+            .as_ref()
+            .zip(view.as_ref())
+            .map(|((reference, _), v)| flip::FlipReference::new(reference, v.width, v.height, exposure));
         for m in methods {
             let est: Vec<Vec3> = (0..queries.dirs.len())
                 .into_par_iter()
@@ -364,7 +369,7 @@ pub fn evaluate(
                 }
                 std::hint::black_box(acc);
             });
-            let flip = view_ref.as_ref().zip(view.as_ref()).map(|((reference, _), v)| {
+            let flip = flip_ref.as_ref().zip(view.as_ref()).map(|(flip_ref, v)| {
                 let image: Vec<Vec3> = v
                     .pixels
                     .par_iter()
@@ -373,7 +378,7 @@ pub fn evaluate(
                         Err(c) => c,
                     })
                     .collect();
-                let map = flip::flip_hdr(reference, &image, v.width, v.height, exposure);
+                let map = flip_ref.error_map(&image);
                 let mean = patch_mean(v, &map);
                 if let Some(f) = figure.as_mut() {
                     f.tiles.push((m.name(), image, map, mean));

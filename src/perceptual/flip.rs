@@ -13,7 +13,10 @@
 //! tone-mapped (Reinhard, `tonemap`) at three exposures, two stops below, at and above the
 //! scene's key, and each pixel keeps its largest LDR-ꟻLIP error over the three (HDR-ꟻLIP's
 //! rule, with three fixed exposures instead of its automatic range). Errors lie in [0, 1]; a
-//! lamp in view saturates like it does on a screen instead of ruling the mean.
+//! lamp in view saturates like it does on a screen instead of ruling the mean. What one
+//! image contributes to a comparison (its filtered colour in Lab and its feature
+//! magnitudes) depends on that image alone, so a reference compared with many images has
+//! its side found once ([`FlipReference`]), the maps bit for bit those of each pair.
 
 #![allow(clippy::excessive_precision, clippy::unreadable_literal)]
 
@@ -186,10 +189,48 @@ pub fn flip_ldr(reference: &[u8], test: &[u8], width: u32, height: u32) -> Vec<f
     if n == 0 || reference.len() < 3 * n || test.len() < 3 * n {
         return vec![0.0; n];
     }
-    let (r, t) = (Planes::ycxcz(reference, n), Planes::ycxcz(test, n));
-    let ppd = PIXELS_PER_DEGREE;
-    let colour = colour_difference(&r, &t, w, h, &spatial_filters(ppd));
-    feature_difference_and_error(&r.0[0], &t.0[0], w, h, &feature_filter(ppd), colour)
+    Side::of(reference, w, h).error_against(&Side::of(test, w, h))
+}
+
+/// What LDR-ꟻLIP compares of one image, per pixel: its spatially filtered colour in
+/// Hunt-adjusted CIELab, and the magnitudes of its edge and point features on Y. The
+/// reference's side of a comparison is the same for every test image, so it is found once
+/// ([`FlipReference`]).
+#[derive(Clone, Debug)]
+struct Side {
+    lab: Vec<[f32; 3]>,
+    edge: Vec<f32>,
+    point: Vec<f32>,
+}
+
+impl Side {
+    /// The side of an 8-bit sRGB image of `w × h` (at least `3·w·h` bytes).
+    fn of(img: &[u8], w: usize, h: usize) -> Side {
+        let planes = Planes::ycxcz(img, w * h);
+        let ppd = PIXELS_PER_DEGREE;
+        let lab = filtered_lab(&planes, w, &spatial_filters(ppd));
+        let (edge, point) = features(&planes.0[0], w, &feature_filter(ppd));
+        Side { lab, edge, point }
+    }
+
+    /// The error map of `test` against `self` (the reference): the colour difference
+    /// remapped to [0, 1], raised to `1 − feature difference`.
+    fn error_against(&self, test: &Side) -> Vec<f32> {
+        let cmax = max_distance();
+        let pccmax = GPC * cmax;
+        let norm = 1.0 / 2.0f32.sqrt();
+        (0..self.lab.len())
+            .map(|p| {
+                let d = libm::powf(hyab(self.lab[p], test.lab[p]), GQC);
+                let colour =
+                    if d < pccmax { d * (GPT / pccmax) } else { GPT + ((d - pccmax) / (cmax - pccmax)) * (1.0 - GPT) };
+                let de = (self.edge[p] - test.edge[p]).abs();
+                let dp = (self.point[p] - test.point[p]).abs();
+                let feature = libm::powf(norm * de.max(dp), GQF);
+                libm::powf(colour, 1.0 - feature)
+            })
+            .collect()
+    }
 }
 
 /// An image's Y, Cx and Cz planes.
@@ -252,79 +293,92 @@ fn filter_y(src: &[f32], w: usize, taps: &[f32]) -> Vec<f32> {
     out
 }
 
-/// Spatially filtered colour difference per pixel, remapped to [0, 1].
-fn colour_difference(r: &Planes, t: &Planes, w: usize, h: usize, taps: &[([f32; 2], [f32; 2])]) -> Vec<f32> {
-    let cmax = max_distance();
-    let pccmax = GPC * cmax;
+/// Each pixel's spatially filtered colour in Hunt-adjusted CIELab: Y with Y's filter, Cx
+/// with Cx's, Cz with each of its two Gaussians, along x then y.
+fn filtered_lab(p: &Planes, w: usize, taps: &[([f32; 2], [f32; 2])]) -> Vec<[f32; 3]> {
     let tap = |i: usize| -> Vec<f32> { taps.iter().map(|(ycx, cz)| [ycx[0], ycx[1], cz[0], cz[1]][i]).collect() };
     let (w_y, w_cx, w_cz1, w_cz2) = (tap(0), tap(1), tap(2), tap(3));
-    // Y with Y's filter, Cx with Cx's, Cz with each of its two Gaussians; along x, then y
-    let filtered = |p: &Planes| -> [Vec<f32>; 4] {
-        [(&p.0[0], &w_y), (&p.0[1], &w_cx), (&p.0[2], &w_cz1), (&p.0[2], &w_cz2)]
-            .map(|(plane, taps)| filter_y(&filter_x(plane, w, taps), w, taps))
-    };
-    let (fr, ft) = (filtered(r), filtered(t));
-    let to_lab = |f: &[Vec<f32>; 4], p: usize| {
-        let rgb = xyz_to_linear_rgb(ycxcz_to_xyz([f[0][p], f[1][p], f[2][p] + f[3][p]]));
-        lab_hunt(rgb.map(|v| v.clamp(0.0, 1.0)))
-    };
-    (0..w * h)
-        .map(|p| {
-            let d = libm::powf(hyab(to_lab(&fr, p), to_lab(&ft, p)), GQC);
-            if d < pccmax { d * (GPT / pccmax) } else { GPT + ((d - pccmax) / (cmax - pccmax)) * (1.0 - GPT) }
+    let f = [(&p.0[0], &w_y), (&p.0[1], &w_cx), (&p.0[2], &w_cz1), (&p.0[2], &w_cz2)]
+        .map(|(plane, taps)| filter_y(&filter_x(plane, w, taps), w, taps));
+    (0..p.0[0].len())
+        .map(|q| {
+            let rgb = xyz_to_linear_rgb(ycxcz_to_xyz([f[0][q], f[1][q], f[2][q] + f[3][q]]));
+            lab_hunt(rgb.map(|v| v.clamp(0.0, 1.0)))
         })
         .collect()
 }
 
-/// Edge and point feature differences on the Y planes, and the final error
-/// `colour^(1 − feature)`.
-fn feature_difference_and_error(
-    r: &[f32],
-    t: &[f32],
-    w: usize,
-    h: usize,
-    taps: &[[f32; 3]],
-    colour: Vec<f32>,
-) -> Vec<f32> {
+/// Each pixel's edge and point feature magnitudes on the Y plane `y` (rows of `w`):
+/// x-derivatives along x then the Gaussian along y; the Gaussian along x then
+/// y-derivatives along y.
+fn features(plane: &[f32], w: usize, taps: &[[f32; 3]]) -> (Vec<f32>, Vec<f32>) {
     let (one_over_116, sixteen_over_116) = (1.0f32 / 116.0, 16.0f32 / 116.0);
     let (g, dg, ddg): (Vec<f32>, Vec<f32>, Vec<f32>) =
         (taps.iter().map(|f| f[0]).collect(), taps.iter().map(|f| f[1]).collect(), taps.iter().map(|f| f[2]).collect());
-    // per image: x-derivatives along x then Gaussian along y; Gaussian along x then
-    // y-derivatives along y
-    let features = |plane: &[f32]| -> [Vec<f32>; 4] {
-        let y: Vec<f32> = plane.iter().map(|&v| v * one_over_116 + sixteen_over_116).collect();
-        let (dx, ddx, gx) = (filter_x(&y, w, &dg), filter_x(&y, w, &ddg), filter_x(&y, w, &g));
-        [filter_y(&dx, w, &g), filter_y(&ddx, w, &g), filter_y(&gx, w, &dg), filter_y(&gx, w, &ddg)]
-    };
-    let ([dx_r, ddx_r, dy_r, ddy_r], [dx_t, ddx_t, dy_t, ddy_t]) = (features(r), features(t));
-    let norm = 1.0 / 2.0f32.sqrt();
-    let mut out = colour;
-    for p in 0..w * h {
-        let edge_r = (dx_r[p] * dx_r[p] + dy_r[p] * dy_r[p]).sqrt();
-        let edge_t = (dx_t[p] * dx_t[p] + dy_t[p] * dy_t[p]).sqrt();
-        let point_r = (ddx_r[p] * ddx_r[p] + ddy_r[p] * ddy_r[p]).sqrt();
-        let point_t = (ddx_t[p] * ddx_t[p] + ddy_t[p] * ddy_t[p]).sqrt();
-        let feature = libm::powf(norm * (edge_r - edge_t).abs().max((point_r - point_t).abs()), GQF);
-        out[p] = libm::powf(out[p], 1.0 - feature);
+    let y: Vec<f32> = plane.iter().map(|&v| v * one_over_116 + sixteen_over_116).collect();
+    let (dx, ddx, gx) = (filter_x(&y, w, &dg), filter_x(&y, w, &ddg), filter_x(&y, w, &g));
+    let (dx, ddx, dy, ddy) =
+        (filter_y(&dx, w, &g), filter_y(&ddx, w, &g), filter_y(&gx, w, &dg), filter_y(&gx, w, &ddg));
+    let edge = dx.iter().zip(&dy).map(|(&x, &y)| (x * x + y * y).sqrt()).collect();
+    let point = ddx.iter().zip(&ddy).map(|(&x, &y)| (x * x + y * y).sqrt()).collect();
+    (edge, point)
+}
+
+/// The reference side of HDR-ꟻLIP comparisons ([`flip_hdr`]), found once for a reference
+/// image and an exposure: at each of [`EXPOSURE_STOPS`], what LDR-ꟻLIP compares of the
+/// tone-mapped reference. [`FlipReference::error_map`] of any test image is then
+/// `flip_hdr` of the two, bit for bit, for half the work.
+#[derive(Clone, Debug)]
+pub struct FlipReference {
+    width: u32,
+    height: u32,
+    exposure: f32,
+    stops: Vec<Side>,
+}
+
+impl FlipReference {
+    /// The reference side of `reference` (`width × height` linear radiance) at `exposure`.
+    #[must_use]
+    pub fn new(reference: &[Vec3], width: u32, height: u32, exposure: f32) -> FlipReference {
+        assert_eq!(reference.len(), (width * height) as usize, "reference image size");
+        let (w, h) = (width as usize, height as usize);
+        let stops = if w * h == 0 {
+            Vec::new()
+        } else {
+            EXPOSURE_STOPS.iter().map(|&s| Side::of(&to_srgb8(reference, exposure * libm::exp2f(s)), w, h)).collect()
+        };
+        FlipReference { width, height, exposure, stops }
     }
-    out
+
+    /// The exposure the reference was prepared at.
+    #[must_use]
+    pub fn exposure(&self) -> f32 {
+        self.exposure
+    }
+
+    /// Per-pixel HDR error map of `test` (linear radiance, the reference's size): the
+    /// largest LDR-ꟻLIP error over the exposure stops.
+    #[must_use]
+    pub fn error_map(&self, test: &[Vec3]) -> Vec<f32> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        assert_eq!(test.len(), w * h, "test image size");
+        let mut out = vec![0.0f32; w * h];
+        for (side, &s) in self.stops.iter().zip(&EXPOSURE_STOPS) {
+            let map = side.error_against(&Side::of(&to_srgb8(test, self.exposure * libm::exp2f(s)), w, h));
+            for (o, m) in out.iter_mut().zip(map) {
+                *o = o.max(if m.is_finite() { m } else { 1.0 });
+            }
+        }
+        out
+    }
 }
 
 /// Per-pixel HDR error map (largest LDR-ꟻLIP over [`EXPOSURE_STOPS`] around `exposure`) of
 /// linear radiance images.
 #[must_use]
 pub fn flip_hdr(reference: &[Vec3], test: &[Vec3], width: u32, height: u32, exposure: f32) -> Vec<f32> {
-    assert_eq!(reference.len(), (width * height) as usize, "reference image size");
     assert_eq!(test.len(), reference.len(), "test image size");
-    let mut out = vec![0.0f32; reference.len()];
-    for stops in EXPOSURE_STOPS {
-        let e = exposure * libm::exp2f(stops);
-        let map = flip_ldr(&to_srgb8(reference, e), &to_srgb8(test, e), width, height);
-        for (o, m) in out.iter_mut().zip(map) {
-            *o = o.max(if m.is_finite() { m } else { 1.0 });
-        }
-    }
-    out
+    FlipReference::new(reference, width, height, exposure).error_map(test)
 }
 
 /// Mean of an error map.
@@ -388,6 +442,37 @@ mod tests {
         let img: Vec<Vec3> = (0..32 * 16).map(|k| Vec3::new((k % 32) as f32 / 8.0, (k / 32) as f32, 0.5)).collect();
         let map = flip_hdr(&img, &img, 32, 16, 1.0);
         assert!(map.iter().all(|&x| x == 0.0));
+    }
+
+    /// One reference side serves every test image: each map is the one a fresh pair gives,
+    /// and the side is not changed by use (the evaluation prepares a view's once for all
+    /// its rows).
+    #[test]
+    fn a_prepared_reference_answers_as_each_fresh_pair_does() {
+        let (w, h) = (24u32, 20u32);
+        let img: Vec<Vec3> =
+            (0..w * h).map(|k| Vec3::new((k % w) as f32 / 6.0, (k / w) as f32 / 9.0, ((k * 7) % 5) as f32)).collect();
+        let prepared = FlipReference::new(&img, w, h, 0.8);
+        for scale in [1.0f32, 0.5, 3.0, 1.02, 1.0] {
+            let test: Vec<Vec3> =
+                img.iter().enumerate().map(|(k, c)| *c * scale + Vec3::splat((k % 3) as f32 * 0.01)).collect();
+            let fresh = flip_ldr_hdr_pairwise(&img, &test, w, h, 0.8);
+            assert_eq!(prepared.error_map(&test), fresh, "scale {scale}");
+        }
+    }
+
+    /// `flip_hdr` as it was written before the reference side could be prepared: both
+    /// images through [`flip_ldr`] at each stop.
+    fn flip_ldr_hdr_pairwise(reference: &[Vec3], test: &[Vec3], w: u32, h: u32, exposure: f32) -> Vec<f32> {
+        let mut out = vec![0.0f32; reference.len()];
+        for stops in EXPOSURE_STOPS {
+            let e = exposure * libm::exp2f(stops);
+            let map = flip_ldr(&to_srgb8(reference, e), &to_srgb8(test, e), w, h);
+            for (o, m) in out.iter_mut().zip(map) {
+                *o = o.max(if m.is_finite() { m } else { 1.0 });
+            }
+        }
+        out
     }
 
     #[test]

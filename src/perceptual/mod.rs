@@ -100,6 +100,9 @@ pub struct ViewReference {
     /// Mean ꟻLIP between the references traced from the two halves of the samples: the
     /// references' own noise as ꟻLIP sees it (each half noisier than the whole).
     pub noise_flip: f64,
+    /// `reference`'s side of every ꟻLIP against it, at the exposure it was traced for
+    /// ([`flip_map`] uses it when asked at that exposure).
+    pub flip: flip::FlipReference,
 }
 
 /// The most open of the first 32 of `positions`: largest nearest-hit distance over 64
@@ -212,10 +215,11 @@ pub fn reference(
             }
         })
         .collect();
-    let reference = halves.iter().map(|(a, b)| (*a + *b) * 0.5).collect();
+    let reference: Vec<Vec3> = halves.iter().map(|(a, b)| (*a + *b) * 0.5).collect();
     let (a, b): (Vec<Vec3>, Vec<Vec3>) = halves.into_iter().unzip();
     let noise_flip = flip::mean(&flip::flip_hdr(&a, &b, view.width, view.height, exposure));
-    ViewReference { view: view.clone(), roughness: r, reference, spp: 2 * half, noise_flip }
+    let flip = flip::FlipReference::new(&reference, view.width, view.height, exposure);
+    ViewReference { view: view.clone(), roughness: r, reference, spp: 2 * half, noise_flip, flip }
 }
 
 /// A pixel's lobe reference (query `(b, dir, r)`) as two independent halves of `half`
@@ -252,7 +256,11 @@ pub fn render(v: &ViewReference, estimate: impl Fn(Vec3, Vec3, Vec3) -> Vec3 + S
 /// ꟻLIP of `image` against the view's reference (see `flip::flip_hdr`).
 #[must_use]
 pub fn flip_map(v: &ViewReference, image: &[Vec3], exposure: f32) -> Vec<f32> {
-    flip::flip_hdr(&v.reference, image, v.view.width, v.view.height, exposure)
+    if v.flip.exposure() == exposure {
+        v.flip.error_map(image)
+    } else {
+        flip::flip_hdr(&v.reference, image, v.view.width, v.view.height, exposure)
+    }
 }
 
 /// Mean ꟻLIP over the views, weighted by their pixel counts, of what `estimate` renders
