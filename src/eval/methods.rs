@@ -136,8 +136,9 @@ pub enum Fetch<'a> {
     Method(Method),
     /// A corrective grid.
     Grid(CorrectiveRow<'a>),
-    /// A fitted grid loaded from disk: `FittedGrid::specular`, its own mip rule included.
-    Runtime(&'a FittedGrid),
+    /// A fitted grid loaded from disk: `FittedGrid::specular` in the given read tier, its
+    /// own mip rule included.
+    Runtime(&'a FittedGrid, SpecularRead),
 }
 
 impl Fetch<'_> {
@@ -145,7 +146,7 @@ impl Fetch<'_> {
         match self {
             Fetch::Method(m) => m.name(),
             Fetch::Grid(r) => r.variant.name(),
-            Fetch::Runtime(g) => match g.read {
+            Fetch::Runtime(_, read) => match read {
                 SpecularRead::Blended => "runtime",
                 SpecularRead::ProbeOnly => "runtime-probe-only",
             },
@@ -161,7 +162,7 @@ impl Fetch<'_> {
             Fetch::Method(Method::Kdop) => "18-DOP fitted to the probe's depth samples".into(),
             Fetch::Method(_) => String::new(),
             Fetch::Grid(r) => r.variant.note().into(),
-            Fetch::Runtime(g) => {
+            Fetch::Runtime(g, read) => {
                 let f16 = g
                     .manifest
                     .payloads
@@ -171,7 +172,7 @@ impl Fetch<'_> {
                 format!(
                     "the fitted grid loaded from disk ({}), runtime::FittedGrid::specular with its stored roughness correction{}",
                     if f16 { "f16 radiance" } else { "f32" },
-                    match g.read {
+                    match read {
                         SpecularRead::Blended => "",
                         SpecularRead::ProbeOnly => ", probe A alone (SpecularRead::ProbeOnly: no irradiance blend)",
                     }
@@ -229,7 +230,7 @@ impl Row<'_> {
             Fetch::Method(Method::Oracle) => Some(oracle.into()),
             Fetch::Method(m) => Some(warp.fetch_vector(m, b, dir).into()),
             Fetch::Grid(g) => Some(g.correctives.fetch(g.variant.blend(), warp, b, dir, r)),
-            Fetch::Runtime(_) => None,
+            Fetch::Runtime(..) => None,
         }
     }
 
@@ -237,7 +238,7 @@ impl Row<'_> {
     #[inline]
     pub fn estimate(&self, shading: Glossy, b: Vec3, dir: Vec3, oracle: Vec3, r: f32) -> Vec3 {
         let l = match (self.fetch, self.aim(shading.warp, b, dir, oracle, r)) {
-            (Fetch::Runtime(g), _) => g.specular(b, dir, r),
+            (Fetch::Runtime(g, read), _) => g.specular_as(read, b, dir, r),
             (_, Some(aim)) => shading.radiance(self.rule.unwrap_or(MipRule::Plain), b, dir, aim, r),
             (_, None) => Vec3::ZERO,
         };
@@ -250,7 +251,7 @@ impl Row<'_> {
     /// Unit fetch direction of query (B, dir) (the runtime's own for the runtime).
     fn fetch_dir(&self, warp: &Warp, b: Vec3, dir: Vec3, oracle: Vec3) -> Vec3 {
         let v = match self.fetch {
-            Fetch::Runtime(g) => g.fetch_vector(b, dir),
+            Fetch::Runtime(g, _) => g.fetch_vector(b, dir),
             _ => self.aim(warp, b, dir, oracle, 0.0).map_or(dir, |a| a.v),
         };
         if v == dir { dir } else { v.try_normalize().unwrap_or(dir) }
@@ -258,16 +259,15 @@ impl Row<'_> {
 }
 
 /// The rows of one bucket: every method with the given rules, every corrective grid with
-/// them, then the runtime (and, on a rough bucket, the runtime reading probe A alone, the
-/// grid in `runtime.1`). At roughness 0 the rules coincide, so `rules` is `[Plain]` there.
+/// them, then the runtime (and, on a rough bucket, the runtime reading probe A alone). At
+/// roughness 0 the rules coincide, so `rules` is `[Plain]` there.
 pub fn rows<'a>(
     methods: &[Method],
     grids: &[CorrectiveRow<'a>],
-    runtime: (Option<&'a FittedGrid>, Option<&'a FittedGrid>),
+    runtime: Option<&'a FittedGrid>,
     rules: &[MipRule],
     renorm: Option<&'a Renorm<'a>>,
 ) -> Vec<Row<'a>> {
-    let (runtime, probe_only) = runtime;
     let rough = rules.len() > 1;
     let rule_of = |r: MipRule| rough.then_some(r);
     let mut out = Vec::new();
@@ -277,9 +277,10 @@ pub fn rows<'a>(
     for &g in grids {
         out.extend(rules.iter().map(|&r| Row { fetch: Fetch::Grid(g), rule: rule_of(r), renorm: None }));
     }
-    out.extend(runtime.map(|g| Row { fetch: Fetch::Runtime(g), rule: None, renorm: None }));
+    let tier = |read| runtime.map(|g| Row { fetch: Fetch::Runtime(g, read), rule: None, renorm: None });
+    out.extend(tier(SpecularRead::Blended));
     if rough {
-        out.extend(probe_only.map(|g| Row { fetch: Fetch::Runtime(g), rule: None, renorm: None }));
+        out.extend(tier(SpecularRead::ProbeOnly));
     }
     // renormalized: the parallax-corrected cubemap engines ship (box, the plain mip) and the
     // runtime, each scaled by the grid's irradiance
@@ -287,20 +288,23 @@ pub fn rows<'a>(
         if methods.contains(&Method::Box) {
             out.push(Row { fetch: Fetch::Method(Method::Box), rule: rough.then_some(MipRule::Plain), renorm: Some(n) });
         }
-        out.extend(runtime.map(|g| Row { fetch: Fetch::Runtime(g), rule: None, renorm: Some(n) }));
+        out.extend(runtime.map(|g| Row {
+            fetch: Fetch::Runtime(g, SpecularRead::Blended),
+            rule: None,
+            renorm: Some(n),
+        }));
     }
     out
 }
 
 /// Probe A's emitted part as every row reads it: the evaluation's warp context and, for the
-/// runtime's rows, the loaded grid (in each read, [`SpecularRead::ALL`]'s order), each with
-/// probe A's radiance replaced by its emitted chain (`bake::probe::emitted_mips`), so a
-/// row's lookup of it is the emitted part of its lookup of probe A (fetches read only depth
-/// and proxies; reads and mips are linear).
+/// runtime's rows, the loaded grid, each with probe A's radiance replaced by its emitted
+/// chain (`bake::probe::emitted_mips`), so a row's lookup of it is the emitted part of its
+/// lookup of probe A (fetches read only depth and proxies; reads and mips are linear).
 #[derive(Clone, Copy)]
 pub struct Emitters<'a> {
     pub shading: Glossy<'a>,
-    pub runtime: [Option<&'a FittedGrid>; 2],
+    pub runtime: Option<&'a FittedGrid>,
 }
 
 /// The emitted part of every lookup of `row` on `set`: zero where the scene has no emitter
@@ -310,10 +314,7 @@ pub fn emitted_estimates(row: &Row, emitters: Option<&Emitters>, set: &Validatio
         return Some(vec![Vec3::ZERO; set.dirs.len()]);
     };
     let row = match row.fetch {
-        Fetch::Runtime(g) => {
-            let read = SpecularRead::ALL.iter().position(|&r| r == g.read)?;
-            Row { fetch: Fetch::Runtime(em.runtime[read]?), ..*row }
-        }
+        Fetch::Runtime(_, read) => Row { fetch: Fetch::Runtime(em.runtime?, read), ..*row },
         _ => *row,
     };
     Some(estimates(&row, em.shading, set))

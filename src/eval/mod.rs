@@ -409,15 +409,9 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             (w, grid)
         })
     };
-    // the runtime reading probe A alone, and its emitted twin
-    let probe_only = |g: &FittedGrid| g.clone().with_read(crate::runtime::SpecularRead::ProbeOnly);
-    let runtime_probe_only = runtime.map(probe_only);
-    let emitted_probe_only = emitted.as_ref().and_then(|(_, g)| g.as_ref().map(probe_only));
-    let runtimes = (runtime, runtime_probe_only.as_ref());
-    let emitters = emitted.as_ref().map(|(w, g)| methods::Emitters {
-        shading: Glossy { warp: w, correction },
-        runtime: [g.as_ref(), emitted_probe_only.as_ref()],
-    });
+    let emitters = emitted
+        .as_ref()
+        .map(|(w, g)| methods::Emitters { shading: Glossy { warp: w, correction }, runtime: g.as_ref() });
     let emitters = emitters.as_ref();
     lap(&mut times.emitted);
     let lookups = settings.timing_lookups as usize;
@@ -454,7 +448,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         bar.inc(1);
         bar.set_message(format!("eval: r {r} rows"));
         let rules: &[MipRule] = if r == 0.0 { &[MipRule::Plain] } else { &MipRule::ALL };
-        let rows = methods::rows(methods, corrective_rows, runtimes, rules, Some(&renorm));
+        let rows = methods::rows(methods, corrective_rows, runtime, rules, Some(&renorm));
         let timing = if r == 0.0 { lookups } else { (lookups / 4).max(1) };
         let mut results: Vec<MethodResult> =
             rows.iter().map(|row| methods::evaluate_row(row, (shading, emitters), set, exposure, timing)).collect();
@@ -575,7 +569,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
                     .filter(|m| matches!(m, Method::None | Method::Box | Method::Kdop | Method::Warp1))
                     .collect::<Vec<_>>(),
                 &[],
-                (runtime, None),
+                runtime,
                 &[MipRule::Plain],
                 None,
             );

@@ -131,7 +131,7 @@ pub fn sweep(
         let est: Vec<glam::Vec3> =
             (0..set.dirs.len()).map(|k| grid.specular(set.position_of(k), set.dirs[k], 0.0)).collect();
         let stats = eval::error_stats(&est, &set.reference, exposure);
-        let row = Row { fetch: Fetch::Runtime(&grid), rule: None, renorm: None };
+        let row = Row { fetch: Fetch::Runtime(&grid, grid.read), rule: None, renorm: None };
         let shading = Glossy { warp: &warp, correction: grid.roughness.as_ref() };
         // r = 0 as tiles (its mean, and its difference from the given row's), r = 0.5 as a mean
         let tiles_r0 =

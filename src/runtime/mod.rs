@@ -144,8 +144,8 @@ impl FittedGrid {
     /// The irradiance blend's weight at perceptual roughness `r`: the stored one, 0 without
     /// a roughness correction or when this grid reads probe A alone.
     #[inline]
-    fn irradiance_weight(&self, r: f32) -> f32 {
-        match (&self.roughness, self.read) {
+    fn irradiance_weight(&self, read: SpecularRead, r: f32) -> f32 {
+        match (&self.roughness, read) {
             (Some(c), SpecularRead::Blended) => c.irradiance_weight(r),
             _ => 0.0,
         }
@@ -177,11 +177,18 @@ impl FittedGrid {
     #[inline]
     #[must_use]
     pub fn specular(&self, position: Vec3, direction: Vec3, roughness: f32) -> Vec3 {
+        self.specular_as(self.read, position, direction, roughness)
+    }
+
+    /// [`FittedGrid::specular`] in read tier `read`, whatever the grid's own (the
+    /// evaluation rates both tiers of one loaded grid).
+    #[inline]
+    pub(crate) fn specular_as(&self, read: SpecularRead, position: Vec3, direction: Vec3, roughness: f32) -> Vec3 {
         let Some(q) = self.specular_query(position, direction, roughness) else {
             return Vec3::ZERO;
         };
         let aim = self.correctives.fetch(self.blend, &self.warp, q.b, q.dir, q.r);
-        self.shade(q, aim)
+        self.shade(q, aim, read)
     }
 
     /// A specular query made safe (see the module conventions); `None` means black.
@@ -197,9 +204,9 @@ impl FittedGrid {
     /// Radiance of probe A along `aim` for the query's roughness: the mip from the stored
     /// roughness correction (`warp::glossy`, shared with the fit and eval).
     #[inline]
-    fn shade(&self, q: SpecularQuery, aim: Aim) -> Vec3 {
+    fn shade(&self, q: SpecularQuery, aim: Aim, read: SpecularRead) -> Vec3 {
         // the irradiance first: its loads are independent of probe A's and overlap them
-        let blend = self.irradiance_blend(q);
+        let blend = self.irradiance_blend(q, read);
         if let Some((e, w)) = blend.filter(|&(_, w)| w >= 1.0) {
             // probe A's part has weight 0: `mix_irradiance(spec, e, 1)` for any finite spec
             return mix_irradiance(Vec3::ZERO, e, w);
@@ -216,8 +223,8 @@ impl FittedGrid {
     /// (`RoughnessCorrection::irradiance_weight`); `None` without a weight, for a mirror
     /// query and in a cell without irradiance.
     #[inline]
-    fn irradiance_blend(&self, q: SpecularQuery) -> Option<(Vec3, f32)> {
-        let w = self.irradiance_weight(q.r);
+    fn irradiance_blend(&self, q: SpecularQuery, read: SpecularRead) -> Option<(Vec3, f32)> {
+        let w = self.irradiance_weight(read, q.r);
         if !(w > 0.0) {
             return None;
         }
@@ -260,7 +267,7 @@ impl FittedGrid {
             // probe A's part, then the irradiance blend lane by lane (`irradiance_blend`)
             let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &r);
             let mut out = corrected_lanes(&self.warp.probe, self.roughness.as_ref(), &r, &v, &ratio);
-            let w: [f32; octa::LANES] = std::array::from_fn(|k| self.irradiance_weight(r[k]));
+            let w: [f32; octa::LANES] = std::array::from_fn(|k| self.irradiance_weight(self.read, r[k]));
             if w.iter().any(|&w| w > 0.0) {
                 self.irradiance_sh.mix_lanes(b, dir, &w, &mut out);
             }
