@@ -653,11 +653,7 @@ fn walk_nearest(
             if entry[j] > ray.cull() {
                 continue; // a leaf of this node already hit nearer than this box
             }
-            // the high 3 bits of the child's meta count its primitives (unary), the low 5
-            // their offset from the node's first
-            let meta = ((node.meta >> (8 * j)) & 0xff) as u32;
-            let first = node.primitive_base.wrapping_add(meta & 0x1f);
-            for slot in first..first.saturating_add((meta >> 5).count_ones()) {
+            for slot in leaf_slots(node.primitive_base, node.meta, j) {
                 test_primitive(leaves, slot, ray, &mut best);
             }
         }
@@ -670,7 +666,7 @@ fn walk_nearest(
             let j = inner.trailing_zeros() & 7;
             inner &= inner - 1;
             let t = entry[j as usize];
-            let index = node.child_base.wrapping_add((imask & ((1u32 << j) - 1)).count_ones());
+            let index = inner_child(node.child_base, imask, j);
             keys[n & 7] = nearest_key(t, index);
             n += (t <= ray.cull()) as usize;
         }
@@ -696,6 +692,24 @@ fn walk_nearest(
         };
     }
     best
+}
+
+/// The primitive slots of leaf child `j` of a node whose first slot is `primitive_base`
+/// and whose child metas are `meta` (byte `j` is child `j`'s): the meta's high 3 bits
+/// count the child's primitives (unary), its low 5 their offset from the node's first.
+#[inline(always)]
+fn leaf_slots(primitive_base: u32, meta: u64, j: usize) -> std::ops::Range<u32> {
+    let m = ((meta >> (8 * j)) & 0xff) as u32;
+    let first = primitive_base.wrapping_add(m & 0x1f);
+    first..first.saturating_add((m >> 5).count_ones())
+}
+
+/// The node index of inner child `j` (of 8) of a node whose first child node is
+/// `child_base` and whose inner children are `imask`: it follows the inner children of
+/// lower slots.
+#[inline(always)]
+fn inner_child(child_base: u32, imask: u32, j: u32) -> u32 {
+    child_base.wrapping_add((imask & ((1u32 << j) - 1)).count_ones())
 }
 
 /// An inner child as one integer that sorts as its entry distance: the distance's bits in
@@ -900,6 +914,8 @@ fn walk_packet<L: Leaves>(
         while leaf != 0 {
             let j = (leaf.trailing_zeros() & 7) as usize;
             leaf &= leaf - 1;
+            // `leaf_slots` written out: called here, this walk measured 2–5% slower
+            // (`ray_rate … packets`, alternated), the same floats
             let m = ((meta >> (8 * j)) & 0xff) as u32;
             let first = primitive_base.wrapping_add(m & 0x1f);
             for slot in first..first.saturating_add((m >> 5).count_ones()) {
@@ -925,7 +941,7 @@ fn walk_packet<L: Leaves>(
         sort_keys(&mut keys, n);
         let node_of = |key: u64| {
             let j = (key & 7) as u32;
-            (child_base.wrapping_add((imask & ((1u32 << j) - 1)).count_ones()), child_rays[j as usize])
+            (inner_child(child_base, imask, j), child_rays[j as usize])
         };
         for &k in keys[1..n.max(1)].iter().rev() {
             let (index, rays_in) = node_of(k);
