@@ -636,6 +636,37 @@ fn packets_of_rays_find_what_single_rays_find() {
     }
 }
 
+/// The distance read off a ray's first hit (`Renderer::distance_of`, what the probe bake
+/// stores per texel without shading the ray) is the distance a whole sample reports: rays
+/// from the probe, from scattered points (some inside solids, seeing back faces), and
+/// degenerate rays.
+#[test]
+fn a_first_hits_distance_is_the_whole_samples() {
+    for name in ["torture", "cornell", "sphere"] {
+        let scene = load(name);
+        let tracer = Tracer::new(&scene);
+        let renderer = Renderer::new(&scene, &tracer);
+        let centre = Vec3::from_array(scene.config.probe.position);
+        let (lo, hi) = scene.bounds();
+        let mut rays: Vec<(Vec3, Vec3)> = dirs(1_000, 31).into_iter().map(|d| (centre, d)).collect();
+        for (k, d) in dirs(1_000, 37).into_iter().enumerate() {
+            let mut s = Sampler::new(7, 2, k as u32);
+            rays.push((lo + (hi - lo) * Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()), d * 3.0));
+        }
+        rays.extend([(centre, Vec3::ZERO), (centre, Vec3::NAN), (Vec3::INFINITY, Vec3::X)]);
+        let (mut seen, mut finite) = (0, 0);
+        for (k, &(o, d)) in rays.iter().enumerate() {
+            let first = renderer.first_hit(o, d, &mut 0);
+            let whole = renderer.sample(o, d, &mut Sampler::new(1, 2, k as u32), &mut 0).distance;
+            let got = renderer.distance_of(first.as_ref());
+            assert_eq!(got.to_bits(), whole.to_bits(), "{name}: ray {k} from {o} along {d}");
+            seen += usize::from(first.is_some());
+            finite += usize::from(got.is_finite());
+        }
+        assert!(finite > 1_000 && seen + 3 == rays.len(), "{name}: {finite} finite of {seen} rays");
+    }
+}
+
 /// `coherent_order` is a permutation of the rays, the same for the same input, and puts
 /// neighbours in neighbouring directions.
 #[test]

@@ -85,11 +85,9 @@ pub fn bake_probe(renderer: &Renderer, s: &ProbeSettings, progress: &Progress) -
                     sum += renderer.sample(s.position, d, &mut sampler, &mut rays).radiance;
                 }
                 rad.push(sum / s.samples_per_texel as f32);
-                // Distance of the texel-centre ray (geometry only matters, no shading needed).
-                let centre = octa::texel_dir(n, i, j);
-                let stream = hash_pair(DOMAIN_PROBE_RADIANCE, (j * n + i) as u64);
-                let mut sampler = Sampler::new(s.seed, stream, u32::MAX);
-                dist.push(renderer.sample(s.position, centre, &mut sampler, &mut rays).distance);
+                // the distance of the texel-centre ray: what it meets first, no shading needed
+                let first = renderer.first_hit(s.position, octa::texel_dir(n, i, j), &mut rays);
+                dist.push(renderer.distance_of(first.as_ref()));
             }
             bar.inc(n as u64);
             (rad, dist, rays)
