@@ -229,6 +229,22 @@ impl Method {
     pub fn parse(name: &str) -> Option<Method> {
         Method::ALL.into_iter().find(|m| m.name() == name)
     }
+
+    /// Reads of probe A one mirror lookup makes, depth and radiance (`None`: `reproject`,
+    /// a per-location pass, and the `oracle`, which traces): the projections 1, `warp1` 2,
+    /// the two-step warps 3, `secant` and `raymarch` one per step and one more. A count,
+    /// not a time: the same on every run and machine (the evaluation's claims budget by it).
+    #[must_use]
+    pub fn probe_reads(self, o: &WarpOptions) -> Option<u32> {
+        match self {
+            Method::None | Method::Box | Method::Kdop => Some(1),
+            Method::Warp1 => Some(2),
+            Method::Warp2Fixed | Method::Warp2New => Some(3),
+            Method::Secant => Some(o.secant_steps.saturating_add(1)),
+            Method::Raymarch => Some(o.march_steps.saturating_add(1)),
+            Method::Reproject | Method::Oracle => None,
+        }
+    }
 }
 
 /// Everything the per-lookup methods need besides the probe.
