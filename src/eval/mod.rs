@@ -270,8 +270,8 @@ pub struct BucketSummary {
     /// ꟻLIP between the two halves of each view's reference samples: how much of a row's
     /// ꟻLIP is the references' own noise (an upper bound: each half has half the samples).
     pub view_noise_flip: f64,
-    /// The ꟻLIP claim: `claim.0` against the seed method within the claim's read budget with the lowest
-    /// mean ꟻLIP (its label), their difference (positive: `claim.0` lower) and that
+    /// The ꟻLIP claim: `claim.0` against the seed method within the claim's read budget
+    /// with the lowest mean ꟻLIP (its label), their difference (positive: `claim.0` lower) and that
     /// difference's standard error over 8×8-pixel tiles of the views (paired: the same
     /// pixels and references). It measures how the views' pixels scatter, not how other
     /// viewpoints would score. Absent without views or in files written before it.
@@ -613,8 +613,6 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     Evaluation { report, surface_atlases, views, flip_figures }
 }
 
-/// The bucket's summary: the claim's comparison, its difference, and the standard error
-/// the references' noise puts on it.
 /// The rows a bucket's claims compare (see [`BucketSummary::claim`]).
 struct Rivals<'r> {
     champion: Option<&'r MethodResult>,
@@ -660,6 +658,8 @@ fn claim_reads(name: &str, options: &crate::warp::WarpOptions) -> Option<u32> {
     Method::parse(name.strip_suffix("+renorm").unwrap_or(name))?.probe_reads(options)
 }
 
+/// The bucket's summary: the claim's comparison, its difference, and the standard error
+/// the references' noise puts on it.
 fn bucket_summary(
     set: &ValidationSet,
     r: f32,
