@@ -10,6 +10,7 @@ use crate::octa::{self, OctMap, OctMips, build_distance_mips, build_mips, texel_
 use crate::progress::Progress;
 use crate::sampling::{Sampler, ggx_d, ggx_half_vector, hash_pair};
 use crate::trace::Renderer;
+use crate::trace::truth::first_visible;
 use crate::warp::WarpProbe;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -86,8 +87,9 @@ pub fn bake_probe(renderer: &Renderer, s: &ProbeSettings, progress: &Progress) -
                 }
                 rad.push(sum / s.samples_per_texel as f32);
                 // the distance of the texel-centre ray: what it meets first, no shading needed
-                let first = renderer.first_hit(s.position, octa::texel_dir(n, i, j), &mut rays);
-                dist.push(renderer.distance_of(first.as_ref()));
+                let centre = octa::texel_dir(n, i, j).normalize();
+                rays += 1;
+                dist.push(first_visible(renderer.scene, renderer.tracer, s.position, centre));
             }
             bar.inc(n as u64);
             (rad, dist, rays)

@@ -626,8 +626,8 @@ struct Rivals<'r> {
 /// row other than the challenger), against the best seed methods, all within the budget of
 /// twice warp1's reads of probe A per lookup. The budget counts reads, never measured
 /// times: a row near 2× warp1's time moved in and out between runs (warp2-new's corrected
-/// rule measured 1.86–2.10×), and with the claim whether the bucket's references were
-/// traced again, so every error of the bucket.
+/// rule measured 1.44–2.37× across five evaluations), and with the claim whether the
+/// bucket's references were traced again, so every error of the bucket.
 fn rivals<'r>(results: &'r [MethodResult], options: &crate::warp::WarpOptions) -> Rivals<'r> {
     let budget = Method::Warp1.probe_reads(options).map_or(0, |r| 2 * r);
     let cheap = |m: &&MethodResult| claim_reads(&m.name, options).is_some_and(|r| r <= budget);

@@ -201,17 +201,6 @@ impl<'a> Renderer<'a> {
         }
     }
 
-    /// The distance [`Renderer::sample`] reports for a ray that met `first` (the sphere
-    /// light, surface or back face it sees; +inf for the sky or no ray), without shading.
-    #[must_use]
-    pub fn distance_of(&self, first: Option<&FirstHit>) -> f32 {
-        match first.map(|f| self.seen(f).0) {
-            Some(Seen::Light(t) | Seen::BackFace(t)) => t,
-            Some(Seen::Surface(hit)) => hit.t,
-            Some(Seen::Sky) | None => f32::INFINITY,
-        }
-    }
-
     /// The first part of [`Renderer::sample_parts`], which draws nothing from a sampler:
     /// what the ray from `origin` along `dir` meets first (`None`: no ray, a non-finite
     /// origin or direction). Samples that start with the same ray (a mirror reference's)
