@@ -21,7 +21,7 @@ use warpfit::warp::{self, Method};
 fn runtime(c: &mut Criterion) {
     let dir = fitted_torture();
     let grid = FittedGrid::load(&dir).unwrap();
-    let m = &grid.manifest;
+    let m = &grid.manifest();
     let stored = m.correctives.as_ref().map_or(0, |c| c.stored_cells.len());
     let disk: u64 = m.payloads.iter().map(|p| p.bytes).sum();
     println!(
@@ -41,7 +41,7 @@ fn runtime(c: &mut Criterion) {
         b.iter(|| {
             let mut acc = Vec3::ZERO;
             for &(p, d) in &q {
-                acc += grid.warp.lookup(Method::Warp1, p, d);
+                acc += grid.warp().lookup(Method::Warp1, p, d);
             }
             black_box(acc)
         })
@@ -70,8 +70,8 @@ fn runtime(c: &mut Criterion) {
     let mut vectors = vec![Vec3::ZERO; q.len()];
     g.bench_function("warp1_batch", |b| {
         b.iter(|| {
-            warp::depth::warp1_batch(&grid.warp.probe, &q, grid.warp.options.depth_lod, &mut vectors);
-            grid.warp.probe.radiance_batch(&vectors, &mut out);
+            warp::depth::warp1_batch(&grid.warp().probe, &q, grid.warp().options.depth_lod, &mut vectors);
+            grid.warp().probe.radiance_batch(&vectors, &mut out);
             black_box(&out);
         })
     });

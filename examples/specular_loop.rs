@@ -31,7 +31,7 @@ fn main() -> Result<(), String> {
     let per_call = flag("percall");
     let mut grid = FittedGrid::load(dir).map_err(|e| e.to_string())?;
     if flag("plain") {
-        grid.roughness = None;
+        grid = grid.with_roughness(None);
     }
     if flag("probe-only") {
         grid = grid.with_read(warpfit::runtime::SpecularRead::ProbeOnly);

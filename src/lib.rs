@@ -4,8 +4,9 @@
 //! specular probe (radiance + distance on an octahedral map, GGX mip chain) and a dense
 //! probe grid, and measures and fits warps that let probe A be used anywhere in the level.
 //!
-//! A game links the runtime alone (`default-features = false`: glam, libm, serde,
-//! serde_json and exr), loads a fitted grid once and samples it:
+//! This is the offline library behind the `warpfit` command; it makes the grids. A game
+//! links the crate `warpfit-runtime` alone (glam, libm, serde, serde_json and exr), loads a
+//! fitted grid once and samples it:
 //!
 //! ```
 //! use warpfit::glam::Vec3;
@@ -18,8 +19,7 @@
 //! # Ok::<(), warpfit::runtime::LoadError>(())
 //! ```
 //!
-//! The offline tool (feature `bake`, on by default) makes such grids: `warpfit run`, or
-//! `jobs::run` from code.
+//! From code, `jobs::run` does what `warpfit run` does.
 //!
 //! Pipeline: `scene` → `trace` → `bake` → (`fit`, `eval`) → `gridfile` → `runtime`, with
 //! `report` writing what the others produce and `jobs` chaining them as the CLI runs them.
@@ -29,47 +29,33 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 #![allow(clippy::needless_range_loop)]
 
+/// The runtime crate a game links.
+pub use warpfit_runtime;
 /// The glam this crate's API speaks (`Vec3` positions and directions): use it as
 /// `warpfit::glam` so a game's glam version cannot disagree with the sampler's.
-pub use glam;
+pub use warpfit_runtime::glam;
 
-// Always built: the math, the grid file and the runtime sampler (glam, libm, serde, exr only).
+// The runtime's modules as this library uses them (`warpfit-runtime`: the math, the grid
+// file's reader and the sampler); where the offline tool adds to one (writers, fits, the
+// evaluation's warps), a module here re-exports the runtime's and adds its part.
 pub mod files;
-pub mod grid;
+pub use warpfit_runtime::{grid, octa, runtime, sh, tonemap};
 pub mod gridfile;
-pub mod octa;
 pub mod roughness;
-#[warn(missing_docs)]
-pub mod runtime;
 pub mod sampling;
-pub mod sh;
-pub mod tonemap;
 pub mod warp;
 
-// The offline tool: scenes, raytracing, bake, fit, eval, reports and jobs (feature `bake`).
-#[cfg(feature = "bake")]
+// The offline tool: scenes, raytracing, bake, fit, eval, reports and jobs.
 pub mod bake;
-#[cfg(feature = "bake")]
 pub mod bakefile;
-#[cfg(feature = "bake")]
 pub mod eval;
-#[cfg(feature = "bake")]
 pub mod export;
-#[cfg(feature = "bake")]
 pub mod fit;
-#[cfg(feature = "bake")]
 pub mod jobs;
-#[cfg(feature = "bake")]
 pub mod partfile;
-#[cfg(feature = "bake")]
 pub mod perceptual;
-#[cfg(feature = "bake")]
 pub mod preview;
-#[cfg(feature = "bake")]
 pub mod progress;
-#[cfg(feature = "bake")]
 pub mod report;
-#[cfg(feature = "bake")]
 pub mod scene;
-#[cfg(feature = "bake")]
 pub mod trace;

@@ -963,7 +963,7 @@ fn run(cli: Cli) -> Result<()> {
             let grid = FittedGrid::load(&fit)?.with_read(read);
             let spec = grid.specular(pos, dir, roughness);
             let v = grid.fetch_vector(pos, dir.normalize_or_zero());
-            let g = &grid.correctives.geometry;
+            let g = &grid.correctives().geometry;
             let cell = g.cell_index(g.cell_of(pos));
             let n = normal.unwrap_or(dir);
             let irr = grid.irradiance(pos, n);
@@ -975,10 +975,10 @@ fn run(cli: Cli) -> Result<()> {
                 irr.z,
                 n.normalize_or_zero().to_array()
             );
-            let stores = if grid.correctives.stores_map(cell) {
+            let stores = if grid.correctives().stores_map(cell) {
                 "stores a shift map".to_string()
             } else {
-                format!("uses the fallback {}", grid.correctives.fallback.name())
+                format!("uses the fallback {}", grid.correctives().fallback.name())
             };
             println!("fetch direction {:?}; cell {cell} {stores}", v.normalize_or_zero().to_array());
         }
@@ -1042,7 +1042,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Inspect { fit } => {
             let grid = FittedGrid::load(&fit)?;
-            print!("{}", grid.manifest.describe());
+            print!("{}", grid.manifest().describe());
             println!("loaded in memory: {} bytes", grid.memory_bytes());
             for (k, a) in warpfit::runtime::load_surface_atlases(&fit)?.iter().enumerate() {
                 let p = &a.patch;

@@ -174,16 +174,7 @@ fn to_unit_f32(x: f64) -> f32 {
     (x as f32).min(1.0 - f32::EPSILON / 2.0)
 }
 
-/// Orthonormal basis around unit `n` (Duff et al. 2017, "Building an Orthonormal Basis,
-/// Revisited"). Returns (tangent, bitangent).
-#[inline]
-#[must_use]
-pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
-    let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    (Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3::new(b, sign + n.y * n.y * a, -n.y))
-}
+pub use crate::octa::orthonormal_basis;
 
 /// Local (x, y, z) with z along `n` to world.
 #[inline]

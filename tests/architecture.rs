@@ -1,13 +1,16 @@
-//! The data flows one way: every `crate::` path in `src/` is checked against the layering
-//! ARCHITECTURE.md states. A module may only name modules on a lower floor, the runtime
-//! layer never names the offline tool, and the pairs listed under `NEVER` stay apart.
+//! The data flows one way: every `crate::` path in both crates' sources (`src/` and
+//! `crates/warpfit-runtime/src/`) is checked against the layering ARCHITECTURE.md states. A
+//! module may only name modules on a lower floor, the runtime layer never names the offline
+//! tool, and the pairs listed under `NEVER` stay apart. The runtime crate depends on glam,
+//! libm, serde, serde_json and exr alone.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// Floors, bottom first: a module may use modules on lower floors only (and itself).
 const FLOORS: &[&[&str]] = &[
-    &["octa", "sampling", "files", "progress", "tonemap"],
+    &["octa", "files", "progress", "tonemap"],
+    &["sampling"],
     &["grid", "sh", "roughness", "scene"],
     &["warp"],
     &["gridfile"],
@@ -20,9 +23,11 @@ const FLOORS: &[&[&str]] = &[
     &["jobs"],
 ];
 
-/// What a game links (`default-features = false`): never imports the offline tool.
-const RUNTIME_LAYER: &[&str] =
-    &["octa", "sh", "sampling", "tonemap", "grid", "files", "roughness", "warp", "gridfile", "runtime"];
+/// What a game links (the crate `warpfit-runtime`): never imports the offline tool.
+const RUNTIME_LAYER: &[&str] = &["octa", "sh", "tonemap", "grid", "files", "roughness", "warp", "gridfile", "runtime"];
+
+/// The runtime crate's only dependencies.
+const RUNTIME_DEPENDENCIES: &[&str] = &["exr", "glam", "libm", "serde", "serde_json"];
 
 /// Pairs the floors would allow but the design forbids: (module, what it never uses, why).
 const NEVER: &[(&str, &str, &str)] = &[
@@ -80,15 +85,25 @@ fn named_modules(line: &str) -> Vec<String> {
     out
 }
 
-/// Every (module, named module, file:line) in `src/`, comments left out.
+/// The sources of both crates: the offline tool's, then the runtime's.
+fn source_dirs() -> [PathBuf; 2] {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    [root.join("src"), root.join("crates/warpfit-runtime/src")]
+}
+
+/// Every (module, named module, file:line) in both crates' sources, comments left out.
 fn arrows() -> Vec<(String, String, String)> {
-    let src = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("src");
+    source_dirs().iter().flat_map(|src| arrows_in(src)).collect()
+}
+
+/// [`arrows`] of one crate's source folder.
+fn arrows_in(src: &Path) -> Vec<(String, String, String)> {
     let mut files = Vec::new();
-    rust_files(&src, &mut files);
+    rust_files(src, &mut files);
     files.sort();
     let mut out = Vec::new();
     for f in &files {
-        let Some(module) = module_of(&src, f) else { continue };
+        let Some(module) = module_of(src, f) else { continue };
         let text = std::fs::read_to_string(f).unwrap();
         for (n, line) in text.lines().enumerate() {
             if line.trim_start().starts_with("//") {
@@ -96,7 +111,7 @@ fn arrows() -> Vec<(String, String, String)> {
             }
             for named in named_modules(line) {
                 if named != module {
-                    let at = format!("{}:{}", f.strip_prefix(&src).unwrap().display(), n + 1);
+                    let at = format!("{}:{}", f.strip_prefix(src).unwrap().display(), n + 1);
                     out.push((module.clone(), named, at));
                 }
             }
@@ -127,7 +142,7 @@ fn imports_only_run_downwards() {
 
 #[test]
 fn the_runtime_layer_never_names_the_offline_tool() {
-    let leaks: Vec<String> = arrows()
+    let leaks: Vec<String> = arrows_in(&source_dirs()[1])
         .into_iter()
         .filter(|(a, b, _)| RUNTIME_LAYER.contains(&a.as_str()) && !RUNTIME_LAYER.contains(&b.as_str()))
         .map(|(a, b, at)| format!("{at}: {a} uses {b}"))
@@ -150,4 +165,29 @@ fn forbidden_pairs_stay_apart() {
 fn the_scanner_sees_grouped_and_inline_paths() {
     assert_eq!(named_modules("use crate::{octa, warp::Warp};"), ["octa", "warp"]);
     assert_eq!(named_modules("let x = crate::octa::encode(d) + crate::grid::f();"), ["octa", "grid"]);
+}
+
+#[test]
+fn the_runtime_crate_holds_only_runtime_modules() {
+    let src = &source_dirs()[1];
+    let mut files = Vec::new();
+    rust_files(src, &mut files);
+    let strays: Vec<String> =
+        files.iter().filter_map(|f| module_of(src, f)).filter(|m| !RUNTIME_LAYER.contains(&m.as_str())).collect();
+    assert!(strays.is_empty(), "offline modules in the runtime crate: {strays:?}");
+}
+
+#[test]
+fn the_runtime_crate_depends_on_glam_libm_serde_serde_json_and_exr_alone() {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("crates/warpfit-runtime/Cargo.toml");
+    let manifest: toml::Table = std::fs::read_to_string(&path).unwrap().parse().unwrap();
+    let names = |section: &str| -> Vec<String> {
+        manifest.get(section).and_then(|d| d.as_table()).map(|t| t.keys().cloned().collect()).unwrap_or_default()
+    };
+    assert_eq!(names("dependencies"), RUNTIME_DEPENDENCIES, "the runtime's dependencies");
+    assert!(names("build-dependencies").is_empty(), "the runtime has no build script dependencies");
+    assert!(manifest.get("target").is_none(), "no platform-specific dependencies");
+    // default features only where they are off (exr's threads are the offline tool's)
+    let exr = &manifest["dependencies"]["exr"];
+    assert_eq!(exr.get("default-features").and_then(|v| v.as_bool()), Some(false), "exr without rayon");
 }

@@ -51,7 +51,7 @@ fn every_texture_opens_in_an_independent_reader_with_the_data_written() {
     let grid = tiny();
     let dir = common::tmp_dir("export-read");
     let s = export::export(&grid, &dir).unwrap();
-    let p = &grid.warp.probe;
+    let p = &grid.warp().probe;
 
     let (format, w, h, levels) = read(&dir.join(&s.probe_radiance));
     assert_eq!(
@@ -148,7 +148,7 @@ fn exported_irradiance_tiles_are_the_grid_s_tiles_in_their_atlas_slots() {
     let s = export::export(&grid, &dir).unwrap();
     let (_, w, _, levels) = read(&dir.join(&s.irradiance.file));
     let v = f16s(&levels[0]);
-    let ir = &grid.irradiance;
+    let ir = &grid.irradiance_grid();
     let n = s.irradiance.tile_resolution;
     for (cell, &tile) in s.irradiance.cell_tile.iter().enumerate() {
         if tile < 0 {
@@ -171,7 +171,7 @@ fn exported_irradiance_tiles_are_the_grid_s_tiles_in_their_atlas_slots() {
 #[test]
 fn the_exported_roughness_table_interpolated_by_its_rule_is_the_runtime_s_correction() {
     let grid = tiny();
-    let correction = grid.roughness.as_ref().expect("tiny stores a roughness correction");
+    let correction = grid.roughness().expect("tiny stores a roughness correction");
     let dir = common::tmp_dir("export-rough");
     let s = export::export(&grid, &dir).unwrap();
     let t = s.roughness_lookup.expect("exported");
@@ -202,13 +202,15 @@ fn the_exported_roughness_table_interpolated_by_its_rule_is_the_runtime_s_correc
 #[test]
 fn radiance_beyond_half_float_range_is_exported_as_rgba32f_unchanged() {
     // a sun-like texel of 1e6 would become infinity in a half float
-    let mut grid = tiny();
-    grid.warp.probe.radiance.levels[0].texels[5] = Vec3::new(1e6, 2e5, 3e4);
+    let grid = tiny();
+    let mut radiance = grid.warp().probe.radiance.clone();
+    radiance.levels[0].texels[5] = Vec3::new(1e6, 2e5, 3e4);
+    let grid = grid.with_radiance(radiance);
     let dir = common::tmp_dir("export-rgba32f");
     export::export(&grid, &dir).unwrap();
     let (format, _, _, levels) = read(&dir.join("probe_radiance.ktx2"));
     assert_eq!(format, 109, "VK_FORMAT_R32G32B32A32_SFLOAT");
-    let p = &grid.warp.probe;
+    let p = &grid.warp().probe;
     for (m, bytes) in p.radiance.levels.iter().zip(&levels) {
         let v = f32s(bytes);
         for (k, t) in m.texels.iter().enumerate() {

@@ -51,7 +51,7 @@ fn torture_fit() -> &'static Path {
 /// probe, zero, tiny, huge and NaN directions, NaN and infinite positions, roughness NaN,
 /// below 0 and above 1. Two vec4 per query: (position, roughness), (direction, 0).
 fn queries(g: &FittedGrid, n: u32) -> Vec<[f32; 4]> {
-    let geo = &g.irradiance.geometry;
+    let geo = &g.irradiance_grid().geometry;
     let mut out = Vec::new();
     let mut push = |p: Vec3, d: Vec3, r: f32| {
         out.push([p.x, p.y, p.z, r]);
@@ -65,7 +65,7 @@ fn queries(g: &FittedGrid, n: u32) -> Vec<[f32; 4]> {
         let r = [0.0, 0.125, 0.25, 0.5, 0.75, 1.0, s.next_1d()][k as usize % 7];
         push(p, d, r);
     }
-    let a = g.warp.probe.position;
+    let a = g.warp().probe.position;
     let (nan, inf) = (f32::NAN, f32::INFINITY);
     let centre = (geo.min + geo.max) * 0.5;
     for (k, d) in [Vec3::Y, Vec3::new(0.3, -0.2, 0.9), -Vec3::Z, Vec3::new(-1.0, 1.0, 0.0)].into_iter().enumerate() {
@@ -110,7 +110,7 @@ fn assert_agrees(what: &str, gpu: &[[f32; 4]], cpu: &[Vec3], floor: f32, q: &[[f
 }
 
 fn mean_radiance(g: &FittedGrid) -> f32 {
-    let t = &g.warp.probe.radiance.levels[0].texels;
+    let t = &g.warp().probe.radiance.levels[0].texels;
     t.iter().map(|v| v.max_element()).sum::<f32>() / t.len() as f32
 }
 
@@ -156,27 +156,30 @@ fn the_shader_answers_as_the_cpu_sampler_on_the_committed_grid() {
 fn the_shader_answers_as_the_cpu_sampler_on_a_torture_grid_with_maps_and_corrections() {
     let dir = torture_fit();
     let mut g = FittedGrid::load(dir).unwrap();
-    assert!(g.correctives.stored_cells() > 0, "the check needs stored warp maps");
-    assert!(g.irradiance.correction.stored_cells() > 0, "the check needs diffuse corrections");
+    assert!(g.correctives().stored_cells() > 0, "the check needs stored warp maps");
+    assert!(g.irradiance_grid().correction.stored_cells() > 0, "the check needs diffuse corrections");
     // the irradiance blend's surface bias as fitted, or a tenth of a cell where the fit
     // chose none, so the shader's is always checked
-    if g.irradiance.correction.surface_bias == 0.0 {
-        g.irradiance.correction.surface_bias = 0.1;
+    if g.irradiance_grid().correction.surface_bias == 0.0 {
+        g = g.with_irradiance(|ir| {
+            ir.correction.surface_bias = 0.1;
+            false
+        });
     }
     // the rough lookups' irradiance blend as fitted, or weights rising to 1 where the fit
     // kept none, so the shader's blend is always checked
-    let c = g.roughness.clone().expect("the fit stores a roughness correction");
+    let c = g.roughness().cloned().expect("the fit stores a roughness correction");
     if c.irradiance_nodes().is_empty() {
         let n = c.alphas.len();
         let fit = warpfit::roughness::RoughnessFit {
             irradiance_weight: (0..n).map(|i| i as f32 / (n - 1) as f32).collect(),
             ..c.into()
         };
-        g.roughness = Some(warpfit::roughness::RoughnessCorrection::try_from(fit).unwrap());
+        g = g.with_roughness(Some(warpfit::roughness::RoughnessCorrection::try_from(fit).unwrap()));
     }
     // the blend's smooth read must blend neighbours here, not only each cell alone
-    let linked = g.irradiance_sh.links.iter().filter(|l| l.count_ones() > 1).count();
-    assert!(linked > g.irradiance_sh.links.len() / 2, "only {linked} cells link to a neighbour");
+    let linked = g.irradiance_sh().links.iter().filter(|l| l.count_ones() > 1).count();
+    assert!(linked > g.irradiance_sh().links.len() / 2, "only {linked} cells link to a neighbour");
     check_grid("torture", &g);
     // exported to read probe A alone, the shader answers as the grid read so
     check_grid("torture-probe-only", &g.with_read(warpfit::runtime::SpecularRead::ProbeOnly));
@@ -196,8 +199,8 @@ fn the_baseline_kernels_answer_as_the_cpu_methods() {
     {
         let shader = lookup.run(gpu, kernel, &q);
         let cpu = on_cpu(&q, |b, d, _| match (warpfit::octa::unit_direction(d), b.is_finite()) {
-            (Some(d), true) => g.warp.lookup(method, b, d),
-            (Some(d), false) => g.warp.probe.radiance(d),
+            (Some(d), true) => g.warp().lookup(method, b, d),
+            (Some(d), false) => g.warp().probe.radiance(d),
             (None, _) => Vec3::ZERO,
         });
         assert_agrees(kernel, &shader, &cpu, floor, &q);
@@ -294,7 +297,7 @@ fn hardware_bilinear_of_the_exported_atlases_is_the_cpu_seam_aware_bilinear() {
     let g = FittedGrid::load(torture_fit()).unwrap();
     let dir = tmp_dir("gpu-export-filter");
     let s = warpfit::export::export(&g, &dir).unwrap();
-    let ir = &g.irradiance;
+    let ir = &g.irradiance_grid();
     let n = ir.resolution;
     let n2 = (n * n) as usize;
     let tiles = ir.irradiance.len() / n2;
@@ -360,12 +363,13 @@ fn every_fallback_blend_and_relaxation_answers_as_the_cpu_sampler() {
         // and once without a roughness correction (the plain mip of r)
         .chain([(Method::Box, Blend::Cell, 0.0, false)]);
     for (fallback, blend, relax, correction) in variants {
-        let mut g = base.clone();
-        g.correctives.fallback = fallback;
-        g.blend = blend;
-        g.warp.options.relax_texels = relax;
+        let mut g = base.clone().with_lookup(|w, b, c| {
+            c.fallback = fallback;
+            *b = blend;
+            w.options.relax_texels = relax;
+        });
         if !correction {
-            g.roughness = None;
+            g = g.with_roughness(None);
         }
         let dir = tmp_dir("gpu-export-variant");
         warpfit::export::export(&g, &dir).unwrap();

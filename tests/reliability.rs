@@ -88,7 +88,7 @@ fn a_run_killed_at_any_rename_leaves_the_old_fit_or_the_new_one() {
         let o = fit_tiny(&out, 32, &[("WARPFIT_TEST_FAULT_RENAME", &fault)]);
         let grid =
             FittedGrid::load(&out).unwrap_or_else(|e| panic!("killed at rename {n}: the folder does not load: {e}"));
-        let now = payload_sums(&grid.manifest);
+        let now = payload_sums(grid.manifest());
         assert!(now == old || now == new, "killed at rename {n}: a grid that is neither the old nor the new one");
         if o.status.success() {
             assert_eq!(now, new, "the run that was not killed committed the new fit");

@@ -39,10 +39,10 @@ fn the_committed_fit_keeps_loading_with_the_same_answers() {
     // the oldest version still read beside it: fits/tiny_v4 (one map per cell) never changes.
     for (dir, version, bless) in [(tiny(), GRID_VERSION, true), (repo().join("fits/tiny_v4"), 4, false)] {
         let g = FittedGrid::load(&dir).unwrap_or_else(|e| panic!("{} loads: {e}", dir.display()));
-        assert_eq!(g.manifest.version, version, "{}", dir.display());
-        assert_eq!(g.correctives.has_rough_maps(), version >= 5, "{}: rough maps", dir.display());
+        assert_eq!(g.manifest().version, version, "{}", dir.display());
+        assert_eq!(g.correctives().has_rough_maps(), version >= 5, "{}: rough maps", dir.display());
         // the manifest states the blend the runtime applies
-        let rule = g.manifest.correctives.as_ref().and_then(|c| c.rough_maps.clone());
+        let rule = g.manifest().correctives.as_ref().and_then(|c| c.rough_maps.clone());
         assert_eq!(rule, (version >= 5).then(warpfit::gridfile::rough_map_encoding), "{}", dir.display());
         let got: Vec<[f32; 6]> = tiny_queries()
             .iter()
@@ -137,11 +137,12 @@ fn the_fits_per_query_error_is_the_error_through_the_runtime() {
     // the maps, on top of them: the maps' objective is probe A's part, the grid read
     // without the blend.)
     let f = fixture();
-    let mut g = FittedGrid::load(&f.f32_dir).unwrap();
-    g.roughness = g.roughness.map(|c| {
+    let g = FittedGrid::load(&f.f32_dir).unwrap();
+    let probe_only = g.roughness().cloned().map(|c| {
         let fit = warpfit::roughness::RoughnessFit { irradiance_weight: Vec::new(), ..c.into() };
         warpfit::roughness::RoughnessCorrection::try_from(fit).unwrap()
     });
+    let g = g.with_roughness(probe_only);
     let c = &f.fit.correctives;
     let geo = c.geometry;
     let n2 = (c.map_res * c.map_res) as usize;
@@ -186,20 +187,20 @@ fn the_fits_per_query_error_is_the_error_through_the_runtime() {
 #[test]
 fn roughness_selects_blurrier_mips_and_the_correction_applies() {
     let g = FittedGrid::load(tiny()).unwrap();
-    let a = g.warp.probe.position;
+    let a = g.warp().probe.position;
     // at the probe (k = 1 everywhere) roughness r reads mip r·(mips−1) exactly
     let d = Vec3::new(0.3, 0.2, -0.9).normalize();
-    let last = (g.warp.probe.radiance.levels.len() - 1) as f32;
-    let (got, want) = (g.specular(a, d, 1.0), g.warp.probe.radiance.sample_lod(d, last));
+    let last = (g.warp().probe.radiance.levels.len() - 1) as f32;
+    let (got, want) = (g.specular(a, d, 1.0), g.warp().probe.radiance.sample_lod(d, last));
     assert!((got - want).abs().max_element() <= 1e-4 * want.max_element(), "{got} vs {want}");
-    assert_eq!(g.specular(a, d, 0.0), g.warp.probe.radiance(d));
+    assert_eq!(g.specular(a, d, 0.0), g.warp().probe.radiance(d));
     // the correction: a shading point nearer the hit than the probe (k > 1) reads a sharper mip
-    let lut = g.roughness.as_ref().expect("tiny stores the correction");
+    let lut = g.roughness().expect("tiny stores the correction");
     assert!(lut.corrected_alpha(0.25, 4.0) < 0.25);
     assert!(lut.corrected_alpha(0.25, 0.25) > 0.25);
     assert!((lut.corrected_alpha(0.25, 1.0) - 0.25).abs() < 0.02);
     // the runtime lookup is the stored correction's own
-    let stored = g.manifest.roughness.as_ref().unwrap();
+    let stored = g.manifest().roughness.as_ref().unwrap();
     for a in [0.0, 0.01, 0.1, 0.33, 0.7, 1.0, 2.0] {
         for k in [0.01, 0.2, 0.9, 1.0, 1.7, 5.0, 100.0] {
             let (x, y) = (lut.corrected_alpha(a, k), stored.corrected_alpha(a, k));
@@ -213,7 +214,7 @@ fn documented_edge_cases_stay_finite() {
     fn assert_send_sync<T: Send + Sync>() {}
     assert_send_sync::<FittedGrid>();
     let g = FittedGrid::load(tiny()).unwrap();
-    let a = g.warp.probe.position;
+    let a = g.warp().probe.position;
     // zero / non-finite direction: black
     assert_eq!(g.specular(a, Vec3::ZERO, 0.0), Vec3::ZERO);
     assert_eq!(g.specular(a, Vec3::NAN, 0.0), Vec3::ZERO);
@@ -257,7 +258,7 @@ fn specular_batch_is_bitwise_the_single_call() {
     for g in grids.into_iter().flat_map(|g| SpecularRead::ALL.map(|read| g.clone().with_read(read))) {
         let lanes = warpfit::octa::LANES;
         let n = lanes * 5 + 3;
-        let geo = &g.irradiance.geometry;
+        let geo = &g.irradiance_grid().geometry;
         let (mut p, mut d, mut r) = (Vec::new(), Vec::new(), Vec::new());
         for k in 0..n as u32 {
             let mut s = warpfit::sampling::Sampler::new(23, 0, k);
@@ -273,7 +274,7 @@ fn specular_batch_is_bitwise_the_single_call() {
             });
         }
         // degenerate queries inside a mirror group and in mixed groups
-        let a = g.warp.probe.position;
+        let a = g.warp().probe.position;
         (p[1], p[2], d[3], d[4]) = (a, Vec3::NAN, Vec3::ZERO, Vec3::new(f32::NAN, 1.0, 0.0));
         (p[lanes * 3 + 1], d[lanes * 3 + 2], r[lanes * 3 + 3]) = (Vec3::splat(1e6), Vec3::INFINITY, f32::NAN);
         let mut out = vec![Vec3::ZERO; n];
@@ -335,7 +336,7 @@ fn a_lookup_reads_the_map_of_its_roughness() {
 #[test]
 fn irradiance_at_a_cell_centre_is_that_cells_bake() {
     let g = FittedGrid::load(tiny()).unwrap();
-    let ig = &g.irradiance;
+    let ig = &g.irradiance_grid();
     let res = ig.resolution;
     assert!(ig.correction.stored_cells() > 0, "the witness grid stores a diffuse correction");
     for cell in 0..ig.geometry.cell_count() {
@@ -545,7 +546,7 @@ proptest! {
 fn corrected_irradiance_is_continuous_across_cell_faces() {
     // the corrections act inside the blend, so a corrected cell shows no seam at its faces
     let g = FittedGrid::load(tiny()).unwrap();
-    let ig = &g.irradiance;
+    let ig = &g.irradiance_grid();
     let size = ig.geometry.cell_size();
     let mut faces = 0;
     for cell in (0..ig.geometry.cell_count()).filter(|&c| ig.correction.slot[c] != u32::MAX) {
@@ -574,15 +575,14 @@ fn rough_lookups_blend_the_cells_irradiance_by_the_stored_weight() {
     use warpfit::roughness::{RoughnessCorrection, RoughnessFit};
     let bits = |v: Vec3| v.to_array().map(f32::to_bits);
     let base = FittedGrid::load(tiny()).unwrap();
-    let c = base.roughness.clone().expect("the committed grid has a roughness correction");
+    let c = base.roughness().cloned().expect("the committed grid has a roughness correction");
     assert!(c.irradiance_nodes().is_empty(), "a grid fitted before the blend reads probe A alone");
     let n = c.alphas.len();
     let mut fit: RoughnessFit = c.into();
     fit.irradiance_weight = (0..n).map(|i| i as f32 / (n - 1) as f32).collect();
-    let mut g = base.clone();
-    g.roughness = Some(RoughnessCorrection::try_from(fit.clone()).unwrap());
-    let corr = g.roughness.as_ref().unwrap();
-    let view = &g.irradiance_sh;
+    let g = base.clone().with_roughness(Some(RoughnessCorrection::try_from(fit.clone()).unwrap()));
+    let corr = g.roughness().unwrap();
+    let view = &g.irradiance_sh();
     let mut blended = 0;
     for (p, d, _) in tiny_queries() {
         let d = d.normalize();
@@ -639,7 +639,7 @@ fn the_blends_harmonics_hold_each_cells_irradiance_map() {
     // 4×4, whose bilinear read is itself coarse, and one bright source nearby costs up to
     // about 10% (the clamped cosine's own band-2 error)
     let g = FittedGrid::load(tiny()).unwrap();
-    let (ir, sh) = (&g.irradiance, &g.irradiance_sh);
+    let (ir, sh) = (&g.irradiance_grid(), &g.irradiance_sh());
     let view = ir.view();
     let mut relative = Vec::new();
     for cell in 0..ir.slot.len() {

@@ -112,7 +112,7 @@ fn the_buffers_have_the_shaders_layout() {
     let dir = common::tmp_dir("shader-buffers");
     let s = warpfit::export::export(&grid, &dir).unwrap();
     assert_eq!(std::fs::metadata(dir.join(&s.shader.params)).unwrap().len() as usize, PARAMS_BYTES);
-    let cells = grid.correctives.geometry.cell_count();
+    let cells = grid.correctives().geometry.cell_count();
     assert_eq!(std::fs::metadata(dir.join(&s.shader.cells)).unwrap().len() as usize, cells * CELL_BYTES);
     for name in &s.shader.sources {
         assert!(dir.join(name).is_file(), "{name} exported");

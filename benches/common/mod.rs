@@ -35,9 +35,9 @@ pub fn fitted_torture() -> PathBuf {
 /// position-major (as eval issues them): what the runtime benches time.
 pub fn queries(g: &FittedGrid, positions: u32, dirs: u32) -> Vec<(glam::Vec3, glam::Vec3)> {
     use warpfit::sampling::{Sampler, uniform_sphere};
-    let geo = &g.irradiance.geometry;
+    let geo = &g.irradiance_grid().geometry;
     let cells: Vec<usize> =
-        (0..geo.cell_count()).filter(|&c| g.irradiance.slot[c] != warpfit::warp::corrective::NO_MAP).collect();
+        (0..geo.cell_count()).filter(|&c| g.irradiance_grid().slot[c] != warpfit::warp::corrective::NO_MAP).collect();
     let mut q = Vec::with_capacity((positions * dirs) as usize);
     for p in 0..positions {
         let mut s = Sampler::new(0xBE7C, 1, p);

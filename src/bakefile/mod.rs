@@ -148,7 +148,10 @@ pub fn write_bake(dir: &Path, scene: &Scene, bake: &Bake) -> Result<(), FileErro
     for file in [PROBE_FILE, GRID_FILE] {
         // one payload's layers at a time; the grid's read in place
         let layers: Vec<ExrLayer<Samples>> = if file == PROBE_FILE {
-            probe_layers(&bake.probe.radiance, &bake.probe.depth).into_iter().map(Into::into).collect()
+            probe_layers(&bake.probe.radiance, &bake.probe.depth)
+                .into_iter()
+                .map(crate::gridfile::exr::IntoLayer::into_layer)
+                .collect()
         } else {
             grid_layers(&bake.grid)
         };

@@ -164,7 +164,7 @@ impl Fetch<'_> {
             Fetch::Grid(r) => r.variant.note().into(),
             Fetch::Runtime(g, read) => {
                 let f16 = g
-                    .manifest
+                    .manifest()
                     .payloads
                     .iter()
                     .flat_map(|p| &p.layers)

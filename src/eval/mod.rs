@@ -342,7 +342,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     // and probe A's own, for the diffuse rows and the renormalized specular rows
     let mut from_bake = None;
     let irradiance: &crate::runtime::IrradianceGrid = match runtime {
-        Some(g) => &g.irradiance,
+        Some(g) => g.irradiance_grid(),
         None => from_bake.insert(crate::runtime::IrradianceGrid::from_cells(
             grid.geometry,
             (grid.irradiance_resolution, grid.depth_resolution),
@@ -385,26 +385,26 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             reference_rays += rays;
             // (a grid whose probe has other mips than the bake's has no twin: its rows report none)
             let sizes = |m: &crate::octa::OctMips<Vec3>| m.levels.iter().map(|l| l.res).collect::<Vec<_>>();
-            let grid = runtime.filter(|g| sizes(&g.warp.probe.radiance) == sizes(&chain)).map(|g| {
-                let mut g = g.clone();
-                g.warp.probe.radiance = chain.clone();
+            let grid = runtime.filter(|g| sizes(&g.warp().probe.radiance) == sizes(&chain)).map(|g| {
                 // a grid that blends the cells' irradiance into rough lookups: that
                 // irradiance's emitted part too, for the cells the grid stores
-                let blends = g.roughness.as_ref().is_some_and(|c| !c.irradiance_nodes().is_empty());
-                let i2 = (g.irradiance.resolution * g.irradiance.resolution) as usize;
-                if blends && i2 == (grid.irradiance_resolution * grid.irradiance_resolution) as usize {
+                let blends = g.roughness().is_some_and(|c| !c.irradiance_nodes().is_empty());
+                g.clone().with_radiance(chain.clone()).with_irradiance(|ir| {
+                    let i2 = (ir.resolution * ir.resolution) as usize;
+                    if !(blends && i2 == (grid.irradiance_resolution * grid.irradiance_resolution) as usize) {
+                        return false;
+                    }
                     let (emitted, rays) =
                         crate::bake::grid::emitted_irradiance(&renderer, &crate::bake::grid_settings(scene), grid);
                     reference_rays += rays;
-                    for (cell, &slot) in g.irradiance.slot.iter().enumerate() {
+                    for (cell, &slot) in ir.slot.iter().enumerate() {
                         if slot != crate::warp::corrective::NO_MAP {
                             let (to, from) = (slot as usize * i2, cell * i2);
-                            g.irradiance.irradiance[to..to + i2].copy_from_slice(&emitted[from..from + i2]);
+                            ir.irradiance[to..to + i2].copy_from_slice(&emitted[from..from + i2]);
                         }
                     }
-                    g.irradiance_sh = g.irradiance_sh.reproject(&g.irradiance.view());
-                }
-                g
+                    true
+                })
             });
             let mut w = warp.clone();
             w.probe.radiance = chain;

@@ -240,7 +240,7 @@ fn write_atlas<const C: usize>(
 /// Exports the fitted grid `grid` into `dir` (created; files written atomically).
 pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
     std::fs::create_dir_all(dir).map_err(FileError::io(dir))?;
-    let p = &grid.warp.probe;
+    let p = &grid.warp().probe;
     let rgba = |v: Vec3| [v.x, v.y, v.z, 1.0];
     let radiance: Vec<Level> = p
         .radiance
@@ -254,7 +254,7 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
         p.inv_depth.levels.iter().map(|m| Level { width: m.res, height: m.res, values: m.texels.clone() }).collect();
     write_atomic(&dir.join("probe_inv_distance.ktx2"), &ktx2::encode(Format::R32F, &inv))?;
 
-    let c = &grid.correctives;
+    let c = &grid.correctives();
     let (n, n2) = (c.map_res, (c.map_res * c.map_res) as usize);
     let stored = c.maps.len() / n2.max(1);
     // rough maps, if any, follow the maps in the same atlas: a cell's rough tile is its
@@ -270,7 +270,7 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
         })
         .transpose()?;
 
-    let ir = &grid.irradiance;
+    let ir = &grid.irradiance_grid();
     let (ires, i2) = (ir.resolution, (ir.resolution * ir.resolution) as usize);
     let (dres, d2) = (ir.depth_resolution, (ir.depth_resolution * ir.depth_resolution) as usize);
     let cells = ir.irradiance.len() / i2.max(1);
@@ -291,7 +291,7 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
             })
         })
         .transpose()?;
-    let roughness_lookup = grid.roughness.as_ref().map(|r| r.lookup_table());
+    let roughness_lookup = grid.roughness().map(|r| r.lookup_table());
     if let Some(t) = &roughness_lookup {
         let level = Level { width: t.nodes, height: t.nodes, values: t.values.clone() };
         write_atomic(&dir.join("roughness_lookup.ktx2"), &ktx2::encode(Format::R32F, &[level]))?;
@@ -336,7 +336,7 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
         roughness_lookup,
         irradiance_blend: grid.irradiance_blend_nodes().iter().map(|&(r, w)| [r, w]).collect(),
         shader,
-        grid_manifest: grid.manifest.clone(),
+        grid_manifest: grid.manifest().clone(),
         surfaces: Vec::new(),
     };
     write_json(&dir.join(SIDECAR), &sidecar)?;

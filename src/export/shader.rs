@@ -104,21 +104,21 @@ fn tile(slot: Option<&u32>) -> i32 {
 /// blend, relaxation and roughness correction.
 pub fn constants(grid: &FittedGrid) -> Result<Vec<(&'static str, u32)>, Unsupported> {
     Ok(vec![
-        ("FALLBACK", fallback_code(grid.correctives.fallback)?),
-        ("BLEND", blend_code(grid.blend)),
-        ("RELAX", (grid.warp.options.relax_texels > 0.0) as u32),
-        ("ROUGHNESS_CORRECTION", grid.roughness.is_some() as u32),
+        ("FALLBACK", fallback_code(grid.correctives().fallback)?),
+        ("BLEND", blend_code(grid.blend())),
+        ("RELAX", (grid.warp().options.relax_texels > 0.0) as u32),
+        ("ROUGHNESS_CORRECTION", grid.roughness().is_some() as u32),
     ])
 }
 
 /// `Params` for `grid` with atlases shaped `atlases` (see `shaders/warpfit.wgsl` for each
 /// field's meaning).
 pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupported> {
-    let w = &grid.warp;
+    let w = &grid.warp();
     let p = &w.probe;
-    let c = &grid.correctives;
+    let c = &grid.correctives();
     let geo = &c.geometry;
-    if geo != &grid.irradiance.geometry {
+    if geo != &grid.irradiance_grid().geometry {
         return Err(Unsupported("the correctives and the irradiance use different grids".into()));
     }
     let fallback = fallback_code(c.fallback)?;
@@ -132,15 +132,20 @@ pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupport
     if kdop.normals.len() != 18 || kdop.offsets.len() != 18 {
         return Err(Unsupported(format!("a {}-DOP; the shader reads an 18-DOP", kdop.normals.len())));
     }
-    let blend = blend_code(grid.blend);
+    let blend = blend_code(grid.blend());
     let bx = &w.proxies.aabb;
     let m = bx.world_to_local();
     let mut out = Words(Vec::with_capacity(PARAMS_BYTES));
-    out.f(geo.min.extend(grid.irradiance.surface_shift()).to_array())
+    out.f(geo.min.extend(grid.irradiance_grid().surface_shift()).to_array())
         .f(geo.max.extend(0.0).to_array())
         .u([geo.counts.x, geo.counts.y, geo.counts.z, blend])
         .f(p.position.extend(w.options.depth_lod).to_array())
-        .u([p.radiance.levels.len() as u32, p.inv_depth.levels.len() as u32, fallback, grid.roughness.is_some() as u32])
+        .u([
+            p.radiance.levels.len() as u32,
+            p.inv_depth.levels.len() as u32,
+            fallback,
+            grid.roughness().is_some() as u32,
+        ])
         .f([w.options.relax_texels, p.radiance.levels[0].res as f32, p.inv_depth.levels[0].res as f32, 0.0])
         .f(bx.centre.extend(0.0).to_array())
         .f(bx.half_extents.extend(0.0).to_array())
@@ -170,7 +175,7 @@ pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupport
             nodes.len()
         )));
     }
-    match grid.roughness.as_ref().map(|r| r.lookup_table()) {
+    match grid.roughness().map(|r| r.lookup_table()) {
         Some(t) => out.f([t.x0, t.inv_dx, t.k_min, t.k_max]).u([t.nodes, nodes.len() as u32, 0, 0]),
         None => out.f([0.0, 0.0, 1.0, 1.0]).u([2, 0, 0, 0]),
     };
@@ -191,8 +196,8 @@ pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupport
 /// their links.
 #[must_use]
 pub fn cells(grid: &FittedGrid) -> Vec<u8> {
-    let c = &grid.correctives;
-    let ir = &grid.irradiance;
+    let c = &grid.correctives();
+    let ir = &grid.irradiance_grid();
     let n = c.geometry.cell_count();
     // a cell's rough map follows the maps in the corrective atlas (`export`)
     let stored = (c.maps.len() / ((c.map_res * c.map_res) as usize).max(1)) as i32;
@@ -203,11 +208,11 @@ pub fn cells(grid: &FittedGrid) -> Vec<u8> {
         let map = tile(c.slot.get(cell));
         out.i([map, tile(ir.slot.get(cell)), tile(ir.correction.slot.get(cell)), rough(map)])
             .f(offset.extend(0.0).to_array());
-        let sh = grid.irradiance_sh.slot.get(cell).and_then(|&s| grid.irradiance_sh.coeffs.get(s as usize));
+        let sh = grid.irradiance_sh().slot.get(cell).and_then(|&s| grid.irradiance_sh().coeffs.get(s as usize));
         for k in 0..crate::sh::COEFFS {
             out.f(sh.map_or([0.0; 4], |c| c[k].extend(0.0).to_array()));
         }
-        out.u([grid.irradiance_sh.links.get(cell).copied().unwrap_or(0), 0, 0, 0]);
+        out.u([grid.irradiance_sh().links.get(cell).copied().unwrap_or(0), 0, 0, 0]);
     }
     out.0
 }

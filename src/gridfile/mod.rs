@@ -1,15 +1,9 @@
-//! `warpfit-grid`, the fitted-grid folder: one JSON manifest and EXR payloads. The schema
-//! (`schema`: the manifest, field by field, and the atlas layout), the EXR codec (`exr`),
-//! the reader (`read`: distrustful, produces plain data) and, with the offline tool, the
-//! writer (`write`: from plain data and the fit's provenance). The runtime sampler
-//! (`runtime`) is assembled from what `read` returns.
+//! `warpfit-grid`, the fitted-grid folder, as the offline tool sees it: everything the
+//! runtime's `gridfile` has (the schema, the decoder and the distrustful reader), plus the
+//! EXR encoder (`exr`) and the writers (`write`, `surface::write`).
 
 pub mod exr;
-pub mod read;
-pub mod schema;
 pub mod surface;
-#[cfg(feature = "bake")]
 pub mod write;
 
-pub use read::{GridData, IrradianceCorrection, IrradianceGrid, read, read_manifest};
-pub use schema::*;
+pub use warpfit_runtime::gridfile::*;

@@ -4,7 +4,7 @@
 //! interrupted rewrite is reported as a checksum mismatch on load, never read as a silently
 //! mixed grid. Knows nothing of how the data was fitted: the fit hands over [`Provenance`].
 
-use super::exr::{self, ExrLayer, F16_MAX, Samples};
+use super::exr::{self, ExrLayer, F16_MAX, IntoLayer, Samples};
 use super::schema::*;
 use crate::files::FileError;
 use crate::grid::GridGeometry;
@@ -98,14 +98,14 @@ fn packed_layer<'a>(
 }
 
 /// Encodes `layers` into `file` in `dir` and returns its manifest entry.
-fn payload<'a, L: Into<ExrLayer<Samples<'a>>>>(
+fn payload<'a, L: IntoLayer<'a>>(
     dir: &Path,
     file: &str,
     layers: impl IntoIterator<Item = L>,
     precision: Precision,
 ) -> Result<Payload, FileError> {
     let path = dir.join(file);
-    let layers: Vec<ExrLayer<Samples>> = layers.into_iter().map(Into::into).collect();
+    let layers: Vec<ExrLayer<Samples>> = layers.into_iter().map(IntoLayer::into_layer).collect();
     // f16 only where every value fits: a sun brighter than 65504 keeps its layer in f32
     // rather than saturating (the manifest records each layer's actual precision).
     let fits_f16 = |l: &ExrLayer<Samples>| {

@@ -380,7 +380,7 @@ pub fn evaluate(
     };
     // the Corrected rule applies the fitted grid's correction, else the analytic-lobe fit
     let correction = match &runtime {
-        Some(g) => g.roughness.clone(),
+        Some(g) => g.roughness().cloned(),
         None => Some(crate::roughness::fit_correction()),
     };
     let subject = eval::Subject {

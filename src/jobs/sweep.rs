@@ -131,8 +131,8 @@ pub fn sweep(
         let est: Vec<glam::Vec3> =
             (0..set.dirs.len()).map(|k| grid.specular(set.position_of(k), set.dirs[k], 0.0)).collect();
         let stats = eval::error_stats(&est, &set.reference, exposure);
-        let row = Row { fetch: Fetch::Runtime(&grid, grid.read), rule: None, renorm: None };
-        let shading = Glossy { warp: &warp, correction: grid.roughness.as_ref() };
+        let row = Row { fetch: Fetch::Runtime(&grid, grid.read()), rule: None, renorm: None };
+        let shading = Glossy { warp: &warp, correction: grid.roughness() };
         // r = 0 as tiles (its mean, and its difference from the given row's), r = 0.5 as a mean
         let tiles_r0 =
             perceptual::flip_tiles(&view_refs[0], exposure, 8, |r, b, dir, o| row.estimate(shading, b, dir, o, r));

@@ -38,7 +38,7 @@ pub fn probe_centre(mode: Mode) -> Outcome {
     }
     let runtime_differ = dirs
         .iter()
-        .filter(|&&d| g.fetch_vector(a, d) != d || g.specular(a, d, 0.0) != g.warp.probe.radiance(d))
+        .filter(|&&d| g.fetch_vector(a, d) != d || g.specular(a, d, 0.0) != g.warp().probe.radiance(d))
         .count();
     let n = dirs.len() * Method::PER_LOOKUP.len();
     Ok((
@@ -68,7 +68,7 @@ pub fn outside_grid(mode: Mode) -> Outcome {
     let bad: usize = points.iter().map(|&b| bad_fetches(&fx.warp, b, &dirs)).sum();
     let mut bad_rt: usize = points.iter().map(|&b| bad_runtime(&g, b, &dirs)).sum();
     bad_rt += bad_runtime(&g, Vec3::NAN, &dirs);
-    let geo = &g.correctives.geometry;
+    let geo = &g.correctives().geometry;
     let far = Vec3::new(50.0, 1.0, 0.0);
     let clamped = far.clamp(geo.min, geo.max - geo.cell_size() * 1e-3);
     let same_cell = geo.cell_of(far) == geo.cell_of(clamped);
@@ -230,7 +230,7 @@ pub fn inside_cells(mode: Mode) -> Outcome {
     let flagged: Vec<usize> = (0..geo.cell_count()).filter(|&c| fx.bake.grid.inside[c]).collect();
     let (fit, g, _dir) = fx.fit_and_load(mode, StoreOptions::default())?;
     let stored_inside = flagged.iter().filter(|&&c| fit.correctives.stores_map(c)).count()
-        + flagged.iter().filter(|&&c| g.irradiance.slot[c] != u32::MAX).count();
+        + flagged.iter().filter(|&&c| g.irradiance_grid().slot[c] != u32::MAX).count();
     let bad_rt = bad_runtime(&g, Vec3::new(-1.0, 1.05, -1.0), &directions(128));
     Ok((
         format!(
@@ -319,14 +319,14 @@ pub fn hdr(mode: Mode) -> Outcome {
         .fold(f32::INFINITY, f32::min);
     let (fit, g, _dir) = fx.fit_and_load(mode, StoreOptions { precision: Precision::F16, ..Default::default() })?;
     let kept_f32: Vec<String> = g
-        .manifest
+        .manifest()
         .payloads
         .iter()
         .flat_map(|p| &p.layers)
         .filter(|l| l.name.starts_with("radiance_mip") && l.precision == Precision::F32)
         .map(|l| l.name.clone())
         .collect();
-    let loaded_max = g.warp.probe.radiance.levels[0].texels.iter().map(|v| v.max_element()).fold(0.0f32, f32::max);
+    let loaded_max = g.warp().probe.radiance.levels[0].texels.iter().map(|v| v.max_element()).fold(0.0f32, f32::max);
     let fit_finite = fit.cells.iter().all(|c| c.check_err_fitted.is_finite() && c.check_err_fallback.is_finite())
         && fit.correctives.maps.iter().all(|w| w.is_finite());
     let bad_rt = bad_runtime(&g, Vec3::new(0.5, 1.2, 0.5), &directions(256));

@@ -1,34 +1,5 @@
-//! The runtime sampler: load a fitted grid folder and answer specular and irradiance queries.
-//!
-//! This module (with `octa`, `warp`, `grid` and `roughness`) is all a game or tool needs at
-//! runtime; it builds without the offline tool (`cargo build --lib --no-default-features`
-//! depends only on glam, libm, serde, serde_json and exr).
-//!
-//! ```no_run
-//! use warpfit::runtime::FittedGrid;
-//! use glam::Vec3;
-//! let grid = FittedGrid::load("fits/torture")?;
-//! let reflected = grid.specular(Vec3::new(1.0, 1.2, 0.5), Vec3::new(0.0, 0.3, -1.0), 0.25);
-//! let diffuse = grid.irradiance(Vec3::new(1.0, 1.2, 0.5), Vec3::Y);
-//! # Ok::<(), warpfit::runtime::LoadError>(())
-//! ```
-//!
-//! Conventions (all documented behaviour, all tested):
-//! - `specular(p, dir, r)`: the direction need not be unit length; a zero or non-finite
-//!   direction returns black. A non-finite position is treated as the probe's own position
-//!   (no parallax). Roughness is perceptual (GGX α = r²), clamped to [0, 1]; NaN reads as 0.
-//! - Positions outside the grid use the nearest cell's corrective (the cell lookup clamps),
-//!   while the warp itself still starts from the true position; the irradiance blend clamps
-//!   the position into the lattice of cell centres.
-//! - Results are always finite and ≥ 0 (the payloads are validated on load).
-//! - `FittedGrid` is `Send + Sync` and immutable; sampling never allocates.
-//! - Rough lookups come in two quality tiers ([`SpecularRead`]): blended with the cells'
-//!   irradiance (loaded) or probe A alone (`grid.with_read(SpecularRead::ProbeOnly)`),
-//!   cheaper and less exact; mirror lookups are the same in both.
-//!
-//! A run of a scene with `[[surface_probes]]` also writes each patch's atlas (seed 003) in
-//! `surface{k}/`; [`load_surface_atlas`] reads it, and `SurfaceAtlas::radiance(p, dir, r)`
-//! answers for points on that patch (`radiance_warped` with each probe's depth first).
+//! The sampler: [`FittedGrid`] loads a fitted grid folder and answers specular and
+//! irradiance queries. The crate root documents what a game uses.
 
 mod irradiance;
 pub use crate::gridfile::surface::{read as load_surface_atlas, read_all as load_surface_atlases};
@@ -46,31 +17,64 @@ use crate::warp::glossy::{Aim, MipRule, corrected_lanes, glossy_radiance};
 use glam::Vec3;
 use std::path::Path;
 
-/// A loaded fitted grid. Immutable; share it between threads freely.
+/// A loaded fitted grid: load it once per level, then ask it [`specular`](Self::specular)
+/// and [`irradiance`](Self::irradiance) from any thread.
+///
+/// ```
+/// # let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fits/tiny");
+/// use warpfit_runtime::{FittedGrid, glam::Vec3};
+/// let grid = FittedGrid::load(dir)?; // the folder `warpfit run` wrote, e.g. "fits/mylevel"
+/// let reflected = grid.specular(Vec3::new(1.0, 1.2, 0.5), Vec3::new(0.0, 0.3, -1.0), 0.25);
+/// let diffuse = grid.irradiance(Vec3::new(1.0, 1.2, 0.5), Vec3::Y);
+/// assert!(reflected.is_finite() && diffuse.is_finite());
+/// # Ok::<(), warpfit_runtime::LoadError>(())
+/// ```
+///
+/// Behaviour at the edges (all tested):
+/// - `specular(p, dir, r)`: the direction need not be unit length; a zero or non-finite
+///   direction returns black. A non-finite position is treated as the probe's own position
+///   (no parallax). Roughness is perceptual (GGX α = r²), clamped to [0, 1]; NaN reads as 0.
+/// - Positions outside the grid use the nearest cell's corrective (the cell lookup clamps),
+///   while the warp itself still starts from the true position; the irradiance blend clamps
+///   the position into the lattice of cell centres.
+/// - Results are always finite and ≥ 0 (the payloads are validated on load).
+/// - `FittedGrid` is `Send + Sync` and immutable; sampling never allocates.
+/// - Rough lookups come in two quality tiers ([`SpecularRead`]): blended with the cells'
+///   irradiance (loaded) or probe A alone (`grid.with_read(SpecularRead::ProbeOnly)`),
+///   cheaper and less exact; mirror lookups are the same in both.
 #[derive(Clone, Debug)]
 pub struct FittedGrid {
     /// Probe A, the proxies and the warp options of the fallback method.
-    pub warp: Warp,
+    warp: Warp,
     /// How a position's corrective map is found (the containing cell's).
-    pub blend: Blend,
+    blend: Blend,
     /// The per-cell shift maps (sparse) and the proxy they shift, as it is in the other
     /// cells.
-    pub correctives: Correctives,
+    correctives: Correctives,
     /// The dense grid's irradiance, distance moments and diffuse corrections.
-    pub irradiance: IrradianceGrid,
+    irradiance: IrradianceGrid,
     /// `irradiance`'s maps as harmonics, what rough lookups blend in: derived from them at
     /// load ([`IrradianceSh::project`]); project again after changing the maps.
-    pub irradiance_sh: IrradianceSh,
+    irradiance_sh: IrradianceSh,
     /// The GGX distance-ratio roughness correction (absent: plain roughness picks the mip).
-    pub roughness: Option<RoughnessCorrection>,
+    roughness: Option<RoughnessCorrection>,
     /// The manifest the grid was loaded from (conventions, provenance, residuals).
-    pub manifest: GridManifest,
+    manifest: GridManifest,
     /// What a rough lookup reads: [`SpecularRead::Blended`] (loaded) or the cheaper
     /// [`SpecularRead::ProbeOnly`] ([`FittedGrid::with_read`]).
-    pub read: SpecularRead,
+    read: SpecularRead,
 }
 
-/// What a rough specular lookup reads: a quality tier chosen once per grid.
+/// What a rough specular lookup reads: a quality tier chosen once per grid
+/// ([`FittedGrid::with_read`]).
+///
+/// ```
+/// use warpfit_runtime::SpecularRead;
+/// let tier: SpecularRead = "probe-only".parse().unwrap();
+/// assert_eq!(tier, SpecularRead::ProbeOnly);
+/// assert_eq!(SpecularRead::default().name(), "blended");
+/// assert_eq!(SpecularRead::ALL.len(), 2);
+/// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum SpecularRead {
     /// Probe A through the fitted warp and roughness correction, blended with the
@@ -120,7 +124,15 @@ struct SpecularQuery {
 
 impl FittedGrid {
     /// Loads a fitted grid folder (`manifest.json` + EXR payloads), verifying versions,
-    /// checksums, sizes and values.
+    /// checksums, sizes and values. Any problem is a [`LoadError`] naming the file and the
+    /// field; nothing half-loaded is ever returned.
+    ///
+    /// ```
+    /// # let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fits/tiny");
+    /// let grid = warpfit_runtime::FittedGrid::load(dir)?;
+    /// assert!(warpfit_runtime::FittedGrid::load("no/such/folder").is_err());
+    /// # Ok::<(), warpfit_runtime::LoadError>(())
+    /// ```
     pub fn load(dir: impl AsRef<Path>) -> Result<FittedGrid, LoadError> {
         let d = crate::gridfile::read(dir.as_ref())?;
         Ok(FittedGrid {
@@ -135,7 +147,16 @@ impl FittedGrid {
         })
     }
 
-    /// The grid reading rough lookups as `read` says.
+    /// The grid reading rough lookups as `read` says (see [`SpecularRead`]).
+    ///
+    /// ```
+    /// # let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fits/tiny");
+    /// use warpfit_runtime::{FittedGrid, SpecularRead, glam::Vec3};
+    /// let cheap = FittedGrid::load(dir)?.with_read(SpecularRead::ProbeOnly);
+    /// let c = cheap.specular(Vec3::new(0.2, 1.0, 0.1), Vec3::X, 0.6);
+    /// assert!(c.is_finite());
+    /// # Ok::<(), warpfit_runtime::LoadError>(())
+    /// ```
     #[must_use]
     pub fn with_read(self, read: SpecularRead) -> FittedGrid {
         FittedGrid { read, ..self }
@@ -153,7 +174,8 @@ impl FittedGrid {
 
     /// The (perceptual roughness, weight) nodes of the irradiance blend this grid's rough
     /// lookups apply (`RoughnessCorrection::irradiance_nodes`): none when it reads probe A
-    /// alone. What an export hands the shader.
+    /// alone. What an export hands the shader (the tool's; not a supported API).
+    #[doc(hidden)]
     #[must_use]
     pub fn irradiance_blend_nodes(&self) -> &[(f32, f32)] {
         match (&self.roughness, self.read) {
@@ -162,7 +184,9 @@ impl FittedGrid {
         }
     }
 
-    /// Fetch vector of probe A for the query (unit `dir`): exactly what the fit evaluated.
+    /// Fetch vector of probe A for the query (unit `dir`): exactly what the fit evaluated
+    /// (the tool's; not a supported API).
+    #[doc(hidden)]
     #[inline]
     #[must_use]
     pub fn fetch_vector(&self, position: Vec3, dir: Vec3) -> Vec3 {
@@ -174,6 +198,21 @@ impl FittedGrid {
     /// the fitted warp picks where to read probe A, the roughness correction picks the mip,
     /// and a rough lookup blends in the irradiance around the point unless the grid reads
     /// probe A alone ([`FittedGrid::read`]).
+    ///
+    /// `direction` points away from the shaded point (the view vector reflected about the
+    /// normal) and need not be unit length; `roughness` is perceptual, in [0, 1].
+    ///
+    /// ```
+    /// # let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fits/tiny");
+    /// use warpfit_runtime::{FittedGrid, glam::Vec3};
+    /// let grid = FittedGrid::load(dir)?;
+    /// let (normal, to_eye) = (Vec3::Y, Vec3::new(0.6, 0.8, 0.0));
+    /// let reflected = 2.0 * normal.dot(to_eye) * normal - to_eye;
+    /// let mirror = grid.specular(Vec3::new(0.2, 0.5, 0.1), reflected, 0.0);
+    /// assert!(mirror.is_finite() && mirror.min_element() >= 0.0);
+    /// assert_eq!(grid.specular(Vec3::ZERO, Vec3::ZERO, 0.5), Vec3::ZERO); // no direction: black
+    /// # Ok::<(), warpfit_runtime::LoadError>(())
+    /// ```
     #[inline]
     #[must_use]
     pub fn specular(&self, position: Vec3, direction: Vec3, roughness: f32) -> Vec3 {
@@ -181,9 +220,10 @@ impl FittedGrid {
     }
 
     /// [`FittedGrid::specular`] in read tier `read`, whatever the grid's own (the
-    /// evaluation rates both tiers of one loaded grid).
+    /// evaluation rates both tiers of one loaded grid; not a supported API).
+    #[doc(hidden)]
     #[inline]
-    pub(crate) fn specular_as(&self, read: SpecularRead, position: Vec3, direction: Vec3, roughness: f32) -> Vec3 {
+    pub fn specular_as(&self, read: SpecularRead, position: Vec3, direction: Vec3, roughness: f32) -> Vec3 {
         let Some(q) = self.specular_query(position, direction, roughness) else {
             return Vec3::ZERO;
         };
@@ -303,14 +343,40 @@ impl FittedGrid {
         (b, dir, valid)
     }
 
-    /// Irradiance at `position` for surface normal `normal` (see [`IrradianceGrid::irradiance`]).
+    /// Irradiance at `position` around the unit surface normal `normal` (linear, the
+    /// scene's units; multiply by albedo / π for diffuse radiance): the dense grid's probes
+    /// blended with visibility weights, with the fitted diffuse corrections.
+    ///
+    /// ```
+    /// # let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fits/tiny");
+    /// use warpfit_runtime::{FittedGrid, glam::Vec3};
+    /// let grid = FittedGrid::load(dir)?;
+    /// let e = grid.irradiance(Vec3::new(0.2, 0.0, 0.1), Vec3::Y);
+    /// assert!(e.is_finite() && e.min_element() >= 0.0);
+    /// # Ok::<(), warpfit_runtime::LoadError>(())
+    /// ```
     #[inline]
     #[must_use]
     pub fn irradiance(&self, position: Vec3, normal: Vec3) -> Vec3 {
         self.irradiance.irradiance(position, normal)
     }
 
-    /// `specular` over slices; every slice must have `out.len()` elements.
+    /// [`specular`](Self::specular) over slices, bit for bit the single calls, faster (the
+    /// lookups advance in lockstep); every slice must have `out.len()` elements, else a
+    /// [`BatchError`] and `out` untouched.
+    ///
+    /// ```
+    /// # let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fits/tiny");
+    /// use warpfit_runtime::{FittedGrid, glam::Vec3};
+    /// let grid = FittedGrid::load(dir)?;
+    /// let p = [Vec3::new(0.2, 0.5, 0.1); 3];
+    /// let d = [Vec3::X, Vec3::Y, Vec3::NEG_Z];
+    /// let mut out = [Vec3::ZERO; 3];
+    /// grid.specular_batch(&p, &d, &[0.0, 0.3, 1.0], &mut out).unwrap();
+    /// assert_eq!(out[1], grid.specular(p[1], d[1], 0.3));
+    /// assert!(grid.specular_batch(&p, &d, &[0.0], &mut out).is_err());
+    /// # Ok::<(), warpfit_runtime::LoadError>(())
+    /// ```
     pub fn specular_batch(
         &self,
         positions: &[Vec3],
@@ -331,7 +397,19 @@ impl FittedGrid {
         Ok(())
     }
 
-    /// `irradiance` over slices; every slice must have `out.len()` elements.
+    /// [`irradiance`](Self::irradiance) over slices, equal to the single calls; every slice
+    /// must have `out.len()` elements, else a [`BatchError`].
+    ///
+    /// ```
+    /// # let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fits/tiny");
+    /// use warpfit_runtime::{FittedGrid, glam::Vec3};
+    /// let grid = FittedGrid::load(dir)?;
+    /// let (p, n) = ([Vec3::new(0.2, 0.0, 0.1); 2], [Vec3::Y, Vec3::X]);
+    /// let mut out = [Vec3::ZERO; 2];
+    /// grid.irradiance_batch(&p, &n, &mut out).unwrap();
+    /// assert_eq!(out[0], grid.irradiance(p[0], n[0]));
+    /// # Ok::<(), warpfit_runtime::LoadError>(())
+    /// ```
     pub fn irradiance_batch(&self, positions: &[Vec3], normals: &[Vec3], out: &mut [Vec3]) -> Result<(), BatchError> {
         let n = out.len();
         if positions.len() != n || normals.len() != n {
@@ -343,7 +421,136 @@ impl FittedGrid {
         Ok(())
     }
 
-    /// Bytes of the loaded data (probe, correctives, irradiance).
+    /// Probe A, the proxies and the warp options of the fallback method (the `warpfit`
+    /// tool's view of the data; not a supported API).
+    #[doc(hidden)]
+    #[must_use]
+    pub fn warp(&self) -> &Warp {
+        &self.warp
+    }
+
+    /// How a position's corrective map is found (the tool's view; not a supported API).
+    #[doc(hidden)]
+    #[must_use]
+    pub fn blend(&self) -> Blend {
+        self.blend
+    }
+
+    /// The per-cell shift maps (the tool's view; not a supported API).
+    #[doc(hidden)]
+    #[must_use]
+    pub fn correctives(&self) -> &Correctives {
+        &self.correctives
+    }
+
+    /// The dense grid's irradiance, distance moments and diffuse corrections (the tool's
+    /// view; not a supported API).
+    #[doc(hidden)]
+    #[must_use]
+    pub fn irradiance_grid(&self) -> &IrradianceGrid {
+        &self.irradiance
+    }
+
+    /// The irradiance maps as harmonics, what rough lookups blend in (the tool's view; not a
+    /// supported API).
+    #[doc(hidden)]
+    #[must_use]
+    pub fn irradiance_sh(&self) -> &IrradianceSh {
+        &self.irradiance_sh
+    }
+
+    /// The GGX distance-ratio roughness correction, if the grid stores one (the tool's
+    /// view; not a supported API).
+    #[doc(hidden)]
+    #[must_use]
+    pub fn roughness(&self) -> Option<&RoughnessCorrection> {
+        self.roughness.as_ref()
+    }
+
+    /// The manifest the grid was loaded from (the tool's view; not a supported API).
+    #[doc(hidden)]
+    #[must_use]
+    pub fn manifest(&self) -> &GridManifest {
+        &self.manifest
+    }
+
+    /// The quality tier rough lookups read ([`FittedGrid::with_read`]).
+    ///
+    /// ```
+    /// # let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fits/tiny");
+    /// use warpfit_runtime::{FittedGrid, SpecularRead};
+    /// let grid = FittedGrid::load(dir)?;
+    /// assert_eq!(grid.read(), SpecularRead::Blended);
+    /// # Ok::<(), warpfit_runtime::LoadError>(())
+    /// ```
+    #[must_use]
+    pub fn read(&self) -> SpecularRead {
+        self.read
+    }
+
+    /// The same grid with probe A's radiance replaced by `radiance` (same mip sizes): the
+    /// evaluation's emitted-light twin (the tool's; not a supported API).
+    #[doc(hidden)]
+    #[must_use]
+    pub fn with_radiance(mut self, radiance: crate::octa::OctMips<Vec3>) -> FittedGrid {
+        self.warp.probe.radiance = radiance;
+        self
+    }
+
+    /// The same grid with its irradiance edited by `edit`, the harmonics derived again when
+    /// `edit` says it changed the maps (the tool's evaluation and tests; not a supported
+    /// API).
+    #[doc(hidden)]
+    #[must_use]
+    pub fn with_irradiance(mut self, edit: impl FnOnce(&mut IrradianceGrid) -> bool) -> FittedGrid {
+        if edit(&mut self.irradiance) {
+            self.irradiance_sh = self.irradiance_sh.reproject(&self.irradiance.view());
+        }
+        self
+    }
+
+    /// The same grid with another roughness correction (the tool's tests; not a supported
+    /// API).
+    #[doc(hidden)]
+    #[must_use]
+    pub fn with_roughness(mut self, roughness: Option<RoughnessCorrection>) -> FittedGrid {
+        self.roughness = roughness;
+        self
+    }
+
+    /// The same grid with its lookup's parts edited by `edit` (the fallback proxy, the
+    /// blend, the warp options): the tool's tests of exported variants; not a supported API.
+    #[doc(hidden)]
+    #[must_use]
+    pub fn with_lookup(mut self, edit: impl FnOnce(&mut Warp, &mut Blend, &mut Correctives)) -> FittedGrid {
+        edit(&mut self.warp, &mut self.blend, &mut self.correctives);
+        self
+    }
+
+    /// The grid's volume as (min corner, max corner), in scene units. Lookups outside it
+    /// still answer (the nearest cell's data, see the type's conventions).
+    ///
+    /// ```
+    /// # let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fits/tiny");
+    /// let grid = warpfit_runtime::FittedGrid::load(dir)?;
+    /// let (lo, hi) = grid.bounds();
+    /// assert!(lo.cmplt(hi).all());
+    /// # Ok::<(), warpfit_runtime::LoadError>(())
+    /// ```
+    #[must_use]
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        (self.correctives.geometry.min, self.correctives.geometry.max)
+    }
+
+    /// Bytes of the loaded data (probe, correctives, irradiance), for a level's memory
+    /// budget.
+    ///
+    /// ```
+    /// # let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fits/tiny");
+    /// let grid = warpfit_runtime::FittedGrid::load(dir)?;
+    /// assert!(grid.memory_bytes() > 0);
+    /// # Ok::<(), warpfit_runtime::LoadError>(())
+    /// ```
     #[must_use]
     pub fn memory_bytes(&self) -> usize {
         let p = &self.warp.probe;
@@ -363,6 +570,16 @@ impl FittedGrid {
 }
 
 /// Slices of a batch call with different lengths.
+///
+/// ```
+/// # let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fits/tiny");
+/// use warpfit_runtime::{FittedGrid, glam::Vec3};
+/// let grid = FittedGrid::load(dir)?;
+/// let mut out = [Vec3::ZERO; 2];
+/// let err = grid.irradiance_batch(&[Vec3::ZERO], &[Vec3::Y, Vec3::X], &mut out).unwrap_err();
+/// assert_eq!((err.expected, err.found[0]), (2, 1));
+/// # Ok::<(), warpfit_runtime::LoadError>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct BatchError {
     /// Length of the output slice.

@@ -30,16 +30,22 @@ pub struct SurfacePatch {
     pub offset: f32,
 }
 
-/// A baked surface-probe atlas (struct of arrays).
+/// A baked surface-probe atlas (seed 003): a grid of hemispherical probes just above a large
+/// glossy surface (a floor), for glossy reflections on that surface, loaded with
+/// [`load_surface_atlas`](crate::load_surface_atlas).
 #[derive(Clone, Debug)]
 pub struct SurfaceAtlas {
+    #[doc(hidden)]
     pub patch: SurfacePatch,
     /// Radiance per mip, each `probes × N²` texels, tile after tile; mip 0 is the mirror
     /// image, mip m is GGX-prefiltered for `roughness[m]`.
+    #[doc(hidden)]
     pub radiance: Vec<Vec<Vec3>>,
     /// Perceptual roughness of each radiance mip (0 first, increasing, 1 last).
+    #[doc(hidden)]
     pub roughness: Vec<f32>,
     /// 1/distance of each mip-0 texel-centre ray (0 where the probe saw sky).
+    #[doc(hidden)]
     pub inv_distance: Vec<f32>,
     /// `patch.frame()`, kept for the lookups.
     frame: SurfaceFrame,
@@ -104,7 +110,9 @@ impl SurfacePatch {
 impl SurfaceAtlas {
     /// An atlas from its patch and baked layers. Panics unless the layers fit the patch
     /// (the baker's contract, not user input): every mip and the distances hold
-    /// `probes × N²` texels, and the roughness runs from 0 with one entry per mip.
+    /// `probes × N²` texels, and the roughness runs from 0 with one entry per mip (the
+    /// tool's; not a supported API).
+    #[doc(hidden)]
     #[must_use]
     pub fn new(patch: SurfacePatch, radiance: Vec<Vec<Vec3>>, roughness: Vec<f32>, inv_distance: Vec<f32>) -> Self {
         let texels = patch.probes() * (patch.resolution * patch.resolution) as usize;
@@ -114,26 +122,49 @@ impl SurfaceAtlas {
         SurfaceAtlas { frame: patch.frame(), patch, radiance, roughness, inv_distance }
     }
 
-    /// The patch's tangent frame and dual basis, as the lookups use them.
+    /// The patch's tangent frame and dual basis, as the lookups use them (the tool's; not a
+    /// supported API).
+    #[doc(hidden)]
     #[must_use]
     pub fn frame(&self) -> &SurfaceFrame {
         &self.frame
     }
 
     /// Unit normal of the surface (`edge_u × edge_v`).
+    ///
+    /// ```
+    /// # use warpfit_runtime::glam::Vec3;
+    /// # use warpfit_runtime::warp::surface::SurfacePatch;
+    /// # let patch = SurfacePatch { corner: Vec3::ZERO, edge_u: Vec3::X, edge_v: Vec3::NEG_Z, counts: [1, 1], resolution: 2, offset: 0.05 };
+    /// # let atlas = warpfit_runtime::SurfaceAtlas::new(patch, vec![vec![Vec3::ONE; 4]], vec![0.0], vec![0.5; 4]);
+    /// // `atlas`: one of `warpfit_runtime::load_surface_atlases("fits/mylevel")?`
+    /// assert_eq!(atlas.normal(), Vec3::Y);
+    /// ```
     #[must_use]
     pub fn normal(&self) -> Vec3 {
         self.frame.normal
     }
 
-    /// Surface coordinates (s, t) of a point (not clamped).
+    /// Surface coordinates (s, t) of a point (not clamped): (0, 0) at the patch's corner,
+    /// (1, 1) at the opposite one.
+    ///
+    /// ```
+    /// # use warpfit_runtime::glam::Vec3;
+    /// # use warpfit_runtime::warp::surface::SurfacePatch;
+    /// # let patch = SurfacePatch { corner: Vec3::ZERO, edge_u: Vec3::X, edge_v: Vec3::NEG_Z, counts: [1, 1], resolution: 2, offset: 0.05 };
+    /// # let atlas = warpfit_runtime::SurfaceAtlas::new(patch, vec![vec![Vec3::ONE; 4]], vec![0.0], vec![0.5; 4]);
+    /// // `atlas`: one of `warpfit_runtime::load_surface_atlases("fits/mylevel")?`
+    /// assert_eq!(atlas.surface_coordinates(Vec3::new(0.5, 0.0, -0.25)), (0.5, 0.25));
+    /// ```
     #[must_use]
     pub fn surface_coordinates(&self, p: Vec3) -> (f32, f32) {
         let d = p - self.patch.corner;
         (self.frame.dual_u.dot(d), self.frame.dual_v.dot(d))
     }
 
-    /// World position of probe (i, j): the centre of its patch, `offset` off the surface.
+    /// World position of probe (i, j): the centre of its patch, `offset` off the surface
+    /// (the tool's; not a supported API).
+    #[doc(hidden)]
     #[must_use]
     pub fn probe_position(&self, i: u32, j: u32) -> Vec3 {
         self.patch.probe_position(&self.frame, i, j)
@@ -142,12 +173,32 @@ impl SurfaceAtlas {
     /// Radiance arriving at `b` (a point on or just off the surface) from unit-or-not
     /// direction `dir` at perceptual roughness `r`: the seed's lookup. Black for a zero or
     /// non-finite direction; a position off the parallelogram reads its nearest probes.
+    ///
+    /// ```
+    /// # use warpfit_runtime::glam::Vec3;
+    /// # use warpfit_runtime::warp::surface::SurfacePatch;
+    /// # let patch = SurfacePatch { corner: Vec3::ZERO, edge_u: Vec3::X, edge_v: Vec3::NEG_Z, counts: [1, 1], resolution: 2, offset: 0.05 };
+    /// # let atlas = warpfit_runtime::SurfaceAtlas::new(patch, vec![vec![Vec3::ONE; 4]], vec![0.0], vec![0.5; 4]);
+    /// // `atlas`: one of `warpfit_runtime::load_surface_atlases("fits/mylevel")?`
+    /// let c = atlas.radiance(Vec3::new(0.3, 0.0, -0.6), Vec3::new(0.2, 1.0, 0.1), 0.3);
+    /// assert!(c.is_finite() && c.min_element() >= 0.0);
+    /// ```
     #[must_use]
     pub fn radiance(&self, b: Vec3, dir: Vec3, r: f32) -> Vec3 {
         self.lookup(b, dir, r, false)
     }
 
     /// As [`Self::radiance`], each of the four probes warped by its own depth first.
+    ///
+    /// ```
+    /// # use warpfit_runtime::glam::Vec3;
+    /// # use warpfit_runtime::warp::surface::SurfacePatch;
+    /// # let patch = SurfacePatch { corner: Vec3::ZERO, edge_u: Vec3::X, edge_v: Vec3::NEG_Z, counts: [1, 1], resolution: 2, offset: 0.05 };
+    /// # let atlas = warpfit_runtime::SurfaceAtlas::new(patch, vec![vec![Vec3::ONE; 4]], vec![0.0], vec![0.5; 4]);
+    /// // `atlas`: one of `warpfit_runtime::load_surface_atlases("fits/mylevel")?`
+    /// let c = atlas.radiance_warped(Vec3::new(0.3, 0.0, -0.6), Vec3::new(0.2, 1.0, 0.1), 0.3);
+    /// assert!(c.is_finite() && c.min_element() >= 0.0);
+    /// ```
     #[must_use]
     pub fn radiance_warped(&self, b: Vec3, dir: Vec3, r: f32) -> Vec3 {
         self.lookup(b, dir, r, true)
@@ -200,6 +251,7 @@ impl SurfaceAtlas {
     }
 
     /// Bytes the atlas takes in engine layout (RGBA16F radiance per texel and mip).
+    #[doc(hidden)]
     #[must_use]
     pub fn bytes(&self) -> u64 {
         self.radiance.iter().map(|l| l.len() as u64 * 8).sum()
@@ -207,6 +259,7 @@ impl SurfaceAtlas {
 
     /// Mip 0 as one image: the tiles side by side as the seed packs them (probe (i, j) at
     /// column i, row j), `(width, height, texels)`.
+    #[doc(hidden)]
     #[must_use]
     pub fn atlas_image(&self) -> (u32, u32, Vec<Vec3>) {
         let p = &self.patch;
@@ -215,6 +268,7 @@ impl SurfaceAtlas {
 
     /// A layer of the atlas (`probes × N²` values, tile after tile) packed as one image,
     /// probe (i, j)'s tile at column i, row j, row-major.
+    #[doc(hidden)]
     #[must_use]
     pub fn packed<T: Copy + Default>(&self, tiles: &[T]) -> Vec<T> {
         let n = self.patch.resolution as usize;

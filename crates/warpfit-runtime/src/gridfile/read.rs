@@ -158,15 +158,15 @@ pub fn read_manifest(dir: &Path) -> Result<GridManifest, FileError> {
 
 /// A layer a payload must hold, derived from the manifest's structure (not from the
 /// payload's own listing, which a damaged manifest could inflate).
-pub(crate) struct Expected {
-    pub(crate) name: String,
-    pub(crate) width: usize,
-    pub(crate) height: usize,
-    pub(crate) channels: &'static [&'static str],
+pub struct Expected {
+    pub name: String,
+    pub width: usize,
+    pub height: usize,
+    pub channels: &'static [&'static str],
     /// An atlas of square tiles (tile resolution, columns): its channels are delivered tile
     /// by tile (texel t of tile k at `k·res² + t`, the padding tiles last), placed as they
     /// are decoded, so no atlas-then-gather copy is held.
-    pub(crate) tiles: Option<(u32, u32)>,
+    pub tiles: Option<(u32, u32)>,
 }
 
 /// The layers of every payload, from the manifest's structural fields; checks the structure
@@ -398,7 +398,7 @@ fn read_payload(dir: &Path, m: &GridManifest, file: &str, expected: &[Expected])
 /// Reads payload `file` of `dir` as `payloads` (from the manifest at `mpath`) lists it:
 /// size, checksum and EXR headers checked against the listing and `expected` before a byte
 /// is decoded, then the layers' sizes and channels.
-pub(crate) fn read_listed_payload(
+pub fn read_listed_payload(
     dir: &Path,
     mpath: &Path,
     payloads: &[Payload],
@@ -411,7 +411,7 @@ pub(crate) fn read_listed_payload(
 /// [`read_listed_payload`], the R, G and B channels of layer `rgb` (when named) decoded
 /// straight into triples in the layer's placed order (its channels come back empty): a big
 /// grid's irradiance is never held as three channels and a copy.
-pub(crate) fn read_listed_payload_rgb(
+pub fn read_listed_payload_rgb(
     dir: &Path,
     mpath: &Path,
     payloads: &[Payload],

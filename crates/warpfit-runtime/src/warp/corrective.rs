@@ -321,7 +321,7 @@ impl Correctives {
 }
 
 /// [`LANES`] aims in structure-of-arrays form (see `Correctives::aim_lanes`).
-pub(crate) struct AimLanes {
+pub struct AimLanes {
     /// The aimed points seen from A, as components.
     v: octa::Soa3,
     /// How far along each query ray the aimed point lies (`along`).
@@ -338,7 +338,7 @@ impl AimLanes {
     /// `has_t[k]`, and its surface is shifted by `delta[k]`. Shared by the runtime's batches
     /// and the fit's objective.
     #[inline(always)]
-    pub(crate) fn shifted(
+    pub fn shifted(
         a: Vec3,
         t: &[f32; LANES],
         has_t: &[bool; LANES],
@@ -368,7 +368,7 @@ impl AimLanes {
     /// The fetch vectors as components: the aimed point, or the query direction where the
     /// lane does not aim.
     #[inline(always)]
-    pub(crate) fn vectors(&self) -> octa::Soa3 {
+    pub fn vectors(&self) -> octa::Soa3 {
         let mut v = self.v;
         for c in 0..3 {
             for k in 0..LANES {
@@ -381,7 +381,7 @@ impl AimLanes {
     /// [`Self::vectors`] and each lane's distance ratio (1 where it does not aim), as
     /// [`shifted_aim`]'s `Aim` carries it.
     #[inline(always)]
-    pub(crate) fn vectors_and_ratios(&self) -> (octa::Soa3, [f32; LANES]) {
+    pub fn vectors_and_ratios(&self) -> (octa::Soa3, [f32; LANES]) {
         // `distance_ratio`, the length as glam forms it (std's square root is the same
         // correctly rounded `sqrtss`, and vectorises)
         let v = &self.v;

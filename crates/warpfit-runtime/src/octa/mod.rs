@@ -169,7 +169,7 @@ pub fn footprint(res: u32, uv: Vec2) -> Footprint {
 
 /// `footprint` on components: the one implementation behind `footprint` and the lane loops.
 #[inline(always)]
-pub(crate) fn footprint_of(n: f32, u: f32, v: f32) -> (i32, i32, f32, f32) {
+pub fn footprint_of(n: f32, u: f32, v: f32) -> (i32, i32, f32, f32) {
     let x = u.clamp(0.0, 1.0) * n - 0.5;
     let y = v.clamp(0.0, 1.0) * n - 0.5;
     let (i0, x0) = floor_small(x);
@@ -183,7 +183,7 @@ pub(crate) fn footprint_of(n: f32, u: f32, v: f32) -> (i32, i32, f32, f32) {
 /// loop over lanes vectorises; `x as i32` saturates, which the x86-64 baseline cannot
 /// vectorise, and `f32::floor` is a libm call there (no SSE4.1 round instruction).
 #[inline(always)]
-pub(crate) fn floor_small(x: f32) -> (i32, f32) {
+pub fn floor_small(x: f32) -> (i32, f32) {
     const SHIFT: f32 = 12_582_912.0; // 1.5·2²³
     let nearest = (x + SHIFT) - SHIFT;
     let floor = if nearest > x { nearest - 1.0 } else { nearest };
@@ -534,7 +534,7 @@ impl<T: Texel> OctMips<T> {
     /// read ends a long dependency chain (calls there cost more than the code they save).
     #[inline(always)]
     #[must_use]
-    pub(crate) fn sample_lod_uv_inline(&self, uv: Vec2, lod: f32) -> T {
+    pub fn sample_lod_uv_inline(&self, uv: Vec2, lod: f32) -> T {
         self.lod_blend(
             uv,
             lod,
@@ -667,6 +667,17 @@ pub fn inverse_distance(d: f32) -> f32 {
 #[must_use]
 pub fn distance_from_inverse(w: f32) -> f32 {
     if w > 0.0 { 1.0 / w } else { f32::INFINITY }
+}
+
+/// Orthonormal basis around unit `n` (Duff et al. 2017, "Building an Orthonormal Basis,
+/// Revisited"). Returns (tangent, bitangent).
+#[inline]
+#[must_use]
+pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
+    let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3::new(b, sign + n.y * n.y * a, -n.y))
 }
 
 #[cfg(test)]

@@ -4,11 +4,32 @@
 //! sharing the one grid.
 //!
 //! `cargo run --release --example runtime -- fits/torture` (defaults to the committed
-//! `fits/tiny`). Only `warpfit::runtime` is used: it builds without the offline tool.
+//! `fits/tiny`). It uses the crate `warpfit-runtime` alone, as a game would.
 
 use glam::Vec3;
 use std::time::Instant;
-use warpfit::runtime::FittedGrid;
+use warpfit_runtime::FittedGrid;
+
+/// A small deterministic random stream (xorshift64*), enough for a synthetic frame.
+struct Rng(u64);
+
+impl Rng {
+    /// Uniform in [0, 1).
+    fn next(&mut self) -> f32 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// Uniform on the unit sphere.
+    fn direction(&mut self) -> Vec3 {
+        let z = 1.0 - 2.0 * self.next();
+        let phi = std::f32::consts::TAU * self.next();
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(r * libm::cosf(phi), r * libm::sinf(phi), z)
+    }
+}
 
 /// One G-buffer sample.
 #[derive(Clone, Copy)]
@@ -52,7 +73,7 @@ fn shade_tile(grid: &FittedGrid, tile: &[Surface], out: &mut [Vec3]) {
 }
 
 fn main() {
-    let dir = std::env::args().nth(1).unwrap_or_else(|| concat!(env!("CARGO_MANIFEST_DIR"), "/fits/tiny").into());
+    let dir = std::env::args().nth(1).unwrap_or_else(|| concat!(env!("CARGO_MANIFEST_DIR"), "/../../fits/tiny").into());
     let t = Instant::now();
     let grid = match FittedGrid::load(&dir) {
         Ok(g) => g,
@@ -64,24 +85,17 @@ fn main() {
     println!("loaded {dir} in {:.1} ms ({} bytes in memory)", t.elapsed().as_secs_f64() * 1e3, grid.memory_bytes());
 
     // A synthetic "frame": surfaces scattered through the grid's volume, facing random ways.
-    let g = &grid.correctives.geometry;
-    let mut rng = warpfit::sampling::Sampler::new(7, 0, 0);
+    let (lo, hi) = grid.bounds();
+    let mut rng = Rng(7);
     let frame: Vec<Surface> = (0..1 << 18)
         .map(|_| {
-            let position = g.min + (g.max - g.min) * Vec3::new(rng.next_1d(), rng.next_1d(), rng.next_1d());
-            let normal = warpfit::sampling::uniform_sphere(rng.next_2d());
-            let mut to_eye = warpfit::sampling::uniform_sphere(rng.next_2d());
+            let position = lo + (hi - lo) * Vec3::new(rng.next(), rng.next(), rng.next());
+            let normal = rng.direction();
+            let mut to_eye = rng.direction();
             if to_eye.dot(normal) < 0.0 {
                 to_eye = -to_eye;
             }
-            Surface {
-                position,
-                normal,
-                to_eye,
-                albedo: Vec3::splat(0.6),
-                f0: Vec3::splat(0.04),
-                roughness: rng.next_1d(),
-            }
+            Surface { position, normal, to_eye, albedo: Vec3::splat(0.6), f0: Vec3::splat(0.04), roughness: rng.next() }
         })
         .collect();
 
