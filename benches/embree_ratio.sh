@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # warpfit's closest-hit rate as a ratio of Embree's, on the same triangles and rays, one
-# thread each, measured alternately in one sitting (this is the only comparison the README
+# thread each, measured alternately in one sitting (this is the only comparison docs/performance.md
 # makes: absolute rates on a shared machine drift by tens of percent between minutes).
 #
 #   WARPFIT_DUMP_RAYS=/tmp/rays cargo bench --bench trace -- rays/

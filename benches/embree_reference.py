@@ -1,5 +1,5 @@
 """Embree's closest-hit rate on the rays `cargo bench --bench trace` traces: the reference
-the README's tracer ratios are measured against (one thread, closest hit).
+the tracer ratios of docs/performance.md are measured against (one thread, closest hit).
 
     WARPFIT_DUMP_RAYS=/tmp/rays cargo bench --bench trace -- rays/atrium
     python3 -m venv /tmp/embree && /tmp/embree/bin/pip install numpy embreex

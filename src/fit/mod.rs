@@ -135,7 +135,7 @@ fn is_default_margin(m: &f64) -> bool {
 pub const ROUGH_MIX: [f32; 5] = [0.125, 0.25, 0.5, 0.75, 1.0];
 
 impl FitSettings {
-    /// The defaults of `warpfit fit` (chosen by measurement; see ARCHITECTURE.md).
+    /// The defaults of `warpfit fit` (chosen by measurement; see docs/architecture.md).
     pub const fn standard() -> Self {
         FitSettings {
             map_res: 8,

@@ -23,11 +23,11 @@
 //!   anchor lies between the proxy (`a = 0`) and the grid's raytraced distances, a fraction
 //!   `depth_prior` of the way in log-scale (`FitSettings::depth_prior`): the proxy alone
 //!   keeps a map near its neighbours (and cells without a map; seams between cells are
-//!   what a viewer sees first: ARCHITECTURE.md), but a texel the data leaves free then
+//!   what a viewer sees first: docs/architecture.md), but a texel the data leaves free then
 //!   falls back to a surface that is not there, which rough lookups, averaging many
-//!   texels, show; halfway between, both hold (measured: ARCHITECTURE.md).
+//!   texels, show; halfway between, both hold (measured: docs/architecture.md).
 //!
-//! Solvers (chosen by measurement, see ARCHITECTURE.md): Brent's method per texel in
+//! Solvers (chosen by measurement, see docs/architecture.md): Brent's method per texel in
 //! coordinate-descent sweeps (each texel only touches the queries in its bilinear
 //! footprint, so a 1-D step is cheap), L-BFGS on all texels (gradient by central differences
 //! with step 1e-3 in log-scale: 0.1% of a distance, far above f32 noise, far below the scale
@@ -65,7 +65,7 @@ const BRACKET: f64 = 2.0;
 /// Brent's tolerance on a texel's log-scale (argmin's `eps`, relative, and `t`, absolute:
 /// the answer is within 3·(eps·|s| + t)): about 3% of a distance, far below a texel's angle
 /// for any parallax the probe sees. The earlier (1e-3, 1e-4) cost 68% more evaluations for
-/// no lower held-out error on torture (see ARCHITECTURE.md).
+/// no lower held-out error on torture (see docs/architecture.md).
 const BRENT_TOLERANCE: (f64, f64) = (3e-2, 1e-2);
 
 /// One training or check query.

@@ -3,7 +3,7 @@
 //! Level 0 stores nothing (the grid's proxy as it is); level 2 stores the cell's fitted
 //! shift map of the proxy. Level 1 (one origin
 //! offset, depth mip and relaxation per cell) is measured on request
-//! (`FitSettings::level1`, `summary::Level1Summary`), not stored: see ARCHITECTURE.md.
+//! (`FitSettings::level1`, `summary::Level1Summary`), not stored: see docs/architecture.md.
 
 use serde::{Deserialize, Serialize};
 
@@ -95,7 +95,7 @@ impl std::fmt::Display for Selection {
 /// pulled towards its anchor unless the data pays, so one that wins by noise costs little, and the
 /// margin only discarded maps that helped: on `courtyard` 0.95 stored 183 maps and lost to
 /// the box at r = 0.25 (tone-mapped RMSE), 1.0 stored 833 and did not; `cornell` and
-/// `torture` were unchanged within 1% (ARCHITECTURE.md).
+/// `torture` were unchanged within 1% (docs/architecture.md).
 pub const SELECTION_MARGIN: f64 = 1.0;
 
 /// Model selection on held-out errors: nothing is stored when the fallback method meets the

@@ -156,7 +156,7 @@ pub struct Tree<'a> {
 /// a float node saves the eight children's dequantisation (about a third of the node
 /// test's work) and costs no memory traffic, as they stay in cache; the deep levels keep
 /// the 80-byte compressed nodes, since three times the bytes there cost a ray more in
-/// cache misses than the dequantisation (measured: ARCHITECTURE.md).
+/// cache misses than the dequantisation (measured: docs/architecture.md).
 pub const TOP_NODES: usize = 2048;
 
 /// obvhs's CWBVH node with its children's boxes as floats: each plane `p + 2^e · q`

@@ -14,7 +14,7 @@
 //!   surface shifted along the lookup direction.
 //!
 //! Why this form, rather than seed 000's plane perpendicular to Dir through each texel's hit
-//! (this crate's earlier model, measured in ARCHITECTURE.md):
+//! (the project's earlier model, measured in docs/architecture.md of the warpfit repository):
 //! - a cell without a map is the same surface with Δ = 0, so stored and unstored cells meet
 //!   without a seam wherever the correction is small, and neighbouring maps differ only
 //!   where the geometry makes them;
