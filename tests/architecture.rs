@@ -21,6 +21,7 @@ const FLOORS: &[&[&str]] = &[
     &["bakefile", "export", "partfile", "preview"],
     &["report"],
     &["jobs"],
+    &["cli"],
 ];
 
 /// What a game links (the crate `warpfit-runtime`): never imports the offline tool.
