@@ -341,15 +341,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     // the dense grid's irradiance (the written grid's when there is one, else the bake's)
     // and probe A's own, for the diffuse rows and the renormalized specular rows
     let mut from_bake = None;
-    let irradiance: &crate::runtime::IrradianceGrid = match runtime {
-        Some(g) => g.irradiance_grid(),
-        None => from_bake.insert(crate::runtime::IrradianceGrid::from_cells(
-            grid.geometry,
-            (grid.irradiance_resolution, grid.depth_resolution),
-            (&grid.irradiance, &grid.depth_mean, &grid.depth_mean_sq, &grid.probe_offset),
-            |c| !grid.inside[c],
-        )),
-    };
+    let irradiance = judged_irradiance(runtime, grid, &mut from_bake);
     let probe_a = diffuse::probe_irradiance(&warp.probe.radiance);
     let renorm = methods::Renorm { grid: irradiance, probe_a: &probe_a };
     let rough = settings.rough_positions > 0 && settings.rough_dirs > 0;
@@ -357,12 +349,8 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     let bar = progress.bar(2 + 3 * buckets.len() as u64, "eval");
     bar.set_message("eval: references");
     let mut times = EvalTimes::default();
-    let mut clock = std::time::Instant::now();
-    // the seconds since the last lap, added to `field`
-    let mut lap = |field: &mut f64| {
-        *field += clock.elapsed().as_secs_f64();
-        clock = std::time::Instant::now();
-    };
+    let mut laps = Laps(std::time::Instant::now());
+    let mut lap = |field: &mut f64| laps.lap(field);
     let mirror = validation_set(scene, tracer, grid, warp.probe.position, settings);
     let mut reference_rays = mirror.rays;
     lap(&mut times.mirror_references);
@@ -374,7 +362,141 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     lap(&mut times.view_references);
     // probe A's emitted part, read by every row as it reads probe A (the linear error with
     // the emitters apart): a warp context and a loaded grid with that chain as radiance
-    let emitted: Option<(Warp, Option<FittedGrid>)> = {
+    let (emitted, rays) = emitted_twins(baked, warp, runtime, progress);
+    reference_rays += rays;
+    let emitters = emitted
+        .as_ref()
+        .map(|(w, g)| methods::Emitters { shading: Glossy { warp: w, correction }, runtime: g.as_ref() });
+    let emitters = emitters.as_ref();
+    lap(&mut times.emitted);
+    let lookups = settings.timing_lookups as usize;
+    let mut rows_out = Vec::new();
+    let mut summaries = Vec::new();
+    let mut flip_figures = Vec::new();
+    for (bucket, &r) in buckets.iter().enumerate() {
+        bar.set_message(format!("eval: r {r} references"));
+        // the rough bucket's queries, traced with `spp`-sample references
+        let size = (settings.rough_positions as usize, settings.rough_dirs as usize);
+        let trace_rough =
+            |spp: u32| validation::rough_set(scene, tracer, &mirror, (r, bucket as u64), size, spp, settings.seed);
+        let set = if r == 0.0 {
+            None
+        } else {
+            let s = trace_rough(settings.rough_reference_spp);
+            reference_rays += s.rays;
+            Some(s)
+        };
+        lap(&mut times.rough_references);
+        let set = set.as_ref().unwrap_or(&mirror);
+        let view_refs = view_references(baked, &views, (r, bucket), settings, exposure);
+        lap(&mut times.view_references);
+        bar.inc(1);
+        bar.set_message(format!("eval: r {r} rows"));
+        let rules: &[MipRule] = if r == 0.0 { &[MipRule::Plain] } else { &MipRule::ALL };
+        let rows = methods::rows(methods, corrective_rows, runtime, rules, Some(&renorm));
+        let emitted_warp = emitted.as_ref().map(|e| &e.0);
+        let timing = if r == 0.0 { lookups } else { (lookups / 4).max(1) };
+        let mut results = score_rows(&rows, (shading, emitters), set, (exposure, timing));
+        if r == 0.0 && methods.contains(&Method::Reproject) {
+            // reproject has no rough variant: no reprojected prefiltered chain is built
+            insert_reprojections(&mut results, (warp, emitted_warp), set, exposure);
+        }
+        insert_bounds(&mut results, warp, set, exposure);
+        lap(&mut times.rows);
+        bar.inc(1);
+        bar.set_message(format!("eval: r {r} ꟻLIP"));
+        if !view_refs.is_empty() {
+            set_flips(&mut results, &rows, shading, &view_refs, exposure);
+            flip_figures.extend(flip_figure(&rows, &results, shading, &view_refs[0], exposure));
+        }
+        lap(&mut times.flip);
+        bar.inc(1);
+        let mut spp = if r == 0.0 { settings.reference_spp } else { settings.rough_reference_spp };
+        let mut summary = bucket_summary(set, r, spp, (&rows, &results), shading, exposure, &view_refs);
+        // A rough bucket whose references are too noisy for the difference its claim
+        // reports is traced again with twice the samples (the same as asking for that many)
+        // and its errors measured again; the lookups, their costs and ꟻLIP stand.
+        let mut refined: Option<ValidationSet> = None;
+        while r > 0.0 && !summary.reference_ok && spp.saturating_mul(2) <= settings.rough_reference_spp_max {
+            spp *= 2;
+            bar.set_message(format!("eval: r {r} references, {spp} samples"));
+            let traced = refined.insert(trace_rough(spp));
+            reference_rays += traced.rays;
+            lap(&mut times.rough_references);
+            rescore(&mut results, &rows, (shading, emitters), traced, exposure);
+            summary = bucket_summary(traced, r, spp, (&rows, &results), shading, exposure, &view_refs);
+            lap(&mut times.rows);
+        }
+        if r == 0.0 {
+            bar.set_message("eval: quiet references");
+            let set = refined.as_ref().unwrap_or(set);
+            let (ceiling, rays) = quiet_ceiling(baked, set, (&rows, &summary.claim.0), shading, settings, exposure);
+            (summary.noise_ceiling, reference_rays) = (ceiling, reference_rays + rays);
+        }
+        summaries.push(summary);
+        rows_out.extend(results);
+        lap(&mut times.summaries);
+    }
+    let fitted_levels = corrective_rows
+        .iter()
+        .find(|r| r.variant == CorrectiveVariant::Fitted)
+        .map(|r| metrics::level_errors(warp, &mirror, r.correctives, exposure))
+        .unwrap_or_default();
+    bar.set_message("eval: warp1 options");
+    let warp1_sweep = options::warp1_options(warp, &mirror, exposure);
+    lap(&mut times.rows);
+    bar.inc(1);
+    bar.set_message("eval: diffuse");
+    let (diffuse, rays, figures) =
+        diffuse_table(baked, irradiance, &probe_a, runtime.is_some(), (&views, exposure), settings);
+    reference_rays += rays;
+    flip_figures.extend(figures);
+    bar.set_message("eval: surface probes");
+    let (surface, surface_atlases, rays, figures) =
+        surface_probes(baked, (shading, runtime, methods), settings, exposure, progress);
+    reference_rays += rays;
+    flip_figures.extend(figures);
+    lap(&mut times.diffuse_and_surfaces);
+    bar.finish_and_clear();
+    let renderer = Renderer::new(scene, tracer);
+    let report = EvalReport {
+        scene: scene.name.clone(),
+        positions: mirror.positions.len(),
+        lookups: mirror.dirs.len(),
+        hidden_fraction: mirror.hidden_fraction(),
+        reference_ns_per_ray: timing::time_reference(&renderer, &mirror, 4096),
+        methods: rows_out,
+        buckets: summaries,
+        exposure,
+        warp1_sweep,
+        settings: settings.clone(),
+        command: command.to_string(),
+        fitted_levels,
+        diffuse,
+        surface,
+        seconds: t0.elapsed().as_secs_f64(),
+        times,
+        reference_rays,
+    };
+    let views = views::views(scene, tracer, warp, &mirror, settings.reference_spp, settings.seed, corrective_rows);
+    Evaluation { report, surface_atlases, views, flip_figures }
+}
+
+/// Probe A's emitted part as every row reads it (the linear error with the emitters apart):
+/// a warp context with that chain as radiance and, for a loaded grid whose probe has the
+/// bake's mips, its twin with that chain (and, when it blends irradiance into rough lookups,
+/// the stored cells' emitted irradiance); `None` in a scene without emitters. Returns the
+/// reference rays it traced.
+#[allow(clippy::type_complexity)]
+fn emitted_twins(
+    baked: Baked,
+    warp: &Warp,
+    runtime: Option<&FittedGrid>,
+    progress: &Progress,
+) -> (Option<(Warp, Option<FittedGrid>)>, u64) {
+    let Baked { scene, tracer, grid, .. } = baked;
+    let mut reference_rays = 0;
+    let twins = {
         let renderer = Renderer::new(scene, tracer);
         renderer.has_emitters().then(|| {
             let probe = crate::bake::probe::ProbeSettings {
@@ -411,116 +533,22 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             (w, grid)
         })
     };
-    let emitters = emitted
-        .as_ref()
-        .map(|(w, g)| methods::Emitters { shading: Glossy { warp: w, correction }, runtime: g.as_ref() });
-    let emitters = emitters.as_ref();
-    lap(&mut times.emitted);
-    let lookups = settings.timing_lookups as usize;
-    let mut rows_out = Vec::new();
-    let mut summaries = Vec::new();
-    let mut flip_figures = Vec::new();
-    for (bucket, &r) in buckets.iter().enumerate() {
-        bar.set_message(format!("eval: r {r} references"));
-        // the rough bucket's queries, traced with `spp`-sample references
-        let size = (settings.rough_positions as usize, settings.rough_dirs as usize);
-        let trace_rough =
-            |spp: u32| validation::rough_set(scene, tracer, &mirror, (r, bucket as u64), size, spp, settings.seed);
-        let set = if r == 0.0 {
-            None
-        } else {
-            let s = trace_rough(settings.rough_reference_spp);
-            reference_rays += s.rays;
-            Some(s)
-        };
-        lap(&mut times.rough_references);
-        let set = set.as_ref().unwrap_or(&mirror);
-        let view_refs: Vec<renders::ViewReference> = match settings.renders {
-            Some(rs) => views
-                .iter()
-                .enumerate()
-                .map(|(k, v)| {
-                    let tag = (bucket * 16 + k) as u64;
-                    renders::reference(scene, tracer, v, r, rs.reference_spp, (settings.seed, tag, exposure))
-                })
-                .collect(),
-            None => Vec::new(),
-        };
-        lap(&mut times.view_references);
-        bar.inc(1);
-        bar.set_message(format!("eval: r {r} rows"));
-        let rules: &[MipRule] = if r == 0.0 { &[MipRule::Plain] } else { &MipRule::ALL };
-        let rows = methods::rows(methods, corrective_rows, runtime, rules, Some(&renorm));
-        let timing = if r == 0.0 { lookups } else { (lookups / 4).max(1) };
-        let mut results: Vec<MethodResult> =
-            rows.iter().map(|row| methods::evaluate_row(row, (shading, emitters), set, exposure, timing)).collect();
-        if r == 0.0 && methods.contains(&Method::Reproject) {
-            // reproject has no rough variant: no reprojected prefiltered chain is built
-            let at = results.iter().position(|m| m.name == Method::Oracle.name()).unwrap_or(results.len());
-            use crate::warp::reproject::HoleFill;
-            let warps = (warp, emitted.as_ref().map(|e| &e.0));
-            results.insert(at, methods::evaluate_reproject(warps, set, exposure, HoleFill::MedianDilate));
-            results.insert(at, methods::evaluate_reproject(warps, set, exposure, HoleFill::PushPull));
-        }
-        let at = results.iter().position(|m| m.name == Method::Oracle.name()).map_or(results.len(), |k| k + 1);
-        results.insert(at, bound::best_fetch_row(warp, set, exposure));
-        results.insert(at + 1, bound::best_aim_row(warp, set, exposure));
-        bound::set_gap_closed(&mut results);
-        lap(&mut times.rows);
-        bar.inc(1);
-        bar.set_message(format!("eval: r {r} ꟻLIP"));
-        if !view_refs.is_empty() {
-            let flips: Vec<f64> =
-                rows.par_iter().map(|row| renders::mean_flip(row, shading, &view_refs, exposure)).collect();
-            for (row, f) in rows.iter().zip(flips) {
-                if let Some(m) = results.iter_mut().find(|m| m.name == row.name() && m.mip_rule == row.rule) {
-                    m.flip = Some(f);
-                }
-            }
-            flip_figures.extend(flip_figure(&rows, &results, shading, &view_refs[0], exposure));
-        }
-        lap(&mut times.flip);
-        bar.inc(1);
-        let mut spp = if r == 0.0 { settings.reference_spp } else { settings.rough_reference_spp };
-        let mut summary = bucket_summary(set, r, spp, (&rows, &results), shading, exposure, &view_refs);
-        // A rough bucket whose references are too noisy for the difference its claim
-        // reports is traced again with twice the samples (the same as asking for that many)
-        // and its errors measured again; the lookups, their costs and ꟻLIP stand.
-        let mut refined: Option<ValidationSet> = None;
-        while r > 0.0 && !summary.reference_ok && spp.saturating_mul(2) <= settings.rough_reference_spp_max {
-            spp *= 2;
-            bar.set_message(format!("eval: r {r} references, {spp} samples"));
-            let traced = trace_rough(spp);
-            reference_rays += traced.rays;
-            lap(&mut times.rough_references);
-            let traced = refined.insert(traced);
-            rescore(&mut results, &rows, (shading, emitters), traced, exposure);
-            summary = bucket_summary(traced, r, spp, (&rows, &results), shading, exposure, &view_refs);
-            lap(&mut times.rows);
-        }
-        let set = refined.as_ref().unwrap_or(set);
-        if r == 0.0 && settings.quiet_positions > 0 && settings.quiet_spp > 0 {
-            bar.set_message("eval: quiet references");
-            let positions = settings.quiet_positions as usize;
-            let quiet = validation::quiet_references(scene, tracer, set, positions, settings.quiet_spp, settings.seed);
-            reference_rays += quiet.rays;
-            let quiet = (&quiet, settings.quiet_spp);
-            summary.noise_ceiling = noise_ceiling(set, quiet, (&rows, &summary.claim.0), shading, exposure);
-        }
-        summaries.push(summary);
-        rows_out.extend(results);
-        lap(&mut times.summaries);
-    }
-    let fitted_levels = corrective_rows
-        .iter()
-        .find(|r| r.variant == CorrectiveVariant::Fitted)
-        .map(|r| metrics::level_errors(warp, &mirror, r.correctives, exposure))
-        .unwrap_or_default();
-    bar.set_message("eval: warp1 options");
-    let warp1_sweep = options::warp1_options(warp, &mirror, exposure);
-    lap(&mut times.rows);
-    bar.inc(1);
-    bar.set_message("eval: diffuse");
+    (twins, reference_rays)
+}
+
+/// The diffuse table at held-out surface points (`diffuse`): the grid through each step
+/// of DDGI's blend, the runtime's corrected answer when there is a loaded grid, probe A
+/// alone and seed 004's voxel GI; with the reference rays it traced and its ꟻLIP figures.
+fn diffuse_table(
+    baked: Baked,
+    irradiance: &crate::runtime::IrradianceGrid,
+    probe_a: &crate::octa::OctMap<Vec3>,
+    with_runtime: bool,
+    (views, exposure): (&[crate::perceptual::View], f32),
+    settings: &EvalSettings,
+) -> (Option<diffuse::DiffuseReport>, u64, Vec<FlipFigure>) {
+    let Baked { scene, tracer, grid, .. } = baked;
+    let (mut reference_rays, mut flip_figures) = (0, Vec::new());
     let diffuse = (settings.diffuse_points > 0)
         .then(|| -> Option<diffuse::DiffuseReport> {
             let set = diffuse::diffuse_set(
@@ -540,20 +568,35 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
                 .iter()
                 .map(|&b| diffuse::DiffuseMethod::Grid(irradiance, b))
                 .collect();
-            if runtime.is_some() {
+            if with_runtime {
                 methods.push(diffuse::DiffuseMethod::Runtime(irradiance));
             }
-            methods.push(diffuse::DiffuseMethod::ProbeA(&probe_a));
+            methods.push(diffuse::DiffuseMethod::ProbeA(probe_a));
             methods.push(diffuse::DiffuseMethod::Voxel(&voxels));
             let view_spp = settings.renders.map_or(0, |r| r.reference_spp);
             let (mut r, figure) =
-                diffuse::evaluate(scene, tracer, &set, &methods, &views, (view_spp, settings.seed, exposure));
+                diffuse::evaluate(scene, tracer, &set, &methods, views, (view_spp, settings.seed, exposure));
             r.reference_spp = settings.diffuse_spp;
             flip_figures.extend(figure);
             Some(r)
         })
         .flatten();
-    bar.set_message("eval: surface probes");
+    (diffuse, reference_rays, flip_figures)
+}
+
+/// Each `[[surface_probes]]` patch's atlas, baked for the evaluation and judged on the
+/// patch against probe A's seed methods and the runtime (`surface`); with the reference
+/// rays it traced and its ꟻLIP figures.
+#[allow(clippy::type_complexity)]
+fn surface_probes(
+    baked: Baked,
+    (shading, runtime, methods): (Glossy, Option<&FittedGrid>, &[Method]),
+    settings: &EvalSettings,
+    exposure: f32,
+    progress: &Progress,
+) -> (Vec<surface::SurfaceReport>, Vec<crate::warp::surface::SurfaceAtlas>, u64, Vec<FlipFigure>) {
+    let Baked { scene, tracer, grid, .. } = baked;
+    let (mut reference_rays, mut flip_figures) = (0, Vec::new());
     let (mut surface, mut surface_atlases) = (Vec::new(), Vec::new());
     if settings.surface_points > 0 && settings.surface_dirs > 0 {
         let renderer = Renderer::new(scene, tracer);
@@ -587,30 +630,125 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             surface_atlases.push(atlas);
         }
     }
-    lap(&mut times.diffuse_and_surfaces);
-    bar.finish_and_clear();
-    let renderer = Renderer::new(scene, tracer);
-    let report = EvalReport {
-        scene: scene.name.clone(),
-        positions: mirror.positions.len(),
-        lookups: mirror.dirs.len(),
-        hidden_fraction: mirror.hidden_fraction(),
-        reference_ns_per_ray: timing::time_reference(&renderer, &mirror, 4096),
-        methods: rows_out,
-        buckets: summaries,
-        exposure,
-        warp1_sweep,
-        settings: settings.clone(),
-        command: command.to_string(),
-        fitted_levels,
-        diffuse,
-        surface,
-        seconds: t0.elapsed().as_secs_f64(),
-        times,
-        reference_rays,
-    };
-    let views = views::views(scene, tracer, warp, &mirror, settings.reference_spp, settings.seed, corrective_rows);
-    Evaluation { report, surface_atlases, views, flip_figures }
+    (surface, surface_atlases, reference_rays, flip_figures)
+}
+
+/// Every row of a bucket scored on its queries (`timing` lookups timed per row).
+fn score_rows(
+    rows: &[methods::Row],
+    shading: (Glossy, Option<&methods::Emitters>),
+    set: &ValidationSet,
+    (exposure, timing): (f32, usize),
+) -> Vec<MethodResult> {
+    rows.iter().map(|row| methods::evaluate_row(row, shading, set, exposure, timing)).collect()
+}
+
+/// The two reprojections (push-pull and seed 002's median dilation) before the oracle.
+fn insert_reprojections(
+    results: &mut Vec<MethodResult>,
+    warps: (&Warp, Option<&Warp>),
+    set: &ValidationSet,
+    exposure: f32,
+) {
+    use crate::warp::reproject::HoleFill;
+    let at = results.iter().position(|m| m.name == Method::Oracle.name()).unwrap_or(results.len());
+    results.insert(at, methods::evaluate_reproject(warps, set, exposure, HoleFill::MedianDilate));
+    results.insert(at, methods::evaluate_reproject(warps, set, exposure, HoleFill::PushPull));
+}
+
+/// The single-fetch bounds `best-fetch` and `best-aim` after the oracle, and every row's
+/// share of the gap to them.
+fn insert_bounds(results: &mut Vec<MethodResult>, warp: &Warp, set: &ValidationSet, exposure: f32) {
+    let at = results.iter().position(|m| m.name == Method::Oracle.name()).map_or(results.len(), |k| k + 1);
+    results.insert(at, bound::best_fetch_row(warp, set, exposure));
+    results.insert(at + 1, bound::best_aim_row(warp, set, exposure));
+    bound::set_gap_closed(results);
+}
+
+/// Bucket `bucket`'s (roughness `r`) reference views of every camera, from streams of
+/// their own (none without rendered views).
+fn view_references(
+    baked: Baked,
+    views: &[crate::perceptual::View],
+    (r, bucket): (f32, usize),
+    settings: &EvalSettings,
+    exposure: f32,
+) -> Vec<renders::ViewReference> {
+    let Some(rs) = settings.renders else { return Vec::new() };
+    views
+        .iter()
+        .enumerate()
+        .map(|(k, v)| {
+            let tag = (bucket * 16 + k) as u64;
+            renders::reference(baked.scene, baked.tracer, v, r, rs.reference_spp, (settings.seed, tag, exposure))
+        })
+        .collect()
+}
+
+/// Each row's mean ꟻLIP over the views, into its result.
+fn set_flips(
+    results: &mut [MethodResult],
+    rows: &[methods::Row],
+    shading: Glossy,
+    view_refs: &[renders::ViewReference],
+    exposure: f32,
+) {
+    let flips: Vec<f64> = rows.par_iter().map(|row| renders::mean_flip(row, shading, view_refs, exposure)).collect();
+    for (row, f) in rows.iter().zip(flips) {
+        if let Some(m) = results.iter_mut().find(|m| m.name == row.name() && m.mip_rule == row.rule) {
+            m.flip = Some(f);
+        }
+    }
+}
+
+/// The seconds between the evaluation's stages.
+struct Laps(std::time::Instant);
+
+impl Laps {
+    /// The seconds since the last lap, added to `field`.
+    fn lap(&mut self, field: &mut f64) {
+        *field += self.0.elapsed().as_secs_f64();
+        self.0 = std::time::Instant::now();
+    }
+}
+
+/// The dense grid's irradiance the diffuse and renormalized rows read: the loaded grid's
+/// when there is one, else the bake's (built into `from_bake`).
+fn judged_irradiance<'a>(
+    runtime: Option<&'a FittedGrid>,
+    grid: &crate::bake::ProbeGrid,
+    from_bake: &'a mut Option<crate::runtime::IrradianceGrid>,
+) -> &'a crate::runtime::IrradianceGrid {
+    match runtime {
+        Some(g) => g.irradiance_grid(),
+        None => from_bake.insert(crate::runtime::IrradianceGrid::from_cells(
+            grid.geometry,
+            (grid.irradiance_resolution, grid.depth_resolution),
+            (&grid.irradiance, &grid.depth_mean, &grid.depth_mean_sq, &grid.probe_offset),
+            |c| !grid.inside[c],
+        )),
+    }
+}
+
+/// The mirror bucket's noise ceiling (`bound::NoiseCeiling`): some of its queries traced
+/// again with quiet references from streams of their own; with the rays traced (none when
+/// the settings ask for no quiet references).
+fn quiet_ceiling(
+    baked: Baked,
+    set: &ValidationSet,
+    (rows, champion): (&[methods::Row], &str),
+    shading: Glossy,
+    settings: &EvalSettings,
+    exposure: f32,
+) -> (Option<bound::NoiseCeiling>, u64) {
+    if settings.quiet_positions == 0 || settings.quiet_spp == 0 {
+        return (None, 0);
+    }
+    let positions = settings.quiet_positions as usize;
+    let quiet =
+        validation::quiet_references(baked.scene, baked.tracer, set, positions, settings.quiet_spp, settings.seed);
+    let ceiling = noise_ceiling(set, (&quiet, settings.quiet_spp), (rows, champion), shading, exposure);
+    (ceiling, quiet.rays)
 }
 
 /// The rows a bucket's claims compare (see [`BucketSummary::claim`]).
