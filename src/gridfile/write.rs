@@ -131,16 +131,67 @@ fn is_radiance(layer: &str) -> bool {
     layer.starts_with("radiance_mip") || layer == "irradiance"
 }
 
+/// How `irradiance.exr`'s layers read, in words (the manifest's `irradiance.encoding`).
+const IRRADIANCE_ENCODING: &str = "per stored cell: irradiance (R, G, B) on an octahedral map of normals; distance moments (mean, mean_sq; misses count as the bake's far distance) on an octahedral map of directions; per corrected cell: a map of scales (S) over the normal, multiplying the blended irradiance of points in the cell";
+
 /// Writes the fitted grid folder and returns its manifest.
 pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
-    let c = g.correctives;
     let geo = g.geometry;
-    let cells = geo.cell_count();
-    let mut payloads = Vec::new();
-    let mut left_out = Vec::new();
-
+    let (mut payloads, mut left_out) = (Vec::new(), Vec::new());
     // every value inside the bounds the reader enforces (real data never reaches them)
     let bounds = ValueBounds::of_diagonal((geo.max - geo.min).length());
+    let probe = write_probe(dir, g, &bounds, &mut payloads)?;
+    let correctives = write_correctives(dir, g, &bounds, &mut payloads, &mut left_out)?;
+    let irradiance = write_irradiance(dir, g, &bounds, &mut payloads, &mut left_out)?;
+    if g.roughness.is_none() {
+        left_out.push(LeftOut {
+            what: "roughness correction table".into(),
+            reason: if g.probe.radiance.levels.len() < 2 {
+                "the probe has no rough mips".into()
+            } else {
+                "disabled for this fit".into()
+            },
+            bytes_saved: 0,
+        });
+    }
+
+    let manifest = GridManifest {
+        format: GRID_FORMAT.into(),
+        version: GRID_VERSION,
+        octahedral_convention: octa::CONVENTION.into(),
+        units: "scene units (positions, distances); radiance in the scene's linear RGB units".into(),
+        up_axis: "+Y".into(),
+        scene: g.scene.into(),
+        grid: GridSection {
+            min: geo.min.to_array(),
+            max: geo.max.to_array(),
+            counts: geo.counts.to_array(),
+            relocated: crate::grid::relocated_cells(g.probe_offset),
+        },
+        probe,
+        warp: warp_section(g),
+        correctives,
+        irradiance,
+        roughness: g.roughness.cloned(),
+        payloads,
+        left_out,
+        fit_settings: g.provenance.fit_settings.clone(),
+        residuals: g.provenance.residuals.clone(),
+        manifest_checksum: String::new(),
+    };
+    let manifest = GridManifest { manifest_checksum: manifest.canonical_checksum(), ..manifest };
+    crate::files::write_json(&dir.join(MANIFEST_FILE), &manifest)?;
+    Ok(manifest)
+}
+
+/// Writes `probe.exr` (the GGX chain and the distance chain, within the reader's bounds)
+/// and returns the manifest's probe section.
+fn write_probe(
+    dir: &Path,
+    g: &GridContents,
+    bounds: &ValueBounds,
+    payloads: &mut Vec<Payload>,
+) -> Result<ProbeSection, FileError> {
     let radiance = OctMips {
         levels: g
             .probe
@@ -180,7 +231,25 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
     let distance_mips = (0..g.probe.distance.levels.len()).map(distance_layer).collect();
     payloads.push(payload(dir, PROBE_FILE, layers, g.precision)?);
 
-    // correctives: shift maps of level-2 cells, in cell order (tile k = k-th stored cell)
+    Ok(ProbeSection {
+        position: g.probe.position.to_array(),
+        resolution: g.probe.radiance.levels[0].res,
+        radiance_mips,
+        distance_mips,
+    })
+}
+
+/// Writes `correctives.exr` (the shift maps of level-2 cells in cell order, tile k = k-th
+/// stored cell, and their rough maps) unless no cell stores one; returns its section.
+fn write_correctives(
+    dir: &Path,
+    g: &GridContents,
+    bounds: &ValueBounds,
+    payloads: &mut Vec<Payload>,
+    left_out: &mut Vec<LeftOut>,
+) -> Result<Option<CorrectiveSection>, FileError> {
+    let c = g.correctives;
+    let cells = g.geometry.cell_count();
     let stored: Vec<(u32, u32)> = (0..cells).filter_map(|cell| c.slot_of(cell).map(|s| (s, cell as u32))).collect();
     let stored_cells: Vec<u32> = stored.iter().map(|(_, cell)| *cell).collect();
     let shifts_per_cell = (c.map_res * c.map_res) as u64 * if c.has_rough_maps() { 2 } else { 1 };
@@ -193,7 +262,7 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
         ),
         bytes_saved: level0 * shifts_per_cell * 4,
     });
-    let correctives = if stored_cells.is_empty() {
+    Ok(if stored_cells.is_empty() {
         let _ = std::fs::remove_file(dir.join(CORRECTIVES_FILE));
         left_out.push(LeftOut {
             what: CORRECTIVES_FILE.into(),
@@ -220,9 +289,19 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
             encoding: SHIFT_MAP_ENCODING.into(),
             rough_maps: c.has_rough_maps().then(rough_map_encoding),
         })
-    };
+    })
+}
 
-    // irradiance and distance moments of cells not inside geometry
+/// Writes `irradiance.exr` (irradiance, distance moments and diffuse corrections of the
+/// cells not inside geometry) and returns its section.
+fn write_irradiance(
+    dir: &Path,
+    g: &GridContents,
+    bounds: &ValueBounds,
+    payloads: &mut Vec<Payload>,
+    left_out: &mut Vec<LeftOut>,
+) -> Result<IrradianceSection, FileError> {
+    let cells = g.geometry.cell_count();
     let src = &g.irradiance;
     let active: Vec<u32> = (0..cells as u32).filter(|&k| !src.inside[k as usize]).collect();
     let inside = (cells - active.len()) as u64;
@@ -286,75 +365,37 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
         payloads.push(payload(dir, IRRADIANCE_FILE, layers, g.precision)?);
     }
 
-    if g.roughness.is_none() {
-        left_out.push(LeftOut {
-            what: "roughness correction table".into(),
-            reason: if g.probe.radiance.levels.len() < 2 {
-                "the probe has no rough mips".into()
-            } else {
-                "disabled for this fit".into()
-            },
-            bytes_saved: 0,
-        });
-    }
+    Ok(IrradianceSection {
+        resolution: ir,
+        depth_resolution: dr,
+        stored_cells: active,
+        atlas_columns: columns,
+        encoding: IRRADIANCE_ENCODING.into(),
+        corrected_cells: corrected,
+        correction_resolution: src.correction.resolution.max(2),
+        correction_columns,
+        surface_bias: src.correction.surface_bias,
+    })
+}
 
+/// The manifest's warp section: the proxy, the options, the blend and the proxies' shapes.
+fn warp_section(g: &GridContents) -> WarpSection {
     let aabb = &g.warp.proxies.aabb;
     let kdop = &g.warp.proxies.kdop;
-    let manifest = GridManifest {
-        format: GRID_FORMAT.into(),
-        version: GRID_VERSION,
-        octahedral_convention: octa::CONVENTION.into(),
-        units: "scene units (positions, distances); radiance in the scene's linear RGB units".into(),
-        up_axis: "+Y".into(),
-        scene: g.scene.into(),
-        grid: GridSection {
-            min: geo.min.to_array(),
-            max: geo.max.to_array(),
-            counts: geo.counts.to_array(),
-            relocated: crate::grid::relocated_cells(g.probe_offset),
+    WarpSection {
+        fallback: g.correctives.fallback.name().into(),
+        options: g.warp.options,
+        blend: g.blend,
+        box_proxy: BoxSection {
+            centre: aabb.centre.to_array(),
+            rotation: aabb.rotation.to_array(),
+            half_extents: aabb.half_extents.to_array(),
         },
-        probe: ProbeSection {
-            position: g.probe.position.to_array(),
-            resolution: g.probe.radiance.levels[0].res,
-            radiance_mips,
-            distance_mips,
-        },
-        warp: WarpSection {
-            fallback: c.fallback.name().into(),
-            options: g.warp.options,
-            blend: g.blend,
-            box_proxy: BoxSection {
-                centre: aabb.centre.to_array(),
-                rotation: aabb.rotation.to_array(),
-                half_extents: aabb.half_extents.to_array(),
-            },
-            kdop: kdop
-                .normals
-                .iter()
-                .zip(&kdop.offsets)
-                .map(|(n, h)| KdopPlane { normal: n.to_array(), offset: h.is_finite().then_some(*h) })
-                .collect(),
-        },
-        correctives,
-        irradiance: IrradianceSection {
-            resolution: ir,
-            depth_resolution: dr,
-            stored_cells: active,
-            atlas_columns: columns,
-            encoding: "per stored cell: irradiance (R, G, B) on an octahedral map of normals; distance moments (mean, mean_sq; misses count as the bake's far distance) on an octahedral map of directions; per corrected cell: a map of scales (S) over the normal, multiplying the blended irradiance of points in the cell".into(),
-            corrected_cells: corrected,
-            correction_resolution: src.correction.resolution.max(2),
-            correction_columns,
-            surface_bias: src.correction.surface_bias,
-        },
-        roughness: g.roughness.cloned(),
-        payloads,
-        left_out,
-        fit_settings: g.provenance.fit_settings.clone(),
-        residuals: g.provenance.residuals.clone(),
-        manifest_checksum: String::new(),
-    };
-    let manifest = GridManifest { manifest_checksum: manifest.canonical_checksum(), ..manifest };
-    crate::files::write_json(&dir.join(MANIFEST_FILE), &manifest)?;
-    Ok(manifest)
+        kdop: kdop
+            .normals
+            .iter()
+            .zip(&kdop.offsets)
+            .map(|(n, h)| KdopPlane { normal: n.to_array(), offset: h.is_finite().then_some(*h) })
+            .collect(),
+    }
 }
