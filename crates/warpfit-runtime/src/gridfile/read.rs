@@ -177,7 +177,44 @@ fn expected_payloads(
     mp: &Path,
     cells: usize,
 ) -> Result<Vec<(&'static str, Vec<Expected>)>, FileError> {
-    let mut out = Vec::new();
+    let mut out = vec![(PROBE_FILE, expected_probe(m, mp)?)];
+    if let Some(c) = &m.correctives {
+        out.push((CORRECTIVES_FILE, expected_correctives(c, m.version, mp, cells)?));
+    }
+    if let Some(layers) = expected_irradiance(&m.irradiance, mp, cells)? {
+        out.push((IRRADIANCE_FILE, layers));
+    }
+    check_listing(m, mp, &out)?;
+    Ok(out)
+}
+
+/// Whether `r` is a tile resolution a reader accepts.
+fn tile_ok(r: u32) -> bool {
+    (2..=MAX_TILE_RESOLUTION).contains(&r) && r.is_multiple_of(2)
+}
+
+/// A manifest's list of cells: sorted, unique, within the grid's `cells`.
+fn cells_ok(list: &[u32], field: &str, cells: usize, mp: &Path) -> Result<(), FileError> {
+    if let Some(w) = list.windows(2).find(|w| w[0] >= w[1]) {
+        return Err(invalid(mp, field, format!("cells must be sorted and unique ({} then {})", w[0], w[1])));
+    }
+    if let Some(&c) = list.last().filter(|&&c| c as usize >= cells) {
+        return Err(invalid(mp, field, format!("cell {c} out of range (the grid has {cells})")));
+    }
+    Ok(())
+}
+
+/// An atlas's column count for `n` tiles: at least one, at most one a tile.
+fn columns_ok(n: usize, columns: u32, field: &str, mp: &Path) -> Result<(), FileError> {
+    if columns == 0 || columns as usize > n.max(1) {
+        return Err(invalid(mp, field, format!("{columns} columns for {n} tiles")));
+    }
+    Ok(())
+}
+
+/// `probe.exr`'s layers: the radiance chain (halving, named, roughness increasing in
+/// [0, 1]) and the distance chain.
+fn expected_probe(m: &GridManifest, mp: &Path) -> Result<Vec<Expected>, FileError> {
     let p = &m.probe;
     if !(2..=MAX_PROBE_RESOLUTION).contains(&p.resolution) || !p.resolution.is_multiple_of(2) {
         return Err(invalid(
@@ -235,65 +272,56 @@ fn expected_payloads(
             tiles: None,
         });
     }
-    out.push((PROBE_FILE, probe));
-    let tile_ok = |r: u32| (2..=MAX_TILE_RESOLUTION).contains(&r) && r.is_multiple_of(2);
-    let cells_ok = |list: &[u32], field: &str| -> Result<(), FileError> {
-        if let Some(w) = list.windows(2).find(|w| w[0] >= w[1]) {
-            return Err(invalid(mp, field, format!("cells must be sorted and unique ({} then {})", w[0], w[1])));
-        }
-        if let Some(&c) = list.last().filter(|&&c| c as usize >= cells) {
-            return Err(invalid(mp, field, format!("cell {c} out of range (the grid has {cells})")));
-        }
-        Ok(())
-    };
-    let columns_ok = |n: usize, columns: u32, field: &str| {
-        if columns == 0 || columns as usize > n.max(1) {
-            return Err(invalid(mp, field, format!("{columns} columns for {n} tiles")));
-        }
-        Ok(())
-    };
-    if let Some(c) = &m.correctives {
-        if !tile_ok(c.map_res) {
-            return Err(invalid(
-                mp,
-                "correctives.map_res",
-                format!("must be an even size in 2..={MAX_TILE_RESOLUTION}"),
-            ));
-        }
-        if c.stored_cells.is_empty() {
-            return Err(invalid(
-                mp,
-                "correctives.stored_cells",
-                "empty: the section is left out when no cell stores a map",
-            ));
-        }
-        cells_ok(&c.stored_cells, "correctives.stored_cells")?;
-        columns_ok(c.stored_cells.len(), c.atlas_columns, "correctives.atlas_columns")?;
-        if c.rough_maps.is_some() && m.version < 5 {
-            return Err(invalid(mp, "correctives.rough_maps", "rough maps need format version 5"));
-        }
-        let (w, h) = atlas_size(c.stored_cells.len(), c.map_res, c.atlas_columns);
-        let layer = |name: &str| Expected {
-            name: name.into(),
-            width: w,
-            height: h,
-            channels: &["D"],
-            tiles: Some((c.map_res, c.atlas_columns)),
-        };
-        let mut layers = vec![layer("shift_maps")];
-        if c.rough_maps.is_some() {
-            layers.push(layer("rough_shift_maps"));
-        }
-        out.push((CORRECTIVES_FILE, layers));
+    Ok(probe)
+}
+
+/// `correctives.exr`'s layers: the shift maps and, from version 5, the rough maps.
+fn expected_correctives(
+    c: &CorrectiveSection,
+    version: u32,
+    mp: &Path,
+    cells: usize,
+) -> Result<Vec<Expected>, FileError> {
+    if !tile_ok(c.map_res) {
+        return Err(invalid(mp, "correctives.map_res", format!("must be an even size in 2..={MAX_TILE_RESOLUTION}")));
     }
-    let ir = &m.irradiance;
+    if c.stored_cells.is_empty() {
+        return Err(invalid(
+            mp,
+            "correctives.stored_cells",
+            "empty: the section is left out when no cell stores a map",
+        ));
+    }
+    cells_ok(&c.stored_cells, "correctives.stored_cells", cells, mp)?;
+    columns_ok(c.stored_cells.len(), c.atlas_columns, "correctives.atlas_columns", mp)?;
+    if c.rough_maps.is_some() && version < 5 {
+        return Err(invalid(mp, "correctives.rough_maps", "rough maps need format version 5"));
+    }
+    let (w, h) = atlas_size(c.stored_cells.len(), c.map_res, c.atlas_columns);
+    let layer = |name: &str| Expected {
+        name: name.into(),
+        width: w,
+        height: h,
+        channels: &["D"],
+        tiles: Some((c.map_res, c.atlas_columns)),
+    };
+    let mut layers = vec![layer("shift_maps")];
+    if c.rough_maps.is_some() {
+        layers.push(layer("rough_shift_maps"));
+    }
+    Ok(layers)
+}
+
+/// `irradiance.exr`'s layers (none when no cell stores irradiance): irradiance, distance
+/// moments and the diffuse corrections' scales.
+fn expected_irradiance(ir: &IrradianceSection, mp: &Path, cells: usize) -> Result<Option<Vec<Expected>>, FileError> {
     if !tile_ok(ir.resolution) || !tile_ok(ir.depth_resolution) {
         return Err(invalid(mp, "irradiance", format!("resolutions must be even sizes in 2..={MAX_TILE_RESOLUTION}")));
     }
-    cells_ok(&ir.stored_cells, "irradiance.stored_cells")?;
+    cells_ok(&ir.stored_cells, "irradiance.stored_cells", cells, mp)?;
     if !ir.stored_cells.is_empty() {
         let n = ir.stored_cells.len();
-        columns_ok(n, ir.atlas_columns, "irradiance.atlas_columns")?;
+        columns_ok(n, ir.atlas_columns, "irradiance.atlas_columns", mp)?;
         let (w, h) = atlas_size(n, ir.resolution, ir.atlas_columns);
         let (dw, dh) = atlas_size(n, ir.depth_resolution, ir.atlas_columns);
         let mut layers = vec![
@@ -320,11 +348,11 @@ fn expected_payloads(
                     format!("must be an even size in 2..={MAX_TILE_RESOLUTION}"),
                 ));
             }
-            cells_ok(&ir.corrected_cells, "irradiance.corrected_cells")?;
+            cells_ok(&ir.corrected_cells, "irradiance.corrected_cells", cells, mp)?;
             if let Some(c) = ir.corrected_cells.iter().find(|c| ir.stored_cells.binary_search(c).is_err()) {
                 return Err(invalid(mp, "irradiance.corrected_cells", format!("cell {c} stores no irradiance")));
             }
-            columns_ok(ir.corrected_cells.len(), ir.correction_columns, "irradiance.correction_columns")?;
+            columns_ok(ir.corrected_cells.len(), ir.correction_columns, "irradiance.correction_columns", mp)?;
             let (sw, sh) = atlas_size(ir.corrected_cells.len(), ir.correction_resolution, ir.correction_columns);
             layers.push(Expected {
                 name: "irradiance_scale".into(),
@@ -334,10 +362,17 @@ fn expected_payloads(
                 tiles: Some((ir.correction_resolution, ir.correction_columns)),
             });
         }
-        out.push((IRRADIANCE_FILE, layers));
+        Ok(Some(layers))
     } else if !ir.corrected_cells.is_empty() {
-        return Err(invalid(mp, "irradiance.corrected_cells", "no cell stores irradiance"));
+        Err(invalid(mp, "irradiance.corrected_cells", "no cell stores irradiance"))
+    } else {
+        Ok(None)
     }
+}
+
+/// The decoded size within [`MAX_DECODED_BYTES`], and the manifest's own payload listing
+/// exactly the layers the structure says.
+fn check_listing(m: &GridManifest, mp: &Path, out: &[(&'static str, Vec<Expected>)]) -> Result<(), FileError> {
     let decoded: u64 = out
         .iter()
         .flat_map(|(_, layers)| layers)
@@ -355,7 +390,7 @@ fn expected_payloads(
     if let Some(extra) = m.payloads.iter().find(|p| !files.contains(&p.file.as_str())) {
         return Err(invalid(mp, "payloads", format!("unexpected payload {:?}", extra.file)));
     }
-    for (file, layers) in &out {
+    for (file, layers) in out {
         let entries: Vec<&Payload> = m.payloads.iter().filter(|p| p.file == *file).collect();
         let [entry] = entries.as_slice() else {
             return Err(invalid(mp, "payloads", format!("{} entries for {file}, expected one", entries.len())));
@@ -386,7 +421,7 @@ fn expected_payloads(
             }
         }
     }
-    Ok(out)
+    Ok(())
 }
 
 /// Reads a payload: a regular file whose size (from its metadata) and checksum match the
@@ -599,7 +634,28 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     if m.octahedral_convention != octa::CONVENTION {
         return Err(invalid(mp, "octahedral_convention", "differs from this reader's octahedral mapping"));
     }
+    let (geometry, cells) = read_geometry(&m, mp)?;
+    let probe_offset = read_relocated(&m, mp, &geometry, cells)?;
+    let bounds = ValueBounds::of_diagonal((geometry.max - geometry.min).length());
+    let expected = expected_payloads(&m, mp, cells)?;
+    let probe = read_probe(dir, &m, expected_of(&expected, PROBE_FILE), &bounds)?;
+    let (fallback, proxies) = read_proxies(&m, mp)?;
+    let correctives =
+        read_correctives(dir, &m, expected_of(&expected, CORRECTIVES_FILE), (geometry, cells), fallback, &bounds)?;
+    let irradiance =
+        read_irradiance(dir, &m, expected_of(&expected, IRRADIANCE_FILE), (geometry, cells), probe_offset, &bounds)?;
+    let roughness = m.roughness.clone();
+    let options = m.warp.options;
+    Ok(GridData { warp: Warp { probe, proxies, options }, correctives, irradiance, roughness, manifest: m })
+}
 
+/// The layers `expected_payloads` lists for `file` (none when it lists no such file).
+fn expected_of<'a>(expected: &'a [(&'static str, Vec<Expected>)], file: &str) -> &'a [Expected] {
+    expected.iter().find(|(f, _)| *f == file).map(|(_, l)| l.as_slice()).unwrap_or(&[])
+}
+
+/// The grid's geometry and cell count, checked.
+fn read_geometry(m: &GridManifest, mp: &Path) -> Result<(GridGeometry, usize), FileError> {
     // grid
     let geometry = GridGeometry {
         min: finite3(m.grid.min, mp, "grid.min")?,
@@ -616,7 +672,12 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
             return Err(invalid(mp, "grid.counts", format!("each count must be ≥ 1 and the grid ≤ {MAX_CELLS} cells")));
         }
     };
-    // relocated cell probes: sorted, unique, in range, within half a cell of their centre
+    Ok((geometry, cells))
+}
+
+/// The relocated cell probes' offsets (empty when none moved): sorted, unique, in range,
+/// within half a cell of their centre.
+fn read_relocated(m: &GridManifest, mp: &Path, geometry: &GridGeometry, cells: usize) -> Result<Vec<Vec3>, FileError> {
     let mut probe_offset = Vec::new();
     if !m.grid.relocated.is_empty() {
         probe_offset = vec![Vec3::ZERO; cells];
@@ -641,14 +702,21 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
             *slot = o;
         }
     }
-    let bounds = ValueBounds::of_diagonal((geometry.max - geometry.min).length());
-    let expected = expected_payloads(&m, mp, cells)?;
-    let expected_of = |file: &str| expected.iter().find(|(f, _)| *f == file).map(|(_, l)| l.as_slice()).unwrap_or(&[]);
+    Ok(probe_offset)
+}
 
-    // probe
+/// Probe A from `probe.exr`: the radiance chain and the distance chain, values checked.
+fn read_probe(
+    dir: &Path,
+    m: &GridManifest,
+    expected: &[Expected],
+    bounds: &ValueBounds,
+) -> Result<WarpProbe, FileError> {
+    let mpath = dir.join(MANIFEST_FILE);
+    let mp = mpath.as_path();
     let p = &m.probe;
     let ppath = dir.join(PROBE_FILE);
-    let layers = read_payload(dir, &m, PROBE_FILE, expected_of(PROBE_FILE))?;
+    let layers = read_payload(dir, m, PROBE_FILE, expected)?;
     let mut radiance = Vec::new();
     let mut roughness_of_mips = Vec::new();
     for mip in &p.radiance_mips {
@@ -668,14 +736,16 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
         distance.push(OctMap::new(n as u32, z.to_vec()));
     }
     let position = finite3(p.position, mp, "probe.position")?;
-    let probe = WarpProbe::from_distance_mips(
+    Ok(WarpProbe::from_distance_mips(
         position,
         &OctMips { levels: distance },
         OctMips { levels: radiance },
         roughness_of_mips,
-    );
+    ))
+}
 
-    // warp
+/// The fallback proxy and the proxies' shapes, checked.
+fn read_proxies(m: &GridManifest, mp: &Path) -> Result<(Method, Proxies), FileError> {
     let w = &m.warp;
     let fallback = match Method::parse(&w.fallback) {
         Some(f @ (Method::Box | Method::Kdop | Method::Warp1)) => f,
@@ -709,15 +779,27 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
         kdop.normals.push(n);
         kdop.offsets.push(h);
     }
-    let proxies = Proxies { aabb, kdop };
+    Ok((fallback, Proxies { aabb, kdop }))
+}
 
-    // correctives (their atlas arrives tile by tile: the first tiles are the stored maps)
+/// The per-cell shift maps and rough maps (their atlas arrives tile by tile: the first
+/// tiles are the stored maps), checked.
+fn read_correctives(
+    dir: &Path,
+    m: &GridManifest,
+    expected: &[Expected],
+    (geometry, cells): (GridGeometry, usize),
+    fallback: Method,
+    bounds: &ValueBounds,
+) -> Result<Correctives, FileError> {
+    let mpath = dir.join(MANIFEST_FILE);
+    let mp = mpath.as_path();
     let (map_res, slot, maps, rough_maps) = match &m.correctives {
         None => (8, vec![NO_MAP; cells], Vec::new(), Vec::new()),
         Some(c) => {
             let slot = slots(&c.stored_cells, cells, mp, "correctives.stored_cells")?;
             let cpath = dir.join(CORRECTIVES_FILE);
-            let mut layers = read_payload(dir, &m, CORRECTIVES_FILE, expected_of(CORRECTIVES_FILE))?;
+            let mut layers = read_payload(dir, m, CORRECTIVES_FILE, expected)?;
             let size = atlas_size(c.stored_cells.len(), c.map_res, c.atlas_columns);
             let dmax = bounds.max_distance;
             let mut take = |layer: &str| -> Result<Vec<f32>, FileError> {
@@ -733,9 +815,21 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
             (c.map_res, slot, maps, rough_maps)
         }
     };
-    let correctives = Correctives::new(geometry, map_res, slot, maps, fallback).with_rough_maps(rough_maps);
+    Ok(Correctives::new(geometry, map_res, slot, maps, fallback).with_rough_maps(rough_maps))
+}
 
-    // irradiance (atlases arrive tile by tile: the first tiles are the stored cells')
+/// The cells' irradiance, distance moments and diffuse corrections (atlases arrive tile by
+/// tile: the first tiles are the stored cells'), checked.
+fn read_irradiance(
+    dir: &Path,
+    m: &GridManifest,
+    expected: &[Expected],
+    (geometry, cells): (GridGeometry, usize),
+    probe_offset: Vec<Vec3>,
+    bounds: &ValueBounds,
+) -> Result<IrradianceGrid, FileError> {
+    let mpath = dir.join(MANIFEST_FILE);
+    let mp = mpath.as_path();
     let ir = &m.irradiance;
     let islot = slots(&ir.stored_cells, cells, mp, "irradiance.stored_cells")?;
     if !(0.0..=1.0).contains(&ir.surface_bias) {
@@ -751,7 +845,7 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
             &dir.join(MANIFEST_FILE),
             &m.payloads,
             IRRADIANCE_FILE,
-            expected_of(IRRADIANCE_FILE),
+            expected,
             Some("irradiance"),
         )?;
         let n = ir.stored_cells.len();
@@ -789,7 +883,7 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
         mean_sq.truncate(n * dr2);
         (e, mean, mean_sq)
     };
-    let irradiance = IrradianceGrid {
+    Ok(IrradianceGrid {
         geometry,
         resolution: ir.resolution,
         depth_resolution: ir.depth_resolution,
@@ -799,7 +893,5 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
         depth_mean_sq,
         correction,
         probe_offset,
-    };
-    let roughness = m.roughness.clone();
-    Ok(GridData { warp: Warp { probe, proxies, options: *o }, correctives, irradiance, roughness, manifest: m })
+    })
 }
