@@ -114,13 +114,50 @@ fn optional_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<Option<T>,
 
 /// Builds the report from the files of a run folder.
 pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> {
-    let dir = &folder.dir;
     let eval: EvalReport = read_json(&folder.eval_json())?;
     let grid: GridManifest = read_json(&folder.grid_manifest())?;
     let cells: Vec<CellFit> = read_json(&folder.residuals())?;
     let bake_path = folder.bake().join(crate::bakefile::MANIFEST_FILE);
     let bake: Option<BakeManifest> = if bake_path.is_file() { Some(read_json(&bake_path)?) } else { None };
+    let methods = method_rows(&eval);
+    let levels = level_rows(&cells);
+    let worst_cells = worst_cells(&cells);
+    let stages = stage_rows(bake.as_ref(), &grid, &eval);
+    let (layers, payload_bytes) = layer_rows(&grid);
+    let left_out = grid.left_out.iter().map(|l| (l.what.clone(), l.reason.clone(), l.bytes_saved)).collect();
+    let images = report_images(&folder.dir, &eval);
+    Ok(RunReport {
+        scene: eval.scene.clone(),
+        command: command.to_string(),
+        hidden_fraction: eval.hidden_fraction,
+        reference_ns_per_ray: eval.reference_ns_per_ray,
+        validation: format!(
+            "{} positions × {} directions ({} lookups), references with {} samples, seed {:#x}",
+            eval.positions,
+            eval.settings.dirs_per_position,
+            eval.lookups,
+            eval.settings.reference_spp,
+            eval.settings.seed
+        ),
+        methods,
+        levels,
+        eval_levels: eval.fitted_levels.clone(),
+        worst_cells,
+        stages,
+        layers,
+        payload_bytes,
+        left_out,
+        sweep: optional_json(&folder.sweep_json())?,
+        stability: optional_json(&folder.stability_json())?,
+        images,
+        diffuse: eval.diffuse.clone(),
+        surface: eval.surface.clone(),
+    })
+}
 
+/// Every method's row, marked where it lies on its bucket's Pareto front of the headline
+/// tone-mapped RMSE against cost.
+fn method_rows(eval: &EvalReport) -> Vec<MethodRow> {
     // the Pareto front of each roughness bucket, on the headline tone-mapped RMSE
     let mut front = vec![false; eval.methods.len()];
     for r in crate::eval::ROUGHNESS_BUCKETS {
@@ -133,8 +170,7 @@ pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> 
             front[k] = f;
         }
     }
-    let methods = eval
-        .methods
+    eval.methods
         .iter()
         .zip(&front)
         .map(|(m, &pareto)| MethodRow {
@@ -150,8 +186,11 @@ pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> 
             pareto,
             note: m.note.clone(),
         })
-        .collect();
+        .collect()
+}
 
+/// The fit's cells by level: how many, and their mean check errors.
+fn level_rows(cells: &[CellFit]) -> Vec<LevelRow> {
     let stored = CellFit::check_err_stored;
     let mut levels = Vec::new();
     for level in Level::ALL {
@@ -168,9 +207,15 @@ pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> 
             mean_err_stored: mean(&|c| stored(c)),
         });
     }
+    levels
+}
+
+/// The ten cells with the largest stored check error, and why they are what they are.
+fn worst_cells(cells: &[CellFit]) -> Vec<WorstCell> {
+    let stored = CellFit::check_err_stored;
     let mut worst: Vec<&CellFit> = cells.iter().collect();
     worst.sort_by(|a, b| stored(b).total_cmp(&stored(a)).then(a.cell.cmp(&b.cell)));
-    let worst_cells = worst
+    worst
         .iter()
         .take(10)
         .map(|c| WorstCell {
@@ -181,10 +226,14 @@ pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> 
             hidden_fraction: c.hidden_fraction,
             reason: c.selection.to_string(),
         })
-        .collect();
+        .collect()
+}
 
+/// Each stage's time, rays and rays per second: the bake's (when its manifest is there),
+/// the fit's and the evaluation's.
+fn stage_rows(bake: Option<&BakeManifest>, grid: &GridManifest, eval: &EvalReport) -> Vec<StageRow> {
     let mut stages = Vec::new();
-    if let Some(b) = &bake {
+    if let Some(b) = bake {
         let s = &b.stats;
         let rate = |rays: u64, sec: f64| if sec > 0.0 { rays as f64 / sec } else { 0.0 };
         stages.push(StageRow { stage: "bake: BVH build".into(), seconds: s.bvh_build_s, rays: 0, rays_per_s: 0.0 });
@@ -216,6 +265,11 @@ pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> 
         rays_per_s: if eval.seconds > 0.0 { eval.reference_rays as f64 / eval.seconds } else { 0.0 },
     });
 
+    stages
+}
+
+/// Each stored layer's size and precision, and each payload's bytes.
+fn layer_rows(grid: &GridManifest) -> (Vec<LayerRow>, Vec<(String, u64)>) {
     let mut layers = Vec::new();
     let mut payload_bytes = Vec::new();
     for p in &grid.payloads {
@@ -231,7 +285,11 @@ pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> 
             });
         }
     }
-    let left_out = grid.left_out.iter().map(|l| (l.what.clone(), l.reason.clone(), l.bytes_saved)).collect();
+    (layers, payload_bytes)
+}
+
+/// The figures of the run that exist in its folder, in the report's order.
+fn report_images(dir: &Path, eval: &EvalReport) -> Vec<String> {
     let mut images: Vec<String> = ["eval_error_vs_cost.png", "eval_rough.png"].iter().map(|f| f.to_string()).collect();
     images.extend(crate::eval::ROUGHNESS_BUCKETS.iter().map(|&r| format!("flip_r{r:.3}.png")));
     images.push("flip_diffuse.png".into());
@@ -244,34 +302,7 @@ pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> 
             .iter()
             .map(|f| f.to_string()),
     );
-    let images = images.into_iter().filter(|f| dir.join(f).is_file()).collect();
-    Ok(RunReport {
-        scene: eval.scene.clone(),
-        command: command.to_string(),
-        hidden_fraction: eval.hidden_fraction,
-        reference_ns_per_ray: eval.reference_ns_per_ray,
-        validation: format!(
-            "{} positions × {} directions ({} lookups), references with {} samples, seed {:#x}",
-            eval.positions,
-            eval.settings.dirs_per_position,
-            eval.lookups,
-            eval.settings.reference_spp,
-            eval.settings.seed
-        ),
-        methods,
-        levels,
-        eval_levels: eval.fitted_levels.clone(),
-        worst_cells,
-        stages,
-        layers,
-        payload_bytes,
-        left_out,
-        sweep: optional_json(&folder.sweep_json())?,
-        stability: optional_json(&folder.stability_json())?,
-        images,
-        diffuse: eval.diffuse.clone(),
-        surface: eval.surface.clone(),
-    })
+    images.into_iter().filter(|f| dir.join(f).is_file()).collect()
 }
 
 /// The report as Markdown tables; images referenced by file name.
@@ -316,7 +347,22 @@ fn error_headers(flip: &str) -> impl Iterator<Item = String> + '_ {
 
 /// Titled tables (first row = header), shared by the Markdown and HTML renderings.
 fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
-    let mut out = Vec::new();
+    let mut out = vec![methods_section(r)];
+    out.extend(r.diffuse.as_ref().map(diffuse_section));
+    out.extend(r.surface.iter().map(surface_section));
+    if !r.eval_levels.is_empty() {
+        out.push(eval_levels_section(r));
+    }
+    out.extend([fit_levels_section(r), worst_section(r), stages_section(r), bytes_section(r), left_out_section(r)]);
+    out.extend(r.sweep.as_ref().map(sweep_section));
+    if let Some(cases) = r.stability.as_ref().and_then(|s| s.get("cases")).and_then(|v| v.as_array()) {
+        out.push(stability_section(cases));
+    }
+    out
+}
+
+/// Every method on held-out positions and directions, per roughness.
+fn methods_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
     let mut t = vec![
         vec![
             "roughness",
@@ -345,86 +391,83 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
         ]);
         t.push(cells);
     }
-    out.push(("Every method on held-out positions and directions, per roughness".to_string(), t));
-    if let Some(d) = &r.diffuse {
-        let mut t = vec![
-            std::iter::once("method".to_string())
-                .chain(error_headers("ꟻLIP (diffuse-shaded cameras)"))
-                .collect::<Vec<_>>(),
-        ];
-        for row in &d.rows {
-            let mut cells = vec![row.name.clone()];
-            cells.extend(super::error_cells(
-                row.flip,
-                [row.tm_rmse, row.rel_rmse, row.mae, row.p95],
-                row.ns_per_lookup,
-            ));
-            t.push(cells);
-        }
-        out.push((
-            format!(
-                "Diffuse: irradiance at {} held-out surface points ({}-sample references, single-reference SE {:.3} relative)",
-                d.points, d.reference_spp, d.reference_se_rel
-            ),
-            t,
-        ));
-    }
+    ("Every method on held-out positions and directions, per roughness".to_string(), t)
+}
 
-    for sr in &r.surface {
-        let mut t = vec![
-            ["roughness", "method"]
-                .iter()
-                .map(|s| s.to_string())
-                .chain(error_headers("ꟻLIP (patch camera)"))
-                .collect::<Vec<_>>(),
-        ];
-        for row in &sr.rows {
-            let mut cells = vec![format!("{}", row.roughness), row.name.clone()];
-            cells.extend(super::error_cells(
-                row.flip,
-                [row.tm_rmse, row.rel_rmse, row.mae, row.p95],
-                row.ns_per_lookup,
-            ));
-            t.push(cells);
-        }
-        out.push((
-            format!(
-                "Surface probes {} (seed 003): {}×{} probes of {}² texels ({:.1} MB), {} held-out points × {} reflection directions",
-                sr.index,
-                sr.counts[0],
-                sr.counts[1],
-                sr.resolution,
-                sr.bytes as f64 / 1e6,
-                sr.points,
-                sr.dirs_per_point
-            ),
-            t,
-        ));
+/// The diffuse table.
+fn diffuse_section(d: &crate::eval::diffuse::DiffuseReport) -> (String, Vec<Vec<String>>) {
+    let mut t = vec![
+        std::iter::once("method".to_string()).chain(error_headers("ꟻLIP (diffuse-shaded cameras)")).collect::<Vec<_>>(),
+    ];
+    for row in &d.rows {
+        let mut cells = vec![row.name.clone()];
+        cells.extend(super::error_cells(row.flip, [row.tm_rmse, row.rel_rmse, row.mae, row.p95], row.ns_per_lookup));
+        t.push(cells);
     }
+    (
+        format!(
+            "Diffuse: irradiance at {} held-out surface points ({}-sample references, single-reference SE {:.3} relative)",
+            d.points, d.reference_spp, d.reference_se_rel
+        ),
+        t,
+    )
+}
 
-    if !r.eval_levels.is_empty() {
-        let mut t = vec![
-            [
-                "cell level",
-                "validation lookups",
-                "fitted tone-mapped / rel RMSE",
-                "fallback tone-mapped / rel RMSE (same lookups)",
-            ]
+/// One surface-probe patch's table.
+fn surface_section(sr: &crate::eval::surface::SurfaceReport) -> (String, Vec<Vec<String>>) {
+    let mut t = vec![
+        ["roughness", "method"]
             .iter()
             .map(|s| s.to_string())
+            .chain(error_headers("ꟻLIP (patch camera)"))
             .collect::<Vec<_>>(),
-        ];
-        for l in &r.eval_levels {
-            t.push(vec![
-                l.level.to_string(),
-                l.lookups.to_string(),
-                format!("{:.4} / {:.4}", l.fitted_tm_rmse, l.fitted_rel_rmse),
-                format!("{:.4} / {:.4} ({})", l.fallback_tm_rmse, l.fallback_rel_rmse, l.fallback),
-            ]);
-        }
-        out.push(("Fitted per level, on the validation set".to_string(), t));
+    ];
+    for row in &sr.rows {
+        let mut cells = vec![format!("{}", row.roughness), row.name.clone()];
+        cells.extend(super::error_cells(row.flip, [row.tm_rmse, row.rel_rmse, row.mae, row.p95], row.ns_per_lookup));
+        t.push(cells);
     }
+    (
+        format!(
+            "Surface probes {} (seed 003): {}×{} probes of {}² texels ({:.1} MB), {} held-out points × {} reflection directions",
+            sr.index,
+            sr.counts[0],
+            sr.counts[1],
+            sr.resolution,
+            sr.bytes as f64 / 1e6,
+            sr.points,
+            sr.dirs_per_point
+        ),
+        t,
+    )
+}
 
+/// The fitted grid per cell level, on the validation set.
+fn eval_levels_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
+    let mut t = vec![
+        [
+            "cell level",
+            "validation lookups",
+            "fitted tone-mapped / rel RMSE",
+            "fallback tone-mapped / rel RMSE (same lookups)",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect::<Vec<_>>(),
+    ];
+    for l in &r.eval_levels {
+        t.push(vec![
+            l.level.to_string(),
+            l.lookups.to_string(),
+            format!("{:.4} / {:.4}", l.fitted_tm_rmse, l.fitted_rel_rmse),
+            format!("{:.4} / {:.4} ({})", l.fallback_tm_rmse, l.fallback_rel_rmse, l.fallback),
+        ]);
+    }
+    ("Fitted per level, on the validation set".to_string(), t)
+}
+
+/// The fitted grid per cell level, on the fit's own check set.
+fn fit_levels_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
     let mut t = vec![
         ["level", "cells", "fallback", "celldepth", "stored model"].iter().map(|s| s.to_string()).collect::<Vec<_>>(),
     ];
@@ -440,8 +483,11 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
             format!("{:.4}", l.mean_err_stored),
         ]);
     }
-    out.push(("Fitted per level, on the fit's own held-out check set (mean relative error per cell)".to_string(), t));
+    ("Fitted per level, on the fit's own held-out check set (mean relative error per cell)".to_string(), t)
+}
 
+/// The worst cells and why.
+fn worst_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
     let mut t = vec![
         ["cell", "level", "stored error", "fallback error", "hidden", "why"].iter().map(|s| s.to_string()).collect(),
     ];
@@ -455,8 +501,11 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
             c.reason.clone(),
         ]);
     }
-    out.push(("Worst cells".to_string(), t));
+    ("Worst cells".to_string(), t)
+}
 
+/// Each stage's time and rays.
+fn stages_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
     let mut t = vec![["stage", "seconds", "rays", "rays/s"].iter().map(|s| s.to_string()).collect::<Vec<_>>()];
     for s in &r.stages {
         t.push(vec![
@@ -466,8 +515,11 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
             if s.rays > 0 { format!("{:.2} M", s.rays_per_s / 1e6) } else { "–".into() },
         ]);
     }
-    out.push(("Stages".to_string(), t));
+    ("Stages".to_string(), t)
+}
 
+/// The bytes of each stored layer and payload.
+fn bytes_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
     let mut t =
         vec![["file", "layer", "size", "precision", "raw bytes"].iter().map(|s| s.to_string()).collect::<Vec<_>>()];
     for l in &r.layers {
@@ -476,54 +528,59 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
     for (f, b) in &r.payload_bytes {
         t.push(vec![f.clone(), "(file on disk, compressed)".into(), String::new(), String::new(), b.to_string()]);
     }
-    out.push(("Bytes of each stored layer".to_string(), t));
+    ("Bytes of each stored layer".to_string(), t)
+}
 
+/// What the scene does not need, and the bytes that saves.
+fn left_out_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
     let mut t = vec![["left out", "why", "bytes saved"].iter().map(|s| s.to_string()).collect::<Vec<_>>()];
     for (w, why, b) in &r.left_out {
         t.push(vec![w.clone(), why.clone(), b.to_string()]);
     }
-    out.push(("What this scene does not need".to_string(), t));
+    ("What this scene does not need".to_string(), t)
+}
 
-    if let Some(sweep) = &r.sweep {
-        let mut t = vec![
-            [
-                "knob",
-                "value",
-                "fit seconds",
-                "ꟻLIP r 0",
-                "± 2 SE (vs given)",
-                "ꟻLIP r 0.5",
-                "tone-mapped RMSE",
-                "rel RMSE (held out)",
-            ]
-            .iter()
-            .map(|s| s.to_string())
-            .collect::<Vec<_>>(),
-        ];
-        for row in &sweep.rows {
-            t.push(vec![
-                row.knob.name().to_string(),
-                row.value.clone(),
-                format!("{:.1}", row.fit_seconds),
-                format!("{:.4}", row.flip_r0),
-                row.flip_r0_se.map_or("–".to_string(), |se| format!("{:.4}", 2.0 * se)),
-                format!("{:.4}", row.flip_r05),
-                format!("{:.4}", row.tm_rmse),
-                format!("{:.4}", row.rel_rmse),
-            ]);
-        }
-        out.push(("Error against fit effort (warpfit sweep)".to_string(), t));
+/// The sweep's rows.
+fn sweep_section(sweep: &Sweep) -> (String, Vec<Vec<String>>) {
+    let mut t = vec![
+        [
+            "knob",
+            "value",
+            "fit seconds",
+            "ꟻLIP r 0",
+            "± 2 SE (vs given)",
+            "ꟻLIP r 0.5",
+            "tone-mapped RMSE",
+            "rel RMSE (held out)",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect::<Vec<_>>(),
+    ];
+    for row in &sweep.rows {
+        t.push(vec![
+            row.knob.name().to_string(),
+            row.value.clone(),
+            format!("{:.1}", row.fit_seconds),
+            format!("{:.4}", row.flip_r0),
+            row.flip_r0_se.map_or("–".to_string(), |se| format!("{:.4}", 2.0 * se)),
+            format!("{:.4}", row.flip_r05),
+            format!("{:.4}", row.tm_rmse),
+            format!("{:.4}", row.rel_rmse),
+        ]);
     }
-    if let Some(cases) = r.stability.as_ref().and_then(|s| s.get("cases")).and_then(|v| v.as_array()) {
-        let mut t = vec![["case", "expectation", "measured", "result"].iter().map(|s| s.to_string()).collect()];
-        for c in cases {
-            let f = |k: &str| c.get(k).and_then(|v| v.as_str()).unwrap_or_default().to_string();
-            let pass = c.get("pass").and_then(|v| v.as_bool()).unwrap_or(false);
-            t.push(vec![f("case"), f("expectation"), f("measured"), if pass { "pass" } else { "FAIL" }.into()]);
-        }
-        out.push(("Stability suite".to_string(), t));
+    ("Error against fit effort (warpfit sweep)".to_string(), t)
+}
+
+/// The stability suite's cases.
+fn stability_section(cases: &[serde_json::Value]) -> (String, Vec<Vec<String>>) {
+    let mut t = vec![["case", "expectation", "measured", "result"].iter().map(|s| s.to_string()).collect()];
+    for c in cases {
+        let f = |k: &str| c.get(k).and_then(|v| v.as_str()).unwrap_or_default().to_string();
+        let pass = c.get("pass").and_then(|v| v.as_bool()).unwrap_or(false);
+        t.push(vec![f("case"), f("expectation"), f("measured"), if pass { "pass" } else { "FAIL" }.into()]);
     }
-    out
+    ("Stability suite".to_string(), t)
 }
 
 fn escape(s: &str) -> String {
