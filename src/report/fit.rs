@@ -84,18 +84,64 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
         t.irradiance_fit,
         t.counted()
     );
-    if !s.diffuse_bias_trials.is_empty() {
+    diffuse_bias_table(&mut md, &s);
+    levels_table(&mut md, fit, &s);
+    if s.cells_more_checked > 0 {
         let _ = writeln!(
             md,
-            "Diffuse surface bias (the blend's point moved along its normal, in smallest cell extents; tone-mapped RMSE of the blend alone and of the field corrected by the maps fitted at that bias; the smallest bias within 1% of the lowest corrected check error is stored: {}):\n\n| bias | blend, check points | corrected, training | corrected, check |\n|---:|---:|---:|---:|",
-            s.diffuse_surface_bias
+            "Selection: {} cells could not tell their maps from the proxy on their first {} check positions (the per-position difference within {} standard errors of 0) and were judged on {} more.\n",
+            s.cells_more_checked,
+            fit.settings.check_positions,
+            crate::fit::selection::DECIDED_AT,
+            fit.settings.extra_check_positions
         );
-        for t in &s.diffuse_bias_trials {
-            let _ =
-                writeln!(md, "| {} | {:.4} | {:.4} | {:.4} |", t.bias, t.blend_check_rmse, t.train_rmse, t.check_rmse);
-        }
-        let _ = writeln!(md);
     }
+    if let Some(l) = &s.level1 {
+        level1_paragraph(&mut md, l);
+    }
+    if let Some(r) = &s.resolutions {
+        resolutions_table(&mut md, r);
+    }
+    let _ = writeln!(
+        md,
+        "Mean held-out relative error per active cell: warp1 {:.4}, the proxy alone {:.4}, celldepth {:.4}, stored model {:.4}.\n",
+        s.mean_check_err_warp1, s.mean_check_err_fallback, s.mean_check_err_celldepth, s.mean_check_err_stored
+    );
+    ratio_histogram(&mut md, fit);
+    worst_cells_table(&mut md, fit);
+    roughness_rows(&mut md, fit);
+    let _ = writeln!(md, "\n## Convergence\n\n| fit time (s) | mean training objective |\n|---:|---:|");
+    for (t, c) in convergence(fit, rayon::current_num_threads()) {
+        let _ = writeln!(md, "| {t:.2} | {c:.4} |");
+    }
+    let _ = writeln!(md, "\n![convergence](fit_convergence.png)");
+    let _ = writeln!(
+        md,
+        "\n![residual slices](residual_slices.png)\n\nOne panel per grid layer (bottom layer first), cell x to the right, cell z up; green: the share of the fallback's held-out error the cell's stored map removes (colour bar), grey: the cell keeps the fallback, black: inside geometry (not fitted)."
+    );
+    write_atomic(path, md.as_bytes())
+}
+
+/// The diffuse surface bias's trials (none when the fit tried none).
+fn diffuse_bias_table(md: &mut String, s: &crate::fit::summary::FitSummary) {
+    use std::fmt::Write as _;
+    if s.diffuse_bias_trials.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        md,
+        "Diffuse surface bias (the blend's point moved along its normal, in smallest cell extents; tone-mapped RMSE of the blend alone and of the field corrected by the maps fitted at that bias; the smallest bias within 1% of the lowest corrected check error is stored: {}):\n\n| bias | blend, check points | corrected, training | corrected, check |\n|---:|---:|---:|---:|",
+        s.diffuse_surface_bias
+    );
+    for t in &s.diffuse_bias_trials {
+        let _ = writeln!(md, "| {} | {:.4} | {:.4} | {:.4} |", t.bias, t.blend_check_rmse, t.train_rmse, t.check_rmse);
+    }
+    let _ = writeln!(md);
+}
+
+/// The cells per level, their bytes and what each level means.
+fn levels_table(md: &mut String, fit: &Fit, s: &crate::fit::summary::FitSummary) {
+    use std::fmt::Write as _;
     let _ = writeln!(md, "| level | cells | bytes | meaning |\n|---|---:|---:|---|");
     let how = match s.proxy.and_then(|p| p.measured) {
         Some([b, k, w]) => format!(
@@ -119,59 +165,55 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
         "| left out | {} | 0 | inside geometry |\n",
         fit.correctives.geometry.cell_count() - s.active_cells
     );
-    if s.cells_more_checked > 0 {
-        let _ = writeln!(
-            md,
-            "Selection: {} cells could not tell their maps from the proxy on their first {} check positions (the per-position difference within {} standard errors of 0) and were judged on {} more.\n",
-            s.cells_more_checked,
-            fit.settings.check_positions,
-            crate::fit::selection::DECIDED_AT,
-            fit.settings.extra_check_positions
-        );
-    }
-    if let Some(l) = &s.level1 {
-        let _ = writeln!(
-            md,
-            "Level 1 (one origin offset, depth mip and relaxation per cell, fitted with Nelder-Mead on a quarter of each cell's training queries; measured, not stored), on {} cells' check queries: mean relative error {:.4} against the fitted map's {:.4} in every cell. It beats the fallback by the selection margin in {} cells, is within the margin of the map in {} and the best of the three in {}. A selection over all three (the cheapest within the selection margin of the best, a stored model beating the proxy alone by it) would keep {} / {} / {} cells at levels 0 / 1 / 2: mean error {:.4} in {} bytes, against the stored selection's {:.4} in {} bytes. Level 1 took {} objective evaluations.\n",
-            l.cells,
-            l.mean_check_err_level1,
-            l.mean_check_err_map,
-            l.beats_fallback,
-            l.within_margin_of_map,
-            l.best_of_three,
-            l.chosen[0],
-            l.chosen[1],
-            l.chosen[2],
-            l.mean_check_err_chosen,
-            l.bytes_chosen,
-            l.mean_check_err_stored,
-            l.bytes_stored,
-            l.evaluations
-        );
-    }
-    if let Some(r) = &s.resolutions {
-        let _ = writeln!(
-            md,
-            "Map resolution, per cell (measured, not stored): each of {} cells' maps fitted at {} texels a side as the {}×{} map is, judged with two-fold cross-validation over the cell's check positions (one half chooses, the other judges, both ways round; errors and bytes are the two folds' means):\n",
-            r.cells,
-            crate::fit::STUDY_RESOLUTIONS.map(|x| x.to_string()).join(", "),
-            r.map_res,
-            r.map_res
-        );
-        let heads: Vec<String> = crate::fit::STUDY_RESOLUTIONS.iter().map(|x| format!("cells {x}²")).collect();
-        let _ = writeln!(md, "| maps | mean held-out relative error | bytes (f32) | {} |", heads.join(" | "));
-        let _ = writeln!(md, "|---|---:|---:|{}", "---:|".repeat(heads.len()));
-        for row in &r.rows {
-            let counts: Vec<String> = row.cells_per_res.iter().map(|c| format!("{c:.1}")).collect();
-            let _ = writeln!(md, "| {} | {:.4} | {:.0} | {} |", row.name, row.mean_err, row.bytes, counts.join(" | "));
-        }
-        let _ = writeln!(md);
-    }
+}
+
+/// Level 1, measured and not stored.
+fn level1_paragraph(md: &mut String, l: &crate::fit::summary::Level1Summary) {
+    use std::fmt::Write as _;
     let _ = writeln!(
         md,
-        "Mean held-out relative error per active cell: warp1 {:.4}, the proxy alone {:.4}, celldepth {:.4}, stored model {:.4}.\n",
-        s.mean_check_err_warp1, s.mean_check_err_fallback, s.mean_check_err_celldepth, s.mean_check_err_stored
+        "Level 1 (one origin offset, depth mip and relaxation per cell, fitted with Nelder-Mead on a quarter of each cell's training queries; measured, not stored), on {} cells' check queries: mean relative error {:.4} against the fitted map's {:.4} in every cell. It beats the fallback by the selection margin in {} cells, is within the margin of the map in {} and the best of the three in {}. A selection over all three (the cheapest within the selection margin of the best, a stored model beating the proxy alone by it) would keep {} / {} / {} cells at levels 0 / 1 / 2: mean error {:.4} in {} bytes, against the stored selection's {:.4} in {} bytes. Level 1 took {} objective evaluations.\n",
+        l.cells,
+        l.mean_check_err_level1,
+        l.mean_check_err_map,
+        l.beats_fallback,
+        l.within_margin_of_map,
+        l.best_of_three,
+        l.chosen[0],
+        l.chosen[1],
+        l.chosen[2],
+        l.mean_check_err_chosen,
+        l.bytes_chosen,
+        l.mean_check_err_stored,
+        l.bytes_stored,
+        l.evaluations
     );
+}
+
+/// Per-cell map resolution, measured and not stored.
+fn resolutions_table(md: &mut String, r: &crate::fit::summary::ResolutionSummary) {
+    use std::fmt::Write as _;
+    let _ = writeln!(
+        md,
+        "Map resolution, per cell (measured, not stored): each of {} cells' maps fitted at {} texels a side as the {}×{} map is, judged with two-fold cross-validation over the cell's check positions (one half chooses, the other judges, both ways round; errors and bytes are the two folds' means):\n",
+        r.cells,
+        crate::fit::STUDY_RESOLUTIONS.map(|x| x.to_string()).join(", "),
+        r.map_res,
+        r.map_res
+    );
+    let heads: Vec<String> = crate::fit::STUDY_RESOLUTIONS.iter().map(|x| format!("cells {x}²")).collect();
+    let _ = writeln!(md, "| maps | mean held-out relative error | bytes (f32) | {} |", heads.join(" | "));
+    let _ = writeln!(md, "|---|---:|---:|{}", "---:|".repeat(heads.len()));
+    for row in &r.rows {
+        let counts: Vec<String> = row.cells_per_res.iter().map(|c| format!("{c:.1}")).collect();
+        let _ = writeln!(md, "| {} | {:.4} | {:.0} | {} |", row.name, row.mean_err, row.bytes, counts.join(" | "));
+    }
+    let _ = writeln!(md);
+}
+
+/// The histogram of stored error over the proxy's error, level-2 cells.
+fn ratio_histogram(md: &mut String, fit: &Fit) {
+    use std::fmt::Write as _;
     let _ =
         writeln!(md, "## Stored error / the proxy's error per cell (level-2 cells)\n\n| ratio | cells |\n|---|---:|");
     let mut buckets = [0usize; 10];
@@ -189,6 +231,11 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
             "█".repeat((*n).div_ceil(20))
         );
     }
+}
+
+/// The twelve worst cells after the fit, and what explains them.
+fn worst_cells_table(md: &mut String, fit: &Fit) {
+    use std::fmt::Write as _;
     let _ = writeln!(
         md,
         "\n## Worst cells after the fit\n\n| cell | level | stored error | fallback | celldepth | hidden from A | start | why |\n|---:|---:|---:|---:|---:|---:|---|---|"
@@ -215,17 +262,6 @@ pub fn write_fit_report(path: &Path, fit: &Fit, command: &str) -> Result<(), Fil
             why
         );
     }
-    roughness_rows(&mut md, fit);
-    let _ = writeln!(md, "\n## Convergence\n\n| fit time (s) | mean training objective |\n|---:|---:|");
-    for (t, c) in convergence(fit, rayon::current_num_threads()) {
-        let _ = writeln!(md, "| {t:.2} | {c:.4} |");
-    }
-    let _ = writeln!(md, "\n![convergence](fit_convergence.png)");
-    let _ = writeln!(
-        md,
-        "\n![residual slices](residual_slices.png)\n\nOne panel per grid layer (bottom layer first), cell x to the right, cell z up; green: the share of the fallback's held-out error the cell's stored map removes (colour bar), grey: the cell keeps the fallback, black: inside geometry (not fitted)."
-    );
-    write_atomic(path, md.as_bytes())
 }
 
 /// `fit_convergence.png`.
