@@ -656,10 +656,7 @@ pub fn fit_cells(
             let train = cell_samples(&renderer, &g, cell, train_size, s.seed, 1);
             let check = cell_samples(&renderer, &g, cell, check_size, s.seed, 2);
             let rays = train.rays + check.rays;
-            let hidden = (0..check.dirs.len())
-                .filter(|&k| truth::oracle(scene, tracer, wp.position, check.position_of(k), check.dirs[k]).1)
-                .count() as f64
-                / check.dirs.len().max(1) as f64;
+            let hidden = hidden_fraction(baked, wp.position, &check);
             let trace_seconds = tt.elapsed().as_secs_f64();
             let check_dirs = check.dirs_per_position;
             let (train, check) = (samples(&train), samples(&check));
@@ -709,11 +706,7 @@ pub fn fit_cells(
             } else {
                 choose_level(fallback, fitted_err, s.tol as f64, s.selection_margin)
             };
-            let level1 = s.level1.then(|| {
-                let p = CellProblem::new(ctx, vec![0.0; n2], level1_train).with_robust_scale(s.robust_scale);
-                let (params, evaluations) = p.fit_level1(g.cell_size(), warp.options.depth_lod);
-                Box::new(Level1Fit { params, check_err: check_problem.relative_error_level1(&params), evaluations })
-            });
+            let level1 = s.level1.then(|| level1_fit(ctx, level1_train, &check_problem, g.cell_size(), s));
             let resolutions = study.map(|(train, halves)| {
                 // (a one-map study: with rough maps the fit's own map saw only part of
                 // the queries, so it is refined again like the other resolutions)
@@ -753,16 +746,50 @@ pub fn fit_cells(
                 level1,
                 resolutions,
             };
-            let keep_all = sets == MapSets::WithUnfitted;
-            let keep = keep_all || fit.level == Level::Map;
-            let fitted_rough = rough.filter(|_| keep).map_or(Vec::new(), |r| r.fitted);
-            let fitted = if keep { fitted } else { Vec::new() };
-            let init = if keep_all { init } else { Vec::new() };
-            CellOutcome { fit, fitted, fitted_rough, init, rays: rays + extra_rays }
+            outcome_keeping(sets, fit, (fitted, rough.map(|r| r.fitted), init), rays + extra_rays)
         })
         .collect();
     bar.finish_and_clear();
     results
+}
+
+/// A cell's level-1 corrective (one origin offset, depth mip and relaxation), fitted on
+/// `train` and judged on the cell's check problem: measured, never stored.
+fn level1_fit(
+    ctx: CellContext,
+    train: Vec<objective::Sample>,
+    check: &CellProblem,
+    cell_size: Vec3,
+    s: &FitSettings,
+) -> Box<Level1Fit> {
+    let n2 = (s.map_res * s.map_res) as usize;
+    let p = CellProblem::new(ctx, vec![0.0; n2], train).with_robust_scale(s.robust_scale);
+    let (params, evaluations) = p.fit_level1(cell_size, ctx.glossy.warp.options.depth_lod);
+    Box::new(Level1Fit { params, check_err: check.relative_error_level1(&params), evaluations })
+}
+
+/// The share of a cell's check queries whose true hit probe A cannot see.
+fn hidden_fraction(baked: Baked, a: Vec3, check: &truth::TracedQueries) -> f64 {
+    let hidden = (0..check.dirs.len())
+        .filter(|&k| truth::oracle(baked.scene, baked.tracer, a, check.position_of(k), check.dirs[k]).1)
+        .count();
+    hidden as f64 / check.dirs.len().max(1) as f64
+}
+
+/// A cell's outcome with the maps `sets` asks for: every map (the unfitted start
+/// included) for the evaluation's unfitted rows, else only the maps the cell stores.
+fn outcome_keeping(
+    sets: MapSets,
+    fit: CellFit,
+    (fitted, fitted_rough, init): (Vec<f32>, Option<Vec<f32>>, Vec<f32>),
+    rays: u64,
+) -> CellOutcome {
+    let keep_all = sets == MapSets::WithUnfitted;
+    let keep = keep_all || fit.level == Level::Map;
+    let fitted_rough = fitted_rough.filter(|_| keep).unwrap_or_default();
+    let fitted = if keep { fitted } else { Vec::new() };
+    let init = if keep_all { init } else { Vec::new() };
+    CellOutcome { fit, fitted, fitted_rough, init, rays }
 }
 
 /// Whether a fit stores a rough map per cell: asked for, and the probe has rough mips.
