@@ -343,3 +343,11 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn the_per_lookup_methods_are_every_method_but_reprojection_and_the_oracle() {
+    let rest: Vec<Method> = Method::ALL.into_iter().filter(|m| !PER_LOOKUP.contains(m)).collect();
+    assert_eq!(rest, [Method::Reproject, Method::Oracle]);
+    let options = warpfit::warp::WarpOptions::standard();
+    assert!(PER_LOOKUP.iter().all(|m| m.probe_reads(&options).is_some()), "each answers a lookup by reads of A");
+}

@@ -196,17 +196,17 @@ impl Method {
     ];
 
     /// Methods that answer one lookup on their own (everything but `reproject`, which
-    /// needs a per-location pass, and the `oracle`, which traces).
-    pub const PER_LOOKUP: [Method; 8] = [
-        Method::None,
-        Method::Box,
-        Method::Kdop,
-        Method::Warp1,
-        Method::Warp2Fixed,
-        Method::Warp2New,
-        Method::Secant,
-        Method::Raymarch,
-    ];
+    /// needs a per-location pass, and the `oracle`, which traces): the first eight of
+    /// [`ALL`](Self::ALL), which lists them first.
+    pub const PER_LOOKUP: [Method; 8] = {
+        let mut out = [Method::None; 8];
+        let mut k = 0;
+        while k < out.len() {
+            out[k] = Method::ALL[k];
+            k += 1;
+        }
+        out
+    };
 
     #[must_use]
     pub fn name(self) -> &'static str {

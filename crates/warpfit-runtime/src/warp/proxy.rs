@@ -128,16 +128,12 @@ impl BoxProxy {
         (out, ok)
     }
 
+    /// Fetch vector of probe A at `a` for the query (`b`, `dir`): towards where the ray
+    /// leaves the proxy ([`towards_exit`]).
     #[inline]
     #[must_use]
     pub fn fetch_dir(&self, a: Vec3, b: Vec3, dir: Vec3) -> Vec3 {
-        if a == b {
-            return dir;
-        }
-        match self.exit_distance(b, dir) {
-            Some(t) => super::depth::fetch_vector(a, b + dir * t, dir),
-            None => dir,
-        }
+        towards_exit(a, b, dir, || self.exit_distance(b, dir))
     }
 }
 
@@ -220,15 +216,25 @@ impl Kdop {
         Some(t)
     }
 
+    /// Fetch vector of probe A at `a` for the query (`b`, `dir`): towards where the ray
+    /// leaves the proxy ([`towards_exit`]).
     #[inline]
     #[must_use]
     pub fn fetch_dir(&self, a: Vec3, b: Vec3, dir: Vec3) -> Vec3 {
-        if a == b {
-            return dir;
-        }
-        match self.exit_distance(b, dir) {
-            Some(t) if t.is_finite() => super::depth::fetch_vector(a, b + dir * t, dir),
-            _ => dir,
-        }
+        towards_exit(a, b, dir, || self.exit_distance(b, dir))
+    }
+}
+
+/// A proxy method's fetch vector: from probe A at `a` towards the point where the ray from
+/// `b` along `dir` leaves the proxy (`exit`, called only when `b` is not at A); the query
+/// direction itself at A, from outside the proxy or through an open side (no finite exit).
+#[inline]
+fn towards_exit(a: Vec3, b: Vec3, dir: Vec3, exit: impl FnOnce() -> Option<f32>) -> Vec3 {
+    if a == b {
+        return dir;
+    }
+    match exit() {
+        Some(t) if t.is_finite() => super::depth::fetch_vector(a, b + dir * t, dir),
+        _ => dir,
     }
 }
