@@ -199,8 +199,9 @@ pub fn best_fetch_row(warp: &Warp, set: &ValidationSet, exposure: f32) -> Method
 /// (`none` with the plain rule at rough buckets).
 pub fn set_gap_closed(results: &mut [MethodResult]) {
     let tm = |pred: &dyn Fn(&MethodResult) -> bool| results.iter().find(|m| pred(m)).map(|m| m.tm_rmse);
-    let none = tm(&|m| m.name == "none" && matches!(m.mip_rule, None | Some(crate::warp::glossy::MipRule::Plain)));
-    let best = tm(&|m| m.name == AIM_NAME);
+    let none_row = super::methods::RowId::method(crate::warp::Method::None);
+    let none = tm(&|m| m.is(none_row) && matches!(m.mip_rule, None | Some(crate::warp::glossy::MipRule::Plain)));
+    let best = tm(&|m| m.is(super::methods::RowId::BEST_AIM));
     if let (Some(none), Some(best)) = (none, best)
         && none - best > 1e-9
     {

@@ -63,7 +63,111 @@ pub struct MethodResult {
     pub note: String,
 }
 
+/// What a row fetches, as a type (see [`RowId`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RowKind {
+    /// A seed method or the oracle (`Method::Reproject` is the push-pull reprojection).
+    Method(Method),
+    /// Seed 002's reprojection with median + farthest-neighbour dilation.
+    ReprojectDilate,
+    /// One of the evaluation's corrective grids.
+    Grid(CorrectiveVariant),
+    /// The loaded fitted grid through the runtime sampler, in one read tier.
+    Runtime(SpecularRead),
+    /// The per-query bound: the texel of A that matches the reference best.
+    BestFetch,
+    /// The per-query bound: the best point on the query's ray.
+    BestAim,
+}
+
+/// Which row a result is: the evaluation and the report find rows by this type, never by
+/// spelling a name. `eval.json` stores it as the row's name ([`RowId::name`]), as before.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct RowId {
+    pub kind: RowKind,
+    /// Scaled by the grid's irradiance over probe A's (seed 000's renormalization).
+    pub renorm: bool,
+}
+
+impl RowId {
+    /// The runtime as loaded (the blended tier): the subject of every comparison.
+    pub const RUNTIME: RowId = RowId::of(RowKind::Runtime(SpecularRead::Blended));
+    /// The runtime's cheaper tier.
+    pub const RUNTIME_PROBE_ONLY: RowId = RowId::of(RowKind::Runtime(SpecularRead::ProbeOnly));
+    pub const BEST_FETCH: RowId = RowId::of(RowKind::BestFetch);
+    pub const BEST_AIM: RowId = RowId::of(RowKind::BestAim);
+
+    /// The row of `kind`, not renormalized.
+    #[must_use]
+    pub const fn of(kind: RowKind) -> RowId {
+        RowId { kind, renorm: false }
+    }
+
+    /// The row of seed method `m`.
+    #[must_use]
+    pub const fn method(m: Method) -> RowId {
+        RowId::of(RowKind::Method(m))
+    }
+
+    /// The name `eval.json` and the tables use (`box`, `fitted-trilinear`, `runtime+renorm`).
+    #[must_use]
+    pub fn name(self) -> String {
+        let base = match self.kind {
+            RowKind::Method(m) => m.name(),
+            RowKind::ReprojectDilate => "reproject-dilate",
+            RowKind::Grid(v) => v.name(),
+            RowKind::Runtime(SpecularRead::Blended) => "runtime",
+            RowKind::Runtime(SpecularRead::ProbeOnly) => "runtime-probe-only",
+            RowKind::BestFetch => super::bound::NAME,
+            RowKind::BestAim => super::bound::AIM_NAME,
+        };
+        if self.renorm { format!("{base}+renorm") } else { base.to_string() }
+    }
+
+    /// The row a name (or a label, `name/rule`) stands for; `None` for a name no row has.
+    #[must_use]
+    pub fn parse(name_or_label: &str) -> Option<RowId> {
+        let name = name_or_label.split('/').next().unwrap_or(name_or_label);
+        let (base, renorm) = match name.strip_suffix("+renorm") {
+            Some(base) => (base, true),
+            None => (name, false),
+        };
+        let kinds = Method::ALL
+            .into_iter()
+            .map(RowKind::Method)
+            .chain(CorrectiveVariant::ALL.into_iter().map(RowKind::Grid))
+            .chain(SpecularRead::ALL.into_iter().map(RowKind::Runtime))
+            .chain([RowKind::ReprojectDilate, RowKind::BestFetch, RowKind::BestAim]);
+        kinds.map(|kind| RowId { kind, renorm }).find(|id| RowId { renorm: false, ..*id }.name() == base)
+    }
+
+    /// The runtime's own row, in either tier, renormalized or not: the subject of the
+    /// comparisons, never "the best other row".
+    #[must_use]
+    pub fn is_runtime(self) -> bool {
+        matches!(self.kind, RowKind::Runtime(_))
+    }
+
+    /// A bound rather than a method (`oracle`, `best-fetch`, `best-aim`).
+    #[must_use]
+    pub fn is_bound(self) -> bool {
+        matches!(self.kind, RowKind::Method(Method::Oracle) | RowKind::BestFetch | RowKind::BestAim)
+    }
+}
+
 impl MethodResult {
+    /// Which row this is (`None` only for a name written by another version).
+    #[must_use]
+    pub fn id(&self) -> Option<RowId> {
+        RowId::parse(&self.name)
+    }
+
+    /// Whether this is row `id`.
+    #[must_use]
+    pub fn is(&self, id: RowId) -> bool {
+        self.id() == Some(id)
+    }
+
     /// The row's name with its mip rule, as tables show it (`box/engine`).
     pub fn label(&self) -> String {
         match self.mip_rule {
@@ -74,7 +178,7 @@ impl MethodResult {
 }
 
 /// The corrective grids the evaluation judges beside the warp methods.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum CorrectiveVariant {
     /// Unfitted maps from the grid's raytraced distances in every active cell.
     Celldepth,
@@ -142,17 +246,6 @@ pub enum Fetch<'a> {
 }
 
 impl Fetch<'_> {
-    pub fn name(&self) -> &'static str {
-        match self {
-            Fetch::Method(m) => m.name(),
-            Fetch::Grid(r) => r.variant.name(),
-            Fetch::Runtime(_, read) => match read {
-                SpecularRead::Blended => "runtime",
-                SpecularRead::ProbeOnly => "runtime-probe-only",
-            },
-        }
-    }
-
     fn note(&self) -> String {
         match self {
             Fetch::Method(Method::Oracle) => {
@@ -214,12 +307,24 @@ pub struct Row<'a> {
 }
 
 impl Row<'_> {
+    /// Which row this is.
+    pub fn id(&self) -> RowId {
+        let kind = match self.fetch {
+            Fetch::Method(m) => RowKind::Method(m),
+            Fetch::Grid(r) => RowKind::Grid(r.variant),
+            Fetch::Runtime(_, read) => RowKind::Runtime(read),
+        };
+        RowId { kind, renorm: self.renorm.is_some() }
+    }
+
     /// The row's method name (`+renorm` marks a renormalized row).
     pub fn name(&self) -> String {
-        match self.renorm {
-            Some(_) => format!("{}+renorm", self.fetch.name()),
-            None => self.fetch.name().to_string(),
-        }
+        self.id().name()
+    }
+
+    /// Whether `m` is this row's result (the same row and mip rule).
+    pub fn made(&self, m: &MethodResult) -> bool {
+        m.is(self.id()) && self.rule == m.mip_rule
     }
 
     /// Fetch vector of query (B, dir) (the oracle's direction given), or `None` for the
@@ -465,9 +570,11 @@ pub fn evaluate_reproject(
     // one per-location pass serves a location's lookups in any order: timed once
     let ns = timing::time_reproject(warp, set, fill);
     let (name, how) = match fill {
-        HoleFill::PushPull => (Method::Reproject.name(), "push-pull"),
-        HoleFill::MedianDilate => ("reproject-dilate", "seed 002's median + farthest-neighbour dilation"),
+        HoleFill::PushPull => (RowId::method(Method::Reproject), "push-pull"),
+        HoleFill::MedianDilate => {
+            (RowId::of(RowKind::ReprojectDilate), "seed 002's median + farthest-neighbour dilation")
+        }
     };
     let note = format!("per-location scatter + {how} amortised over {} lookups per location", set.dirs_per_position);
-    result(set, name, note, (&est, Some(&emitted)), None, (ns, ns), exposure)
+    result(set, &name.name(), note, (&est, Some(&emitted)), None, (ns, ns), exposure)
 }

@@ -30,7 +30,7 @@ pub mod timing;
 pub mod validation;
 pub mod views;
 
-pub use methods::{CorrectiveRow, CorrectiveVariant, MethodResult};
+pub use methods::{CorrectiveRow, CorrectiveVariant, MethodResult, RowId, RowKind};
 pub use metrics::{ErrorStats, LevelEval, error_stats};
 pub use options::Warp1OptionRow;
 pub use renders::RenderSettings;
@@ -106,16 +106,14 @@ pub const ROUGHNESS_BUCKETS: [f32; 6] = [0.0, 0.125, 0.25, 0.5, 0.75, 1.0];
 /// not: the subject of the comparisons, never "the best other row".
 #[must_use]
 pub fn is_runtime(name: &str) -> bool {
-    name.starts_with("runtime")
+    RowId::parse(name).is_some_and(RowId::is_runtime)
 }
 
 /// Whether a row (by name or label) is a bound rather than a method (`oracle`, `best-fetch`,
 /// `best-aim`): never on the Pareto front, never "the best other row".
 #[must_use]
 pub fn is_bound(name: &str) -> bool {
-    // a row's label carries its mip rule (`oracle/plain`)
-    let base = name.split('/').next().unwrap_or(name);
-    base == "oracle" || bound::is_search(base)
+    RowId::parse(name).is_some_and(RowId::is_bound)
 }
 
 impl EvalSettings {
@@ -651,7 +649,7 @@ fn insert_reprojections(
     exposure: f32,
 ) {
     use crate::warp::reproject::HoleFill;
-    let at = results.iter().position(|m| m.name == Method::Oracle.name()).unwrap_or(results.len());
+    let at = results.iter().position(|m| m.is(RowId::method(Method::Oracle))).unwrap_or(results.len());
     results.insert(at, methods::evaluate_reproject(warps, set, exposure, HoleFill::MedianDilate));
     results.insert(at, methods::evaluate_reproject(warps, set, exposure, HoleFill::PushPull));
 }
@@ -659,7 +657,7 @@ fn insert_reprojections(
 /// The single-fetch bounds `best-fetch` and `best-aim` after the oracle, and every row's
 /// share of the gap to them.
 fn insert_bounds(results: &mut Vec<MethodResult>, warp: &Warp, set: &ValidationSet, exposure: f32) {
-    let at = results.iter().position(|m| m.name == Method::Oracle.name()).map_or(results.len(), |k| k + 1);
+    let at = results.iter().position(|m| m.is(RowId::method(Method::Oracle))).map_or(results.len(), |k| k + 1);
     results.insert(at, bound::best_fetch_row(warp, set, exposure));
     results.insert(at + 1, bound::best_aim_row(warp, set, exposure));
     bound::set_gap_closed(results);
@@ -695,7 +693,7 @@ fn set_flips(
 ) {
     let flips: Vec<f64> = rows.par_iter().map(|row| renders::mean_flip(row, shading, view_refs, exposure)).collect();
     for (row, f) in rows.iter().zip(flips) {
-        if let Some(m) = results.iter_mut().find(|m| m.name == row.name() && m.mip_rule == row.rule) {
+        if let Some(m) = results.iter_mut().find(|m| row.made(m)) {
             m.flip = Some(f);
         }
     }
@@ -772,7 +770,7 @@ fn rivals<'r>(results: &'r [MethodResult], options: &crate::warp::WarpOptions) -
     let seed_method = |m: &&MethodResult| Method::parse(&m.name).is_some();
     let by_tm = |a: &&MethodResult, b: &&MethodResult| a.tm_rmse.total_cmp(&b.tm_rmse);
     let challenger = results.iter().filter(cheap).filter(seed_method).min_by(by_tm);
-    let champion = results.iter().find(|m| m.name == "runtime").or_else(|| {
+    let champion = results.iter().find(|m| m.is(RowId::RUNTIME)).or_else(|| {
         results
             .iter()
             .filter(cheap)
@@ -812,7 +810,7 @@ fn bucket_summary(
     let se2: f64 = set.reference_se.iter().map(|&e| (e as f64).powi(2)).sum::<f64>() / n;
     let options = &shading.warp.options;
     let Rivals { champion, challenger, flip_challenger } = rivals(results, options);
-    let row_of = |m: &MethodResult| rows.iter().find(|row| row.name() == m.name && row.rule == m.mip_rule);
+    let row_of = |m: &MethodResult| rows.iter().find(|row| row.made(m));
     let (mut claim, mut diff, mut se) = ((String::new(), String::new()), (0.0, 0.0), (0.0, 0.0));
     if let (Some(a), Some(b)) = (champion, challenger) {
         claim = (a.label(), b.label());
@@ -866,11 +864,11 @@ fn rescore(
     exposure: f32,
 ) {
     for m in results.iter_mut() {
-        if m.name == bound::NAME {
+        if m.is(RowId::BEST_FETCH) {
             *m = bound::best_fetch_row(shading.warp, set, exposure);
-        } else if m.name == bound::AIM_NAME {
+        } else if m.is(RowId::BEST_AIM) {
             *m = bound::best_aim_row(shading.warp, set, exposure);
-        } else if let Some(row) = rows.iter().find(|row| row.name() == m.name && row.rule == m.mip_rule) {
+        } else if let Some(row) = rows.iter().find(|row| row.made(m)) {
             *m = methods::rescore_row(row, (shading, emitters), set, exposure, m);
         }
     }
@@ -887,13 +885,13 @@ fn noise_ceiling(
     shading: Glossy,
     exposure: f32,
 ) -> Option<bound::NoiseCeiling> {
-    // (the mirror bucket's labels are the rows' names: one mip rule)
-    let row = |label: &str| rows.iter().find(|row| row.name() == label);
+    // (the mirror bucket has one mip rule: a row is found by its id alone)
+    let row = |id: Option<RowId>| rows.iter().find(|row| Some(row.id()) == id);
     let n = quiet.0.dirs.len();
     let on_quiet = |row: &methods::Row| methods::estimates_of_first(row, shading, set, n);
-    let none = on_quiet(row(Method::None.name())?);
-    let champion = row(champion).map(|r| (r.name(), on_quiet(r)));
-    let oracle = row(Method::Oracle.name()).map(on_quiet);
+    let none = on_quiet(row(Some(RowId::method(Method::None)))?);
+    let champion = row(RowId::parse(champion)).map(|r| (r.name(), on_quiet(r)));
+    let oracle = row(Some(RowId::method(Method::Oracle))).map(on_quiet);
     bound::noise_ceiling(shading.warp, set, quiet, &none, champion, oracle, exposure)
 }
 
@@ -926,7 +924,7 @@ fn flip_figure(
     view: &renders::ViewReference,
     exposure: f32,
 ) -> Option<FlipFigure> {
-    let budget = results.iter().find(|m| m.name == Method::Warp1.name()).map(|m| 2.0 * m.ns_per_lookup)?;
+    let budget = results.iter().find(|m| m.is(RowId::method(Method::Warp1))).map(|m| 2.0 * m.ns_per_lookup)?;
     let best_other = results
         .iter()
         .filter(|m| m.ns_per_lookup <= budget && !is_runtime(&m.name) && !is_bound(&m.name))
@@ -934,16 +932,16 @@ fn flip_figure(
         .min_by(|a, b| a.flip.unwrap_or(1.0).total_cmp(&b.flip.unwrap_or(1.0)));
     let plain = |m: &MethodResult| m.mip_rule.is_none() || m.mip_rule == Some(MipRule::Plain);
     let mut wanted: Vec<&MethodResult> =
-        results.iter().filter(|m| m.name == "runtime" || m.name == "runtime-probe-only").collect();
+        results.iter().filter(|m| m.is(RowId::RUNTIME) || m.is(RowId::RUNTIME_PROBE_ONLY)).collect();
     wanted.extend(best_other);
-    for name in [Method::Warp1.name(), Method::Box.name()] {
-        wanted.extend(results.iter().find(|m| m.name == name && plain(m)));
+    for m in [Method::Warp1, Method::Box] {
+        wanted.extend(results.iter().find(|r| r.is(RowId::method(m)) && plain(r)));
     }
     let mut tiles = Vec::new();
     let mut seen = std::collections::HashSet::new();
     wanted.retain(|m| seen.insert(m.label()));
     for m in wanted {
-        let Some(row) = rows.iter().find(|row| row.name() == m.name && row.rule == m.mip_rule) else { continue };
+        let Some(row) = rows.iter().find(|row| row.made(m)) else { continue };
         let image = renders::render(row, shading, view);
         let map = renders::flip_map(view, &image, exposure);
         let mean = crate::perceptual::flip::mean(&map);
@@ -1020,5 +1018,29 @@ mod tests {
         assert_eq!(claim_reads("box+renorm", &options), Some(1));
         assert_eq!(claim_reads("oracle", &options), None);
         assert_eq!(claim_reads("runtime", &options), None);
+    }
+
+    #[test]
+    fn every_row_id_reads_back_from_its_name_and_its_labels() {
+        let kinds = Method::ALL
+            .into_iter()
+            .map(RowKind::Method)
+            .chain(CorrectiveVariant::ALL.into_iter().map(RowKind::Grid))
+            .chain(crate::runtime::SpecularRead::ALL.into_iter().map(RowKind::Runtime))
+            .chain([RowKind::ReprojectDilate, RowKind::BestFetch, RowKind::BestAim]);
+        let mut names = std::collections::HashSet::new();
+        for kind in kinds {
+            for renorm in [false, true] {
+                let id = RowId { kind, renorm };
+                assert_eq!(RowId::parse(&id.name()), Some(id), "{}", id.name());
+                assert_eq!(RowId::parse(&format!("{}/engine", id.name())), Some(id), "a label carries its mip rule");
+                assert!(names.insert(id.name()), "two rows named {}", id.name());
+            }
+        }
+        assert_eq!(RowId::parse("runtime"), Some(RowId::RUNTIME));
+        assert_eq!(RowId::parse("reproject"), Some(RowId::method(Method::Reproject)));
+        assert_eq!(RowId::parse("no-such-row"), None);
+        assert!(is_runtime("runtime-probe-only") && is_runtime("runtime+renorm") && !is_runtime("box"));
+        assert!(is_bound("oracle/plain") && is_bound("best-aim") && !is_bound("fitted"));
     }
 }

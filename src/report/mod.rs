@@ -11,9 +11,10 @@ pub mod plot;
 pub mod roughness;
 pub mod sweep;
 
-use crate::eval::Evaluation;
 pub use crate::eval::{EvalReport, LevelEval};
+use crate::eval::{Evaluation, RowId};
 use crate::files::{FileError, write_atomic, write_json};
+use crate::warp::Method;
 use folder::RunFolder;
 use std::fmt::Write as _;
 
@@ -72,8 +73,8 @@ pub fn summary_table(r: &EvalReport) -> String {
     };
     for b in &r.buckets {
         let rows: Vec<&crate::eval::MethodResult> = r.methods.iter().filter(|m| m.roughness == b.roughness).collect();
-        let find = |name: &str| rows.iter().copied().filter(plain).find(|m| m.name == name);
-        let budget = find("warp1").map_or(f64::INFINITY, |m| 2.0 * m.ns_per_lookup);
+        let find = |id: RowId| rows.iter().copied().filter(plain).find(|m| m.is(id));
+        let budget = find(RowId::method(Method::Warp1)).map_or(f64::INFINITY, |m| 2.0 * m.ns_per_lookup);
         let key = |m: &&crate::eval::MethodResult| m.flip.unwrap_or(m.tm_rmse);
         let best = rows
             .iter()
@@ -87,10 +88,10 @@ pub fn summary_table(r: &EvalReport) -> String {
             s,
             "| {} | {} | {} | {} | {} |",
             b.roughness,
-            cell(rows.iter().copied().find(|m| m.name == "runtime")),
+            cell(rows.iter().copied().find(|m| m.is(RowId::RUNTIME))),
             best.map_or("–".into(), |m| format!("{}: {}", m.label(), fmt(m))),
-            cell(find("warp1")),
-            cell(find("box"))
+            cell(find(RowId::method(Method::Warp1))),
+            cell(find(RowId::method(Method::Box)))
         );
     }
     s

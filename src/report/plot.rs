@@ -453,7 +453,7 @@ pub fn error_vs_cost_panels(path: &Path, title: &str, y_desc: &str, panels: &[Pa
                 if !(*c > 0.0 && e.is_finite()) {
                     continue;
                 }
-                let runtime = label == "runtime";
+                let runtime = crate::eval::RowId::parse(label) == Some(crate::eval::RowId::RUNTIME);
                 let color = if runtime {
                     RGBColor(20, 140, 40)
                 } else if *on_front {
