@@ -13,7 +13,7 @@
 //! Searches can miss a narrower better optimum, so both rows are upper estimates of their
 //! bounds. Bounds, not methods: they read the references, and their cost is the search's.
 
-use super::methods::{MethodResult, result};
+use super::methods::{MethodResult, RowId, RowKind, result};
 use super::validation::ValidationSet;
 use crate::tonemap::reinhard;
 use crate::warp::Warp;
@@ -21,15 +21,11 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-/// The bounds' row names.
-pub const NAME: &str = "best-fetch";
-pub const AIM_NAME: &str = "best-aim";
-
-/// Whether a row is one of these per-query search bounds (whose cost is a search's, not a
-/// lookup's: plots keep them off the cost axis).
+/// Whether a row (by name) is one of these per-query search bounds (whose cost is a
+/// search's, not a lookup's: plots keep them off the cost axis).
 #[must_use]
 pub fn is_search(name: &str) -> bool {
-    name == NAME || name == AIM_NAME
+    RowId::parse(name).is_some_and(|id| matches!(id.kind, RowKind::BestFetch | RowKind::BestAim))
 }
 
 /// Coarse grid of the search (per axis, at most the mip's resolution).
@@ -172,7 +168,7 @@ pub fn best_aim_row(warp: &Warp, set: &ValidationSet, exposure: f32) -> MethodRe
     let threads = rayon::current_num_threads().max(1) as f64;
     let ns = t0.elapsed().as_secs_f64() * 1e9 * threads / set.reference.len().max(1) as f64;
     let note = "bound: the best point on the query ray to fetch A towards (what every warp aims at); cost = the search";
-    result(set, AIM_NAME, note.into(), (&est, None), None, (ns, ns), exposure)
+    result(set, &RowId::BEST_AIM.name(), note.into(), (&est, None), None, (ns, ns), exposure)
 }
 
 /// The `best-fetch` row of a bucket: mirror queries search mip 0; rough ones every mip of the
@@ -192,16 +188,16 @@ pub fn best_fetch_row(warp: &Warp, set: &ValidationSet, exposure: f32) -> Method
         "bound: the single fetch of A (any direction, mips {}) nearest each reference; cost = the search",
         if r > 0.0 { "all" } else { "0" }
     );
-    result(set, NAME, note, (&est, None), None, (ns, ns), exposure)
+    result(set, &RowId::BEST_FETCH.name(), note, (&est, None), None, (ns, ns), exposure)
 }
 
 /// Sets every row's share of the `none` → `best-aim` gap it closes, in tone-mapped RMSE
 /// (`none` with the plain rule at rough buckets).
 pub fn set_gap_closed(results: &mut [MethodResult]) {
     let tm = |pred: &dyn Fn(&MethodResult) -> bool| results.iter().find(|m| pred(m)).map(|m| m.tm_rmse);
-    let none_row = super::methods::RowId::method(crate::warp::Method::None);
+    let none_row = RowId::method(crate::warp::Method::None);
     let none = tm(&|m| m.is(none_row) && matches!(m.mip_rule, None | Some(crate::warp::glossy::MipRule::Plain)));
-    let best = tm(&|m| m.is(super::methods::RowId::BEST_AIM));
+    let best = tm(&|m| m.is(RowId::BEST_AIM));
     if let (Some(none), Some(best)) = (none, best)
         && none - best > 1e-9
     {

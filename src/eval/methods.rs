@@ -118,8 +118,8 @@ impl RowId {
             RowKind::Grid(v) => v.name(),
             RowKind::Runtime(SpecularRead::Blended) => "runtime",
             RowKind::Runtime(SpecularRead::ProbeOnly) => "runtime-probe-only",
-            RowKind::BestFetch => super::bound::NAME,
-            RowKind::BestAim => super::bound::AIM_NAME,
+            RowKind::BestFetch => "best-fetch",
+            RowKind::BestAim => "best-aim",
         };
         if self.renorm { format!("{base}+renorm") } else { base.to_string() }
     }
