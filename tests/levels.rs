@@ -228,6 +228,8 @@ fn a_dark_scene_and_a_probe_in_a_wall_are_errors() {
     let o = warpfit(&["check", "--scene", &p.to_string_lossy()]);
     assert!(!o.status.success());
     assert!(text(&o).contains("probe.position") && text(&o).contains("inside geometry"), "{}", text(&o));
+    // the same rays are what one-sided surfaces of mixed winding show: the cure is named too
+    assert!(text(&o).contains("two_sided = true"), "{}", text(&o));
     // and `fit` refuses it before baking
     let out = d.join("out");
     let o = warpfit(&["fit", "--scene", &p.to_string_lossy(), "--out", &out.to_string_lossy()]);
@@ -263,5 +265,24 @@ fn init_writes_scenes_that_check_accepts_and_fit() {
         ]);
         assert!(o.status.success(), "{mesh}: {}", text(&o));
         warpfit::runtime::FittedGrid::load(&out).unwrap();
+    }
+}
+
+#[test]
+fn check_says_each_warning_once_and_names_no_file_it_did_not_read() {
+    let d = tmp_dir("check-once");
+    // a floor with one duplicate and one degenerate triangle, under a ceiling
+    let obj = "v -2 0 -2\nv 2 0 -2\nv 2 0 2\nv -2 0 2\nv -2 3 -2\nv 2 3 -2\nv 2 3 2\nv -2 3 2\n\
+               f 1 3 2\nf 1 4 3\nf 1 4 3\nf 1 1 2\nf 5 6 7\nf 5 7 8\n";
+    std::fs::write(d.join("room.obj"), obj).unwrap();
+    let o = warpfit(&["init", "--mesh", &d.join("room.obj").to_string_lossy()]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!text(&o).contains(".init.toml"), "init names a file it never wrote:\n{}", text(&o));
+    let scene = d.join("room.toml");
+    std::fs::write(&scene, &o.stdout).unwrap();
+    let o = warpfit(&["check", "--scene", &scene.to_string_lossy()]);
+    let all = text(&o);
+    for what in ["degenerate", "duplicate"] {
+        assert_eq!(all.matches(what).count(), 2, "once in the summary line and once as a warning:\n{all}");
     }
 }

@@ -64,7 +64,7 @@ pub fn check(scene: &Scene, tracer: &Tracer) -> Check {
         }
         if truth::inside_by_backfaces(back, cfg.grid.inside_backface_fraction) {
             c.errors.push(format!(
-                "{file}: probe.position {a} is inside geometry ({} of {} rays from it see back faces): move it into open space",
+                "{file}: probe.position {a} is inside geometry ({} of {} rays from it see back faces): move it into open space, or, if the level's surfaces are one-sided with mixed or inverted winding, set two_sided = true on its geometry",
                 back.any, back.rays
             ));
         } else if back.one_sided as f32 > WINDING_WARN * back.rays as f32 {

@@ -271,12 +271,8 @@ impl Scene {
         if builder.triangles.is_empty() && builder.spheres.is_empty() {
             return Err(SceneError::Empty { path: path.to_path_buf() });
         }
-        if builder.degenerate_skipped > 0 {
-            tracing::warn!("{}: skipped {} degenerate triangle(s)", path.display(), builder.degenerate_skipped);
-        }
-        if builder.duplicates_skipped > 0 {
-            tracing::warn!("{}: dropped {} duplicate triangle(s)", path.display(), builder.duplicates_skipped);
-        }
+        // (skipped and dropped triangles are counted in the scene, and `jobs::check`, which
+        // every command runs on a scene it bakes, reports them once, naming the scene file)
         let sky = sky_from(&file, path)?;
         let mut lights = lights_from(&file, path)?;
         for l in builder.lights.drain(..) {
