@@ -80,6 +80,32 @@ pub enum RowKind {
     BestAim,
 }
 
+impl RowKind {
+    /// Every kind of row.
+    pub fn all() -> impl Iterator<Item = RowKind> {
+        Method::ALL
+            .into_iter()
+            .map(RowKind::Method)
+            .chain(CorrectiveVariant::ALL.into_iter().map(RowKind::Grid))
+            .chain(SpecularRead::ALL.into_iter().map(RowKind::Runtime))
+            .chain([RowKind::ReprojectDilate, RowKind::BestFetch, RowKind::BestAim])
+    }
+
+    /// The row's name without the renormalization mark.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            RowKind::Method(m) => m.name(),
+            RowKind::ReprojectDilate => "reproject-dilate",
+            RowKind::Grid(v) => v.name(),
+            RowKind::Runtime(SpecularRead::Blended) => "runtime",
+            RowKind::Runtime(SpecularRead::ProbeOnly) => "runtime-probe-only",
+            RowKind::BestFetch => "best-fetch",
+            RowKind::BestAim => "best-aim",
+        }
+    }
+}
+
 /// Which row a result is: the evaluation and the report find rows by this type, never by
 /// spelling a name. `eval.json` stores it as the row's name ([`RowId::name`]), as before.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -112,15 +138,7 @@ impl RowId {
     /// The name `eval.json` and the tables use (`box`, `fitted-trilinear`, `runtime+renorm`).
     #[must_use]
     pub fn name(self) -> String {
-        let base = match self.kind {
-            RowKind::Method(m) => m.name(),
-            RowKind::ReprojectDilate => "reproject-dilate",
-            RowKind::Grid(v) => v.name(),
-            RowKind::Runtime(SpecularRead::Blended) => "runtime",
-            RowKind::Runtime(SpecularRead::ProbeOnly) => "runtime-probe-only",
-            RowKind::BestFetch => "best-fetch",
-            RowKind::BestAim => "best-aim",
-        };
+        let base = self.kind.name();
         if self.renorm { format!("{base}+renorm") } else { base.to_string() }
     }
 
@@ -132,13 +150,7 @@ impl RowId {
             Some(base) => (base, true),
             None => (name, false),
         };
-        let kinds = Method::ALL
-            .into_iter()
-            .map(RowKind::Method)
-            .chain(CorrectiveVariant::ALL.into_iter().map(RowKind::Grid))
-            .chain(SpecularRead::ALL.into_iter().map(RowKind::Runtime))
-            .chain([RowKind::ReprojectDilate, RowKind::BestFetch, RowKind::BestAim]);
-        kinds.map(|kind| RowId { kind, renorm }).find(|id| RowId { renorm: false, ..*id }.name() == base)
+        RowKind::all().find(|kind| kind.name() == base).map(|kind| RowId { kind, renorm })
     }
 
     /// The runtime's own row, in either tier, renormalized or not: the subject of the

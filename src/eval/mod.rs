@@ -1022,12 +1022,7 @@ mod tests {
 
     #[test]
     fn every_row_id_reads_back_from_its_name_and_its_labels() {
-        let kinds = Method::ALL
-            .into_iter()
-            .map(RowKind::Method)
-            .chain(CorrectiveVariant::ALL.into_iter().map(RowKind::Grid))
-            .chain(crate::runtime::SpecularRead::ALL.into_iter().map(RowKind::Runtime))
-            .chain([RowKind::ReprojectDilate, RowKind::BestFetch, RowKind::BestAim]);
+        let kinds = RowKind::all();
         let mut names = std::collections::HashSet::new();
         for kind in kinds {
             for renorm in [false, true] {

@@ -638,12 +638,24 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     let probe_offset = read_relocated(&m, mp, &geometry, cells)?;
     let bounds = ValueBounds::of_diagonal((geometry.max - geometry.min).length());
     let expected = expected_payloads(&m, mp, cells)?;
-    let probe = read_probe(dir, &m, expected_of(&expected, PROBE_FILE), &bounds)?;
+    let probe = read_probe(dir, (&m, mp), expected_of(&expected, PROBE_FILE), &bounds)?;
     let (fallback, proxies) = read_proxies(&m, mp)?;
-    let correctives =
-        read_correctives(dir, &m, expected_of(&expected, CORRECTIVES_FILE), (geometry, cells), fallback, &bounds)?;
-    let irradiance =
-        read_irradiance(dir, &m, expected_of(&expected, IRRADIANCE_FILE), (geometry, cells), probe_offset, &bounds)?;
+    let correctives = read_correctives(
+        dir,
+        (&m, mp),
+        expected_of(&expected, CORRECTIVES_FILE),
+        (geometry, cells),
+        fallback,
+        &bounds,
+    )?;
+    let irradiance = read_irradiance(
+        dir,
+        (&m, mp),
+        expected_of(&expected, IRRADIANCE_FILE),
+        (geometry, cells),
+        probe_offset,
+        &bounds,
+    )?;
     let roughness = m.roughness.clone();
     let options = m.warp.options;
     Ok(GridData { warp: Warp { probe, proxies, options }, correctives, irradiance, roughness, manifest: m })
@@ -708,12 +720,10 @@ fn read_relocated(m: &GridManifest, mp: &Path, geometry: &GridGeometry, cells: u
 /// Probe A from `probe.exr`: the radiance chain and the distance chain, values checked.
 fn read_probe(
     dir: &Path,
-    m: &GridManifest,
+    (m, mp): (&GridManifest, &Path),
     expected: &[Expected],
     bounds: &ValueBounds,
 ) -> Result<WarpProbe, FileError> {
-    let mpath = dir.join(MANIFEST_FILE);
-    let mp = mpath.as_path();
     let p = &m.probe;
     let ppath = dir.join(PROBE_FILE);
     let layers = read_payload(dir, m, PROBE_FILE, expected)?;
@@ -786,14 +796,12 @@ fn read_proxies(m: &GridManifest, mp: &Path) -> Result<(Method, Proxies), FileEr
 /// tiles are the stored maps), checked.
 fn read_correctives(
     dir: &Path,
-    m: &GridManifest,
+    (m, mp): (&GridManifest, &Path),
     expected: &[Expected],
     (geometry, cells): (GridGeometry, usize),
     fallback: Method,
     bounds: &ValueBounds,
 ) -> Result<Correctives, FileError> {
-    let mpath = dir.join(MANIFEST_FILE);
-    let mp = mpath.as_path();
     let (map_res, slot, maps, rough_maps) = match &m.correctives {
         None => (8, vec![NO_MAP; cells], Vec::new(), Vec::new()),
         Some(c) => {
@@ -822,14 +830,12 @@ fn read_correctives(
 /// tile: the first tiles are the stored cells'), checked.
 fn read_irradiance(
     dir: &Path,
-    m: &GridManifest,
+    (m, mp): (&GridManifest, &Path),
     expected: &[Expected],
     (geometry, cells): (GridGeometry, usize),
     probe_offset: Vec<Vec3>,
     bounds: &ValueBounds,
 ) -> Result<IrradianceGrid, FileError> {
-    let mpath = dir.join(MANIFEST_FILE);
-    let mp = mpath.as_path();
     let ir = &m.irradiance;
     let islot = slots(&ir.stored_cells, cells, mp, "irradiance.stored_cells")?;
     if !(0.0..=1.0).contains(&ir.surface_bias) {
@@ -840,14 +846,8 @@ fn read_irradiance(
         (Vec::new(), Vec::new(), Vec::new())
     } else {
         let ipath = dir.join(IRRADIANCE_FILE);
-        let (mut layers, mut e) = read_listed_payload_rgb(
-            dir,
-            &dir.join(MANIFEST_FILE),
-            &m.payloads,
-            IRRADIANCE_FILE,
-            expected,
-            Some("irradiance"),
-        )?;
+        let (mut layers, mut e) =
+            read_listed_payload_rgb(dir, mp, &m.payloads, IRRADIANCE_FILE, expected, Some("irradiance"))?;
         let n = ir.stored_cells.len();
         let (r2, dr2) =
             ((ir.resolution * ir.resolution) as usize, (ir.depth_resolution * ir.depth_resolution) as usize);
