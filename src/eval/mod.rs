@@ -348,16 +348,15 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     bar.set_message("eval: references");
     let mut times = EvalTimes::default();
     let mut laps = Laps(std::time::Instant::now());
-    let mut lap = |field: &mut f64| laps.lap(field);
     let mirror = validation_set(scene, tracer, grid, warp.probe.position, settings);
     let mut reference_rays = mirror.rays;
-    lap(&mut times.mirror_references);
+    laps.lap(&mut times.mirror_references);
     bar.inc(1);
     let views = settings
         .renders
         .map(|r| renders::views(scene, tracer, &mirror.positions, warp.probe.position, &r))
         .unwrap_or_default();
-    lap(&mut times.view_references);
+    laps.lap(&mut times.view_references);
     // probe A's emitted part, read by every row as it reads probe A (the linear error with
     // the emitters apart): a warp context and a loaded grid with that chain as radiance
     let (emitted, rays) = emitted_twins(baked, warp, runtime, progress);
@@ -366,7 +365,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         .as_ref()
         .map(|(w, g)| methods::Emitters { shading: Glossy { warp: w, correction }, runtime: g.as_ref() });
     let emitters = emitters.as_ref();
-    lap(&mut times.emitted);
+    laps.lap(&mut times.emitted);
     let lookups = settings.timing_lookups as usize;
     let mut rows_out = Vec::new();
     let mut summaries = Vec::new();
@@ -384,10 +383,10 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             reference_rays += s.rays;
             Some(s)
         };
-        lap(&mut times.rough_references);
+        laps.lap(&mut times.rough_references);
         let set = set.as_ref().unwrap_or(&mirror);
         let view_refs = view_references(baked, &views, (r, bucket), settings, exposure);
-        lap(&mut times.view_references);
+        laps.lap(&mut times.view_references);
         bar.inc(1);
         bar.set_message(format!("eval: r {r} rows"));
         let rules: &[MipRule] = if r == 0.0 { &[MipRule::Plain] } else { &MipRule::ALL };
@@ -400,14 +399,14 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             insert_reprojections(&mut results, (warp, emitted_warp), set, exposure);
         }
         insert_bounds(&mut results, warp, set, exposure);
-        lap(&mut times.rows);
+        laps.lap(&mut times.rows);
         bar.inc(1);
         bar.set_message(format!("eval: r {r} ꟻLIP"));
         if !view_refs.is_empty() {
             set_flips(&mut results, &rows, shading, &view_refs, exposure);
             flip_figures.extend(flip_figure(&rows, &results, shading, &view_refs[0], exposure));
         }
-        lap(&mut times.flip);
+        laps.lap(&mut times.flip);
         bar.inc(1);
         let mut spp = if r == 0.0 { settings.reference_spp } else { settings.rough_reference_spp };
         let mut summary = bucket_summary(set, r, spp, (&rows, &results), shading, exposure, &view_refs);
@@ -420,10 +419,10 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             bar.set_message(format!("eval: r {r} references, {spp} samples"));
             let traced = refined.insert(trace_rough(spp));
             reference_rays += traced.rays;
-            lap(&mut times.rough_references);
+            laps.lap(&mut times.rough_references);
             rescore(&mut results, &rows, (shading, emitters), traced, exposure);
             summary = bucket_summary(traced, r, spp, (&rows, &results), shading, exposure, &view_refs);
-            lap(&mut times.rows);
+            laps.lap(&mut times.rows);
         }
         if r == 0.0 {
             bar.set_message("eval: quiet references");
@@ -433,7 +432,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         }
         summaries.push(summary);
         rows_out.extend(results);
-        lap(&mut times.summaries);
+        laps.lap(&mut times.summaries);
     }
     let fitted_levels = corrective_rows
         .iter()
@@ -442,7 +441,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         .unwrap_or_default();
     bar.set_message("eval: warp1 options");
     let warp1_sweep = options::warp1_options(warp, &mirror, exposure);
-    lap(&mut times.rows);
+    laps.lap(&mut times.rows);
     bar.inc(1);
     bar.set_message("eval: diffuse");
     let (diffuse, rays, figures) =
@@ -454,7 +453,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         surface_probes(baked, (shading, runtime, methods), settings, exposure, progress);
     reference_rays += rays;
     flip_figures.extend(figures);
-    lap(&mut times.diffuse_and_surfaces);
+    laps.lap(&mut times.diffuse_and_surfaces);
     bar.finish_and_clear();
     let renderer = Renderer::new(scene, tracer);
     let report = EvalReport {

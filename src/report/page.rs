@@ -345,6 +345,11 @@ fn error_headers(flip: &str) -> impl Iterator<Item = String> + '_ {
         .chain(["tone-mapped RMSE", "rel RMSE", "MAE", "p95", "ns/lookup"].into_iter().map(String::from))
 }
 
+/// A table's header row.
+fn header(cells: &[&str]) -> Vec<String> {
+    cells.iter().map(|s| s.to_string()).collect()
+}
+
 /// Titled tables (first row = header), shared by the Markdown and HTML renderings.
 fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
     let mut out = vec![methods_section(r)];
@@ -363,24 +368,19 @@ fn sections(r: &RunReport) -> Vec<(String, Vec<Vec<String>>)> {
 
 /// Every method on held-out positions and directions, per roughness.
 fn methods_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
-    let mut t = vec![
-        vec![
-            "roughness",
-            "method",
-            "ꟻLIP",
-            "tone-mapped RMSE",
-            "rel RMSE",
-            "MAE",
-            "p95",
-            "ns/lookup",
-            "ns/lookup (batch API)",
-            "Pareto front (tm RMSE)",
-            "note",
-        ]
-        .into_iter()
-        .map(String::from)
-        .collect::<Vec<_>>(),
-    ];
+    let mut t = vec![header(&[
+        "roughness",
+        "method",
+        "ꟻLIP",
+        "tone-mapped RMSE",
+        "rel RMSE",
+        "MAE",
+        "p95",
+        "ns/lookup",
+        "ns/lookup (batch API)",
+        "Pareto front (tm RMSE)",
+        "note",
+    ])];
     for m in &r.methods {
         let mut cells = vec![format!("{}", m.roughness), m.name.clone()];
         cells.extend(super::error_cells(m.flip, [m.tm_rmse, m.rel_rmse, m.mae, m.p95], m.ns_per_lookup));
@@ -444,17 +444,12 @@ fn surface_section(sr: &crate::eval::surface::SurfaceReport) -> (String, Vec<Vec
 
 /// The fitted grid per cell level, on the validation set.
 fn eval_levels_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
-    let mut t = vec![
-        [
-            "cell level",
-            "validation lookups",
-            "fitted tone-mapped / rel RMSE",
-            "fallback tone-mapped / rel RMSE (same lookups)",
-        ]
-        .iter()
-        .map(|s| s.to_string())
-        .collect::<Vec<_>>(),
-    ];
+    let mut t = vec![header(&[
+        "cell level",
+        "validation lookups",
+        "fitted tone-mapped / rel RMSE",
+        "fallback tone-mapped / rel RMSE (same lookups)",
+    ])];
     for l in &r.eval_levels {
         t.push(vec![
             l.level.to_string(),
@@ -468,9 +463,7 @@ fn eval_levels_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
 
 /// The fitted grid per cell level, on the fit's own check set.
 fn fit_levels_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
-    let mut t = vec![
-        ["level", "cells", "fallback", "celldepth", "stored model"].iter().map(|s| s.to_string()).collect::<Vec<_>>(),
-    ];
+    let mut t = vec![header(&["level", "cells", "fallback", "celldepth", "stored model"])];
     for l in &r.levels {
         t.push(vec![
             match l.level {
@@ -488,9 +481,7 @@ fn fit_levels_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
 
 /// The worst cells and why.
 fn worst_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
-    let mut t = vec![
-        ["cell", "level", "stored error", "fallback error", "hidden", "why"].iter().map(|s| s.to_string()).collect(),
-    ];
+    let mut t = vec![header(&["cell", "level", "stored error", "fallback error", "hidden", "why"])];
     for c in &r.worst_cells {
         t.push(vec![
             c.cell.to_string(),
@@ -506,7 +497,7 @@ fn worst_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
 
 /// Each stage's time and rays.
 fn stages_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
-    let mut t = vec![["stage", "seconds", "rays", "rays/s"].iter().map(|s| s.to_string()).collect::<Vec<_>>()];
+    let mut t = vec![header(&["stage", "seconds", "rays", "rays/s"])];
     for s in &r.stages {
         t.push(vec![
             s.stage.clone(),
@@ -520,8 +511,7 @@ fn stages_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
 
 /// The bytes of each stored layer and payload.
 fn bytes_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
-    let mut t =
-        vec![["file", "layer", "size", "precision", "raw bytes"].iter().map(|s| s.to_string()).collect::<Vec<_>>()];
+    let mut t = vec![header(&["file", "layer", "size", "precision", "raw bytes"])];
     for l in &r.layers {
         t.push(vec![l.file.clone(), l.layer.clone(), l.size.clone(), l.precision.clone(), l.raw_bytes.to_string()]);
     }
@@ -533,7 +523,7 @@ fn bytes_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
 
 /// What the scene does not need, and the bytes that saves.
 fn left_out_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
-    let mut t = vec![["left out", "why", "bytes saved"].iter().map(|s| s.to_string()).collect::<Vec<_>>()];
+    let mut t = vec![header(&["left out", "why", "bytes saved"])];
     for (w, why, b) in &r.left_out {
         t.push(vec![w.clone(), why.clone(), b.to_string()]);
     }
@@ -542,21 +532,16 @@ fn left_out_section(r: &RunReport) -> (String, Vec<Vec<String>>) {
 
 /// The sweep's rows.
 fn sweep_section(sweep: &Sweep) -> (String, Vec<Vec<String>>) {
-    let mut t = vec![
-        [
-            "knob",
-            "value",
-            "fit seconds",
-            "ꟻLIP r 0",
-            "± 2 SE (vs given)",
-            "ꟻLIP r 0.5",
-            "tone-mapped RMSE",
-            "rel RMSE (held out)",
-        ]
-        .iter()
-        .map(|s| s.to_string())
-        .collect::<Vec<_>>(),
-    ];
+    let mut t = vec![header(&[
+        "knob",
+        "value",
+        "fit seconds",
+        "ꟻLIP r 0",
+        "± 2 SE (vs given)",
+        "ꟻLIP r 0.5",
+        "tone-mapped RMSE",
+        "rel RMSE (held out)",
+    ])];
     for row in &sweep.rows {
         t.push(vec![
             row.knob.name().to_string(),
@@ -574,7 +559,7 @@ fn sweep_section(sweep: &Sweep) -> (String, Vec<Vec<String>>) {
 
 /// The stability suite's cases.
 fn stability_section(cases: &[serde_json::Value]) -> (String, Vec<Vec<String>>) {
-    let mut t = vec![["case", "expectation", "measured", "result"].iter().map(|s| s.to_string()).collect()];
+    let mut t = vec![header(&["case", "expectation", "measured", "result"])];
     for c in cases {
         let f = |k: &str| c.get(k).and_then(|v| v.as_str()).unwrap_or_default().to_string();
         let pass = c.get("pass").and_then(|v| v.as_bool()).unwrap_or(false);
