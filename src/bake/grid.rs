@@ -417,6 +417,17 @@ fn clearance(renderer: &Renderer, s: &GridSettings, p: Vec3, stream: u64, limit:
     (nearest, inside)
 }
 
+/// Where a probe of cell `cell` may stand: its centre, relocated as the cell's probe is;
+/// `None` when that is inside geometry or closer to it than a quarter of the clearance the
+/// relocation asks for.
+pub(crate) fn open_position(renderer: &Renderer, s: &GridSettings, cell: usize, rays: &mut u64) -> Option<Vec3> {
+    let p = s.geometry.cell_centre(cell) + relocate(renderer, s, cell, rays);
+    let need = s.relocate_clearance.max(0.05) * s.geometry.cell_size().min_element();
+    let stream = hash_pair(hash_pair(DOMAIN_GRID, 0x0BE4), cell as u64);
+    let (c, inside) = clearance(renderer, s, p, stream, 2.0 * need, rays);
+    (!inside && c >= need / 4.0).then_some(p)
+}
+
 /// The offset of cell `cell`'s probe from its centre (see the module's documentation).
 fn relocate(renderer: &Renderer, s: &GridSettings, cell: usize, rays: &mut u64) -> Vec3 {
     if s.relocate_clearance <= 0.0 {

@@ -2,6 +2,7 @@
 //! writing files is `bakefile`.
 
 pub mod grid;
+pub mod placement;
 pub mod probe;
 pub mod surface;
 
@@ -21,13 +22,22 @@ pub struct Baked<'a> {
     pub scene: &'a Scene,
     pub tracer: &'a Tracer,
     pub probe: &'a SpecularProbe,
+    /// The scene's other specular probes (`[probes]`), after probe A: empty for one probe.
+    pub others: &'a [SpecularProbe],
     pub grid: &'a ProbeGrid,
 }
 
 impl Baked<'_> {
     /// The warp context of this bake with `options`.
     pub fn warp(&self, options: WarpOptions) -> Warp {
-        warp(self.scene, self.probe, options)
+        let mut w = warp(self.scene, self.probe, options);
+        w.others = self.others.iter().map(SpecularProbe::warp_probe).collect::<Vec<_>>().into();
+        w
+    }
+
+    /// Probe A, then the others: every probe a lookup can read.
+    pub fn probes(&self) -> impl Iterator<Item = &SpecularProbe> {
+        std::iter::once(self.probe).chain(self.others)
     }
 }
 
@@ -62,7 +72,12 @@ impl Estimate {
 pub fn warp(scene: &Scene, probe: &SpecularProbe, options: WarpOptions) -> Warp {
     let (lo, hi) = scene.bounds();
     let kdop = proxy::Kdop::fit(probe.position, probe.distance());
-    Warp { probe: probe.warp_probe(), proxies: Proxies { aabb: proxy::BoxProxy::aabb(lo, hi), kdop }, options }
+    Warp {
+        probe: probe.warp_probe(),
+        others: Default::default(),
+        proxies: Proxies { aabb: proxy::BoxProxy::aabb(lo, hi), kdop },
+        options,
+    }
 }
 
 /// Rays and time of a bake's stages.
@@ -76,14 +91,32 @@ pub struct BakeStats {
     pub total_s: f64,
     pub rays_per_s: f64,
     pub threads: usize,
+    /// The share of the placement's sampled reflection hits probe A does not see, and
+    /// that no probe sees (`placement::Placement`).
+    #[serde(default)]
+    pub hidden_probe_a: f64,
+    #[serde(default)]
+    pub hidden_probes: f64,
+    /// Probes placed automatically.
+    #[serde(default)]
+    pub placed_probes: usize,
 }
 
 /// Everything a bake produces.
 #[derive(Clone, Debug)]
 pub struct Bake {
     pub probe: SpecularProbe,
+    /// The other specular probes, in placement order (empty: probe A alone).
+    pub others: Vec<SpecularProbe>,
     pub grid: ProbeGrid,
     pub stats: BakeStats,
+}
+
+impl Bake {
+    /// The bake's stages' view of it with its scene and tracer.
+    pub fn baked<'a>(&'a self, scene: &'a Scene, tracer: &'a Tracer) -> Baked<'a> {
+        Baked { scene, tracer, probe: &self.probe, others: &self.others, grid: &self.grid }
+    }
 }
 
 /// The probe settings of a scene file.
@@ -97,6 +130,26 @@ pub fn probe_settings(scene: &Scene) -> probe::ProbeSettings {
         min_mip_resolution: cfg.probe.min_mip_resolution,
         seed: cfg.seed,
     }
+}
+
+/// The settings of the scene's probe `k` at `position`: probe A's (`k` = 0), or probe A's
+/// resolution and samples with a seed of its own.
+pub fn probe_settings_at(scene: &Scene, k: usize, position: Vec3) -> probe::ProbeSettings {
+    let a = probe_settings(scene);
+    let seed = if k == 0 { a.seed } else { crate::sampling::hash_pair(a.seed, 0x5052_0000 + k as u64) };
+    probe::ProbeSettings { position, seed, ..a }
+}
+
+/// The scene's other probes (after probe A) at `positions[1..]`, baked as probe A is.
+pub fn bake_others(renderer: &Renderer, positions: &[Vec3], progress: &Progress) -> (Vec<SpecularProbe>, u64) {
+    let mut rays = 0;
+    let mut out = Vec::new();
+    for (k, &p) in positions.iter().enumerate().skip(1) {
+        let (probe, r) = probe::bake_probe(renderer, &probe_settings_at(renderer.scene, k, p), progress);
+        rays += r;
+        out.push(probe);
+    }
+    (out, rays)
 }
 
 /// The grid settings of a scene file.
@@ -154,7 +207,10 @@ pub fn shard_cells(scene: &Scene, k: usize, n: usize) -> std::ops::Range<usize> 
 pub fn bake(scene: &Scene, tracer: &Tracer, progress: &Progress) -> Bake {
     let t0 = Instant::now();
     let renderer = Renderer::new(scene, tracer);
-    let (probe, probe_rays) = probe::bake_probe(&renderer, &probe_settings(scene), progress);
+    let (probe, mut probe_rays) = probe::bake_probe(&renderer, &probe_settings(scene), progress);
+    let placement = placement::place(&renderer, &grid_settings(scene));
+    let (others, other_rays) = bake_others(&renderer, &placement.positions, progress);
+    probe_rays += other_rays + placement.rays;
     let probe_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let (grid, grid_rays) = grid::bake_grid(&renderer, &grid_settings(scene), progress);
@@ -169,6 +225,9 @@ pub fn bake(scene: &Scene, tracer: &Tracer, progress: &Progress) -> Bake {
         total_s,
         rays_per_s: (probe_rays + grid_rays) as f64 / total_s.max(1e-9),
         threads: rayon::current_num_threads(),
+        hidden_probe_a: placement.hidden_probe_a,
+        hidden_probes: placement.hidden,
+        placed_probes: placement.placed,
     };
-    Bake { probe, grid, stats }
+    Bake { probe, others, grid, stats }
 }

@@ -19,6 +19,10 @@ pub struct BakeManifest {
     pub conventions: Conventions,
     pub scene: SceneSummary,
     pub probe: ProbeManifest,
+    /// The scene's other specular probes (`[probes]`), after probe A, each in a file of
+    /// its own with probe A's layout (`probe_1.exr`, …).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub others: Vec<ProbeManifest>,
     pub grid: GridManifest,
     pub stats: BakeStats,
     /// The scene file exactly as parsed (every setting that made this bake).

@@ -65,6 +65,38 @@ pub fn grid_layers(g: &ProbeGrid) -> Vec<ExrLayer<Samples<'_>>> {
     ]
 }
 
+/// The file of the scene's probe `k` ≥ 1 (probe A's is [`PROBE_FILE`]).
+#[must_use]
+pub fn other_file(k: usize) -> String {
+    format!("probe_{k}.exr")
+}
+
+/// A probe's entry in the bake manifest, its layers in `file`.
+fn probe_manifest(scene: &Scene, p: &SpecularProbe, file: String) -> ProbeManifest {
+    ProbeManifest {
+        file,
+        position: p.position.to_array(),
+        resolution: p.resolution(),
+        samples_per_texel: scene.config.probe.samples_per_texel,
+        ggx_samples: scene.config.probe.ggx_samples,
+        radiance_mips: p
+            .radiance
+            .levels
+            .iter()
+            .enumerate()
+            .map(|(m, l)| MipInfo {
+                level: m as u32,
+                layer: radiance_layer(m),
+                resolution: l.res,
+                perceptual_roughness: p.roughness[m],
+                alpha: p.roughness[m] * p.roughness[m],
+            })
+            .collect(),
+        distance_mips: (0..p.depth.levels.len()).map(distance_layer).collect(),
+        depth_mip_filter: "solid-angle-weighted 2x2 mean of inverse distance (1/inf = 0)".into(),
+    }
+}
+
 pub fn build_manifest(scene: &Scene, bake: &Bake) -> BakeManifest {
     let p = &bake.probe;
     let g = &bake.grid;
@@ -93,28 +125,8 @@ pub fn build_manifest(scene: &Scene, bake: &Bake) -> BakeManifest {
             bounds_min: lo.to_array(),
             bounds_max: hi.to_array(),
         },
-        probe: ProbeManifest {
-            file: PROBE_FILE.into(),
-            position: p.position.to_array(),
-            resolution: p.resolution(),
-            samples_per_texel: scene.config.probe.samples_per_texel,
-            ggx_samples: scene.config.probe.ggx_samples,
-            radiance_mips: p
-                .radiance
-                .levels
-                .iter()
-                .enumerate()
-                .map(|(m, l)| MipInfo {
-                    level: m as u32,
-                    layer: radiance_layer(m),
-                    resolution: l.res,
-                    perceptual_roughness: p.roughness[m],
-                    alpha: p.roughness[m] * p.roughness[m],
-                })
-                .collect(),
-            distance_mips: (0..p.depth.levels.len()).map(distance_layer).collect(),
-            depth_mip_filter: "solid-angle-weighted 2x2 mean of inverse distance (1/inf = 0)".into(),
-        },
+        probe: probe_manifest(scene, p, PROBE_FILE.into()),
+        others: bake.others.iter().enumerate().map(|(k, o)| probe_manifest(scene, o, other_file(k + 1))).collect(),
         grid: GridManifest {
             file: GRID_FILE.into(),
             min: g.geometry.min.to_array(),
@@ -145,20 +157,21 @@ pub fn build_manifest(scene: &Scene, bake: &Bake) -> BakeManifest {
 pub fn write_bake(dir: &Path, scene: &Scene, bake: &Bake) -> Result<(), FileError> {
     std::fs::create_dir_all(dir).map_err(FileError::io(dir))?;
     let mut files = Vec::new();
-    for file in [PROBE_FILE, GRID_FILE] {
-        // one payload's layers at a time; the grid's read in place
-        let layers: Vec<ExrLayer<Samples>> = if file == PROBE_FILE {
-            probe_layers(&bake.probe.radiance, &bake.probe.depth)
-                .into_iter()
-                .map(crate::gridfile::exr::IntoLayer::into_layer)
-                .collect()
-        } else {
-            grid_layers(&bake.grid)
-        };
-        let path = dir.join(file);
+    let probes = std::iter::once(&bake.probe).chain(&bake.others);
+    let names = std::iter::once(PROBE_FILE.to_string()).chain((1..=bake.others.len()).map(other_file));
+    for (file, p) in names.zip(probes) {
+        let layers: Vec<ExrLayer<Samples>> = probe_layers(&p.radiance, &p.depth)
+            .into_iter()
+            .map(crate::gridfile::exr::IntoLayer::into_layer)
+            .collect();
+        let path = dir.join(&file);
         let (bytes, checksum) = exr::write_payload(&path, layers, |_| false)?;
-        files.push(FileEntry { file: file.into(), bytes, checksum });
+        files.push(FileEntry { file, bytes, checksum });
     }
+    // the grid's layers read in place
+    let path = dir.join(GRID_FILE);
+    let (bytes, checksum) = exr::write_payload(&path, grid_layers(&bake.grid), |_| false)?;
+    files.push(FileEntry { file: GRID_FILE.into(), bytes, checksum });
     write_json(&dir.join(MANIFEST_FILE), &BakeManifest { files, ..build_manifest(scene, bake) })
 }
 
@@ -328,6 +341,69 @@ fn read_manifest(dir: &Path) -> Result<BakeManifest, FileError> {
     serde_json::from_value(probe_format).map_err(|e| FileError::Json { path: mpath, message: e.to_string() })
 }
 
+/// A probe of the bake (`p`, an entry of manifest `m`), its values checked.
+fn read_probe(dir: &Path, m: &BakeManifest, p: &ProbeManifest) -> Result<SpecularProbe, FileError> {
+    let mpath = dir.join(MANIFEST_FILE);
+    let ppath = dir.join(&p.file);
+    let layers = read_payload(dir, m, &p.file, |_, _, _, _| exr::Destination::Own(None))?;
+    let mut radiance = Vec::new();
+    for mip in &p.radiance_mips {
+        let n = mip.resolution as usize;
+        let l = find(&layers, &ppath, &mip.layer, (n, n))?;
+        radiance.push(OctMap::new(mip.resolution, finite_rgb(l, &ppath)?));
+    }
+    let mut depth = Vec::new();
+    for (k, name) in p.distance_mips.iter().enumerate() {
+        let n = (p.resolution >> k) as usize;
+        let l = find(&layers, &ppath, name, (n, n))?;
+        let z = channel(l, &ppath, "Z")?;
+        if let Some(t) = z.iter().position(|d| d.is_nan() || *d < 0.0) {
+            return Err(FileError::Invalid {
+                path: ppath.clone(),
+                field: name.clone(),
+                message: format!("texel {t} is NaN or negative"),
+            });
+        }
+        depth.push(OctMap::new(n as u32, z.to_vec()));
+    }
+    if radiance.is_empty() || depth.is_empty() {
+        return Err(FileError::Invalid { path: mpath, field: "probe".into(), message: "no mips listed".into() });
+    }
+    let position = Vec3::from_array(p.position);
+    if !position.is_finite() {
+        return Err(FileError::invalid(&mpath, "probe.position", "not finite"));
+    }
+    Ok(SpecularProbe {
+        position,
+        roughness: p.radiance_mips.iter().map(|x| x.perceptual_roughness).collect(),
+        radiance: OctMips { levels: radiance },
+        depth: OctMips { levels: depth },
+    })
+}
+
+/// The other probes of the bake in `dir` whose manifest [`read_bake_with`] gave as `m`:
+/// each file named as the format names it, with probe A's resolution and mip chain.
+pub fn read_others(dir: &Path, m: &BakeManifest) -> Result<Vec<SpecularProbe>, FileError> {
+    let mpath = dir.join(MANIFEST_FILE);
+    if m.others.len() >= crate::scene::config::MAX_PROBES as usize {
+        return Err(FileError::invalid(&mpath, "others", format!("{} probes, at most {} in all", m.others.len() + 1, crate::scene::config::MAX_PROBES)));
+    }
+    m.others
+        .iter()
+        .enumerate()
+        .map(|(k, p)| {
+            let field = format!("others[{k}]");
+            if p.file != other_file(k + 1) {
+                return Err(FileError::invalid(&mpath, format!("{field}.file"), format!("must be {}", other_file(k + 1))));
+            }
+            if p.resolution != m.probe.resolution || p.radiance_mips.len() != m.probe.radiance_mips.len() {
+                return Err(FileError::invalid(&mpath, field, "does not have probe A's resolution and mips"));
+            }
+            read_probe(dir, m, p)
+        })
+        .collect()
+}
+
 /// When a bake's hit counts are read ([`ProbeGrid::hits`]): only a fit's cells stage reads
 /// them, so a fit of a big level can leave them on disk until then.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -350,39 +426,7 @@ pub fn read_bake_with(dir: &Path, when: Hits) -> Result<(BakeManifest, SpecularP
     if m.probe.file != PROBE_FILE || m.grid.file != GRID_FILE {
         return Err(FileError::invalid(&mpath, "probe.file/grid.file", "not this format's file names"));
     }
-    let ppath = dir.join(PROBE_FILE);
-    let layers = read_payload(dir, &m, PROBE_FILE, |_, _, _, _| exr::Destination::Own(None))?;
-    let mut radiance = Vec::new();
-    for mip in &m.probe.radiance_mips {
-        let n = mip.resolution as usize;
-        let l = find(&layers, &ppath, &mip.layer, (n, n))?;
-        radiance.push(OctMap::new(mip.resolution, finite_rgb(l, &ppath)?));
-    }
-    let mut depth = Vec::new();
-    for (k, name) in m.probe.distance_mips.iter().enumerate() {
-        let n = (m.probe.resolution >> k) as usize;
-        let l = find(&layers, &ppath, name, (n, n))?;
-        let z = channel(l, &ppath, "Z")?;
-        if let Some(t) = z.iter().position(|d| d.is_nan() || *d < 0.0) {
-            return Err(FileError::Invalid {
-                path: ppath.clone(),
-                field: name.clone(),
-                message: format!("texel {t} is NaN or negative"),
-            });
-        }
-        depth.push(OctMap::new(n as u32, z.to_vec()));
-    }
-    if radiance.is_empty() || depth.is_empty() {
-        return Err(FileError::Invalid { path: mpath, field: "probe".into(), message: "no mips listed".into() });
-    }
-    let probe = SpecularProbe {
-        position: Vec3::from_array(m.probe.position),
-        roughness: m.probe.radiance_mips.iter().map(|x| x.perceptual_roughness).collect(),
-        radiance: OctMips { levels: radiance },
-        depth: OctMips { levels: depth },
-    };
-
-    drop(layers);
+    let probe = read_probe(dir, &m, &m.probe)?;
     let gpath = dir.join(GRID_FILE);
     let geometry = GridGeometry {
         min: Vec3::from_array(m.grid.min),

@@ -46,7 +46,7 @@ pub fn wall_warp(scale: f32, res: u32) -> Warp {
     let probe = wall_probe(scale, res);
     let aabb = BoxProxy::aabb(Vec3::new(-100.0, -100.0, -10.0) * scale, Vec3::new(100.0, 100.0, 6.5) * scale);
     let kdop = Kdop { normals: Vec::new(), offsets: Vec::new() };
-    Warp { probe, proxies: Proxies { aabb, kdop }, options: WarpOptions::standard() }
+    Warp { probe, others: Default::default(), proxies: Proxies { aabb, kdop }, options: WarpOptions::standard() }
 }
 
 /// The wall's cell problem (see [`wall_warp`]): its context, the queries and the true shift

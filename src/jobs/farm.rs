@@ -135,10 +135,17 @@ pub fn bake_shard(scene: &Scene, folder: &RunFolder, shard: Shard, progress: &Pr
     let t0 = Instant::now();
     let tracer = Tracer::new(scene);
     let renderer = Renderer::new(scene, &tracer);
-    let probe = (shard.k == 0).then(|| {
-        tracing::info!("bake shard {shard}: the probe");
-        bake::probe::bake_probe(&renderer, &bake::probe_settings(scene), progress)
+    let probes = (shard.k == 0).then(|| {
+        tracing::info!("bake shard {shard}: the probes");
+        let (probe, rays) = bake::probe::bake_probe(&renderer, &bake::probe_settings(scene), progress);
+        let placement = bake::placement::place(&renderer, &bake::grid_settings(scene));
+        let (others, other_rays) = bake::bake_others(&renderer, &placement.positions, progress);
+        ((probe, rays + other_rays + placement.rays), others, placement)
     });
+    let (probe, others, placement) = match probes {
+        Some((p, o, pl)) => (Some(p), o, Some(pl)),
+        None => (None, Vec::new(), None),
+    };
     let cells = bake::shard_cells(scene, shard.k as usize, shard.n as usize);
     let settings = bake::grid_settings(scene);
     let log = ShardLog::new(format!("bake shard {shard}"), cells.len());
@@ -152,7 +159,7 @@ pub fn bake_shard(scene: &Scene, folder: &RunFolder, shard: Shard, progress: &Pr
     h.cells = cells;
     h.seconds = t0.elapsed().as_secs_f64();
     let path = folder.parts().join(partfile::part_name(PartKind::Bake, shard.k, shard.n));
-    partfile::write_part(&path, h, &PartBody::Bake(BakePart { probe, cells: baked }))?;
+    partfile::write_part(&path, h, &PartBody::Bake(BakePart { probe, others, placement, cells: baked }))?;
     Ok(path)
 }
 
@@ -162,7 +169,7 @@ fn read_matching_bake(
     scene: &Scene,
     folder: &RunFolder,
     hits: bakefile::Hits,
-) -> Result<(bakefile::manifest::BakeManifest, bake::SpecularProbe, bake::ProbeGrid), FileError> {
+) -> Result<(bakefile::manifest::BakeManifest, bake::SpecularProbe, Vec<bake::SpecularProbe>, bake::ProbeGrid), FileError> {
     let dir = folder.bake();
     if !dir.join(bakefile::MANIFEST_FILE).is_file() {
         return Err(FileError::invalid(
@@ -176,6 +183,7 @@ fn read_matching_bake(
         ));
     }
     let (m, probe, grid) = bakefile::read_bake_with(&dir, hits)?;
+    let others = bakefile::read_others(&dir, &m)?;
     if m.key != scene.content_key() {
         return Err(FileError::invalid(
             &dir.join(bakefile::MANIFEST_FILE),
@@ -188,7 +196,7 @@ fn read_matching_bake(
             ),
         ));
     }
-    Ok((m, probe, grid))
+    Ok((m, probe, others, grid))
 }
 
 /// Fits shard `shard` of the scene on the bake in `folder` (which a merged bake or a plain
@@ -201,9 +209,9 @@ pub fn fit_shard(
     progress: &Progress,
 ) -> Result<PathBuf, FileError> {
     let t0 = Instant::now();
-    let (m, probe, mut grid) = read_matching_bake(scene, folder, bakefile::Hits::WithGrid)?;
+    let (m, probe, others, mut grid) = read_matching_bake(scene, folder, bakefile::Hits::WithGrid)?;
     let tracer = Tracer::new(scene);
-    let baked = Baked { scene, tracer: &tracer, probe: &probe, grid: &grid };
+    let baked = Baked { scene, tracer: &tracer, probe: &probe, others: &others, grid: &grid };
     let warp = baked.warp(job.options);
     let lobes = run::fit_lobes(baked);
     let glossy = Glossy { warp: &warp, correction: lobes.as_ref() };
@@ -220,7 +228,7 @@ pub fn fit_shard(
     let mut times = fit::FitTimes { cells: t_cells.elapsed().as_secs_f64(), ..fit::FitTimes::default() };
     // only the cells read the hit counts: not held while the references are traced
     grid.hits = Vec::new();
-    let baked = Baked { scene, tracer: &tracer, probe: &probe, grid: &grid };
+    let baked = Baked { scene, tracer: &tracer, probe: &probe, others: &others, grid: &grid };
     let t_points = Instant::now();
     let points = irradiance::SurfacePoints::draw(baked, job.fit.seed);
     times.surface_points = t_points.elapsed().as_secs_f64();
@@ -394,7 +402,7 @@ pub fn merge(
         }
         PartKind::Fit => {
             // the grid-wide steps never read the hit counts: they stay on disk
-            let (m, probe, grid) = read_matching_bake(&scene, &tx.previous, bakefile::Hits::Later)?;
+            let (m, probe, others, grid) = read_matching_bake(&scene, &tx.previous, bakefile::Hits::Later)?;
             let checksums: Vec<String> = m.files.iter().map(|f| f.checksum.clone()).collect();
             if checksums != h0.bake_checksums {
                 return Err(FileError::invalid(
@@ -407,7 +415,7 @@ pub fn merge(
             let job: FitJob = serde_json::from_value(h0.settings.clone())
                 .map_err(|e| FileError::invalid(path0, "settings", e.to_string()))?;
             let tracer = Tracer::new(&scene);
-            let baked = Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
+            let baked = Baked { scene: &scene, tracer: &tracer, probe: &probe, others: &others, grid: &grid };
             let warp = baked.warp(job.options);
             let lobes = run::fit_lobes(baked);
             let glossy = Glossy { warp: &warp, correction: lobes.as_ref() };
@@ -430,7 +438,7 @@ pub fn merge(
             let manifest = run::write_fit(baked, &warp, &fitted, job.store, out)?;
             tx.keep(RunFolder::written_by_farm)?;
             // the merged grid loads back before it is committed: without the bake beside it
-            drop((warp, lobes, tracer, probe, grid));
+            drop((warp, lobes, tracer, probe, others, grid));
             tx.commit(true)?;
             Merged::Fit(Box::new((fitted, manifest)))
         }
@@ -453,7 +461,7 @@ fn merge_bake(scene: &Scene, set: &[(PathBuf, PartHeader)]) -> Result<bake::Bake
     let settings = bake::grid_settings(scene);
     let n = set.len();
     let mut cells: Vec<CellBake> = Vec::with_capacity(settings.geometry.cell_count());
-    let mut probe = None;
+    let (mut probe, mut others, mut placement) = (None, Vec::new(), None);
     let (mut probe_s, mut grid_s) = (0.0, 0.0);
     for (k, (path, h)) in set.iter().enumerate() {
         let expected = bake::shard_cells(scene, k, n);
@@ -473,8 +481,14 @@ fn merge_bake(scene: &Scene, set: &[(PathBuf, PartHeader)]) -> Result<bake::Bake
                 if p.resolution() != s.resolution || p.depth.levels.len() != p.radiance.levels.len() {
                     return Err(FileError::invalid(path, "probe", "does not have the scene's probe resolution"));
                 }
+                if part.others.len() + 1 != part.placement.as_ref().map_or(1, |pl| pl.positions.len())
+                    || part.others.iter().any(|o| o.resolution() != s.resolution)
+                {
+                    return Err(FileError::invalid(path, "others", "do not match the placement or the probe resolution"));
+                }
                 probe_s = h.seconds;
                 probe = Some((p, rays));
+                (others, placement) = (part.others, part.placement);
             }
             (0, None) => return Err(FileError::invalid(path, "probe", "shard 0 holds no probe")),
             (_, Some(_)) => return Err(FileError::invalid(path, "probe", "only shard 0 holds the probe")),
@@ -496,8 +510,11 @@ fn merge_bake(scene: &Scene, set: &[(PathBuf, PartHeader)]) -> Result<bake::Bake
         total_s,
         rays_per_s: (probe_rays + grid_rays) as f64 / total_s.max(1e-9),
         threads: rayon::current_num_threads(),
+        hidden_probe_a: placement.as_ref().map_or(0.0, |p| p.hidden_probe_a),
+        hidden_probes: placement.as_ref().map_or(0.0, |p| p.hidden),
+        placed_probes: placement.as_ref().map_or(0, |p| p.placed),
     };
-    Ok(bake::Bake { probe, grid, stats })
+    Ok(bake::Bake { probe, others, grid, stats })
 }
 
 /// The cell outcomes and irradiance references of a set of fit parts, in order, checked

@@ -28,6 +28,8 @@ pub struct Prepared {
     pub scene: Scene,
     pub tracer: Tracer,
     pub probe: SpecularProbe,
+    /// The other specular probes (`[probes]`), after probe A.
+    pub others: Vec<SpecularProbe>,
     pub grid: ProbeGrid,
     /// The bake was made now (not reused).
     pub baked_now: bool,
@@ -36,7 +38,7 @@ pub struct Prepared {
 
 impl Prepared {
     pub fn baked(&self) -> Baked<'_> {
-        Baked { scene: &self.scene, tracer: &self.tracer, probe: &self.probe, grid: &self.grid }
+        Baked { scene: &self.scene, tracer: &self.tracer, probe: &self.probe, others: &self.others, grid: &self.grid }
     }
 }
 
@@ -138,16 +140,18 @@ pub fn load_or_bake(
     (previous, folder): (&RunFolder, &RunFolder),
     hits: bakefile::Hits,
     progress: &Progress,
-) -> Result<(SpecularProbe, ProbeGrid, bool), FileError> {
+) -> Result<(SpecularProbe, Vec<SpecularProbe>, ProbeGrid, bool), FileError> {
     let dir = previous.bake();
     if dir.join(bakefile::MANIFEST_FILE).is_file() {
-        match bakefile::read_bake_with(&dir, hits) {
-            Ok((m, probe, grid)) if m.key == scene.content_key() => {
+        let read = bakefile::read_bake_with(&dir, hits)
+            .and_then(|(m, probe, grid)| Ok((bakefile::read_others(&dir, &m)?, m, probe, grid)));
+        match read {
+            Ok((others, m, probe, grid)) if m.key == scene.content_key() => {
                 tracing::info!("reusing bake in {} (key {})", dir.display(), m.key);
                 if previous.dir != folder.dir {
                     crate::files::staged::link_or_copy_dir(&dir, &folder.bake())?;
                 }
-                return Ok((probe, grid, false));
+                return Ok((probe, others, grid, false));
             }
             Ok(_) => {
                 tracing::info!("bake in {} was made from other settings or input files; baking again", dir.display())
@@ -156,7 +160,7 @@ pub fn load_or_bake(
         }
     }
     let baked = bake(scene, tracer, folder, progress)?;
-    Ok((baked.probe, baked.grid, true))
+    Ok((baked.probe, baked.others, baked.grid, true))
 }
 
 /// The scene with its tracer and its bake, reused from `previous` where it matches, written
@@ -170,8 +174,8 @@ pub fn prepare_from(
     progress: &Progress,
 ) -> Result<Prepared, FileError> {
     let tracer = Tracer::new(&scene);
-    let (probe, grid, baked_now) = load_or_bake(&scene, &tracer, (previous, &folder), hits, progress)?;
-    Ok(Prepared { scene, tracer, probe, grid, baked_now, folder })
+    let (probe, others, grid, baked_now) = load_or_bake(&scene, &tracer, (previous, &folder), hits, progress)?;
+    Ok(Prepared { scene, tracer, probe, others, grid, baked_now, folder })
 }
 
 /// [`prepare_from`] reading and writing the same folder (tests, benches, scratch folders),

@@ -3,7 +3,7 @@
 //! bake + fit + write + load, judged by the runtime sampler on one held-out validation set
 //! and one set of rendered views (ꟻLIP at roughness 0 and 0.5) shared by every row. Writes `sweep.json`, `sweep.png` and `sweep_convergence.png`.
 
-use super::run::{self, Baked, Output, StoreOptions};
+use super::run::{self, Output, StoreOptions};
 use crate::eval::methods::{Fetch, Row};
 use crate::eval::{self, EvalSettings, RenderSettings, renders};
 use crate::files::{FileError, write_json};
@@ -90,7 +90,7 @@ pub fn sweep(
             bakes.push((c.probe_resolution, crate::bake::bake(&s, &tracer, &Progress::quiet())));
         }
         let bake = &bakes.iter().find(|(r, _)| *r == c.probe_resolution).expect("baked above").1;
-        let baked = Baked { scene, tracer: &tracer, probe: &bake.probe, grid: &bake.grid };
+        let baked = bake.baked(scene, &tracer);
         // the validation set depends on the grid and the probe position only: one for all rows
         let set = set.get_or_insert_with(|| {
             eval::validation_set(scene, &tracer, &bake.grid, bake.probe.position, eval_settings)

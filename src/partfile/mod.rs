@@ -20,7 +20,7 @@ pub const PART_FORMAT: &str = "warpfit-part";
 /// 2: a bake part's cells count each distance texel's hits in a byte (1 stored fractions);
 /// a fit part's irradiance references carry their rays as one total. 3: a fit part's cells
 /// come with their model selected and keep only the maps they store.
-pub const PART_VERSION: u32 = 3;
+pub const PART_VERSION: u32 = 4;
 const MAGIC: &[u8] = b"warpfit-part\n";
 /// Largest header accepted (the header lists no per-cell data).
 const MAX_HEADER: u64 = 1 << 20;
@@ -85,6 +85,9 @@ pub struct PartHeader {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BakePart {
     pub probe: Option<(SpecularProbe, u64)>,
+    /// With the probe: the scene's other probes and where they were placed.
+    pub others: Vec<SpecularProbe>,
+    pub placement: Option<crate::bake::placement::Placement>,
     pub cells: Vec<CellBake>,
 }
 

@@ -21,6 +21,10 @@ pub struct SceneFile {
     #[serde(default = "default_bounces")]
     pub bounces: u32,
     pub probe: ProbeConfig,
+    /// More specular probes besides `[probe]` (probe A, always the first): explicit
+    /// positions and/or automatic placement. Absent: probe A alone.
+    #[serde(default, skip_serializing_if = "ProbesConfig::is_single")]
+    pub probes: ProbesConfig,
     pub grid: GridConfig,
     #[serde(default)]
     pub sky: SkyConfig,
@@ -71,6 +75,51 @@ pub struct ProbeConfig {
     /// Smallest mip resolution of the GGX and depth chains. Default 8.
     #[serde(default = "default_min_mip")]
     pub min_mip_resolution: u32,
+}
+
+/// More specular probes, baked as probe A is (its resolution and samples), each lookup of
+/// the fitted grid choosing one per map texel.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ProbesConfig {
+    /// Probes at these positions, after probe A.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub positions: Vec<V3>,
+    /// Place more probes automatically (`bake::placement`): greedily, where they see most
+    /// of what the probes so far miss, until the next would see less than `min_gain`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub auto: bool,
+    /// Most probes in all, probe A and `positions` included. Default 16.
+    #[serde(default = "default_max_probes")]
+    pub max: u32,
+    /// The share of the sampled reflection hits a placed probe must add to what the
+    /// probes so far see. Default 0.01.
+    #[serde(default = "default_min_gain")]
+    pub min_gain: f32,
+}
+
+impl Default for ProbesConfig {
+    fn default() -> Self {
+        ProbesConfig { positions: Vec::new(), auto: false, max: default_max_probes(), min_gain: default_min_gain() }
+    }
+}
+
+impl ProbesConfig {
+    /// Whether the scene has probe A alone (nothing to write back to a scene file).
+    #[must_use]
+    pub fn is_single(&self) -> bool {
+        self.positions.is_empty() && !self.auto && self.max == default_max_probes() && self.min_gain == default_min_gain()
+    }
+}
+
+/// The most specular probes a scene can have (the fitted grid's probe index is 4 bits).
+pub const MAX_PROBES: u32 = 16;
+
+fn default_max_probes() -> u32 {
+    MAX_PROBES
+}
+fn default_min_gain() -> f32 {
+    0.01
 }
 
 fn default_probe_res() -> u32 {

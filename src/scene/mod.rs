@@ -339,6 +339,7 @@ impl Scene {
         }
         let scale3 = |v: &mut V3| v.iter_mut().for_each(|x| *x *= factor);
         scale3(&mut s.config.probe.position);
+        s.config.probes.positions.iter_mut().for_each(scale3);
         for sp in &mut s.config.surface_probes {
             scale3(&mut sp.corner);
             scale3(&mut sp.edge_u);
@@ -426,6 +427,23 @@ fn validate_settings(f: &SceneFile, path: &Path) -> Result<(), SceneError> {
         if !(1..=max).contains(&n) {
             return Err(invalid(path, field, format!("must be in 1..={max}, got {n}")));
         }
+    }
+    for (k, &p) in f.probes.positions.iter().enumerate() {
+        finite3(path, &format!("probes.positions[{k}]"), p)?;
+    }
+    let max = crate::scene::config::MAX_PROBES;
+    if !(1..=max).contains(&f.probes.max) {
+        return Err(invalid(path, "probes.max", format!("must be in 1..={max}, got {}", f.probes.max)));
+    }
+    if f.probes.positions.len() as u32 + 1 > f.probes.max {
+        return Err(invalid(
+            path,
+            "probes.positions",
+            format!("{} positions and probe A exceed probes.max = {}", f.probes.positions.len(), f.probes.max),
+        ));
+    }
+    if !(f.probes.min_gain > 0.0 && f.probes.min_gain < 1.0) {
+        return Err(invalid(path, "probes.min_gain", format!("must be in (0, 1), got {}", f.probes.min_gain)));
     }
     let m = f.probe.min_mip_resolution;
     if !m.is_power_of_two() || m < 2 || m > r {

@@ -35,14 +35,25 @@ pub fn oracle(scene: &Scene, tracer: &Tracer, a: Vec3, b: Vec3, dir: Vec3) -> (V
         return (dir, false);
     }
     let p = b + dir * t;
-    let d = crate::warp::toward(a, p, dir);
+    (crate::warp::toward(a, p, dir), !sees(scene, tracer, a, p))
+}
+
+/// Whether a probe at `a` sees point `p` (a surface point: the last thousandth of the way is
+/// not tested, so the surface itself does not hide it); sphere lights hide what is behind
+/// them. A probe at `p` sees it.
+#[must_use]
+pub fn sees(scene: &Scene, tracer: &Tracer, a: Vec3, p: Vec3) -> bool {
+    let d = crate::warp::toward(a, p, Vec3::Z);
     let dist = (p - a).length();
+    if !(dist > 0.0) {
+        return true;
+    }
     let reach = dist * (1.0 - 1e-3);
-    let mut hidden = dist > 0.0 && tracer.occluded(a, d, reach);
+    let mut hidden = tracer.occluded(a, d, reach);
     for l in &scene.lights.sphere_lights {
         hidden |= light_distance(l, a, d, reach).is_finite();
     }
-    (d, hidden)
+    !hidden
 }
 
 /// Back faces seen by the rays leaving a point: of one-sided surfaces, of any surface, and

@@ -281,7 +281,7 @@ pub fn near_singular_secant(_mode: Mode) -> Outcome {
         aabb: warp::proxy::BoxProxy::aabb(Vec3::splat(-10.0), Vec3::splat(5.0)),
         kdop: warp::proxy::Kdop::fit(Vec3::ZERO, &probe_distance(&probe)),
     };
-    let warp = Warp { probe, proxies, options: WarpOptions::standard() };
+    let warp = Warp { probe, others: Default::default(), proxies, options: WarpOptions::standard() };
     let mut bad = 0;
     let mut n = 0;
     for b in [Vec3::new(0.5, 0.2, 1.0), Vec3::new(-2.0, 1.0, 4.99), Vec3::new(3.0, -1.0, 0.0)] {
@@ -460,7 +460,7 @@ pub fn leak_figures(mode: Mode) -> Result<([f64; 4], usize), String> {
         out[k] = leak(&ir, Some(IrradianceBlend::Chebyshev));
         if k == 1 {
             let probe = &bake.probe;
-            let baked = crate::bake::Baked { scene: &scene, tracer: &tracer, probe, grid: g };
+            let baked = crate::bake::Baked { scene: &scene, tracer: &tracer, probe, others: &[], grid: g };
             let exposure = crate::bake::warp(&scene, probe, WarpOptions::standard()).probe.key_exposure();
             let seed = crate::fit::FitSettings::standard().seed;
             ir.correction = crate::fit::irradiance::fit_irradiance(baked, ir.view(), exposure, seed).correction;

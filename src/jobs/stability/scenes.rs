@@ -243,7 +243,7 @@ impl Fixture {
     }
 
     pub fn baked(&self) -> Baked<'_> {
-        Baked { scene: &self.scene, tracer: &self.tracer, probe: &self.bake.probe, grid: &self.bake.grid }
+        self.bake.baked(&self.scene, &self.tracer)
     }
 
     /// Fits, writes the fitted grid to a fresh folder and loads it back.

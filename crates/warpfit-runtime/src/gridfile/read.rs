@@ -658,7 +658,7 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     )?;
     let roughness = m.roughness.clone();
     let options = m.warp.options;
-    Ok(GridData { warp: Warp { probe, proxies, options }, correctives, irradiance, roughness, manifest: m })
+    Ok(GridData { warp: Warp { probe, others: Default::default(), proxies, options }, correctives, irradiance, roughness, manifest: m })
 }
 
 /// The layers `expected_payloads` lists for `file` (none when it lists no such file).

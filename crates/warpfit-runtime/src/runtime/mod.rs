@@ -301,12 +301,14 @@ impl FittedGrid {
         }
         let mut out = if r.iter().all(|&r| r == 0.0) {
             // mirror lanes: the fetch vectors alone
-            let v = self.correctives.fetch_vector_lanes(self.blend, &self.warp, b, dir);
-            self.warp.probe.radiance.levels[0].bilinear_uv_lanes(&octa::encode_soa(&v))
+            let (v, probe) = self.correctives.fetch_vector_lanes(self.blend, &self.warp, b, dir);
+            let uv = octa::encode_soa(&v);
+            self.warp.by_probe(&probe, |p| p.radiance.levels[0].bilinear_uv_lanes(&uv))
         } else {
             // probe A's part, then the irradiance blend lane by lane (`irradiance_blend`)
-            let (v, ratio) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &r);
-            let mut out = corrected_lanes(&self.warp.probe, self.roughness.as_ref(), &r, &v, &ratio);
+            let (v, ratio, probe) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &r);
+            let mut out =
+                self.warp.by_probe(&probe, |p| corrected_lanes(p, self.roughness.as_ref(), &r, &v, &ratio));
             let w: [f32; octa::LANES] = std::array::from_fn(|k| self.irradiance_weight(self.read, r[k]));
             if w.iter().any(|&w| w > 0.0) {
                 self.irradiance_sh.mix_lanes(b, dir, &w, &mut out);

@@ -66,6 +66,10 @@ pub struct Correctives {
     /// roughness r reads `maps` up to [`ROUGH_MAP_FROM`], `rough_maps` from
     /// [`ROUGH_MAP_TO`], and blends the two shifts between ([`rough_weight`]).
     pub rough_maps: Vec<f32>,
+    /// Empty (every lookup reads probe A), or per stored cell and texel (as `maps`) the
+    /// probe a lookup reads (`Warp::probe_at`): the texel nearest the lookup direction's
+    /// decides ([`nearest_tap`]); cells without a map read probe A.
+    pub probe_maps: Vec<u8>,
     /// The proxy every lookup reads through (`Method::Box`, `Method::Kdop` or
     /// `Method::Warp1`): as it is in cells without a map.
     pub fallback: Method,
@@ -78,7 +82,33 @@ impl Correctives {
     /// `maps`, or [`NO_MAP`]) and the proxy `fallback`.
     #[must_use]
     pub fn new(geometry: GridGeometry, map_res: u32, slot: Vec<u32>, maps: Vec<f32>, fallback: Method) -> Self {
-        Correctives { geometry, map_res, slot, maps, rough_maps: Vec::new(), fallback, cell_size: geometry.cell_size() }
+        Correctives {
+            geometry,
+            map_res,
+            slot,
+            maps,
+            rough_maps: Vec::new(),
+            probe_maps: Vec::new(),
+            fallback,
+            cell_size: geometry.cell_size(),
+        }
+    }
+
+    /// The same correctives with a probe index per stored texel (`probe_maps`, as `maps`).
+    #[must_use]
+    pub fn with_probe_maps(mut self, probe_maps: Vec<u8>) -> Self {
+        self.probe_maps = probe_maps;
+        self
+    }
+
+    /// The probe a lookup in stored slot `slot` with bilinear `taps` reads.
+    #[inline]
+    fn probe_of(&self, slot: u32, taps: &[(u32, f32); 4]) -> u8 {
+        if self.probe_maps.is_empty() {
+            return 0;
+        }
+        let n2 = (self.map_res * self.map_res) as usize;
+        self.probe_maps.get(slot as usize * n2 + nearest_tap(taps) as usize).copied().unwrap_or(0)
     }
 
     /// The same correctives with a rough map per stored cell (`rough_maps`, as `maps`).
@@ -157,21 +187,26 @@ impl Correctives {
     #[inline]
     #[must_use]
     pub fn fetch(&self, blend: Blend, warp: &Warp, b: Vec3, dir: Vec3, r: f32) -> Aim {
-        let a = warp.probe.position;
+        // the containing cell's map: the shift (Blend::Cell) and the probe it reads
+        let own = self.slot_of(self.cell_at(b)).map(|slot| {
+            let taps = octa::bilinear_taps(self.map_res, octa::encode(dir));
+            (slot, taps, self.probe_of(slot, &taps))
+        });
+        let probe = own.map_or(0, |o| o.2);
+        let a = warp.probe_at(probe.into()).position;
         if b == a {
-            return Aim { v: dir, k: Some(1.0) };
+            return Aim { v: dir, k: Some(1.0), probe };
         }
         let delta = match blend {
-            Blend::Cell => self
-                .slot_of(self.cell_at(b))
-                .map(|slot| self.map_delta(slot, &octa::bilinear_taps(self.map_res, octa::encode(dir)), r)),
+            Blend::Cell => own.map(|(slot, taps, _)| self.map_delta(slot, &taps, r)),
             Blend::Trilinear => self.trilinear_delta(b, dir, r),
         };
-        match delta {
+        let aim = match delta {
             Some(delta) => shifted_aim(a, warp.base_distance(self.fallback, b, dir), delta, b, dir),
             None if warp.options.relax_texels > 0.0 => warp.fetch_vector(self.fallback, b, dir).into(),
             None => shifted_aim(a, warp.base_distance(self.fallback, b, dir), 0.0, b, dir),
-        }
+        };
+        Aim { probe, ..aim }
     }
 
     /// `fetch` for [`LANES`] queries of roughness `r`, bit for bit the same, in
@@ -190,31 +225,39 @@ impl Correctives {
         b: &[Vec3; LANES],
         dir: &[Vec3; LANES],
         r: &[f32; LANES],
-    ) -> (octa::Soa3, [f32; LANES]) {
+    ) -> (octa::Soa3, [f32; LANES], [u8; LANES]) {
         let Some(aims) = self.aim_lanes(blend, warp, b, dir, r) else {
-            let (mut v, mut ratio) = ([Vec3::Z; LANES], [1.0f32; LANES]);
+            let (mut v, mut ratio, mut probe) = ([Vec3::Z; LANES], [1.0f32; LANES], [0u8; LANES]);
             for k in 0..LANES {
                 let aim = self.fetch(blend, warp, b[k], dir[k], r[k]);
-                (v[k], ratio[k]) = (aim.v, aim.ratio(warp, b[k], octa::encode(aim.v)));
+                (v[k], ratio[k], probe[k]) = (aim.v, aim.ratio(warp, b[k], octa::encode(aim.v)), aim.probe);
             }
-            return (octa::soa(&v), ratio);
+            return (octa::soa(&v), ratio, probe);
         };
-        aims.vectors_and_ratios()
+        let (v, ratio) = aims.vectors_and_ratios();
+        (v, ratio, aims.probe)
     }
 
     /// The fetch vectors of [`fetch_lanes`](Self::fetch_lanes) alone (what a mirror lookup
-    /// reads), as components ([`octa::soa`]), without the distance ratios.
+    /// reads), as components ([`octa::soa`]), and the probe each lane reads.
     #[inline]
     #[must_use]
-    pub fn fetch_vector_lanes(&self, blend: Blend, warp: &Warp, b: &[Vec3; LANES], dir: &[Vec3; LANES]) -> octa::Soa3 {
+    pub fn fetch_vector_lanes(
+        &self,
+        blend: Blend,
+        warp: &Warp,
+        b: &[Vec3; LANES],
+        dir: &[Vec3; LANES],
+    ) -> (octa::Soa3, [u8; LANES]) {
         let Some(aims) = self.aim_lanes(blend, warp, b, dir, &[0.0; LANES]) else {
-            let mut out = [Vec3::Z; LANES];
+            let (mut out, mut probe) = ([Vec3::Z; LANES], [0u8; LANES]);
             for k in 0..LANES {
-                out[k] = self.fetch(blend, warp, b[k], dir[k], 0.0).v;
+                let aim = self.fetch(blend, warp, b[k], dir[k], 0.0);
+                (out[k], probe[k]) = (aim.v, aim.probe);
             }
-            return octa::soa(&out);
+            return (octa::soa(&out), probe);
         };
-        aims.vectors()
+        (aims.vectors(), aims.probe)
     }
 
     /// The lane form of `fetch` → `shifted_aim` with `Blend::Cell` and no relaxation (the
@@ -233,7 +276,6 @@ impl Correctives {
         if blend != Blend::Cell || warp.options.relax_texels > 0.0 {
             return None;
         }
-        let a = warp.probe.position;
         let (bb, d) = (octa::soa(b), octa::soa(dir));
         // the proxy's exit for every lane
         let (t, has_t) = match self.fallback {
@@ -266,10 +308,12 @@ impl Correctives {
             }
         }
         let (mut mirror, mut rough) = ([0.0f32; LANES], [0.0f32; LANES]);
+        let mut probe = [0u8; LANES];
         for k in 0..LANES {
             let slot = self.slot[cells[k]];
             if slot != NO_MAP {
                 let taps = octa::footprint_taps(self.map_res, foot.0[k], foot.1[k], foot.2[k], foot.3[k]);
+                probe[k] = self.probe_of(slot, &taps);
                 let at = slot as usize * n2;
                 // (a slot with no rough map reads its map alone, as `rough_map` gives it)
                 let rough_map = if w[k] > 0.0 { self.rough_maps.get(at..at + n2) } else { None };
@@ -288,7 +332,11 @@ impl Correctives {
         for k in 0..LANES {
             delta[k] = weighted_shift(mirror[k], rough[k], w[k]);
         }
-        Some(AimLanes::shifted(a, &t, &has_t, &delta, &bb, d))
+        let mut a = [[0.0f32; LANES]; 3];
+        for k in 0..LANES {
+            [a[0][k], a[1][k], a[2][k]] = warp.probe_at(probe[k].into()).position.to_array();
+        }
+        Some(AimLanes::shifted_from(&a, &t, &has_t, &delta, &bb, d).with_probes(probe))
     }
 
     /// Δ blended over the eight cells around B (cell-centre lattice) with trilinear
@@ -330,6 +378,8 @@ pub struct AimLanes {
     aims: [bool; LANES],
     /// The query directions, as components (what a lane that does not aim reads).
     d: octa::Soa3,
+    /// The probe each lane reads (`Warp::probe_at`).
+    pub probe: [u8; LANES],
 }
 
 impl AimLanes {
@@ -347,11 +397,26 @@ impl AimLanes {
         d: octa::Soa3,
     ) -> AimLanes {
         let a3 = a.to_array();
-        let mut out = AimLanes { v: [[0.0f32; LANES]; 3], s: [0.0f32; LANES], aims: [false; LANES], d };
+        let each = [[a3[0]; LANES], [a3[1]; LANES], [a3[2]; LANES]];
+        Self::shifted_from(&each, t, has_t, delta, bb, d)
+    }
+
+    /// [`Self::shifted`] with each lane's probe at its own position (`a`, as components).
+    #[inline(always)]
+    pub fn shifted_from(
+        a: &octa::Soa3,
+        t: &[f32; LANES],
+        has_t: &[bool; LANES],
+        delta: &[f32; LANES],
+        bb: &octa::Soa3,
+        d: octa::Soa3,
+    ) -> AimLanes {
+        let mut out =
+            AimLanes { v: [[0.0f32; LANES]; 3], s: [0.0f32; LANES], aims: [false; LANES], d, probe: [0; LANES] };
         for k in 0..LANES {
             out.s[k] = along(t[k] + delta[k]);
             for c in 0..3 {
-                out.v[c][k] = (bb[c][k] + d[c][k] * out.s[k]) - a3[c];
+                out.v[c][k] = (bb[c][k] + d[c][k] * out.s[k]) - a[c][k];
             }
         }
         // (bitwise `&`: no short circuits, so the loop vectorises)
@@ -359,10 +424,18 @@ impl AimLanes {
             let v = [out.v[0][k], out.v[1][k], out.v[2][k]];
             let finite = v[0].is_finite() & v[1].is_finite() & v[2].is_finite();
             let zero = (v[0] == 0.0) & (v[1] == 0.0) & (v[2] == 0.0);
-            let at_a = (bb[0][k] == a3[0]) & (bb[1][k] == a3[1]) & (bb[2][k] == a3[2]);
+            let at_a = (bb[0][k] == a[0][k]) & (bb[1][k] == a[1][k]) & (bb[2][k] == a[2][k]);
             out.aims[k] = has_t[k] & t[k].is_finite() & !at_a & finite & !zero;
         }
         out
+    }
+
+    /// The same aims, lane k reading probe `probe[k]`.
+    #[inline(always)]
+    #[must_use]
+    pub fn with_probes(mut self, probe: [u8; LANES]) -> AimLanes {
+        self.probe = probe;
+        self
     }
 
     /// The fetch vectors as components: the aimed point, or the query direction where the
@@ -452,6 +525,20 @@ pub fn blend_shift(mirror: f32, rough: f32, w: f32) -> f32 {
     mirror + (rough - mirror) * w
 }
 
+/// The tap of bilinear `taps` with the greatest weight (the first of equals): the texel
+/// whose probe a lookup reads.
+#[inline]
+#[must_use]
+pub fn nearest_tap(taps: &[(u32, f32); 4]) -> u32 {
+    let mut best = taps[0];
+    for &t in &taps[1..] {
+        if t.1 > best.1 {
+            best = t;
+        }
+    }
+    best.0
+}
+
 /// A shift map sampled with bilinear `taps`.
 #[inline]
 #[must_use]
@@ -472,11 +559,11 @@ pub fn shifted_aim(a: Vec3, t_proxy: Option<f32>, delta: f32, b: Vec3, dir: Vec3
             let s = along(t + delta);
             let v = (b + dir * s) - a;
             if v.is_finite() && v != Vec3::ZERO {
-                return Aim { v, k: Some(distance_ratio(v, s)) };
+                return Aim { v, k: Some(distance_ratio(v, s)), probe: 0 };
             }
-            Aim { v: dir, k: Some(1.0) }
+            Aim { v: dir, k: Some(1.0), probe: 0 }
         }
-        _ => Aim { v: dir, k: Some(1.0) },
+        _ => Aim { v: dir, k: Some(1.0), probe: 0 },
     }
 }
 

@@ -102,18 +102,20 @@ fn lod_on_even_chain(r: f32, n: f32) -> f32 {
     lod.min(n)
 }
 
-/// Where a lookup reads probe A: the fetch vector `v` and, when the lookup aimed at a known
-/// point, its distance ratio `k = d_probe / d_surface` (`None`: read A's depth along `v`).
+/// Where a lookup reads: which probe (`Warp::probe_at`; 0 = probe A), the fetch vector `v`
+/// and, when the lookup aimed at a known point, its distance ratio
+/// `k = d_probe / d_surface` (`None`: read the probe's depth along `v`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aim {
     pub v: Vec3,
     pub k: Option<f32>,
+    pub probe: u8,
 }
 
 impl From<Vec3> for Aim {
     #[inline]
     fn from(v: Vec3) -> Aim {
-        Aim { v, k: None }
+        Aim { v, k: None, probe: 0 }
     }
 }
 
@@ -124,7 +126,7 @@ impl Aim {
     pub fn ratio(&self, warp: &Warp, b: Vec3, uv: Vec2) -> f32 {
         match self.k {
             Some(k) => k,
-            None => warp.probe.distance_ratio(b, self.v, uv, warp.options.depth_lod),
+            None => warp.probe_at(self.probe.into()).distance_ratio(b, self.v, uv, warp.options.depth_lod),
         }
     }
 }
@@ -170,7 +172,7 @@ pub fn glossy_radiance(
     aim: Aim,
     r: f32,
 ) -> Vec3 {
-    let probe = &warp.probe;
+    let probe = warp.probe_at(aim.probe.into());
     let v = aim.v;
     if r == 0.0 {
         return probe.radiance(v);

@@ -273,11 +273,56 @@ impl Proxies {
 #[derive(Clone, Debug)]
 pub struct Warp {
     pub probe: WarpProbe,
+    /// The other specular probes after probe A (empty: one probe), shared by clones.
+    pub others: std::sync::Arc<[WarpProbe]>,
     pub proxies: Proxies,
     pub options: WarpOptions,
 }
 
 impl Warp {
+    /// Probe `k`: probe A for 0, else `others[k - 1]` (probe A for an index beyond them).
+    #[inline(always)]
+    #[must_use]
+    pub fn probe_at(&self, k: usize) -> &WarpProbe {
+        if k == 0 { &self.probe } else { self.others.get(k - 1).unwrap_or(&self.probe) }
+    }
+
+    /// `read` of each lane's probe (`probe[k]`, as [`Warp::probe_at`]) for [`LANES`] lanes:
+    /// one call when every lane reads one probe, else one per probe the lanes read, each
+    /// lane taking its own probe's answer (bit for bit what `read` gives that lane alone).
+    #[inline(always)]
+    pub fn by_probe<T: Copy>(&self, probe: &[u8; LANES], read: impl Fn(&WarpProbe) -> [T; LANES]) -> [T; LANES] {
+        let first = probe[0];
+        let mut out = read(self.probe_at(first.into()));
+        if probe.iter().all(|&p| p == first) {
+            return out;
+        }
+        let mut done = [false; LANES];
+        for k in 0..LANES {
+            done[k] = probe[k] == first;
+        }
+        for k in 0..LANES {
+            if done[k] {
+                continue;
+            }
+            let p = probe[k];
+            let got = read(self.probe_at(p.into()));
+            for j in k..LANES {
+                if probe[j] == p {
+                    (out[j], done[j]) = (got[j], true);
+                }
+            }
+        }
+        out
+    }
+
+    /// How many probes a lookup can read (probe A and the others).
+    #[inline]
+    #[must_use]
+    pub fn probe_count(&self) -> usize {
+        1 + self.others.len()
+    }
+
     /// Distance along unit `dir` from `b` to the surface the grid's maps shift, for base
     /// `method`: the box's or the 18-DOP's exit (`Proxies::exit_distance`), or the point
     /// seed 000's one-step warp aims at (`warp1`, the probe's own depth as the proxy).
