@@ -109,7 +109,8 @@ pub fn level_errors(warp: &Warp, set: &ValidationSet, c: &Correctives, exposure:
                 continue;
             }
             let d = set.dirs[k];
-            fit_est.push(warp.probe.radiance(c.fetch_vector(Blend::Cell, warp, b, d)));
+            let aim = c.fetch(Blend::Cell, warp, b, d, 0.0);
+            fit_est.push(warp.probe_at(aim.probe.into()).radiance(aim.v));
             fb_est.push(warp.lookup(c.fallback, b, d));
             refs.push(set.reference[k]);
         }

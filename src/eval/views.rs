@@ -49,7 +49,11 @@ pub fn views(
     }
     for r in corrective_rows.iter().filter(|r| r.variant == CorrectiveVariant::Fitted) {
         let blend = r.variant.blend();
-        let map = dirs.iter().map(|&d| warp.probe.radiance(r.correctives.fetch_vector(blend, warp, b, d))).collect();
+        let read = |d: Vec3| {
+            let aim = r.correctives.fetch(blend, warp, b, d, 0.0);
+            warp.probe_at(aim.probe.into()).radiance(aim.v)
+        };
+        let map = dirs.iter().map(|&d| read(d)).collect();
         tiles.push((r.variant.name().to_string(), OctMap::new(res, map)));
     }
     let a = warp.probe.position;

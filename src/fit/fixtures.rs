@@ -68,7 +68,7 @@ pub fn wall_problem(warp: &Warp, scale: f32, samples: u32) -> WallProblem<'_> {
     let origin = Vec3::new(0.8, -0.5, 1.0) * scale;
     let res = 8;
     let glossy = crate::warp::glossy::Glossy { warp, correction: None };
-    let ctx = CellContext { glossy, exposure: 1.0, proxy: crate::warp::Method::Box, origin, res };
+    let ctx = CellContext { glossy, exposure: 1.0, proxy: crate::warp::Method::Box, origin, res, probe_map: &[] };
     let distance: Vec<f32> = (0..res * res)
         .map(|t| {
             let d = octa::texel_dir(res, t % res, t / res);

@@ -17,6 +17,7 @@ pub mod fixtures;
 pub mod irradiance;
 pub mod model;
 pub mod objective;
+pub mod probes;
 pub mod proxy;
 pub mod roughness;
 pub mod selection;
@@ -315,12 +316,17 @@ pub struct UnfittedMaps {
 impl UnfittedMaps {
     /// The two sets of the outcomes `results` (cells of `geometry`'s grid, maps of `proxy`).
     fn of(geometry: GridGeometry, map_res: u32, proxy: Method, results: &[CellOutcome]) -> UnfittedMaps {
+        let n2 = (map_res * map_res) as usize;
+        let several = results.iter().any(|r| !r.probes.is_empty());
         let set = |map: fn(&CellOutcome) -> &[f32], rough: fn(&CellOutcome) -> &[f32]| {
             let mut c = Correctives::new(geometry, map_res, vec![NO_MAP; geometry.cell_count()], Vec::new(), proxy);
             for (k, r) in results.iter().enumerate() {
                 c.slot[r.fit.cell as usize] = k as u32;
                 c.maps.extend_from_slice(map(r));
                 c.rough_maps.extend_from_slice(rough(r));
+                if several {
+                    c.probe_maps.extend(r.probes.iter().copied().chain(std::iter::repeat(0)).take(n2));
+                }
             }
             c
         };
@@ -518,6 +524,10 @@ pub struct CellOutcome {
     /// The unfitted shift map of the grid's raytraced distances (`celldepth`): kept only
     /// with [`MapSets::WithUnfitted`].
     pub init: Vec<f32>,
+    /// The probe each texel of `fitted` reads (`fit::probes`), kept as `fitted` is; empty
+    /// with one probe.
+    #[serde(default)]
+    pub probes: Vec<u8>,
     /// Reference rays traced for the cell's training and check queries.
     pub rays: u64,
 }
@@ -657,12 +667,19 @@ pub fn fit_cells(
             let check = cell_samples(&renderer, &g, cell, check_size, s.seed, 2);
             let rays = train.rays + check.rays;
             let hidden = hidden_fraction(baked, wp.position, &check);
+            // the map's origin: the cell probe's position (its centre unless relocated)
+            let origin = g.cell_centre(cell) + grid.probe_offset[cell];
+            // with several probes, which one each texel reads (from the training queries' hits)
+            let probe_map = if warp.probe_count() > 1 {
+                let hits = true_hits(baked, &train);
+                probes::choose(warp, origin, s.map_res, &distance, &hits)
+            } else {
+                Vec::new()
+            };
             let trace_seconds = tt.elapsed().as_secs_f64();
             let check_dirs = check.dirs_per_position;
             let (train, check) = (samples(&train), samples(&check));
-            // the map's origin: the cell probe's position (its centre unless relocated)
-            let origin = g.cell_centre(cell) + grid.probe_offset[cell];
-            let ctx = CellContext { glossy, exposure, proxy, origin, res: s.map_res };
+            let ctx = CellContext { glossy, exposure, proxy, origin, res: s.map_res, probe_map: &probe_map };
             let n2 = (s.map_res * s.map_res) as usize;
             let level1_train: Vec<_> = if s.level1 { train.iter().step_by(4).copied().collect() } else { Vec::new() };
             // the study's inputs, kept only when it is asked for
@@ -678,10 +695,17 @@ pub fn fit_cells(
             // them on more positions (a stream of their own)
             let (mut extra_rays, mut extra_seconds, mut check_positions) = (0, 0.0, s.check_positions);
             let rough_fitted = rough.as_ref().map_or(&[][..], |r| r.fitted.as_slice());
+            // (the fallback, a cell without a map, reads probe A)
+            let fallback_errors = |p: &mut CellProblem| {
+                p.set_probe_map(&[]);
+                let e = p.position_square_errors(&no_map, &[], check_dirs);
+                p.set_probe_map(&probe_map);
+                e
+            };
             if !sees_only_sky
                 && s.extra_check_positions > 0
                 && selection::undecided(
-                    &check_problem.position_square_errors(&no_map, &[], check_dirs),
+                    &fallback_errors(&mut check_problem),
                     &check_problem.position_square_errors(&fitted, rough_fitted, check_dirs),
                 )
             {
@@ -695,7 +719,9 @@ pub fn fit_cells(
             }
             let [warp1, boxed_err, kdop] =
                 [Method::Warp1, Method::Box, Method::Kdop].map(|m| check_problem.relative_error_method(m));
+            check_problem.set_probe_map(&[]);
             let fallback = check_problem.relative_error_map(&no_map);
+            check_problem.set_probe_map(&probe_map);
             let celldepth = check_problem.relative_error_map(&init);
             let fitted_err = match &rough {
                 Some(r) => check_problem.relative_error_maps(&fitted, &r.fitted),
@@ -746,7 +772,11 @@ pub fn fit_cells(
                 level1,
                 resolutions,
             };
-            outcome_keeping(sets, fit, (fitted, rough.map(|r| r.fitted), init), rays + extra_rays)
+            let mut outcome = outcome_keeping(sets, fit, (fitted, rough.map(|r| r.fitted), init), rays + extra_rays);
+            if !outcome.fitted.is_empty() {
+                outcome.probes = probe_map;
+            }
+            outcome
         })
         .collect();
     bar.finish_and_clear();
@@ -789,7 +819,17 @@ fn outcome_keeping(
     let fitted_rough = fitted_rough.filter(|_| keep).unwrap_or_default();
     let fitted = if keep { fitted } else { Vec::new() };
     let init = if keep_all { init } else { Vec::new() };
-    CellOutcome { fit, fitted, fitted_rough, init, rays }
+    CellOutcome { fit, fitted, fitted_rough, init, probes: Vec::new(), rays }
+}
+
+/// The true hits of a cell's queries (`fit::probes`): one ray each.
+fn true_hits(baked: Baked, q: &truth::TracedQueries) -> Vec<probes::Hit> {
+    (0..q.dirs.len())
+        .map(|k| {
+            let (b, dir) = (q.position_of(k), q.dirs[k]);
+            probes::Hit { b, dir, t: truth::first_visible(baked.scene, baked.tracer, b, dir) }
+        })
+        .collect()
 }
 
 /// Whether a fit stores a rough map per cell: asked for, and the probe has rough mips.
@@ -878,13 +918,13 @@ fn study_resolutions(
             }
             let distance = depth_at(res);
             let sees_only_sky = distance.iter().all(|d| !d.is_finite());
-            (res, refine(CellContext { res, ..ctx }, train.to_vec(), &distance, sees_only_sky, s.depth_prior, s).fitted)
+            (res, refine(CellContext { res, probe_map: &[], ..ctx }, train.to_vec(), &distance, sees_only_sky, s.depth_prior, s).fitted)
         })
         .collect();
     let mut errors = [[0.0; 1 + STUDY_RESOLUTIONS.len()]; 2];
     for (h, half) in halves.iter().enumerate() {
         for (k, (res, map)) in maps.iter().enumerate() {
-            let p = CellProblem::new(CellContext { res: *res, ..ctx }, vec![0.0; map.len()], half.clone());
+            let p = CellProblem::new(CellContext { res: *res, probe_map: &[], ..ctx }, vec![0.0; map.len()], half.clone());
             if k == 0 {
                 errors[h][0] = p.relative_error_map(&vec![0.0; map.len()]);
             }
@@ -956,11 +996,15 @@ fn assemble_cells(
     let mut reference_rays = 0;
     let cells: Vec<CellFit> = results
         .into_iter()
-        .map(|CellOutcome { fit, fitted, fitted_rough, rays, .. }| {
+        .map(|CellOutcome { fit, fitted, fitted_rough, probes, rays, .. }| {
             if fit.level == Level::Map {
                 correctives.slot[fit.cell as usize] = (correctives.maps.len() / n2) as u32;
                 correctives.maps.extend_from_slice(&fitted);
                 correctives.rough_maps.extend_from_slice(&fitted_rough);
+                if warp.probe_count() > 1 {
+                    // (a map fitted without a probe map reads probe A: zeros)
+                    correctives.probe_maps.extend(probes.iter().copied().chain(std::iter::repeat(0)).take(n2));
+                }
             }
             reference_rays += rays;
             fit

@@ -36,8 +36,8 @@
 use super::Solver;
 use crate::octa::{self, LANES, wrap_texel};
 use crate::tonemap::reinhard;
-use crate::warp::corrective::{AimLanes, sample_map, sample_maps, shifted_aim};
-use crate::warp::glossy::{Glossy, MipRule, corrected_lanes};
+use crate::warp::corrective::{AimLanes, nearest_tap, sample_map, sample_maps, shifted_aim};
+use crate::warp::glossy::{Aim, Glossy, MipRule, corrected_lanes};
 use crate::warp::{Level1, Method, Warp};
 use argmin::core::{CostFunction, Error, Executor, Gradient, State};
 use argmin::solver::brent::BrentOpt;
@@ -151,6 +151,9 @@ pub struct CellProblem<'a> {
     samples: Vec<Sample>,
     /// Per sample, its reference tone-mapped at `exposure`.
     tm_reference: Vec<Vec3>,
+    /// Per sample, the probe its lookups read (`Warp::probe_at`; empty: probe A for all):
+    /// the probe map's texel nearest its direction, as the runtime reads it.
+    probe: Vec<u8>,
     /// Every sample's index, in order.
     all: Vec<u32>,
     /// Per texel, the samples whose bilinear footprint includes it.
@@ -176,6 +179,8 @@ pub struct CellContext<'a> {
     pub proxy: Method,
     pub origin: Vec3,
     pub res: u32,
+    /// The probe each texel's lookups read (`fit::probes`; empty: probe A for all).
+    pub probe_map: &'a [u8],
 }
 
 impl CellContext<'_> {
@@ -221,7 +226,7 @@ impl<'a> CellProblem<'a> {
     /// texel; see the module docs) and its queries; no regularisation (see
     /// [`CellProblem::with_weights`]).
     pub fn new(ctx: CellContext<'a>, start: Vec<f64>, mut samples: Vec<Sample>) -> Self {
-        let CellContext { glossy, exposure, res, proxy, .. } = ctx;
+        let CellContext { glossy, exposure, res, proxy, probe_map, .. } = ctx;
         let proxy_distance = ctx.proxy_distances();
         let n2 = (res * res) as usize;
         debug_assert_eq!(start.len(), n2);
@@ -253,7 +258,7 @@ impl<'a> CellProblem<'a> {
         // floored: a cell that sees almost nothing would turn tiny absolute errors into
         // relative ones in the millions
         let mean_reference = mean_reference.max(MEAN_REFERENCE_FLOOR);
-        CellProblem {
+        let mut problem = CellProblem {
             glossy,
             exposure,
             res,
@@ -262,6 +267,7 @@ impl<'a> CellProblem<'a> {
             all: (0..samples.len() as u32).collect(),
             samples,
             tm_reference,
+            probe: Vec::new(),
             touching,
             pairs,
             mean_reference,
@@ -270,7 +276,25 @@ impl<'a> CellProblem<'a> {
             size_weight: 0.0,
             anchor: vec![0.0; n2],
             evaluations: Cell::new(0),
-        }
+        };
+        problem.set_probe_map(probe_map);
+        problem
+    }
+
+    /// Lookups read the probes of `map` (per texel, as `Correctives::probe_maps`; empty:
+    /// probe A everywhere, as a cell without a map reads).
+    pub fn set_probe_map(&mut self, map: &[u8]) {
+        self.probe = if map.is_empty() {
+            Vec::new()
+        } else {
+            self.samples.iter().map(|q| map[nearest_tap(&q.taps) as usize]).collect()
+        };
+    }
+
+    /// The probe sample `i`'s lookups read.
+    #[inline(always)]
+    fn probe_of(&self, i: usize) -> u8 {
+        self.probe.get(i).copied().unwrap_or(0)
     }
 
     /// The problem's queries, given back (to judge them again with more).
@@ -360,8 +384,9 @@ impl<'a> CellProblem<'a> {
     fn lookup(&self, i: usize, map: &[f32], rough: &[f32]) -> Vec3 {
         let q = &self.samples[i];
         let delta = sample_maps(map, rough, &q.taps, q.roughness);
-        let aim = shifted_aim(self.glossy.warp.probe.position, q.t_proxy, delta, q.b, q.dir);
-        self.glossy.radiance(MipRule::Corrected, q.b, q.dir, aim, q.roughness)
+        let probe = self.probe_of(i);
+        let aim = shifted_aim(self.glossy.warp.probe_at(probe.into()).position, q.t_proxy, delta, q.b, q.dir);
+        self.glossy.radiance(MipRule::Corrected, q.b, q.dir, Aim { probe, ..aim }, q.roughness)
     }
 
     /// Tone-mapped absolute error of sample `i` under `map`, one lookup at a time: the
@@ -392,8 +417,9 @@ impl<'a> CellProblem<'a> {
         for (l, i) in idx.iter_mut().enumerate() {
             *i = group[l.min(group.len() - 1)] as usize;
         }
-        let probe = &self.glossy.warp.probe;
-        let (mut b, mut d) = ([[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3]);
+        let warp = self.glossy.warp;
+        let (mut b, mut d, mut a) = ([[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3]);
+        let mut probe = [0u8; LANES];
         let (mut t, mut has_t) = ([0.0f32; LANES], [false; LANES]);
         let (mut delta, mut r) = ([0.0f32; LANES], [0.0f32; LANES]);
         for l in 0..LANES {
@@ -403,13 +429,16 @@ impl<'a> CellProblem<'a> {
             (t[l], has_t[l]) = (q.t_proxy.unwrap_or(0.0), q.t_proxy.is_some());
             delta[l] = delta_of(q);
             r[l] = q.roughness;
+            probe[l] = self.probe_of(idx[l]);
+            [a[0][l], a[1][l], a[2][l]] = warp.probe_at(probe[l].into()).position.to_array();
         }
-        let aims = AimLanes::shifted(probe.position, &t, &has_t, &delta, &b, d);
+        let aims = AimLanes::shifted_from(&a, &t, &has_t, &delta, &b, d);
         let est = if r.iter().all(|&r| r == 0.0) {
-            probe.radiance.levels[0].bilinear_uv_lanes(&octa::encode_soa(&aims.vectors()))
+            let uv = octa::encode_soa(&aims.vectors());
+            warp.by_probe(&probe, |p| p.radiance.levels[0].bilinear_uv_lanes(&uv))
         } else {
             let (v, k) = aims.vectors_and_ratios();
-            corrected_lanes(probe, self.glossy.correction, &r, &v, &k)
+            warp.by_probe(&probe, |p| corrected_lanes(p, self.glossy.correction, &r, &v, &k))
         };
         let mut e = [0.0f64; LANES];
         for l in 0..LANES {

@@ -95,6 +95,7 @@ pub fn choose(baked: Baked, glossy: Glossy, s: &FitSettings) -> ProxyOutcome {
         proxy: Method::Box,
         origin: glossy.warp.probe.position,
         res: s.map_res,
+        probe_map: &[],
     };
     let n2 = (s.map_res * s.map_res) as usize;
     // each candidate as a cell without a map serves it (`Correctives::fetch`: the proxy's

@@ -55,6 +55,8 @@ pub struct GridContents<'a> {
     pub scene: &'a str,
     pub geometry: GridGeometry,
     pub probe: ProbeData<'a>,
+    /// The other specular probes, after probe A (empty: probe A alone).
+    pub others: Vec<ProbeData<'a>>,
     /// The proxies and warp options of the fallback method (the probe comes from `probe`).
     pub warp: &'a Warp,
     pub correctives: &'a Correctives,
@@ -140,7 +142,18 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
     let (mut payloads, mut left_out) = (Vec::new(), Vec::new());
     // every value inside the bounds the reader enforces (real data never reaches them)
     let bounds = ValueBounds::of_diagonal((geo.max - geo.min).length());
-    let probe = write_probe(dir, g, &bounds, &mut payloads)?;
+    let probe = write_probe(dir, PROBE_FILE, &g.probe, g.precision, &bounds, &mut payloads)?;
+    let mut other_probes = Vec::with_capacity(g.others.len());
+    for (k, p) in g.others.iter().enumerate() {
+        let file = PROBE_FILES.get(k + 1).ok_or_else(|| {
+            FileError::invalid(dir, "other_probes", format!("{} probes, at most {MAX_PROBES}", g.others.len() + 1))
+        })?;
+        other_probes.push(write_probe(dir, file, p, g.precision, &bounds, &mut payloads)?);
+    }
+    // files of probes a previous grid in this folder had and this one has not
+    for file in PROBE_FILES.iter().skip(g.others.len() + 1) {
+        let _ = std::fs::remove_file(dir.join(file));
+    }
     let correctives = write_correctives(dir, g, &bounds, &mut payloads, &mut left_out)?;
     let irradiance = write_irradiance(dir, g, &bounds, &mut payloads, &mut left_out)?;
     if g.roughness.is_none() {
@@ -169,6 +182,7 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
             relocated: crate::grid::relocated_cells(g.probe_offset),
         },
         probe,
+        other_probes,
         warp: warp_section(g),
         correctives,
         irradiance,
@@ -184,17 +198,18 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
     Ok(manifest)
 }
 
-/// Writes `probe.exr` (the GGX chain and the distance chain, within the reader's bounds)
-/// and returns the manifest's probe section.
+/// Writes probe `p` into `file` (the GGX chain and the distance chain, within the reader's
+/// bounds) and returns its manifest section.
 fn write_probe(
     dir: &Path,
-    g: &GridContents,
+    file: &str,
+    p: &ProbeData,
+    precision: Precision,
     bounds: &ValueBounds,
     payloads: &mut Vec<Payload>,
 ) -> Result<ProbeSection, FileError> {
     let radiance = OctMips {
-        levels: g
-            .probe
+        levels: p
             .radiance
             .levels
             .iter()
@@ -202,8 +217,7 @@ fn write_probe(
             .collect(),
     };
     let distance = OctMips {
-        levels: g
-            .probe
+        levels: p
             .distance
             .levels
             .iter()
@@ -216,8 +230,7 @@ fn write_probe(
 
     // probe: GGX chain and distance chain
     let layers = probe_layers(&radiance, &distance);
-    let radiance_mips = g
-        .probe
+    let radiance_mips = p
         .radiance
         .levels
         .iter()
@@ -225,15 +238,15 @@ fn write_probe(
         .map(|(m, level)| RadianceMip {
             layer: radiance_layer(m),
             resolution: level.res,
-            perceptual_roughness: g.probe.mip_roughness[m],
+            perceptual_roughness: p.mip_roughness[m],
         })
         .collect();
-    let distance_mips = (0..g.probe.distance.levels.len()).map(distance_layer).collect();
-    payloads.push(payload(dir, PROBE_FILE, layers, g.precision)?);
+    let distance_mips = (0..p.distance.levels.len()).map(distance_layer).collect();
+    payloads.push(payload(dir, file, layers, precision)?);
 
     Ok(ProbeSection {
-        position: g.probe.position.to_array(),
-        resolution: g.probe.radiance.levels[0].res,
+        position: p.position.to_array(),
+        resolution: p.radiance.levels[0].res,
         radiance_mips,
         distance_mips,
     })
@@ -281,6 +294,11 @@ fn write_correctives(
             let rough = packed(&c.rough_maps, &slots, c.map_res, columns, clamp);
             layers.push(packed_layer("rough_shift_maps", slots.len(), c.map_res, columns, vec![("D", rough)]));
         }
+        let probe_maps = !c.probe_maps.is_empty();
+        if probe_maps {
+            let index = packed(&c.probe_maps, &slots, c.map_res, columns, f32::from);
+            layers.push(packed_layer("probe_maps", slots.len(), c.map_res, columns, vec![("P", index)]));
+        }
         payloads.push(payload(dir, CORRECTIVES_FILE, layers, g.precision)?);
         Some(CorrectiveSection {
             map_res: c.map_res,
@@ -288,6 +306,7 @@ fn write_correctives(
             atlas_columns: columns,
             encoding: SHIFT_MAP_ENCODING.into(),
             rough_maps: c.has_rough_maps().then(rough_map_encoding),
+            probe_maps: probe_maps.then(|| PROBE_MAP_ENCODING.into()),
         })
     })
 }

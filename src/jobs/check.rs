@@ -49,28 +49,26 @@ pub fn check(scene: &Scene, tracer: &Tracer) -> Check {
         hi.y,
         hi.z
     ));
-    // probe A
-    let a = Vec3::from_array(cfg.probe.position);
-    if !(a.cmpge(lo).all() && a.cmple(hi).all()) {
-        c.errors.push(format!("{file}: probe.position {a} lies outside the scene's bounds"));
-    } else {
-        let mut back = truth::Backfaces::default();
-        for k in 0..WINDING_RAYS {
-            let d = uniform_sphere(Sampler::new(cfg.seed, hash_pair(0xC4EC, 1), k).next_2d());
-            match tracer.closest_hit(a, d, f32::INFINITY) {
-                Some(h) => back.add(h.backface, scene.materials[h.material as usize].two_sided),
-                None => back.add(false, false),
-            }
-        }
-        if truth::inside_by_backfaces(back, cfg.grid.inside_backface_fraction) {
-            c.errors.push(format!(
-                "{file}: probe.position {a} is inside geometry ({} of {} rays from it see back faces): move it into open space, or, if the level's surfaces are one-sided with mixed or inverted winding, set two_sided = true on its geometry",
-                back.any, back.rays
-            ));
-        } else if back.one_sided as f32 > WINDING_WARN * back.rays as f32 {
+    // the probes: probe A and the explicit positions
+    for (k, a) in crate::bake::placement::fixed_positions(scene).into_iter().enumerate() {
+        let field = if k == 0 { "probe.position".to_string() } else { format!("probes.positions[{}]", k - 1) };
+        check_probe_position(scene, tracer, &field, a, &mut c);
+    }
+    if c.errors.is_empty() {
+        let renderer = crate::trace::Renderer::new(scene, tracer);
+        let p = crate::bake::placement::place(&renderer, &crate::bake::grid_settings(scene));
+        c.facts.push(format!(
+            "probes: {} ({} placed automatically); of {} sampled reflection hits, {:.1}% are hidden from probe A alone and {:.1}% from every probe",
+            p.positions.len(),
+            p.placed,
+            p.hits,
+            100.0 * p.hidden_probe_a,
+            100.0 * p.hidden
+        ));
+        if p.hidden > 0.05 {
             c.warnings.push(format!(
-                "{file}: {:.0}% of the rays from probe A see back faces of one-sided surfaces: mixed or inverted winding, or surfaces that should be two_sided (set two_sided on the geometry)",
-                100.0 * back.one_sided as f32 / back.rays as f32
+                "{file}: {:.0}% of the sampled reflection hits are hidden from every probe: add [probes] positions, or set auto = true (or raise max / lower min_gain)",
+                100.0 * p.hidden
             ));
         }
     }
@@ -115,6 +113,37 @@ pub fn check(scene: &Scene, tracer: &Tracer) -> Check {
         c.warnings.push(format!("{file}: {} duplicate triangle(s) dropped", scene.duplicates_skipped));
     }
     c
+}
+
+/// A specular probe's position (`field` of the scene file): inside the scene's bounds and
+/// not inside geometry.
+fn check_probe_position(scene: &Scene, tracer: &Tracer, field: &str, a: Vec3, c: &mut Check) {
+    let file = scene.source.display().to_string();
+    let cfg = &scene.config;
+    let (lo, hi) = scene.bounds();
+    if !(a.cmpge(lo).all() && a.cmple(hi).all()) {
+        c.errors.push(format!("{file}: {field} {a} lies outside the scene's bounds"));
+        return;
+    }
+    let mut back = truth::Backfaces::default();
+    for k in 0..WINDING_RAYS {
+        let d = uniform_sphere(Sampler::new(cfg.seed, hash_pair(0xC4EC, 1), k).next_2d());
+        match tracer.closest_hit(a, d, f32::INFINITY) {
+            Some(h) => back.add(h.backface, scene.materials[h.material as usize].two_sided),
+            None => back.add(false, false),
+        }
+    }
+    if truth::inside_by_backfaces(back, cfg.grid.inside_backface_fraction) {
+        c.errors.push(format!(
+            "{file}: {field} {a} is inside geometry ({} of {} rays from it see back faces): move it into open space, or, if the level's surfaces are one-sided with mixed or inverted winding, set two_sided = true on its geometry",
+            back.any, back.rays
+        ));
+    } else if back.one_sided as f32 > WINDING_WARN * back.rays as f32 {
+        c.warnings.push(format!(
+            "{file}: {:.0}% of the rays from {field} see back faces of one-sided surfaces: mixed or inverted winding, or surfaces that should be two_sided (set two_sided on the geometry)",
+            100.0 * back.one_sided as f32 / back.rays as f32
+        ));
+    }
 }
 
 /// Points per surface-probe patch the check traces down onto the surface.

@@ -321,6 +321,16 @@ pub fn write_grid(
             mip_roughness: &baked.probe.roughness,
             distance: &baked.probe.depth,
         },
+        others: baked
+            .others
+            .iter()
+            .map(|p| ProbeData {
+                position: p.position,
+                radiance: &p.radiance,
+                mip_roughness: &p.roughness,
+                distance: &p.depth,
+            })
+            .collect(),
         warp,
         correctives: &fitted.correctives,
         blend: Blend::Cell,

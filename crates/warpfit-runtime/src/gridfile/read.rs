@@ -177,7 +177,24 @@ fn expected_payloads(
     mp: &Path,
     cells: usize,
 ) -> Result<Vec<(&'static str, Vec<Expected>)>, FileError> {
-    let mut out = vec![(PROBE_FILE, expected_probe(m, mp)?)];
+    let mut out = vec![(PROBE_FILE, expected_probe(&m.probe, "probe", mp)?)];
+    if m.other_probes.len() >= MAX_PROBES {
+        return Err(invalid(mp, "other_probes", format!("{} probes, at most {MAX_PROBES} in all", m.other_probes.len() + 1)));
+    }
+    if !m.other_probes.is_empty() && m.version < 6 {
+        return Err(invalid(mp, "other_probes", "several probes need format version 6"));
+    }
+    for (k, p) in m.other_probes.iter().enumerate() {
+        let field = format!("other_probes[{k}]");
+        let same = p.resolution == m.probe.resolution
+            && p.distance_mips == m.probe.distance_mips
+            && p.radiance_mips.len() == m.probe.radiance_mips.len()
+            && p.radiance_mips.iter().zip(&m.probe.radiance_mips).all(|(a, b)| a == b);
+        if !same {
+            return Err(invalid(mp, field, "must have probe A's resolution and mip chains"));
+        }
+        out.push((PROBE_FILES[k + 1], expected_probe(p, &field, mp)?));
+    }
     if let Some(c) = &m.correctives {
         out.push((CORRECTIVES_FILE, expected_correctives(c, m.version, mp, cells)?));
     }
@@ -212,30 +229,29 @@ fn columns_ok(n: usize, columns: u32, field: &str, mp: &Path) -> Result<(), File
     Ok(())
 }
 
-/// `probe.exr`'s layers: the radiance chain (halving, named, roughness increasing in
-/// [0, 1]) and the distance chain.
-fn expected_probe(m: &GridManifest, mp: &Path) -> Result<Vec<Expected>, FileError> {
-    let p = &m.probe;
+/// A probe file's layers (`p`, the manifest's section `field`): the radiance chain
+/// (halving, named, roughness increasing in [0, 1]) and the distance chain.
+fn expected_probe(p: &ProbeSection, field: &str, mp: &Path) -> Result<Vec<Expected>, FileError> {
     if !(2..=MAX_PROBE_RESOLUTION).contains(&p.resolution) || !p.resolution.is_multiple_of(2) {
         return Err(invalid(
             mp,
-            "probe.resolution",
+            format!("{field}.resolution"),
             format!("{} is not an even size in 2..={MAX_PROBE_RESOLUTION}", p.resolution),
         ));
     }
     if p.radiance_mips.is_empty() || p.distance_mips.is_empty() {
-        return Err(invalid(mp, "probe", "needs at least one radiance and one distance mip"));
+        return Err(invalid(mp, field, "needs at least one radiance and one distance mip"));
     }
     let mut probe = Vec::new();
     for (k, mip) in p.radiance_mips.iter().enumerate() {
         let n = p.resolution.checked_shr(k as u32).unwrap_or(0);
         if mip.resolution != n || n == 0 {
-            return Err(invalid(mp, format!("probe.radiance_mips[{k}].resolution"), "must halve at every mip"));
+            return Err(invalid(mp, format!("{field}.radiance_mips[{k}].resolution"), "must halve at every mip"));
         }
         if mip.layer != radiance_layer(k) {
             return Err(invalid(
                 mp,
-                format!("probe.radiance_mips[{k}].layer"),
+                format!("{field}.radiance_mips[{k}].layer"),
                 format!("must be {}", radiance_layer(k)),
             ));
         }
@@ -244,7 +260,7 @@ fn expected_probe(m: &GridManifest, mp: &Path) -> Result<Vec<Expected>, FileErro
         {
             return Err(invalid(
                 mp,
-                format!("probe.radiance_mips[{k}].perceptual_roughness"),
+                format!("{field}.radiance_mips[{k}].perceptual_roughness"),
                 "must lie in [0, 1] and increase from mip to mip",
             ));
         }
@@ -259,10 +275,10 @@ fn expected_probe(m: &GridManifest, mp: &Path) -> Result<Vec<Expected>, FileErro
     for (k, name) in p.distance_mips.iter().enumerate() {
         let n = p.resolution.checked_shr(k as u32).unwrap_or(0);
         if n == 0 {
-            return Err(invalid(mp, "probe.distance_mips", "more mips than the resolution allows"));
+            return Err(invalid(mp, format!("{field}.distance_mips"), "more mips than the resolution allows"));
         }
         if *name != distance_layer(k) {
-            return Err(invalid(mp, format!("probe.distance_mips[{k}]"), format!("must be {}", distance_layer(k))));
+            return Err(invalid(mp, format!("{field}.distance_mips[{k}]"), format!("must be {}", distance_layer(k))));
         }
         probe.push(Expected {
             name: name.clone(),
@@ -308,6 +324,12 @@ fn expected_correctives(
     let mut layers = vec![layer("shift_maps")];
     if c.rough_maps.is_some() {
         layers.push(layer("rough_shift_maps"));
+    }
+    if c.probe_maps.is_some() {
+        if version < 6 {
+            return Err(invalid(mp, "correctives.probe_maps", "probe maps need format version 6"));
+        }
+        layers.push(Expected { channels: &["P"], ..layer("probe_maps") });
     }
     Ok(layers)
 }
@@ -638,7 +660,12 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     let probe_offset = read_relocated(&m, mp, &geometry, cells)?;
     let bounds = ValueBounds::of_diagonal((geometry.max - geometry.min).length());
     let expected = expected_payloads(&m, mp, cells)?;
-    let probe = read_probe(dir, (&m, mp), expected_of(&expected, PROBE_FILE), &bounds)?;
+    let probe = read_probe(dir, (&m, mp), (PROBE_FILE, &m.probe, "probe"), expected_of(&expected, PROBE_FILE), &bounds)?;
+    let mut others = Vec::with_capacity(m.other_probes.len());
+    for (k, p) in m.other_probes.iter().enumerate() {
+        let (file, field) = (PROBE_FILES[k + 1], format!("other_probes[{k}]"));
+        others.push(read_probe(dir, (&m, mp), (file, p, &field), expected_of(&expected, file), &bounds)?);
+    }
     let (fallback, proxies) = read_proxies(&m, mp)?;
     let correctives = read_correctives(
         dir,
@@ -658,7 +685,7 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     )?;
     let roughness = m.roughness.clone();
     let options = m.warp.options;
-    Ok(GridData { warp: Warp { probe, others: Default::default(), proxies, options }, correctives, irradiance, roughness, manifest: m })
+    Ok(GridData { warp: Warp { probe, others: others.into(), proxies, options }, correctives, irradiance, roughness, manifest: m })
 }
 
 /// The layers `expected_payloads` lists for `file` (none when it lists no such file).
@@ -717,16 +744,17 @@ fn read_relocated(m: &GridManifest, mp: &Path, geometry: &GridGeometry, cells: u
     Ok(probe_offset)
 }
 
-/// Probe A from `probe.exr`: the radiance chain and the distance chain, values checked.
+/// A probe from its file (probe A's `probe.exr`, `file` with manifest section `p` named
+/// `field`): the radiance chain and the distance chain, values checked.
 fn read_probe(
     dir: &Path,
     (m, mp): (&GridManifest, &Path),
+    (file, p, field): (&str, &ProbeSection, &str),
     expected: &[Expected],
     bounds: &ValueBounds,
 ) -> Result<WarpProbe, FileError> {
-    let p = &m.probe;
-    let ppath = dir.join(PROBE_FILE);
-    let layers = read_payload(dir, m, PROBE_FILE, expected)?;
+    let ppath = dir.join(file);
+    let layers = read_payload(dir, m, file, expected)?;
     let mut radiance = Vec::new();
     let mut roughness_of_mips = Vec::new();
     for mip in &p.radiance_mips {
@@ -745,7 +773,7 @@ fn read_probe(
         })?;
         distance.push(OctMap::new(n as u32, z.to_vec()));
     }
-    let position = finite3(p.position, mp, "probe.position")?;
+    let position = finite3(p.position, mp, &format!("{field}.position"))?;
     Ok(WarpProbe::from_distance_mips(
         position,
         &OctMips { levels: distance },
@@ -802,8 +830,8 @@ fn read_correctives(
     fallback: Method,
     bounds: &ValueBounds,
 ) -> Result<Correctives, FileError> {
-    let (map_res, slot, maps, rough_maps) = match &m.correctives {
-        None => (8, vec![NO_MAP; cells], Vec::new(), Vec::new()),
+    let (map_res, slot, maps, rough_maps, probe_maps) = match &m.correctives {
+        None => (8, vec![NO_MAP; cells], Vec::new(), Vec::new(), Vec::new()),
         Some(c) => {
             let slot = slots(&c.stored_cells, cells, mp, "correctives.stored_cells")?;
             let cpath = dir.join(CORRECTIVES_FILE);
@@ -820,10 +848,25 @@ fn read_correctives(
             };
             let maps = take("shift_maps")?;
             let rough_maps = if c.rough_maps.is_some() { take("rough_shift_maps")? } else { Vec::new() };
-            (c.map_res, slot, maps, rough_maps)
+            let probe_maps = if c.probe_maps.is_some() {
+                let probes = m.other_probes.len() + 1;
+                if probes < 2 {
+                    return Err(invalid(mp, "correctives.probe_maps", "present, but the grid has one probe"));
+                }
+                let mut p = take_channel(&mut layers, &cpath, "probe_maps", size, "P")?;
+                let what = format!("a probe index in 0..{probes}");
+                check(&cpath, "probe_maps.P", &p, &what, |x| x >= 0.0 && x < probes as f32 && x.fract() == 0.0)?;
+                p.truncate(c.stored_cells.len() * (c.map_res * c.map_res) as usize);
+                p.into_iter().map(|x| x as u8).collect()
+            } else {
+                Vec::new()
+            };
+            (c.map_res, slot, maps, rough_maps, probe_maps)
         }
     };
-    Ok(Correctives::new(geometry, map_res, slot, maps, fallback).with_rough_maps(rough_maps))
+    Ok(Correctives::new(geometry, map_res, slot, maps, fallback)
+        .with_rough_maps(rough_maps)
+        .with_probe_maps(probe_maps))
 }
 
 /// The cells' irradiance, distance moments and diffuse corrections (atlases arrive tile by

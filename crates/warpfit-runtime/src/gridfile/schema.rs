@@ -18,11 +18,35 @@ pub const GRID_FORMAT: &str = "warpfit-grid";
 /// inverse distances from the cell's origin; the fallback is the proxy (box, kdop, warp1).
 /// 5: a stored cell may keep a second map for rough lookups (`rough_shift_maps`); a version-4
 /// grid is read as one with none.
-pub const GRID_VERSION: u32 = 5;
+/// 6: several specular probes (`other_probes`, files [`PROBE_FILES`]) and, per stored
+/// texel, the probe a lookup reads (`correctives.exr` layer `probe_maps`); a version-5 grid
+/// is read as one with probe A alone.
+pub const GRID_VERSION: u32 = 6;
 /// The oldest version this build reads.
 pub const GRID_VERSION_OLDEST: u32 = 4;
 pub const MANIFEST_FILE: &str = "manifest.json";
 pub const PROBE_FILE: &str = "probe.exr";
+/// The most specular probes a grid holds (a probe index fits 4 bits).
+pub const MAX_PROBES: usize = 16;
+/// The file of each probe: probe A's [`PROBE_FILE`], then `probe_1.exr`, ….
+pub const PROBE_FILES: [&str; MAX_PROBES] = [
+    PROBE_FILE,
+    "probe_1.exr",
+    "probe_2.exr",
+    "probe_3.exr",
+    "probe_4.exr",
+    "probe_5.exr",
+    "probe_6.exr",
+    "probe_7.exr",
+    "probe_8.exr",
+    "probe_9.exr",
+    "probe_10.exr",
+    "probe_11.exr",
+    "probe_12.exr",
+    "probe_13.exr",
+    "probe_14.exr",
+    "probe_15.exr",
+];
 pub const CORRECTIVES_FILE: &str = "correctives.exr";
 pub const IRRADIANCE_FILE: &str = "irradiance.exr";
 
@@ -57,6 +81,10 @@ pub struct GridManifest {
     pub scene: String,
     pub grid: GridSection,
     pub probe: ProbeSection,
+    /// The other specular probes, after probe A (probe k in `PROBE_FILES[k]`, with probe
+    /// A's layout, resolution and mip chain); absent: probe A alone.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub other_probes: Vec<ProbeSection>,
     pub warp: WarpSection,
     /// Absent when no cell stores a shift map.
     pub correctives: Option<CorrectiveSection>,
@@ -151,7 +179,14 @@ pub struct CorrectiveSection {
     /// ([`rough_map_encoding`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rough_maps: Option<String>,
+    /// Present when `correctives.exr` also holds layer `probe_maps` (channel `P`, the same
+    /// tiles): which probe each stored texel's lookups read, as [`PROBE_MAP_ENCODING`] says.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub probe_maps: Option<String>,
 }
+
+/// What a probe map's texels mean (the manifest's `correctives.probe_maps`).
+pub const PROBE_MAP_ENCODING: &str = "per stored cell, an N×N octahedral map of probe indices (0 = probe A, k = other_probes[k-1]), integers stored as floats: a lookup along dir reads the probe of the texel with the greatest bilinear weight (the first of equals, in the order texel (i0,j0), (i0+1,j0), (i0,j0+1), (i0+1,j0+1)) and fetches it towards the point the shift map aims at";
 
 /// How a lookup reads the rough maps (the manifest's `correctives.rough_maps`).
 /// Written from the runtime's own band (`warp::corrective::ROUGH_MAP_FROM`, `ROUGH_MAP_TO`),
