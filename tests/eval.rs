@@ -25,17 +25,17 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
     let tracer = Tracer::new(&scene);
     let dir = tmp_dir("eval");
     let folder = RunFolder::new(&dir);
-    let (probe, grid, baked) =
+    let (probe, _, grid, baked) =
         job::load_or_bake(&scene, &tracer, (&folder, &folder), warpfit::bakefile::Hits::WithGrid, &Progress::quiet())
             .unwrap();
     assert!(baked);
     // a second call reuses the bake
-    let (_, _, baked_again) =
+    let (_, _, _, baked_again) =
         job::load_or_bake(&scene, &tracer, (&folder, &folder), warpfit::bakefile::Hits::WithGrid, &Progress::quiet())
             .unwrap();
     assert!(!baked_again);
     let settings = EvalSettings { positions: 16, dirs_per_position: 64, reference_spp: 4, ..EvalSettings::quick() };
-    let baked = job::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
+    let baked = job::Baked { scene: &scene, tracer: &tracer, probe: &probe, others: &[], grid: &grid };
     let warp = baked.warp(settings.options);
     let out = Output { folder: &folder, command: "test", progress: &Progress::quiet() };
     let report = job::evaluate(baked, &warp, &settings, &Method::ALL, None, out).unwrap();
@@ -161,7 +161,7 @@ fn validation_positions_avoid_cell_centres_and_geometry() {
     let tracer = Tracer::new(&s);
     let baked = warpfit::bake::bake(&s, &tracer, &Progress::quiet());
     let settings = EvalSettings { positions: 64, dirs_per_position: 4, reference_spp: 1, ..EvalSettings::default() };
-    let set = warpfit::eval::validation_set(&s, &tracer, &baked.grid, baked.probe.position, &settings);
+    let set = warpfit::eval::validation_set(&s, &tracer, &baked.grid, &[baked.probe.position], &settings);
     assert_eq!(set.positions.len(), 64);
     let g = &baked.grid.geometry;
     for p in &set.positions {
@@ -170,7 +170,7 @@ fn validation_positions_avoid_cell_centres_and_geometry() {
         assert!((*p - g.cell_centre(cell)).length() > 1e-4, "{p} sits on a cell centre");
     }
     // seeded: the same settings give the same set
-    let again = warpfit::eval::validation_set(&s, &tracer, &baked.grid, baked.probe.position, &settings);
+    let again = warpfit::eval::validation_set(&s, &tracer, &baked.grid, &[baked.probe.position], &settings);
     assert_eq!(set.positions, again.positions);
     assert_eq!(set.reference, again.reference);
 }
@@ -185,7 +185,7 @@ fn noisy_rough_buckets_are_traced_again_with_more_samples() {
     let tracer = Tracer::new(&scene);
     let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
     let (probe, grid) = (baked.probe, baked.grid);
-    let baked = job::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
+    let baked = job::Baked { scene: &scene, tracer: &tracer, probe: &probe, others: &[], grid: &grid };
     let methods = [Method::None, Method::Box, Method::Kdop, Method::Warp1];
     let eval = |spp: u32, max: u32| {
         let settings = EvalSettings {

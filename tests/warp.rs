@@ -29,7 +29,7 @@ fn synthetic_probe(a: Vec3, res: u32, dist: impl Fn(Vec3) -> f32) -> SpecularPro
 /// The warp context of probe `p` with a box proxy [lo, hi] and `options`.
 fn context(p: &SpecularProbe, lo: Vec3, hi: Vec3, options: WarpOptions) -> Warp {
     let proxies = Proxies { aabb: proxy::BoxProxy::aabb(lo, hi), kdop: proxy::Kdop::fit(p.position, p.distance()) };
-    Warp { probe: p.warp_probe(), proxies, options }
+    Warp { probe: p.warp_probe(), others: Default::default(), proxies, options }
 }
 
 /// `warp` with other options.

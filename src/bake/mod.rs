@@ -113,6 +113,11 @@ pub struct Bake {
 }
 
 impl Bake {
+    /// Every probe's position, probe A first.
+    pub fn positions(&self) -> Vec<Vec3> {
+        std::iter::once(&self.probe).chain(&self.others).map(|p| p.position).collect()
+    }
+
     /// The bake's stages' view of it with its scene and tracer.
     pub fn baked<'a>(&'a self, scene: &'a Scene, tracer: &'a Tracer) -> Baked<'a> {
         Baked { scene, tracer, probe: &self.probe, others: &self.others, grid: &self.grid }

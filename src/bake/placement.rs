@@ -3,7 +3,8 @@
 //!
 //! Placement covers sampled reflection hits: from the open position of every cell (its
 //! centre, relocated as its grid probe is), rays in [`HIT_DIRECTIONS`] directions find the
-//! points a reflection there would see, the points the fit's queries are traced to. A
+//! surface points a reflection there would see, the points the fit's queries are traced to
+//! (sky and sphere lights, the same from every probe that sees them, are not counted). A
 //! candidate position (every open cell position) covers a hit when it sees it
 //! (`truth::sees`: a shadow ray). Starting from the fixed probes, each step adds the
 //! candidate that covers the most hits still uncovered (the lowest cell on ties) until the
@@ -93,8 +94,11 @@ pub fn place(renderer: &Renderer, s: &GridSettings) -> Placement {
             (0..HIT_DIRECTIONS).filter_map(move |d| {
                 let mut u = Sampler::new(s.seed, hash_pair(DOMAIN_PLACEMENT, k as u64), d);
                 let dir = uniform_sphere(u.next_2d());
+                // a lamp in front of the geometry: any probe that sees the lamp reads it
+                // right (it is uniform), so only surfaces count
                 let t = truth::first_visible(scene, renderer.tracer, b, dir);
-                t.is_finite().then(|| b + dir * t)
+                let surface = renderer.tracer.closest_hit(b, dir, f32::INFINITY).is_some_and(|h| h.t <= t);
+                (t.is_finite() && surface).then(|| b + dir * t)
             })
         })
         .collect();

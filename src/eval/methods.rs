@@ -5,6 +5,8 @@
 use super::metrics::{error_stats, mean_angle_deg};
 use super::timing;
 use super::validation::ValidationSet;
+use super::engine::EngineBlend;
+use crate::trace::truth::Oracle;
 use crate::runtime::{FittedGrid, SpecularRead};
 use crate::warp::corrective::{Blend, Correctives};
 use crate::warp::glossy::{Aim, Glossy, MipRule};
@@ -78,6 +80,11 @@ pub enum RowKind {
     BestFetch,
     /// The per-query bound: the best point on the query's ray.
     BestAim,
+    /// Of several probes, the fetch towards the true hit from the nearest probe that sees
+    /// it (`truth::Oracle::any`): the bound of choosing a probe and an aim per query.
+    OracleProbes,
+    /// Several probes as engines blend them (`eval::engine`).
+    EngineBlend,
 }
 
 impl RowKind {
@@ -88,7 +95,7 @@ impl RowKind {
             .map(RowKind::Method)
             .chain(CorrectiveVariant::ALL.into_iter().map(RowKind::Grid))
             .chain(SpecularRead::ALL.into_iter().map(RowKind::Runtime))
-            .chain([RowKind::ReprojectDilate, RowKind::BestFetch, RowKind::BestAim])
+            .chain([RowKind::ReprojectDilate, RowKind::BestFetch, RowKind::BestAim, RowKind::OracleProbes, RowKind::EngineBlend])
     }
 
     /// The row's name without the renormalization mark.
@@ -102,6 +109,8 @@ impl RowKind {
             RowKind::Runtime(SpecularRead::ProbeOnly) => "runtime-probe-only",
             RowKind::BestFetch => "best-fetch",
             RowKind::BestAim => "best-aim",
+            RowKind::OracleProbes => "oracle-probes",
+            RowKind::EngineBlend => "engine-blend",
         }
     }
 }
@@ -163,7 +172,10 @@ impl RowId {
     /// A bound rather than a method (`oracle`, `best-fetch`, `best-aim`).
     #[must_use]
     pub fn is_bound(self) -> bool {
-        matches!(self.kind, RowKind::Method(Method::Oracle) | RowKind::BestFetch | RowKind::BestAim)
+        matches!(
+            self.kind,
+            RowKind::Method(Method::Oracle) | RowKind::OracleProbes | RowKind::BestFetch | RowKind::BestAim
+        )
     }
 }
 
@@ -250,6 +262,10 @@ pub struct CorrectiveRow<'a> {
 pub enum Fetch<'a> {
     /// A seed method or the oracle (`reproject` is evaluated apart).
     Method(Method),
+    /// The oracle over several probes (`truth::Oracle::any`).
+    OracleProbes,
+    /// Several probes, box-projected and blended by influence (`eval::engine`).
+    EngineBlend(&'a EngineBlend),
     /// A corrective grid.
     Grid(CorrectiveRow<'a>),
     /// A fitted grid loaded from disk: `FittedGrid::specular` in the given read tier, its
@@ -266,6 +282,8 @@ impl Fetch<'_> {
             Fetch::Method(Method::Box) => "scene bounds as the box; query direction outside it".into(),
             Fetch::Method(Method::Kdop) => "18-DOP fitted to the probe's depth samples".into(),
             Fetch::Method(_) => String::new(),
+            Fetch::OracleProbes => "bound: fetch towards the true hit from the nearest probe that sees it (tracing cost not counted)".into(),
+            Fetch::EngineBlend(_) => "each probe box-projected against a box fitted to its depth, blended by influence volumes with a falloff margin (Lagarde & Zanuttini 2012)".into(),
             Fetch::Grid(r) => r.variant.note().into(),
             Fetch::Runtime(g, read) => {
                 let f16 = g
@@ -323,6 +341,8 @@ impl Row<'_> {
     pub fn id(&self) -> RowId {
         let kind = match self.fetch {
             Fetch::Method(m) => RowKind::Method(m),
+            Fetch::OracleProbes => RowKind::OracleProbes,
+            Fetch::EngineBlend(_) => RowKind::EngineBlend,
             Fetch::Grid(r) => RowKind::Grid(r.variant),
             Fetch::Runtime(_, read) => RowKind::Runtime(read),
         };
@@ -342,9 +362,11 @@ impl Row<'_> {
     /// Fetch vector of query (B, dir) (the oracle's direction given), or `None` for the
     /// runtime, which shades on its own.
     #[inline]
-    fn aim(&self, warp: &Warp, b: Vec3, dir: Vec3, oracle: Vec3, r: f32) -> Option<Aim> {
+    fn aim(&self, warp: &Warp, b: Vec3, dir: Vec3, oracle: Oracle, r: f32) -> Option<Aim> {
         match self.fetch {
-            Fetch::Method(Method::Oracle) => Some(oracle.into()),
+            Fetch::Method(Method::Oracle) => Some(oracle.a.into()),
+            Fetch::OracleProbes => Some(oracle.any),
+            Fetch::EngineBlend(_) => None,
             Fetch::Method(m) => Some(warp.fetch_vector(m, b, dir).into()),
             Fetch::Grid(g) => Some(g.correctives.fetch(g.variant.blend(), warp, b, dir, r)),
             Fetch::Runtime(..) => None,
@@ -353,9 +375,10 @@ impl Row<'_> {
 
     /// The row's radiance for query (B, dir, roughness r).
     #[inline]
-    pub fn estimate(&self, shading: Glossy, b: Vec3, dir: Vec3, oracle: Vec3, r: f32) -> Vec3 {
+    pub fn estimate(&self, shading: Glossy, b: Vec3, dir: Vec3, oracle: Oracle, r: f32) -> Vec3 {
         let l = match (self.fetch, self.aim(shading.warp, b, dir, oracle, r)) {
             (Fetch::Runtime(g, read), _) => g.specular_as(read, b, dir, r),
+            (Fetch::EngineBlend(e), _) => e.radiance(shading, self.rule.unwrap_or(MipRule::Plain), b, dir, r),
             (_, Some(aim)) => shading.radiance(self.rule.unwrap_or(MipRule::Plain), b, dir, aim, r),
             (_, None) => Vec3::ZERO,
         };
@@ -366,7 +389,7 @@ impl Row<'_> {
     }
 
     /// Unit fetch direction of query (B, dir) (the runtime's own for the runtime).
-    fn fetch_dir(&self, warp: &Warp, b: Vec3, dir: Vec3, oracle: Vec3) -> Vec3 {
+    fn fetch_dir(&self, warp: &Warp, b: Vec3, dir: Vec3, oracle: Oracle) -> Vec3 {
         let v = match self.fetch {
             Fetch::Runtime(g, _) => g.fetch_vector(b, dir),
             _ => self.aim(warp, b, dir, oracle, 0.0).map_or(dir, |a| a.v),
@@ -382,7 +405,7 @@ pub fn rows<'a>(
     methods: &[Method],
     grids: &[CorrectiveRow<'a>],
     runtime: Option<&'a FittedGrid>,
-    rules: &[MipRule],
+    (rules, probes): (&[MipRule], Option<&'a EngineBlend>),
     renorm: Option<&'a Renorm<'a>>,
 ) -> Vec<Row<'a>> {
     let rough = rules.len() > 1;
@@ -390,6 +413,12 @@ pub fn rows<'a>(
     let mut out = Vec::new();
     for &m in methods.iter().filter(|&&m| m != Method::Reproject) {
         out.extend(rules.iter().map(|&r| Row { fetch: Fetch::Method(m), rule: rule_of(r), renorm: None }));
+    }
+    if let Some(e) = probes {
+        out.extend(rules.iter().map(|&r| Row { fetch: Fetch::EngineBlend(e), rule: rule_of(r), renorm: None }));
+        if methods.contains(&Method::Oracle) {
+            out.extend(rules.iter().map(|&r| Row { fetch: Fetch::OracleProbes, rule: rule_of(r), renorm: None }));
+        }
     }
     for &g in grids {
         out.extend(rules.iter().map(|&r| Row { fetch: Fetch::Grid(g), rule: rule_of(r), renorm: None }));
@@ -446,7 +475,7 @@ pub fn estimates(row: &Row, shading: Glossy, set: &ValidationSet) -> Vec<Vec3> {
 pub fn estimates_of_first(row: &Row, shading: Glossy, set: &ValidationSet, n: usize) -> Vec<Vec3> {
     (0..n.min(set.dirs.len()))
         .into_par_iter()
-        .map(|k| row.estimate(shading, set.position_of(k), set.dirs[k], set.oracle_dir[k], set.roughness[k]))
+        .map(|k| row.estimate(shading, set.position_of(k), set.dirs[k], set.oracle(k), set.roughness[k]))
         .collect()
 }
 
@@ -464,7 +493,7 @@ pub fn evaluate_row(
     let warp = shading.warp;
     let dirs: Vec<Vec3> = (0..set.dirs.len())
         .into_par_iter()
-        .map(|k| row.fetch_dir(warp, set.position_of(k), set.dirs[k], set.oracle_dir[k]))
+        .map(|k| row.fetch_dir(warp, set.position_of(k), set.dirs[k], set.oracle(k)))
         .collect();
     let r = set.roughness.first().copied().unwrap_or(0.0);
     let lookup = |b, dir, oracle| row.estimate(shading, b, dir, oracle, r);

@@ -21,6 +21,7 @@
 
 pub mod bound;
 pub mod diffuse;
+pub mod engine;
 pub mod methods;
 pub mod metrics;
 pub mod options;
@@ -201,6 +202,10 @@ pub struct EvalReport {
     pub lookups: usize,
     /// Fraction of validation lookups whose true hit is hidden from probe A.
     pub hidden_fraction: f64,
+    /// With several probes: the share of the queries whose true hit no probe sees, and how
+    /// many probes there are.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hidden_fraction_all: Option<(f64, usize)>,
     /// Cost of tracing one reference ray (one radiance sample), single-threaded.
     pub reference_ns_per_ray: f64,
     /// Every row on every roughness bucket (`roughness`, `mip_rule` say which).
@@ -342,19 +347,21 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     let irradiance = judged_irradiance(runtime, grid, &mut from_bake);
     let probe_a = diffuse::probe_irradiance(&warp.probe.radiance);
     let renorm = methods::Renorm { grid: irradiance, probe_a: &probe_a };
+    // several probes: the engines' blend of them, the anchor the runtime is judged against
+    let engine = (warp.probe_count() > 1).then(|| engine::EngineBlend::of(warp));
     let rough = settings.rough_positions > 0 && settings.rough_dirs > 0;
     let buckets: Vec<f32> = ROUGHNESS_BUCKETS.iter().copied().filter(|&r| r == 0.0 || rough).collect();
     let bar = progress.bar(2 + 3 * buckets.len() as u64, "eval");
     bar.set_message("eval: references");
     let mut times = EvalTimes::default();
     let mut laps = Laps(std::time::Instant::now());
-    let mirror = validation_set(scene, tracer, grid, warp.probe.position, settings);
+    let mirror = validation_set(scene, tracer, grid, &warp.probe_positions(), settings);
     let mut reference_rays = mirror.rays;
     laps.lap(&mut times.mirror_references);
     bar.inc(1);
     let views = settings
         .renders
-        .map(|r| renders::views(scene, tracer, &mirror.positions, warp.probe.position, &r))
+        .map(|r| renders::views(scene, tracer, &mirror.positions, &warp.probe_positions(), &r))
         .unwrap_or_default();
     laps.lap(&mut times.view_references);
     // probe A's emitted part, read by every row as it reads probe A (the linear error with
@@ -390,7 +397,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         bar.inc(1);
         bar.set_message(format!("eval: r {r} rows"));
         let rules: &[MipRule] = if r == 0.0 { &[MipRule::Plain] } else { &MipRule::ALL };
-        let rows = methods::rows(methods, corrective_rows, runtime, rules, Some(&renorm));
+        let rows = methods::rows(methods, corrective_rows, runtime, (rules, engine.as_ref()), Some(&renorm));
         let emitted_warp = emitted.as_ref().map(|e| &e.0);
         let timing = if r == 0.0 { lookups } else { (lookups / 4).max(1) };
         let mut results = score_rows(&rows, (shading, emitters), set, (exposure, timing));
@@ -461,6 +468,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         positions: mirror.positions.len(),
         lookups: mirror.dirs.len(),
         hidden_fraction: mirror.hidden_fraction(),
+        hidden_fraction_all: (warp.probe_count() > 1).then(|| (mirror.hidden_fraction_all(), warp.probe_count())),
         reference_ns_per_ray: timing::time_reference(&renderer, &mirror, 4096),
         methods: rows_out,
         buckets: summaries,
@@ -502,13 +510,28 @@ fn emitted_twins(
             };
             let (chain, rays) = crate::bake::probe::emitted_mips(&renderer, &probe, progress);
             reference_rays += rays;
+            // the other probes' emitted parts, each read where the rows read that probe
+            let others: std::sync::Arc<[crate::warp::WarpProbe]> = warp
+                .others
+                .iter()
+                .map(|p| {
+                    let s = crate::bake::probe::ProbeSettings { position: p.position, ..probe };
+                    let (c, rays) = crate::bake::probe::emitted_mips(&renderer, &s, progress);
+                    reference_rays += rays;
+                    let mut p = p.clone();
+                    p.radiance = c;
+                    p
+                })
+                .collect::<Vec<_>>()
+                .into();
             // (a grid whose probe has other mips than the bake's has no twin: its rows report none)
             let sizes = |m: &crate::octa::OctMips<Vec3>| m.levels.iter().map(|l| l.res).collect::<Vec<_>>();
             let grid = runtime.filter(|g| sizes(&g.warp().probe.radiance) == sizes(&chain)).map(|g| {
                 // a grid that blends the cells' irradiance into rough lookups: that
                 // irradiance's emitted part too, for the cells the grid stores
                 let blends = g.roughness().is_some_and(|c| !c.irradiance_nodes().is_empty());
-                g.clone().with_radiance(chain.clone()).with_irradiance(|ir| {
+                let others = others.clone();
+                g.clone().with_radiance(chain.clone()).with_lookup(|w, _, _| w.others = others).with_irradiance(|ir| {
                     let i2 = (ir.resolution * ir.resolution) as usize;
                     if !(blends && i2 == (grid.irradiance_resolution * grid.irradiance_resolution) as usize) {
                         return false;
@@ -527,6 +550,7 @@ fn emitted_twins(
             });
             let mut w = warp.clone();
             w.probe.radiance = chain;
+            w.others = others;
             (w, grid)
         })
     };
@@ -612,7 +636,7 @@ fn surface_probes(
                     .collect::<Vec<_>>(),
                 &[],
                 runtime,
-                &[MipRule::Plain],
+                (&[MipRule::Plain], None),
                 None,
             );
             rows.extend(probe_rows.into_iter().map(surface::SurfaceMethod::Volume));

@@ -55,7 +55,7 @@ impl SurfaceMethod<'_> {
             SurfaceMethod::Atlas(a) => a.radiance(b, dir, r),
             SurfaceMethod::AtlasWarped(a) => a.radiance_warped(b, dir, r),
             // the oracle direction is not used by the rows listed here
-            SurfaceMethod::Volume(row) => row.estimate(shading, b, dir, dir, r),
+            SurfaceMethod::Volume(row) => row.estimate(shading, b, dir, crate::trace::truth::Oracle::plain(dir), r),
         }
     }
 }

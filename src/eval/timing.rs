@@ -2,6 +2,7 @@
 //! after a warm-up, over queries in coherent or random order.
 
 use super::validation::ValidationSet;
+use crate::trace::truth::Oracle;
 use crate::sampling::Sampler;
 use crate::trace::Renderer;
 use crate::warp::Warp;
@@ -37,13 +38,13 @@ pub fn time_queries(
     set: &ValidationSet,
     lookups: usize,
     random: bool,
-    radiance: impl Fn(Vec3, Vec3, Vec3) -> Vec3,
+    radiance: impl Fn(Vec3, Vec3, Oracle) -> Vec3,
 ) -> f64 {
     let order = timing_order(set, random);
     let n = lookups.min(set.dirs.len()).max(1);
     // (B, query dir, oracle dir) laid out in issue order, so the loop times only the lookup.
-    let queries: Vec<(Vec3, Vec3, Vec3)> =
-        order[..n.min(order.len())].iter().map(|&k| (set.position_of(k), set.dirs[k], set.oracle_dir[k])).collect();
+    let queries: Vec<(Vec3, Vec3, Oracle)> =
+        order[..n.min(order.len())].iter().map(|&k| (set.position_of(k), set.dirs[k], set.oracle(k))).collect();
     best_of_three_ns(n, || {
         let mut acc = Vec3::ZERO;
         for &(b, dir, oracle) in &queries {
@@ -59,7 +60,7 @@ pub fn time_fetch(
     warp: &Warp,
     set: &ValidationSet,
     lookups: usize,
-    fetch: impl Fn(Vec3, Vec3, Vec3) -> Vec3,
+    fetch: impl Fn(Vec3, Vec3, Oracle) -> Vec3,
 ) -> (f64, f64) {
     let radiance = |b, dir, oracle| warp.probe.radiance(fetch(b, dir, oracle));
     (time_queries(set, lookups, false, radiance), time_queries(set, lookups, true, radiance))

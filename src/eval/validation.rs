@@ -8,7 +8,8 @@ use super::EvalSettings;
 use crate::bake::ProbeGrid;
 use crate::sampling::{Sampler, hash_pair};
 use crate::scene::Scene;
-use crate::trace::truth::{self, QueryStreams, TracedQueries};
+use crate::trace::truth::{self, Oracle, QueryStreams, TracedQueries};
+use crate::warp::glossy::Aim;
 use crate::trace::{Renderer, Tracer};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -23,6 +24,10 @@ pub struct ValidationSet {
     pub oracle_dir: Vec<Vec3>,
     /// The true hit point is hidden from A: no single fetch of A can be right.
     pub hidden: Vec<bool>,
+    /// Of several probes, the fetch of the nearest that sees the true hit (`Oracle::any`).
+    pub oracle_any: Vec<Aim>,
+    /// The true hit point is hidden from every probe.
+    pub hidden_all: Vec<bool>,
 }
 
 impl std::ops::Deref for ValidationSet {
@@ -36,6 +41,17 @@ impl ValidationSet {
     /// Fraction of the queries whose true hit is hidden from probe A.
     pub fn hidden_fraction(&self) -> f64 {
         self.hidden.iter().filter(|h| **h).count() as f64 / self.hidden.len().max(1) as f64
+    }
+
+    /// Fraction of the queries whose true hit is hidden from every probe.
+    pub fn hidden_fraction_all(&self) -> f64 {
+        self.hidden_all.iter().filter(|h| **h).count() as f64 / self.hidden_all.len().max(1) as f64
+    }
+
+    /// The oracles of query `k`.
+    #[inline]
+    pub fn oracle(&self, k: usize) -> Oracle {
+        Oracle { a: self.oracle_dir[k], any: self.oracle_any[k] }
     }
 }
 
@@ -72,7 +88,7 @@ pub fn validation_set(
     scene: &Scene,
     tracer: &Tracer,
     grid: &ProbeGrid,
-    probe_pos: Vec3,
+    probes: &[Vec3],
     s: &EvalSettings,
 ) -> ValidationSet {
     let renderer = Renderer::new(scene, tracer);
@@ -95,11 +111,17 @@ pub fn validation_set(
     }
     let dpp = s.dirs_per_position as usize;
     let queries = trace_at(&renderer, &positions, (dpp, dpp), s.reference_spp, (s.seed, 0.0, 0));
-    let (oracle_dir, hidden): (Vec<Vec3>, Vec<bool>) = (0..queries.dirs.len())
+    let truths: Vec<(Oracle, bool, bool)> = (0..queries.dirs.len())
         .into_par_iter()
-        .map(|k| truth::oracle(scene, tracer, probe_pos, queries.position_of(k), queries.dirs[k]))
-        .unzip();
-    ValidationSet { queries, oracle_dir, hidden }
+        .map(|k| truth::oracles(scene, tracer, probes, queries.position_of(k), queries.dirs[k]))
+        .collect();
+    ValidationSet {
+        queries,
+        oracle_dir: truths.iter().map(|t| t.0.a).collect(),
+        hidden: truths.iter().map(|t| t.1).collect(),
+        oracle_any: truths.iter().map(|t| t.0.any).collect(),
+        hidden_all: truths.iter().map(|t| t.2).collect(),
+    }
 }
 
 /// A roughness bucket of the validation set: the mirror set's first `positions` positions
@@ -122,7 +144,9 @@ pub fn rough_set(
     let base = |k: usize| (k / dirs) * base_dpp + k % dirs;
     let oracle_dir = (0..queries.dirs.len()).map(|k| mirror.oracle_dir[base(k)]).collect();
     let hidden = (0..queries.dirs.len()).map(|k| mirror.hidden[base(k)]).collect();
-    ValidationSet { queries, oracle_dir, hidden }
+    let oracle_any = (0..queries.dirs.len()).map(|k| mirror.oracle_any[base(k)]).collect();
+    let hidden_all = (0..queries.dirs.len()).map(|k| mirror.hidden_all[base(k)]).collect();
+    ValidationSet { queries, oracle_dir, hidden, oracle_any, hidden_all }
 }
 
 /// Streams of the quiet references: apart from the mirror set's (0) and the rough

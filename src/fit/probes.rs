@@ -84,3 +84,62 @@ pub fn choose(warp: &Warp, origin: Vec3, res: u32, distance: &[f32], hits: &[Hit
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::octa::{OctMap, OctMips};
+    use crate::warp::{Proxies, WarpOptions, proxy};
+
+    /// A probe at `position` that sees a sphere of radius `d` around itself everywhere.
+    fn probe(position: Vec3, d: f32) -> WarpProbe {
+        let distance = OctMips { levels: vec![OctMap::new(8, vec![d; 64])] };
+        let radiance = OctMips { levels: vec![OctMap::new(8, vec![Vec3::ONE; 64])] };
+        WarpProbe::from_distance_mips(position, &distance, radiance, vec![0.0])
+    }
+
+    fn warp(probes: Vec<WarpProbe>) -> Warp {
+        let mut probes = probes.into_iter();
+        let first = probes.next().unwrap();
+        let aabb = proxy::BoxProxy::aabb(Vec3::splat(-100.0), Vec3::splat(100.0));
+        let kdop = proxy::Kdop::fit(first.position, &OctMap::new(8, vec![1.0f32; 64]));
+        Warp {
+            probe: first,
+            others: probes.collect::<Vec<_>>().into(),
+            proxies: Proxies { aabb, kdop },
+            options: WarpOptions::standard(),
+        }
+    }
+
+    #[test]
+    fn a_texel_reads_the_probe_that_sees_its_hits_and_the_nearest_of_equals() {
+        // probe A sees only 1 unit around it, probe 1 (10 away) sees everything
+        let w = warp(vec![probe(Vec3::ZERO, 1.0), probe(Vec3::new(10.0, 0.0, 0.0), f32::INFINITY)]);
+        let res = 4;
+        let dir = Vec3::new(0.3, 0.4, 0.866).normalize();
+        let texel = nearest_tap(&octa::bilinear_taps(res, octa::encode(dir))) as usize;
+        // hits 5 units out: hidden from A, seen by probe 1
+        let far = vec![Hit { b: Vec3::ZERO, dir, t: 5.0 }; 3];
+        // the cell's own distances: 0.5 everywhere (both probes see them)
+        let near = vec![0.5f32; (res * res) as usize];
+        let map = choose(&w, Vec3::ZERO, res, &near, &far);
+        assert_eq!(map[texel], 1, "the far hits are seen by probe 1 alone");
+        // every other texel: both see the cell's own point; probe A is nearer the origin
+        assert!(map.iter().enumerate().all(|(k, &p)| k == texel || p == 0), "{map:?}");
+        // from an origin next to probe 1, the equals go to probe 1
+        let map = choose(&w, Vec3::new(9.0, 0.0, 0.0), res, &vec![f32::INFINITY; 16], &[]);
+        assert!(map.iter().all(|&p| p == 1), "{map:?}");
+        // one probe: nothing stored
+        assert!(choose(&warp(vec![probe(Vec3::ZERO, 1.0)]), Vec3::ZERO, res, &near, &far).is_empty());
+    }
+
+    #[test]
+    fn sky_is_seen_by_a_probe_that_sees_sky_that_way() {
+        let (closed, open) = (probe(Vec3::ZERO, 2.0), probe(Vec3::ZERO, f32::INFINITY));
+        let sky = Hit { b: Vec3::ZERO, dir: Vec3::Y, t: f32::INFINITY };
+        assert!(!sees(&closed, &sky) && sees(&open, &sky));
+        // a point exactly at the probe is seen; a NaN distance never panics
+        assert!(sees(&closed, &Hit { b: Vec3::ZERO, dir: Vec3::Y, t: 0.0 }));
+        let _ = sees(&closed, &Hit { b: Vec3::ZERO, dir: Vec3::Y, t: f32::NAN });
+    }
+}

@@ -379,7 +379,7 @@ pub fn fit_scene_correction(
         })
         .collect();
     let rules = Rules { lobe_fit, c0, exponents: &exponents };
-    let views = perceptual::views(baked.scene, baked.tracer, &held_positions, warp.probe.position, &VIEWS);
+    let views = perceptual::views(baked.scene, baked.tracer, &held_positions, &warp.probe_positions(), &VIEWS);
     let rows: Vec<(RowChoice, f32)> = ROUGH_MIX
         .iter()
         .enumerate()

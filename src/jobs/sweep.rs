@@ -93,12 +93,12 @@ pub fn sweep(
         let baked = bake.baked(scene, &tracer);
         // the validation set depends on the grid and the probe position only: one for all rows
         let set = set.get_or_insert_with(|| {
-            eval::validation_set(scene, &tracer, &bake.grid, bake.probe.position, eval_settings)
+            eval::validation_set(scene, &tracer, &bake.grid, &bake.positions(), eval_settings)
         });
         let (exposure, view_refs) = views.get_or_insert_with(|| {
             let exposure = bake.probe.warp_probe().key_exposure();
             let rs = eval_settings.renders.unwrap_or(RenderSettings::standard());
-            let vs = renders::views(scene, &tracer, &set.positions, bake.probe.position, &rs);
+            let vs = renders::views(scene, &tracer, &set.positions, &bake.positions(), &rs);
             let refs = FLIP_ROUGHNESS
                 .iter()
                 .enumerate()

@@ -11,7 +11,8 @@ pub mod flip;
 use crate::octa;
 use crate::sampling::{Sampler, hash_pair, uniform_sphere};
 use crate::scene::Scene;
-use crate::trace::{Renderer, Tracer, truth};
+use crate::trace::truth::{self, Oracle};
+use crate::trace::{Renderer, Tracer};
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -57,7 +58,7 @@ enum Pixel {
     Query {
         b: Vec3,
         dir: Vec3,
-        oracle: Vec3,
+        oracle: Oracle,
         normal: Vec3,
     },
     Background(Vec3),
@@ -119,13 +120,13 @@ pub fn open_position(tracer: &Tracer, positions: &[Vec3], skip: usize) -> Option
     candidates.get(skip).copied()
 }
 
-/// The views of a scene from the most open of `positions` (probe A at `a`, for the
-/// pixels' oracle fetches): the cameras, then the spheres of directions.
-pub fn views(scene: &Scene, tracer: &Tracer, positions: &[Vec3], a: Vec3, s: &RenderSettings) -> Vec<View> {
+/// The views of a scene from the most open of `positions` (the probes at `probes`, probe A
+/// first, for the pixels' oracle fetches): the cameras, then the spheres of directions.
+pub fn views(scene: &Scene, tracer: &Tracer, positions: &[Vec3], probes: &[Vec3], s: &RenderSettings) -> Vec<View> {
     let mut out = Vec::new();
     for k in 0..s.cameras as usize {
         let Some(eye) = open_position(tracer, positions, k) else { break };
-        out.push(camera_view(scene, tracer, a, eye, s));
+        out.push(camera_view(scene, tracer, probes, eye, s));
     }
     for k in 0..s.spheres as usize {
         let Some(b) = open_position(tracer, positions, k) else { break };
@@ -133,7 +134,7 @@ pub fn views(scene: &Scene, tracer: &Tracer, positions: &[Vec3], a: Vec3, s: &Re
         let pixels = (0..n * n)
             .map(|t| {
                 let dir = octa::texel_dir(n, t % n, t / n);
-                Pixel::Query { b, dir, oracle: truth::oracle(scene, tracer, a, b, dir).0, normal: dir }
+                Pixel::Query { b, dir, oracle: truth::oracles(scene, tracer, probes, b, dir).0, normal: dir }
             })
             .collect();
         out.push(View {
@@ -148,7 +149,7 @@ pub fn views(scene: &Scene, tracer: &Tracer, positions: &[Vec3], a: Vec3, s: &Re
 }
 
 /// The camera: at `eye`, looking 20° down along the most open near-horizontal direction.
-fn camera_view(scene: &Scene, tracer: &Tracer, a: Vec3, eye: Vec3, s: &RenderSettings) -> View {
+fn camera_view(scene: &Scene, tracer: &Tracer, probes: &[Vec3], eye: Vec3, s: &RenderSettings) -> View {
     let far = |d: Vec3| tracer.closest_hit(eye, d, f32::INFINITY).map_or(1e30, |h| h.t);
     let look = (0..64u32)
         .map(|k| {
@@ -174,7 +175,7 @@ fn camera_view(scene: &Scene, tracer: &Tracer, a: Vec3, eye: Vec3, s: &RenderSet
                     let n = if hit.normal.dot(ray) > 0.0 { -hit.normal } else { hit.normal };
                     let b = hit.position + n * tracer.surface_offset(hit.position);
                     let dir = (ray - 2.0 * ray.dot(n) * n).normalize_or(n);
-                    Pixel::Query { b, dir, oracle: truth::oracle(scene, tracer, a, b, dir).0, normal: n }
+                    Pixel::Query { b, dir, oracle: truth::oracles(scene, tracer, probes, b, dir).0, normal: n }
                 }
                 Some(_) => Pixel::Background(Vec3::ZERO),
                 None => Pixel::Background(scene.sky.radiance(ray)),
@@ -242,7 +243,7 @@ pub fn lobe_halves(
 /// What a lookup renders for a view: `estimate(b, dir, oracle)` per query pixel (the
 /// surface point, the unit reflected direction, the oracle's fetch direction into probe A),
 /// the background's radiance elsewhere.
-pub fn render(v: &ViewReference, estimate: impl Fn(Vec3, Vec3, Vec3) -> Vec3 + Sync) -> Vec<Vec3> {
+pub fn render(v: &ViewReference, estimate: impl Fn(Vec3, Vec3, Oracle) -> Vec3 + Sync) -> Vec<Vec3> {
     v.view
         .pixels
         .par_iter()
@@ -268,7 +269,7 @@ pub fn flip_map(v: &ViewReference, image: &[Vec3], exposure: f32) -> Vec<f32> {
 pub fn mean_flip(
     views: &[ViewReference],
     exposure: f32,
-    estimate: impl Fn(f32, Vec3, Vec3, Vec3) -> Vec3 + Sync,
+    estimate: impl Fn(f32, Vec3, Vec3, Oracle) -> Vec3 + Sync,
 ) -> f64 {
     let (mut sum, mut n) = (0.0, 0usize);
     for v in views {
@@ -285,7 +286,7 @@ pub fn flip_tiles(
     views: &[ViewReference],
     exposure: f32,
     tile: u32,
-    estimate: impl Fn(f32, Vec3, Vec3, Vec3) -> Vec3 + Sync,
+    estimate: impl Fn(f32, Vec3, Vec3, Oracle) -> Vec3 + Sync,
 ) -> Vec<Tile> {
     views
         .iter()

@@ -314,6 +314,13 @@ pub fn write_eval(folder: &RunFolder, r: &EvalReport) -> Result<(), FileError> {
         "Hidden fraction (true hit not visible from probe A; no single fetch of A can fix these): **{:.1}%**.\n",
         100.0 * r.hidden_fraction
     );
+    if let Some((all, k)) = r.hidden_fraction_all {
+        let _ = writeln!(
+            md,
+            "With all {k} probes (true hit visible from none of them; `oracle-probes` fetches the nearest that sees it): **{:.1}%**.\n",
+            100.0 * all
+        );
+    }
     let _ = writeln!(
         md,
         "A reference ray (one radiance sample, with shadow and bounce rays) costs {:.0} ns single-threaded.\n",

@@ -8,6 +8,7 @@ use super::{Renderer, Tracer};
 use crate::sampling::{Sampler, hash_pair, uniform_sphere};
 use crate::scene::Scene;
 use crate::tonemap::luminance;
+use crate::warp::glossy::Aim;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -36,6 +37,53 @@ pub fn oracle(scene: &Scene, tracer: &Tracer, a: Vec3, b: Vec3, dir: Vec3) -> (V
     }
     let p = b + dir * t;
     (crate::warp::toward(a, p, dir), !sees(scene, tracer, a, p))
+}
+
+/// Where the oracles fetch for one query: probe A towards the true hit (`a`; the query
+/// direction on a miss), and, of several probes, the nearest to the query that sees the
+/// true hit, towards it (`any`; probe A's fetch when none sees it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Oracle {
+    pub a: Vec3,
+    pub any: Aim,
+}
+
+impl Oracle {
+    /// The oracles of a query with no known hit: its own direction from probe A.
+    #[must_use]
+    pub fn plain(dir: Vec3) -> Oracle {
+        Oracle { a: dir, any: dir.into() }
+    }
+}
+
+/// The oracles of query (B, dir) over the probes at `probes` (probe A first; see
+/// [`Oracle`]), and whether its true hit is hidden from probe A and from every probe.
+#[must_use]
+pub fn oracles(scene: &Scene, tracer: &Tracer, probes: &[Vec3], b: Vec3, dir: Vec3) -> (Oracle, bool, bool) {
+    let Some(&a) = probes.first() else {
+        return (Oracle::plain(dir), false, false);
+    };
+    let (to_a, hidden_a) = oracle(scene, tracer, a, b, dir);
+    let mut out = Oracle { a: to_a, any: to_a.into() };
+    if !hidden_a && probes.len() == 1 {
+        return (out, false, false);
+    }
+    let t = first_visible(scene, tracer, b, dir);
+    if a == b || !t.is_finite() {
+        return (out, hidden_a, hidden_a);
+    }
+    let p = b + dir * t;
+    // the probes nearest the query first (ties in index order)
+    let mut order: Vec<usize> = (0..probes.len()).collect();
+    order.sort_by(|&i, &j| (probes[i] - b).length_squared().total_cmp(&(probes[j] - b).length_squared()).then(i.cmp(&j)));
+    for i in order {
+        let seen = if i == 0 { !hidden_a } else { sees(scene, tracer, probes[i], p) };
+        if seen {
+            out.any = Aim { v: crate::warp::toward(probes[i], p, dir), k: None, probe: i as u8 };
+            return (out, hidden_a, false);
+        }
+    }
+    (out, hidden_a, true)
 }
 
 /// Whether a probe at `a` sees point `p` (a surface point: the last thousandth of the way is

@@ -125,7 +125,7 @@ impl SmallTorture {
         let quiet = warpfit::progress::Progress::quiet();
         let baked = warpfit::bake::bake(&scene, &tracer, &quiet);
         let (probe, grid) = (baked.probe, baked.grid);
-        let b = job::Baked { scene: &scene, tracer: &tracer, probe: &probe, grid: &grid };
+        let b = job::Baked { scene: &scene, tracer: &tracer, probe: &probe, others: &[], grid: &grid };
         let warp = b.warp(warpfit::warp::WarpOptions::standard());
         let out = Output { folder: &warpfit::report::folder::RunFolder::new(dir), command: "test", progress: &quiet };
         let (fit, _) = job::fit(
@@ -142,6 +142,6 @@ impl SmallTorture {
 
     /// The bake, as the jobs take it.
     pub fn baked(&self) -> warpfit::jobs::run::Baked<'_> {
-        warpfit::jobs::run::Baked { scene: &self.scene, tracer: &self.tracer, probe: &self.probe, grid: &self.grid }
+        warpfit::jobs::run::Baked { scene: &self.scene, tracer: &self.tracer, probe: &self.probe, others: &[], grid: &self.grid }
     }
 }

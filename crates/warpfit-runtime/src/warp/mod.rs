@@ -316,6 +316,12 @@ impl Warp {
         out
     }
 
+    /// Every probe's position, probe A first.
+    #[must_use]
+    pub fn probe_positions(&self) -> Vec<Vec3> {
+        std::iter::once(&self.probe).chain(self.others.iter()).map(|p| p.position).collect()
+    }
+
     /// How many probes a lookup can read (probe A and the others).
     #[inline]
     #[must_use]
