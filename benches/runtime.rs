@@ -6,6 +6,9 @@
 //! Uses `fits/torture` (written by `cargo run --release -- run`); if it is missing or
 //! unreadable, fits the torture scene first into a temporary folder (about a minute).
 //!
+//! `WARPFIT_BENCH_GRIDS=DIR[,DIR…]` benches those fitted grids instead, each in a group
+//! named by its folder (to compare two grids, say one probe against several, in one run).
+//!
 //! Run: `cargo bench --bench runtime`
 
 #[path = "common/mod.rs"]
@@ -19,8 +22,20 @@ use warpfit::runtime::{FittedGrid, SpecularRead};
 use warpfit::warp::{self, Method};
 
 fn runtime(c: &mut Criterion) {
-    let dir = fitted_torture();
-    let grid = FittedGrid::load(&dir).unwrap();
+    let dirs: Vec<std::path::PathBuf> = match std::env::var("WARPFIT_BENCH_GRIDS") {
+        Ok(list) => list.split(',').filter(|s| !s.is_empty()).map(std::path::PathBuf::from).collect(),
+        Err(_) => vec![fitted_torture()],
+    };
+    for dir in dirs {
+        bench_grid(c, &dir);
+    }
+}
+
+/// The runtime's benches on the fitted grid in `dir`.
+fn bench_grid(c: &mut Criterion, dir: &std::path::Path) {
+    let name = dir.file_name().map_or("grid".into(), |n| n.to_string_lossy().into_owned());
+    let group = if name == "torture" { "runtime/torture".to_string() } else { format!("runtime/{name}") };
+    let grid = FittedGrid::load(dir).unwrap();
     let m = &grid.manifest();
     let stored = m.correctives.as_ref().map_or(0, |c| c.stored_cells.len());
     let disk: u64 = m.payloads.iter().map(|p| p.bytes).sum();
@@ -34,7 +49,7 @@ fn runtime(c: &mut Criterion) {
         m.correctives.as_ref().map_or(0, |c| c.map_res * c.map_res * 4)
     );
     let q = common::queries(&grid, 64, 256);
-    let mut g = c.benchmark_group("runtime/torture");
+    let mut g = c.benchmark_group(group);
     g.throughput(Throughput::Elements(q.len() as u64));
     g.sample_size(20);
     g.bench_function("warp1", |b| {
@@ -98,7 +113,7 @@ fn runtime(c: &mut Criterion) {
     g.finish();
     let mut g = c.benchmark_group("load");
     g.sample_size(10);
-    g.bench_function("fits/torture", |b| b.iter(|| black_box(FittedGrid::load(&dir).unwrap().memory_bytes())));
+    g.bench_function(format!("fits/{name}"), |b| b.iter(|| black_box(FittedGrid::load(dir).unwrap().memory_bytes())));
     g.finish();
 }
 

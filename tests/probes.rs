@@ -207,3 +207,22 @@ fn the_probes_table_is_validated_with_named_errors() {
     let plain = parse("[[geometry]]\ntype = \"room\"\nmin = [-1.0, 0.0, -1.0]\nmax = [1.0, 2.0, 1.0]").unwrap();
     assert!(plain.config.probes.is_single() && !plain.config.probes.auto);
 }
+
+#[test]
+fn the_export_refuses_a_grid_of_several_probes_by_name() {
+    let scene = two_rooms("positions = [[2.0, 1.2, 0.0]]");
+    let tracer = Tracer::new(&scene);
+    let quiet = Progress::quiet();
+    let bake = warpfit::bake::bake(&scene, &tracer, &quiet);
+    let dir = tmp_dir("probes-export");
+    let folder = RunFolder::new(dir.join("grid"));
+    let b = bake.baked(&scene, &tracer);
+    let warp = b.warp(warpfit::warp::WarpOptions::standard());
+    let out = Output { folder: &folder, command: "test", progress: &quiet };
+    job::fit(b, &warp, &warpfit::fit::FitSettings::quick(), StoreOptions::default(), warpfit::fit::MapSets::Stored, out)
+        .unwrap();
+    let grid = FittedGrid::load(dir.join("grid")).unwrap();
+    let e = warpfit::export::export(&grid, &dir.join("export")).unwrap_err().to_string();
+    assert!(e.contains("2 specular probes") && e.contains("CPU runtime"), "{e}");
+    assert!(!dir.join("export").exists(), "nothing is written");
+}

@@ -36,8 +36,16 @@ fn the_committed_fit_keeps_loading_with_the_same_answers() {
     // A format change that breaks this grid must bump GRID_VERSION knowingly and re-fit
     // fits/tiny (`warpfit fit --scene data/scenes/tiny.toml --out fits/tiny --train-positions 8
     // --train-dirs 64`, then WARPFIT_BLESS=1 cargo test --test runtime), keeping the grid of
-    // the oldest version still read beside it: fits/tiny_v4 (one map per cell) never changes.
-    for (dir, version, bless) in [(tiny(), GRID_VERSION, true), (repo().join("fits/tiny_v4"), 4, false)] {
+    // the older versions still read beside it: fits/tiny_v5 (probe A alone) and fits/tiny_v4
+    // (one map per cell) never change. fits/tiny_probes is the same room with a second
+    // probe (`data/scenes/tiny_probes.toml`, fitted the same way).
+    let grids = [
+        (tiny(), GRID_VERSION, true),
+        (repo().join("fits/tiny_probes"), GRID_VERSION, true),
+        (repo().join("fits/tiny_v5"), 5, false),
+        (repo().join("fits/tiny_v4"), 4, false),
+    ];
+    for (dir, version, bless) in grids {
         let g = FittedGrid::load(&dir).unwrap_or_else(|e| panic!("{} loads: {e}", dir.display()));
         assert_eq!(g.manifest().version, version, "{}", dir.display());
         assert_eq!(g.correctives().has_rough_maps(), version >= 5, "{}: rough maps", dir.display());

@@ -239,6 +239,17 @@ fn write_atlas<const C: usize>(
 
 /// Exports the fitted grid `grid` into `dir` (created; files written atomically).
 pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
+    let probes = grid.warp().probe_count();
+    if probes > 1 {
+        // refused rather than exported wrong: the textures and the shader hold probe A alone
+        return Err(FileError::invalid(
+            dir,
+            "other_probes",
+            format!(
+                "the grid has {probes} specular probes, and the KTX2 export and the reference shader read probe A alone so far: load it with the CPU runtime (FittedGrid), which reads every probe, or export a fit of the scene without [probes]"
+            ),
+        ));
+    }
     std::fs::create_dir_all(dir).map_err(FileError::io(dir))?;
     let p = &grid.warp().probe;
     let rgba = |v: Vec3| [v.x, v.y, v.z, 1.0];

@@ -37,7 +37,7 @@ use super::Solver;
 use crate::octa::{self, LANES, wrap_texel};
 use crate::tonemap::reinhard;
 use crate::warp::corrective::{AimLanes, nearest_tap, sample_map, sample_maps, shifted_aim};
-use crate::warp::glossy::{Aim, Glossy, MipRule, corrected_lanes};
+use crate::warp::glossy::{Aim, Glossy, MipRule, corrected_lanes, corrected_lanes_of};
 use crate::warp::{Level1, Method, Warp};
 use argmin::core::{CostFunction, Error, Executor, Gradient, State};
 use argmin::solver::brent::BrentOpt;
@@ -435,10 +435,15 @@ impl<'a> CellProblem<'a> {
         let aims = AimLanes::shifted_from(&a, &t, &has_t, &delta, &b, d);
         let est = if r.iter().all(|&r| r == 0.0) {
             let uv = octa::encode_soa(&aims.vectors());
-            warp.by_probe(&probe, |p| p.radiance.levels[0].bilinear_uv_lanes(&uv))
+            warp.by_probe(
+                &probe,
+                |p| p.radiance.levels[0].bilinear_uv_lanes(&uv),
+                |ps| octa::OctMap::bilinear_uv_lanes_of(&std::array::from_fn(|l| &ps[l].radiance.levels[0]), &uv),
+            )
         } else {
             let (v, k) = aims.vectors_and_ratios();
-            warp.by_probe(&probe, |p| corrected_lanes(p, self.glossy.correction, &r, &v, &k))
+            let c = self.glossy.correction;
+            warp.by_probe(&probe, |p| corrected_lanes(p, c, &r, &v, &k), |ps| corrected_lanes_of(ps, c, &r, &v, &k))
         };
         let mut e = [0.0f64; LANES];
         for l in 0..LANES {

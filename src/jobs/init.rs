@@ -27,6 +27,30 @@ pub struct Init {
     pub counts: [u32; 3],
 }
 
+/// The `[probes]` table of the scene `init` writes: probe A at `probe` and the grid
+/// (`min`, `max`, `counts`), more probes placed as a bake's automatic placement places them
+/// (`bake::placement`), written out as positions an artist can move; empty when probe A
+/// alone sees the level.
+fn placed_probes(scene: &Scene, tracer: &Tracer, probe: Vec3, (min, max, counts): (Vec3, Vec3, [u32; 3])) -> String {
+    let mut s = scene.clone();
+    s.config.probe.position = probe.to_array();
+    (s.config.grid.min, s.config.grid.max, s.config.grid.counts) = (min.to_array(), max.to_array(), counts);
+    s.config.probes.auto = true;
+    let renderer = crate::trace::Renderer::new(&s, tracer);
+    let p = crate::bake::placement::place(&renderer, &crate::bake::grid_settings(&s));
+    if p.placed == 0 {
+        return String::new();
+    }
+    let list: Vec<String> = p.positions[1..].iter().map(|q| format!("[{:.4}, {:.4}, {:.4}]", q.x, q.y, q.z)).collect();
+    format!(
+        "# More specular probes: probe A alone misses {:.0}% of the level's sampled reflection hits;\n# with these {} it misses {:.0}% (placed greedily where they see most of what is missed).\n[probes]\npositions = [{}]\n\n",
+        100.0 * p.hidden_probe_a,
+        p.placed,
+        100.0 * p.hidden,
+        list.join(", ")
+    )
+}
+
 /// The TOML line that loads `mesh`, as the scene file refers to it.
 fn geometry_entry(mesh: &Path, kind: &str) -> String {
     format!("[[geometry]]\ntype = \"{kind}\"\npath = {:?}\n", mesh.display().to_string())
@@ -146,6 +170,7 @@ pub fn init(mesh: &Path, mesh_as_written: &Path, cell_size: f32) -> Result<Init,
     );
     t += &probe_text(probe, gmin, gmax, counts);
     t += "\n";
+    t += &placed_probes(&scene, &tracer, probe, (gmin, gmax, counts));
     if has_lights {
         let _ = writeln!(
             t,

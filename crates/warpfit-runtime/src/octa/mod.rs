@@ -423,6 +423,23 @@ impl<T: Texel> OctMap<T> {
         out
     }
 
+    /// [`Self::bilinear_uv_lanes`] with lane k reading map `maps[k]`: bit for bit what each
+    /// lane's own map answers (several probes, each lane reading its own).
+    #[inline(always)]
+    #[must_use]
+    pub fn bilinear_uv_lanes_of(maps: &[&OctMap<T>; LANES], uv: &UvLanes) -> [T; LANES] {
+        let (mut i0, mut j0) = ([0i32; LANES], [0i32; LANES]);
+        let (mut fx, mut fy) = ([0f32; LANES], [0f32; LANES]);
+        for k in 0..LANES {
+            (i0[k], j0[k], fx[k], fy[k]) = footprint_of(maps[k].res as f32, uv.u[k], uv.v[k]);
+        }
+        let mut out = [T::default(); LANES];
+        for k in 0..LANES {
+            out[k] = blend(maps[k].quad(i0[k], j0[k]), fx[k], fy[k]);
+        }
+        out
+    }
+
     /// Bilinear lookup towards `dir`.
     #[inline]
     #[must_use]
@@ -585,6 +602,38 @@ impl<T: Texel> OctMips<T> {
             let b = blend(self.levels[l1[k]].quad(at[2][k], at[3][k]), frac[2][k], frac[3][k]);
             // `lod_blend`'s choice: the lower mip alone at a whole lod or the chain's end
             out[k] = if (f[k] == 0.0) | (l0[k] >= last) { a } else { a * (1.0 - f[k]) + b * f[k] };
+        }
+        out
+    }
+
+    /// [`Self::sample_each_lod_uv_lanes`] with lane k reading chain `chains[k]`: bit for bit
+    /// what each lane's own chain answers (several probes, each lane reading its own).
+    #[inline]
+    #[must_use]
+    pub fn sample_each_lod_uv_lanes_of(chains: &[&OctMips<T>; LANES], uv: &UvLanes, lod: &[f32; LANES]) -> [T; LANES] {
+        // the stages of `sample_each_lod_uv_lanes`, each lane on its own chain
+        let (mut l0, mut l1, mut f, mut last) = ([0usize; LANES], [0usize; LANES], [0.0f32; LANES], [0usize; LANES]);
+        for k in 0..LANES {
+            last[k] = chains[k].levels.len().saturating_sub(1);
+            (l0[k], f[k]) = chains[k].split_lod(lod[k]);
+            l1[k] = (l0[k] + 1).min(last[k]);
+        }
+        let (mut m0, mut m1): ([&OctMap<T>; LANES], [&OctMap<T>; LANES]) =
+            (std::array::from_fn(|k| &chains[k].levels[0]), std::array::from_fn(|k| &chains[k].levels[0]));
+        for k in 0..LANES {
+            (m0[k], m1[k]) = (&chains[k].levels[l0[k]], &chains[k].levels[l1[k]]);
+        }
+        let mut at = [[0i32; LANES]; 4];
+        let mut frac = [[0.0f32; LANES]; 4];
+        for k in 0..LANES {
+            (at[0][k], at[1][k], frac[0][k], frac[1][k]) = footprint_of(m0[k].res as f32, uv.u[k], uv.v[k]);
+            (at[2][k], at[3][k], frac[2][k], frac[3][k]) = footprint_of(m1[k].res as f32, uv.u[k], uv.v[k]);
+        }
+        let mut out = [T::default(); LANES];
+        for k in 0..LANES {
+            let a = blend(m0[k].quad(at[0][k], at[1][k]), frac[0][k], frac[1][k]);
+            let b = blend(m1[k].quad(at[2][k], at[3][k]), frac[2][k], frac[3][k]);
+            out[k] = if (f[k] == 0.0) | (l0[k] >= last[k]) { a } else { a * (1.0 - f[k]) + b * f[k] };
         }
         out
     }

@@ -13,7 +13,7 @@ use crate::octa;
 use crate::roughness::RoughnessCorrection;
 use crate::warp::Warp;
 use crate::warp::corrective::{Blend, Correctives};
-use crate::warp::glossy::{Aim, MipRule, corrected_lanes, glossy_radiance};
+use crate::warp::glossy::{Aim, MipRule, corrected_lanes, corrected_lanes_of, glossy_radiance};
 use glam::Vec3;
 use std::path::Path;
 
@@ -303,12 +303,20 @@ impl FittedGrid {
             // mirror lanes: the fetch vectors alone
             let (v, probe) = self.correctives.fetch_vector_lanes(self.blend, &self.warp, b, dir);
             let uv = octa::encode_soa(&v);
-            self.warp.by_probe(&probe, |p| p.radiance.levels[0].bilinear_uv_lanes(&uv))
+            self.warp.by_probe(
+                &probe,
+                |p| p.radiance.levels[0].bilinear_uv_lanes(&uv),
+                |ps| octa::OctMap::bilinear_uv_lanes_of(&std::array::from_fn(|k| &ps[k].radiance.levels[0]), &uv),
+            )
         } else {
             // probe A's part, then the irradiance blend lane by lane (`irradiance_blend`)
             let (v, ratio, probe) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &r);
-            let mut out =
-                self.warp.by_probe(&probe, |p| corrected_lanes(p, self.roughness.as_ref(), &r, &v, &ratio));
+            let c = self.roughness.as_ref();
+            let mut out = self.warp.by_probe(
+                &probe,
+                |p| corrected_lanes(p, c, &r, &v, &ratio),
+                |ps| corrected_lanes_of(ps, c, &r, &v, &ratio),
+            );
             let w: [f32; octa::LANES] = std::array::from_fn(|k| self.irradiance_weight(self.read, r[k]));
             if w.iter().any(|&w| w > 0.0) {
                 self.irradiance_sh.mix_lanes(b, dir, &w, &mut out);

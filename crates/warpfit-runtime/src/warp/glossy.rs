@@ -238,6 +238,50 @@ pub fn corrected_lanes(
     probe.radiance.sample_each_lod_uv_lanes(&uv, &lod)
 }
 
+/// [`corrected_lanes`] with lane l reading probe `probes[l]` (several probes), bit for bit
+/// what each lane's own probe answers.
+#[inline(always)]
+#[must_use]
+pub fn corrected_lanes_of(
+    probes: &[&WarpProbe; octa::LANES],
+    correction: Option<&RoughnessCorrection>,
+    r: &[f32; octa::LANES],
+    v: &octa::Soa3,
+    k: &[f32; octa::LANES],
+) -> [Vec3; octa::LANES] {
+    let uv = octa::encode_soa(v);
+    let lod = corrected_lods(probes, correction, r, k);
+    let chains: [&octa::OctMips<Vec3>; octa::LANES] = std::array::from_fn(|l| &probes[l].radiance);
+    octa::OctMips::sample_each_lod_uv_lanes_of(&chains, &uv, &lod)
+}
+
+/// Each lane's radiance mip under the `Corrected` rule (a mirror lane reads mip 0), lane l
+/// on probe `probes[l]`'s chain.
+#[inline(always)]
+fn corrected_lods(
+    probes: &[&WarpProbe; octa::LANES],
+    correction: Option<&RoughnessCorrection>,
+    r: &[f32; octa::LANES],
+    k: &[f32; octa::LANES],
+) -> [f32; octa::LANES] {
+    let rough = match correction {
+        None => *r,
+        Some(c) => c.corrected_roughness_lanes(r, k),
+    };
+    let mut lod = [0.0f32; octa::LANES];
+    for l in 0..octa::LANES {
+        lod[l] = match probes[l].uniform_lods {
+            // `lod_of_roughness`'s evenly spaced chain
+            Some(n) => lod_on_even_chain(rough[l], n),
+            None => probes[l].lod_of_roughness(rough[l]),
+        };
+        if r[l] == 0.0 {
+            lod[l] = 0.0;
+        }
+    }
+    lod
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

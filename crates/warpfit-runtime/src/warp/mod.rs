@@ -287,33 +287,26 @@ impl Warp {
         if k == 0 { &self.probe } else { self.others.get(k - 1).unwrap_or(&self.probe) }
     }
 
-    /// `read` of each lane's probe (`probe[k]`, as [`Warp::probe_at`]) for [`LANES`] lanes:
-    /// one call when every lane reads one probe, else one per probe the lanes read, each
-    /// lane taking its own probe's answer (bit for bit what `read` gives that lane alone).
+    /// Each lane's read of its own probe (`probe[k]`, as [`Warp::probe_at`]) for [`LANES`]
+    /// lanes: `one` on that probe when every lane reads one probe (the usual case, and the
+    /// only one with a single probe), else `each` on the lanes' probes; both give each lane
+    /// what a lookup of its probe alone gives, bit for bit.
     #[inline(always)]
-    pub fn by_probe<T: Copy>(&self, probe: &[u8; LANES], read: impl Fn(&WarpProbe) -> [T; LANES]) -> [T; LANES] {
+    pub fn by_probe<T>(
+        &self,
+        probe: &[u8; LANES],
+        one: impl FnOnce(&WarpProbe) -> [T; LANES],
+        each: impl FnOnce(&[&WarpProbe; LANES]) -> [T; LANES],
+    ) -> [T; LANES] {
         let first = probe[0];
-        let mut out = read(self.probe_at(first.into()));
-        if probe.iter().all(|&p| p == first) {
-            return out;
-        }
-        let mut done = [false; LANES];
+        let mut same = true;
         for k in 0..LANES {
-            done[k] = probe[k] == first;
+            same &= probe[k] == first;
         }
-        for k in 0..LANES {
-            if done[k] {
-                continue;
-            }
-            let p = probe[k];
-            let got = read(self.probe_at(p.into()));
-            for j in k..LANES {
-                if probe[j] == p {
-                    (out[j], done[j]) = (got[j], true);
-                }
-            }
+        if same {
+            return one(self.probe_at(first.into()));
         }
-        out
+        each(&std::array::from_fn(|k| self.probe_at(probe[k].into())))
     }
 
     /// Every probe's position, probe A first.
