@@ -49,6 +49,9 @@ fn the_committed_fit_keeps_loading_with_the_same_answers() {
         let g = FittedGrid::load(&dir).unwrap_or_else(|e| panic!("{} loads: {e}", dir.display()));
         assert_eq!(g.manifest().version, version, "{}", dir.display());
         assert_eq!(g.correctives().has_rough_maps(), version >= 5, "{}: rough maps", dir.display());
+        let several = dir.ends_with("tiny_probes");
+        assert_eq!(g.warp().probe_count(), if several { 2 } else { 1 }, "{}: probes", dir.display());
+        assert_eq!(!g.correctives().probe_maps.is_empty(), several, "{}: probe maps", dir.display());
         // the manifest states the blend the runtime applies
         let rule = g.manifest().correctives.as_ref().and_then(|c| c.rough_maps.clone());
         assert_eq!(rule, (version >= 5).then(warpfit::gridfile::rough_map_encoding), "{}", dir.display());
