@@ -165,8 +165,15 @@ fn several_probes_are_refused_when_a_file_or_field_is_wrong() {
     let b = bake.baked(&scene, &tracer);
     let warp = b.warp(warpfit::warp::WarpOptions::standard());
     let out = Output { folder: &folder, command: "test", progress: &quiet };
-    job::fit(b, &warp, &warpfit::fit::FitSettings::quick(), StoreOptions::default(), warpfit::fit::MapSets::Stored, out)
-        .unwrap();
+    job::fit(
+        b,
+        &warp,
+        &warpfit::fit::FitSettings::quick(),
+        StoreOptions::default(),
+        warpfit::fit::MapSets::Stored,
+        out,
+    )
+    .unwrap();
     FittedGrid::load(&*dir).unwrap();
     let manifest_path = dir.join("manifest.json");
     let original = std::fs::read_to_string(&manifest_path).unwrap();
@@ -219,8 +226,15 @@ fn the_export_refuses_a_grid_of_several_probes_by_name() {
     let b = bake.baked(&scene, &tracer);
     let warp = b.warp(warpfit::warp::WarpOptions::standard());
     let out = Output { folder: &folder, command: "test", progress: &quiet };
-    job::fit(b, &warp, &warpfit::fit::FitSettings::quick(), StoreOptions::default(), warpfit::fit::MapSets::Stored, out)
-        .unwrap();
+    job::fit(
+        b,
+        &warp,
+        &warpfit::fit::FitSettings::quick(),
+        StoreOptions::default(),
+        warpfit::fit::MapSets::Stored,
+        out,
+    )
+    .unwrap();
     let grid = FittedGrid::load(dir.join("grid")).unwrap();
     let e = warpfit::export::export(&grid, &dir.join("export")).unwrap_err().to_string();
     assert!(e.contains("2 specular probes") && e.contains("CPU runtime"), "{e}");

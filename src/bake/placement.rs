@@ -130,9 +130,12 @@ pub fn place(renderer: &Renderer, s: &GridSettings) -> Placement {
         rays += (candidates.len() * hits.len()) as u64;
         let min_gain = (cfg.min_gain as f64 * hits.len() as f64).ceil().max(1.0) as usize;
         while positions.len() < max {
-            let gain = |bits: &Vec<u64>| -> usize { bits.iter().zip(&covered).map(|(b, c)| (b & !c).count_ones() as usize).sum() };
+            let gain = |bits: &Vec<u64>| -> usize {
+                bits.iter().zip(&covered).map(|(b, c)| (b & !c).count_ones() as usize).sum()
+            };
             // the most new hits, the first candidate on ties
-            let best = seen.iter().enumerate().map(|(k, b)| (gain(b), k)).max_by(|x, y| x.0.cmp(&y.0).then(y.1.cmp(&x.1)));
+            let best =
+                seen.iter().enumerate().map(|(k, b)| (gain(b), k)).max_by(|x, y| x.0.cmp(&y.0).then(y.1.cmp(&x.1)));
             match best {
                 Some((g, k)) if g >= min_gain => {
                     covered.iter_mut().zip(&seen[k]).for_each(|(c, b)| *c |= b);

@@ -160,10 +160,8 @@ pub fn write_bake(dir: &Path, scene: &Scene, bake: &Bake) -> Result<(), FileErro
     let probes = std::iter::once(&bake.probe).chain(&bake.others);
     let names = std::iter::once(PROBE_FILE.to_string()).chain((1..=bake.others.len()).map(other_file));
     for (file, p) in names.zip(probes) {
-        let layers: Vec<ExrLayer<Samples>> = probe_layers(&p.radiance, &p.depth)
-            .into_iter()
-            .map(crate::gridfile::exr::IntoLayer::into_layer)
-            .collect();
+        let layers: Vec<ExrLayer<Samples>> =
+            probe_layers(&p.radiance, &p.depth).into_iter().map(crate::gridfile::exr::IntoLayer::into_layer).collect();
         let path = dir.join(&file);
         let (bytes, checksum) = exr::write_payload(&path, layers, |_| false)?;
         files.push(FileEntry { file, bytes, checksum });
@@ -386,7 +384,11 @@ fn read_probe(dir: &Path, m: &BakeManifest, p: &ProbeManifest) -> Result<Specula
 pub fn read_others(dir: &Path, m: &BakeManifest) -> Result<Vec<SpecularProbe>, FileError> {
     let mpath = dir.join(MANIFEST_FILE);
     if m.others.len() >= crate::scene::config::MAX_PROBES as usize {
-        return Err(FileError::invalid(&mpath, "others", format!("{} probes, at most {} in all", m.others.len() + 1, crate::scene::config::MAX_PROBES)));
+        return Err(FileError::invalid(
+            &mpath,
+            "others",
+            format!("{} probes, at most {} in all", m.others.len() + 1, crate::scene::config::MAX_PROBES),
+        ));
     }
     m.others
         .iter()
@@ -394,7 +396,11 @@ pub fn read_others(dir: &Path, m: &BakeManifest) -> Result<Vec<SpecularProbe>, F
         .map(|(k, p)| {
             let field = format!("others[{k}]");
             if p.file != other_file(k + 1) {
-                return Err(FileError::invalid(&mpath, format!("{field}.file"), format!("must be {}", other_file(k + 1))));
+                return Err(FileError::invalid(
+                    &mpath,
+                    format!("{field}.file"),
+                    format!("must be {}", other_file(k + 1)),
+                ));
             }
             if p.resolution != m.probe.resolution || p.radiance_mips.len() != m.probe.radiance_mips.len() {
                 return Err(FileError::invalid(&mpath, field, "does not have probe A's resolution and mips"));

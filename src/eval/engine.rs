@@ -90,7 +90,8 @@ impl EngineBlend {
         }
         // outside every influence: the probe whose box is nearest
         let gap = |(lo, hi): (Vec3, Vec3)| (lo - b).max(b - hi).max(Vec3::ZERO).length_squared();
-        let nearest = (0..self.boxes.len()).min_by(|&i, &j| gap(self.boxes[i]).total_cmp(&gap(self.boxes[j]))).unwrap_or(0);
+        let nearest =
+            (0..self.boxes.len()).min_by(|&i, &j| gap(self.boxes[i]).total_cmp(&gap(self.boxes[j]))).unwrap_or(0);
         vec![(nearest, 1.0)]
     }
 

@@ -2,12 +2,12 @@
 //! corrective grid, or a loaded fitted grid through the runtime sampler) with a way to pick
 //! the mip of a rough lookup (`warp::glossy::MipRule`), judged on one roughness bucket.
 
+use super::engine::EngineBlend;
 use super::metrics::{error_stats, mean_angle_deg};
 use super::timing;
 use super::validation::ValidationSet;
-use super::engine::EngineBlend;
-use crate::trace::truth::Oracle;
 use crate::runtime::{FittedGrid, SpecularRead};
+use crate::trace::truth::Oracle;
 use crate::warp::corrective::{Blend, Correctives};
 use crate::warp::glossy::{Aim, Glossy, MipRule};
 use crate::warp::reproject::{HoleFill, reproject_with};
@@ -95,7 +95,13 @@ impl RowKind {
             .map(RowKind::Method)
             .chain(CorrectiveVariant::ALL.into_iter().map(RowKind::Grid))
             .chain(SpecularRead::ALL.into_iter().map(RowKind::Runtime))
-            .chain([RowKind::ReprojectDilate, RowKind::BestFetch, RowKind::BestAim, RowKind::OracleProbes, RowKind::EngineBlend])
+            .chain([
+                RowKind::ReprojectDilate,
+                RowKind::BestFetch,
+                RowKind::BestAim,
+                RowKind::OracleProbes,
+                RowKind::EngineBlend,
+            ])
     }
 
     /// The row's name without the renormalization mark.

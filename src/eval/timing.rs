@@ -2,9 +2,9 @@
 //! after a warm-up, over queries in coherent or random order.
 
 use super::validation::ValidationSet;
-use crate::trace::truth::Oracle;
 use crate::sampling::Sampler;
 use crate::trace::Renderer;
+use crate::trace::truth::Oracle;
 use crate::warp::Warp;
 use crate::warp::reproject::{HoleFill, reproject_with};
 use glam::Vec3;

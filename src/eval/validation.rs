@@ -9,8 +9,8 @@ use crate::bake::ProbeGrid;
 use crate::sampling::{Sampler, hash_pair};
 use crate::scene::Scene;
 use crate::trace::truth::{self, Oracle, QueryStreams, TracedQueries};
-use crate::warp::glossy::Aim;
 use crate::trace::{Renderer, Tracer};
+use crate::warp::glossy::Aim;
 use glam::Vec3;
 use rayon::prelude::*;
 

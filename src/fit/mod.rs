@@ -918,13 +918,25 @@ fn study_resolutions(
             }
             let distance = depth_at(res);
             let sees_only_sky = distance.iter().all(|d| !d.is_finite());
-            (res, refine(CellContext { res, probe_map: &[], ..ctx }, train.to_vec(), &distance, sees_only_sky, s.depth_prior, s).fitted)
+            (
+                res,
+                refine(
+                    CellContext { res, probe_map: &[], ..ctx },
+                    train.to_vec(),
+                    &distance,
+                    sees_only_sky,
+                    s.depth_prior,
+                    s,
+                )
+                .fitted,
+            )
         })
         .collect();
     let mut errors = [[0.0; 1 + STUDY_RESOLUTIONS.len()]; 2];
     for (h, half) in halves.iter().enumerate() {
         for (k, (res, map)) in maps.iter().enumerate() {
-            let p = CellProblem::new(CellContext { res: *res, probe_map: &[], ..ctx }, vec![0.0; map.len()], half.clone());
+            let p =
+                CellProblem::new(CellContext { res: *res, probe_map: &[], ..ctx }, vec![0.0; map.len()], half.clone());
             if k == 0 {
                 errors[h][0] = p.relative_error_map(&vec![0.0; map.len()]);
             }

@@ -169,7 +169,8 @@ fn read_matching_bake(
     scene: &Scene,
     folder: &RunFolder,
     hits: bakefile::Hits,
-) -> Result<(bakefile::manifest::BakeManifest, bake::SpecularProbe, Vec<bake::SpecularProbe>, bake::ProbeGrid), FileError> {
+) -> Result<(bakefile::manifest::BakeManifest, bake::SpecularProbe, Vec<bake::SpecularProbe>, bake::ProbeGrid), FileError>
+{
     let dir = folder.bake();
     if !dir.join(bakefile::MANIFEST_FILE).is_file() {
         return Err(FileError::invalid(
@@ -484,7 +485,11 @@ fn merge_bake(scene: &Scene, set: &[(PathBuf, PartHeader)]) -> Result<bake::Bake
                 if part.others.len() + 1 != part.placement.as_ref().map_or(1, |pl| pl.positions.len())
                     || part.others.iter().any(|o| o.resolution() != s.resolution)
                 {
-                    return Err(FileError::invalid(path, "others", "do not match the placement or the probe resolution"));
+                    return Err(FileError::invalid(
+                        path,
+                        "others",
+                        "do not match the placement or the probe resolution",
+                    ));
                 }
                 probe_s = h.seconds;
                 probe = Some((p, rays));

@@ -108,7 +108,10 @@ impl ProbesConfig {
     /// Whether the scene has probe A alone (nothing to write back to a scene file).
     #[must_use]
     pub fn is_single(&self) -> bool {
-        self.positions.is_empty() && !self.auto && self.max == default_max_probes() && self.min_gain == default_min_gain()
+        self.positions.is_empty()
+            && !self.auto
+            && self.max == default_max_probes()
+            && self.min_gain == default_min_gain()
     }
 }
 

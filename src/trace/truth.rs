@@ -75,7 +75,9 @@ pub fn oracles(scene: &Scene, tracer: &Tracer, probes: &[Vec3], b: Vec3, dir: Ve
     let p = b + dir * t;
     // the probes nearest the query first (ties in index order)
     let mut order: Vec<usize> = (0..probes.len()).collect();
-    order.sort_by(|&i, &j| (probes[i] - b).length_squared().total_cmp(&(probes[j] - b).length_squared()).then(i.cmp(&j)));
+    order.sort_by(|&i, &j| {
+        (probes[i] - b).length_squared().total_cmp(&(probes[j] - b).length_squared()).then(i.cmp(&j))
+    });
     for i in order {
         let seen = if i == 0 { !hidden_a } else { sees(scene, tracer, probes[i], p) };
         if seen {

@@ -142,6 +142,12 @@ impl SmallTorture {
 
     /// The bake, as the jobs take it.
     pub fn baked(&self) -> warpfit::jobs::run::Baked<'_> {
-        warpfit::jobs::run::Baked { scene: &self.scene, tracer: &self.tracer, probe: &self.probe, others: &[], grid: &self.grid }
+        warpfit::jobs::run::Baked {
+            scene: &self.scene,
+            tracer: &self.tracer,
+            probe: &self.probe,
+            others: &[],
+            grid: &self.grid,
+        }
     }
 }

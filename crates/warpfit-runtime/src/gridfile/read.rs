@@ -179,7 +179,11 @@ fn expected_payloads(
 ) -> Result<Vec<(&'static str, Vec<Expected>)>, FileError> {
     let mut out = vec![(PROBE_FILE, expected_probe(&m.probe, "probe", mp)?)];
     if m.other_probes.len() >= MAX_PROBES {
-        return Err(invalid(mp, "other_probes", format!("{} probes, at most {MAX_PROBES} in all", m.other_probes.len() + 1)));
+        return Err(invalid(
+            mp,
+            "other_probes",
+            format!("{} probes, at most {MAX_PROBES} in all", m.other_probes.len() + 1),
+        ));
     }
     if !m.other_probes.is_empty() && m.version < 6 {
         return Err(invalid(mp, "other_probes", "several probes need format version 6"));
@@ -660,7 +664,8 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     let probe_offset = read_relocated(&m, mp, &geometry, cells)?;
     let bounds = ValueBounds::of_diagonal((geometry.max - geometry.min).length());
     let expected = expected_payloads(&m, mp, cells)?;
-    let probe = read_probe(dir, (&m, mp), (PROBE_FILE, &m.probe, "probe"), expected_of(&expected, PROBE_FILE), &bounds)?;
+    let probe =
+        read_probe(dir, (&m, mp), (PROBE_FILE, &m.probe, "probe"), expected_of(&expected, PROBE_FILE), &bounds)?;
     let mut others = Vec::with_capacity(m.other_probes.len());
     for (k, p) in m.other_probes.iter().enumerate() {
         let (file, field) = (PROBE_FILES[k + 1], format!("other_probes[{k}]"));
@@ -685,7 +690,13 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     )?;
     let roughness = m.roughness.clone();
     let options = m.warp.options;
-    Ok(GridData { warp: Warp { probe, others: others.into(), proxies, options }, correctives, irradiance, roughness, manifest: m })
+    Ok(GridData {
+        warp: Warp { probe, others: others.into(), proxies, options },
+        correctives,
+        irradiance,
+        roughness,
+        manifest: m,
+    })
 }
 
 /// The layers `expected_payloads` lists for `file` (none when it lists no such file).
