@@ -127,7 +127,7 @@ mod tests {
         // every other texel: both see the cell's own point; probe A is nearer the origin
         assert!(map.iter().enumerate().all(|(k, &p)| k == texel || p == 0), "{map:?}");
         // from an origin next to probe 1, the equals go to probe 1
-        let map = choose(&w, Vec3::new(9.0, 0.0, 0.0), res, &vec![f32::INFINITY; 16], &[]);
+        let map = choose(&w, Vec3::new(9.0, 0.0, 0.0), res, &[f32::INFINITY; 16], &[]);
         assert!(map.iter().all(|&p| p == 1), "{map:?}");
         // one probe: nothing stored
         assert!(choose(&warp(vec![probe(Vec3::ZERO, 1.0)]), Vec3::ZERO, res, &near, &far).is_empty());
