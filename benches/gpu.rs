@@ -11,6 +11,8 @@
 //! warm up, each kernel's figure is the median of the other nine, timed from submit to
 //! completion.
 //!
+//! `WARPFIT_BENCH_GRIDS=DIR[,DIR…]` times those fitted grids instead, their rows side by side.
+//!
 //! Run: `cargo bench --bench gpu`
 
 #[path = "common/mod.rs"]
@@ -37,32 +39,53 @@ fn main() {
     // `cargo bench` passes libtest-style flags (`--bench`); a filter argument picks kernels
     let filter: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with('-')).collect();
     let gpu = Gpu::new().unwrap_or_else(|e| panic!("{e}"));
-    let grid = FittedGrid::load(common::fitted_torture()).unwrap();
-    let dir = std::env::temp_dir().join(format!("warpfit-bench-gpu-{}", std::process::id()));
-    warpfit::export::export(&grid, &dir).unwrap();
-    let generic = Lookup::load(&gpu, &dir, Pipeline::Generic);
-    let specialised = Lookup::load(&gpu, &dir, Pipeline::Specialised);
+    // `WARPFIT_BENCH_GRIDS=DIR[,DIR…]`: these fitted grids, each kernel's rows per grid in
+    // the same rounds (to compare two grids, say one probe against several, in one run)
+    let dirs: Vec<std::path::PathBuf> = match std::env::var("WARPFIT_BENCH_GRIDS") {
+        Ok(list) => list.split(',').filter(|s| !s.is_empty()).map(std::path::PathBuf::from).collect(),
+        Err(_) => vec![common::fitted_torture()],
+    };
     let n = (POSITIONS * DIRS) as f64;
     println!("adapter: {} ({:?}, {})", gpu.adapter.name, gpu.adapter.backend, gpu.adapter.driver_info);
-    let cases = [
-        ("warp1", "warp1_queries", 0.0, &generic),
-        ("box", "box_queries", 0.0, &generic),
-        ("specular r=0", "specular_queries", 0.0, &generic),
-        ("specular r=0.5", "specular_queries", 0.5, &generic),
-        ("specular r=0, specialised", "specular_queries", 0.0, &specialised),
-        ("specular r=0.5, specialised", "specular_queries", 0.5, &specialised),
-        ("irradiance", "irradiance_queries", 0.0, &generic),
-    ];
-    // warp1 always runs: the other rows are its multiples
-    let cases: Vec<_> = cases
-        .into_iter()
-        .filter(|(name, ..)| *name == "warp1" || filter.is_empty() || filter.iter().any(|f| name.contains(f.as_str())))
-        .collect();
-    let batches: Vec<_> = cases.iter().map(|&(_, _, r, lookup)| lookup.batch(&gpu, &queries(&grid, r))).collect();
+    let mut loaded = Vec::new();
+    for (k, d) in dirs.iter().enumerate() {
+        let grid = FittedGrid::load(d).unwrap();
+        let dir = std::env::temp_dir().join(format!("warpfit-bench-gpu-{}-{k}", std::process::id()));
+        warpfit::export::export(&grid, &dir).unwrap();
+        let generic = Lookup::load(&gpu, &dir, Pipeline::Generic);
+        let specialised = Lookup::load(&gpu, &dir, Pipeline::Specialised);
+        let label = if dirs.len() > 1 { format!("{}: ", d.file_name().map_or("grid".into(), |f| f.to_string_lossy())) } else { String::new() };
+        loaded.push((label, grid, dir, generic, specialised));
+    }
+    let mut cases = Vec::new();
+    for (label, grid, _, generic, specialised) in &loaded {
+        let first = cases.is_empty();
+        for (name, kernel, r, specialised_pipeline) in [
+            ("warp1", "warp1_queries", 0.0, false),
+            ("box", "box_queries", 0.0, false),
+            ("specular r=0", "specular_queries", 0.0, false),
+            ("specular r=0.5", "specular_queries", 0.5, false),
+            ("specular r=0, specialised", "specular_queries", 0.0, true),
+            ("specular r=0.5, specialised", "specular_queries", 0.5, true),
+            ("irradiance", "irradiance_queries", 0.0, false),
+        ] {
+            // warp1 always runs (the other rows are its multiples), once
+            let wanted = if name == "warp1" {
+                first
+            } else {
+                filter.is_empty() || filter.iter().any(|f| name.contains(f.as_str()))
+            };
+            if wanted {
+                let lookup = if specialised_pipeline { specialised } else { generic };
+                cases.push((format!("{label}{name}"), kernel, r, lookup, grid));
+            }
+        }
+    }
+    let batches: Vec<_> = cases.iter().map(|(_, _, r, lookup, grid)| lookup.batch(&gpu, &queries(grid, *r))).collect();
     // rounds of every kernel in turn, so a change in the machine's load hits them alike
     let mut times = vec![Vec::new(); cases.len()];
     for round in 0..11 {
-        for (k, &(_, kernel, _, lookup)) in cases.iter().enumerate() {
+        for (k, (_, kernel, _, lookup, _)) in cases.iter().enumerate() {
             let t = lookup.dispatch(&gpu, kernel, &batches[k], false).as_secs_f64();
             if round >= 2 {
                 times[k].push(t); // the first two rounds warm up
@@ -71,12 +94,14 @@ fn main() {
     }
     let mut warp1 = None;
     println!("{:<28} {:>12} {:>10}", "kernel", "ns/lookup", "÷ warp1");
-    for (k, &(name, ..)) in cases.iter().enumerate() {
+    for (k, (name, ..)) in cases.iter().enumerate() {
         let t = &mut times[k];
         t.sort_by(f64::total_cmp);
         let ns = t[t.len() / 2] * 1e9 / n;
         let base = *warp1.get_or_insert(ns);
         println!("{name:<28} {ns:>12.2} {:>10.2}", ns / base);
     }
-    let _ = std::fs::remove_dir_all(&dir);
+    for (_, _, dir, ..) in &loaded {
+        let _ = std::fs::remove_dir_all(dir);
+    }
 }

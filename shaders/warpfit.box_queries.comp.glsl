@@ -24,6 +24,8 @@ struct Params {
     uvec4 lut_info;
     vec4 blend_r[2];
     vec4 blend_w[2];
+    uvec4 probe_maps;
+    vec4 probes[16];
 };
 struct Cell {
     ivec4 tiles;
@@ -46,6 +48,7 @@ struct Basis {
 struct Aim {
     vec3 v;
     float k;
+    uint p;
 };
 struct SurfaceParams {
     vec4 corner;
@@ -90,9 +93,9 @@ layout(binding = 1) uniform sampler2D _group_0_binding_1_cs;
 
 layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_binding_7_cs; };
 
-layout(std430, binding = 1) readonly buffer type_21_block_1Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_22_block_1Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_21_block_2Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_22_block_2Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 uint fallback_method() {
@@ -310,57 +313,58 @@ vec4 probe_texel(uint which, ivec2 t_1, int level) {
     return _e8;
 }
 
-vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1) {
-    float _e6 = _group_0_binding_7_cs.warp.z;
-    float _e10 = _group_0_binding_7_cs.warp.y;
-    float res0_ = ((which_1 == 0u) ? _e10 : _e6);
+vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1, uint p_1) {
+    float _e7 = _group_0_binding_7_cs.warp.z;
+    float _e11 = _group_0_binding_7_cs.warp.y;
+    float res0_ = ((which_1 == 0u) ? _e11 : _e7);
     uint n_9 = max((uint(res0_) >> level_1), 1u);
-    Footprint _e18 = footprint(n_9, uv_1);
-    ivec2 c_8 = _e18.corner;
+    Footprint _e19 = footprint(n_9, uv_1);
+    ivec2 c_8 = _e19.corner;
     int l_3 = int(level_1);
     int ni = int(n_9);
-    ivec2 _e22 = wrap_texel(ni, c_8);
-    vec4 _e23 = probe_texel(which_1, _e22, l_3);
-    ivec2 _e28 = wrap_texel(ni, (c_8 + ivec2(1, 0)));
-    vec4 _e29 = probe_texel(which_1, _e28, l_3);
-    ivec2 _e34 = wrap_texel(ni, (c_8 + ivec2(0, 1)));
-    vec4 _e35 = probe_texel(which_1, _e34, l_3);
-    ivec2 _e40 = wrap_texel(ni, (c_8 + ivec2(1, 1)));
-    vec4 _e41 = probe_texel(which_1, _e40, l_3);
-    vec4 _e43 = blend4_(_e23, _e29, _e35, _e41, _e18.f);
-    return _e43;
+    ivec2 at_2 = ivec2((int(p_1) * ni), 0);
+    ivec2 _e27 = wrap_texel(ni, c_8);
+    vec4 _e29 = probe_texel(which_1, (at_2 + _e27), l_3);
+    ivec2 _e34 = wrap_texel(ni, (c_8 + ivec2(1, 0)));
+    vec4 _e36 = probe_texel(which_1, (at_2 + _e34), l_3);
+    ivec2 _e41 = wrap_texel(ni, (c_8 + ivec2(0, 1)));
+    vec4 _e43 = probe_texel(which_1, (at_2 + _e41), l_3);
+    ivec2 _e48 = wrap_texel(ni, (c_8 + ivec2(1, 1)));
+    vec4 _e50 = probe_texel(which_1, (at_2 + _e48), l_3);
+    vec4 _e52 = blend4_(_e29, _e36, _e43, _e50, _e19.f);
+    return _e52;
 }
 
-vec4 probe_sample_lod(uint which_2, vec2 uv_2, float lod_in, uint levels) {
+vec4 probe_sample_lod(uint which_2, vec2 uv_2, float lod_in, uint levels, uint p_2) {
     float lod = 0.0;
     bool local_8 = false;
     float top = float((max(levels, 1u) - 1u));
-    bool _e11 = finite(lod_in);
-    if (_e11) {
+    bool _e12 = finite(lod_in);
+    if (_e12) {
         lod = min(max(lod_in, 0.0), top);
     }
-    float _e15 = lod;
-    uint l0_ = uint(_e15);
-    float _e17 = lod;
-    float f_3 = (_e17 - float(l0_));
-    vec4 _e20 = probe_bilinear(which_2, uv_2, l0_);
+    float _e16 = lod;
+    uint l0_ = uint(_e16);
+    float _e18 = lod;
+    float f_3 = (_e18 - float(l0_));
+    vec4 _e21 = probe_bilinear(which_2, uv_2, l0_, p_2);
     if (!((f_3 == 0.0))) {
         local_8 = ((l0_ + 1u) >= levels);
     } else {
         local_8 = true;
     }
-    bool _e30 = local_8;
-    if (_e30) {
-        return _e20;
+    bool _e31 = local_8;
+    if (_e31) {
+        return _e21;
     }
-    vec4 _e33 = probe_bilinear(which_2, uv_2, (l0_ + 1u));
-    return ((_e20 * (1.0 - f_3)) + (_e33 * f_3));
+    vec4 _e34 = probe_bilinear(which_2, uv_2, (l0_ + 1u), p_2);
+    return ((_e21 * (1.0 - f_3)) + (_e34 * f_3));
 }
 
-vec3 radiance_lod(vec2 uv_3, float lod_1) {
-    uint _e6 = _group_0_binding_7_cs.probe_info.x;
-    vec4 _e7 = probe_sample_lod(0u, uv_3, lod_1, _e6);
-    return _e7.xyz;
+vec3 radiance_lod(vec2 uv_3, float lod_1, uint p_3) {
+    uint _e7 = _group_0_binding_7_cs.probe_info.x;
+    vec4 _e8 = probe_sample_lod(0u, uv_3, lod_1, _e7, p_3);
+    return _e8.xyz;
 }
 
 float inv_dist(vec3 v_4) {
@@ -368,16 +372,16 @@ float inv_dist(vec3 v_4) {
     vec2 _e2 = oct_encode(v_4);
     float _e6 = _group_0_binding_7_cs.probe.w;
     uint _e10 = _group_0_binding_7_cs.probe_info.y;
-    vec4 _e11 = probe_sample_lod(1u, _e2, _e6, _e10);
-    float w_5 = _e11.x;
+    vec4 _e12 = probe_sample_lod(1u, _e2, _e6, _e10, 0u);
+    float w_5 = _e12.x;
     if ((w_5 > 0.0)) {
-        bool _e17 = finite(w_5);
-        local_9 = _e17;
+        bool _e18 = finite(w_5);
+        local_9 = _e18;
     } else {
         local_9 = false;
     }
-    bool _e19 = local_9;
-    if (_e19) {
+    bool _e20 = local_9;
+    if (_e20) {
         return w_5;
     }
     return 0.0;
@@ -395,9 +399,9 @@ uint cell_index(uvec3 c_2) {
     return (c_2.x + (n_10.x * (c_2.y + (n_10.y * c_2.z))));
 }
 
-uvec3 cell_of(vec3 p_1, vec3 size) {
+uvec3 cell_of(vec3 p_4, vec3 size) {
     vec4 _e4 = _group_0_binding_7_cs.grid_min;
-    vec3 f_4 = floor(((p_1 - _e4.xyz) / size));
+    vec3 f_4 = floor(((p_4 - _e4.xyz) / size));
     uvec4 _e11 = _group_0_binding_7_cs.grid_counts;
     vec3 hi = vec3((_e11.xyz - uvec3(1u)));
     bool _e17 = finite3_(f_4);
@@ -412,10 +416,10 @@ vec3 cell_centre(uvec3 c_3, vec3 size_1) {
     return (_e4.xyz + ((vec3(c_3) + vec3(0.5)) * size_1));
 }
 
-Lattice lattice(vec3 p_2, vec3 size_2) {
+Lattice lattice(vec3 p_5, vec3 size_2) {
     vec3 f_1 = vec3(0.0);
     vec4 _e4 = _group_0_binding_7_cs.grid_min;
-    f_1 = (((p_2 - _e4.xyz) / size_2) - vec3(0.5));
+    f_1 = (((p_5 - _e4.xyz) / size_2) - vec3(0.5));
     uvec4 _e14 = _group_0_binding_7_cs.grid_counts;
     vec3 hi_1 = vec3((_e14.xyz - uvec3(1u)));
     vec3 _e20 = f_1;
@@ -725,7 +729,7 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
     return _e62;
 }
 
-Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8) {
+Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_6) {
     bool local_13 = false;
     float s_1 = 0.0;
     bool local_14 = false;
@@ -736,44 +740,44 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8) {
     } else {
         local_13 = true;
     }
-    bool _e15 = local_13;
-    if (_e15) {
-        return Aim(dir_8, 1.0);
+    bool _e16 = local_13;
+    if (_e16) {
+        return Aim(dir_8, 1.0, p_6);
     }
     s_1 = (exit_1.x + delta);
-    float _e21 = s_1;
-    if (!((_e21 > 1e-30))) {
+    float _e22 = s_1;
+    if (!((_e22 > 1e-30))) {
         s_1 = 1e-30;
     }
-    float _e26 = s_1;
-    vec4 _e31 = _group_0_binding_7_cs.probe;
-    vec3 v_11 = ((b_10 + (dir_8 * _e26)) - _e31.xyz);
-    bool _e34 = finite3_(v_11);
-    if (_e34) {
+    float _e27 = s_1;
+    vec4 _e33 = _group_0_binding_7_cs.probes[p_6];
+    vec3 v_11 = ((b_10 + (dir_8 * _e27)) - _e33.xyz);
+    bool _e36 = finite3_(v_11);
+    if (_e36) {
         local_14 = any(notEqual(v_11, vec3(0.0)));
     } else {
         local_14 = false;
     }
-    bool _e42 = local_14;
-    if (_e42) {
-        float _e44 = s_1;
-        k_2 = (length(v_11) / _e44);
-        float _e47 = k_2;
-        bool _e48 = finite(_e47);
-        if (_e48) {
-            float _e51 = k_2;
-            local_15 = (_e51 > 0.0);
+    bool _e44 = local_14;
+    if (_e44) {
+        float _e46 = s_1;
+        k_2 = (length(v_11) / _e46);
+        float _e49 = k_2;
+        bool _e50 = finite(_e49);
+        if (_e50) {
+            float _e53 = k_2;
+            local_15 = (_e53 > 0.0);
         } else {
             local_15 = false;
         }
-        bool _e55 = local_15;
-        if (!(_e55)) {
+        bool _e57 = local_15;
+        if (!(_e57)) {
             k_2 = 1.0;
         }
-        float _e58 = k_2;
-        return Aim(v_11, _e58);
+        float _e60 = k_2;
+        return Aim(v_11, _e60, p_6);
     }
-    return Aim(dir_8, 1.0);
+    return Aim(dir_8, 1.0, p_6);
 }
 
 float mip_roughness(uint m) {
@@ -782,18 +786,18 @@ float mip_roughness(uint m) {
 }
 
 float lod_of_roughness(float r_2) {
-    bool local_17 = false;
+    bool local_18 = false;
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
     uint n_12 = _group_0_binding_7_cs.probe_info.x;
     if (!((n_12 < 2u))) {
         float _e11 = mip_roughness(0u);
-        local_17 = !((r_2 > _e11));
+        local_18 = !((r_2 > _e11));
     } else {
-        local_17 = true;
+        local_18 = true;
     }
-    bool _e15 = local_17;
+    bool _e15 = local_18;
     if (_e15) {
         return 0.0;
     }
@@ -834,84 +838,84 @@ float lod_of_roughness(float r_2) {
     return (float(i_6) + clamp(_e57, 0.0, 1.0));
 }
 
-float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
-    bool local_18 = false;
+float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_8, uint p_7) {
     bool local_19 = false;
     bool local_20 = false;
     bool local_21 = false;
+    bool local_22 = false;
     float l_5 = length(v_6);
-    float _e8 = _group_0_binding_7_cs.probe.w;
-    uint _e12 = _group_0_binding_7_cs.probe_info.y;
-    vec4 _e13 = probe_sample_lod(1u, uv_7, _e8, _e12);
-    float w_6 = _e13.x;
+    float _e9 = _group_0_binding_7_cs.probe.w;
+    uint _e13 = _group_0_binding_7_cs.probe_info.y;
+    vec4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_7);
+    float w_6 = _e14.x;
     if ((l_5 > 0.0)) {
-        bool _e19 = finite(l_5);
-        local_18 = _e19;
-    } else {
-        local_18 = false;
-    }
-    bool _e21 = local_18;
-    if (_e21) {
-        local_19 = (w_6 > 0.0);
+        bool _e20 = finite(l_5);
+        local_19 = _e20;
     } else {
         local_19 = false;
     }
-    bool _e27 = local_19;
-    if (_e27) {
-        bool _e30 = finite(w_6);
-        local_20 = _e30;
+    bool _e22 = local_19;
+    if (_e22) {
+        local_20 = (w_6 > 0.0);
     } else {
         local_20 = false;
     }
-    bool _e32 = local_20;
-    if (!(_e32)) {
-        return 1.0;
-    }
-    float d_probe = (1.0 / w_6);
-    vec4 _e39 = _group_0_binding_7_cs.probe;
-    float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_12));
-    float k_12 = (d_probe / d_surface);
-    bool _e47 = finite(k_12);
-    if (_e47) {
-        local_21 = (k_12 > 0.0);
+    bool _e28 = local_20;
+    if (_e28) {
+        bool _e31 = finite(w_6);
+        local_21 = _e31;
     } else {
         local_21 = false;
     }
-    bool _e53 = local_21;
-    if (_e53) {
-        return k_12;
+    bool _e33 = local_21;
+    if (!(_e33)) {
+        return 1.0;
+    }
+    float d_probe = (1.0 / w_6);
+    vec4 _e41 = _group_0_binding_7_cs.probes[p_7];
+    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_5))) - b_12));
+    float k_13 = (d_probe / d_surface);
+    bool _e49 = finite(k_13);
+    if (_e49) {
+        local_22 = (k_13 > 0.0);
+    } else {
+        local_22 = false;
+    }
+    bool _e55 = local_22;
+    if (_e55) {
+        return k_13;
     }
     return 1.0;
 }
 
-float pseudo_log2_(float k_3) {
-    uint bits_1 = floatBitsToUint(k_3);
+float pseudo_log2_(float k_4) {
+    uint bits_1 = floatBitsToUint(k_4);
     int e_1 = (int(((bits_1 >> 23u) & 255u)) - 127);
     float m_3 = uintBitsToFloat(((bits_1 & 8388607u) | 1065353216u));
     return (float(e_1) + (m_3 - 1.0));
 }
 
-float blend_node_r(uint k_6) {
-    float _e9 = _group_0_binding_7_cs.blend_r[(k_6 / 4u)][(k_6 % 4u)];
+float blend_node_r(uint k_7) {
+    float _e9 = _group_0_binding_7_cs.blend_r[(k_7 / 4u)][(k_7 % 4u)];
     return _e9;
 }
 
-float blend_node_w(uint k_7) {
-    float _e9 = _group_0_binding_7_cs.blend_w[(k_7 / 4u)][(k_7 % 4u)];
+float blend_node_w(uint k_8) {
+    float _e9 = _group_0_binding_7_cs.blend_w[(k_8 / 4u)][(k_8 % 4u)];
     return _e9;
 }
 
 float irradiance_weight(float r_5) {
-    bool local_23 = false;
+    bool local_24 = false;
     float w_1 = 0.0;
-    uint k_8 = 1u;
+    uint k_9 = 1u;
     uint n_13 = _group_0_binding_7_cs.lut_info.y;
     if (!((n_13 == 0u))) {
-        local_23 = !((r_5 > 0.0));
+        local_24 = !((r_5 > 0.0));
     } else {
-        local_23 = true;
+        local_24 = true;
     }
-    bool _e14 = local_23;
+    bool _e14 = local_24;
     if (_e14) {
         return 0.0;
     }
@@ -920,25 +924,25 @@ float irradiance_weight(float r_5) {
     bool loop_init_4 = true;
     while(true) {
         if (!loop_init_4) {
-            uint _e49 = k_8;
-            k_8 = (_e49 + 1u);
+            uint _e49 = k_9;
+            k_9 = (_e49 + 1u);
         }
         loop_init_4 = false;
-        uint _e21 = k_8;
+        uint _e21 = k_9;
         if ((_e21 < n_13)) {
         } else {
             break;
         }
         {
-            uint _e23 = k_8;
+            uint _e23 = k_9;
             float _e26 = blend_node_r((_e23 - 1u));
             if ((r_5 > _e26)) {
-                uint _e29 = k_8;
+                uint _e29 = k_9;
                 float _e30 = blend_node_r(_e29);
                 float t_12 = min(max(((r_5 - _e26) / (_e30 - _e26)), 0.0), 1.0);
-                uint _e37 = k_8;
+                uint _e37 = k_9;
                 float _e40 = blend_node_w((_e37 - 1u));
-                uint _e44 = k_8;
+                uint _e44 = k_9;
                 float _e45 = blend_node_w(_e44);
                 w_1 = ((_e40 * (1.0 - t_12)) + (_e45 * t_12));
             }
@@ -974,16 +978,16 @@ vec3 sh_eval(vec3 c_5[9], vec3 n_4) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_28 = false;
+    bool local_29 = false;
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_28 = _e14;
+        local_29 = _e14;
     } else {
-        local_28 = false;
+        local_29 = false;
     }
-    bool _e16 = local_28;
+    bool _e16 = local_29;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -1013,20 +1017,20 @@ void main() {
     vec3 b_1 = vec3(0.0);
     vec3 c_1 = vec3(0.0);
     vec3 v_1 = vec3(0.0);
-    uint k_13 = id_3.x;
+    uint k_14 = id_3.x;
     uint _e2 = query_count();
-    if ((k_13 >= _e2)) {
+    if ((k_14 >= _e2)) {
         return;
     }
     vec4 _e6 = _group_0_binding_7_cs.probe;
     b_1 = _e6.xyz;
-    vec4 _e13 = _group_1_binding_0_cs[(2u * k_13)];
+    vec4 _e13 = _group_1_binding_0_cs[(2u * k_14)];
     bool _e15 = finite3_(_e13.xyz);
     if (_e15) {
-        vec4 _e20 = _group_1_binding_0_cs[(2u * k_13)];
+        vec4 _e20 = _group_1_binding_0_cs[(2u * k_14)];
         b_1 = _e20.xyz;
     }
-    vec4 _e28 = _group_1_binding_0_cs[((2u * k_13) + 1u)];
+    vec4 _e28 = _group_1_binding_0_cs[((2u * k_14) + 1u)];
     vec4 _e30 = unit_direction(_e28.xyz);
     if ((_e30.w != 0.0)) {
         v_1 = _e30.xyz;
@@ -1039,12 +1043,12 @@ void main() {
         }
         vec3 _e49 = v_1;
         vec2 _e50 = oct_encode(_e49);
-        vec3 _e52 = radiance_lod(_e50, 0.0);
-        vec3 _e53 = clean(_e52);
-        c_1 = _e53;
+        vec3 _e53 = radiance_lod(_e50, 0.0, 0u);
+        vec3 _e54 = clean(_e53);
+        c_1 = _e54;
     }
-    vec3 _e56 = c_1;
-    _group_1_binding_1_cs[k_13] = vec4(_e56, 1.0);
+    vec3 _e57 = c_1;
+    _group_1_binding_1_cs[k_14] = vec4(_e57, 1.0);
     return;
 }
 

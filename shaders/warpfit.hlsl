@@ -19,6 +19,8 @@ struct Params {
     uint4 lut_info;
     float4 blend_r[2];
     float4 blend_w[2];
+    uint4 probe_maps;
+    float4 probes[16];
 };
 
 struct Cell {
@@ -50,6 +52,10 @@ struct Basis {
 struct Aim {
     float3 v;
     float k;
+    uint p;
+    int _end_pad_0;
+    int _end_pad_1;
+    int _end_pad_2;
 };
 
 struct SurfaceParams {
@@ -361,61 +367,62 @@ uint naga_f2u32(float value) {
     return uint(clamp(value, 0.0, 4294967000.0));
 }
 
-float4 probe_bilinear(uint which_1, float2 uv_1, uint level_1)
+float4 probe_bilinear(uint which_1, float2 uv_1, uint level_1, uint p_1)
 {
-    float _e6 = params.warp.z;
-    float _e10 = params.warp.y;
-    float res0_ = ((which_1 == 0u) ? _e10 : _e6);
+    float _e7 = params.warp.z;
+    float _e11 = params.warp.y;
+    float res0_ = ((which_1 == 0u) ? _e11 : _e7);
     uint n_9 = max((naga_f2u32(res0_) >> level_1), 1u);
-    const Footprint _e18 = footprint(n_9, uv_1);
-    int2 c_8 = _e18.corner;
+    const Footprint _e19 = footprint(n_9, uv_1);
+    int2 c_8 = _e19.corner;
     int l_3 = int(level_1);
     int ni = int(n_9);
-    const int2 _e22 = wrap_texel(ni, c_8);
-    const float4 _e23 = probe_texel(which_1, _e22, l_3);
-    const int2 _e28 = wrap_texel(ni, asint(asuint(c_8) + asuint(int2(int(1), int(0)))));
-    const float4 _e29 = probe_texel(which_1, _e28, l_3);
-    const int2 _e34 = wrap_texel(ni, asint(asuint(c_8) + asuint(int2(int(0), int(1)))));
-    const float4 _e35 = probe_texel(which_1, _e34, l_3);
-    const int2 _e40 = wrap_texel(ni, asint(asuint(c_8) + asuint(int2(int(1), int(1)))));
-    const float4 _e41 = probe_texel(which_1, _e40, l_3);
-    const float4 _e43 = blend4_(_e23, _e29, _e35, _e41, _e18.f);
-    return _e43;
+    int2 at_2 = int2(asint(asuint(int(p_1)) * asuint(ni)), int(0));
+    const int2 _e27 = wrap_texel(ni, c_8);
+    const float4 _e29 = probe_texel(which_1, asint(asuint(at_2) + asuint(_e27)), l_3);
+    const int2 _e34 = wrap_texel(ni, asint(asuint(c_8) + asuint(int2(int(1), int(0)))));
+    const float4 _e36 = probe_texel(which_1, asint(asuint(at_2) + asuint(_e34)), l_3);
+    const int2 _e41 = wrap_texel(ni, asint(asuint(c_8) + asuint(int2(int(0), int(1)))));
+    const float4 _e43 = probe_texel(which_1, asint(asuint(at_2) + asuint(_e41)), l_3);
+    const int2 _e48 = wrap_texel(ni, asint(asuint(c_8) + asuint(int2(int(1), int(1)))));
+    const float4 _e50 = probe_texel(which_1, asint(asuint(at_2) + asuint(_e48)), l_3);
+    const float4 _e52 = blend4_(_e29, _e36, _e43, _e50, _e19.f);
+    return _e52;
 }
 
-float4 probe_sample_lod(uint which_2, float2 uv_2, float lod_in, uint levels)
+float4 probe_sample_lod(uint which_2, float2 uv_2, float lod_in, uint levels, uint p_2)
 {
     float lod = 0.0;
     bool local_8 = (bool)0;
 
     float top = float((max(levels, 1u) - 1u));
-    const bool _e11 = finite(lod_in);
-    if (_e11) {
+    const bool _e12 = finite(lod_in);
+    if (_e12) {
         lod = min(max(lod_in, 0.0), top);
     }
-    float _e15 = lod;
-    uint l0_ = naga_f2u32(_e15);
-    float _e17 = lod;
-    float f_3 = (_e17 - float(l0_));
-    const float4 _e20 = probe_bilinear(which_2, uv_2, l0_);
+    float _e16 = lod;
+    uint l0_ = naga_f2u32(_e16);
+    float _e18 = lod;
+    float f_3 = (_e18 - float(l0_));
+    const float4 _e21 = probe_bilinear(which_2, uv_2, l0_, p_2);
     if (!((f_3 == 0.0))) {
         local_8 = ((l0_ + 1u) >= levels);
     } else {
         local_8 = true;
     }
-    bool _e30 = local_8;
-    if (_e30) {
-        return _e20;
+    bool _e31 = local_8;
+    if (_e31) {
+        return _e21;
     }
-    const float4 _e33 = probe_bilinear(which_2, uv_2, (l0_ + 1u));
-    return ((_e20 * (1.0 - f_3)) + (_e33 * f_3));
+    const float4 _e34 = probe_bilinear(which_2, uv_2, (l0_ + 1u), p_2);
+    return ((_e21 * (1.0 - f_3)) + (_e34 * f_3));
 }
 
-float3 radiance_lod(float2 uv_3, float lod_1)
+float3 radiance_lod(float2 uv_3, float lod_1, uint p_3)
 {
-    uint _e6 = params.probe_info.x;
-    const float4 _e7 = probe_sample_lod(0u, uv_3, lod_1, _e6);
-    return _e7.xyz;
+    uint _e7 = params.probe_info.x;
+    const float4 _e8 = probe_sample_lod(0u, uv_3, lod_1, _e7, p_3);
+    return _e8.xyz;
 }
 
 float inv_dist(float3 v_4)
@@ -425,16 +432,16 @@ float inv_dist(float3 v_4)
     const float2 _e2 = oct_encode(v_4);
     float _e6 = params.probe.w;
     uint _e10 = params.probe_info.y;
-    const float4 _e11 = probe_sample_lod(1u, _e2, _e6, _e10);
-    float w_5 = _e11.x;
+    const float4 _e12 = probe_sample_lod(1u, _e2, _e6, _e10, 0u);
+    float w_5 = _e12.x;
     if ((w_5 > 0.0)) {
-        const bool _e17 = finite(w_5);
-        local_9 = _e17;
+        const bool _e18 = finite(w_5);
+        local_9 = _e18;
     } else {
         local_9 = false;
     }
-    bool _e19 = local_9;
-    if (_e19) {
+    bool _e20 = local_9;
+    if (_e20) {
         return w_5;
     }
     return 0.0;
@@ -502,10 +509,10 @@ uint3 naga_f2u32(float3 value) {
     return uint3(clamp(value, 0.0, 4294967000.0));
 }
 
-uint3 cell_of(float3 p_1, float3 size)
+uint3 cell_of(float3 p_4, float3 size)
 {
     float4 _e4 = params.grid_min;
-    float3 f_4 = floor(((p_1 - _e4.xyz) / size));
+    float3 f_4 = floor(((p_4 - _e4.xyz) / size));
     uint4 _e11 = params.grid_counts;
     float3 hi = float3((_e11.xyz - (1u).xxx));
     const bool _e17 = finite3_(f_4);
@@ -528,12 +535,12 @@ Lattice ConstructLattice(uint3 arg0, float3 arg1) {
     return ret;
 }
 
-Lattice lattice(float3 p_2, float3 size_2)
+Lattice lattice(float3 p_5, float3 size_2)
 {
     float3 f_1 = (float3)0;
 
     float4 _e4 = params.grid_min;
-    f_1 = (((p_2 - _e4.xyz) / size_2) - (0.5).xxx);
+    f_1 = (((p_5 - _e4.xyz) / size_2) - (0.5).xxx);
     uint4 _e14 = params.grid_counts;
     float3 hi_1 = float3((_e14.xyz - (1u).xxx));
     float3 _e20 = f_1;
@@ -880,14 +887,15 @@ float3 fallback_fetch(float3 b_9, float3 dir_7)
     return _e62;
 }
 
-Aim ConstructAim(float3 arg0, float arg1) {
+Aim ConstructAim(float3 arg0, float arg1, uint arg2) {
     Aim ret = (Aim)0;
     ret.v = arg0;
     ret.k = arg1;
+    ret.p = arg2;
     return ret;
 }
 
-Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_8)
+Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_8, uint p_6)
 {
     bool local_13 = (bool)0;
     float s_1 = (float)0;
@@ -900,78 +908,135 @@ Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_8)
     } else {
         local_13 = true;
     }
-    bool _e15 = local_13;
-    if (_e15) {
-        const Aim aim_1 = ConstructAim(dir_8, 1.0);
+    bool _e16 = local_13;
+    if (_e16) {
+        const Aim aim_1 = ConstructAim(dir_8, 1.0, p_6);
         return aim_1;
     }
     s_1 = (exit_1.x + delta);
-    float _e21 = s_1;
-    if (!((_e21 > 1e-30))) {
+    float _e22 = s_1;
+    if (!((_e22 > 1e-30))) {
         s_1 = 1e-30;
     }
-    float _e26 = s_1;
-    float4 _e31 = params.probe;
-    float3 v_11 = ((b_10 + (dir_8 * _e26)) - _e31.xyz);
-    const bool _e34 = finite3_(v_11);
-    if (_e34) {
+    float _e27 = s_1;
+    float4 _e33 = params.probes[p_6];
+    float3 v_11 = ((b_10 + (dir_8 * _e27)) - _e33.xyz);
+    const bool _e36 = finite3_(v_11);
+    if (_e36) {
         local_14 = any((v_11 != (0.0).xxx));
     } else {
         local_14 = false;
     }
-    bool _e42 = local_14;
-    if (_e42) {
-        float _e44 = s_1;
-        k_2 = (length(v_11) / _e44);
-        float _e47 = k_2;
-        const bool _e48 = finite(_e47);
-        if (_e48) {
-            float _e51 = k_2;
-            local_15 = (_e51 > 0.0);
+    bool _e44 = local_14;
+    if (_e44) {
+        float _e46 = s_1;
+        k_2 = (length(v_11) / _e46);
+        float _e49 = k_2;
+        const bool _e50 = finite(_e49);
+        if (_e50) {
+            float _e53 = k_2;
+            local_15 = (_e53 > 0.0);
         } else {
             local_15 = false;
         }
-        bool _e55 = local_15;
-        if (!(_e55)) {
+        bool _e57 = local_15;
+        if (!(_e57)) {
             k_2 = 1.0;
         }
-        float _e58 = k_2;
-        const Aim aim_2 = ConstructAim(v_11, _e58);
+        float _e60 = k_2;
+        const Aim aim_2 = ConstructAim(v_11, _e60, p_6);
         return aim_2;
     }
-    const Aim aim_3 = ConstructAim(dir_8, 1.0);
+    const Aim aim_3 = ConstructAim(dir_8, 1.0, p_6);
     return aim_3;
 }
 
-float map_delta(int tile_1, float2 uv_5)
+uint probe_of(int tile_1, float2 uv_5)
+{
+    bool local_16 = (bool)0;
+    uint best = 0u;
+    uint k_3 = 1u;
+
+    if (!((tile_1 < int(0)))) {
+        uint _e10 = params.probe_maps.y;
+        local_16 = (_e10 == 0u);
+    } else {
+        local_16 = true;
+    }
+    bool _e14 = local_16;
+    if (_e14) {
+        return 0u;
+    }
+    uint n_12 = params.atlas_a.x;
+    uint columns_1 = params.atlas_a.y;
+    uint _e28 = params.probe_maps.y;
+    uint s_5 = (uint(tile_1) + _e28);
+    int2 origin_1 = int2((uint2(naga_mod(s_5, columns_1), naga_div(s_5, columns_1)) * (n_12 + 2u)));
+    const Footprint _e37 = footprint(n_12, uv_5);
+    float2 f_6 = _e37.f;
+    float4 w_6 = float4(((1.0 - f_6.x) * (1.0 - f_6.y)), (f_6.x * (1.0 - f_6.y)), ((1.0 - f_6.x) * f_6.y), (f_6.x * f_6.y));
+    uint2 loop_bound_3 = uint2(4294967295u, 4294967295u);
+    bool loop_init_3 = true;
+    while(true) {
+        if (all(loop_bound_3 == uint2(0u, 0u))) { break; }
+        loop_bound_3 -= uint2(loop_bound_3.y == 0u, 1u);
+        if (!loop_init_3) {
+            uint _e74 = k_3;
+            k_3 = (_e74 + 1u);
+        }
+        loop_init_3 = false;
+        uint _e64 = k_3;
+        if ((_e64 < 4u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e67 = k_3;
+            uint _e69 = best;
+            if ((w_6[min(uint(_e67), 3u)] > w_6[min(uint(_e69), 3u)])) {
+                uint _e72 = k_3;
+                best = _e72;
+            }
+        }
+    }
+    uint _e82 = best;
+    uint _e86 = best;
+    int2 t_12 = asint(asuint(asint(asuint(asint(asuint(origin_1) + asuint(_e37.corner))) + asuint(int2(int(1), int(1))))) + asuint(int2(int((_e82 & 1u)), int((_e86 >> 1u)))));
+    const float4 _e93 = atlas_texel(ATLAS_CORRECTIVE, t_12);
+    uint p_9 = naga_f2u32(_e93.x);
+    uint _e99 = params.probe_maps.x;
+    return min(p_9, (max(_e99, 1u) - 1u));
+}
+
+float map_delta(int tile_2, float2 uv_6)
 {
     uint _e6 = params.atlas_a.x;
     uint _e10 = params.atlas_a.y;
-    const float4 _e11 = atlas_bilinear(ATLAS_CORRECTIVE, tile_1, _e6, _e10, uv_5);
+    const float4 _e11 = atlas_bilinear(ATLAS_CORRECTIVE, tile_2, _e6, _e10, uv_6);
     return _e11.x;
 }
 
-float cell_delta(int4 tiles, float2 uv_6, float r)
+float cell_delta(int4 tiles, float2 uv_7, float r)
 {
     float w = (float)0;
 
     if ((tiles.w < int(0))) {
-        const float _e7 = map_delta(tiles.x, uv_6);
+        const float _e7 = map_delta(tiles.x, uv_7);
         return _e7;
     }
     w = ((r - ROUGH_MAP_FROM) / 0.25);
     float _e13 = w;
     if (!((_e13 > 0.0))) {
-        const float _e18 = map_delta(tiles.x, uv_6);
+        const float _e18 = map_delta(tiles.x, uv_7);
         return _e18;
     }
     float _e19 = w;
     if ((_e19 >= 1.0)) {
-        const float _e23 = map_delta(tiles.w, uv_6);
+        const float _e23 = map_delta(tiles.w, uv_7);
         return _e23;
     }
-    const float _e25 = map_delta(tiles.x, uv_6);
-    const float _e27 = map_delta(tiles.w, uv_6);
+    const float _e25 = map_delta(tiles.x, uv_7);
+    const float _e27 = map_delta(tiles.w, uv_7);
     float _e29 = w;
     return (_e25 + ((_e27 - _e25) * _e29));
 }
@@ -981,75 +1046,76 @@ Aim fetch(float3 b_11, float3 dir_9, float r_1)
     float delta_1 = 0.0;
     bool mapped = false;
     uint corner_2 = 0u;
-    bool local_16 = (bool)0;
+    bool local_17 = (bool)0;
 
-    float4 _e5 = params.probe;
-    if (all((b_11 == _e5.xyz))) {
-        const Aim aim_4 = ConstructAim(dir_9, 1.0);
+    const float2 _e3 = oct_encode(dir_9);
+    const float3 _e4 = cell_size();
+    const uint3 _e6 = cell_of(b_11, _e4);
+    const uint _e7 = cell_index(_e6);
+    int4 tiles_1 = asint(cells.Load4(0+_e7*192));
+    const uint _e12 = probe_of(tiles_1.x, _e3);
+    float4 _e16 = params.probes[_e12];
+    if (all((b_11 == _e16.xyz))) {
+        const Aim aim_4 = ConstructAim(dir_9, 1.0, _e12);
         return aim_4;
     }
-    const float2 _e11 = oct_encode(dir_9);
-    const float3 _e12 = cell_size();
-    const uint _e17 = blend_mode();
-    if ((_e17 == 0u)) {
-        const uint3 _e21 = cell_of(b_11, _e12);
-        const uint _e22 = cell_index(_e21);
-        int4 tiles_1 = asint(cells.Load4(0+_e22*192));
+    const uint _e26 = blend_mode();
+    if ((_e26 == 0u)) {
         if ((tiles_1.x >= int(0))) {
-            const float _e29 = cell_delta(tiles_1, _e11, r_1);
-            delta_1 = _e29;
+            const float _e32 = cell_delta(tiles_1, _e3, r_1);
+            delta_1 = _e32;
             mapped = true;
         }
     } else {
-        const Lattice _e31 = lattice(b_11, _e12);
-        uint2 loop_bound_3 = uint2(4294967295u, 4294967295u);
-        bool loop_init_3 = true;
+        const Lattice _e34 = lattice(b_11, _e4);
+        uint2 loop_bound_4 = uint2(4294967295u, 4294967295u);
+        bool loop_init_4 = true;
         while(true) {
-            if (all(loop_bound_3 == uint2(0u, 0u))) { break; }
-            loop_bound_3 -= uint2(loop_bound_3.y == 0u, 1u);
-            if (!loop_init_3) {
-                uint _e55 = corner_2;
-                corner_2 = (_e55 + 1u);
+            if (all(loop_bound_4 == uint2(0u, 0u))) { break; }
+            loop_bound_4 -= uint2(loop_bound_4.y == 0u, 1u);
+            if (!loop_init_4) {
+                uint _e58 = corner_2;
+                corner_2 = (_e58 + 1u);
             }
-            loop_init_3 = false;
-            uint _e34 = corner_2;
-            if ((_e34 < 8u)) {
+            loop_init_4 = false;
+            uint _e37 = corner_2;
+            if ((_e37 < 8u)) {
             } else {
                 break;
             }
             {
-                uint _e38 = corner_2;
-                const uint3 _e39 = corner_cell(_e31, _e38);
-                const uint _e40 = cell_index(_e39);
-                int4 tiles_2 = asint(cells.Load4(0+_e40*192));
+                uint _e41 = corner_2;
+                const uint3 _e42 = corner_cell(_e34, _e41);
+                const uint _e43 = cell_index(_e42);
+                int4 tiles_2 = asint(cells.Load4(0+_e43*192));
                 if ((tiles_2.x >= int(0))) {
-                    float _e47 = delta_1;
-                    uint _e48 = corner_2;
-                    const float _e49 = corner_weight(_e31, _e48);
-                    const float _e50 = cell_delta(tiles_2, _e11, r_1);
-                    delta_1 = (_e47 + (_e49 * _e50));
+                    float _e50 = delta_1;
+                    uint _e51 = corner_2;
+                    const float _e52 = corner_weight(_e34, _e51);
+                    const float _e53 = cell_delta(tiles_2, _e3, r_1);
+                    delta_1 = (_e50 + (_e52 * _e53));
                     mapped = true;
                 }
             }
         }
     }
-    bool _e57 = mapped;
-    if (!(_e57)) {
-        const bool _e61 = relaxation_on();
-        local_16 = _e61;
+    bool _e60 = mapped;
+    if (!(_e60)) {
+        const bool _e64 = relaxation_on();
+        local_17 = _e64;
     } else {
-        local_16 = false;
+        local_17 = false;
     }
-    bool _e63 = local_16;
-    if (_e63) {
-        const float3 _e64 = fallback_fetch(b_11, dir_9);
-        const Aim aim_5 = ConstructAim(_e64, -1.0);
+    bool _e66 = local_17;
+    if (_e66) {
+        const float3 _e67 = fallback_fetch(b_11, dir_9);
+        const Aim aim_5 = ConstructAim(_e67, -1.0, 0u);
         return aim_5;
     }
-    const float2 _e67 = proxy_exit(b_11, dir_9);
-    float _e68 = delta_1;
-    const Aim _e69 = shifted_aim(_e67, _e68, b_11, dir_9);
-    const Aim aim_6 = _e69;
+    const float2 _e71 = proxy_exit(b_11, dir_9);
+    float _e72 = delta_1;
+    const Aim _e73 = shifted_aim(_e71, _e72, b_11, dir_9, _e12);
+    const Aim aim_6 = _e73;
     return aim_6;
 }
 
@@ -1061,39 +1127,39 @@ float mip_roughness(uint m)
 
 float lod_of_roughness(float r_2)
 {
-    bool local_17 = (bool)0;
+    bool local_18 = (bool)0;
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
 
-    uint n_12 = params.probe_info.x;
-    if (!((n_12 < 2u))) {
+    uint n_13 = params.probe_info.x;
+    if (!((n_13 < 2u))) {
         const float _e11 = mip_roughness(0u);
-        local_17 = !((r_2 > _e11));
+        local_18 = !((r_2 > _e11));
     } else {
-        local_17 = true;
+        local_18 = true;
     }
-    bool _e15 = local_17;
+    bool _e15 = local_18;
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_12 - 1u);
+    uint last = (n_13 - 1u);
     const float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
     }
-    uint2 loop_bound_4 = uint2(4294967295u, 4294967295u);
-    bool loop_init_4 = true;
+    uint2 loop_bound_5 = uint2(4294967295u, 4294967295u);
+    bool loop_init_5 = true;
     while(true) {
-        if (all(loop_bound_4 == uint2(0u, 0u))) { break; }
-        loop_bound_4 -= uint2(loop_bound_4.y == 0u, 1u);
-        if (!loop_init_4) {
+        if (all(loop_bound_5 == uint2(0u, 0u))) { break; }
+        loop_bound_5 -= uint2(loop_bound_5.y == 0u, 1u);
+        if (!loop_init_5) {
             uint _e37 = t_5;
             t_5 = (_e37 + 1u);
         }
-        loop_init_4 = false;
+        loop_init_5 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_12)) {
+        if ((_e26 < n_13)) {
         } else {
             break;
         }
@@ -1117,61 +1183,61 @@ float lod_of_roughness(float r_2)
     return (float(i_6) + clamp(_e57, 0.0, 1.0));
 }
 
-float distance_ratio(float3 b_12, float3 v_6, float2 uv_7)
+float distance_ratio(float3 b_12, float3 v_6, float2 uv_8, uint p_7)
 {
-    bool local_18 = (bool)0;
     bool local_19 = (bool)0;
     bool local_20 = (bool)0;
     bool local_21 = (bool)0;
+    bool local_22 = (bool)0;
 
     float l_5 = length(v_6);
-    float _e8 = params.probe.w;
-    uint _e12 = params.probe_info.y;
-    const float4 _e13 = probe_sample_lod(1u, uv_7, _e8, _e12);
-    float w_6 = _e13.x;
+    float _e9 = params.probe.w;
+    uint _e13 = params.probe_info.y;
+    const float4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_7);
+    float w_7 = _e14.x;
     if ((l_5 > 0.0)) {
-        const bool _e19 = finite(l_5);
-        local_18 = _e19;
-    } else {
-        local_18 = false;
-    }
-    bool _e21 = local_18;
-    if (_e21) {
-        local_19 = (w_6 > 0.0);
+        const bool _e20 = finite(l_5);
+        local_19 = _e20;
     } else {
         local_19 = false;
     }
-    bool _e27 = local_19;
-    if (_e27) {
-        const bool _e30 = finite(w_6);
-        local_20 = _e30;
+    bool _e22 = local_19;
+    if (_e22) {
+        local_20 = (w_7 > 0.0);
     } else {
         local_20 = false;
     }
-    bool _e32 = local_20;
-    if (!(_e32)) {
-        return 1.0;
-    }
-    float d_probe = (1.0 / w_6);
-    float4 _e39 = params.probe;
-    float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_12));
-    float k_12 = (d_probe / d_surface);
-    const bool _e47 = finite(k_12);
-    if (_e47) {
-        local_21 = (k_12 > 0.0);
+    bool _e28 = local_20;
+    if (_e28) {
+        const bool _e31 = finite(w_7);
+        local_21 = _e31;
     } else {
         local_21 = false;
     }
-    bool _e53 = local_21;
-    if (_e53) {
-        return k_12;
+    bool _e33 = local_21;
+    if (!(_e33)) {
+        return 1.0;
+    }
+    float d_probe = (1.0 / w_7);
+    float4 _e41 = params.probes[p_7];
+    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_5))) - b_12));
+    float k_13 = (d_probe / d_surface);
+    const bool _e49 = finite(k_13);
+    if (_e49) {
+        local_22 = (k_13 > 0.0);
+    } else {
+        local_22 = false;
+    }
+    bool _e55 = local_22;
+    if (_e55) {
+        return k_13;
     }
     return 1.0;
 }
 
-float pseudo_log2_(float k_3)
+float pseudo_log2_(float k_4)
 {
-    uint bits_1 = asuint(k_3);
+    uint bits_1 = asuint(k_4);
     int e_1 = asint(asuint(int(((bits_1 >> 23u) & 255u))) - asuint(int(127)));
     float m_3 = asfloat(((bits_1 & 8388607u) | 1065353216u));
     return (float(e_1) + (m_3 - 1.0));
@@ -1180,37 +1246,37 @@ float pseudo_log2_(float k_3)
 float corrected_roughness(float r_3, float k_in)
 {
     float fr = 0.0;
-    float k_4 = 1.0;
-    bool local_22 = (bool)0;
+    float k_5 = 1.0;
+    bool local_23 = (bool)0;
 
-    uint n_13 = params.lut_info.x;
-    float last_1 = float((n_13 - 1u));
+    uint n_14 = params.lut_info.x;
+    float last_1 = float((n_14 - 1u));
     const bool _e11 = finite(r_3);
     if (_e11) {
         fr = clamp((r_3 * last_1), 0.0, last_1);
     }
     const bool _e17 = finite(k_in);
     if (_e17) {
-        local_22 = (k_in > 0.0);
+        local_23 = (k_in > 0.0);
     } else {
-        local_22 = false;
+        local_23 = false;
     }
-    bool _e23 = local_22;
+    bool _e23 = local_23;
     if (_e23) {
-        k_4 = k_in;
+        k_5 = k_in;
     }
-    float _e24 = k_4;
+    float _e24 = k_5;
     float _e28 = params.lut.z;
     float _e32 = params.lut.w;
-    k_4 = clamp(_e24, _e28, _e32);
-    float _e34 = k_4;
+    k_5 = clamp(_e24, _e28, _e32);
+    float _e34 = k_5;
     const float _e35 = pseudo_log2_(_e34);
     float _e39 = params.lut.x;
     float _e44 = params.lut.y;
     float fx = clamp(((_e35 - _e39) * _e44), 0.0, last_1);
     float _e48 = fr;
-    uint i_7 = min(naga_f2u32(_e48), (n_13 - 2u));
-    uint j_5 = min(naga_f2u32(fx), (n_13 - 2u));
+    uint i_7 = min(naga_f2u32(_e48), (n_14 - 2u));
+    uint j_5 = min(naga_f2u32(fx), (n_14 - 2u));
     float _e57 = fr;
     float a_4 = (_e57 - float(i_7));
     float b_21 = (fx - float(j_5));
@@ -1227,89 +1293,89 @@ float corrected_roughness(float r_3, float k_in)
 
 float3 shade(float3 b_13, Aim aim, float r_4)
 {
-    float k_5 = (float)0;
+    float k_6 = (float)0;
 
     const float2 _e4 = oct_encode(aim.v);
     if ((r_4 == 0.0)) {
-        const float3 _e8 = radiance_lod(_e4, 0.0);
-        return _e8;
+        const float3 _e9 = radiance_lod(_e4, 0.0, aim.p);
+        return _e9;
     }
-    const bool _e9 = roughness_corrected();
-    if (!(_e9)) {
-        const float _e11 = lod_of_roughness(r_4);
-        const float3 _e12 = radiance_lod(_e4, _e11);
-        return _e12;
+    const bool _e10 = roughness_corrected();
+    if (!(_e10)) {
+        const float _e12 = lod_of_roughness(r_4);
+        const float3 _e14 = radiance_lod(_e4, _e12, aim.p);
+        return _e14;
     }
-    k_5 = aim.k;
-    float _e15 = k_5;
-    if ((_e15 < 0.0)) {
-        const float _e19 = distance_ratio(b_13, aim.v, _e4);
-        k_5 = _e19;
+    k_6 = aim.k;
+    float _e17 = k_6;
+    if ((_e17 < 0.0)) {
+        const float _e22 = distance_ratio(b_13, aim.v, _e4, aim.p);
+        k_6 = _e22;
     }
-    float _e20 = k_5;
-    const float _e21 = corrected_roughness(r_4, _e20);
-    const float _e22 = lod_of_roughness(_e21);
-    const float3 _e23 = radiance_lod(_e4, _e22);
-    return _e23;
+    float _e23 = k_6;
+    const float _e24 = corrected_roughness(r_4, _e23);
+    const float _e25 = lod_of_roughness(_e24);
+    const float3 _e27 = radiance_lod(_e4, _e25, aim.p);
+    return _e27;
 }
 
-float blend_node_r(uint k_6)
+float blend_node_r(uint k_7)
 {
-    float _e9 = params.blend_r[naga_div(k_6, 4u)][naga_mod(k_6, 4u)];
+    float _e9 = params.blend_r[naga_div(k_7, 4u)][naga_mod(k_7, 4u)];
     return _e9;
 }
 
-float blend_node_w(uint k_7)
+float blend_node_w(uint k_8)
 {
-    float _e9 = params.blend_w[naga_div(k_7, 4u)][naga_mod(k_7, 4u)];
+    float _e9 = params.blend_w[naga_div(k_8, 4u)][naga_mod(k_8, 4u)];
     return _e9;
 }
 
 float irradiance_weight(float r_5)
 {
-    bool local_23 = (bool)0;
+    bool local_24 = (bool)0;
     float w_1 = (float)0;
-    uint k_8 = 1u;
+    uint k_9 = 1u;
 
-    uint n_14 = params.lut_info.y;
-    if (!((n_14 == 0u))) {
-        local_23 = !((r_5 > 0.0));
+    uint n_15 = params.lut_info.y;
+    if (!((n_15 == 0u))) {
+        local_24 = !((r_5 > 0.0));
     } else {
-        local_23 = true;
+        local_24 = true;
     }
-    bool _e14 = local_23;
+    bool _e14 = local_24;
     if (_e14) {
         return 0.0;
     }
     const float _e17 = blend_node_w(0u);
     w_1 = _e17;
-    uint2 loop_bound_5 = uint2(4294967295u, 4294967295u);
-    bool loop_init_5 = true;
+    uint2 loop_bound_6 = uint2(4294967295u, 4294967295u);
+    bool loop_init_6 = true;
     while(true) {
-        if (all(loop_bound_5 == uint2(0u, 0u))) { break; }
-        loop_bound_5 -= uint2(loop_bound_5.y == 0u, 1u);
-        if (!loop_init_5) {
-            uint _e49 = k_8;
-            k_8 = (_e49 + 1u);
+        if (all(loop_bound_6 == uint2(0u, 0u))) { break; }
+        loop_bound_6 -= uint2(loop_bound_6.y == 0u, 1u);
+        if (!loop_init_6) {
+            uint _e49 = k_9;
+            k_9 = (_e49 + 1u);
         }
-        loop_init_5 = false;
-        uint _e21 = k_8;
-        if ((_e21 < n_14)) {
+        loop_init_6 = false;
+        uint _e21 = k_9;
+        if ((_e21 < n_15)) {
         } else {
             break;
         }
         {
-            uint _e23 = k_8;
+            uint _e23 = k_9;
             const float _e26 = blend_node_r((_e23 - 1u));
             if ((r_5 > _e26)) {
-                uint _e29 = k_8;
+                uint _e29 = k_9;
                 const float _e30 = blend_node_r(_e29);
-                float t_12 = min(max(((r_5 - _e26) / (_e30 - _e26)), 0.0), 1.0);
-                uint _e37 = k_8;
+                float t_13 = min(max(((r_5 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                uint _e37 = k_9;
                 const float _e40 = blend_node_w((_e37 - 1u));
-                uint _e44 = k_8;
+                uint _e44 = k_9;
                 const float _e45 = blend_node_w(_e44);
-                w_1 = ((_e40 * (1.0 - t_12)) + (_e45 * t_12));
+                w_1 = ((_e40 * (1.0 - t_13)) + (_e45 * t_13));
             }
         }
     }
@@ -1396,15 +1462,15 @@ float3 sh_read(uint home, float3 b_14, float3 n_6)
     uint rel = (uint)0;
     uint4 corner_cell_1 = (uint4)0;
     uint4 bits = (uint4)0;
-    uint k_9 = 1u;
+    uint k_10 = 1u;
     uint cs = (uint)0;
     uint bs = (uint)0;
     float4 w_3 = (float4)0;
     uint4 at_1 = (uint4)0;
-    uint k_10 = 0u;
+    uint k_11 = 0u;
     bool kept = (bool)0;
-    bool local_24 = (bool)0;
     bool local_25 = (bool)0;
+    bool local_26 = (bool)0;
 
     const float3 _e3 = cell_size();
     uint4 _e6 = params.grid_counts;
@@ -1419,29 +1485,29 @@ float3 sh_read(uint home, float3 b_14, float3 n_6)
         const float3 _e23 = cell_sh_irradiance(home, n_6);
         return _e23;
     }
-    float3 f_6 = clamp(f0_, (0.0).xxx, float3(top_1));
-    float3 fl = floor(f_6);
+    float3 f_7 = clamp(f0_, (0.0).xxx, float3(top_1));
+    float3 fl = floor(f_7);
     base = naga_f2u32(fl);
-    frac_ = (f_6 - fl);
+    frac_ = (f_7 - fl);
     uint _e39 = bx;
     float _e41 = frac_[min(uint(_e39), 2u)];
     uint _e42 = a;
     float _e44 = frac_[min(uint(_e42), 2u)];
     if ((_e41 > _e44)) {
-        uint t_13 = a;
+        uint t_14 = a;
         uint _e47 = bx;
         a = _e47;
-        bx = t_13;
+        bx = t_14;
     }
     uint _e48 = c_6;
     float _e50 = frac_[min(uint(_e48), 2u)];
     uint _e51 = bx;
     float _e53 = frac_[min(uint(_e51), 2u)];
     if ((_e50 > _e53)) {
-        uint t_14 = bx;
+        uint t_15 = bx;
         uint _e56 = c_6;
         bx = _e56;
-        c_6 = t_14;
+        c_6 = t_15;
         uint _e57 = bx;
         float _e59 = frac_[min(uint(_e57), 2u)];
         uint _e60 = a;
@@ -1474,16 +1540,16 @@ float3 sh_read(uint home, float3 b_14, float3 n_6)
     uint _e105 = base.y;
     uint _e108 = base.z;
     uint cell0_ = (_e102 + (counts.x * (_e105 + (counts.y * _e108))));
-    uint2 loop_bound_6 = uint2(4294967295u, 4294967295u);
-    bool loop_init_6 = true;
+    uint2 loop_bound_7 = uint2(4294967295u, 4294967295u);
+    bool loop_init_7 = true;
     while(true) {
-        if (all(loop_bound_6 == uint2(0u, 0u))) { break; }
-        loop_bound_6 -= uint2(loop_bound_6.y == 0u, 1u);
-        if (!loop_init_6) {
+        if (all(loop_bound_7 == uint2(0u, 0u))) { break; }
+        loop_bound_7 -= uint2(loop_bound_7.y == 0u, 1u);
+        if (!loop_init_7) {
             uint _e144 = x_2;
             x_2 = (_e144 + 1u);
         }
-        loop_init_6 = false;
+        loop_init_7 = false;
         uint _e117 = x_2;
         if ((_e117 < 3u)) {
         } else {
@@ -1514,23 +1580,23 @@ float3 sh_read(uint home, float3 b_14, float3 n_6)
     uint _e152 = bx;
     uint _e153 = c_6;
     uint3 axes = uint3(_e151, _e152, _e153);
-    uint2 loop_bound_7 = uint2(4294967295u, 4294967295u);
-    bool loop_init_7 = true;
+    uint2 loop_bound_8 = uint2(4294967295u, 4294967295u);
+    bool loop_init_8 = true;
     while(true) {
-        if (all(loop_bound_7 == uint2(0u, 0u))) { break; }
-        loop_bound_7 -= uint2(loop_bound_7.y == 0u, 1u);
-        if (!loop_init_7) {
-            uint _e194 = k_9;
-            k_9 = (_e194 + 1u);
+        if (all(loop_bound_8 == uint2(0u, 0u))) { break; }
+        loop_bound_8 -= uint2(loop_bound_8.y == 0u, 1u);
+        if (!loop_init_8) {
+            uint _e194 = k_10;
+            k_10 = (_e194 + 1u);
         }
-        loop_init_7 = false;
-        uint _e157 = k_9;
+        loop_init_8 = false;
+        uint _e157 = k_10;
         if ((_e157 < 4u)) {
         } else {
             break;
         }
         {
-            uint _e160 = k_9;
+            uint _e160 = k_10;
             uint x_6 = axes[min(uint((_e160 - 1u)), 2u)];
             cs = 0u;
             bs = 0u;
@@ -1540,13 +1606,13 @@ float3 sh_read(uint home, float3 b_14, float3 n_6)
                 cs = cell_stride[min(uint(x_6), 2u)];
                 bs = bit_stride[min(uint(x_6), 2u)];
             }
-            uint _e175 = k_9;
-            uint _e177 = k_9;
+            uint _e175 = k_10;
+            uint _e177 = k_10;
             uint _e181 = corner_cell_1[min(uint((_e177 - 1u)), 3u)];
             uint _e182 = cs;
             corner_cell_1[min(uint(_e175), 3u)] = (_e181 + _e182);
-            uint _e184 = k_9;
-            uint _e186 = k_9;
+            uint _e184 = k_10;
+            uint _e186 = k_10;
             uint _e190 = bits[min(uint((_e186 - 1u)), 3u)];
             uint _e191 = bs;
             bits[min(uint(_e184), 3u)] = (_e190 + _e191);
@@ -1556,51 +1622,51 @@ float3 sh_read(uint home, float3 b_14, float3 n_6)
     w_3 = weights;
     at_1 = (home).xxxx;
     uint count = ((NagaBufferLength(cells) - 0) / 192);
-    uint2 loop_bound_8 = uint2(4294967295u, 4294967295u);
-    bool loop_init_8 = true;
+    uint2 loop_bound_9 = uint2(4294967295u, 4294967295u);
+    bool loop_init_9 = true;
     while(true) {
-        if (all(loop_bound_8 == uint2(0u, 0u))) { break; }
-        loop_bound_8 -= uint2(loop_bound_8.y == 0u, 1u);
-        if (!loop_init_8) {
-            uint _e252 = k_10;
-            k_10 = (_e252 + 1u);
+        if (all(loop_bound_9 == uint2(0u, 0u))) { break; }
+        loop_bound_9 -= uint2(loop_bound_9.y == 0u, 1u);
+        if (!loop_init_9) {
+            uint _e252 = k_11;
+            k_11 = (_e252 + 1u);
         }
-        loop_init_8 = false;
-        uint _e208 = k_10;
+        loop_init_9 = false;
+        uint _e208 = k_11;
         if ((_e208 < 4u)) {
         } else {
             break;
         }
         {
-            uint _e211 = k_10;
+            uint _e211 = k_11;
             uint ck = corner_cell_1[min(uint(_e211), 3u)];
             kept = false;
-            uint _e216 = k_10;
+            uint _e216 = k_11;
             uint _e218 = bits[min(uint(_e216), 3u)];
             if ((_e218 < 27u)) {
-                uint _e223 = k_10;
+                uint _e223 = k_11;
                 uint _e225 = bits[min(uint(_e223), 3u)];
-                local_24 = (((links >> _e225) & 1u) != 0u);
-            } else {
-                local_24 = false;
-            }
-            bool _e232 = local_24;
-            if (_e232) {
-                local_25 = (ck < count);
+                local_25 = (((links >> _e225) & 1u) != 0u);
             } else {
                 local_25 = false;
             }
-            bool _e237 = local_25;
+            bool _e232 = local_25;
+            if (_e232) {
+                local_26 = (ck < count);
+            } else {
+                local_26 = false;
+            }
+            bool _e237 = local_26;
             if (_e237) {
                 int _e242 = asint(cells.Load(4+0+ck*192));
                 kept = (_e242 >= int(0));
             }
             bool _e245 = kept;
             if (_e245) {
-                uint _e246 = k_10;
+                uint _e246 = k_11;
                 at_1[min(uint(_e246), 3u)] = ck;
             } else {
-                uint _e248 = k_10;
+                uint _e248 = k_11;
                 w_3[min(uint(_e248), 3u)] = 0.0;
             }
         }
@@ -1652,7 +1718,7 @@ float3 specular(float3 position, float3 direction, float roughness)
     float r_6 = 0.0;
     uint cell_1 = 0u;
     bool stored = false;
-    bool local_26 = (bool)0;
+    bool local_27 = (bool)0;
     float3 c_7 = (float3)0;
 
     const float4 _e3 = unit_direction(direction);
@@ -1683,11 +1749,11 @@ float3 specular(float3 position, float3 direction, float roughness)
     }
     bool _e41 = stored;
     if (_e41) {
-        local_26 = (_e22 >= 1.0);
+        local_27 = (_e22 >= 1.0);
     } else {
-        local_26 = false;
+        local_27 = false;
     }
-    bool _e47 = local_26;
+    bool _e47 = local_27;
     if (_e47) {
         uint _e48 = cell_1;
         float3 _e49 = b_15;
@@ -1715,54 +1781,54 @@ float3 specular(float3 position, float3 direction, float roughness)
     return _e78;
 }
 
-float3 cell_irradiance(int tile_2, float3 n_7)
+float3 cell_irradiance(int tile_3, float3 n_7)
 {
     uint _e6 = params.atlas_a.z;
     uint _e10 = params.atlas_a.w;
     const float2 _e11 = oct_encode(n_7);
-    const float4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
+    const float4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_3, _e6, _e10, _e11);
     return _e12.xyz;
 }
 
 float3 irradiance(float3 position_1, float3 normal)
 {
-    float3 p_3 = (float3)0;
+    float3 p_8 = (float3)0;
     float3 e = (0.0).xxx;
     float wsum = 0.0;
     uint corner_3 = 0u;
     float w_4 = (float)0;
-    bool local_27 = (bool)0;
-    float k_11 = (float)0;
+    bool local_28 = (bool)0;
+    float k_12 = (float)0;
 
     const float4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
         return (0.0).xxx;
     }
-    float3 n_15 = _e2.xyz;
+    float3 n_16 = _e2.xyz;
     const float3 _e9 = cell_size();
     float4 _e12 = params.grid_min;
     float4 _e16 = params.grid_max;
     float4 _e20 = params.grid_min;
-    p_3 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
+    p_8 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = params.grid_min.w;
-    float3 biased = (position_1 + (n_15 * _e30));
+    float3 biased = (position_1 + (n_16 * _e30));
     const bool _e33 = finite3_(biased);
     if (_e33) {
-        p_3 = biased;
+        p_8 = biased;
     }
-    float3 _e34 = p_3;
+    float3 _e34 = p_8;
     const Lattice _e35 = lattice(_e34, _e9);
-    const float2 _e36 = oct_encode(n_15);
-    uint2 loop_bound_9 = uint2(4294967295u, 4294967295u);
-    bool loop_init_9 = true;
+    const float2 _e36 = oct_encode(n_16);
+    uint2 loop_bound_10 = uint2(4294967295u, 4294967295u);
+    bool loop_init_10 = true;
     while(true) {
-        if (all(loop_bound_9 == uint2(0u, 0u))) { break; }
-        loop_bound_9 -= uint2(loop_bound_9.y == 0u, 1u);
-        if (!loop_init_9) {
+        if (all(loop_bound_10 == uint2(0u, 0u))) { break; }
+        loop_bound_10 -= uint2(loop_bound_10.y == 0u, 1u);
+        if (!loop_init_10) {
             uint _e157 = corner_3;
             corner_3 = (_e157 + 1u);
         }
-        loop_init_9 = false;
+        loop_init_10 = false;
         uint _e44 = corner_3;
         if ((_e44 < 8u)) {
         } else {
@@ -1781,7 +1847,7 @@ float3 irradiance(float3 position_1, float3 normal)
             if ((tiles_3.y < int(0))) {
                 continue;
             }
-            float3 _e61 = p_3;
+            float3 _e61 = p_8;
             const float3 _e62 = cell_centre(_e52, _e9);
             float4 _e66 = asfloat(cells.Load4(16+_e53*192));
             float3 to_point = (_e61 - (_e62 + _e66.xyz));
@@ -1789,14 +1855,14 @@ float3 irradiance(float3 position_1, float3 normal)
             w_4 = _e48;
             if ((dist > 0.0)) {
                 const bool _e76 = finite(dist);
-                local_27 = _e76;
+                local_28 = _e76;
             } else {
-                local_27 = false;
+                local_28 = false;
             }
-            bool _e78 = local_27;
+            bool _e78 = local_28;
             if (_e78) {
                 float3 u_1 = (to_point / (dist).xxx);
-                float facing = ((dot(n_15, -(u_1)) + 1.0) * 0.5);
+                float facing = ((dot(n_16, -(u_1)) + 1.0) * 0.5);
                 float _e87 = w_4;
                 w_4 = (_e87 * ((facing * facing) + 0.2));
                 uint _e97 = params.atlas_b.x;
@@ -1815,17 +1881,17 @@ float3 irradiance(float3 position_1, float3 normal)
             }
             float _e124 = w_4;
             w_4 = max(_e124, (1e-6 * _e48));
-            k_11 = 1.0;
+            k_12 = 1.0;
             if ((tiles_3.z >= int(0))) {
                 uint _e138 = params.atlas_b.z;
                 uint _e142 = params.atlas_b.w;
                 const float4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_3.z, _e138, _e142, _e36);
-                k_11 = _e143.x;
+                k_12 = _e143.x;
             }
             float3 _e145 = e;
-            const float3 _e147 = cell_irradiance(tiles_3.y, n_15);
+            const float3 _e147 = cell_irradiance(tiles_3.y, n_16);
             float _e148 = w_4;
-            float _e150 = k_11;
+            float _e150 = k_12;
             e = (_e145 + ((_e147 * _e148) * _e150));
             float _e153 = wsum;
             float _e154 = w_4;
@@ -1844,17 +1910,17 @@ float3 irradiance(float3 position_1, float3 normal)
 
 float2 hemi_encode(float3 v_7)
 {
-    bool local_28 = (bool)0;
+    bool local_29 = (bool)0;
 
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         const bool _e14 = finite(l1_1);
-        local_28 = _e14;
+        local_29 = _e14;
     } else {
-        local_28 = false;
+        local_29 = false;
     }
-    bool _e16 = local_28;
+    bool _e16 = local_29;
     if (!(_e16)) {
         return float2(0.5, 0.5);
     }
@@ -1894,16 +1960,16 @@ SurfaceTaps ConstructSurfaceTaps(uint2 arg0, uint2 arg1, float2 arg2) {
     return ret;
 }
 
-SurfaceTaps surface_taps(float2 uv_8)
+SurfaceTaps surface_taps(float2 uv_9)
 {
-    uint n_16 = surface_params.shape.z;
-    float nf = float(n_16);
-    float x_7 = clamp(((uv_8.x * nf) - 0.5), 0.0, (nf - 1.0));
-    float y_1 = clamp(((uv_8.y * nf) - 0.5), 0.0, (nf - 1.0));
+    uint n_17 = surface_params.shape.z;
+    float nf = float(n_17);
+    float x_7 = clamp(((uv_9.x * nf) - 0.5), 0.0, (nf - 1.0));
+    float y_1 = clamp(((uv_9.y * nf) - 0.5), 0.0, (nf - 1.0));
     float x0_1 = floor(x_7);
     float y0_ = floor(y_1);
     uint2 lo = uint2(naga_f2u32(x0_1), naga_f2u32(y0_));
-    const SurfaceTaps surfacetaps = ConstructSurfaceTaps(lo, min((lo + (1u).xx), ((n_16 - 1u)).xx), float2((x_7 - x0_1), (y_1 - y0_)));
+    const SurfaceTaps surfacetaps = ConstructSurfaceTaps(lo, min((lo + (1u).xx), ((n_17 - 1u)).xx), float2((x_7 - x0_1), (y_1 - y0_)));
     return surfacetaps;
 }
 
@@ -1932,32 +1998,32 @@ float surface_tile_inv_distance(uint i_3, uint j_2, SurfaceTaps t_7)
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_16, float3 local_29, SurfaceTaps shared_taps)
+SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_16, float3 local_30, SurfaceTaps shared_taps)
 {
-    bool local_30 = (bool)0;
     bool local_31 = (bool)0;
+    bool local_32 = (bool)0;
 
     SurfaceParams sp = surface_params;
-    float s_5 = ((float(i_4) + 0.5) / float(sp.shape.x));
-    float t_15 = ((float(j_3) + 0.5) / float(sp.shape.y));
-    float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_5)) + (sp.edge_v.xyz * t_15)) + (sp.normal.xyz * sp.corner.w));
+    float s_6 = ((float(i_4) + 0.5) / float(sp.shape.x));
+    float t_16 = ((float(j_3) + 0.5) / float(sp.shape.y));
+    float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_6)) + (sp.edge_v.xyz * t_16)) + (sp.normal.xyz * sp.corner.w));
     float3 d_3 = (probe - b_16);
     float3 ab_2 = float3(dot(d_3, sp.tangent.xyz), dot(d_3, sp.bitangent.xyz), dot(d_3, sp.normal.xyz));
     const float _e48 = surface_tile_inv_distance(i_4, j_3, shared_taps);
-    float3 v_12 = ((local_29 * max(((dot(local_29, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
+    float3 v_12 = ((local_30 * max(((dot(local_30, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
     if ((_e48 > 0.0)) {
         const bool _e62 = finite3_(v_12);
-        local_30 = _e62;
-    } else {
-        local_30 = false;
-    }
-    bool _e64 = local_30;
-    if (_e64) {
-        local_31 = (dot(v_12, v_12) > 0.0);
+        local_31 = _e62;
     } else {
         local_31 = false;
     }
-    bool _e71 = local_31;
+    bool _e64 = local_31;
+    if (_e64) {
+        local_32 = (dot(v_12, v_12) > 0.0);
+    } else {
+        local_32 = false;
+    }
+    bool _e71 = local_32;
     if (_e71) {
         const float2 _e72 = hemi_encode(v_12);
         const SurfaceTaps _e73 = surface_taps(_e72);
@@ -2012,8 +2078,8 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
     float3 dir_12 = _e4.xyz;
-    float3 local_32 = float3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
-    const float2 _e64 = hemi_encode(local_32);
+    float3 local_33 = float3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
+    const float2 _e64 = hemi_encode(local_33);
     const SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
@@ -2021,16 +2087,16 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     t11_ = _e65;
     if (warped) {
         float3 _e72 = b_17;
-        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_32, _e65);
+        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_33, _e65);
         t00_ = _e73;
         float3 _e76 = b_17;
-        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_32, _e65);
+        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_33, _e65);
         t10_ = _e77;
         float3 _e80 = b_17;
-        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_32, _e65);
+        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_33, _e65);
         t01_ = _e81;
         float3 _e84 = b_17;
-        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_32, _e65);
+        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_33, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;
@@ -2078,30 +2144,30 @@ uint query_count()
 [numthreads(64, 1, 1)]
 void specular_queries(uint3 id : SV_DispatchThreadID)
 {
-    uint k_13 = id.x;
+    uint k_14 = id.x;
     const uint _e2 = query_count();
-    if ((k_13 >= _e2)) {
+    if ((k_14 >= _e2)) {
         return;
     }
-    float4 p_4 = asfloat(queries.Load4((2u * k_13)*16));
-    float4 d_5 = asfloat(queries.Load4(((2u * k_13) + 1u)*16));
-    const float3 _e21 = specular(p_4.xyz, d_5.xyz, p_4.w);
-    results.Store4(k_13*16, asuint(float4(_e21, 1.0)));
+    float4 p_10 = asfloat(queries.Load4((2u * k_14)*16));
+    float4 d_5 = asfloat(queries.Load4(((2u * k_14) + 1u)*16));
+    const float3 _e21 = specular(p_10.xyz, d_5.xyz, p_10.w);
+    results.Store4(k_14*16, asuint(float4(_e21, 1.0)));
     return;
 }
 
 [numthreads(64, 1, 1)]
 void irradiance_queries(uint3 id_1 : SV_DispatchThreadID)
 {
-    uint k_14 = id_1.x;
+    uint k_15 = id_1.x;
     const uint _e2 = query_count();
-    if ((k_14 >= _e2)) {
+    if ((k_15 >= _e2)) {
         return;
     }
-    float4 p_5 = asfloat(queries.Load4((2u * k_14)*16));
-    float4 n_17 = asfloat(queries.Load4(((2u * k_14) + 1u)*16));
-    const float3 _e20 = irradiance(p_5.xyz, n_17.xyz);
-    results.Store4(k_14*16, asuint(float4(_e20, 1.0)));
+    float4 p_11 = asfloat(queries.Load4((2u * k_15)*16));
+    float4 n_18 = asfloat(queries.Load4(((2u * k_15) + 1u)*16));
+    const float3 _e20 = irradiance(p_11.xyz, n_18.xyz);
+    results.Store4(k_15*16, asuint(float4(_e20, 1.0)));
     return;
 }
 
@@ -2112,20 +2178,20 @@ void warp1_queries(uint3 id_2 : SV_DispatchThreadID)
     float3 c = (0.0).xxx;
     float3 v = (float3)0;
 
-    uint k_15 = id_2.x;
+    uint k_16 = id_2.x;
     const uint _e2 = query_count();
-    if ((k_15 >= _e2)) {
+    if ((k_16 >= _e2)) {
         return;
     }
     float4 _e6 = params.probe;
     b = _e6.xyz;
-    float4 _e13 = asfloat(queries.Load4((2u * k_15)*16));
+    float4 _e13 = asfloat(queries.Load4((2u * k_16)*16));
     const bool _e15 = finite3_(_e13.xyz);
     if (_e15) {
-        float4 _e20 = asfloat(queries.Load4((2u * k_15)*16));
+        float4 _e20 = asfloat(queries.Load4((2u * k_16)*16));
         b = _e20.xyz;
     }
-    float4 _e28 = asfloat(queries.Load4(((2u * k_15) + 1u)*16));
+    float4 _e28 = asfloat(queries.Load4(((2u * k_16) + 1u)*16));
     const float4 _e30 = unit_direction(_e28.xyz);
     if ((_e30.w != 0.0)) {
         v = _e30.xyz;
@@ -2138,12 +2204,12 @@ void warp1_queries(uint3 id_2 : SV_DispatchThreadID)
         }
         float3 _e49 = v;
         const float2 _e50 = oct_encode(_e49);
-        const float3 _e52 = radiance_lod(_e50, 0.0);
-        const float3 _e53 = clean(_e52);
-        c = _e53;
+        const float3 _e53 = radiance_lod(_e50, 0.0, 0u);
+        const float3 _e54 = clean(_e53);
+        c = _e54;
     }
-    float3 _e56 = c;
-    results.Store4(k_15*16, asuint(float4(_e56, 1.0)));
+    float3 _e57 = c;
+    results.Store4(k_16*16, asuint(float4(_e57, 1.0)));
     return;
 }
 
@@ -2154,20 +2220,20 @@ void box_queries(uint3 id_3 : SV_DispatchThreadID)
     float3 c_1 = (0.0).xxx;
     float3 v_1 = (float3)0;
 
-    uint k_16 = id_3.x;
+    uint k_17 = id_3.x;
     const uint _e2 = query_count();
-    if ((k_16 >= _e2)) {
+    if ((k_17 >= _e2)) {
         return;
     }
     float4 _e6 = params.probe;
     b_1 = _e6.xyz;
-    float4 _e13 = asfloat(queries.Load4((2u * k_16)*16));
+    float4 _e13 = asfloat(queries.Load4((2u * k_17)*16));
     const bool _e15 = finite3_(_e13.xyz);
     if (_e15) {
-        float4 _e20 = asfloat(queries.Load4((2u * k_16)*16));
+        float4 _e20 = asfloat(queries.Load4((2u * k_17)*16));
         b_1 = _e20.xyz;
     }
-    float4 _e28 = asfloat(queries.Load4(((2u * k_16) + 1u)*16));
+    float4 _e28 = asfloat(queries.Load4(((2u * k_17) + 1u)*16));
     const float4 _e30 = unit_direction(_e28.xyz);
     if ((_e30.w != 0.0)) {
         v_1 = _e30.xyz;
@@ -2180,41 +2246,41 @@ void box_queries(uint3 id_3 : SV_DispatchThreadID)
         }
         float3 _e49 = v_1;
         const float2 _e50 = oct_encode(_e49);
-        const float3 _e52 = radiance_lod(_e50, 0.0);
-        const float3 _e53 = clean(_e52);
-        c_1 = _e53;
+        const float3 _e53 = radiance_lod(_e50, 0.0, 0u);
+        const float3 _e54 = clean(_e53);
+        c_1 = _e54;
     }
-    float3 _e56 = c_1;
-    results.Store4(k_16*16, asuint(float4(_e56, 1.0)));
+    float3 _e57 = c_1;
+    results.Store4(k_17*16, asuint(float4(_e57, 1.0)));
     return;
 }
 
 [numthreads(64, 1, 1)]
 void surface_queries(uint3 id_4 : SV_DispatchThreadID)
 {
-    uint k_17 = id_4.x;
+    uint k_18 = id_4.x;
     const uint _e2 = query_count();
-    if ((k_17 >= _e2)) {
+    if ((k_18 >= _e2)) {
         return;
     }
-    float4 p_6 = asfloat(queries.Load4((2u * k_17)*16));
-    float4 d_6 = asfloat(queries.Load4(((2u * k_17) + 1u)*16));
-    const float3 _e21 = surface_specular(p_6.xyz, d_6.xyz, p_6.w);
-    results.Store4(k_17*16, asuint(float4(_e21, 1.0)));
+    float4 p_12 = asfloat(queries.Load4((2u * k_18)*16));
+    float4 d_6 = asfloat(queries.Load4(((2u * k_18) + 1u)*16));
+    const float3 _e21 = surface_specular(p_12.xyz, d_6.xyz, p_12.w);
+    results.Store4(k_18*16, asuint(float4(_e21, 1.0)));
     return;
 }
 
 [numthreads(64, 1, 1)]
 void surface_warped_queries(uint3 id_5 : SV_DispatchThreadID)
 {
-    uint k_18 = id_5.x;
+    uint k_19 = id_5.x;
     const uint _e2 = query_count();
-    if ((k_18 >= _e2)) {
+    if ((k_19 >= _e2)) {
         return;
     }
-    float4 p_7 = asfloat(queries.Load4((2u * k_18)*16));
-    float4 d_7 = asfloat(queries.Load4(((2u * k_18) + 1u)*16));
-    const float3 _e21 = surface_specular_warped(p_7.xyz, d_7.xyz, p_7.w);
-    results.Store4(k_18*16, asuint(float4(_e21, 1.0)));
+    float4 p_13 = asfloat(queries.Load4((2u * k_19)*16));
+    float4 d_7 = asfloat(queries.Load4(((2u * k_19) + 1u)*16));
+    const float3 _e21 = surface_specular_warped(p_13.xyz, d_7.xyz, p_13.w);
+    results.Store4(k_19*16, asuint(float4(_e21, 1.0)));
     return;
 }

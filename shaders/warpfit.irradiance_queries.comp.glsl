@@ -24,6 +24,8 @@ struct Params {
     uvec4 lut_info;
     vec4 blend_r[2];
     vec4 blend_w[2];
+    uvec4 probe_maps;
+    vec4 probes[16];
 };
 struct Cell {
     ivec4 tiles;
@@ -46,6 +48,7 @@ struct Basis {
 struct Aim {
     vec3 v;
     float k;
+    uint p;
 };
 struct SurfaceParams {
     vec4 corner;
@@ -94,11 +97,11 @@ layout(binding = 5) uniform sampler2D _group_0_binding_5_cs;
 
 layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_binding_7_cs; };
 
-layout(std430, binding = 0) readonly buffer type_11_block_1Compute { Cell _group_0_binding_8_cs[]; };
+layout(std430, binding = 0) readonly buffer type_12_block_1Compute { Cell _group_0_binding_8_cs[]; };
 
-layout(std430, binding = 1) readonly buffer type_21_block_2Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_22_block_2Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_21_block_3Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_22_block_3Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 uint fallback_method() {
@@ -353,9 +356,9 @@ uint cell_index(uvec3 c_2) {
     return (c_2.x + (n_9.x * (c_2.y + (n_9.y * c_2.z))));
 }
 
-uvec3 cell_of(vec3 p_1, vec3 size) {
+uvec3 cell_of(vec3 p_4, vec3 size) {
     vec4 _e4 = _group_0_binding_7_cs.grid_min;
-    vec3 f_3 = floor(((p_1 - _e4.xyz) / size));
+    vec3 f_3 = floor(((p_4 - _e4.xyz) / size));
     uvec4 _e11 = _group_0_binding_7_cs.grid_counts;
     vec3 hi = vec3((_e11.xyz - uvec3(1u)));
     bool _e17 = finite3_(f_3);
@@ -370,10 +373,10 @@ vec3 cell_centre(uvec3 c_3, vec3 size_1) {
     return (_e4.xyz + ((vec3(c_3) + vec3(0.5)) * size_1));
 }
 
-Lattice lattice(vec3 p_2, vec3 size_2) {
+Lattice lattice(vec3 p_5, vec3 size_2) {
     vec3 f_1 = vec3(0.0);
     vec4 _e4 = _group_0_binding_7_cs.grid_min;
-    f_1 = (((p_2 - _e4.xyz) / size_2) - vec3(0.5));
+    f_1 = (((p_5 - _e4.xyz) / size_2) - vec3(0.5));
     uvec4 _e14 = _group_0_binding_7_cs.grid_counts;
     vec3 hi_1 = vec3((_e14.xyz - uvec3(1u)));
     vec3 _e20 = f_1;
@@ -539,7 +542,7 @@ vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
     return fallback_1;
 }
 
-Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8) {
+Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_6) {
     bool local_13 = false;
     float s_1 = 0.0;
     bool local_14 = false;
@@ -550,72 +553,124 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8) {
     } else {
         local_13 = true;
     }
-    bool _e15 = local_13;
-    if (_e15) {
-        return Aim(dir_8, 1.0);
+    bool _e16 = local_13;
+    if (_e16) {
+        return Aim(dir_8, 1.0, p_6);
     }
     s_1 = (exit_1.x + delta);
-    float _e21 = s_1;
-    if (!((_e21 > 1e-30))) {
+    float _e22 = s_1;
+    if (!((_e22 > 1e-30))) {
         s_1 = 1e-30;
     }
-    float _e26 = s_1;
-    vec4 _e31 = _group_0_binding_7_cs.probe;
-    vec3 v_9 = ((b_10 + (dir_8 * _e26)) - _e31.xyz);
-    bool _e34 = finite3_(v_9);
-    if (_e34) {
+    float _e27 = s_1;
+    vec4 _e33 = _group_0_binding_7_cs.probes[p_6];
+    vec3 v_9 = ((b_10 + (dir_8 * _e27)) - _e33.xyz);
+    bool _e36 = finite3_(v_9);
+    if (_e36) {
         local_14 = any(notEqual(v_9, vec3(0.0)));
     } else {
         local_14 = false;
     }
-    bool _e42 = local_14;
-    if (_e42) {
-        float _e44 = s_1;
-        k_2 = (length(v_9) / _e44);
-        float _e47 = k_2;
-        bool _e48 = finite(_e47);
-        if (_e48) {
-            float _e51 = k_2;
-            local_15 = (_e51 > 0.0);
+    bool _e44 = local_14;
+    if (_e44) {
+        float _e46 = s_1;
+        k_2 = (length(v_9) / _e46);
+        float _e49 = k_2;
+        bool _e50 = finite(_e49);
+        if (_e50) {
+            float _e53 = k_2;
+            local_15 = (_e53 > 0.0);
         } else {
             local_15 = false;
         }
-        bool _e55 = local_15;
-        if (!(_e55)) {
+        bool _e57 = local_15;
+        if (!(_e57)) {
             k_2 = 1.0;
         }
-        float _e58 = k_2;
-        return Aim(v_9, _e58);
+        float _e60 = k_2;
+        return Aim(v_9, _e60, p_6);
     }
-    return Aim(dir_8, 1.0);
+    return Aim(dir_8, 1.0, p_6);
 }
 
-float map_delta(int tile_1, vec2 uv_5) {
+uint probe_of(int tile_1, vec2 uv_5) {
+    bool local_16 = false;
+    uint best = 0u;
+    uint k_3 = 1u;
+    if (!((tile_1 < 0))) {
+        uint _e10 = _group_0_binding_7_cs.probe_maps.y;
+        local_16 = (_e10 == 0u);
+    } else {
+        local_16 = true;
+    }
+    bool _e14 = local_16;
+    if (_e14) {
+        return 0u;
+    }
+    uint n_11 = _group_0_binding_7_cs.atlas_a.x;
+    uint columns_1 = _group_0_binding_7_cs.atlas_a.y;
+    uint _e28 = _group_0_binding_7_cs.probe_maps.y;
+    uint s_5 = (uint(tile_1) + _e28);
+    ivec2 origin_1 = ivec2((uvec2((s_5 % columns_1), (s_5 / columns_1)) * (n_11 + 2u)));
+    Footprint _e37 = footprint(n_11, uv_5);
+    vec2 f_4 = _e37.f;
+    vec4 w_5 = vec4(((1.0 - f_4.x) * (1.0 - f_4.y)), (f_4.x * (1.0 - f_4.y)), ((1.0 - f_4.x) * f_4.y), (f_4.x * f_4.y));
+    bool loop_init_2 = true;
+    while(true) {
+        if (!loop_init_2) {
+            uint _e74 = k_3;
+            k_3 = (_e74 + 1u);
+        }
+        loop_init_2 = false;
+        uint _e64 = k_3;
+        if ((_e64 < 4u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e67 = k_3;
+            uint _e69 = best;
+            if ((w_5[_e67] > w_5[_e69])) {
+                uint _e72 = k_3;
+                best = _e72;
+            }
+        }
+    }
+    uint _e82 = best;
+    uint _e86 = best;
+    ivec2 t_9 = (((origin_1 + _e37.corner) + ivec2(1, 1)) + ivec2(int((_e82 & 1u)), int((_e86 >> 1u))));
+    vec4 _e93 = atlas_texel(ATLAS_CORRECTIVE, t_9);
+    uint p_9 = uint(_e93.x);
+    uint _e99 = _group_0_binding_7_cs.probe_maps.x;
+    return min(p_9, (max(_e99, 1u) - 1u));
+}
+
+float map_delta(int tile_2, vec2 uv_6) {
     uint _e6 = _group_0_binding_7_cs.atlas_a.x;
     uint _e10 = _group_0_binding_7_cs.atlas_a.y;
-    vec4 _e11 = atlas_bilinear(ATLAS_CORRECTIVE, tile_1, _e6, _e10, uv_5);
+    vec4 _e11 = atlas_bilinear(ATLAS_CORRECTIVE, tile_2, _e6, _e10, uv_6);
     return _e11.x;
 }
 
-float cell_delta(ivec4 tiles, vec2 uv_6, float r) {
+float cell_delta(ivec4 tiles, vec2 uv_7, float r) {
     float w = 0.0;
     if ((tiles.w < 0)) {
-        float _e7 = map_delta(tiles.x, uv_6);
+        float _e7 = map_delta(tiles.x, uv_7);
         return _e7;
     }
     w = ((r - ROUGH_MAP_FROM) / 0.25);
     float _e13 = w;
     if (!((_e13 > 0.0))) {
-        float _e18 = map_delta(tiles.x, uv_6);
+        float _e18 = map_delta(tiles.x, uv_7);
         return _e18;
     }
     float _e19 = w;
     if ((_e19 >= 1.0)) {
-        float _e23 = map_delta(tiles.w, uv_6);
+        float _e23 = map_delta(tiles.w, uv_7);
         return _e23;
     }
-    float _e25 = map_delta(tiles.x, uv_6);
-    float _e27 = map_delta(tiles.w, uv_6);
+    float _e25 = map_delta(tiles.x, uv_7);
+    float _e27 = map_delta(tiles.w, uv_7);
     float _e29 = w;
     return (_e25 + ((_e27 - _e25) * _e29));
 }
@@ -626,35 +681,35 @@ float mip_roughness(uint m) {
 }
 
 float lod_of_roughness(float r_2) {
-    bool local_17 = false;
+    bool local_18 = false;
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
-    uint n_11 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_11 < 2u))) {
+    uint n_12 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_12 < 2u))) {
         float _e11 = mip_roughness(0u);
-        local_17 = !((r_2 > _e11));
+        local_18 = !((r_2 > _e11));
     } else {
-        local_17 = true;
+        local_18 = true;
     }
-    bool _e15 = local_17;
+    bool _e15 = local_18;
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_11 - 1u);
+    uint last = (n_12 - 1u);
     float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
     }
-    bool loop_init_2 = true;
+    bool loop_init_3 = true;
     while(true) {
-        if (!loop_init_2) {
+        if (!loop_init_3) {
             uint _e37 = t_5;
             t_5 = (_e37 + 1u);
         }
-        loop_init_2 = false;
+        loop_init_3 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_11)) {
+        if ((_e26 < n_12)) {
         } else {
             break;
         }
@@ -678,63 +733,63 @@ float lod_of_roughness(float r_2) {
     return (float(i_6) + clamp(_e57, 0.0, 1.0));
 }
 
-float pseudo_log2_(float k_3) {
-    uint bits_1 = floatBitsToUint(k_3);
+float pseudo_log2_(float k_4) {
+    uint bits_1 = floatBitsToUint(k_4);
     int e_1 = (int(((bits_1 >> 23u) & 255u)) - 127);
     float m_3 = uintBitsToFloat(((bits_1 & 8388607u) | 1065353216u));
     return (float(e_1) + (m_3 - 1.0));
 }
 
-float blend_node_r(uint k_6) {
-    float _e9 = _group_0_binding_7_cs.blend_r[(k_6 / 4u)][(k_6 % 4u)];
+float blend_node_r(uint k_7) {
+    float _e9 = _group_0_binding_7_cs.blend_r[(k_7 / 4u)][(k_7 % 4u)];
     return _e9;
 }
 
-float blend_node_w(uint k_7) {
-    float _e9 = _group_0_binding_7_cs.blend_w[(k_7 / 4u)][(k_7 % 4u)];
+float blend_node_w(uint k_8) {
+    float _e9 = _group_0_binding_7_cs.blend_w[(k_8 / 4u)][(k_8 % 4u)];
     return _e9;
 }
 
 float irradiance_weight(float r_5) {
-    bool local_23 = false;
+    bool local_24 = false;
     float w_1 = 0.0;
-    uint k_8 = 1u;
-    uint n_12 = _group_0_binding_7_cs.lut_info.y;
-    if (!((n_12 == 0u))) {
-        local_23 = !((r_5 > 0.0));
+    uint k_9 = 1u;
+    uint n_13 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_13 == 0u))) {
+        local_24 = !((r_5 > 0.0));
     } else {
-        local_23 = true;
+        local_24 = true;
     }
-    bool _e14 = local_23;
+    bool _e14 = local_24;
     if (_e14) {
         return 0.0;
     }
     float _e17 = blend_node_w(0u);
     w_1 = _e17;
-    bool loop_init_3 = true;
+    bool loop_init_4 = true;
     while(true) {
-        if (!loop_init_3) {
-            uint _e49 = k_8;
-            k_8 = (_e49 + 1u);
+        if (!loop_init_4) {
+            uint _e49 = k_9;
+            k_9 = (_e49 + 1u);
         }
-        loop_init_3 = false;
-        uint _e21 = k_8;
-        if ((_e21 < n_12)) {
+        loop_init_4 = false;
+        uint _e21 = k_9;
+        if ((_e21 < n_13)) {
         } else {
             break;
         }
         {
-            uint _e23 = k_8;
+            uint _e23 = k_9;
             float _e26 = blend_node_r((_e23 - 1u));
             if ((r_5 > _e26)) {
-                uint _e29 = k_8;
+                uint _e29 = k_9;
                 float _e30 = blend_node_r(_e29);
-                float t_9 = min(max(((r_5 - _e26) / (_e30 - _e26)), 0.0), 1.0);
-                uint _e37 = k_8;
+                float t_10 = min(max(((r_5 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                uint _e37 = k_9;
                 float _e40 = blend_node_w((_e37 - 1u));
-                uint _e44 = k_8;
+                uint _e44 = k_9;
                 float _e45 = blend_node_w(_e44);
-                w_1 = ((_e40 * (1.0 - t_9)) + (_e45 * t_9));
+                w_1 = ((_e40 * (1.0 - t_10)) + (_e45 * t_10));
             }
         }
     }
@@ -790,48 +845,48 @@ vec3 sh_blend4_(uvec4 at, vec4 w_2, uint i_1) {
     return (((_e8.xyz * w_2.x) + (_e17.xyz * w_2.y)) + ((_e27.xyz * w_2.z) + (_e36.xyz * w_2.w)));
 }
 
-vec3 cell_irradiance(int tile_2, vec3 n_7) {
+vec3 cell_irradiance(int tile_3, vec3 n_7) {
     uint _e6 = _group_0_binding_7_cs.atlas_a.z;
     uint _e10 = _group_0_binding_7_cs.atlas_a.w;
     vec2 _e11 = oct_encode(n_7);
-    vec4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
+    vec4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_3, _e6, _e10, _e11);
     return _e12.xyz;
 }
 
 vec3 irradiance(vec3 position_1, vec3 normal) {
-    vec3 p_3 = vec3(0.0);
+    vec3 p_8 = vec3(0.0);
     vec3 e = vec3(0.0);
     float wsum = 0.0;
     uint corner_3 = 0u;
     float w_4 = 0.0;
-    bool local_27 = false;
-    float k_11 = 0.0;
+    bool local_28 = false;
+    float k_12 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
         return vec3(0.0);
     }
-    vec3 n_13 = _e2.xyz;
+    vec3 n_14 = _e2.xyz;
     vec3 _e9 = cell_size();
     vec4 _e12 = _group_0_binding_7_cs.grid_min;
     vec4 _e16 = _group_0_binding_7_cs.grid_max;
     vec4 _e20 = _group_0_binding_7_cs.grid_min;
-    p_3 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
+    p_8 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = _group_0_binding_7_cs.grid_min.w;
-    vec3 biased = (position_1 + (n_13 * _e30));
+    vec3 biased = (position_1 + (n_14 * _e30));
     bool _e33 = finite3_(biased);
     if (_e33) {
-        p_3 = biased;
+        p_8 = biased;
     }
-    vec3 _e34 = p_3;
+    vec3 _e34 = p_8;
     Lattice _e35 = lattice(_e34, _e9);
-    vec2 _e36 = oct_encode(n_13);
-    bool loop_init_4 = true;
+    vec2 _e36 = oct_encode(n_14);
+    bool loop_init_5 = true;
     while(true) {
-        if (!loop_init_4) {
+        if (!loop_init_5) {
             uint _e157 = corner_3;
             corner_3 = (_e157 + 1u);
         }
-        loop_init_4 = false;
+        loop_init_5 = false;
         uint _e44 = corner_3;
         if ((_e44 < 8u)) {
         } else {
@@ -850,7 +905,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             if ((tiles_1.y < 0)) {
                 continue;
             }
-            vec3 _e61 = p_3;
+            vec3 _e61 = p_8;
             vec3 _e62 = cell_centre(_e52, _e9);
             vec4 _e66 = _group_0_binding_8_cs[_e53].offset;
             vec3 to_point = (_e61 - (_e62 + _e66.xyz));
@@ -858,14 +913,14 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             w_4 = _e48;
             if ((dist > 0.0)) {
                 bool _e76 = finite(dist);
-                local_27 = _e76;
+                local_28 = _e76;
             } else {
-                local_27 = false;
+                local_28 = false;
             }
-            bool _e78 = local_27;
+            bool _e78 = local_28;
             if (_e78) {
                 vec3 u = (to_point / vec3(dist));
-                float facing = ((dot(n_13, -(u)) + 1.0) * 0.5);
+                float facing = ((dot(n_14, -(u)) + 1.0) * 0.5);
                 float _e87 = w_4;
                 w_4 = (_e87 * ((facing * facing) + 0.2));
                 uint _e97 = _group_0_binding_7_cs.atlas_b.x;
@@ -884,17 +939,17 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             }
             float _e124 = w_4;
             w_4 = max(_e124, (1e-6 * _e48));
-            k_11 = 1.0;
+            k_12 = 1.0;
             if ((tiles_1.z >= 0)) {
                 uint _e138 = _group_0_binding_7_cs.atlas_b.z;
                 uint _e142 = _group_0_binding_7_cs.atlas_b.w;
                 vec4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_1.z, _e138, _e142, _e36);
-                k_11 = _e143.x;
+                k_12 = _e143.x;
             }
             vec3 _e145 = e;
-            vec3 _e147 = cell_irradiance(tiles_1.y, n_13);
+            vec3 _e147 = cell_irradiance(tiles_1.y, n_14);
             float _e148 = w_4;
-            float _e150 = k_11;
+            float _e150 = k_12;
             e = (_e145 + ((_e147 * _e148) * _e150));
             float _e153 = wsum;
             float _e154 = w_4;
@@ -912,16 +967,16 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_28 = false;
+    bool local_29 = false;
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_28 = _e14;
+        local_29 = _e14;
     } else {
-        local_28 = false;
+        local_29 = false;
     }
-    bool _e16 = local_28;
+    bool _e16 = local_29;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -948,15 +1003,15 @@ uint query_count() {
 
 void main() {
     uvec3 id_1 = gl_GlobalInvocationID;
-    uint k_12 = id_1.x;
+    uint k_13 = id_1.x;
     uint _e2 = query_count();
-    if ((k_12 >= _e2)) {
+    if ((k_13 >= _e2)) {
         return;
     }
-    vec4 p_4 = _group_1_binding_0_cs[(2u * k_12)];
-    vec4 n_14 = _group_1_binding_0_cs[((2u * k_12) + 1u)];
-    vec3 _e20 = irradiance(p_4.xyz, n_14.xyz);
-    _group_1_binding_1_cs[k_12] = vec4(_e20, 1.0);
+    vec4 p_10 = _group_1_binding_0_cs[(2u * k_13)];
+    vec4 n_15 = _group_1_binding_0_cs[((2u * k_13) + 1u)];
+    vec3 _e20 = irradiance(p_10.xyz, n_15.xyz);
+    _group_1_binding_1_cs[k_13] = vec4(_e20, 1.0);
     return;
 }
 

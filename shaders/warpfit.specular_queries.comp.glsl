@@ -24,6 +24,8 @@ struct Params {
     uvec4 lut_info;
     vec4 blend_r[2];
     vec4 blend_w[2];
+    uvec4 probe_maps;
+    vec4 probes[16];
 };
 struct Cell {
     ivec4 tiles;
@@ -46,6 +48,7 @@ struct Basis {
 struct Aim {
     vec3 v;
     float k;
+    uint p;
 };
 struct SurfaceParams {
     vec4 corner;
@@ -100,11 +103,11 @@ layout(binding = 6) uniform sampler2D _group_0_binding_6_cs;
 
 layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_binding_7_cs; };
 
-layout(std430, binding = 0) readonly buffer type_11_block_1Compute { Cell _group_0_binding_8_cs[]; };
+layout(std430, binding = 0) readonly buffer type_12_block_1Compute { Cell _group_0_binding_8_cs[]; };
 
-layout(std430, binding = 1) readonly buffer type_21_block_2Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_22_block_2Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_21_block_3Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_22_block_3Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 uint fallback_method() {
@@ -322,57 +325,58 @@ vec4 probe_texel(uint which, ivec2 t_1, int level) {
     return _e8;
 }
 
-vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1) {
-    float _e6 = _group_0_binding_7_cs.warp.z;
-    float _e10 = _group_0_binding_7_cs.warp.y;
-    float res0_ = ((which_1 == 0u) ? _e10 : _e6);
+vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1, uint p_1) {
+    float _e7 = _group_0_binding_7_cs.warp.z;
+    float _e11 = _group_0_binding_7_cs.warp.y;
+    float res0_ = ((which_1 == 0u) ? _e11 : _e7);
     uint n_9 = max((uint(res0_) >> level_1), 1u);
-    Footprint _e18 = footprint(n_9, uv_1);
-    ivec2 c_8 = _e18.corner;
+    Footprint _e19 = footprint(n_9, uv_1);
+    ivec2 c_8 = _e19.corner;
     int l_3 = int(level_1);
     int ni = int(n_9);
-    ivec2 _e22 = wrap_texel(ni, c_8);
-    vec4 _e23 = probe_texel(which_1, _e22, l_3);
-    ivec2 _e28 = wrap_texel(ni, (c_8 + ivec2(1, 0)));
-    vec4 _e29 = probe_texel(which_1, _e28, l_3);
-    ivec2 _e34 = wrap_texel(ni, (c_8 + ivec2(0, 1)));
-    vec4 _e35 = probe_texel(which_1, _e34, l_3);
-    ivec2 _e40 = wrap_texel(ni, (c_8 + ivec2(1, 1)));
-    vec4 _e41 = probe_texel(which_1, _e40, l_3);
-    vec4 _e43 = blend4_(_e23, _e29, _e35, _e41, _e18.f);
-    return _e43;
+    ivec2 at_2 = ivec2((int(p_1) * ni), 0);
+    ivec2 _e27 = wrap_texel(ni, c_8);
+    vec4 _e29 = probe_texel(which_1, (at_2 + _e27), l_3);
+    ivec2 _e34 = wrap_texel(ni, (c_8 + ivec2(1, 0)));
+    vec4 _e36 = probe_texel(which_1, (at_2 + _e34), l_3);
+    ivec2 _e41 = wrap_texel(ni, (c_8 + ivec2(0, 1)));
+    vec4 _e43 = probe_texel(which_1, (at_2 + _e41), l_3);
+    ivec2 _e48 = wrap_texel(ni, (c_8 + ivec2(1, 1)));
+    vec4 _e50 = probe_texel(which_1, (at_2 + _e48), l_3);
+    vec4 _e52 = blend4_(_e29, _e36, _e43, _e50, _e19.f);
+    return _e52;
 }
 
-vec4 probe_sample_lod(uint which_2, vec2 uv_2, float lod_in, uint levels) {
+vec4 probe_sample_lod(uint which_2, vec2 uv_2, float lod_in, uint levels, uint p_2) {
     float lod = 0.0;
     bool local_8 = false;
     float top = float((max(levels, 1u) - 1u));
-    bool _e11 = finite(lod_in);
-    if (_e11) {
+    bool _e12 = finite(lod_in);
+    if (_e12) {
         lod = min(max(lod_in, 0.0), top);
     }
-    float _e15 = lod;
-    uint l0_ = uint(_e15);
-    float _e17 = lod;
-    float f_3 = (_e17 - float(l0_));
-    vec4 _e20 = probe_bilinear(which_2, uv_2, l0_);
+    float _e16 = lod;
+    uint l0_ = uint(_e16);
+    float _e18 = lod;
+    float f_3 = (_e18 - float(l0_));
+    vec4 _e21 = probe_bilinear(which_2, uv_2, l0_, p_2);
     if (!((f_3 == 0.0))) {
         local_8 = ((l0_ + 1u) >= levels);
     } else {
         local_8 = true;
     }
-    bool _e30 = local_8;
-    if (_e30) {
-        return _e20;
+    bool _e31 = local_8;
+    if (_e31) {
+        return _e21;
     }
-    vec4 _e33 = probe_bilinear(which_2, uv_2, (l0_ + 1u));
-    return ((_e20 * (1.0 - f_3)) + (_e33 * f_3));
+    vec4 _e34 = probe_bilinear(which_2, uv_2, (l0_ + 1u), p_2);
+    return ((_e21 * (1.0 - f_3)) + (_e34 * f_3));
 }
 
-vec3 radiance_lod(vec2 uv_3, float lod_1) {
-    uint _e6 = _group_0_binding_7_cs.probe_info.x;
-    vec4 _e7 = probe_sample_lod(0u, uv_3, lod_1, _e6);
-    return _e7.xyz;
+vec3 radiance_lod(vec2 uv_3, float lod_1, uint p_3) {
+    uint _e7 = _group_0_binding_7_cs.probe_info.x;
+    vec4 _e8 = probe_sample_lod(0u, uv_3, lod_1, _e7, p_3);
+    return _e8.xyz;
 }
 
 float inv_dist(vec3 v_4) {
@@ -380,16 +384,16 @@ float inv_dist(vec3 v_4) {
     vec2 _e2 = oct_encode(v_4);
     float _e6 = _group_0_binding_7_cs.probe.w;
     uint _e10 = _group_0_binding_7_cs.probe_info.y;
-    vec4 _e11 = probe_sample_lod(1u, _e2, _e6, _e10);
-    float w_5 = _e11.x;
+    vec4 _e12 = probe_sample_lod(1u, _e2, _e6, _e10, 0u);
+    float w_5 = _e12.x;
     if ((w_5 > 0.0)) {
-        bool _e17 = finite(w_5);
-        local_9 = _e17;
+        bool _e18 = finite(w_5);
+        local_9 = _e18;
     } else {
         local_9 = false;
     }
-    bool _e19 = local_9;
-    if (_e19) {
+    bool _e20 = local_9;
+    if (_e20) {
         return w_5;
     }
     return 0.0;
@@ -441,9 +445,9 @@ uint cell_index(uvec3 c_2) {
     return (c_2.x + (n_10.x * (c_2.y + (n_10.y * c_2.z))));
 }
 
-uvec3 cell_of(vec3 p_1, vec3 size) {
+uvec3 cell_of(vec3 p_4, vec3 size) {
     vec4 _e4 = _group_0_binding_7_cs.grid_min;
-    vec3 f_4 = floor(((p_1 - _e4.xyz) / size));
+    vec3 f_4 = floor(((p_4 - _e4.xyz) / size));
     uvec4 _e11 = _group_0_binding_7_cs.grid_counts;
     vec3 hi = vec3((_e11.xyz - uvec3(1u)));
     bool _e17 = finite3_(f_4);
@@ -458,10 +462,10 @@ vec3 cell_centre(uvec3 c_3, vec3 size_1) {
     return (_e4.xyz + ((vec3(c_3) + vec3(0.5)) * size_1));
 }
 
-Lattice lattice(vec3 p_2, vec3 size_2) {
+Lattice lattice(vec3 p_5, vec3 size_2) {
     vec3 f_1 = vec3(0.0);
     vec4 _e4 = _group_0_binding_7_cs.grid_min;
-    f_1 = (((p_2 - _e4.xyz) / size_2) - vec3(0.5));
+    f_1 = (((p_5 - _e4.xyz) / size_2) - vec3(0.5));
     uvec4 _e14 = _group_0_binding_7_cs.grid_counts;
     vec3 hi_1 = vec3((_e14.xyz - uvec3(1u)));
     vec3 _e20 = f_1;
@@ -771,7 +775,7 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
     return _e62;
 }
 
-Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8) {
+Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_6) {
     bool local_13 = false;
     float s_1 = 0.0;
     bool local_14 = false;
@@ -782,72 +786,124 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8) {
     } else {
         local_13 = true;
     }
-    bool _e15 = local_13;
-    if (_e15) {
-        return Aim(dir_8, 1.0);
+    bool _e16 = local_13;
+    if (_e16) {
+        return Aim(dir_8, 1.0, p_6);
     }
     s_1 = (exit_1.x + delta);
-    float _e21 = s_1;
-    if (!((_e21 > 1e-30))) {
+    float _e22 = s_1;
+    if (!((_e22 > 1e-30))) {
         s_1 = 1e-30;
     }
-    float _e26 = s_1;
-    vec4 _e31 = _group_0_binding_7_cs.probe;
-    vec3 v_11 = ((b_10 + (dir_8 * _e26)) - _e31.xyz);
-    bool _e34 = finite3_(v_11);
-    if (_e34) {
+    float _e27 = s_1;
+    vec4 _e33 = _group_0_binding_7_cs.probes[p_6];
+    vec3 v_11 = ((b_10 + (dir_8 * _e27)) - _e33.xyz);
+    bool _e36 = finite3_(v_11);
+    if (_e36) {
         local_14 = any(notEqual(v_11, vec3(0.0)));
     } else {
         local_14 = false;
     }
-    bool _e42 = local_14;
-    if (_e42) {
-        float _e44 = s_1;
-        k_2 = (length(v_11) / _e44);
-        float _e47 = k_2;
-        bool _e48 = finite(_e47);
-        if (_e48) {
-            float _e51 = k_2;
-            local_15 = (_e51 > 0.0);
+    bool _e44 = local_14;
+    if (_e44) {
+        float _e46 = s_1;
+        k_2 = (length(v_11) / _e46);
+        float _e49 = k_2;
+        bool _e50 = finite(_e49);
+        if (_e50) {
+            float _e53 = k_2;
+            local_15 = (_e53 > 0.0);
         } else {
             local_15 = false;
         }
-        bool _e55 = local_15;
-        if (!(_e55)) {
+        bool _e57 = local_15;
+        if (!(_e57)) {
             k_2 = 1.0;
         }
-        float _e58 = k_2;
-        return Aim(v_11, _e58);
+        float _e60 = k_2;
+        return Aim(v_11, _e60, p_6);
     }
-    return Aim(dir_8, 1.0);
+    return Aim(dir_8, 1.0, p_6);
 }
 
-float map_delta(int tile_1, vec2 uv_5) {
+uint probe_of(int tile_1, vec2 uv_5) {
+    bool local_16 = false;
+    uint best = 0u;
+    uint k_3 = 1u;
+    if (!((tile_1 < 0))) {
+        uint _e10 = _group_0_binding_7_cs.probe_maps.y;
+        local_16 = (_e10 == 0u);
+    } else {
+        local_16 = true;
+    }
+    bool _e14 = local_16;
+    if (_e14) {
+        return 0u;
+    }
+    uint n_12 = _group_0_binding_7_cs.atlas_a.x;
+    uint columns_1 = _group_0_binding_7_cs.atlas_a.y;
+    uint _e28 = _group_0_binding_7_cs.probe_maps.y;
+    uint s_5 = (uint(tile_1) + _e28);
+    ivec2 origin_1 = ivec2((uvec2((s_5 % columns_1), (s_5 / columns_1)) * (n_12 + 2u)));
+    Footprint _e37 = footprint(n_12, uv_5);
+    vec2 f_6 = _e37.f;
+    vec4 w_6 = vec4(((1.0 - f_6.x) * (1.0 - f_6.y)), (f_6.x * (1.0 - f_6.y)), ((1.0 - f_6.x) * f_6.y), (f_6.x * f_6.y));
+    bool loop_init_3 = true;
+    while(true) {
+        if (!loop_init_3) {
+            uint _e74 = k_3;
+            k_3 = (_e74 + 1u);
+        }
+        loop_init_3 = false;
+        uint _e64 = k_3;
+        if ((_e64 < 4u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e67 = k_3;
+            uint _e69 = best;
+            if ((w_6[_e67] > w_6[_e69])) {
+                uint _e72 = k_3;
+                best = _e72;
+            }
+        }
+    }
+    uint _e82 = best;
+    uint _e86 = best;
+    ivec2 t_12 = (((origin_1 + _e37.corner) + ivec2(1, 1)) + ivec2(int((_e82 & 1u)), int((_e86 >> 1u))));
+    vec4 _e93 = atlas_texel(ATLAS_CORRECTIVE, t_12);
+    uint p_9 = uint(_e93.x);
+    uint _e99 = _group_0_binding_7_cs.probe_maps.x;
+    return min(p_9, (max(_e99, 1u) - 1u));
+}
+
+float map_delta(int tile_2, vec2 uv_6) {
     uint _e6 = _group_0_binding_7_cs.atlas_a.x;
     uint _e10 = _group_0_binding_7_cs.atlas_a.y;
-    vec4 _e11 = atlas_bilinear(ATLAS_CORRECTIVE, tile_1, _e6, _e10, uv_5);
+    vec4 _e11 = atlas_bilinear(ATLAS_CORRECTIVE, tile_2, _e6, _e10, uv_6);
     return _e11.x;
 }
 
-float cell_delta(ivec4 tiles, vec2 uv_6, float r) {
+float cell_delta(ivec4 tiles, vec2 uv_7, float r) {
     float w = 0.0;
     if ((tiles.w < 0)) {
-        float _e7 = map_delta(tiles.x, uv_6);
+        float _e7 = map_delta(tiles.x, uv_7);
         return _e7;
     }
     w = ((r - ROUGH_MAP_FROM) / 0.25);
     float _e13 = w;
     if (!((_e13 > 0.0))) {
-        float _e18 = map_delta(tiles.x, uv_6);
+        float _e18 = map_delta(tiles.x, uv_7);
         return _e18;
     }
     float _e19 = w;
     if ((_e19 >= 1.0)) {
-        float _e23 = map_delta(tiles.w, uv_6);
+        float _e23 = map_delta(tiles.w, uv_7);
         return _e23;
     }
-    float _e25 = map_delta(tiles.x, uv_6);
-    float _e27 = map_delta(tiles.w, uv_6);
+    float _e25 = map_delta(tiles.x, uv_7);
+    float _e27 = map_delta(tiles.w, uv_7);
     float _e29 = w;
     return (_e25 + ((_e27 - _e25) * _e29));
 }
@@ -856,69 +912,70 @@ Aim fetch(vec3 b_11, vec3 dir_9, float r_1) {
     float delta_1 = 0.0;
     bool mapped = false;
     uint corner_2 = 0u;
-    bool local_16 = false;
-    vec4 _e5 = _group_0_binding_7_cs.probe;
-    if (all(equal(b_11, _e5.xyz))) {
-        return Aim(dir_9, 1.0);
+    bool local_17 = false;
+    vec2 _e3 = oct_encode(dir_9);
+    vec3 _e4 = cell_size();
+    uvec3 _e6 = cell_of(b_11, _e4);
+    uint _e7 = cell_index(_e6);
+    ivec4 tiles_1 = _group_0_binding_8_cs[_e7].tiles;
+    uint _e12 = probe_of(tiles_1.x, _e3);
+    vec4 _e16 = _group_0_binding_7_cs.probes[_e12];
+    if (all(equal(b_11, _e16.xyz))) {
+        return Aim(dir_9, 1.0, _e12);
     }
-    vec2 _e11 = oct_encode(dir_9);
-    vec3 _e12 = cell_size();
-    uint _e17 = blend_mode();
-    if ((_e17 == 0u)) {
-        uvec3 _e21 = cell_of(b_11, _e12);
-        uint _e22 = cell_index(_e21);
-        ivec4 tiles_1 = _group_0_binding_8_cs[_e22].tiles;
+    uint _e26 = blend_mode();
+    if ((_e26 == 0u)) {
         if ((tiles_1.x >= 0)) {
-            float _e29 = cell_delta(tiles_1, _e11, r_1);
-            delta_1 = _e29;
+            float _e32 = cell_delta(tiles_1, _e3, r_1);
+            delta_1 = _e32;
             mapped = true;
         }
     } else {
-        Lattice _e31 = lattice(b_11, _e12);
-        bool loop_init_3 = true;
+        Lattice _e34 = lattice(b_11, _e4);
+        bool loop_init_4 = true;
         while(true) {
-            if (!loop_init_3) {
-                uint _e55 = corner_2;
-                corner_2 = (_e55 + 1u);
+            if (!loop_init_4) {
+                uint _e58 = corner_2;
+                corner_2 = (_e58 + 1u);
             }
-            loop_init_3 = false;
-            uint _e34 = corner_2;
-            if ((_e34 < 8u)) {
+            loop_init_4 = false;
+            uint _e37 = corner_2;
+            if ((_e37 < 8u)) {
             } else {
                 break;
             }
             {
-                uint _e38 = corner_2;
-                uvec3 _e39 = corner_cell(_e31, _e38);
-                uint _e40 = cell_index(_e39);
-                ivec4 tiles_2 = _group_0_binding_8_cs[_e40].tiles;
+                uint _e41 = corner_2;
+                uvec3 _e42 = corner_cell(_e34, _e41);
+                uint _e43 = cell_index(_e42);
+                ivec4 tiles_2 = _group_0_binding_8_cs[_e43].tiles;
                 if ((tiles_2.x >= 0)) {
-                    float _e47 = delta_1;
-                    uint _e48 = corner_2;
-                    float _e49 = corner_weight(_e31, _e48);
-                    float _e50 = cell_delta(tiles_2, _e11, r_1);
-                    delta_1 = (_e47 + (_e49 * _e50));
+                    float _e50 = delta_1;
+                    uint _e51 = corner_2;
+                    float _e52 = corner_weight(_e34, _e51);
+                    float _e53 = cell_delta(tiles_2, _e3, r_1);
+                    delta_1 = (_e50 + (_e52 * _e53));
                     mapped = true;
                 }
             }
         }
     }
-    bool _e57 = mapped;
-    if (!(_e57)) {
-        bool _e61 = relaxation_on();
-        local_16 = _e61;
+    bool _e60 = mapped;
+    if (!(_e60)) {
+        bool _e64 = relaxation_on();
+        local_17 = _e64;
     } else {
-        local_16 = false;
+        local_17 = false;
     }
-    bool _e63 = local_16;
-    if (_e63) {
-        vec3 _e64 = fallback_fetch(b_11, dir_9);
-        return Aim(_e64, -1.0);
+    bool _e66 = local_17;
+    if (_e66) {
+        vec3 _e67 = fallback_fetch(b_11, dir_9);
+        return Aim(_e67, -1.0, 0u);
     }
-    vec2 _e67 = proxy_exit(b_11, dir_9);
-    float _e68 = delta_1;
-    Aim _e69 = shifted_aim(_e67, _e68, b_11, dir_9);
-    return _e69;
+    vec2 _e71 = proxy_exit(b_11, dir_9);
+    float _e72 = delta_1;
+    Aim _e73 = shifted_aim(_e71, _e72, b_11, dir_9, _e12);
+    return _e73;
 }
 
 float mip_roughness(uint m) {
@@ -927,35 +984,35 @@ float mip_roughness(uint m) {
 }
 
 float lod_of_roughness(float r_2) {
-    bool local_17 = false;
+    bool local_18 = false;
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
-    uint n_12 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_12 < 2u))) {
+    uint n_13 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_13 < 2u))) {
         float _e11 = mip_roughness(0u);
-        local_17 = !((r_2 > _e11));
+        local_18 = !((r_2 > _e11));
     } else {
-        local_17 = true;
+        local_18 = true;
     }
-    bool _e15 = local_17;
+    bool _e15 = local_18;
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_12 - 1u);
+    uint last = (n_13 - 1u);
     float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
     }
-    bool loop_init_4 = true;
+    bool loop_init_5 = true;
     while(true) {
-        if (!loop_init_4) {
+        if (!loop_init_5) {
             uint _e37 = t_5;
             t_5 = (_e37 + 1u);
         }
-        loop_init_4 = false;
+        loop_init_5 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_12)) {
+        if ((_e26 < n_13)) {
         } else {
             break;
         }
@@ -979,58 +1036,58 @@ float lod_of_roughness(float r_2) {
     return (float(i_6) + clamp(_e57, 0.0, 1.0));
 }
 
-float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_7) {
-    bool local_18 = false;
+float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_8, uint p_7) {
     bool local_19 = false;
     bool local_20 = false;
     bool local_21 = false;
+    bool local_22 = false;
     float l_5 = length(v_6);
-    float _e8 = _group_0_binding_7_cs.probe.w;
-    uint _e12 = _group_0_binding_7_cs.probe_info.y;
-    vec4 _e13 = probe_sample_lod(1u, uv_7, _e8, _e12);
-    float w_6 = _e13.x;
+    float _e9 = _group_0_binding_7_cs.probe.w;
+    uint _e13 = _group_0_binding_7_cs.probe_info.y;
+    vec4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_7);
+    float w_7 = _e14.x;
     if ((l_5 > 0.0)) {
-        bool _e19 = finite(l_5);
-        local_18 = _e19;
-    } else {
-        local_18 = false;
-    }
-    bool _e21 = local_18;
-    if (_e21) {
-        local_19 = (w_6 > 0.0);
+        bool _e20 = finite(l_5);
+        local_19 = _e20;
     } else {
         local_19 = false;
     }
-    bool _e27 = local_19;
-    if (_e27) {
-        bool _e30 = finite(w_6);
-        local_20 = _e30;
+    bool _e22 = local_19;
+    if (_e22) {
+        local_20 = (w_7 > 0.0);
     } else {
         local_20 = false;
     }
-    bool _e32 = local_20;
-    if (!(_e32)) {
-        return 1.0;
-    }
-    float d_probe = (1.0 / w_6);
-    vec4 _e39 = _group_0_binding_7_cs.probe;
-    float d_surface = length(((_e39.xyz + (v_6 * (d_probe / l_5))) - b_12));
-    float k_12 = (d_probe / d_surface);
-    bool _e47 = finite(k_12);
-    if (_e47) {
-        local_21 = (k_12 > 0.0);
+    bool _e28 = local_20;
+    if (_e28) {
+        bool _e31 = finite(w_7);
+        local_21 = _e31;
     } else {
         local_21 = false;
     }
-    bool _e53 = local_21;
-    if (_e53) {
-        return k_12;
+    bool _e33 = local_21;
+    if (!(_e33)) {
+        return 1.0;
+    }
+    float d_probe = (1.0 / w_7);
+    vec4 _e41 = _group_0_binding_7_cs.probes[p_7];
+    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_5))) - b_12));
+    float k_13 = (d_probe / d_surface);
+    bool _e49 = finite(k_13);
+    if (_e49) {
+        local_22 = (k_13 > 0.0);
+    } else {
+        local_22 = false;
+    }
+    bool _e55 = local_22;
+    if (_e55) {
+        return k_13;
     }
     return 1.0;
 }
 
-float pseudo_log2_(float k_3) {
-    uint bits_1 = floatBitsToUint(k_3);
+float pseudo_log2_(float k_4) {
+    uint bits_1 = floatBitsToUint(k_4);
     int e_1 = (int(((bits_1 >> 23u) & 255u)) - 127);
     float m_3 = uintBitsToFloat(((bits_1 & 8388607u) | 1065353216u));
     return (float(e_1) + (m_3 - 1.0));
@@ -1038,36 +1095,36 @@ float pseudo_log2_(float k_3) {
 
 float corrected_roughness(float r_3, float k_in) {
     float fr = 0.0;
-    float k_4 = 1.0;
-    bool local_22 = false;
-    uint n_13 = _group_0_binding_7_cs.lut_info.x;
-    float last_1 = float((n_13 - 1u));
+    float k_5 = 1.0;
+    bool local_23 = false;
+    uint n_14 = _group_0_binding_7_cs.lut_info.x;
+    float last_1 = float((n_14 - 1u));
     bool _e11 = finite(r_3);
     if (_e11) {
         fr = clamp((r_3 * last_1), 0.0, last_1);
     }
     bool _e17 = finite(k_in);
     if (_e17) {
-        local_22 = (k_in > 0.0);
+        local_23 = (k_in > 0.0);
     } else {
-        local_22 = false;
+        local_23 = false;
     }
-    bool _e23 = local_22;
+    bool _e23 = local_23;
     if (_e23) {
-        k_4 = k_in;
+        k_5 = k_in;
     }
-    float _e24 = k_4;
+    float _e24 = k_5;
     float _e28 = _group_0_binding_7_cs.lut.z;
     float _e32 = _group_0_binding_7_cs.lut.w;
-    k_4 = clamp(_e24, _e28, _e32);
-    float _e34 = k_4;
+    k_5 = clamp(_e24, _e28, _e32);
+    float _e34 = k_5;
     float _e35 = pseudo_log2_(_e34);
     float _e39 = _group_0_binding_7_cs.lut.x;
     float _e44 = _group_0_binding_7_cs.lut.y;
     float fx = clamp(((_e35 - _e39) * _e44), 0.0, last_1);
     float _e48 = fr;
-    uint i_7 = min(uint(_e48), (n_13 - 2u));
-    uint j_5 = min(uint(fx), (n_13 - 2u));
+    uint i_7 = min(uint(_e48), (n_14 - 2u));
+    uint j_5 = min(uint(fx), (n_14 - 2u));
     float _e57 = fr;
     float a_4 = (_e57 - float(i_7));
     float b_21 = (fx - float(j_5));
@@ -1083,81 +1140,81 @@ float corrected_roughness(float r_3, float k_in) {
 }
 
 vec3 shade(vec3 b_13, Aim aim, float r_4) {
-    float k_5 = 0.0;
+    float k_6 = 0.0;
     vec2 _e4 = oct_encode(aim.v);
     if ((r_4 == 0.0)) {
-        vec3 _e8 = radiance_lod(_e4, 0.0);
-        return _e8;
+        vec3 _e9 = radiance_lod(_e4, 0.0, aim.p);
+        return _e9;
     }
-    bool _e9 = roughness_corrected();
-    if (!(_e9)) {
-        float _e11 = lod_of_roughness(r_4);
-        vec3 _e12 = radiance_lod(_e4, _e11);
-        return _e12;
+    bool _e10 = roughness_corrected();
+    if (!(_e10)) {
+        float _e12 = lod_of_roughness(r_4);
+        vec3 _e14 = radiance_lod(_e4, _e12, aim.p);
+        return _e14;
     }
-    k_5 = aim.k;
-    float _e15 = k_5;
-    if ((_e15 < 0.0)) {
-        float _e19 = distance_ratio(b_13, aim.v, _e4);
-        k_5 = _e19;
+    k_6 = aim.k;
+    float _e17 = k_6;
+    if ((_e17 < 0.0)) {
+        float _e22 = distance_ratio(b_13, aim.v, _e4, aim.p);
+        k_6 = _e22;
     }
-    float _e20 = k_5;
-    float _e21 = corrected_roughness(r_4, _e20);
-    float _e22 = lod_of_roughness(_e21);
-    vec3 _e23 = radiance_lod(_e4, _e22);
-    return _e23;
+    float _e23 = k_6;
+    float _e24 = corrected_roughness(r_4, _e23);
+    float _e25 = lod_of_roughness(_e24);
+    vec3 _e27 = radiance_lod(_e4, _e25, aim.p);
+    return _e27;
 }
 
-float blend_node_r(uint k_6) {
-    float _e9 = _group_0_binding_7_cs.blend_r[(k_6 / 4u)][(k_6 % 4u)];
+float blend_node_r(uint k_7) {
+    float _e9 = _group_0_binding_7_cs.blend_r[(k_7 / 4u)][(k_7 % 4u)];
     return _e9;
 }
 
-float blend_node_w(uint k_7) {
-    float _e9 = _group_0_binding_7_cs.blend_w[(k_7 / 4u)][(k_7 % 4u)];
+float blend_node_w(uint k_8) {
+    float _e9 = _group_0_binding_7_cs.blend_w[(k_8 / 4u)][(k_8 % 4u)];
     return _e9;
 }
 
 float irradiance_weight(float r_5) {
-    bool local_23 = false;
+    bool local_24 = false;
     float w_1 = 0.0;
-    uint k_8 = 1u;
-    uint n_14 = _group_0_binding_7_cs.lut_info.y;
-    if (!((n_14 == 0u))) {
-        local_23 = !((r_5 > 0.0));
+    uint k_9 = 1u;
+    uint n_15 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_15 == 0u))) {
+        local_24 = !((r_5 > 0.0));
     } else {
-        local_23 = true;
+        local_24 = true;
     }
-    bool _e14 = local_23;
+    bool _e14 = local_24;
     if (_e14) {
         return 0.0;
     }
     float _e17 = blend_node_w(0u);
     w_1 = _e17;
-    bool loop_init_5 = true;
+    bool loop_init_6 = true;
     while(true) {
-        if (!loop_init_5) {
-            uint _e49 = k_8;
-            k_8 = (_e49 + 1u);
+        if (!loop_init_6) {
+            uint _e49 = k_9;
+            k_9 = (_e49 + 1u);
         }
-        loop_init_5 = false;
-        uint _e21 = k_8;
-        if ((_e21 < n_14)) {
+        loop_init_6 = false;
+        uint _e21 = k_9;
+        if ((_e21 < n_15)) {
         } else {
             break;
         }
         {
-            uint _e23 = k_8;
+            uint _e23 = k_9;
             float _e26 = blend_node_r((_e23 - 1u));
             if ((r_5 > _e26)) {
-                uint _e29 = k_8;
+                uint _e29 = k_9;
                 float _e30 = blend_node_r(_e29);
-                float t_12 = min(max(((r_5 - _e26) / (_e30 - _e26)), 0.0), 1.0);
-                uint _e37 = k_8;
+                float t_13 = min(max(((r_5 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                uint _e37 = k_9;
                 float _e40 = blend_node_w((_e37 - 1u));
-                uint _e44 = k_8;
+                uint _e44 = k_9;
                 float _e45 = blend_node_w(_e44);
-                w_1 = ((_e40 * (1.0 - t_12)) + (_e45 * t_12));
+                w_1 = ((_e40 * (1.0 - t_13)) + (_e45 * t_13));
             }
         }
     }
@@ -1226,15 +1283,15 @@ vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
     uint rel = 0u;
     uvec4 corner_cell_1 = uvec4(0u);
     uvec4 bits = uvec4(0u);
-    uint k_9 = 1u;
+    uint k_10 = 1u;
     uint cs = 0u;
     uint bs = 0u;
     vec4 w_3 = vec4(0.0);
     uvec4 at_1 = uvec4(0u);
-    uint k_10 = 0u;
+    uint k_11 = 0u;
     bool kept = false;
-    bool local_24 = false;
     bool local_25 = false;
+    bool local_26 = false;
     vec3 _e3 = cell_size();
     uvec4 _e6 = _group_0_binding_7_cs.grid_counts;
     uvec3 counts = _e6.xyz;
@@ -1248,29 +1305,29 @@ vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
         vec3 _e23 = cell_sh_irradiance(home, n_6);
         return _e23;
     }
-    vec3 f_6 = clamp(f0_, vec3(0.0), vec3(top_1));
-    vec3 fl = floor(f_6);
+    vec3 f_7 = clamp(f0_, vec3(0.0), vec3(top_1));
+    vec3 fl = floor(f_7);
     base = uvec3(fl);
-    frac = (f_6 - fl);
+    frac = (f_7 - fl);
     uint _e39 = bx;
     float _e41 = frac[_e39];
     uint _e42 = a;
     float _e44 = frac[_e42];
     if ((_e41 > _e44)) {
-        uint t_13 = a;
+        uint t_14 = a;
         uint _e47 = bx;
         a = _e47;
-        bx = t_13;
+        bx = t_14;
     }
     uint _e48 = c_6;
     float _e50 = frac[_e48];
     uint _e51 = bx;
     float _e53 = frac[_e51];
     if ((_e50 > _e53)) {
-        uint t_14 = bx;
+        uint t_15 = bx;
         uint _e56 = c_6;
         bx = _e56;
-        c_6 = t_14;
+        c_6 = t_15;
         uint _e57 = bx;
         float _e59 = frac[_e57];
         uint _e60 = a;
@@ -1303,13 +1360,13 @@ vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
     uint _e105 = base.y;
     uint _e108 = base.z;
     uint cell0_ = (_e102 + (counts.x * (_e105 + (counts.y * _e108))));
-    bool loop_init_6 = true;
+    bool loop_init_7 = true;
     while(true) {
-        if (!loop_init_6) {
+        if (!loop_init_7) {
             uint _e144 = x_2;
             x_2 = (_e144 + 1u);
         }
-        loop_init_6 = false;
+        loop_init_7 = false;
         uint _e117 = x_2;
         if ((_e117 < 3u)) {
         } else {
@@ -1340,20 +1397,20 @@ vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
     uint _e152 = bx;
     uint _e153 = c_6;
     uvec3 axes = uvec3(_e151, _e152, _e153);
-    bool loop_init_7 = true;
+    bool loop_init_8 = true;
     while(true) {
-        if (!loop_init_7) {
-            uint _e194 = k_9;
-            k_9 = (_e194 + 1u);
+        if (!loop_init_8) {
+            uint _e194 = k_10;
+            k_10 = (_e194 + 1u);
         }
-        loop_init_7 = false;
-        uint _e157 = k_9;
+        loop_init_8 = false;
+        uint _e157 = k_10;
         if ((_e157 < 4u)) {
         } else {
             break;
         }
         {
-            uint _e160 = k_9;
+            uint _e160 = k_10;
             uint x_6 = axes[(_e160 - 1u)];
             cs = 0u;
             bs = 0u;
@@ -1363,13 +1420,13 @@ vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
                 cs = cell_stride[x_6];
                 bs = bit_stride[x_6];
             }
-            uint _e175 = k_9;
-            uint _e177 = k_9;
+            uint _e175 = k_10;
+            uint _e177 = k_10;
             uint _e181 = corner_cell_1[(_e177 - 1u)];
             uint _e182 = cs;
             corner_cell_1[_e175] = (_e181 + _e182);
-            uint _e184 = k_9;
-            uint _e186 = k_9;
+            uint _e184 = k_10;
+            uint _e186 = k_10;
             uint _e190 = bits[(_e186 - 1u)];
             uint _e191 = bs;
             bits[_e184] = (_e190 + _e191);
@@ -1379,48 +1436,48 @@ vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
     w_3 = weights;
     at_1 = uvec4(home);
     uint count = uint(_group_0_binding_8_cs.length());
-    bool loop_init_8 = true;
+    bool loop_init_9 = true;
     while(true) {
-        if (!loop_init_8) {
-            uint _e252 = k_10;
-            k_10 = (_e252 + 1u);
+        if (!loop_init_9) {
+            uint _e252 = k_11;
+            k_11 = (_e252 + 1u);
         }
-        loop_init_8 = false;
-        uint _e208 = k_10;
+        loop_init_9 = false;
+        uint _e208 = k_11;
         if ((_e208 < 4u)) {
         } else {
             break;
         }
         {
-            uint _e211 = k_10;
+            uint _e211 = k_11;
             uint ck = corner_cell_1[_e211];
             kept = false;
-            uint _e216 = k_10;
+            uint _e216 = k_11;
             uint _e218 = bits[_e216];
             if ((_e218 < 27u)) {
-                uint _e223 = k_10;
+                uint _e223 = k_11;
                 uint _e225 = bits[_e223];
-                local_24 = (((links >> _e225) & 1u) != 0u);
-            } else {
-                local_24 = false;
-            }
-            bool _e232 = local_24;
-            if (_e232) {
-                local_25 = (ck < count);
+                local_25 = (((links >> _e225) & 1u) != 0u);
             } else {
                 local_25 = false;
             }
-            bool _e237 = local_25;
+            bool _e232 = local_25;
+            if (_e232) {
+                local_26 = (ck < count);
+            } else {
+                local_26 = false;
+            }
+            bool _e237 = local_26;
             if (_e237) {
                 int _e242 = _group_0_binding_8_cs[ck].tiles.y;
                 kept = (_e242 >= 0);
             }
             bool _e245 = kept;
             if (_e245) {
-                uint _e246 = k_10;
+                uint _e246 = k_11;
                 at_1[_e246] = ck;
             } else {
-                uint _e248 = k_10;
+                uint _e248 = k_11;
                 w_3[_e248] = 0.0;
             }
         }
@@ -1471,7 +1528,7 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     float r_6 = 0.0;
     uint cell_1 = 0u;
     bool stored = false;
-    bool local_26 = false;
+    bool local_27 = false;
     vec3 c_7 = vec3(0.0);
     vec4 _e3 = unit_direction(direction);
     if ((_e3.w == 0.0)) {
@@ -1501,11 +1558,11 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     }
     bool _e41 = stored;
     if (_e41) {
-        local_26 = (_e22 >= 1.0);
+        local_27 = (_e22 >= 1.0);
     } else {
-        local_26 = false;
+        local_27 = false;
     }
-    bool _e47 = local_26;
+    bool _e47 = local_27;
     if (_e47) {
         uint _e48 = cell_1;
         vec3 _e49 = b_15;
@@ -1533,48 +1590,48 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     return _e78;
 }
 
-vec3 cell_irradiance(int tile_2, vec3 n_7) {
+vec3 cell_irradiance(int tile_3, vec3 n_7) {
     uint _e6 = _group_0_binding_7_cs.atlas_a.z;
     uint _e10 = _group_0_binding_7_cs.atlas_a.w;
     vec2 _e11 = oct_encode(n_7);
-    vec4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_2, _e6, _e10, _e11);
+    vec4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_3, _e6, _e10, _e11);
     return _e12.xyz;
 }
 
 vec3 irradiance(vec3 position_1, vec3 normal) {
-    vec3 p_3 = vec3(0.0);
+    vec3 p_8 = vec3(0.0);
     vec3 e = vec3(0.0);
     float wsum = 0.0;
     uint corner_3 = 0u;
     float w_4 = 0.0;
-    bool local_27 = false;
-    float k_11 = 0.0;
+    bool local_28 = false;
+    float k_12 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
         return vec3(0.0);
     }
-    vec3 n_15 = _e2.xyz;
+    vec3 n_16 = _e2.xyz;
     vec3 _e9 = cell_size();
     vec4 _e12 = _group_0_binding_7_cs.grid_min;
     vec4 _e16 = _group_0_binding_7_cs.grid_max;
     vec4 _e20 = _group_0_binding_7_cs.grid_min;
-    p_3 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
+    p_8 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = _group_0_binding_7_cs.grid_min.w;
-    vec3 biased = (position_1 + (n_15 * _e30));
+    vec3 biased = (position_1 + (n_16 * _e30));
     bool _e33 = finite3_(biased);
     if (_e33) {
-        p_3 = biased;
+        p_8 = biased;
     }
-    vec3 _e34 = p_3;
+    vec3 _e34 = p_8;
     Lattice _e35 = lattice(_e34, _e9);
-    vec2 _e36 = oct_encode(n_15);
-    bool loop_init_9 = true;
+    vec2 _e36 = oct_encode(n_16);
+    bool loop_init_10 = true;
     while(true) {
-        if (!loop_init_9) {
+        if (!loop_init_10) {
             uint _e157 = corner_3;
             corner_3 = (_e157 + 1u);
         }
-        loop_init_9 = false;
+        loop_init_10 = false;
         uint _e44 = corner_3;
         if ((_e44 < 8u)) {
         } else {
@@ -1593,7 +1650,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             if ((tiles_3.y < 0)) {
                 continue;
             }
-            vec3 _e61 = p_3;
+            vec3 _e61 = p_8;
             vec3 _e62 = cell_centre(_e52, _e9);
             vec4 _e66 = _group_0_binding_8_cs[_e53].offset;
             vec3 to_point = (_e61 - (_e62 + _e66.xyz));
@@ -1601,14 +1658,14 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             w_4 = _e48;
             if ((dist > 0.0)) {
                 bool _e76 = finite(dist);
-                local_27 = _e76;
+                local_28 = _e76;
             } else {
-                local_27 = false;
+                local_28 = false;
             }
-            bool _e78 = local_27;
+            bool _e78 = local_28;
             if (_e78) {
                 vec3 u_1 = (to_point / vec3(dist));
-                float facing = ((dot(n_15, -(u_1)) + 1.0) * 0.5);
+                float facing = ((dot(n_16, -(u_1)) + 1.0) * 0.5);
                 float _e87 = w_4;
                 w_4 = (_e87 * ((facing * facing) + 0.2));
                 uint _e97 = _group_0_binding_7_cs.atlas_b.x;
@@ -1627,17 +1684,17 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             }
             float _e124 = w_4;
             w_4 = max(_e124, (1e-6 * _e48));
-            k_11 = 1.0;
+            k_12 = 1.0;
             if ((tiles_3.z >= 0)) {
                 uint _e138 = _group_0_binding_7_cs.atlas_b.z;
                 uint _e142 = _group_0_binding_7_cs.atlas_b.w;
                 vec4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_3.z, _e138, _e142, _e36);
-                k_11 = _e143.x;
+                k_12 = _e143.x;
             }
             vec3 _e145 = e;
-            vec3 _e147 = cell_irradiance(tiles_3.y, n_15);
+            vec3 _e147 = cell_irradiance(tiles_3.y, n_16);
             float _e148 = w_4;
-            float _e150 = k_11;
+            float _e150 = k_12;
             e = (_e145 + ((_e147 * _e148) * _e150));
             float _e153 = wsum;
             float _e154 = w_4;
@@ -1655,16 +1712,16 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_28 = false;
+    bool local_29 = false;
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_28 = _e14;
+        local_29 = _e14;
     } else {
-        local_28 = false;
+        local_29 = false;
     }
-    bool _e16 = local_28;
+    bool _e16 = local_29;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -1691,15 +1748,15 @@ uint query_count() {
 
 void main() {
     uvec3 id = gl_GlobalInvocationID;
-    uint k_13 = id.x;
+    uint k_14 = id.x;
     uint _e2 = query_count();
-    if ((k_13 >= _e2)) {
+    if ((k_14 >= _e2)) {
         return;
     }
-    vec4 p_4 = _group_1_binding_0_cs[(2u * k_13)];
-    vec4 d_3 = _group_1_binding_0_cs[((2u * k_13) + 1u)];
-    vec3 _e21 = specular(p_4.xyz, d_3.xyz, p_4.w);
-    _group_1_binding_1_cs[k_13] = vec4(_e21, 1.0);
+    vec4 p_10 = _group_1_binding_0_cs[(2u * k_14)];
+    vec4 d_3 = _group_1_binding_0_cs[((2u * k_14) + 1u)];
+    vec3 _e21 = specular(p_10.xyz, d_3.xyz, p_10.w);
+    _group_1_binding_1_cs[k_14] = vec4(_e21, 1.0);
     return;
 }
 

@@ -24,6 +24,8 @@ struct Params {
     uvec4 lut_info;
     vec4 blend_r[2];
     vec4 blend_w[2];
+    uvec4 probe_maps;
+    vec4 probes[16];
 };
 struct Cell {
     ivec4 tiles;
@@ -46,6 +48,7 @@ struct Basis {
 struct Aim {
     vec3 v;
     float k;
+    uint p;
 };
 struct SurfaceParams {
     vec4 corner;
@@ -90,9 +93,9 @@ layout(std140, binding = 1) uniform SurfaceParams_block_0Compute { SurfaceParams
 
 layout(binding = 8) uniform sampler2D _group_2_binding_2_cs;
 
-layout(std430, binding = 1) readonly buffer type_21_block_1Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_22_block_1Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_21_block_2Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_22_block_2Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 bool finite(float x) {
@@ -300,8 +303,8 @@ vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
     return fallback_1;
 }
 
-float pseudo_log2_(float k_3) {
-    uint bits_1 = floatBitsToUint(k_3);
+float pseudo_log2_(float k_4) {
+    uint bits_1 = floatBitsToUint(k_4);
     int e_1 = (int(((bits_1 >> 23u) & 255u)) - 127);
     float m_2 = uintBitsToFloat(((bits_1 & 8388607u) | 1065353216u));
     return (float(e_1) + (m_2 - 1.0));
@@ -333,16 +336,16 @@ vec3 sh_eval(vec3 c_5[9], vec3 n_4) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_28 = false;
+    bool local_29 = false;
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_28 = _e14;
+        local_29 = _e14;
     } else {
-        local_28 = false;
+        local_29 = false;
     }
-    bool _e16 = local_28;
+    bool _e16 = local_29;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -363,11 +366,11 @@ SurfaceAxis surface_axis(float x_in, uint n_8) {
     return SurfaceAxis(i0_, min((i0_ + 1u), (n_8 - 1u)), (c_8 - float(i0_)));
 }
 
-SurfaceTaps surface_taps(vec2 uv_8) {
+SurfaceTaps surface_taps(vec2 uv_9) {
     uint n_9 = _group_2_binding_1_cs.shape.z;
     float nf = float(n_9);
-    float x_6 = clamp(((uv_8.x * nf) - 0.5), 0.0, (nf - 1.0));
-    float y_1 = clamp(((uv_8.y * nf) - 0.5), 0.0, (nf - 1.0));
+    float x_6 = clamp(((uv_9.x * nf) - 0.5), 0.0, (nf - 1.0));
+    float y_1 = clamp(((uv_9.y * nf) - 0.5), 0.0, (nf - 1.0));
     float x0_1 = floor(x_6);
     float y0_ = floor(y_1);
     uvec2 lo = uvec2(uint(x0_1), uint(y0_));
@@ -397,9 +400,9 @@ float surface_tile_inv_distance(uint i_3, uint j_2, SurfaceTaps t_7) {
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_4, uint j_3, vec3 b_16, vec3 local_29, SurfaceTaps shared_taps) {
-    bool local_30 = false;
+SurfaceTaps surface_warped_taps(uint i_4, uint j_3, vec3 b_16, vec3 local_30, SurfaceTaps shared_taps) {
     bool local_31 = false;
+    bool local_32 = false;
     SurfaceParams sp = _group_2_binding_1_cs;
     float s_4 = ((float(i_4) + 0.5) / float(sp.shape.x));
     float t_9 = ((float(j_3) + 0.5) / float(sp.shape.y));
@@ -407,20 +410,20 @@ SurfaceTaps surface_warped_taps(uint i_4, uint j_3, vec3 b_16, vec3 local_29, Su
     vec3 d_2 = (probe - b_16);
     vec3 ab = vec3(dot(d_2, sp.tangent.xyz), dot(d_2, sp.bitangent.xyz), dot(d_2, sp.normal.xyz));
     float _e48 = surface_tile_inv_distance(i_4, j_3, shared_taps);
-    vec3 v_9 = ((local_29 * max(((dot(local_29, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
+    vec3 v_9 = ((local_30 * max(((dot(local_30, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
     if ((_e48 > 0.0)) {
         bool _e62 = finite3_(v_9);
-        local_30 = _e62;
-    } else {
-        local_30 = false;
-    }
-    bool _e64 = local_30;
-    if (_e64) {
-        local_31 = (dot(v_9, v_9) > 0.0);
+        local_31 = _e62;
     } else {
         local_31 = false;
     }
-    bool _e71 = local_31;
+    bool _e64 = local_31;
+    if (_e64) {
+        local_32 = (dot(v_9, v_9) > 0.0);
+    } else {
+        local_32 = false;
+    }
+    bool _e71 = local_32;
     if (_e71) {
         vec2 _e72 = hemi_encode(v_9);
         SurfaceTaps _e73 = surface_taps(_e72);
@@ -470,8 +473,8 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
     vec3 dir_12 = _e4.xyz;
-    vec3 local_32 = vec3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
-    vec2 _e64 = hemi_encode(local_32);
+    vec3 local_33 = vec3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
+    vec2 _e64 = hemi_encode(local_33);
     SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
@@ -479,16 +482,16 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     t11_ = _e65;
     if (warped) {
         vec3 _e72 = b_17;
-        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_32, _e65);
+        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_33, _e65);
         t00_ = _e73;
         vec3 _e76 = b_17;
-        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_32, _e65);
+        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_33, _e65);
         t10_ = _e77;
         vec3 _e80 = b_17;
-        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_32, _e65);
+        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_33, _e65);
         t01_ = _e81;
         vec3 _e84 = b_17;
-        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_32, _e65);
+        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_33, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;
@@ -525,15 +528,15 @@ uint query_count() {
 
 void main() {
     uvec3 id_5 = gl_GlobalInvocationID;
-    uint k_12 = id_5.x;
+    uint k_13 = id_5.x;
     uint _e2 = query_count();
-    if ((k_12 >= _e2)) {
+    if ((k_13 >= _e2)) {
         return;
     }
-    vec4 p_4 = _group_1_binding_0_cs[(2u * k_12)];
-    vec4 d_4 = _group_1_binding_0_cs[((2u * k_12) + 1u)];
-    vec3 _e21 = surface_specular_warped(p_4.xyz, d_4.xyz, p_4.w);
-    _group_1_binding_1_cs[k_12] = vec4(_e21, 1.0);
+    vec4 p_9 = _group_1_binding_0_cs[(2u * k_13)];
+    vec4 d_4 = _group_1_binding_0_cs[((2u * k_13) + 1u)];
+    vec3 _e21 = surface_specular_warped(p_9.xyz, d_4.xyz, p_9.w);
+    _group_1_binding_1_cs[k_13] = vec4(_e21, 1.0);
     return;
 }
 

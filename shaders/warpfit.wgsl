@@ -78,6 +78,13 @@ struct Params {
     // node k's perceptual roughness at blend_r[k / 4][k % 4], its weight likewise in blend_w
     blend_r: array<vec4<f32>, 2>,
     blend_w: array<vec4<f32>, 2>,
+    // several specular probes (the grid's `other_probes`): x how many (1: probe A alone), y
+    // the corrective atlas tile of a stored cell's probe map is its shift map's tile + y (0:
+    // no probe maps, every lookup reads probe A). The probe textures hold the probes side by
+    // side: probe p's mip m starts at column p * (its width at m).
+    probe_maps: vec4<u32>,
+    // every probe's position (xyz), probe A first
+    probes: array<vec4<f32>, 16>,
 }
 
 // One grid cell: its tiles (x shift map, y irradiance, z irradiance scale, w rough shift
@@ -256,8 +263,8 @@ fn blend4(q00: vec4<f32>, q10: vec4<f32>, q01: vec4<f32>, q11: vec4<f32>, f: vec
     return (q00 * (1.0 - f.x) + q10 * f.x) * (1.0 - f.y) + (q01 * (1.0 - f.x) + q11 * f.x) * f.y;
 }
 
-// Seam-aware bilinear of mip `level` of probe texture `which` (0 radiance, 1 inverse
-// distance).
+// Seam-aware bilinear of mip `level` of probe `p` in probe texture `which` (0 radiance, 1
+// inverse distance): the probes sit side by side, probe p's texels from column p * n.
 fn probe_texel(which: u32, t: vec2<i32>, level: i32) -> vec4<f32> {
     if which == 0u {
         return textureLoad(probe_radiance, t, level);
@@ -265,7 +272,7 @@ fn probe_texel(which: u32, t: vec2<i32>, level: i32) -> vec4<f32> {
     return textureLoad(probe_inv_distance, t, level);
 }
 
-fn probe_bilinear(which: u32, uv: vec2<f32>, level: u32) -> vec4<f32> {
+fn probe_bilinear(which: u32, uv: vec2<f32>, level: u32, p: u32) -> vec4<f32> {
     // mip sizes from the parameters, not textureDimensions: some drivers (llvmpipe 22) answer
     // textureDimensions for one invocation's level when invocations read different mips
     let res0 = select(params.warp.z, params.warp.y, which == 0u);
@@ -274,15 +281,16 @@ fn probe_bilinear(which: u32, uv: vec2<f32>, level: u32) -> vec4<f32> {
     let c = fp.corner;
     let l = i32(level);
     let ni = i32(n);
-    let q00 = probe_texel(which, wrap_texel(ni, c), l);
-    let q10 = probe_texel(which, wrap_texel(ni, c + vec2<i32>(1, 0)), l);
-    let q01 = probe_texel(which, wrap_texel(ni, c + vec2<i32>(0, 1)), l);
-    let q11 = probe_texel(which, wrap_texel(ni, c + vec2<i32>(1, 1)), l);
+    let at = vec2<i32>(i32(p) * ni, 0);
+    let q00 = probe_texel(which, at + wrap_texel(ni, c), l);
+    let q10 = probe_texel(which, at + wrap_texel(ni, c + vec2<i32>(1, 0)), l);
+    let q01 = probe_texel(which, at + wrap_texel(ni, c + vec2<i32>(0, 1)), l);
+    let q11 = probe_texel(which, at + wrap_texel(ni, c + vec2<i32>(1, 1)), l);
     return blend4(q00, q10, q01, q11, fp.f);
 }
 
-// Trilinear lookup at fractional `lod` of a probe mip chain of `levels` levels.
-fn probe_sample_lod(which: u32, uv: vec2<f32>, lod_in: f32, levels: u32) -> vec4<f32> {
+// Trilinear lookup at fractional `lod` of probe `p`'s mip chain of `levels` levels.
+fn probe_sample_lod(which: u32, uv: vec2<f32>, lod_in: f32, levels: u32, p: u32) -> vec4<f32> {
     let top = f32(max(levels, 1u) - 1u);
     var lod = 0.0;
     if finite(lod_in) {
@@ -290,22 +298,23 @@ fn probe_sample_lod(which: u32, uv: vec2<f32>, lod_in: f32, levels: u32) -> vec4
     }
     let l0 = u32(lod);
     let f = lod - f32(l0);
-    let a = probe_bilinear(which, uv, l0);
+    let a = probe_bilinear(which, uv, l0, p);
     if f == 0.0 || l0 + 1u >= levels {
         return a;
     }
-    let b = probe_bilinear(which, uv, l0 + 1u);
+    let b = probe_bilinear(which, uv, l0 + 1u, p);
     return a * (1.0 - f) + b * f;
 }
 
-fn radiance_lod(uv: vec2<f32>, lod: f32) -> vec3<f32> {
-    return probe_sample_lod(0u, uv, lod, params.probe_info.x).xyz;
+// Radiance of probe `p` at uv and fractional mip `lod`.
+fn radiance_lod(uv: vec2<f32>, lod: f32, p: u32) -> vec3<f32> {
+    return probe_sample_lod(0u, uv, lod, params.probe_info.x, p).xyz;
 }
 
 // Inverse distance probe A sees along `v` at the warps' depth mip: finite and > 0, else 0
 // (sky).
 fn inv_dist(v: vec3<f32>) -> f32 {
-    let w = probe_sample_lod(1u, oct_encode(v), params.probe.w, params.probe_info.y).x;
+    let w = probe_sample_lod(1u, oct_encode(v), params.probe.w, params.probe_info.y, 0u).x;
     if w > 0.0 && finite(w) {
         return w;
     }
@@ -588,35 +597,63 @@ fn fallback_fetch(b: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
 
 // ---- the fitted correctives ------------------------------------------------------------
 
-// Where a lookup reads probe A: fetch vector v and, when it aimed at a known point, that
-// point's distance ratio k = d_probe / d_surface (k < 0: unknown, read A's depth).
+// Where a lookup reads: fetch vector v of probe p (0: probe A) and, when it aimed at a
+// known point, that point's distance ratio k = d_probe / d_surface (k < 0: unknown, read
+// the probe's depth).
 struct Aim {
     v: vec3<f32>,
     k: f32,
+    p: u32,
 }
 
 // The corrective lookup: the ray from B leaves the proxy at `exit` (see `box_exit`); its
 // surface shifted by `delta` along dir is where probe A is fetched towards, with that
 // point's distance ratio. B outside the proxy, or an open side: the query direction; a
 // surface at or behind B: B itself.
-fn shifted_aim(exit: vec2<f32>, delta: f32, b: vec3<f32>, dir: vec3<f32>) -> Aim {
+fn shifted_aim(exit: vec2<f32>, delta: f32, b: vec3<f32>, dir: vec3<f32>, p: u32) -> Aim {
     if exit.y == 0.0 || !(exit.x < HUGE) {
-        return Aim(dir, 1.0);
+        return Aim(dir, 1.0, p);
     }
     // at or behind B: aim at B (the CPU's NEAREST)
     var s = exit.x + delta;
     if !(s > 1e-30) {
         s = 1e-30;
     }
-    let v = b + dir * s - params.probe.xyz;
+    let v = b + dir * s - params.probes[p].xyz;
     if finite3(v) && any(v != vec3<f32>(0.0)) {
         var k = length(v) / s;
         if !(finite(k) && k > 0.0) {
             k = 1.0;
         }
-        return Aim(v, k);
+        return Aim(v, k, p);
     }
-    return Aim(dir, 1.0);
+    return Aim(dir, 1.0, p);
+}
+
+// The probe a lookup along the direction of uv reads in a cell whose shift map is tile
+// `tile` (< 0: none): the probe map's texel with the greatest bilinear weight (the first
+// of equals, in the order of `blend4`'s corners), as `corrective::nearest_tap` picks it;
+// probe A without a map or without probe maps.
+fn probe_of(tile: i32, uv: vec2<f32>) -> u32 {
+    if tile < 0 || params.probe_maps.y == 0u {
+        return 0u;
+    }
+    let n = params.atlas_a.x;
+    let columns = params.atlas_a.y;
+    let s = u32(tile) + params.probe_maps.y;
+    let origin = vec2<i32>(vec2<u32>(s % columns, s / columns) * (n + 2u));
+    let fp = footprint(n, uv);
+    let f = fp.f;
+    let w = vec4<f32>((1.0 - f.x) * (1.0 - f.y), f.x * (1.0 - f.y), (1.0 - f.x) * f.y, f.x * f.y);
+    var best = 0u;
+    for (var k = 1u; k < 4u; k++) {
+        if w[k] > w[best] {
+            best = k;
+        }
+    }
+    let t = origin + fp.corner + vec2<i32>(1, 1) + vec2<i32>(i32(best & 1u), i32(best >> 1u));
+    let p = u32(atlas_texel(ATLAS_CORRECTIVE, t).x);
+    return min(p, max(params.probe_maps.x, 1u) - 1u);
 }
 
 // The shift of cell tile `tile`'s map along the direction of uv.
@@ -652,15 +689,18 @@ fn cell_delta(tiles: vec4<i32>, uv: vec2<f32>, r: f32) -> f32 {
 // without a map counting 0); the proxy as it is where no map applies (relaxed when the grid
 // relaxes).
 fn fetch(b: vec3<f32>, dir: vec3<f32>, r: f32) -> Aim {
-    if all(b == params.probe.xyz) {
-        return Aim(dir, 1.0);
-    }
     let uv = oct_encode(dir);
     let size = cell_size();
+    // the containing cell's probe map says which probe (probe A without one)
+    let home = cells[cell_index(cell_of(b, size))].tiles;
+    let p = probe_of(home.x, uv);
+    if all(b == params.probes[p].xyz) {
+        return Aim(dir, 1.0, p);
+    }
     var delta = 0.0;
     var mapped = false;
     if blend_mode() == 0u {
-        let tiles = cells[cell_index(cell_of(b, size))].tiles;
+        let tiles = home;
         if tiles.x >= 0 {
             delta = cell_delta(tiles, uv, r);
             mapped = true;
@@ -676,9 +716,9 @@ fn fetch(b: vec3<f32>, dir: vec3<f32>, r: f32) -> Aim {
         }
     }
     if !mapped && relaxation_on() {
-        return Aim(fallback_fetch(b, dir), -1.0);
+        return Aim(fallback_fetch(b, dir), -1.0, 0u);
     }
-    return shifted_aim(proxy_exit(b, dir), delta, b, dir);
+    return shifted_aim(proxy_exit(b, dir), delta, b, dir, p);
 }
 
 // ---- rough lookups ---------------------------------------------------------------------
@@ -710,15 +750,15 @@ fn lod_of_roughness(r: f32) -> f32 {
     return f32(i) + clamp(f, 0.0, 1.0);
 }
 
-// Distance ratio k = d_probe / d_surface of the point probe A sees along v from B.
-fn distance_ratio(b: vec3<f32>, v: vec3<f32>, uv: vec2<f32>) -> f32 {
+// Distance ratio k = d_probe / d_surface of the point probe p sees along v from B.
+fn distance_ratio(b: vec3<f32>, v: vec3<f32>, uv: vec2<f32>, p: u32) -> f32 {
     let l = length(v);
-    let w = probe_sample_lod(1u, uv, params.probe.w, params.probe_info.y).x;
+    let w = probe_sample_lod(1u, uv, params.probe.w, params.probe_info.y, p).x;
     if !(l > 0.0 && finite(l) && w > 0.0 && finite(w)) {
         return 1.0;
     }
     let d_probe = 1.0 / w;
-    let d_surface = length(params.probe.xyz + v * (d_probe / l) - b);
+    let d_surface = length(params.probes[p].xyz + v * (d_probe / l) - b);
     let k = d_probe / d_surface;
     if finite(k) && k > 0.0 {
         return k;
@@ -760,21 +800,21 @@ fn corrected_roughness(r: f32, k_in: f32) -> f32 {
     return (v00 * (1.0 - b) + v01 * b) * (1.0 - a) + (v10 * (1.0 - b) + v11 * b) * a;
 }
 
-// Radiance of probe A for query (B, unit dir, roughness r) along `aim`, the mip from the
-// roughness correction (the plain mip of r without one).
+// Radiance of the aim's probe for query (B, unit dir, roughness r) along `aim`, the mip
+// from the roughness correction (the plain mip of r without one).
 fn shade(b: vec3<f32>, aim: Aim, r: f32) -> vec3<f32> {
     let uv = oct_encode(aim.v);
     if r == 0.0 {
-        return radiance_lod(uv, 0.0);
+        return radiance_lod(uv, 0.0, aim.p);
     }
     if !roughness_corrected() {
-        return radiance_lod(uv, lod_of_roughness(r));
+        return radiance_lod(uv, lod_of_roughness(r), aim.p);
     }
     var k = aim.k;
     if k < 0.0 {
-        k = distance_ratio(b, aim.v, uv);
+        k = distance_ratio(b, aim.v, uv, aim.p);
     }
-    return radiance_lod(uv, lod_of_roughness(corrected_roughness(r, k)));
+    return radiance_lod(uv, lod_of_roughness(corrected_roughness(r, k)), aim.p);
 }
 
 fn blend_node_r(k: u32) -> f32 {
@@ -1282,7 +1322,7 @@ fn warp1_queries(@builtin(global_invocation_id) id: vec3<u32>) {
         if any(b != params.probe.xyz) {
             v = warp1(b, d.xyz);
         }
-        c = clean(radiance_lod(oct_encode(v), 0.0));
+        c = clean(radiance_lod(oct_encode(v), 0.0, 0u));
     }
     results[k] = vec4<f32>(c, 1.0);
 }
@@ -1304,7 +1344,7 @@ fn box_queries(@builtin(global_invocation_id) id: vec3<u32>) {
         if any(b != params.probe.xyz) {
             v = box_fetch(b, d.xyz);
         }
-        c = clean(radiance_lod(oct_encode(v), 0.0));
+        c = clean(radiance_lod(oct_encode(v), 0.0, 0u));
     }
     results[k] = vec4<f32>(c, 1.0);
 }

@@ -1,7 +1,8 @@
 //! The reference shader (`shaders/warpfit.wgsl`) run through wgpu on a real graphics API
 //! (Mesa's lavapipe Vulkan where there is no GPU; `.ci/run` installs it) over an exported
 //! grid, loaded as an engine loads it, agrees with the CPU sampler `FittedGrid` on thousands
-//! of random and degenerate queries, on the committed `fits/tiny` and on a lit torture grid
+//! of random and degenerate queries, on the committed `fits/tiny` and `fits/tiny_probes`
+//! (two specular probes, a probe chosen per texel) and on a lit torture grid
 //! with stored warp maps and diffuse corrections. And the atlases' gutters make plain
 //! hardware bilinear filtering equal the CPU's seam-aware bilinear.
 //!
@@ -150,6 +151,15 @@ fn check_pipeline(name: &str, gpu: &Gpu, g: &FittedGrid, lookup: &Lookup) {
 #[test]
 fn the_shader_answers_as_the_cpu_sampler_on_the_committed_grid() {
     check_grid("tiny", &FittedGrid::load(repo().join("fits/tiny")).unwrap());
+}
+
+#[test]
+fn the_shader_reads_the_probe_each_texel_chose_as_the_cpu_sampler_does() {
+    // the committed grid of two probes: lookups read either
+    let g = FittedGrid::load(repo().join("fits/tiny_probes")).unwrap();
+    assert_eq!(g.warp().probe_count(), 2);
+    assert!(g.correctives().probe_maps.iter().any(|&p| p == 1), "some texels read the second probe");
+    check_grid("tiny_probes", &g);
 }
 
 #[test]

@@ -216,27 +216,19 @@ fn the_probes_table_is_validated_with_named_errors() {
 }
 
 #[test]
-fn the_export_refuses_a_grid_of_several_probes_by_name() {
-    let scene = two_rooms("positions = [[2.0, 1.2, 0.0]]");
-    let tracer = Tracer::new(&scene);
-    let quiet = Progress::quiet();
-    let bake = warpfit::bake::bake(&scene, &tracer, &quiet);
+fn the_export_lays_several_probes_side_by_side_and_names_them() {
+    let grid = FittedGrid::load(repo().join("fits/tiny_probes")).unwrap();
     let dir = tmp_dir("probes-export");
-    let folder = RunFolder::new(dir.join("grid"));
-    let b = bake.baked(&scene, &tracer);
-    let warp = b.warp(warpfit::warp::WarpOptions::standard());
-    let out = Output { folder: &folder, command: "test", progress: &quiet };
-    job::fit(
-        b,
-        &warp,
-        &warpfit::fit::FitSettings::quick(),
-        StoreOptions::default(),
-        warpfit::fit::MapSets::Stored,
-        out,
-    )
-    .unwrap();
-    let grid = FittedGrid::load(dir.join("grid")).unwrap();
-    let e = warpfit::export::export(&grid, &dir.join("export")).unwrap_err().to_string();
-    assert!(e.contains("2 specular probes") && e.contains("CPU runtime"), "{e}");
-    assert!(!dir.join("export").exists(), "nothing is written");
+    let sidecar = warpfit::export::export(&grid, &dir).unwrap();
+    assert_eq!(sidecar.probe_positions.len(), 2);
+    assert_eq!(sidecar.probe_positions[1], grid.warp().others[0].position.to_array());
+    let c = sidecar.correctives.as_ref().unwrap();
+    let stored = grid.correctives().stored_cells() as u32;
+    assert_eq!(c.probe_tile_offset, Some(2 * stored), "after the maps and the rough maps");
+    // the probe textures: two squares side by side at every mip
+    let bytes = std::fs::read(dir.join("probe_inv_distance.ktx2")).unwrap();
+    let reader = ktx2::Reader::new(&bytes).unwrap();
+    let h = reader.header();
+    let n = grid.warp().probe.inv_depth.levels[0].res;
+    assert_eq!((h.pixel_width, h.pixel_height), (2 * n, n));
 }

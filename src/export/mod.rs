@@ -2,8 +2,9 @@
 //! a JSON sidecar (`export.json`):
 //!
 //! - `probe_radiance.ktx2` (RGBA16F, every GGX mip; alpha 1) and `probe_inv_distance.ktx2`
-//!   (R32F, every mip; 1/distance, 0 = sky: what the warps read);
-//! - `correctives.ktx2` (R32F), `irradiance.ktx2` (RGBA16F), `moments.ktx2` (RG32F: mean
+//!   (R32F, every mip; 1/distance, 0 = sky: what the warps read), a grid's probes side by
+//!   side (probe k's mip m from column k · its width at m; one probe: the plain square);
+//! - `correctives.ktx2` (R32F: the shift maps, then the rough maps, then the probe maps), `irradiance.ktx2` (RGBA16F), `moments.ktx2` (RG32F: mean
 //!   and mean square of the hit distance) and `irradiance_scale.ktx2` (R32F): atlases of
 //!   per-cell octahedral tiles, each with a one-texel gutter filled by the octahedral seam
 //!   rule (`octa::wrap_texel`, as DDGI fills its borders: an edge texel's neighbour across
@@ -55,6 +56,10 @@ pub struct AtlasLayout {
     /// (see the grid manifest's `correctives.rough_maps` for how a lookup blends the two).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rough_tile_offset: Option<u32>,
+    /// The corrective atlas of a grid of several probes: a cell's probe map (probe indices
+    /// as floats) is tile `cell_tile` + this (the grid manifest's `correctives.probe_maps`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub probe_tile_offset: Option<u32>,
 }
 
 /// `export.json`.
@@ -67,6 +72,10 @@ pub struct Sidecar {
     pub probe_radiance: String,
     pub probe_inv_distance: String,
     pub probe_mips: u32,
+    /// Every specular probe's position, probe A first: the probe textures hold them side by
+    /// side, probe k's mip m from column k · (the probe's width at m), each probe's
+    /// octahedral seam wrap inside its own square.
+    pub probe_positions: Vec<[f32; 3]>,
     pub correctives: Option<AtlasLayout>,
     pub irradiance: AtlasLayout,
     pub moments: AtlasLayout,
@@ -234,50 +243,70 @@ fn write_atlas<const C: usize>(
         height,
         cell_tile: cell_tiles(slot),
         rough_tile_offset: None,
+        probe_tile_offset: None,
     })
+}
+
+/// The mip levels of every probe's chain `chain` side by side (probe k's texels of mip m
+/// from column k · its width at m), each texel's channels from `texel`.
+fn side_by_side<T, const C: usize>(
+    probes: &[&crate::warp::WarpProbe],
+    chain: impl Fn(&crate::warp::WarpProbe) -> &crate::octa::OctMips<T>,
+    texel: impl Fn(&T) -> [f32; C],
+) -> Vec<Level> {
+    let levels = probes.first().map_or(0, |q| chain(q).levels.len());
+    (0..levels)
+        .map(|m| {
+            let n = chain(probes[0]).levels[m].res;
+            let mut values = Vec::with_capacity(probes.len() * (n * n) as usize * C);
+            for j in 0..n as usize {
+                for q in probes {
+                    let row = &chain(q).levels[m].texels[j * n as usize..(j + 1) * n as usize];
+                    values.extend(row.iter().flat_map(&texel));
+                }
+            }
+            Level { width: n * probes.len() as u32, height: n, values }
+        })
+        .collect()
 }
 
 /// Exports the fitted grid `grid` into `dir` (created; files written atomically).
 pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
-    let probes = grid.warp().probe_count();
-    if probes > 1 {
-        // refused rather than exported wrong: the textures and the shader hold probe A alone
-        return Err(FileError::invalid(
-            dir,
-            "other_probes",
-            format!(
-                "the grid has {probes} specular probes, and the KTX2 export and the reference shader read probe A alone so far: load it with the CPU runtime (FittedGrid), which reads every probe, or export a fit of the scene without [probes]"
-            ),
-        ));
-    }
     std::fs::create_dir_all(dir).map_err(FileError::io(dir))?;
-    let p = &grid.warp().probe;
+    let w = grid.warp();
+    let p = &w.probe;
+    let probes: Vec<&crate::warp::WarpProbe> = (0..w.probe_count()).map(|k| w.probe_at(k)).collect();
     let rgba = |v: Vec3| [v.x, v.y, v.z, 1.0];
-    let radiance: Vec<Level> = p
-        .radiance
-        .levels
-        .iter()
-        .map(|m| Level { width: m.res, height: m.res, values: m.texels.iter().flat_map(|&v| rgba(v)).collect() })
-        .collect();
-    let radiance_format = colour_format(p.radiance.levels.iter().flat_map(|l| l.texels.iter().copied()));
+    // the probes side by side: probe k's mip m from column k · (its width at m)
+    let radiance: Vec<Level> = side_by_side(&probes, |q| &q.radiance, |v: &Vec3| rgba(*v));
+    let radiance_format =
+        colour_format(probes.iter().flat_map(|q| q.radiance.levels.iter().flat_map(|l| l.texels.iter().copied())));
     write_atomic(&dir.join("probe_radiance.ktx2"), &ktx2::encode(radiance_format, &radiance))?;
-    let inv: Vec<Level> =
-        p.inv_depth.levels.iter().map(|m| Level { width: m.res, height: m.res, values: m.texels.clone() }).collect();
+    let inv: Vec<Level> = side_by_side(&probes, |q| &q.inv_depth, |w: &f32| [*w]);
     write_atomic(&dir.join("probe_inv_distance.ktx2"), &ktx2::encode(Format::R32F, &inv))?;
 
     let c = &grid.correctives();
     let (n, n2) = (c.map_res, (c.map_res * c.map_res) as usize);
     let stored = c.maps.len() / n2.max(1);
-    // rough maps, if any, follow the maps in the same atlas: a cell's rough tile is its
-    // tile + `rough_tile_offset`
-    let tiles = if c.has_rough_maps() { 2 * stored } else { stored };
+    // rough maps, if any, follow the maps in the same atlas (a cell's rough tile is its
+    // tile + `rough_tile_offset`), then the probe maps (+ `probe_tile_offset`)
+    let rough_tiles = if c.has_rough_maps() { stored } else { 0 };
+    let probe_tiles = if c.probe_maps.is_empty() { 0 } else { stored };
     let correctives = (stored > 0)
         .then(|| {
-            write_atlas::<1>(dir, "correctives.ktx2", Format::R32F, n, &c.slot, tiles, |s| {
+            write_atlas::<1>(dir, "correctives.ktx2", Format::R32F, n, &c.slot, stored + rough_tiles + probe_tiles, |s| {
+                if s >= stored + rough_tiles {
+                    let s = s - stored - rough_tiles;
+                    return c.probe_maps[s * n2..(s + 1) * n2].iter().map(|&x| [f32::from(x)]).collect();
+                }
                 let (maps, s) = if s < stored { (&c.maps, s) } else { (&c.rough_maps, s - stored) };
                 maps[s * n2..(s + 1) * n2].iter().map(|&x| [x]).collect()
             })
-            .map(|l| AtlasLayout { rough_tile_offset: c.has_rough_maps().then_some(stored as u32), ..l })
+            .map(|l| AtlasLayout {
+                rough_tile_offset: c.has_rough_maps().then_some(stored as u32),
+                probe_tile_offset: (probe_tiles > 0).then_some((stored + rough_tiles) as u32),
+                ..l
+            })
         })
         .transpose()?;
 
@@ -319,7 +348,8 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
     let unsupported = |e: shader::Unsupported| {
         FileError::invalid(dir, "shader", format!("the grid cannot be exported for the shader: {}", e.0))
     };
-    let params = shader::params(grid, &atlases).map_err(unsupported)?;
+    let probe_tile_offset = correctives.as_ref().and_then(|l| l.probe_tile_offset).unwrap_or(0);
+    let params = shader::params(grid, &atlases, probe_tile_offset).map_err(unsupported)?;
     let constants = shader::constants(grid).map_err(unsupported)?;
     write_atomic(&dir.join("warpfit_params.bin"), &params)?;
     write_atomic(&dir.join("warpfit_cells.bin"), &shader::cells(grid))?;
@@ -340,6 +370,7 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
         probe_radiance: "probe_radiance.ktx2".into(),
         probe_inv_distance: "probe_inv_distance.ktx2".into(),
         probe_mips: p.radiance.levels.len() as u32,
+        probe_positions: probes.iter().map(|q| q.position.to_array()).collect(),
         correctives,
         irradiance,
         moments,

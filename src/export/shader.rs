@@ -6,6 +6,7 @@
 use crate::runtime::FittedGrid;
 use crate::warp::Method;
 use crate::warp::corrective::{Blend, NO_MAP};
+use glam::Vec3;
 
 /// `shaders/warpfit.wgsl`, and naga's translations of it (regenerated and compared by
 /// `tests/shader.rs`): (file name, text).
@@ -23,8 +24,10 @@ pub const SHADER_FILES: [(&str, &str); 8] = [
     ),
 ];
 
-/// Bytes of the WGSL `Params` struct: 42 vec4s.
-pub const PARAMS_BYTES: usize = 42 * 16;
+/// Bytes of the WGSL `Params` struct: 59 vec4s.
+pub const PARAMS_BYTES: usize = 59 * 16;
+/// Probes `Params::probes` holds (the grid format's most).
+pub const MAX_PROBES: usize = 16;
 /// Bytes of one WGSL `Cell`: tiles (`vec4<i32>`), offset (`vec4<f32>`), nine harmonic
 /// coefficients (`array<vec4<f32>, 9>`, rgb) and its links (`vec4<u32>`, x).
 pub const CELL_BYTES: usize = 32 + 9 * 16 + 16;
@@ -113,7 +116,9 @@ pub fn constants(grid: &FittedGrid) -> Result<Vec<(&'static str, u32)>, Unsuppor
 
 /// `Params` for `grid` with atlases shaped `atlases` (see `shaders/warpfit.wgsl` for each
 /// field's meaning).
-pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupported> {
+/// `probe_tile_offset`: where the corrective atlas's probe maps start after a cell's shift
+/// map tile (0: none).
+pub fn params(grid: &FittedGrid, atlases: &Atlases, probe_tile_offset: u32) -> Result<Vec<u8>, Unsupported> {
     let w = &grid.warp();
     let p = &w.probe;
     let c = &grid.correctives();
@@ -185,6 +190,15 @@ pub fn params(grid: &FittedGrid, atlases: &Atlases) -> Result<Vec<u8>, Unsupport
     }
     for q in rs.chunks_exact(4).chain(ws.chunks_exact(4)) {
         out.f([q[0], q[1], q[2], q[3]]);
+    }
+    let count = w.probe_count();
+    if count > MAX_PROBES {
+        return Err(Unsupported(format!("{count} probes; the shader holds up to {MAX_PROBES}")));
+    }
+    out.u([count as u32, probe_tile_offset, 0, 0]);
+    for k in 0..MAX_PROBES {
+        let at = if k < count { w.probe_at(k).position } else { Vec3::ZERO };
+        out.f(at.extend(0.0).to_array());
     }
     debug_assert_eq!(out.0.len(), PARAMS_BYTES);
     Ok(out.0)
