@@ -54,7 +54,11 @@ fn main() {
         warpfit::export::export(&grid, &dir).unwrap();
         let generic = Lookup::load(&gpu, &dir, Pipeline::Generic);
         let specialised = Lookup::load(&gpu, &dir, Pipeline::Specialised);
-        let label = if dirs.len() > 1 { format!("{}: ", d.file_name().map_or("grid".into(), |f| f.to_string_lossy())) } else { String::new() };
+        let label = if dirs.len() > 1 {
+            format!("{}: ", d.file_name().map_or("grid".into(), |f| f.to_string_lossy()))
+        } else {
+            String::new()
+        };
         loaded.push((label, grid, dir, generic, specialised));
     }
     let mut cases = Vec::new();

@@ -294,14 +294,22 @@ pub fn export(grid: &FittedGrid, dir: &Path) -> Result<Sidecar, FileError> {
     let probe_tiles = if c.probe_maps.is_empty() { 0 } else { stored };
     let correctives = (stored > 0)
         .then(|| {
-            write_atlas::<1>(dir, "correctives.ktx2", Format::R32F, n, &c.slot, stored + rough_tiles + probe_tiles, |s| {
-                if s >= stored + rough_tiles {
-                    let s = s - stored - rough_tiles;
-                    return c.probe_maps[s * n2..(s + 1) * n2].iter().map(|&x| [f32::from(x)]).collect();
-                }
-                let (maps, s) = if s < stored { (&c.maps, s) } else { (&c.rough_maps, s - stored) };
-                maps[s * n2..(s + 1) * n2].iter().map(|&x| [x]).collect()
-            })
+            write_atlas::<1>(
+                dir,
+                "correctives.ktx2",
+                Format::R32F,
+                n,
+                &c.slot,
+                stored + rough_tiles + probe_tiles,
+                |s| {
+                    if s >= stored + rough_tiles {
+                        let s = s - stored - rough_tiles;
+                        return c.probe_maps[s * n2..(s + 1) * n2].iter().map(|&x| [f32::from(x)]).collect();
+                    }
+                    let (maps, s) = if s < stored { (&c.maps, s) } else { (&c.rough_maps, s - stored) };
+                    maps[s * n2..(s + 1) * n2].iter().map(|&x| [x]).collect()
+                },
+            )
             .map(|l| AtlasLayout {
                 rough_tile_offset: c.has_rough_maps().then_some(stored as u32),
                 probe_tile_offset: (probe_tiles > 0).then_some((stored + rough_tiles) as u32),

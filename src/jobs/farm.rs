@@ -135,17 +135,22 @@ pub fn bake_shard(scene: &Scene, folder: &RunFolder, shard: Shard, progress: &Pr
     let t0 = Instant::now();
     let tracer = Tracer::new(scene);
     let renderer = Renderer::new(scene, &tracer);
-    let probes = (shard.k == 0).then(|| {
-        tracing::info!("bake shard {shard}: the probes");
-        let (probe, rays) = bake::probe::bake_probe(&renderer, &bake::probe_settings(scene), progress);
-        let placement = bake::placement::place(&renderer, &bake::grid_settings(scene));
-        let (others, other_rays) = bake::bake_others(&renderer, &placement.positions, progress);
-        ((probe, rays + other_rays + placement.rays), others, placement)
+    let probe = (shard.k == 0).then(|| {
+        tracing::info!("bake shard {shard}: probe A");
+        bake::probe::bake_probe(&renderer, &bake::probe_settings(scene), progress)
     });
-    let (probe, others, placement) = match probes {
-        Some((p, o, pl)) => (Some(p), o, Some(pl)),
-        None => (None, Vec::new(), None),
-    };
+    // every shard places the probes alike (a pure function of the scene) and bakes its
+    // share of them: probe k ≥ 1 on shard k mod n
+    let placement = bake::placement::place(&renderer, &bake::grid_settings(scene));
+    let others: Vec<(usize, bake::SpecularProbe, u64)> = (1..placement.positions.len())
+        .filter(|k| k % shard.n as usize == shard.k as usize)
+        .map(|k| {
+            tracing::info!("bake shard {shard}: probe {k}");
+            let settings = bake::probe_settings_at(scene, k, placement.positions[k]);
+            let (p, rays) = bake::probe::bake_probe(&renderer, &settings, progress);
+            (k, p, rays)
+        })
+        .collect();
     let cells = bake::shard_cells(scene, shard.k as usize, shard.n as usize);
     let settings = bake::grid_settings(scene);
     let log = ShardLog::new(format!("bake shard {shard}"), cells.len());
@@ -462,8 +467,11 @@ fn merge_bake(scene: &Scene, set: &[(PathBuf, PartHeader)]) -> Result<bake::Bake
     let settings = bake::grid_settings(scene);
     let n = set.len();
     let mut cells: Vec<CellBake> = Vec::with_capacity(settings.geometry.cell_count());
-    let (mut probe, mut others, mut placement) = (None, Vec::new(), None);
+    let (mut probe, mut placement) = (None, None);
+    let mut others: Vec<Option<bake::SpecularProbe>> = Vec::new();
+    let mut other_rays = 0;
     let (mut probe_s, mut grid_s) = (0.0, 0.0);
+    let s = bake::probe_settings(scene);
     for (k, (path, h)) in set.iter().enumerate() {
         let expected = bake::shard_cells(scene, k, n);
         if h.cells != expected {
@@ -476,24 +484,44 @@ fn merge_bake(scene: &Scene, set: &[(PathBuf, PartHeader)]) -> Result<bake::Bake
         if part.cells.len() != expected.len() || !part.cells.iter().all(|c| c.fits(&settings)) {
             return Err(FileError::invalid(path, "cells", "cell maps of the wrong size or with non-finite values"));
         }
+        // every shard placed the same probes, and baked probe k ≥ 1 when k mod n is its own
+        let count = part.placement.positions.len();
+        match &placement {
+            None => {
+                placement = Some(part.placement.clone());
+                others = vec![None; count.saturating_sub(1)];
+            }
+            Some(p) if *p != part.placement => {
+                return Err(FileError::invalid(
+                    path,
+                    "placement",
+                    "differs from shard 0's: the parts were baked from other scenes or builds",
+                ));
+            }
+            Some(_) => {}
+        }
+        for (i, p, rays) in part.others {
+            let slot = (i >= 1 && i % n == k).then(|| others.get_mut(i - 1)).flatten();
+            let Some(slot) = slot.filter(|s| s.is_none()) else {
+                return Err(FileError::invalid(path, "others", format!("probe {i} is not shard {k}/{n}'s to bake")));
+            };
+            if p.resolution() != s.resolution || p.depth.levels.len() != p.radiance.levels.len() {
+                return Err(FileError::invalid(
+                    path,
+                    "others",
+                    format!("probe {i} does not have the scene's probe resolution"),
+                ));
+            }
+            other_rays += rays;
+            *slot = Some(p);
+        }
         match (k, part.probe) {
             (0, Some((p, rays))) => {
-                let s = bake::probe_settings(scene);
                 if p.resolution() != s.resolution || p.depth.levels.len() != p.radiance.levels.len() {
                     return Err(FileError::invalid(path, "probe", "does not have the scene's probe resolution"));
                 }
-                if part.others.len() + 1 != part.placement.as_ref().map_or(1, |pl| pl.positions.len())
-                    || part.others.iter().any(|o| o.resolution() != s.resolution)
-                {
-                    return Err(FileError::invalid(
-                        path,
-                        "others",
-                        "do not match the placement or the probe resolution",
-                    ));
-                }
                 probe_s = h.seconds;
                 probe = Some((p, rays));
-                (others, placement) = (part.others, part.placement);
             }
             (0, None) => return Err(FileError::invalid(path, "probe", "shard 0 holds no probe")),
             (_, Some(_)) => return Err(FileError::invalid(path, "probe", "only shard 0 holds the probe")),
@@ -501,9 +529,14 @@ fn merge_bake(scene: &Scene, set: &[(PathBuf, PartHeader)]) -> Result<bake::Bake
         }
         cells.extend(part.cells);
     }
+    let Some(others) = others.into_iter().collect::<Option<Vec<_>>>() else {
+        return Err(FileError::invalid(Path::new("parts"), "others", "a placed probe is in no part"));
+    };
     let Some((probe, probe_rays)) = probe else {
         return Err(FileError::invalid(Path::new("parts"), "probe", "no part holds the probe"));
     };
+    // counted as a single machine counts them: the placement's rays once
+    let probe_rays = probe_rays + other_rays + placement.as_ref().map_or(0, |p| p.rays);
     let (grid, grid_rays) = bake::grid::assemble(&settings, cells);
     let total_s = probe_s + grid_s;
     let stats = bake::BakeStats {

@@ -81,13 +81,14 @@ pub struct PartHeader {
     pub body_checksum: String,
 }
 
-/// A bake shard's work: the probe (shard 0) and its grid cells, in order.
+/// A bake shard's work: probe A (shard 0), the other probes it baked (probe k ≥ 1 is
+/// baked by shard k mod n, with the index k and its rays), where every probe stands (each
+/// shard places them alike), and its grid cells, in order.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BakePart {
     pub probe: Option<(SpecularProbe, u64)>,
-    /// With the probe: the scene's other probes and where they were placed.
-    pub others: Vec<SpecularProbe>,
-    pub placement: Option<crate::bake::placement::Placement>,
+    pub others: Vec<(usize, SpecularProbe, u64)>,
+    pub placement: crate::bake::placement::Placement,
     pub cells: Vec<CellBake>,
 }
 
