@@ -218,14 +218,18 @@ pub enum CorrectiveVariant {
     FittedL2All,
     /// The fitted grid as stored, blended over 8 cells.
     FittedTrilinear,
+    /// With several probes: every active cell's map fitted with one probe for the whole
+    /// cell (the probe chosen per cell, as engines choose by position).
+    PerCell,
 }
 
 impl CorrectiveVariant {
-    pub const ALL: [CorrectiveVariant; 4] = [
+    pub const ALL: [CorrectiveVariant; 5] = [
         CorrectiveVariant::Celldepth,
         CorrectiveVariant::Fitted,
         CorrectiveVariant::FittedL2All,
         CorrectiveVariant::FittedTrilinear,
+        CorrectiveVariant::PerCell,
     ];
 
     pub fn name(self) -> &'static str {
@@ -234,6 +238,7 @@ impl CorrectiveVariant {
             CorrectiveVariant::Fitted => "fitted",
             CorrectiveVariant::FittedL2All => "fitted-L2-all",
             CorrectiveVariant::FittedTrilinear => "fitted-trilinear",
+            CorrectiveVariant::PerCell => "per-cell",
         }
     }
 
@@ -245,6 +250,9 @@ impl CorrectiveVariant {
                 "level 2 in every active cell (fitted maps before model selection), containing cell"
             }
             CorrectiveVariant::FittedTrilinear => "fitted shift maps (levels as stored), trilinear blend of 8 cells",
+            CorrectiveVariant::PerCell => {
+                "a shift map in every active cell fitted with one probe for the cell (the probe most of its texels chose), containing cell"
+            }
         }
     }
 

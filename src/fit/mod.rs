@@ -311,6 +311,9 @@ pub struct UnfittedMaps {
     pub celldepth: Correctives,
     /// The fitted map of every active cell, before model selection (level 2 everywhere).
     pub fitted_all: Correctives,
+    /// With several probes: every active cell's map fitted with one probe for the cell
+    /// (`CellOutcome::per_cell`), the `per-cell` row.
+    pub per_cell: Option<Correctives>,
 }
 
 impl UnfittedMaps {
@@ -330,7 +333,23 @@ impl UnfittedMaps {
             }
             c
         };
-        UnfittedMaps { celldepth: set(|r| &r.init, |_| &[]), fitted_all: set(|r| &r.fitted, |r| &r.fitted_rough) }
+        let per_cell = results.iter().all(|r| r.per_cell.is_some()).then(|| {
+            let mut c = Correctives::new(geometry, map_res, vec![NO_MAP; geometry.cell_count()], Vec::new(), proxy);
+            for (k, r) in results.iter().enumerate() {
+                let Some((map, rough, p)) = &r.per_cell else { continue };
+                c.slot[r.fit.cell as usize] = k as u32;
+                c.maps.extend_from_slice(map);
+                c.rough_maps.extend_from_slice(rough);
+                c.probe_maps.extend(std::iter::repeat_n(*p, n2));
+            }
+            c
+        });
+        let per_cell = per_cell.filter(|_| !results.is_empty());
+        UnfittedMaps {
+            celldepth: set(|r| &r.init, |_| &[]),
+            fitted_all: set(|r| &r.fitted, |r| &r.fitted_rough),
+            per_cell,
+        }
     }
 }
 
@@ -528,6 +547,11 @@ pub struct CellOutcome {
     /// with one probe.
     #[serde(default)]
     pub probes: Vec<u8>,
+    /// With several probes and [`MapSets::WithUnfitted`]: the cell's map refined with one
+    /// probe for the whole cell (the one most of its texels chose, [`probes::per_cell`]),
+    /// its rough map and that probe: the evaluation's `per-cell` row, never stored.
+    #[serde(default)]
+    pub per_cell: Option<(Vec<f32>, Vec<f32>, u8)>,
     /// Reference rays traced for the cell's training and check queries.
     pub rays: u64,
 }
@@ -685,6 +709,17 @@ pub fn fit_cells(
             // the study's inputs, kept only when it is asked for
             let study = s.resolution_study.then(|| (train.clone(), check_halves(&check, check_dirs)));
             let (train, rough_train) = split_rough(train, two_maps);
+            // the evaluation's per-cell row: the same refinement with one probe for the cell
+            let per_cell = (sets == MapSets::WithUnfitted && !probe_map.is_empty()).then(|| {
+                let p = probes::per_cell(&probe_map);
+                let one = vec![p; probe_map.len()];
+                let ctx = CellContext { probe_map: &one, ..ctx };
+                let map = refine(ctx, train.clone(), &distance, sees_only_sky, s.depth_prior, s).fitted;
+                let rough = rough_train.as_ref().map_or_else(Vec::new, |t| {
+                    refine(ctx, t.clone(), &distance, sees_only_sky, s.rough_depth_prior, s).fitted
+                });
+                (map, rough, p)
+            });
             let Refined { start, outcome, fitted, init } =
                 refine(ctx, train, &distance, sees_only_sky, s.depth_prior, s);
             let rough = rough_train.map(|t| refine(ctx, t, &distance, sees_only_sky, s.rough_depth_prior, s));
@@ -776,6 +811,7 @@ pub fn fit_cells(
             if !outcome.fitted.is_empty() {
                 outcome.probes = probe_map;
             }
+            outcome.per_cell = per_cell;
             outcome
         })
         .collect();
@@ -819,7 +855,7 @@ fn outcome_keeping(
     let fitted_rough = fitted_rough.filter(|_| keep).unwrap_or_default();
     let fitted = if keep { fitted } else { Vec::new() };
     let init = if keep_all { init } else { Vec::new() };
-    CellOutcome { fit, fitted, fitted_rough, init, probes: Vec::new(), rays }
+    CellOutcome { fit, fitted, fitted_rough, init, probes: Vec::new(), per_cell: None, rays }
 }
 
 /// The true hits of a cell's queries (`fit::probes`): one ray each.

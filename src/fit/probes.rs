@@ -85,6 +85,17 @@ pub fn choose(warp: &Warp, origin: Vec3, res: u32, distance: &[f32], hits: &[Hit
         .collect()
 }
 
+/// The probe a cell reads when it reads one: the one most of its map's texels chose
+/// (`map`, as [`choose`] gives it), the lowest index of equals.
+#[must_use]
+pub fn per_cell(map: &[u8]) -> u8 {
+    let mut count = [0u32; 256];
+    for &p in map {
+        count[p as usize] += 1;
+    }
+    (0..=255u8).max_by(|&a, &b| count[a as usize].cmp(&count[b as usize]).then(b.cmp(&a))).unwrap_or(0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

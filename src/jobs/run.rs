@@ -370,6 +370,7 @@ pub fn corrective_rows(f: &Fit) -> Vec<CorrectiveRow<'_>> {
                 CorrectiveVariant::Celldepth => &f.unfitted.as_ref()?.celldepth,
                 CorrectiveVariant::Fitted | CorrectiveVariant::FittedTrilinear => &f.correctives,
                 CorrectiveVariant::FittedL2All => &f.unfitted.as_ref()?.fitted_all,
+                CorrectiveVariant::PerCell => f.unfitted.as_ref()?.per_cell.as_ref()?,
             };
             Some(CorrectiveRow { variant, correctives })
         })
