@@ -57,8 +57,15 @@ const SPP: u32 = 16;
 /// The views each row's rule is chosen on: one camera and one sphere of directions from the
 /// most open held-out positions, references of 64 lobe samples (a sixth of the
 /// evaluation's pixels at a quarter of its samples: about 0.4 s of a torture fit).
-const VIEWS: RenderSettings =
-    RenderSettings { camera: (64, 40), cameras: 1, fov_deg: 75.0, sphere_res: 32, spheres: 1, reference_spp: 64 };
+const VIEWS: RenderSettings = RenderSettings {
+    camera: (64, 40),
+    cameras: 1,
+    fov_deg: 75.0,
+    sphere_res: 32,
+    spheres: 1,
+    reference_spp: 64,
+    probe_cameras: 0,
+};
 
 /// A rough query with what every candidate shares: the fetch's octahedral coordinate and the
 /// distance ratio there.

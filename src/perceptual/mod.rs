@@ -33,6 +33,11 @@ pub struct RenderSettings {
     pub spheres: u32,
     /// Lobe samples per reference pixel.
     pub reference_spp: u32,
+    /// With several specular probes: one more camera at the position nearest each of the
+    /// first this many probes after probe A (the most open positions of a level of rooms
+    /// may all lie where probe A sees, and the picture would never show a room it does not).
+    #[serde(default)]
+    pub probe_cameras: u32,
 }
 
 fn one_camera() -> u32 {
@@ -41,11 +46,27 @@ fn one_camera() -> u32 {
 
 impl RenderSettings {
     pub const fn standard() -> Self {
-        RenderSettings { camera: (96, 60), cameras: 3, fov_deg: 75.0, sphere_res: 48, spheres: 2, reference_spp: 256 }
+        RenderSettings {
+            camera: (96, 60),
+            cameras: 3,
+            fov_deg: 75.0,
+            sphere_res: 48,
+            spheres: 2,
+            reference_spp: 256,
+            probe_cameras: 3,
+        }
     }
 
     pub const fn quick() -> Self {
-        RenderSettings { camera: (48, 32), cameras: 1, fov_deg: 75.0, sphere_res: 16, spheres: 1, reference_spp: 16 }
+        RenderSettings {
+            camera: (48, 32),
+            cameras: 1,
+            fov_deg: 75.0,
+            sphere_res: 16,
+            spheres: 1,
+            reference_spp: 16,
+            probe_cameras: 0,
+        }
     }
 }
 
@@ -126,6 +147,13 @@ pub fn views(scene: &Scene, tracer: &Tracer, positions: &[Vec3], probes: &[Vec3]
     let mut out = Vec::new();
     for k in 0..s.cameras as usize {
         let Some(eye) = open_position(tracer, positions, k) else { break };
+        out.push(camera_view(scene, tracer, probes, eye, s));
+    }
+    // several probes: a camera where each of the first placed probes stands (the position
+    // of `positions` nearest it), so the picture covers what probe A does not see
+    for &p in probes.iter().skip(1).take(s.probe_cameras as usize) {
+        let near = |q: &Vec3| (*q - p).length_squared();
+        let Some(&eye) = positions.iter().min_by(|a, b| near(a).total_cmp(&near(b))) else { break };
         out.push(camera_view(scene, tracer, probes, eye, s));
     }
     for k in 0..s.spheres as usize {
