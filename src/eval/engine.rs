@@ -80,32 +80,32 @@ impl EngineBlend {
         EngineBlend { boxes, proxies }
     }
 
-    /// The probes a point at `b` blends and their normalised weights.
-    fn weights(&self, b: Vec3) -> Vec<(usize, f32)> {
-        let w: Vec<(usize, f32)> =
-            self.boxes.iter().enumerate().map(|(k, &bx)| (k, influence(b, bx))).filter(|&(_, w)| w > 0.0).collect();
-        let sum: f32 = w.iter().map(|x| x.1).sum();
-        if sum > 0.0 {
-            return w.into_iter().map(|(k, x)| (k, x / sum)).collect();
-        }
-        // outside every influence: the probe whose box is nearest
-        let gap = |(lo, hi): (Vec3, Vec3)| (lo - b).max(b - hi).max(Vec3::ZERO).length_squared();
-        let nearest =
-            (0..self.boxes.len()).min_by(|&i, &j| gap(self.boxes[i]).total_cmp(&gap(self.boxes[j]))).unwrap_or(0);
-        vec![(nearest, 1.0)]
-    }
-
     /// The blend's radiance for query (B, unit `dir`, roughness `r`), each probe
-    /// box-projected against its own box and read with mip rule `rule`.
+    /// box-projected against its own box and read with mip rule `rule`: the probes whose
+    /// influence holds B, weighted by it and normalised, or, outside every influence, the
+    /// probe whose box is nearest.
     #[must_use]
     pub fn radiance(&self, shading: Glossy, rule: MipRule, b: Vec3, dir: Vec3, r: f32) -> Vec3 {
-        let mut sum = Vec3::ZERO;
-        for (k, w) in self.weights(b) {
+        let read = |k: usize| {
             let a = shading.warp.probe_at(k).position;
             let v = self.proxies[k].fetch_dir(a, b, dir);
-            sum += w * shading.radiance(rule, b, dir, Aim { v, k: None, probe: k as u8 }, r);
+            shading.radiance(rule, b, dir, Aim { v, k: None, probe: k as u8 }, r)
+        };
+        let sum: f32 = self.boxes.iter().map(|&bx| influence(b, bx)).sum();
+        if !(sum > 0.0) {
+            let gap = |(lo, hi): (Vec3, Vec3)| (lo - b).max(b - hi).max(Vec3::ZERO).length_squared();
+            let nearest =
+                (0..self.boxes.len()).min_by(|&i, &j| gap(self.boxes[i]).total_cmp(&gap(self.boxes[j]))).unwrap_or(0);
+            return read(nearest);
         }
-        sum
+        let mut out = Vec3::ZERO;
+        for (k, &bx) in self.boxes.iter().enumerate() {
+            let w = influence(b, bx);
+            if w > 0.0 {
+                out += (w / sum) * read(k);
+            }
+        }
+        out
     }
 }
 
