@@ -6,6 +6,7 @@
 
 use super::EvalSettings;
 use crate::bake::ProbeGrid;
+use crate::grid::GridGeometry;
 use crate::sampling::{Sampler, hash_pair};
 use crate::scene::Scene;
 use crate::trace::truth::{self, Oracle, QueryStreams, TracedQueries};
@@ -92,23 +93,8 @@ pub fn validation_set(
     s: &EvalSettings,
 ) -> ValidationSet {
     let renderer = Renderer::new(scene, tracer);
-    let threshold = scene.config.grid.inside_backface_fraction;
     let active: Vec<usize> = (0..grid.geometry.cell_count()).filter(|&c| !grid.inside[c]).collect();
-    let mut positions = Vec::with_capacity(s.positions as usize);
-    let mut attempt = 0u32;
-    while positions.len() < s.positions as usize && !active.is_empty() && attempt < s.positions * 64 {
-        let mut sampler = Sampler::new(s.seed, hash_pair(DOMAIN_EVAL, 1), attempt);
-        attempt += 1;
-        let cell = active[((sampler.next_1d() * active.len() as f32) as usize).min(active.len() - 1)];
-        let c = grid.geometry.cell_coords(cell).as_vec3();
-        let u = Vec3::new(sampler.next_1d(), sampler.next_1d(), sampler.next_1d());
-        let p = grid.geometry.min + (c + u) * grid.geometry.cell_size();
-        let stream = hash_pair(DOMAIN_EVAL, 0xB ^ attempt as u64);
-        if truth::is_inside(scene, tracer, p, threshold, |k| Sampler::new(s.seed, stream, k)) {
-            continue;
-        }
-        positions.push(p);
-    }
+    let positions = positions(scene, tracer, (&grid.geometry, &active), s.positions, s.seed);
     let dpp = s.dirs_per_position as usize;
     let queries = trace_at(&renderer, &positions, (dpp, dpp), s.reference_spp, (s.seed, 0.0, 0));
     let truths: Vec<(Oracle, bool, bool)> = (0..queries.dirs.len())
@@ -122,6 +108,34 @@ pub fn validation_set(
         oracle_any: truths.iter().map(|t| t.0.any).collect(),
         hidden_all: truths.iter().map(|t| t.2).collect(),
     }
+}
+
+/// `count` validation positions: uniformly random in the `active` cells of `geometry`,
+/// redrawn where the inside rule says they lie in geometry (at most 64 draws a position).
+pub fn positions(
+    scene: &Scene,
+    tracer: &Tracer,
+    (geometry, active): (&GridGeometry, &[usize]),
+    count: u32,
+    seed: u64,
+) -> Vec<Vec3> {
+    let threshold = scene.config.grid.inside_backface_fraction;
+    let mut positions = Vec::with_capacity(count as usize);
+    let mut attempt = 0u32;
+    while positions.len() < count as usize && !active.is_empty() && attempt < count * 64 {
+        let mut sampler = Sampler::new(seed, hash_pair(DOMAIN_EVAL, 1), attempt);
+        attempt += 1;
+        let cell = active[((sampler.next_1d() * active.len() as f32) as usize).min(active.len() - 1)];
+        let c = geometry.cell_coords(cell).as_vec3();
+        let u = Vec3::new(sampler.next_1d(), sampler.next_1d(), sampler.next_1d());
+        let p = geometry.min + (c + u) * geometry.cell_size();
+        let stream = hash_pair(DOMAIN_EVAL, 0xB ^ attempt as u64);
+        if truth::is_inside(scene, tracer, p, threshold, |k| Sampler::new(seed, stream, k)) {
+            continue;
+        }
+        positions.push(p);
+    }
+    positions
 }
 
 /// A roughness bucket of the validation set: the mirror set's first `positions` positions

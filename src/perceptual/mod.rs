@@ -97,6 +97,14 @@ pub struct View {
 }
 
 impl View {
+    /// Share of the pixels that see geometry (a front face, or either face of a two-sided
+    /// material): the rest show sky or a back face, the same for every row.
+    #[must_use]
+    pub fn coverage(&self) -> f64 {
+        let seen = self.pixels.iter().filter(|p| matches!(p, Pixel::Query { .. })).count();
+        seen as f64 / self.pixels.len().max(1) as f64
+    }
+
     /// Per pixel: the shaded surface point and its normal facing the camera, or the
     /// background radiance (camera views; a sphere of directions has no surfaces).
     #[must_use]
@@ -127,35 +135,196 @@ pub struct ViewReference {
     pub flip: flip::FlipReference,
 }
 
-/// The most open of the first 32 of `positions`: largest nearest-hit distance over 64
-/// directions (a view hugging a column shows mostly that column).
-pub fn open_position(tracer: &Tracer, positions: &[Vec3], skip: usize) -> Option<Vec3> {
-    let openness = |b: Vec3| {
-        (0..64u32)
-            .map(|k| uniform_sphere(Sampler::new(5, 0, k).next_2d()))
-            .map(|d| tracer.closest_hit(b, d, f32::INFINITY).map_or(f32::INFINITY, |h| h.t))
-            .fold(f32::INFINITY, f32::min)
-    };
-    let mut candidates: Vec<Vec3> = positions.iter().take(32).copied().collect();
-    candidates.sort_by(|p, q| openness(*q).total_cmp(&openness(*p)));
-    candidates.get(skip).copied()
+/// Where a camera stands and where it looks (unit).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraPose {
+    pub eye: Vec3,
+    pub forward: Vec3,
 }
 
-/// The views of a scene from the most open of `positions` (the probes at `probes`, probe A
-/// first, for the pixels' oracle fetches): the cameras, then the spheres of directions.
-pub fn views(scene: &Scene, tracer: &Tracer, positions: &[Vec3], probes: &[Vec3], s: &RenderSettings) -> Vec<View> {
-    let mut out = Vec::new();
-    for k in 0..s.cameras as usize {
-        let Some(eye) = open_position(tracer, positions, k) else { break };
-        out.push(camera_view(scene, tracer, probes, eye, s));
+/// Share of a camera's pixels that must see geometry (a front face or a two-sided surface)
+/// for the evaluation to place it: a view of sky or back faces judges nothing.
+pub const MIN_COVERAGE: f64 = 0.8;
+
+/// Positions a camera may stand at: the first this many of the given ones.
+const EYE_CANDIDATES: usize = 64;
+
+/// How closely a camera is judged before it is placed: a preview of this many pixels.
+const PREVIEW: (u32, u32) = (16, 10);
+
+/// Headings tried around each eye, and the pitches (degrees below the horizon) in the
+/// order they are preferred: 20° shows floors and far walls alike.
+const HEADINGS: u32 = 24;
+const PITCHES_DEG: [f32; 3] = [20.0, 5.0, 40.0];
+
+/// Largest nearest-hit distance over 64 directions: how open a position is (a view hugging
+/// a column shows mostly that column).
+fn openness(tracer: &Tracer, b: Vec3) -> f32 {
+    (0..64u32)
+        .map(|k| uniform_sphere(Sampler::new(5, 0, k).next_2d()))
+        .map(|d| tracer.closest_hit(b, d, f32::INFINITY).map_or(f32::INFINITY, |h| h.t))
+        .fold(f32::INFINITY, f32::min)
+}
+
+/// The most open of the first 32 of `positions`, after `skip` more open ones.
+pub fn open_position(tracer: &Tracer, positions: &[Vec3], skip: usize) -> Option<Vec3> {
+    let mut candidates: Vec<(f32, Vec3)> = positions.iter().take(32).map(|&p| (openness(tracer, p), p)).collect();
+    candidates.sort_by(|p, q| q.0.total_cmp(&p.0));
+    candidates.get(skip).map(|c| c.1)
+}
+
+/// The camera's right and up vectors (+Y up; a camera looking straight up or down turns
+/// its right to +X).
+fn camera_basis(forward: Vec3) -> (Vec3, Vec3) {
+    let right = forward.cross(Vec3::Y).normalize_or(Vec3::X);
+    (right, right.cross(forward))
+}
+
+/// The unit ray through pixel centre (x, y) of a `w` × `h` image, `half` the tangent of
+/// half the horizontal field of view.
+fn pixel_ray(pose: &CameraPose, (w, h): (u32, u32), half: f32, (x, y): (u32, u32)) -> Vec3 {
+    let (right, up) = camera_basis(pose.forward);
+    let u = (2.0 * (x as f32 + 0.5) / w as f32 - 1.0) * half;
+    let v = (1.0 - 2.0 * (y as f32 + 0.5) / h as f32) * half * h as f32 / w as f32;
+    (pose.forward + right * u + up * v).normalize()
+}
+
+/// What a camera ray sees: the geometry it hits (a front face, or either face of a
+/// two-sided material), or `None` (sky or a back face).
+fn seen(scene: &Scene, tracer: &Tracer, eye: Vec3, ray: Vec3) -> Option<crate::trace::Hit> {
+    tracer
+        .closest_hit(eye, ray, f32::INFINITY)
+        .filter(|hit| !hit.backface || scene.materials[hit.material as usize].two_sided)
+}
+
+/// How a camera at `eye` looks: of [`HEADINGS`] headings at each of [`PITCHES_DEG`], the
+/// one whose [`PREVIEW`] sees the most geometry; among equals, the preferred pitch, then
+/// the deepest view (largest mean distance to what it sees). Returns the pose and its
+/// preview's coverage.
+pub fn aim_camera(scene: &Scene, tracer: &Tracer, eye: Vec3, fov_deg: f32) -> (CameraPose, f64) {
+    let half = libm::tanf(fov_deg.to_radians() * 0.5);
+    let (w, h) = PREVIEW;
+    // (pose, pixels seeing geometry, pitch index, mean depth)
+    let mut best: Option<(CameraPose, u32, usize, f32)> = None;
+    for (i, pitch) in PITCHES_DEG.into_iter().enumerate() {
+        let (cp, sp) = (libm::cosf(pitch.to_radians()), libm::sinf(pitch.to_radians()));
+        for k in 0..HEADINGS {
+            let phi = k as f32 / HEADINGS as f32 * std::f32::consts::TAU;
+            let pose = CameraPose { eye, forward: Vec3::new(libm::cosf(phi) * cp, -sp, libm::sinf(phi) * cp) };
+            let (mut hits, mut depth) = (0u32, 0.0f32);
+            for p in 0..w * h {
+                if let Some(hit) = seen(scene, tracer, eye, pixel_ray(&pose, (w, h), half, (p % w, p / w))) {
+                    hits += 1;
+                    depth += hit.t;
+                }
+            }
+            let depth = depth / hits.max(1) as f32;
+            // more coverage wins; then the preferred pitch (tried first), then depth
+            let better = best.is_none_or(|(_, bh, bi, bd)| hits > bh || (hits == bh && i == bi && depth > bd));
+            if better {
+                best = Some((pose, hits, i, depth));
+            }
+        }
     }
-    // several probes: a camera where each of the first placed probes stands (the position
-    // of `positions` nearest it), so the picture covers what probe A does not see
+    let (pose, hits, ..) = best.unwrap_or((CameraPose { eye, forward: Vec3::Z }, 0, 0, 0.0));
+    (pose, f64::from(hits) / f64::from(w * h))
+}
+
+/// The cameras of a scene: the scene's own `[[cameras]]` when it sets any, all of them;
+/// else `s.cameras` placed among the first [`EYE_CANDIDATES`] of `positions`, each aimed by
+/// [`aim_camera`] and kept only if it sees geometry in [`MIN_COVERAGE`] of its preview
+/// (the most open such position first, then each the farthest from those chosen, so the
+/// cameras cover different parts of the level; if none qualifies, the one that sees most),
+/// then one at the position nearest each of the first `s.probe_cameras` probes after probe
+/// A that qualifies (the most open positions of a level of rooms may all lie where probe A
+/// sees, and the picture would never show a room it does not).
+pub fn cameras(
+    scene: &Scene,
+    tracer: &Tracer,
+    positions: &[Vec3],
+    probes: &[Vec3],
+    s: &RenderSettings,
+) -> Vec<CameraPose> {
+    if !scene.config.cameras.is_empty() {
+        return scene
+            .config
+            .cameras
+            .iter()
+            .map(|c| {
+                let eye = Vec3::from_array(c.position);
+                CameraPose { eye, forward: (Vec3::from_array(c.look_at) - eye).normalize_or(Vec3::Z) }
+            })
+            .collect();
+    }
+    let candidates: Vec<Vec3> = positions.iter().take(EYE_CANDIDATES).copied().collect();
+    let open: Vec<f32> = candidates.par_iter().map(|&p| openness(tracer, p)).collect();
+    let aimed: Vec<(CameraPose, f64)> = if s.cameras == 0 {
+        Vec::new()
+    } else {
+        candidates.par_iter().map(|&p| aim_camera(scene, tracer, p, s.fov_deg)).collect()
+    };
+    let mut qualified: Vec<usize> = (0..aimed.len()).filter(|&k| aimed[k].1 >= MIN_COVERAGE).collect();
+    if qualified.is_empty() {
+        let best = (0..aimed.len()).max_by(|&a, &b| aimed[a].1.total_cmp(&aimed[b].1).then(b.cmp(&a)));
+        qualified.extend(best);
+    }
+    let mut chosen: Vec<usize> = Vec::new();
+    while chosen.len() < s.cameras as usize {
+        // the most open first, then the farthest from the cameras so far (ties: the lower
+        // index)
+        let score = |k: usize| {
+            if chosen.is_empty() {
+                open[k]
+            } else {
+                chosen.iter().map(|&c| (candidates[c] - candidates[k]).length()).fold(f32::INFINITY, f32::min)
+            }
+        };
+        let next = qualified
+            .iter()
+            .copied()
+            .filter(|k| !chosen.contains(k))
+            .max_by(|&a, &b| score(a).total_cmp(&score(b)).then(b.cmp(&a)));
+        let Some(next) = next else { break };
+        // the preview judged it; the full image decides
+        if coverage(scene, tracer, &aimed[next].0, s) >= MIN_COVERAGE || qualified.len() == 1 {
+            chosen.push(next);
+        } else {
+            qualified.retain(|&k| k != next);
+        }
+    }
+    let mut out: Vec<CameraPose> = chosen.iter().map(|&k| aimed[k].0).collect();
     for &p in probes.iter().skip(1).take(s.probe_cameras as usize) {
-        let near = |q: &Vec3| (*q - p).length_squared();
-        let Some(&eye) = positions.iter().min_by(|a, b| near(a).total_cmp(&near(b))) else { break };
-        out.push(camera_view(scene, tracer, probes, eye, s));
+        let mut near: Vec<Vec3> = positions.to_vec();
+        near.sort_by(|a, b| (*a - p).length_squared().total_cmp(&(*b - p).length_squared()));
+        let pose = near
+            .iter()
+            .take(16)
+            .map(|&eye| aim_camera(scene, tracer, eye, s.fov_deg))
+            .find(|a| a.1 >= MIN_COVERAGE && coverage(scene, tracer, &a.0, s) >= MIN_COVERAGE)
+            .map(|a| a.0);
+        out.extend(pose);
     }
+    out
+}
+
+/// Share of the pixels of `pose`'s image (`s.camera`) that see geometry (as
+/// [`View::coverage`] counts them).
+fn coverage(scene: &Scene, tracer: &Tracer, pose: &CameraPose, s: &RenderSettings) -> f64 {
+    let (w, h) = s.camera;
+    let half = libm::tanf(s.fov_deg.to_radians() * 0.5);
+    let hits = (0..w * h)
+        .into_par_iter()
+        .filter(|&p| seen(scene, tracer, pose.eye, pixel_ray(pose, (w, h), half, (p % w, p / w))).is_some())
+        .count();
+    hits as f64 / f64::from((w * h).max(1))
+}
+
+/// The views of a scene: its [`cameras`] (the probes at `probes`, probe A first, for the
+/// pixels' oracle fetches), then the spheres of directions from the most open of
+/// `positions`.
+pub fn views(scene: &Scene, tracer: &Tracer, positions: &[Vec3], probes: &[Vec3], s: &RenderSettings) -> Vec<View> {
+    let poses = cameras(scene, tracer, positions, probes, s);
+    let mut out: Vec<View> = poses.iter().map(|pose| camera_view(scene, tracer, probes, pose, s)).collect();
     for k in 0..s.spheres as usize {
         let Some(b) = open_position(tracer, positions, k) else { break };
         let n = s.sphere_res;
@@ -176,28 +345,15 @@ pub fn views(scene: &Scene, tracer: &Tracer, positions: &[Vec3], probes: &[Vec3]
     out
 }
 
-/// The camera: at `eye`, looking 20° down along the most open near-horizontal direction.
-fn camera_view(scene: &Scene, tracer: &Tracer, probes: &[Vec3], eye: Vec3, s: &RenderSettings) -> View {
-    let far = |d: Vec3| tracer.closest_hit(eye, d, f32::INFINITY).map_or(1e30, |h| h.t);
-    let look = (0..64u32)
-        .map(|k| {
-            let phi = k as f32 / 64.0 * std::f32::consts::TAU;
-            Vec3::new(libm::cosf(phi), -0.15, libm::sinf(phi)).normalize()
-        })
-        .max_by(|p, q| far(*p).total_cmp(&far(*q)))
-        .unwrap_or(Vec3::Z);
-    let horizontal = Vec3::new(look.x, 0.0, look.z).normalize_or(Vec3::Z);
-    let forward = (horizontal * libm::cosf(20f32.to_radians()) - Vec3::Y * libm::sinf(20f32.to_radians())).normalize();
-    let right = forward.cross(Vec3::Y).normalize_or(Vec3::X);
-    let up = right.cross(forward);
+/// The camera `pose`'s view: every pixel that sees geometry a query (the surface point,
+/// the view ray reflected about its normal), the others the sky or black (a back face).
+fn camera_view(scene: &Scene, tracer: &Tracer, probes: &[Vec3], pose: &CameraPose, s: &RenderSettings) -> View {
     let (w, h) = s.camera;
     let half = libm::tanf(s.fov_deg.to_radians() * 0.5);
+    let eye = pose.eye;
     let pixels = (0..w * h)
         .map(|p| {
-            let (x, y) = ((p % w) as f32 + 0.5, (p / w) as f32 + 0.5);
-            let u = (2.0 * x / w as f32 - 1.0) * half;
-            let v = (1.0 - 2.0 * y / h as f32) * half * h as f32 / w as f32;
-            let ray = (forward + right * u + up * v).normalize();
+            let ray = pixel_ray(pose, (w, h), half, (p % w, p / w));
             match tracer.closest_hit(eye, ray, f32::INFINITY) {
                 Some(hit) if !hit.backface || scene.materials[hit.material as usize].two_sided => {
                     let n = if hit.normal.dot(ray) > 0.0 { -hit.normal } else { hit.normal };

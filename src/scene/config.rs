@@ -38,6 +38,10 @@ pub struct SceneFile {
     /// for points on that surface. Not part of the bake: changing them re-bakes nothing.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub surface_probes: Vec<SurfaceProbesConfig>,
+    /// Cameras the evaluation judges the level from (its views and their ꟻLIP), instead of
+    /// the ones it places itself. Not part of the bake: changing them re-bakes nothing.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub cameras: Vec<CameraConfig>,
     /// Let mesh files reference files (buffers, MTLs) outside their own folder.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub allow_outside_paths: bool,
@@ -56,6 +60,15 @@ fn default_seed() -> u64 {
 }
 fn default_bounces() -> u32 {
     1
+}
+
+/// A camera of the evaluation: where it stands and the point it looks at (its image and
+/// field of view are the evaluation's).
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CameraConfig {
+    pub position: V3,
+    pub look_at: V3,
 }
 
 /// The specular probe A.

@@ -235,8 +235,8 @@ impl Scene {
     #[must_use]
     pub fn content_key(&self) -> String {
         let mut text = format!("warpfit {} bake, revision {BAKE_REVISION}\n", env!("CARGO_PKG_VERSION"));
-        // surface probes are baked and judged apart: adding one re-bakes nothing
-        let baked = SceneFile { surface_probes: Vec::new(), ..self.config.clone() };
+        // surface probes and cameras are baked or judged apart: adding one re-bakes nothing
+        let baked = SceneFile { surface_probes: Vec::new(), cameras: Vec::new(), ..self.config.clone() };
         text += &serde_json::to_string(&baked).unwrap_or_default();
         for (path, sum) in &self.inputs {
             text += &format!("\n{} {sum}", path.display());
@@ -340,6 +340,10 @@ impl Scene {
         let scale3 = |v: &mut V3| v.iter_mut().for_each(|x| *x *= factor);
         scale3(&mut s.config.probe.position);
         s.config.probes.positions.iter_mut().for_each(scale3);
+        for c in &mut s.config.cameras {
+            scale3(&mut c.position);
+            scale3(&mut c.look_at);
+        }
         for sp in &mut s.config.surface_probes {
             scale3(&mut sp.corner);
             scale3(&mut sp.edge_u);
@@ -430,6 +434,13 @@ fn validate_settings(f: &SceneFile, path: &Path) -> Result<(), SceneError> {
     }
     for (k, &p) in f.probes.positions.iter().enumerate() {
         finite3(path, &format!("probes.positions[{k}]"), p)?;
+    }
+    for (k, c) in f.cameras.iter().enumerate() {
+        let eye = finite3(path, &format!("cameras[{k}].position"), c.position)?;
+        let at = finite3(path, &format!("cameras[{k}].look_at"), c.look_at)?;
+        if (at - eye).length_squared() == 0.0 || !(at - eye).length_squared().is_finite() {
+            return Err(invalid(path, &format!("cameras[{k}].look_at"), "must differ from the camera's position"));
+        }
     }
     let max = crate::scene::config::MAX_PROBES;
     if !(1..=max).contains(&f.probes.max) {
