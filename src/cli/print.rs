@@ -114,6 +114,11 @@ pub fn print_eval(r: &warpfit::eval::EvalReport, folder: &RunFolder) {
         println!("\nreferences' own noise per roughness:");
         print!("{}", report::buckets_table(r));
     }
+    let worst = report::worst_cameras(r);
+    if !worst.is_empty() {
+        println!("\nper camera, the worst against each rival (ꟻLIP difference ± 2 SE; eval.md has every view):");
+        print!("{worst}");
+    }
     if r.diffuse.is_some() {
         println!("\ndiffuse (irradiance at held-out surface points):");
         print!("{}", report::diffuse_table(r));

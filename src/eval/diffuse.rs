@@ -367,6 +367,7 @@ pub fn evaluate(
         roughness: 1.0,
         diffuse: true,
         surface: None,
+        view: v.name.clone(),
         width: v.width,
         height: v.height,
         reference: reference.clone(),

@@ -46,6 +46,10 @@ pub struct MethodResult {
     /// Mean ꟻLIP of the bucket's rendered views (see `eval::views`), when rendered.
     #[serde(default)]
     pub flip: Option<f64>,
+    /// Each view's mean ꟻLIP (the views of the bucket's summary, in order; empty without
+    /// views and in files written before it).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub flip_views: Vec<f64>,
     /// Mean angle between the method's fetch direction and the oracle's, degrees (null for
     /// methods without a single fetch direction).
     pub angular_deg: Option<f64>,
@@ -574,6 +578,7 @@ pub(super) fn result(
         p95: e.p95,
         max: e.max,
         flip: None,
+        flip_views: Vec::new(),
         angular_deg: dirs.map(|d| mean_angle_deg(d, &set.oracle_dir)),
         ns_per_lookup,
         ns_per_lookup_random,

@@ -285,6 +285,27 @@ pub struct BucketSummary {
     /// in files written before it).
     #[serde(default)]
     pub noise_ceiling: Option<bound::NoiseCeiling>,
+    /// The views behind the ꟻLIP columns, in the order of every row's `flip_views`, each
+    /// with the claim's champion against its rivals on that view alone (empty without
+    /// views and in files written before it).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub views: Vec<ViewSummary>,
+}
+
+/// One rendered view of a bucket (see [`BucketSummary::views`]).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ViewSummary {
+    pub name: String,
+    /// A camera on the level's surfaces (else a sphere of directions).
+    pub camera: bool,
+    /// Share of its pixels that see geometry (a sphere of directions: 1).
+    pub coverage: f64,
+    pub pixels: usize,
+    /// ꟻLIP between the two halves of its reference's samples.
+    pub noise_flip: f64,
+    /// The champion (`BucketSummary::claim.0`) against each rival on this view: the ꟻLIP
+    /// challenger, and the runtime reading its probes alone where the runtime blends.
+    pub against: Vec<FlipClaim>,
 }
 
 /// See [`BucketSummary::flip_claim`].
@@ -316,6 +337,8 @@ pub struct FlipFigure {
     pub diffuse: bool,
     /// The camera across surface-probe patch k (`eval::surface`), not a scene camera.
     pub surface: Option<usize>,
+    /// The view's name: a figure of several cameras stacks one figure per camera.
+    pub view: String,
     pub width: u32,
     pub height: u32,
     pub reference: Vec<Vec3>,
@@ -411,7 +434,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         bar.set_message(format!("eval: r {r} ꟻLIP"));
         if !view_refs.is_empty() {
             set_flips(&mut results, &rows, shading, &view_refs, exposure);
-            flip_figures.extend(flip_figure(&rows, &results, shading, &view_refs[0], exposure));
+            flip_figures.extend(flip_figures_of(&rows, &results, shading, &view_refs, exposure));
         }
         laps.lap(&mut times.flip);
         bar.inc(1);
@@ -714,10 +737,12 @@ fn set_flips(
     view_refs: &[renders::ViewReference],
     exposure: f32,
 ) {
-    let flips: Vec<f64> = rows.par_iter().map(|row| renders::mean_flip(row, shading, view_refs, exposure)).collect();
+    let flips: Vec<Vec<f64>> =
+        rows.par_iter().map(|row| renders::view_flips(row, shading, view_refs, exposure)).collect();
     for (row, f) in rows.iter().zip(flips) {
         if let Some(m) = results.iter_mut().find(|m| row.made(m)) {
-            m.flip = Some(f);
+            m.flip = Some(perceptual::pixel_weighted(view_refs, &f));
+            m.flip_views = f;
         }
     }
 }
@@ -843,12 +868,47 @@ fn bucket_summary(
             se = metrics::difference_se(&ea, &eb, &set.reference, &set.reference_se, exposure);
         }
     }
-    let flip_claim = match (champion.and_then(row_of), flip_challenger) {
-        (Some(ra), Some(b)) if !views.is_empty() => {
-            row_of(b).map(|rb| flip_claim(ra, (rb, b.label()), shading, views, exposure))
-        }
-        _ => None,
+    // the champion's rivals on the views: the ꟻLIP challenger, and the runtime reading
+    // its probes alone (what the runtime's irradiance blend must not make worse)
+    let mut flip_rivals: Vec<&MethodResult> = flip_challenger.into_iter().collect();
+    let probe_only = results.iter().find(|m| m.is(RowId::RUNTIME_PROBE_ONLY));
+    if champion.is_some_and(|c| c.is(RowId::RUNTIME)) && r > 0.0 {
+        flip_rivals.extend(probe_only);
+    }
+    let tiles = |row: &methods::Row| -> Vec<Vec<perceptual::Tile>> {
+        (0..views.len())
+            .map(|k| {
+                perceptual::flip_tiles(&views[k..=k], exposure, 8, |r, p, dir, oracle| {
+                    row.estimate(shading, p, dir, oracle, r)
+                })
+            })
+            .collect()
     };
+    let champion_tiles = champion.and_then(row_of).filter(|_| !views.is_empty()).map(tiles);
+    let rival_tiles: Vec<(String, Vec<Vec<perceptual::Tile>>)> = match champion_tiles {
+        Some(_) => flip_rivals.iter().filter_map(|m| Some((m.label(), tiles(row_of(m)?)))).collect(),
+        None => Vec::new(),
+    };
+    let challenger_tiles = flip_challenger.and_then(|c| rival_tiles.iter().find(|(label, _)| *label == c.label()));
+    let flip_claim = champion_tiles
+        .as_ref()
+        .zip(challenger_tiles)
+        .map(|(a, (label, b))| claim_of(label.clone(), &a.concat(), &b.concat()));
+    let view_summaries = views
+        .iter()
+        .enumerate()
+        .map(|(k, v)| ViewSummary {
+            name: v.view.name.clone(),
+            camera: v.view.camera,
+            coverage: v.view.coverage(),
+            pixels: v.reference.len(),
+            noise_flip: v.noise_flip,
+            against: match &champion_tiles {
+                Some(a) => rival_tiles.iter().map(|(label, b)| claim_of(label.clone(), &a[k], &b[k])).collect(),
+                None => Vec::new(),
+            },
+        })
+        .collect();
     let (mut noise, mut pixels) = (0.0, 0usize);
     for v in views {
         noise += v.noise_flip * v.reference.len() as f64;
@@ -873,6 +933,7 @@ fn bucket_summary(
         view_noise_flip: noise / pixels.max(1) as f64,
         flip_claim,
         noise_ceiling: None,
+        views: view_summaries,
     }
 }
 
@@ -918,36 +979,31 @@ fn noise_ceiling(
     bound::noise_ceiling(shading.warp, set, quiet, &none, champion, oracle, exposure)
 }
 
-/// The ꟻLIP claim of the champion's row `a` against the challenger's row and label, with
-/// the difference's paired standard error over the views' 8×8-pixel tiles.
-fn flip_claim(
-    a: &methods::Row,
-    (b, challenger): (&methods::Row, String),
-    shading: Glossy,
-    views: &[renders::ViewReference],
-    exposure: f32,
-) -> FlipClaim {
-    let tiles = |row: &methods::Row| {
-        perceptual::flip_tiles(views, exposure, 8, |r, p, dir, oracle| row.estimate(shading, p, dir, oracle, r))
-    };
-    let (ta, tb) = (tiles(a), tiles(b));
+/// The ꟻLIP claim of the champion against a rival (its label), from the same tiles of
+/// their ꟻLIP maps (8×8 pixels of the same views): the difference of their pixel-weighted
+/// means and its paired standard error over the tiles.
+fn claim_of(rival: String, champion: &[perceptual::Tile], tiles: &[perceptual::Tile]) -> FlipClaim {
     FlipClaim {
-        challenger,
-        difference: perceptual::weighted_mean(&tb) - perceptual::weighted_mean(&ta),
-        se: perceptual::paired_standard_error(&tb, &ta),
+        challenger: rival,
+        difference: perceptual::weighted_mean(tiles) - perceptual::weighted_mean(champion),
+        se: perceptual::paired_standard_error(tiles, champion),
     }
 }
 
-/// The camera view's figure for a bucket: the runtime (both read tiers), the best other row
-/// costing ≤ 2× warp1 by ꟻLIP, warp1 and box (plain mips), each with its ꟻLIP map.
-fn flip_figure(
+/// The camera views' figures for a bucket, one per camera: the runtime (both read tiers),
+/// the best other row costing ≤ 2× warp1 by ꟻLIP, warp1 and box (plain mips), each with
+/// its ꟻLIP map.
+fn flip_figures_of(
     rows: &[methods::Row],
     results: &[MethodResult],
     shading: Glossy,
-    view: &renders::ViewReference,
+    views: &[renders::ViewReference],
     exposure: f32,
-) -> Option<FlipFigure> {
-    let budget = results.iter().find(|m| m.is(RowId::method(Method::Warp1))).map(|m| 2.0 * m.ns_per_lookup)?;
+) -> Vec<FlipFigure> {
+    let Some(budget) = results.iter().find(|m| m.is(RowId::method(Method::Warp1))).map(|m| 2.0 * m.ns_per_lookup)
+    else {
+        return Vec::new();
+    };
     let best_other = results
         .iter()
         .filter(|m| m.ns_per_lookup <= budget && !is_runtime(&m.name) && !is_bound(&m.name))
@@ -960,25 +1016,29 @@ fn flip_figure(
     for m in [Method::Warp1, Method::Box] {
         wanted.extend(results.iter().find(|r| r.is(RowId::method(m)) && plain(r)));
     }
-    let mut tiles = Vec::new();
     let mut seen = std::collections::HashSet::new();
     wanted.retain(|m| seen.insert(m.label()));
-    for m in wanted {
-        let Some(row) = rows.iter().find(|row| row.made(m)) else { continue };
-        let image = renders::render(row, shading, view);
-        let map = renders::flip_map(view, &image, exposure);
-        let mean = crate::perceptual::flip::mean(&map);
-        tiles.push((m.label(), image, map, mean));
-    }
-    Some(FlipFigure {
-        roughness: view.roughness,
-        diffuse: false,
-        surface: None,
-        width: view.view.width,
-        height: view.view.height,
-        reference: view.reference.clone(),
-        tiles,
-    })
+    let figure = |view: &renders::ViewReference| {
+        let mut tiles = Vec::new();
+        for m in &wanted {
+            let Some(row) = rows.iter().find(|row| row.made(m)) else { continue };
+            let image = renders::render(row, shading, view);
+            let map = renders::flip_map(view, &image, exposure);
+            let mean = crate::perceptual::flip::mean(&map);
+            tiles.push((m.label(), image, map, mean));
+        }
+        FlipFigure {
+            roughness: view.roughness,
+            diffuse: false,
+            surface: None,
+            view: view.view.name.clone(),
+            width: view.view.width,
+            height: view.view.height,
+            reference: view.reference.clone(),
+            tiles,
+        }
+    };
+    views.iter().filter(|v| v.view.camera).map(figure).collect()
 }
 
 #[cfg(test)]
@@ -998,6 +1058,7 @@ mod tests {
             p95: 0.0,
             max: 0.0,
             flip: Some(flip),
+            flip_views: Vec::new(),
             angular_deg: None,
             ns_per_lookup: ns,
             ns_per_lookup_random: ns,

@@ -35,3 +35,8 @@ pub fn render(row: &Row, shading: Glossy, v: &ViewReference) -> Vec<Vec3> {
 pub fn mean_flip(row: &Row, shading: Glossy, views: &[ViewReference], exposure: f32) -> f64 {
     perceptual::mean_flip(views, exposure, |r, b, dir, oracle| row.estimate(shading, b, dir, oracle, r))
 }
+
+/// Each view's mean ꟻLIP of `row`.
+pub fn view_flips(row: &Row, shading: Glossy, views: &[ViewReference], exposure: f32) -> Vec<f64> {
+    perceptual::view_flips(views, exposure, |r, b, dir, oracle| row.estimate(shading, b, dir, oracle, r))
+}

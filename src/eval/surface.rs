@@ -344,6 +344,7 @@ pub fn evaluate(
                     roughness: r,
                     diffuse: false,
                     surface: Some(index),
+                    view: String::new(),
                     width: v.width,
                     height: v.height,
                     reference: reference.clone(),

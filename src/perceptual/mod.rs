@@ -231,9 +231,9 @@ pub fn aim_camera(scene: &Scene, tracer: &Tracer, eye: Vec3, fov_deg: f32) -> (C
 }
 
 /// The cameras of a scene: the scene's own `[[cameras]]` when it sets any, all of them;
-/// else `s.cameras` placed among the first [`EYE_CANDIDATES`] of `positions`, each aimed by
-/// [`aim_camera`] and kept only if it sees geometry in [`MIN_COVERAGE`] of its preview
-/// (the most open such position first, then each the farthest from those chosen, so the
+/// else `s.cameras` placed among the more open half of the first [`EYE_CANDIDATES`] of
+/// `positions`, each aimed by [`aim_camera`] and kept only if it sees geometry in
+/// [`MIN_COVERAGE`] of its image (the most open such position first, then each the farthest from those chosen, so the
 /// cameras cover different parts of the level; if none qualifies, the one that sees most),
 /// then one at the position nearest each of the first `s.probe_cameras` probes after probe
 /// A that qualifies (the most open positions of a level of rooms may all lie where probe A
@@ -263,7 +263,13 @@ pub fn cameras(
     } else {
         candidates.par_iter().map(|&p| aim_camera(scene, tracer, p, s.fov_deg)).collect()
     };
-    let mut qualified: Vec<usize> = (0..aimed.len()).filter(|&k| aimed[k].1 >= MIN_COVERAGE).collect();
+    // the open half of the candidates: a camera in a corner or on the floor sees the
+    // level as no player does
+    let mut by_openness: Vec<f32> = open.clone();
+    by_openness.sort_by(f32::total_cmp);
+    let median = by_openness.get(by_openness.len() / 2).copied().unwrap_or(0.0);
+    let mut qualified: Vec<usize> =
+        (0..aimed.len()).filter(|&k| aimed[k].1 >= MIN_COVERAGE && open[k] >= median).collect();
     if qualified.is_empty() {
         let best = (0..aimed.len()).max_by(|&a, &b| aimed[a].1.total_cmp(&aimed[b].1).then(b.cmp(&a)));
         qualified.extend(best);
@@ -455,11 +461,29 @@ pub fn mean_flip(
     exposure: f32,
     estimate: impl Fn(f32, Vec3, Vec3, Oracle) -> Vec3 + Sync,
 ) -> f64 {
+    pixel_weighted(views, &view_flips(views, exposure, estimate))
+}
+
+/// Each view's mean ꟻLIP of what `estimate` renders (as [`mean_flip`] calls it).
+pub fn view_flips(
+    views: &[ViewReference],
+    exposure: f32,
+    estimate: impl Fn(f32, Vec3, Vec3, Oracle) -> Vec3 + Sync,
+) -> Vec<f64> {
+    views
+        .iter()
+        .map(|v| flip::mean(&flip_map(v, &render(v, |b, dir, oracle| estimate(v.roughness, b, dir, oracle)), exposure)))
+        .collect()
+}
+
+/// The mean of per-view values (`flips`, one per view) weighted by the views' pixel counts.
+#[must_use]
+pub fn pixel_weighted(views: &[ViewReference], flips: &[f64]) -> f64 {
     let (mut sum, mut n) = (0.0, 0usize);
-    for v in views {
-        let map = flip_map(v, &render(v, |b, dir, oracle| estimate(v.roughness, b, dir, oracle)), exposure);
-        sum += flip::mean(&map) * map.len() as f64;
-        n += map.len();
+    for (v, f) in views.iter().zip(flips) {
+        let pixels = v.reference.len();
+        sum += f * pixels as f64;
+        n += pixels;
     }
     sum / n.max(1) as f64
 }

@@ -181,6 +181,75 @@ pub fn diffuse_table(r: &EvalReport) -> String {
     s
 }
 
+/// A bucket's row labelled `label`, and its ꟻLIP on view `k`.
+fn view_flip(r: &EvalReport, roughness: f32, label: &str, k: usize) -> Option<f64> {
+    r.methods.iter().find(|m| m.roughness == roughness && m.label() == label)?.flip_views.get(k).copied()
+}
+
+/// Markdown table of every bucket's views one by one: how much of each sees geometry, its
+/// references' own noise, the champion's ꟻLIP and each rival's, and their difference with
+/// its paired standard error over the view's tiles (empty without views).
+pub fn views_table(r: &EvalReport) -> String {
+    if r.buckets.iter().all(|b| b.views.is_empty()) {
+        return String::new();
+    }
+    let mut s = String::from(
+        "| roughness | view | sees geometry | references' noise | champion | its ꟻLIP | rival | its ꟻLIP | difference ± 2 SE (tiles) |\n|---:|---|---:|---:|---|---:|---|---:|---|\n",
+    );
+    for b in &r.buckets {
+        for (k, v) in b.views.iter().enumerate() {
+            let champion = view_flip(r, b.roughness, &b.claim.0, k).map_or("–".into(), |f| format!("{f:.4}"));
+            for c in &v.against {
+                let rival = view_flip(r, b.roughness, &c.challenger, k).map_or("–".into(), |f| format!("{f:.4}"));
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {:.0}% | {:.4} | {} | {champion} | {} | {rival} | {:+.4} ± {:.4}{} |",
+                    b.roughness,
+                    v.name,
+                    100.0 * v.coverage,
+                    v.noise_flip,
+                    b.claim.0,
+                    c.challenger,
+                    c.difference,
+                    2.0 * c.se,
+                    if c.difference < -2.0 * c.se { " **worse**" } else { "" }
+                );
+            }
+        }
+    }
+    s
+}
+
+/// One line per bucket and rival: the camera where the champion fares worst against it
+/// (the lowest difference), and whether beyond 2 SE of its tiles.
+pub fn worst_cameras(r: &EvalReport) -> String {
+    let mut s = String::new();
+    for b in &r.buckets {
+        let rivals: Vec<&str> =
+            b.views.first().map(|v| v.against.iter().map(|c| c.challenger.as_str()).collect()).unwrap_or_default();
+        for (j, rival) in rivals.iter().enumerate() {
+            let worst = b
+                .views
+                .iter()
+                .filter(|v| v.camera)
+                .filter_map(|v| Some((v, v.against.get(j)?)))
+                .min_by(|x, y| x.1.difference.total_cmp(&y.1.difference));
+            let Some((v, c)) = worst else { continue };
+            let _ = writeln!(
+                s,
+                "- r = {}: {} against {rival}, worst {}: {:+.4} ± {:.4} ({})",
+                b.roughness,
+                b.claim.0,
+                v.name,
+                c.difference,
+                2.0 * c.se,
+                if c.difference < -2.0 * c.se { "worse beyond 2 SE" } else { "within 2 SE or better" }
+            );
+        }
+    }
+    s
+}
+
 pub fn buckets_table(r: &EvalReport) -> String {
     let mut s = String::from(
         "| roughness | lookups | reference samples | claim | difference (rel RMSE / tm RMSE) | its reference SE (rel / tm) | SE ≤ ¼ difference | single reference SE (rel) | emitter queries | view pixels | view reference samples | ꟻLIP of the views' reference noise | ꟻLIP claim: difference ± 2 SE (tiles) against |\n|---:|---:|---:|---|---|---|---|---:|---:|---:|---:|---:|---|\n",
@@ -249,8 +318,10 @@ pub fn buckets_table(r: &EvalReport) -> String {
 /// eval_views.png into `folder`.
 pub fn write_evaluation(folder: &RunFolder, ev: &Evaluation) -> Result<(), FileError> {
     write_eval(folder, &ev.report)?;
-    for f in &ev.flip_figures {
-        write_flip_figure(folder, &ev.report, f)?;
+    // one file per bucket and kind, a pair of rows (images, ꟻLIP maps) per camera
+    let key = |f: &crate::eval::FlipFigure| (f.roughness.to_bits(), f.diffuse, f.surface);
+    for group in ev.flip_figures.chunk_by(|a, b| key(a) == key(b)) {
+        write_flip_figure(folder, &ev.report, group)?;
     }
     for (k, atlas) in ev.surface_atlases.iter().enumerate() {
         let (w, h, texels) = atlas.atlas_image();
@@ -266,34 +337,41 @@ pub fn write_evaluation(folder: &RunFolder, ev: &Evaluation) -> Result<(), FileE
 /// `flip_r{r}.png`: the camera view at one roughness, the reference and a few rows' images
 /// (tone-mapped at the scene's key), each above its ꟻLIP map (magma: black = no visible
 /// difference, yellow = large).
-fn write_flip_figure(folder: &RunFolder, r: &EvalReport, f: &crate::eval::FlipFigure) -> Result<(), FileError> {
-    let (w, h) = (f.width as usize, f.height as usize);
-    let tile = |label: String, rgb: Vec<u8>| plot::Tile { label, rgb, width: w, height: h }.enlarged(2);
-    let mut images = vec![tile("reference".into(), crate::tonemap::to_srgb8(&f.reference, r.exposure))];
-    let mut maps = vec![tile(String::new(), vec![255; w * h * 3])];
-    for (label, image, map, mean) in &f.tiles {
-        images.push(tile(label.clone(), crate::tonemap::to_srgb8(image, r.exposure)));
-        maps.push(tile(format!("ꟻLIP {mean:.3}"), crate::perceptual::flip::magma(map, f.width, f.height)));
+fn write_flip_figure(folder: &RunFolder, r: &EvalReport, group: &[crate::eval::FlipFigure]) -> Result<(), FileError> {
+    let Some(f) = group.first() else { return Ok(()) };
+    let mut rows = Vec::new();
+    for (k, f) in group.iter().enumerate() {
+        let (w, h) = (f.width as usize, f.height as usize);
+        let tile = |label: String, rgb: Vec<u8>| plot::Tile { label, rgb, width: w, height: h }.enlarged(2);
+        let label = if group.len() > 1 { format!("reference, camera {}", k + 1) } else { "reference".into() };
+        let mut images = vec![tile(label, crate::tonemap::to_srgb8(&f.reference, r.exposure))];
+        let mut maps = vec![tile(String::new(), vec![255; w * h * 3])];
+        for (label, image, map, mean) in &f.tiles {
+            images.push(tile(label.clone(), crate::tonemap::to_srgb8(image, r.exposure)));
+            maps.push(tile(format!("ꟻLIP {mean:.3}"), crate::perceptual::flip::magma(map, f.width, f.height)));
+        }
+        rows.push(images);
+        rows.push(maps);
     }
     if let Some(k) = f.surface {
         let title = format!(
             "{}, surface probes {k}, roughness {}: the patch a glossy reflector, the rest as seen; below, ꟻLIP against the reference",
             r.scene, f.roughness
         );
-        return plot::image_grid(&folder.flip_surface(k, f.roughness), &title, &[images, maps]);
+        return plot::image_grid(&folder.flip_surface(k, f.roughness), &title, &rows);
     }
     if f.diffuse {
         let title = format!(
             "{}, diffuse: every surface white Lambertian lit by the grid's irradiance; below, ꟻLIP against the reference",
             r.scene
         );
-        return plot::image_grid(&folder.flip_diffuse(), &title, &[images, maps]);
+        return plot::image_grid(&folder.flip_diffuse(), &title, &rows);
     }
     let title = format!(
-        "{}, roughness {}: every surface a glossy reflector; below, ꟻLIP against the reference",
+        "{}, roughness {}: every surface a glossy reflector, camera by camera; below each, ꟻLIP against the reference",
         r.scene, f.roughness
     );
-    plot::image_grid(&folder.flip_figure(f.roughness), &title, &[images, maps])
+    plot::image_grid(&folder.flip_figure(f.roughness), &title, &rows)
 }
 
 /// Writes eval.json, eval.md and the error-against-cost plots into `folder`.
@@ -333,6 +411,14 @@ pub fn write_eval(folder: &RunFolder, r: &EvalReport) -> Result<(), FileError> {
     );
     let _ = writeln!(md, "## Roughness buckets and the references' noise\n");
     md += &buckets_table(r);
+    let views = views_table(r);
+    if !views.is_empty() {
+        let _ = writeln!(
+            md,
+            "\n## The views one by one\n\nEach rendered view's ꟻLIP for the claim's champion against its rivals (the best seed method within the claim's budget by mean ꟻLIP and, where the runtime blends irradiance into rough lookups, the runtime reading its probes alone). Difference: rival − champion (positive: the champion lower), ± 2 standard errors over the view's 8×8-pixel tiles.\n\n{}\n{views}",
+            worst_cameras(r)
+        );
+    }
     if r.diffuse.is_some() {
         md += "\n## Diffuse lighting\n\nIrradiance at held-out surface points (area-uniform on triangles inside the grid), against traced references (lamps sampled directly, the rest along cosine-distributed rays): what the light probes carry (sky, emitters, bounced light; direct sun is the renderer's job). Rows: the grid through each step of DDGI's blend, the runtime (the blend times the cell's fitted correction), probe A alone, and seed 004's voxel GI.\n\n";
         md += &diffuse_table(r);
