@@ -59,6 +59,28 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
         assert!(c.difference.is_finite() && c.se.is_finite() && c.se > 0.0, "{c:?}");
         assert!(warpfit::warp::Method::parse(c.challenger.split('/').next().unwrap()).is_some(), "{c:?}");
     }
+    // every view judged on its own: its share on geometry, each row's ꟻLIP on it (the
+    // pixel-weighted mean of which is the row's), the champion against its rivals on it;
+    // and the seams at cell faces, the references' own beside each row's
+    let md = std::fs::read_to_string(dir.join("eval.md")).unwrap();
+    assert!(md.contains("## The views one by one") && md.contains("## Seams at cell faces"), "{md}");
+    for b in &report.buckets {
+        assert!(!b.views.is_empty());
+        let pixels: usize = b.views.iter().map(|v| v.pixels).sum();
+        assert_eq!(pixels, b.view_pixels);
+        for v in &b.views {
+            assert!(v.coverage > 0.0 && v.coverage <= 1.0 && v.noise_flip.is_finite(), "{v:?}");
+            assert!(!v.against.is_empty() && v.against.iter().all(|c| c.difference.is_finite() && c.se.is_finite()));
+        }
+        assert!(b.seam_reference.is_some_and(|x| x.is_finite() && x > 0.0), "{b:?}");
+        for m in report.methods.iter().filter(|m| m.roughness == b.roughness && m.flip.is_some()) {
+            assert_eq!(m.flip_views.len(), b.views.len(), "{m:?}");
+            let mean: f64 =
+                m.flip_views.iter().zip(&b.views).map(|(f, v)| f * v.pixels as f64).sum::<f64>() / pixels as f64;
+            assert_eq!(mean, m.flip.unwrap(), "{m:?}");
+            assert!(m.seam.is_some_and(f64::is_finite), "{m:?}");
+        }
+    }
     // the mirror bucket's references' own noise, measured on its first queries traced again
     // with quieter references: the bounds, chosen on the bucket's noisy references, lose
     // most of their lead against the quiet ones; the rough buckets do not measure it

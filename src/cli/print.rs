@@ -114,6 +114,11 @@ pub fn print_eval(r: &warpfit::eval::EvalReport, folder: &RunFolder) {
         println!("\nreferences' own noise per roughness:");
         print!("{}", report::buckets_table(r));
     }
+    let seams = report::seams_table(r);
+    if !seams.is_empty() {
+        println!("\nseams: how the error jumps at cell faces in the camera views (about 1: no seams):");
+        print!("{seams}");
+    }
     let worst = report::worst_cameras(r);
     if !worst.is_empty() {
         println!("\nper camera, the worst against each rival (ꟻLIP difference ± 2 SE; eval.md has every view):");

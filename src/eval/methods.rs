@@ -50,6 +50,10 @@ pub struct MethodResult {
     /// views and in files written before it).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub flip_views: Vec<f64>,
+    /// How its error jumps at cell faces in the camera views (`perceptual::SeamSums::ratio`:
+    /// about 1 without seams; the bucket's `seam_reference` is the references' own).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seam: Option<f64>,
     /// Mean angle between the method's fetch direction and the oracle's, degrees (null for
     /// methods without a single fetch direction).
     pub angular_deg: Option<f64>,
@@ -550,6 +554,8 @@ pub fn rescore_row(
     out.mip_rule = old.mip_rule;
     out.angular_deg = old.angular_deg;
     out.flip = old.flip;
+    out.flip_views.clone_from(&old.flip_views);
+    out.seam = old.seam;
     out.ns_per_lookup_batched = old.ns_per_lookup_batched;
     out
 }
@@ -579,6 +585,7 @@ pub(super) fn result(
         max: e.max,
         flip: None,
         flip_views: Vec::new(),
+        seam: None,
         angular_deg: dirs.map(|d| mean_angle_deg(d, &set.oracle_dir)),
         ns_per_lookup,
         ns_per_lookup_random,

@@ -290,6 +290,10 @@ pub struct BucketSummary {
     /// views and in files written before it).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub views: Vec<ViewSummary>,
+    /// The references' own seam ratio (`perceptual::SeamSums::ratio` of one half of their
+    /// samples against the other), beside each row's `seam`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seam_reference: Option<f64>,
 }
 
 /// One rendered view of a bucket (see [`BucketSummary::views`]).
@@ -386,6 +390,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         .renders
         .map(|r| renders::views(scene, tracer, &mirror.positions, &warp.probe_positions(), &r))
         .unwrap_or_default();
+    let seam_pairs = renders::seam_pairs(&views, &grid.geometry);
     laps.lap(&mut times.view_references);
     // probe A's emitted part, read by every row as it reads probe A (the linear error with
     // the emitters apart): a warp context and a loaded grid with that chain as radiance
@@ -433,13 +438,14 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         bar.inc(1);
         bar.set_message(format!("eval: r {r} ꟻLIP"));
         if !view_refs.is_empty() {
-            set_flips(&mut results, &rows, shading, &view_refs, exposure);
+            set_flips(&mut results, &rows, shading, (&view_refs, &seam_pairs), exposure);
             flip_figures.extend(flip_figures_of(&rows, &results, shading, &view_refs, exposure));
         }
         laps.lap(&mut times.flip);
         bar.inc(1);
         let mut spp = if r == 0.0 { settings.reference_spp } else { settings.rough_reference_spp };
         let mut summary = bucket_summary(set, r, spp, (&rows, &results), shading, exposure, &view_refs);
+        summary.seam_reference = perceptual::SeamSums::of_references(&view_refs, &seam_pairs, exposure).ratio();
         // A rough bucket whose references are too noisy for the difference its claim
         // reports is traced again with twice the samples (the same as asking for that many)
         // and its errors measured again; the lookups, their costs and ꟻLIP stand.
@@ -451,7 +457,10 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             reference_rays += traced.rays;
             laps.lap(&mut times.rough_references);
             rescore(&mut results, &rows, (shading, emitters), traced, exposure);
-            summary = bucket_summary(traced, r, spp, (&rows, &results), shading, exposure, &view_refs);
+            summary = BucketSummary {
+                seam_reference: summary.seam_reference,
+                ..bucket_summary(traced, r, spp, (&rows, &results), shading, exposure, &view_refs)
+            };
             laps.lap(&mut times.rows);
         }
         if r == 0.0 {
@@ -734,15 +743,16 @@ fn set_flips(
     results: &mut [MethodResult],
     rows: &[methods::Row],
     shading: Glossy,
-    view_refs: &[renders::ViewReference],
+    (view_refs, pairs): (&[renders::ViewReference], &[perceptual::SeamPairs]),
     exposure: f32,
 ) {
-    let flips: Vec<Vec<f64>> =
-        rows.par_iter().map(|row| renders::view_flips(row, shading, view_refs, exposure)).collect();
-    for (row, f) in rows.iter().zip(flips) {
+    let flips: Vec<(Vec<f64>, perceptual::SeamSums)> =
+        rows.par_iter().map(|row| renders::view_flips(row, shading, view_refs, pairs, exposure)).collect();
+    for (row, (f, seams)) in rows.iter().zip(flips) {
         if let Some(m) = results.iter_mut().find(|m| row.made(m)) {
             m.flip = Some(perceptual::pixel_weighted(view_refs, &f));
             m.flip_views = f;
+            m.seam = seams.ratio();
         }
     }
 }
@@ -934,6 +944,7 @@ fn bucket_summary(
         flip_claim,
         noise_ceiling: None,
         views: view_summaries,
+        seam_reference: None,
     }
 }
 
@@ -1059,6 +1070,7 @@ mod tests {
             max: 0.0,
             flip: Some(flip),
             flip_views: Vec::new(),
+            seam: None,
             angular_deg: None,
             ns_per_lookup: ns,
             ns_per_lookup_random: ns,

@@ -36,7 +36,25 @@ pub fn mean_flip(row: &Row, shading: Glossy, views: &[ViewReference], exposure: 
     perceptual::mean_flip(views, exposure, |r, b, dir, oracle| row.estimate(shading, b, dir, oracle, r))
 }
 
-/// Each view's mean ꟻLIP of `row`.
-pub fn view_flips(row: &Row, shading: Glossy, views: &[ViewReference], exposure: f32) -> Vec<f64> {
-    perceptual::view_flips(views, exposure, |r, b, dir, oracle| row.estimate(shading, b, dir, oracle, r))
+/// Each view's mean ꟻLIP of `row`, and its seams over `pairs` (`perceptual::SeamSums`).
+pub fn view_flips(
+    row: &Row,
+    shading: Glossy,
+    views: &[ViewReference],
+    pairs: &[perceptual::SeamPairs],
+    exposure: f32,
+) -> (Vec<f64>, perceptual::SeamSums) {
+    perceptual::view_flips_and_seams(views, exposure, pairs, |r, b, dir, oracle| {
+        row.estimate(shading, b, dir, oracle, r)
+    })
+}
+
+/// The [`perceptual::SeamPairs`] of every view over the cells of `geometry`.
+pub fn seam_pairs(views: &[perceptual::View], geometry: &crate::grid::GridGeometry) -> Vec<perceptual::SeamPairs> {
+    let size = geometry.cell_size();
+    let step = 0.25 * size.min_element();
+    views
+        .iter()
+        .map(|v| perceptual::seam_pairs(v, |b| geometry.cell_index(geometry.cell_of_sized(b, size)) as u32, step))
+        .collect()
 }

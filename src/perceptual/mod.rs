@@ -133,6 +133,17 @@ pub struct ViewReference {
     /// `reference`'s side of every ꟻLIP against it, at the exposure it was traced for
     /// ([`flip_map`] uses it when asked at that exposure).
     pub flip: flip::FlipReference,
+    /// The mean of the first half of the samples (the reference is the mean of both): the
+    /// halves' difference is the reference's own noise.
+    pub half: Vec<Vec3>,
+}
+
+impl ViewReference {
+    /// The mean of the second half of the samples.
+    #[must_use]
+    pub fn other_half(&self) -> Vec<Vec3> {
+        self.reference.iter().zip(&self.half).map(|(r, a)| *r * 2.0 - *a).collect()
+    }
 }
 
 /// Where a camera stands and where it looks (unit).
@@ -410,7 +421,7 @@ pub fn reference(
     let (a, b): (Vec<Vec3>, Vec<Vec3>) = halves.into_iter().unzip();
     let noise_flip = flip::mean(&flip::flip_hdr(&a, &b, view.width, view.height, exposure));
     let flip = flip::FlipReference::new(&reference, view.width, view.height, exposure);
-    ViewReference { view: view.clone(), roughness: r, reference, spp: 2 * half, noise_flip, flip }
+    ViewReference { view: view.clone(), roughness: r, reference, spp: 2 * half, noise_flip, flip, half: a }
 }
 
 /// A pixel's lobe reference (query `(b, dir, r)`) as two independent halves of `half`
@@ -470,10 +481,27 @@ pub fn view_flips(
     exposure: f32,
     estimate: impl Fn(f32, Vec3, Vec3, Oracle) -> Vec3 + Sync,
 ) -> Vec<f64> {
-    views
-        .iter()
-        .map(|v| flip::mean(&flip_map(v, &render(v, |b, dir, oracle| estimate(v.roughness, b, dir, oracle)), exposure)))
-        .collect()
+    view_flips_and_seams(views, exposure, &[], estimate).0
+}
+
+/// [`view_flips`], and the [`SeamSums`] of the same images over `pairs` (per view, in
+/// order; views without pairs add nothing).
+pub fn view_flips_and_seams(
+    views: &[ViewReference],
+    exposure: f32,
+    pairs: &[SeamPairs],
+    estimate: impl Fn(f32, Vec3, Vec3, Oracle) -> Vec3 + Sync,
+) -> (Vec<f64>, SeamSums) {
+    let mut seams = SeamSums::default();
+    let mut flips = Vec::with_capacity(views.len());
+    for (k, v) in views.iter().enumerate() {
+        let image = render(v, |b, dir, oracle| estimate(v.roughness, b, dir, oracle));
+        flips.push(flip::mean(&flip_map(v, &image, exposure)));
+        if let Some(p) = pairs.get(k) {
+            seams = seams.add(&image, &v.reference, p, exposure);
+        }
+    }
+    (flips, seams)
 }
 
 /// The mean of per-view values (`flips`, one per view) weighted by the views' pixel counts.
@@ -503,6 +531,89 @@ pub fn flip_tiles(
             tiles(&flip_map(v, &image, exposure), v.view.width, tile)
         })
         .collect()
+}
+
+/// Neighbouring pixels of a camera view on one surface (normals within 8°, points nearer
+/// than a quarter of the smallest cell extent), sorted by whether their points lie in
+/// different cells of a grid (`crossing`: the pair straddles a cell face) or in the same
+/// (`within`). Indices into the view's pixels.
+#[derive(Clone, Debug, Default)]
+pub struct SeamPairs {
+    pub crossing: Vec<(u32, u32)>,
+    pub within: Vec<(u32, u32)>,
+}
+
+/// The [`SeamPairs`] of `view` over the cells `cell_of` names (a sphere of directions has
+/// none: it sees no surface), `step` the largest distance between a pair's points.
+pub fn seam_pairs(view: &View, cell_of: impl Fn(Vec3) -> u32, step: f32) -> SeamPairs {
+    let mut out = SeamPairs::default();
+    if !view.camera {
+        return out;
+    }
+    let (w, h) = (view.width, view.height);
+    let surface = |p: u32| match view.pixels[p as usize] {
+        Pixel::Query { b, normal, .. } => Some((b, normal)),
+        Pixel::Background(_) => None,
+    };
+    for y in 0..h {
+        for x in 0..w {
+            let p = y * w + x;
+            let Some((bp, np)) = surface(p) else { continue };
+            for q in [(x + 1 < w).then_some(p + 1), (y + 1 < h).then_some(p + w)].into_iter().flatten() {
+                let Some((bq, nq)) = surface(q) else { continue };
+                if np.dot(nq) < 0.99 || (bp - bq).length() > step {
+                    continue;
+                }
+                if cell_of(bp) == cell_of(bq) { &mut out.within } else { &mut out.crossing }.push((p, q));
+            }
+        }
+    }
+    out
+}
+
+/// How an error jumps across cell faces: sums over [`SeamPairs`] (of any number of views)
+/// of the squared jump of the tone-mapped error between the pair's pixels.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SeamSums {
+    pub crossing: f64,
+    pub crossings: usize,
+    pub within: f64,
+    pub withins: usize,
+}
+
+impl SeamSums {
+    /// The mean squared jump across cell faces over the mean within cells: about 1 where
+    /// the error does not know where cells meet, above 1 where it jumps at their faces
+    /// (tiles). `None` without pairs of either kind or without any error; an error that
+    /// jumps only at faces divides by a floor of 1e-12 (finite, and huge).
+    #[must_use]
+    pub fn ratio(&self) -> Option<f64> {
+        let (c, w) = (self.crossing / self.crossings.max(1) as f64, self.within / self.withins.max(1) as f64);
+        (self.crossings > 0 && self.withins > 0 && (c > 0.0 || w > 0.0)).then(|| c / w.max(1e-12))
+    }
+
+    /// The sums of `image` against `reference` (tone-mapped at `exposure`) over `pairs`,
+    /// added to these.
+    #[must_use]
+    pub fn add(mut self, image: &[Vec3], reference: &[Vec3], pairs: &SeamPairs, exposure: f32) -> Self {
+        let error = |p: u32| {
+            let p = p as usize;
+            crate::tonemap::reinhard(image[p], exposure) - crate::tonemap::reinhard(reference[p], exposure)
+        };
+        let jump = |&(p, q): &(u32, u32)| f64::from((error(p) - error(q)).length_squared());
+        self.crossing += pairs.crossing.iter().map(jump).sum::<f64>();
+        self.crossings += pairs.crossing.len();
+        self.within += pairs.within.iter().map(jump).sum::<f64>();
+        self.withins += pairs.within.len();
+        self
+    }
+
+    /// The references' own: the first half of their samples against the second, view by
+    /// view (the views and their pairs in the same order).
+    #[must_use]
+    pub fn of_references(views: &[ViewReference], pairs: &[SeamPairs], exposure: f32) -> Self {
+        views.iter().zip(pairs).fold(SeamSums::default(), |s, (v, p)| s.add(&v.half, &v.other_half(), p, exposure))
+    }
 }
 
 /// One tile of an error map: its mean and its pixel count.
@@ -551,6 +662,80 @@ pub fn paired_standard_error(a: &[Tile], b: &[Tile]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A camera view of a floor (20 × 10 pixels, 0.1 apart, normal +Y); pixels with x ≥ 15
+    /// are a step up by 1 (a ledge), the last row is sky.
+    fn floor_view() -> View {
+        let (w, h) = (20u32, 10u32);
+        let pixels = (0..w * h)
+            .map(|p| {
+                let (x, y) = (p % w, p / w);
+                if y == h - 1 {
+                    return Pixel::Background(Vec3::ONE);
+                }
+                let up = if x >= 15 { 1.0 } else { 0.0 };
+                let b = Vec3::new(x as f32 * 0.1, up, y as f32 * 0.1);
+                let oracle = Oracle { a: Vec3::Y, any: crate::warp::glossy::Aim { v: Vec3::Y, k: None, probe: 0 } };
+                Pixel::Query { b, dir: Vec3::Y, oracle, normal: Vec3::Y }
+            })
+            .collect();
+        View { name: "floor".into(), width: w, height: h, pixels, camera: true }
+    }
+
+    /// Cells 0.5 wide along x: a face every 5 pixels.
+    fn cell(b: Vec3) -> u32 {
+        libm::floorf(b.x / 0.5) as u32
+    }
+
+    #[test]
+    fn seam_pairs_straddle_cell_faces_on_one_surface_only() {
+        let v = floor_view();
+        let pairs = seam_pairs(&v, cell, 0.2);
+        // horizontal pairs: 9 surface rows × 19 neighbours, less the ledge's (x 14–15);
+        // faces between x = 4|5, 9|10 (the ledge's 14|15 is no pair): 2 per row
+        assert_eq!(pairs.crossing.len(), 9 * 2);
+        // vertical pairs stay in their cell: 8 per column; horizontal within: 19 − 1 − 2
+        assert_eq!(pairs.within.len(), 9 * 16 + 20 * 8);
+        assert!(pairs.crossing.iter().all(|&(p, q)| cell(b_of(&v, p)) != cell(b_of(&v, q))));
+        // a sphere of directions has no surfaces
+        assert!(seam_pairs(&View { camera: false, ..v }, cell, 0.2).crossing.is_empty());
+    }
+
+    fn b_of(v: &View, p: u32) -> Vec3 {
+        match v.pixels[p as usize] {
+            Pixel::Query { b, .. } => b,
+            Pixel::Background(_) => panic!("background"),
+        }
+    }
+
+    #[test]
+    fn a_cell_sized_tile_shows_as_a_seam_and_a_smooth_error_does_not() {
+        let v = floor_view();
+        let pairs = seam_pairs(&v, cell, 0.2);
+        let n = (v.width * v.height) as usize;
+        let reference = vec![Vec3::splat(0.2); n];
+        let at = |f: &dyn Fn(Vec3) -> f32| -> Vec<Vec3> {
+            (0..n as u32)
+                .map(|p| match v.pixels[p as usize] {
+                    Pixel::Query { b, .. } => Vec3::splat(0.2 + f(b)),
+                    Pixel::Background(c) => c,
+                })
+                .collect()
+        };
+        // an error that grows smoothly along x and y: jumps the same everywhere
+        let smooth = at(&|b| 0.01 * (b.x + b.z));
+        let r = SeamSums::default().add(&smooth, &reference, &pairs, 1.0).ratio().unwrap();
+        assert!((0.8..1.25).contains(&r), "{r}");
+        // a constant error per cell (tiles)
+        let tiles = at(&|b| 0.05 * (cell(b) % 2) as f32);
+        let r = SeamSums::default().add(&tiles, &reference, &pairs, 1.0).ratio().unwrap();
+        assert!(r.is_finite() && r > 1e6, "no jump within cells: {r}");
+        let both = at(&|b| 0.05 * (cell(b) % 2) as f32 + 0.01 * (b.x + b.z));
+        let r = SeamSums::default().add(&both, &reference, &pairs, 1.0).ratio().unwrap();
+        assert!(r > 10.0, "{r}");
+        // no error at all: no ratio
+        assert_eq!(SeamSums::default().add(&reference, &reference, &pairs, 1.0).ratio(), None);
+    }
 
     #[test]
     fn tiles_cover_every_pixel_once_and_keep_the_mean() {

@@ -250,6 +250,37 @@ pub fn worst_cameras(r: &EvalReport) -> String {
     s
 }
 
+/// Markdown table of how each bucket's errors jump at cell faces in the camera views
+/// (`perceptual::SeamSums::ratio`; empty without it): the references' own, then the
+/// runtime and a few rows (by name; of several mip rules, the one with the lowest ꟻLIP).
+pub fn seams_table(r: &EvalReport) -> String {
+    if r.buckets.iter().all(|b| b.seam_reference.is_none()) {
+        return String::new();
+    }
+    let names = ["runtime", "runtime-probe-only", "fitted", "fitted-trilinear", "box", "kdop", "warp1"];
+    let mut s = format!(
+        "| roughness | references' own | {} |\n|---:|---:|{}\n",
+        names.join(" | "),
+        "---:|".repeat(names.len())
+    );
+    let ratio = |x: Option<f64>| x.map_or("–".into(), |v| format!("{v:.2}"));
+    for b in &r.buckets {
+        let cells: Vec<String> = names
+            .iter()
+            .map(|name| {
+                let best = r
+                    .methods
+                    .iter()
+                    .filter(|m| m.roughness == b.roughness && m.name == *name && m.seam.is_some())
+                    .min_by(|x, y| x.flip.unwrap_or(1.0).total_cmp(&y.flip.unwrap_or(1.0)));
+                ratio(best.and_then(|m| m.seam))
+            })
+            .collect();
+        let _ = writeln!(s, "| {} | {} | {} |", b.roughness, ratio(b.seam_reference), cells.join(" | "));
+    }
+    s
+}
+
 pub fn buckets_table(r: &EvalReport) -> String {
     let mut s = String::from(
         "| roughness | lookups | reference samples | claim | difference (rel RMSE / tm RMSE) | its reference SE (rel / tm) | SE ≤ ¼ difference | single reference SE (rel) | emitter queries | view pixels | view reference samples | ꟻLIP of the views' reference noise | ꟻLIP claim: difference ± 2 SE (tiles) against |\n|---:|---:|---:|---|---|---|---|---:|---:|---:|---:|---:|---|\n",
@@ -417,6 +448,13 @@ pub fn write_eval(folder: &RunFolder, r: &EvalReport) -> Result<(), FileError> {
             md,
             "\n## The views one by one\n\nEach rendered view's ꟻLIP for the claim's champion against its rivals (the best seed method within the claim's budget by mean ꟻLIP and, where the runtime blends irradiance into rough lookups, the runtime reading its probes alone). Difference: rival − champion (positive: the champion lower), ± 2 standard errors over the view's 8×8-pixel tiles.\n\n{}\n{views}",
             worst_cameras(r)
+        );
+    }
+    let seams = seams_table(r);
+    if !seams.is_empty() {
+        let _ = writeln!(
+            md,
+            "\n## Seams at cell faces\n\nNeighbouring pixels of the camera views on one surface (normals within 8°, points nearer than a quarter cell), sorted by whether a cell face runs between them: the mean squared jump of the tone-mapped error across cell faces over the same within cells. About 1 where the error does not know where cells meet; above 1 where it jumps at their faces (cell-sized tiles). The references' own is one half of their samples against the other.\n\n{seams}"
         );
     }
     if r.diffuse.is_some() {
