@@ -25,8 +25,9 @@
 //! the point, read smoothly: `runtime::IrradianceSh::read`) into a rough lookup, since at
 //! α = 1 the lobe is the clamped cosine and the reference is that irradiance itself. Per
 //! row, the weight with the lowest training tone-mapped RMSE through the row's chosen
-//! mips, or its half or quarter, the largest whose views' ꟻLIP is no worse than without;
-//! the grid keeps the weights only if the held-out tone-mapped RMSE falls.
+//! mips, or its half or quarter, the largest whose views' mean ꟻLIP is no worse than
+//! without and no view's worse beyond 2 standard errors of its 8×8-pixel tiles; the grid
+//! keeps the weights only if the held-out tone-mapped RMSE falls.
 
 use super::{DOMAIN_FIT, FitSettings, ROUGH_MIX};
 use crate::bake::Baked;
@@ -59,7 +60,7 @@ const SPP: u32 = 16;
 /// evaluation's pixels at a quarter of its samples: about 0.4 s of a torture fit).
 const VIEWS: RenderSettings = RenderSettings {
     camera: (64, 40),
-    cameras: 1,
+    cameras: 3,
     fov_deg: 75.0,
     sphere_res: 32,
     spheres: 1,
@@ -437,15 +438,34 @@ pub fn fit_scene_correction(
                 })
             };
             // the largest of the fitted weight, its half and its quarter whose views look no
-            // worse than the unblended rule's (mean ꟻLIP): the tone-mapped error alone also
-            // pays for blur that hedges a misplaced fetch, which a viewer sees as lost detail
+            // worse than the unblended rule's (mean ꟻLIP), and none of them one by one beyond
+            // 2 standard errors of its tiles: the tone-mapped error alone also pays for blur
+            // that hedges a misplaced fetch, which a viewer sees as lost detail, and a mean
+            // over views can hide the one view the blend darkens
+            let per_view = |tiles: &[perceptual::Tile]| -> Vec<Vec<perceptual::Tile>> {
+                let mut rest = tiles;
+                refs.iter()
+                    .map(|v| {
+                        let n = (v.view.width.div_ceil(8) * v.view.height.div_ceil(8)) as usize;
+                        let (this, next) = rest.split_at(n.min(rest.len()));
+                        rest = next;
+                        this.to_vec()
+                    })
+                    .collect()
+            };
+            let unblended = per_view(at(chosen));
             let mut kept = (0.0, None);
             for w in [fitted, 0.5 * fitted, 0.25 * fitted] {
                 if !(w > 0.0) {
                     break;
                 }
-                let f = perceptual::weighted_mean(&blended_tiles(w));
-                if f.is_finite() && f <= flip.get(chosen) {
+                let tiles = blended_tiles(w);
+                let f = perceptual::weighted_mean(&tiles);
+                let no_view_worse = per_view(&tiles).iter().zip(&unblended).all(|(b, u)| {
+                    let worse = perceptual::weighted_mean(b) - perceptual::weighted_mean(u);
+                    worse <= 2.0 * perceptual::paired_standard_error(b, u)
+                });
+                if f.is_finite() && f <= flip.get(chosen) && no_view_worse {
                     kept = (w, Some(f));
                     break;
                 }
