@@ -208,8 +208,8 @@ fn seen(scene: &Scene, tracer: &Tracer, eye: Vec3, ray: Vec3) -> Option<crate::t
         .filter(|hit| !hit.backface || scene.materials[hit.material as usize].two_sided)
 }
 
-/// How a camera at `eye` looks: of [`HEADINGS`] headings at each of [`PITCHES_DEG`], the
-/// one whose [`PREVIEW`] sees the most geometry; among equals, the preferred pitch, then
+/// How a camera at `eye` looks: of `HEADINGS` headings at each of `PITCHES_DEG`, the
+/// one whose `PREVIEW` sees the most geometry; among equals, the preferred pitch, then
 /// the deepest view (largest mean distance to what it sees). Returns the pose and its
 /// preview's coverage.
 pub fn aim_camera(scene: &Scene, tracer: &Tracer, eye: Vec3, fov_deg: f32) -> (CameraPose, f64) {
@@ -242,7 +242,7 @@ pub fn aim_camera(scene: &Scene, tracer: &Tracer, eye: Vec3, fov_deg: f32) -> (C
 }
 
 /// The cameras of a scene: the scene's own `[[cameras]]` when it sets any, all of them;
-/// else `s.cameras` placed among the more open half of the first [`EYE_CANDIDATES`] of
+/// else `s.cameras` placed among the more open half of the first `EYE_CANDIDATES` of
 /// `positions`, each aimed by [`aim_camera`] and kept only if it sees geometry in
 /// [`MIN_COVERAGE`] of its image (the most open such position first, then each the farthest from those chosen, so the
 /// cameras cover different parts of the level; if none qualifies, the one that sees most),
