@@ -229,15 +229,52 @@ pub enum CorrectiveVariant {
     /// With several probes: every active cell's map fitted with one probe for the whole
     /// cell (the probe chosen per cell, as engines choose by position).
     PerCell,
+    /// The fitted grid as stored, each lookup's radiance blended over the cells whose
+    /// faces are near (each cell's own shift and probe; [`FACE_MARGIN`]).
+    FittedFaces,
+}
+
+/// How far from a cell face (in cells, either side) `fitted-faces` blends with the cell
+/// across it: 0.5 would be a trilinear blend of eight lookups everywhere.
+pub const FACE_MARGIN: f32 = 0.125;
+
+/// The `fitted-faces` radiance of query (B, dir, r): over the cell-centre lattice, each
+/// axis's weight of the cell beyond a face ramps from 0 to ½ across the last
+/// [`FACE_MARGIN`] before the face (and on to 1 as far beyond it), so inside a cell one
+/// lookup is read, near a face two, near an edge four; each cell's lookup aims with its
+/// own shift and reads its own probe, and the radiances blend.
+pub fn face_blend(shading: Glossy, rule: MipRule, c: &Correctives, (b, dir, r): (Vec3, Vec3, f32)) -> Vec3 {
+    let g = &c.geometry;
+    let hi = (g.counts - glam::UVec3::ONE).as_vec3();
+    let f = (b - g.min) / g.cell_size() - 0.5;
+    let f = if f.is_finite() { f.clamp(Vec3::ZERO, hi) } else { Vec3::ZERO };
+    let base = f.floor();
+    let ramp = |x: f32| ((x - (0.5 - FACE_MARGIN)) / (2.0 * FACE_MARGIN)).clamp(0.0, 1.0);
+    let t = Vec3::new(ramp(f.x - base.x), ramp(f.y - base.y), ramp(f.z - base.z));
+    let base = base.as_uvec3();
+    let mut out = Vec3::ZERO;
+    for corner in 0..8u32 {
+        let o = glam::UVec3::new(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+        let w = (if o.x == 1 { t.x } else { 1.0 - t.x })
+            * (if o.y == 1 { t.y } else { 1.0 - t.y })
+            * (if o.z == 1 { t.z } else { 1.0 - t.z });
+        if w > 0.0 {
+            let cell = g.cell_index((base + o).min(g.counts - glam::UVec3::ONE));
+            let aim = c.fetch_in(cell, Blend::Cell, shading.warp, b, dir, r);
+            out += w * shading.radiance(rule, b, dir, aim, r);
+        }
+    }
+    out
 }
 
 impl CorrectiveVariant {
-    pub const ALL: [CorrectiveVariant; 5] = [
+    pub const ALL: [CorrectiveVariant; 6] = [
         CorrectiveVariant::Celldepth,
         CorrectiveVariant::Fitted,
         CorrectiveVariant::FittedL2All,
         CorrectiveVariant::FittedTrilinear,
         CorrectiveVariant::PerCell,
+        CorrectiveVariant::FittedFaces,
     ];
 
     pub fn name(self) -> &'static str {
@@ -247,6 +284,7 @@ impl CorrectiveVariant {
             CorrectiveVariant::FittedL2All => "fitted-L2-all",
             CorrectiveVariant::FittedTrilinear => "fitted-trilinear",
             CorrectiveVariant::PerCell => "per-cell",
+            CorrectiveVariant::FittedFaces => "fitted-faces",
         }
     }
 
@@ -258,6 +296,9 @@ impl CorrectiveVariant {
                 "level 2 in every active cell (fitted maps before model selection), containing cell"
             }
             CorrectiveVariant::FittedTrilinear => "fitted shift maps (levels as stored), trilinear blend of 8 cells",
+            CorrectiveVariant::FittedFaces => {
+                "fitted shift maps (levels as stored), each near cell's lookup (its shift, its probe) blended across an eighth of a cell either side of each face"
+            }
             CorrectiveVariant::PerCell => {
                 "a shift map in every active cell fitted with one probe for the cell (the probe most of its texels chose), containing cell"
             }
@@ -401,6 +442,9 @@ impl Row<'_> {
         let l = match (self.fetch, self.aim(shading.warp, b, dir, oracle, r)) {
             (Fetch::Runtime(g, read), _) => g.specular_as(read, b, dir, r),
             (Fetch::EngineBlend(e), _) => e.radiance(shading, self.rule.unwrap_or(MipRule::Plain), b, dir, r),
+            (Fetch::Grid(g), _) if g.variant == CorrectiveVariant::FittedFaces => {
+                face_blend(shading, self.rule.unwrap_or(MipRule::Plain), g.correctives, (b, dir, r))
+            }
             (_, Some(aim)) => shading.radiance(self.rule.unwrap_or(MipRule::Plain), b, dir, aim, r),
             (_, None) => Vec3::ZERO,
         };

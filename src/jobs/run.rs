@@ -368,7 +368,9 @@ pub fn corrective_rows(f: &Fit) -> Vec<CorrectiveRow<'_>> {
         .filter_map(|&variant| {
             let correctives = match variant {
                 CorrectiveVariant::Celldepth => &f.unfitted.as_ref()?.celldepth,
-                CorrectiveVariant::Fitted | CorrectiveVariant::FittedTrilinear => &f.correctives,
+                CorrectiveVariant::Fitted | CorrectiveVariant::FittedTrilinear | CorrectiveVariant::FittedFaces => {
+                    &f.correctives
+                }
                 CorrectiveVariant::FittedL2All => &f.unfitted.as_ref()?.fitted_all,
                 CorrectiveVariant::PerCell => f.unfitted.as_ref()?.per_cell.as_ref()?,
             };

@@ -187,8 +187,16 @@ impl Correctives {
     #[inline]
     #[must_use]
     pub fn fetch(&self, blend: Blend, warp: &Warp, b: Vec3, dir: Vec3, r: f32) -> Aim {
-        // the containing cell's map: the shift (Blend::Cell) and the probe it reads
-        let own = self.slot_of(self.cell_at(b)).map(|slot| {
+        self.fetch_in(self.cell_at(b), blend, warp, b, dir, r)
+    }
+
+    /// [`fetch`](Self::fetch) as if B lay in cell `cell`: its map's shift and the probe it
+    /// reads (with `Blend::Cell`), the aim from B itself.
+    #[inline]
+    #[must_use]
+    pub fn fetch_in(&self, cell: usize, blend: Blend, warp: &Warp, b: Vec3, dir: Vec3, r: f32) -> Aim {
+        // the cell's map: the shift (Blend::Cell) and the probe it reads
+        let own = self.slot_of(cell).map(|slot| {
             let taps = octa::bilinear_taps(self.map_res, octa::encode(dir));
             (slot, taps, self.probe_of(slot, &taps))
         });
