@@ -1058,6 +1058,7 @@ fn assemble_cells(
             fit
         })
         .collect();
+    lend_maps_to_inside_cells(&mut correctives, &grid.inside);
     let cells_cpu = cells.iter().map(|c| c.seconds).sum::<f64>();
     let cells_tracing_cpu = cells.iter().map(|c| c.trace_seconds).sum::<f64>();
     // the correction for the maps as stored: fitted to the scene, kept if it beats the lobes
@@ -1079,6 +1080,58 @@ fn assemble_cells(
         seconds: t0.elapsed().as_secs_f64(),
         times: FitTimes { cells_cpu, cells_tracing_cpu, roughness: roughness_s, ..FitTimes::default() },
         reference_rays,
+    }
+}
+
+/// Gives each cell left out as inside geometry a copy of the maps (shift, rough, probe) of
+/// its nearest stored cell within two cells (the nearest Chebyshev shell, then the nearest
+/// centre, then the lowest index). Such a cell straddles a wall or a solid, and the
+/// surfaces at its edge are shaded from inside it: without a map they read probe A through
+/// the proxy, and with several probes a room probe A does not see shows what A sees (a
+/// courtyard's light on a room's wall).
+fn lend_maps_to_inside_cells(c: &mut Correctives, inside: &[bool]) {
+    const REACH: i32 = 2;
+    let g = c.geometry;
+    let n2 = (c.map_res * c.map_res) as usize;
+    let counts = g.counts.as_ivec3();
+    let lenders: Vec<(usize, u32)> = (0..g.cell_count())
+        .filter(|&cell| inside.get(cell).copied().unwrap_or(false) && c.slot[cell] == NO_MAP)
+        .filter_map(|cell| {
+            let at = g.cell_coords(cell).as_ivec3();
+            let centre = g.cell_centre(cell);
+            (1..=REACH).find_map(|k| {
+                let mut best: Option<(f32, usize, u32)> = None;
+                for dz in -k..=k {
+                    for dy in -k..=k {
+                        for dx in -k..=k {
+                            let o = glam::IVec3::new(dx, dy, dz);
+                            let q = at + o;
+                            if o.abs().max_element() != k || q.cmplt(glam::IVec3::ZERO).any() || q.cmpge(counts).any() {
+                                continue;
+                            }
+                            let other = g.cell_index(q.as_uvec3());
+                            let Some(slot) = c.slot_of(other) else { continue };
+                            let d = (g.cell_centre(other) - centre).length_squared();
+                            if best.is_none_or(|(bd, bi, _)| d < bd || (d == bd && other < bi)) {
+                                best = Some((d, other, slot));
+                            }
+                        }
+                    }
+                }
+                best.map(|(_, _, slot)| (cell, slot))
+            })
+        })
+        .collect();
+    for (cell, from) in lenders {
+        let (at, new) = (from as usize * n2, c.maps.len() / n2);
+        c.slot[cell] = new as u32;
+        c.maps.extend_from_within(at..at + n2);
+        if !c.rough_maps.is_empty() {
+            c.rough_maps.extend_from_within(at..at + n2);
+        }
+        if !c.probe_maps.is_empty() {
+            c.probe_maps.extend_from_within(at..at + n2);
+        }
     }
 }
 
