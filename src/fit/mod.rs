@@ -1143,6 +1143,30 @@ mod tests {
     use glam::UVec3;
 
     #[test]
+    fn a_cell_inside_geometry_borrows_its_nearest_stored_neighbours_maps() {
+        // six cells in a row: 0 and 2 store maps (values 1 and 2, probes 1 and 2); 1 and 5
+        // are inside geometry, 3 is a level-0 cell; 5's nearest stored cell is 3 away
+        let g = GridGeometry { min: Vec3::ZERO, max: Vec3::new(6.0, 1.0, 1.0), counts: UVec3::new(6, 1, 1) };
+        let n2 = 4;
+        let mut slot = vec![NO_MAP; 6];
+        (slot[0], slot[2]) = (0, 1);
+        let maps: Vec<f32> = [1.0; 4].into_iter().chain([2.0; 4]).collect();
+        let mut c = Correctives::new(g, 2, slot, maps.clone(), Method::Box)
+            .with_rough_maps(maps.iter().map(|m| m * 10.0).collect())
+            .with_probe_maps([1u8; 4].into_iter().chain([2u8; 4]).collect());
+        let inside = [false, true, false, false, false, true];
+        lend_maps_to_inside_cells(&mut c, &inside);
+        // cell 1 lies between 0 and 2, equally near: the lower index lends
+        let s1 = c.slot_of(1).expect("cell 1 borrows a map") as usize;
+        assert_eq!(&c.maps[s1 * n2..(s1 + 1) * n2], &[1.0; 4]);
+        assert_eq!(&c.rough_maps[s1 * n2..(s1 + 1) * n2], &[10.0; 4]);
+        assert_eq!(&c.probe_maps[s1 * n2..(s1 + 1) * n2], &[1; 4]);
+        // the level-0 cell keeps the proxy; the far inside cell has no lender within reach
+        assert!(c.slot_of(3).is_none() && c.slot_of(5).is_none());
+        assert_eq!((c.maps.len(), c.rough_maps.len(), c.probe_maps.len()), (3 * n2, 3 * n2, 3 * n2));
+    }
+
+    #[test]
     fn a_cells_volume_positions_are_never_inside_a_solid() {
         // one 2 m cell in a room, its lower three quarters inside a solid box
         let scene = Scene::parse(
