@@ -89,7 +89,7 @@ pub fn run(mode: Mode, mut on_row: impl FnMut(&CaseResult)) -> Vec<CaseResult> {
         ),
         (
             "cells inside geometry",
-            "exactly the 4 cells whose centres are in the block are flagged, fitted and stored nowhere",
+            "exactly the 4 cells whose centres are in the block are flagged, never fitted nor given irradiance; a shift map only as a copy of an open cell's",
             Box::new(cases::inside_cells),
         ),
         (
