@@ -614,3 +614,76 @@ fn a_streamed_write_reports_what_it_wrote_and_fails_cleanly() {
         std::fs::read_dir(&dir).unwrap().flatten().map(|e| e.file_name().to_string_lossy().into_owned()).collect();
     assert_eq!(names, ["payload.bin"], "no temporary file is left");
 }
+
+/// A bake larger than the process may allocate is refused before it starts, naming the
+/// limit, under an address-space limit (`ulimit -v`, 2 GiB) below the machine's free memory:
+/// not aborted by a failed allocation.
+#[test]
+fn a_bake_beyond_the_address_space_limit_is_refused_naming_it() {
+    use std::os::unix::process::CommandExt;
+    let d = tmp_dir("rlimit-as");
+    let scene = d.join("huge.toml");
+    let tiny = std::fs::read_to_string(repo().join("data/scenes/tiny.toml")).unwrap();
+    let huge = tiny
+        .lines()
+        .map(|l| match l.split(" =").next() {
+            // about 3.8 GB by the bake's estimate
+            Some("counts") => "counts = [1000, 1000, 1]",
+            Some("irradiance_resolution") => "irradiance_resolution = 16",
+            _ => l,
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(&scene, huge).unwrap();
+    let mut c = Command::new(env!("CARGO_BIN_EXE_warpfit"));
+    c.args(["--quiet", "--threads", "2", "bake", "--scene"]).arg(&scene).arg("--out").arg(d.join("out"));
+    // SAFETY: setrlimit between fork and exec touches only the child
+    unsafe {
+        c.pre_exec(|| {
+            let limit = libc::rlimit { rlim_cur: 2 << 30, rlim_max: 2 << 30 };
+            if libc::setrlimit(libc::RLIMIT_AS, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let t0 = Instant::now();
+    let o = c.output().expect("warpfit runs");
+    let all = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{all}");
+    assert!(all.contains("huge.toml") && all.contains("ulimit -v") && all.contains("GB"), "{all}");
+    assert!(t0.elapsed() < Duration::from_secs(60), "{:?}", t0.elapsed());
+}
+
+/// A lock is written whole or not at all; one that names no owner (left by a writer that
+/// failed half-way, e.g. on a full disk) is taken over once it is old, refused while fresh;
+/// a killed taker's owner file is cleaned.
+#[test]
+fn an_empty_lock_left_by_a_failed_writer_is_taken_over_once_old() {
+    use warpfit::files::staged::{FolderLock, UNOWNED_LOCK_SECONDS, clean_leftovers};
+    let root = tmp_dir("empty-lock");
+    let out = root.join("fit");
+    let lock = root.join(".fit.lock");
+    {
+        let _held = FolderLock::acquire(&out).unwrap();
+        let owner = std::fs::read_to_string(&lock).unwrap();
+        assert!(owner.starts_with(&format!("{} ", std::process::id())), "{owner:?}");
+        let e = FolderLock::acquire(&out).unwrap_err().to_string();
+        assert!(e.contains("another warpfit process") && e.contains(".fit.lock"), "{e}");
+    }
+    assert!(!lock.exists(), "released on drop");
+    // an empty lock, just written: perhaps a writer between its create and its write
+    std::fs::write(&lock, b"").unwrap();
+    let e = FolderLock::acquire(&out).unwrap_err().to_string();
+    assert!(e.contains("another warpfit process (unknown)"), "{e}");
+    // the same lock, old: taken over
+    let old = std::time::SystemTime::now() - Duration::from_secs(UNOWNED_LOCK_SECONDS + 5);
+    std::fs::File::options().write(true).open(&lock).unwrap().set_modified(old).unwrap();
+    drop(FolderLock::acquire(&out).expect("an old lock without an owner is stale"));
+    // a taker killed between writing its owner file and linking it
+    let tmp = root.join(".fit.lock.tmp-4000000");
+    std::fs::write(&tmp, b"4000000 host").unwrap();
+    clean_leftovers(&out);
+    assert!(!tmp.exists());
+    assert!(leftovers(&out).is_empty(), "{:?}", leftovers(&out));
+}

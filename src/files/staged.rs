@@ -96,6 +96,10 @@ fn pid_after(name: &str, marker: &str) -> Option<u32> {
     name.rsplit_once(marker).and_then(|(_, p)| p.parse().ok())
 }
 
+/// A lock file naming no owner is taken over once it is this old: a lock is written
+/// whole since this version, and an older writer writes its owner within microseconds.
+pub const UNOWNED_LOCK_SECONDS: u64 = 10;
+
 /// Exclusive ownership of a folder for writing, released on drop.
 #[derive(Debug)]
 pub struct FolderLock {
@@ -111,21 +115,41 @@ impl FolderLock {
             std::fs::create_dir_all(parent).map_err(FileError::io(parent))?;
         }
         let me = format!("{} {}", std::process::id(), host());
+        // the owner is written into a file of this process's own, which is then linked to
+        // the lock's name: the lock appears whole or not at all (a full disk fails the
+        // write, not the lock)
+        let mine = sibling(target, &format!(".lock.tmp-{}", std::process::id()));
+        std::fs::write(&mine, me.as_bytes()).map_err(|e| {
+            let _ = std::fs::remove_file(&mine);
+            FileError::io(&mine)(e)
+        })?;
+        let taken = Self::link_lock(target, &mine, &path);
+        let _ = std::fs::remove_file(&mine);
+        taken
+    }
+
+    /// [`acquire`](Self::acquire)'s loop: links `mine` (the owner, written) to `path`, taking
+    /// over a stale lock: one of a process of this host that is gone, or one without an
+    /// owner (left by a writer of an older version that failed half-way) older than
+    /// [`UNOWNED_LOCK_SECONDS`].
+    fn link_lock(target: &Path, mine: &Path, path: &Path) -> Result<FolderLock, FileError> {
+        let path = path.to_path_buf();
         for _ in 0..3 {
-            match std::fs::OpenOptions::new().write(true).create_new(true).open(&path) {
-                Ok(mut f) => {
-                    use std::io::Write;
-                    f.write_all(me.as_bytes()).map_err(FileError::io(&path))?;
-                    return Ok(FolderLock { path });
-                }
+            match std::fs::hard_link(mine, &path) {
+                Ok(()) => return Ok(FolderLock { path }),
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
                     let owner = std::fs::read_to_string(&path).unwrap_or_default();
                     let mut it = owner.split_whitespace();
                     let pid = it.next().and_then(|p| p.parse::<u32>().ok());
                     let owner_host = it.next().unwrap_or("").to_string();
+                    let age = std::fs::metadata(&path)
+                        .and_then(|m| m.modified())
+                        .ok()
+                        .and_then(|t| t.elapsed().ok())
+                        .map_or(0, |d| d.as_secs());
                     let stale = match pid {
                         Some(pid) => owner_host == host() && !alive(pid),
-                        None => false,
+                        None => age >= UNOWNED_LOCK_SECONDS,
                     };
                     if !stale {
                         return Err(FileError::invalid(
@@ -142,8 +166,29 @@ impl FolderLock {
                             ),
                         ));
                     }
-                    tracing::info!("removing the stale lock {} (process {owner} is gone)", path.display());
+                    tracing::info!(
+                        "removing the stale lock {} ({})",
+                        path.display(),
+                        if pid.is_some() { format!("process {} is gone", owner.trim()) } else { "no owner".into() }
+                    );
                     let _ = std::fs::remove_file(&path);
+                }
+                // a file system without hard links: create the lock and write it, removing
+                // it again if the write fails
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                    let owner = std::fs::read(mine).map_err(FileError::io(mine))?;
+                    let mut f = match std::fs::OpenOptions::new().write(true).create_new(true).open(&path) {
+                        Ok(f) => f,
+                        Err(e2) if e2.kind() == std::io::ErrorKind::AlreadyExists => continue,
+                        Err(_) => return Err(FileError::io(&path)(e)),
+                    };
+                    use std::io::Write;
+                    if let Err(e) = f.write_all(&owner).and_then(|()| f.sync_all()) {
+                        drop(f);
+                        let _ = std::fs::remove_file(&path);
+                        return Err(FileError::io(&path)(e));
+                    }
+                    return Ok(FolderLock { path });
                 }
                 Err(e) => return Err(FileError::io(&path)(e)),
             }
@@ -171,6 +216,11 @@ pub fn clean_leftovers(target: &Path) {
                     tracing::info!("removing {} left by a killed run", e.path().display());
                     let _ = std::fs::remove_dir_all(e.path());
                 }
+            }
+            // a lock's owner file of a process killed while taking the lock
+            let marker = ".lock.tmp-";
+            if n.starts_with(&format!(".{name}{marker}")) && pid_after(&n, marker).is_some_and(|p| !alive(p)) {
+                let _ = std::fs::remove_file(e.path());
             }
         }
     }

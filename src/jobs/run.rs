@@ -80,11 +80,48 @@ pub fn load_scene(path: &Path, out: Option<&Path>) -> Result<(Scene, RunFolder),
     Ok((scene, folder))
 }
 
-/// Memory this machine has available (`MemAvailable` of /proc/meminfo), if known.
-fn available_memory() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    line.split_whitespace().nth(1)?.parse::<u64>().ok().map(|kb| kb * 1024)
+/// Memory this process may still take, and what limits it: the least of the machine's
+/// available memory (`MemAvailable` of /proc/meminfo), the address space left under
+/// `RLIMIT_AS` (its limit less the process's `VmSize`), and the room left in its cgroup
+/// (v2 `memory.max` less `memory.current`, or v1 `memory.limit_in_bytes` less
+/// `memory.usage_in_bytes`). `None` when none is known.
+pub fn available_memory() -> Option<(u64, &'static str)> {
+    let kb_field = |file: &str, key: &str| -> Option<u64> {
+        let text = std::fs::read_to_string(file).ok()?;
+        let line = text.lines().find(|l| l.starts_with(key))?;
+        line.split_whitespace().nth(1)?.parse::<u64>().ok().map(|kb| kb * 1024)
+    };
+    let mut limits: Vec<(u64, &'static str)> = Vec::new();
+    limits.extend(kb_field("/proc/meminfo", "MemAvailable:").map(|m| (m, "the machine's available memory")));
+    // SAFETY: getrlimit writes the struct it is given and nothing else
+    let mut rl = libc::rlimit { rlim_cur: 0, rlim_max: 0 };
+    if unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut rl) } == 0 && rl.rlim_cur != libc::RLIM_INFINITY {
+        let used = kb_field("/proc/self/status", "VmSize:").unwrap_or(0);
+        limits.push((rl.rlim_cur.saturating_sub(used), "the address space left under the process's limit (ulimit -v)"));
+    }
+    limits.extend(cgroup_room().map(|m| (m, "the room left in the process's cgroup (memory.max)")));
+    limits.into_iter().min_by_key(|l| l.0)
+}
+
+/// The memory left in this process's cgroup, if it has a limit (cgroup v2, else v1).
+fn cgroup_room() -> Option<u64> {
+    let read = |p: &str| std::fs::read_to_string(p).ok().map(|t| t.trim().to_string());
+    let number = |p: &str| read(p).and_then(|t| t.parse::<u64>().ok());
+    let cgroups = read("/proc/self/cgroup").unwrap_or_default();
+    // v2: "0::/path"
+    if let Some(path) = cgroups.lines().find_map(|l| l.strip_prefix("0::")) {
+        let dir = format!("/sys/fs/cgroup{}", path.trim_end_matches('/'));
+        if let Some(max) = number(&format!("{dir}/memory.max")) {
+            return Some(max.saturating_sub(number(&format!("{dir}/memory.current")).unwrap_or(0)));
+        }
+        return None;
+    }
+    // v1: "N:memory:/path"
+    let path = cgroups.lines().find_map(|l| l.split_once(":memory:").map(|(_, p)| p.to_string()))?;
+    let dir = format!("/sys/fs/cgroup/memory{}", path.trim_end_matches('/'));
+    let limit = number(&format!("{dir}/memory.limit_in_bytes"))?;
+    // (v1 says "no limit" with a huge number)
+    (limit < 1 << 60).then(|| limit.saturating_sub(number(&format!("{dir}/memory.usage_in_bytes")).unwrap_or(0)))
 }
 
 /// Says what baking `scene` will take and refuses a bake that needs more memory than the
@@ -103,7 +140,7 @@ pub fn check_bake_estimate(scene: &Scene, force: bool) -> Result<bake::Estimate,
         seconds,
         threads
     );
-    if let Some(avail) = available_memory()
+    if let Some((avail, what)) = available_memory()
         && e.bytes > avail
         && !force
     {
@@ -111,7 +148,7 @@ pub fn check_bake_estimate(scene: &Scene, force: bool) -> Result<bake::Estimate,
             path: scene.source.clone(),
             field: "probe/grid".into(),
             message: format!(
-                "baking needs about {:.1} GB, more than the {:.1} GB available (lower probe.resolution, grid.counts or grid.irradiance_resolution, or pass --force)",
+                "baking needs about {:.1} GB, more than the {:.1} GB available ({what}; lower probe.resolution, grid.counts or grid.irradiance_resolution, or pass --force)",
                 e.bytes as f64 / 1e9,
                 avail as f64 / 1e9
             ),
