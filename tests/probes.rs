@@ -154,6 +154,23 @@ fn a_multi_probe_grid_reads_the_probe_each_texel_chose_and_beats_probe_a_alone()
     };
     let (e_several, e_alone) = (error(&several), error(&alone));
     assert!(e_several < 0.7 * e_alone, "several probes {e_several} against probe A alone {e_alone}");
+    // the fit judged the rough lookups' irradiance blend on what the grid reads (each
+    // texel's probe, not probe A alone): at low roughness the blended read is not worse
+    // than the probes alone against lobe references
+    let lobes: Vec<Vec3> = (0..b.len())
+        .map(|k| {
+            let (x, y) = warpfit::perceptual::lobe_halves(&renderer, (b[k], d[k], 0.125), 32, (9, 0x5F0 + k as u64));
+            (x + y) * 0.5
+        })
+        .collect();
+    let rough_error = |read: warpfit::runtime::SpecularRead| -> f32 {
+        (0..b.len())
+            .map(|k| (tm(several.specular_as(read, b[k], d[k], 0.125)) - tm(lobes[k])).abs().element_sum())
+            .sum::<f32>()
+    };
+    let (blended, alone) =
+        (rough_error(warpfit::runtime::SpecularRead::Blended), rough_error(warpfit::runtime::SpecularRead::ProbeOnly));
+    assert!(blended <= 1.05 * alone, "blended {blended} against the probes alone {alone}");
 
     // `fitted-faces`: inside a cell, the containing cell's lookup bit for bit; across a cell
     // face (x = −1.3, in the warm room), continuous where the containing cell's jumps

@@ -73,6 +73,8 @@ const VIEWS: RenderSettings = RenderSettings {
 #[derive(Clone, Copy)]
 struct Query {
     uv: Vec2,
+    /// The probe the fetch reads (`Warp::probe_at`).
+    probe: u8,
     k: f32,
     r: f32,
     reference: Vec3,
@@ -156,9 +158,9 @@ fn queries(
         .into_par_iter()
         .map(|k| {
             let (b, dir) = (q.position_of(k), q.dirs[k]);
-            let (uv, k_ratio) = fetch(warp, correctives, b, dir, q.roughness[k]);
+            let (uv, k_ratio, probe) = fetch(warp, correctives, b, dir, q.roughness[k]);
             let irradiance = irradiance.read(b, dir);
-            (k / DIRS, Query { uv, k: k_ratio, r: q.roughness[k], reference: q.reference[k], irradiance })
+            (k / DIRS, Query { uv, probe, k: k_ratio, r: q.roughness[k], reference: q.reference[k], irradiance })
         })
         .collect();
     let (train, held): (Vec<_>, Vec<_>) = prepared.into_iter().partition(|(p, _)| p % 2 == 0);
@@ -170,11 +172,17 @@ fn queries(
 }
 
 /// The fitted grid's fetch for query (b, dir) of roughness `r`: the octahedral coordinate
-/// it reads and the distance ratio there.
-fn fetch(warp: &Warp, correctives: &Correctives, b: Vec3, dir: Vec3, r: f32) -> (Vec2, f32) {
+/// it reads, the distance ratio there and the probe it reads.
+fn fetch(warp: &Warp, correctives: &Correctives, b: Vec3, dir: Vec3, r: f32) -> (Vec2, f32, u8) {
     let aim = correctives.fetch(Blend::Cell, warp, b, dir, r);
     let uv = octa::encode(aim.v);
-    (uv, aim.ratio(warp, b, uv))
+    (uv, aim.ratio(warp, b, uv), aim.probe)
+}
+
+/// What the fetch reads: probe `probe`'s radiance at `uv`, the mip of roughness `rough`.
+fn read(warp: &Warp, (uv, probe): (Vec2, u8), rough: f32) -> Vec3 {
+    let p = warp.probe_at(probe.into());
+    p.radiance.sample_lod_uv(uv, p.lod_of_roughness(rough))
 }
 
 /// Tone-mapped RMSE of `queries` when each reads the mip of the roughness `rough(q)` gives.
@@ -194,7 +202,7 @@ fn tm_rmse_blended(
     let per_query: Vec<f64> = queries
         .par_iter()
         .map(|q| {
-            let spec = warp.probe.radiance.sample_lod_uv(q.uv, warp.probe.lod_of_roughness(rough(q)));
+            let spec = read(warp, (q.uv, q.probe), rough(q));
             let w = weight(q);
             let est = match q.irradiance {
                 Some(e) if w > 0.0 => crate::runtime::mix_irradiance(spec, e, w),
@@ -415,9 +423,8 @@ pub fn fit_scene_correction(
                 .iter()
                 .map(|&rule| {
                     perceptual::flip_tiles(&refs, exposure, 8, |r, b, dir, _| {
-                        let (uv, k) = fetch(warp, correctives, b, dir, r);
-                        let lod = warp.probe.lod_of_roughness(rules.roughness(rule, row, r, k));
-                        warp.probe.radiance.sample_lod_uv(uv, lod)
+                        let (uv, k, probe) = fetch(warp, correctives, b, dir, r);
+                        read(warp, (uv, probe), rules.roughness(rule, row, r, k))
                     })
                 })
                 .collect();
@@ -431,9 +438,8 @@ pub fn fit_scene_correction(
             let fitted = blend_weight(warp, &train_r, exposure, |q| rules.roughness(chosen, row, q.r, q.k));
             let blended_tiles = |w: f32| {
                 perceptual::flip_tiles(&refs, exposure, 8, |r, b, dir, _| {
-                    let (uv, k) = fetch(warp, correctives, b, dir, r);
-                    let lod = warp.probe.lod_of_roughness(rules.roughness(chosen, row, r, k));
-                    let spec = warp.probe.radiance.sample_lod_uv(uv, lod);
+                    let (uv, k, probe) = fetch(warp, correctives, b, dir, r);
+                    let spec = read(warp, (uv, probe), rules.roughness(chosen, row, r, k));
                     irradiance.read(b, dir).map_or(spec, |e| crate::runtime::mix_irradiance(spec, e, w))
                 })
             };
