@@ -437,15 +437,16 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         laps.lap(&mut times.rows);
         bar.inc(1);
         bar.set_message(format!("eval: r {r} ꟻLIP"));
+        let mut row_tiles = Vec::new();
         if !view_refs.is_empty() {
-            set_flips(&mut results, &rows, shading, (&view_refs, &seam_pairs), exposure);
+            row_tiles = set_flips(&mut results, &rows, shading, (&view_refs, &seam_pairs), exposure);
             flip_figures.extend(flip_figures_of(&rows, &results, shading, &view_refs, exposure));
         }
         laps.lap(&mut times.flip);
         bar.inc(1);
         let mut spp = if r == 0.0 { settings.reference_spp } else { settings.rough_reference_spp };
-        let mut summary = bucket_summary(set, r, spp, (&rows, &results), shading, exposure, &view_refs);
-        summary.seam_reference = perceptual::SeamSums::of_references(&view_refs, &seam_pairs, exposure).ratio();
+        let views = (&view_refs[..], &row_tiles[..], &seam_pairs[..]);
+        let mut summary = bucket_summary(set, r, spp, (&rows, &results), shading, exposure, views);
         // A rough bucket whose references are too noisy for the difference its claim
         // reports is traced again with twice the samples (the same as asking for that many)
         // and its errors measured again; the lookups, their costs and ꟻLIP stand.
@@ -457,10 +458,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             reference_rays += traced.rays;
             laps.lap(&mut times.rough_references);
             rescore(&mut results, &rows, (shading, emitters), traced, exposure);
-            summary = BucketSummary {
-                seam_reference: summary.seam_reference,
-                ..bucket_summary(traced, r, spp, (&rows, &results), shading, exposure, &view_refs)
-            };
+            summary = bucket_summary(traced, r, spp, (&rows, &results), shading, exposure, views);
             laps.lap(&mut times.rows);
         }
         if r == 0.0 {
@@ -738,23 +736,28 @@ fn view_references(
         .collect()
 }
 
-/// Each row's mean ꟻLIP over the views, into its result.
+/// Each row's ꟻLIP (per view and their mean) and seams over the views, into its result;
+/// returns each row's per-view tiles (as `rows`), what the bucket's claims compare.
 fn set_flips(
     results: &mut [MethodResult],
     rows: &[methods::Row],
     shading: Glossy,
     (view_refs, pairs): (&[renders::ViewReference], &[perceptual::SeamPairs]),
     exposure: f32,
-) {
-    let flips: Vec<(Vec<f64>, perceptual::SeamSums)> =
-        rows.par_iter().map(|row| renders::view_flips(row, shading, view_refs, pairs, exposure)).collect();
-    for (row, (f, seams)) in rows.iter().zip(flips) {
-        if let Some(m) = results.iter_mut().find(|m| row.made(m)) {
-            m.flip = Some(perceptual::pixel_weighted(view_refs, &f));
-            m.flip_views = f;
-            m.seam = seams.ratio();
-        }
-    }
+) -> Vec<Vec<Vec<perceptual::Tile>>> {
+    let judged: Vec<perceptual::Judged> =
+        rows.par_iter().map(|row| renders::judge(row, shading, view_refs, pairs, exposure)).collect();
+    rows.iter()
+        .zip(judged)
+        .map(|(row, j)| {
+            if let Some(m) = results.iter_mut().find(|m| row.made(m)) {
+                m.flip = Some(perceptual::pixel_weighted(view_refs, &j.flips));
+                m.flip_views = j.flips;
+                m.seam = j.seams.ratio();
+            }
+            j.tiles
+        })
+        .collect()
 }
 
 /// The seconds between the evaluation's stages.
@@ -854,6 +857,10 @@ fn claim_reads(name: &str, options: &crate::warp::WarpOptions) -> Option<u32> {
 
 /// The bucket's summary: the claim's comparison, its difference, and the standard error
 /// the references' noise puts on it.
+/// A bucket's rendered views, each row's per-view ꟻLIP tiles (as the bucket's rows) and
+/// the views' seam pairs.
+type BucketViews<'a> = (&'a [renders::ViewReference], &'a [Vec<Vec<perceptual::Tile>>], &'a [perceptual::SeamPairs]);
+
 fn bucket_summary(
     set: &ValidationSet,
     r: f32,
@@ -861,7 +868,7 @@ fn bucket_summary(
     (rows, results): (&[methods::Row], &[MethodResult]),
     shading: Glossy,
     exposure: f32,
-    views: &[renders::ViewReference],
+    (views, row_tiles, pairs): BucketViews,
 ) -> BucketSummary {
     let n = set.reference.len().max(1) as f64;
     let mean_ref = set.reference.iter().map(|c| crate::tonemap::luminance(*c) as f64).sum::<f64>() / n;
@@ -885,25 +892,16 @@ fn bucket_summary(
     if champion.is_some_and(|c| c.is(RowId::RUNTIME)) && r > 0.0 {
         flip_rivals.extend(probe_only);
     }
-    let tiles = |row: &methods::Row| -> Vec<Vec<perceptual::Tile>> {
-        (0..views.len())
-            .map(|k| {
-                perceptual::flip_tiles(&views[k..=k], exposure, 8, |r, p, dir, oracle| {
-                    row.estimate(shading, p, dir, oracle, r)
-                })
-            })
-            .collect()
-    };
-    let champion_tiles = champion.and_then(row_of).filter(|_| !views.is_empty()).map(tiles);
-    let rival_tiles: Vec<(String, Vec<Vec<perceptual::Tile>>)> = match champion_tiles {
-        Some(_) => flip_rivals.iter().filter_map(|m| Some((m.label(), tiles(row_of(m)?)))).collect(),
+    // each row's per-view tiles, as `set_flips` measured them
+    let tiles = |m: &MethodResult| rows.iter().position(|row| row.made(m)).and_then(|k| row_tiles.get(k));
+    let champion_tiles = champion.and_then(tiles).filter(|_| !views.is_empty());
+    let rival_tiles: Vec<(String, &Vec<Vec<perceptual::Tile>>)> = match champion_tiles {
+        Some(_) => flip_rivals.iter().filter_map(|m| Some((m.label(), tiles(m)?))).collect(),
         None => Vec::new(),
     };
     let challenger_tiles = flip_challenger.and_then(|c| rival_tiles.iter().find(|(label, _)| *label == c.label()));
-    let flip_claim = champion_tiles
-        .as_ref()
-        .zip(challenger_tiles)
-        .map(|(a, (label, b))| claim_of(label.clone(), &a.concat(), &b.concat()));
+    let flip_claim =
+        champion_tiles.zip(challenger_tiles).map(|(a, (label, b))| claim_of(label.clone(), &a.concat(), &b.concat()));
     let view_summaries = views
         .iter()
         .enumerate()
@@ -913,7 +911,7 @@ fn bucket_summary(
             coverage: v.view.coverage(),
             pixels: v.reference.len(),
             noise_flip: v.noise_flip,
-            against: match &champion_tiles {
+            against: match champion_tiles {
                 Some(a) => rival_tiles.iter().map(|(label, b)| claim_of(label.clone(), &a[k], &b[k])).collect(),
                 None => Vec::new(),
             },
@@ -944,7 +942,7 @@ fn bucket_summary(
         flip_claim,
         noise_ceiling: None,
         views: view_summaries,
-        seam_reference: None,
+        seam_reference: perceptual::SeamSums::of_references(views, pairs, exposure).ratio(),
     }
 }
 

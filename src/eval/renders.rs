@@ -36,17 +36,16 @@ pub fn mean_flip(row: &Row, shading: Glossy, views: &[ViewReference], exposure: 
     perceptual::mean_flip(views, exposure, |r, b, dir, oracle| row.estimate(shading, b, dir, oracle, r))
 }
 
-/// Each view's mean ꟻLIP of `row`, and its seams over `pairs` (`perceptual::SeamSums`).
-pub fn view_flips(
+/// `row` rendered into every view once and measured (`perceptual::judge_views`): each
+/// view's mean ꟻLIP and tiles, and its seams over `pairs`.
+pub fn judge(
     row: &Row,
     shading: Glossy,
     views: &[ViewReference],
     pairs: &[perceptual::SeamPairs],
     exposure: f32,
-) -> (Vec<f64>, perceptual::SeamSums) {
-    perceptual::view_flips_and_seams(views, exposure, pairs, |r, b, dir, oracle| {
-        row.estimate(shading, b, dir, oracle, r)
-    })
+) -> perceptual::Judged {
+    perceptual::judge_views(views, exposure, pairs, |r, b, dir, oracle| row.estimate(shading, b, dir, oracle, r))
 }
 
 /// The [`perceptual::SeamPairs`] of every view over the cells of `geometry`.

@@ -418,26 +418,28 @@ pub fn fit_scene_correction(
                     )
                 })
                 .collect();
-            // per rule, the ꟻLIP maps' 8×8-pixel tiles over every view
-            let tiles: Vec<Vec<perceptual::Tile>> = RowRule::ALL
+            // per rule, the ꟻLIP maps' 8×8-pixel tiles, view by view
+            let tiles: Vec<Vec<Vec<perceptual::Tile>>> = RowRule::ALL
                 .iter()
                 .map(|&rule| {
-                    perceptual::flip_tiles(&refs, exposure, 8, |r, b, dir, _| {
+                    perceptual::view_tiles(&refs, exposure, perceptual::CLAIM_TILE, |r, b, dir, _| {
                         let (uv, k, probe) = fetch(warp, correctives, b, dir, r);
                         read(warp, (uv, probe), rules.roughness(rule, row, r, k))
                     })
                 })
                 .collect();
-            let at = |rule: RowRule| &tiles[RowRule::ALL.iter().position(|&x| x == rule).unwrap_or(0)];
-            let flip = PerRule::from_fn(|rule| perceptual::weighted_mean(at(rule)));
-            let flip_se = PerRule::from_fn(|rule| perceptual::paired_standard_error(at(rule), at(RowRule::SceneFit)));
+            let all: Vec<Vec<perceptual::Tile>> = tiles.iter().map(|t| t.concat()).collect();
+            let at = |rule: RowRule| RowRule::ALL.iter().position(|&x| x == rule).unwrap_or(0);
+            let flip = PerRule::from_fn(|rule| perceptual::weighted_mean(&all[at(rule)]));
+            let flip_se =
+                PerRule::from_fn(|rule| perceptual::paired_standard_error(&all[at(rule)], &all[at(RowRule::SceneFit)]));
             let chosen = flip.chosen_with(&flip_se);
             // the irradiance blend of the chosen rule's mips: fitted on the training
             // queries, kept where the views do not look worse for it
             let train_r: Vec<Query> = train.iter().copied().filter(|q| q.r == r).collect();
             let fitted = blend_weight(warp, &train_r, exposure, |q| rules.roughness(chosen, row, q.r, q.k));
             let blended_tiles = |w: f32| {
-                perceptual::flip_tiles(&refs, exposure, 8, |r, b, dir, _| {
+                perceptual::view_tiles(&refs, exposure, perceptual::CLAIM_TILE, |r, b, dir, _| {
                     let (uv, k, probe) = fetch(warp, correctives, b, dir, r);
                     let spec = read(warp, (uv, probe), rules.roughness(chosen, row, r, k));
                     irradiance.read(b, dir).map_or(spec, |e| crate::runtime::mix_irradiance(spec, e, w))
@@ -448,26 +450,15 @@ pub fn fit_scene_correction(
             // 2 standard errors of its tiles: the tone-mapped error alone also pays for blur
             // that hedges a misplaced fetch, which a viewer sees as lost detail, and a mean
             // over views can hide the one view the blend darkens
-            let per_view = |tiles: &[perceptual::Tile]| -> Vec<Vec<perceptual::Tile>> {
-                let mut rest = tiles;
-                refs.iter()
-                    .map(|v| {
-                        let n = (v.view.width.div_ceil(8) * v.view.height.div_ceil(8)) as usize;
-                        let (this, next) = rest.split_at(n.min(rest.len()));
-                        rest = next;
-                        this.to_vec()
-                    })
-                    .collect()
-            };
-            let unblended = per_view(at(chosen));
+            let unblended = &tiles[at(chosen)];
             let mut kept = (0.0, None);
             for w in [fitted, 0.5 * fitted, 0.25 * fitted] {
                 if !(w > 0.0) {
                     break;
                 }
                 let tiles = blended_tiles(w);
-                let f = perceptual::weighted_mean(&tiles);
-                let no_view_worse = per_view(&tiles).iter().zip(&unblended).all(|(b, u)| {
+                let f = perceptual::weighted_mean(&tiles.concat());
+                let no_view_worse = tiles.iter().zip(unblended).all(|(b, u)| {
                     let worse = perceptual::weighted_mean(b) - perceptual::weighted_mean(u);
                     worse <= 2.0 * perceptual::paired_standard_error(b, u)
                 });

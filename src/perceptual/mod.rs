@@ -184,20 +184,32 @@ pub fn open_position(tracer: &Tracer, positions: &[Vec3], skip: usize) -> Option
     candidates.get(skip).map(|c| c.1)
 }
 
-/// The camera's right and up vectors (+Y up; a camera looking straight up or down turns
-/// its right to +X).
-fn camera_basis(forward: Vec3) -> (Vec3, Vec3) {
-    let right = forward.cross(Vec3::Y).normalize_or(Vec3::X);
-    (right, right.cross(forward))
+/// A camera's image plane: its rays through the pixel centres of a `w` × `h` image.
+struct Frame {
+    forward: Vec3,
+    right: Vec3,
+    up: Vec3,
+    /// Tangent of half the horizontal field of view.
+    half: f32,
+    size: (u32, u32),
 }
 
-/// The unit ray through pixel centre (x, y) of a `w` × `h` image, `half` the tangent of
-/// half the horizontal field of view.
-fn pixel_ray(pose: &CameraPose, (w, h): (u32, u32), half: f32, (x, y): (u32, u32)) -> Vec3 {
-    let (right, up) = camera_basis(pose.forward);
-    let u = (2.0 * (x as f32 + 0.5) / w as f32 - 1.0) * half;
-    let v = (1.0 - 2.0 * (y as f32 + 0.5) / h as f32) * half * h as f32 / w as f32;
-    (pose.forward + right * u + up * v).normalize()
+impl Frame {
+    /// +Y up; a camera looking straight up or down turns its right to +X.
+    fn new(pose: &CameraPose, fov_deg: f32, size: (u32, u32)) -> Frame {
+        let right = pose.forward.cross(Vec3::Y).normalize_or(Vec3::X);
+        let half = libm::tanf(fov_deg.to_radians() * 0.5);
+        Frame { forward: pose.forward, right, up: right.cross(pose.forward), half, size }
+    }
+
+    /// The unit ray through the centre of pixel `p` (row-major).
+    fn ray(&self, p: u32) -> Vec3 {
+        let (w, h) = self.size;
+        let (x, y) = ((p % w) as f32 + 0.5, (p / w) as f32 + 0.5);
+        let u = (2.0 * x / w as f32 - 1.0) * self.half;
+        let v = (1.0 - 2.0 * y / h as f32) * self.half * h as f32 / w as f32;
+        (self.forward + self.right * u + self.up * v).normalize()
+    }
 }
 
 /// What a camera ray sees: the geometry it hits (a front face, or either face of a
@@ -213,7 +225,6 @@ fn seen(scene: &Scene, tracer: &Tracer, eye: Vec3, ray: Vec3) -> Option<crate::t
 /// the deepest view (largest mean distance to what it sees). Returns the pose and its
 /// preview's coverage.
 pub fn aim_camera(scene: &Scene, tracer: &Tracer, eye: Vec3, fov_deg: f32) -> (CameraPose, f64) {
-    let half = libm::tanf(fov_deg.to_radians() * 0.5);
     let (w, h) = PREVIEW;
     // (pose, pixels seeing geometry, pitch index, mean depth)
     let mut best: Option<(CameraPose, u32, usize, f32)> = None;
@@ -222,9 +233,10 @@ pub fn aim_camera(scene: &Scene, tracer: &Tracer, eye: Vec3, fov_deg: f32) -> (C
         for k in 0..HEADINGS {
             let phi = k as f32 / HEADINGS as f32 * std::f32::consts::TAU;
             let pose = CameraPose { eye, forward: Vec3::new(libm::cosf(phi) * cp, -sp, libm::sinf(phi) * cp) };
+            let frame = Frame::new(&pose, fov_deg, PREVIEW);
             let (mut hits, mut depth) = (0u32, 0.0f32);
             for p in 0..w * h {
-                if let Some(hit) = seen(scene, tracer, eye, pixel_ray(&pose, (w, h), half, (p % w, p / w))) {
+                if let Some(hit) = seen(scene, tracer, eye, frame.ray(p)) {
                     hits += 1;
                     depth += hit.t;
                 }
@@ -269,22 +281,32 @@ pub fn cameras(
     }
     let candidates: Vec<Vec3> = positions.iter().take(EYE_CANDIDATES).copied().collect();
     let open: Vec<f32> = candidates.par_iter().map(|&p| openness(tracer, p)).collect();
-    let aimed: Vec<(CameraPose, f64)> = if s.cameras == 0 {
-        Vec::new()
-    } else {
-        candidates.par_iter().map(|&p| aim_camera(scene, tracer, p, s.fov_deg)).collect()
-    };
-    // the open half of the candidates: a camera in a corner or on the floor sees the
-    // level as no player does
+    // the open half of the candidates is aimed (a camera in a corner or on the floor sees
+    // the level as no player does); the rest only if none of those qualifies
     let mut by_openness: Vec<f32> = open.clone();
     by_openness.sort_by(f32::total_cmp);
     let median = by_openness.get(by_openness.len() / 2).copied().unwrap_or(0.0);
-    let mut qualified: Vec<usize> =
-        (0..aimed.len()).filter(|&k| aimed[k].1 >= MIN_COVERAGE && open[k] >= median).collect();
-    if qualified.is_empty() {
-        let best = (0..aimed.len()).max_by(|&a, &b| aimed[a].1.total_cmp(&aimed[b].1).then(b.cmp(&a)));
+    let aim_half = |open_half: bool| -> Vec<Option<(CameraPose, f64)>> {
+        (0..candidates.len())
+            .into_par_iter()
+            .map(|k| {
+                let wanted = s.cameras > 0 && (open[k] >= median) == open_half;
+                wanted.then(|| aim_camera(scene, tracer, candidates[k], s.fov_deg))
+            })
+            .collect()
+    };
+    let mut aimed = aim_half(true);
+    let coverage_of = |a: &[Option<(CameraPose, f64)>], k: usize| a[k].map_or(-1.0, |x| x.1);
+    let mut qualified: Vec<usize> = (0..aimed.len()).filter(|&k| coverage_of(&aimed, k) >= MIN_COVERAGE).collect();
+    if qualified.is_empty() && s.cameras > 0 {
+        let rest = aim_half(false);
+        aimed = aimed.into_iter().zip(rest).map(|(a, b)| a.or(b)).collect();
+        let best = (0..aimed.len())
+            .filter(|&k| aimed[k].is_some())
+            .max_by(|&a, &b| coverage_of(&aimed, a).total_cmp(&coverage_of(&aimed, b)).then(b.cmp(&a)));
         qualified.extend(best);
     }
+    let pose_of = |k: usize| aimed[k].map_or(CameraPose { eye: candidates[k], forward: Vec3::Z }, |a| a.0);
     let mut chosen: Vec<usize> = Vec::new();
     while chosen.len() < s.cameras as usize {
         // the most open first, then the farthest from the cameras so far (ties: the lower
@@ -303,13 +325,13 @@ pub fn cameras(
             .max_by(|&a, &b| score(a).total_cmp(&score(b)).then(b.cmp(&a)));
         let Some(next) = next else { break };
         // the preview judged it; the full image decides
-        if coverage(scene, tracer, &aimed[next].0, s) >= MIN_COVERAGE || qualified.len() == 1 {
+        if coverage(scene, tracer, &pose_of(next), s) >= MIN_COVERAGE || qualified.len() == 1 {
             chosen.push(next);
         } else {
             qualified.retain(|&k| k != next);
         }
     }
-    let mut out: Vec<CameraPose> = chosen.iter().map(|&k| aimed[k].0).collect();
+    let mut out: Vec<CameraPose> = chosen.iter().map(|&k| pose_of(k)).collect();
     for &p in probes.iter().skip(1).take(s.probe_cameras as usize) {
         let mut near: Vec<Vec3> = positions.to_vec();
         near.sort_by(|a, b| (*a - p).length_squared().total_cmp(&(*b - p).length_squared()));
@@ -328,11 +350,8 @@ pub fn cameras(
 /// [`View::coverage`] counts them).
 fn coverage(scene: &Scene, tracer: &Tracer, pose: &CameraPose, s: &RenderSettings) -> f64 {
     let (w, h) = s.camera;
-    let half = libm::tanf(s.fov_deg.to_radians() * 0.5);
-    let hits = (0..w * h)
-        .into_par_iter()
-        .filter(|&p| seen(scene, tracer, pose.eye, pixel_ray(pose, (w, h), half, (p % w, p / w))).is_some())
-        .count();
+    let frame = Frame::new(pose, s.fov_deg, s.camera);
+    let hits = (0..w * h).into_par_iter().filter(|&p| seen(scene, tracer, pose.eye, frame.ray(p)).is_some()).count();
     hits as f64 / f64::from((w * h).max(1))
 }
 
@@ -366,11 +385,11 @@ pub fn views(scene: &Scene, tracer: &Tracer, positions: &[Vec3], probes: &[Vec3]
 /// the view ray reflected about its normal), the others the sky or black (a back face).
 fn camera_view(scene: &Scene, tracer: &Tracer, probes: &[Vec3], pose: &CameraPose, s: &RenderSettings) -> View {
     let (w, h) = s.camera;
-    let half = libm::tanf(s.fov_deg.to_radians() * 0.5);
+    let frame = Frame::new(pose, s.fov_deg, s.camera);
     let eye = pose.eye;
     let pixels = (0..w * h)
         .map(|p| {
-            let ray = pixel_ray(pose, (w, h), half, (p % w, p / w));
+            let ray = frame.ray(p);
             match tracer.closest_hit(eye, ray, f32::INFINITY) {
                 Some(hit) if !hit.backface || scene.materials[hit.material as usize].two_sided => {
                     let n = if hit.normal.dot(ray) > 0.0 { -hit.normal } else { hit.normal };
@@ -481,27 +500,44 @@ pub fn view_flips(
     exposure: f32,
     estimate: impl Fn(f32, Vec3, Vec3, Oracle) -> Vec3 + Sync,
 ) -> Vec<f64> {
-    view_flips_and_seams(views, exposure, &[], estimate).0
+    judge_views(views, exposure, &[], estimate).flips
 }
 
-/// [`view_flips`], and the [`SeamSums`] of the same images over `pairs` (per view, in
-/// order; views without pairs add nothing).
-pub fn view_flips_and_seams(
+/// What [`judge_views`] measures of one lookup's renderings of the views.
+#[derive(Clone, Debug, Default)]
+pub struct Judged {
+    /// Each view's mean ꟻLIP.
+    pub flips: Vec<f64>,
+    /// Each view's ꟻLIP map as [`tiles`] of [`CLAIM_TILE`]² pixels.
+    pub tiles: Vec<Vec<Tile>>,
+    /// How the error jumps at cell faces, over the given pairs.
+    pub seams: SeamSums,
+}
+
+/// Side of the tiles whose means the paired standard errors of ꟻLIP differences take as
+/// their samples (neighbouring pixels' errors are not independent).
+pub const CLAIM_TILE: u32 = 8;
+
+/// Renders each view through `estimate` once and measures it: its mean ꟻLIP, its ꟻLIP
+/// map's tiles and, over `pairs` (per view, in order; views without pairs add nothing),
+/// its [`SeamSums`].
+pub fn judge_views(
     views: &[ViewReference],
     exposure: f32,
     pairs: &[SeamPairs],
     estimate: impl Fn(f32, Vec3, Vec3, Oracle) -> Vec3 + Sync,
-) -> (Vec<f64>, SeamSums) {
-    let mut seams = SeamSums::default();
-    let mut flips = Vec::with_capacity(views.len());
+) -> Judged {
+    let mut out = Judged::default();
     for (k, v) in views.iter().enumerate() {
         let image = render(v, |b, dir, oracle| estimate(v.roughness, b, dir, oracle));
-        flips.push(flip::mean(&flip_map(v, &image, exposure)));
+        let map = flip_map(v, &image, exposure);
+        out.flips.push(flip::mean(&map));
+        out.tiles.push(tiles(&map, v.view.width, CLAIM_TILE));
         if let Some(p) = pairs.get(k) {
-            seams = seams.add(&image, &v.reference, p, exposure);
+            out.seams = out.seams.add(&image, &v.reference, p, exposure);
         }
     }
-    (flips, seams)
+    out
 }
 
 /// The mean of per-view values (`flips`, one per view) weighted by the views' pixel counts.
@@ -524,9 +560,19 @@ pub fn flip_tiles(
     tile: u32,
     estimate: impl Fn(f32, Vec3, Vec3, Oracle) -> Vec3 + Sync,
 ) -> Vec<Tile> {
+    view_tiles(views, exposure, tile, estimate).concat()
+}
+
+/// [`flip_tiles`], each view's tiles apart.
+pub fn view_tiles(
+    views: &[ViewReference],
+    exposure: f32,
+    tile: u32,
+    estimate: impl Fn(f32, Vec3, Vec3, Oracle) -> Vec3 + Sync,
+) -> Vec<Vec<Tile>> {
     views
         .iter()
-        .flat_map(|v| {
+        .map(|v| {
             let image = render(v, |b, dir, oracle| estimate(v.roughness, b, dir, oracle));
             tiles(&flip_map(v, &image, exposure), v.view.width, tile)
         })
