@@ -9,6 +9,7 @@ use common::*;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
+use warpfit::gridfile::exr::{ExrLayer, Samples};
 use warpfit::gridfile::{GridManifest, MANIFEST_FILE};
 use warpfit::runtime::FittedGrid;
 
@@ -256,7 +257,7 @@ fn an_edited_manifest_is_refused() {
 #[test]
 fn every_structural_rule_of_the_manifest_is_checked() {
     type Edit = fn(&mut serde_json::Value);
-    let cases: [(&str, Edit, &str); 17] = [
+    let cases: [(&str, Edit, &str); 23] = [
         ("probe-resolution", |v| v["probe"]["resolution"] = 8192.into(), "probe.resolution"),
         ("mip-halving", |v| v["probe"]["radiance_mips"][1]["resolution"] = 15.into(), "radiance_mips[1].resolution"),
         ("mip-name", |v| v["probe"]["radiance_mips"][0]["layer"] = "distance_mip0".into(), "radiance_mips[0].layer"),
@@ -294,6 +295,21 @@ fn every_structural_rule_of_the_manifest_is_checked() {
             "sorted and unique",
         ),
         ("listing", |v| v["payloads"][0]["layers"][0]["width"] = 16384.into(), "payloads.probe.exr"),
+        // values no writer produces, in the manifest
+        ("relax", |v| v["warp"]["options"]["relax_texels"] = 1e30.into(), "warp.options"),
+        ("depth-lod", |v| v["warp"]["options"]["depth_lod"] = 50.0.into(), "warp.options"),
+        ("box-extent", |v| v["warp"]["box_proxy"]["half_extents"][1] = (-1.0).into(), "warp.box_proxy"),
+        (
+            "kdop-normal",
+            |v| v["warp"]["kdop"][0]["normal"] = serde_json::json!([30.0, 0.0, 0.0]),
+            "warp.kdop[0].normal",
+        ),
+        ("kdop-far", |v| v["warp"]["kdop"][1]["offset"] = 3e37.into(), "warp.kdop[1].offset"),
+        (
+            "f16-distance",
+            |v| v["payloads"][0]["layers"][3]["precision"] = "f16".into(),
+            "payloads.probe.exr.distance_mip0.precision",
+        ),
         (
             "extra-payload",
             |v| {
@@ -320,6 +336,34 @@ fn every_structural_rule_of_the_manifest_is_checked() {
         let e = load_error_within(&d, Duration::from_secs(20));
         assert!(e.contains("manifest.json") && e.contains(field), "{tag}: {e}");
     }
+}
+
+#[test]
+fn a_roughness_table_no_fit_makes_is_refused() {
+    for (tag, field, value) in [("table", "table", -5.0), ("alphas", "alphas", 7.0), ("c0", "c0", -1.0)] {
+        let d = copy_tiny(&format!("rough-{tag}"));
+        let p = d.join(MANIFEST_FILE);
+        let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(&p).unwrap()).unwrap();
+        match &mut v["roughness"][field] {
+            serde_json::Value::Array(a) => a[0] = value.into(),
+            x => *x = value.into(),
+        }
+        std::fs::write(&p, serde_json::to_vec_pretty(&v).unwrap()).unwrap();
+        let e = load_error_within(&d, Duration::from_secs(10));
+        assert!(e.contains("manifest.json") && e.contains(field), "{tag}: {e}");
+    }
+}
+
+#[test]
+fn a_layer_stored_at_another_precision_than_listed_is_refused() {
+    let d = copy_tiny("half-as-f32");
+    let path = d.join("probe.exr");
+    let layers = warpfit::gridfile::exr::read(&path).unwrap();
+    let (len, sum) =
+        warpfit::gridfile::exr::write_payload(&path, layers, |name| name.starts_with("radiance_mip")).unwrap();
+    reseal_payload(&d, "probe.exr", len, sum);
+    let e = load_error_within(&d, Duration::from_secs(10));
+    assert!(e.contains("probe.exr") && e.contains("radiance_mip0") && e.contains("F16"), "{e}");
 }
 
 #[test]
@@ -686,4 +730,122 @@ fn an_empty_lock_left_by_a_failed_writer_is_taken_over_once_old() {
     clean_leftovers(&out);
     assert!(!tmp.exists());
     assert!(leftovers(&out).is_empty(), "{:?}", leftovers(&out));
+}
+
+// ---- what a rejected grid costs ----------------------------------------------------------
+
+/// Peak resident memory (bytes) of `warpfit inspect <dir>`, its exit code and its stderr.
+#[allow(clippy::zombie_processes)] // reaped by `wait4`, which also gives its peak memory
+fn inspect_peak(dir: &Path) -> (u64, i32, String) {
+    use std::io::Read as _;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_warpfit"))
+        .args(["--quiet", "inspect"])
+        .arg(dir)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("warpfit runs");
+    let mut err = String::new();
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    let mut status = 0;
+    // SAFETY: an all-zero rusage is valid; wait4 reaps this child only
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    let pid = unsafe { libc::wait4(child.id() as i32, &mut status, 0, &mut usage) };
+    assert_eq!(pid, child.id() as i32, "wait4");
+    assert!(libc::WIFEXITED(status), "{status} {err}");
+    (usage.ru_maxrss as u64 * 1024, libc::WEXITSTATUS(status), err)
+}
+
+/// Rewrites payload `file` of `dir` with `layers` (each channel computed on demand, so the
+/// test never holds them) and reseals the manifest's listing of it.
+fn rewrite_payload(dir: &Path, file: &str, layers: Vec<ExrLayer<Samples<'static>>>) {
+    let listing: Vec<serde_json::Value> = layers
+        .iter()
+        .map(|l| {
+            let channels: Vec<&str> = l.channels.iter().map(|(n, _)| n.as_str()).collect();
+            serde_json::json!({"name": l.name, "width": l.width, "height": l.height, "channels": channels, "precision": "f32"})
+        })
+        .collect();
+    let (len, sum) = warpfit::gridfile::exr::write_payload(&dir.join(file), layers, |_| false).unwrap();
+    edit_sealed(dir, |v| {
+        for p in v["payloads"].as_array_mut().unwrap() {
+            if p["file"] == file {
+                p["bytes"] = len.into();
+                p["checksum"] = sum.clone().into();
+                p["layers"] = listing.clone().into();
+            }
+        }
+    });
+}
+
+/// `dir` with probe A replaced by an `n²` probe of constant values (three mips), its very
+/// last radiance sample −1 when `damaged`.
+fn big_probe(dir: &Path, n: usize, damaged: bool) {
+    let computed = |name: String, n: usize, channels: &[&str], bad_last: bool| ExrLayer {
+        name,
+        width: n,
+        height: n,
+        channels: channels
+            .iter()
+            .map(|c| {
+                let f: Samples<'static> =
+                    Samples::Computed(Box::new(move |i| if bad_last && i == n * n - 1 { -1.0 } else { 1.0 }));
+                (c.to_string(), f)
+            })
+            .collect(),
+    };
+    let mut layers = Vec::new();
+    for k in 0..3 {
+        layers.push(computed(format!("radiance_mip{k}"), n >> k, &["R", "G", "B"], damaged && k == 0));
+    }
+    for k in 0..3 {
+        layers.push(computed(format!("distance_mip{k}"), n >> k, &["Z"], false));
+    }
+    edit_sealed(dir, |v| {
+        v["probe"]["resolution"] = n.into();
+        for k in 0..3 {
+            v["probe"]["radiance_mips"][k]["resolution"] = (n >> k).into();
+        }
+    });
+    rewrite_payload(dir, "probe.exr", layers);
+}
+
+/// A grid whose damage shows only in its last values costs at most 64 MB to refuse, however
+/// large it claims to be: a big grid's values are streamed through the writer's rules before
+/// it is decoded into memory. (Before, a 385 KB probe file of 4096² texels cost 536 MB, a
+/// grid of 2^24 cells 327 MB.)
+#[test]
+fn a_refused_grid_costs_at_most_64_mb() {
+    const BUDGET: u64 = 64 << 20;
+    // a 4096² probe of constant values but its very last radiance sample
+    let d = copy_tiny("rss-probe");
+    big_probe(&d, 4096, true);
+    let (peak, code, err) = inspect_peak(&d);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("probe.exr") && err.contains("radiance_mip0") && err.contains("sample 16777215"), "{err}");
+    assert!(peak <= BUDGET, "refusing the probe took {} MB", peak >> 20);
+
+    // a grid of 2^24 cells (its probes relocated) whose irradiance holds a negative distance
+    let d = copy_tiny("rss-cells");
+    edit_sealed(&d, |v| {
+        v["grid"]["counts"] = serde_json::json!([256, 256, 256]);
+        v["grid"]["relocated"] = serde_json::json!([[17, [0.0, 0.0, 0.001]]]);
+    });
+    let path = d.join("irradiance.exr");
+    let mut layers = warpfit::gridfile::exr::read(&path).unwrap();
+    let l = layers.iter_mut().find(|l| l.name == "depth_moments").unwrap();
+    l.channels[0].1[40] = -1.0;
+    warpfit::gridfile::exr::write(&path, &layers).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    reseal_payload(&d, "irradiance.exr", bytes.len() as u64, warpfit::files::checksum(&bytes));
+    let (peak, code, err) = inspect_peak(&d);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("irradiance.exr") && err.contains("depth_moments.mean"), "{err}");
+    assert!(peak <= BUDGET, "refusing the grid of 2^24 cells took {} MB", peak >> 20);
+
+    // the same grids undamaged load (the scan refuses nothing the writer makes)
+    let d = copy_tiny("rss-probe-ok");
+    big_probe(&d, 2048, false);
+    let (_, code, err) = inspect_peak(&d);
+    assert_eq!(code, 0, "{err}");
 }

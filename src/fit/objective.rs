@@ -836,7 +836,7 @@ impl Level1Problem<'_, '_> {
         Level1 {
             offset: Vec3::new(c(x[0], -1.0, 1.0), c(x[1], -1.0, 1.0), c(x[2], -1.0, 1.0)) * self.cell_size,
             depth_lod: c(x[3], 0.0, self.max_lod),
-            relax_texels: c(x[4], 0.0, 3.0),
+            relax_texels: c(x[4], 0.0, f64::from(crate::warp::MAX_RELAX_TEXELS)),
         }
     }
 }

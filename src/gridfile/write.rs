@@ -115,22 +115,17 @@ fn payload<'a, L: IntoLayer<'a>>(
     };
     let kept: Vec<String> = layers
         .iter()
-        .filter(|l| precision == Precision::F16 && is_radiance(&l.name) && !fits_f16(l))
+        .filter(|l| precision == Precision::F16 && may_be_half(&l.name) && !fits_f16(l))
         .map(|l| l.name.clone())
         .collect();
     if !kept.is_empty() {
         tracing::warn!("{}: layers {kept:?} exceed the f16 range (65504); stored as f32", path.display());
     }
-    let half = |name: &str| precision == Precision::F16 && is_radiance(name) && !kept.iter().any(|k| k == name);
+    let half = |name: &str| precision == Precision::F16 && may_be_half(name) && !kept.iter().any(|k| k == name);
     let entries: Vec<LayerEntry> =
         layers.iter().map(|l| LayerEntry::of(l, if half(&l.name) { Precision::F16 } else { Precision::F32 })).collect();
     let (bytes, checksum) = exr::write_payload(&path, layers, half)?;
     Ok(Payload { file: file.into(), bytes, checksum, layers: entries })
-}
-
-/// Radiance layers may be stored as f16; distances and shift maps never are.
-fn is_radiance(layer: &str) -> bool {
-    layer.starts_with("radiance_mip") || layer == "irradiance"
 }
 
 /// How `irradiance.exr`'s layers read, in words (the manifest's `irradiance.encoding`).

@@ -285,6 +285,14 @@ pub fn radiance_layer(m: usize) -> String {
     format!("radiance_mip{m}")
 }
 
+/// Whether layer `layer` may be stored as f16: radiance only (probe mips and the cells'
+/// irradiance); distances, shifts, probe indices, moments and scales are always f32. The
+/// writer stores f16 nowhere else and the reader refuses it anywhere else.
+#[must_use]
+pub fn may_be_half(layer: &str) -> bool {
+    layer.starts_with("radiance_mip") || layer == "irradiance"
+}
+
 /// Layer name of distance mip `m`, in the grid's and the bake's `probe.exr`.
 #[must_use]
 pub fn distance_layer(m: usize) -> String {
@@ -376,6 +384,12 @@ pub const MAX_CELLS: u64 = 1 << 24;
 /// Most bytes all payloads of a grid may decode to: a file that would need more is refused
 /// before anything is decoded.
 pub const MAX_DECODED_BYTES: u64 = 4 << 30;
+/// A grid that would need more than this many bytes in memory (its payloads decoded, plus
+/// [`PER_CELL_BYTES`] per cell) has every payload's values streamed through their rules
+/// before anything is decoded into memory: a damaged grid is refused at a bounded cost.
+pub const SCAN_ABOVE_BYTES: u64 = 32 << 20;
+/// Bytes the reader holds per grid cell whatever the cell stores (slots and offsets).
+pub const PER_CELL_BYTES: u64 = 24;
 /// Largest manifest file.
 pub const MAX_MANIFEST_BYTES: u64 = 256 << 20;
 

@@ -10,8 +10,8 @@
 //! The reader trusts nothing: sizes, checksum and headers are checked before decoding, the
 //! patch and roughness before anything is built, every sample after.
 
-use super::read::{Expected, read_listed_payload};
-use super::schema::{MAX_RADIANCE, MAX_TILE_RESOLUTION, Payload};
+use super::read::{Expected, Rule, read_listed_payload, scan_listed_payload};
+use super::schema::{MAX_TILE_RESOLUTION, Payload, SCAN_ABOVE_BYTES};
 use crate::files::FileError;
 use crate::octa::hemi;
 use crate::warp::surface::{SurfaceAtlas, SurfacePatch};
@@ -157,11 +157,22 @@ pub fn read(dir: &Path) -> Result<SurfaceAtlas, FileError> {
         ));
     }
     let (w, h) = ((m.counts[0] * n) as usize, (m.counts[1] * n) as usize);
-    let mut expected: Vec<Expected> = (0..r.len())
-        .map(|k| Expected { name: radiance_layer(k), width: w, height: h, channels: &["R", "G", "B"], tiles: None })
-        .collect();
-    expected.push(Expected { name: "inv_distance".into(), width: w, height: h, channels: &["W"], tiles: None });
-    let layers = read_listed_payload(dir, mp, std::slice::from_ref(&manifest.payload), SURFACE_ATLAS_FILE, &expected)?;
+    let plain = |name: String, channels: &'static [&'static str], rule: Rule| Expected {
+        name,
+        width: w,
+        height: h,
+        channels,
+        tiles: None,
+        rules: channels.iter().map(|_| Rule { valid: w * h, ..rule.clone() }).collect(),
+    };
+    let mut expected: Vec<Expected> =
+        (0..r.len()).map(|k| plain(radiance_layer(k), &["R", "G", "B"], Rule::radiance(0))).collect();
+    expected.push(plain("inv_distance".into(), &["W"], Rule::within(0.0, f32::MAX, 0, "finite and ≥ 0")));
+    let payloads = std::slice::from_ref(&manifest.payload);
+    if expected.iter().map(Expected::decoded_bytes).sum::<u64>() > SCAN_ABOVE_BYTES {
+        scan_listed_payload(dir, mp, payloads, SURFACE_ATLAS_FILE, &expected)?;
+    }
+    let layers = read_listed_payload(dir, mp, payloads, SURFACE_ATLAS_FILE, &expected)?;
     let path = dir.join(SURFACE_ATLAS_FILE);
     let channel = |layer: &str, c: &str| -> Result<&[f32], FileError> {
         layers
@@ -174,17 +185,10 @@ pub fn read(dir: &Path) -> Result<SurfaceAtlas, FileError> {
     for k in 0..r.len() {
         let name = radiance_layer(k);
         let (rr, gg, bb) = (channel(&name, "R")?, channel(&name, "G")?, channel(&name, "B")?);
-        let ok = |x: &f32| x.is_finite() && (0.0..=MAX_RADIANCE).contains(x);
-        if !(rr.iter().all(ok) && gg.iter().all(ok) && bb.iter().all(ok)) {
-            return Err(invalid(&path, &name, format!("radiance must be finite and in [0, {MAX_RADIANCE:e}]")));
-        }
         let image: Vec<Vec3> = (0..w * h).map(|t| Vec3::new(rr[t], gg[t], bb[t])).collect();
         radiance.push(unpack(&image, m.counts, n));
     }
     let inv = channel("inv_distance", "W")?;
-    if !inv.iter().all(|x| x.is_finite() && *x >= 0.0) {
-        return Err(invalid(&path, "inv_distance", "must be finite and ≥ 0"));
-    }
     let patch = SurfacePatch { corner, edge_u, edge_v, counts: m.counts, resolution: n, offset: m.offset };
     Ok(SurfaceAtlas::new(patch, radiance, m.roughness.clone(), unpack(inv, m.counts, n)))
 }

@@ -274,16 +274,30 @@ impl TryFrom<RoughnessFit> for RoughnessCorrection {
         if !increasing(&fit.alphas) || !increasing(&fit.ratios) || !(fit.ratios[0] > 0.0) {
             return Err("the α and k axes must be finite, increasing, with k > 0".into());
         }
-        if fit.table.len() != fit.alphas.len() * fit.ratios.len() || !fit.table.iter().all(|x| x.is_finite()) {
+        // what a fit can produce: GGX α and α' in [0, 1], distance ratios within a million
+        let unit = |x: &f32| (0.0..=1.0).contains(x);
+        if !fit.alphas.iter().all(unit) || !(fit.ratios[fit.ratios.len() - 1] <= 1e6) {
+            return Err("the α axis must lie in [0, 1] and the k axis in (0, 1e6]".into());
+        }
+        if fit.table.len() != fit.alphas.len() * fit.ratios.len() || !fit.table.iter().all(unit) {
             return Err(format!(
-                "the table must hold {}×{} finite values, found {}",
+                "the table must hold {}×{} values of α' in [0, 1], found {} values in [{}, {}]",
                 fit.alphas.len(),
                 fit.ratios.len(),
-                fit.table.len()
+                fit.table.len(),
+                fit.table.iter().copied().fold(f32::INFINITY, f32::min),
+                fit.table.iter().copied().fold(f32::NEG_INFINITY, f32::max),
             ));
         }
-        if !(fit.c0.is_finite() && fit.c1.is_finite()) {
-            return Err("c0 and c1 must be finite".into());
+        if !(fit.c0.is_finite() && fit.c0 > 0.0 && fit.c1.is_finite()) {
+            return Err("c0 must be finite and > 0, c1 finite".into());
+        }
+        let residual = |x: f64| x.is_finite() && x >= 0.0;
+        if !fit.lobe_residual.iter().all(|&x| residual(f64::from(x)))
+            || !residual(fit.heldout_rms_table)
+            || !residual(fit.heldout_rms_analytic)
+        {
+            return Err("residuals must be finite and ≥ 0".into());
         }
         let w = &fit.irradiance_weight;
         if !w.is_empty() && (w.len() != fit.alphas.len() || !w.iter().all(|x| (0.0..=1.0).contains(x))) {

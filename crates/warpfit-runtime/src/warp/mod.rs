@@ -136,6 +136,10 @@ pub fn toward(from: Vec3, to: Vec3, fallback: Vec3) -> Vec3 {
     if l2 > 0.0 && l2.is_finite() { v / l2.sqrt() } else { fallback }
 }
 
+/// Largest UV relaxation the fit chooses ([`WarpOptions::relax_texels`]), in probe texels;
+/// a grid file asking for more is refused.
+pub const MAX_RELAX_TEXELS: f32 = 3.0;
+
 /// Tunable options shared by the depth-based methods.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WarpOptions {
