@@ -735,12 +735,17 @@ fn an_empty_lock_left_by_a_failed_writer_is_taken_over_once_old() {
 // ---- what a rejected grid costs ----------------------------------------------------------
 
 /// Peak resident memory (bytes) of `warpfit inspect <dir>`, its exit code and its stderr.
-#[allow(clippy::zombie_processes)] // reaped by `wait4`, which also gives its peak memory
 fn inspect_peak(dir: &Path) -> (u64, i32, String) {
+    warpfit_peak(&["--quiet".as_ref(), "inspect".as_ref(), dir.as_os_str()])
+}
+
+/// Peak resident memory (bytes) of `warpfit <args>`, its exit code and its stderr.
+#[allow(clippy::zombie_processes)] // reaped by `wait4`, which also gives its peak memory
+fn warpfit_peak(args: &[&std::ffi::OsStr]) -> (u64, i32, String) {
     use std::io::Read as _;
     let mut child = Command::new(env!("CARGO_BIN_EXE_warpfit"))
-        .args(["--quiet", "inspect"])
-        .arg(dir)
+        .args(args)
+        .current_dir(repo())
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::piped())
         .spawn()
@@ -778,10 +783,9 @@ fn rewrite_payload(dir: &Path, file: &str, layers: Vec<ExrLayer<Samples<'static>
     });
 }
 
-/// `dir` with probe A replaced by an `n²` probe of constant values (three mips), its very
-/// last radiance sample −1 when `damaged`.
-fn big_probe(dir: &Path, n: usize, damaged: bool) {
-    let computed = |name: String, n: usize, channels: &[&str], bad_last: bool| ExrLayer {
+/// An `n²` layer of ones, computed as it is written, its last sample −1 when `bad_last`.
+fn constant(name: String, n: usize, channels: &[&str], bad_last: bool) -> ExrLayer<Samples<'static>> {
+    ExrLayer {
         name,
         width: n,
         height: n,
@@ -793,13 +797,18 @@ fn big_probe(dir: &Path, n: usize, damaged: bool) {
                 (c.to_string(), f)
             })
             .collect(),
-    };
+    }
+}
+
+/// `dir` with probe A replaced by an `n²` probe of constant values (three mips), its very
+/// last radiance sample −1 when `damaged`.
+fn big_probe(dir: &Path, n: usize, damaged: bool) {
     let mut layers = Vec::new();
     for k in 0..3 {
-        layers.push(computed(format!("radiance_mip{k}"), n >> k, &["R", "G", "B"], damaged && k == 0));
+        layers.push(constant(format!("radiance_mip{k}"), n >> k, &["R", "G", "B"], damaged && k == 0));
     }
     for k in 0..3 {
-        layers.push(computed(format!("distance_mip{k}"), n >> k, &["Z"], false));
+        layers.push(constant(format!("distance_mip{k}"), n >> k, &["Z"], false));
     }
     edit_sealed(dir, |v| {
         v["probe"]["resolution"] = n.into();
@@ -813,7 +822,7 @@ fn big_probe(dir: &Path, n: usize, damaged: bool) {
 /// A grid whose damage shows only in its last values costs at most 64 MB to refuse, however
 /// large it claims to be: a big grid's values are streamed through the writer's rules before
 /// it is decoded into memory. (Before, a 385 KB probe file of 4096² texels cost 536 MB, a
-/// grid of 2^24 cells 327 MB.)
+/// grid of 2^24 cells 327 MB, and the same probe in a bake was reused, 1,365 MB.)
 #[test]
 fn a_refused_grid_costs_at_most_64_mb() {
     const BUDGET: u64 = 64 << 20;
@@ -842,6 +851,51 @@ fn a_refused_grid_costs_at_most_64_mb() {
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("irradiance.exr") && err.contains("depth_moments.mean"), "{err}");
     assert!(peak <= BUDGET, "refusing the grid of 2^24 cells took {} MB", peak >> 20);
+
+    // a bake whose probe claims 4096² texels, its last one damaged: refused and baked again
+    let d = tmp_dir("rss-bake");
+    let out = d.join("fit");
+    assert!(fit_tiny(&out, 8, &[]).status.success());
+    let bake = out.join("bake");
+    let mut layers = Vec::new();
+    for k in 0..3 {
+        layers.push(constant(format!("radiance_mip{k}"), 4096 >> k, &["R", "G", "B"], k == 0));
+    }
+    for k in 0..3 {
+        layers.push(constant(format!("distance_mip{k}"), 4096 >> k, &["Z"], false));
+    }
+    let (len, sum) = warpfit::gridfile::exr::write_payload(&bake.join("probe.exr"), layers, |_| false).unwrap();
+    let mpath = bake.join("manifest.json");
+    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(&mpath).unwrap()).unwrap();
+    v["probe"]["resolution"] = 4096.into();
+    for k in 0..3 {
+        v["probe"]["radiance_mips"][k]["resolution"] = (4096 >> k).into();
+    }
+    v["files"][0]["bytes"] = len.into();
+    v["files"][0]["checksum"] = sum.into();
+    std::fs::write(&mpath, serde_json::to_vec_pretty(&v).unwrap()).unwrap();
+    let o = out.to_string_lossy().into_owned();
+    let args = [
+        "--threads",
+        "2",
+        "fit",
+        "--scene",
+        "data/scenes/tiny.toml",
+        "--out",
+        &o,
+        "--train-positions",
+        "4",
+        "--train-dirs",
+        "8",
+    ];
+    let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_ref()).collect();
+    let (peak, code, err) = warpfit_peak(&args);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("not reusing the bake") && err.contains("probe.exr") && err.contains("radiance_mip0"),
+        "{err}"
+    );
+    assert!(peak <= BUDGET, "refusing the bake and baking again took {} MB", peak >> 20);
 
     // the same grids undamaged load (the scan refuses nothing the writer makes)
     let d = copy_tiny("rss-probe-ok");

@@ -13,7 +13,11 @@ use crate::bake::grid::hit_fraction;
 use crate::bake::{Bake, GridGeometry, ProbeGrid, SpecularProbe};
 use crate::files::{FileError, write_json};
 use crate::gridfile::exr::{self, ExrLayer, Samples};
-use crate::gridfile::schema::tile_major;
+use crate::gridfile::read::{Expected, Rule, check_listed_payload, scan_listed_payload};
+use crate::gridfile::schema::{
+    LayerEntry, MAX_CELLS, MAX_PROBE_RESOLUTION, MAX_RADIANCE, MAX_TILE_RESOLUTION, PER_CELL_BYTES, Payload, Precision,
+    SCAN_ABOVE_BYTES, tile_major,
+};
 use crate::gridfile::{distance_layer, probe_layers, radiance_layer};
 use crate::octa::{CONVENTION, OctMap, OctMips};
 use crate::scene::Scene;
@@ -215,14 +219,121 @@ fn channel<'a>(l: &'a ExrLayer, path: &Path, name: &str) -> Result<&'a [f32], Fi
 fn finite_rgb(l: &ExrLayer, path: &Path) -> Result<Vec<Vec3>, FileError> {
     let (r, g, b) = (channel(l, path, "R")?, channel(l, path, "G")?, channel(l, path, "B")?);
     let v: Vec<Vec3> = (0..r.len()).map(|k| Vec3::new(r[k], g[k], b[k])).collect();
-    if let Some(k) = v.iter().position(|x| !x.is_finite()) {
-        return Err(FileError::Invalid {
-            path: path.to_path_buf(),
-            field: l.name.clone(),
-            message: format!("texel {k} is not finite"),
-        });
-    }
+    check_radiance(&v, path, &l.name)?;
     Ok(v)
+}
+
+/// Radiance as the bake writes it: finite, in [0, `MAX_RADIANCE`].
+fn check_radiance(v: &[Vec3], path: &Path, layer: &str) -> Result<(), FileError> {
+    match v.iter().position(|x| !(x.is_finite() && x.min_element() >= 0.0 && x.max_element() <= MAX_RADIANCE)) {
+        Some(k) => Err(FileError::invalid(
+            path,
+            layer,
+            format!("texel {k} is {}: expected radiance in [0, {MAX_RADIANCE:e}]", v[k]),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// The layers a probe of the bake must hold (`p`, the manifest's section `field`), from its
+/// structure, checked on the way.
+fn expected_probe(p: &ProbeManifest, field: &str, mpath: &Path) -> Result<Vec<Expected>, FileError> {
+    let bad = |f: String, m: &str| FileError::invalid(mpath, f, m);
+    if !(1..=MAX_PROBE_RESOLUTION).contains(&p.resolution) {
+        return Err(bad(format!("{field}.resolution"), "out of range"));
+    }
+    if p.radiance_mips.is_empty() || p.distance_mips.is_empty() {
+        return Err(bad(field.into(), "no mips listed"));
+    }
+    let distance = Rule { infinite: true, ..Rule::within(0.0, f32::MAX, 0, "a distance ≥ 0 or +inf") };
+    let mut out = Vec::new();
+    for (k, mip) in p.radiance_mips.iter().enumerate() {
+        let n = p.resolution.checked_shr(k as u32).unwrap_or(0);
+        if mip.resolution != n || n == 0 || mip.layer != radiance_layer(k) {
+            return Err(bad(format!("{field}.radiance_mips[{k}]"), "not this format's mip chain"));
+        }
+        out.push(Expected::square(mip.layer.clone(), n, &["R", "G", "B"], &Rule::radiance(0)));
+    }
+    for (k, name) in p.distance_mips.iter().enumerate() {
+        let n = p.resolution.checked_shr(k as u32).unwrap_or(0);
+        if n == 0 || *name != distance_layer(k) {
+            return Err(bad(format!("{field}.distance_mips[{k}]"), "not this format's mip chain"));
+        }
+        out.push(Expected::square(name.clone(), n, &["Z"], &distance));
+    }
+    Ok(out)
+}
+
+/// The layers `grid.exr` must hold, from the manifest's grid section, checked on the way.
+fn expected_grid(m: &BakeManifest, mpath: &Path) -> Result<(Vec<Expected>, u64), FileError> {
+    let g = &m.grid;
+    let cells = g.counts.iter().try_fold(1u64, |a, &c| (c > 0).then(|| a * c as u64));
+    let Some(cells) = cells.filter(|&n| n <= MAX_CELLS) else {
+        return Err(FileError::invalid(mpath, "grid.counts", format!("each ≥ 1, at most {MAX_CELLS} cells")));
+    };
+    let (ir, dr) = (g.irradiance_resolution, g.depth_resolution);
+    if !(1..=MAX_TILE_RESOLUTION).contains(&ir) || !(1..=MAX_TILE_RESOLUTION).contains(&dr) {
+        return Err(FileError::invalid(mpath, "grid", format!("map resolutions must be in 1..={MAX_TILE_RESOLUTION}")));
+    }
+    let atlas = |res| (cells as usize, res, g.counts[0]);
+    let moment = Rule::within(0.0, f32::MAX, 0, "finite and ≥ 0");
+    let radiance = Rule::radiance(0);
+    let layers = vec![
+        Expected::atlas("irradiance", atlas(ir), &["R", "G", "B"], &[radiance.clone(), radiance.clone(), radiance]),
+        Expected::atlas(
+            "depth_moments",
+            atlas(dr),
+            &["mean", "mean_sq", "hit"],
+            &[moment.clone(), moment, Rule::within(0.0, 1.0, 0, "a fraction in [0, 1]")],
+        ),
+    ];
+    Ok((layers, cells))
+}
+
+/// Every payload of bake `m` in `dir` checked before any is decoded: its size, checksum and
+/// EXR headers against the layers its manifest's structure gives; a bake that would need
+/// more than `SCAN_ABOVE_BYTES` in memory also has its values streamed through their rules,
+/// so a damaged bake is refused at a bounded cost instead of after it is decoded.
+fn check_payloads(dir: &Path, m: &BakeManifest) -> Result<(), FileError> {
+    let mpath = dir.join(MANIFEST_FILE);
+    let mut expected = vec![(m.probe.file.clone(), expected_probe(&m.probe, "probe", &mpath)?)];
+    for (k, p) in m.others.iter().enumerate() {
+        expected.push((p.file.clone(), expected_probe(p, &format!("others[{k}]"), &mpath)?));
+    }
+    let (grid, cells) = expected_grid(m, &mpath)?;
+    expected.push((GRID_FILE.into(), grid));
+    // the bake's listing with the layers its structure gives, all f32 as the bake writes them
+    let listing: Vec<Payload> = m
+        .files
+        .iter()
+        .map(|f| Payload {
+            file: f.file.clone(),
+            bytes: f.bytes,
+            checksum: f.checksum.clone(),
+            layers: expected
+                .iter()
+                .filter(|(file, _)| *file == f.file)
+                .flat_map(|(_, layers)| layers)
+                .map(|l| LayerEntry {
+                    name: l.name.clone(),
+                    width: l.width as u32,
+                    height: l.height as u32,
+                    channels: l.channels.iter().map(|c| c.to_string()).collect(),
+                    precision: Precision::F32,
+                })
+                .collect(),
+        })
+        .collect();
+    let bytes: u64 = expected.iter().flat_map(|(_, l)| l).map(Expected::decoded_bytes).sum();
+    let scan = bytes + cells * PER_CELL_BYTES > SCAN_ABOVE_BYTES;
+    for (file, layers) in &expected {
+        if scan {
+            scan_listed_payload(dir, &mpath, &listing, file, layers)?;
+        } else {
+            check_listed_payload(dir, &mpath, &listing, file, layers)?;
+        }
+    }
+    Ok(())
 }
 
 /// Each texel's hit count, and the first texel whose fraction is no count (with it).
@@ -410,6 +521,31 @@ pub fn read_others(dir: &Path, m: &BakeManifest) -> Result<Vec<SpecularProbe>, F
         .collect()
 }
 
+/// Whether bake `m` (read from `dir`) has the structure `scene` asks for: probe A's
+/// resolution, the grid's counts, map resolutions and depth samples. Its key says it was
+/// made from this scene; this catches a manifest edited without its key.
+pub fn agrees_with_scene(dir: &Path, m: &BakeManifest, scene: &Scene) -> Result<(), FileError> {
+    let (p, g) = (&scene.config.probe, &scene.config.grid);
+    let found = (
+        m.probe.resolution,
+        m.grid.counts,
+        m.grid.irradiance_resolution,
+        m.grid.depth_resolution,
+        m.grid.depth_samples,
+    );
+    let asked = (p.resolution, g.counts, g.irradiance_resolution, g.depth_resolution, g.depth_samples);
+    if found != asked {
+        return Err(FileError::invalid(
+            &dir.join(MANIFEST_FILE),
+            "probe/grid",
+            format!(
+                "records (probe resolution, counts, irradiance, depth resolution, depth samples) {found:?}, the scene asks {asked:?}"
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// When a bake's hit counts are read ([`ProbeGrid::hits`]): only a fit's cells stage reads
 /// them, so a fit of a big level can leave them on disk until then.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -432,6 +568,14 @@ pub fn read_bake_with(dir: &Path, when: Hits) -> Result<(BakeManifest, SpecularP
     if m.probe.file != PROBE_FILE || m.grid.file != GRID_FILE {
         return Err(FileError::invalid(&mpath, "probe.file/grid.file", "not this format's file names"));
     }
+    if let Some((k, p)) = m.others.iter().enumerate().find(|(k, p)| p.file != other_file(k + 1)) {
+        return Err(FileError::invalid(
+            &mpath,
+            format!("others[{k}].file"),
+            format!("{}: must be {}", p.file, other_file(k + 1)),
+        ));
+    }
+    check_payloads(dir, &m)?;
     let probe = read_probe(dir, &m, &m.probe)?;
     let gpath = dir.join(GRID_FILE);
     let geometry = GridGeometry {
@@ -478,9 +622,7 @@ pub fn read_bake_with(dir: &Path, when: Hits) -> Result<(BakeManifest, SpecularP
     }
     channel(find(&layers, &gpath, "depth_moments", dep_size)?, &gpath, "hit")?;
     let irradiance = irradiance.take();
-    if let Some(k) = irradiance.iter().position(|x| !x.is_finite()) {
-        return Err(FileError::invalid(&gpath, "irradiance", format!("texel {k} is not finite")));
-    }
+    check_radiance(&irradiance, &gpath, "irradiance")?;
     let hits = match hits {
         Some(h) => h.take(&gpath)?,
         None => Vec::new(),
@@ -497,6 +639,15 @@ pub fn read_bake_with(dir: &Path, when: Hits) -> Result<(BakeManifest, SpecularP
     };
     let depth_mean = moment("mean")?;
     let depth_mean_sq = moment("mean_sq")?;
+    for (name, v) in [("mean", &depth_mean), ("mean_sq", &depth_mean_sq)] {
+        if let Some(k) = v.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
+            return Err(FileError::invalid(
+                &gpath,
+                format!("depth_moments.{name}"),
+                format!("texel {k} is {}: expected finite and ≥ 0", v[k]),
+            ));
+        }
+    }
     drop(layers);
     let mut inside = vec![false; geometry.cell_count()];
     for &k in &m.grid.inside_cells {

@@ -179,21 +179,26 @@ pub fn load_or_bake(
     progress: &Progress,
 ) -> Result<(SpecularProbe, Vec<SpecularProbe>, ProbeGrid, bool), FileError> {
     let dir = previous.bake();
+    let key = scene.content_key();
     if dir.join(bakefile::MANIFEST_FILE).is_file() {
-        let read = bakefile::read_bake_with(&dir, hits)
-            .and_then(|(m, probe, grid)| Ok((bakefile::read_others(&dir, &m)?, m, probe, grid)));
+        // the key first: a bake of other settings or files is not read at all
+        let read = (bakefile::manifest_key(&dir).as_deref() == Some(key.as_str())).then(|| {
+            bakefile::read_bake_with(&dir, hits)
+                .and_then(|(m, probe, grid)| Ok((bakefile::read_others(&dir, &m)?, m, probe, grid)))
+                .and_then(|read| bakefile::agrees_with_scene(&dir, &read.1, scene).map(|()| read))
+        });
         match read {
-            Ok((others, m, probe, grid)) if m.key == scene.content_key() => {
+            Some(Ok((others, m, probe, grid))) => {
                 tracing::info!("reusing bake in {} (key {})", dir.display(), m.key);
                 if previous.dir != folder.dir {
                     crate::files::staged::link_or_copy_dir(&dir, &folder.bake())?;
                 }
                 return Ok((probe, others, grid, false));
             }
-            Ok(_) => {
+            None => {
                 tracing::info!("bake in {} was made from other settings or input files; baking again", dir.display())
             }
-            Err(e) => tracing::warn!("not reusing the bake: {e}"),
+            Some(Err(e)) => tracing::warn!("not reusing the bake: {e}"),
         }
     }
     let baked = bake(scene, tracer, folder, progress)?;

@@ -236,7 +236,8 @@ impl Rule {
 
 impl Expected {
     /// A plain (not atlas) layer of `n × n` texels, each channel under `rule`.
-    fn square(name: String, n: u32, channels: &'static [&'static str], rule: &Rule) -> Expected {
+    #[must_use]
+    pub fn square(name: String, n: u32, channels: &'static [&'static str], rule: &Rule) -> Expected {
         let (width, height) = (n as usize, n as usize);
         let rules = channels.iter().map(|_| Rule { valid: width * height, ..rule.clone() }).collect();
         Expected { name, width, height, channels, tiles: None, rules }
@@ -244,7 +245,8 @@ impl Expected {
 
     /// An atlas of `tiles` maps of `res²` texels in `columns`, its channels under `rules`
     /// (their `valid` set to the tiles' texels).
-    fn atlas(
+    #[must_use]
+    pub fn atlas(
         name: &str,
         (tiles, res, columns): (usize, u32, u32),
         channels: &'static [&'static str],
@@ -641,6 +643,18 @@ fn placement(tiles: Option<(u32, u32)>) -> exr::Placement {
         Some((res, columns)) => std::sync::Arc::new(move |i| tile_major(i, res, columns)),
         None => std::sync::Arc::new(|i| i),
     }
+}
+
+/// Checks payload `file` of `dir` as `payloads` (from the manifest at `mpath`) lists it:
+/// its size, checksum and EXR headers against `expected`, decoding nothing.
+pub fn check_listed_payload(
+    dir: &Path,
+    mpath: &Path,
+    payloads: &[Payload],
+    file: &str,
+    expected: &[Expected],
+) -> Result<(), FileError> {
+    open_checked(dir, mpath, payloads, file, expected).map(|_| ())
 }
 
 /// Payload `file` opened as `payloads` lists it: size and checksum read through the file
