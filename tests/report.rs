@@ -57,6 +57,40 @@ fn report_is_self_contained_complete_and_opens_in_chromium() {
     assert_eq!(html.matches("<img ").count(), r.images.len());
     assert_eq!(html.matches("src=\"data:image/png;base64,").count(), r.images.len());
     assert!(!html.contains("http://") && !html.contains("https://") && !html.contains("<script"));
+    // the page opens with the verdict and the pictures, the tables below
+    assert_eq!(r.verdict.len(), 3, "{:?}", r.verdict);
+    for (line, start) in r.verdict.iter().zip(["Wins:", "Loses:", "Even"]) {
+        assert!(line.starts_with(start), "{line}");
+    }
+    let (verdict, figure, table) =
+        (html.find("<h2>Verdict</h2>").unwrap(), html.find("<img ").unwrap(), html.find("<table>").unwrap());
+    assert!(verdict < figure && figure < table, "verdict, pictures, then tables");
+    assert!(html.find("flip_r0.000.png").unwrap() < table, "the frames come before the tables");
+
+    // the verdict sorts buckets by their claims: one made a clear loss, one a clear win
+    let mut ev: warpfit::eval::EvalReport =
+        serde_json::from_slice(&std::fs::read(dir.join("eval.json")).unwrap()).unwrap();
+    let lose = ev.buckets[0].roughness;
+    let win = ev.buckets[1].roughness;
+    for (k, sign) in [(0, -1.0), (1, 1.0)] {
+        let b = &mut ev.buckets[k];
+        for c in b.flip_claim.iter_mut().chain(b.flip_against.iter_mut()) {
+            c.difference = sign * 0.01;
+            c.se = 0.001;
+        }
+    }
+    let v = warpfit::report::verdict(&ev);
+    // the roughnesses a line lists ("at r = 0, 0.125 and 0.5 the …")
+    let listed = |line: &str| -> Vec<f32> {
+        let Some((_, rest)) = line.split_once("at r = ") else { return Vec::new() };
+        let list = rest
+            .split([' ', ';', ')'])
+            .take_while(|w| w.chars().next().is_some_and(|c| c.is_ascii_digit()) || *w == "and");
+        list.filter_map(|w| w.trim_end_matches(',').parse().ok()).collect()
+    };
+    assert!(listed(&v[0]).contains(&win) && !listed(&v[0]).contains(&lose), "{v:?}");
+    assert_eq!(listed(&v[1]), vec![lose], "{v:?}");
+
     let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
     assert!(md.contains("| roughness | method | ꟻLIP | tone-mapped RMSE | rel RMSE |"), "{md}");
     assert!(md.contains("Diffuse: irradiance at"), "the diffuse table is in the report");

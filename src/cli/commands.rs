@@ -211,9 +211,16 @@ pub fn run(RunArgs { scene, eval, fit }: &RunArgs, cx: &Context) -> Result<()> {
     print_fit(&FitLines::of(&outcome.fit), &outcome.manifest, &folder);
     print_eval(&outcome.eval, &folder);
     println!(
-        "wrote {0}/report.json, report.md, report.html (open report.html: every table, plot and ꟻLIP map of this run)",
+        "wrote {0}/report.json, report.md, report.html (open report.html: the verdict, the pictures, then every table)",
         folder.dir.display()
     );
+    let verdict = warpfit::report::verdict(&outcome.eval);
+    if !verdict.is_empty() {
+        println!("\nverdict, the fitted grid against the best classic method of similar cost at each roughness:");
+        for line in verdict {
+            println!("{line}");
+        }
+    }
     Ok(())
 }
 

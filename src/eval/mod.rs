@@ -280,6 +280,11 @@ pub struct BucketSummary {
     /// viewpoints would score. Absent without views or in files written before it.
     #[serde(default)]
     pub flip_claim: Option<FlipClaim>,
+    /// The champion against each of its rivals over all the views' tiles: the ꟻLIP
+    /// challenger (as `flip_claim`), the runtime reading its probes alone, and with several
+    /// probes the engines' blend of them (empty without views and in older files).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub flip_against: Vec<FlipClaim>,
     /// How much of the bucket's errors is its references' own noise, measured against
     /// quieter references of some of its queries (the mirror bucket; absent elsewhere and
     /// in files written before it).
@@ -892,6 +897,15 @@ fn bucket_summary(
     if champion.is_some_and(|c| c.is(RowId::RUNTIME)) && r > 0.0 {
         flip_rivals.extend(probe_only);
     }
+    // several probes: the engines' blend of them (its best mip rule), what a level lit by
+    // several probes is shaded with today
+    let engine = results
+        .iter()
+        .filter(|m| m.is(RowId::of(methods::RowKind::EngineBlend)) && m.flip.is_some())
+        .min_by(|a, b| a.flip.unwrap_or(f64::INFINITY).total_cmp(&b.flip.unwrap_or(f64::INFINITY)));
+    if champion.is_some_and(|c| c.is(RowId::RUNTIME)) {
+        flip_rivals.extend(engine);
+    }
     // each row's per-view tiles, as `set_flips` measured them
     let tiles = |m: &MethodResult| rows.iter().position(|row| row.made(m)).and_then(|k| row_tiles.get(k));
     let champion_tiles = champion.and_then(tiles).filter(|_| !views.is_empty());
@@ -902,6 +916,10 @@ fn bucket_summary(
     let challenger_tiles = flip_challenger.and_then(|c| rival_tiles.iter().find(|(label, _)| *label == c.label()));
     let flip_claim =
         champion_tiles.zip(challenger_tiles).map(|(a, (label, b))| claim_of(label.clone(), &a.concat(), &b.concat()));
+    let flip_against = match champion_tiles {
+        Some(a) => rival_tiles.iter().map(|(label, b)| claim_of(label.clone(), &a.concat(), &b.concat())).collect(),
+        None => Vec::new(),
+    };
     let view_summaries = views
         .iter()
         .enumerate()
@@ -940,6 +958,7 @@ fn bucket_summary(
         view_reference_spp: views.first().map_or(0, |v| v.spp),
         view_noise_flip: noise / pixels.max(1) as f64,
         flip_claim,
+        flip_against,
         noise_ceiling: None,
         views: view_summaries,
         seam_reference: perceptual::SeamSums::of_references(views, pairs, exposure).ratio(),

@@ -186,6 +186,168 @@ fn view_flip(r: &EvalReport, roughness: f32, label: &str, k: usize) -> Option<f6
     r.methods.iter().find(|m| m.roughness == roughness && m.label() == label)?.flip_views.get(k).copied()
 }
 
+/// A rival's label as a lighting engineer names it (`box` → box projection).
+fn plain_name(label: &str) -> String {
+    let (method, rule) = label.split_once('/').map_or((label, None), |(m, r)| (m, Some(r)));
+    let name = match method {
+        "box" => "box projection".to_string(),
+        "kdop" => "the 18-DOP".to_string(),
+        "warp1" => "the depth warp (warp1)".to_string(),
+        "none" => "probe A unwarped".to_string(),
+        "engine-blend" => "per-cell probe blending (engine-blend)".to_string(),
+        m => m.to_string(),
+    };
+    rule.map_or(name.clone(), |r| format!("{name} ({r} mips)"))
+}
+
+/// One bucket's verdict: the fitted grid's measure `ours` against the rival's `theirs`,
+/// their difference (positive: ours lower) and its standard error.
+struct Judged {
+    roughness: f32,
+    rival: String,
+    ours: f64,
+    theirs: f64,
+    difference: f64,
+    se: f64,
+}
+
+impl Judged {
+    fn share(&self) -> f64 {
+        100.0 * self.difference.abs() / self.theirs.max(1e-12)
+    }
+}
+
+/// "r = 0, 0.125 and 0.25": the buckets of `group`.
+fn roughness_list(group: &[&Judged]) -> String {
+    let r: Vec<String> = group.iter().map(|j| j.roughness.to_string()).collect();
+    match r.as_slice() {
+        [] => String::new(),
+        [one] => format!("r = {one}"),
+        [head @ .., last] => format!("r = {} and {last}", head.join(", ")),
+    }
+}
+
+/// "3–14%": the range of the group's shares.
+fn share_range(group: &[&Judged]) -> String {
+    let (lo, hi) = group.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), j| (lo.min(j.share()), hi.max(j.share())));
+    if (hi - lo) < 0.5 { format!("{hi:.0}%") } else { format!("{lo:.0}–{hi:.0}%") }
+}
+
+/// The run's verdict in three plain lines: where the fitted grid's pictures (ꟻLIP of the
+/// rendered views, else tone-mapped RMSE) beat their best rival at each roughness beyond 2
+/// SE (the best classic method costing at most twice warp1's probe reads, or with several
+/// probes the engines' per-cell blend of them), where they lose, and where the two are
+/// even, with the pointwise result beside it. Empty when the evaluation had no fitted grid.
+#[must_use]
+pub fn verdict(r: &EvalReport) -> Vec<String> {
+    let row = |roughness: f32, label: &str| r.methods.iter().find(|m| m.roughness == roughness && m.label() == label);
+    let ours =
+        |b: &crate::eval::BucketSummary| row(b.roughness, &b.claim.0).filter(|m| crate::eval::is_runtime(&m.name));
+    // ꟻLIP where every bucket with the runtime has its claim, else tone-mapped RMSE
+    let by_flip = r.buckets.iter().filter(|b| ours(b).is_some()).all(|b| b.flip_claim.is_some());
+    let judged: Vec<Judged> = r
+        .buckets
+        .iter()
+        .filter_map(|b| {
+            let o = ours(b)?;
+            if by_flip {
+                // the rival with the lowest ꟻLIP among those judged on the same tiles
+                let probe_only = |c: &&crate::eval::FlipClaim| {
+                    crate::eval::RowId::parse(&c.challenger) == Some(crate::eval::RowId::RUNTIME_PROBE_ONLY)
+                };
+                let claims: Vec<&crate::eval::FlipClaim> = if b.flip_against.is_empty() {
+                    b.flip_claim.iter().collect()
+                } else {
+                    b.flip_against.iter().filter(|c| !probe_only(c)).collect()
+                };
+                let (c, t) = claims
+                    .into_iter()
+                    .filter_map(|c| Some((c, row(b.roughness, &c.challenger)?.flip?)))
+                    .min_by(|x, y| x.1.total_cmp(&y.1))?;
+                Some(Judged {
+                    roughness: b.roughness,
+                    rival: c.challenger.clone(),
+                    ours: o.flip?,
+                    theirs: t,
+                    difference: c.difference,
+                    se: c.se,
+                })
+            } else {
+                let t = row(b.roughness, &b.claim.1)?;
+                Some(Judged {
+                    roughness: b.roughness,
+                    rival: b.claim.1.clone(),
+                    ours: o.tm_rmse,
+                    theirs: t.tm_rmse,
+                    difference: b.difference_tm,
+                    se: b.reference_se_tm,
+                })
+            }
+        })
+        .collect();
+    if judged.is_empty() {
+        return Vec::new();
+    }
+    let measure = if by_flip { "ꟻLIP of the rendered views" } else { "tone-mapped RMSE" };
+    let wins: Vec<&Judged> = judged.iter().filter(|j| j.difference > 2.0 * j.se).collect();
+    let losses: Vec<&Judged> = judged.iter().filter(|j| j.difference < -2.0 * j.se).collect();
+    let even: Vec<&Judged> = judged.iter().filter(|j| j.difference.abs() <= 2.0 * j.se).collect();
+    // the rivals of a group by method (mip rules apart), then its largest difference
+    let rivals = |group: &[&Judged]| {
+        let mut names: Vec<String> = Vec::new();
+        for name in group.iter().map(|j| plain_name(j.rival.split('/').next().unwrap_or(&j.rival))) {
+            if !names.contains(&name) {
+                names.push(name);
+            }
+        }
+        let j = group.iter().max_by(|a, b| a.share().total_cmp(&b.share())).copied();
+        let example = j.map_or(String::new(), |j| {
+            format!("; r = {}: {:.3} against {:.3} for {}", j.roughness, j.ours, j.theirs, plain_name(&j.rival))
+        });
+        format!("{}{example}", names.join(", "))
+    };
+    let win = if wins.is_empty() {
+        format!("Wins: nowhere beyond 2 SE ({measure}) against the best rival of similar cost.")
+    } else {
+        format!(
+            "Wins: at {} the fitted grid's pictures are {} closer to the reference ({measure}) than the best rival of similar cost ({}), beyond 2 SE.",
+            roughness_list(&wins),
+            share_range(&wins),
+            rivals(&wins),
+        )
+    };
+    let lose = if losses.is_empty() {
+        "Loses: nowhere beyond 2 SE.".to_string()
+    } else {
+        format!(
+            "Loses: at {} they are {} further from it than the best rival's ({}), beyond 2 SE.",
+            roughness_list(&losses),
+            share_range(&losses),
+            rivals(&losses),
+        )
+    };
+    // the pointwise result, bucket by bucket, against each bucket's best classic row
+    let tm: Vec<(f32, f64)> = r
+        .buckets
+        .iter()
+        .filter(|b| ours(b).is_some())
+        .map(|b| (b.roughness, b.difference_tm / (2.0 * b.reference_se_tm).max(1e-300)))
+        .collect();
+    let tm_lower = tm.iter().filter(|(_, z)| *z > 1.0).count();
+    let tm_higher: Vec<String> = tm.iter().filter(|(_, z)| *z < -1.0).map(|(r, _)| r.to_string()).collect();
+    let pointwise = format!(
+        "pointwise (tone-mapped RMSE) the fitted grid is lower than the best classic method at {tm_lower} of {} roughnesses and higher at {}",
+        tm.len(),
+        if tm_higher.is_empty() { "none".to_string() } else { format!("r = {}", tm_higher.join(", ")) }
+    );
+    let tie = if even.is_empty() {
+        format!("Even: at no roughness within 2 SE; {pointwise}.")
+    } else {
+        format!("Even (within 2 SE): {}; {pointwise}.", roughness_list(&even))
+    };
+    vec![win, lose, tie]
+}
+
 /// Markdown table of every bucket's views one by one: how much of each sees geometry, its
 /// references' own noise, the champion's ꟻLIP and each rival's, and their difference with
 /// its paired standard error over the view's tiles (empty without views).

@@ -106,6 +106,9 @@ pub struct RunReport {
     /// The surface-probe patches' evaluations (seed 003).
     #[serde(default)]
     pub surface: Vec<crate::eval::surface::SurfaceReport>,
+    /// Where the fitted grid wins and loses, in three plain lines (`super::verdict`).
+    #[serde(default)]
+    pub verdict: Vec<String>,
 }
 
 fn optional_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<Option<T>, FileError> {
@@ -152,6 +155,7 @@ pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> 
         images,
         diffuse: eval.diffuse.clone(),
         surface: eval.surface.clone(),
+        verdict: super::verdict(&eval),
     })
 }
 
@@ -289,10 +293,12 @@ fn layer_rows(grid: &GridManifest) -> (Vec<LayerRow>, Vec<(String, u64)>) {
 }
 
 /// The figures of the run that exist in its folder, in the report's order.
+/// The figures in the order a reader wants them: the frames (every camera per roughness),
+/// the error-against-cost pictures, then the surface patches and the diagnostics.
 fn report_images(dir: &Path, eval: &EvalReport) -> Vec<String> {
-    let mut images: Vec<String> = ["eval_error_vs_cost.png", "eval_rough.png"].iter().map(|f| f.to_string()).collect();
-    images.extend(crate::eval::ROUGHNESS_BUCKETS.iter().map(|&r| format!("flip_r{r:.3}.png")));
+    let mut images: Vec<String> = crate::eval::ROUGHNESS_BUCKETS.iter().map(|&r| format!("flip_r{r:.3}.png")).collect();
     images.push("flip_diffuse.png".into());
+    images.extend(["eval_error_vs_cost.png", "eval_rough.png"].iter().map(|f| f.to_string()));
     for sr in &eval.surface {
         images.push(format!("surface_atlas{}.png", sr.index));
         images.extend(crate::eval::ROUGHNESS_BUCKETS.iter().map(|&r| format!("flip_surface{}_r{r:.3}.png", sr.index)));
@@ -305,10 +311,31 @@ fn report_images(dir: &Path, eval: &EvalReport) -> Vec<String> {
     images.into_iter().filter(|f| dir.join(f).is_file()).collect()
 }
 
-/// The report as Markdown tables; images referenced by file name.
+/// Whether figure `file` is shown before the tables (the frames and the error-against-cost
+/// pictures) or after them (the diagnostics).
+fn leading(file: &str) -> bool {
+    file.starts_with("flip_") || file.starts_with("eval_error") || file == "eval_rough.png"
+}
+
+/// The report as Markdown: the verdict, the frames and error-against-cost pictures, the
+/// tables, then the diagnostic figures; images referenced by file name.
 pub fn markdown(r: &RunReport) -> String {
     let mut md = String::new();
     let _ = writeln!(md, "# warpfit report: {}\n\nProduced by `{}`.\n", r.scene, r.command);
+    if !r.verdict.is_empty() {
+        let _ = writeln!(md, "## Verdict\n");
+        for line in &r.verdict {
+            let _ = writeln!(md, "- {line}");
+        }
+        md.push('\n');
+    }
+    let figures = |md: &mut String, lead: bool| {
+        for img in r.images.iter().filter(|f| leading(f) == lead) {
+            let _ = writeln!(md, "![{img}]({img})\n\n*{}*\n", caption(img));
+        }
+    };
+    let _ = writeln!(md, "## Pictures\n");
+    figures(&mut md, true);
     let _ = writeln!(
         md,
         "Validation: {}; hidden fraction {:.1}%; a reference ray costs {:.0} ns.\n",
@@ -321,10 +348,8 @@ pub fn markdown(r: &RunReport) -> String {
         md += &md_table(&rows);
         md.push('\n');
     }
-    let _ = writeln!(md, "## Figures\n");
-    for img in &r.images {
-        let _ = writeln!(md, "![{img}]({img})\n");
-    }
+    let _ = writeln!(md, "## Diagnostics\n");
+    figures(&mut md, false);
     md
 }
 
@@ -582,6 +607,15 @@ pub fn html(r: &RunReport, dir: &Path) -> Result<String, FileError> {
     );
     let _ = writeln!(h, "<h1>warpfit report: {}</h1>", escape(&r.scene));
     let _ = writeln!(h, "<p>Produced by <code>{}</code>.</p>", escape(&r.command));
+    if !r.verdict.is_empty() {
+        h += "<h2>Verdict</h2>\n<ul>\n";
+        for line in &r.verdict {
+            let _ = writeln!(h, "<li>{}</li>", escape(line));
+        }
+        h += "</ul>\n";
+    }
+    h += "<h2>Pictures</h2>\n";
+    figures_html(&mut h, r, dir, true)?;
     let _ = writeln!(
         h,
         "<p>Validation: {}; hidden fraction {:.1}%; a reference ray costs {:.0} ns.</p>",
@@ -602,8 +636,15 @@ pub fn html(r: &RunReport, dir: &Path) -> Result<String, FileError> {
         }
         h += "</table>\n";
     }
-    h += "<h2>Figures</h2>\n";
-    for img in &r.images {
+    h += "<h2>Diagnostics</h2>\n";
+    figures_html(&mut h, r, dir, false)?;
+    h += "</body></html>\n";
+    Ok(h)
+}
+
+/// The figures that lead (`lead`) or follow the tables, inlined.
+fn figures_html(h: &mut String, r: &RunReport, dir: &Path, lead: bool) -> Result<(), FileError> {
+    for img in r.images.iter().filter(|f| leading(f) == lead) {
         let path = dir.join(img);
         let bytes = std::fs::read(&path).map_err(FileError::io(&path))?;
         let b64 = base64::engine::general_purpose::STANDARD.encode(&bytes);
@@ -614,8 +655,7 @@ pub fn html(r: &RunReport, dir: &Path) -> Result<String, FileError> {
             escape(caption(img))
         );
     }
-    h += "</body></html>\n";
-    Ok(h)
+    Ok(())
 }
 
 /// What to look for in figure `file`.
@@ -641,7 +681,7 @@ fn caption(file: &str) -> &'static str {
         }
         "sweep_convergence.png" => "training objective against time for each solver of the sweep.",
         f if f.starts_with("flip_r") => {
-            "the first camera at this roughness: the traced reference, the runtime and the best other methods, each above its ꟻLIP error map (black: no visible difference, yellow: large). Look for seams between cells and misplaced reflections."
+            "every camera at this roughness, one band each: the traced reference, the runtime and the best other methods, each above its ꟻLIP error map (black: no visible difference, yellow: large). Look for seams between cells and misplaced reflections."
         }
         _ => "",
     }
