@@ -290,3 +290,90 @@ fn check_says_each_warning_once_and_names_no_file_it_did_not_read() {
         assert_eq!(all.matches(what).count(), 2, "once in the summary line and once as a warning:\n{all}");
     }
 }
+
+/// A closed box room, `w` wide and deep and `h` tall, its faces seen from inside, as OBJ.
+fn closed_room_obj(w: f32, h: f32) -> String {
+    let v = |x: f32, y: f32, z: f32| format!("v {x} {y} {z}\n");
+    let mut s = String::new();
+    for (x, y, z) in
+        [(0., 0., 0.), (w, 0., 0.), (w, 0., w), (0., 0., w), (0., h, 0.), (w, h, 0.), (w, h, w), (0., h, w)]
+    {
+        s += &v(x, y, z);
+    }
+    // inward-facing quads (counter-clockwise seen from inside), as triangles
+    for [a, b, c, d] in [[1, 4, 3, 2], [5, 6, 7, 8], [1, 2, 6, 5], [3, 4, 8, 7], [2, 3, 7, 6], [4, 1, 5, 8]] {
+        s += &format!("f {a} {b} {c}\nf {a} {c} {d}\n");
+    }
+    s
+}
+
+/// `init` names a level from the level, not from an exporter's default file name; proposes
+/// cells from the level's scale; stands probe A at eye height; and lights a closed level
+/// with no lights from inside, where the light reaches its cells.
+#[test]
+fn init_names_sizes_and_lights_a_level_from_the_level() {
+    let d = tmp_dir("init-level");
+    let mut names = Vec::new();
+    for level in ["alpha_room", "beta_room"] {
+        std::fs::create_dir_all(d.join(level)).unwrap();
+        let mesh = d.join(level).join("scene.obj");
+        std::fs::write(&mesh, closed_room_obj(2.0, 2.0)).unwrap();
+        let o = warpfit(&["init", "--mesh", &mesh.to_string_lossy()]);
+        assert!(o.status.success(), "{}", text(&o));
+        let scene_text = String::from_utf8(o.stdout).unwrap();
+        let scene_path = d.join(format!("{level}.toml"));
+        std::fs::write(&scene_path, scene_text.replace("\"scene.obj\"", &format!("\"{level}/scene.obj\""))).unwrap();
+        let scene = Scene::load(&scene_path).unwrap();
+        names.push(scene.name.clone());
+        // a 2 m room: cells of 0.5, so 4 across (not 2 of the old default 1.0)
+        assert!(scene.config.grid.counts.iter().all(|&c| c >= 4), "{:?}\n{scene_text}", scene.config.grid.counts);
+        // probe A at eye height, or half-way up a room lower than twice that
+        let y = scene.config.probe.position[1];
+        assert!((y - 1.0).abs() < 0.05, "probe A at y = {y}\n{scene_text}");
+        // closed and unlit: a light inside, and `check` finds light in the cells
+        assert!(scene_text.contains("[[sphere_lights]]"), "{scene_text}");
+        let o = warpfit(&["check", "--scene", &scene_path.to_string_lossy()]);
+        assert!(o.status.success(), "{}", text(&o));
+        assert!(!text(&o).contains("light reaches the grid"), "{}", text(&o));
+        // without that lamp the sky and sun outside light nothing inside: `check` says so
+        let lamp = scene_text.find("[[sphere_lights]]").unwrap();
+        let end = lamp + scene_text[lamp..].find("\n\n").unwrap();
+        let dark = d.join(format!("{level}-dark.toml"));
+        std::fs::write(
+            &dark,
+            format!("{}{}", &scene_text[..lamp], &scene_text[end..])
+                .replace("\"scene.obj\"", &format!("\"{level}/scene.obj\"")),
+        )
+        .unwrap();
+        let o = warpfit(&["check", "--scene", &dark.to_string_lossy()]);
+        assert!(text(&o).contains("no light reaches the grid's cells"), "{}", text(&o));
+        // and cells of 2 in a 2 m room are called coarse
+        let coarse = d.join(format!("{level}-coarse.toml"));
+        let counts = format!("counts = {:?}", scene.config.grid.counts);
+        std::fs::write(&coarse, std::fs::read_to_string(&scene_path).unwrap().replace(&counts, "counts = [1, 1, 1]"))
+            .unwrap();
+        let o = warpfit(&["check", "--scene", &coarse.to_string_lossy()]);
+        assert!(text(&o).contains("coarse for this level's rooms"), "{}", text(&o));
+    }
+    assert_eq!(names, ["alpha_room", "beta_room"], "each level its own name, so its own fits/ folder");
+}
+
+/// A glTF whose lamp is a node without a KHR light and a material without emission (as
+/// Blender exports one with punctual lights off): `init` names both in warnings.
+#[test]
+fn init_names_lamps_that_carry_no_light() {
+    let d = tmp_dir("init-lamps");
+    let gltf = quad_gltf(
+        r#""materials":[{"name":"Lamp shade","pbrMetallicRoughness":{"baseColorFactor":[1,1,1,1]}}],"#,
+        r#""nodes":[{"mesh":0},{"mesh":0,"translation":[0,2,0]},{"name":"Light","translation":[0,1,0]}],"scenes":[{"name":"Scene","nodes":[0,1,2]}],"#,
+    );
+    std::fs::create_dir_all(d.join("cellar")).unwrap();
+    let mesh = d.join("cellar").join("scene.gltf");
+    std::fs::write(&mesh, gltf).unwrap();
+    let o = warpfit(&["init", "--mesh", &mesh.to_string_lossy(), "--cell-size", "0.5"]);
+    let all = text(&o);
+    assert!(o.status.success(), "{all}");
+    assert!(all.contains("node \"Light\"") && all.contains("KHR_lights_punctual"), "{all}");
+    assert!(all.contains("material \"Lamp shade\"") && all.contains("emits nothing"), "{all}");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("name = \"cellar\""), "{all}");
+}

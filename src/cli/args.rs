@@ -40,9 +40,10 @@ pub enum Command {
         /// The level: .gltf, .glb or .obj.
         #[arg(long)]
         mesh: PathBuf,
-        /// Grid cell size in scene units (grown if the grid would exceed 20,000 cells).
-        #[arg(long, default_value_t = 1.0)]
-        cell_size: f32,
+        /// Grid cell size in scene units (grown if the grid would exceed 20,000 cells);
+        /// without it, half the typical distance from an open point to the walls, rounded.
+        #[arg(long)]
+        cell_size: Option<f32>,
     },
     /// Raytrace the scene and write the specular probe, the probe grid and previews.
     Bake {

@@ -39,8 +39,11 @@ pub fn check(scene: &Path) -> Result<()> {
 }
 
 /// `warpfit init`: a scene file for a level mesh, to standard output.
-pub fn init(mesh: &Path, cell_size: f32) -> Result<()> {
+pub fn init(mesh: &Path, cell_size: Option<f32>) -> Result<()> {
     let i = warpfit::jobs::init::init(mesh, mesh, cell_size)?;
+    for w in &i.warnings {
+        tracing::warn!("{w}");
+    }
     print!("{}", i.text);
     Ok(())
 }
@@ -216,7 +219,9 @@ pub fn run(RunArgs { scene, eval, fit }: &RunArgs, cx: &Context) -> Result<()> {
     );
     let verdict = warpfit::report::verdict(&outcome.eval);
     if !verdict.is_empty() {
-        println!("\nverdict, the fitted grid against the best classic method of similar cost at each roughness:");
+        println!(
+            "\nverdict: the fitted grid against its best rival at each roughness (the best classic method costing ≤ 2× warp1, or with several probes their per-cell blend):"
+        );
         for line in verdict {
             println!("{line}");
         }

@@ -14,6 +14,11 @@ use glam::Vec3;
 const WINDING_RAYS: u32 = 1024;
 /// Share of one-sided back faces seen from probe A above which the winding is suspect.
 const WINDING_WARN: f32 = 0.05;
+/// Rays from the grid's cells, and as many from around the level, for the light check.
+const LIGHT_RAYS: u32 = 256;
+/// Cells whose rays carry less than this share of what rays around the level carry are dim:
+/// the light is outside a (nearly) closed level.
+const DIM: f64 = 0.05;
 
 /// What the check found.
 #[derive(Clone, Debug, Default)]
@@ -105,6 +110,9 @@ pub fn check(scene: &Scene, tracer: &Tracer) -> Check {
         scene.lights.sphere_lights.len(),
         if emissive { "yes" } else { "no" }
     ));
+    if c.errors.is_empty() {
+        check_light_in_cells(scene, tracer, &mut c);
+    }
     check_surface_probes(scene, tracer, &mut c);
     if scene.degenerate_skipped > 0 {
         c.warnings.push(format!("{file}: {} degenerate triangle(s) skipped", scene.degenerate_skipped));
@@ -113,6 +121,61 @@ pub fn check(scene: &Scene, tracer: &Tracer) -> Check {
         c.warnings.push(format!("{file}: {} duplicate triangle(s) dropped", scene.duplicates_skipped));
     }
     c
+}
+
+/// Whether light reaches the grid's cells, and whether the cells are small enough for the
+/// level's rooms, from [`LIGHT_RAYS`] path-traced rays from cell centres against as many
+/// from points around the level: cells that see much less light than the level's
+/// surroundings sit in a closed level lit from outside (a lamp exported as a plain
+/// material, a sky and sun added outside a box); cells larger than the typical distance
+/// from a cell centre to what it sees blur reflections across rooms.
+fn check_light_in_cells(scene: &Scene, tracer: &Tracer, c: &mut Check) {
+    let file = scene.source.display().to_string();
+    let geometry = crate::bake::grid_settings(scene).geometry;
+    let renderer = crate::trace::Renderer::new(scene, tracer);
+    let (lo, hi) = scene.bounds();
+    let (centre, radius) = ((lo + hi) * 0.5, 0.75 * (hi - lo).length());
+    let cells = geometry.cell_count() as u64;
+    let (mut inside, mut outside, mut rays) = (0.0f64, 0.0f64, 0u64);
+    let mut distances = Vec::new();
+    for k in 0..LIGHT_RAYS {
+        let mut s = Sampler::new(scene.config.seed, hash_pair(0x11C7, 0), k);
+        let cell = (hash_pair(k as u64, 0x5E11) % cells.max(1)) as usize;
+        let p = geometry.cell_centre(cell);
+        let seen = renderer.sample(p, uniform_sphere(s.next_2d()), &mut s, &mut rays);
+        inside += crate::tonemap::luminance(seen.radiance) as f64;
+        if seen.distance.is_finite() && !seen.backface {
+            distances.push(seen.distance);
+        }
+        let q = centre + uniform_sphere(s.next_2d()) * radius;
+        let around = renderer.sample(q, uniform_sphere(s.next_2d()), &mut s, &mut rays);
+        outside += crate::tonemap::luminance(around.radiance) as f64;
+    }
+    let share = inside / outside.max(1e-300);
+    c.facts.push(format!(
+        "light in the cells: rays from {LIGHT_RAYS} cell centres carry {} what rays around the level carry",
+        if share < 1.0 { format!("{:.0}% of", 100.0 * share) } else { format!("{:.1}×", share.min(1e6)) }
+    ));
+    if inside <= 0.0 {
+        c.warnings.push(format!(
+            "{file}: no light reaches the grid's cells (none of {LIGHT_RAYS} rays from them carries any): the scene's lights are outside a closed level or behind its walls; add a light inside ([[sphere_lights]] or an emissive material)"
+        ));
+    } else if outside > 0.0 && share < DIM {
+        c.warnings.push(format!(
+            "{file}: little light reaches the grid's cells (rays from them carry {:.1}% of what rays around the level carry): the light is outside a nearly closed level; add a light inside ([[sphere_lights]] or an emissive material), or check that the file's lamps were exported as lights",
+            100.0 * share
+        ));
+    }
+    distances.sort_by(f32::total_cmp);
+    if let Some(&typical) = distances.get(distances.len() / 2) {
+        let cell = geometry.cell_size().max_element();
+        if distances.len() >= LIGHT_RAYS as usize / 4 && cell > typical {
+            c.warnings.push(format!(
+                "{file}: cells of {cell:.3} are coarse for this level's rooms (a cell centre typically sees surfaces {typical:.3} away): reflections will blur across rooms; raise grid.counts for cells near {:.3} (`warpfit init` proposes a size)",
+                0.5 * typical
+            ));
+        }
+    }
 }
 
 /// A specular probe's position (`field` of the scene file): inside the scene's bounds and

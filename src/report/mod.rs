@@ -194,7 +194,7 @@ fn plain_name(label: &str) -> String {
         "kdop" => "the 18-DOP".to_string(),
         "warp1" => "the depth warp (warp1)".to_string(),
         "none" => "probe A unwarped".to_string(),
-        "engine-blend" => "per-cell probe blending (engine-blend)".to_string(),
+        "engine-blend" => "per-cell probe blending".to_string(),
         m => m.to_string(),
     };
     rule.map_or(name.clone(), |r| format!("{name} ({r} mips)"))

@@ -6,6 +6,7 @@
 
 pub mod config;
 mod mesh_io;
+pub use mesh_io::MAX_MESH_FILE_BYTES;
 mod procedural;
 
 pub use config::SceneFile;
