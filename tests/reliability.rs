@@ -822,7 +822,8 @@ fn big_probe(dir: &Path, n: usize, damaged: bool) {
 /// A grid whose damage shows only in its last values costs at most 64 MB to refuse, however
 /// large it claims to be: a big grid's values are streamed through the writer's rules before
 /// it is decoded into memory. (Before, a 385 KB probe file of 4096² texels cost 536 MB, a
-/// grid of 2^24 cells 327 MB, and the same probe in a bake was reused, 1,365 MB.)
+/// grid of 2^24 cells 327 MB, the same probe in a bake was reused at 1,365 MB, and a part
+/// was read whole before its checksum was checked.)
 #[test]
 fn a_refused_grid_costs_at_most_64_mb() {
     const BUDGET: u64 = 64 << 20;
@@ -896,6 +897,33 @@ fn a_refused_grid_costs_at_most_64_mb() {
         "{err}"
     );
     assert!(peak <= BUDGET, "refusing the bake and baking again took {} MB", peak >> 20);
+
+    // a shard's part grown to 512 MB (sparse) with its header saying so: refused on its
+    // checksum, read through in pieces, not loaded whole (before: 512 MB)
+    let d = tmp_dir("rss-part");
+    let o = d.join("run").to_string_lossy().into_owned();
+    let made = warpfit(&["--quiet", "bake", "--scene", "data/scenes/tiny.toml", "--out", &o, "--shard", "0/1"], &[]);
+    assert!(made.status.success(), "{}", text(&made));
+    let part = std::fs::read_dir(d.join("run/parts")).unwrap().flatten().map(|e| e.path()).next().unwrap();
+    let bytes = std::fs::read(&part).unwrap();
+    let magic = b"warpfit-part\n".len();
+    let head_len = u64::from_le_bytes(bytes[magic..magic + 8].try_into().unwrap()) as usize;
+    let mut head: serde_json::Value = serde_json::from_slice(&bytes[magic + 8..magic + 8 + head_len]).unwrap();
+    let body = &bytes[magic + 8 + head_len..];
+    let grown = body.len() as u64 + (512 << 20);
+    head["body_bytes"] = grown.into();
+    let head = serde_json::to_vec(&head).unwrap();
+    let mut out = bytes[..magic].to_vec();
+    out.extend((head.len() as u64).to_le_bytes());
+    out.extend(&head);
+    out.extend(body);
+    std::fs::write(&part, &out).unwrap();
+    std::fs::File::options().write(true).open(&part).unwrap().set_len(out.len() as u64 + (512 << 20)).unwrap();
+    let args: Vec<&std::ffi::OsStr> = vec!["merge".as_ref(), "--out".as_ref(), o.as_ref(), part.as_os_str()];
+    let (peak, code, err) = warpfit_peak(&args);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains(".part") && err.contains("checksum"), "{err}");
+    assert!(peak <= BUDGET, "refusing the part took {} MB", peak >> 20);
 
     // the same grids undamaged load (the scan refuses nothing the writer makes)
     let d = copy_tiny("rss-probe-ok");

@@ -10,7 +10,7 @@
 
 use crate::bake::SpecularProbe;
 use crate::bake::grid::CellBake;
-use crate::files::{FileError, checksum, read_regular, write_atomic};
+use crate::files::{FileError, checksum, write_atomic};
 use crate::fit::CellOutcome;
 use crate::fit::irradiance::{PointRanges, References};
 use serde::{Deserialize, Serialize};
@@ -183,15 +183,32 @@ pub fn read_header(path: &Path) -> Result<PartHeader, FileError> {
     Ok(parse_header(path, &start, meta.len())?.0)
 }
 
-/// Reads a part: header and body, checked.
+/// Reads a part: header and body, checked. The body's checksum is read through the file in
+/// pieces before any of it is decoded, and the body is decoded from the file as a stream:
+/// a damaged part costs a buffer to refuse, not its size.
 pub fn read_part(path: &Path) -> Result<(PartHeader, PartBody), FileError> {
-    let bytes = read_regular(path, MAX_PART_BYTES)?;
-    let (header, body_start) = parse_header(path, &bytes, bytes.len() as u64)?;
-    let body = &bytes[body_start..];
-    if checksum(body) != header.body_checksum {
+    use std::io::{Read as _, Seek as _, SeekFrom};
+    let (mut f, len) = crate::files::open_regular(path, MAX_PART_BYTES)?;
+    let mut start = Vec::new();
+    (&mut f).take(MAGIC.len() as u64 + 8 + MAX_HEADER).read_to_end(&mut start).map_err(FileError::io(path))?;
+    let (header, body_start) = parse_header(path, &start, len)?;
+    drop(start);
+    f.seek(SeekFrom::Start(body_start as u64)).map_err(FileError::io(path))?;
+    let mut sum = crate::files::Fnv::new();
+    let mut buf = vec![0u8; 1 << 20];
+    loop {
+        let k = f.read(&mut buf).map_err(FileError::io(path))?;
+        if k == 0 {
+            break;
+        }
+        sum.update(&buf[..k]);
+    }
+    if sum.finish() != header.body_checksum {
         return Err(FileError::invalid(path, "body", format!("does not match its checksum {}", header.body_checksum)));
     }
-    let body: PartBody = ciborium::from_reader(body).map_err(|e| FileError::invalid(path, "body", e.to_string()))?;
+    f.seek(SeekFrom::Start(body_start as u64)).map_err(FileError::io(path))?;
+    let body: PartBody = ciborium::from_reader(std::io::BufReader::new(f))
+        .map_err(|e| FileError::invalid(path, "body", e.to_string()))?;
     let kind = match body {
         PartBody::Bake(_) => PartKind::Bake,
         PartBody::Fit(_) => PartKind::Fit,

@@ -127,7 +127,7 @@ pub fn read_regular(path: &Path, max: u64) -> Result<Vec<u8>, FileError> {
 
 /// Opens `path`, which must be a regular file of at most `max` bytes (checked on the path
 /// and again on what was opened); returns it with its length.
-fn open_regular(path: &Path, max: u64) -> Result<(std::fs::File, u64), FileError> {
+pub fn open_regular(path: &Path, max: u64) -> Result<(std::fs::File, u64), FileError> {
     let not_regular = |what: &str| FileError::invalid(path, "file", format!("is {what}, not a regular file"));
     let meta = std::fs::metadata(path).map_err(FileError::io(path))?;
     let kind = |m: &std::fs::Metadata| {
