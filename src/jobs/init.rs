@@ -147,24 +147,55 @@ fn nice(x: f32) -> f32 {
 
 /// The `[probes]` table of the scene `init` writes: probe A at `probe` and the grid
 /// (`min`, `max`, `counts`), more probes placed as a bake's automatic placement places them
-/// (`bake::placement`), written out as positions an artist can move; empty when probe A
-/// alone sees the level.
-fn placed_probes(scene: &Scene, tracer: &Tracer, probe: Vec3, (min, max, counts): (Vec3, Vec3, [u32; 3])) -> String {
+/// (`bake::placement`), then each brought to a player's eye height above the floor beneath
+/// it where that sees as much (within a point of the hidden share), written out as
+/// positions an artist can move; empty when probe A alone sees the level.
+fn placed_probes(
+    scene: &Scene,
+    tracer: &Tracer,
+    probe: Vec3,
+    (min, max, counts): (Vec3, Vec3, [u32; 3]),
+    eps: f32,
+) -> String {
     let mut s = scene.clone();
     s.config.probe.position = probe.to_array();
     (s.config.grid.min, s.config.grid.max, s.config.grid.counts) = (min.to_array(), max.to_array(), counts);
     s.config.probes.auto = true;
-    let renderer = crate::trace::Renderer::new(&s, tracer);
-    let p = crate::bake::placement::place(&renderer, &crate::bake::grid_settings(&s));
+    let settings = crate::bake::grid_settings(&s);
+    let p = crate::bake::placement::place(&crate::trace::Renderer::new(&s, tracer), &settings);
     if p.placed == 0 {
         return String::new();
     }
-    let list: Vec<String> = p.positions[1..].iter().map(|q| format!("[{:.4}, {:.4}, {:.4}]", q.x, q.y, q.z)).collect();
+    let (lo, hi) = scene.bounds();
+    let threshold = scene.config.grid.inside_backface_fraction;
+    let raised: Vec<Vec3> = p.positions[1..]
+        .iter()
+        .enumerate()
+        .map(|(k, &q)| match at_eye_height(tracer, q, eps) {
+            Some(e)
+                if (lo.y..=hi.y).contains(&e.y)
+                    && !truth::is_inside(&s, tracer, e, threshold, |j| Sampler::new(9, k as u64, j)) =>
+            {
+                e
+            }
+            _ => q,
+        })
+        .collect();
+    // the raised set measured as it stands
+    s.config.probes.auto = false;
+    s.config.probes.positions = raised.iter().map(|q| q.to_array()).collect();
+    let r = crate::bake::placement::place(&crate::trace::Renderer::new(&s, tracer), &settings);
+    let (positions, hidden, how) = if r.hidden <= p.hidden + 0.01 {
+        (&raised, r.hidden, "then brought to eye height above the floor beneath each")
+    } else {
+        (&p.positions[1..].to_vec(), p.hidden, "left where placed: at eye height they would miss more")
+    };
+    let list: Vec<String> = positions.iter().map(|q| format!("[{:.4}, {:.4}, {:.4}]", q.x, q.y, q.z)).collect();
     format!(
-        "# More specular probes: probe A alone misses {:.0}% of the level's sampled reflection hits;\n# with these {} it misses {:.0}% (placed greedily where they see most of what is missed).\n[probes]\npositions = [{}]\n\n",
+        "# More specular probes: probe A alone misses {:.0}% of the level's sampled reflection hits;\n# with these {} it misses {:.0}% (placed greedily where they see most of what is missed,\n# {how}).\n[probes]\npositions = [{}]\n\n",
         100.0 * p.hidden_probe_a,
         p.placed,
-        100.0 * p.hidden,
+        100.0 * hidden,
         list.join(", ")
     )
 }
@@ -325,7 +356,7 @@ pub fn init(mesh: &Path, mesh_as_written: &Path, cell_size: Option<f32>) -> Resu
     );
     t += &probe_text(probe, gmin, gmax, counts);
     t += "\n";
-    t += &placed_probes(&scene, &tracer, probe, (gmin, gmax, counts));
+    t += &placed_probes(&scene, &tracer, probe, (gmin, gmax, counts), eps);
     if has_lights {
         let _ = writeln!(
             t,
