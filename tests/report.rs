@@ -130,3 +130,69 @@ fn report_is_self_contained_complete_and_opens_in_chromium() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The evaluation's references are traced once: a second run of the same scene and settings
+/// reads every set back from beside the bake and answers exactly as the first.
+#[test]
+fn a_second_run_traces_no_reference_and_answers_the_same() {
+    let dir = tmp_dir("references-once");
+    let run = || {
+        let mut p = job::prepare(load("tiny"), RunFolder::new(&dir), &Progress::quiet()).unwrap();
+        let settings =
+            job::RunSettings { eval: EvalSettings::quick(), fit: FitSettings::quick(), ..Default::default() };
+        job::run(&mut p, &settings, "test", &Progress::quiet()).unwrap().eval
+    };
+    let first = run();
+    assert!(first.times.reference_sets_traced > 0 && first.times.reference_sets_reused == 0, "{:?}", first.times);
+    let second = run();
+    assert_eq!(second.times.reference_sets_traced, 0, "{:?}", second.times);
+    assert_eq!(second.times.reference_sets_reused, first.times.reference_sets_traced);
+    // everything but what was timed (the stages, each row's cost per lookup)
+    fn untimed(v: &mut serde_json::Value) {
+        match v {
+            serde_json::Value::Object(m) => {
+                m.retain(|k, _| !(k == "times" || k == "seconds" || k.contains("ns_per")));
+                m.values_mut().for_each(untimed);
+            }
+            serde_json::Value::Array(a) => a.iter_mut().for_each(untimed),
+            _ => {}
+        }
+    }
+    let answers = |e: &warpfit::eval::EvalReport| {
+        let mut v = serde_json::to_value(e).unwrap();
+        untimed(&mut v);
+        v
+    };
+    let (a, b) = (answers(&first), answers(&second));
+    if a != b {
+        fn diff(a: &serde_json::Value, b: &serde_json::Value, path: String, out: &mut Vec<String>) {
+            match (a, b) {
+                (serde_json::Value::Object(x), serde_json::Value::Object(y)) => {
+                    for (k, v) in x {
+                        diff(v, &y[k], format!("{path}.{k}"), out);
+                    }
+                }
+                (serde_json::Value::Array(x), serde_json::Value::Array(y)) if x.len() == y.len() => {
+                    for (i, (v, w)) in x.iter().zip(y).enumerate() {
+                        diff(v, w, format!("{path}[{i}]"), out);
+                    }
+                }
+                _ if a != b => out.push(format!("{path}: {a} vs {b}")),
+                _ => {}
+            }
+        }
+        let mut out = Vec::new();
+        diff(&a, &b, String::new(), &mut out);
+        panic!("a reused reference set changed an answer: {:?}", &out[..out.len().min(12)]);
+    }
+    // a damaged set is traced again, not believed
+    let refs = dir.join("bake/references");
+    let file = std::fs::read_dir(&refs).unwrap().flatten().map(|e| e.path()).max().unwrap();
+    let mut bytes = std::fs::read(&file).unwrap();
+    let k = bytes.len() / 2;
+    bytes[k] ^= 0x40;
+    std::fs::write(&file, bytes).unwrap();
+    let third = run();
+    assert_eq!(third.times.reference_sets_traced, 1, "{:?}", third.times);
+    assert!(answers(&first) == answers(&third));
+}

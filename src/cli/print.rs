@@ -143,5 +143,11 @@ pub fn print_eval(r: &warpfit::eval::EvalReport, folder: &RunFolder) {
         t.summaries,
         t.diffuse_and_surfaces
     );
+    if t.reference_sets_traced + t.reference_sets_reused > 0 {
+        println!(
+            "references: {} sets traced, {} read back from an earlier run (kept in bake/references/)",
+            t.reference_sets_traced, t.reference_sets_reused
+        );
+    }
     println!("wrote {}/eval.json, eval.md, eval_error_vs_cost.png", folder.dir.display());
 }

@@ -26,6 +26,7 @@ pub mod methods;
 pub mod metrics;
 pub mod options;
 pub mod renders;
+pub mod store;
 pub mod surface;
 pub mod timing;
 pub mod validation;
@@ -192,6 +193,12 @@ pub struct EvalTimes {
     pub summaries: f64,
     /// The diffuse table (its references and views) and the surface probes.
     pub diffuse_and_surfaces: f64,
+    /// Sets of references traced by this run, and read back from an earlier run's
+    /// (`store::ReferenceStore`; both 0 without a store).
+    #[serde(default)]
+    pub reference_sets_traced: u64,
+    #[serde(default)]
+    pub reference_sets_reused: u64,
 }
 
 /// Everything `eval.json` holds.
@@ -336,6 +343,8 @@ pub struct Subject<'a> {
     pub runtime: Option<&'a FittedGrid>,
     /// The correction the `Corrected` mip rule applies (the fitted grid's).
     pub correction: Option<&'a RoughnessCorrection>,
+    /// Where traced references are kept between runs (none: every reference is traced).
+    pub references: Option<&'a store::ReferenceStore>,
 }
 
 /// A figure of one roughness bucket's camera view: the reference, then a few rows' images
@@ -368,7 +377,7 @@ pub struct Evaluation {
 /// Evaluates the subject on its scene's validation set, every row on every roughness
 /// bucket. `subject.warp` must carry `settings.options`.
 pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progress: &Progress) -> Evaluation {
-    let Subject { baked, warp, methods, corrective_rows, runtime, correction } = subject;
+    let Subject { baked, warp, methods, corrective_rows, runtime, correction, references } = subject;
     let Baked { scene, tracer, grid, .. } = baked;
     let t0 = std::time::Instant::now();
     let shading = Glossy { warp, correction };
@@ -387,7 +396,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     bar.set_message("eval: references");
     let mut times = EvalTimes::default();
     let mut laps = Laps(std::time::Instant::now());
-    let mirror = validation_set(scene, tracer, grid, &warp.probe_positions(), settings);
+    let mirror = validation_set(scene, tracer, grid, &warp.probe_positions(), settings, references);
     let mut reference_rays = mirror.rays;
     laps.lap(&mut times.mirror_references);
     bar.inc(1);
@@ -414,8 +423,9 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         bar.set_message(format!("eval: r {r} references"));
         // the rough bucket's queries, traced with `spp`-sample references
         let size = (settings.rough_positions as usize, settings.rough_dirs as usize);
-        let trace_rough =
-            |spp: u32| validation::rough_set(scene, tracer, &mirror, (r, bucket as u64), size, spp, settings.seed);
+        let trace_rough = |spp: u32| {
+            validation::rough_set(scene, tracer, &mirror, (r, bucket as u64), size, spp, settings.seed, references)
+        };
         let set = if r == 0.0 {
             None
         } else {
@@ -425,7 +435,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         };
         laps.lap(&mut times.rough_references);
         let set = set.as_ref().unwrap_or(&mirror);
-        let view_refs = view_references(baked, &views, (r, bucket), settings, exposure);
+        let view_refs = view_references((baked, references), &views, (r, bucket), settings, exposure);
         laps.lap(&mut times.view_references);
         bar.inc(1);
         bar.set_message(format!("eval: r {r} rows"));
@@ -469,7 +479,8 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         if r == 0.0 {
             bar.set_message("eval: quiet references");
             let set = refined.as_ref().unwrap_or(set);
-            let (ceiling, rays) = quiet_ceiling(baked, set, (&rows, &summary.claim.0), shading, settings, exposure);
+            let (ceiling, rays) =
+                quiet_ceiling((baked, references), set, (&rows, &summary.claim.0), shading, settings, exposure);
             (summary.noise_ceiling, reference_rays) = (ceiling, reference_rays + rays);
         }
         summaries.push(summary);
@@ -724,7 +735,7 @@ fn insert_bounds(results: &mut Vec<MethodResult>, warp: &Warp, set: &ValidationS
 /// Bucket `bucket`'s (roughness `r`) reference views of every camera, from streams of
 /// their own (none without rendered views).
 fn view_references(
-    baked: Baked,
+    (baked, references): (Baked, Option<&store::ReferenceStore>),
     views: &[crate::perceptual::View],
     (r, bucket): (f32, usize),
     settings: &EvalSettings,
@@ -736,7 +747,13 @@ fn view_references(
         .enumerate()
         .map(|(k, v)| {
             let tag = (bucket * 16 + k) as u64;
-            renders::reference(baked.scene, baked.tracer, v, r, rs.reference_spp, (settings.seed, tag, exposure))
+            renders::reference(
+                (baked.scene, baked.tracer, references),
+                v,
+                r,
+                rs.reference_spp,
+                (settings.seed, tag, exposure),
+            )
         })
         .collect()
 }
@@ -798,7 +815,7 @@ fn judged_irradiance<'a>(
 /// again with quiet references from streams of their own; with the rays traced (none when
 /// the settings ask for no quiet references).
 fn quiet_ceiling(
-    baked: Baked,
+    (baked, references): (Baked, Option<&store::ReferenceStore>),
     set: &ValidationSet,
     (rows, champion): (&[methods::Row], &str),
     shading: Glossy,
@@ -809,8 +826,15 @@ fn quiet_ceiling(
         return (None, 0);
     }
     let positions = settings.quiet_positions as usize;
-    let quiet =
-        validation::quiet_references(baked.scene, baked.tracer, set, positions, settings.quiet_spp, settings.seed);
+    let quiet = validation::quiet_references(
+        baked.scene,
+        baked.tracer,
+        set,
+        positions,
+        settings.quiet_spp,
+        settings.seed,
+        references,
+    );
     let ceiling = noise_ceiling(set, (&quiet, settings.quiet_spp), (rows, champion), shading, exposure);
     (ceiling, quiet.rays)
 }

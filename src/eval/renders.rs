@@ -15,15 +15,37 @@ use glam::Vec3;
 /// [`perceptual::reference`] of `view` at roughness `r` from the evaluation's stream `tag`
 /// (per view and bucket).
 pub fn reference(
-    scene: &Scene,
-    tracer: &Tracer,
+    (scene, tracer, store): (&Scene, &Tracer, Option<&super::store::ReferenceStore>),
     view: &View,
     r: f32,
     spp: u32,
     (seed, tag, exposure): (u64, u64, f32),
 ) -> ViewReference {
+    use super::store;
     let stream = hash_pair(hash_pair(DOMAIN_EVAL, 0x7E57), tag);
-    perceptual::reference(scene, tracer, view, r, spp, (seed, stream, exposure))
+    let trace = || perceptual::reference_halves(scene, tracer, view, r, spp, (seed, stream));
+    let halves = match store {
+        Some(store) => {
+            let (b, d) = view.queries();
+            let key = store.key("view").vec3s(&b).vec3s(&d).words([
+                u64::from(r.to_bits()),
+                u64::from(spp),
+                seed,
+                stream,
+                u64::from(view.width),
+                u64::from(view.height),
+            ]);
+            let len = view.len();
+            store.cached(
+                "view",
+                key,
+                (|h: &Vec<_>| store::pairs_to_words(h), |w: &[u32]| store::pairs_from_words(w, len)),
+                trace,
+            )
+        }
+        None => trace(),
+    };
+    perceptual::reference_from_halves(view, r, spp, halves, exposure)
 }
 
 /// What `row` renders for a view at the reference's roughness.

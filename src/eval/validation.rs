@@ -5,6 +5,7 @@
 //! come from `trace::truth`.
 
 use super::EvalSettings;
+use super::store::{self, ReferenceStore};
 use crate::bake::ProbeGrid;
 use crate::grid::GridGeometry;
 use crate::sampling::{Sampler, hash_pair};
@@ -91,12 +92,13 @@ pub fn validation_set(
     grid: &ProbeGrid,
     probes: &[Vec3],
     s: &EvalSettings,
+    store: Option<&ReferenceStore>,
 ) -> ValidationSet {
     let renderer = Renderer::new(scene, tracer);
     let active: Vec<usize> = (0..grid.geometry.cell_count()).filter(|&c| !grid.inside[c]).collect();
     let positions = positions(scene, tracer, (&grid.geometry, &active), s.positions, s.seed);
     let dpp = s.dirs_per_position as usize;
-    let queries = trace_at(&renderer, &positions, (dpp, dpp), s.reference_spp, (s.seed, 0.0, 0));
+    let queries = trace_at((&renderer, store), &positions, (dpp, dpp), s.reference_spp, (s.seed, 0.0, 0));
     let truths: Vec<(Oracle, bool, bool)> = (0..queries.dirs.len())
         .into_par_iter()
         .map(|k| truth::oracles(scene, tracer, probes, queries.position_of(k), queries.dirs[k]))
@@ -150,11 +152,13 @@ pub fn rough_set(
     (positions, dirs): (usize, usize),
     spp: u32,
     seed: u64,
+    store: Option<&ReferenceStore>,
 ) -> ValidationSet {
     let renderer = Renderer::new(scene, tracer);
     let base_dpp = mirror.dirs_per_position;
     let (positions, dirs) = (positions.min(mirror.positions.len()), dirs.min(base_dpp));
-    let queries = trace_at(&renderer, &mirror.positions[..positions], (dirs, base_dpp), spp, (seed, r, bucket));
+    let queries =
+        trace_at((&renderer, store), &mirror.positions[..positions], (dirs, base_dpp), spp, (seed, r, bucket));
     let base = |k: usize| (k / dirs) * base_dpp + k % dirs;
     let oracle_dir = (0..queries.dirs.len()).map(|k| mirror.oracle_dir[base(k)]).collect();
     let hidden = (0..queries.dirs.len()).map(|k| mirror.hidden[base(k)]).collect();
@@ -177,11 +181,12 @@ pub fn quiet_references(
     positions: usize,
     spp: u32,
     seed: u64,
+    store: Option<&ReferenceStore>,
 ) -> TracedQueries {
     let renderer = Renderer::new(scene, tracer);
     let dpp = mirror.dirs_per_position;
     let positions = positions.min(mirror.positions.len());
-    trace_at(&renderer, &mirror.positions[..positions], (dpp, dpp), spp, (seed, 0.0, QUIET_BUCKET))
+    trace_at((&renderer, store), &mirror.positions[..positions], (dpp, dpp), spp, (seed, 0.0, QUIET_BUCKET))
 }
 
 /// The queries of the validation set's first `positions.len()` positions, `dirs` of each
@@ -189,19 +194,36 @@ pub fn quiet_references(
 /// roughness `r` from the streams of `bucket` (0: the mirror set's), in parallel over the
 /// positions.
 fn trace_at(
-    renderer: &Renderer,
+    (renderer, store): (&Renderer, Option<&ReferenceStore>),
     positions: &[Vec3],
     (dirs, dirs_per_position): (usize, usize),
     spp: u32,
     (seed, roughness, bucket): (u64, f32, u64),
 ) -> TracedQueries {
-    let parts: Vec<TracedQueries> = positions
-        .par_iter()
-        .enumerate()
-        .map(|(p, b)| {
-            let streams = Streams { seed, dirs_per_position, first: p, roughness, bucket };
-            truth::trace_queries(renderer, std::slice::from_ref(b), dirs, spp, &streams)
-        })
-        .collect();
-    TracedQueries::concat(parts)
+    let trace = || {
+        let parts: Vec<TracedQueries> = positions
+            .par_iter()
+            .enumerate()
+            .map(|(p, b)| {
+                let streams = Streams { seed, dirs_per_position, first: p, roughness, bucket };
+                truth::trace_queries(renderer, std::slice::from_ref(b), dirs, spp, &streams)
+            })
+            .collect();
+        TracedQueries::concat(parts)
+    };
+    match store {
+        Some(store) => {
+            let key = store.key("queries").vec3s(positions).words([
+                dirs as u64,
+                dirs_per_position as u64,
+                u64::from(spp),
+                seed,
+                u64::from(roughness.to_bits()),
+                bucket,
+            ]);
+            let codec = (store::queries_to_words, |w: &[u32]| store::queries_from_words(w, positions));
+            store.cached("queries", key, codec, trace)
+        }
+        None => trace(),
+    }
 }

@@ -442,6 +442,8 @@ pub fn evaluate(
         Some(g) => g.roughness().cloned(),
         None => Some(crate::roughness::fit_correction()),
     };
+    // references traced once per scene content, kept beside the bake for later runs
+    let references = eval::store::ReferenceStore::new(&out.folder.bake(), &baked.scene.content_key());
     let subject = eval::Subject {
         baked,
         warp,
@@ -449,8 +451,10 @@ pub fn evaluate(
         corrective_rows: &rows,
         runtime: runtime.as_ref(),
         correction: correction.as_ref(),
+        references: Some(&references),
     };
-    let ev = eval::evaluate(subject, settings, out.command, out.progress);
+    let mut ev = eval::evaluate(subject, settings, out.command, out.progress);
+    (ev.report.times.reference_sets_traced, ev.report.times.reference_sets_reused) = references.counts();
     report::write_evaluation(out.folder, &ev)?;
     // each surface-probe atlas as a game loads it, read back before the run is committed
     for (k, atlas) in ev.surface_atlases.iter().enumerate() {

@@ -92,8 +92,9 @@ pub fn sweep(
         let bake = &bakes.iter().find(|(r, _)| *r == c.probe_resolution).expect("baked above").1;
         let baked = bake.baked(scene, &tracer);
         // the validation set depends on the grid and the probe position only: one for all rows
-        let set = set
-            .get_or_insert_with(|| eval::validation_set(scene, &tracer, &bake.grid, &bake.positions(), eval_settings));
+        let set = set.get_or_insert_with(|| {
+            eval::validation_set(scene, &tracer, &bake.grid, &bake.positions(), eval_settings, None)
+        });
         let (exposure, view_refs) = views.get_or_insert_with(|| {
             let exposure = bake.probe.warp_probe().key_exposure();
             let rs = eval_settings.renders.unwrap_or(RenderSettings::standard());
@@ -107,8 +108,7 @@ pub fn sweep(
                         .map(|(k, v)| {
                             let tag = 0x5EE9_0000 + (b * 16 + k) as u64;
                             renders::reference(
-                                scene,
-                                &tracer,
+                                (scene, &tracer, None),
                                 v,
                                 r,
                                 rs.reference_spp,

@@ -97,6 +97,31 @@ pub struct View {
 }
 
 impl View {
+    /// Its pixels.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.pixels.len()
+    }
+
+    /// Whether it has no pixels.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.pixels.is_empty()
+    }
+
+    /// Every pixel's query point and direction (the background's: zero), what its
+    /// reference is traced for.
+    #[must_use]
+    pub fn queries(&self) -> (Vec<Vec3>, Vec<Vec3>) {
+        self.pixels
+            .iter()
+            .map(|p| match *p {
+                Pixel::Query { b, dir, .. } => (b, dir),
+                Pixel::Background(c) => (c, Vec3::ZERO),
+            })
+            .unzip()
+    }
+
     /// Share of the pixels that see geometry (a front face, or either face of a two-sided
     /// material): the rest show sky or a back face, the same for every row.
     #[must_use]
@@ -423,10 +448,22 @@ pub fn reference(
     spp: u32,
     (seed, stream, exposure): (u64, u64, f32),
 ) -> ViewReference {
+    let halves = reference_halves(scene, tracer, view, r, spp, (seed, stream));
+    reference_from_halves(view, r, spp, halves, exposure)
+}
+
+/// The traced part of [`reference`]: each pixel's two halves of `spp` lobe samples.
+pub fn reference_halves(
+    scene: &Scene,
+    tracer: &Tracer,
+    view: &View,
+    r: f32,
+    spp: u32,
+    (seed, stream): (u64, u64),
+) -> Vec<(Vec3, Vec3)> {
     let renderer = Renderer::new(scene, tracer);
     let half = (spp / 2).max(1);
-    let halves: Vec<(Vec3, Vec3)> = view
-        .pixels
+    view.pixels
         .par_iter()
         .enumerate()
         .map(|(p, px)| match *px {
@@ -435,7 +472,13 @@ pub fn reference(
                 lobe_halves(&renderer, (b, dir, r), half, (seed, hash_pair(stream, p as u64)))
             }
         })
-        .collect();
+        .collect()
+}
+
+/// [`reference`] from its traced halves ([`reference_halves`]).
+#[must_use]
+pub fn reference_from_halves(view: &View, r: f32, spp: u32, halves: Vec<(Vec3, Vec3)>, exposure: f32) -> ViewReference {
+    let half = (spp / 2).max(1);
     let reference: Vec<Vec3> = halves.iter().map(|(a, b)| (*a + *b) * 0.5).collect();
     let (a, b): (Vec<Vec3>, Vec<Vec3>) = halves.into_iter().unzip();
     let noise_flip = flip::mean(&flip::flip_hdr(&a, &b, view.width, view.height, exposure));

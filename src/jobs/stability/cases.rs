@@ -149,7 +149,7 @@ fn method_errors(fx: &Fixture, mode: Mode) -> Vec<(String, f64)> {
         reference_spp: 2,
         ..EvalSettings::default()
     };
-    let set = eval::validation_set(&fx.scene, &fx.tracer, &fx.bake.grid, &fx.bake.positions(), &settings);
+    let set = eval::validation_set(&fx.scene, &fx.tracer, &fx.bake.grid, &fx.bake.positions(), &settings, None);
     Method::PER_LOOKUP
         .iter()
         .map(|&m| {

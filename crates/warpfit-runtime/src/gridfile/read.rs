@@ -1013,7 +1013,9 @@ fn read_proxies(m: &GridManifest, mp: &Path, bounds: &ValueBounds) -> Result<(Me
         _ => return Err(invalid(mp, "warp.fallback", format!("{:?} is not a proxy (box, kdop or warp1)", w.fallback))),
     };
     let o = &w.options;
-    let last_mip = m.probe.distance_mips.len().saturating_sub(1) as f32;
+    // the sampler clamps the depth mip to the chain; the writer keeps the standard 2 on a
+    // shorter chain, and no chain is longer than a 4096² probe's 13 mips
+    let last_mip = 16.0;
     if !((0.0..=last_mip).contains(&o.depth_lod) && (0.0..=MAX_RELAX_TEXELS).contains(&o.relax_texels))
         || o.secant_steps > 64
         || o.march_steps > 4096
@@ -1021,9 +1023,7 @@ fn read_proxies(m: &GridManifest, mp: &Path, bounds: &ValueBounds) -> Result<(Me
         return Err(invalid(
             mp,
             "warp.options",
-            format!(
-                "depth_lod must lie in [0, {last_mip}] (the distance mips), relax_texels in [0, {MAX_RELAX_TEXELS}], steps bounded"
-            ),
+            format!("depth_lod must lie in [0, {last_mip}], relax_texels in [0, {MAX_RELAX_TEXELS}], steps bounded"),
         ));
     }
     // a shape beyond a million diagonals of the grid is damage, as a distance would be
