@@ -18,7 +18,7 @@ fn methods(c: &mut Criterion) {
     let tracer = Tracer::new(&scene);
     let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
     let settings = EvalSettings { positions: 64, dirs_per_position: 256, reference_spp: 1, ..EvalSettings::default() };
-    let set = eval::validation_set(&scene, &tracer, &baked.grid, &[baked.probe.position], &settings);
+    let set = eval::validation_set(&scene, &tracer, &baked.grid, &[baked.probe.position], &settings, None);
     let warp = warpfit::bake::warp(&scene, &baked.probe, WarpOptions::standard());
     let n = set.dirs.len();
     let queries: Vec<(Vec3, Vec3)> = (0..n).map(|k| (set.position_of(k), set.dirs[k])).collect();

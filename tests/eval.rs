@@ -183,7 +183,7 @@ fn validation_positions_avoid_cell_centres_and_geometry() {
     let tracer = Tracer::new(&s);
     let baked = warpfit::bake::bake(&s, &tracer, &Progress::quiet());
     let settings = EvalSettings { positions: 64, dirs_per_position: 4, reference_spp: 1, ..EvalSettings::default() };
-    let set = warpfit::eval::validation_set(&s, &tracer, &baked.grid, &[baked.probe.position], &settings);
+    let set = warpfit::eval::validation_set(&s, &tracer, &baked.grid, &[baked.probe.position], &settings, None);
     assert_eq!(set.positions.len(), 64);
     let g = &baked.grid.geometry;
     for p in &set.positions {
@@ -192,7 +192,7 @@ fn validation_positions_avoid_cell_centres_and_geometry() {
         assert!((*p - g.cell_centre(cell)).length() > 1e-4, "{p} sits on a cell centre");
     }
     // seeded: the same settings give the same set
-    let again = warpfit::eval::validation_set(&s, &tracer, &baked.grid, &[baked.probe.position], &settings);
+    let again = warpfit::eval::validation_set(&s, &tracer, &baked.grid, &[baked.probe.position], &settings, None);
     assert_eq!(set.positions, again.positions);
     assert_eq!(set.reference, again.reference);
 }

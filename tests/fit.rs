@@ -159,7 +159,7 @@ fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
     // set selection used), over the lookups whose cell stores a map.
     let settings =
         warpfit::eval::EvalSettings { positions: 96, dirs_per_position: 64, reference_spp: 2, ..Default::default() };
-    let set = warpfit::eval::validation_set(&scene, &tracer, &baked.grid, &baked.positions(), &settings);
+    let set = warpfit::eval::validation_set(&scene, &tracer, &baked.grid, &baked.positions(), &settings, None);
     let levels = warpfit::eval::metrics::level_errors(&warp, &set, &a.correctives, 1.0);
     let stored = levels.iter().find(|l| l.level == 2).expect("validation lookups in stored cells");
     assert!(stored.lookups > 500, "only {} held-out lookups in stored cells", stored.lookups);

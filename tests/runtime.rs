@@ -115,7 +115,7 @@ fn runtime_equals_the_fitters_evaluation_on_the_validation_set() {
     let f = fixture();
     let g = FittedGrid::load(&f.f32_dir).unwrap();
     let settings = EvalSettings { positions: 48, dirs_per_position: 32, reference_spp: 2, ..EvalSettings::default() };
-    let set = eval::validation_set(&f.scene, &f.tracer, &f.grid, &[f.probe.position], &settings);
+    let set = eval::validation_set(&f.scene, &f.tracer, &f.grid, &[f.probe.position], &settings, None);
     assert!(f.fit.correctives.stored_cells() > 0, "the test needs stored maps");
     let mut worst = 0.0f32;
     for k in 0..set.dirs.len() {

@@ -424,7 +424,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         // the rough bucket's queries, traced with `spp`-sample references
         let size = (settings.rough_positions as usize, settings.rough_dirs as usize);
         let trace_rough = |spp: u32| {
-            validation::rough_set(scene, tracer, &mirror, (r, bucket as u64), size, spp, settings.seed, references)
+            validation::rough_set((scene, tracer, references), &mirror, (r, bucket as u64), size, spp, settings.seed)
         };
         let set = if r == 0.0 {
             None

@@ -145,14 +145,12 @@ pub fn positions(
 /// (`spp` samples each; `bucket` > 0 names their streams). Oracle directions and hidden
 /// flags are the mirror set's for the same rays.
 pub fn rough_set(
-    scene: &Scene,
-    tracer: &Tracer,
+    (scene, tracer, store): (&Scene, &Tracer, Option<&ReferenceStore>),
     mirror: &ValidationSet,
     (r, bucket): (f32, u64),
     (positions, dirs): (usize, usize),
     spp: u32,
     seed: u64,
-    store: Option<&ReferenceStore>,
 ) -> ValidationSet {
     let renderer = Renderer::new(scene, tracer);
     let base_dpp = mirror.dirs_per_position;
