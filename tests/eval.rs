@@ -35,7 +35,8 @@ fn eval_writes_json_markdown_and_plot_with_the_promised_keys() {
             .unwrap();
     assert!(!baked_again);
     let settings = EvalSettings { positions: 16, dirs_per_position: 64, reference_spp: 4, ..EvalSettings::quick() };
-    let baked = job::Baked { scene: &scene, tracer: &tracer, probe: &probe, others: &[], grid: &grid };
+    let baked =
+        job::Baked { scene: &scene, tracer: &tracer, probe: &probe, others: &[], grid: &grid, references: None };
     let warp = baked.warp(settings.options);
     let out = Output { folder: &folder, command: "test", progress: &Progress::quiet() };
     let report = job::evaluate(baked, &warp, &settings, &Method::ALL, None, out).unwrap();
@@ -207,7 +208,8 @@ fn noisy_rough_buckets_are_traced_again_with_more_samples() {
     let tracer = Tracer::new(&scene);
     let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
     let (probe, grid) = (baked.probe, baked.grid);
-    let baked = job::Baked { scene: &scene, tracer: &tracer, probe: &probe, others: &[], grid: &grid };
+    let baked =
+        job::Baked { scene: &scene, tracer: &tracer, probe: &probe, others: &[], grid: &grid, references: None };
     let methods = [Method::None, Method::Box, Method::Kdop, Method::Warp1];
     let eval = |spp: u32, max: u32| {
         let settings = EvalSettings {

@@ -136,17 +136,22 @@ fn report_is_self_contained_complete_and_opens_in_chromium() {
 #[test]
 fn a_second_run_traces_no_reference_and_answers_the_same() {
     let dir = tmp_dir("references-once");
+    // the evaluation, the sets the whole run traced and read back, the fitted grid's payloads
     let run = || {
         let mut p = job::prepare(load("tiny"), RunFolder::new(&dir), &Progress::quiet()).unwrap();
         let settings =
             job::RunSettings { eval: EvalSettings::quick(), fit: FitSettings::quick(), ..Default::default() };
-        job::run(&mut p, &settings, "test", &Progress::quiet()).unwrap().eval
+        let out = job::run(&mut p, &settings, "test", &Progress::quiet()).unwrap();
+        let payloads: Vec<String> = out.manifest.payloads.iter().map(|x| x.checksum.clone()).collect();
+        (out.eval, p.references.counts(), payloads)
     };
-    let first = run();
+    let (first, counts, grid) = run();
     assert!(first.times.reference_sets_traced > 0 && first.times.reference_sets_reused == 0, "{:?}", first.times);
-    let second = run();
-    assert_eq!(second.times.reference_sets_traced, 0, "{:?}", second.times);
+    assert!(counts.0 > first.times.reference_sets_traced, "the fit's sets are kept too: {counts:?}");
+    let (second, counts_again, grid_again) = run();
+    assert_eq!(counts_again, (0, counts.0), "a second run traces no reference set");
     assert_eq!(second.times.reference_sets_reused, first.times.reference_sets_traced);
+    assert_eq!(grid, grid_again, "the fitted grid is byte for byte the same");
     // everything but what was timed (the stages, each row's cost per lookup)
     fn untimed(v: &mut serde_json::Value) {
         match v {
@@ -192,7 +197,7 @@ fn a_second_run_traces_no_reference_and_answers_the_same() {
     let k = bytes.len() / 2;
     bytes[k] ^= 0x40;
     std::fs::write(&file, bytes).unwrap();
-    let third = run();
-    assert_eq!(third.times.reference_sets_traced, 1, "{:?}", third.times);
-    assert!(answers(&first) == answers(&third));
+    let (third, counts_third, grid_third) = run();
+    assert_eq!(counts_third.0, 1, "the damaged set is traced again: {counts_third:?}");
+    assert!(answers(&first) == answers(&third) && grid == grid_third);
 }

@@ -25,6 +25,8 @@ pub struct Baked<'a> {
     /// The scene's other specular probes (`[probes]`), after probe A: empty for one probe.
     pub others: &'a [SpecularProbe],
     pub grid: &'a ProbeGrid,
+    /// Where the references traced against it are kept between runs (none: traced anew).
+    pub references: Option<&'a crate::trace::store::ReferenceStore>,
 }
 
 impl Baked<'_> {
@@ -120,7 +122,7 @@ impl Bake {
 
     /// The bake's stages' view of it with its scene and tracer.
     pub fn baked<'a>(&'a self, scene: &'a Scene, tracer: &'a Tracer) -> Baked<'a> {
-        Baked { scene, tracer, probe: &self.probe, others: &self.others, grid: &self.grid }
+        Baked { scene, tracer, probe: &self.probe, others: &self.others, grid: &self.grid, references: None }
     }
 }
 

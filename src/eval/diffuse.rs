@@ -26,6 +26,7 @@ use crate::runtime::IrradianceBlend;
 use crate::runtime::IrradianceGrid;
 use crate::sampling::{Sampler, hash_pair, uniform_sphere};
 use crate::scene::Scene;
+use crate::trace::store::{self, ReferenceStore};
 use crate::trace::{Renderer, Tracer, truth};
 use glam::{UVec3, Vec3};
 use rayon::prelude::*;
@@ -282,8 +283,7 @@ pub struct DiffuseReport {
 /// Diffuse references of the camera views: E per surface pixel (background as is), in two
 /// halves of `spp` samples, and the ꟻLIP between the halves.
 fn view_references(
-    scene: &Scene,
-    tracer: &Tracer,
+    (scene, tracer, store): (&Scene, &Tracer, Option<&ReferenceStore>),
     views: &[View],
     spp: u32,
     seed: u64,
@@ -295,37 +295,50 @@ fn view_references(
         .enumerate()
         .map(|(v, view)| {
             let half = (spp / 2).max(1);
-            let px: Vec<(Vec3, Vec3)> = view
-                .surfaces()
-                .par_iter()
-                .enumerate()
-                .map(|(k, s)| match *s {
-                    Ok((b, n)) => {
-                        let stream = hash_pair(hash_pair(DOMAIN_EVAL, 0xD22 + v as u64), k as u64);
-                        let mut rays = 0;
-                        let a = truth::irradiance_reference(
-                            &renderer,
-                            b,
-                            n,
-                            half,
-                            |j| Sampler::new(seed, stream, j),
-                            &mut rays,
-                        )
-                        .0;
-                        let c = truth::irradiance_reference(
-                            &renderer,
-                            b,
-                            n,
-                            half,
-                            |j| Sampler::new(seed, stream, j + half),
-                            &mut rays,
-                        )
-                        .0;
-                        (a / PI, c / PI)
-                    }
-                    Err(bg) => (bg, bg),
-                })
-                .collect();
+            let surfaces = view.surfaces();
+            let trace = || -> Vec<(Vec3, Vec3)> {
+                surfaces
+                    .par_iter()
+                    .enumerate()
+                    .map(|(k, s)| match *s {
+                        Ok((b, n)) => {
+                            let stream = hash_pair(hash_pair(DOMAIN_EVAL, 0xD22 + v as u64), k as u64);
+                            let mut rays = 0;
+                            let a = truth::irradiance_reference(
+                                &renderer,
+                                b,
+                                n,
+                                half,
+                                |j| Sampler::new(seed, stream, j),
+                                &mut rays,
+                            )
+                            .0;
+                            let c = truth::irradiance_reference(
+                                &renderer,
+                                b,
+                                n,
+                                half,
+                                |j| Sampler::new(seed, stream, j + half),
+                                &mut rays,
+                            )
+                            .0;
+                            (a / PI, c / PI)
+                        }
+                        Err(bg) => (bg, bg),
+                    })
+                    .collect()
+            };
+            let px = match store {
+                Some(store) => {
+                    let (b, n): (Vec<Vec3>, Vec<Vec3>) =
+                        surfaces.iter().map(|s| s.map_or_else(|bg| (bg, Vec3::ZERO), |x| x)).unzip();
+                    let key = store.key("diffuse-view").vec3s(&b).vec3s(&n).words([u64::from(spp), seed, v as u64]);
+                    let len = surfaces.len();
+                    let codec = (|h: &Vec<_>| store::pairs_to_words(h), |w: &[u32]| store::pairs_from_words(w, len));
+                    store.cached("diffuse-view", key, codec, trace)
+                }
+                None => trace(),
+            };
             let (a, b): (Vec<Vec3>, Vec<Vec3>) = px.iter().copied().unzip();
             let noise = flip::mean(&flip::flip_hdr(&a, &b, view.width, view.height, exposure));
             (px.iter().map(|(a, b)| (*a + *b) * 0.5).collect(), noise)
@@ -336,8 +349,7 @@ fn view_references(
 /// Evaluates `methods` on `set` and on the diffuse-shaded camera `views`; also returns the
 /// first camera's figure (reference and every grid row with its ꟻLIP map).
 pub fn evaluate(
-    scene: &Scene,
-    tracer: &Tracer,
+    (scene, tracer, store): (&Scene, &Tracer, Option<&ReferenceStore>),
     set: &DiffuseSet,
     methods: &[DiffuseMethod],
     views: &[View],
@@ -345,7 +357,7 @@ pub fn evaluate(
 ) -> (DiffuseReport, Option<super::FlipFigure>) {
     let cameras: Vec<&View> = views.iter().filter(|v| v.camera).collect();
     let cams: Vec<View> = cameras.iter().map(|v| (*v).clone()).collect();
-    let refs = view_references(scene, tracer, &cams, view_spp, seed, exposure);
+    let refs = view_references((scene, tracer, store), &cams, view_spp, seed, exposure);
     let mut rows = Vec::new();
     let mut estimates = Vec::new();
     // the figure shows the camera of most contrast (variance of the reference's log

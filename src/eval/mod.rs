@@ -26,7 +26,6 @@ pub mod methods;
 pub mod metrics;
 pub mod options;
 pub mod renders;
-pub mod store;
 pub mod surface;
 pub mod timing;
 pub mod validation;
@@ -194,7 +193,7 @@ pub struct EvalTimes {
     /// The diffuse table (its references and views) and the surface probes.
     pub diffuse_and_surfaces: f64,
     /// Sets of references traced by this run, and read back from an earlier run's
-    /// (`store::ReferenceStore`; both 0 without a store).
+    /// (`crate::trace::store::ReferenceStore`; both 0 without a store).
     #[serde(default)]
     pub reference_sets_traced: u64,
     #[serde(default)]
@@ -343,8 +342,6 @@ pub struct Subject<'a> {
     pub runtime: Option<&'a FittedGrid>,
     /// The correction the `Corrected` mip rule applies (the fitted grid's).
     pub correction: Option<&'a RoughnessCorrection>,
-    /// Where traced references are kept between runs (none: every reference is traced).
-    pub references: Option<&'a store::ReferenceStore>,
 }
 
 /// A figure of one roughness bucket's camera view: the reference, then a few rows' images
@@ -377,7 +374,8 @@ pub struct Evaluation {
 /// Evaluates the subject on its scene's validation set, every row on every roughness
 /// bucket. `subject.warp` must carry `settings.options`.
 pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progress: &Progress) -> Evaluation {
-    let Subject { baked, warp, methods, corrective_rows, runtime, correction, references } = subject;
+    let Subject { baked, warp, methods, corrective_rows, runtime, correction } = subject;
+    let references = baked.references;
     let Baked { scene, tracer, grid, .. } = baked;
     let t0 = std::time::Instant::now();
     let shading = Glossy { warp, correction };
@@ -641,8 +639,13 @@ fn diffuse_table(
             methods.push(diffuse::DiffuseMethod::ProbeA(probe_a));
             methods.push(diffuse::DiffuseMethod::Voxel(&voxels));
             let view_spp = settings.renders.map_or(0, |r| r.reference_spp);
-            let (mut r, figure) =
-                diffuse::evaluate(scene, tracer, &set, &methods, views, (view_spp, settings.seed, exposure));
+            let (mut r, figure) = diffuse::evaluate(
+                (scene, tracer, baked.references),
+                &set,
+                &methods,
+                views,
+                (view_spp, settings.seed, exposure),
+            );
             r.reference_spp = settings.diffuse_spp;
             flip_figures.extend(figure);
             Some(r)
@@ -735,7 +738,7 @@ fn insert_bounds(results: &mut Vec<MethodResult>, warp: &Warp, set: &ValidationS
 /// Bucket `bucket`'s (roughness `r`) reference views of every camera, from streams of
 /// their own (none without rendered views).
 fn view_references(
-    (baked, references): (Baked, Option<&store::ReferenceStore>),
+    (baked, references): (Baked, Option<&crate::trace::store::ReferenceStore>),
     views: &[crate::perceptual::View],
     (r, bucket): (f32, usize),
     settings: &EvalSettings,
@@ -815,7 +818,7 @@ fn judged_irradiance<'a>(
 /// again with quiet references from streams of their own; with the rays traced (none when
 /// the settings ask for no quiet references).
 fn quiet_ceiling(
-    (baked, references): (Baked, Option<&store::ReferenceStore>),
+    (baked, references): (Baked, Option<&crate::trace::store::ReferenceStore>),
     set: &ValidationSet,
     (rows, champion): (&[methods::Row], &str),
     shading: Glossy,

@@ -15,13 +15,13 @@ use glam::Vec3;
 /// [`perceptual::reference`] of `view` at roughness `r` from the evaluation's stream `tag`
 /// (per view and bucket).
 pub fn reference(
-    (scene, tracer, store): (&Scene, &Tracer, Option<&super::store::ReferenceStore>),
+    (scene, tracer, store): (&Scene, &Tracer, Option<&crate::trace::store::ReferenceStore>),
     view: &View,
     r: f32,
     spp: u32,
     (seed, tag, exposure): (u64, u64, f32),
 ) -> ViewReference {
-    use super::store;
+    use crate::trace::store;
     let stream = hash_pair(hash_pair(DOMAIN_EVAL, 0x7E57), tag);
     let trace = || perceptual::reference_halves(scene, tracer, view, r, spp, (seed, stream));
     let halves = match store {

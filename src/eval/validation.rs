@@ -5,11 +5,11 @@
 //! come from `trace::truth`.
 
 use super::EvalSettings;
-use super::store::{self, ReferenceStore};
 use crate::bake::ProbeGrid;
 use crate::grid::GridGeometry;
 use crate::sampling::{Sampler, hash_pair};
 use crate::scene::Scene;
+use crate::trace::store::{self, ReferenceStore};
 use crate::trace::truth::{self, Oracle, QueryStreams, TracedQueries};
 use crate::trace::{Renderer, Tracer};
 use crate::warp::glossy::Aim;
@@ -219,7 +219,9 @@ fn trace_at(
                 u64::from(roughness.to_bits()),
                 bucket,
             ]);
-            let codec = (store::queries_to_words, |w: &[u32]| store::queries_from_words(w, positions));
+            let codec = (store::queries_to_words, |w: &[u32]| {
+                store::queries_from_words(w).filter(|q| q.positions == positions)
+            });
             store.cached("queries", key, codec, trace)
         }
         None => trace(),

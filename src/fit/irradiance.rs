@@ -355,26 +355,42 @@ impl<'a> SurfacePoints<'a> {
 pub fn trace_references(baked: Baked, points: &SurfacePoints, seed: u64, ranges: &PointRanges) -> References {
     let renderer = Renderer::new(baked.scene, baked.tracer);
     let trace = |pts: &PointSet, range: std::ops::Range<usize>, tag: u64| -> (Vec<Vec3>, u64) {
-        // rays summed as they go (an integer sum: any order gives the same), the references
-        // collected straight into their vector
-        let rays = AtomicU64::new(0);
-        let traced: Vec<Vec3> = range
-            .into_par_iter()
-            .map(|i| {
-                let (p, n) = pts.get(i);
-                let mut k = 0;
-                let stream = hash_pair(hash_pair(DOMAIN_FIT, tag), i as u64);
-                let (reference, _) =
-                    truth::irradiance_reference(&renderer, p, n, SPP, |j| Sampler::new(seed, stream, j), &mut k);
-                rays.fetch_add(k, Ordering::Relaxed);
-                reference
-            })
-            .collect();
-        (traced, rays.into_inner())
+        let Some(store) = baked.references else { return trace_range(&renderer, pts, range, (seed, tag)) };
+        let (p, n): (Vec<Vec3>, Vec<Vec3>) = range.clone().map(|i| pts.get(i)).unzip();
+        let key = store.key("irradiance").vec3s(&p).vec3s(&n).words([u64::from(SPP), seed, tag]);
+        let len = range.len();
+        let codec = (crate::trace::store::traced_to_words, |w: &[u32]| crate::trace::store::traced_from_words(w, len));
+        store.cached("irradiance", key, codec, || trace_range(&renderer, pts, range, (seed, tag)))
     };
     let (train, train_rays) = trace(&points.train, ranges.train.clone(), 0x1C);
     let (check, check_rays) = trace(&points.check, ranges.check.clone(), 0x1D);
     References { train, check, rays: train_rays + check_rays }
+}
+
+/// The irradiance references of `pts` in `range` (the streams of `tag`), with the rays
+/// traced for them.
+fn trace_range(
+    renderer: &Renderer,
+    pts: &PointSet,
+    range: std::ops::Range<usize>,
+    (seed, tag): (u64, u64),
+) -> (Vec<Vec3>, u64) {
+    // rays summed as they go (an integer sum: any order gives the same), the references
+    // collected straight into their vector
+    let rays = AtomicU64::new(0);
+    let traced: Vec<Vec3> = range
+        .into_par_iter()
+        .map(|i| {
+            let (p, n) = pts.get(i);
+            let mut k = 0;
+            let stream = hash_pair(hash_pair(DOMAIN_FIT, tag), i as u64);
+            let (reference, _) =
+                truth::irradiance_reference(renderer, p, n, SPP, |j| Sampler::new(seed, stream, j), &mut k);
+            rays.fetch_add(k, Ordering::Relaxed);
+            reference
+        })
+        .collect();
+    (traced, rays.into_inner())
 }
 
 /// Fits the diffuse correctives of `grid` (irradiance without corrections) for the baked

@@ -29,6 +29,7 @@ use crate::progress::Progress;
 use crate::roughness::RoughnessCorrection;
 use crate::sampling::{Sampler, hash_pair};
 use crate::trace::Renderer;
+use crate::trace::store::{self, ReferenceStore};
 use crate::trace::truth::{self, QueryStreams, TracedQueries};
 use crate::warp::corrective::{Correctives, NO_MAP, rough_weight};
 use crate::warp::glossy::Glossy;
@@ -443,12 +444,39 @@ const VOLUME_ATTEMPTS: u32 = 64;
 /// rest uniform in the cell where the inside rule does not reject them (uniform
 /// directions); references traced by `trace::truth`.
 fn cell_samples(
-    renderer: &Renderer,
+    (renderer, store): (&Renderer, Option<&ReferenceStore>),
     geometry: &GridGeometry,
     cell: usize,
     q: QuerySize,
     seed: u64,
     tag: u64,
+) -> TracedQueries {
+    let Some(store) = store else { return trace_cell_samples(renderer, geometry, cell, q, (seed, tag)) };
+    // everything the set depends on (its positions and directions are drawn from these)
+    let key = store.key("cell").vec3s(&[geometry.min, geometry.max]).words([
+        u64::from(geometry.counts.x),
+        u64::from(geometry.counts.y),
+        u64::from(geometry.counts.z),
+        cell as u64,
+        u64::from(q.positions),
+        u64::from(q.dirs),
+        u64::from(q.spp),
+        u64::from(q.rough_fraction.to_bits()),
+        u64::from(q.surface_fraction.to_bits()),
+        seed,
+        tag,
+    ]);
+    let trace = || trace_cell_samples(renderer, geometry, cell, q, (seed, tag));
+    store.cached("cell", key, (store::queries_to_words, store::queries_from_words), trace)
+}
+
+/// [`cell_samples`], traced.
+fn trace_cell_samples(
+    renderer: &Renderer,
+    geometry: &GridGeometry,
+    cell: usize,
+    q: QuerySize,
+    (seed, tag): (u64, u64),
 ) -> TracedQueries {
     let (lo, size) = (geometry.min + geometry.cell_coords(cell).as_vec3() * geometry.cell_size(), geometry.cell_size());
     let stream = hash_pair(hash_pair(DOMAIN_FIT, tag), cell as u64);
@@ -687,8 +715,8 @@ pub fn fit_cells(
             let distance = depth_at(s.map_res);
             let sees_only_sky = distance.iter().all(|d| !d.is_finite());
             let tt = Instant::now();
-            let train = cell_samples(&renderer, &g, cell, train_size, s.seed, 1);
-            let check = cell_samples(&renderer, &g, cell, check_size, s.seed, 2);
+            let train = cell_samples((&renderer, baked.references), &g, cell, train_size, s.seed, 1);
+            let check = cell_samples((&renderer, baked.references), &g, cell, check_size, s.seed, 2);
             let rays = train.rays + check.rays;
             let hidden = hidden_fraction(baked, wp.position, &check);
             // the map's origin: the cell probe's position (its centre unless relocated)
@@ -745,7 +773,8 @@ pub fn fit_cells(
                 )
             {
                 let te = Instant::now();
-                let extra = cell_samples(&renderer, &g, cell, size(s.extra_check_positions, s.check_dirs), s.seed, 4);
+                let extra_size = size(s.extra_check_positions, s.check_dirs);
+                let extra = cell_samples((&renderer, baked.references), &g, cell, extra_size, s.seed, 4);
                 (extra_rays, check_positions) = (extra.rays, check_positions + extra.positions.len() as u32);
                 let mut check = check_problem.into_samples();
                 check.extend(samples(&extra));
@@ -1180,7 +1209,7 @@ mod tests {
         let renderer = Renderer::new(&scene, &tracer);
         let g = GridGeometry { min: Vec3::new(-1.0, 0.0, -1.0), max: Vec3::new(1.0, 2.0, 1.0), counts: UVec3::ONE };
         let size = QuerySize { positions: 32, dirs: 4, spp: 1, rough_fraction: 0.0, surface_fraction: 0.0 };
-        let q = cell_samples(&renderer, &g, 0, size, 7, 1);
+        let q = cell_samples((&renderer, None), &g, 0, size, 7, 1);
         assert_eq!(q.positions.len(), 32, "the open quarter of the cell has room for every position");
         // every position above the box's top, where uniform draws would put three in four
         // inside it

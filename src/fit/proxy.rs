@@ -86,7 +86,9 @@ pub fn choose(baked: Baked, glossy: Glossy, s: &FitSettings) -> ProxyOutcome {
         .step_by(step)
         .collect::<Vec<_>>()
         .par_iter()
-        .map(|&&cell| samples(&cell_samples(&renderer, &baked.grid.geometry, cell, size, s.seed, TAG)))
+        .map(|&&cell| {
+            samples(&cell_samples((&renderer, baked.references), &baked.grid.geometry, cell, size, s.seed, TAG))
+        })
         .collect::<Vec<_>>()
         .concat();
     let ctx = CellContext {

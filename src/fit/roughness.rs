@@ -40,6 +40,7 @@ use crate::runtime::IrradianceSh;
 use crate::sampling::{Sampler, hash_pair};
 use crate::tonemap::reinhard;
 use crate::trace::Renderer;
+use crate::trace::store;
 use crate::trace::truth::{self, QueryStreams, TracedQueries};
 use crate::warp::Warp;
 use crate::warp::corrective::{Blend, Correctives};
@@ -146,14 +147,31 @@ fn queries(
             (g.min + (g.cell_coords(cell).as_vec3() + u) * g.cell_size(), None)
         })
         .collect();
-    let parts: Vec<TracedQueries> = positions
-        .par_iter()
-        .enumerate()
-        .map(|(p, &(b, normal))| {
-            truth::trace_queries(&renderer, std::slice::from_ref(&b), DIRS, SPP, &Streams { seed, first: p, normal })
-        })
-        .collect();
-    let q = TracedQueries::concat(parts);
+    let trace = || {
+        let parts: Vec<TracedQueries> = positions
+            .par_iter()
+            .enumerate()
+            .map(|(p, &(b, normal))| {
+                truth::trace_queries(
+                    &renderer,
+                    std::slice::from_ref(&b),
+                    DIRS,
+                    SPP,
+                    &Streams { seed, first: p, normal },
+                )
+            })
+            .collect();
+        TracedQueries::concat(parts)
+    };
+    let q = match baked.references {
+        Some(store) => {
+            let (b, n): (Vec<Vec3>, Vec<Vec3>) = positions.iter().map(|&(b, n)| (b, n.unwrap_or(Vec3::ZERO))).unzip();
+            let key = store.key("roughness").vec3s(&b).vec3s(&n).words([DIRS as u64, u64::from(SPP), seed]);
+            let codec = (store::queries_to_words, store::queries_from_words);
+            store.cached("roughness", key, codec, trace)
+        }
+        None => trace(),
+    };
     let prepared: Vec<(usize, Query)> = (0..q.dirs.len())
         .into_par_iter()
         .map(|k| {

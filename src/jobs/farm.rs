@@ -217,7 +217,7 @@ pub fn fit_shard(
     let t0 = Instant::now();
     let (m, probe, others, mut grid) = read_matching_bake(scene, folder, bakefile::Hits::WithGrid)?;
     let tracer = Tracer::new(scene);
-    let baked = Baked { scene, tracer: &tracer, probe: &probe, others: &others, grid: &grid };
+    let baked = Baked { scene, tracer: &tracer, probe: &probe, others: &others, grid: &grid, references: None };
     let warp = baked.warp(job.options);
     let lobes = run::fit_lobes(baked);
     let glossy = Glossy { warp: &warp, correction: lobes.as_ref() };
@@ -234,7 +234,7 @@ pub fn fit_shard(
     let mut times = fit::FitTimes { cells: t_cells.elapsed().as_secs_f64(), ..fit::FitTimes::default() };
     // only the cells read the hit counts: not held while the references are traced
     grid.hits = Vec::new();
-    let baked = Baked { scene, tracer: &tracer, probe: &probe, others: &others, grid: &grid };
+    let baked = Baked { scene, tracer: &tracer, probe: &probe, others: &others, grid: &grid, references: None };
     let t_points = Instant::now();
     let points = irradiance::SurfacePoints::draw(baked, job.fit.seed);
     times.surface_points = t_points.elapsed().as_secs_f64();
@@ -421,7 +421,8 @@ pub fn merge(
             let job: FitJob = serde_json::from_value(h0.settings.clone())
                 .map_err(|e| FileError::invalid(path0, "settings", e.to_string()))?;
             let tracer = Tracer::new(&scene);
-            let baked = Baked { scene: &scene, tracer: &tracer, probe: &probe, others: &others, grid: &grid };
+            let baked =
+                Baked { scene: &scene, tracer: &tracer, probe: &probe, others: &others, grid: &grid, references: None };
             let warp = baked.warp(job.options);
             let lobes = run::fit_lobes(baked);
             let glossy = Glossy { warp: &warp, correction: lobes.as_ref() };

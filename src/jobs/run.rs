@@ -18,6 +18,7 @@ use crate::report::{self, folder::RunFolder};
 use crate::runtime::FittedGrid;
 use crate::scene::Scene;
 use crate::trace::Tracer;
+use crate::trace::store::ReferenceStore;
 use crate::warp::corrective::Blend;
 use crate::warp::glossy::Glossy;
 use crate::warp::{Method, Warp};
@@ -34,11 +35,20 @@ pub struct Prepared {
     /// The bake was made now (not reused).
     pub baked_now: bool,
     pub folder: RunFolder,
+    /// The references traced against this bake, kept beside it for later runs.
+    pub references: ReferenceStore,
 }
 
 impl Prepared {
     pub fn baked(&self) -> Baked<'_> {
-        Baked { scene: &self.scene, tracer: &self.tracer, probe: &self.probe, others: &self.others, grid: &self.grid }
+        Baked {
+            scene: &self.scene,
+            tracer: &self.tracer,
+            probe: &self.probe,
+            others: &self.others,
+            grid: &self.grid,
+            references: Some(&self.references),
+        }
     }
 }
 
@@ -217,7 +227,8 @@ pub fn prepare_from(
 ) -> Result<Prepared, FileError> {
     let tracer = Tracer::new(&scene);
     let (probe, others, grid, baked_now) = load_or_bake(&scene, &tracer, (previous, &folder), hits, progress)?;
-    Ok(Prepared { scene, tracer, probe, others, grid, baked_now, folder })
+    let references = ReferenceStore::new(&folder.bake(), &scene.content_key());
+    Ok(Prepared { scene, tracer, probe, others, grid, baked_now, folder, references })
 }
 
 /// [`prepare_from`] reading and writing the same folder (tests, benches, scratch folders),
@@ -442,8 +453,6 @@ pub fn evaluate(
         Some(g) => g.roughness().cloned(),
         None => Some(crate::roughness::fit_correction()),
     };
-    // references traced once per scene content, kept beside the bake for later runs
-    let references = eval::store::ReferenceStore::new(&out.folder.bake(), &baked.scene.content_key());
     let subject = eval::Subject {
         baked,
         warp,
@@ -451,10 +460,12 @@ pub fn evaluate(
         corrective_rows: &rows,
         runtime: runtime.as_ref(),
         correction: correction.as_ref(),
-        references: Some(&references),
     };
+    let before = baked.references.map(ReferenceStore::counts).unwrap_or_default();
     let mut ev = eval::evaluate(subject, settings, out.command, out.progress);
-    (ev.report.times.reference_sets_traced, ev.report.times.reference_sets_reused) = references.counts();
+    let after = baked.references.map(ReferenceStore::counts).unwrap_or_default();
+    (ev.report.times.reference_sets_traced, ev.report.times.reference_sets_reused) =
+        (after.0 - before.0, after.1 - before.1);
     report::write_evaluation(out.folder, &ev)?;
     // each surface-probe atlas as a game loads it, read back before the run is committed
     for (k, atlas) in ev.surface_atlases.iter().enumerate() {

@@ -4,6 +4,7 @@
 pub mod bvh;
 pub mod cwbvh;
 pub mod radiance;
+pub mod store;
 pub mod truth;
 
 pub use bvh::{BuildQuality, Hit, Tracer, coherent_order};

@@ -125,7 +125,8 @@ impl SmallTorture {
         let quiet = warpfit::progress::Progress::quiet();
         let baked = warpfit::bake::bake(&scene, &tracer, &quiet);
         let (probe, grid) = (baked.probe, baked.grid);
-        let b = job::Baked { scene: &scene, tracer: &tracer, probe: &probe, others: &[], grid: &grid };
+        let b =
+            job::Baked { scene: &scene, tracer: &tracer, probe: &probe, others: &[], grid: &grid, references: None };
         let warp = b.warp(warpfit::warp::WarpOptions::standard());
         let out = Output { folder: &warpfit::report::folder::RunFolder::new(dir), command: "test", progress: &quiet };
         let (fit, _) = job::fit(
@@ -148,6 +149,7 @@ impl SmallTorture {
             probe: &self.probe,
             others: &[],
             grid: &self.grid,
+            references: None,
         }
     }
 }

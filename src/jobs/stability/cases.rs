@@ -468,7 +468,8 @@ pub fn leak_figures(mode: Mode) -> Result<([f64; 4], usize), String> {
         out[k] = leak(&ir, Some(IrradianceBlend::Chebyshev));
         if k == 1 {
             let probe = &bake.probe;
-            let baked = crate::bake::Baked { scene: &scene, tracer: &tracer, probe, others: &[], grid: g };
+            let baked =
+                crate::bake::Baked { scene: &scene, tracer: &tracer, probe, others: &[], grid: g, references: None };
             let exposure = crate::bake::warp(&scene, probe, WarpOptions::standard()).probe.key_exposure();
             let seed = crate::fit::FitSettings::standard().seed;
             ir.correction = crate::fit::irradiance::fit_irradiance(baked, ir.view(), exposure, seed).correction;

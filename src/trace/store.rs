@@ -144,13 +144,14 @@ fn read(path: &Path, id: &str) -> Option<Vec<u32>> {
     Some(rest.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
 }
 
-/// A set of traced queries as words (every float's bits; `positions` are the caller's).
+/// A set of traced queries as words (every float's bits).
 #[must_use]
 pub fn queries_to_words(q: &TracedQueries) -> Vec<u32> {
-    let n = q.dirs.len();
-    let mut w = Vec::with_capacity(4 + n * 12);
-    w.extend([n as u32, q.dirs_per_position as u32, (q.rays >> 32) as u32, q.rays as u32]);
+    let (n, np) = (q.dirs.len(), q.positions.len());
+    let mut w = Vec::with_capacity(5 + 3 * np + n * 11);
+    w.extend([n as u32, q.dirs_per_position as u32, (q.rays >> 32) as u32, q.rays as u32, np as u32]);
     let v3 = |w: &mut Vec<u32>, v: &[Vec3]| w.extend(v.iter().flat_map(|x| x.to_array().map(f32::to_bits)));
+    v3(&mut w, &q.positions);
     v3(&mut w, &q.dirs);
     w.extend(q.roughness.iter().map(|x| x.to_bits()));
     v3(&mut w, &q.reference);
@@ -159,23 +160,27 @@ pub fn queries_to_words(q: &TracedQueries) -> Vec<u32> {
     w
 }
 
-/// [`queries_to_words`] read back, at `positions`; `None` when the words are not such a set
-/// for them.
+/// [`queries_to_words`] read back; `None` when the words are not such a set.
 #[must_use]
-pub fn queries_from_words(w: &[u32], positions: &[Vec3]) -> Option<TracedQueries> {
-    let (&[n, dpp, hi, lo], rest) = w.split_first_chunk::<4>()?;
-    let (n, dpp) = (n as usize, dpp as usize);
-    if rest.len() != n * 11 || n != positions.len() * dpp {
+pub fn queries_from_words(w: &[u32]) -> Option<TracedQueries> {
+    let (&[n, dpp, hi, lo, np], rest) = w.split_first_chunk::<5>()?;
+    let (n, dpp, np) = (n as usize, dpp as usize, np as usize);
+    if rest.len() != 3 * np + n * 11 || n != np * dpp {
         return None;
     }
     let f = |s: &[u32]| s.iter().map(|&b| f32::from_bits(b)).collect::<Vec<f32>>();
-    let v3 = |s: &[u32]| s.chunks_exact(3).map(|c| Vec3::from_array(f(c).try_into().unwrap_or([0.0; 3]))).collect();
+    let v3 = |s: &[u32]| {
+        s.chunks_exact(3)
+            .map(|c| Vec3::new(f32::from_bits(c[0]), f32::from_bits(c[1]), f32::from_bits(c[2])))
+            .collect::<Vec<Vec3>>()
+    };
+    let (positions, rest) = rest.split_at(3 * np);
     let (dirs, rest) = rest.split_at(3 * n);
     let (roughness, rest) = rest.split_at(n);
     let (reference, rest) = rest.split_at(3 * n);
     let (reference_se, emitted) = rest.split_at(n);
     Some(TracedQueries {
-        positions: positions.to_vec(),
+        positions: v3(positions),
         dirs: v3(dirs),
         dirs_per_position: dpp,
         roughness: f(roughness),
@@ -200,4 +205,23 @@ pub fn pairs_from_words(w: &[u32], len: usize) -> Option<Vec<(Vec3, Vec3)>> {
     }
     let v = |c: &[u32]| Vec3::new(f32::from_bits(c[0]), f32::from_bits(c[1]), f32::from_bits(c[2]));
     Some(w.chunks_exact(6).map(|c| (v(&c[..3]), v(&c[3..]))).collect())
+}
+
+/// Vectors with the rays traced for them (a set of irradiance references) as words.
+#[must_use]
+pub fn traced_to_words((v, rays): &(Vec<Vec3>, u64)) -> Vec<u32> {
+    let mut w = vec![(rays >> 32) as u32, *rays as u32];
+    w.extend(v.iter().flat_map(|x| x.to_array().map(f32::to_bits)));
+    w
+}
+
+/// [`traced_to_words`] read back; `None` unless it holds `len` vectors.
+#[must_use]
+pub fn traced_from_words(w: &[u32], len: usize) -> Option<(Vec<Vec3>, u64)> {
+    let (&[hi, lo], rest) = w.split_first_chunk::<2>()?;
+    if rest.len() != 3 * len {
+        return None;
+    }
+    let v = rest.chunks_exact(3).map(|c| Vec3::new(f32::from_bits(c[0]), f32::from_bits(c[1]), f32::from_bits(c[2])));
+    Some((v.collect(), (u64::from(hi) << 32) | u64::from(lo)))
 }
