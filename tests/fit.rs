@@ -124,14 +124,7 @@ fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
     let tracer = Tracer::new(&scene);
     let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
     let warp = warpfit::bake::warp(&scene, &baked.probe, warpfit::warp::WarpOptions::standard());
-    let b = warpfit::bake::Baked {
-        scene: &scene,
-        tracer: &tracer,
-        probe: &baked.probe,
-        others: &[],
-        grid: &baked.grid,
-        references: None,
-    };
+    let b = warpfit::bake::Baked { others: &[], ..baked.baked(&scene, &tracer) };
     let lobes = warpfit::roughness::fit_correction();
     let glossy = warpfit::warp::glossy::Glossy { warp: &warp, correction: Some(&lobes) };
     // `moderate`, not `quick`: quick's selection (4 check positions, 1-sample references)
@@ -221,14 +214,7 @@ fn a_cell_seeing_only_sky_stores_nothing() {
     let tracer = Tracer::new(&scene);
     let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
     let warp = warpfit::bake::warp(&scene, &baked.probe, warpfit::warp::WarpOptions::standard());
-    let b = warpfit::bake::Baked {
-        scene: &scene,
-        tracer: &tracer,
-        probe: &baked.probe,
-        others: &[],
-        grid: &baked.grid,
-        references: None,
-    };
+    let b = warpfit::bake::Baked { others: &[], ..baked.baked(&scene, &tracer) };
     let glossy = warpfit::warp::glossy::Glossy { warp: &warp, correction: None };
     let f = fit::fit(b, glossy, &quick_settings(), fit::MapSets::Stored, &Progress::quiet());
     assert_eq!(f.correctives.stored_cells(), 0);
@@ -247,14 +233,7 @@ fn level_one_and_map_resolutions_are_measured_against_the_stored_model_when_aske
     let tracer = Tracer::new(&scene);
     let baked = warpfit::bake::bake(&scene, &tracer, &Progress::quiet());
     let warp = warpfit::bake::warp(&scene, &baked.probe, warpfit::warp::WarpOptions::standard());
-    let b = warpfit::bake::Baked {
-        scene: &scene,
-        tracer: &tracer,
-        probe: &baked.probe,
-        others: &[],
-        grid: &baked.grid,
-        references: None,
-    };
+    let b = warpfit::bake::Baked { others: &[], ..baked.baked(&scene, &tracer) };
     let glossy = warpfit::warp::glossy::Glossy { warp: &warp, correction: None };
     // the level-1 lookup with nothing changed is the plain warp, bit for bit
     let plain =

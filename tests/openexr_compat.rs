@@ -41,14 +41,7 @@ fn bake_and_grid_files_open_in_the_reference_openexr_library() {
     let folder = RunFolder::new(&dir);
     let quiet = Progress::quiet();
     let baked = job::bake(&scene, &tracer, &folder, &quiet).unwrap();
-    let b = job::Baked {
-        scene: &scene,
-        tracer: &tracer,
-        probe: &baked.probe,
-        others: &[],
-        grid: &baked.grid,
-        references: None,
-    };
+    let b = job::Baked { others: &[], ..baked.baked(&scene, &tracer) };
     let warp = b.warp(warpfit::warp::WarpOptions::standard());
     let store = StoreOptions { precision: Precision::F16, roughness: true };
     let out = Output { folder: &folder, command: "test", progress: &quiet };
