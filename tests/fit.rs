@@ -183,7 +183,7 @@ fn fit_is_bit_identical_at_any_thread_count_and_never_worse_where_stored() {
         (&baked.grid.irradiance, &baked.grid.depth_mean, &baked.grid.depth_mean_sq, &baked.grid.probe_offset),
         |c| !baked.grid.inside[c],
     );
-    let held_out = warpfit::eval::diffuse::diffuse_set(&scene, &tracer, &ir, 256, 256, 7);
+    let held_out = warpfit::eval::diffuse::diffuse_set((&scene, &tracer, None), &ir, 256, 256, 7);
     let tm_rmse = |ir: &warpfit::runtime::IrradianceGrid| {
         let sq: f32 = (0..held_out.points.len())
             .map(|i| {

@@ -47,8 +47,7 @@ pub struct DiffuseSet {
 /// `count` held-out surface points inside the grid's bounds (`trace::truth::surface_points`
 /// on the evaluation's own streams), with their references of `spp` samples.
 pub fn diffuse_set(
-    scene: &Scene,
-    tracer: &Tracer,
+    (scene, tracer, store): (&Scene, &Tracer, Option<&ReferenceStore>),
     grid: &IrradianceGrid,
     count: u32,
     spp: u32,
@@ -62,22 +61,52 @@ pub fn diffuse_set(
         (seed, hash_pair(DOMAIN_EVAL, 0xD1F)),
     );
     let renderer = Renderer::new(scene, tracer);
-    let refs: Vec<(Vec3, f32, u64)> = (0..pts.len())
-        .into_par_iter()
-        .map(|i| {
-            let mut rays = 0;
-            let stream = hash_pair(hash_pair(DOMAIN_EVAL, 0xD21), i as u64);
-            let (e, se) = truth::irradiance_reference(
-                &renderer,
-                pts[i].0,
-                pts[i].1,
-                spp,
-                |k| Sampler::new(seed, stream, k),
-                &mut rays,
-            );
-            (e, se, rays)
-        })
-        .collect();
+    let trace = || -> Vec<(Vec3, f32, u64)> {
+        (0..pts.len())
+            .into_par_iter()
+            .map(|i| {
+                let mut rays = 0;
+                let stream = hash_pair(hash_pair(DOMAIN_EVAL, 0xD21), i as u64);
+                let (e, se) = truth::irradiance_reference(
+                    &renderer,
+                    pts[i].0,
+                    pts[i].1,
+                    spp,
+                    |k| Sampler::new(seed, stream, k),
+                    &mut rays,
+                );
+                (e, se, rays)
+            })
+            .collect()
+    };
+    let refs = match store {
+        Some(store) => {
+            let (p, n): (Vec<Vec3>, Vec<Vec3>) = pts.iter().copied().unzip();
+            let key = store.key("diffuse-points").vec3s(&p).vec3s(&n).words([u64::from(spp), seed]);
+            // per point: E's bits, its standard error's, its rays (two words)
+            let to = |v: &Vec<(Vec3, f32, u64)>| -> Vec<u32> {
+                v.iter()
+                    .flat_map(|(e, se, rays)| {
+                        let [x, y, z] = e.to_array().map(f32::to_bits);
+                        [x, y, z, se.to_bits(), (rays >> 32) as u32, *rays as u32]
+                    })
+                    .collect()
+            };
+            let len = pts.len();
+            let from = |w: &[u32]| -> Option<Vec<(Vec3, f32, u64)>> {
+                (w.len() == 6 * len).then(|| {
+                    w.chunks_exact(6)
+                        .map(|c| {
+                            let e = Vec3::new(f32::from_bits(c[0]), f32::from_bits(c[1]), f32::from_bits(c[2]));
+                            (e, f32::from_bits(c[3]), (u64::from(c[4]) << 32) | u64::from(c[5]))
+                        })
+                        .collect()
+                })
+            };
+            store.cached("diffuse-points", key, (to, from), trace)
+        }
+        None => trace(),
+    };
     let mut set = DiffuseSet::default();
     for ((p, n), (e, se, rays)) in pts.into_iter().zip(refs) {
         set.points.push(p);

@@ -617,8 +617,7 @@ fn diffuse_table(
     let diffuse = (settings.diffuse_points > 0)
         .then(|| -> Option<diffuse::DiffuseReport> {
             let set = diffuse::diffuse_set(
-                scene,
-                tracer,
+                (scene, tracer, baked.references),
                 irradiance,
                 settings.diffuse_points,
                 settings.diffuse_spp,
