@@ -331,7 +331,7 @@ pub fn init(mesh: &Path, mesh_as_written: &Path, cell_size: Option<f32>) -> Resu
     let _ = writeln!(t, "name = {name:?}\n");
     let _ = writeln!(
         t,
-        "# Probe A: the most open of {} candidate points (a {n}×{n}×{n} lattice over the bounds, each\n# brought down to eye height, {EYE_HEIGHT} above the walkable floor beneath it{}), mean\n# distance {:.3} to what {SCORE_DIRECTIONS} directions hit, escaping rays counting zero.",
+        "# Probe A: the most open of {} candidate points (a {n}×{n}×{n} lattice over the bounds, each\n# brought down to eye height, {EYE_HEIGHT} above the walkable floor beneath it or half-way up\n# a lower room{}), mean distance {:.3} to what {SCORE_DIRECTIONS} directions hit, escaping rays\n# counting zero.",
         scored.len(),
         if best.eye { "" } else { "; this level has no floor beneath any, so it floats" },
         best.score
