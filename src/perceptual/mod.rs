@@ -452,7 +452,7 @@ pub fn reference(
     reference_from_halves(view, r, spp, halves, exposure)
 }
 
-/// The traced part of [`reference`]: each pixel's two halves of `spp` lobe samples.
+/// The traced part of [`reference()`]: each pixel's two halves of `spp` lobe samples.
 pub fn reference_halves(
     scene: &Scene,
     tracer: &Tracer,
@@ -475,7 +475,7 @@ pub fn reference_halves(
         .collect()
 }
 
-/// [`reference`] from its traced halves ([`reference_halves`]).
+/// [`reference()`] from its traced halves ([`reference_halves`]).
 #[must_use]
 pub fn reference_from_halves(view: &View, r: f32, spp: u32, halves: Vec<(Vec3, Vec3)>, exposure: f32) -> ViewReference {
     let half = (spp / 2).max(1);
