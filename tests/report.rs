@@ -200,4 +200,10 @@ fn a_second_run_traces_no_reference_and_answers_the_same() {
     let (third, counts_third, grid_third) = run();
     assert_eq!(counts_third.0, 1, "the damaged set is traced again: {counts_third:?}");
     assert!(answers(&first) == answers(&third) && grid == grid_third);
+    // asked to (`--force`), every set is traced again
+    let mut p = job::prepare(load("tiny"), RunFolder::new(&dir), &Progress::quiet()).unwrap();
+    p.references.retrace();
+    let settings = job::RunSettings { eval: EvalSettings::quick(), fit: FitSettings::quick(), ..Default::default() };
+    job::run(&mut p, &settings, "test", &Progress::quiet()).unwrap();
+    assert_eq!(p.references.counts(), (counts.0, 0));
 }

@@ -206,7 +206,8 @@ pub struct SceneArgs {
     /// Output folder (default: fits/<scene name>); a matching bake there is reused.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Bake even when the estimate exceeds the machine's available memory.
+    /// Bake even when the estimate exceeds the machine's available memory, and trace every
+    /// reference again instead of reading it back from beside the bake.
     #[arg(long)]
     pub force: bool,
 }

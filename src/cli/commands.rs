@@ -406,7 +406,10 @@ pub fn prepare(
     check_scene(&scene)?;
     job::check_bake_estimate(&scene, args.force)?;
     let tx = job::Transaction::begin(&folder)?;
-    let p = job::prepare_from(scene, &tx.previous, tx.out.clone(), hits, progress)?;
+    let mut p = job::prepare_from(scene, &tx.previous, tx.out.clone(), hits, progress)?;
+    if args.force {
+        p.references.retrace();
+    }
     if p.baked_now {
         println!("baked {} → {}", p.scene.name, folder.bake().display());
     } else {

@@ -23,6 +23,8 @@ pub struct ReferenceStore {
     /// Sets traced, and sets read back.
     traced: AtomicU64,
     reused: AtomicU64,
+    /// Trace every set again (and store it), reading none back (`--force`).
+    retrace: bool,
 }
 
 /// What a set of references depends on, hashed: the scene's content, what the set is, and
@@ -59,7 +61,13 @@ impl ReferenceStore {
             scene: scene.to_string(),
             traced: AtomicU64::new(0),
             reused: AtomicU64::new(0),
+            retrace: false,
         }
+    }
+
+    /// From now on every set is traced again and stored, none read back.
+    pub fn retrace(&mut self) {
+        self.retrace = true;
     }
 
     /// The key of a set named `what`.
@@ -90,7 +98,7 @@ impl ReferenceStore {
     ) -> T {
         let path = self.dir.join(key.name(what));
         let id = key.0.finish();
-        if let Some(v) = read(&path, &id).and_then(|w| from(&w)) {
+        if let Some(v) = (!self.retrace).then(|| read(&path, &id)).flatten().and_then(|w| from(&w)) {
             self.reused.fetch_add(1, Ordering::Relaxed);
             return v;
         }
