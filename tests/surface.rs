@@ -318,7 +318,11 @@ fn check_warns_of_a_patch_in_the_air_or_facing_into_its_floor() {
     let room = "[[geometry]]\ntype = \"room\"\nmin = [-1.0, 0.0, -1.0]\nmax = [1.0, 2.0, 1.0]\n";
     let warnings = |probes: &str| {
         let s = scene("", &format!("[sky]\ncolor = [1.0, 1.0, 1.0]\n{room}{probes}"));
-        warpfit::jobs::check::check(&s, &Tracer::new(&s)).warnings
+        // the patch's warnings (this closed room lit from outside also gets the light check's)
+        let all = warpfit::jobs::check::check(&s, &Tracer::new(&s)).warnings;
+        all.into_iter()
+            .filter(|w| !w.contains("the grid's cells") && !w.contains("coarse for this level"))
+            .collect::<Vec<_>>()
     };
     assert!(warnings(FLOOR_PROBES).is_empty(), "{:?}", warnings(FLOOR_PROBES));
     let flipped = FLOOR_PROBES.replace(
