@@ -154,12 +154,15 @@ pub struct CellProblem<'a> {
     /// Per sample, the probe its lookups read (`Warp::probe_at`; empty: probe A for all):
     /// the probe map's texel nearest its direction, as the runtime reads it.
     probe: Vec<u8>,
-    /// Every sample's index, in order.
-    all: Vec<u32>,
+    /// Every sample, in order.
+    all: QuerySet,
     /// Per texel, the samples whose bilinear footprint includes it.
-    touching: Vec<Vec<u32>>,
+    touching: Vec<QuerySet>,
     /// Neighbouring texel pairs (right and down, seam-wrapped).
     pairs: Vec<(u32, u32)>,
+    /// Per texel, the indices of the pairs it belongs to, in `pairs`' order (a texel's
+    /// smoothness terms without a scan of every pair).
+    texel_pairs: Vec<Vec<u32>>,
     mean_reference: f64,
     eps: f64,
     smooth_weight: f64,
@@ -167,6 +170,25 @@ pub struct CellProblem<'a> {
     /// The log-scales the size term pulls towards.
     anchor: Vec<f64>,
     evaluations: Cell<u64>,
+    /// The errors of the sum being formed (one buffer for every evaluation).
+    scratch: RefCell<Vec<f64>>,
+}
+
+/// Queries a sum runs over: `idx` in the sum's order, `lanes` the order their lookups are
+/// made in (positions in `idx`, the mirror queries first, so that a group of [`LANES`]
+/// reads one mip wherever it can; a query's error does not depend on its group).
+struct QuerySet {
+    idx: Vec<u32>,
+    lanes: Vec<u32>,
+}
+
+impl QuerySet {
+    fn new(idx: Vec<u32>, samples: &[Sample]) -> Self {
+        let mut lanes: Vec<u32> = (0..idx.len() as u32).collect();
+        // (stable: mirror queries first, each kind in the sum's order)
+        lanes.sort_by_key(|&p| samples[idx[p as usize] as usize].roughness != 0.0);
+        QuerySet { idx, lanes }
+    }
 }
 
 /// Where a cell problem lives: the lookup it shades with, the exposure its errors are
@@ -230,7 +252,7 @@ impl<'a> CellProblem<'a> {
         let proxy_distance = ctx.proxy_distances();
         let n2 = (res * res) as usize;
         debug_assert_eq!(start.len(), n2);
-        let mut touching = vec![Vec::new(); n2];
+        let mut touching: Vec<Vec<u32>> = vec![Vec::new(); n2];
         for (i, s) in samples.iter_mut().enumerate() {
             s.taps = octa::bilinear_taps(res, octa::encode(s.dir));
             s.t_proxy = glossy.warp.base_distance(proxy, s.b, s.dir);
@@ -252,6 +274,13 @@ impl<'a> CellProblem<'a> {
                 }
             }
         }
+        let mut texel_pairs = vec![Vec::new(); n2];
+        for (p, &(a, b)) in pairs.iter().enumerate() {
+            texel_pairs[a as usize].push(p as u32);
+            if b != a {
+                texel_pairs[b as usize].push(p as u32);
+            }
+        }
         let tm_reference: Vec<Vec3> = samples.iter().map(|s| reinhard(s.reference, exposure)).collect();
         let mean_reference =
             tm_reference.iter().map(|t| ((t.x + t.y + t.z) / 3.0) as f64).sum::<f64>() / samples.len().max(1) as f64;
@@ -264,18 +293,20 @@ impl<'a> CellProblem<'a> {
             res,
             proxy_distance,
             start,
-            all: (0..samples.len() as u32).collect(),
+            all: QuerySet::new((0..samples.len() as u32).collect(), &samples),
+            touching: touching.into_iter().map(|idx| QuerySet::new(idx, &samples)).collect(),
             samples,
             tm_reference,
             probe: Vec::new(),
-            touching,
             pairs,
+            texel_pairs,
             mean_reference,
             eps: 0.05 * mean_reference,
             smooth_weight: 0.0,
             size_weight: 0.0,
             anchor: vec![0.0; n2],
             evaluations: Cell::new(0),
+            scratch: RefCell::new(Vec::new()),
         };
         problem.set_probe_map(probe_map);
         problem
@@ -331,7 +362,7 @@ impl<'a> CellProblem<'a> {
     /// Texels whose parameter matters (a finite proxy distance, touched by some query).
     fn free_texels(&self) -> Vec<usize> {
         (0..self.proxy_distance.len())
-            .filter(|&k| self.proxy_distance[k].is_finite() && !self.touching[k].is_empty())
+            .filter(|&k| self.proxy_distance[k].is_finite() && !self.touching[k].idx.is_empty())
             .collect()
     }
 
@@ -396,16 +427,29 @@ impl<'a> CellProblem<'a> {
         abs_error(reinhard(self.lookup(i, map, &[]), self.exposure), self.tm_reference[i])
     }
 
-    /// The tone-mapped absolute error of each query in `idx` under `map`, in `idx`'s order:
-    /// the scalar lookup's (`sample_error` in the tests) bit for bit, the lookups made
-    /// [`LANES`] at a time.
-    fn errors<'s>(&'s self, idx: &'s [u32], map: &'s [f32]) -> impl Iterator<Item = f64> + 's {
-        self.errors_by(idx, move |q: &Sample| sample_map(map, &q.taps))
+    /// The tone-mapped absolute error of each query of `set` under `map`, in the set's
+    /// order: the scalar lookup's (`sample_error` in the tests) bit for bit, the lookups
+    /// made [`LANES`] at a time.
+    #[cfg(test)]
+    fn errors(&self, set: &QuerySet, map: &[f32]) -> Vec<f64> {
+        let mut out = Vec::new();
+        self.errors_by(set, |q: &Sample| sample_map(map, &q.taps), &mut out);
+        out
     }
 
-    /// [`Self::errors`] with each query's shift given by `delta`.
-    fn errors_by<'s>(&'s self, idx: &'s [u32], delta: impl Fn(&Sample) -> f32 + 's) -> impl Iterator<Item = f64> + 's {
-        idx.chunks(LANES).flat_map(move |group| self.errors_lanes(group, &delta).into_iter().take(group.len()))
+    /// The errors of the queries of `set` into `out` (in the set's order), each query's
+    /// shift given by `delta`; the lookups are made [`LANES`] at a time in the set's lane
+    /// order (its mirror queries together), each query's error the same in any group.
+    fn errors_by(&self, set: &QuerySet, delta: impl Fn(&Sample) -> f32, out: &mut Vec<f64>) {
+        out.clear();
+        out.resize(set.idx.len(), 0.0);
+        for group in set.lanes.chunks(LANES) {
+            let ids: [u32; LANES] = std::array::from_fn(|l| set.idx[group[l.min(group.len() - 1)] as usize]);
+            let e = self.errors_lanes(&ids, &delta);
+            for (l, &p) in group.iter().enumerate() {
+                out[p as usize] = e[l];
+            }
+        }
     }
 
     /// The errors of up to [`LANES`] queries (a shorter group repeats its last query): the
@@ -459,14 +503,16 @@ impl<'a> CellProblem<'a> {
         (0..self.samples.len()).map(|i| abs_error(self.lookup(i, map, rough), self.samples[i].reference)).collect()
     }
 
-    #[inline]
-    fn rho(&self, e: f64) -> f64 {
-        (e * e + self.eps * self.eps).sqrt() - self.eps
-    }
-
-    fn data_over(&self, idx: &[u32], map: &[f32]) -> f64 {
+    fn data_over(&self, set: &QuerySet, map: &[f32]) -> f64 {
         let n = self.samples.len().max(1) as f64;
-        self.errors(idx, map).map(|e| self.rho(e)).sum::<f64>() / (n * self.mean_reference)
+        let mut e = self.scratch.borrow_mut();
+        self.errors_by(set, |q: &Sample| sample_map(map, &q.taps), &mut e);
+        // the losses in a pass of their own (it vectorises), then their sum in order
+        let eps = self.eps;
+        for x in e.iter_mut() {
+            *x = rho(*x, eps);
+        }
+        e.iter().sum::<f64>() / (n * self.mean_reference)
     }
 
     fn regulariser(&self, s: &[f64]) -> f64 {
@@ -483,9 +529,8 @@ impl<'a> CellProblem<'a> {
 
     /// Full objective at log-scales `s`.
     pub fn cost(&self, s: &[f64]) -> f64 {
-        self.evaluations.set(self.evaluations.get() + 1);
-        let map = self.map(s);
-        self.data_over(&self.all, &map) + self.regulariser(s)
+        let (data, regulariser) = self.cost_parts(s);
+        data + regulariser
     }
 
     /// Root-mean-square of the per-query tone-mapped errors of `map`, relative to the mean
@@ -501,7 +546,9 @@ impl<'a> CellProblem<'a> {
     /// (`warp::corrective::sample_maps`).
     pub fn relative_error_maps(&self, mirror: &[f32], rough: &[f32]) -> f64 {
         let delta = |q: &Sample| sample_maps(mirror, rough, &q.taps, q.roughness);
-        self.rms(self.errors_by(&self.all, delta)) / self.mean_reference
+        let mut e = self.scratch.borrow_mut();
+        self.errors_by(&self.all, delta, &mut e);
+        self.rms(e.iter().copied()) / self.mean_reference
     }
 
     /// Root-mean-square of one error per query.
@@ -514,7 +561,9 @@ impl<'a> CellProblem<'a> {
     /// compares position by position (`selection::undecided`).
     pub fn position_square_errors(&self, mirror: &[f32], rough: &[f32], per: usize) -> Vec<f64> {
         let delta = |q: &Sample| sample_maps(mirror, rough, &q.taps, q.roughness);
-        let sq: Vec<f64> = self.errors_by(&self.all, delta).map(|e| e.powi(2)).collect();
+        let mut e = Vec::new();
+        self.errors_by(&self.all, delta, &mut e);
+        let sq: Vec<f64> = e.iter().map(|e| e.powi(2)).collect();
         sq.chunks(per.max(1)).map(|c| c.iter().sum()).collect()
     }
 
@@ -575,7 +624,11 @@ impl<'a> CellProblem<'a> {
     pub fn solve(&mut self, solver: Solver, iterations: u32) -> Outcome {
         let mut s = self.start.clone();
         let clock = std::time::Instant::now();
-        let cost_start = self.cost(&s);
+        // (data, regularisation) of the start, and of `s` as it goes: each whole-map cost
+        // is computed once and its data term reused by the relaxation's start
+        let start_parts = self.cost_parts(&s);
+        let cost_start = start_parts.0 + start_parts.1;
+        let mut parts = start_parts;
         let mut curve = vec![(0.0, cost_start)];
         let free = self.free_texels();
         let (mut iters, mut termination) = (0u64, Termination::NothingToFit);
@@ -593,7 +646,8 @@ impl<'a> CellProblem<'a> {
                                 break;
                             }
                         }
-                        curve.push((clock.elapsed().as_secs_f64(), self.cost(&s)));
+                        parts = self.cost_parts(&s);
+                        curve.push((clock.elapsed().as_secs_f64(), parts.0 + parts.1));
                     }
                     result.map(|_| (total, None))
                 }
@@ -613,21 +667,22 @@ impl<'a> CellProblem<'a> {
                 }
                 Err(e) => termination = Termination::SolverError { message: e.to_string() },
             }
-            if solver != Solver::Brent {
-                curve.push((clock.elapsed().as_secs_f64(), self.cost(&s)));
+            if solver != Solver::Brent || matches!(termination, Termination::SolverError { .. }) {
+                parts = self.cost_parts(&s);
             }
-            if self.cost(&s) > cost_start || s.iter().any(|x| !x.is_finite()) {
+            if solver != Solver::Brent {
+                curve.push((clock.elapsed().as_secs_f64(), parts.0 + parts.1));
+            }
+            if parts.0 + parts.1 > cost_start || s.iter().any(|x| !x.is_finite()) {
                 s = self.start.clone();
+                parts = start_parts;
                 if let Termination::Finished { kept_start, .. } = &mut termination {
                     *kept_start = true;
                 }
             }
         }
-        let relax = self.fit_relax(&s);
-        let cost_end = {
-            let map = self.map_with_relax(&s, relax);
-            self.data_over(&self.all, &map) + self.regulariser(&s)
-        };
+        let (relax, data) = self.fit_relax(&s, parts.0);
+        let cost_end = data + parts.1;
         curve.push((clock.elapsed().as_secs_f64(), cost_end));
         Outcome {
             curve,
@@ -641,14 +696,25 @@ impl<'a> CellProblem<'a> {
         }
     }
 
+    /// The data and regularisation terms of the full objective at log-scales `s` (their
+    /// sum is [`Self::cost`]).
+    fn cost_parts(&self, s: &[f64]) -> (f64, f64) {
+        self.evaluations.set(self.evaluations.get() + 1);
+        let map = self.map(s);
+        (self.data_over(&self.all, &map), self.regulariser(s))
+    }
+
     /// One Brent sweep over the free texels, each texel's log-scale searched in ±[`BRACKET`];
     /// returns Brent's iterations.
     fn sweep(&self, s: &mut [f64], free: &[usize]) -> Result<u64, Error> {
         let mut iters = 0u64;
+        // the map at `s`, kept in step with it: a texel's evaluations rewrite only its own
+        // entry, which is set back to the texel's value once its step is done
+        let map = RefCell::new(self.map(s));
         for &k in free {
-            let current = TexelProblem::new(self, s, k).cost(&s[k])?;
+            let current = TexelProblem { cell: self, s, k, map: &map }.cost(&s[k])?;
             let solver = BrentOpt::new(-BRACKET, BRACKET).set_tolerance(BRENT_TOLERANCE.0, BRENT_TOLERANCE.1);
-            let res = Executor::new(TexelProblem::new(self, s, k), solver)
+            let res = Executor::new(TexelProblem { cell: self, s, k, map: &map }, solver)
                 .configure(|st| st.param(s[k]).max_iters(24))
                 .run()?;
             let st = res.state();
@@ -661,6 +727,7 @@ impl<'a> CellProblem<'a> {
             {
                 s[k] = best;
             }
+            map.borrow_mut()[k] = self.texel_shift(k, s[k]);
         }
         Ok(iters)
     }
@@ -696,10 +763,10 @@ impl<'a> CellProblem<'a> {
         Ok((st.get_iter(), st.get_termination_reason().map(|r| r.to_string())))
     }
 
-    /// UV relaxation strength in [0, 1] minimising the data term (Brent).
-    fn fit_relax(&self, s: &[f64]) -> f64 {
-        let problem = RelaxProblem { cell: self, s };
-        let at_zero = problem.cost(&0.0).unwrap_or(f64::INFINITY);
+    /// UV relaxation strength in [0, 1] minimising the data term (Brent), and the data term
+    /// there; `at_zero`: the data term of `s` unrelaxed (the map of `s` itself).
+    fn fit_relax(&self, s: &[f64], at_zero: f64) -> (f64, f64) {
+        let at_zero = if at_zero.is_finite() { at_zero } else { f64::MAX };
         let res = Executor::new(RelaxProblem { cell: self, s }, BrentOpt::new(0.0, 1.0).set_tolerance(1e-2, 5e-3))
             .configure(|st| st.param(0.0).max_iters(20))
             .run();
@@ -707,13 +774,22 @@ impl<'a> CellProblem<'a> {
             Ok(r) => {
                 let st = r.state();
                 match st.get_best_param() {
-                    Some(&x) if x.is_finite() && st.get_best_cost() < at_zero => x.clamp(0.0, 1.0),
-                    _ => 0.0,
+                    // (the relaxation's cost clamps to [0, 1] as this does: the same map)
+                    Some(&x) if x.is_finite() && st.get_best_cost() < at_zero => {
+                        (x.clamp(0.0, 1.0), st.get_best_cost())
+                    }
+                    _ => (0.0, at_zero),
                 }
             }
-            Err(_) => 0.0,
+            Err(_) => (0.0, at_zero),
         }
     }
+}
+
+/// The Charbonnier loss `√(e² + ε²) − ε` of an error `e`.
+#[inline]
+fn rho(e: f64, eps: f64) -> f64 {
+    (e * e + eps * eps).sqrt() - eps
 }
 
 /// Absolute error of an estimate, mean over RGB.
@@ -743,14 +819,8 @@ struct TexelProblem<'p, 'a> {
     cell: &'p CellProblem<'a>,
     s: &'p [f64],
     k: usize,
-    /// The map at `s`, built once per texel step; evaluations only rewrite texel `k`.
-    map: RefCell<Vec<f32>>,
-}
-
-impl<'p, 'a> TexelProblem<'p, 'a> {
-    fn new(cell: &'p CellProblem<'a>, s: &'p [f64], k: usize) -> Self {
-        TexelProblem { cell, s, k, map: RefCell::new(cell.map(s)) }
-    }
+    /// The map at `s` (the sweep's, kept in step with it); evaluations rewrite texel `k`.
+    map: &'p RefCell<Vec<f32>>,
 }
 
 impl CostFunction for TexelProblem<'_, '_> {
@@ -763,12 +833,11 @@ impl CostFunction for TexelProblem<'_, '_> {
         map[self.k] = c.texel_shift(self.k, *x);
         let data = c.data_over(&c.touching[self.k], &map);
         let mut smooth = 0.0;
-        for &(a, b) in &c.pairs {
-            if a as usize == self.k || b as usize == self.k {
-                let sa = if a as usize == self.k { *x } else { self.s[a as usize] };
-                let sb = if b as usize == self.k { *x } else { self.s[b as usize] };
-                smooth += (sa - sb).powi(2);
-            }
+        for &p in &c.texel_pairs[self.k] {
+            let (a, b) = c.pairs[p as usize];
+            let sa = if a as usize == self.k { *x } else { self.s[a as usize] };
+            let sb = if b as usize == self.k { *x } else { self.s[b as usize] };
+            smooth += (sa - sb).powi(2);
         }
         let n = self.s.len().max(1) as f64;
         let cost = data
@@ -812,10 +881,12 @@ impl Gradient for FullProblem<'_, '_> {
         const H: f64 = 1e-3;
         let s = self.full(x);
         let mut g = vec![0.0; x.len()];
+        let map = RefCell::new(self.cell.map(&s));
         for (i, &k) in self.free.iter().enumerate() {
-            let tp = TexelProblem::new(self.cell, &s, k);
+            let tp = TexelProblem { cell: self.cell, s: &s, k, map: &map };
             let (up, down) = (tp.cost(&(x[i] + H))?, tp.cost(&(x[i] - H))?);
             g[i] = (up - down) / (2.0 * H);
+            map.borrow_mut()[k] = self.cell.texel_shift(k, s[k]);
         }
         Ok(g)
     }
@@ -848,7 +919,7 @@ impl CostFunction for &Level1Problem<'_, '_> {
         self.evaluations.set(self.evaluations.get() + 1);
         let (c, l) = (self.cell, self.level1(x));
         let n = c.samples.len().max(1) as f64;
-        let v = (0..c.samples.len()).map(|i| c.rho(c.level1_error(i, &l))).sum::<f64>() / (n * c.mean_reference);
+        let v = (0..c.samples.len()).map(|i| rho(c.level1_error(i, &l), c.eps)).sum::<f64>() / (n * c.mean_reference);
         Ok(if v.is_finite() { v } else { f64::MAX })
     }
 }
@@ -896,13 +967,14 @@ mod tests {
             let cell = CellProblem::new(w.ctx, start, w.samples);
             let s: Vec<f64> = (0..64).map(|k| ((k * 37 % 11) as f64 - 5.0) / 4.0).collect();
             for map in [cell.map(&s), w.truth.clone()] {
-                let lanes: Vec<u64> = cell.errors(&cell.all, &map).map(f64::to_bits).collect();
+                let lanes: Vec<u64> = cell.errors(&cell.all, &map).into_iter().map(f64::to_bits).collect();
                 let scalar: Vec<u64> = (0..cell.samples.len()).map(|i| cell.sample_error(i, &map).to_bits()).collect();
                 assert_eq!(lanes, scalar, "correction {with_correction}");
                 for k in 0..64 {
-                    let idx = &cell.touching[k];
-                    let lanes: Vec<u64> = cell.errors(idx, &map).map(f64::to_bits).collect();
-                    let scalar: Vec<u64> = idx.iter().map(|&i| cell.sample_error(i as usize, &map).to_bits()).collect();
+                    let set = &cell.touching[k];
+                    let lanes: Vec<u64> = cell.errors(set, &map).into_iter().map(f64::to_bits).collect();
+                    let scalar: Vec<u64> =
+                        set.idx.iter().map(|&i| cell.sample_error(i as usize, &map).to_bits()).collect();
                     assert_eq!(lanes, scalar, "texel {k}, correction {with_correction}");
                 }
             }
@@ -959,7 +1031,8 @@ mod tests {
                 v[k] = x;
                 cell.cost(&v)
             };
-            let texel = TexelProblem::new(&cell, &s, k);
+            let map = RefCell::new(cell.map(&s));
+            let texel = TexelProblem { cell: &cell, s: &s, k, map: &map };
             let slice = texel.cost(&x1).unwrap() - texel.cost(&x2).unwrap();
             let whole = at(x1) - at(x2);
             prop_assert!((slice - whole).abs() <= 1e-10 * at(x1).abs().max(1.0), "texel {k}: {slice} vs {whole}");
