@@ -13,7 +13,7 @@ use crate::bake::grid::hit_fraction;
 use crate::bake::{Bake, GridGeometry, ProbeGrid, SpecularProbe};
 use crate::files::{FileError, write_json};
 use crate::gridfile::exr::{self, ExrLayer, Samples};
-use crate::gridfile::read::{Expected, Rule, check_listed_payload, scan_listed_payload};
+use crate::gridfile::read::{Expected, Listing, Rule, check_listed_payload, scan_listed_payload};
 use crate::gridfile::schema::{
     LayerEntry, MAX_CELLS, MAX_PROBE_RESOLUTION, MAX_RADIANCE, MAX_TILE_RESOLUTION, PER_CELL_BYTES, Payload, Precision,
     SCAN_ABOVE_BYTES, tile_major,
@@ -326,11 +326,12 @@ fn check_payloads(dir: &Path, m: &BakeManifest) -> Result<(), FileError> {
         .collect();
     let bytes: u64 = expected.iter().flat_map(|(_, l)| l).map(Expected::decoded_bytes).sum();
     let scan = bytes + cells * PER_CELL_BYTES > SCAN_ABOVE_BYTES;
+    let listed = Listing { dir, manifest: &mpath, payloads: &listing };
     for (file, layers) in &expected {
         if scan {
-            scan_listed_payload(dir, &mpath, &listing, file, layers)?;
+            scan_listed_payload(listed, file, layers)?;
         } else {
-            check_listed_payload(dir, &mpath, &listing, file, layers)?;
+            check_listed_payload(listed, file, layers)?;
         }
     }
     Ok(())

@@ -554,34 +554,43 @@ fn check_listing(m: &GridManifest, mp: &Path, out: &[(&'static str, Vec<Expected
 /// Reads a payload: a regular file whose size (from its metadata) and checksum match the
 /// manifest, whose EXR headers match the expected layers, then decoded.
 fn read_payload(dir: &Path, m: &GridManifest, file: &str, expected: &[Expected]) -> Result<Vec<Layer>, FileError> {
-    Ok(read_listed_payload_rgb(dir, &dir.join(MANIFEST_FILE), &m.payloads, file, expected, None)?.0)
+    Ok(read_listed_payload_rgb(listing(dir, &dir.join(MANIFEST_FILE), m), file, expected, None)?.0)
 }
 
-/// Reads payload `file` of `dir` as `payloads` (from the manifest at `mpath`) lists it:
-/// size, checksum and EXR headers checked against the listing and `expected` before a byte
-/// is decoded, then the layers' sizes and channels.
-pub fn read_listed_payload(
-    dir: &Path,
-    mpath: &Path,
-    payloads: &[Payload],
-    file: &str,
-    expected: &[Expected],
-) -> Result<Vec<Layer>, FileError> {
-    Ok(read_listed_payload_rgb(dir, mpath, payloads, file, expected, None)?.0)
+/// The payloads of grid folder `dir` as its manifest `m` (read from `mpath`) lists them.
+fn listing<'a>(dir: &'a Path, mpath: &'a Path, m: &'a GridManifest) -> Listing<'a> {
+    Listing { dir, manifest: mpath, payloads: &m.payloads }
+}
+
+/// A folder's payloads as its manifest lists them: the folder, the manifest's path (for
+/// errors) and its payload entries.
+#[derive(Clone, Copy, Debug)]
+pub struct Listing<'a> {
+    /// The folder the payload files are in.
+    pub dir: &'a Path,
+    /// The manifest's path, named in errors about its entries.
+    pub manifest: &'a Path,
+    /// The manifest's payload entries (name, size, checksum, layers).
+    pub payloads: &'a [Payload],
+}
+
+/// Reads payload `file` as `listing` lists it: size, checksum and EXR headers checked
+/// against the listing and `expected` before a byte is decoded, then the layers' sizes and
+/// channels.
+pub fn read_listed_payload(listing: Listing, file: &str, expected: &[Expected]) -> Result<Vec<Layer>, FileError> {
+    Ok(read_listed_payload_rgb(listing, file, expected, None)?.0)
 }
 
 /// [`read_listed_payload`], the R, G and B channels of layer `rgb` (when named) decoded
 /// straight into triples in the layer's placed order (its channels come back empty): a big
 /// grid's irradiance is never held as three channels and a copy.
 pub fn read_listed_payload_rgb(
-    dir: &Path,
-    mpath: &Path,
-    payloads: &[Payload],
+    listing: Listing,
     file: &str,
     expected: &[Expected],
     rgb: Option<&str>,
 ) -> Result<(Vec<Layer>, Vec<Vec3>), FileError> {
-    let (path, f) = open_checked(dir, mpath, payloads, file, expected)?;
+    let (path, f) = open_checked(listing, file, expected)?;
     // (name, size, tiles) of the atlas layers
     let atlases: Vec<_> =
         expected.iter().filter_map(|l| Some((l.name.clone(), (l.width, l.height), l.tiles?))).collect();
@@ -645,16 +654,10 @@ fn placement(tiles: Option<(u32, u32)>) -> exr::Placement {
     }
 }
 
-/// Checks payload `file` of `dir` as `payloads` (from the manifest at `mpath`) lists it:
-/// its size, checksum and EXR headers against `expected`, decoding nothing.
-pub fn check_listed_payload(
-    dir: &Path,
-    mpath: &Path,
-    payloads: &[Payload],
-    file: &str,
-    expected: &[Expected],
-) -> Result<(), FileError> {
-    open_checked(dir, mpath, payloads, file, expected).map(|_| ())
+/// Checks payload `file` as `listing` lists it: its size, checksum and EXR headers against
+/// `expected`, decoding nothing.
+pub fn check_listed_payload(listing: Listing, file: &str, expected: &[Expected]) -> Result<(), FileError> {
+    open_checked(listing, file, expected).map(|_| ())
 }
 
 /// Payload `file` opened as `payloads` lists it: size and checksum read through the file
@@ -662,17 +665,16 @@ pub fn check_listed_payload(
 /// `expected` and the listing before a byte is decoded (a damaged header can claim a layer
 /// of any size, and decoding would try to allocate it).
 fn open_checked(
-    dir: &Path,
-    mpath: &Path,
-    payloads: &[Payload],
+    listing: Listing,
     file: &str,
     expected: &[Expected],
 ) -> Result<(std::path::PathBuf, std::fs::File), FileError> {
-    let entry = payloads
+    let entry = listing
+        .payloads
         .iter()
         .find(|p| p.file == file)
-        .ok_or_else(|| invalid(mpath, "payloads", format!("no entry for {file}")))?;
-    let path = dir.join(file);
+        .ok_or_else(|| invalid(listing.manifest, "payloads", format!("no entry for {file}")))?;
+    let path = listing.dir.join(file);
     let mut f = crate::files::open_listed(&path, entry.bytes, &entry.checksum)?;
     check_headers(&path, &mut f, expected, &entry.layers)?;
     Ok((path, f))
@@ -681,15 +683,9 @@ fn open_checked(
 /// Streams payload `file`'s values through `expected`'s rules, holding no array of them:
 /// a grid too big to decode on trust ([`SCAN_ABOVE_BYTES`]) is checked this way first, so
 /// a damaged one is refused before any of its arrays is allocated.
-pub fn scan_listed_payload(
-    dir: &Path,
-    mpath: &Path,
-    payloads: &[Payload],
-    file: &str,
-    expected: &[Expected],
-) -> Result<(), FileError> {
+pub fn scan_listed_payload(listing: Listing, file: &str, expected: &[Expected]) -> Result<(), FileError> {
     use std::sync::{Arc, Mutex, PoisonError};
-    let (path, f) = open_checked(dir, mpath, payloads, file, expected)?;
+    let (path, f) = open_checked(listing, file, expected)?;
     let failure: Arc<Mutex<Option<FileError>>> = Arc::default();
     /// One channel's rule and where its samples go.
     #[derive(Clone)]
@@ -880,7 +876,7 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
     let per_cell = cells as u64 * PER_CELL_BYTES;
     if expected.iter().flat_map(|(_, l)| l).map(Expected::decoded_bytes).sum::<u64>() + per_cell > SCAN_ABOVE_BYTES {
         for (file, layers) in &expected {
-            scan_listed_payload(dir, mp, &m.payloads, file, layers)?;
+            scan_listed_payload(listing(dir, mp, &m), file, layers)?;
         }
     }
     let probe = read_probe(dir, (&m, mp), (PROBE_FILE, &m.probe, "probe"), expected_of(&expected, PROBE_FILE))?;
@@ -1119,7 +1115,7 @@ fn read_irradiance(
     } else {
         let ipath = dir.join(IRRADIANCE_FILE);
         let (mut layers, mut e) =
-            read_listed_payload_rgb(dir, mp, &m.payloads, IRRADIANCE_FILE, expected, Some("irradiance"))?;
+            read_listed_payload_rgb(listing(dir, mp, m), IRRADIANCE_FILE, expected, Some("irradiance"))?;
         let n = ir.stored_cells.len();
         let (r2, dr2) =
             ((ir.resolution * ir.resolution) as usize, (ir.depth_resolution * ir.depth_resolution) as usize);

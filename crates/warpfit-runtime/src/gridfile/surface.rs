@@ -10,7 +10,7 @@
 //! The reader trusts nothing: sizes, checksum and headers are checked before decoding, the
 //! patch and roughness before anything is built, every sample after.
 
-use super::read::{Expected, Rule, read_listed_payload, scan_listed_payload};
+use super::read::{Expected, Listing, Rule, read_listed_payload, scan_listed_payload};
 use super::schema::{MAX_TILE_RESOLUTION, Payload, SCAN_ABOVE_BYTES};
 use crate::files::FileError;
 use crate::octa::hemi;
@@ -168,11 +168,11 @@ pub fn read(dir: &Path) -> Result<SurfaceAtlas, FileError> {
     let mut expected: Vec<Expected> =
         (0..r.len()).map(|k| plain(radiance_layer(k), &["R", "G", "B"], Rule::radiance(0))).collect();
     expected.push(plain("inv_distance".into(), &["W"], Rule::within(0.0, f32::MAX, 0, "finite and ≥ 0")));
-    let payloads = std::slice::from_ref(&manifest.payload);
+    let listing = Listing { dir, manifest: mp, payloads: std::slice::from_ref(&manifest.payload) };
     if expected.iter().map(Expected::decoded_bytes).sum::<u64>() > SCAN_ABOVE_BYTES {
-        scan_listed_payload(dir, mp, payloads, SURFACE_ATLAS_FILE, &expected)?;
+        scan_listed_payload(listing, SURFACE_ATLAS_FILE, &expected)?;
     }
-    let layers = read_listed_payload(dir, mp, payloads, SURFACE_ATLAS_FILE, &expected)?;
+    let layers = read_listed_payload(listing, SURFACE_ATLAS_FILE, &expected)?;
     let path = dir.join(SURFACE_ATLAS_FILE);
     let channel = |layer: &str, c: &str| -> Result<&[f32], FileError> {
         layers
