@@ -21,6 +21,14 @@ fn plot_err(path: &Path, e: impl std::fmt::Display) -> FileError {
     FileError::Invalid { path: path.to_path_buf(), field: "plot".into(), message: e.to_string() }
 }
 
+/// The Pareto front (`front`, from [`pareto_front`]) as the red line the plots draw: its
+/// points (cost, error) in order of cost.
+fn front_line(points: &[(String, f64, f64)], front: &[bool]) -> LineSeries<BitMapBackend<'static>, (f64, f64)> {
+    let mut line: Vec<(f64, f64)> = points.iter().zip(front).filter(|(_, f)| **f).map(|(p, _)| (p.1, p.2)).collect();
+    line.sort_by(|a, b| a.0.total_cmp(&b.0));
+    LineSeries::new(line, RGBColor(200, 60, 60).stroke_width(2))
+}
+
 /// Points on the Pareto front (no other point is both cheaper and more accurate). The
 /// `oracle` is a bound whose cost excludes its ray tracing, so it neither sits on nor
 /// shapes the front.
@@ -189,12 +197,7 @@ pub fn error_vs_cost(path: &Path, title: &str, y_desc: &str, points: &[(String, 
             .map_err(|e| plot_err(path, e))?;
         }
         let front = pareto_front(points);
-        let mut front_pts: Vec<(f64, f64)> =
-            points.iter().zip(&front).filter(|(_, f)| **f).map(|(p, _)| (p.1, p.2)).collect();
-        front_pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        chart
-            .draw_series(LineSeries::new(front_pts, RGBColor(200, 60, 60).stroke_width(2)))
-            .map_err(|e| plot_err(path, e))?;
+        chart.draw_series(front_line(points, &front)).map_err(|e| plot_err(path, e))?;
         let mut markers = Vec::new();
         for ((name, c, e), on_front) in points.iter().zip(&front) {
             if !(*c > 0.0 && *e > 0.0 && c.is_finite() && e.is_finite()) {
@@ -442,12 +445,7 @@ pub fn error_vs_cost_panels(path: &Path, title: &str, y_desc: &str, panels: &[Pa
                 .draw()
                 .map_err(|e| plot_err(path, e))?;
             let front = pareto_front(points);
-            let mut front_pts: Vec<(f64, f64)> =
-                points.iter().zip(&front).filter(|(_, f)| **f).map(|(p, _)| (p.1, p.2)).collect();
-            front_pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-            chart
-                .draw_series(LineSeries::new(front_pts, RGBColor(200, 60, 60).stroke_width(2)))
-                .map_err(|e| plot_err(path, e))?;
+            chart.draw_series(front_line(points, &front)).map_err(|e| plot_err(path, e))?;
             let mut markers = Vec::new();
             for ((label, c, e), on_front) in points.iter().zip(&front) {
                 if !(*c > 0.0 && e.is_finite()) {
