@@ -863,12 +863,27 @@ fn level1_fit(
     Box::new(Level1Fit { params, check_err: check.relative_error_level1(&params), evaluations })
 }
 
-/// The share of a cell's check queries whose true hit probe A cannot see.
+/// The share of a cell's check queries whose true hit probe A cannot see, kept beside the
+/// references (it depends on the scene, probe A's position and the queries alone), so a
+/// second run traces none of its rays.
 fn hidden_fraction(baked: Baked, a: Vec3, check: &truth::TracedQueries) -> f64 {
-    let hidden = (0..check.dirs.len())
-        .filter(|&k| truth::oracle(baked.scene, baked.tracer, a, check.position_of(k), check.dirs[k]).1)
-        .count();
-    hidden as f64 / check.dirs.len().max(1) as f64
+    let trace = || {
+        let hidden = (0..check.dirs.len())
+            .filter(|&k| truth::oracle(baked.scene, baked.tracer, a, check.position_of(k), check.dirs[k]).1)
+            .count();
+        hidden as f64 / check.dirs.len().max(1) as f64
+    };
+    let Some(store) = baked.references else { return trace() };
+    let key = store.key("hidden").vec3s(&[a]).vec3s(&check.positions).vec3s(&check.dirs);
+    let to = |h: &f64| {
+        let bits = h.to_bits();
+        vec![bits as u32, (bits >> 32) as u32]
+    };
+    let from = |w: &[u32]| match *w {
+        [lo, hi] => Some(f64::from_bits(u64::from(lo) | u64::from(hi) << 32)).filter(|h| (0.0..=1.0).contains(h)),
+        _ => None,
+    };
+    store.cached("hidden", key, (to, from), trace)
 }
 
 /// A cell's outcome with the maps `sets` asks for: every map (the unfitted start
