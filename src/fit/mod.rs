@@ -875,15 +875,8 @@ fn hidden_fraction(baked: Baked, a: Vec3, check: &truth::TracedQueries) -> f64 {
     };
     let Some(store) = baked.references else { return trace() };
     let key = store.key("hidden").vec3s(&[a]).vec3s(&check.positions).vec3s(&check.dirs);
-    let to = |h: &f64| {
-        let bits = h.to_bits();
-        vec![bits as u32, (bits >> 32) as u32]
-    };
-    let from = |w: &[u32]| match *w {
-        [lo, hi] => Some(f64::from_bits(u64::from(lo) | u64::from(hi) << 32)).filter(|h| (0.0..=1.0).contains(h)),
-        _ => None,
-    };
-    store.cached("hidden", key, (to, from), trace)
+    let from = |w: &[u32]| store::f64_from_words(w).filter(|h| (0.0..=1.0).contains(h));
+    store.cached("hidden", key, (store::f64_to_words, from), trace)
 }
 
 /// A cell's outcome with the maps `sets` asks for: every map (the unfitted start

@@ -452,15 +452,13 @@ impl<'a> CellProblem<'a> {
         }
     }
 
-    /// The errors of up to [`LANES`] queries (a shorter group repeats its last query): the
-    /// lanes' shifted aims (`AimLanes::shifted`), then their probe reads together (a mirror
-    /// group at mip 0, otherwise `glossy::corrected_lanes`): the runtime's batch lookup.
+    /// The errors of [`LANES`] queries (`errors_by` pads a short group with its last
+    /// query): the lanes' shifted aims (`AimLanes::shifted`), then their probe reads
+    /// together (a mirror group at mip 0, otherwise `glossy::corrected_lanes`): the
+    /// runtime's batch lookup.
     #[inline]
-    fn errors_lanes(&self, group: &[u32], delta_of: impl Fn(&Sample) -> f32) -> [f64; LANES] {
-        let mut idx = [0usize; LANES];
-        for (l, i) in idx.iter_mut().enumerate() {
-            *i = group[l.min(group.len() - 1)] as usize;
-        }
+    fn errors_lanes(&self, ids: &[u32; LANES], delta_of: impl Fn(&Sample) -> f32) -> [f64; LANES] {
+        let idx = ids.map(|i| i as usize);
         let warp = self.glossy.warp;
         let (mut b, mut d, mut a) = ([[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3]);
         let mut probe = [0u8; LANES];

@@ -152,6 +152,20 @@ fn read(path: &Path, id: &str) -> Option<Vec<u32>> {
     Some(rest.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
 }
 
+/// One number as words (its bits, low half first).
+pub fn f64_to_words(x: &f64) -> Vec<u32> {
+    let bits = x.to_bits();
+    vec![bits as u32, (bits >> 32) as u32]
+}
+
+/// [`f64_to_words`] read back: `None` unless exactly two words.
+pub fn f64_from_words(w: &[u32]) -> Option<f64> {
+    match *w {
+        [lo, hi] => Some(f64::from_bits(u64::from(lo) | u64::from(hi) << 32)),
+        _ => None,
+    }
+}
+
 /// A set of traced queries as words (every float's bits).
 #[must_use]
 pub fn queries_to_words(q: &TracedQueries) -> Vec<u32> {
@@ -232,4 +246,20 @@ pub fn traced_from_words(w: &[u32], len: usize) -> Option<(Vec<Vec3>, u64)> {
     }
     let v = rest.chunks_exact(3).map(|c| Vec3::new(f32::from_bits(c[0]), f32::from_bits(c[1]), f32::from_bits(c[2])));
     Some((v.collect(), (u64::from(hi) << 32) | u64::from(lo)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A number comes back bit for bit, and a set of another length is not one.
+    #[test]
+    fn a_number_round_trips_through_its_words() {
+        for x in [0.0, -0.0, 0.4375, 1.0, f64::MIN_POSITIVE, f64::MAX, f64::NAN] {
+            let back = f64_from_words(&f64_to_words(&x)).map(f64::to_bits);
+            assert_eq!(back, Some(x.to_bits()), "{x}");
+        }
+        assert_eq!(f64_from_words(&[1]), None);
+        assert_eq!(f64_from_words(&[1, 2, 3]), None);
+    }
 }
