@@ -1,5 +1,5 @@
 //! The runtime sampler, single-threaded: ns per `specular` sample (mirror and rough, in both
-//! quality tiers of `SpecularRead`) and per `irradiance` sample, next to `warp1` on the same
+//! quality tiers of `SpecularRead`, and with the faces blend) and per `irradiance` sample, next to `warp1` on the same
 //! probe and queries; the load time of the fitted grid; and its bytes per stored cell
 //! (printed).
 //!
@@ -19,6 +19,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use std::hint::black_box;
 use warpfit::runtime::{FittedGrid, SpecularRead};
+use warpfit::warp::corrective::Blend;
 use warpfit::warp::{self, Method};
 
 fn runtime(c: &mut Criterion) {
@@ -63,9 +64,15 @@ fn bench_grid(c: &mut Criterion, dir: &std::path::Path) {
     });
     // mirror, a rough lookup on the cell's map, one blending the map and the rough map;
     // then the rough ones reading probe A alone (`SpecularRead::ProbeOnly`)
+    // and the same grid read with the faces blend (`Blend::Faces`, `warpfit fit --blend faces`)
     let probe_only = grid.clone().with_read(SpecularRead::ProbeOnly);
-    let tiers = [(&grid, ""), (&probe_only, "_probe_only")];
-    let cases = |tier: &str| if tier.is_empty() { vec![0.0f32, 0.5, 0.625] } else { vec![0.5, 0.625] };
+    let faces = grid.clone().with_lookup(|_, blend, _| *blend = Blend::Faces);
+    let tiers = [(&grid, ""), (&probe_only, "_probe_only"), (&faces, "_faces")];
+    let cases = |tier: &str| match tier {
+        "" => vec![0.0f32, 0.5, 0.625],
+        "_faces" => vec![0.0, 0.5],
+        _ => vec![0.5, 0.625],
+    };
     for (grid, tier) in tiers {
         for r in cases(tier) {
             g.bench_function(format!("specular{tier}_r{r}"), |b| {

@@ -93,6 +93,8 @@ static const uint ATLAS_MOMENTS = 2u;
 static const uint ATLAS_SCALE = 3u;
 static const float ROUGH_MAP_FROM = 0.5;
 static const float ROUGH_MAP_TO = 0.75;
+static const float FACE_MARGIN = 0.125;
+static const uint RELAXED = 255u;
 static const uint FALLBACK = 255u;
 static const uint BLEND = 255u;
 static const uint RELAX = 255u;
@@ -219,9 +221,9 @@ float4 unit_direction(float3 v_3)
         return float4(0.0, 0.0, 1.0, 0.0);
     }
     float3 s_2 = (v_3 / (m_1).xxx);
-    float l_2 = length(s_2);
-    if ((l_2 > 0.0)) {
-        const bool _e47 = finite(l_2);
+    float l_3 = length(s_2);
+    if ((l_3 > 0.0)) {
+        const bool _e47 = finite(l_3);
         local_5 = _e47;
     } else {
         local_5 = false;
@@ -230,7 +232,7 @@ float4 unit_direction(float3 v_3)
     if (!(_e49)) {
         return float4(0.0, 0.0, 1.0, 0.0);
     }
-    return float4((s_2 / (l_2).xxx), 1.0);
+    return float4((s_2 / (l_3).xxx), 1.0);
 }
 
 float3 fetch_vector(float3 from, float3 to, float3 fallback)
@@ -342,9 +344,9 @@ int2 naga_f2i32(float2 value) {
 
 Footprint footprint(uint n_1, float2 uv)
 {
-    float2 x_4 = ((clamp(uv, (0.0).xx, (1.0).xx) * float(n_1)) - (0.5).xx);
-    float2 x0_ = floor(x_4);
-    const Footprint footprint_1 = ConstructFootprint(naga_f2i32(x0_), (x_4 - x0_));
+    float2 x_5 = ((clamp(uv, (0.0).xx, (1.0).xx) * float(n_1)) - (0.5).xx);
+    float2 x0_ = floor(x_5);
+    const Footprint footprint_1 = ConstructFootprint(naga_f2i32(x0_), (x_5 - x0_));
     return footprint_1;
 }
 
@@ -372,20 +374,20 @@ float4 probe_bilinear(uint which_1, float2 uv_1, uint level_1, uint p_1)
     float _e7 = params.warp.z;
     float _e11 = params.warp.y;
     float res0_ = ((which_1 == 0u) ? _e11 : _e7);
-    uint n_9 = max((naga_f2u32(res0_) >> level_1), 1u);
-    const Footprint _e19 = footprint(n_9, uv_1);
-    int2 c_8 = _e19.corner;
-    int l_3 = int(level_1);
-    int ni = int(n_9);
-    int2 at_2 = int2(asint(asuint(int(p_1)) * asuint(ni)), int(0));
-    const int2 _e27 = wrap_texel(ni, c_8);
-    const float4 _e29 = probe_texel(which_1, asint(asuint(at_2) + asuint(_e27)), l_3);
-    const int2 _e34 = wrap_texel(ni, asint(asuint(c_8) + asuint(int2(int(1), int(0)))));
-    const float4 _e36 = probe_texel(which_1, asint(asuint(at_2) + asuint(_e34)), l_3);
-    const int2 _e41 = wrap_texel(ni, asint(asuint(c_8) + asuint(int2(int(0), int(1)))));
-    const float4 _e43 = probe_texel(which_1, asint(asuint(at_2) + asuint(_e41)), l_3);
-    const int2 _e48 = wrap_texel(ni, asint(asuint(c_8) + asuint(int2(int(1), int(1)))));
-    const float4 _e50 = probe_texel(which_1, asint(asuint(at_2) + asuint(_e48)), l_3);
+    uint n_10 = max((naga_f2u32(res0_) >> level_1), 1u);
+    const Footprint _e19 = footprint(n_10, uv_1);
+    int2 c_9 = _e19.corner;
+    int l_4 = int(level_1);
+    int ni = int(n_10);
+    int2 at_3 = int2(asint(asuint(int(p_1)) * asuint(ni)), int(0));
+    const int2 _e27 = wrap_texel(ni, c_9);
+    const float4 _e29 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e27)), l_4);
+    const int2 _e34 = wrap_texel(ni, asint(asuint(c_9) + asuint(int2(int(1), int(0)))));
+    const float4 _e36 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e34)), l_4);
+    const int2 _e41 = wrap_texel(ni, asint(asuint(c_9) + asuint(int2(int(0), int(1)))));
+    const float4 _e43 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e41)), l_4);
+    const int2 _e48 = wrap_texel(ni, asint(asuint(c_9) + asuint(int2(int(1), int(1)))));
+    const float4 _e50 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e48)), l_4);
     const float4 _e52 = blend4_(_e29, _e36, _e43, _e50, _e19.f);
     return _e52;
 }
@@ -482,11 +484,11 @@ float4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, float2 uv_
     uint s_3 = uint(tile);
     int2 origin = int2((uint2(naga_mod(s_3, columns), naga_div(s_3, columns)) * (n_2 + 2u)));
     const Footprint _e13 = footprint(n_2, uv_4);
-    int2 c_9 = asint(asuint(asint(asuint(origin) + asuint(_e13.corner))) + asuint(int2(int(1), int(1))));
-    const float4 _e20 = atlas_texel(which_4, c_9);
-    const float4 _e25 = atlas_texel(which_4, asint(asuint(c_9) + asuint(int2(int(1), int(0)))));
-    const float4 _e30 = atlas_texel(which_4, asint(asuint(c_9) + asuint(int2(int(0), int(1)))));
-    const float4 _e35 = atlas_texel(which_4, asint(asuint(c_9) + asuint(int2(int(1), int(1)))));
+    int2 c_10 = asint(asuint(asint(asuint(origin) + asuint(_e13.corner))) + asuint(int2(int(1), int(1))));
+    const float4 _e20 = atlas_texel(which_4, c_10);
+    const float4 _e25 = atlas_texel(which_4, asint(asuint(c_10) + asuint(int2(int(1), int(0)))));
+    const float4 _e30 = atlas_texel(which_4, asint(asuint(c_10) + asuint(int2(int(0), int(1)))));
+    const float4 _e35 = atlas_texel(which_4, asint(asuint(c_10) + asuint(int2(int(1), int(1)))));
     const float4 _e37 = blend4_(_e20, _e25, _e30, _e35, _e13.f);
     return _e37;
 }
@@ -501,8 +503,8 @@ float3 cell_size()
 
 uint cell_index(uint3 c_2)
 {
-    uint4 n_10 = params.grid_counts;
-    return (c_2.x + (n_10.x * (c_2.y + (n_10.y * c_2.z))));
+    uint4 n_11 = params.grid_counts;
+    return (c_2.x + (n_11.x * (c_2.y + (n_11.y * c_2.z))));
 }
 
 uint3 naga_f2u32(float3 value) {
@@ -710,14 +712,14 @@ float2 kdop_exit(float3 b_5, float3 dir_3)
             }
             uint _e21 = k_1;
             float4 _e23 = params.kdop[_e21];
-            float3 n_11 = _e23.xyz;
+            float3 n_12 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = params.kdop[_e27].w;
-            float nb = dot(n_11, b_5);
+            float nb = dot(n_12, b_5);
             if ((nb > h_1)) {
                 return float2(0.0, 0.0);
             }
-            float nd = dot(n_11, dir_3);
+            float nd = dot(n_12, dir_3);
             if ((nd > 0.0)) {
                 float _e39 = t_4;
                 t_4 = min(_e39, ((h_1 - nb) / nd));
@@ -783,8 +785,8 @@ Basis orthonormal_basis(float3 n_3)
 {
     float s_4 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_3 = (-1.0 / (s_4 + n_3.z));
-    float b_20 = ((n_3.x * n_3.y) * a_3);
-    const Basis basis = ConstructBasis(float3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_3)), (s_4 * b_20), (-(s_4) * n_3.x)), float3(b_20, (s_4 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+    float b_23 = ((n_3.x * n_3.y) * a_3);
+    const Basis basis = ConstructBasis(float3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_3)), (s_4 * b_23), (-(s_4) * n_3.x)), float3(b_23, (s_4 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
     return basis;
 }
 
@@ -792,16 +794,16 @@ float3 normalize_or(float3 v_5, float3 fallback_1)
 {
     bool local_12 = (bool)0;
 
-    float l_4 = length(v_5);
-    if ((l_4 > 0.0)) {
-        const bool _e7 = finite(l_4);
+    float l_5 = length(v_5);
+    if ((l_5 > 0.0)) {
+        const bool _e7 = finite(l_5);
         local_12 = _e7;
     } else {
         local_12 = false;
     }
     bool _e9 = local_12;
     if (_e9) {
-        return (v_5 / (l_4).xxx);
+        return (v_5 / (l_5).xxx);
     }
     return fallback_1;
 }
@@ -910,8 +912,8 @@ Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_8, uint p_6)
     }
     bool _e16 = local_13;
     if (_e16) {
-        const Aim aim_1 = ConstructAim(dir_8, 1.0, p_6);
-        return aim_1;
+        const Aim aim_2 = ConstructAim(dir_8, 1.0, p_6);
+        return aim_2;
     }
     s_1 = (exit_1.x + delta);
     float _e22 = s_1;
@@ -944,11 +946,11 @@ Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_8, uint p_6)
             k_2 = 1.0;
         }
         float _e60 = k_2;
-        const Aim aim_2 = ConstructAim(v_11, _e60, p_6);
-        return aim_2;
+        const Aim aim_3 = ConstructAim(v_11, _e60, p_6);
+        return aim_3;
     }
-    const Aim aim_3 = ConstructAim(dir_8, 1.0, p_6);
-    return aim_3;
+    const Aim aim_4 = ConstructAim(dir_8, 1.0, p_6);
+    return aim_4;
 }
 
 uint probe_of(int tile_1, float2 uv_5)
@@ -967,12 +969,12 @@ uint probe_of(int tile_1, float2 uv_5)
     if (_e14) {
         return 0u;
     }
-    uint n_12 = params.atlas_a.x;
+    uint n_13 = params.atlas_a.x;
     uint columns_1 = params.atlas_a.y;
     uint _e28 = params.probe_maps.y;
     uint s_5 = (uint(tile_1) + _e28);
-    int2 origin_1 = int2((uint2(naga_mod(s_5, columns_1), naga_div(s_5, columns_1)) * (n_12 + 2u)));
-    const Footprint _e37 = footprint(n_12, uv_5);
+    int2 origin_1 = int2((uint2(naga_mod(s_5, columns_1), naga_div(s_5, columns_1)) * (n_13 + 2u)));
+    const Footprint _e37 = footprint(n_13, uv_5);
     float2 f_6 = _e37.f;
     float4 w_6 = float4(((1.0 - f_6.x) * (1.0 - f_6.y)), (f_6.x * (1.0 - f_6.y)), ((1.0 - f_6.x) * f_6.y), (f_6.x * f_6.y));
     uint2 loop_bound_3 = uint2(4294967295u, 4294967295u);
@@ -1056,11 +1058,11 @@ Aim fetch(float3 b_11, float3 dir_9, float r_1)
     const uint _e12 = probe_of(tiles_1.x, _e3);
     float4 _e16 = params.probes[_e12];
     if (all((b_11 == _e16.xyz))) {
-        const Aim aim_4 = ConstructAim(dir_9, 1.0, _e12);
-        return aim_4;
+        const Aim aim_5 = ConstructAim(dir_9, 1.0, _e12);
+        return aim_5;
     }
     const uint _e26 = blend_mode();
-    if ((_e26 == 0u)) {
+    if ((_e26 != 1u)) {
         if ((tiles_1.x >= int(0))) {
             const float _e32 = cell_delta(tiles_1, _e3, r_1);
             delta_1 = _e32;
@@ -1109,14 +1111,30 @@ Aim fetch(float3 b_11, float3 dir_9, float r_1)
     bool _e66 = local_17;
     if (_e66) {
         const float3 _e67 = fallback_fetch(b_11, dir_9);
-        const Aim aim_5 = ConstructAim(_e67, -1.0, 0u);
-        return aim_5;
+        const Aim aim_6 = ConstructAim(_e67, -1.0, 0u);
+        return aim_6;
     }
     const float2 _e71 = proxy_exit(b_11, dir_9);
     float _e72 = delta_1;
     const Aim _e73 = shifted_aim(_e71, _e72, b_11, dir_9, _e12);
-    const Aim aim_6 = _e73;
-    return aim_6;
+    const Aim aim_7 = _e73;
+    return aim_7;
+}
+
+float face_ramp(float x_2)
+{
+    return clamp(((x_2 - 0.375) / 0.25), 0.0, 1.0);
+}
+
+Lattice face_lattice(float3 b_12)
+{
+    const float3 _e1 = cell_size();
+    const Lattice _e2 = lattice(b_12, _e1);
+    const float _e6 = face_ramp(_e2.frac_.x);
+    const float _e9 = face_ramp(_e2.frac_.y);
+    const float _e12 = face_ramp(_e2.frac_.z);
+    const Lattice lattice_2 = ConstructLattice(_e2.base, float3(_e6, _e9, _e12));
+    return lattice_2;
 }
 
 float mip_roughness(uint m)
@@ -1132,8 +1150,8 @@ float lod_of_roughness(float r_2)
     uint t_5 = 0u;
     float f_2 = 0.0;
 
-    uint n_13 = params.probe_info.x;
-    if (!((n_13 < 2u))) {
+    uint n_14 = params.probe_info.x;
+    if (!((n_14 < 2u))) {
         const float _e11 = mip_roughness(0u);
         local_18 = !((r_2 > _e11));
     } else {
@@ -1143,7 +1161,7 @@ float lod_of_roughness(float r_2)
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_13 - 1u);
+    uint last = (n_14 - 1u);
     const float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
@@ -1159,7 +1177,7 @@ float lod_of_roughness(float r_2)
         }
         loop_init_5 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_13)) {
+        if ((_e26 < n_14)) {
         } else {
             break;
         }
@@ -1183,20 +1201,20 @@ float lod_of_roughness(float r_2)
     return (float(i_6) + clamp(_e57, 0.0, 1.0));
 }
 
-float distance_ratio(float3 b_12, float3 v_6, float2 uv_8, uint p_7)
+float distance_ratio(float3 b_13, float3 v_6, float2 uv_8, uint p_7)
 {
     bool local_19 = (bool)0;
     bool local_20 = (bool)0;
     bool local_21 = (bool)0;
     bool local_22 = (bool)0;
 
-    float l_5 = length(v_6);
+    float l_6 = length(v_6);
     float _e9 = params.probe.w;
     uint _e13 = params.probe_info.y;
     const float4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_7);
     float w_7 = _e14.x;
-    if ((l_5 > 0.0)) {
-        const bool _e20 = finite(l_5);
+    if ((l_6 > 0.0)) {
+        const bool _e20 = finite(l_6);
         local_19 = _e20;
     } else {
         local_19 = false;
@@ -1220,7 +1238,7 @@ float distance_ratio(float3 b_12, float3 v_6, float2 uv_8, uint p_7)
     }
     float d_probe = (1.0 / w_7);
     float4 _e41 = params.probes[p_7];
-    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_5))) - b_12));
+    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_6))) - b_13));
     float k_13 = (d_probe / d_surface);
     const bool _e49 = finite(k_13);
     if (_e49) {
@@ -1249,8 +1267,8 @@ float corrected_roughness(float r_3, float k_in)
     float k_5 = 1.0;
     bool local_23 = (bool)0;
 
-    uint n_14 = params.lut_info.x;
-    float last_1 = float((n_14 - 1u));
+    uint n_15 = params.lut_info.x;
+    float last_1 = float((n_15 - 1u));
     const bool _e11 = finite(r_3);
     if (_e11) {
         fr = clamp((r_3 * last_1), 0.0, last_1);
@@ -1275,11 +1293,11 @@ float corrected_roughness(float r_3, float k_in)
     float _e44 = params.lut.y;
     float fx = clamp(((_e35 - _e39) * _e44), 0.0, last_1);
     float _e48 = fr;
-    uint i_7 = min(naga_f2u32(_e48), (n_14 - 2u));
-    uint j_5 = min(naga_f2u32(fx), (n_14 - 2u));
+    uint i_7 = min(naga_f2u32(_e48), (n_15 - 2u));
+    uint j_5 = min(naga_f2u32(fx), (n_15 - 2u));
     float _e57 = fr;
     float a_4 = (_e57 - float(i_7));
-    float b_21 = (fx - float(j_5));
+    float b_24 = (fx - float(j_5));
     float4 _e67 = roughness_lut.Load(int3(int2(int(j_5), int(i_7)), int(0)));
     float v00_ = _e67.x;
     float4 _e76 = roughness_lut.Load(int3(int2(int((j_5 + 1u)), int(i_7)), int(0)));
@@ -1288,10 +1306,10 @@ float corrected_roughness(float r_3, float k_in)
     float v10_ = _e85.x;
     float4 _e96 = roughness_lut.Load(int3(int2(int((j_5 + 1u)), int((i_7 + 1u))), int(0)));
     float v11_ = _e96.x;
-    return ((((v00_ * (1.0 - b_21)) + (v01_ * b_21)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_21)) + (v11_ * b_21)) * a_4));
+    return ((((v00_ * (1.0 - b_24)) + (v01_ * b_24)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_24)) + (v11_ * b_24)) * a_4));
 }
 
-float3 shade(float3 b_13, Aim aim, float r_4)
+float3 shade(float3 b_14, Aim aim, float r_4)
 {
     float k_6 = (float)0;
 
@@ -1309,7 +1327,7 @@ float3 shade(float3 b_13, Aim aim, float r_4)
     k_6 = aim.k;
     float _e17 = k_6;
     if ((_e17 < 0.0)) {
-        const float _e22 = distance_ratio(b_13, aim.v, _e4, aim.p);
+        const float _e22 = distance_ratio(b_14, aim.v, _e4, aim.p);
         k_6 = _e22;
     }
     float _e23 = k_6;
@@ -1317,6 +1335,223 @@ float3 shade(float3 b_13, Aim aim, float r_4)
     const float _e25 = lod_of_roughness(_e24);
     const float3 _e27 = radiance_lod(_e4, _e25, aim.p);
     return _e27;
+}
+
+typedef uint ret_Constructarray8_uint_[8];
+ret_Constructarray8_uint_ Constructarray8_uint_(uint arg0, uint arg1, uint arg2, uint arg3, uint arg4, uint arg5, uint arg6, uint arg7) {
+    uint ret[8] = { arg0, arg1, arg2, arg3, arg4, arg5, arg6, arg7 };
+    return ret;
+}
+
+typedef float ret_Constructarray8_float_[8];
+ret_Constructarray8_float_ Constructarray8_float_(float arg0, float arg1, float arg2, float arg3, float arg4, float arg5, float arg6, float arg7) {
+    float ret[8] = { arg0, arg1, arg2, arg3, arg4, arg5, arg6, arg7 };
+    return ret;
+}
+
+float3 faces_radiance(Lattice l_2, float3 b_15, float3 dir_10, float r_5)
+{
+    uint keys[8] = Constructarray8_uint_(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
+    float ws[8] = Constructarray8_float_(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    float ds[8] = Constructarray8_float_(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    uint n_4 = 0u;
+    uint corner_3 = 0u;
+    uint key = (uint)0;
+    float delta_2 = (float)0;
+    uint at = (uint)0;
+    uint g = (uint)0;
+    bool local_24 = (bool)0;
+    float3 c_4 = (0.0).xxx;
+    uint g_1 = 0u;
+    Aim aim_1 = (Aim)0;
+
+    const float2 _e4 = oct_encode(dir_10);
+    const bool _e5 = relaxation_on();
+    uint2 loop_bound_6 = uint2(4294967295u, 4294967295u);
+    bool loop_init_6 = true;
+    while(true) {
+        if (all(loop_bound_6 == uint2(0u, 0u))) { break; }
+        loop_bound_6 -= uint2(loop_bound_6.y == 0u, 1u);
+        if (!loop_init_6) {
+            uint _e111 = corner_3;
+            corner_3 = (_e111 + 1u);
+        }
+        loop_init_6 = false;
+        uint _e40 = corner_3;
+        if ((_e40 < 8u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e43 = corner_3;
+            const float _e44 = corner_weight(l_2, _e43);
+            if (!((_e44 > 0.0))) {
+                continue;
+            }
+            uint _e49 = corner_3;
+            const uint3 _e50 = corner_cell(l_2, _e49);
+            const uint _e51 = cell_index(_e50);
+            int4 tiles_3 = asint(cells.Load4(0+_e51*192));
+            key = 0u;
+            delta_2 = 0.0;
+            if ((tiles_3.x >= int(0))) {
+                const uint _e63 = probe_of(tiles_3.x, _e4);
+                key = _e63;
+                const float _e64 = cell_delta(tiles_3, _e4, r_5);
+                delta_2 = _e64;
+            } else {
+                if (_e5) {
+                    key = RELAXED;
+                }
+            }
+            uint _e66 = n_4;
+            at = _e66;
+            g = 0u;
+            uint2 loop_bound_7 = uint2(4294967295u, 4294967295u);
+            bool loop_init_7 = true;
+            while(true) {
+                if (all(loop_bound_7 == uint2(0u, 0u))) { break; }
+                loop_bound_7 -= uint2(loop_bound_7.y == 0u, 1u);
+                if (!loop_init_7) {
+                    uint _e89 = g;
+                    g = (_e89 + 1u);
+                }
+                loop_init_7 = false;
+                uint _e70 = g;
+                uint _e71 = n_4;
+                if ((_e70 < _e71)) {
+                } else {
+                    break;
+                }
+                {
+                    uint _e73 = g;
+                    uint _e75 = keys[min(uint(_e73), 7u)];
+                    uint _e76 = key;
+                    if ((_e75 == _e76)) {
+                        uint _e80 = g;
+                        float _e82 = ds[min(uint(_e80), 7u)];
+                        float _e83 = delta_2;
+                        local_24 = (_e82 == _e83);
+                    } else {
+                        local_24 = false;
+                    }
+                    bool _e86 = local_24;
+                    if (_e86) {
+                        uint _e87 = g;
+                        at = _e87;
+                        break;
+                    }
+                }
+            }
+            uint _e91 = at;
+            uint _e92 = n_4;
+            if ((_e91 == _e92)) {
+                uint _e94 = n_4;
+                uint _e96 = key;
+                keys[min(uint(_e94), 7u)] = _e96;
+                uint _e97 = n_4;
+                ws[min(uint(_e97), 7u)] = 0.0;
+                uint _e100 = n_4;
+                float _e102 = delta_2;
+                ds[min(uint(_e100), 7u)] = _e102;
+                uint _e104 = n_4;
+                n_4 = (_e104 + 1u);
+            }
+            uint _e106 = at;
+            float _e108 = ws[min(uint(_e106), 7u)];
+            ws[min(uint(_e106), 7u)] = (_e108 + _e44);
+        }
+    }
+    const float2 _e113 = proxy_exit(b_15, dir_10);
+    uint2 loop_bound_8 = uint2(4294967295u, 4294967295u);
+    bool loop_init_8 = true;
+    while(true) {
+        if (all(loop_bound_8 == uint2(0u, 0u))) { break; }
+        loop_bound_8 -= uint2(loop_bound_8.y == 0u, 1u);
+        if (!loop_init_8) {
+            uint _e163 = g_1;
+            g_1 = (_e163 + 1u);
+        }
+        loop_init_8 = false;
+        uint _e119 = g_1;
+        uint _e120 = n_4;
+        if ((_e119 < _e120)) {
+        } else {
+            break;
+        }
+        {
+            uint _e122 = g_1;
+            uint _e124 = keys[min(uint(_e122), 7u)];
+            aim_1 = ConstructAim(dir_10, 1.0, _e124);
+            uint _e128 = g_1;
+            uint _e130 = keys[min(uint(_e128), 7u)];
+            if ((_e130 == RELAXED)) {
+                const float3 _e133 = fallback_fetch(b_15, dir_10);
+                aim_1 = ConstructAim(_e133, -1.0, 0u);
+            } else {
+                uint _e139 = g_1;
+                uint _e141 = keys[min(uint(_e139), 7u)];
+                float4 _e143 = params.probes[_e141];
+                if (any((b_15 != _e143.xyz))) {
+                    uint _e147 = g_1;
+                    float _e149 = ds[min(uint(_e147), 7u)];
+                    uint _e150 = g_1;
+                    uint _e152 = keys[min(uint(_e150), 7u)];
+                    const Aim _e153 = shifted_aim(_e113, _e149, b_15, dir_10, _e152);
+                    aim_1 = _e153;
+                }
+            }
+            float3 _e154 = c_4;
+            uint _e155 = g_1;
+            float _e157 = ws[min(uint(_e155), 7u)];
+            Aim _e158 = aim_1;
+            const float3 _e159 = shade(b_15, _e158, r_5);
+            c_4 = (_e154 + (_e157 * _e159));
+        }
+    }
+    float3 _e165 = c_4;
+    return _e165;
+}
+
+float3 looked_up_radiance(float3 b_16, float3 dir_11, float r_6)
+{
+    uint near = 0u;
+    uint corner_4 = 0u;
+
+    const uint _e3 = blend_mode();
+    if ((_e3 == 2u)) {
+        const Lattice _e6 = face_lattice(b_16);
+        uint2 loop_bound_9 = uint2(4294967295u, 4294967295u);
+        bool loop_init_9 = true;
+        while(true) {
+            if (all(loop_bound_9 == uint2(0u, 0u))) { break; }
+            loop_bound_9 -= uint2(loop_bound_9.y == 0u, 1u);
+            if (!loop_init_9) {
+                uint _e24 = corner_4;
+                corner_4 = (_e24 + 1u);
+            }
+            loop_init_9 = false;
+            uint _e11 = corner_4;
+            if ((_e11 < 8u)) {
+            } else {
+                break;
+            }
+            {
+                uint _e14 = near;
+                uint _e17 = corner_4;
+                const float _e18 = corner_weight(_e6, _e17);
+                near = (_e14 + ((_e18 > 0.0) ? 1u : 0u));
+            }
+        }
+        uint _e26 = near;
+        if ((_e26 > 1u)) {
+            const float3 _e29 = faces_radiance(_e6, b_16, dir_11, r_6);
+            return _e29;
+        }
+    }
+    const Aim _e30 = fetch(b_16, dir_11, r_6);
+    const float3 _e31 = shade(b_16, _e30, r_6);
+    return _e31;
 }
 
 float blend_node_r(uint k_7)
@@ -1331,46 +1566,46 @@ float blend_node_w(uint k_8)
     return _e9;
 }
 
-float irradiance_weight(float r_5)
+float irradiance_weight(float r_7)
 {
-    bool local_24 = (bool)0;
+    bool local_25 = (bool)0;
     float w_1 = (float)0;
     uint k_9 = 1u;
 
-    uint n_15 = params.lut_info.y;
-    if (!((n_15 == 0u))) {
-        local_24 = !((r_5 > 0.0));
+    uint n_16 = params.lut_info.y;
+    if (!((n_16 == 0u))) {
+        local_25 = !((r_7 > 0.0));
     } else {
-        local_24 = true;
+        local_25 = true;
     }
-    bool _e14 = local_24;
+    bool _e14 = local_25;
     if (_e14) {
         return 0.0;
     }
     const float _e17 = blend_node_w(0u);
     w_1 = _e17;
-    uint2 loop_bound_6 = uint2(4294967295u, 4294967295u);
-    bool loop_init_6 = true;
+    uint2 loop_bound_10 = uint2(4294967295u, 4294967295u);
+    bool loop_init_10 = true;
     while(true) {
-        if (all(loop_bound_6 == uint2(0u, 0u))) { break; }
-        loop_bound_6 -= uint2(loop_bound_6.y == 0u, 1u);
-        if (!loop_init_6) {
+        if (all(loop_bound_10 == uint2(0u, 0u))) { break; }
+        loop_bound_10 -= uint2(loop_bound_10.y == 0u, 1u);
+        if (!loop_init_10) {
             uint _e49 = k_9;
             k_9 = (_e49 + 1u);
         }
-        loop_init_6 = false;
+        loop_init_10 = false;
         uint _e21 = k_9;
-        if ((_e21 < n_15)) {
+        if ((_e21 < n_16)) {
         } else {
             break;
         }
         {
             uint _e23 = k_9;
             const float _e26 = blend_node_r((_e23 - 1u));
-            if ((r_5 > _e26)) {
+            if ((r_7 > _e26)) {
                 uint _e29 = k_9;
                 const float _e30 = blend_node_r(_e29);
-                float t_13 = min(max(((r_5 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                float t_13 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
                 uint _e37 = k_9;
                 const float _e40 = blend_node_w((_e37 - 1u));
                 uint _e44 = k_9;
@@ -1383,29 +1618,29 @@ float irradiance_weight(float r_5)
     return min(max(_e51, 0.0), 1.0);
 }
 
-float3 clean(float3 c_4)
+float3 clean(float3 c_5)
 {
-    const bool _e1 = finite3_(c_4);
+    const bool _e1 = finite3_(c_5);
     if (_e1) {
-        return max(c_4, (0.0).xxx);
+        return max(c_5, (0.0).xxx);
     }
     return (0.0).xxx;
 }
 
-float3 sh_eval(float3 c_5[9], float3 n_4)
+float3 sh_eval(float3 c_6[9], float3 n_5)
 {
-    float x_5 = n_4.x;
-    float y = n_4.y;
-    float z = n_4.z;
-    float3 t0_ = (c_5[0] * 0.2820948);
-    float3 t1_ = (c_5[1] * (0.4886025 * y));
-    float3 t2_ = (c_5[2] * (0.4886025 * z));
-    float3 t3_ = (c_5[3] * (0.4886025 * x_5));
-    float3 t4_ = (c_5[4] * (1.0925484 * (x_5 * y)));
-    float3 t5_ = (c_5[5] * (1.0925484 * (y * z)));
-    float3 t6_ = (c_5[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
-    float3 t7_ = (c_5[7] * (1.0925484 * (x_5 * z)));
-    float3 t8_ = (c_5[8] * (0.5462742 * ((x_5 * x_5) - (y * y))));
+    float x_6 = n_5.x;
+    float y = n_5.y;
+    float z = n_5.z;
+    float3 t0_ = (c_6[0] * 0.2820948);
+    float3 t1_ = (c_6[1] * (0.4886025 * y));
+    float3 t2_ = (c_6[2] * (0.4886025 * z));
+    float3 t3_ = (c_6[3] * (0.4886025 * x_6));
+    float3 t4_ = (c_6[4] * (1.0925484 * (x_6 * y)));
+    float3 t5_ = (c_6[5] * (1.0925484 * (y * z)));
+    float3 t6_ = (c_6[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    float3 t7_ = (c_6[7] * (1.0925484 * (x_6 * z)));
+    float3 t8_ = (c_6[8] * (0.5462742 * ((x_6 * x_6) - (y * y))));
     float3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
     return max(e_2, (0.0).xxx);
 }
@@ -1416,7 +1651,7 @@ ret_Constructarray9_float3_ Constructarray9_float3_(float3 arg0, float3 arg1, fl
     return ret;
 }
 
-float3 cell_sh_irradiance(uint cell, float3 n_5)
+float3 cell_sh_irradiance(uint cell, float3 n_6)
 {
     float4 _e6 = asfloat(cells.Load4(0+32+cell*192));
     float4 _e12 = asfloat(cells.Load4(16+32+cell*192));
@@ -1427,17 +1662,17 @@ float3 cell_sh_irradiance(uint cell, float3 n_5)
     float4 _e42 = asfloat(cells.Load4(96+32+cell*192));
     float4 _e48 = asfloat(cells.Load4(112+32+cell*192));
     float4 _e54 = asfloat(cells.Load4(128+32+cell*192));
-    float3 c_10[9] = Constructarray9_float3_(_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
-    const float3 _e57 = sh_eval(c_10, n_5);
+    float3 c_11[9] = Constructarray9_float3_(_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
+    const float3 _e57 = sh_eval(c_11, n_6);
     return _e57;
 }
 
-float3 sh_blend4_(uint4 at, float4 w_2, uint i_1)
+float3 sh_blend4_(uint4 at_1, float4 w_2, uint i_1)
 {
-    float4 _e8 = asfloat(cells.Load4(i_1*16+32+at.x*192));
-    float4 _e17 = asfloat(cells.Load4(i_1*16+32+at.y*192));
-    float4 _e27 = asfloat(cells.Load4(i_1*16+32+at.z*192));
-    float4 _e36 = asfloat(cells.Load4(i_1*16+32+at.w*192));
+    float4 _e8 = asfloat(cells.Load4(i_1*16+32+at_1.x*192));
+    float4 _e17 = asfloat(cells.Load4(i_1*16+32+at_1.y*192));
+    float4 _e27 = asfloat(cells.Load4(i_1*16+32+at_1.z*192));
+    float4 _e36 = asfloat(cells.Load4(i_1*16+32+at_1.w*192));
     return (((_e8.xyz * w_2.x) + (_e17.xyz * w_2.y)) + ((_e27.xyz * w_2.z) + (_e36.xyz * w_2.w)));
 }
 
@@ -1448,17 +1683,17 @@ uint NagaBufferLength(ByteAddressBuffer buffer)
     return ret;
 }
 
-float3 sh_read(uint home, float3 b_14, float3 n_6)
+float3 sh_read(uint home, float3 b_17, float3 n_7)
 {
     uint3 base = (uint3)0;
     float3 frac_ = (float3)0;
     uint a = 0u;
     uint bx = 1u;
-    uint c_6 = 2u;
+    uint c_7 = 2u;
     uint3 top_v = (uint3)0;
     uint3 home_v = (uint3)0;
     uint bit0_ = 0u;
-    uint x_2 = 0u;
+    uint x_3 = 0u;
     uint rel = (uint)0;
     uint4 corner_cell_1 = (uint4)0;
     uint4 bits = (uint4)0;
@@ -1466,23 +1701,23 @@ float3 sh_read(uint home, float3 b_14, float3 n_6)
     uint cs = (uint)0;
     uint bs = (uint)0;
     float4 w_3 = (float4)0;
-    uint4 at_1 = (uint4)0;
+    uint4 at_2 = (uint4)0;
     uint k_11 = 0u;
     bool kept = (bool)0;
-    bool local_25 = (bool)0;
     bool local_26 = (bool)0;
+    bool local_27 = (bool)0;
 
     const float3 _e3 = cell_size();
     uint4 _e6 = params.grid_counts;
     uint3 counts = _e6.xyz;
     uint3 top_1 = (counts - (1u).xxx);
     float4 _e13 = params.grid_min;
-    float3 units = ((b_14 - _e13.xyz) / _e3);
-    const uint3 _e17 = cell_of(b_14, _e3);
+    float3 units = ((b_17 - _e13.xyz) / _e3);
+    const uint3 _e17 = cell_of(b_17, _e3);
     float3 f0_ = (units - (0.5).xxx);
     const bool _e21 = finite3_(f0_);
     if (!(_e21)) {
-        const float3 _e23 = cell_sh_irradiance(home, n_6);
+        const float3 _e23 = cell_sh_irradiance(home, n_7);
         return _e23;
     }
     float3 f_7 = clamp(f0_, (0.0).xxx, float3(top_1));
@@ -1499,15 +1734,15 @@ float3 sh_read(uint home, float3 b_14, float3 n_6)
         a = _e47;
         bx = t_14;
     }
-    uint _e48 = c_6;
+    uint _e48 = c_7;
     float _e50 = frac_[min(uint(_e48), 2u)];
     uint _e51 = bx;
     float _e53 = frac_[min(uint(_e51), 2u)];
     if ((_e50 > _e53)) {
         uint t_15 = bx;
-        uint _e56 = c_6;
+        uint _e56 = c_7;
         bx = _e56;
-        c_6 = t_15;
+        c_7 = t_15;
         uint _e57 = bx;
         float _e59 = frac_[min(uint(_e57), 2u)];
         uint _e60 = a;
@@ -1527,9 +1762,9 @@ float3 sh_read(uint home, float3 b_14, float3 n_6)
     float _e76 = frac_[min(uint(_e74), 2u)];
     uint _e78 = bx;
     float _e80 = frac_[min(uint(_e78), 2u)];
-    uint _e81 = c_6;
+    uint _e81 = c_7;
     float _e83 = frac_[min(uint(_e81), 2u)];
-    uint _e85 = c_6;
+    uint _e85 = c_7;
     float _e87 = frac_[min(uint(_e85), 2u)];
     float4 weights = float4((1.0 - _e68), (_e73 - _e76), (_e80 - _e83), _e87);
     top_v = top_1;
@@ -1540,36 +1775,36 @@ float3 sh_read(uint home, float3 b_14, float3 n_6)
     uint _e105 = base.y;
     uint _e108 = base.z;
     uint cell0_ = (_e102 + (counts.x * (_e105 + (counts.y * _e108))));
-    uint2 loop_bound_7 = uint2(4294967295u, 4294967295u);
-    bool loop_init_7 = true;
+    uint2 loop_bound_11 = uint2(4294967295u, 4294967295u);
+    bool loop_init_11 = true;
     while(true) {
-        if (all(loop_bound_7 == uint2(0u, 0u))) { break; }
-        loop_bound_7 -= uint2(loop_bound_7.y == 0u, 1u);
-        if (!loop_init_7) {
-            uint _e144 = x_2;
-            x_2 = (_e144 + 1u);
+        if (all(loop_bound_11 == uint2(0u, 0u))) { break; }
+        loop_bound_11 -= uint2(loop_bound_11.y == 0u, 1u);
+        if (!loop_init_11) {
+            uint _e144 = x_3;
+            x_3 = (_e144 + 1u);
         }
-        loop_init_7 = false;
-        uint _e117 = x_2;
+        loop_init_11 = false;
+        uint _e117 = x_3;
         if ((_e117 < 3u)) {
         } else {
             break;
         }
         {
-            uint _e120 = x_2;
+            uint _e120 = x_3;
             uint _e122 = base[min(uint(_e120), 2u)];
             uint up = (_e122 + 1u);
             rel = 0u;
-            uint _e127 = x_2;
+            uint _e127 = x_3;
             uint _e129 = home_v[min(uint(_e127), 2u)];
             if ((up > _e129)) {
-                uint _e131 = x_2;
+                uint _e131 = x_3;
                 uint _e133 = home_v[min(uint(_e131), 2u)];
                 rel = min((up - _e133), 2u);
             }
             uint _e137 = bit0_;
             uint _e138 = rel;
-            uint _e139 = x_2;
+            uint _e139 = x_3;
             bit0_ = (_e137 + (_e138 * bit_stride[min(uint(_e139), 2u)]));
         }
     }
@@ -1578,18 +1813,18 @@ float3 sh_read(uint home, float3 b_14, float3 n_6)
     bits = (_e148).xxxx;
     uint _e151 = a;
     uint _e152 = bx;
-    uint _e153 = c_6;
+    uint _e153 = c_7;
     uint3 axes = uint3(_e151, _e152, _e153);
-    uint2 loop_bound_8 = uint2(4294967295u, 4294967295u);
-    bool loop_init_8 = true;
+    uint2 loop_bound_12 = uint2(4294967295u, 4294967295u);
+    bool loop_init_12 = true;
     while(true) {
-        if (all(loop_bound_8 == uint2(0u, 0u))) { break; }
-        loop_bound_8 -= uint2(loop_bound_8.y == 0u, 1u);
-        if (!loop_init_8) {
+        if (all(loop_bound_12 == uint2(0u, 0u))) { break; }
+        loop_bound_12 -= uint2(loop_bound_12.y == 0u, 1u);
+        if (!loop_init_12) {
             uint _e194 = k_10;
             k_10 = (_e194 + 1u);
         }
-        loop_init_8 = false;
+        loop_init_12 = false;
         uint _e157 = k_10;
         if ((_e157 < 4u)) {
         } else {
@@ -1597,14 +1832,14 @@ float3 sh_read(uint home, float3 b_14, float3 n_6)
         }
         {
             uint _e160 = k_10;
-            uint x_6 = axes[min(uint((_e160 - 1u)), 2u)];
+            uint x_7 = axes[min(uint((_e160 - 1u)), 2u)];
             cs = 0u;
             bs = 0u;
-            uint _e169 = base[min(uint(x_6), 2u)];
-            uint _e171 = top_v[min(uint(x_6), 2u)];
+            uint _e169 = base[min(uint(x_7), 2u)];
+            uint _e171 = top_v[min(uint(x_7), 2u)];
             if ((_e169 < _e171)) {
-                cs = cell_stride[min(uint(x_6), 2u)];
-                bs = bit_stride[min(uint(x_6), 2u)];
+                cs = cell_stride[min(uint(x_7), 2u)];
+                bs = bit_stride[min(uint(x_7), 2u)];
             }
             uint _e175 = k_10;
             uint _e177 = k_10;
@@ -1620,18 +1855,18 @@ float3 sh_read(uint home, float3 b_14, float3 n_6)
     }
     uint links = asuint(cells.Load(0+176+home*192));
     w_3 = weights;
-    at_1 = (home).xxxx;
+    at_2 = (home).xxxx;
     uint count = ((NagaBufferLength(cells) - 0) / 192);
-    uint2 loop_bound_9 = uint2(4294967295u, 4294967295u);
-    bool loop_init_9 = true;
+    uint2 loop_bound_13 = uint2(4294967295u, 4294967295u);
+    bool loop_init_13 = true;
     while(true) {
-        if (all(loop_bound_9 == uint2(0u, 0u))) { break; }
-        loop_bound_9 -= uint2(loop_bound_9.y == 0u, 1u);
-        if (!loop_init_9) {
+        if (all(loop_bound_13 == uint2(0u, 0u))) { break; }
+        loop_bound_13 -= uint2(loop_bound_13.y == 0u, 1u);
+        if (!loop_init_13) {
             uint _e252 = k_11;
             k_11 = (_e252 + 1u);
         }
-        loop_init_9 = false;
+        loop_init_13 = false;
         uint _e208 = k_11;
         if ((_e208 < 4u)) {
         } else {
@@ -1646,17 +1881,17 @@ float3 sh_read(uint home, float3 b_14, float3 n_6)
             if ((_e218 < 27u)) {
                 uint _e223 = k_11;
                 uint _e225 = bits[min(uint(_e223), 3u)];
-                local_25 = (((links >> _e225) & 1u) != 0u);
-            } else {
-                local_25 = false;
-            }
-            bool _e232 = local_25;
-            if (_e232) {
-                local_26 = (ck < count);
+                local_26 = (((links >> _e225) & 1u) != 0u);
             } else {
                 local_26 = false;
             }
-            bool _e237 = local_26;
+            bool _e232 = local_26;
+            if (_e232) {
+                local_27 = (ck < count);
+            } else {
+                local_27 = false;
+            }
+            bool _e237 = local_27;
             if (_e237) {
                 int _e242 = asint(cells.Load(4+0+ck*192));
                 kept = (_e242 >= int(0));
@@ -1664,7 +1899,7 @@ float3 sh_read(uint home, float3 b_14, float3 n_6)
             bool _e245 = kept;
             if (_e245) {
                 uint _e246 = k_11;
-                at_1[min(uint(_e246), 3u)] = ck;
+                at_2[min(uint(_e246), 3u)] = ck;
             } else {
                 uint _e248 = k_11;
                 w_3[min(uint(_e248), 3u)] = 0.0;
@@ -1677,68 +1912,68 @@ float3 sh_read(uint home, float3 b_14, float3 n_6)
     float _e262 = w_3.w;
     float wsum_1 = ((_e255 + _e257) + (_e260 + _e262));
     if (!((wsum_1 > 0.0))) {
-        const float3 _e268 = cell_sh_irradiance(home, n_6);
+        const float3 _e268 = cell_sh_irradiance(home, n_7);
         return _e268;
     }
-    uint4 _e269 = at_1;
+    uint4 _e269 = at_2;
     float4 _e270 = w_3;
     const float3 _e272 = sh_blend4_(_e269, _e270, 0u);
-    uint4 _e273 = at_1;
+    uint4 _e273 = at_2;
     float4 _e274 = w_3;
     const float3 _e276 = sh_blend4_(_e273, _e274, 1u);
-    uint4 _e277 = at_1;
+    uint4 _e277 = at_2;
     float4 _e278 = w_3;
     const float3 _e280 = sh_blend4_(_e277, _e278, 2u);
-    uint4 _e281 = at_1;
+    uint4 _e281 = at_2;
     float4 _e282 = w_3;
     const float3 _e284 = sh_blend4_(_e281, _e282, 3u);
-    uint4 _e285 = at_1;
+    uint4 _e285 = at_2;
     float4 _e286 = w_3;
     const float3 _e288 = sh_blend4_(_e285, _e286, 4u);
-    uint4 _e289 = at_1;
+    uint4 _e289 = at_2;
     float4 _e290 = w_3;
     const float3 _e292 = sh_blend4_(_e289, _e290, 5u);
-    uint4 _e293 = at_1;
+    uint4 _e293 = at_2;
     float4 _e294 = w_3;
     const float3 _e296 = sh_blend4_(_e293, _e294, 6u);
-    uint4 _e297 = at_1;
+    uint4 _e297 = at_2;
     float4 _e298 = w_3;
     const float3 _e300 = sh_blend4_(_e297, _e298, 7u);
-    uint4 _e301 = at_1;
+    uint4 _e301 = at_2;
     float4 _e302 = w_3;
     const float3 _e304 = sh_blend4_(_e301, _e302, 8u);
     float3 acc[9] = Constructarray9_float3_(_e272, _e276, _e280, _e284, _e288, _e292, _e296, _e300, _e304);
-    const float3 _e306 = sh_eval(acc, n_6);
+    const float3 _e306 = sh_eval(acc, n_7);
     return (_e306 / (wsum_1).xxx);
 }
 
 float3 specular(float3 position, float3 direction, float roughness)
 {
-    float3 b_15 = (float3)0;
-    float r_6 = 0.0;
+    float3 b_18 = (float3)0;
+    float r_8 = 0.0;
     uint cell_1 = 0u;
     bool stored = false;
-    bool local_27 = (bool)0;
-    float3 c_7 = (float3)0;
+    bool local_28 = (bool)0;
+    float3 c_8 = (float3)0;
 
     const float4 _e3 = unit_direction(direction);
     if ((_e3.w == 0.0)) {
         return (0.0).xxx;
     }
     float4 _e11 = params.probe;
-    b_15 = _e11.xyz;
+    b_18 = _e11.xyz;
     const bool _e14 = finite3_(position);
     if (_e14) {
-        b_15 = position;
+        b_18 = position;
     }
     const bool _e17 = finite(roughness);
     if (_e17) {
-        r_6 = clamp(roughness, 0.0, 1.0);
+        r_8 = clamp(roughness, 0.0, 1.0);
     }
-    float _e21 = r_6;
+    float _e21 = r_8;
     const float _e22 = irradiance_weight(_e21);
     if ((_e22 > 0.0)) {
-        float3 _e29 = b_15;
+        float3 _e29 = b_18;
         const float3 _e30 = cell_size();
         const uint3 _e31 = cell_of(_e29, _e30);
         const uint _e32 = cell_index(_e31);
@@ -1749,43 +1984,40 @@ float3 specular(float3 position, float3 direction, float roughness)
     }
     bool _e41 = stored;
     if (_e41) {
-        local_27 = (_e22 >= 1.0);
+        local_28 = (_e22 >= 1.0);
     } else {
-        local_27 = false;
+        local_28 = false;
     }
-    bool _e47 = local_27;
+    bool _e47 = local_28;
     if (_e47) {
         uint _e48 = cell_1;
-        float3 _e49 = b_15;
+        float3 _e49 = b_18;
         const float3 _e51 = sh_read(_e48, _e49, _e3.xyz);
         const float3 _e55 = clean((_e51 * (_e22 * 0.31830987)));
         return _e55;
     }
-    float3 _e56 = b_15;
-    float3 _e57 = b_15;
-    float _e59 = r_6;
-    const Aim _e60 = fetch(_e57, _e3.xyz, _e59);
-    float _e61 = r_6;
-    const float3 _e62 = shade(_e56, _e60, _e61);
-    c_7 = _e62;
-    bool _e64 = stored;
-    if (_e64) {
-        float3 _e65 = c_7;
-        uint _e69 = cell_1;
-        float3 _e70 = b_15;
-        const float3 _e72 = sh_read(_e69, _e70, _e3.xyz);
-        c_7 = ((_e65 * (1.0 - _e22)) + (_e72 * (_e22 * 0.31830987)));
+    float3 _e56 = b_18;
+    float _e58 = r_8;
+    const float3 _e59 = looked_up_radiance(_e56, _e3.xyz, _e58);
+    c_8 = _e59;
+    bool _e61 = stored;
+    if (_e61) {
+        float3 _e62 = c_8;
+        uint _e66 = cell_1;
+        float3 _e67 = b_18;
+        const float3 _e69 = sh_read(_e66, _e67, _e3.xyz);
+        c_8 = ((_e62 * (1.0 - _e22)) + (_e69 * (_e22 * 0.31830987)));
     }
-    float3 _e77 = c_7;
-    const float3 _e78 = clean(_e77);
-    return _e78;
+    float3 _e74 = c_8;
+    const float3 _e75 = clean(_e74);
+    return _e75;
 }
 
-float3 cell_irradiance(int tile_3, float3 n_7)
+float3 cell_irradiance(int tile_3, float3 n_8)
 {
     uint _e6 = params.atlas_a.z;
     uint _e10 = params.atlas_a.w;
-    const float2 _e11 = oct_encode(n_7);
+    const float2 _e11 = oct_encode(n_8);
     const float4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_3, _e6, _e10, _e11);
     return _e12.xyz;
 }
@@ -1795,56 +2027,56 @@ float3 irradiance(float3 position_1, float3 normal)
     float3 p_8 = (float3)0;
     float3 e = (0.0).xxx;
     float wsum = 0.0;
-    uint corner_3 = 0u;
+    uint corner_5 = 0u;
     float w_4 = (float)0;
-    bool local_28 = (bool)0;
+    bool local_29 = (bool)0;
     float k_12 = (float)0;
 
     const float4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
         return (0.0).xxx;
     }
-    float3 n_16 = _e2.xyz;
+    float3 n_17 = _e2.xyz;
     const float3 _e9 = cell_size();
     float4 _e12 = params.grid_min;
     float4 _e16 = params.grid_max;
     float4 _e20 = params.grid_min;
     p_8 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = params.grid_min.w;
-    float3 biased = (position_1 + (n_16 * _e30));
+    float3 biased = (position_1 + (n_17 * _e30));
     const bool _e33 = finite3_(biased);
     if (_e33) {
         p_8 = biased;
     }
     float3 _e34 = p_8;
     const Lattice _e35 = lattice(_e34, _e9);
-    const float2 _e36 = oct_encode(n_16);
-    uint2 loop_bound_10 = uint2(4294967295u, 4294967295u);
-    bool loop_init_10 = true;
+    const float2 _e36 = oct_encode(n_17);
+    uint2 loop_bound_14 = uint2(4294967295u, 4294967295u);
+    bool loop_init_14 = true;
     while(true) {
-        if (all(loop_bound_10 == uint2(0u, 0u))) { break; }
-        loop_bound_10 -= uint2(loop_bound_10.y == 0u, 1u);
-        if (!loop_init_10) {
-            uint _e157 = corner_3;
-            corner_3 = (_e157 + 1u);
+        if (all(loop_bound_14 == uint2(0u, 0u))) { break; }
+        loop_bound_14 -= uint2(loop_bound_14.y == 0u, 1u);
+        if (!loop_init_14) {
+            uint _e157 = corner_5;
+            corner_5 = (_e157 + 1u);
         }
-        loop_init_10 = false;
-        uint _e44 = corner_3;
+        loop_init_14 = false;
+        uint _e44 = corner_5;
         if ((_e44 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e47 = corner_3;
+            uint _e47 = corner_5;
             const float _e48 = corner_weight(_e35, _e47);
             if ((_e48 <= 0.0)) {
                 continue;
             }
-            uint _e51 = corner_3;
+            uint _e51 = corner_5;
             const uint3 _e52 = corner_cell(_e35, _e51);
             const uint _e53 = cell_index(_e52);
-            int4 tiles_3 = asint(cells.Load4(0+_e53*192));
-            if ((tiles_3.y < int(0))) {
+            int4 tiles_4 = asint(cells.Load4(0+_e53*192));
+            if ((tiles_4.y < int(0))) {
                 continue;
             }
             float3 _e61 = p_8;
@@ -1855,20 +2087,20 @@ float3 irradiance(float3 position_1, float3 normal)
             w_4 = _e48;
             if ((dist > 0.0)) {
                 const bool _e76 = finite(dist);
-                local_28 = _e76;
+                local_29 = _e76;
             } else {
-                local_28 = false;
+                local_29 = false;
             }
-            bool _e78 = local_28;
+            bool _e78 = local_29;
             if (_e78) {
                 float3 u_1 = (to_point / (dist).xxx);
-                float facing = ((dot(n_16, -(u_1)) + 1.0) * 0.5);
+                float facing = ((dot(n_17, -(u_1)) + 1.0) * 0.5);
                 float _e87 = w_4;
                 w_4 = (_e87 * ((facing * facing) + 0.2));
                 uint _e97 = params.atlas_b.x;
                 uint _e101 = params.atlas_b.y;
                 const float2 _e102 = oct_encode(u_1);
-                const float4 _e103 = atlas_bilinear(ATLAS_MOMENTS, tiles_3.y, _e97, _e101, _e102);
+                const float4 _e103 = atlas_bilinear(ATLAS_MOMENTS, tiles_4.y, _e97, _e101, _e102);
                 float mean = _e103.x;
                 float mean_sq = _e103.y;
                 if ((dist > mean)) {
@@ -1882,14 +2114,14 @@ float3 irradiance(float3 position_1, float3 normal)
             float _e124 = w_4;
             w_4 = max(_e124, (1e-6 * _e48));
             k_12 = 1.0;
-            if ((tiles_3.z >= int(0))) {
+            if ((tiles_4.z >= int(0))) {
                 uint _e138 = params.atlas_b.z;
                 uint _e142 = params.atlas_b.w;
-                const float4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_3.z, _e138, _e142, _e36);
+                const float4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_4.z, _e138, _e142, _e36);
                 k_12 = _e143.x;
             }
             float3 _e145 = e;
-            const float3 _e147 = cell_irradiance(tiles_3.y, n_16);
+            const float3 _e147 = cell_irradiance(tiles_4.y, n_17);
             float _e148 = w_4;
             float _e150 = k_12;
             e = (_e145 + ((_e147 * _e148) * _e150));
@@ -1910,17 +2142,17 @@ float3 irradiance(float3 position_1, float3 normal)
 
 float2 hemi_encode(float3 v_7)
 {
-    bool local_29 = (bool)0;
+    bool local_30 = (bool)0;
 
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         const bool _e14 = finite(l1_1);
-        local_29 = _e14;
+        local_30 = _e14;
     } else {
-        local_29 = false;
+        local_30 = false;
     }
-    bool _e16 = local_29;
+    bool _e16 = local_30;
     if (!(_e16)) {
         return float2(0.5, 0.5);
     }
@@ -1937,18 +2169,18 @@ SurfaceAxis ConstructSurfaceAxis(uint arg0, uint arg1, float arg2) {
     return ret;
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_8)
+SurfaceAxis surface_axis(float x_in, uint n_9)
 {
-    float x_3 = 0.5;
+    float x_4 = 0.5;
 
     const bool _e4 = finite(x_in);
     if (_e4) {
-        x_3 = x_in;
+        x_4 = x_in;
     }
-    float _e5 = x_3;
-    float c_11 = clamp(((_e5 * float(n_8)) - 0.5), 0.0, float((n_8 - 1u)));
-    uint i0_ = naga_f2u32(floor(c_11));
-    const SurfaceAxis surfaceaxis = ConstructSurfaceAxis(i0_, min((i0_ + 1u), (n_8 - 1u)), (c_11 - float(i0_)));
+    float _e5 = x_4;
+    float c_12 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
+    uint i0_ = naga_f2u32(floor(c_12));
+    const SurfaceAxis surfaceaxis = ConstructSurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_12 - float(i0_)));
     return surfaceaxis;
 }
 
@@ -1962,14 +2194,14 @@ SurfaceTaps ConstructSurfaceTaps(uint2 arg0, uint2 arg1, float2 arg2) {
 
 SurfaceTaps surface_taps(float2 uv_9)
 {
-    uint n_17 = surface_params.shape.z;
-    float nf = float(n_17);
-    float x_7 = clamp(((uv_9.x * nf) - 0.5), 0.0, (nf - 1.0));
+    uint n_18 = surface_params.shape.z;
+    float nf = float(n_18);
+    float x_8 = clamp(((uv_9.x * nf) - 0.5), 0.0, (nf - 1.0));
     float y_1 = clamp(((uv_9.y * nf) - 0.5), 0.0, (nf - 1.0));
-    float x0_1 = floor(x_7);
+    float x0_1 = floor(x_8);
     float y0_ = floor(y_1);
     uint2 lo = uint2(naga_f2u32(x0_1), naga_f2u32(y0_));
-    const SurfaceTaps surfacetaps = ConstructSurfaceTaps(lo, min((lo + (1u).xx), ((n_17 - 1u)).xx), float2((x_7 - x0_1), (y_1 - y0_)));
+    const SurfaceTaps surfacetaps = ConstructSurfaceTaps(lo, min((lo + (1u).xx), ((n_18 - 1u)).xx), float2((x_8 - x0_1), (y_1 - y0_)));
     return surfacetaps;
 }
 
@@ -1977,11 +2209,11 @@ float3 surface_tile(uint i_2, uint j_1, uint layer, SurfaceTaps t_6)
 {
     uint _e8 = surface_params.shape.z;
     uint2 o_3 = (uint2(i_2, j_1) * _e8);
-    int l_6 = int(layer);
-    float4 q00_1 = surface_radiance.Load(int4(int2((o_3 + t_6.lo)), l_6, int(0)));
-    float4 q10_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.hi.x, t_6.lo.y))), l_6, int(0)));
-    float4 q01_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.lo.x, t_6.hi.y))), l_6, int(0)));
-    float4 q11_1 = surface_radiance.Load(int4(int2((o_3 + t_6.hi)), l_6, int(0)));
+    int l_7 = int(layer);
+    float4 q00_1 = surface_radiance.Load(int4(int2((o_3 + t_6.lo)), l_7, int(0)));
+    float4 q10_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.hi.x, t_6.lo.y))), l_7, int(0)));
+    float4 q01_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.lo.x, t_6.hi.y))), l_7, int(0)));
+    float4 q11_1 = surface_radiance.Load(int4(int2((o_3 + t_6.hi)), l_7, int(0)));
     const float4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_6.f);
     return _e44.xyz;
 }
@@ -1998,32 +2230,32 @@ float surface_tile_inv_distance(uint i_3, uint j_2, SurfaceTaps t_7)
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_16, float3 local_30, SurfaceTaps shared_taps)
+SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_19, float3 local_31, SurfaceTaps shared_taps)
 {
-    bool local_31 = (bool)0;
     bool local_32 = (bool)0;
+    bool local_33 = (bool)0;
 
     SurfaceParams sp = surface_params;
     float s_6 = ((float(i_4) + 0.5) / float(sp.shape.x));
     float t_16 = ((float(j_3) + 0.5) / float(sp.shape.y));
     float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_6)) + (sp.edge_v.xyz * t_16)) + (sp.normal.xyz * sp.corner.w));
-    float3 d_3 = (probe - b_16);
+    float3 d_3 = (probe - b_19);
     float3 ab_2 = float3(dot(d_3, sp.tangent.xyz), dot(d_3, sp.bitangent.xyz), dot(d_3, sp.normal.xyz));
     const float _e48 = surface_tile_inv_distance(i_4, j_3, shared_taps);
-    float3 v_12 = ((local_30 * max(((dot(local_30, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
+    float3 v_12 = ((local_31 * max(((dot(local_31, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
     if ((_e48 > 0.0)) {
         const bool _e62 = finite3_(v_12);
-        local_31 = _e62;
-    } else {
-        local_31 = false;
-    }
-    bool _e64 = local_31;
-    if (_e64) {
-        local_32 = (dot(v_12, v_12) > 0.0);
+        local_32 = _e62;
     } else {
         local_32 = false;
     }
-    bool _e71 = local_32;
+    bool _e64 = local_32;
+    if (_e64) {
+        local_33 = (dot(v_12, v_12) > 0.0);
+    } else {
+        local_33 = false;
+    }
+    bool _e71 = local_33;
     if (_e71) {
         const float2 _e72 = hemi_encode(v_12);
         const SurfaceTaps _e73 = surface_taps(_e72);
@@ -2046,7 +2278,7 @@ float3 surface_probe(uint i_5, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, fl
 
 float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped)
 {
-    float3 b_17 = (float3)0;
+    float3 b_20 = (float3)0;
     float lod_2 = 0.0;
     SurfaceTaps t00_ = (SurfaceTaps)0;
     SurfaceTaps t10_ = (SurfaceTaps)0;
@@ -2058,12 +2290,12 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
         return (0.0).xxx;
     }
     SurfaceParams sp_1 = surface_params;
-    b_17 = sp_1.corner.xyz;
+    b_20 = sp_1.corner.xyz;
     const bool _e15 = finite3_(b_in);
     if (_e15) {
-        b_17 = b_in;
+        b_20 = b_in;
     }
-    float3 _e16 = b_17;
+    float3 _e16 = b_20;
     float3 d_4 = (_e16 - sp_1.corner.xyz);
     const SurfaceAxis _e25 = surface_axis(dot(sp_1.dual_u.xyz, d_4), sp_1.shape.x);
     const SurfaceAxis _e31 = surface_axis(dot(sp_1.dual_v.xyz, d_4), sp_1.shape.y);
@@ -2077,26 +2309,26 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     uint m1_1 = min((m0_1 + 1u), last_2);
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
-    float3 dir_12 = _e4.xyz;
-    float3 local_33 = float3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
-    const float2 _e64 = hemi_encode(local_33);
+    float3 dir_14 = _e4.xyz;
+    float3 local_34 = float3(dot(dir_14, sp_1.tangent.xyz), dot(dir_14, sp_1.bitangent.xyz), dot(dir_14, sp_1.normal.xyz));
+    const float2 _e64 = hemi_encode(local_34);
     const SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
     t01_ = _e65;
     t11_ = _e65;
     if (warped) {
-        float3 _e72 = b_17;
-        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_33, _e65);
+        float3 _e72 = b_20;
+        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_34, _e65);
         t00_ = _e73;
-        float3 _e76 = b_17;
-        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_33, _e65);
+        float3 _e76 = b_20;
+        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_34, _e65);
         t10_ = _e77;
-        float3 _e80 = b_17;
-        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_33, _e65);
+        float3 _e80 = b_20;
+        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_34, _e65);
         t01_ = _e81;
-        float3 _e84 = b_17;
-        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_33, _e65);
+        float3 _e84 = b_20;
+        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_34, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;
@@ -2109,23 +2341,23 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     SurfaceTaps _e102 = t11_;
     const float3 _e103 = surface_probe(_e25.i1_, _e31.i1_, _e102, m0_1, m1_1, fm_1);
     float3 bottom = lerp(_e99, _e103, _e25.f);
-    float3 l_7 = lerp(top_2, bottom, _e31.f);
-    const bool _e108 = finite3_(l_7);
+    float3 l_8 = lerp(top_2, bottom, _e31.f);
+    const bool _e108 = finite3_(l_8);
     if (_e108) {
-        return max(l_7, (0.0).xxx);
+        return max(l_8, (0.0).xxx);
     }
     return (0.0).xxx;
 }
 
-float3 surface_specular(float3 b_18, float3 dir_10, float roughness_2)
+float3 surface_specular(float3 b_21, float3 dir_12, float roughness_2)
 {
-    const float3 _e4 = surface_lookup(b_18, dir_10, roughness_2, false);
+    const float3 _e4 = surface_lookup(b_21, dir_12, roughness_2, false);
     return _e4;
 }
 
-float3 surface_specular_warped(float3 b_19, float3 dir_11, float roughness_3)
+float3 surface_specular_warped(float3 b_22, float3 dir_13, float roughness_3)
 {
-    const float3 _e4 = surface_lookup(b_19, dir_11, roughness_3, true);
+    const float3 _e4 = surface_lookup(b_22, dir_13, roughness_3, true);
     return _e4;
 }
 
@@ -2165,8 +2397,8 @@ void irradiance_queries(uint3 id_1 : SV_DispatchThreadID)
         return;
     }
     float4 p_11 = asfloat(queries.Load4((2u * k_15)*16));
-    float4 n_18 = asfloat(queries.Load4(((2u * k_15) + 1u)*16));
-    const float3 _e20 = irradiance(p_11.xyz, n_18.xyz);
+    float4 n_19 = asfloat(queries.Load4(((2u * k_15) + 1u)*16));
+    const float3 _e20 = irradiance(p_11.xyz, n_19.xyz);
     results.Store4(k_15*16, asuint(float4(_e20, 1.0)));
     return;
 }

@@ -82,6 +82,8 @@ const uint ATLAS_MOMENTS = 2u;
 const uint ATLAS_SCALE = 3u;
 const float ROUGH_MAP_FROM = 0.5;
 const float ROUGH_MAP_TO = 0.75;
+const float FACE_MARGIN = 0.125;
+const uint RELAXED = 255u;
 const uint FALLBACK = 255u;
 const uint BLEND = 255u;
 const uint RELAX = 255u;
@@ -99,9 +101,9 @@ layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_bind
 
 layout(std430, binding = 0) readonly buffer type_12_block_1Compute { Cell _group_0_binding_8_cs[]; };
 
-layout(std430, binding = 1) readonly buffer type_22_block_2Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_24_block_2Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_22_block_3Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_24_block_3Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 uint fallback_method() {
@@ -200,9 +202,9 @@ vec4 unit_direction(vec3 v_3) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
     vec3 s_2 = (v_3 / vec3(m_1));
-    float l_2 = length(s_2);
-    if ((l_2 > 0.0)) {
-        bool _e47 = finite(l_2);
+    float l_3 = length(s_2);
+    if ((l_3 > 0.0)) {
+        bool _e47 = finite(l_3);
         local_5 = _e47;
     } else {
         local_5 = false;
@@ -211,7 +213,7 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    return vec4((s_2 / vec3(l_2)), 1.0);
+    return vec4((s_2 / vec3(l_3)), 1.0);
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
@@ -301,9 +303,9 @@ ivec2 wrap_texel(int n, ivec2 t) {
 }
 
 Footprint footprint(uint n_1, vec2 uv) {
-    vec2 x_4 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
-    vec2 x0_ = floor(x_4);
-    return Footprint(ivec2(x0_), (x_4 - x0_));
+    vec2 x_5 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
+    vec2 x0_ = floor(x_5);
+    return Footprint(ivec2(x0_), (x_5 - x0_));
 }
 
 vec4 blend4_(vec4 q00_, vec4 q10_, vec4 q01_, vec4 q11_, vec2 f) {
@@ -335,11 +337,11 @@ vec4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, vec2 uv_4) {
     uint s_3 = uint(tile);
     ivec2 origin = ivec2((uvec2((s_3 % columns), (s_3 / columns)) * (n_2 + 2u)));
     Footprint _e13 = footprint(n_2, uv_4);
-    ivec2 c_8 = ((origin + _e13.corner) + ivec2(1, 1));
-    vec4 _e20 = atlas_texel(which_4, c_8);
-    vec4 _e25 = atlas_texel(which_4, (c_8 + ivec2(1, 0)));
-    vec4 _e30 = atlas_texel(which_4, (c_8 + ivec2(0, 1)));
-    vec4 _e35 = atlas_texel(which_4, (c_8 + ivec2(1, 1)));
+    ivec2 c_9 = ((origin + _e13.corner) + ivec2(1, 1));
+    vec4 _e20 = atlas_texel(which_4, c_9);
+    vec4 _e25 = atlas_texel(which_4, (c_9 + ivec2(1, 0)));
+    vec4 _e30 = atlas_texel(which_4, (c_9 + ivec2(0, 1)));
+    vec4 _e35 = atlas_texel(which_4, (c_9 + ivec2(1, 1)));
     vec4 _e37 = blend4_(_e20, _e25, _e30, _e35, _e13.f);
     return _e37;
 }
@@ -352,8 +354,8 @@ vec3 cell_size() {
 }
 
 uint cell_index(uvec3 c_2) {
-    uvec4 n_9 = _group_0_binding_7_cs.grid_counts;
-    return (c_2.x + (n_9.x * (c_2.y + (n_9.y * c_2.z))));
+    uvec4 n_10 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_10.x * (c_2.y + (n_10.y * c_2.z))));
 }
 
 uvec3 cell_of(vec3 p_4, vec3 size) {
@@ -479,14 +481,14 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
             }
             uint _e21 = k_1;
             vec4 _e23 = _group_0_binding_7_cs.kdop[_e21];
-            vec3 n_10 = _e23.xyz;
+            vec3 n_11 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e27].w;
-            float nb = dot(n_10, b_5);
+            float nb = dot(n_11, b_5);
             if ((nb > h_1)) {
                 return vec2(0.0, 0.0);
             }
-            float nd = dot(n_10, dir_3);
+            float nd = dot(n_11, dir_3);
             if ((nd > 0.0)) {
                 float _e39 = t_4;
                 t_4 = min(_e39, ((h_1 - nb) / nd));
@@ -522,22 +524,22 @@ vec3 box_fetch(vec3 b_8, vec3 dir_6) {
 Basis orthonormal_basis(vec3 n_3) {
     float s_4 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_1 = (-1.0 / (s_4 + n_3.z));
-    float b_20 = ((n_3.x * n_3.y) * a_1);
-    return Basis(vec3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_1)), (s_4 * b_20), (-(s_4) * n_3.x)), vec3(b_20, (s_4 + ((n_3.y * n_3.y) * a_1)), -(n_3.y)));
+    float b_23 = ((n_3.x * n_3.y) * a_1);
+    return Basis(vec3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_1)), (s_4 * b_23), (-(s_4) * n_3.x)), vec3(b_23, (s_4 + ((n_3.y * n_3.y) * a_1)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
     bool local_12 = false;
-    float l_3 = length(v_5);
-    if ((l_3 > 0.0)) {
-        bool _e7 = finite(l_3);
+    float l_4 = length(v_5);
+    if ((l_4 > 0.0)) {
+        bool _e7 = finite(l_4);
         local_12 = _e7;
     } else {
         local_12 = false;
     }
     bool _e9 = local_12;
     if (_e9) {
-        return (v_5 / vec3(l_3));
+        return (v_5 / vec3(l_4));
     }
     return fallback_1;
 }
@@ -607,12 +609,12 @@ uint probe_of(int tile_1, vec2 uv_5) {
     if (_e14) {
         return 0u;
     }
-    uint n_11 = _group_0_binding_7_cs.atlas_a.x;
+    uint n_12 = _group_0_binding_7_cs.atlas_a.x;
     uint columns_1 = _group_0_binding_7_cs.atlas_a.y;
     uint _e28 = _group_0_binding_7_cs.probe_maps.y;
     uint s_5 = (uint(tile_1) + _e28);
-    ivec2 origin_1 = ivec2((uvec2((s_5 % columns_1), (s_5 / columns_1)) * (n_11 + 2u)));
-    Footprint _e37 = footprint(n_11, uv_5);
+    ivec2 origin_1 = ivec2((uvec2((s_5 % columns_1), (s_5 / columns_1)) * (n_12 + 2u)));
+    Footprint _e37 = footprint(n_12, uv_5);
     vec2 f_4 = _e37.f;
     vec4 w_5 = vec4(((1.0 - f_4.x) * (1.0 - f_4.y)), (f_4.x * (1.0 - f_4.y)), ((1.0 - f_4.x) * f_4.y), (f_4.x * f_4.y));
     bool loop_init_2 = true;
@@ -675,6 +677,19 @@ float cell_delta(ivec4 tiles, vec2 uv_7, float r) {
     return (_e25 + ((_e27 - _e25) * _e29));
 }
 
+float face_ramp(float x_2) {
+    return clamp(((x_2 - 0.375) / 0.25), 0.0, 1.0);
+}
+
+Lattice face_lattice(vec3 b_12) {
+    vec3 _e1 = cell_size();
+    Lattice _e2 = lattice(b_12, _e1);
+    float _e6 = face_ramp(_e2.frac.x);
+    float _e9 = face_ramp(_e2.frac.y);
+    float _e12 = face_ramp(_e2.frac.z);
+    return Lattice(_e2.base, vec3(_e6, _e9, _e12));
+}
+
 float mip_roughness(uint m) {
     float _e9 = _group_0_binding_7_cs.mip_roughness[(m / 4u)][(m % 4u)];
     return _e9;
@@ -685,8 +700,8 @@ float lod_of_roughness(float r_2) {
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
-    uint n_12 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_12 < 2u))) {
+    uint n_13 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_13 < 2u))) {
         float _e11 = mip_roughness(0u);
         local_18 = !((r_2 > _e11));
     } else {
@@ -696,7 +711,7 @@ float lod_of_roughness(float r_2) {
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_12 - 1u);
+    uint last = (n_13 - 1u);
     float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
@@ -709,7 +724,7 @@ float lod_of_roughness(float r_2) {
         }
         loop_init_3 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_12)) {
+        if ((_e26 < n_13)) {
         } else {
             break;
         }
@@ -750,17 +765,17 @@ float blend_node_w(uint k_8) {
     return _e9;
 }
 
-float irradiance_weight(float r_5) {
-    bool local_24 = false;
+float irradiance_weight(float r_7) {
+    bool local_25 = false;
     float w_1 = 0.0;
     uint k_9 = 1u;
-    uint n_13 = _group_0_binding_7_cs.lut_info.y;
-    if (!((n_13 == 0u))) {
-        local_24 = !((r_5 > 0.0));
+    uint n_14 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_14 == 0u))) {
+        local_25 = !((r_7 > 0.0));
     } else {
-        local_24 = true;
+        local_25 = true;
     }
-    bool _e14 = local_24;
+    bool _e14 = local_25;
     if (_e14) {
         return 0.0;
     }
@@ -774,17 +789,17 @@ float irradiance_weight(float r_5) {
         }
         loop_init_4 = false;
         uint _e21 = k_9;
-        if ((_e21 < n_13)) {
+        if ((_e21 < n_14)) {
         } else {
             break;
         }
         {
             uint _e23 = k_9;
             float _e26 = blend_node_r((_e23 - 1u));
-            if ((r_5 > _e26)) {
+            if ((r_7 > _e26)) {
                 uint _e29 = k_9;
                 float _e30 = blend_node_r(_e29);
-                float t_10 = min(max(((r_5 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                float t_10 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
                 uint _e37 = k_9;
                 float _e40 = blend_node_w((_e37 - 1u));
                 uint _e44 = k_9;
@@ -797,32 +812,32 @@ float irradiance_weight(float r_5) {
     return min(max(_e51, 0.0), 1.0);
 }
 
-vec3 clean(vec3 c_4) {
-    bool _e1 = finite3_(c_4);
+vec3 clean(vec3 c_5) {
+    bool _e1 = finite3_(c_5);
     if (_e1) {
-        return max(c_4, vec3(0.0));
+        return max(c_5, vec3(0.0));
     }
     return vec3(0.0);
 }
 
-vec3 sh_eval(vec3 c_5[9], vec3 n_4) {
-    float x_5 = n_4.x;
-    float y = n_4.y;
-    float z = n_4.z;
-    vec3 t0_ = (c_5[0] * 0.2820948);
-    vec3 t1_ = (c_5[1] * (0.4886025 * y));
-    vec3 t2_ = (c_5[2] * (0.4886025 * z));
-    vec3 t3_ = (c_5[3] * (0.4886025 * x_5));
-    vec3 t4_ = (c_5[4] * (1.0925484 * (x_5 * y)));
-    vec3 t5_ = (c_5[5] * (1.0925484 * (y * z)));
-    vec3 t6_ = (c_5[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
-    vec3 t7_ = (c_5[7] * (1.0925484 * (x_5 * z)));
-    vec3 t8_ = (c_5[8] * (0.5462742 * ((x_5 * x_5) - (y * y))));
+vec3 sh_eval(vec3 c_6[9], vec3 n_5) {
+    float x_6 = n_5.x;
+    float y = n_5.y;
+    float z = n_5.z;
+    vec3 t0_ = (c_6[0] * 0.2820948);
+    vec3 t1_ = (c_6[1] * (0.4886025 * y));
+    vec3 t2_ = (c_6[2] * (0.4886025 * z));
+    vec3 t3_ = (c_6[3] * (0.4886025 * x_6));
+    vec3 t4_ = (c_6[4] * (1.0925484 * (x_6 * y)));
+    vec3 t5_ = (c_6[5] * (1.0925484 * (y * z)));
+    vec3 t6_ = (c_6[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    vec3 t7_ = (c_6[7] * (1.0925484 * (x_6 * z)));
+    vec3 t8_ = (c_6[8] * (0.5462742 * ((x_6 * x_6) - (y * y))));
     vec3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
     return max(e_2, vec3(0.0));
 }
 
-vec3 cell_sh_irradiance(uint cell, vec3 n_5) {
+vec3 cell_sh_irradiance(uint cell, vec3 n_6) {
     vec4 _e6 = _group_0_binding_8_cs[cell].sh[0];
     vec4 _e12 = _group_0_binding_8_cs[cell].sh[1];
     vec4 _e18 = _group_0_binding_8_cs[cell].sh[2];
@@ -832,23 +847,23 @@ vec3 cell_sh_irradiance(uint cell, vec3 n_5) {
     vec4 _e42 = _group_0_binding_8_cs[cell].sh[6];
     vec4 _e48 = _group_0_binding_8_cs[cell].sh[7];
     vec4 _e54 = _group_0_binding_8_cs[cell].sh[8];
-    vec3 c_9[9] = vec3[9](_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
-    vec3 _e57 = sh_eval(c_9, n_5);
+    vec3 c_10[9] = vec3[9](_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
+    vec3 _e57 = sh_eval(c_10, n_6);
     return _e57;
 }
 
-vec3 sh_blend4_(uvec4 at, vec4 w_2, uint i_1) {
-    vec4 _e8 = _group_0_binding_8_cs[at.x].sh[i_1];
-    vec4 _e17 = _group_0_binding_8_cs[at.y].sh[i_1];
-    vec4 _e27 = _group_0_binding_8_cs[at.z].sh[i_1];
-    vec4 _e36 = _group_0_binding_8_cs[at.w].sh[i_1];
+vec3 sh_blend4_(uvec4 at_1, vec4 w_2, uint i_1) {
+    vec4 _e8 = _group_0_binding_8_cs[at_1.x].sh[i_1];
+    vec4 _e17 = _group_0_binding_8_cs[at_1.y].sh[i_1];
+    vec4 _e27 = _group_0_binding_8_cs[at_1.z].sh[i_1];
+    vec4 _e36 = _group_0_binding_8_cs[at_1.w].sh[i_1];
     return (((_e8.xyz * w_2.x) + (_e17.xyz * w_2.y)) + ((_e27.xyz * w_2.z) + (_e36.xyz * w_2.w)));
 }
 
-vec3 cell_irradiance(int tile_3, vec3 n_7) {
+vec3 cell_irradiance(int tile_3, vec3 n_8) {
     uint _e6 = _group_0_binding_7_cs.atlas_a.z;
     uint _e10 = _group_0_binding_7_cs.atlas_a.w;
-    vec2 _e11 = oct_encode(n_7);
+    vec2 _e11 = oct_encode(n_8);
     vec4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_3, _e6, _e10, _e11);
     return _e12.xyz;
 }
@@ -857,48 +872,48 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     vec3 p_8 = vec3(0.0);
     vec3 e = vec3(0.0);
     float wsum = 0.0;
-    uint corner_3 = 0u;
+    uint corner_5 = 0u;
     float w_4 = 0.0;
-    bool local_28 = false;
+    bool local_29 = false;
     float k_12 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
         return vec3(0.0);
     }
-    vec3 n_14 = _e2.xyz;
+    vec3 n_15 = _e2.xyz;
     vec3 _e9 = cell_size();
     vec4 _e12 = _group_0_binding_7_cs.grid_min;
     vec4 _e16 = _group_0_binding_7_cs.grid_max;
     vec4 _e20 = _group_0_binding_7_cs.grid_min;
     p_8 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = _group_0_binding_7_cs.grid_min.w;
-    vec3 biased = (position_1 + (n_14 * _e30));
+    vec3 biased = (position_1 + (n_15 * _e30));
     bool _e33 = finite3_(biased);
     if (_e33) {
         p_8 = biased;
     }
     vec3 _e34 = p_8;
     Lattice _e35 = lattice(_e34, _e9);
-    vec2 _e36 = oct_encode(n_14);
+    vec2 _e36 = oct_encode(n_15);
     bool loop_init_5 = true;
     while(true) {
         if (!loop_init_5) {
-            uint _e157 = corner_3;
-            corner_3 = (_e157 + 1u);
+            uint _e157 = corner_5;
+            corner_5 = (_e157 + 1u);
         }
         loop_init_5 = false;
-        uint _e44 = corner_3;
+        uint _e44 = corner_5;
         if ((_e44 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e47 = corner_3;
+            uint _e47 = corner_5;
             float _e48 = corner_weight(_e35, _e47);
             if ((_e48 <= 0.0)) {
                 continue;
             }
-            uint _e51 = corner_3;
+            uint _e51 = corner_5;
             uvec3 _e52 = corner_cell(_e35, _e51);
             uint _e53 = cell_index(_e52);
             ivec4 tiles_1 = _group_0_binding_8_cs[_e53].tiles;
@@ -913,14 +928,14 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             w_4 = _e48;
             if ((dist > 0.0)) {
                 bool _e76 = finite(dist);
-                local_28 = _e76;
+                local_29 = _e76;
             } else {
-                local_28 = false;
+                local_29 = false;
             }
-            bool _e78 = local_28;
+            bool _e78 = local_29;
             if (_e78) {
                 vec3 u = (to_point / vec3(dist));
-                float facing = ((dot(n_14, -(u)) + 1.0) * 0.5);
+                float facing = ((dot(n_15, -(u)) + 1.0) * 0.5);
                 float _e87 = w_4;
                 w_4 = (_e87 * ((facing * facing) + 0.2));
                 uint _e97 = _group_0_binding_7_cs.atlas_b.x;
@@ -947,7 +962,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                 k_12 = _e143.x;
             }
             vec3 _e145 = e;
-            vec3 _e147 = cell_irradiance(tiles_1.y, n_14);
+            vec3 _e147 = cell_irradiance(tiles_1.y, n_15);
             float _e148 = w_4;
             float _e150 = k_12;
             e = (_e145 + ((_e147 * _e148) * _e150));
@@ -967,16 +982,16 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_29 = false;
+    bool local_30 = false;
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_29 = _e14;
+        local_30 = _e14;
     } else {
-        local_29 = false;
+        local_30 = false;
     }
-    bool _e16 = local_29;
+    bool _e16 = local_30;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -985,16 +1000,16 @@ vec2 hemi_encode(vec3 v_7) {
     return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_8) {
-    float x_3 = 0.5;
+SurfaceAxis surface_axis(float x_in, uint n_9) {
+    float x_4 = 0.5;
     bool _e4 = finite(x_in);
     if (_e4) {
-        x_3 = x_in;
+        x_4 = x_in;
     }
-    float _e5 = x_3;
-    float c_10 = clamp(((_e5 * float(n_8)) - 0.5), 0.0, float((n_8 - 1u)));
-    uint i0_ = uint(floor(c_10));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_8 - 1u)), (c_10 - float(i0_)));
+    float _e5 = x_4;
+    float c_11 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
+    uint i0_ = uint(floor(c_11));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_11 - float(i0_)));
 }
 
 uint query_count() {
@@ -1009,8 +1024,8 @@ void main() {
         return;
     }
     vec4 p_10 = _group_1_binding_0_cs[(2u * k_13)];
-    vec4 n_15 = _group_1_binding_0_cs[((2u * k_13) + 1u)];
-    vec3 _e20 = irradiance(p_10.xyz, n_15.xyz);
+    vec4 n_16 = _group_1_binding_0_cs[((2u * k_13) + 1u)];
+    vec3 _e20 = irradiance(p_10.xyz, n_16.xyz);
     _group_1_binding_1_cs[k_13] = vec4(_e20, 1.0);
     return;
 }

@@ -82,6 +82,8 @@ const uint ATLAS_MOMENTS = 2u;
 const uint ATLAS_SCALE = 3u;
 const float ROUGH_MAP_FROM = 0.5;
 const float ROUGH_MAP_TO = 0.75;
+const float FACE_MARGIN = 0.125;
+const uint RELAXED = 255u;
 const uint FALLBACK = 255u;
 const uint BLEND = 255u;
 const uint RELAX = 255u;
@@ -105,9 +107,9 @@ layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_bind
 
 layout(std430, binding = 0) readonly buffer type_12_block_1Compute { Cell _group_0_binding_8_cs[]; };
 
-layout(std430, binding = 1) readonly buffer type_22_block_2Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_24_block_2Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_22_block_3Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_24_block_3Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 uint fallback_method() {
@@ -206,9 +208,9 @@ vec4 unit_direction(vec3 v_3) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
     vec3 s_2 = (v_3 / vec3(m_1));
-    float l_2 = length(s_2);
-    if ((l_2 > 0.0)) {
-        bool _e47 = finite(l_2);
+    float l_3 = length(s_2);
+    if ((l_3 > 0.0)) {
+        bool _e47 = finite(l_3);
         local_5 = _e47;
     } else {
         local_5 = false;
@@ -217,7 +219,7 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    return vec4((s_2 / vec3(l_2)), 1.0);
+    return vec4((s_2 / vec3(l_3)), 1.0);
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
@@ -307,9 +309,9 @@ ivec2 wrap_texel(int n, ivec2 t) {
 }
 
 Footprint footprint(uint n_1, vec2 uv) {
-    vec2 x_4 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
-    vec2 x0_ = floor(x_4);
-    return Footprint(ivec2(x0_), (x_4 - x0_));
+    vec2 x_5 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
+    vec2 x0_ = floor(x_5);
+    return Footprint(ivec2(x0_), (x_5 - x0_));
 }
 
 vec4 blend4_(vec4 q00_, vec4 q10_, vec4 q01_, vec4 q11_, vec2 f) {
@@ -329,20 +331,20 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1, uint p_1) {
     float _e7 = _group_0_binding_7_cs.warp.z;
     float _e11 = _group_0_binding_7_cs.warp.y;
     float res0_ = ((which_1 == 0u) ? _e11 : _e7);
-    uint n_9 = max((uint(res0_) >> level_1), 1u);
-    Footprint _e19 = footprint(n_9, uv_1);
-    ivec2 c_8 = _e19.corner;
-    int l_3 = int(level_1);
-    int ni = int(n_9);
-    ivec2 at_2 = ivec2((int(p_1) * ni), 0);
-    ivec2 _e27 = wrap_texel(ni, c_8);
-    vec4 _e29 = probe_texel(which_1, (at_2 + _e27), l_3);
-    ivec2 _e34 = wrap_texel(ni, (c_8 + ivec2(1, 0)));
-    vec4 _e36 = probe_texel(which_1, (at_2 + _e34), l_3);
-    ivec2 _e41 = wrap_texel(ni, (c_8 + ivec2(0, 1)));
-    vec4 _e43 = probe_texel(which_1, (at_2 + _e41), l_3);
-    ivec2 _e48 = wrap_texel(ni, (c_8 + ivec2(1, 1)));
-    vec4 _e50 = probe_texel(which_1, (at_2 + _e48), l_3);
+    uint n_10 = max((uint(res0_) >> level_1), 1u);
+    Footprint _e19 = footprint(n_10, uv_1);
+    ivec2 c_9 = _e19.corner;
+    int l_4 = int(level_1);
+    int ni = int(n_10);
+    ivec2 at_3 = ivec2((int(p_1) * ni), 0);
+    ivec2 _e27 = wrap_texel(ni, c_9);
+    vec4 _e29 = probe_texel(which_1, (at_3 + _e27), l_4);
+    ivec2 _e34 = wrap_texel(ni, (c_9 + ivec2(1, 0)));
+    vec4 _e36 = probe_texel(which_1, (at_3 + _e34), l_4);
+    ivec2 _e41 = wrap_texel(ni, (c_9 + ivec2(0, 1)));
+    vec4 _e43 = probe_texel(which_1, (at_3 + _e41), l_4);
+    ivec2 _e48 = wrap_texel(ni, (c_9 + ivec2(1, 1)));
+    vec4 _e50 = probe_texel(which_1, (at_3 + _e48), l_4);
     vec4 _e52 = blend4_(_e29, _e36, _e43, _e50, _e19.f);
     return _e52;
 }
@@ -424,11 +426,11 @@ vec4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, vec2 uv_4) {
     uint s_3 = uint(tile);
     ivec2 origin = ivec2((uvec2((s_3 % columns), (s_3 / columns)) * (n_2 + 2u)));
     Footprint _e13 = footprint(n_2, uv_4);
-    ivec2 c_9 = ((origin + _e13.corner) + ivec2(1, 1));
-    vec4 _e20 = atlas_texel(which_4, c_9);
-    vec4 _e25 = atlas_texel(which_4, (c_9 + ivec2(1, 0)));
-    vec4 _e30 = atlas_texel(which_4, (c_9 + ivec2(0, 1)));
-    vec4 _e35 = atlas_texel(which_4, (c_9 + ivec2(1, 1)));
+    ivec2 c_10 = ((origin + _e13.corner) + ivec2(1, 1));
+    vec4 _e20 = atlas_texel(which_4, c_10);
+    vec4 _e25 = atlas_texel(which_4, (c_10 + ivec2(1, 0)));
+    vec4 _e30 = atlas_texel(which_4, (c_10 + ivec2(0, 1)));
+    vec4 _e35 = atlas_texel(which_4, (c_10 + ivec2(1, 1)));
     vec4 _e37 = blend4_(_e20, _e25, _e30, _e35, _e13.f);
     return _e37;
 }
@@ -441,8 +443,8 @@ vec3 cell_size() {
 }
 
 uint cell_index(uvec3 c_2) {
-    uvec4 n_10 = _group_0_binding_7_cs.grid_counts;
-    return (c_2.x + (n_10.x * (c_2.y + (n_10.y * c_2.z))));
+    uvec4 n_11 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_11.x * (c_2.y + (n_11.y * c_2.z))));
 }
 
 uvec3 cell_of(vec3 p_4, vec3 size) {
@@ -619,14 +621,14 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
             }
             uint _e21 = k_1;
             vec4 _e23 = _group_0_binding_7_cs.kdop[_e21];
-            vec3 n_11 = _e23.xyz;
+            vec3 n_12 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e27].w;
-            float nb = dot(n_11, b_5);
+            float nb = dot(n_12, b_5);
             if ((nb > h_1)) {
                 return vec2(0.0, 0.0);
             }
-            float nd = dot(n_11, dir_3);
+            float nd = dot(n_12, dir_3);
             if ((nd > 0.0)) {
                 float _e39 = t_4;
                 t_4 = min(_e39, ((h_1 - nb) / nd));
@@ -680,22 +682,22 @@ vec3 box_fetch(vec3 b_8, vec3 dir_6) {
 Basis orthonormal_basis(vec3 n_3) {
     float s_4 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_3 = (-1.0 / (s_4 + n_3.z));
-    float b_20 = ((n_3.x * n_3.y) * a_3);
-    return Basis(vec3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_3)), (s_4 * b_20), (-(s_4) * n_3.x)), vec3(b_20, (s_4 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+    float b_23 = ((n_3.x * n_3.y) * a_3);
+    return Basis(vec3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_3)), (s_4 * b_23), (-(s_4) * n_3.x)), vec3(b_23, (s_4 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
     bool local_12 = false;
-    float l_4 = length(v_5);
-    if ((l_4 > 0.0)) {
-        bool _e7 = finite(l_4);
+    float l_5 = length(v_5);
+    if ((l_5 > 0.0)) {
+        bool _e7 = finite(l_5);
         local_12 = _e7;
     } else {
         local_12 = false;
     }
     bool _e9 = local_12;
     if (_e9) {
-        return (v_5 / vec3(l_4));
+        return (v_5 / vec3(l_5));
     }
     return fallback_1;
 }
@@ -840,12 +842,12 @@ uint probe_of(int tile_1, vec2 uv_5) {
     if (_e14) {
         return 0u;
     }
-    uint n_12 = _group_0_binding_7_cs.atlas_a.x;
+    uint n_13 = _group_0_binding_7_cs.atlas_a.x;
     uint columns_1 = _group_0_binding_7_cs.atlas_a.y;
     uint _e28 = _group_0_binding_7_cs.probe_maps.y;
     uint s_5 = (uint(tile_1) + _e28);
-    ivec2 origin_1 = ivec2((uvec2((s_5 % columns_1), (s_5 / columns_1)) * (n_12 + 2u)));
-    Footprint _e37 = footprint(n_12, uv_5);
+    ivec2 origin_1 = ivec2((uvec2((s_5 % columns_1), (s_5 / columns_1)) * (n_13 + 2u)));
+    Footprint _e37 = footprint(n_13, uv_5);
     vec2 f_6 = _e37.f;
     vec4 w_6 = vec4(((1.0 - f_6.x) * (1.0 - f_6.y)), (f_6.x * (1.0 - f_6.y)), ((1.0 - f_6.x) * f_6.y), (f_6.x * f_6.y));
     bool loop_init_3 = true;
@@ -924,7 +926,7 @@ Aim fetch(vec3 b_11, vec3 dir_9, float r_1) {
         return Aim(dir_9, 1.0, _e12);
     }
     uint _e26 = blend_mode();
-    if ((_e26 == 0u)) {
+    if ((_e26 != 1u)) {
         if ((tiles_1.x >= 0)) {
             float _e32 = cell_delta(tiles_1, _e3, r_1);
             delta_1 = _e32;
@@ -978,6 +980,19 @@ Aim fetch(vec3 b_11, vec3 dir_9, float r_1) {
     return _e73;
 }
 
+float face_ramp(float x_2) {
+    return clamp(((x_2 - 0.375) / 0.25), 0.0, 1.0);
+}
+
+Lattice face_lattice(vec3 b_12) {
+    vec3 _e1 = cell_size();
+    Lattice _e2 = lattice(b_12, _e1);
+    float _e6 = face_ramp(_e2.frac.x);
+    float _e9 = face_ramp(_e2.frac.y);
+    float _e12 = face_ramp(_e2.frac.z);
+    return Lattice(_e2.base, vec3(_e6, _e9, _e12));
+}
+
 float mip_roughness(uint m) {
     float _e9 = _group_0_binding_7_cs.mip_roughness[(m / 4u)][(m % 4u)];
     return _e9;
@@ -988,8 +1003,8 @@ float lod_of_roughness(float r_2) {
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
-    uint n_13 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_13 < 2u))) {
+    uint n_14 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_14 < 2u))) {
         float _e11 = mip_roughness(0u);
         local_18 = !((r_2 > _e11));
     } else {
@@ -999,7 +1014,7 @@ float lod_of_roughness(float r_2) {
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_13 - 1u);
+    uint last = (n_14 - 1u);
     float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
@@ -1012,7 +1027,7 @@ float lod_of_roughness(float r_2) {
         }
         loop_init_5 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_13)) {
+        if ((_e26 < n_14)) {
         } else {
             break;
         }
@@ -1036,18 +1051,18 @@ float lod_of_roughness(float r_2) {
     return (float(i_6) + clamp(_e57, 0.0, 1.0));
 }
 
-float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_8, uint p_7) {
+float distance_ratio(vec3 b_13, vec3 v_6, vec2 uv_8, uint p_7) {
     bool local_19 = false;
     bool local_20 = false;
     bool local_21 = false;
     bool local_22 = false;
-    float l_5 = length(v_6);
+    float l_6 = length(v_6);
     float _e9 = _group_0_binding_7_cs.probe.w;
     uint _e13 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_7);
     float w_7 = _e14.x;
-    if ((l_5 > 0.0)) {
-        bool _e20 = finite(l_5);
+    if ((l_6 > 0.0)) {
+        bool _e20 = finite(l_6);
         local_19 = _e20;
     } else {
         local_19 = false;
@@ -1071,7 +1086,7 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_8, uint p_7) {
     }
     float d_probe = (1.0 / w_7);
     vec4 _e41 = _group_0_binding_7_cs.probes[p_7];
-    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_5))) - b_12));
+    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_6))) - b_13));
     float k_13 = (d_probe / d_surface);
     bool _e49 = finite(k_13);
     if (_e49) {
@@ -1097,8 +1112,8 @@ float corrected_roughness(float r_3, float k_in) {
     float fr = 0.0;
     float k_5 = 1.0;
     bool local_23 = false;
-    uint n_14 = _group_0_binding_7_cs.lut_info.x;
-    float last_1 = float((n_14 - 1u));
+    uint n_15 = _group_0_binding_7_cs.lut_info.x;
+    float last_1 = float((n_15 - 1u));
     bool _e11 = finite(r_3);
     if (_e11) {
         fr = clamp((r_3 * last_1), 0.0, last_1);
@@ -1123,11 +1138,11 @@ float corrected_roughness(float r_3, float k_in) {
     float _e44 = _group_0_binding_7_cs.lut.y;
     float fx = clamp(((_e35 - _e39) * _e44), 0.0, last_1);
     float _e48 = fr;
-    uint i_7 = min(uint(_e48), (n_14 - 2u));
-    uint j_5 = min(uint(fx), (n_14 - 2u));
+    uint i_7 = min(uint(_e48), (n_15 - 2u));
+    uint j_5 = min(uint(fx), (n_15 - 2u));
     float _e57 = fr;
     float a_4 = (_e57 - float(i_7));
-    float b_21 = (fx - float(j_5));
+    float b_24 = (fx - float(j_5));
     vec4 _e67 = texelFetch(_group_0_binding_6_cs, ivec2(int(j_5), int(i_7)), 0);
     float v00_ = _e67.x;
     vec4 _e76 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_5 + 1u)), int(i_7)), 0);
@@ -1136,10 +1151,10 @@ float corrected_roughness(float r_3, float k_in) {
     float v10_ = _e85.x;
     vec4 _e96 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_5 + 1u)), int((i_7 + 1u))), 0);
     float v11_ = _e96.x;
-    return ((((v00_ * (1.0 - b_21)) + (v01_ * b_21)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_21)) + (v11_ * b_21)) * a_4));
+    return ((((v00_ * (1.0 - b_24)) + (v01_ * b_24)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_24)) + (v11_ * b_24)) * a_4));
 }
 
-vec3 shade(vec3 b_13, Aim aim, float r_4) {
+vec3 shade(vec3 b_14, Aim aim, float r_4) {
     float k_6 = 0.0;
     vec2 _e4 = oct_encode(aim.v);
     if ((r_4 == 0.0)) {
@@ -1155,7 +1170,7 @@ vec3 shade(vec3 b_13, Aim aim, float r_4) {
     k_6 = aim.k;
     float _e17 = k_6;
     if ((_e17 < 0.0)) {
-        float _e22 = distance_ratio(b_13, aim.v, _e4, aim.p);
+        float _e22 = distance_ratio(b_14, aim.v, _e4, aim.p);
         k_6 = _e22;
     }
     float _e23 = k_6;
@@ -1163,6 +1178,195 @@ vec3 shade(vec3 b_13, Aim aim, float r_4) {
     float _e25 = lod_of_roughness(_e24);
     vec3 _e27 = radiance_lod(_e4, _e25, aim.p);
     return _e27;
+}
+
+vec3 faces_radiance(Lattice l_2, vec3 b_15, vec3 dir_10, float r_5) {
+    uint keys[8] = uint[8](0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
+    float ws[8] = float[8](0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    float ds[8] = float[8](0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    uint n_4 = 0u;
+    uint corner_3 = 0u;
+    uint key = 0u;
+    float delta_2 = 0.0;
+    uint at = 0u;
+    uint g = 0u;
+    bool local_24 = false;
+    vec3 c_4 = vec3(0.0);
+    uint g_1 = 0u;
+    Aim aim_1 = Aim(vec3(0.0), 0.0, 0u);
+    vec2 _e4 = oct_encode(dir_10);
+    bool _e5 = relaxation_on();
+    bool loop_init_6 = true;
+    while(true) {
+        if (!loop_init_6) {
+            uint _e111 = corner_3;
+            corner_3 = (_e111 + 1u);
+        }
+        loop_init_6 = false;
+        uint _e40 = corner_3;
+        if ((_e40 < 8u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e43 = corner_3;
+            float _e44 = corner_weight(l_2, _e43);
+            if (!((_e44 > 0.0))) {
+                continue;
+            }
+            uint _e49 = corner_3;
+            uvec3 _e50 = corner_cell(l_2, _e49);
+            uint _e51 = cell_index(_e50);
+            ivec4 tiles_3 = _group_0_binding_8_cs[_e51].tiles;
+            key = 0u;
+            delta_2 = 0.0;
+            if ((tiles_3.x >= 0)) {
+                uint _e63 = probe_of(tiles_3.x, _e4);
+                key = _e63;
+                float _e64 = cell_delta(tiles_3, _e4, r_5);
+                delta_2 = _e64;
+            } else {
+                if (_e5) {
+                    key = RELAXED;
+                }
+            }
+            uint _e66 = n_4;
+            at = _e66;
+            g = 0u;
+            bool loop_init_7 = true;
+            while(true) {
+                if (!loop_init_7) {
+                    uint _e89 = g;
+                    g = (_e89 + 1u);
+                }
+                loop_init_7 = false;
+                uint _e70 = g;
+                uint _e71 = n_4;
+                if ((_e70 < _e71)) {
+                } else {
+                    break;
+                }
+                {
+                    uint _e73 = g;
+                    uint _e75 = keys[_e73];
+                    uint _e76 = key;
+                    if ((_e75 == _e76)) {
+                        uint _e80 = g;
+                        float _e82 = ds[_e80];
+                        float _e83 = delta_2;
+                        local_24 = (_e82 == _e83);
+                    } else {
+                        local_24 = false;
+                    }
+                    bool _e86 = local_24;
+                    if (_e86) {
+                        uint _e87 = g;
+                        at = _e87;
+                        break;
+                    }
+                }
+            }
+            uint _e91 = at;
+            uint _e92 = n_4;
+            if ((_e91 == _e92)) {
+                uint _e94 = n_4;
+                uint _e96 = key;
+                keys[_e94] = _e96;
+                uint _e97 = n_4;
+                ws[_e97] = 0.0;
+                uint _e100 = n_4;
+                float _e102 = delta_2;
+                ds[_e100] = _e102;
+                uint _e104 = n_4;
+                n_4 = (_e104 + 1u);
+            }
+            uint _e106 = at;
+            float _e108 = ws[_e106];
+            ws[_e106] = (_e108 + _e44);
+        }
+    }
+    vec2 _e113 = proxy_exit(b_15, dir_10);
+    bool loop_init_8 = true;
+    while(true) {
+        if (!loop_init_8) {
+            uint _e163 = g_1;
+            g_1 = (_e163 + 1u);
+        }
+        loop_init_8 = false;
+        uint _e119 = g_1;
+        uint _e120 = n_4;
+        if ((_e119 < _e120)) {
+        } else {
+            break;
+        }
+        {
+            uint _e122 = g_1;
+            uint _e124 = keys[_e122];
+            aim_1 = Aim(dir_10, 1.0, _e124);
+            uint _e128 = g_1;
+            uint _e130 = keys[_e128];
+            if ((_e130 == RELAXED)) {
+                vec3 _e133 = fallback_fetch(b_15, dir_10);
+                aim_1 = Aim(_e133, -1.0, 0u);
+            } else {
+                uint _e139 = g_1;
+                uint _e141 = keys[_e139];
+                vec4 _e143 = _group_0_binding_7_cs.probes[_e141];
+                if (any(notEqual(b_15, _e143.xyz))) {
+                    uint _e147 = g_1;
+                    float _e149 = ds[_e147];
+                    uint _e150 = g_1;
+                    uint _e152 = keys[_e150];
+                    Aim _e153 = shifted_aim(_e113, _e149, b_15, dir_10, _e152);
+                    aim_1 = _e153;
+                }
+            }
+            vec3 _e154 = c_4;
+            uint _e155 = g_1;
+            float _e157 = ws[_e155];
+            Aim _e158 = aim_1;
+            vec3 _e159 = shade(b_15, _e158, r_5);
+            c_4 = (_e154 + (_e157 * _e159));
+        }
+    }
+    vec3 _e165 = c_4;
+    return _e165;
+}
+
+vec3 looked_up_radiance(vec3 b_16, vec3 dir_11, float r_6) {
+    uint near = 0u;
+    uint corner_4 = 0u;
+    uint _e3 = blend_mode();
+    if ((_e3 == 2u)) {
+        Lattice _e6 = face_lattice(b_16);
+        bool loop_init_9 = true;
+        while(true) {
+            if (!loop_init_9) {
+                uint _e24 = corner_4;
+                corner_4 = (_e24 + 1u);
+            }
+            loop_init_9 = false;
+            uint _e11 = corner_4;
+            if ((_e11 < 8u)) {
+            } else {
+                break;
+            }
+            {
+                uint _e14 = near;
+                uint _e17 = corner_4;
+                float _e18 = corner_weight(_e6, _e17);
+                near = (_e14 + ((_e18 > 0.0) ? 1u : 0u));
+            }
+        }
+        uint _e26 = near;
+        if ((_e26 > 1u)) {
+            vec3 _e29 = faces_radiance(_e6, b_16, dir_11, r_6);
+            return _e29;
+        }
+    }
+    Aim _e30 = fetch(b_16, dir_11, r_6);
+    vec3 _e31 = shade(b_16, _e30, r_6);
+    return _e31;
 }
 
 float blend_node_r(uint k_7) {
@@ -1175,41 +1379,41 @@ float blend_node_w(uint k_8) {
     return _e9;
 }
 
-float irradiance_weight(float r_5) {
-    bool local_24 = false;
+float irradiance_weight(float r_7) {
+    bool local_25 = false;
     float w_1 = 0.0;
     uint k_9 = 1u;
-    uint n_15 = _group_0_binding_7_cs.lut_info.y;
-    if (!((n_15 == 0u))) {
-        local_24 = !((r_5 > 0.0));
+    uint n_16 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_16 == 0u))) {
+        local_25 = !((r_7 > 0.0));
     } else {
-        local_24 = true;
+        local_25 = true;
     }
-    bool _e14 = local_24;
+    bool _e14 = local_25;
     if (_e14) {
         return 0.0;
     }
     float _e17 = blend_node_w(0u);
     w_1 = _e17;
-    bool loop_init_6 = true;
+    bool loop_init_10 = true;
     while(true) {
-        if (!loop_init_6) {
+        if (!loop_init_10) {
             uint _e49 = k_9;
             k_9 = (_e49 + 1u);
         }
-        loop_init_6 = false;
+        loop_init_10 = false;
         uint _e21 = k_9;
-        if ((_e21 < n_15)) {
+        if ((_e21 < n_16)) {
         } else {
             break;
         }
         {
             uint _e23 = k_9;
             float _e26 = blend_node_r((_e23 - 1u));
-            if ((r_5 > _e26)) {
+            if ((r_7 > _e26)) {
                 uint _e29 = k_9;
                 float _e30 = blend_node_r(_e29);
-                float t_13 = min(max(((r_5 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                float t_13 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
                 uint _e37 = k_9;
                 float _e40 = blend_node_w((_e37 - 1u));
                 uint _e44 = k_9;
@@ -1222,32 +1426,32 @@ float irradiance_weight(float r_5) {
     return min(max(_e51, 0.0), 1.0);
 }
 
-vec3 clean(vec3 c_4) {
-    bool _e1 = finite3_(c_4);
+vec3 clean(vec3 c_5) {
+    bool _e1 = finite3_(c_5);
     if (_e1) {
-        return max(c_4, vec3(0.0));
+        return max(c_5, vec3(0.0));
     }
     return vec3(0.0);
 }
 
-vec3 sh_eval(vec3 c_5[9], vec3 n_4) {
-    float x_5 = n_4.x;
-    float y = n_4.y;
-    float z = n_4.z;
-    vec3 t0_ = (c_5[0] * 0.2820948);
-    vec3 t1_ = (c_5[1] * (0.4886025 * y));
-    vec3 t2_ = (c_5[2] * (0.4886025 * z));
-    vec3 t3_ = (c_5[3] * (0.4886025 * x_5));
-    vec3 t4_ = (c_5[4] * (1.0925484 * (x_5 * y)));
-    vec3 t5_ = (c_5[5] * (1.0925484 * (y * z)));
-    vec3 t6_ = (c_5[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
-    vec3 t7_ = (c_5[7] * (1.0925484 * (x_5 * z)));
-    vec3 t8_ = (c_5[8] * (0.5462742 * ((x_5 * x_5) - (y * y))));
+vec3 sh_eval(vec3 c_6[9], vec3 n_5) {
+    float x_6 = n_5.x;
+    float y = n_5.y;
+    float z = n_5.z;
+    vec3 t0_ = (c_6[0] * 0.2820948);
+    vec3 t1_ = (c_6[1] * (0.4886025 * y));
+    vec3 t2_ = (c_6[2] * (0.4886025 * z));
+    vec3 t3_ = (c_6[3] * (0.4886025 * x_6));
+    vec3 t4_ = (c_6[4] * (1.0925484 * (x_6 * y)));
+    vec3 t5_ = (c_6[5] * (1.0925484 * (y * z)));
+    vec3 t6_ = (c_6[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    vec3 t7_ = (c_6[7] * (1.0925484 * (x_6 * z)));
+    vec3 t8_ = (c_6[8] * (0.5462742 * ((x_6 * x_6) - (y * y))));
     vec3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
     return max(e_2, vec3(0.0));
 }
 
-vec3 cell_sh_irradiance(uint cell, vec3 n_5) {
+vec3 cell_sh_irradiance(uint cell, vec3 n_6) {
     vec4 _e6 = _group_0_binding_8_cs[cell].sh[0];
     vec4 _e12 = _group_0_binding_8_cs[cell].sh[1];
     vec4 _e18 = _group_0_binding_8_cs[cell].sh[2];
@@ -1257,29 +1461,29 @@ vec3 cell_sh_irradiance(uint cell, vec3 n_5) {
     vec4 _e42 = _group_0_binding_8_cs[cell].sh[6];
     vec4 _e48 = _group_0_binding_8_cs[cell].sh[7];
     vec4 _e54 = _group_0_binding_8_cs[cell].sh[8];
-    vec3 c_10[9] = vec3[9](_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
-    vec3 _e57 = sh_eval(c_10, n_5);
+    vec3 c_11[9] = vec3[9](_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
+    vec3 _e57 = sh_eval(c_11, n_6);
     return _e57;
 }
 
-vec3 sh_blend4_(uvec4 at, vec4 w_2, uint i_1) {
-    vec4 _e8 = _group_0_binding_8_cs[at.x].sh[i_1];
-    vec4 _e17 = _group_0_binding_8_cs[at.y].sh[i_1];
-    vec4 _e27 = _group_0_binding_8_cs[at.z].sh[i_1];
-    vec4 _e36 = _group_0_binding_8_cs[at.w].sh[i_1];
+vec3 sh_blend4_(uvec4 at_1, vec4 w_2, uint i_1) {
+    vec4 _e8 = _group_0_binding_8_cs[at_1.x].sh[i_1];
+    vec4 _e17 = _group_0_binding_8_cs[at_1.y].sh[i_1];
+    vec4 _e27 = _group_0_binding_8_cs[at_1.z].sh[i_1];
+    vec4 _e36 = _group_0_binding_8_cs[at_1.w].sh[i_1];
     return (((_e8.xyz * w_2.x) + (_e17.xyz * w_2.y)) + ((_e27.xyz * w_2.z) + (_e36.xyz * w_2.w)));
 }
 
-vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
+vec3 sh_read(uint home, vec3 b_17, vec3 n_7) {
     uvec3 base = uvec3(0u);
     vec3 frac = vec3(0.0);
     uint a = 0u;
     uint bx = 1u;
-    uint c_6 = 2u;
+    uint c_7 = 2u;
     uvec3 top_v = uvec3(0u);
     uvec3 home_v = uvec3(0u);
     uint bit0_ = 0u;
-    uint x_2 = 0u;
+    uint x_3 = 0u;
     uint rel = 0u;
     uvec4 corner_cell_1 = uvec4(0u);
     uvec4 bits = uvec4(0u);
@@ -1287,22 +1491,22 @@ vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
     uint cs = 0u;
     uint bs = 0u;
     vec4 w_3 = vec4(0.0);
-    uvec4 at_1 = uvec4(0u);
+    uvec4 at_2 = uvec4(0u);
     uint k_11 = 0u;
     bool kept = false;
-    bool local_25 = false;
     bool local_26 = false;
+    bool local_27 = false;
     vec3 _e3 = cell_size();
     uvec4 _e6 = _group_0_binding_7_cs.grid_counts;
     uvec3 counts = _e6.xyz;
     uvec3 top_1 = (counts - uvec3(1u));
     vec4 _e13 = _group_0_binding_7_cs.grid_min;
-    vec3 units = ((b_14 - _e13.xyz) / _e3);
-    uvec3 _e17 = cell_of(b_14, _e3);
+    vec3 units = ((b_17 - _e13.xyz) / _e3);
+    uvec3 _e17 = cell_of(b_17, _e3);
     vec3 f0_ = (units - vec3(0.5));
     bool _e21 = finite3_(f0_);
     if (!(_e21)) {
-        vec3 _e23 = cell_sh_irradiance(home, n_6);
+        vec3 _e23 = cell_sh_irradiance(home, n_7);
         return _e23;
     }
     vec3 f_7 = clamp(f0_, vec3(0.0), vec3(top_1));
@@ -1319,15 +1523,15 @@ vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
         a = _e47;
         bx = t_14;
     }
-    uint _e48 = c_6;
+    uint _e48 = c_7;
     float _e50 = frac[_e48];
     uint _e51 = bx;
     float _e53 = frac[_e51];
     if ((_e50 > _e53)) {
         uint t_15 = bx;
-        uint _e56 = c_6;
+        uint _e56 = c_7;
         bx = _e56;
-        c_6 = t_15;
+        c_7 = t_15;
         uint _e57 = bx;
         float _e59 = frac[_e57];
         uint _e60 = a;
@@ -1347,9 +1551,9 @@ vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
     float _e76 = frac[_e74];
     uint _e78 = bx;
     float _e80 = frac[_e78];
-    uint _e81 = c_6;
+    uint _e81 = c_7;
     float _e83 = frac[_e81];
-    uint _e85 = c_6;
+    uint _e85 = c_7;
     float _e87 = frac[_e85];
     vec4 weights = vec4((1.0 - _e68), (_e73 - _e76), (_e80 - _e83), _e87);
     top_v = top_1;
@@ -1360,33 +1564,33 @@ vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
     uint _e105 = base.y;
     uint _e108 = base.z;
     uint cell0_ = (_e102 + (counts.x * (_e105 + (counts.y * _e108))));
-    bool loop_init_7 = true;
+    bool loop_init_11 = true;
     while(true) {
-        if (!loop_init_7) {
-            uint _e144 = x_2;
-            x_2 = (_e144 + 1u);
+        if (!loop_init_11) {
+            uint _e144 = x_3;
+            x_3 = (_e144 + 1u);
         }
-        loop_init_7 = false;
-        uint _e117 = x_2;
+        loop_init_11 = false;
+        uint _e117 = x_3;
         if ((_e117 < 3u)) {
         } else {
             break;
         }
         {
-            uint _e120 = x_2;
+            uint _e120 = x_3;
             uint _e122 = base[_e120];
             uint up = (_e122 + 1u);
             rel = 0u;
-            uint _e127 = x_2;
+            uint _e127 = x_3;
             uint _e129 = home_v[_e127];
             if ((up > _e129)) {
-                uint _e131 = x_2;
+                uint _e131 = x_3;
                 uint _e133 = home_v[_e131];
                 rel = min((up - _e133), 2u);
             }
             uint _e137 = bit0_;
             uint _e138 = rel;
-            uint _e139 = x_2;
+            uint _e139 = x_3;
             bit0_ = (_e137 + (_e138 * bit_stride[_e139]));
         }
     }
@@ -1395,15 +1599,15 @@ vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
     bits = uvec4(_e148);
     uint _e151 = a;
     uint _e152 = bx;
-    uint _e153 = c_6;
+    uint _e153 = c_7;
     uvec3 axes = uvec3(_e151, _e152, _e153);
-    bool loop_init_8 = true;
+    bool loop_init_12 = true;
     while(true) {
-        if (!loop_init_8) {
+        if (!loop_init_12) {
             uint _e194 = k_10;
             k_10 = (_e194 + 1u);
         }
-        loop_init_8 = false;
+        loop_init_12 = false;
         uint _e157 = k_10;
         if ((_e157 < 4u)) {
         } else {
@@ -1411,14 +1615,14 @@ vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
         }
         {
             uint _e160 = k_10;
-            uint x_6 = axes[(_e160 - 1u)];
+            uint x_7 = axes[(_e160 - 1u)];
             cs = 0u;
             bs = 0u;
-            uint _e169 = base[x_6];
-            uint _e171 = top_v[x_6];
+            uint _e169 = base[x_7];
+            uint _e171 = top_v[x_7];
             if ((_e169 < _e171)) {
-                cs = cell_stride[x_6];
-                bs = bit_stride[x_6];
+                cs = cell_stride[x_7];
+                bs = bit_stride[x_7];
             }
             uint _e175 = k_10;
             uint _e177 = k_10;
@@ -1434,15 +1638,15 @@ vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
     }
     uint links = _group_0_binding_8_cs[home].links.x;
     w_3 = weights;
-    at_1 = uvec4(home);
+    at_2 = uvec4(home);
     uint count = uint(_group_0_binding_8_cs.length());
-    bool loop_init_9 = true;
+    bool loop_init_13 = true;
     while(true) {
-        if (!loop_init_9) {
+        if (!loop_init_13) {
             uint _e252 = k_11;
             k_11 = (_e252 + 1u);
         }
-        loop_init_9 = false;
+        loop_init_13 = false;
         uint _e208 = k_11;
         if ((_e208 < 4u)) {
         } else {
@@ -1457,17 +1661,17 @@ vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
             if ((_e218 < 27u)) {
                 uint _e223 = k_11;
                 uint _e225 = bits[_e223];
-                local_25 = (((links >> _e225) & 1u) != 0u);
-            } else {
-                local_25 = false;
-            }
-            bool _e232 = local_25;
-            if (_e232) {
-                local_26 = (ck < count);
+                local_26 = (((links >> _e225) & 1u) != 0u);
             } else {
                 local_26 = false;
             }
-            bool _e237 = local_26;
+            bool _e232 = local_26;
+            if (_e232) {
+                local_27 = (ck < count);
+            } else {
+                local_27 = false;
+            }
+            bool _e237 = local_27;
             if (_e237) {
                 int _e242 = _group_0_binding_8_cs[ck].tiles.y;
                 kept = (_e242 >= 0);
@@ -1475,7 +1679,7 @@ vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
             bool _e245 = kept;
             if (_e245) {
                 uint _e246 = k_11;
-                at_1[_e246] = ck;
+                at_2[_e246] = ck;
             } else {
                 uint _e248 = k_11;
                 w_3[_e248] = 0.0;
@@ -1488,66 +1692,66 @@ vec3 sh_read(uint home, vec3 b_14, vec3 n_6) {
     float _e262 = w_3.w;
     float wsum_1 = ((_e255 + _e257) + (_e260 + _e262));
     if (!((wsum_1 > 0.0))) {
-        vec3 _e268 = cell_sh_irradiance(home, n_6);
+        vec3 _e268 = cell_sh_irradiance(home, n_7);
         return _e268;
     }
-    uvec4 _e269 = at_1;
+    uvec4 _e269 = at_2;
     vec4 _e270 = w_3;
     vec3 _e272 = sh_blend4_(_e269, _e270, 0u);
-    uvec4 _e273 = at_1;
+    uvec4 _e273 = at_2;
     vec4 _e274 = w_3;
     vec3 _e276 = sh_blend4_(_e273, _e274, 1u);
-    uvec4 _e277 = at_1;
+    uvec4 _e277 = at_2;
     vec4 _e278 = w_3;
     vec3 _e280 = sh_blend4_(_e277, _e278, 2u);
-    uvec4 _e281 = at_1;
+    uvec4 _e281 = at_2;
     vec4 _e282 = w_3;
     vec3 _e284 = sh_blend4_(_e281, _e282, 3u);
-    uvec4 _e285 = at_1;
+    uvec4 _e285 = at_2;
     vec4 _e286 = w_3;
     vec3 _e288 = sh_blend4_(_e285, _e286, 4u);
-    uvec4 _e289 = at_1;
+    uvec4 _e289 = at_2;
     vec4 _e290 = w_3;
     vec3 _e292 = sh_blend4_(_e289, _e290, 5u);
-    uvec4 _e293 = at_1;
+    uvec4 _e293 = at_2;
     vec4 _e294 = w_3;
     vec3 _e296 = sh_blend4_(_e293, _e294, 6u);
-    uvec4 _e297 = at_1;
+    uvec4 _e297 = at_2;
     vec4 _e298 = w_3;
     vec3 _e300 = sh_blend4_(_e297, _e298, 7u);
-    uvec4 _e301 = at_1;
+    uvec4 _e301 = at_2;
     vec4 _e302 = w_3;
     vec3 _e304 = sh_blend4_(_e301, _e302, 8u);
     vec3 acc[9] = vec3[9](_e272, _e276, _e280, _e284, _e288, _e292, _e296, _e300, _e304);
-    vec3 _e306 = sh_eval(acc, n_6);
+    vec3 _e306 = sh_eval(acc, n_7);
     return (_e306 / vec3(wsum_1));
 }
 
 vec3 specular(vec3 position, vec3 direction, float roughness) {
-    vec3 b_15 = vec3(0.0);
-    float r_6 = 0.0;
+    vec3 b_18 = vec3(0.0);
+    float r_8 = 0.0;
     uint cell_1 = 0u;
     bool stored = false;
-    bool local_27 = false;
-    vec3 c_7 = vec3(0.0);
+    bool local_28 = false;
+    vec3 c_8 = vec3(0.0);
     vec4 _e3 = unit_direction(direction);
     if ((_e3.w == 0.0)) {
         return vec3(0.0);
     }
     vec4 _e11 = _group_0_binding_7_cs.probe;
-    b_15 = _e11.xyz;
+    b_18 = _e11.xyz;
     bool _e14 = finite3_(position);
     if (_e14) {
-        b_15 = position;
+        b_18 = position;
     }
     bool _e17 = finite(roughness);
     if (_e17) {
-        r_6 = clamp(roughness, 0.0, 1.0);
+        r_8 = clamp(roughness, 0.0, 1.0);
     }
-    float _e21 = r_6;
+    float _e21 = r_8;
     float _e22 = irradiance_weight(_e21);
     if ((_e22 > 0.0)) {
-        vec3 _e29 = b_15;
+        vec3 _e29 = b_18;
         vec3 _e30 = cell_size();
         uvec3 _e31 = cell_of(_e29, _e30);
         uint _e32 = cell_index(_e31);
@@ -1558,42 +1762,39 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     }
     bool _e41 = stored;
     if (_e41) {
-        local_27 = (_e22 >= 1.0);
+        local_28 = (_e22 >= 1.0);
     } else {
-        local_27 = false;
+        local_28 = false;
     }
-    bool _e47 = local_27;
+    bool _e47 = local_28;
     if (_e47) {
         uint _e48 = cell_1;
-        vec3 _e49 = b_15;
+        vec3 _e49 = b_18;
         vec3 _e51 = sh_read(_e48, _e49, _e3.xyz);
         vec3 _e55 = clean((_e51 * (_e22 * 0.31830987)));
         return _e55;
     }
-    vec3 _e56 = b_15;
-    vec3 _e57 = b_15;
-    float _e59 = r_6;
-    Aim _e60 = fetch(_e57, _e3.xyz, _e59);
-    float _e61 = r_6;
-    vec3 _e62 = shade(_e56, _e60, _e61);
-    c_7 = _e62;
-    bool _e64 = stored;
-    if (_e64) {
-        vec3 _e65 = c_7;
-        uint _e69 = cell_1;
-        vec3 _e70 = b_15;
-        vec3 _e72 = sh_read(_e69, _e70, _e3.xyz);
-        c_7 = ((_e65 * (1.0 - _e22)) + (_e72 * (_e22 * 0.31830987)));
+    vec3 _e56 = b_18;
+    float _e58 = r_8;
+    vec3 _e59 = looked_up_radiance(_e56, _e3.xyz, _e58);
+    c_8 = _e59;
+    bool _e61 = stored;
+    if (_e61) {
+        vec3 _e62 = c_8;
+        uint _e66 = cell_1;
+        vec3 _e67 = b_18;
+        vec3 _e69 = sh_read(_e66, _e67, _e3.xyz);
+        c_8 = ((_e62 * (1.0 - _e22)) + (_e69 * (_e22 * 0.31830987)));
     }
-    vec3 _e77 = c_7;
-    vec3 _e78 = clean(_e77);
-    return _e78;
+    vec3 _e74 = c_8;
+    vec3 _e75 = clean(_e74);
+    return _e75;
 }
 
-vec3 cell_irradiance(int tile_3, vec3 n_7) {
+vec3 cell_irradiance(int tile_3, vec3 n_8) {
     uint _e6 = _group_0_binding_7_cs.atlas_a.z;
     uint _e10 = _group_0_binding_7_cs.atlas_a.w;
-    vec2 _e11 = oct_encode(n_7);
+    vec2 _e11 = oct_encode(n_8);
     vec4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_3, _e6, _e10, _e11);
     return _e12.xyz;
 }
@@ -1602,52 +1803,52 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     vec3 p_8 = vec3(0.0);
     vec3 e = vec3(0.0);
     float wsum = 0.0;
-    uint corner_3 = 0u;
+    uint corner_5 = 0u;
     float w_4 = 0.0;
-    bool local_28 = false;
+    bool local_29 = false;
     float k_12 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
         return vec3(0.0);
     }
-    vec3 n_16 = _e2.xyz;
+    vec3 n_17 = _e2.xyz;
     vec3 _e9 = cell_size();
     vec4 _e12 = _group_0_binding_7_cs.grid_min;
     vec4 _e16 = _group_0_binding_7_cs.grid_max;
     vec4 _e20 = _group_0_binding_7_cs.grid_min;
     p_8 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = _group_0_binding_7_cs.grid_min.w;
-    vec3 biased = (position_1 + (n_16 * _e30));
+    vec3 biased = (position_1 + (n_17 * _e30));
     bool _e33 = finite3_(biased);
     if (_e33) {
         p_8 = biased;
     }
     vec3 _e34 = p_8;
     Lattice _e35 = lattice(_e34, _e9);
-    vec2 _e36 = oct_encode(n_16);
-    bool loop_init_10 = true;
+    vec2 _e36 = oct_encode(n_17);
+    bool loop_init_14 = true;
     while(true) {
-        if (!loop_init_10) {
-            uint _e157 = corner_3;
-            corner_3 = (_e157 + 1u);
+        if (!loop_init_14) {
+            uint _e157 = corner_5;
+            corner_5 = (_e157 + 1u);
         }
-        loop_init_10 = false;
-        uint _e44 = corner_3;
+        loop_init_14 = false;
+        uint _e44 = corner_5;
         if ((_e44 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e47 = corner_3;
+            uint _e47 = corner_5;
             float _e48 = corner_weight(_e35, _e47);
             if ((_e48 <= 0.0)) {
                 continue;
             }
-            uint _e51 = corner_3;
+            uint _e51 = corner_5;
             uvec3 _e52 = corner_cell(_e35, _e51);
             uint _e53 = cell_index(_e52);
-            ivec4 tiles_3 = _group_0_binding_8_cs[_e53].tiles;
-            if ((tiles_3.y < 0)) {
+            ivec4 tiles_4 = _group_0_binding_8_cs[_e53].tiles;
+            if ((tiles_4.y < 0)) {
                 continue;
             }
             vec3 _e61 = p_8;
@@ -1658,20 +1859,20 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             w_4 = _e48;
             if ((dist > 0.0)) {
                 bool _e76 = finite(dist);
-                local_28 = _e76;
+                local_29 = _e76;
             } else {
-                local_28 = false;
+                local_29 = false;
             }
-            bool _e78 = local_28;
+            bool _e78 = local_29;
             if (_e78) {
                 vec3 u_1 = (to_point / vec3(dist));
-                float facing = ((dot(n_16, -(u_1)) + 1.0) * 0.5);
+                float facing = ((dot(n_17, -(u_1)) + 1.0) * 0.5);
                 float _e87 = w_4;
                 w_4 = (_e87 * ((facing * facing) + 0.2));
                 uint _e97 = _group_0_binding_7_cs.atlas_b.x;
                 uint _e101 = _group_0_binding_7_cs.atlas_b.y;
                 vec2 _e102 = oct_encode(u_1);
-                vec4 _e103 = atlas_bilinear(ATLAS_MOMENTS, tiles_3.y, _e97, _e101, _e102);
+                vec4 _e103 = atlas_bilinear(ATLAS_MOMENTS, tiles_4.y, _e97, _e101, _e102);
                 float mean = _e103.x;
                 float mean_sq = _e103.y;
                 if ((dist > mean)) {
@@ -1685,14 +1886,14 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             float _e124 = w_4;
             w_4 = max(_e124, (1e-6 * _e48));
             k_12 = 1.0;
-            if ((tiles_3.z >= 0)) {
+            if ((tiles_4.z >= 0)) {
                 uint _e138 = _group_0_binding_7_cs.atlas_b.z;
                 uint _e142 = _group_0_binding_7_cs.atlas_b.w;
-                vec4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_3.z, _e138, _e142, _e36);
+                vec4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_4.z, _e138, _e142, _e36);
                 k_12 = _e143.x;
             }
             vec3 _e145 = e;
-            vec3 _e147 = cell_irradiance(tiles_3.y, n_16);
+            vec3 _e147 = cell_irradiance(tiles_4.y, n_17);
             float _e148 = w_4;
             float _e150 = k_12;
             e = (_e145 + ((_e147 * _e148) * _e150));
@@ -1712,16 +1913,16 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_29 = false;
+    bool local_30 = false;
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_29 = _e14;
+        local_30 = _e14;
     } else {
-        local_29 = false;
+        local_30 = false;
     }
-    bool _e16 = local_29;
+    bool _e16 = local_30;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -1730,16 +1931,16 @@ vec2 hemi_encode(vec3 v_7) {
     return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_8) {
-    float x_3 = 0.5;
+SurfaceAxis surface_axis(float x_in, uint n_9) {
+    float x_4 = 0.5;
     bool _e4 = finite(x_in);
     if (_e4) {
-        x_3 = x_in;
+        x_4 = x_in;
     }
-    float _e5 = x_3;
-    float c_11 = clamp(((_e5 * float(n_8)) - 0.5), 0.0, float((n_8 - 1u)));
-    uint i0_ = uint(floor(c_11));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_8 - 1u)), (c_11 - float(i0_)));
+    float _e5 = x_4;
+    float c_12 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
+    uint i0_ = uint(floor(c_12));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_12 - float(i0_)));
 }
 
 uint query_count() {

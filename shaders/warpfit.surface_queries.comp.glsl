@@ -82,6 +82,8 @@ const uint ATLAS_MOMENTS = 2u;
 const uint ATLAS_SCALE = 3u;
 const float ROUGH_MAP_FROM = 0.5;
 const float ROUGH_MAP_TO = 0.75;
+const float FACE_MARGIN = 0.125;
+const uint RELAXED = 255u;
 const uint FALLBACK = 255u;
 const uint BLEND = 255u;
 const uint RELAX = 255u;
@@ -93,9 +95,9 @@ layout(std140, binding = 1) uniform SurfaceParams_block_0Compute { SurfaceParams
 
 layout(binding = 8) uniform sampler2D _group_2_binding_2_cs;
 
-layout(std430, binding = 1) readonly buffer type_22_block_1Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_24_block_1Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_22_block_2Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_24_block_2Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 bool finite(float x) {
@@ -162,9 +164,9 @@ vec4 unit_direction(vec3 v_3) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
     vec3 s_2 = (v_3 / vec3(m_1));
-    float l_2 = length(s_2);
-    if ((l_2 > 0.0)) {
-        bool _e47 = finite(l_2);
+    float l_3 = length(s_2);
+    if ((l_3 > 0.0)) {
+        bool _e47 = finite(l_3);
         local_5 = _e47;
     } else {
         local_5 = false;
@@ -173,7 +175,7 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    return vec4((s_2 / vec3(l_2)), 1.0);
+    return vec4((s_2 / vec3(l_3)), 1.0);
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
@@ -263,9 +265,9 @@ ivec2 wrap_texel(int n, ivec2 t) {
 }
 
 Footprint footprint(uint n_1, vec2 uv) {
-    vec2 x_4 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
-    vec2 x0_ = floor(x_4);
-    return Footprint(ivec2(x0_), (x_4 - x0_));
+    vec2 x_5 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
+    vec2 x0_ = floor(x_5);
+    return Footprint(ivec2(x0_), (x_5 - x0_));
 }
 
 vec4 blend4_(vec4 q00_, vec4 q10_, vec4 q01_, vec4 q11_, vec2 f) {
@@ -283,24 +285,28 @@ float corner_weight(Lattice l, uint corner) {
 Basis orthonormal_basis(vec3 n_3) {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_1 = (-1.0 / (s_3 + n_3.z));
-    float b_20 = ((n_3.x * n_3.y) * a_1);
-    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_1)), (s_3 * b_20), (-(s_3) * n_3.x)), vec3(b_20, (s_3 + ((n_3.y * n_3.y) * a_1)), -(n_3.y)));
+    float b_23 = ((n_3.x * n_3.y) * a_1);
+    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_1)), (s_3 * b_23), (-(s_3) * n_3.x)), vec3(b_23, (s_3 + ((n_3.y * n_3.y) * a_1)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
     bool local_12 = false;
-    float l_3 = length(v_5);
-    if ((l_3 > 0.0)) {
-        bool _e7 = finite(l_3);
+    float l_4 = length(v_5);
+    if ((l_4 > 0.0)) {
+        bool _e7 = finite(l_4);
         local_12 = _e7;
     } else {
         local_12 = false;
     }
     bool _e9 = local_12;
     if (_e9) {
-        return (v_5 / vec3(l_3));
+        return (v_5 / vec3(l_4));
     }
     return fallback_1;
+}
+
+float face_ramp(float x_2) {
+    return clamp(((x_2 - 0.375) / 0.25), 0.0, 1.0);
 }
 
 float pseudo_log2_(float k_4) {
@@ -310,42 +316,42 @@ float pseudo_log2_(float k_4) {
     return (float(e_1) + (m_2 - 1.0));
 }
 
-vec3 clean(vec3 c_4) {
-    bool _e1 = finite3_(c_4);
+vec3 clean(vec3 c_5) {
+    bool _e1 = finite3_(c_5);
     if (_e1) {
-        return max(c_4, vec3(0.0));
+        return max(c_5, vec3(0.0));
     }
     return vec3(0.0);
 }
 
-vec3 sh_eval(vec3 c_5[9], vec3 n_4) {
-    float x_5 = n_4.x;
-    float y = n_4.y;
-    float z = n_4.z;
-    vec3 t0_ = (c_5[0] * 0.2820948);
-    vec3 t1_ = (c_5[1] * (0.4886025 * y));
-    vec3 t2_ = (c_5[2] * (0.4886025 * z));
-    vec3 t3_ = (c_5[3] * (0.4886025 * x_5));
-    vec3 t4_ = (c_5[4] * (1.0925484 * (x_5 * y)));
-    vec3 t5_ = (c_5[5] * (1.0925484 * (y * z)));
-    vec3 t6_ = (c_5[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
-    vec3 t7_ = (c_5[7] * (1.0925484 * (x_5 * z)));
-    vec3 t8_ = (c_5[8] * (0.5462742 * ((x_5 * x_5) - (y * y))));
+vec3 sh_eval(vec3 c_6[9], vec3 n_5) {
+    float x_6 = n_5.x;
+    float y = n_5.y;
+    float z = n_5.z;
+    vec3 t0_ = (c_6[0] * 0.2820948);
+    vec3 t1_ = (c_6[1] * (0.4886025 * y));
+    vec3 t2_ = (c_6[2] * (0.4886025 * z));
+    vec3 t3_ = (c_6[3] * (0.4886025 * x_6));
+    vec3 t4_ = (c_6[4] * (1.0925484 * (x_6 * y)));
+    vec3 t5_ = (c_6[5] * (1.0925484 * (y * z)));
+    vec3 t6_ = (c_6[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    vec3 t7_ = (c_6[7] * (1.0925484 * (x_6 * z)));
+    vec3 t8_ = (c_6[8] * (0.5462742 * ((x_6 * x_6) - (y * y))));
     vec3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
     return max(e_2, vec3(0.0));
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_29 = false;
+    bool local_30 = false;
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_29 = _e14;
+        local_30 = _e14;
     } else {
-        local_29 = false;
+        local_30 = false;
     }
-    bool _e16 = local_29;
+    bool _e16 = local_30;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -354,37 +360,37 @@ vec2 hemi_encode(vec3 v_7) {
     return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_8) {
-    float x_3 = 0.5;
+SurfaceAxis surface_axis(float x_in, uint n_9) {
+    float x_4 = 0.5;
     bool _e4 = finite(x_in);
     if (_e4) {
-        x_3 = x_in;
+        x_4 = x_in;
     }
-    float _e5 = x_3;
-    float c_8 = clamp(((_e5 * float(n_8)) - 0.5), 0.0, float((n_8 - 1u)));
-    uint i0_ = uint(floor(c_8));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_8 - 1u)), (c_8 - float(i0_)));
+    float _e5 = x_4;
+    float c_9 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
+    uint i0_ = uint(floor(c_9));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_9 - float(i0_)));
 }
 
 SurfaceTaps surface_taps(vec2 uv_9) {
-    uint n_9 = _group_2_binding_1_cs.shape.z;
-    float nf = float(n_9);
-    float x_6 = clamp(((uv_9.x * nf) - 0.5), 0.0, (nf - 1.0));
+    uint n_10 = _group_2_binding_1_cs.shape.z;
+    float nf = float(n_10);
+    float x_7 = clamp(((uv_9.x * nf) - 0.5), 0.0, (nf - 1.0));
     float y_1 = clamp(((uv_9.y * nf) - 0.5), 0.0, (nf - 1.0));
-    float x0_1 = floor(x_6);
+    float x0_1 = floor(x_7);
     float y0_ = floor(y_1);
     uvec2 lo = uvec2(uint(x0_1), uint(y0_));
-    return SurfaceTaps(lo, min((lo + uvec2(1u)), uvec2((n_9 - 1u))), vec2((x_6 - x0_1), (y_1 - y0_)));
+    return SurfaceTaps(lo, min((lo + uvec2(1u)), uvec2((n_10 - 1u))), vec2((x_7 - x0_1), (y_1 - y0_)));
 }
 
 vec3 surface_tile(uint i_2, uint j_1, uint layer, SurfaceTaps t_6) {
     uint _e8 = _group_2_binding_1_cs.shape.z;
     uvec2 o_1 = (uvec2(i_2, j_1) * _e8);
-    int l_4 = int(layer);
-    vec4 q00_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.lo)), l_4), 0);
-    vec4 q10_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.hi.x, t_6.lo.y))), l_4), 0);
-    vec4 q01_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.lo.x, t_6.hi.y))), l_4), 0);
-    vec4 q11_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.hi)), l_4), 0);
+    int l_5 = int(layer);
+    vec4 q00_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.lo)), l_5), 0);
+    vec4 q10_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.hi.x, t_6.lo.y))), l_5), 0);
+    vec4 q01_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.lo.x, t_6.hi.y))), l_5), 0);
+    vec4 q11_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.hi)), l_5), 0);
     vec4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_6.f);
     return _e44.xyz;
 }
@@ -400,30 +406,30 @@ float surface_tile_inv_distance(uint i_3, uint j_2, SurfaceTaps t_7) {
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_4, uint j_3, vec3 b_16, vec3 local_30, SurfaceTaps shared_taps) {
-    bool local_31 = false;
+SurfaceTaps surface_warped_taps(uint i_4, uint j_3, vec3 b_19, vec3 local_31, SurfaceTaps shared_taps) {
     bool local_32 = false;
+    bool local_33 = false;
     SurfaceParams sp = _group_2_binding_1_cs;
     float s_4 = ((float(i_4) + 0.5) / float(sp.shape.x));
     float t_9 = ((float(j_3) + 0.5) / float(sp.shape.y));
     vec3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_4)) + (sp.edge_v.xyz * t_9)) + (sp.normal.xyz * sp.corner.w));
-    vec3 d_2 = (probe - b_16);
+    vec3 d_2 = (probe - b_19);
     vec3 ab = vec3(dot(d_2, sp.tangent.xyz), dot(d_2, sp.bitangent.xyz), dot(d_2, sp.normal.xyz));
     float _e48 = surface_tile_inv_distance(i_4, j_3, shared_taps);
-    vec3 v_9 = ((local_30 * max(((dot(local_30, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
+    vec3 v_9 = ((local_31 * max(((dot(local_31, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
     if ((_e48 > 0.0)) {
         bool _e62 = finite3_(v_9);
-        local_31 = _e62;
-    } else {
-        local_31 = false;
-    }
-    bool _e64 = local_31;
-    if (_e64) {
-        local_32 = (dot(v_9, v_9) > 0.0);
+        local_32 = _e62;
     } else {
         local_32 = false;
     }
-    bool _e71 = local_32;
+    bool _e64 = local_32;
+    if (_e64) {
+        local_33 = (dot(v_9, v_9) > 0.0);
+    } else {
+        local_33 = false;
+    }
+    bool _e71 = local_33;
     if (_e71) {
         vec2 _e72 = hemi_encode(v_9);
         SurfaceTaps _e73 = surface_taps(_e72);
@@ -442,7 +448,7 @@ vec3 surface_probe(uint i_5, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, floa
 }
 
 vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
-    vec3 b_17 = vec3(0.0);
+    vec3 b_20 = vec3(0.0);
     float lod_2 = 0.0;
     SurfaceTaps t00_ = SurfaceTaps(uvec2(0u), uvec2(0u), vec2(0.0));
     SurfaceTaps t10_ = SurfaceTaps(uvec2(0u), uvec2(0u), vec2(0.0));
@@ -453,12 +459,12 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
         return vec3(0.0);
     }
     SurfaceParams sp_1 = _group_2_binding_1_cs;
-    b_17 = sp_1.corner.xyz;
+    b_20 = sp_1.corner.xyz;
     bool _e15 = finite3_(b_in);
     if (_e15) {
-        b_17 = b_in;
+        b_20 = b_in;
     }
-    vec3 _e16 = b_17;
+    vec3 _e16 = b_20;
     vec3 d_3 = (_e16 - sp_1.corner.xyz);
     SurfaceAxis _e25 = surface_axis(dot(sp_1.dual_u.xyz, d_3), sp_1.shape.x);
     SurfaceAxis _e31 = surface_axis(dot(sp_1.dual_v.xyz, d_3), sp_1.shape.y);
@@ -472,26 +478,26 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     uint m1_1 = min((m0_1 + 1u), last);
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
-    vec3 dir_12 = _e4.xyz;
-    vec3 local_33 = vec3(dot(dir_12, sp_1.tangent.xyz), dot(dir_12, sp_1.bitangent.xyz), dot(dir_12, sp_1.normal.xyz));
-    vec2 _e64 = hemi_encode(local_33);
+    vec3 dir_14 = _e4.xyz;
+    vec3 local_34 = vec3(dot(dir_14, sp_1.tangent.xyz), dot(dir_14, sp_1.bitangent.xyz), dot(dir_14, sp_1.normal.xyz));
+    vec2 _e64 = hemi_encode(local_34);
     SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
     t01_ = _e65;
     t11_ = _e65;
     if (warped) {
-        vec3 _e72 = b_17;
-        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_33, _e65);
+        vec3 _e72 = b_20;
+        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_34, _e65);
         t00_ = _e73;
-        vec3 _e76 = b_17;
-        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_33, _e65);
+        vec3 _e76 = b_20;
+        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_34, _e65);
         t10_ = _e77;
-        vec3 _e80 = b_17;
-        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_33, _e65);
+        vec3 _e80 = b_20;
+        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_34, _e65);
         t01_ = _e81;
-        vec3 _e84 = b_17;
-        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_33, _e65);
+        vec3 _e84 = b_20;
+        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_34, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;
@@ -504,21 +510,21 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     SurfaceTaps _e102 = t11_;
     vec3 _e103 = surface_probe(_e25.i1_, _e31.i1_, _e102, m0_1, m1_1, fm_1);
     vec3 bottom = mix(_e99, _e103, _e25.f);
-    vec3 l_5 = mix(top, bottom, _e31.f);
-    bool _e108 = finite3_(l_5);
+    vec3 l_6 = mix(top, bottom, _e31.f);
+    bool _e108 = finite3_(l_6);
     if (_e108) {
-        return max(l_5, vec3(0.0));
+        return max(l_6, vec3(0.0));
     }
     return vec3(0.0);
 }
 
-vec3 surface_specular(vec3 b_18, vec3 dir_10, float roughness_2) {
-    vec3 _e4 = surface_lookup(b_18, dir_10, roughness_2, false);
+vec3 surface_specular(vec3 b_21, vec3 dir_12, float roughness_2) {
+    vec3 _e4 = surface_lookup(b_21, dir_12, roughness_2, false);
     return _e4;
 }
 
-vec3 surface_specular_warped(vec3 b_19, vec3 dir_11, float roughness_3) {
-    vec3 _e4 = surface_lookup(b_19, dir_11, roughness_3, true);
+vec3 surface_specular_warped(vec3 b_22, vec3 dir_13, float roughness_3) {
+    vec3 _e4 = surface_lookup(b_22, dir_13, roughness_3, true);
     return _e4;
 }
 

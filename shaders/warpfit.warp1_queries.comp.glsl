@@ -82,6 +82,8 @@ const uint ATLAS_MOMENTS = 2u;
 const uint ATLAS_SCALE = 3u;
 const float ROUGH_MAP_FROM = 0.5;
 const float ROUGH_MAP_TO = 0.75;
+const float FACE_MARGIN = 0.125;
+const uint RELAXED = 255u;
 const uint FALLBACK = 255u;
 const uint BLEND = 255u;
 const uint RELAX = 255u;
@@ -93,9 +95,9 @@ layout(binding = 1) uniform sampler2D _group_0_binding_1_cs;
 
 layout(std140, binding = 0) uniform Params_block_0Compute { Params _group_0_binding_7_cs; };
 
-layout(std430, binding = 1) readonly buffer type_22_block_1Compute { vec4 _group_1_binding_0_cs[]; };
+layout(std430, binding = 1) readonly buffer type_24_block_1Compute { vec4 _group_1_binding_0_cs[]; };
 
-layout(std430, binding = 2) buffer type_22_block_2Compute { vec4 _group_1_binding_1_cs[]; };
+layout(std430, binding = 2) buffer type_24_block_2Compute { vec4 _group_1_binding_1_cs[]; };
 
 
 uint fallback_method() {
@@ -194,9 +196,9 @@ vec4 unit_direction(vec3 v_3) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
     vec3 s_2 = (v_3 / vec3(m_1));
-    float l_2 = length(s_2);
-    if ((l_2 > 0.0)) {
-        bool _e47 = finite(l_2);
+    float l_3 = length(s_2);
+    if ((l_3 > 0.0)) {
+        bool _e47 = finite(l_3);
         local_5 = _e47;
     } else {
         local_5 = false;
@@ -205,7 +207,7 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    return vec4((s_2 / vec3(l_2)), 1.0);
+    return vec4((s_2 / vec3(l_3)), 1.0);
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
@@ -295,9 +297,9 @@ ivec2 wrap_texel(int n, ivec2 t) {
 }
 
 Footprint footprint(uint n_1, vec2 uv) {
-    vec2 x_4 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
-    vec2 x0_ = floor(x_4);
-    return Footprint(ivec2(x0_), (x_4 - x0_));
+    vec2 x_5 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
+    vec2 x0_ = floor(x_5);
+    return Footprint(ivec2(x0_), (x_5 - x0_));
 }
 
 vec4 blend4_(vec4 q00_, vec4 q10_, vec4 q01_, vec4 q11_, vec2 f) {
@@ -317,20 +319,20 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1, uint p_1) {
     float _e7 = _group_0_binding_7_cs.warp.z;
     float _e11 = _group_0_binding_7_cs.warp.y;
     float res0_ = ((which_1 == 0u) ? _e11 : _e7);
-    uint n_9 = max((uint(res0_) >> level_1), 1u);
-    Footprint _e19 = footprint(n_9, uv_1);
-    ivec2 c_8 = _e19.corner;
-    int l_3 = int(level_1);
-    int ni = int(n_9);
-    ivec2 at_2 = ivec2((int(p_1) * ni), 0);
-    ivec2 _e27 = wrap_texel(ni, c_8);
-    vec4 _e29 = probe_texel(which_1, (at_2 + _e27), l_3);
-    ivec2 _e34 = wrap_texel(ni, (c_8 + ivec2(1, 0)));
-    vec4 _e36 = probe_texel(which_1, (at_2 + _e34), l_3);
-    ivec2 _e41 = wrap_texel(ni, (c_8 + ivec2(0, 1)));
-    vec4 _e43 = probe_texel(which_1, (at_2 + _e41), l_3);
-    ivec2 _e48 = wrap_texel(ni, (c_8 + ivec2(1, 1)));
-    vec4 _e50 = probe_texel(which_1, (at_2 + _e48), l_3);
+    uint n_10 = max((uint(res0_) >> level_1), 1u);
+    Footprint _e19 = footprint(n_10, uv_1);
+    ivec2 c_9 = _e19.corner;
+    int l_4 = int(level_1);
+    int ni = int(n_10);
+    ivec2 at_3 = ivec2((int(p_1) * ni), 0);
+    ivec2 _e27 = wrap_texel(ni, c_9);
+    vec4 _e29 = probe_texel(which_1, (at_3 + _e27), l_4);
+    ivec2 _e34 = wrap_texel(ni, (c_9 + ivec2(1, 0)));
+    vec4 _e36 = probe_texel(which_1, (at_3 + _e34), l_4);
+    ivec2 _e41 = wrap_texel(ni, (c_9 + ivec2(0, 1)));
+    vec4 _e43 = probe_texel(which_1, (at_3 + _e41), l_4);
+    ivec2 _e48 = wrap_texel(ni, (c_9 + ivec2(1, 1)));
+    vec4 _e50 = probe_texel(which_1, (at_3 + _e48), l_4);
     vec4 _e52 = blend4_(_e29, _e36, _e43, _e50, _e19.f);
     return _e52;
 }
@@ -395,8 +397,8 @@ vec3 cell_size() {
 }
 
 uint cell_index(uvec3 c_2) {
-    uvec4 n_10 = _group_0_binding_7_cs.grid_counts;
-    return (c_2.x + (n_10.x * (c_2.y + (n_10.y * c_2.z))));
+    uvec4 n_11 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_11.x * (c_2.y + (n_11.y * c_2.z))));
 }
 
 uvec3 cell_of(vec3 p_4, vec3 size) {
@@ -573,14 +575,14 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
             }
             uint _e21 = k_1;
             vec4 _e23 = _group_0_binding_7_cs.kdop[_e21];
-            vec3 n_11 = _e23.xyz;
+            vec3 n_12 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e27].w;
-            float nb = dot(n_11, b_5);
+            float nb = dot(n_12, b_5);
             if ((nb > h_1)) {
                 return vec2(0.0, 0.0);
             }
-            float nd = dot(n_11, dir_3);
+            float nd = dot(n_12, dir_3);
             if ((nd > 0.0)) {
                 float _e39 = t_4;
                 t_4 = min(_e39, ((h_1 - nb) / nd));
@@ -634,22 +636,22 @@ vec3 box_fetch(vec3 b_8, vec3 dir_6) {
 Basis orthonormal_basis(vec3 n_3) {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_3 = (-1.0 / (s_3 + n_3.z));
-    float b_20 = ((n_3.x * n_3.y) * a_3);
-    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_20), (-(s_3) * n_3.x)), vec3(b_20, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+    float b_23 = ((n_3.x * n_3.y) * a_3);
+    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_23), (-(s_3) * n_3.x)), vec3(b_23, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
     bool local_12 = false;
-    float l_4 = length(v_5);
-    if ((l_4 > 0.0)) {
-        bool _e7 = finite(l_4);
+    float l_5 = length(v_5);
+    if ((l_5 > 0.0)) {
+        bool _e7 = finite(l_5);
         local_12 = _e7;
     } else {
         local_12 = false;
     }
     bool _e9 = local_12;
     if (_e9) {
-        return (v_5 / vec3(l_4));
+        return (v_5 / vec3(l_5));
     }
     return fallback_1;
 }
@@ -780,6 +782,19 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_6) {
     return Aim(dir_8, 1.0, p_6);
 }
 
+float face_ramp(float x_2) {
+    return clamp(((x_2 - 0.375) / 0.25), 0.0, 1.0);
+}
+
+Lattice face_lattice(vec3 b_12) {
+    vec3 _e1 = cell_size();
+    Lattice _e2 = lattice(b_12, _e1);
+    float _e6 = face_ramp(_e2.frac.x);
+    float _e9 = face_ramp(_e2.frac.y);
+    float _e12 = face_ramp(_e2.frac.z);
+    return Lattice(_e2.base, vec3(_e6, _e9, _e12));
+}
+
 float mip_roughness(uint m) {
     float _e9 = _group_0_binding_7_cs.mip_roughness[(m / 4u)][(m % 4u)];
     return _e9;
@@ -790,8 +805,8 @@ float lod_of_roughness(float r_2) {
     uint below = 0u;
     uint t_5 = 0u;
     float f_2 = 0.0;
-    uint n_12 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_12 < 2u))) {
+    uint n_13 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_13 < 2u))) {
         float _e11 = mip_roughness(0u);
         local_18 = !((r_2 > _e11));
     } else {
@@ -801,7 +816,7 @@ float lod_of_roughness(float r_2) {
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_12 - 1u);
+    uint last = (n_13 - 1u);
     float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
@@ -814,7 +829,7 @@ float lod_of_roughness(float r_2) {
         }
         loop_init_3 = false;
         uint _e26 = t_5;
-        if ((_e26 < n_12)) {
+        if ((_e26 < n_13)) {
         } else {
             break;
         }
@@ -838,18 +853,18 @@ float lod_of_roughness(float r_2) {
     return (float(i_6) + clamp(_e57, 0.0, 1.0));
 }
 
-float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_8, uint p_7) {
+float distance_ratio(vec3 b_13, vec3 v_6, vec2 uv_8, uint p_7) {
     bool local_19 = false;
     bool local_20 = false;
     bool local_21 = false;
     bool local_22 = false;
-    float l_5 = length(v_6);
+    float l_6 = length(v_6);
     float _e9 = _group_0_binding_7_cs.probe.w;
     uint _e13 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_7);
     float w_6 = _e14.x;
-    if ((l_5 > 0.0)) {
-        bool _e20 = finite(l_5);
+    if ((l_6 > 0.0)) {
+        bool _e20 = finite(l_6);
         local_19 = _e20;
     } else {
         local_19 = false;
@@ -873,7 +888,7 @@ float distance_ratio(vec3 b_12, vec3 v_6, vec2 uv_8, uint p_7) {
     }
     float d_probe = (1.0 / w_6);
     vec4 _e41 = _group_0_binding_7_cs.probes[p_7];
-    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_5))) - b_12));
+    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_6))) - b_13));
     float k_13 = (d_probe / d_surface);
     bool _e49 = finite(k_13);
     if (_e49) {
@@ -905,17 +920,17 @@ float blend_node_w(uint k_8) {
     return _e9;
 }
 
-float irradiance_weight(float r_5) {
-    bool local_24 = false;
+float irradiance_weight(float r_7) {
+    bool local_25 = false;
     float w_1 = 0.0;
     uint k_9 = 1u;
-    uint n_13 = _group_0_binding_7_cs.lut_info.y;
-    if (!((n_13 == 0u))) {
-        local_24 = !((r_5 > 0.0));
+    uint n_14 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_14 == 0u))) {
+        local_25 = !((r_7 > 0.0));
     } else {
-        local_24 = true;
+        local_25 = true;
     }
-    bool _e14 = local_24;
+    bool _e14 = local_25;
     if (_e14) {
         return 0.0;
     }
@@ -929,17 +944,17 @@ float irradiance_weight(float r_5) {
         }
         loop_init_4 = false;
         uint _e21 = k_9;
-        if ((_e21 < n_13)) {
+        if ((_e21 < n_14)) {
         } else {
             break;
         }
         {
             uint _e23 = k_9;
             float _e26 = blend_node_r((_e23 - 1u));
-            if ((r_5 > _e26)) {
+            if ((r_7 > _e26)) {
                 uint _e29 = k_9;
                 float _e30 = blend_node_r(_e29);
-                float t_12 = min(max(((r_5 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                float t_12 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
                 uint _e37 = k_9;
                 float _e40 = blend_node_w((_e37 - 1u));
                 uint _e44 = k_9;
@@ -952,42 +967,42 @@ float irradiance_weight(float r_5) {
     return min(max(_e51, 0.0), 1.0);
 }
 
-vec3 clean(vec3 c_4) {
-    bool _e1 = finite3_(c_4);
+vec3 clean(vec3 c_5) {
+    bool _e1 = finite3_(c_5);
     if (_e1) {
-        return max(c_4, vec3(0.0));
+        return max(c_5, vec3(0.0));
     }
     return vec3(0.0);
 }
 
-vec3 sh_eval(vec3 c_5[9], vec3 n_4) {
-    float x_5 = n_4.x;
-    float y = n_4.y;
-    float z = n_4.z;
-    vec3 t0_ = (c_5[0] * 0.2820948);
-    vec3 t1_ = (c_5[1] * (0.4886025 * y));
-    vec3 t2_ = (c_5[2] * (0.4886025 * z));
-    vec3 t3_ = (c_5[3] * (0.4886025 * x_5));
-    vec3 t4_ = (c_5[4] * (1.0925484 * (x_5 * y)));
-    vec3 t5_ = (c_5[5] * (1.0925484 * (y * z)));
-    vec3 t6_ = (c_5[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
-    vec3 t7_ = (c_5[7] * (1.0925484 * (x_5 * z)));
-    vec3 t8_ = (c_5[8] * (0.5462742 * ((x_5 * x_5) - (y * y))));
+vec3 sh_eval(vec3 c_6[9], vec3 n_5) {
+    float x_6 = n_5.x;
+    float y = n_5.y;
+    float z = n_5.z;
+    vec3 t0_ = (c_6[0] * 0.2820948);
+    vec3 t1_ = (c_6[1] * (0.4886025 * y));
+    vec3 t2_ = (c_6[2] * (0.4886025 * z));
+    vec3 t3_ = (c_6[3] * (0.4886025 * x_6));
+    vec3 t4_ = (c_6[4] * (1.0925484 * (x_6 * y)));
+    vec3 t5_ = (c_6[5] * (1.0925484 * (y * z)));
+    vec3 t6_ = (c_6[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    vec3 t7_ = (c_6[7] * (1.0925484 * (x_6 * z)));
+    vec3 t8_ = (c_6[8] * (0.5462742 * ((x_6 * x_6) - (y * y))));
     vec3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
     return max(e_2, vec3(0.0));
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_29 = false;
+    bool local_30 = false;
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_29 = _e14;
+        local_30 = _e14;
     } else {
-        local_29 = false;
+        local_30 = false;
     }
-    bool _e16 = local_29;
+    bool _e16 = local_30;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -996,16 +1011,16 @@ vec2 hemi_encode(vec3 v_7) {
     return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_8) {
-    float x_3 = 0.5;
+SurfaceAxis surface_axis(float x_in, uint n_9) {
+    float x_4 = 0.5;
     bool _e4 = finite(x_in);
     if (_e4) {
-        x_3 = x_in;
+        x_4 = x_in;
     }
-    float _e5 = x_3;
-    float c_9 = clamp(((_e5 * float(n_8)) - 0.5), 0.0, float((n_8 - 1u)));
-    uint i0_ = uint(floor(c_9));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_8 - 1u)), (c_9 - float(i0_)));
+    float _e5 = x_4;
+    float c_10 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
+    uint i0_ = uint(floor(c_10));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_10 - float(i0_)));
 }
 
 uint query_count() {

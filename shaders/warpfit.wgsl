@@ -39,7 +39,8 @@
 
 struct Params {
     // the grid: min (xyz), max (xyz), cell counts (xyz) and the corrective blend (w: 0 the
-    // containing cell, 1 trilinear over the eight cells around the point); grid_min.w: how
+    // containing cell, 1 trilinear over the eight cells around the point, 2 the containing
+    // cell blended with its neighbours near its faces); grid_min.w: how
     // far the irradiance blend moves a point along its normal (the surface bias, scene units)
     grid_min: vec4<f32>,
     grid_max: vec4<f32>,
@@ -103,7 +104,7 @@ struct Cell {
 const DYNAMIC: u32 = 255u;
 // the proxy: 0 warp1 (the probe's own depth), 1 box, 2 kdop
 override FALLBACK: u32 = DYNAMIC;
-// 0 the containing cell, 1 trilinear
+// 0 the containing cell, 1 trilinear, 2 the containing cell blended near its faces
 override BLEND: u32 = DYNAMIC;
 // 0 off, 1 on
 override RELAX: u32 = DYNAMIC;
@@ -699,7 +700,7 @@ fn fetch(b: vec3<f32>, dir: vec3<f32>, r: f32) -> Aim {
     }
     var delta = 0.0;
     var mapped = false;
-    if blend_mode() == 0u {
+    if blend_mode() != 1u {
         let tiles = home;
         if tiles.x >= 0 {
             delta = cell_delta(tiles, uv, r);
@@ -719,6 +720,97 @@ fn fetch(b: vec3<f32>, dir: vec3<f32>, r: f32) -> Aim {
         return Aim(fallback_fetch(b, dir), -1.0, 0u);
     }
     return shifted_aim(proxy_exit(b, dir), delta, b, dir, p);
+}
+
+// How far from a cell face (in cells, either side) the faces blend reaches
+// (`warp::corrective::FACE_MARGIN`).
+const FACE_MARGIN: f32 = 0.125;
+// The group of cells without a map when the grid relaxes them (they read the relaxed proxy).
+const RELAXED: u32 = 255u;
+
+// A cell-beyond-the-face weight along one axis: 0 up to FACE_MARGIN before the face, 1/2 at
+// it (the lattice fraction 1/2), 1 as far beyond it.
+fn face_ramp(x: f32) -> f32 {
+    return clamp((x - (0.5 - FACE_MARGIN)) / (2.0 * FACE_MARGIN), 0.0, 1.0);
+}
+
+// The faces blend's weights at B: the lattice cube around B with each axis's fraction
+// ramped (`Correctives::face_cells`); corner_weight of it is a near cell's weight.
+fn face_lattice(b: vec3<f32>) -> Lattice {
+    let l = lattice(b, cell_size());
+    return Lattice(l.base, vec3<f32>(face_ramp(l.frac.x), face_ramp(l.frac.y), face_ramp(l.frac.z)));
+}
+
+// Probe radiance of a faces-blend lookup of (B, unit dir, roughness r) near cell faces
+// (`Correctives::face_aims`, then `FittedGrid::shade`): each near cell's own lookup (its
+// probe and shift; cells without a map read probe A with no shift, or the relaxed proxy
+// when the grid relaxes), cells with the same probe and shift merged, the radiances
+// blended by the cells' weights.
+fn faces_radiance(l: Lattice, b: vec3<f32>, dir: vec3<f32>, r: f32) -> vec3<f32> {
+    let uv = oct_encode(dir);
+    let relax = relaxation_on();
+    // (initialised in full: HLSL's zero cast of an array is not portable)
+    var keys = array<u32, 8>(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
+    var ws = array<f32, 8>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    var ds = array<f32, 8>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    var n = 0u;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let w = corner_weight(l, corner);
+        if !(w > 0.0) {
+            continue;
+        }
+        let tiles = cells[cell_index(corner_cell(l, corner))].tiles;
+        var key = 0u;
+        var delta = 0.0;
+        if tiles.x >= 0 {
+            key = probe_of(tiles.x, uv);
+            delta = cell_delta(tiles, uv, r);
+        } else if relax {
+            key = RELAXED;
+        }
+        var at = n;
+        for (var g = 0u; g < n; g++) {
+            if keys[g] == key && ds[g] == delta {
+                at = g;
+                break;
+            }
+        }
+        if at == n {
+            keys[n] = key;
+            ws[n] = 0.0;
+            ds[n] = delta;
+            n++;
+        }
+        ws[at] += w;
+    }
+    let exit = proxy_exit(b, dir);
+    var c = vec3<f32>(0.0);
+    for (var g = 0u; g < n; g++) {
+        var aim = Aim(dir, 1.0, keys[g]);
+        if keys[g] == RELAXED {
+            aim = Aim(fallback_fetch(b, dir), -1.0, 0u);
+        } else if any(b != params.probes[keys[g]].xyz) {
+            aim = shifted_aim(exit, ds[g], b, dir, keys[g]);
+        }
+        c += ws[g] * shade(b, aim, r);
+    }
+    return c;
+}
+
+// Probe radiance of a lookup of (B, unit dir, roughness r): the fetch's aim shaded, or near
+// a cell face with the faces blend, the near cells' aims shaded and blended.
+fn looked_up_radiance(b: vec3<f32>, dir: vec3<f32>, r: f32) -> vec3<f32> {
+    if blend_mode() == 2u {
+        let l = face_lattice(b);
+        var near = 0u;
+        for (var corner = 0u; corner < 8u; corner++) {
+            near += select(0u, 1u, corner_weight(l, corner) > 0.0);
+        }
+        if near > 1u {
+            return faces_radiance(l, b, dir, r);
+        }
+    }
+    return shade(b, fetch(b, dir, r), r);
 }
 
 // ---- rough lookups ---------------------------------------------------------------------
@@ -880,7 +972,7 @@ fn specular(position: vec3<f32>, direction: vec3<f32>, roughness: f32) -> vec3<f
     if stored && w >= 1.0 {
         return clean(sh_read(cell, b, d.xyz) * (w * 0.31830987));
     }
-    var c = shade(b, fetch(b, d.xyz, r), r);
+    var c = looked_up_radiance(b, d.xyz, r);
     if stored {
         c = c * (1.0 - w) + sh_read(cell, b, d.xyz) * (w * 0.31830987);
     }

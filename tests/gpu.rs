@@ -160,6 +160,9 @@ fn the_shader_reads_the_probe_each_texel_chose_as_the_cpu_sampler_does() {
     assert_eq!(g.warp().probe_count(), 2);
     assert!(g.correctives().probe_maps.contains(&1), "some texels read the second probe");
     check_grid("tiny_probes", &g);
+    // blended near cell faces: where the near cells read different probes, both are read
+    let faces = g.with_lookup(|_, blend, _| *blend = warpfit::warp::corrective::Blend::Faces);
+    check_grid("tiny_probes-faces", &faces);
 }
 
 #[test]
@@ -368,7 +371,7 @@ fn every_fallback_blend_and_relaxation_answers_as_the_cpu_sampler() {
     let floor = 1e-3 * mean_radiance(&base);
     let variants = [Method::Warp1, Method::Box, Method::Kdop]
         .into_iter()
-        .flat_map(|f| [Blend::Cell, Blend::Trilinear].map(|b| (f, b)))
+        .flat_map(|f| [Blend::Cell, Blend::Trilinear, Blend::Faces].map(|b| (f, b)))
         .flat_map(|(f, b)| [0.0, 0.7].map(|r| (f, b, r, true)))
         // and once without a roughness correction (the plain mip of r)
         .chain([(Method::Box, Blend::Cell, 0.0, false)]);

@@ -43,7 +43,7 @@ fn bake_and_grid_files_open_in_the_reference_openexr_library() {
     let baked = job::bake(&scene, &tracer, &folder, &quiet).unwrap();
     let b = job::Baked { others: &[], ..baked.baked(&scene, &tracer) };
     let warp = b.warp(warpfit::warp::WarpOptions::standard());
-    let store = StoreOptions { precision: Precision::F16, roughness: true };
+    let store = StoreOptions { precision: Precision::F16, ..Default::default() };
     let out = Output { folder: &folder, command: "test", progress: &quiet };
     let (fit, manifest) = job::fit(b, &warp, &FitSettings::quick(), store, Default::default(), out).unwrap();
     assert!(fit.correctives.stored_cells() > 0, "the check needs a correctives.exr");

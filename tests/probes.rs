@@ -121,7 +121,7 @@ fn a_multi_probe_grid_reads_the_probe_each_texel_chose_and_beats_probe_a_alone()
     let several = fit_into(bake.baked(&scene, &tracer), "several");
     let alone = fit_into(job::Baked { others: &[], ..bake.baked(&scene, &tracer) }, "alone");
     assert_eq!(several.warp().probe_count(), 1 + bake.others.len());
-    assert_eq!(several.manifest().version, warpfit::gridfile::GRID_VERSION);
+    assert_eq!(several.manifest().version, warpfit::gridfile::GRID_VERSION_WRITTEN);
     let c = several.correctives();
     assert_eq!(c.probe_maps.len(), c.maps.len(), "a probe index per stored texel");
     assert!(c.probe_maps.iter().any(|&p| p > 0), "some texels read another probe than A");

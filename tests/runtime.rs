@@ -9,7 +9,7 @@ use glam::{Vec2, Vec3};
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 use warpfit::eval::{self, EvalSettings};
-use warpfit::gridfile::{GRID_VERSION, MANIFEST_FILE};
+use warpfit::gridfile::{GRID_VERSION, GRID_VERSION_WRITTEN, MANIFEST_FILE};
 use warpfit::jobs::run::{self as job, StoreOptions};
 use warpfit::report::folder::RunFolder;
 use warpfit::runtime::{FittedGrid, IrradianceBlend, LoadError, Precision, SpecularRead};
@@ -40,8 +40,8 @@ fn the_committed_fit_keeps_loading_with_the_same_answers() {
     // (one map per cell) never change. fits/tiny_probes is the same room with a second
     // probe (`data/scenes/tiny_probes.toml`, fitted the same way).
     let grids = [
-        (tiny(), GRID_VERSION, true),
-        (repo().join("fits/tiny_probes"), GRID_VERSION, true),
+        (tiny(), GRID_VERSION_WRITTEN, true),
+        (repo().join("fits/tiny_probes"), GRID_VERSION_WRITTEN, true),
         (repo().join("fits/tiny_v5"), 5, false),
         (repo().join("fits/tiny_v4"), 4, false),
     ];
@@ -104,7 +104,7 @@ fn fixture() -> &'static Fixture {
         let f32_dir = tmp_dir("runtime-f32");
         let torture = SmallTorture::fit_into(&f32_dir);
         let f16_dir = tmp_dir("runtime-f16");
-        let f16 = StoreOptions { precision: Precision::F16, roughness: true };
+        let f16 = StoreOptions { precision: Precision::F16, ..Default::default() };
         job::write_grid(torture.baked(), &torture.warp, &torture.fit, f16, &RunFolder::new(&f16_dir)).unwrap();
         Fixture { torture, f32_dir, f16_dir }
     })
@@ -268,7 +268,9 @@ fn specular_batch_is_bitwise_the_single_call() {
     // shade per lane; the tail shorter than a group calls `specular`. All must agree bit
     // for bit with `specular`, on the committed grid and on a lit torture grid.
     let grids = [FittedGrid::load(tiny()).unwrap(), FittedGrid::load(&fixture().f32_dir).unwrap()];
-    for g in grids.into_iter().flat_map(|g| SpecularRead::ALL.map(|read| g.clone().with_read(read))) {
+    let faces = |g: &FittedGrid| g.clone().with_lookup(|_, blend, _| *blend = Blend::Faces);
+    let grids = grids.iter().flat_map(|g| [g.clone(), faces(g)]).chain([faces(&load_tiny_probes())]);
+    for g in grids.flat_map(|g| SpecularRead::ALL.map(|read| g.clone().with_read(read))) {
         let lanes = warpfit::octa::LANES;
         let n = lanes * 5 + 3;
         let geo = &g.irradiance_grid().geometry;
@@ -300,6 +302,87 @@ fn specular_batch_is_bitwise_the_single_call() {
         }
         assert!(lit > n / 4, "too few lit queries ({lit} of {n}) for the comparison to mean much");
     }
+}
+
+fn load_tiny_probes() -> FittedGrid {
+    FittedGrid::load(repo().join("fits/tiny_probes")).unwrap()
+}
+
+#[test]
+fn the_faces_blend_reads_the_containing_cell_inside_it_and_nothing_jumps_at_a_face() {
+    // `Blend::Faces`: bit for bit the containing cell's lookup away from its faces; across
+    // a face, where the containing cell's lookup jumps (a shift map against its neighbour's,
+    // or another probe), the blend changes by no more than its neighbours a step apart do.
+    // (Probe radiance alone: the irradiance a rough lookup blends in is read across cells
+    // already, and stops at walls on purpose; tested below.)
+    let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+    for cell_grid in [FittedGrid::load(&fixture().f32_dir).unwrap(), load_tiny_probes()] {
+        let cell_grid = cell_grid.with_read(SpecularRead::ProbeOnly);
+        let faces = cell_grid.clone().with_lookup(|_, blend, _| *blend = Blend::Faces);
+        let geo = cell_grid.correctives().geometry;
+        let size = geo.cell_size();
+        let (mut inside, mut crossings, mut jumps) = (0, 0, 0);
+        for cell in (0..geo.cell_count()).filter(|&c| cell_grid.correctives().stores_map(c)) {
+            let lo = geo.min + geo.cell_coords(cell).as_vec3() * size;
+            for k in 0..8u32 {
+                let mut s = warpfit::sampling::Sampler::new(41, cell as u64, k);
+                let d = warpfit::sampling::uniform_sphere(s.next_2d());
+                let r = [0.0, 0.0, 0.3, 0.8][k as usize % 4];
+                // away from every face: the containing cell's lookup
+                let t = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * 0.7 + 0.15;
+                let b = lo + t * size;
+                assert_eq!(bits(faces.specular(b, d, r)), bits(cell_grid.specular(b, d, r)), "cell {cell} at {t}");
+                inside += 1;
+                // across the face beyond this cell on each axis, two steps of 1e-4 cells
+                for axis in 0..3 {
+                    let mut at = lo + t * size;
+                    at[axis] = lo[axis] + size[axis];
+                    if at[axis] >= geo.max[axis] - 0.01 * size[axis] {
+                        continue;
+                    }
+                    let step =
+                        Vec3::from(std::array::from_fn::<f32, 3, _>(|x| if x == axis { 1e-4 * size[x] } else { 0.0 }));
+                    let (cell_a, cell_b) = (cell_grid.specular(at - step, d, r), cell_grid.specular(at + step, d, r));
+                    let [f0, f1, f2] = [at - step * 3.0, at - step, at + step].map(|p| faces.specular(p, d, r));
+                    let scale = f1.max_element().max(1e-3);
+                    // across the face no more than two steps on one side (with room for rounding)
+                    let across = (f2 - f1).abs().max_element();
+                    let beside = (f1 - f0).abs().max_element();
+                    assert!(
+                        across <= beside + 1e-3 * scale,
+                        "cell {cell} axis {axis} r {r}: jump {across} beside {beside} ({f1})"
+                    );
+                    crossings += 1;
+                    jumps += ((cell_b - cell_a).abs().max_element() > 1e-2 * scale) as usize;
+                }
+            }
+        }
+        assert!(inside > 0 && crossings > 20, "{inside} inside, {crossings} crossings");
+        assert!(jumps * 10 > crossings, "the containing cell's lookup jumps at only {jumps} of {crossings} faces");
+    }
+}
+
+#[test]
+fn a_grid_fitted_with_the_faces_blend_is_written_at_version_7_and_read_as_it() {
+    // `--blend faces` stores `Faces` in the manifest at format version 7 (every other grid
+    // stays at 6, so older readers keep reading it); the loaded grid answers as the same
+    // grid switched to the faces blend, and a version-6 manifest naming it is refused
+    let f = fixture();
+    let dir = tmp_dir("runtime-faces");
+    let faces = StoreOptions { blend: Blend::Faces, ..Default::default() };
+    job::write_grid(f.baked(), &f.warp, &f.fit, faces, &RunFolder::new(&dir)).unwrap();
+    let g = FittedGrid::load(&dir).unwrap();
+    assert_eq!((g.manifest().version, g.blend()), (GRID_VERSION, Blend::Faces));
+    let cell = FittedGrid::load(&f.f32_dir).unwrap();
+    assert_eq!((cell.manifest().version, cell.blend()), (GRID_VERSION_WRITTEN, Blend::Cell));
+    let switched = cell.with_lookup(|_, blend, _| *blend = Blend::Faces);
+    for (p, d, r) in tiny_queries().into_iter().map(|(p, d, r)| (p * 4.0, d, r)) {
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        assert_eq!(bits(g.specular(p, d, r)), bits(switched.specular(p, d, r)));
+    }
+    edit_manifest(&dir, |m| m["version"] = 6.into());
+    let e = load_err(&dir);
+    assert!(e.contains("manifest.json") && e.contains("warp.blend") && e.contains("version 7"), "{e}");
 }
 
 #[test]

@@ -9,6 +9,7 @@ use warpfit::fit::{FitSettings, Solver};
 use warpfit::jobs::farm;
 use warpfit::jobs::run::StoreOptions;
 use warpfit::runtime::Precision;
+use warpfit::warp::corrective::Blend;
 use warpfit::warp::{Method, WarpOptions};
 
 /// Offline parallax correction for reflection probes.
@@ -262,6 +263,12 @@ pub struct FitArgs {
     /// Storage of the radiance layers of the fitted grid (distances and shift maps are f32).
     #[arg(long, value_enum, default_value = "f32")]
     pub precision: PrecisionArg,
+    /// How a lookup combines neighbouring cells: `cell` reads the containing cell alone;
+    /// `faces` blends the cells on both sides of a face across the last eighth of a cell
+    /// before it, so nothing jumps at a cell face (a second probe fetch only where the two
+    /// cells read different probes).
+    #[arg(long, value_enum, default_value = "cell")]
+    pub blend: BlendArg,
     /// Leave the GGX roughness correction out of the fitted grid.
     #[arg(long)]
     pub no_roughness: bool,
@@ -313,6 +320,12 @@ pub enum ExportFormat {
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
+pub enum BlendArg {
+    Cell,
+    Faces,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
 pub enum PrecisionArg {
     F32,
     F16,
@@ -324,7 +337,11 @@ impl FitArgs {
             PrecisionArg::F32 => Precision::F32,
             PrecisionArg::F16 => Precision::F16,
         };
-        StoreOptions { precision, roughness: !self.no_roughness }
+        let blend = match self.blend {
+            BlendArg::Cell => Blend::Cell,
+            BlendArg::Faces => Blend::Faces,
+        };
+        StoreOptions { precision, roughness: !self.no_roughness, blend }
     }
 
     /// The flags that give these settings to `warpfit fit` (for farm jobs).
@@ -344,6 +361,7 @@ impl FitArgs {
             format!("--fit-reference-spp={}", self.fit_reference_spp),
             format!("--robust-scale={}", self.robust_scale),
             format!("--precision={}", name(self.precision.to_possible_value())),
+            format!("--blend={}", name(self.blend.to_possible_value())),
             format!("--selection-margin={}", self.selection_margin),
             format!("--size-weight={}", self.size_weight),
             format!("--depth-prior={}", self.depth_prior),

@@ -230,41 +230,17 @@ pub enum CorrectiveVariant {
     /// cell (the probe chosen per cell, as engines choose by position).
     PerCell,
     /// The fitted grid as stored, each lookup's radiance blended over the cells whose
-    /// faces are near (each cell's own shift and probe; [`FACE_MARGIN`]).
+    /// faces are near (each cell's own shift and probe; [`face_blend`]).
     FittedFaces,
 }
 
-/// How far from a cell face (in cells, either side) `fitted-faces` blends with the cell
-/// across it: 0.5 would be a trilinear blend of eight lookups everywhere.
-pub const FACE_MARGIN: f32 = 0.125;
-
-/// The `fitted-faces` radiance of query (B, dir, r): over the cell-centre lattice, each
-/// axis's weight of the cell beyond a face ramps from 0 to ½ across the last
-/// [`FACE_MARGIN`] before the face (and on to 1 as far beyond it), so inside a cell one
-/// lookup is read, near a face two, near an edge four; each cell's lookup aims with its
-/// own shift and reads its own probe, and the radiances blend.
+/// The `fitted-faces` radiance of query (B, dir, r): the runtime's faces blend
+/// (`Correctives::face_aims`, `Blend::Faces`) shaded with the row's mip rule: inside a cell
+/// the containing cell's lookup; within `corrective::FACE_MARGIN` of a face each near cell's
+/// own lookup (its shift, its probe), the radiances blended.
 pub fn face_blend(shading: Glossy, rule: MipRule, c: &Correctives, (b, dir, r): (Vec3, Vec3, f32)) -> Vec3 {
-    let g = &c.geometry;
-    let hi = (g.counts - glam::UVec3::ONE).as_vec3();
-    let f = (b - g.min) / g.cell_size() - 0.5;
-    let f = if f.is_finite() { f.clamp(Vec3::ZERO, hi) } else { Vec3::ZERO };
-    let base = f.floor();
-    let ramp = |x: f32| ((x - (0.5 - FACE_MARGIN)) / (2.0 * FACE_MARGIN)).clamp(0.0, 1.0);
-    let t = Vec3::new(ramp(f.x - base.x), ramp(f.y - base.y), ramp(f.z - base.z));
-    let base = base.as_uvec3();
-    let mut out = Vec3::ZERO;
-    for corner in 0..8u32 {
-        let o = glam::UVec3::new(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
-        let w = (if o.x == 1 { t.x } else { 1.0 - t.x })
-            * (if o.y == 1 { t.y } else { 1.0 - t.y })
-            * (if o.z == 1 { t.z } else { 1.0 - t.z });
-        if w > 0.0 {
-            let cell = g.cell_index((base + o).min(g.counts - glam::UVec3::ONE));
-            let aim = c.fetch_in(cell, Blend::Cell, shading.warp, b, dir, r);
-            out += w * shading.radiance(rule, b, dir, aim, r);
-        }
-    }
-    out
+    let aims = c.face_aims(shading.warp, b, dir, r);
+    (0..aims.n).fold(Vec3::ZERO, |sum, k| sum + aims.weights[k] * shading.radiance(rule, b, dir, aims.aims[k], r))
 }
 
 impl CorrectiveVariant {

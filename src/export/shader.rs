@@ -92,6 +92,7 @@ fn blend_code(b: Blend) -> u32 {
     match b {
         Blend::Cell => 0,
         Blend::Trilinear => 1,
+        Blend::Faces => 2,
     }
 }
 

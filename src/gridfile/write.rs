@@ -165,7 +165,8 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
 
     let manifest = GridManifest {
         format: GRID_FORMAT.into(),
-        version: GRID_VERSION,
+        // the oldest version that reads the grid
+        version: if g.blend == Blend::Faces { GRID_VERSION } else { GRID_VERSION_WRITTEN },
         octahedral_convention: octa::CONVENTION.into(),
         units: "scene units (positions, distances); radiance in the scene's linear RGB units".into(),
         up_axis: "+Y".into(),

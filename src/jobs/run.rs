@@ -58,11 +58,13 @@ pub struct StoreOptions {
     pub precision: Precision,
     /// Store the GGX roughness correction (left out anyway when the probe has no rough mips).
     pub roughness: bool,
+    /// How a lookup combines neighbouring cells (the manifest's `blend`).
+    pub blend: Blend,
 }
 
 impl Default for StoreOptions {
     fn default() -> Self {
-        StoreOptions { precision: Precision::F32, roughness: true }
+        StoreOptions { precision: Precision::F32, roughness: true, blend: Blend::Cell }
     }
 }
 
@@ -386,7 +388,7 @@ pub fn write_grid(
             .collect(),
         warp,
         correctives: &fitted.correctives,
-        blend: Blend::Cell,
+        blend: store.blend,
         irradiance: IrradianceSource {
             resolution: g.irradiance_resolution,
             depth_resolution: g.depth_resolution,

@@ -285,6 +285,9 @@ fn expected_payloads(
     if !m.other_probes.is_empty() && m.version < 6 {
         return Err(invalid(mp, "other_probes", "several probes need format version 6"));
     }
+    if m.warp.blend == crate::warp::corrective::Blend::Faces && m.version < 7 {
+        return Err(invalid(mp, "warp.blend", "the faces blend needs format version 7"));
+    }
     for (k, p) in m.other_probes.iter().enumerate() {
         let field = format!("other_probes[{k}]");
         let same = p.resolution == m.probe.resolution

@@ -21,7 +21,12 @@ pub const GRID_FORMAT: &str = "warpfit-grid";
 /// 6: several specular probes (`other_probes`, files [`PROBE_FILES`]) and, per stored
 /// texel, the probe a lookup reads (`correctives.exr` layer `probe_maps`); a version-5 grid
 /// is read as one with probe A alone.
-pub const GRID_VERSION: u32 = 6;
+/// 7: the faces blend (`warp.blend` = `Faces`: near a cell face the near cells' lookups
+/// blend). A grid is written at the oldest version that reads it, and at least 6: version 7
+/// only with the faces blend, so a reader of version 6 keeps reading every other grid.
+pub const GRID_VERSION: u32 = 7;
+/// The version every grid is written at unless it needs a newer one ([`GRID_VERSION`]).
+pub const GRID_VERSION_WRITTEN: u32 = 6;
 /// The oldest version this build reads.
 pub const GRID_VERSION_OLDEST: u32 = 4;
 pub const MANIFEST_FILE: &str = "manifest.json";

@@ -227,8 +227,12 @@ impl FittedGrid {
         let Some(q) = self.specular_query(position, direction, roughness) else {
             return Vec3::ZERO;
         };
+        if self.blend == Blend::Faces {
+            let aims = self.correctives.face_aims(&self.warp, q.b, q.dir, q.r);
+            return self.shade(q, &aims.aims[..aims.n], &aims.weights[..aims.n], read);
+        }
         let aim = self.correctives.fetch(self.blend, &self.warp, q.b, q.dir, q.r);
-        self.shade(q, aim, read)
+        self.shade(q, &[aim], &[1.0], read)
     }
 
     /// A specular query made safe (see the module conventions); `None` means black.
@@ -241,17 +245,23 @@ impl FittedGrid {
         Some(SpecularQuery { b, dir, r })
     }
 
-    /// Radiance of probe A along `aim` for the query's roughness: the mip from the stored
-    /// roughness correction (`warp::glossy`, shared with the fit and eval).
+    /// Radiance of probe A along `aims` for the query's roughness: the mip from the stored
+    /// roughness correction (`warp::glossy`, shared with the fit and eval); several aims
+    /// (near a cell face, `Blend::Faces`) blend their radiances by `weights` (summing to 1).
     #[inline]
-    fn shade(&self, q: SpecularQuery, aim: Aim, read: SpecularRead) -> Vec3 {
+    fn shade(&self, q: SpecularQuery, aims: &[Aim], weights: &[f32], read: SpecularRead) -> Vec3 {
         // the irradiance first: its loads are independent of probe A's and overlap them
         let blend = self.irradiance_blend(q, read);
         if let Some((e, w)) = blend.filter(|&(_, w)| w >= 1.0) {
             // probe A's part has weight 0: `mix_irradiance(spec, e, 1)` for any finite spec
             return mix_irradiance(Vec3::ZERO, e, w);
         }
-        let spec = glossy_radiance(&self.warp, self.roughness.as_ref(), MipRule::Corrected, q.b, q.dir, aim, q.r);
+        let radiance =
+            |aim| glossy_radiance(&self.warp, self.roughness.as_ref(), MipRule::Corrected, q.b, q.dir, aim, q.r);
+        let spec = match aims {
+            [aim] => radiance(*aim),
+            _ => aims.iter().zip(weights).fold(Vec3::ZERO, |sum, (&aim, &w)| sum + w * radiance(aim)),
+        };
         match blend {
             Some((e, w)) => mix_irradiance(spec, e, w),
             None => spec,
@@ -299,9 +309,12 @@ impl FittedGrid {
         for k in 0..octa::LANES {
             r[k] = if roughness[k].is_finite() { roughness[k].clamp(0.0, 1.0) } else { 0.0 };
         }
+        // the faces blend: every lane as `Blend::Cell` (what a lane inside its cell reads),
+        // then the lanes near a face again with their near cells
+        let blend = if self.blend == Blend::Faces { Blend::Cell } else { self.blend };
         let mut out = if r.iter().all(|&r| r == 0.0) {
             // mirror lanes: the fetch vectors alone
-            let (v, probe) = self.correctives.fetch_vector_lanes(self.blend, &self.warp, b, dir);
+            let (v, probe) = self.correctives.fetch_vector_lanes(blend, &self.warp, b, dir);
             let uv = octa::encode_soa(&v);
             self.warp.by_probe(
                 &probe,
@@ -310,7 +323,7 @@ impl FittedGrid {
             )
         } else {
             // probe A's part, then the irradiance blend lane by lane (`irradiance_blend`)
-            let (v, ratio, probe) = self.correctives.fetch_lanes(self.blend, &self.warp, b, dir, &r);
+            let (v, ratio, probe) = self.correctives.fetch_lanes(blend, &self.warp, b, dir, &r);
             let c = self.roughness.as_ref();
             let mut out = self.warp.by_probe(
                 &probe,
@@ -323,6 +336,17 @@ impl FittedGrid {
             }
             out
         };
+        if self.blend == Blend::Faces {
+            let cells = b.map(|b| self.correctives.face_cells(b));
+            if cells.iter().any(|c| c.n > 1) {
+                let faces = self.specular_faces_lanes(positions, directions, roughness, &cells);
+                for k in 0..octa::LANES {
+                    if cells[k].n > 1 {
+                        out[k] = faces[k];
+                    }
+                }
+            }
+        }
         if let Some(valid) = valid {
             for k in 0..octa::LANES {
                 if !valid[k] {
@@ -331,6 +355,91 @@ impl FittedGrid {
             }
         }
         out
+    }
+
+    /// `specular` for the lanes near a face of [`octa::LANES`] queries of a grid read with
+    /// `Blend::Faces` (`cells`, each lane's `Correctives::face_cells` at its position made
+    /// safe; the other lanes are left black), bit for bit the same values: each query's
+    /// aims are found one by one (`Correctives::face_aims`: up to eight near cells), then
+    /// the probe is read for all the aims side by side, [`octa::LANES`] at a time, and each
+    /// query sums its aims' radiances in order, then blends its irradiance as `shade` does.
+    #[inline]
+    fn specular_faces_lanes(
+        &self,
+        positions: &[Vec3; octa::LANES],
+        directions: &[Vec3; octa::LANES],
+        roughness: &[f32; octa::LANES],
+        cells: &[crate::warp::corrective::FaceCells; octa::LANES],
+    ) -> [Vec3; octa::LANES] {
+        use crate::warp::corrective::FaceAims;
+        const L: usize = octa::LANES;
+        let placeholder = SpecularQuery { b: self.warp.probe.position, dir: Vec3::Z, r: 0.0 };
+        let mut q = [placeholder; L];
+        let mut valid = [false; L];
+        let mut aims = [FaceAims::one(Aim::from(Vec3::Z)); L];
+        // every aim of every valid query, as (query, aim) in query order
+        let mut entries = [(0u8, 0u8); 8 * L];
+        let mut count = 0;
+        for k in (0..L).filter(|&k| cells[k].n > 1) {
+            if let Some(query) = self.specular_query(positions[k], directions[k], roughness[k]) {
+                (q[k], valid[k]) = (query, true);
+                aims[k] = self.correctives.face_aims_in(cells[k], &self.warp, query.b, query.dir, query.r);
+                for a in 0..aims[k].n {
+                    entries[count] = (k as u8, a as u8);
+                    count += 1;
+                }
+            }
+        }
+        let mut spec = [Vec3::ZERO; L];
+        let c = self.roughness.as_ref();
+        for start in (0..count).step_by(L) {
+            let m = (count - start).min(L);
+            // the group's aims, the last one repeated to fill the lanes
+            let (mut v, mut ratio, mut probe, mut r) = ([Vec3::Z; L], [1.0f32; L], [0u8; L], [0.0f32; L]);
+            for l in 0..L {
+                let (k, a) = entries[start + l.min(m - 1)];
+                let (query, aim) = (q[k as usize], aims[k as usize].aims[a as usize]);
+                (v[l], probe[l], r[l]) = (aim.v, aim.probe, query.r);
+                if query.r != 0.0 {
+                    ratio[l] = aim.ratio(&self.warp, query.b, octa::encode(aim.v));
+                }
+            }
+            let v = octa::soa(&v);
+            let radiance = if r.iter().all(|&r| r == 0.0) {
+                // mirror aims: mip 0, as `specular_lanes` reads it
+                let uv = octa::encode_soa(&v);
+                self.warp.by_probe(
+                    &probe,
+                    |p| p.radiance.levels[0].bilinear_uv_lanes(&uv),
+                    |ps| octa::OctMap::bilinear_uv_lanes_of(&std::array::from_fn(|k| &ps[k].radiance.levels[0]), &uv),
+                )
+            } else {
+                self.warp.by_probe(
+                    &probe,
+                    |p| corrected_lanes(p, c, &r, &v, &ratio),
+                    |ps| corrected_lanes_of(ps, c, &r, &v, &ratio),
+                )
+            };
+            // each query's sum in its aims' order, as `shade` forms it
+            for l in 0..m {
+                let (k, a) = entries[start + l];
+                let f = &aims[k as usize];
+                let k = k as usize;
+                spec[k] = if f.n == 1 { radiance[l] } else { spec[k] + f.weights[a as usize] * radiance[l] };
+            }
+        }
+        let w: [f32; L] =
+            std::array::from_fn(|k| if valid[k] { self.irradiance_weight(self.read, q[k].r) } else { 0.0 });
+        if w.iter().any(|&w| w > 0.0) {
+            let (b, dir) = (q.map(|q| q.b), q.map(|q| q.dir));
+            self.irradiance_sh.mix_lanes(&b, &dir, &w, &mut spec);
+        }
+        for k in 0..L {
+            if !valid[k] {
+                spec[k] = Vec3::ZERO;
+            }
+        }
+        spec
     }
 
     /// The positions and directions of [`octa::LANES`] queries made safe lane by lane

@@ -30,7 +30,13 @@
 //! Two ways to combine cells at runtime, both measured in `eval`:
 //! - `Blend::Cell`: the containing cell alone (one map lookup);
 //! - `Blend::Trilinear`: Δ blended with trilinear weights over the eight cells around B
-//!   (cell-centre lattice), cells without a map counting Δ = 0.
+//!   (cell-centre lattice), cells without a map counting Δ = 0;
+//! - `Blend::Faces`: the containing cell alone except within [`FACE_MARGIN`] of a cell face,
+//!   where each near cell's own lookup (its shift, its probe) is read and the radiances
+//!   blend, so nothing a lookup reads jumps at a face. Near cells that aim alike (cells
+//!   without a map) share one fetch. (Blending the shifts instead, one fetch, was measured
+//!   too: it aims between two cells' surfaces at whatever lies there, and left more of the
+//!   seams and a higher error; docs/frames.md.)
 //!
 //! Degenerate cases (all tested): B at the probe reads the query direction; B outside the
 //! proxy, a ray through an open side of the k-DOP or one `warp1` sends to the sky reads the
@@ -49,7 +55,57 @@ use serde::{Deserialize, Serialize};
 pub enum Blend {
     Cell,
     Trilinear,
+    Faces,
 }
+
+/// How far from a cell face (in cells, either side) [`Blend::Faces`] blends with the cell
+/// across it: each axis's weight of the cell beyond the face ramps from 0 to ½ over the
+/// last `FACE_MARGIN` before the face, so inside a cell one cell is read, near a face two,
+/// near an edge four, near a corner eight. (½ would blend eight cells everywhere.)
+pub const FACE_MARGIN: f32 = 0.125;
+
+/// The cells a [`Blend::Faces`] lookup reads and their weights (summing to 1), in corner
+/// order (bits x, y, z of the cell-centre lattice cube around the point); `n` of them.
+#[derive(Clone, Copy, Debug)]
+pub struct FaceCells {
+    pub cells: [usize; 8],
+    pub weights: [f32; 8],
+    pub n: usize,
+}
+
+/// Where a [`Blend::Faces`] lookup reads: one aim per distinct lookup of its near cells,
+/// each with its share of the radiance (summing to 1), in the order the cells first name
+/// them; `n` of them. One aim inside a cell, and where the near cells aim alike.
+#[derive(Clone, Copy, Debug)]
+pub struct FaceAims {
+    pub aims: [Aim; 8],
+    pub weights: [f32; 8],
+    pub n: usize,
+}
+
+impl FaceAims {
+    /// `aim` alone, with all the radiance.
+    #[must_use]
+    pub fn one(aim: Aim) -> FaceAims {
+        FaceAims { aims: [aim; 8], weights: [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], n: 1 }
+    }
+
+    /// The aim with the greatest share (the first of equals).
+    #[must_use]
+    pub fn main(&self) -> Aim {
+        let mut best = 0;
+        for k in 1..self.n {
+            if self.weights[k] > self.weights[best] {
+                best = k;
+            }
+        }
+        self.aims[best]
+    }
+}
+
+/// The probe key of cells without a map when the grid relaxes them: they read the relaxed
+/// proxy, not a shifted surface.
+const RELAXED: u8 = u8::MAX;
 
 /// Correctives of a whole grid, sparse: only cells at level 2 own a map.
 #[derive(Clone, Debug, PartialEq)]
@@ -175,6 +231,104 @@ impl Correctives {
         sample_maps(self.map(slot), self.rough_map(slot), taps, r)
     }
 
+    /// The cells a [`Blend::Faces`] lookup at `b` reads, with their weights: the containing
+    /// cell alone inside it (one cell, weight 1); within [`FACE_MARGIN`] of a face, the
+    /// cells on both sides, weighted by a linear ramp across the margin on each axis.
+    #[inline]
+    #[must_use]
+    pub fn face_cells(&self, b: Vec3) -> FaceCells {
+        let g = &self.geometry;
+        let mut out =
+            FaceCells { cells: [self.cell_at(b); 8], weights: [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], n: 1 };
+        let top = g.counts - UVec3::ONE;
+        let f = (b - g.min) / self.cell_size - 0.5;
+        let f = if f.is_finite() { f.clamp(Vec3::ZERO, top.as_vec3()) } else { Vec3::ZERO };
+        // (f ≥ 0: truncation is the floor)
+        let base = UVec3::new(f.x as u32, f.y as u32, f.z as u32);
+        let ramp = |x: f32| ((x - (0.5 - FACE_MARGIN)) / (2.0 * FACE_MARGIN)).clamp(0.0, 1.0);
+        let frac = f - base.as_vec3();
+        let t = Vec3::new(ramp(frac.x), ramp(frac.y), ramp(frac.z));
+        // per axis the lattice offsets with a weight (one inside the margin's reach)
+        let axis = |t: f32| -> ([(u32, f32); 2], usize) {
+            match t {
+                0.0 => ([(0, 1.0), (0, 0.0)], 1),
+                1.0 => ([(1, 1.0), (0, 0.0)], 1),
+                t => ([(0, 1.0 - t), (1, t)], 2),
+            }
+        };
+        let ((x, nx), (y, ny), (z, nz)) = (axis(t.x), axis(t.y), axis(t.z));
+        if nx * ny * nz == 1 {
+            // inside a cell: the containing cell as every other lookup finds it
+            return out;
+        }
+        // the corners in lattice order (x fastest), each weight the product x · y · z
+        out.n = 0;
+        for &(oz, wz) in &z[..nz] {
+            for &(oy, wy) in &y[..ny] {
+                for &(ox, wx) in &x[..nx] {
+                    out.cells[out.n] = g.cell_index((base + UVec3::new(ox, oy, oz)).min(top));
+                    out.weights[out.n] = wx * wy * wz;
+                    out.n += 1;
+                }
+            }
+        }
+        out
+    }
+
+    /// Where a [`Blend::Faces`] lookup of (B, dir, r) reads ([`FaceAims`]): inside a cell
+    /// [`fetch`](Self::fetch) with `Blend::Cell` bit for bit; near a face, each near cell's
+    /// own lookup, as `fetch_in` that cell with `Blend::Cell` (its probe and shift; cells
+    /// without a map read probe A with Δ = 0, or the relaxed proxy when the grid relaxes),
+    /// the proxy's distance found once, and cells with the same probe and shift merged.
+    #[must_use]
+    pub fn face_aims(&self, warp: &Warp, b: Vec3, dir: Vec3, r: f32) -> FaceAims {
+        self.face_aims_in(self.face_cells(b), warp, b, dir, r)
+    }
+
+    /// [`face_aims`](Self::face_aims) of the near cells `cells` ([`face_cells`](Self::face_cells)
+    /// at `b`).
+    #[must_use]
+    pub fn face_aims_in(&self, cells: FaceCells, warp: &Warp, b: Vec3, dir: Vec3, r: f32) -> FaceAims {
+        if cells.n == 1 {
+            return FaceAims::one(self.fetch_in(cells.cells[0], Blend::Cell, warp, b, dir, r));
+        }
+        let taps = octa::bilinear_taps(self.map_res, octa::encode(dir));
+        let relax = warp.options.relax_texels > 0.0;
+        // (probe or RELAXED, summed weight, shift) per distinct lookup
+        let mut groups = [(0u8, 0.0f32, 0.0f32); 8];
+        let mut n = 0;
+        for k in 0..cells.n {
+            let (key, delta) = match self.slot_of(cells.cells[k]) {
+                Some(slot) => (self.probe_of(slot, &taps), self.map_delta(slot, &taps, r)),
+                None if relax => (RELAXED, 0.0),
+                None => (0, 0.0),
+            };
+            let at = match groups[..n].iter().position(|g| g.0 == key && g.2.to_bits() == delta.to_bits()) {
+                Some(at) => at,
+                None => {
+                    groups[n] = (key, 0.0, delta);
+                    n += 1;
+                    n - 1
+                }
+            };
+            groups[at].1 += cells.weights[k];
+        }
+        let t = warp.base_distance(self.fallback, b, dir);
+        let mut out = FaceAims { aims: [Aim { v: dir, k: Some(1.0), probe: 0 }; 8], weights: [0.0; 8], n };
+        for (k, &(key, w, delta)) in groups[..n].iter().enumerate() {
+            out.weights[k] = w;
+            out.aims[k] = if key == RELAXED {
+                warp.fetch_vector(self.fallback, b, dir).into()
+            } else {
+                let a = warp.probe_at(key.into()).position;
+                let aim =
+                    if b == a { Aim { v: dir, k: Some(1.0), probe: 0 } } else { shifted_aim(a, t, delta, b, dir) };
+                Aim { probe: key, ..aim }
+            };
+        }
+        out
+    }
+
     /// Fetch vector for the mirror query (B, dir).
     #[inline]
     #[must_use]
@@ -187,11 +341,16 @@ impl Correctives {
     #[inline]
     #[must_use]
     pub fn fetch(&self, blend: Blend, warp: &Warp, b: Vec3, dir: Vec3, r: f32) -> Aim {
+        if blend == Blend::Faces {
+            // (one aim: the one with the greatest share; a lookup reads them all)
+            return self.face_aims(warp, b, dir, r).main();
+        }
         self.fetch_in(self.cell_at(b), blend, warp, b, dir, r)
     }
 
     /// [`fetch`](Self::fetch) as if B lay in cell `cell`: its map's shift and the probe it
-    /// reads (with `Blend::Cell`), the aim from B itself.
+    /// reads (with `Blend::Cell`, and `Blend::Faces` as if no face were near), the aim from
+    /// B itself.
     #[inline]
     #[must_use]
     pub fn fetch_in(&self, cell: usize, blend: Blend, warp: &Warp, b: Vec3, dir: Vec3, r: f32) -> Aim {
@@ -206,7 +365,7 @@ impl Correctives {
             return Aim { v: dir, k: Some(1.0), probe };
         }
         let delta = match blend {
-            Blend::Cell => own.map(|(slot, taps, _)| self.map_delta(slot, &taps, r)),
+            Blend::Cell | Blend::Faces => own.map(|(slot, taps, _)| self.map_delta(slot, &taps, r)),
             Blend::Trilinear => self.trilinear_delta(b, dir, r),
         };
         let aim = match delta {
