@@ -196,9 +196,9 @@ vec4 unit_direction(vec3 v_3) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
     vec3 s_2 = (v_3 / vec3(m_1));
-    float l_3 = length(s_2);
-    if ((l_3 > 0.0)) {
-        bool _e47 = finite(l_3);
+    float l_5 = length(s_2);
+    if ((l_5 > 0.0)) {
+        bool _e47 = finite(l_5);
         local_5 = _e47;
     } else {
         local_5 = false;
@@ -207,7 +207,7 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    return vec4((s_2 / vec3(l_3)), 1.0);
+    return vec4((s_2 / vec3(l_5)), 1.0);
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
@@ -321,18 +321,18 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1, uint p_1) {
     float res0_ = ((which_1 == 0u) ? _e11 : _e7);
     uint n_10 = max((uint(res0_) >> level_1), 1u);
     Footprint _e19 = footprint(n_10, uv_1);
-    ivec2 c_9 = _e19.corner;
-    int l_4 = int(level_1);
+    ivec2 c_10 = _e19.corner;
+    int l_6 = int(level_1);
     int ni = int(n_10);
     ivec2 at_3 = ivec2((int(p_1) * ni), 0);
-    ivec2 _e27 = wrap_texel(ni, c_9);
-    vec4 _e29 = probe_texel(which_1, (at_3 + _e27), l_4);
-    ivec2 _e34 = wrap_texel(ni, (c_9 + ivec2(1, 0)));
-    vec4 _e36 = probe_texel(which_1, (at_3 + _e34), l_4);
-    ivec2 _e41 = wrap_texel(ni, (c_9 + ivec2(0, 1)));
-    vec4 _e43 = probe_texel(which_1, (at_3 + _e41), l_4);
-    ivec2 _e48 = wrap_texel(ni, (c_9 + ivec2(1, 1)));
-    vec4 _e50 = probe_texel(which_1, (at_3 + _e48), l_4);
+    ivec2 _e27 = wrap_texel(ni, c_10);
+    vec4 _e29 = probe_texel(which_1, (at_3 + _e27), l_6);
+    ivec2 _e34 = wrap_texel(ni, (c_10 + ivec2(1, 0)));
+    vec4 _e36 = probe_texel(which_1, (at_3 + _e34), l_6);
+    ivec2 _e41 = wrap_texel(ni, (c_10 + ivec2(0, 1)));
+    vec4 _e43 = probe_texel(which_1, (at_3 + _e41), l_6);
+    ivec2 _e48 = wrap_texel(ni, (c_10 + ivec2(1, 1)));
+    vec4 _e50 = probe_texel(which_1, (at_3 + _e48), l_6);
     vec4 _e52 = blend4_(_e29, _e36, _e43, _e50, _e19.f);
     return _e52;
 }
@@ -375,16 +375,16 @@ float inv_dist(vec3 v_4) {
     float _e6 = _group_0_binding_7_cs.probe.w;
     uint _e10 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e12 = probe_sample_lod(1u, _e2, _e6, _e10, 0u);
-    float w_5 = _e12.x;
-    if ((w_5 > 0.0)) {
-        bool _e18 = finite(w_5);
+    float w_6 = _e12.x;
+    if ((w_6 > 0.0)) {
+        bool _e18 = finite(w_6);
         local_9 = _e18;
     } else {
         local_9 = false;
     }
     bool _e20 = local_9;
     if (_e20) {
-        return w_5;
+        return w_6;
     }
     return 0.0;
 }
@@ -642,16 +642,16 @@ Basis orthonormal_basis(vec3 n_3) {
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
     bool local_12 = false;
-    float l_5 = length(v_5);
-    if ((l_5 > 0.0)) {
-        bool _e7 = finite(l_5);
+    float l_7 = length(v_5);
+    if ((l_7 > 0.0)) {
+        bool _e7 = finite(l_7);
         local_12 = _e7;
     } else {
         local_12 = false;
     }
     bool _e9 = local_12;
     if (_e9) {
-        return (v_5 / vec3(l_5));
+        return (v_5 / vec3(l_7));
     }
     return fallback_1;
 }
@@ -858,26 +858,26 @@ float distance_ratio(vec3 b_13, vec3 v_6, vec2 uv_8, uint p_7) {
     bool local_20 = false;
     bool local_21 = false;
     bool local_22 = false;
-    float l_6 = length(v_6);
+    float l_8 = length(v_6);
     float _e9 = _group_0_binding_7_cs.probe.w;
     uint _e13 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_7);
-    float w_6 = _e14.x;
-    if ((l_6 > 0.0)) {
-        bool _e20 = finite(l_6);
+    float w_7 = _e14.x;
+    if ((l_8 > 0.0)) {
+        bool _e20 = finite(l_8);
         local_19 = _e20;
     } else {
         local_19 = false;
     }
     bool _e22 = local_19;
     if (_e22) {
-        local_20 = (w_6 > 0.0);
+        local_20 = (w_7 > 0.0);
     } else {
         local_20 = false;
     }
     bool _e28 = local_20;
     if (_e28) {
-        bool _e31 = finite(w_6);
+        bool _e31 = finite(w_7);
         local_21 = _e31;
     } else {
         local_21 = false;
@@ -886,9 +886,9 @@ float distance_ratio(vec3 b_13, vec3 v_6, vec2 uv_8, uint p_7) {
     if (!(_e33)) {
         return 1.0;
     }
-    float d_probe = (1.0 / w_6);
+    float d_probe = (1.0 / w_7);
     vec4 _e41 = _group_0_binding_7_cs.probes[p_7];
-    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_6))) - b_13));
+    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_8))) - b_13));
     float k_13 = (d_probe / d_surface);
     bool _e49 = finite(k_13);
     if (_e49) {
@@ -905,104 +905,130 @@ float distance_ratio(vec3 b_13, vec3 v_6, vec2 uv_8, uint p_7) {
 
 float pseudo_log2_(float k_4) {
     uint bits_1 = floatBitsToUint(k_4);
-    int e_1 = (int(((bits_1 >> 23u) & 255u)) - 127);
+    int e_2 = (int(((bits_1 >> 23u) & 255u)) - 127);
     float m_3 = uintBitsToFloat(((bits_1 & 8388607u) | 1065353216u));
-    return (float(e_1) + (m_3 - 1.0));
+    return (float(e_2) + (m_3 - 1.0));
 }
 
-float blend_node_r(uint k_7) {
-    float _e9 = _group_0_binding_7_cs.blend_r[(k_7 / 4u)][(k_7 % 4u)];
+uint near_cells(Lattice l_3) {
+    uint near = 0u;
+    uint corner_4 = 0u;
+    bool loop_init_4 = true;
+    while(true) {
+        if (!loop_init_4) {
+            uint _e18 = corner_4;
+            corner_4 = (_e18 + 1u);
+        }
+        loop_init_4 = false;
+        uint _e5 = corner_4;
+        if ((_e5 < 8u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e8 = near;
+            uint _e11 = corner_4;
+            float _e12 = corner_weight(l_3, _e11);
+            near = (_e8 + ((_e12 > 0.0) ? 1u : 0u));
+        }
+    }
+    uint _e20 = near;
+    return _e20;
+}
+
+vec3 sh_eval(vec3 c_5[9], vec3 n_5) {
+    float x_6 = n_5.x;
+    float y = n_5.y;
+    float z = n_5.z;
+    vec3 t0_ = (c_5[0] * 0.2820948);
+    vec3 t1_ = (c_5[1] * (0.4886025 * y));
+    vec3 t2_ = (c_5[2] * (0.4886025 * z));
+    vec3 t3_ = (c_5[3] * (0.4886025 * x_6));
+    vec3 t4_ = (c_5[4] * (1.0925484 * (x_6 * y)));
+    vec3 t5_ = (c_5[5] * (1.0925484 * (y * z)));
+    vec3 t6_ = (c_5[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    vec3 t7_ = (c_5[7] * (1.0925484 * (x_6 * z)));
+    vec3 t8_ = (c_5[8] * (0.5462742 * ((x_6 * x_6) - (y * y))));
+    vec3 e_3 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
+    return max(e_3, vec3(0.0));
+}
+
+float blend_node_r(uint k_9) {
+    float _e9 = _group_0_binding_7_cs.blend_r[(k_9 / 4u)][(k_9 % 4u)];
     return _e9;
 }
 
-float blend_node_w(uint k_8) {
-    float _e9 = _group_0_binding_7_cs.blend_w[(k_8 / 4u)][(k_8 % 4u)];
+float blend_node_w(uint k_10) {
+    float _e9 = _group_0_binding_7_cs.blend_w[(k_10 / 4u)][(k_10 % 4u)];
     return _e9;
 }
 
 float irradiance_weight(float r_7) {
-    bool local_25 = false;
-    float w_1 = 0.0;
-    uint k_9 = 1u;
+    bool local_28 = false;
+    float w_4 = 0.0;
+    uint k_11 = 1u;
     uint n_14 = _group_0_binding_7_cs.lut_info.y;
     if (!((n_14 == 0u))) {
-        local_25 = !((r_7 > 0.0));
+        local_28 = !((r_7 > 0.0));
     } else {
-        local_25 = true;
+        local_28 = true;
     }
-    bool _e14 = local_25;
+    bool _e14 = local_28;
     if (_e14) {
         return 0.0;
     }
     float _e17 = blend_node_w(0u);
-    w_1 = _e17;
-    bool loop_init_4 = true;
+    w_4 = _e17;
+    bool loop_init_5 = true;
     while(true) {
-        if (!loop_init_4) {
-            uint _e49 = k_9;
-            k_9 = (_e49 + 1u);
+        if (!loop_init_5) {
+            uint _e49 = k_11;
+            k_11 = (_e49 + 1u);
         }
-        loop_init_4 = false;
-        uint _e21 = k_9;
+        loop_init_5 = false;
+        uint _e21 = k_11;
         if ((_e21 < n_14)) {
         } else {
             break;
         }
         {
-            uint _e23 = k_9;
+            uint _e23 = k_11;
             float _e26 = blend_node_r((_e23 - 1u));
             if ((r_7 > _e26)) {
-                uint _e29 = k_9;
+                uint _e29 = k_11;
                 float _e30 = blend_node_r(_e29);
                 float t_12 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
-                uint _e37 = k_9;
+                uint _e37 = k_11;
                 float _e40 = blend_node_w((_e37 - 1u));
-                uint _e44 = k_9;
+                uint _e44 = k_11;
                 float _e45 = blend_node_w(_e44);
-                w_1 = ((_e40 * (1.0 - t_12)) + (_e45 * t_12));
+                w_4 = ((_e40 * (1.0 - t_12)) + (_e45 * t_12));
             }
         }
     }
-    float _e51 = w_1;
+    float _e51 = w_4;
     return min(max(_e51, 0.0), 1.0);
 }
 
-vec3 clean(vec3 c_5) {
-    bool _e1 = finite3_(c_5);
+vec3 clean(vec3 c_8) {
+    bool _e1 = finite3_(c_8);
     if (_e1) {
-        return max(c_5, vec3(0.0));
+        return max(c_8, vec3(0.0));
     }
     return vec3(0.0);
 }
 
-vec3 sh_eval(vec3 c_6[9], vec3 n_5) {
-    float x_6 = n_5.x;
-    float y = n_5.y;
-    float z = n_5.z;
-    vec3 t0_ = (c_6[0] * 0.2820948);
-    vec3 t1_ = (c_6[1] * (0.4886025 * y));
-    vec3 t2_ = (c_6[2] * (0.4886025 * z));
-    vec3 t3_ = (c_6[3] * (0.4886025 * x_6));
-    vec3 t4_ = (c_6[4] * (1.0925484 * (x_6 * y)));
-    vec3 t5_ = (c_6[5] * (1.0925484 * (y * z)));
-    vec3 t6_ = (c_6[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
-    vec3 t7_ = (c_6[7] * (1.0925484 * (x_6 * z)));
-    vec3 t8_ = (c_6[8] * (0.5462742 * ((x_6 * x_6) - (y * y))));
-    vec3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
-    return max(e_2, vec3(0.0));
-}
-
 vec2 hemi_encode(vec3 v_7) {
-    bool local_30 = false;
+    bool local_31 = false;
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_30 = _e14;
+        local_31 = _e14;
     } else {
-        local_30 = false;
+        local_31 = false;
     }
-    bool _e16 = local_30;
+    bool _e16 = local_31;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -1018,9 +1044,9 @@ SurfaceAxis surface_axis(float x_in, uint n_9) {
         x_4 = x_in;
     }
     float _e5 = x_4;
-    float c_10 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
-    uint i0_ = uint(floor(c_10));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_10 - float(i0_)));
+    float c_11 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
+    uint i0_ = uint(floor(c_11));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_11 - float(i0_)));
 }
 
 uint query_count() {

@@ -221,9 +221,9 @@ float4 unit_direction(float3 v_3)
         return float4(0.0, 0.0, 1.0, 0.0);
     }
     float3 s_2 = (v_3 / (m_1).xxx);
-    float l_3 = length(s_2);
-    if ((l_3 > 0.0)) {
-        const bool _e47 = finite(l_3);
+    float l_5 = length(s_2);
+    if ((l_5 > 0.0)) {
+        const bool _e47 = finite(l_5);
         local_5 = _e47;
     } else {
         local_5 = false;
@@ -232,7 +232,7 @@ float4 unit_direction(float3 v_3)
     if (!(_e49)) {
         return float4(0.0, 0.0, 1.0, 0.0);
     }
-    return float4((s_2 / (l_3).xxx), 1.0);
+    return float4((s_2 / (l_5).xxx), 1.0);
 }
 
 float3 fetch_vector(float3 from, float3 to, float3 fallback)
@@ -376,18 +376,18 @@ float4 probe_bilinear(uint which_1, float2 uv_1, uint level_1, uint p_1)
     float res0_ = ((which_1 == 0u) ? _e11 : _e7);
     uint n_10 = max((naga_f2u32(res0_) >> level_1), 1u);
     const Footprint _e19 = footprint(n_10, uv_1);
-    int2 c_9 = _e19.corner;
-    int l_4 = int(level_1);
+    int2 c_10 = _e19.corner;
+    int l_6 = int(level_1);
     int ni = int(n_10);
     int2 at_3 = int2(asint(asuint(int(p_1)) * asuint(ni)), int(0));
-    const int2 _e27 = wrap_texel(ni, c_9);
-    const float4 _e29 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e27)), l_4);
-    const int2 _e34 = wrap_texel(ni, asint(asuint(c_9) + asuint(int2(int(1), int(0)))));
-    const float4 _e36 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e34)), l_4);
-    const int2 _e41 = wrap_texel(ni, asint(asuint(c_9) + asuint(int2(int(0), int(1)))));
-    const float4 _e43 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e41)), l_4);
-    const int2 _e48 = wrap_texel(ni, asint(asuint(c_9) + asuint(int2(int(1), int(1)))));
-    const float4 _e50 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e48)), l_4);
+    const int2 _e27 = wrap_texel(ni, c_10);
+    const float4 _e29 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e27)), l_6);
+    const int2 _e34 = wrap_texel(ni, asint(asuint(c_10) + asuint(int2(int(1), int(0)))));
+    const float4 _e36 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e34)), l_6);
+    const int2 _e41 = wrap_texel(ni, asint(asuint(c_10) + asuint(int2(int(0), int(1)))));
+    const float4 _e43 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e41)), l_6);
+    const int2 _e48 = wrap_texel(ni, asint(asuint(c_10) + asuint(int2(int(1), int(1)))));
+    const float4 _e50 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e48)), l_6);
     const float4 _e52 = blend4_(_e29, _e36, _e43, _e50, _e19.f);
     return _e52;
 }
@@ -435,16 +435,16 @@ float inv_dist(float3 v_4)
     float _e6 = params.probe.w;
     uint _e10 = params.probe_info.y;
     const float4 _e12 = probe_sample_lod(1u, _e2, _e6, _e10, 0u);
-    float w_5 = _e12.x;
-    if ((w_5 > 0.0)) {
-        const bool _e18 = finite(w_5);
+    float w_6 = _e12.x;
+    if ((w_6 > 0.0)) {
+        const bool _e18 = finite(w_6);
         local_9 = _e18;
     } else {
         local_9 = false;
     }
     bool _e20 = local_9;
     if (_e20) {
-        return w_5;
+        return w_6;
     }
     return 0.0;
 }
@@ -484,11 +484,11 @@ float4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, float2 uv_
     uint s_3 = uint(tile);
     int2 origin = int2((uint2(naga_mod(s_3, columns), naga_div(s_3, columns)) * (n_2 + 2u)));
     const Footprint _e13 = footprint(n_2, uv_4);
-    int2 c_10 = asint(asuint(asint(asuint(origin) + asuint(_e13.corner))) + asuint(int2(int(1), int(1))));
-    const float4 _e20 = atlas_texel(which_4, c_10);
-    const float4 _e25 = atlas_texel(which_4, asint(asuint(c_10) + asuint(int2(int(1), int(0)))));
-    const float4 _e30 = atlas_texel(which_4, asint(asuint(c_10) + asuint(int2(int(0), int(1)))));
-    const float4 _e35 = atlas_texel(which_4, asint(asuint(c_10) + asuint(int2(int(1), int(1)))));
+    int2 c_11 = asint(asuint(asint(asuint(origin) + asuint(_e13.corner))) + asuint(int2(int(1), int(1))));
+    const float4 _e20 = atlas_texel(which_4, c_11);
+    const float4 _e25 = atlas_texel(which_4, asint(asuint(c_11) + asuint(int2(int(1), int(0)))));
+    const float4 _e30 = atlas_texel(which_4, asint(asuint(c_11) + asuint(int2(int(0), int(1)))));
+    const float4 _e35 = atlas_texel(which_4, asint(asuint(c_11) + asuint(int2(int(1), int(1)))));
     const float4 _e37 = blend4_(_e20, _e25, _e30, _e35, _e13.f);
     return _e37;
 }
@@ -794,16 +794,16 @@ float3 normalize_or(float3 v_5, float3 fallback_1)
 {
     bool local_12 = (bool)0;
 
-    float l_5 = length(v_5);
-    if ((l_5 > 0.0)) {
-        const bool _e7 = finite(l_5);
+    float l_7 = length(v_5);
+    if ((l_7 > 0.0)) {
+        const bool _e7 = finite(l_7);
         local_12 = _e7;
     } else {
         local_12 = false;
     }
     bool _e9 = local_12;
     if (_e9) {
-        return (v_5 / (l_5).xxx);
+        return (v_5 / (l_7).xxx);
     }
     return fallback_1;
 }
@@ -976,7 +976,7 @@ uint probe_of(int tile_1, float2 uv_5)
     int2 origin_1 = int2((uint2(naga_mod(s_5, columns_1), naga_div(s_5, columns_1)) * (n_13 + 2u)));
     const Footprint _e37 = footprint(n_13, uv_5);
     float2 f_6 = _e37.f;
-    float4 w_6 = float4(((1.0 - f_6.x) * (1.0 - f_6.y)), (f_6.x * (1.0 - f_6.y)), ((1.0 - f_6.x) * f_6.y), (f_6.x * f_6.y));
+    float4 w_7 = float4(((1.0 - f_6.x) * (1.0 - f_6.y)), (f_6.x * (1.0 - f_6.y)), ((1.0 - f_6.x) * f_6.y), (f_6.x * f_6.y));
     uint2 loop_bound_3 = uint2(4294967295u, 4294967295u);
     bool loop_init_3 = true;
     while(true) {
@@ -995,7 +995,7 @@ uint probe_of(int tile_1, float2 uv_5)
         {
             uint _e67 = k_3;
             uint _e69 = best;
-            if ((w_6[min(uint(_e67), 3u)] > w_6[min(uint(_e69), 3u)])) {
+            if ((w_7[min(uint(_e67), 3u)] > w_7[min(uint(_e69), 3u)])) {
                 uint _e72 = k_3;
                 best = _e72;
             }
@@ -1208,26 +1208,26 @@ float distance_ratio(float3 b_13, float3 v_6, float2 uv_8, uint p_7)
     bool local_21 = (bool)0;
     bool local_22 = (bool)0;
 
-    float l_6 = length(v_6);
+    float l_8 = length(v_6);
     float _e9 = params.probe.w;
     uint _e13 = params.probe_info.y;
     const float4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_7);
-    float w_7 = _e14.x;
-    if ((l_6 > 0.0)) {
-        const bool _e20 = finite(l_6);
+    float w_8 = _e14.x;
+    if ((l_8 > 0.0)) {
+        const bool _e20 = finite(l_8);
         local_19 = _e20;
     } else {
         local_19 = false;
     }
     bool _e22 = local_19;
     if (_e22) {
-        local_20 = (w_7 > 0.0);
+        local_20 = (w_8 > 0.0);
     } else {
         local_20 = false;
     }
     bool _e28 = local_20;
     if (_e28) {
-        const bool _e31 = finite(w_7);
+        const bool _e31 = finite(w_8);
         local_21 = _e31;
     } else {
         local_21 = false;
@@ -1236,9 +1236,9 @@ float distance_ratio(float3 b_13, float3 v_6, float2 uv_8, uint p_7)
     if (!(_e33)) {
         return 1.0;
     }
-    float d_probe = (1.0 / w_7);
+    float d_probe = (1.0 / w_8);
     float4 _e41 = params.probes[p_7];
-    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_6))) - b_13));
+    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_8))) - b_13));
     float k_13 = (d_probe / d_surface);
     const bool _e49 = finite(k_13);
     if (_e49) {
@@ -1256,9 +1256,9 @@ float distance_ratio(float3 b_13, float3 v_6, float2 uv_8, uint p_7)
 float pseudo_log2_(float k_4)
 {
     uint bits_1 = asuint(k_4);
-    int e_1 = asint(asuint(int(((bits_1 >> 23u) & 255u))) - asuint(int(127)));
+    int e_2 = asint(asuint(int(((bits_1 >> 23u) & 255u))) - asuint(int(127)));
     float m_3 = asfloat(((bits_1 & 8388607u) | 1065353216u));
-    return (float(e_1) + (m_3 - 1.0));
+    return (float(e_2) + (m_3 - 1.0));
 }
 
 float corrected_roughness(float r_3, float k_in)
@@ -1513,136 +1513,53 @@ float3 faces_radiance(Lattice l_2, float3 b_15, float3 dir_10, float r_5)
     return _e165;
 }
 
-float3 looked_up_radiance(float3 b_16, float3 dir_11, float r_6)
+uint near_cells(Lattice l_3)
 {
     uint near = 0u;
     uint corner_4 = 0u;
 
-    const uint _e3 = blend_mode();
-    if ((_e3 == 2u)) {
-        const Lattice _e6 = face_lattice(b_16);
-        uint2 loop_bound_9 = uint2(4294967295u, 4294967295u);
-        bool loop_init_9 = true;
-        while(true) {
-            if (all(loop_bound_9 == uint2(0u, 0u))) { break; }
-            loop_bound_9 -= uint2(loop_bound_9.y == 0u, 1u);
-            if (!loop_init_9) {
-                uint _e24 = corner_4;
-                corner_4 = (_e24 + 1u);
-            }
-            loop_init_9 = false;
-            uint _e11 = corner_4;
-            if ((_e11 < 8u)) {
-            } else {
-                break;
-            }
-            {
-                uint _e14 = near;
-                uint _e17 = corner_4;
-                const float _e18 = corner_weight(_e6, _e17);
-                near = (_e14 + ((_e18 > 0.0) ? 1u : 0u));
-            }
-        }
-        uint _e26 = near;
-        if ((_e26 > 1u)) {
-            const float3 _e29 = faces_radiance(_e6, b_16, dir_11, r_6);
-            return _e29;
-        }
-    }
-    const Aim _e30 = fetch(b_16, dir_11, r_6);
-    const float3 _e31 = shade(b_16, _e30, r_6);
-    return _e31;
-}
-
-float blend_node_r(uint k_7)
-{
-    float _e9 = params.blend_r[naga_div(k_7, 4u)][naga_mod(k_7, 4u)];
-    return _e9;
-}
-
-float blend_node_w(uint k_8)
-{
-    float _e9 = params.blend_w[naga_div(k_8, 4u)][naga_mod(k_8, 4u)];
-    return _e9;
-}
-
-float irradiance_weight(float r_7)
-{
-    bool local_25 = (bool)0;
-    float w_1 = (float)0;
-    uint k_9 = 1u;
-
-    uint n_16 = params.lut_info.y;
-    if (!((n_16 == 0u))) {
-        local_25 = !((r_7 > 0.0));
-    } else {
-        local_25 = true;
-    }
-    bool _e14 = local_25;
-    if (_e14) {
-        return 0.0;
-    }
-    const float _e17 = blend_node_w(0u);
-    w_1 = _e17;
-    uint2 loop_bound_10 = uint2(4294967295u, 4294967295u);
-    bool loop_init_10 = true;
+    uint2 loop_bound_9 = uint2(4294967295u, 4294967295u);
+    bool loop_init_9 = true;
     while(true) {
-        if (all(loop_bound_10 == uint2(0u, 0u))) { break; }
-        loop_bound_10 -= uint2(loop_bound_10.y == 0u, 1u);
-        if (!loop_init_10) {
-            uint _e49 = k_9;
-            k_9 = (_e49 + 1u);
+        if (all(loop_bound_9 == uint2(0u, 0u))) { break; }
+        loop_bound_9 -= uint2(loop_bound_9.y == 0u, 1u);
+        if (!loop_init_9) {
+            uint _e18 = corner_4;
+            corner_4 = (_e18 + 1u);
         }
-        loop_init_10 = false;
-        uint _e21 = k_9;
-        if ((_e21 < n_16)) {
+        loop_init_9 = false;
+        uint _e5 = corner_4;
+        if ((_e5 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e23 = k_9;
-            const float _e26 = blend_node_r((_e23 - 1u));
-            if ((r_7 > _e26)) {
-                uint _e29 = k_9;
-                const float _e30 = blend_node_r(_e29);
-                float t_13 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
-                uint _e37 = k_9;
-                const float _e40 = blend_node_w((_e37 - 1u));
-                uint _e44 = k_9;
-                const float _e45 = blend_node_w(_e44);
-                w_1 = ((_e40 * (1.0 - t_13)) + (_e45 * t_13));
-            }
+            uint _e8 = near;
+            uint _e11 = corner_4;
+            const float _e12 = corner_weight(l_3, _e11);
+            near = (_e8 + ((_e12 > 0.0) ? 1u : 0u));
         }
     }
-    float _e51 = w_1;
-    return min(max(_e51, 0.0), 1.0);
+    uint _e20 = near;
+    return _e20;
 }
 
-float3 clean(float3 c_5)
-{
-    const bool _e1 = finite3_(c_5);
-    if (_e1) {
-        return max(c_5, (0.0).xxx);
-    }
-    return (0.0).xxx;
-}
-
-float3 sh_eval(float3 c_6[9], float3 n_5)
+float3 sh_eval(float3 c_5[9], float3 n_5)
 {
     float x_6 = n_5.x;
     float y = n_5.y;
     float z = n_5.z;
-    float3 t0_ = (c_6[0] * 0.2820948);
-    float3 t1_ = (c_6[1] * (0.4886025 * y));
-    float3 t2_ = (c_6[2] * (0.4886025 * z));
-    float3 t3_ = (c_6[3] * (0.4886025 * x_6));
-    float3 t4_ = (c_6[4] * (1.0925484 * (x_6 * y)));
-    float3 t5_ = (c_6[5] * (1.0925484 * (y * z)));
-    float3 t6_ = (c_6[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
-    float3 t7_ = (c_6[7] * (1.0925484 * (x_6 * z)));
-    float3 t8_ = (c_6[8] * (0.5462742 * ((x_6 * x_6) - (y * y))));
-    float3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
-    return max(e_2, (0.0).xxx);
+    float3 t0_ = (c_5[0] * 0.2820948);
+    float3 t1_ = (c_5[1] * (0.4886025 * y));
+    float3 t2_ = (c_5[2] * (0.4886025 * z));
+    float3 t3_ = (c_5[3] * (0.4886025 * x_6));
+    float3 t4_ = (c_5[4] * (1.0925484 * (x_6 * y)));
+    float3 t5_ = (c_5[5] * (1.0925484 * (y * z)));
+    float3 t6_ = (c_5[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    float3 t7_ = (c_5[7] * (1.0925484 * (x_6 * z)));
+    float3 t8_ = (c_5[8] * (0.5462742 * ((x_6 * x_6) - (y * y))));
+    float3 e_3 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
+    return max(e_3, (0.0).xxx);
 }
 
 typedef float3 ret_Constructarray9_float3_[9];
@@ -1662,18 +1579,18 @@ float3 cell_sh_irradiance(uint cell, float3 n_6)
     float4 _e42 = asfloat(cells.Load4(96+32+cell*192));
     float4 _e48 = asfloat(cells.Load4(112+32+cell*192));
     float4 _e54 = asfloat(cells.Load4(128+32+cell*192));
-    float3 c_11[9] = Constructarray9_float3_(_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
-    const float3 _e57 = sh_eval(c_11, n_6);
+    float3 c_12[9] = Constructarray9_float3_(_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
+    const float3 _e57 = sh_eval(c_12, n_6);
     return _e57;
 }
 
-float3 sh_blend4_(uint4 at_1, float4 w_2, uint i_1)
+float3 sh_blend4_(uint4 at_1, float4 w_1, uint i_1)
 {
     float4 _e8 = asfloat(cells.Load4(i_1*16+32+at_1.x*192));
     float4 _e17 = asfloat(cells.Load4(i_1*16+32+at_1.y*192));
     float4 _e27 = asfloat(cells.Load4(i_1*16+32+at_1.z*192));
     float4 _e36 = asfloat(cells.Load4(i_1*16+32+at_1.w*192));
-    return (((_e8.xyz * w_2.x) + (_e17.xyz * w_2.y)) + ((_e27.xyz * w_2.z) + (_e36.xyz * w_2.w)));
+    return (((_e8.xyz * w_1.x) + (_e17.xyz * w_1.y)) + ((_e27.xyz * w_1.z) + (_e36.xyz * w_1.w)));
 }
 
 uint NagaBufferLength(ByteAddressBuffer buffer)
@@ -1683,13 +1600,13 @@ uint NagaBufferLength(ByteAddressBuffer buffer)
     return ret;
 }
 
-float3 sh_read(uint home, float3 b_17, float3 n_7)
+float3 sh_read(uint3 home_at, float3 b_16, float3 n_7)
 {
     uint3 base = (uint3)0;
     float3 frac_ = (float3)0;
     uint a = 0u;
     uint bx = 1u;
-    uint c_7 = 2u;
+    uint c_6 = 2u;
     uint3 top_v = (uint3)0;
     uint3 home_v = (uint3)0;
     uint bit0_ = 0u;
@@ -1697,27 +1614,27 @@ float3 sh_read(uint home, float3 b_17, float3 n_7)
     uint rel = (uint)0;
     uint4 corner_cell_1 = (uint4)0;
     uint4 bits = (uint4)0;
-    uint k_10 = 1u;
+    uint k_7 = 1u;
     uint cs = (uint)0;
     uint bs = (uint)0;
-    float4 w_3 = (float4)0;
+    float4 w_2 = (float4)0;
     uint4 at_2 = (uint4)0;
-    uint k_11 = 0u;
+    uint k_8 = 0u;
     bool kept = (bool)0;
+    bool local_25 = (bool)0;
     bool local_26 = (bool)0;
-    bool local_27 = (bool)0;
 
     const float3 _e3 = cell_size();
     uint4 _e6 = params.grid_counts;
     uint3 counts = _e6.xyz;
     uint3 top_1 = (counts - (1u).xxx);
     float4 _e13 = params.grid_min;
-    float3 units = ((b_17 - _e13.xyz) / _e3);
-    const uint3 _e17 = cell_of(b_17, _e3);
+    float3 units = ((b_16 - _e13.xyz) / _e3);
+    const uint _e17 = cell_index(home_at);
     float3 f0_ = (units - (0.5).xxx);
     const bool _e21 = finite3_(f0_);
     if (!(_e21)) {
-        const float3 _e23 = cell_sh_irradiance(home, n_7);
+        const float3 _e23 = cell_sh_irradiance(_e17, n_7);
         return _e23;
     }
     float3 f_7 = clamp(f0_, (0.0).xxx, float3(top_1));
@@ -1729,20 +1646,20 @@ float3 sh_read(uint home, float3 b_17, float3 n_7)
     uint _e42 = a;
     float _e44 = frac_[min(uint(_e42), 2u)];
     if ((_e41 > _e44)) {
-        uint t_14 = a;
+        uint t_13 = a;
         uint _e47 = bx;
         a = _e47;
-        bx = t_14;
+        bx = t_13;
     }
-    uint _e48 = c_7;
+    uint _e48 = c_6;
     float _e50 = frac_[min(uint(_e48), 2u)];
     uint _e51 = bx;
     float _e53 = frac_[min(uint(_e51), 2u)];
     if ((_e50 > _e53)) {
-        uint t_15 = bx;
-        uint _e56 = c_7;
+        uint t_14 = bx;
+        uint _e56 = c_6;
         bx = _e56;
-        c_7 = t_15;
+        c_6 = t_14;
         uint _e57 = bx;
         float _e59 = frac_[min(uint(_e57), 2u)];
         uint _e60 = a;
@@ -1762,29 +1679,29 @@ float3 sh_read(uint home, float3 b_17, float3 n_7)
     float _e76 = frac_[min(uint(_e74), 2u)];
     uint _e78 = bx;
     float _e80 = frac_[min(uint(_e78), 2u)];
-    uint _e81 = c_7;
+    uint _e81 = c_6;
     float _e83 = frac_[min(uint(_e81), 2u)];
-    uint _e85 = c_7;
+    uint _e85 = c_6;
     float _e87 = frac_[min(uint(_e85), 2u)];
     float4 weights = float4((1.0 - _e68), (_e73 - _e76), (_e80 - _e83), _e87);
     top_v = top_1;
-    home_v = _e17;
+    home_v = home_at;
     uint3 cell_stride = uint3(1u, counts.x, (counts.x * counts.y));
     uint3 bit_stride = uint3(1u, 3u, 9u);
     uint _e102 = base.x;
     uint _e105 = base.y;
     uint _e108 = base.z;
     uint cell0_ = (_e102 + (counts.x * (_e105 + (counts.y * _e108))));
-    uint2 loop_bound_11 = uint2(4294967295u, 4294967295u);
-    bool loop_init_11 = true;
+    uint2 loop_bound_10 = uint2(4294967295u, 4294967295u);
+    bool loop_init_10 = true;
     while(true) {
-        if (all(loop_bound_11 == uint2(0u, 0u))) { break; }
-        loop_bound_11 -= uint2(loop_bound_11.y == 0u, 1u);
-        if (!loop_init_11) {
+        if (all(loop_bound_10 == uint2(0u, 0u))) { break; }
+        loop_bound_10 -= uint2(loop_bound_10.y == 0u, 1u);
+        if (!loop_init_10) {
             uint _e144 = x_3;
             x_3 = (_e144 + 1u);
         }
-        loop_init_11 = false;
+        loop_init_10 = false;
         uint _e117 = x_3;
         if ((_e117 < 3u)) {
         } else {
@@ -1813,25 +1730,25 @@ float3 sh_read(uint home, float3 b_17, float3 n_7)
     bits = (_e148).xxxx;
     uint _e151 = a;
     uint _e152 = bx;
-    uint _e153 = c_7;
+    uint _e153 = c_6;
     uint3 axes = uint3(_e151, _e152, _e153);
-    uint2 loop_bound_12 = uint2(4294967295u, 4294967295u);
-    bool loop_init_12 = true;
+    uint2 loop_bound_11 = uint2(4294967295u, 4294967295u);
+    bool loop_init_11 = true;
     while(true) {
-        if (all(loop_bound_12 == uint2(0u, 0u))) { break; }
-        loop_bound_12 -= uint2(loop_bound_12.y == 0u, 1u);
-        if (!loop_init_12) {
-            uint _e194 = k_10;
-            k_10 = (_e194 + 1u);
+        if (all(loop_bound_11 == uint2(0u, 0u))) { break; }
+        loop_bound_11 -= uint2(loop_bound_11.y == 0u, 1u);
+        if (!loop_init_11) {
+            uint _e194 = k_7;
+            k_7 = (_e194 + 1u);
         }
-        loop_init_12 = false;
-        uint _e157 = k_10;
+        loop_init_11 = false;
+        uint _e157 = k_7;
         if ((_e157 < 4u)) {
         } else {
             break;
         }
         {
-            uint _e160 = k_10;
+            uint _e160 = k_7;
             uint x_7 = axes[min(uint((_e160 - 1u)), 2u)];
             cs = 0u;
             bs = 0u;
@@ -1841,120 +1758,255 @@ float3 sh_read(uint home, float3 b_17, float3 n_7)
                 cs = cell_stride[min(uint(x_7), 2u)];
                 bs = bit_stride[min(uint(x_7), 2u)];
             }
-            uint _e175 = k_10;
-            uint _e177 = k_10;
+            uint _e175 = k_7;
+            uint _e177 = k_7;
             uint _e181 = corner_cell_1[min(uint((_e177 - 1u)), 3u)];
             uint _e182 = cs;
             corner_cell_1[min(uint(_e175), 3u)] = (_e181 + _e182);
-            uint _e184 = k_10;
-            uint _e186 = k_10;
+            uint _e184 = k_7;
+            uint _e186 = k_7;
             uint _e190 = bits[min(uint((_e186 - 1u)), 3u)];
             uint _e191 = bs;
             bits[min(uint(_e184), 3u)] = (_e190 + _e191);
         }
     }
-    uint links = asuint(cells.Load(0+176+home*192));
-    w_3 = weights;
-    at_2 = (home).xxxx;
+    uint links = asuint(cells.Load(0+176+_e17*192));
+    w_2 = weights;
+    at_2 = (_e17).xxxx;
     uint count = ((NagaBufferLength(cells) - 0) / 192);
-    uint2 loop_bound_13 = uint2(4294967295u, 4294967295u);
-    bool loop_init_13 = true;
+    uint2 loop_bound_12 = uint2(4294967295u, 4294967295u);
+    bool loop_init_12 = true;
     while(true) {
-        if (all(loop_bound_13 == uint2(0u, 0u))) { break; }
-        loop_bound_13 -= uint2(loop_bound_13.y == 0u, 1u);
-        if (!loop_init_13) {
-            uint _e252 = k_11;
-            k_11 = (_e252 + 1u);
+        if (all(loop_bound_12 == uint2(0u, 0u))) { break; }
+        loop_bound_12 -= uint2(loop_bound_12.y == 0u, 1u);
+        if (!loop_init_12) {
+            uint _e252 = k_8;
+            k_8 = (_e252 + 1u);
         }
-        loop_init_13 = false;
-        uint _e208 = k_11;
+        loop_init_12 = false;
+        uint _e208 = k_8;
         if ((_e208 < 4u)) {
         } else {
             break;
         }
         {
-            uint _e211 = k_11;
+            uint _e211 = k_8;
             uint ck = corner_cell_1[min(uint(_e211), 3u)];
             kept = false;
-            uint _e216 = k_11;
+            uint _e216 = k_8;
             uint _e218 = bits[min(uint(_e216), 3u)];
             if ((_e218 < 27u)) {
-                uint _e223 = k_11;
+                uint _e223 = k_8;
                 uint _e225 = bits[min(uint(_e223), 3u)];
-                local_26 = (((links >> _e225) & 1u) != 0u);
+                local_25 = (((links >> _e225) & 1u) != 0u);
+            } else {
+                local_25 = false;
+            }
+            bool _e232 = local_25;
+            if (_e232) {
+                local_26 = (ck < count);
             } else {
                 local_26 = false;
             }
-            bool _e232 = local_26;
-            if (_e232) {
-                local_27 = (ck < count);
-            } else {
-                local_27 = false;
-            }
-            bool _e237 = local_27;
+            bool _e237 = local_26;
             if (_e237) {
                 int _e242 = asint(cells.Load(4+0+ck*192));
                 kept = (_e242 >= int(0));
             }
             bool _e245 = kept;
             if (_e245) {
-                uint _e246 = k_11;
+                uint _e246 = k_8;
                 at_2[min(uint(_e246), 3u)] = ck;
             } else {
-                uint _e248 = k_11;
-                w_3[min(uint(_e248), 3u)] = 0.0;
+                uint _e248 = k_8;
+                w_2[min(uint(_e248), 3u)] = 0.0;
             }
         }
     }
-    float _e255 = w_3.x;
-    float _e257 = w_3.y;
-    float _e260 = w_3.z;
-    float _e262 = w_3.w;
+    float _e255 = w_2.x;
+    float _e257 = w_2.y;
+    float _e260 = w_2.z;
+    float _e262 = w_2.w;
     float wsum_1 = ((_e255 + _e257) + (_e260 + _e262));
     if (!((wsum_1 > 0.0))) {
-        const float3 _e268 = cell_sh_irradiance(home, n_7);
+        const float3 _e268 = cell_sh_irradiance(_e17, n_7);
         return _e268;
     }
     uint4 _e269 = at_2;
-    float4 _e270 = w_3;
+    float4 _e270 = w_2;
     const float3 _e272 = sh_blend4_(_e269, _e270, 0u);
     uint4 _e273 = at_2;
-    float4 _e274 = w_3;
+    float4 _e274 = w_2;
     const float3 _e276 = sh_blend4_(_e273, _e274, 1u);
     uint4 _e277 = at_2;
-    float4 _e278 = w_3;
+    float4 _e278 = w_2;
     const float3 _e280 = sh_blend4_(_e277, _e278, 2u);
     uint4 _e281 = at_2;
-    float4 _e282 = w_3;
+    float4 _e282 = w_2;
     const float3 _e284 = sh_blend4_(_e281, _e282, 3u);
     uint4 _e285 = at_2;
-    float4 _e286 = w_3;
+    float4 _e286 = w_2;
     const float3 _e288 = sh_blend4_(_e285, _e286, 4u);
     uint4 _e289 = at_2;
-    float4 _e290 = w_3;
+    float4 _e290 = w_2;
     const float3 _e292 = sh_blend4_(_e289, _e290, 5u);
     uint4 _e293 = at_2;
-    float4 _e294 = w_3;
+    float4 _e294 = w_2;
     const float3 _e296 = sh_blend4_(_e293, _e294, 6u);
     uint4 _e297 = at_2;
-    float4 _e298 = w_3;
+    float4 _e298 = w_2;
     const float3 _e300 = sh_blend4_(_e297, _e298, 7u);
     uint4 _e301 = at_2;
-    float4 _e302 = w_3;
+    float4 _e302 = w_2;
     const float3 _e304 = sh_blend4_(_e301, _e302, 8u);
     float3 acc[9] = Constructarray9_float3_(_e272, _e276, _e280, _e284, _e288, _e292, _e296, _e300, _e304);
     const float3 _e306 = sh_eval(acc, n_7);
     return (_e306 / (wsum_1).xxx);
 }
 
+float3 faces_specular(Lattice l_4, float3 b_17, float3 dir_11, float r_6, float w_3)
+{
+    float3 c_7 = (float3)0;
+    float3 e = (0.0).xxx;
+    float share = 0.0;
+    uint corner_5 = 0u;
+    bool local_27 = (bool)0;
+
+    const float3 _e5 = faces_radiance(l_4, b_17, dir_11, r_6);
+    c_7 = _e5;
+    if ((w_3 > 0.0)) {
+        uint2 loop_bound_13 = uint2(4294967295u, 4294967295u);
+        bool loop_init_13 = true;
+        while(true) {
+            if (all(loop_bound_13 == uint2(0u, 0u))) { break; }
+            loop_bound_13 -= uint2(loop_bound_13.y == 0u, 1u);
+            if (!loop_init_13) {
+                uint _e44 = corner_5;
+                corner_5 = (_e44 + 1u);
+            }
+            loop_init_13 = false;
+            uint _e16 = corner_5;
+            if ((_e16 < 8u)) {
+            } else {
+                break;
+            }
+            {
+                uint _e19 = corner_5;
+                const float _e20 = corner_weight(l_4, _e19);
+                uint _e21 = corner_5;
+                const uint3 _e22 = corner_cell(l_4, _e21);
+                if ((_e20 > 0.0)) {
+                    const uint _e28 = cell_index(_e22);
+                    int _e32 = asint(cells.Load(4+0+_e28*192));
+                    local_27 = (_e32 >= int(0));
+                } else {
+                    local_27 = false;
+                }
+                bool _e36 = local_27;
+                if (_e36) {
+                    float3 _e37 = e;
+                    const float3 _e38 = sh_read(_e22, b_17, dir_11);
+                    e = (_e37 + (_e20 * _e38));
+                    float _e41 = share;
+                    share = (_e41 + _e20);
+                }
+            }
+        }
+        float _e46 = share;
+        if ((_e46 > 0.0)) {
+            float3 _e49 = c_7;
+            float _e50 = share;
+            float3 _e55 = e;
+            float _e56 = share;
+            float _e59 = share;
+            c_7 = ((_e49 * (1.0 - (w_3 * _e50))) + ((_e55 / (_e56).xxx) * ((w_3 * _e59) * 0.31830987)));
+        }
+    }
+    float3 _e65 = c_7;
+    return _e65;
+}
+
+float blend_node_r(uint k_9)
+{
+    float _e9 = params.blend_r[naga_div(k_9, 4u)][naga_mod(k_9, 4u)];
+    return _e9;
+}
+
+float blend_node_w(uint k_10)
+{
+    float _e9 = params.blend_w[naga_div(k_10, 4u)][naga_mod(k_10, 4u)];
+    return _e9;
+}
+
+float irradiance_weight(float r_7)
+{
+    bool local_28 = (bool)0;
+    float w_4 = (float)0;
+    uint k_11 = 1u;
+
+    uint n_16 = params.lut_info.y;
+    if (!((n_16 == 0u))) {
+        local_28 = !((r_7 > 0.0));
+    } else {
+        local_28 = true;
+    }
+    bool _e14 = local_28;
+    if (_e14) {
+        return 0.0;
+    }
+    const float _e17 = blend_node_w(0u);
+    w_4 = _e17;
+    uint2 loop_bound_14 = uint2(4294967295u, 4294967295u);
+    bool loop_init_14 = true;
+    while(true) {
+        if (all(loop_bound_14 == uint2(0u, 0u))) { break; }
+        loop_bound_14 -= uint2(loop_bound_14.y == 0u, 1u);
+        if (!loop_init_14) {
+            uint _e49 = k_11;
+            k_11 = (_e49 + 1u);
+        }
+        loop_init_14 = false;
+        uint _e21 = k_11;
+        if ((_e21 < n_16)) {
+        } else {
+            break;
+        }
+        {
+            uint _e23 = k_11;
+            const float _e26 = blend_node_r((_e23 - 1u));
+            if ((r_7 > _e26)) {
+                uint _e29 = k_11;
+                const float _e30 = blend_node_r(_e29);
+                float t_15 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                uint _e37 = k_11;
+                const float _e40 = blend_node_w((_e37 - 1u));
+                uint _e44 = k_11;
+                const float _e45 = blend_node_w(_e44);
+                w_4 = ((_e40 * (1.0 - t_15)) + (_e45 * t_15));
+            }
+        }
+    }
+    float _e51 = w_4;
+    return min(max(_e51, 0.0), 1.0);
+}
+
+float3 clean(float3 c_8)
+{
+    const bool _e1 = finite3_(c_8);
+    if (_e1) {
+        return max(c_8, (0.0).xxx);
+    }
+    return (0.0).xxx;
+}
+
 float3 specular(float3 position, float3 direction, float roughness)
 {
     float3 b_18 = (float3)0;
     float r_8 = 0.0;
-    uint cell_1 = 0u;
+    uint3 home_at_1 = (0u).xxx;
     bool stored = false;
-    bool local_28 = (bool)0;
-    float3 c_8 = (float3)0;
+    bool local_29 = (bool)0;
+    float3 c_9 = (float3)0;
 
     const float4 _e3 = unit_direction(direction);
     if ((_e3.w == 0.0)) {
@@ -1972,45 +2024,61 @@ float3 specular(float3 position, float3 direction, float roughness)
     }
     float _e21 = r_8;
     const float _e22 = irradiance_weight(_e21);
+    const uint _e23 = blend_mode();
+    if ((_e23 == 2u)) {
+        float3 _e26 = b_18;
+        const Lattice _e27 = face_lattice(_e26);
+        const uint _e28 = near_cells(_e27);
+        if ((_e28 > 1u)) {
+            float3 _e31 = b_18;
+            float _e33 = r_8;
+            const float3 _e34 = faces_specular(_e27, _e31, _e3.xyz, _e33, _e22);
+            const float3 _e35 = clean(_e34);
+            return _e35;
+        }
+    }
     if ((_e22 > 0.0)) {
-        float3 _e29 = b_18;
-        const float3 _e30 = cell_size();
-        const uint3 _e31 = cell_of(_e29, _e30);
-        const uint _e32 = cell_index(_e31);
-        cell_1 = _e32;
-        uint _e34 = cell_1;
-        int _e38 = asint(cells.Load(4+0+_e34*192));
-        stored = (_e38 >= int(0));
+        float3 _e43 = b_18;
+        const float3 _e44 = cell_size();
+        const uint3 _e45 = cell_of(_e43, _e44);
+        home_at_1 = _e45;
+        uint3 _e47 = home_at_1;
+        const uint _e48 = cell_index(_e47);
+        int _e52 = asint(cells.Load(4+0+_e48*192));
+        stored = (_e52 >= int(0));
     }
-    bool _e41 = stored;
-    if (_e41) {
-        local_28 = (_e22 >= 1.0);
+    bool _e55 = stored;
+    if (_e55) {
+        local_29 = (_e22 >= 1.0);
     } else {
-        local_28 = false;
+        local_29 = false;
     }
-    bool _e47 = local_28;
-    if (_e47) {
-        uint _e48 = cell_1;
-        float3 _e49 = b_18;
-        const float3 _e51 = sh_read(_e48, _e49, _e3.xyz);
-        const float3 _e55 = clean((_e51 * (_e22 * 0.31830987)));
-        return _e55;
-    }
-    float3 _e56 = b_18;
-    float _e58 = r_8;
-    const float3 _e59 = looked_up_radiance(_e56, _e3.xyz, _e58);
-    c_8 = _e59;
-    bool _e61 = stored;
+    bool _e61 = local_29;
     if (_e61) {
-        float3 _e62 = c_8;
-        uint _e66 = cell_1;
-        float3 _e67 = b_18;
-        const float3 _e69 = sh_read(_e66, _e67, _e3.xyz);
-        c_8 = ((_e62 * (1.0 - _e22)) + (_e69 * (_e22 * 0.31830987)));
+        uint3 _e62 = home_at_1;
+        float3 _e63 = b_18;
+        const float3 _e65 = sh_read(_e62, _e63, _e3.xyz);
+        const float3 _e69 = clean((_e65 * (_e22 * 0.31830987)));
+        return _e69;
     }
-    float3 _e74 = c_8;
-    const float3 _e75 = clean(_e74);
-    return _e75;
+    float3 _e70 = b_18;
+    float3 _e71 = b_18;
+    float _e73 = r_8;
+    const Aim _e74 = fetch(_e71, _e3.xyz, _e73);
+    float _e75 = r_8;
+    const float3 _e76 = shade(_e70, _e74, _e75);
+    c_9 = _e76;
+    bool _e78 = stored;
+    if (_e78) {
+        float3 _e79 = c_9;
+        uint3 _e83 = home_at_1;
+        float3 _e84 = b_18;
+        const float3 _e86 = sh_read(_e83, _e84, _e3.xyz);
+        c_9 = ((_e79 * (1.0 - _e22)) + (_e86 * (_e22 * 0.31830987)));
+    }
+    float3 _e91 = c_9;
+    const float3 _e92 = clean(_e91);
+    return _e92;
 }
 
 float3 cell_irradiance(int tile_3, float3 n_8)
@@ -2025,11 +2093,11 @@ float3 cell_irradiance(int tile_3, float3 n_8)
 float3 irradiance(float3 position_1, float3 normal)
 {
     float3 p_8 = (float3)0;
-    float3 e = (0.0).xxx;
+    float3 e_1 = (0.0).xxx;
     float wsum = 0.0;
-    uint corner_5 = 0u;
-    float w_4 = (float)0;
-    bool local_29 = (bool)0;
+    uint corner_6 = 0u;
+    float w_5 = (float)0;
+    bool local_30 = (bool)0;
     float k_12 = (float)0;
 
     const float4 _e2 = unit_direction(normal);
@@ -2051,28 +2119,28 @@ float3 irradiance(float3 position_1, float3 normal)
     float3 _e34 = p_8;
     const Lattice _e35 = lattice(_e34, _e9);
     const float2 _e36 = oct_encode(n_17);
-    uint2 loop_bound_14 = uint2(4294967295u, 4294967295u);
-    bool loop_init_14 = true;
+    uint2 loop_bound_15 = uint2(4294967295u, 4294967295u);
+    bool loop_init_15 = true;
     while(true) {
-        if (all(loop_bound_14 == uint2(0u, 0u))) { break; }
-        loop_bound_14 -= uint2(loop_bound_14.y == 0u, 1u);
-        if (!loop_init_14) {
-            uint _e157 = corner_5;
-            corner_5 = (_e157 + 1u);
+        if (all(loop_bound_15 == uint2(0u, 0u))) { break; }
+        loop_bound_15 -= uint2(loop_bound_15.y == 0u, 1u);
+        if (!loop_init_15) {
+            uint _e157 = corner_6;
+            corner_6 = (_e157 + 1u);
         }
-        loop_init_14 = false;
-        uint _e44 = corner_5;
+        loop_init_15 = false;
+        uint _e44 = corner_6;
         if ((_e44 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e47 = corner_5;
+            uint _e47 = corner_6;
             const float _e48 = corner_weight(_e35, _e47);
             if ((_e48 <= 0.0)) {
                 continue;
             }
-            uint _e51 = corner_5;
+            uint _e51 = corner_6;
             const uint3 _e52 = corner_cell(_e35, _e51);
             const uint _e53 = cell_index(_e52);
             int4 tiles_4 = asint(cells.Load4(0+_e53*192));
@@ -2084,19 +2152,19 @@ float3 irradiance(float3 position_1, float3 normal)
             float4 _e66 = asfloat(cells.Load4(16+_e53*192));
             float3 to_point = (_e61 - (_e62 + _e66.xyz));
             float dist = length(to_point);
-            w_4 = _e48;
+            w_5 = _e48;
             if ((dist > 0.0)) {
                 const bool _e76 = finite(dist);
-                local_29 = _e76;
+                local_30 = _e76;
             } else {
-                local_29 = false;
+                local_30 = false;
             }
-            bool _e78 = local_29;
+            bool _e78 = local_30;
             if (_e78) {
                 float3 u_1 = (to_point / (dist).xxx);
                 float facing = ((dot(n_17, -(u_1)) + 1.0) * 0.5);
-                float _e87 = w_4;
-                w_4 = (_e87 * ((facing * facing) + 0.2));
+                float _e87 = w_5;
+                w_5 = (_e87 * ((facing * facing) + 0.2));
                 uint _e97 = params.atlas_b.x;
                 uint _e101 = params.atlas_b.y;
                 const float2 _e102 = oct_encode(u_1);
@@ -2107,12 +2175,12 @@ float3 irradiance(float3 position_1, float3 normal)
                     float variance = max(abs((mean_sq - (mean * mean))), ((1e-12 * mean) * mean));
                     float dd = (dist - mean);
                     float cheb = (variance / (variance + (dd * dd)));
-                    float _e118 = w_4;
-                    w_4 = (_e118 * max(((cheb * cheb) * cheb), 0.0));
+                    float _e118 = w_5;
+                    w_5 = (_e118 * max(((cheb * cheb) * cheb), 0.0));
                 }
             }
-            float _e124 = w_4;
-            w_4 = max(_e124, (1e-6 * _e48));
+            float _e124 = w_5;
+            w_5 = max(_e124, (1e-6 * _e48));
             k_12 = 1.0;
             if ((tiles_4.z >= int(0))) {
                 uint _e138 = params.atlas_b.z;
@@ -2120,13 +2188,13 @@ float3 irradiance(float3 position_1, float3 normal)
                 const float4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_4.z, _e138, _e142, _e36);
                 k_12 = _e143.x;
             }
-            float3 _e145 = e;
+            float3 _e145 = e_1;
             const float3 _e147 = cell_irradiance(tiles_4.y, n_17);
-            float _e148 = w_4;
+            float _e148 = w_5;
             float _e150 = k_12;
-            e = (_e145 + ((_e147 * _e148) * _e150));
+            e_1 = (_e145 + ((_e147 * _e148) * _e150));
             float _e153 = wsum;
-            float _e154 = w_4;
+            float _e154 = w_5;
             wsum = (_e153 + _e154);
         }
     }
@@ -2134,7 +2202,7 @@ float3 irradiance(float3 position_1, float3 normal)
     if (!((_e159 > 0.0))) {
         return (0.0).xxx;
     }
-    float3 _e165 = e;
+    float3 _e165 = e_1;
     float _e166 = wsum;
     const float3 _e169 = clean((_e165 / (_e166).xxx));
     return _e169;
@@ -2142,17 +2210,17 @@ float3 irradiance(float3 position_1, float3 normal)
 
 float2 hemi_encode(float3 v_7)
 {
-    bool local_30 = (bool)0;
+    bool local_31 = (bool)0;
 
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         const bool _e14 = finite(l1_1);
-        local_30 = _e14;
+        local_31 = _e14;
     } else {
-        local_30 = false;
+        local_31 = false;
     }
-    bool _e16 = local_30;
+    bool _e16 = local_31;
     if (!(_e16)) {
         return float2(0.5, 0.5);
     }
@@ -2178,9 +2246,9 @@ SurfaceAxis surface_axis(float x_in, uint n_9)
         x_4 = x_in;
     }
     float _e5 = x_4;
-    float c_12 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
-    uint i0_ = naga_f2u32(floor(c_12));
-    const SurfaceAxis surfaceaxis = ConstructSurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_12 - float(i0_)));
+    float c_13 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
+    uint i0_ = naga_f2u32(floor(c_13));
+    const SurfaceAxis surfaceaxis = ConstructSurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_13 - float(i0_)));
     return surfaceaxis;
 }
 
@@ -2209,11 +2277,11 @@ float3 surface_tile(uint i_2, uint j_1, uint layer, SurfaceTaps t_6)
 {
     uint _e8 = surface_params.shape.z;
     uint2 o_3 = (uint2(i_2, j_1) * _e8);
-    int l_7 = int(layer);
-    float4 q00_1 = surface_radiance.Load(int4(int2((o_3 + t_6.lo)), l_7, int(0)));
-    float4 q10_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.hi.x, t_6.lo.y))), l_7, int(0)));
-    float4 q01_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.lo.x, t_6.hi.y))), l_7, int(0)));
-    float4 q11_1 = surface_radiance.Load(int4(int2((o_3 + t_6.hi)), l_7, int(0)));
+    int l_9 = int(layer);
+    float4 q00_1 = surface_radiance.Load(int4(int2((o_3 + t_6.lo)), l_9, int(0)));
+    float4 q10_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.hi.x, t_6.lo.y))), l_9, int(0)));
+    float4 q01_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.lo.x, t_6.hi.y))), l_9, int(0)));
+    float4 q11_1 = surface_radiance.Load(int4(int2((o_3 + t_6.hi)), l_9, int(0)));
     const float4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_6.f);
     return _e44.xyz;
 }
@@ -2230,10 +2298,10 @@ float surface_tile_inv_distance(uint i_3, uint j_2, SurfaceTaps t_7)
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_19, float3 local_31, SurfaceTaps shared_taps)
+SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_19, float3 local_32, SurfaceTaps shared_taps)
 {
-    bool local_32 = (bool)0;
     bool local_33 = (bool)0;
+    bool local_34 = (bool)0;
 
     SurfaceParams sp = surface_params;
     float s_6 = ((float(i_4) + 0.5) / float(sp.shape.x));
@@ -2242,20 +2310,20 @@ SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_19, float3 local_31
     float3 d_3 = (probe - b_19);
     float3 ab_2 = float3(dot(d_3, sp.tangent.xyz), dot(d_3, sp.bitangent.xyz), dot(d_3, sp.normal.xyz));
     const float _e48 = surface_tile_inv_distance(i_4, j_3, shared_taps);
-    float3 v_12 = ((local_31 * max(((dot(local_31, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
+    float3 v_12 = ((local_32 * max(((dot(local_32, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
     if ((_e48 > 0.0)) {
         const bool _e62 = finite3_(v_12);
-        local_32 = _e62;
-    } else {
-        local_32 = false;
-    }
-    bool _e64 = local_32;
-    if (_e64) {
-        local_33 = (dot(v_12, v_12) > 0.0);
+        local_33 = _e62;
     } else {
         local_33 = false;
     }
-    bool _e71 = local_33;
+    bool _e64 = local_33;
+    if (_e64) {
+        local_34 = (dot(v_12, v_12) > 0.0);
+    } else {
+        local_34 = false;
+    }
+    bool _e71 = local_34;
     if (_e71) {
         const float2 _e72 = hemi_encode(v_12);
         const SurfaceTaps _e73 = surface_taps(_e72);
@@ -2310,8 +2378,8 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
     float3 dir_14 = _e4.xyz;
-    float3 local_34 = float3(dot(dir_14, sp_1.tangent.xyz), dot(dir_14, sp_1.bitangent.xyz), dot(dir_14, sp_1.normal.xyz));
-    const float2 _e64 = hemi_encode(local_34);
+    float3 local_35 = float3(dot(dir_14, sp_1.tangent.xyz), dot(dir_14, sp_1.bitangent.xyz), dot(dir_14, sp_1.normal.xyz));
+    const float2 _e64 = hemi_encode(local_35);
     const SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
@@ -2319,16 +2387,16 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     t11_ = _e65;
     if (warped) {
         float3 _e72 = b_20;
-        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_34, _e65);
+        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_35, _e65);
         t00_ = _e73;
         float3 _e76 = b_20;
-        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_34, _e65);
+        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_35, _e65);
         t10_ = _e77;
         float3 _e80 = b_20;
-        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_34, _e65);
+        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_35, _e65);
         t01_ = _e81;
         float3 _e84 = b_20;
-        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_34, _e65);
+        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_35, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;
@@ -2341,10 +2409,10 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     SurfaceTaps _e102 = t11_;
     const float3 _e103 = surface_probe(_e25.i1_, _e31.i1_, _e102, m0_1, m1_1, fm_1);
     float3 bottom = lerp(_e99, _e103, _e25.f);
-    float3 l_8 = lerp(top_2, bottom, _e31.f);
-    const bool _e108 = finite3_(l_8);
+    float3 l_10 = lerp(top_2, bottom, _e31.f);
+    const bool _e108 = finite3_(l_10);
     if (_e108) {
-        return max(l_8, (0.0).xxx);
+        return max(l_10, (0.0).xxx);
     }
     return (0.0).xxx;
 }

@@ -202,9 +202,9 @@ vec4 unit_direction(vec3 v_3) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
     vec3 s_2 = (v_3 / vec3(m_1));
-    float l_3 = length(s_2);
-    if ((l_3 > 0.0)) {
-        bool _e47 = finite(l_3);
+    float l_5 = length(s_2);
+    if ((l_5 > 0.0)) {
+        bool _e47 = finite(l_5);
         local_5 = _e47;
     } else {
         local_5 = false;
@@ -213,7 +213,7 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    return vec4((s_2 / vec3(l_3)), 1.0);
+    return vec4((s_2 / vec3(l_5)), 1.0);
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
@@ -337,11 +337,11 @@ vec4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, vec2 uv_4) {
     uint s_3 = uint(tile);
     ivec2 origin = ivec2((uvec2((s_3 % columns), (s_3 / columns)) * (n_2 + 2u)));
     Footprint _e13 = footprint(n_2, uv_4);
-    ivec2 c_9 = ((origin + _e13.corner) + ivec2(1, 1));
-    vec4 _e20 = atlas_texel(which_4, c_9);
-    vec4 _e25 = atlas_texel(which_4, (c_9 + ivec2(1, 0)));
-    vec4 _e30 = atlas_texel(which_4, (c_9 + ivec2(0, 1)));
-    vec4 _e35 = atlas_texel(which_4, (c_9 + ivec2(1, 1)));
+    ivec2 c_10 = ((origin + _e13.corner) + ivec2(1, 1));
+    vec4 _e20 = atlas_texel(which_4, c_10);
+    vec4 _e25 = atlas_texel(which_4, (c_10 + ivec2(1, 0)));
+    vec4 _e30 = atlas_texel(which_4, (c_10 + ivec2(0, 1)));
+    vec4 _e35 = atlas_texel(which_4, (c_10 + ivec2(1, 1)));
     vec4 _e37 = blend4_(_e20, _e25, _e30, _e35, _e13.f);
     return _e37;
 }
@@ -530,16 +530,16 @@ Basis orthonormal_basis(vec3 n_3) {
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
     bool local_12 = false;
-    float l_4 = length(v_5);
-    if ((l_4 > 0.0)) {
-        bool _e7 = finite(l_4);
+    float l_6 = length(v_5);
+    if ((l_6 > 0.0)) {
+        bool _e7 = finite(l_6);
         local_12 = _e7;
     } else {
         local_12 = false;
     }
     bool _e9 = local_12;
     if (_e9) {
-        return (v_5 / vec3(l_4));
+        return (v_5 / vec3(l_6));
     }
     return fallback_1;
 }
@@ -616,7 +616,7 @@ uint probe_of(int tile_1, vec2 uv_5) {
     ivec2 origin_1 = ivec2((uvec2((s_5 % columns_1), (s_5 / columns_1)) * (n_12 + 2u)));
     Footprint _e37 = footprint(n_12, uv_5);
     vec2 f_4 = _e37.f;
-    vec4 w_5 = vec4(((1.0 - f_4.x) * (1.0 - f_4.y)), (f_4.x * (1.0 - f_4.y)), ((1.0 - f_4.x) * f_4.y), (f_4.x * f_4.y));
+    vec4 w_6 = vec4(((1.0 - f_4.x) * (1.0 - f_4.y)), (f_4.x * (1.0 - f_4.y)), ((1.0 - f_4.x) * f_4.y), (f_4.x * f_4.y));
     bool loop_init_2 = true;
     while(true) {
         if (!loop_init_2) {
@@ -632,7 +632,7 @@ uint probe_of(int tile_1, vec2 uv_5) {
         {
             uint _e67 = k_3;
             uint _e69 = best;
-            if ((w_5[_e67] > w_5[_e69])) {
+            if ((w_6[_e67] > w_6[_e69])) {
                 uint _e72 = k_3;
                 best = _e72;
             }
@@ -750,91 +750,52 @@ float lod_of_roughness(float r_2) {
 
 float pseudo_log2_(float k_4) {
     uint bits_1 = floatBitsToUint(k_4);
-    int e_1 = (int(((bits_1 >> 23u) & 255u)) - 127);
+    int e_2 = (int(((bits_1 >> 23u) & 255u)) - 127);
     float m_3 = uintBitsToFloat(((bits_1 & 8388607u) | 1065353216u));
-    return (float(e_1) + (m_3 - 1.0));
+    return (float(e_2) + (m_3 - 1.0));
 }
 
-float blend_node_r(uint k_7) {
-    float _e9 = _group_0_binding_7_cs.blend_r[(k_7 / 4u)][(k_7 % 4u)];
-    return _e9;
-}
-
-float blend_node_w(uint k_8) {
-    float _e9 = _group_0_binding_7_cs.blend_w[(k_8 / 4u)][(k_8 % 4u)];
-    return _e9;
-}
-
-float irradiance_weight(float r_7) {
-    bool local_25 = false;
-    float w_1 = 0.0;
-    uint k_9 = 1u;
-    uint n_14 = _group_0_binding_7_cs.lut_info.y;
-    if (!((n_14 == 0u))) {
-        local_25 = !((r_7 > 0.0));
-    } else {
-        local_25 = true;
-    }
-    bool _e14 = local_25;
-    if (_e14) {
-        return 0.0;
-    }
-    float _e17 = blend_node_w(0u);
-    w_1 = _e17;
+uint near_cells(Lattice l_3) {
+    uint near = 0u;
+    uint corner_4 = 0u;
     bool loop_init_4 = true;
     while(true) {
         if (!loop_init_4) {
-            uint _e49 = k_9;
-            k_9 = (_e49 + 1u);
+            uint _e18 = corner_4;
+            corner_4 = (_e18 + 1u);
         }
         loop_init_4 = false;
-        uint _e21 = k_9;
-        if ((_e21 < n_14)) {
+        uint _e5 = corner_4;
+        if ((_e5 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e23 = k_9;
-            float _e26 = blend_node_r((_e23 - 1u));
-            if ((r_7 > _e26)) {
-                uint _e29 = k_9;
-                float _e30 = blend_node_r(_e29);
-                float t_10 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
-                uint _e37 = k_9;
-                float _e40 = blend_node_w((_e37 - 1u));
-                uint _e44 = k_9;
-                float _e45 = blend_node_w(_e44);
-                w_1 = ((_e40 * (1.0 - t_10)) + (_e45 * t_10));
-            }
+            uint _e8 = near;
+            uint _e11 = corner_4;
+            float _e12 = corner_weight(l_3, _e11);
+            near = (_e8 + ((_e12 > 0.0) ? 1u : 0u));
         }
     }
-    float _e51 = w_1;
-    return min(max(_e51, 0.0), 1.0);
+    uint _e20 = near;
+    return _e20;
 }
 
-vec3 clean(vec3 c_5) {
-    bool _e1 = finite3_(c_5);
-    if (_e1) {
-        return max(c_5, vec3(0.0));
-    }
-    return vec3(0.0);
-}
-
-vec3 sh_eval(vec3 c_6[9], vec3 n_5) {
+vec3 sh_eval(vec3 c_5[9], vec3 n_5) {
     float x_6 = n_5.x;
     float y = n_5.y;
     float z = n_5.z;
-    vec3 t0_ = (c_6[0] * 0.2820948);
-    vec3 t1_ = (c_6[1] * (0.4886025 * y));
-    vec3 t2_ = (c_6[2] * (0.4886025 * z));
-    vec3 t3_ = (c_6[3] * (0.4886025 * x_6));
-    vec3 t4_ = (c_6[4] * (1.0925484 * (x_6 * y)));
-    vec3 t5_ = (c_6[5] * (1.0925484 * (y * z)));
-    vec3 t6_ = (c_6[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
-    vec3 t7_ = (c_6[7] * (1.0925484 * (x_6 * z)));
-    vec3 t8_ = (c_6[8] * (0.5462742 * ((x_6 * x_6) - (y * y))));
-    vec3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
-    return max(e_2, vec3(0.0));
+    vec3 t0_ = (c_5[0] * 0.2820948);
+    vec3 t1_ = (c_5[1] * (0.4886025 * y));
+    vec3 t2_ = (c_5[2] * (0.4886025 * z));
+    vec3 t3_ = (c_5[3] * (0.4886025 * x_6));
+    vec3 t4_ = (c_5[4] * (1.0925484 * (x_6 * y)));
+    vec3 t5_ = (c_5[5] * (1.0925484 * (y * z)));
+    vec3 t6_ = (c_5[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    vec3 t7_ = (c_5[7] * (1.0925484 * (x_6 * z)));
+    vec3 t8_ = (c_5[8] * (0.5462742 * ((x_6 * x_6) - (y * y))));
+    vec3 e_3 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
+    return max(e_3, vec3(0.0));
 }
 
 vec3 cell_sh_irradiance(uint cell, vec3 n_6) {
@@ -847,17 +808,82 @@ vec3 cell_sh_irradiance(uint cell, vec3 n_6) {
     vec4 _e42 = _group_0_binding_8_cs[cell].sh[6];
     vec4 _e48 = _group_0_binding_8_cs[cell].sh[7];
     vec4 _e54 = _group_0_binding_8_cs[cell].sh[8];
-    vec3 c_10[9] = vec3[9](_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
-    vec3 _e57 = sh_eval(c_10, n_6);
+    vec3 c_11[9] = vec3[9](_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
+    vec3 _e57 = sh_eval(c_11, n_6);
     return _e57;
 }
 
-vec3 sh_blend4_(uvec4 at_1, vec4 w_2, uint i_1) {
+vec3 sh_blend4_(uvec4 at_1, vec4 w_1, uint i_1) {
     vec4 _e8 = _group_0_binding_8_cs[at_1.x].sh[i_1];
     vec4 _e17 = _group_0_binding_8_cs[at_1.y].sh[i_1];
     vec4 _e27 = _group_0_binding_8_cs[at_1.z].sh[i_1];
     vec4 _e36 = _group_0_binding_8_cs[at_1.w].sh[i_1];
-    return (((_e8.xyz * w_2.x) + (_e17.xyz * w_2.y)) + ((_e27.xyz * w_2.z) + (_e36.xyz * w_2.w)));
+    return (((_e8.xyz * w_1.x) + (_e17.xyz * w_1.y)) + ((_e27.xyz * w_1.z) + (_e36.xyz * w_1.w)));
+}
+
+float blend_node_r(uint k_9) {
+    float _e9 = _group_0_binding_7_cs.blend_r[(k_9 / 4u)][(k_9 % 4u)];
+    return _e9;
+}
+
+float blend_node_w(uint k_10) {
+    float _e9 = _group_0_binding_7_cs.blend_w[(k_10 / 4u)][(k_10 % 4u)];
+    return _e9;
+}
+
+float irradiance_weight(float r_7) {
+    bool local_28 = false;
+    float w_4 = 0.0;
+    uint k_11 = 1u;
+    uint n_14 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_14 == 0u))) {
+        local_28 = !((r_7 > 0.0));
+    } else {
+        local_28 = true;
+    }
+    bool _e14 = local_28;
+    if (_e14) {
+        return 0.0;
+    }
+    float _e17 = blend_node_w(0u);
+    w_4 = _e17;
+    bool loop_init_5 = true;
+    while(true) {
+        if (!loop_init_5) {
+            uint _e49 = k_11;
+            k_11 = (_e49 + 1u);
+        }
+        loop_init_5 = false;
+        uint _e21 = k_11;
+        if ((_e21 < n_14)) {
+        } else {
+            break;
+        }
+        {
+            uint _e23 = k_11;
+            float _e26 = blend_node_r((_e23 - 1u));
+            if ((r_7 > _e26)) {
+                uint _e29 = k_11;
+                float _e30 = blend_node_r(_e29);
+                float t_10 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                uint _e37 = k_11;
+                float _e40 = blend_node_w((_e37 - 1u));
+                uint _e44 = k_11;
+                float _e45 = blend_node_w(_e44);
+                w_4 = ((_e40 * (1.0 - t_10)) + (_e45 * t_10));
+            }
+        }
+    }
+    float _e51 = w_4;
+    return min(max(_e51, 0.0), 1.0);
+}
+
+vec3 clean(vec3 c_8) {
+    bool _e1 = finite3_(c_8);
+    if (_e1) {
+        return max(c_8, vec3(0.0));
+    }
+    return vec3(0.0);
 }
 
 vec3 cell_irradiance(int tile_3, vec3 n_8) {
@@ -870,11 +896,11 @@ vec3 cell_irradiance(int tile_3, vec3 n_8) {
 
 vec3 irradiance(vec3 position_1, vec3 normal) {
     vec3 p_8 = vec3(0.0);
-    vec3 e = vec3(0.0);
+    vec3 e_1 = vec3(0.0);
     float wsum = 0.0;
-    uint corner_5 = 0u;
-    float w_4 = 0.0;
-    bool local_29 = false;
+    uint corner_6 = 0u;
+    float w_5 = 0.0;
+    bool local_30 = false;
     float k_12 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
@@ -895,25 +921,25 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     vec3 _e34 = p_8;
     Lattice _e35 = lattice(_e34, _e9);
     vec2 _e36 = oct_encode(n_15);
-    bool loop_init_5 = true;
+    bool loop_init_6 = true;
     while(true) {
-        if (!loop_init_5) {
-            uint _e157 = corner_5;
-            corner_5 = (_e157 + 1u);
+        if (!loop_init_6) {
+            uint _e157 = corner_6;
+            corner_6 = (_e157 + 1u);
         }
-        loop_init_5 = false;
-        uint _e44 = corner_5;
+        loop_init_6 = false;
+        uint _e44 = corner_6;
         if ((_e44 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e47 = corner_5;
+            uint _e47 = corner_6;
             float _e48 = corner_weight(_e35, _e47);
             if ((_e48 <= 0.0)) {
                 continue;
             }
-            uint _e51 = corner_5;
+            uint _e51 = corner_6;
             uvec3 _e52 = corner_cell(_e35, _e51);
             uint _e53 = cell_index(_e52);
             ivec4 tiles_1 = _group_0_binding_8_cs[_e53].tiles;
@@ -925,19 +951,19 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             vec4 _e66 = _group_0_binding_8_cs[_e53].offset;
             vec3 to_point = (_e61 - (_e62 + _e66.xyz));
             float dist = length(to_point);
-            w_4 = _e48;
+            w_5 = _e48;
             if ((dist > 0.0)) {
                 bool _e76 = finite(dist);
-                local_29 = _e76;
+                local_30 = _e76;
             } else {
-                local_29 = false;
+                local_30 = false;
             }
-            bool _e78 = local_29;
+            bool _e78 = local_30;
             if (_e78) {
                 vec3 u = (to_point / vec3(dist));
                 float facing = ((dot(n_15, -(u)) + 1.0) * 0.5);
-                float _e87 = w_4;
-                w_4 = (_e87 * ((facing * facing) + 0.2));
+                float _e87 = w_5;
+                w_5 = (_e87 * ((facing * facing) + 0.2));
                 uint _e97 = _group_0_binding_7_cs.atlas_b.x;
                 uint _e101 = _group_0_binding_7_cs.atlas_b.y;
                 vec2 _e102 = oct_encode(u);
@@ -948,12 +974,12 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                     float variance = max(abs((mean_sq - (mean * mean))), ((1e-12 * mean) * mean));
                     float dd = (dist - mean);
                     float cheb = (variance / (variance + (dd * dd)));
-                    float _e118 = w_4;
-                    w_4 = (_e118 * max(((cheb * cheb) * cheb), 0.0));
+                    float _e118 = w_5;
+                    w_5 = (_e118 * max(((cheb * cheb) * cheb), 0.0));
                 }
             }
-            float _e124 = w_4;
-            w_4 = max(_e124, (1e-6 * _e48));
+            float _e124 = w_5;
+            w_5 = max(_e124, (1e-6 * _e48));
             k_12 = 1.0;
             if ((tiles_1.z >= 0)) {
                 uint _e138 = _group_0_binding_7_cs.atlas_b.z;
@@ -961,13 +987,13 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                 vec4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_1.z, _e138, _e142, _e36);
                 k_12 = _e143.x;
             }
-            vec3 _e145 = e;
+            vec3 _e145 = e_1;
             vec3 _e147 = cell_irradiance(tiles_1.y, n_15);
-            float _e148 = w_4;
+            float _e148 = w_5;
             float _e150 = k_12;
-            e = (_e145 + ((_e147 * _e148) * _e150));
+            e_1 = (_e145 + ((_e147 * _e148) * _e150));
             float _e153 = wsum;
-            float _e154 = w_4;
+            float _e154 = w_5;
             wsum = (_e153 + _e154);
         }
     }
@@ -975,23 +1001,23 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     if (!((_e159 > 0.0))) {
         return vec3(0.0);
     }
-    vec3 _e165 = e;
+    vec3 _e165 = e_1;
     float _e166 = wsum;
     vec3 _e169 = clean((_e165 / vec3(_e166)));
     return _e169;
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_30 = false;
+    bool local_31 = false;
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_30 = _e14;
+        local_31 = _e14;
     } else {
-        local_30 = false;
+        local_31 = false;
     }
-    bool _e16 = local_30;
+    bool _e16 = local_31;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -1007,9 +1033,9 @@ SurfaceAxis surface_axis(float x_in, uint n_9) {
         x_4 = x_in;
     }
     float _e5 = x_4;
-    float c_11 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
-    uint i0_ = uint(floor(c_11));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_11 - float(i0_)));
+    float c_12 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
+    uint i0_ = uint(floor(c_12));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_12 - float(i0_)));
 }
 
 uint query_count() {

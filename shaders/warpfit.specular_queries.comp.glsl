@@ -208,9 +208,9 @@ vec4 unit_direction(vec3 v_3) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
     vec3 s_2 = (v_3 / vec3(m_1));
-    float l_3 = length(s_2);
-    if ((l_3 > 0.0)) {
-        bool _e47 = finite(l_3);
+    float l_5 = length(s_2);
+    if ((l_5 > 0.0)) {
+        bool _e47 = finite(l_5);
         local_5 = _e47;
     } else {
         local_5 = false;
@@ -219,7 +219,7 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    return vec4((s_2 / vec3(l_3)), 1.0);
+    return vec4((s_2 / vec3(l_5)), 1.0);
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
@@ -333,18 +333,18 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1, uint p_1) {
     float res0_ = ((which_1 == 0u) ? _e11 : _e7);
     uint n_10 = max((uint(res0_) >> level_1), 1u);
     Footprint _e19 = footprint(n_10, uv_1);
-    ivec2 c_9 = _e19.corner;
-    int l_4 = int(level_1);
+    ivec2 c_10 = _e19.corner;
+    int l_6 = int(level_1);
     int ni = int(n_10);
     ivec2 at_3 = ivec2((int(p_1) * ni), 0);
-    ivec2 _e27 = wrap_texel(ni, c_9);
-    vec4 _e29 = probe_texel(which_1, (at_3 + _e27), l_4);
-    ivec2 _e34 = wrap_texel(ni, (c_9 + ivec2(1, 0)));
-    vec4 _e36 = probe_texel(which_1, (at_3 + _e34), l_4);
-    ivec2 _e41 = wrap_texel(ni, (c_9 + ivec2(0, 1)));
-    vec4 _e43 = probe_texel(which_1, (at_3 + _e41), l_4);
-    ivec2 _e48 = wrap_texel(ni, (c_9 + ivec2(1, 1)));
-    vec4 _e50 = probe_texel(which_1, (at_3 + _e48), l_4);
+    ivec2 _e27 = wrap_texel(ni, c_10);
+    vec4 _e29 = probe_texel(which_1, (at_3 + _e27), l_6);
+    ivec2 _e34 = wrap_texel(ni, (c_10 + ivec2(1, 0)));
+    vec4 _e36 = probe_texel(which_1, (at_3 + _e34), l_6);
+    ivec2 _e41 = wrap_texel(ni, (c_10 + ivec2(0, 1)));
+    vec4 _e43 = probe_texel(which_1, (at_3 + _e41), l_6);
+    ivec2 _e48 = wrap_texel(ni, (c_10 + ivec2(1, 1)));
+    vec4 _e50 = probe_texel(which_1, (at_3 + _e48), l_6);
     vec4 _e52 = blend4_(_e29, _e36, _e43, _e50, _e19.f);
     return _e52;
 }
@@ -387,16 +387,16 @@ float inv_dist(vec3 v_4) {
     float _e6 = _group_0_binding_7_cs.probe.w;
     uint _e10 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e12 = probe_sample_lod(1u, _e2, _e6, _e10, 0u);
-    float w_5 = _e12.x;
-    if ((w_5 > 0.0)) {
-        bool _e18 = finite(w_5);
+    float w_6 = _e12.x;
+    if ((w_6 > 0.0)) {
+        bool _e18 = finite(w_6);
         local_9 = _e18;
     } else {
         local_9 = false;
     }
     bool _e20 = local_9;
     if (_e20) {
-        return w_5;
+        return w_6;
     }
     return 0.0;
 }
@@ -426,11 +426,11 @@ vec4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, vec2 uv_4) {
     uint s_3 = uint(tile);
     ivec2 origin = ivec2((uvec2((s_3 % columns), (s_3 / columns)) * (n_2 + 2u)));
     Footprint _e13 = footprint(n_2, uv_4);
-    ivec2 c_10 = ((origin + _e13.corner) + ivec2(1, 1));
-    vec4 _e20 = atlas_texel(which_4, c_10);
-    vec4 _e25 = atlas_texel(which_4, (c_10 + ivec2(1, 0)));
-    vec4 _e30 = atlas_texel(which_4, (c_10 + ivec2(0, 1)));
-    vec4 _e35 = atlas_texel(which_4, (c_10 + ivec2(1, 1)));
+    ivec2 c_11 = ((origin + _e13.corner) + ivec2(1, 1));
+    vec4 _e20 = atlas_texel(which_4, c_11);
+    vec4 _e25 = atlas_texel(which_4, (c_11 + ivec2(1, 0)));
+    vec4 _e30 = atlas_texel(which_4, (c_11 + ivec2(0, 1)));
+    vec4 _e35 = atlas_texel(which_4, (c_11 + ivec2(1, 1)));
     vec4 _e37 = blend4_(_e20, _e25, _e30, _e35, _e13.f);
     return _e37;
 }
@@ -688,16 +688,16 @@ Basis orthonormal_basis(vec3 n_3) {
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
     bool local_12 = false;
-    float l_5 = length(v_5);
-    if ((l_5 > 0.0)) {
-        bool _e7 = finite(l_5);
+    float l_7 = length(v_5);
+    if ((l_7 > 0.0)) {
+        bool _e7 = finite(l_7);
         local_12 = _e7;
     } else {
         local_12 = false;
     }
     bool _e9 = local_12;
     if (_e9) {
-        return (v_5 / vec3(l_5));
+        return (v_5 / vec3(l_7));
     }
     return fallback_1;
 }
@@ -849,7 +849,7 @@ uint probe_of(int tile_1, vec2 uv_5) {
     ivec2 origin_1 = ivec2((uvec2((s_5 % columns_1), (s_5 / columns_1)) * (n_13 + 2u)));
     Footprint _e37 = footprint(n_13, uv_5);
     vec2 f_6 = _e37.f;
-    vec4 w_6 = vec4(((1.0 - f_6.x) * (1.0 - f_6.y)), (f_6.x * (1.0 - f_6.y)), ((1.0 - f_6.x) * f_6.y), (f_6.x * f_6.y));
+    vec4 w_7 = vec4(((1.0 - f_6.x) * (1.0 - f_6.y)), (f_6.x * (1.0 - f_6.y)), ((1.0 - f_6.x) * f_6.y), (f_6.x * f_6.y));
     bool loop_init_3 = true;
     while(true) {
         if (!loop_init_3) {
@@ -865,7 +865,7 @@ uint probe_of(int tile_1, vec2 uv_5) {
         {
             uint _e67 = k_3;
             uint _e69 = best;
-            if ((w_6[_e67] > w_6[_e69])) {
+            if ((w_7[_e67] > w_7[_e69])) {
                 uint _e72 = k_3;
                 best = _e72;
             }
@@ -1056,26 +1056,26 @@ float distance_ratio(vec3 b_13, vec3 v_6, vec2 uv_8, uint p_7) {
     bool local_20 = false;
     bool local_21 = false;
     bool local_22 = false;
-    float l_6 = length(v_6);
+    float l_8 = length(v_6);
     float _e9 = _group_0_binding_7_cs.probe.w;
     uint _e13 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_7);
-    float w_7 = _e14.x;
-    if ((l_6 > 0.0)) {
-        bool _e20 = finite(l_6);
+    float w_8 = _e14.x;
+    if ((l_8 > 0.0)) {
+        bool _e20 = finite(l_8);
         local_19 = _e20;
     } else {
         local_19 = false;
     }
     bool _e22 = local_19;
     if (_e22) {
-        local_20 = (w_7 > 0.0);
+        local_20 = (w_8 > 0.0);
     } else {
         local_20 = false;
     }
     bool _e28 = local_20;
     if (_e28) {
-        bool _e31 = finite(w_7);
+        bool _e31 = finite(w_8);
         local_21 = _e31;
     } else {
         local_21 = false;
@@ -1084,9 +1084,9 @@ float distance_ratio(vec3 b_13, vec3 v_6, vec2 uv_8, uint p_7) {
     if (!(_e33)) {
         return 1.0;
     }
-    float d_probe = (1.0 / w_7);
+    float d_probe = (1.0 / w_8);
     vec4 _e41 = _group_0_binding_7_cs.probes[p_7];
-    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_6))) - b_13));
+    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_8))) - b_13));
     float k_13 = (d_probe / d_surface);
     bool _e49 = finite(k_13);
     if (_e49) {
@@ -1103,9 +1103,9 @@ float distance_ratio(vec3 b_13, vec3 v_6, vec2 uv_8, uint p_7) {
 
 float pseudo_log2_(float k_4) {
     uint bits_1 = floatBitsToUint(k_4);
-    int e_1 = (int(((bits_1 >> 23u) & 255u)) - 127);
+    int e_2 = (int(((bits_1 >> 23u) & 255u)) - 127);
     float m_3 = uintBitsToFloat(((bits_1 & 8388607u) | 1065353216u));
-    return (float(e_1) + (m_3 - 1.0));
+    return (float(e_2) + (m_3 - 1.0));
 }
 
 float corrected_roughness(float r_3, float k_in) {
@@ -1333,122 +1333,47 @@ vec3 faces_radiance(Lattice l_2, vec3 b_15, vec3 dir_10, float r_5) {
     return _e165;
 }
 
-vec3 looked_up_radiance(vec3 b_16, vec3 dir_11, float r_6) {
+uint near_cells(Lattice l_3) {
     uint near = 0u;
     uint corner_4 = 0u;
-    uint _e3 = blend_mode();
-    if ((_e3 == 2u)) {
-        Lattice _e6 = face_lattice(b_16);
-        bool loop_init_9 = true;
-        while(true) {
-            if (!loop_init_9) {
-                uint _e24 = corner_4;
-                corner_4 = (_e24 + 1u);
-            }
-            loop_init_9 = false;
-            uint _e11 = corner_4;
-            if ((_e11 < 8u)) {
-            } else {
-                break;
-            }
-            {
-                uint _e14 = near;
-                uint _e17 = corner_4;
-                float _e18 = corner_weight(_e6, _e17);
-                near = (_e14 + ((_e18 > 0.0) ? 1u : 0u));
-            }
-        }
-        uint _e26 = near;
-        if ((_e26 > 1u)) {
-            vec3 _e29 = faces_radiance(_e6, b_16, dir_11, r_6);
-            return _e29;
-        }
-    }
-    Aim _e30 = fetch(b_16, dir_11, r_6);
-    vec3 _e31 = shade(b_16, _e30, r_6);
-    return _e31;
-}
-
-float blend_node_r(uint k_7) {
-    float _e9 = _group_0_binding_7_cs.blend_r[(k_7 / 4u)][(k_7 % 4u)];
-    return _e9;
-}
-
-float blend_node_w(uint k_8) {
-    float _e9 = _group_0_binding_7_cs.blend_w[(k_8 / 4u)][(k_8 % 4u)];
-    return _e9;
-}
-
-float irradiance_weight(float r_7) {
-    bool local_25 = false;
-    float w_1 = 0.0;
-    uint k_9 = 1u;
-    uint n_16 = _group_0_binding_7_cs.lut_info.y;
-    if (!((n_16 == 0u))) {
-        local_25 = !((r_7 > 0.0));
-    } else {
-        local_25 = true;
-    }
-    bool _e14 = local_25;
-    if (_e14) {
-        return 0.0;
-    }
-    float _e17 = blend_node_w(0u);
-    w_1 = _e17;
-    bool loop_init_10 = true;
+    bool loop_init_9 = true;
     while(true) {
-        if (!loop_init_10) {
-            uint _e49 = k_9;
-            k_9 = (_e49 + 1u);
+        if (!loop_init_9) {
+            uint _e18 = corner_4;
+            corner_4 = (_e18 + 1u);
         }
-        loop_init_10 = false;
-        uint _e21 = k_9;
-        if ((_e21 < n_16)) {
+        loop_init_9 = false;
+        uint _e5 = corner_4;
+        if ((_e5 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e23 = k_9;
-            float _e26 = blend_node_r((_e23 - 1u));
-            if ((r_7 > _e26)) {
-                uint _e29 = k_9;
-                float _e30 = blend_node_r(_e29);
-                float t_13 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
-                uint _e37 = k_9;
-                float _e40 = blend_node_w((_e37 - 1u));
-                uint _e44 = k_9;
-                float _e45 = blend_node_w(_e44);
-                w_1 = ((_e40 * (1.0 - t_13)) + (_e45 * t_13));
-            }
+            uint _e8 = near;
+            uint _e11 = corner_4;
+            float _e12 = corner_weight(l_3, _e11);
+            near = (_e8 + ((_e12 > 0.0) ? 1u : 0u));
         }
     }
-    float _e51 = w_1;
-    return min(max(_e51, 0.0), 1.0);
+    uint _e20 = near;
+    return _e20;
 }
 
-vec3 clean(vec3 c_5) {
-    bool _e1 = finite3_(c_5);
-    if (_e1) {
-        return max(c_5, vec3(0.0));
-    }
-    return vec3(0.0);
-}
-
-vec3 sh_eval(vec3 c_6[9], vec3 n_5) {
+vec3 sh_eval(vec3 c_5[9], vec3 n_5) {
     float x_6 = n_5.x;
     float y = n_5.y;
     float z = n_5.z;
-    vec3 t0_ = (c_6[0] * 0.2820948);
-    vec3 t1_ = (c_6[1] * (0.4886025 * y));
-    vec3 t2_ = (c_6[2] * (0.4886025 * z));
-    vec3 t3_ = (c_6[3] * (0.4886025 * x_6));
-    vec3 t4_ = (c_6[4] * (1.0925484 * (x_6 * y)));
-    vec3 t5_ = (c_6[5] * (1.0925484 * (y * z)));
-    vec3 t6_ = (c_6[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
-    vec3 t7_ = (c_6[7] * (1.0925484 * (x_6 * z)));
-    vec3 t8_ = (c_6[8] * (0.5462742 * ((x_6 * x_6) - (y * y))));
-    vec3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
-    return max(e_2, vec3(0.0));
+    vec3 t0_ = (c_5[0] * 0.2820948);
+    vec3 t1_ = (c_5[1] * (0.4886025 * y));
+    vec3 t2_ = (c_5[2] * (0.4886025 * z));
+    vec3 t3_ = (c_5[3] * (0.4886025 * x_6));
+    vec3 t4_ = (c_5[4] * (1.0925484 * (x_6 * y)));
+    vec3 t5_ = (c_5[5] * (1.0925484 * (y * z)));
+    vec3 t6_ = (c_5[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    vec3 t7_ = (c_5[7] * (1.0925484 * (x_6 * z)));
+    vec3 t8_ = (c_5[8] * (0.5462742 * ((x_6 * x_6) - (y * y))));
+    vec3 e_3 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
+    return max(e_3, vec3(0.0));
 }
 
 vec3 cell_sh_irradiance(uint cell, vec3 n_6) {
@@ -1461,25 +1386,25 @@ vec3 cell_sh_irradiance(uint cell, vec3 n_6) {
     vec4 _e42 = _group_0_binding_8_cs[cell].sh[6];
     vec4 _e48 = _group_0_binding_8_cs[cell].sh[7];
     vec4 _e54 = _group_0_binding_8_cs[cell].sh[8];
-    vec3 c_11[9] = vec3[9](_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
-    vec3 _e57 = sh_eval(c_11, n_6);
+    vec3 c_12[9] = vec3[9](_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
+    vec3 _e57 = sh_eval(c_12, n_6);
     return _e57;
 }
 
-vec3 sh_blend4_(uvec4 at_1, vec4 w_2, uint i_1) {
+vec3 sh_blend4_(uvec4 at_1, vec4 w_1, uint i_1) {
     vec4 _e8 = _group_0_binding_8_cs[at_1.x].sh[i_1];
     vec4 _e17 = _group_0_binding_8_cs[at_1.y].sh[i_1];
     vec4 _e27 = _group_0_binding_8_cs[at_1.z].sh[i_1];
     vec4 _e36 = _group_0_binding_8_cs[at_1.w].sh[i_1];
-    return (((_e8.xyz * w_2.x) + (_e17.xyz * w_2.y)) + ((_e27.xyz * w_2.z) + (_e36.xyz * w_2.w)));
+    return (((_e8.xyz * w_1.x) + (_e17.xyz * w_1.y)) + ((_e27.xyz * w_1.z) + (_e36.xyz * w_1.w)));
 }
 
-vec3 sh_read(uint home, vec3 b_17, vec3 n_7) {
+vec3 sh_read(uvec3 home_at, vec3 b_16, vec3 n_7) {
     uvec3 base = uvec3(0u);
     vec3 frac = vec3(0.0);
     uint a = 0u;
     uint bx = 1u;
-    uint c_7 = 2u;
+    uint c_6 = 2u;
     uvec3 top_v = uvec3(0u);
     uvec3 home_v = uvec3(0u);
     uint bit0_ = 0u;
@@ -1487,26 +1412,26 @@ vec3 sh_read(uint home, vec3 b_17, vec3 n_7) {
     uint rel = 0u;
     uvec4 corner_cell_1 = uvec4(0u);
     uvec4 bits = uvec4(0u);
-    uint k_10 = 1u;
+    uint k_7 = 1u;
     uint cs = 0u;
     uint bs = 0u;
-    vec4 w_3 = vec4(0.0);
+    vec4 w_2 = vec4(0.0);
     uvec4 at_2 = uvec4(0u);
-    uint k_11 = 0u;
+    uint k_8 = 0u;
     bool kept = false;
+    bool local_25 = false;
     bool local_26 = false;
-    bool local_27 = false;
     vec3 _e3 = cell_size();
     uvec4 _e6 = _group_0_binding_7_cs.grid_counts;
     uvec3 counts = _e6.xyz;
     uvec3 top_1 = (counts - uvec3(1u));
     vec4 _e13 = _group_0_binding_7_cs.grid_min;
-    vec3 units = ((b_17 - _e13.xyz) / _e3);
-    uvec3 _e17 = cell_of(b_17, _e3);
+    vec3 units = ((b_16 - _e13.xyz) / _e3);
+    uint _e17 = cell_index(home_at);
     vec3 f0_ = (units - vec3(0.5));
     bool _e21 = finite3_(f0_);
     if (!(_e21)) {
-        vec3 _e23 = cell_sh_irradiance(home, n_7);
+        vec3 _e23 = cell_sh_irradiance(_e17, n_7);
         return _e23;
     }
     vec3 f_7 = clamp(f0_, vec3(0.0), vec3(top_1));
@@ -1518,20 +1443,20 @@ vec3 sh_read(uint home, vec3 b_17, vec3 n_7) {
     uint _e42 = a;
     float _e44 = frac[_e42];
     if ((_e41 > _e44)) {
-        uint t_14 = a;
+        uint t_13 = a;
         uint _e47 = bx;
         a = _e47;
-        bx = t_14;
+        bx = t_13;
     }
-    uint _e48 = c_7;
+    uint _e48 = c_6;
     float _e50 = frac[_e48];
     uint _e51 = bx;
     float _e53 = frac[_e51];
     if ((_e50 > _e53)) {
-        uint t_15 = bx;
-        uint _e56 = c_7;
+        uint t_14 = bx;
+        uint _e56 = c_6;
         bx = _e56;
-        c_7 = t_15;
+        c_6 = t_14;
         uint _e57 = bx;
         float _e59 = frac[_e57];
         uint _e60 = a;
@@ -1551,26 +1476,26 @@ vec3 sh_read(uint home, vec3 b_17, vec3 n_7) {
     float _e76 = frac[_e74];
     uint _e78 = bx;
     float _e80 = frac[_e78];
-    uint _e81 = c_7;
+    uint _e81 = c_6;
     float _e83 = frac[_e81];
-    uint _e85 = c_7;
+    uint _e85 = c_6;
     float _e87 = frac[_e85];
     vec4 weights = vec4((1.0 - _e68), (_e73 - _e76), (_e80 - _e83), _e87);
     top_v = top_1;
-    home_v = _e17;
+    home_v = home_at;
     uvec3 cell_stride = uvec3(1u, counts.x, (counts.x * counts.y));
     uvec3 bit_stride = uvec3(1u, 3u, 9u);
     uint _e102 = base.x;
     uint _e105 = base.y;
     uint _e108 = base.z;
     uint cell0_ = (_e102 + (counts.x * (_e105 + (counts.y * _e108))));
-    bool loop_init_11 = true;
+    bool loop_init_10 = true;
     while(true) {
-        if (!loop_init_11) {
+        if (!loop_init_10) {
             uint _e144 = x_3;
             x_3 = (_e144 + 1u);
         }
-        loop_init_11 = false;
+        loop_init_10 = false;
         uint _e117 = x_3;
         if ((_e117 < 3u)) {
         } else {
@@ -1599,22 +1524,22 @@ vec3 sh_read(uint home, vec3 b_17, vec3 n_7) {
     bits = uvec4(_e148);
     uint _e151 = a;
     uint _e152 = bx;
-    uint _e153 = c_7;
+    uint _e153 = c_6;
     uvec3 axes = uvec3(_e151, _e152, _e153);
-    bool loop_init_12 = true;
+    bool loop_init_11 = true;
     while(true) {
-        if (!loop_init_12) {
-            uint _e194 = k_10;
-            k_10 = (_e194 + 1u);
+        if (!loop_init_11) {
+            uint _e194 = k_7;
+            k_7 = (_e194 + 1u);
         }
-        loop_init_12 = false;
-        uint _e157 = k_10;
+        loop_init_11 = false;
+        uint _e157 = k_7;
         if ((_e157 < 4u)) {
         } else {
             break;
         }
         {
-            uint _e160 = k_10;
+            uint _e160 = k_7;
             uint x_7 = axes[(_e160 - 1u)];
             cs = 0u;
             bs = 0u;
@@ -1624,116 +1549,238 @@ vec3 sh_read(uint home, vec3 b_17, vec3 n_7) {
                 cs = cell_stride[x_7];
                 bs = bit_stride[x_7];
             }
-            uint _e175 = k_10;
-            uint _e177 = k_10;
+            uint _e175 = k_7;
+            uint _e177 = k_7;
             uint _e181 = corner_cell_1[(_e177 - 1u)];
             uint _e182 = cs;
             corner_cell_1[_e175] = (_e181 + _e182);
-            uint _e184 = k_10;
-            uint _e186 = k_10;
+            uint _e184 = k_7;
+            uint _e186 = k_7;
             uint _e190 = bits[(_e186 - 1u)];
             uint _e191 = bs;
             bits[_e184] = (_e190 + _e191);
         }
     }
-    uint links = _group_0_binding_8_cs[home].links.x;
-    w_3 = weights;
-    at_2 = uvec4(home);
+    uint links = _group_0_binding_8_cs[_e17].links.x;
+    w_2 = weights;
+    at_2 = uvec4(_e17);
     uint count = uint(_group_0_binding_8_cs.length());
-    bool loop_init_13 = true;
+    bool loop_init_12 = true;
     while(true) {
-        if (!loop_init_13) {
-            uint _e252 = k_11;
-            k_11 = (_e252 + 1u);
+        if (!loop_init_12) {
+            uint _e252 = k_8;
+            k_8 = (_e252 + 1u);
         }
-        loop_init_13 = false;
-        uint _e208 = k_11;
+        loop_init_12 = false;
+        uint _e208 = k_8;
         if ((_e208 < 4u)) {
         } else {
             break;
         }
         {
-            uint _e211 = k_11;
+            uint _e211 = k_8;
             uint ck = corner_cell_1[_e211];
             kept = false;
-            uint _e216 = k_11;
+            uint _e216 = k_8;
             uint _e218 = bits[_e216];
             if ((_e218 < 27u)) {
-                uint _e223 = k_11;
+                uint _e223 = k_8;
                 uint _e225 = bits[_e223];
-                local_26 = (((links >> _e225) & 1u) != 0u);
+                local_25 = (((links >> _e225) & 1u) != 0u);
+            } else {
+                local_25 = false;
+            }
+            bool _e232 = local_25;
+            if (_e232) {
+                local_26 = (ck < count);
             } else {
                 local_26 = false;
             }
-            bool _e232 = local_26;
-            if (_e232) {
-                local_27 = (ck < count);
-            } else {
-                local_27 = false;
-            }
-            bool _e237 = local_27;
+            bool _e237 = local_26;
             if (_e237) {
                 int _e242 = _group_0_binding_8_cs[ck].tiles.y;
                 kept = (_e242 >= 0);
             }
             bool _e245 = kept;
             if (_e245) {
-                uint _e246 = k_11;
+                uint _e246 = k_8;
                 at_2[_e246] = ck;
             } else {
-                uint _e248 = k_11;
-                w_3[_e248] = 0.0;
+                uint _e248 = k_8;
+                w_2[_e248] = 0.0;
             }
         }
     }
-    float _e255 = w_3.x;
-    float _e257 = w_3.y;
-    float _e260 = w_3.z;
-    float _e262 = w_3.w;
+    float _e255 = w_2.x;
+    float _e257 = w_2.y;
+    float _e260 = w_2.z;
+    float _e262 = w_2.w;
     float wsum_1 = ((_e255 + _e257) + (_e260 + _e262));
     if (!((wsum_1 > 0.0))) {
-        vec3 _e268 = cell_sh_irradiance(home, n_7);
+        vec3 _e268 = cell_sh_irradiance(_e17, n_7);
         return _e268;
     }
     uvec4 _e269 = at_2;
-    vec4 _e270 = w_3;
+    vec4 _e270 = w_2;
     vec3 _e272 = sh_blend4_(_e269, _e270, 0u);
     uvec4 _e273 = at_2;
-    vec4 _e274 = w_3;
+    vec4 _e274 = w_2;
     vec3 _e276 = sh_blend4_(_e273, _e274, 1u);
     uvec4 _e277 = at_2;
-    vec4 _e278 = w_3;
+    vec4 _e278 = w_2;
     vec3 _e280 = sh_blend4_(_e277, _e278, 2u);
     uvec4 _e281 = at_2;
-    vec4 _e282 = w_3;
+    vec4 _e282 = w_2;
     vec3 _e284 = sh_blend4_(_e281, _e282, 3u);
     uvec4 _e285 = at_2;
-    vec4 _e286 = w_3;
+    vec4 _e286 = w_2;
     vec3 _e288 = sh_blend4_(_e285, _e286, 4u);
     uvec4 _e289 = at_2;
-    vec4 _e290 = w_3;
+    vec4 _e290 = w_2;
     vec3 _e292 = sh_blend4_(_e289, _e290, 5u);
     uvec4 _e293 = at_2;
-    vec4 _e294 = w_3;
+    vec4 _e294 = w_2;
     vec3 _e296 = sh_blend4_(_e293, _e294, 6u);
     uvec4 _e297 = at_2;
-    vec4 _e298 = w_3;
+    vec4 _e298 = w_2;
     vec3 _e300 = sh_blend4_(_e297, _e298, 7u);
     uvec4 _e301 = at_2;
-    vec4 _e302 = w_3;
+    vec4 _e302 = w_2;
     vec3 _e304 = sh_blend4_(_e301, _e302, 8u);
     vec3 acc[9] = vec3[9](_e272, _e276, _e280, _e284, _e288, _e292, _e296, _e300, _e304);
     vec3 _e306 = sh_eval(acc, n_7);
     return (_e306 / vec3(wsum_1));
 }
 
+vec3 faces_specular(Lattice l_4, vec3 b_17, vec3 dir_11, float r_6, float w_3) {
+    vec3 c_7 = vec3(0.0);
+    vec3 e = vec3(0.0);
+    float share = 0.0;
+    uint corner_5 = 0u;
+    bool local_27 = false;
+    vec3 _e5 = faces_radiance(l_4, b_17, dir_11, r_6);
+    c_7 = _e5;
+    if ((w_3 > 0.0)) {
+        bool loop_init_13 = true;
+        while(true) {
+            if (!loop_init_13) {
+                uint _e44 = corner_5;
+                corner_5 = (_e44 + 1u);
+            }
+            loop_init_13 = false;
+            uint _e16 = corner_5;
+            if ((_e16 < 8u)) {
+            } else {
+                break;
+            }
+            {
+                uint _e19 = corner_5;
+                float _e20 = corner_weight(l_4, _e19);
+                uint _e21 = corner_5;
+                uvec3 _e22 = corner_cell(l_4, _e21);
+                if ((_e20 > 0.0)) {
+                    uint _e28 = cell_index(_e22);
+                    int _e32 = _group_0_binding_8_cs[_e28].tiles.y;
+                    local_27 = (_e32 >= 0);
+                } else {
+                    local_27 = false;
+                }
+                bool _e36 = local_27;
+                if (_e36) {
+                    vec3 _e37 = e;
+                    vec3 _e38 = sh_read(_e22, b_17, dir_11);
+                    e = (_e37 + (_e20 * _e38));
+                    float _e41 = share;
+                    share = (_e41 + _e20);
+                }
+            }
+        }
+        float _e46 = share;
+        if ((_e46 > 0.0)) {
+            vec3 _e49 = c_7;
+            float _e50 = share;
+            vec3 _e55 = e;
+            float _e56 = share;
+            float _e59 = share;
+            c_7 = ((_e49 * (1.0 - (w_3 * _e50))) + ((_e55 / vec3(_e56)) * ((w_3 * _e59) * 0.31830987)));
+        }
+    }
+    vec3 _e65 = c_7;
+    return _e65;
+}
+
+float blend_node_r(uint k_9) {
+    float _e9 = _group_0_binding_7_cs.blend_r[(k_9 / 4u)][(k_9 % 4u)];
+    return _e9;
+}
+
+float blend_node_w(uint k_10) {
+    float _e9 = _group_0_binding_7_cs.blend_w[(k_10 / 4u)][(k_10 % 4u)];
+    return _e9;
+}
+
+float irradiance_weight(float r_7) {
+    bool local_28 = false;
+    float w_4 = 0.0;
+    uint k_11 = 1u;
+    uint n_16 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_16 == 0u))) {
+        local_28 = !((r_7 > 0.0));
+    } else {
+        local_28 = true;
+    }
+    bool _e14 = local_28;
+    if (_e14) {
+        return 0.0;
+    }
+    float _e17 = blend_node_w(0u);
+    w_4 = _e17;
+    bool loop_init_14 = true;
+    while(true) {
+        if (!loop_init_14) {
+            uint _e49 = k_11;
+            k_11 = (_e49 + 1u);
+        }
+        loop_init_14 = false;
+        uint _e21 = k_11;
+        if ((_e21 < n_16)) {
+        } else {
+            break;
+        }
+        {
+            uint _e23 = k_11;
+            float _e26 = blend_node_r((_e23 - 1u));
+            if ((r_7 > _e26)) {
+                uint _e29 = k_11;
+                float _e30 = blend_node_r(_e29);
+                float t_15 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                uint _e37 = k_11;
+                float _e40 = blend_node_w((_e37 - 1u));
+                uint _e44 = k_11;
+                float _e45 = blend_node_w(_e44);
+                w_4 = ((_e40 * (1.0 - t_15)) + (_e45 * t_15));
+            }
+        }
+    }
+    float _e51 = w_4;
+    return min(max(_e51, 0.0), 1.0);
+}
+
+vec3 clean(vec3 c_8) {
+    bool _e1 = finite3_(c_8);
+    if (_e1) {
+        return max(c_8, vec3(0.0));
+    }
+    return vec3(0.0);
+}
+
 vec3 specular(vec3 position, vec3 direction, float roughness) {
     vec3 b_18 = vec3(0.0);
     float r_8 = 0.0;
-    uint cell_1 = 0u;
+    uvec3 home_at_1 = uvec3(0u);
     bool stored = false;
-    bool local_28 = false;
-    vec3 c_8 = vec3(0.0);
+    bool local_29 = false;
+    vec3 c_9 = vec3(0.0);
     vec4 _e3 = unit_direction(direction);
     if ((_e3.w == 0.0)) {
         return vec3(0.0);
@@ -1750,45 +1797,61 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     }
     float _e21 = r_8;
     float _e22 = irradiance_weight(_e21);
+    uint _e23 = blend_mode();
+    if ((_e23 == 2u)) {
+        vec3 _e26 = b_18;
+        Lattice _e27 = face_lattice(_e26);
+        uint _e28 = near_cells(_e27);
+        if ((_e28 > 1u)) {
+            vec3 _e31 = b_18;
+            float _e33 = r_8;
+            vec3 _e34 = faces_specular(_e27, _e31, _e3.xyz, _e33, _e22);
+            vec3 _e35 = clean(_e34);
+            return _e35;
+        }
+    }
     if ((_e22 > 0.0)) {
-        vec3 _e29 = b_18;
-        vec3 _e30 = cell_size();
-        uvec3 _e31 = cell_of(_e29, _e30);
-        uint _e32 = cell_index(_e31);
-        cell_1 = _e32;
-        uint _e34 = cell_1;
-        int _e38 = _group_0_binding_8_cs[_e34].tiles.y;
-        stored = (_e38 >= 0);
+        vec3 _e43 = b_18;
+        vec3 _e44 = cell_size();
+        uvec3 _e45 = cell_of(_e43, _e44);
+        home_at_1 = _e45;
+        uvec3 _e47 = home_at_1;
+        uint _e48 = cell_index(_e47);
+        int _e52 = _group_0_binding_8_cs[_e48].tiles.y;
+        stored = (_e52 >= 0);
     }
-    bool _e41 = stored;
-    if (_e41) {
-        local_28 = (_e22 >= 1.0);
+    bool _e55 = stored;
+    if (_e55) {
+        local_29 = (_e22 >= 1.0);
     } else {
-        local_28 = false;
+        local_29 = false;
     }
-    bool _e47 = local_28;
-    if (_e47) {
-        uint _e48 = cell_1;
-        vec3 _e49 = b_18;
-        vec3 _e51 = sh_read(_e48, _e49, _e3.xyz);
-        vec3 _e55 = clean((_e51 * (_e22 * 0.31830987)));
-        return _e55;
-    }
-    vec3 _e56 = b_18;
-    float _e58 = r_8;
-    vec3 _e59 = looked_up_radiance(_e56, _e3.xyz, _e58);
-    c_8 = _e59;
-    bool _e61 = stored;
+    bool _e61 = local_29;
     if (_e61) {
-        vec3 _e62 = c_8;
-        uint _e66 = cell_1;
-        vec3 _e67 = b_18;
-        vec3 _e69 = sh_read(_e66, _e67, _e3.xyz);
-        c_8 = ((_e62 * (1.0 - _e22)) + (_e69 * (_e22 * 0.31830987)));
+        uvec3 _e62 = home_at_1;
+        vec3 _e63 = b_18;
+        vec3 _e65 = sh_read(_e62, _e63, _e3.xyz);
+        vec3 _e69 = clean((_e65 * (_e22 * 0.31830987)));
+        return _e69;
     }
-    vec3 _e74 = c_8;
-    vec3 _e75 = clean(_e74);
-    return _e75;
+    vec3 _e70 = b_18;
+    vec3 _e71 = b_18;
+    float _e73 = r_8;
+    Aim _e74 = fetch(_e71, _e3.xyz, _e73);
+    float _e75 = r_8;
+    vec3 _e76 = shade(_e70, _e74, _e75);
+    c_9 = _e76;
+    bool _e78 = stored;
+    if (_e78) {
+        vec3 _e79 = c_9;
+        uvec3 _e83 = home_at_1;
+        vec3 _e84 = b_18;
+        vec3 _e86 = sh_read(_e83, _e84, _e3.xyz);
+        c_9 = ((_e79 * (1.0 - _e22)) + (_e86 * (_e22 * 0.31830987)));
+    }
+    vec3 _e91 = c_9;
+    vec3 _e92 = clean(_e91);
+    return _e92;
 }
 
 vec3 cell_irradiance(int tile_3, vec3 n_8) {
@@ -1801,11 +1864,11 @@ vec3 cell_irradiance(int tile_3, vec3 n_8) {
 
 vec3 irradiance(vec3 position_1, vec3 normal) {
     vec3 p_8 = vec3(0.0);
-    vec3 e = vec3(0.0);
+    vec3 e_1 = vec3(0.0);
     float wsum = 0.0;
-    uint corner_5 = 0u;
-    float w_4 = 0.0;
-    bool local_29 = false;
+    uint corner_6 = 0u;
+    float w_5 = 0.0;
+    bool local_30 = false;
     float k_12 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
@@ -1826,25 +1889,25 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     vec3 _e34 = p_8;
     Lattice _e35 = lattice(_e34, _e9);
     vec2 _e36 = oct_encode(n_17);
-    bool loop_init_14 = true;
+    bool loop_init_15 = true;
     while(true) {
-        if (!loop_init_14) {
-            uint _e157 = corner_5;
-            corner_5 = (_e157 + 1u);
+        if (!loop_init_15) {
+            uint _e157 = corner_6;
+            corner_6 = (_e157 + 1u);
         }
-        loop_init_14 = false;
-        uint _e44 = corner_5;
+        loop_init_15 = false;
+        uint _e44 = corner_6;
         if ((_e44 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e47 = corner_5;
+            uint _e47 = corner_6;
             float _e48 = corner_weight(_e35, _e47);
             if ((_e48 <= 0.0)) {
                 continue;
             }
-            uint _e51 = corner_5;
+            uint _e51 = corner_6;
             uvec3 _e52 = corner_cell(_e35, _e51);
             uint _e53 = cell_index(_e52);
             ivec4 tiles_4 = _group_0_binding_8_cs[_e53].tiles;
@@ -1856,19 +1919,19 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             vec4 _e66 = _group_0_binding_8_cs[_e53].offset;
             vec3 to_point = (_e61 - (_e62 + _e66.xyz));
             float dist = length(to_point);
-            w_4 = _e48;
+            w_5 = _e48;
             if ((dist > 0.0)) {
                 bool _e76 = finite(dist);
-                local_29 = _e76;
+                local_30 = _e76;
             } else {
-                local_29 = false;
+                local_30 = false;
             }
-            bool _e78 = local_29;
+            bool _e78 = local_30;
             if (_e78) {
                 vec3 u_1 = (to_point / vec3(dist));
                 float facing = ((dot(n_17, -(u_1)) + 1.0) * 0.5);
-                float _e87 = w_4;
-                w_4 = (_e87 * ((facing * facing) + 0.2));
+                float _e87 = w_5;
+                w_5 = (_e87 * ((facing * facing) + 0.2));
                 uint _e97 = _group_0_binding_7_cs.atlas_b.x;
                 uint _e101 = _group_0_binding_7_cs.atlas_b.y;
                 vec2 _e102 = oct_encode(u_1);
@@ -1879,12 +1942,12 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                     float variance = max(abs((mean_sq - (mean * mean))), ((1e-12 * mean) * mean));
                     float dd = (dist - mean);
                     float cheb = (variance / (variance + (dd * dd)));
-                    float _e118 = w_4;
-                    w_4 = (_e118 * max(((cheb * cheb) * cheb), 0.0));
+                    float _e118 = w_5;
+                    w_5 = (_e118 * max(((cheb * cheb) * cheb), 0.0));
                 }
             }
-            float _e124 = w_4;
-            w_4 = max(_e124, (1e-6 * _e48));
+            float _e124 = w_5;
+            w_5 = max(_e124, (1e-6 * _e48));
             k_12 = 1.0;
             if ((tiles_4.z >= 0)) {
                 uint _e138 = _group_0_binding_7_cs.atlas_b.z;
@@ -1892,13 +1955,13 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                 vec4 _e143 = atlas_bilinear(ATLAS_SCALE, tiles_4.z, _e138, _e142, _e36);
                 k_12 = _e143.x;
             }
-            vec3 _e145 = e;
+            vec3 _e145 = e_1;
             vec3 _e147 = cell_irradiance(tiles_4.y, n_17);
-            float _e148 = w_4;
+            float _e148 = w_5;
             float _e150 = k_12;
-            e = (_e145 + ((_e147 * _e148) * _e150));
+            e_1 = (_e145 + ((_e147 * _e148) * _e150));
             float _e153 = wsum;
-            float _e154 = w_4;
+            float _e154 = w_5;
             wsum = (_e153 + _e154);
         }
     }
@@ -1906,23 +1969,23 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     if (!((_e159 > 0.0))) {
         return vec3(0.0);
     }
-    vec3 _e165 = e;
+    vec3 _e165 = e_1;
     float _e166 = wsum;
     vec3 _e169 = clean((_e165 / vec3(_e166)));
     return _e169;
 }
 
 vec2 hemi_encode(vec3 v_7) {
-    bool local_30 = false;
+    bool local_31 = false;
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_30 = _e14;
+        local_31 = _e14;
     } else {
-        local_30 = false;
+        local_31 = false;
     }
-    bool _e16 = local_30;
+    bool _e16 = local_31;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -1938,9 +2001,9 @@ SurfaceAxis surface_axis(float x_in, uint n_9) {
         x_4 = x_in;
     }
     float _e5 = x_4;
-    float c_12 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
-    uint i0_ = uint(floor(c_12));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_12 - float(i0_)));
+    float c_13 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
+    uint i0_ = uint(floor(c_13));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_13 - float(i0_)));
 }
 
 uint query_count() {

@@ -164,9 +164,9 @@ vec4 unit_direction(vec3 v_3) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
     vec3 s_2 = (v_3 / vec3(m_1));
-    float l_3 = length(s_2);
-    if ((l_3 > 0.0)) {
-        bool _e47 = finite(l_3);
+    float l_5 = length(s_2);
+    if ((l_5 > 0.0)) {
+        bool _e47 = finite(l_5);
         local_5 = _e47;
     } else {
         local_5 = false;
@@ -175,7 +175,7 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    return vec4((s_2 / vec3(l_3)), 1.0);
+    return vec4((s_2 / vec3(l_5)), 1.0);
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
@@ -291,16 +291,16 @@ Basis orthonormal_basis(vec3 n_3) {
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
     bool local_12 = false;
-    float l_4 = length(v_5);
-    if ((l_4 > 0.0)) {
-        bool _e7 = finite(l_4);
+    float l_6 = length(v_5);
+    if ((l_6 > 0.0)) {
+        bool _e7 = finite(l_6);
         local_12 = _e7;
     } else {
         local_12 = false;
     }
     bool _e9 = local_12;
     if (_e9) {
-        return (v_5 / vec3(l_4));
+        return (v_5 / vec3(l_6));
     }
     return fallback_1;
 }
@@ -311,47 +311,73 @@ float face_ramp(float x_2) {
 
 float pseudo_log2_(float k_4) {
     uint bits_1 = floatBitsToUint(k_4);
-    int e_1 = (int(((bits_1 >> 23u) & 255u)) - 127);
+    int e_2 = (int(((bits_1 >> 23u) & 255u)) - 127);
     float m_2 = uintBitsToFloat(((bits_1 & 8388607u) | 1065353216u));
-    return (float(e_1) + (m_2 - 1.0));
+    return (float(e_2) + (m_2 - 1.0));
 }
 
-vec3 clean(vec3 c_5) {
-    bool _e1 = finite3_(c_5);
+uint near_cells(Lattice l_3) {
+    uint near = 0u;
+    uint corner_4 = 0u;
+    bool loop_init = true;
+    while(true) {
+        if (!loop_init) {
+            uint _e18 = corner_4;
+            corner_4 = (_e18 + 1u);
+        }
+        loop_init = false;
+        uint _e5 = corner_4;
+        if ((_e5 < 8u)) {
+        } else {
+            break;
+        }
+        {
+            uint _e8 = near;
+            uint _e11 = corner_4;
+            float _e12 = corner_weight(l_3, _e11);
+            near = (_e8 + ((_e12 > 0.0) ? 1u : 0u));
+        }
+    }
+    uint _e20 = near;
+    return _e20;
+}
+
+vec3 sh_eval(vec3 c_5[9], vec3 n_5) {
+    float x_6 = n_5.x;
+    float y = n_5.y;
+    float z = n_5.z;
+    vec3 t0_ = (c_5[0] * 0.2820948);
+    vec3 t1_ = (c_5[1] * (0.4886025 * y));
+    vec3 t2_ = (c_5[2] * (0.4886025 * z));
+    vec3 t3_ = (c_5[3] * (0.4886025 * x_6));
+    vec3 t4_ = (c_5[4] * (1.0925484 * (x_6 * y)));
+    vec3 t5_ = (c_5[5] * (1.0925484 * (y * z)));
+    vec3 t6_ = (c_5[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
+    vec3 t7_ = (c_5[7] * (1.0925484 * (x_6 * z)));
+    vec3 t8_ = (c_5[8] * (0.5462742 * ((x_6 * x_6) - (y * y))));
+    vec3 e_3 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
+    return max(e_3, vec3(0.0));
+}
+
+vec3 clean(vec3 c_8) {
+    bool _e1 = finite3_(c_8);
     if (_e1) {
-        return max(c_5, vec3(0.0));
+        return max(c_8, vec3(0.0));
     }
     return vec3(0.0);
 }
 
-vec3 sh_eval(vec3 c_6[9], vec3 n_5) {
-    float x_6 = n_5.x;
-    float y = n_5.y;
-    float z = n_5.z;
-    vec3 t0_ = (c_6[0] * 0.2820948);
-    vec3 t1_ = (c_6[1] * (0.4886025 * y));
-    vec3 t2_ = (c_6[2] * (0.4886025 * z));
-    vec3 t3_ = (c_6[3] * (0.4886025 * x_6));
-    vec3 t4_ = (c_6[4] * (1.0925484 * (x_6 * y)));
-    vec3 t5_ = (c_6[5] * (1.0925484 * (y * z)));
-    vec3 t6_ = (c_6[6] * (0.31539157 * ((3.0 * (z * z)) - 1.0)));
-    vec3 t7_ = (c_6[7] * (1.0925484 * (x_6 * z)));
-    vec3 t8_ = (c_6[8] * (0.5462742 * ((x_6 * x_6) - (y * y))));
-    vec3 e_2 = ((((t0_ + t1_) + (t2_ + t3_)) + ((t4_ + t5_) + (t6_ + t7_))) + t8_);
-    return max(e_2, vec3(0.0));
-}
-
 vec2 hemi_encode(vec3 v_7) {
-    bool local_30 = false;
+    bool local_31 = false;
     float z_1 = max(v_7.z, 0.0);
     float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_30 = _e14;
+        local_31 = _e14;
     } else {
-        local_30 = false;
+        local_31 = false;
     }
-    bool _e16 = local_30;
+    bool _e16 = local_31;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -367,9 +393,9 @@ SurfaceAxis surface_axis(float x_in, uint n_9) {
         x_4 = x_in;
     }
     float _e5 = x_4;
-    float c_9 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
-    uint i0_ = uint(floor(c_9));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_9 - float(i0_)));
+    float c_10 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
+    uint i0_ = uint(floor(c_10));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_10 - float(i0_)));
 }
 
 SurfaceTaps surface_taps(vec2 uv_9) {
@@ -386,11 +412,11 @@ SurfaceTaps surface_taps(vec2 uv_9) {
 vec3 surface_tile(uint i_2, uint j_1, uint layer, SurfaceTaps t_6) {
     uint _e8 = _group_2_binding_1_cs.shape.z;
     uvec2 o_1 = (uvec2(i_2, j_1) * _e8);
-    int l_5 = int(layer);
-    vec4 q00_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.lo)), l_5), 0);
-    vec4 q10_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.hi.x, t_6.lo.y))), l_5), 0);
-    vec4 q01_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.lo.x, t_6.hi.y))), l_5), 0);
-    vec4 q11_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.hi)), l_5), 0);
+    int l_7 = int(layer);
+    vec4 q00_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.lo)), l_7), 0);
+    vec4 q10_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.hi.x, t_6.lo.y))), l_7), 0);
+    vec4 q01_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.lo.x, t_6.hi.y))), l_7), 0);
+    vec4 q11_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.hi)), l_7), 0);
     vec4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_6.f);
     return _e44.xyz;
 }
@@ -406,9 +432,9 @@ float surface_tile_inv_distance(uint i_3, uint j_2, SurfaceTaps t_7) {
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_4, uint j_3, vec3 b_19, vec3 local_31, SurfaceTaps shared_taps) {
-    bool local_32 = false;
+SurfaceTaps surface_warped_taps(uint i_4, uint j_3, vec3 b_19, vec3 local_32, SurfaceTaps shared_taps) {
     bool local_33 = false;
+    bool local_34 = false;
     SurfaceParams sp = _group_2_binding_1_cs;
     float s_4 = ((float(i_4) + 0.5) / float(sp.shape.x));
     float t_9 = ((float(j_3) + 0.5) / float(sp.shape.y));
@@ -416,20 +442,20 @@ SurfaceTaps surface_warped_taps(uint i_4, uint j_3, vec3 b_19, vec3 local_31, Su
     vec3 d_2 = (probe - b_19);
     vec3 ab = vec3(dot(d_2, sp.tangent.xyz), dot(d_2, sp.bitangent.xyz), dot(d_2, sp.normal.xyz));
     float _e48 = surface_tile_inv_distance(i_4, j_3, shared_taps);
-    vec3 v_9 = ((local_31 * max(((dot(local_31, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
+    vec3 v_9 = ((local_32 * max(((dot(local_32, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
     if ((_e48 > 0.0)) {
         bool _e62 = finite3_(v_9);
-        local_32 = _e62;
-    } else {
-        local_32 = false;
-    }
-    bool _e64 = local_32;
-    if (_e64) {
-        local_33 = (dot(v_9, v_9) > 0.0);
+        local_33 = _e62;
     } else {
         local_33 = false;
     }
-    bool _e71 = local_33;
+    bool _e64 = local_33;
+    if (_e64) {
+        local_34 = (dot(v_9, v_9) > 0.0);
+    } else {
+        local_34 = false;
+    }
+    bool _e71 = local_34;
     if (_e71) {
         vec2 _e72 = hemi_encode(v_9);
         SurfaceTaps _e73 = surface_taps(_e72);
@@ -479,8 +505,8 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
     vec3 dir_14 = _e4.xyz;
-    vec3 local_34 = vec3(dot(dir_14, sp_1.tangent.xyz), dot(dir_14, sp_1.bitangent.xyz), dot(dir_14, sp_1.normal.xyz));
-    vec2 _e64 = hemi_encode(local_34);
+    vec3 local_35 = vec3(dot(dir_14, sp_1.tangent.xyz), dot(dir_14, sp_1.bitangent.xyz), dot(dir_14, sp_1.normal.xyz));
+    vec2 _e64 = hemi_encode(local_35);
     SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
@@ -488,16 +514,16 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     t11_ = _e65;
     if (warped) {
         vec3 _e72 = b_20;
-        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_34, _e65);
+        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_35, _e65);
         t00_ = _e73;
         vec3 _e76 = b_20;
-        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_34, _e65);
+        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_35, _e65);
         t10_ = _e77;
         vec3 _e80 = b_20;
-        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_34, _e65);
+        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_35, _e65);
         t01_ = _e81;
         vec3 _e84 = b_20;
-        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_34, _e65);
+        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_35, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;
@@ -510,10 +536,10 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     SurfaceTaps _e102 = t11_;
     vec3 _e103 = surface_probe(_e25.i1_, _e31.i1_, _e102, m0_1, m1_1, fm_1);
     vec3 bottom = mix(_e99, _e103, _e25.f);
-    vec3 l_6 = mix(top, bottom, _e31.f);
-    bool _e108 = finite3_(l_6);
+    vec3 l_8 = mix(top, bottom, _e31.f);
+    bool _e108 = finite3_(l_8);
     if (_e108) {
-        return max(l_6, vec3(0.0));
+        return max(l_8, vec3(0.0));
     }
     return vec3(0.0);
 }

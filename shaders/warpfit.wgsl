@@ -797,20 +797,36 @@ fn faces_radiance(l: Lattice, b: vec3<f32>, dir: vec3<f32>, r: f32) -> vec3<f32>
     return c;
 }
 
-// Probe radiance of a lookup of (B, unit dir, roughness r): the fetch's aim shaded, or near
-// a cell face with the faces blend, the near cells' aims shaded and blended.
-fn looked_up_radiance(b: vec3<f32>, dir: vec3<f32>, r: f32) -> vec3<f32> {
-    if blend_mode() == 2u {
-        let l = face_lattice(b);
-        var near = 0u;
+// How many cells the faces blend reads at the point of `face_lattice` l (1 inside a cell).
+fn near_cells(l: Lattice) -> u32 {
+    var near = 0u;
+    for (var corner = 0u; corner < 8u; corner++) {
+        near += select(0u, 1u, corner_weight(l, corner) > 0.0);
+    }
+    return near;
+}
+
+// A faces-blend lookup near a cell face with its irradiance blend of weight w
+// (`FittedGrid::mix_near`): the near cells' irradiance reads, each as if B lay in it,
+// averaged over those that hold irradiance, blended by w times their share of the weight.
+fn faces_specular(l: Lattice, b: vec3<f32>, dir: vec3<f32>, r: f32, w: f32) -> vec3<f32> {
+    var c = faces_radiance(l, b, dir, r);
+    if w > 0.0 {
+        var e = vec3<f32>(0.0);
+        var share = 0.0;
         for (var corner = 0u; corner < 8u; corner++) {
-            near += select(0u, 1u, corner_weight(l, corner) > 0.0);
+            let cw = corner_weight(l, corner);
+            let at = corner_cell(l, corner);
+            if cw > 0.0 && cells[cell_index(at)].tiles.y >= 0 {
+                e += cw * sh_read(at, b, dir);
+                share += cw;
+            }
         }
-        if near > 1u {
-            return faces_radiance(l, b, dir, r);
+        if share > 0.0 {
+            c = c * (1.0 - w * share) + (e / share) * (w * share * 0.31830987);
         }
     }
-    return shade(b, fetch(b, dir, r), r);
+    return c;
 }
 
 // ---- rough lookups ---------------------------------------------------------------------
@@ -963,18 +979,24 @@ fn specular(position: vec3<f32>, direction: vec3<f32>, roughness: f32) -> vec3<f
     // rough lookups: blended with the containing cell's irradiance over π; at weight 1
     // probe A is not read
     let w = irradiance_weight(r);
-    var cell = 0u;
+    if blend_mode() == 2u {
+        let l = face_lattice(b);
+        if near_cells(l) > 1u {
+            return clean(faces_specular(l, b, d.xyz, r, w));
+        }
+    }
+    var home_at = vec3<u32>(0u);
     var stored = false;
     if w > 0.0 {
-        cell = cell_index(cell_of(b, cell_size()));
-        stored = cells[cell].tiles.y >= 0;
+        home_at = cell_of(b, cell_size());
+        stored = cells[cell_index(home_at)].tiles.y >= 0;
     }
     if stored && w >= 1.0 {
-        return clean(sh_read(cell, b, d.xyz) * (w * 0.31830987));
+        return clean(sh_read(home_at, b, d.xyz) * (w * 0.31830987));
     }
-    var c = looked_up_radiance(b, d.xyz, r);
+    var c = shade(b, fetch(b, d.xyz, r), r);
     if stored {
-        c = c * (1.0 - w) + sh_read(cell, b, d.xyz) * (w * 0.31830987);
+        c = c * (1.0 - w) + sh_read(home_at, b, d.xyz) * (w * 0.31830987);
     }
     return clean(c);
 }
@@ -1021,17 +1043,18 @@ fn sh_blend4(at: vec4<u32>, w: vec4<f32>, i: u32) -> vec3<f32> {
         + (cells[at[2]].sh[i].xyz * w[2] + cells[at[3]].sh[i].xyz * w[3]);
 }
 
-// Irradiance at b (finite) for unit direction n, smooth across cells, `home` the stored
-// cell that contains b: `IrradianceSh::read`. The four cells of the tetrahedron of the
-// cell-centre lattice that holds b (Kuhn's split of the lattice cube, corners in the
-// order of b's fractions), those `home` does not link to weighing 0, the weights
-// renormalised; the coefficients summed, then read once.
-fn sh_read(home: u32, b: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+// Irradiance at b (finite) for unit direction n, smooth across cells, `home_at` the stored
+// cell that contains b (or, for the faces blend, a near cell read as if b lay in it):
+// `IrradianceSh::read_in`. The four cells of the tetrahedron of the cell-centre lattice
+// that holds b (Kuhn's split of the lattice cube, corners in the order of b's fractions),
+// those `home` does not link to weighing 0, the weights renormalised; the coefficients
+// summed, then read once.
+fn sh_read(home_at: vec3<u32>, b: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     let size = cell_size();
     let counts = params.grid_counts.xyz;
     let top = counts - vec3<u32>(1u);
     let units = (b - params.grid_min.xyz) / size;
-    let home_at = cell_of(b, size);
+    let home = cell_index(home_at);
     let f0 = units - 0.5;
     if !finite3(f0) {
         return cell_sh_irradiance(home, n);

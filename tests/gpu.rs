@@ -194,6 +194,9 @@ fn the_shader_answers_as_the_cpu_sampler_on_a_torture_grid_with_maps_and_correct
     let linked = g.irradiance_sh().links.iter().filter(|l| l.count_ones() > 1).count();
     assert!(linked > g.irradiance_sh().links.len() / 2, "only {linked} cells link to a neighbour");
     check_grid("torture", &g);
+    // blended near cell faces, the irradiance blend too (each near cell's read)
+    let faces = g.clone().with_lookup(|_, blend, _| *blend = warpfit::warp::corrective::Blend::Faces);
+    check_grid("torture-faces", &faces);
     // exported to read probe A alone, the shader answers as the grid read so
     check_grid("torture-probe-only", &g.with_read(warpfit::runtime::SpecularRead::ProbeOnly));
 }

@@ -312,12 +312,11 @@ fn load_tiny_probes() -> FittedGrid {
 fn the_faces_blend_reads_the_containing_cell_inside_it_and_nothing_jumps_at_a_face() {
     // `Blend::Faces`: bit for bit the containing cell's lookup away from its faces; across
     // a face, where the containing cell's lookup jumps (a shift map against its neighbour's,
-    // or another probe), the blend changes by no more than its neighbours a step apart do.
-    // (Probe radiance alone: the irradiance a rough lookup blends in is read across cells
-    // already, and stops at walls on purpose; tested below.)
+    // or another probe, or the irradiance a rough lookup blends in), the blend changes by no
+    // more than its neighbours a step apart do; in both read tiers.
     let bits = |v: Vec3| v.to_array().map(f32::to_bits);
-    for cell_grid in [FittedGrid::load(&fixture().f32_dir).unwrap(), load_tiny_probes()] {
-        let cell_grid = cell_grid.with_read(SpecularRead::ProbeOnly);
+    let grids = [FittedGrid::load(&fixture().f32_dir).unwrap(), load_tiny_probes()];
+    for cell_grid in grids.iter().flat_map(|g| SpecularRead::ALL.map(|read| g.clone().with_read(read))) {
         let faces = cell_grid.clone().with_lookup(|_, blend, _| *blend = Blend::Faces);
         let geo = cell_grid.correctives().geometry;
         let size = geo.cell_size();

@@ -6,7 +6,7 @@
 use crate::grid::GridGeometry;
 use crate::gridfile::IrradianceGrid;
 use crate::octa;
-use crate::warp::corrective::NO_MAP;
+use crate::warp::corrective::{FaceCells, NO_MAP};
 use glam::{UVec3, Vec3};
 
 /// How the cells around a point are combined: the steps of DDGI's blend, each a baseline
@@ -177,11 +177,40 @@ impl IrradianceSh {
     #[inline]
     #[must_use]
     pub fn read(&self, position: Vec3, n: Vec3) -> Option<Vec3> {
-        let geo = &self.geometry;
         // the point in cell units: its cell (as `cell_of_sized` finds it) and its place in
         // the lattice of cell centres
-        let units = (position - geo.min) / self.cell_size;
-        let home_at = geo.cell_of_units(units);
+        let units = (position - self.geometry.min) / self.cell_size;
+        self.read_from(self.geometry.cell_of_units(units), units, n)
+    }
+
+    /// [`read`](Self::read) as if the point lay in the cell at `home_at` (one of the cells
+    /// whose centres surround it): that cell's links decide which neighbours count.
+    #[inline]
+    #[must_use]
+    pub fn read_in(&self, home_at: UVec3, position: Vec3, n: Vec3) -> Option<Vec3> {
+        self.read_from(home_at, (position - self.geometry.min) / self.cell_size, n)
+    }
+
+    /// The irradiance a faces-blend lookup blends in at `position` (near cells `cells`,
+    /// `Correctives::face_cells`): the near cells' reads ([`read_in`](Self::read_in)), each
+    /// as if the point lay in it, averaged over those that hold irradiance by their weights,
+    /// and the share of the weight those hold; `None` where none does.
+    #[inline]
+    #[must_use]
+    pub fn read_near(&self, cells: &FaceCells, position: Vec3, n: Vec3) -> Option<(Vec3, f32)> {
+        let (mut sum, mut share) = (Vec3::ZERO, 0.0f32);
+        for k in 0..cells.n {
+            if let Some(e) = self.read_in(self.geometry.cell_coords(cells.cells[k]), position, n) {
+                sum += cells.weights[k] * e;
+                share += cells.weights[k];
+            }
+        }
+        (share > 0.0).then(|| (sum / share, share))
+    }
+
+    #[inline]
+    fn read_from(&self, home_at: UVec3, units: Vec3, n: Vec3) -> Option<Vec3> {
+        let geo = &self.geometry;
         let home = geo.cell_index(home_at);
         let links = *self.links.get(home)?;
         if links == 0 {

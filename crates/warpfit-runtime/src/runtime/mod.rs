@@ -12,7 +12,7 @@ pub use crate::gridfile::{GridManifest, IrradianceCorrection, IrradianceGrid, Pr
 use crate::octa;
 use crate::roughness::RoughnessCorrection;
 use crate::warp::Warp;
-use crate::warp::corrective::{Blend, Correctives};
+use crate::warp::corrective::{Blend, Correctives, FaceCells};
 use crate::warp::glossy::{Aim, MipRule, corrected_lanes, corrected_lanes_of, glossy_radiance};
 use glam::Vec3;
 use std::path::Path;
@@ -228,11 +228,16 @@ impl FittedGrid {
             return Vec3::ZERO;
         };
         if self.blend == Blend::Faces {
-            let aims = self.correctives.face_aims(&self.warp, q.b, q.dir, q.r);
-            return self.shade(q, &aims.aims[..aims.n], &aims.weights[..aims.n], read);
+            let cells = self.correctives.face_cells(q.b);
+            let aims = self.correctives.face_aims_in(cells, &self.warp, q.b, q.dir, q.r);
+            if cells.n > 1 {
+                let spec = self.probe_radiance(q, &aims.aims[..aims.n], &aims.weights[..aims.n]);
+                return self.mix_near(q, &cells, spec, read);
+            }
+            return self.shade(q, aims.aims[0], read);
         }
         let aim = self.correctives.fetch(self.blend, &self.warp, q.b, q.dir, q.r);
-        self.shade(q, &[aim], &[1.0], read)
+        self.shade(q, aim, read)
     }
 
     /// A specular query made safe (see the module conventions); `None` means black.
@@ -245,25 +250,49 @@ impl FittedGrid {
         Some(SpecularQuery { b, dir, r })
     }
 
-    /// Radiance of probe A along `aims` for the query's roughness: the mip from the stored
-    /// roughness correction (`warp::glossy`, shared with the fit and eval); several aims
-    /// (near a cell face, `Blend::Faces`) blend their radiances by `weights` (summing to 1).
+    /// Radiance of probe A along `aim` for the query's roughness: the mip from the stored
+    /// roughness correction (`warp::glossy`, shared with the fit and eval).
     #[inline]
-    fn shade(&self, q: SpecularQuery, aims: &[Aim], weights: &[f32], read: SpecularRead) -> Vec3 {
+    fn shade(&self, q: SpecularQuery, aim: Aim, read: SpecularRead) -> Vec3 {
         // the irradiance first: its loads are independent of probe A's and overlap them
         let blend = self.irradiance_blend(q, read);
         if let Some((e, w)) = blend.filter(|&(_, w)| w >= 1.0) {
             // probe A's part has weight 0: `mix_irradiance(spec, e, 1)` for any finite spec
             return mix_irradiance(Vec3::ZERO, e, w);
         }
-        let radiance =
-            |aim| glossy_radiance(&self.warp, self.roughness.as_ref(), MipRule::Corrected, q.b, q.dir, aim, q.r);
-        let spec = match aims {
-            [aim] => radiance(*aim),
-            _ => aims.iter().zip(weights).fold(Vec3::ZERO, |sum, (&aim, &w)| sum + w * radiance(aim)),
-        };
+        let spec = self.probe_radiance(q, &[aim], &[1.0]);
         match blend {
             Some((e, w)) => mix_irradiance(spec, e, w),
+            None => spec,
+        }
+    }
+
+    /// The probes' radiance along `aims` for the query's roughness, blended by `weights`
+    /// (summing to 1; one aim is read as it is): the mip from the stored roughness
+    /// correction (`warp::glossy`, shared with the fit and eval).
+    #[inline]
+    fn probe_radiance(&self, q: SpecularQuery, aims: &[Aim], weights: &[f32]) -> Vec3 {
+        let radiance =
+            |aim| glossy_radiance(&self.warp, self.roughness.as_ref(), MipRule::Corrected, q.b, q.dir, aim, q.r);
+        match aims {
+            [aim] => radiance(*aim),
+            _ => aims.iter().zip(weights).fold(Vec3::ZERO, |sum, (&aim, &w)| sum + w * radiance(aim)),
+        }
+    }
+
+    /// A faces-blend lookup's probe radiance `spec` near a cell face (near cells `cells`)
+    /// with its irradiance blend: the near cells' irradiance reads, each as if the point lay
+    /// in it, averaged over those that hold irradiance, blended by the stored weight times
+    /// their share of the near cells' weight (`IrradianceSh::read_near`), so the blend too
+    /// is continuous across faces.
+    #[inline]
+    fn mix_near(&self, q: SpecularQuery, cells: &FaceCells, spec: Vec3, read: SpecularRead) -> Vec3 {
+        let w = self.irradiance_weight(read, q.r);
+        if !(w > 0.0) {
+            return spec;
+        }
+        match self.irradiance_sh.read_near(cells, q.b, q.dir) {
+            Some((e, share)) => mix_irradiance(spec, e, w * share),
             None => spec,
         }
     }
@@ -362,7 +391,7 @@ impl FittedGrid {
     /// safe; the other lanes are left black), bit for bit the same values: each query's
     /// aims are found one by one (`Correctives::face_aims`: up to eight near cells), then
     /// the probe is read for all the aims side by side, [`octa::LANES`] at a time, and each
-    /// query sums its aims' radiances in order, then blends its irradiance as `shade` does.
+    /// query sums its aims' radiances in order, then blends its irradiance (`mix_near`).
     #[inline]
     fn specular_faces_lanes(
         &self,
@@ -428,16 +457,8 @@ impl FittedGrid {
                 spec[k] = if f.n == 1 { radiance[l] } else { spec[k] + f.weights[a as usize] * radiance[l] };
             }
         }
-        let w: [f32; L] =
-            std::array::from_fn(|k| if valid[k] { self.irradiance_weight(self.read, q[k].r) } else { 0.0 });
-        if w.iter().any(|&w| w > 0.0) {
-            let (b, dir) = (q.map(|q| q.b), q.map(|q| q.dir));
-            self.irradiance_sh.mix_lanes(&b, &dir, &w, &mut spec);
-        }
         for k in 0..L {
-            if !valid[k] {
-                spec[k] = Vec3::ZERO;
-            }
+            spec[k] = if valid[k] { self.mix_near(q[k], &cells[k], spec[k], self.read) } else { Vec3::ZERO };
         }
         spec
     }
