@@ -58,6 +58,16 @@ struct Aim {
     int _end_pad_2;
 };
 
+struct Near {
+    Lattice l;
+    uint3 home_at;
+    uint links;
+    uint count;
+    float sum;
+    int _end_pad_0;
+    int _end_pad_1;
+};
+
 struct SurfaceParams {
     float4 corner;
     float4 edge_u;
@@ -221,9 +231,9 @@ float4 unit_direction(float3 v_3)
         return float4(0.0, 0.0, 1.0, 0.0);
     }
     float3 s_2 = (v_3 / (m_1).xxx);
-    float l_5 = length(s_2);
-    if ((l_5 > 0.0)) {
-        const bool _e47 = finite(l_5);
+    float l_3 = length(s_2);
+    if ((l_3 > 0.0)) {
+        const bool _e47 = finite(l_3);
         local_5 = _e47;
     } else {
         local_5 = false;
@@ -232,7 +242,7 @@ float4 unit_direction(float3 v_3)
     if (!(_e49)) {
         return float4(0.0, 0.0, 1.0, 0.0);
     }
-    return float4((s_2 / (l_5).xxx), 1.0);
+    return float4((s_2 / (l_3).xxx), 1.0);
 }
 
 float3 fetch_vector(float3 from, float3 to, float3 fallback)
@@ -377,17 +387,17 @@ float4 probe_bilinear(uint which_1, float2 uv_1, uint level_1, uint p_1)
     uint n_10 = max((naga_f2u32(res0_) >> level_1), 1u);
     const Footprint _e19 = footprint(n_10, uv_1);
     int2 c_10 = _e19.corner;
-    int l_6 = int(level_1);
+    int l_4 = int(level_1);
     int ni = int(n_10);
     int2 at_3 = int2(asint(asuint(int(p_1)) * asuint(ni)), int(0));
     const int2 _e27 = wrap_texel(ni, c_10);
-    const float4 _e29 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e27)), l_6);
+    const float4 _e29 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e27)), l_4);
     const int2 _e34 = wrap_texel(ni, asint(asuint(c_10) + asuint(int2(int(1), int(0)))));
-    const float4 _e36 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e34)), l_6);
+    const float4 _e36 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e34)), l_4);
     const int2 _e41 = wrap_texel(ni, asint(asuint(c_10) + asuint(int2(int(0), int(1)))));
-    const float4 _e43 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e41)), l_6);
+    const float4 _e43 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e41)), l_4);
     const int2 _e48 = wrap_texel(ni, asint(asuint(c_10) + asuint(int2(int(1), int(1)))));
-    const float4 _e50 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e48)), l_6);
+    const float4 _e50 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e48)), l_4);
     const float4 _e52 = blend4_(_e29, _e36, _e43, _e50, _e19.f);
     return _e52;
 }
@@ -785,8 +795,8 @@ Basis orthonormal_basis(float3 n_3)
 {
     float s_4 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_3 = (-1.0 / (s_4 + n_3.z));
-    float b_23 = ((n_3.x * n_3.y) * a_3);
-    const Basis basis = ConstructBasis(float3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_3)), (s_4 * b_23), (-(s_4) * n_3.x)), float3(b_23, (s_4 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+    float b_24 = ((n_3.x * n_3.y) * a_3);
+    const Basis basis = ConstructBasis(float3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_3)), (s_4 * b_24), (-(s_4) * n_3.x)), float3(b_24, (s_4 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
     return basis;
 }
 
@@ -794,16 +804,16 @@ float3 normalize_or(float3 v_5, float3 fallback_1)
 {
     bool local_12 = (bool)0;
 
-    float l_7 = length(v_5);
-    if ((l_7 > 0.0)) {
-        const bool _e7 = finite(l_7);
+    float l_5 = length(v_5);
+    if ((l_5 > 0.0)) {
+        const bool _e7 = finite(l_5);
         local_12 = _e7;
     } else {
         local_12 = false;
     }
     bool _e9 = local_12;
     if (_e9) {
-        return (v_5 / (l_7).xxx);
+        return (v_5 / (l_5).xxx);
     }
     return fallback_1;
 }
@@ -1137,6 +1147,34 @@ Lattice face_lattice(float3 b_12)
     return lattice_2;
 }
 
+int3 naga_abs(int3 val) {
+    return val >= 0 ? val : asint(-asuint(val));
+}
+
+float linked_weight(Lattice l_2, uint corner_3, uint3 home_at, uint links)
+{
+    const float _e4 = corner_weight(l_2, corner_3);
+    if (!((_e4 > 0.0))) {
+        return 0.0;
+    }
+    const uint3 _e9 = corner_cell(l_2, corner_3);
+    if (all((_e9 == home_at))) {
+        return _e4;
+    }
+    int3 o_3 = asint(asuint(int3(_e9)) - asuint(int3(home_at)));
+    if (any((naga_abs(o_3) > (int(1)).xxx))) {
+        return 0.0;
+    }
+    uint bit = uint(asint(asuint(asint(asuint(asint(asuint(o_3.x) + asuint(int(1)))) + asuint(asint(asuint(int(3)) * asuint(asint(asuint(o_3.y) + asuint(int(1)))))))) + asuint(asint(asuint(int(9)) * asuint(asint(asuint(o_3.z) + asuint(int(1))))))));
+    return ((((links >> bit) & 1u) != 0u) ? _e4 : 0.0);
+}
+
+float near_weight(Near near, uint corner_4)
+{
+    const float _e5 = linked_weight(near.l, corner_4, near.home_at, near.links);
+    return (_e5 / near.sum);
+}
+
 float mip_roughness(uint m)
 {
     float _e9 = params.mip_roughness[naga_div(m, 4u)][naga_mod(m, 4u)];
@@ -1208,13 +1246,13 @@ float distance_ratio(float3 b_13, float3 v_6, float2 uv_8, uint p_7)
     bool local_21 = (bool)0;
     bool local_22 = (bool)0;
 
-    float l_8 = length(v_6);
+    float l_6 = length(v_6);
     float _e9 = params.probe.w;
     uint _e13 = params.probe_info.y;
     const float4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_7);
     float w_8 = _e14.x;
-    if ((l_8 > 0.0)) {
-        const bool _e20 = finite(l_8);
+    if ((l_6 > 0.0)) {
+        const bool _e20 = finite(l_6);
         local_19 = _e20;
     } else {
         local_19 = false;
@@ -1238,7 +1276,7 @@ float distance_ratio(float3 b_13, float3 v_6, float2 uv_8, uint p_7)
     }
     float d_probe = (1.0 / w_8);
     float4 _e41 = params.probes[p_7];
-    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_8))) - b_13));
+    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_6))) - b_13));
     float k_13 = (d_probe / d_surface);
     const bool _e49 = finite(k_13);
     if (_e49) {
@@ -1297,7 +1335,7 @@ float corrected_roughness(float r_3, float k_in)
     uint j_5 = min(naga_f2u32(fx), (n_15 - 2u));
     float _e57 = fr;
     float a_4 = (_e57 - float(i_7));
-    float b_24 = (fx - float(j_5));
+    float b_25 = (fx - float(j_5));
     float4 _e67 = roughness_lut.Load(int3(int2(int(j_5), int(i_7)), int(0)));
     float v00_ = _e67.x;
     float4 _e76 = roughness_lut.Load(int3(int2(int((j_5 + 1u)), int(i_7)), int(0)));
@@ -1306,7 +1344,7 @@ float corrected_roughness(float r_3, float k_in)
     float v10_ = _e85.x;
     float4 _e96 = roughness_lut.Load(int3(int2(int((j_5 + 1u)), int((i_7 + 1u))), int(0)));
     float v11_ = _e96.x;
-    return ((((v00_ * (1.0 - b_24)) + (v01_ * b_24)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_24)) + (v11_ * b_24)) * a_4));
+    return ((((v00_ * (1.0 - b_25)) + (v01_ * b_25)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_25)) + (v11_ * b_25)) * a_4));
 }
 
 float3 shade(float3 b_14, Aim aim, float r_4)
@@ -1349,13 +1387,13 @@ ret_Constructarray8_float_ Constructarray8_float_(float arg0, float arg1, float 
     return ret;
 }
 
-float3 faces_radiance(Lattice l_2, float3 b_15, float3 dir_10, float r_5)
+float3 faces_radiance(Near near_1, float3 b_15, float3 dir_10, float r_5)
 {
     uint keys[8] = Constructarray8_uint_(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
     float ws[8] = Constructarray8_float_(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     float ds[8] = Constructarray8_float_(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     uint n_4 = 0u;
-    uint corner_3 = 0u;
+    uint corner_5 = 0u;
     uint key = (uint)0;
     float delta_2 = (float)0;
     uint at = (uint)0;
@@ -1373,39 +1411,39 @@ float3 faces_radiance(Lattice l_2, float3 b_15, float3 dir_10, float r_5)
         if (all(loop_bound_6 == uint2(0u, 0u))) { break; }
         loop_bound_6 -= uint2(loop_bound_6.y == 0u, 1u);
         if (!loop_init_6) {
-            uint _e111 = corner_3;
-            corner_3 = (_e111 + 1u);
+            uint _e112 = corner_5;
+            corner_5 = (_e112 + 1u);
         }
         loop_init_6 = false;
-        uint _e40 = corner_3;
+        uint _e40 = corner_5;
         if ((_e40 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e43 = corner_3;
-            const float _e44 = corner_weight(l_2, _e43);
+            uint _e43 = corner_5;
+            const float _e44 = near_weight(near_1, _e43);
             if (!((_e44 > 0.0))) {
                 continue;
             }
-            uint _e49 = corner_3;
-            const uint3 _e50 = corner_cell(l_2, _e49);
-            const uint _e51 = cell_index(_e50);
-            int4 tiles_3 = asint(cells.Load4(0+_e51*192));
+            uint _e50 = corner_5;
+            const uint3 _e51 = corner_cell(near_1.l, _e50);
+            const uint _e52 = cell_index(_e51);
+            int4 tiles_3 = asint(cells.Load4(0+_e52*192));
             key = 0u;
             delta_2 = 0.0;
             if ((tiles_3.x >= int(0))) {
-                const uint _e63 = probe_of(tiles_3.x, _e4);
-                key = _e63;
-                const float _e64 = cell_delta(tiles_3, _e4, r_5);
-                delta_2 = _e64;
+                const uint _e64 = probe_of(tiles_3.x, _e4);
+                key = _e64;
+                const float _e65 = cell_delta(tiles_3, _e4, r_5);
+                delta_2 = _e65;
             } else {
                 if (_e5) {
                     key = RELAXED;
                 }
             }
-            uint _e66 = n_4;
-            at = _e66;
+            uint _e67 = n_4;
+            at = _e67;
             g = 0u;
             uint2 loop_bound_7 = uint2(4294967295u, 4294967295u);
             bool loop_init_7 = true;
@@ -1413,135 +1451,157 @@ float3 faces_radiance(Lattice l_2, float3 b_15, float3 dir_10, float r_5)
                 if (all(loop_bound_7 == uint2(0u, 0u))) { break; }
                 loop_bound_7 -= uint2(loop_bound_7.y == 0u, 1u);
                 if (!loop_init_7) {
-                    uint _e89 = g;
-                    g = (_e89 + 1u);
+                    uint _e90 = g;
+                    g = (_e90 + 1u);
                 }
                 loop_init_7 = false;
-                uint _e70 = g;
-                uint _e71 = n_4;
-                if ((_e70 < _e71)) {
+                uint _e71 = g;
+                uint _e72 = n_4;
+                if ((_e71 < _e72)) {
                 } else {
                     break;
                 }
                 {
-                    uint _e73 = g;
-                    uint _e75 = keys[min(uint(_e73), 7u)];
-                    uint _e76 = key;
-                    if ((_e75 == _e76)) {
-                        uint _e80 = g;
-                        float _e82 = ds[min(uint(_e80), 7u)];
-                        float _e83 = delta_2;
-                        local_24 = (_e82 == _e83);
+                    uint _e74 = g;
+                    uint _e76 = keys[min(uint(_e74), 7u)];
+                    uint _e77 = key;
+                    if ((_e76 == _e77)) {
+                        uint _e81 = g;
+                        float _e83 = ds[min(uint(_e81), 7u)];
+                        float _e84 = delta_2;
+                        local_24 = (_e83 == _e84);
                     } else {
                         local_24 = false;
                     }
-                    bool _e86 = local_24;
-                    if (_e86) {
-                        uint _e87 = g;
-                        at = _e87;
+                    bool _e87 = local_24;
+                    if (_e87) {
+                        uint _e88 = g;
+                        at = _e88;
                         break;
                     }
                 }
             }
-            uint _e91 = at;
-            uint _e92 = n_4;
-            if ((_e91 == _e92)) {
-                uint _e94 = n_4;
-                uint _e96 = key;
-                keys[min(uint(_e94), 7u)] = _e96;
-                uint _e97 = n_4;
-                ws[min(uint(_e97), 7u)] = 0.0;
-                uint _e100 = n_4;
-                float _e102 = delta_2;
-                ds[min(uint(_e100), 7u)] = _e102;
-                uint _e104 = n_4;
-                n_4 = (_e104 + 1u);
+            uint _e92 = at;
+            uint _e93 = n_4;
+            if ((_e92 == _e93)) {
+                uint _e95 = n_4;
+                uint _e97 = key;
+                keys[min(uint(_e95), 7u)] = _e97;
+                uint _e98 = n_4;
+                ws[min(uint(_e98), 7u)] = 0.0;
+                uint _e101 = n_4;
+                float _e103 = delta_2;
+                ds[min(uint(_e101), 7u)] = _e103;
+                uint _e105 = n_4;
+                n_4 = (_e105 + 1u);
             }
-            uint _e106 = at;
-            float _e108 = ws[min(uint(_e106), 7u)];
-            ws[min(uint(_e106), 7u)] = (_e108 + _e44);
+            uint _e107 = at;
+            float _e109 = ws[min(uint(_e107), 7u)];
+            ws[min(uint(_e107), 7u)] = (_e109 + _e44);
         }
     }
-    const float2 _e113 = proxy_exit(b_15, dir_10);
+    const float2 _e114 = proxy_exit(b_15, dir_10);
     uint2 loop_bound_8 = uint2(4294967295u, 4294967295u);
     bool loop_init_8 = true;
     while(true) {
         if (all(loop_bound_8 == uint2(0u, 0u))) { break; }
         loop_bound_8 -= uint2(loop_bound_8.y == 0u, 1u);
         if (!loop_init_8) {
-            uint _e163 = g_1;
-            g_1 = (_e163 + 1u);
+            uint _e164 = g_1;
+            g_1 = (_e164 + 1u);
         }
         loop_init_8 = false;
-        uint _e119 = g_1;
-        uint _e120 = n_4;
-        if ((_e119 < _e120)) {
+        uint _e120 = g_1;
+        uint _e121 = n_4;
+        if ((_e120 < _e121)) {
         } else {
             break;
         }
         {
-            uint _e122 = g_1;
-            uint _e124 = keys[min(uint(_e122), 7u)];
-            aim_1 = ConstructAim(dir_10, 1.0, _e124);
-            uint _e128 = g_1;
-            uint _e130 = keys[min(uint(_e128), 7u)];
-            if ((_e130 == RELAXED)) {
-                const float3 _e133 = fallback_fetch(b_15, dir_10);
-                aim_1 = ConstructAim(_e133, -1.0, 0u);
+            uint _e123 = g_1;
+            uint _e125 = keys[min(uint(_e123), 7u)];
+            aim_1 = ConstructAim(dir_10, 1.0, _e125);
+            uint _e129 = g_1;
+            uint _e131 = keys[min(uint(_e129), 7u)];
+            if ((_e131 == RELAXED)) {
+                const float3 _e134 = fallback_fetch(b_15, dir_10);
+                aim_1 = ConstructAim(_e134, -1.0, 0u);
             } else {
-                uint _e139 = g_1;
-                uint _e141 = keys[min(uint(_e139), 7u)];
-                float4 _e143 = params.probes[_e141];
-                if (any((b_15 != _e143.xyz))) {
-                    uint _e147 = g_1;
-                    float _e149 = ds[min(uint(_e147), 7u)];
-                    uint _e150 = g_1;
-                    uint _e152 = keys[min(uint(_e150), 7u)];
-                    const Aim _e153 = shifted_aim(_e113, _e149, b_15, dir_10, _e152);
-                    aim_1 = _e153;
+                uint _e140 = g_1;
+                uint _e142 = keys[min(uint(_e140), 7u)];
+                float4 _e144 = params.probes[_e142];
+                if (any((b_15 != _e144.xyz))) {
+                    uint _e148 = g_1;
+                    float _e150 = ds[min(uint(_e148), 7u)];
+                    uint _e151 = g_1;
+                    uint _e153 = keys[min(uint(_e151), 7u)];
+                    const Aim _e154 = shifted_aim(_e114, _e150, b_15, dir_10, _e153);
+                    aim_1 = _e154;
                 }
             }
-            float3 _e154 = c_4;
-            uint _e155 = g_1;
-            float _e157 = ws[min(uint(_e155), 7u)];
-            Aim _e158 = aim_1;
-            const float3 _e159 = shade(b_15, _e158, r_5);
-            c_4 = (_e154 + (_e157 * _e159));
+            float3 _e155 = c_4;
+            uint _e156 = g_1;
+            float _e158 = ws[min(uint(_e156), 7u)];
+            Aim _e159 = aim_1;
+            const float3 _e160 = shade(b_15, _e159, r_5);
+            c_4 = (_e155 + (_e158 * _e160));
         }
     }
-    float3 _e165 = c_4;
-    return _e165;
+    float3 _e166 = c_4;
+    return _e166;
 }
 
-uint near_cells(Lattice l_3)
-{
-    uint near = 0u;
-    uint corner_4 = 0u;
+Near ConstructNear(Lattice arg0, uint3 arg1, uint arg2, uint arg3, float arg4) {
+    Near ret = (Near)0;
+    ret.l = arg0;
+    ret.home_at = arg1;
+    ret.links = arg2;
+    ret.count = arg3;
+    ret.sum = arg4;
+    return ret;
+}
 
+Near near_cells(float3 b_16)
+{
+    uint count = 0u;
+    float sum_1 = 0.0;
+    uint corner_6 = 0u;
+
+    const Lattice _e1 = face_lattice(b_16);
+    const float3 _e2 = cell_size();
+    const uint3 _e3 = cell_of(b_16, _e2);
+    const uint _e5 = cell_index(_e3);
+    uint links_1 = asuint(cells.Load(0+176+_e5*192));
     uint2 loop_bound_9 = uint2(4294967295u, 4294967295u);
     bool loop_init_9 = true;
     while(true) {
         if (all(loop_bound_9 == uint2(0u, 0u))) { break; }
         loop_bound_9 -= uint2(loop_bound_9.y == 0u, 1u);
         if (!loop_init_9) {
-            uint _e18 = corner_4;
-            corner_4 = (_e18 + 1u);
+            uint _e29 = corner_6;
+            corner_6 = (_e29 + 1u);
         }
         loop_init_9 = false;
-        uint _e5 = corner_4;
-        if ((_e5 < 8u)) {
+        uint _e16 = corner_6;
+        if ((_e16 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e8 = near;
-            uint _e11 = corner_4;
-            const float _e12 = corner_weight(l_3, _e11);
-            near = (_e8 + ((_e12 > 0.0) ? 1u : 0u));
+            uint _e19 = corner_6;
+            const float _e20 = linked_weight(_e1, _e19, _e3, links_1);
+            if ((_e20 > 0.0)) {
+                uint _e24 = count;
+                count = (_e24 + 1u);
+                float _e26 = sum_1;
+                sum_1 = (_e26 + _e20);
+            }
         }
     }
-    uint _e20 = near;
-    return _e20;
+    uint _e31 = count;
+    float _e32 = sum_1;
+    const Near near_3 = ConstructNear(_e1, _e3, links_1, _e31, _e32);
+    return near_3;
 }
 
 float3 sh_eval(float3 c_5[9], float3 n_5)
@@ -1600,7 +1660,7 @@ uint NagaBufferLength(ByteAddressBuffer buffer)
     return ret;
 }
 
-float3 sh_read(uint3 home_at, float3 b_16, float3 n_7)
+float3 sh_read(uint3 home_at_1, float3 b_17, float3 n_7)
 {
     uint3 base = (uint3)0;
     float3 frac_ = (float3)0;
@@ -1629,8 +1689,8 @@ float3 sh_read(uint3 home_at, float3 b_16, float3 n_7)
     uint3 counts = _e6.xyz;
     uint3 top_1 = (counts - (1u).xxx);
     float4 _e13 = params.grid_min;
-    float3 units = ((b_16 - _e13.xyz) / _e3);
-    const uint _e17 = cell_index(home_at);
+    float3 units = ((b_17 - _e13.xyz) / _e3);
+    const uint _e17 = cell_index(home_at_1);
     float3 f0_ = (units - (0.5).xxx);
     const bool _e21 = finite3_(f0_);
     if (!(_e21)) {
@@ -1685,7 +1745,7 @@ float3 sh_read(uint3 home_at, float3 b_16, float3 n_7)
     float _e87 = frac_[min(uint(_e85), 2u)];
     float4 weights = float4((1.0 - _e68), (_e73 - _e76), (_e80 - _e83), _e87);
     top_v = top_1;
-    home_v = home_at;
+    home_v = home_at_1;
     uint3 cell_stride = uint3(1u, counts.x, (counts.x * counts.y));
     uint3 bit_stride = uint3(1u, 3u, 9u);
     uint _e102 = base.x;
@@ -1770,10 +1830,10 @@ float3 sh_read(uint3 home_at, float3 b_16, float3 n_7)
             bits[min(uint(_e184), 3u)] = (_e190 + _e191);
         }
     }
-    uint links = asuint(cells.Load(0+176+_e17*192));
+    uint links_2 = asuint(cells.Load(0+176+_e17*192));
     w_2 = weights;
     at_2 = (_e17).xxxx;
-    uint count = ((NagaBufferLength(cells) - 0) / 192);
+    uint count_1 = ((NagaBufferLength(cells) - 0) / 192);
     uint2 loop_bound_12 = uint2(4294967295u, 4294967295u);
     bool loop_init_12 = true;
     while(true) {
@@ -1798,13 +1858,13 @@ float3 sh_read(uint3 home_at, float3 b_16, float3 n_7)
             if ((_e218 < 27u)) {
                 uint _e223 = k_8;
                 uint _e225 = bits[min(uint(_e223), 3u)];
-                local_25 = (((links >> _e225) & 1u) != 0u);
+                local_25 = (((links_2 >> _e225) & 1u) != 0u);
             } else {
                 local_25 = false;
             }
             bool _e232 = local_25;
             if (_e232) {
-                local_26 = (ck < count);
+                local_26 = (ck < count_1);
             } else {
                 local_26 = false;
             }
@@ -1864,15 +1924,15 @@ float3 sh_read(uint3 home_at, float3 b_16, float3 n_7)
     return (_e306 / (wsum_1).xxx);
 }
 
-float3 faces_specular(Lattice l_4, float3 b_17, float3 dir_11, float r_6, float w_3)
+float3 faces_specular(Near near_2, float3 b_18, float3 dir_11, float r_6, float w_3)
 {
     float3 c_7 = (float3)0;
     float3 e = (0.0).xxx;
     float share = 0.0;
-    uint corner_5 = 0u;
+    uint corner_7 = 0u;
     bool local_27 = (bool)0;
 
-    const float3 _e5 = faces_radiance(l_4, b_17, dir_11, r_6);
+    const float3 _e5 = faces_radiance(near_2, b_18, dir_11, r_6);
     c_7 = _e5;
     if ((w_3 > 0.0)) {
         uint2 loop_bound_13 = uint2(4294967295u, 4294967295u);
@@ -1881,49 +1941,49 @@ float3 faces_specular(Lattice l_4, float3 b_17, float3 dir_11, float r_6, float 
             if (all(loop_bound_13 == uint2(0u, 0u))) { break; }
             loop_bound_13 -= uint2(loop_bound_13.y == 0u, 1u);
             if (!loop_init_13) {
-                uint _e44 = corner_5;
-                corner_5 = (_e44 + 1u);
+                uint _e45 = corner_7;
+                corner_7 = (_e45 + 1u);
             }
             loop_init_13 = false;
-            uint _e16 = corner_5;
+            uint _e16 = corner_7;
             if ((_e16 < 8u)) {
             } else {
                 break;
             }
             {
-                uint _e19 = corner_5;
-                const float _e20 = corner_weight(l_4, _e19);
-                uint _e21 = corner_5;
-                const uint3 _e22 = corner_cell(l_4, _e21);
+                uint _e19 = corner_7;
+                const float _e20 = near_weight(near_2, _e19);
+                uint _e22 = corner_7;
+                const uint3 _e23 = corner_cell(near_2.l, _e22);
                 if ((_e20 > 0.0)) {
-                    const uint _e28 = cell_index(_e22);
-                    int _e32 = asint(cells.Load(4+0+_e28*192));
-                    local_27 = (_e32 >= int(0));
+                    const uint _e29 = cell_index(_e23);
+                    int _e33 = asint(cells.Load(4+0+_e29*192));
+                    local_27 = (_e33 >= int(0));
                 } else {
                     local_27 = false;
                 }
-                bool _e36 = local_27;
-                if (_e36) {
-                    float3 _e37 = e;
-                    const float3 _e38 = sh_read(_e22, b_17, dir_11);
-                    e = (_e37 + (_e20 * _e38));
-                    float _e41 = share;
-                    share = (_e41 + _e20);
+                bool _e37 = local_27;
+                if (_e37) {
+                    float3 _e38 = e;
+                    const float3 _e39 = sh_read(_e23, b_18, dir_11);
+                    e = (_e38 + (_e20 * _e39));
+                    float _e42 = share;
+                    share = (_e42 + _e20);
                 }
             }
         }
-        float _e46 = share;
-        if ((_e46 > 0.0)) {
-            float3 _e49 = c_7;
-            float _e50 = share;
-            float3 _e55 = e;
-            float _e56 = share;
-            float _e59 = share;
-            c_7 = ((_e49 * (1.0 - (w_3 * _e50))) + ((_e55 / (_e56).xxx) * ((w_3 * _e59) * 0.31830987)));
+        float _e47 = share;
+        if ((_e47 > 0.0)) {
+            float3 _e50 = c_7;
+            float _e51 = share;
+            float3 _e56 = e;
+            float _e57 = share;
+            float _e60 = share;
+            c_7 = ((_e50 * (1.0 - (w_3 * _e51))) + ((_e56 / (_e57).xxx) * ((w_3 * _e60) * 0.31830987)));
         }
     }
-    float3 _e65 = c_7;
-    return _e65;
+    float3 _e66 = c_7;
+    return _e66;
 }
 
 float blend_node_r(uint k_9)
@@ -2001,9 +2061,9 @@ float3 clean(float3 c_8)
 
 float3 specular(float3 position, float3 direction, float roughness)
 {
-    float3 b_18 = (float3)0;
+    float3 b_19 = (float3)0;
     float r_8 = 0.0;
-    uint3 home_at_1 = (0u).xxx;
+    uint3 home_at_2 = (0u).xxx;
     bool stored = false;
     bool local_29 = (bool)0;
     float3 c_9 = (float3)0;
@@ -2013,10 +2073,10 @@ float3 specular(float3 position, float3 direction, float roughness)
         return (0.0).xxx;
     }
     float4 _e11 = params.probe;
-    b_18 = _e11.xyz;
+    b_19 = _e11.xyz;
     const bool _e14 = finite3_(position);
     if (_e14) {
-        b_18 = position;
+        b_19 = position;
     }
     const bool _e17 = finite(roughness);
     if (_e17) {
@@ -2026,11 +2086,10 @@ float3 specular(float3 position, float3 direction, float roughness)
     const float _e22 = irradiance_weight(_e21);
     const uint _e23 = blend_mode();
     if ((_e23 == 2u)) {
-        float3 _e26 = b_18;
-        const Lattice _e27 = face_lattice(_e26);
-        const uint _e28 = near_cells(_e27);
-        if ((_e28 > 1u)) {
-            float3 _e31 = b_18;
+        float3 _e26 = b_19;
+        const Near _e27 = near_cells(_e26);
+        if ((_e27.count > 1u)) {
+            float3 _e31 = b_19;
             float _e33 = r_8;
             const float3 _e34 = faces_specular(_e27, _e31, _e3.xyz, _e33, _e22);
             const float3 _e35 = clean(_e34);
@@ -2038,11 +2097,11 @@ float3 specular(float3 position, float3 direction, float roughness)
         }
     }
     if ((_e22 > 0.0)) {
-        float3 _e43 = b_18;
+        float3 _e43 = b_19;
         const float3 _e44 = cell_size();
         const uint3 _e45 = cell_of(_e43, _e44);
-        home_at_1 = _e45;
-        uint3 _e47 = home_at_1;
+        home_at_2 = _e45;
+        uint3 _e47 = home_at_2;
         const uint _e48 = cell_index(_e47);
         int _e52 = asint(cells.Load(4+0+_e48*192));
         stored = (_e52 >= int(0));
@@ -2055,14 +2114,14 @@ float3 specular(float3 position, float3 direction, float roughness)
     }
     bool _e61 = local_29;
     if (_e61) {
-        uint3 _e62 = home_at_1;
-        float3 _e63 = b_18;
+        uint3 _e62 = home_at_2;
+        float3 _e63 = b_19;
         const float3 _e65 = sh_read(_e62, _e63, _e3.xyz);
         const float3 _e69 = clean((_e65 * (_e22 * 0.31830987)));
         return _e69;
     }
-    float3 _e70 = b_18;
-    float3 _e71 = b_18;
+    float3 _e70 = b_19;
+    float3 _e71 = b_19;
     float _e73 = r_8;
     const Aim _e74 = fetch(_e71, _e3.xyz, _e73);
     float _e75 = r_8;
@@ -2071,8 +2130,8 @@ float3 specular(float3 position, float3 direction, float roughness)
     bool _e78 = stored;
     if (_e78) {
         float3 _e79 = c_9;
-        uint3 _e83 = home_at_1;
-        float3 _e84 = b_18;
+        uint3 _e83 = home_at_2;
+        float3 _e84 = b_19;
         const float3 _e86 = sh_read(_e83, _e84, _e3.xyz);
         c_9 = ((_e79 * (1.0 - _e22)) + (_e86 * (_e22 * 0.31830987)));
     }
@@ -2095,7 +2154,7 @@ float3 irradiance(float3 position_1, float3 normal)
     float3 p_8 = (float3)0;
     float3 e_1 = (0.0).xxx;
     float wsum = 0.0;
-    uint corner_6 = 0u;
+    uint corner_8 = 0u;
     float w_5 = (float)0;
     bool local_30 = (bool)0;
     float k_12 = (float)0;
@@ -2125,22 +2184,22 @@ float3 irradiance(float3 position_1, float3 normal)
         if (all(loop_bound_15 == uint2(0u, 0u))) { break; }
         loop_bound_15 -= uint2(loop_bound_15.y == 0u, 1u);
         if (!loop_init_15) {
-            uint _e157 = corner_6;
-            corner_6 = (_e157 + 1u);
+            uint _e157 = corner_8;
+            corner_8 = (_e157 + 1u);
         }
         loop_init_15 = false;
-        uint _e44 = corner_6;
+        uint _e44 = corner_8;
         if ((_e44 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e47 = corner_6;
+            uint _e47 = corner_8;
             const float _e48 = corner_weight(_e35, _e47);
             if ((_e48 <= 0.0)) {
                 continue;
             }
-            uint _e51 = corner_6;
+            uint _e51 = corner_8;
             const uint3 _e52 = corner_cell(_e35, _e51);
             const uint _e53 = cell_index(_e52);
             int4 tiles_4 = asint(cells.Load4(0+_e53*192));
@@ -2276,12 +2335,12 @@ SurfaceTaps surface_taps(float2 uv_9)
 float3 surface_tile(uint i_2, uint j_1, uint layer, SurfaceTaps t_6)
 {
     uint _e8 = surface_params.shape.z;
-    uint2 o_3 = (uint2(i_2, j_1) * _e8);
-    int l_9 = int(layer);
-    float4 q00_1 = surface_radiance.Load(int4(int2((o_3 + t_6.lo)), l_9, int(0)));
-    float4 q10_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.hi.x, t_6.lo.y))), l_9, int(0)));
-    float4 q01_1 = surface_radiance.Load(int4(int2((o_3 + uint2(t_6.lo.x, t_6.hi.y))), l_9, int(0)));
-    float4 q11_1 = surface_radiance.Load(int4(int2((o_3 + t_6.hi)), l_9, int(0)));
+    uint2 o_4 = (uint2(i_2, j_1) * _e8);
+    int l_7 = int(layer);
+    float4 q00_1 = surface_radiance.Load(int4(int2((o_4 + t_6.lo)), l_7, int(0)));
+    float4 q10_1 = surface_radiance.Load(int4(int2((o_4 + uint2(t_6.hi.x, t_6.lo.y))), l_7, int(0)));
+    float4 q01_1 = surface_radiance.Load(int4(int2((o_4 + uint2(t_6.lo.x, t_6.hi.y))), l_7, int(0)));
+    float4 q11_1 = surface_radiance.Load(int4(int2((o_4 + t_6.hi)), l_7, int(0)));
     const float4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_6.f);
     return _e44.xyz;
 }
@@ -2289,16 +2348,16 @@ float3 surface_tile(uint i_2, uint j_1, uint layer, SurfaceTaps t_6)
 float surface_tile_inv_distance(uint i_3, uint j_2, SurfaceTaps t_7)
 {
     uint _e7 = surface_params.shape.z;
-    uint2 o_4 = (uint2(i_3, j_2) * _e7);
-    float4 q00_2 = surface_inv_distance.Load(int3(int2((o_4 + t_7.lo)), int(0)));
-    float4 q10_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(t_7.hi.x, t_7.lo.y))), int(0)));
-    float4 q01_2 = surface_inv_distance.Load(int3(int2((o_4 + uint2(t_7.lo.x, t_7.hi.y))), int(0)));
-    float4 q11_2 = surface_inv_distance.Load(int3(int2((o_4 + t_7.hi)), int(0)));
+    uint2 o_5 = (uint2(i_3, j_2) * _e7);
+    float4 q00_2 = surface_inv_distance.Load(int3(int2((o_5 + t_7.lo)), int(0)));
+    float4 q10_2 = surface_inv_distance.Load(int3(int2((o_5 + uint2(t_7.hi.x, t_7.lo.y))), int(0)));
+    float4 q01_2 = surface_inv_distance.Load(int3(int2((o_5 + uint2(t_7.lo.x, t_7.hi.y))), int(0)));
+    float4 q11_2 = surface_inv_distance.Load(int3(int2((o_5 + t_7.hi)), int(0)));
     const float4 _e42 = blend4_(q00_2, q10_2, q01_2, q11_2, t_7.f);
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_19, float3 local_32, SurfaceTaps shared_taps)
+SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_20, float3 local_32, SurfaceTaps shared_taps)
 {
     bool local_33 = (bool)0;
     bool local_34 = (bool)0;
@@ -2307,7 +2366,7 @@ SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_19, float3 local_32
     float s_6 = ((float(i_4) + 0.5) / float(sp.shape.x));
     float t_16 = ((float(j_3) + 0.5) / float(sp.shape.y));
     float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_6)) + (sp.edge_v.xyz * t_16)) + (sp.normal.xyz * sp.corner.w));
-    float3 d_3 = (probe - b_19);
+    float3 d_3 = (probe - b_20);
     float3 ab_2 = float3(dot(d_3, sp.tangent.xyz), dot(d_3, sp.bitangent.xyz), dot(d_3, sp.normal.xyz));
     const float _e48 = surface_tile_inv_distance(i_4, j_3, shared_taps);
     float3 v_12 = ((local_32 * max(((dot(local_32, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
@@ -2346,7 +2405,7 @@ float3 surface_probe(uint i_5, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, fl
 
 float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped)
 {
-    float3 b_20 = (float3)0;
+    float3 b_21 = (float3)0;
     float lod_2 = 0.0;
     SurfaceTaps t00_ = (SurfaceTaps)0;
     SurfaceTaps t10_ = (SurfaceTaps)0;
@@ -2358,12 +2417,12 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
         return (0.0).xxx;
     }
     SurfaceParams sp_1 = surface_params;
-    b_20 = sp_1.corner.xyz;
+    b_21 = sp_1.corner.xyz;
     const bool _e15 = finite3_(b_in);
     if (_e15) {
-        b_20 = b_in;
+        b_21 = b_in;
     }
-    float3 _e16 = b_20;
+    float3 _e16 = b_21;
     float3 d_4 = (_e16 - sp_1.corner.xyz);
     const SurfaceAxis _e25 = surface_axis(dot(sp_1.dual_u.xyz, d_4), sp_1.shape.x);
     const SurfaceAxis _e31 = surface_axis(dot(sp_1.dual_v.xyz, d_4), sp_1.shape.y);
@@ -2386,16 +2445,16 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     t01_ = _e65;
     t11_ = _e65;
     if (warped) {
-        float3 _e72 = b_20;
+        float3 _e72 = b_21;
         const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_35, _e65);
         t00_ = _e73;
-        float3 _e76 = b_20;
+        float3 _e76 = b_21;
         const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_35, _e65);
         t10_ = _e77;
-        float3 _e80 = b_20;
+        float3 _e80 = b_21;
         const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_35, _e65);
         t01_ = _e81;
-        float3 _e84 = b_20;
+        float3 _e84 = b_21;
         const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_35, _e65);
         t11_ = _e85;
     }
@@ -2409,23 +2468,23 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     SurfaceTaps _e102 = t11_;
     const float3 _e103 = surface_probe(_e25.i1_, _e31.i1_, _e102, m0_1, m1_1, fm_1);
     float3 bottom = lerp(_e99, _e103, _e25.f);
-    float3 l_10 = lerp(top_2, bottom, _e31.f);
-    const bool _e108 = finite3_(l_10);
+    float3 l_8 = lerp(top_2, bottom, _e31.f);
+    const bool _e108 = finite3_(l_8);
     if (_e108) {
-        return max(l_10, (0.0).xxx);
+        return max(l_8, (0.0).xxx);
     }
     return (0.0).xxx;
 }
 
-float3 surface_specular(float3 b_21, float3 dir_12, float roughness_2)
+float3 surface_specular(float3 b_22, float3 dir_12, float roughness_2)
 {
-    const float3 _e4 = surface_lookup(b_21, dir_12, roughness_2, false);
+    const float3 _e4 = surface_lookup(b_22, dir_12, roughness_2, false);
     return _e4;
 }
 
-float3 surface_specular_warped(float3 b_22, float3 dir_13, float roughness_3)
+float3 surface_specular_warped(float3 b_23, float3 dir_13, float roughness_3)
 {
-    const float3 _e4 = surface_lookup(b_22, dir_13, roughness_3, true);
+    const float3 _e4 = surface_lookup(b_23, dir_13, roughness_3, true);
     return _e4;
 }
 

@@ -50,6 +50,13 @@ struct Aim {
     float k;
     uint p;
 };
+struct Near {
+    Lattice l;
+    uvec3 home_at;
+    uint links;
+    uint count;
+    float sum;
+};
 struct SurfaceParams {
     vec4 corner;
     vec4 edge_u;
@@ -202,9 +209,9 @@ vec4 unit_direction(vec3 v_3) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
     vec3 s_2 = (v_3 / vec3(m_1));
-    float l_5 = length(s_2);
-    if ((l_5 > 0.0)) {
-        bool _e47 = finite(l_5);
+    float l_3 = length(s_2);
+    if ((l_3 > 0.0)) {
+        bool _e47 = finite(l_3);
         local_5 = _e47;
     } else {
         local_5 = false;
@@ -213,7 +220,7 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    return vec4((s_2 / vec3(l_5)), 1.0);
+    return vec4((s_2 / vec3(l_3)), 1.0);
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
@@ -524,22 +531,22 @@ vec3 box_fetch(vec3 b_8, vec3 dir_6) {
 Basis orthonormal_basis(vec3 n_3) {
     float s_4 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_1 = (-1.0 / (s_4 + n_3.z));
-    float b_23 = ((n_3.x * n_3.y) * a_1);
-    return Basis(vec3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_1)), (s_4 * b_23), (-(s_4) * n_3.x)), vec3(b_23, (s_4 + ((n_3.y * n_3.y) * a_1)), -(n_3.y)));
+    float b_24 = ((n_3.x * n_3.y) * a_1);
+    return Basis(vec3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_1)), (s_4 * b_24), (-(s_4) * n_3.x)), vec3(b_24, (s_4 + ((n_3.y * n_3.y) * a_1)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
     bool local_12 = false;
-    float l_6 = length(v_5);
-    if ((l_6 > 0.0)) {
-        bool _e7 = finite(l_6);
+    float l_4 = length(v_5);
+    if ((l_4 > 0.0)) {
+        bool _e7 = finite(l_4);
         local_12 = _e7;
     } else {
         local_12 = false;
     }
     bool _e9 = local_12;
     if (_e9) {
-        return (v_5 / vec3(l_6));
+        return (v_5 / vec3(l_4));
     }
     return fallback_1;
 }
@@ -690,6 +697,28 @@ Lattice face_lattice(vec3 b_12) {
     return Lattice(_e2.base, vec3(_e6, _e9, _e12));
 }
 
+float linked_weight(Lattice l_2, uint corner_3, uvec3 home_at, uint links) {
+    float _e4 = corner_weight(l_2, corner_3);
+    if (!((_e4 > 0.0))) {
+        return 0.0;
+    }
+    uvec3 _e9 = corner_cell(l_2, corner_3);
+    if (all(equal(_e9, home_at))) {
+        return _e4;
+    }
+    ivec3 o_3 = (ivec3(_e9) - ivec3(home_at));
+    if (any(greaterThan(abs(o_3), ivec3(1)))) {
+        return 0.0;
+    }
+    uint bit = uint((((o_3.x + 1) + (3 * (o_3.y + 1))) + (9 * (o_3.z + 1))));
+    return ((((links >> bit) & 1u) != 0u) ? _e4 : 0.0);
+}
+
+float near_weight(Near near, uint corner_4) {
+    float _e5 = linked_weight(near.l, corner_4, near.home_at, near.links);
+    return (_e5 / near.sum);
+}
+
 float mip_roughness(uint m) {
     float _e9 = _group_0_binding_7_cs.mip_roughness[(m / 4u)][(m % 4u)];
     return _e9;
@@ -755,30 +784,41 @@ float pseudo_log2_(float k_4) {
     return (float(e_2) + (m_3 - 1.0));
 }
 
-uint near_cells(Lattice l_3) {
-    uint near = 0u;
-    uint corner_4 = 0u;
+Near near_cells(vec3 b_16) {
+    uint count = 0u;
+    float sum_1 = 0.0;
+    uint corner_6 = 0u;
+    Lattice _e1 = face_lattice(b_16);
+    vec3 _e2 = cell_size();
+    uvec3 _e3 = cell_of(b_16, _e2);
+    uint _e5 = cell_index(_e3);
+    uint links_1 = _group_0_binding_8_cs[_e5].links.x;
     bool loop_init_4 = true;
     while(true) {
         if (!loop_init_4) {
-            uint _e18 = corner_4;
-            corner_4 = (_e18 + 1u);
+            uint _e29 = corner_6;
+            corner_6 = (_e29 + 1u);
         }
         loop_init_4 = false;
-        uint _e5 = corner_4;
-        if ((_e5 < 8u)) {
+        uint _e16 = corner_6;
+        if ((_e16 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e8 = near;
-            uint _e11 = corner_4;
-            float _e12 = corner_weight(l_3, _e11);
-            near = (_e8 + ((_e12 > 0.0) ? 1u : 0u));
+            uint _e19 = corner_6;
+            float _e20 = linked_weight(_e1, _e19, _e3, links_1);
+            if ((_e20 > 0.0)) {
+                uint _e24 = count;
+                count = (_e24 + 1u);
+                float _e26 = sum_1;
+                sum_1 = (_e26 + _e20);
+            }
         }
     }
-    uint _e20 = near;
-    return _e20;
+    uint _e31 = count;
+    float _e32 = sum_1;
+    return Near(_e1, _e3, links_1, _e31, _e32);
 }
 
 vec3 sh_eval(vec3 c_5[9], vec3 n_5) {
@@ -898,7 +938,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     vec3 p_8 = vec3(0.0);
     vec3 e_1 = vec3(0.0);
     float wsum = 0.0;
-    uint corner_6 = 0u;
+    uint corner_8 = 0u;
     float w_5 = 0.0;
     bool local_30 = false;
     float k_12 = 0.0;
@@ -924,22 +964,22 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     bool loop_init_6 = true;
     while(true) {
         if (!loop_init_6) {
-            uint _e157 = corner_6;
-            corner_6 = (_e157 + 1u);
+            uint _e157 = corner_8;
+            corner_8 = (_e157 + 1u);
         }
         loop_init_6 = false;
-        uint _e44 = corner_6;
+        uint _e44 = corner_8;
         if ((_e44 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e47 = corner_6;
+            uint _e47 = corner_8;
             float _e48 = corner_weight(_e35, _e47);
             if ((_e48 <= 0.0)) {
                 continue;
             }
-            uint _e51 = corner_6;
+            uint _e51 = corner_8;
             uvec3 _e52 = corner_cell(_e35, _e51);
             uint _e53 = cell_index(_e52);
             ivec4 tiles_1 = _group_0_binding_8_cs[_e53].tiles;

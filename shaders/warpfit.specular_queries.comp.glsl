@@ -50,6 +50,13 @@ struct Aim {
     float k;
     uint p;
 };
+struct Near {
+    Lattice l;
+    uvec3 home_at;
+    uint links;
+    uint count;
+    float sum;
+};
 struct SurfaceParams {
     vec4 corner;
     vec4 edge_u;
@@ -208,9 +215,9 @@ vec4 unit_direction(vec3 v_3) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
     vec3 s_2 = (v_3 / vec3(m_1));
-    float l_5 = length(s_2);
-    if ((l_5 > 0.0)) {
-        bool _e47 = finite(l_5);
+    float l_3 = length(s_2);
+    if ((l_3 > 0.0)) {
+        bool _e47 = finite(l_3);
         local_5 = _e47;
     } else {
         local_5 = false;
@@ -219,7 +226,7 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    return vec4((s_2 / vec3(l_5)), 1.0);
+    return vec4((s_2 / vec3(l_3)), 1.0);
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
@@ -334,17 +341,17 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1, uint p_1) {
     uint n_10 = max((uint(res0_) >> level_1), 1u);
     Footprint _e19 = footprint(n_10, uv_1);
     ivec2 c_10 = _e19.corner;
-    int l_6 = int(level_1);
+    int l_4 = int(level_1);
     int ni = int(n_10);
     ivec2 at_3 = ivec2((int(p_1) * ni), 0);
     ivec2 _e27 = wrap_texel(ni, c_10);
-    vec4 _e29 = probe_texel(which_1, (at_3 + _e27), l_6);
+    vec4 _e29 = probe_texel(which_1, (at_3 + _e27), l_4);
     ivec2 _e34 = wrap_texel(ni, (c_10 + ivec2(1, 0)));
-    vec4 _e36 = probe_texel(which_1, (at_3 + _e34), l_6);
+    vec4 _e36 = probe_texel(which_1, (at_3 + _e34), l_4);
     ivec2 _e41 = wrap_texel(ni, (c_10 + ivec2(0, 1)));
-    vec4 _e43 = probe_texel(which_1, (at_3 + _e41), l_6);
+    vec4 _e43 = probe_texel(which_1, (at_3 + _e41), l_4);
     ivec2 _e48 = wrap_texel(ni, (c_10 + ivec2(1, 1)));
-    vec4 _e50 = probe_texel(which_1, (at_3 + _e48), l_6);
+    vec4 _e50 = probe_texel(which_1, (at_3 + _e48), l_4);
     vec4 _e52 = blend4_(_e29, _e36, _e43, _e50, _e19.f);
     return _e52;
 }
@@ -682,22 +689,22 @@ vec3 box_fetch(vec3 b_8, vec3 dir_6) {
 Basis orthonormal_basis(vec3 n_3) {
     float s_4 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_3 = (-1.0 / (s_4 + n_3.z));
-    float b_23 = ((n_3.x * n_3.y) * a_3);
-    return Basis(vec3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_3)), (s_4 * b_23), (-(s_4) * n_3.x)), vec3(b_23, (s_4 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+    float b_24 = ((n_3.x * n_3.y) * a_3);
+    return Basis(vec3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_3)), (s_4 * b_24), (-(s_4) * n_3.x)), vec3(b_24, (s_4 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
     bool local_12 = false;
-    float l_7 = length(v_5);
-    if ((l_7 > 0.0)) {
-        bool _e7 = finite(l_7);
+    float l_5 = length(v_5);
+    if ((l_5 > 0.0)) {
+        bool _e7 = finite(l_5);
         local_12 = _e7;
     } else {
         local_12 = false;
     }
     bool _e9 = local_12;
     if (_e9) {
-        return (v_5 / vec3(l_7));
+        return (v_5 / vec3(l_5));
     }
     return fallback_1;
 }
@@ -993,6 +1000,28 @@ Lattice face_lattice(vec3 b_12) {
     return Lattice(_e2.base, vec3(_e6, _e9, _e12));
 }
 
+float linked_weight(Lattice l_2, uint corner_3, uvec3 home_at, uint links) {
+    float _e4 = corner_weight(l_2, corner_3);
+    if (!((_e4 > 0.0))) {
+        return 0.0;
+    }
+    uvec3 _e9 = corner_cell(l_2, corner_3);
+    if (all(equal(_e9, home_at))) {
+        return _e4;
+    }
+    ivec3 o_3 = (ivec3(_e9) - ivec3(home_at));
+    if (any(greaterThan(abs(o_3), ivec3(1)))) {
+        return 0.0;
+    }
+    uint bit = uint((((o_3.x + 1) + (3 * (o_3.y + 1))) + (9 * (o_3.z + 1))));
+    return ((((links >> bit) & 1u) != 0u) ? _e4 : 0.0);
+}
+
+float near_weight(Near near, uint corner_4) {
+    float _e5 = linked_weight(near.l, corner_4, near.home_at, near.links);
+    return (_e5 / near.sum);
+}
+
 float mip_roughness(uint m) {
     float _e9 = _group_0_binding_7_cs.mip_roughness[(m / 4u)][(m % 4u)];
     return _e9;
@@ -1056,13 +1085,13 @@ float distance_ratio(vec3 b_13, vec3 v_6, vec2 uv_8, uint p_7) {
     bool local_20 = false;
     bool local_21 = false;
     bool local_22 = false;
-    float l_8 = length(v_6);
+    float l_6 = length(v_6);
     float _e9 = _group_0_binding_7_cs.probe.w;
     uint _e13 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_7);
     float w_8 = _e14.x;
-    if ((l_8 > 0.0)) {
-        bool _e20 = finite(l_8);
+    if ((l_6 > 0.0)) {
+        bool _e20 = finite(l_6);
         local_19 = _e20;
     } else {
         local_19 = false;
@@ -1086,7 +1115,7 @@ float distance_ratio(vec3 b_13, vec3 v_6, vec2 uv_8, uint p_7) {
     }
     float d_probe = (1.0 / w_8);
     vec4 _e41 = _group_0_binding_7_cs.probes[p_7];
-    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_8))) - b_13));
+    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_6))) - b_13));
     float k_13 = (d_probe / d_surface);
     bool _e49 = finite(k_13);
     if (_e49) {
@@ -1142,7 +1171,7 @@ float corrected_roughness(float r_3, float k_in) {
     uint j_5 = min(uint(fx), (n_15 - 2u));
     float _e57 = fr;
     float a_4 = (_e57 - float(i_7));
-    float b_24 = (fx - float(j_5));
+    float b_25 = (fx - float(j_5));
     vec4 _e67 = texelFetch(_group_0_binding_6_cs, ivec2(int(j_5), int(i_7)), 0);
     float v00_ = _e67.x;
     vec4 _e76 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_5 + 1u)), int(i_7)), 0);
@@ -1151,7 +1180,7 @@ float corrected_roughness(float r_3, float k_in) {
     float v10_ = _e85.x;
     vec4 _e96 = texelFetch(_group_0_binding_6_cs, ivec2(int((j_5 + 1u)), int((i_7 + 1u))), 0);
     float v11_ = _e96.x;
-    return ((((v00_ * (1.0 - b_24)) + (v01_ * b_24)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_24)) + (v11_ * b_24)) * a_4));
+    return ((((v00_ * (1.0 - b_25)) + (v01_ * b_25)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_25)) + (v11_ * b_25)) * a_4));
 }
 
 vec3 shade(vec3 b_14, Aim aim, float r_4) {
@@ -1180,12 +1209,12 @@ vec3 shade(vec3 b_14, Aim aim, float r_4) {
     return _e27;
 }
 
-vec3 faces_radiance(Lattice l_2, vec3 b_15, vec3 dir_10, float r_5) {
+vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_10, float r_5) {
     uint keys[8] = uint[8](0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
     float ws[8] = float[8](0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     float ds[8] = float[8](0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     uint n_4 = 0u;
-    uint corner_3 = 0u;
+    uint corner_5 = 0u;
     uint key = 0u;
     float delta_2 = 0.0;
     uint at = 0u;
@@ -1199,164 +1228,175 @@ vec3 faces_radiance(Lattice l_2, vec3 b_15, vec3 dir_10, float r_5) {
     bool loop_init_6 = true;
     while(true) {
         if (!loop_init_6) {
-            uint _e111 = corner_3;
-            corner_3 = (_e111 + 1u);
+            uint _e112 = corner_5;
+            corner_5 = (_e112 + 1u);
         }
         loop_init_6 = false;
-        uint _e40 = corner_3;
+        uint _e40 = corner_5;
         if ((_e40 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e43 = corner_3;
-            float _e44 = corner_weight(l_2, _e43);
+            uint _e43 = corner_5;
+            float _e44 = near_weight(near_1, _e43);
             if (!((_e44 > 0.0))) {
                 continue;
             }
-            uint _e49 = corner_3;
-            uvec3 _e50 = corner_cell(l_2, _e49);
-            uint _e51 = cell_index(_e50);
-            ivec4 tiles_3 = _group_0_binding_8_cs[_e51].tiles;
+            uint _e50 = corner_5;
+            uvec3 _e51 = corner_cell(near_1.l, _e50);
+            uint _e52 = cell_index(_e51);
+            ivec4 tiles_3 = _group_0_binding_8_cs[_e52].tiles;
             key = 0u;
             delta_2 = 0.0;
             if ((tiles_3.x >= 0)) {
-                uint _e63 = probe_of(tiles_3.x, _e4);
-                key = _e63;
-                float _e64 = cell_delta(tiles_3, _e4, r_5);
-                delta_2 = _e64;
+                uint _e64 = probe_of(tiles_3.x, _e4);
+                key = _e64;
+                float _e65 = cell_delta(tiles_3, _e4, r_5);
+                delta_2 = _e65;
             } else {
                 if (_e5) {
                     key = RELAXED;
                 }
             }
-            uint _e66 = n_4;
-            at = _e66;
+            uint _e67 = n_4;
+            at = _e67;
             g = 0u;
             bool loop_init_7 = true;
             while(true) {
                 if (!loop_init_7) {
-                    uint _e89 = g;
-                    g = (_e89 + 1u);
+                    uint _e90 = g;
+                    g = (_e90 + 1u);
                 }
                 loop_init_7 = false;
-                uint _e70 = g;
-                uint _e71 = n_4;
-                if ((_e70 < _e71)) {
+                uint _e71 = g;
+                uint _e72 = n_4;
+                if ((_e71 < _e72)) {
                 } else {
                     break;
                 }
                 {
-                    uint _e73 = g;
-                    uint _e75 = keys[_e73];
-                    uint _e76 = key;
-                    if ((_e75 == _e76)) {
-                        uint _e80 = g;
-                        float _e82 = ds[_e80];
-                        float _e83 = delta_2;
-                        local_24 = (_e82 == _e83);
+                    uint _e74 = g;
+                    uint _e76 = keys[_e74];
+                    uint _e77 = key;
+                    if ((_e76 == _e77)) {
+                        uint _e81 = g;
+                        float _e83 = ds[_e81];
+                        float _e84 = delta_2;
+                        local_24 = (_e83 == _e84);
                     } else {
                         local_24 = false;
                     }
-                    bool _e86 = local_24;
-                    if (_e86) {
-                        uint _e87 = g;
-                        at = _e87;
+                    bool _e87 = local_24;
+                    if (_e87) {
+                        uint _e88 = g;
+                        at = _e88;
                         break;
                     }
                 }
             }
-            uint _e91 = at;
-            uint _e92 = n_4;
-            if ((_e91 == _e92)) {
-                uint _e94 = n_4;
-                uint _e96 = key;
-                keys[_e94] = _e96;
-                uint _e97 = n_4;
-                ws[_e97] = 0.0;
-                uint _e100 = n_4;
-                float _e102 = delta_2;
-                ds[_e100] = _e102;
-                uint _e104 = n_4;
-                n_4 = (_e104 + 1u);
+            uint _e92 = at;
+            uint _e93 = n_4;
+            if ((_e92 == _e93)) {
+                uint _e95 = n_4;
+                uint _e97 = key;
+                keys[_e95] = _e97;
+                uint _e98 = n_4;
+                ws[_e98] = 0.0;
+                uint _e101 = n_4;
+                float _e103 = delta_2;
+                ds[_e101] = _e103;
+                uint _e105 = n_4;
+                n_4 = (_e105 + 1u);
             }
-            uint _e106 = at;
-            float _e108 = ws[_e106];
-            ws[_e106] = (_e108 + _e44);
+            uint _e107 = at;
+            float _e109 = ws[_e107];
+            ws[_e107] = (_e109 + _e44);
         }
     }
-    vec2 _e113 = proxy_exit(b_15, dir_10);
+    vec2 _e114 = proxy_exit(b_15, dir_10);
     bool loop_init_8 = true;
     while(true) {
         if (!loop_init_8) {
-            uint _e163 = g_1;
-            g_1 = (_e163 + 1u);
+            uint _e164 = g_1;
+            g_1 = (_e164 + 1u);
         }
         loop_init_8 = false;
-        uint _e119 = g_1;
-        uint _e120 = n_4;
-        if ((_e119 < _e120)) {
+        uint _e120 = g_1;
+        uint _e121 = n_4;
+        if ((_e120 < _e121)) {
         } else {
             break;
         }
         {
-            uint _e122 = g_1;
-            uint _e124 = keys[_e122];
-            aim_1 = Aim(dir_10, 1.0, _e124);
-            uint _e128 = g_1;
-            uint _e130 = keys[_e128];
-            if ((_e130 == RELAXED)) {
-                vec3 _e133 = fallback_fetch(b_15, dir_10);
-                aim_1 = Aim(_e133, -1.0, 0u);
+            uint _e123 = g_1;
+            uint _e125 = keys[_e123];
+            aim_1 = Aim(dir_10, 1.0, _e125);
+            uint _e129 = g_1;
+            uint _e131 = keys[_e129];
+            if ((_e131 == RELAXED)) {
+                vec3 _e134 = fallback_fetch(b_15, dir_10);
+                aim_1 = Aim(_e134, -1.0, 0u);
             } else {
-                uint _e139 = g_1;
-                uint _e141 = keys[_e139];
-                vec4 _e143 = _group_0_binding_7_cs.probes[_e141];
-                if (any(notEqual(b_15, _e143.xyz))) {
-                    uint _e147 = g_1;
-                    float _e149 = ds[_e147];
-                    uint _e150 = g_1;
-                    uint _e152 = keys[_e150];
-                    Aim _e153 = shifted_aim(_e113, _e149, b_15, dir_10, _e152);
-                    aim_1 = _e153;
+                uint _e140 = g_1;
+                uint _e142 = keys[_e140];
+                vec4 _e144 = _group_0_binding_7_cs.probes[_e142];
+                if (any(notEqual(b_15, _e144.xyz))) {
+                    uint _e148 = g_1;
+                    float _e150 = ds[_e148];
+                    uint _e151 = g_1;
+                    uint _e153 = keys[_e151];
+                    Aim _e154 = shifted_aim(_e114, _e150, b_15, dir_10, _e153);
+                    aim_1 = _e154;
                 }
             }
-            vec3 _e154 = c_4;
-            uint _e155 = g_1;
-            float _e157 = ws[_e155];
-            Aim _e158 = aim_1;
-            vec3 _e159 = shade(b_15, _e158, r_5);
-            c_4 = (_e154 + (_e157 * _e159));
+            vec3 _e155 = c_4;
+            uint _e156 = g_1;
+            float _e158 = ws[_e156];
+            Aim _e159 = aim_1;
+            vec3 _e160 = shade(b_15, _e159, r_5);
+            c_4 = (_e155 + (_e158 * _e160));
         }
     }
-    vec3 _e165 = c_4;
-    return _e165;
+    vec3 _e166 = c_4;
+    return _e166;
 }
 
-uint near_cells(Lattice l_3) {
-    uint near = 0u;
-    uint corner_4 = 0u;
+Near near_cells(vec3 b_16) {
+    uint count = 0u;
+    float sum_1 = 0.0;
+    uint corner_6 = 0u;
+    Lattice _e1 = face_lattice(b_16);
+    vec3 _e2 = cell_size();
+    uvec3 _e3 = cell_of(b_16, _e2);
+    uint _e5 = cell_index(_e3);
+    uint links_1 = _group_0_binding_8_cs[_e5].links.x;
     bool loop_init_9 = true;
     while(true) {
         if (!loop_init_9) {
-            uint _e18 = corner_4;
-            corner_4 = (_e18 + 1u);
+            uint _e29 = corner_6;
+            corner_6 = (_e29 + 1u);
         }
         loop_init_9 = false;
-        uint _e5 = corner_4;
-        if ((_e5 < 8u)) {
+        uint _e16 = corner_6;
+        if ((_e16 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e8 = near;
-            uint _e11 = corner_4;
-            float _e12 = corner_weight(l_3, _e11);
-            near = (_e8 + ((_e12 > 0.0) ? 1u : 0u));
+            uint _e19 = corner_6;
+            float _e20 = linked_weight(_e1, _e19, _e3, links_1);
+            if ((_e20 > 0.0)) {
+                uint _e24 = count;
+                count = (_e24 + 1u);
+                float _e26 = sum_1;
+                sum_1 = (_e26 + _e20);
+            }
         }
     }
-    uint _e20 = near;
-    return _e20;
+    uint _e31 = count;
+    float _e32 = sum_1;
+    return Near(_e1, _e3, links_1, _e31, _e32);
 }
 
 vec3 sh_eval(vec3 c_5[9], vec3 n_5) {
@@ -1399,7 +1439,7 @@ vec3 sh_blend4_(uvec4 at_1, vec4 w_1, uint i_1) {
     return (((_e8.xyz * w_1.x) + (_e17.xyz * w_1.y)) + ((_e27.xyz * w_1.z) + (_e36.xyz * w_1.w)));
 }
 
-vec3 sh_read(uvec3 home_at, vec3 b_16, vec3 n_7) {
+vec3 sh_read(uvec3 home_at_1, vec3 b_17, vec3 n_7) {
     uvec3 base = uvec3(0u);
     vec3 frac = vec3(0.0);
     uint a = 0u;
@@ -1426,8 +1466,8 @@ vec3 sh_read(uvec3 home_at, vec3 b_16, vec3 n_7) {
     uvec3 counts = _e6.xyz;
     uvec3 top_1 = (counts - uvec3(1u));
     vec4 _e13 = _group_0_binding_7_cs.grid_min;
-    vec3 units = ((b_16 - _e13.xyz) / _e3);
-    uint _e17 = cell_index(home_at);
+    vec3 units = ((b_17 - _e13.xyz) / _e3);
+    uint _e17 = cell_index(home_at_1);
     vec3 f0_ = (units - vec3(0.5));
     bool _e21 = finite3_(f0_);
     if (!(_e21)) {
@@ -1482,7 +1522,7 @@ vec3 sh_read(uvec3 home_at, vec3 b_16, vec3 n_7) {
     float _e87 = frac[_e85];
     vec4 weights = vec4((1.0 - _e68), (_e73 - _e76), (_e80 - _e83), _e87);
     top_v = top_1;
-    home_v = home_at;
+    home_v = home_at_1;
     uvec3 cell_stride = uvec3(1u, counts.x, (counts.x * counts.y));
     uvec3 bit_stride = uvec3(1u, 3u, 9u);
     uint _e102 = base.x;
@@ -1561,10 +1601,10 @@ vec3 sh_read(uvec3 home_at, vec3 b_16, vec3 n_7) {
             bits[_e184] = (_e190 + _e191);
         }
     }
-    uint links = _group_0_binding_8_cs[_e17].links.x;
+    uint links_2 = _group_0_binding_8_cs[_e17].links.x;
     w_2 = weights;
     at_2 = uvec4(_e17);
-    uint count = uint(_group_0_binding_8_cs.length());
+    uint count_1 = uint(_group_0_binding_8_cs.length());
     bool loop_init_12 = true;
     while(true) {
         if (!loop_init_12) {
@@ -1586,13 +1626,13 @@ vec3 sh_read(uvec3 home_at, vec3 b_16, vec3 n_7) {
             if ((_e218 < 27u)) {
                 uint _e223 = k_8;
                 uint _e225 = bits[_e223];
-                local_25 = (((links >> _e225) & 1u) != 0u);
+                local_25 = (((links_2 >> _e225) & 1u) != 0u);
             } else {
                 local_25 = false;
             }
             bool _e232 = local_25;
             if (_e232) {
-                local_26 = (ck < count);
+                local_26 = (ck < count_1);
             } else {
                 local_26 = false;
             }
@@ -1652,61 +1692,61 @@ vec3 sh_read(uvec3 home_at, vec3 b_16, vec3 n_7) {
     return (_e306 / vec3(wsum_1));
 }
 
-vec3 faces_specular(Lattice l_4, vec3 b_17, vec3 dir_11, float r_6, float w_3) {
+vec3 faces_specular(Near near_2, vec3 b_18, vec3 dir_11, float r_6, float w_3) {
     vec3 c_7 = vec3(0.0);
     vec3 e = vec3(0.0);
     float share = 0.0;
-    uint corner_5 = 0u;
+    uint corner_7 = 0u;
     bool local_27 = false;
-    vec3 _e5 = faces_radiance(l_4, b_17, dir_11, r_6);
+    vec3 _e5 = faces_radiance(near_2, b_18, dir_11, r_6);
     c_7 = _e5;
     if ((w_3 > 0.0)) {
         bool loop_init_13 = true;
         while(true) {
             if (!loop_init_13) {
-                uint _e44 = corner_5;
-                corner_5 = (_e44 + 1u);
+                uint _e45 = corner_7;
+                corner_7 = (_e45 + 1u);
             }
             loop_init_13 = false;
-            uint _e16 = corner_5;
+            uint _e16 = corner_7;
             if ((_e16 < 8u)) {
             } else {
                 break;
             }
             {
-                uint _e19 = corner_5;
-                float _e20 = corner_weight(l_4, _e19);
-                uint _e21 = corner_5;
-                uvec3 _e22 = corner_cell(l_4, _e21);
+                uint _e19 = corner_7;
+                float _e20 = near_weight(near_2, _e19);
+                uint _e22 = corner_7;
+                uvec3 _e23 = corner_cell(near_2.l, _e22);
                 if ((_e20 > 0.0)) {
-                    uint _e28 = cell_index(_e22);
-                    int _e32 = _group_0_binding_8_cs[_e28].tiles.y;
-                    local_27 = (_e32 >= 0);
+                    uint _e29 = cell_index(_e23);
+                    int _e33 = _group_0_binding_8_cs[_e29].tiles.y;
+                    local_27 = (_e33 >= 0);
                 } else {
                     local_27 = false;
                 }
-                bool _e36 = local_27;
-                if (_e36) {
-                    vec3 _e37 = e;
-                    vec3 _e38 = sh_read(_e22, b_17, dir_11);
-                    e = (_e37 + (_e20 * _e38));
-                    float _e41 = share;
-                    share = (_e41 + _e20);
+                bool _e37 = local_27;
+                if (_e37) {
+                    vec3 _e38 = e;
+                    vec3 _e39 = sh_read(_e23, b_18, dir_11);
+                    e = (_e38 + (_e20 * _e39));
+                    float _e42 = share;
+                    share = (_e42 + _e20);
                 }
             }
         }
-        float _e46 = share;
-        if ((_e46 > 0.0)) {
-            vec3 _e49 = c_7;
-            float _e50 = share;
-            vec3 _e55 = e;
-            float _e56 = share;
-            float _e59 = share;
-            c_7 = ((_e49 * (1.0 - (w_3 * _e50))) + ((_e55 / vec3(_e56)) * ((w_3 * _e59) * 0.31830987)));
+        float _e47 = share;
+        if ((_e47 > 0.0)) {
+            vec3 _e50 = c_7;
+            float _e51 = share;
+            vec3 _e56 = e;
+            float _e57 = share;
+            float _e60 = share;
+            c_7 = ((_e50 * (1.0 - (w_3 * _e51))) + ((_e56 / vec3(_e57)) * ((w_3 * _e60) * 0.31830987)));
         }
     }
-    vec3 _e65 = c_7;
-    return _e65;
+    vec3 _e66 = c_7;
+    return _e66;
 }
 
 float blend_node_r(uint k_9) {
@@ -1775,9 +1815,9 @@ vec3 clean(vec3 c_8) {
 }
 
 vec3 specular(vec3 position, vec3 direction, float roughness) {
-    vec3 b_18 = vec3(0.0);
+    vec3 b_19 = vec3(0.0);
     float r_8 = 0.0;
-    uvec3 home_at_1 = uvec3(0u);
+    uvec3 home_at_2 = uvec3(0u);
     bool stored = false;
     bool local_29 = false;
     vec3 c_9 = vec3(0.0);
@@ -1786,10 +1826,10 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
         return vec3(0.0);
     }
     vec4 _e11 = _group_0_binding_7_cs.probe;
-    b_18 = _e11.xyz;
+    b_19 = _e11.xyz;
     bool _e14 = finite3_(position);
     if (_e14) {
-        b_18 = position;
+        b_19 = position;
     }
     bool _e17 = finite(roughness);
     if (_e17) {
@@ -1799,11 +1839,10 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     float _e22 = irradiance_weight(_e21);
     uint _e23 = blend_mode();
     if ((_e23 == 2u)) {
-        vec3 _e26 = b_18;
-        Lattice _e27 = face_lattice(_e26);
-        uint _e28 = near_cells(_e27);
-        if ((_e28 > 1u)) {
-            vec3 _e31 = b_18;
+        vec3 _e26 = b_19;
+        Near _e27 = near_cells(_e26);
+        if ((_e27.count > 1u)) {
+            vec3 _e31 = b_19;
             float _e33 = r_8;
             vec3 _e34 = faces_specular(_e27, _e31, _e3.xyz, _e33, _e22);
             vec3 _e35 = clean(_e34);
@@ -1811,11 +1850,11 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
         }
     }
     if ((_e22 > 0.0)) {
-        vec3 _e43 = b_18;
+        vec3 _e43 = b_19;
         vec3 _e44 = cell_size();
         uvec3 _e45 = cell_of(_e43, _e44);
-        home_at_1 = _e45;
-        uvec3 _e47 = home_at_1;
+        home_at_2 = _e45;
+        uvec3 _e47 = home_at_2;
         uint _e48 = cell_index(_e47);
         int _e52 = _group_0_binding_8_cs[_e48].tiles.y;
         stored = (_e52 >= 0);
@@ -1828,14 +1867,14 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     }
     bool _e61 = local_29;
     if (_e61) {
-        uvec3 _e62 = home_at_1;
-        vec3 _e63 = b_18;
+        uvec3 _e62 = home_at_2;
+        vec3 _e63 = b_19;
         vec3 _e65 = sh_read(_e62, _e63, _e3.xyz);
         vec3 _e69 = clean((_e65 * (_e22 * 0.31830987)));
         return _e69;
     }
-    vec3 _e70 = b_18;
-    vec3 _e71 = b_18;
+    vec3 _e70 = b_19;
+    vec3 _e71 = b_19;
     float _e73 = r_8;
     Aim _e74 = fetch(_e71, _e3.xyz, _e73);
     float _e75 = r_8;
@@ -1844,8 +1883,8 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     bool _e78 = stored;
     if (_e78) {
         vec3 _e79 = c_9;
-        uvec3 _e83 = home_at_1;
-        vec3 _e84 = b_18;
+        uvec3 _e83 = home_at_2;
+        vec3 _e84 = b_19;
         vec3 _e86 = sh_read(_e83, _e84, _e3.xyz);
         c_9 = ((_e79 * (1.0 - _e22)) + (_e86 * (_e22 * 0.31830987)));
     }
@@ -1866,7 +1905,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     vec3 p_8 = vec3(0.0);
     vec3 e_1 = vec3(0.0);
     float wsum = 0.0;
-    uint corner_6 = 0u;
+    uint corner_8 = 0u;
     float w_5 = 0.0;
     bool local_30 = false;
     float k_12 = 0.0;
@@ -1892,22 +1931,22 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     bool loop_init_15 = true;
     while(true) {
         if (!loop_init_15) {
-            uint _e157 = corner_6;
-            corner_6 = (_e157 + 1u);
+            uint _e157 = corner_8;
+            corner_8 = (_e157 + 1u);
         }
         loop_init_15 = false;
-        uint _e44 = corner_6;
+        uint _e44 = corner_8;
         if ((_e44 < 8u)) {
         } else {
             break;
         }
         {
-            uint _e47 = corner_6;
+            uint _e47 = corner_8;
             float _e48 = corner_weight(_e35, _e47);
             if ((_e48 <= 0.0)) {
                 continue;
             }
-            uint _e51 = corner_6;
+            uint _e51 = corner_8;
             uvec3 _e52 = corner_cell(_e35, _e51);
             uint _e53 = cell_index(_e52);
             ivec4 tiles_4 = _group_0_binding_8_cs[_e53].tiles;

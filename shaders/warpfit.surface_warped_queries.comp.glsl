@@ -50,6 +50,13 @@ struct Aim {
     float k;
     uint p;
 };
+struct Near {
+    Lattice l;
+    uvec3 home_at;
+    uint links;
+    uint count;
+    float sum;
+};
 struct SurfaceParams {
     vec4 corner;
     vec4 edge_u;
@@ -164,9 +171,9 @@ vec4 unit_direction(vec3 v_3) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
     vec3 s_2 = (v_3 / vec3(m_1));
-    float l_5 = length(s_2);
-    if ((l_5 > 0.0)) {
-        bool _e47 = finite(l_5);
+    float l_3 = length(s_2);
+    if ((l_3 > 0.0)) {
+        bool _e47 = finite(l_3);
         local_5 = _e47;
     } else {
         local_5 = false;
@@ -175,7 +182,7 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    return vec4((s_2 / vec3(l_5)), 1.0);
+    return vec4((s_2 / vec3(l_3)), 1.0);
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
@@ -285,22 +292,22 @@ float corner_weight(Lattice l, uint corner) {
 Basis orthonormal_basis(vec3 n_3) {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_1 = (-1.0 / (s_3 + n_3.z));
-    float b_23 = ((n_3.x * n_3.y) * a_1);
-    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_1)), (s_3 * b_23), (-(s_3) * n_3.x)), vec3(b_23, (s_3 + ((n_3.y * n_3.y) * a_1)), -(n_3.y)));
+    float b_24 = ((n_3.x * n_3.y) * a_1);
+    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_1)), (s_3 * b_24), (-(s_3) * n_3.x)), vec3(b_24, (s_3 + ((n_3.y * n_3.y) * a_1)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
     bool local_12 = false;
-    float l_6 = length(v_5);
-    if ((l_6 > 0.0)) {
-        bool _e7 = finite(l_6);
+    float l_4 = length(v_5);
+    if ((l_4 > 0.0)) {
+        bool _e7 = finite(l_4);
         local_12 = _e7;
     } else {
         local_12 = false;
     }
     bool _e9 = local_12;
     if (_e9) {
-        return (v_5 / vec3(l_6));
+        return (v_5 / vec3(l_4));
     }
     return fallback_1;
 }
@@ -314,32 +321,6 @@ float pseudo_log2_(float k_4) {
     int e_2 = (int(((bits_1 >> 23u) & 255u)) - 127);
     float m_2 = uintBitsToFloat(((bits_1 & 8388607u) | 1065353216u));
     return (float(e_2) + (m_2 - 1.0));
-}
-
-uint near_cells(Lattice l_3) {
-    uint near = 0u;
-    uint corner_4 = 0u;
-    bool loop_init = true;
-    while(true) {
-        if (!loop_init) {
-            uint _e18 = corner_4;
-            corner_4 = (_e18 + 1u);
-        }
-        loop_init = false;
-        uint _e5 = corner_4;
-        if ((_e5 < 8u)) {
-        } else {
-            break;
-        }
-        {
-            uint _e8 = near;
-            uint _e11 = corner_4;
-            float _e12 = corner_weight(l_3, _e11);
-            near = (_e8 + ((_e12 > 0.0) ? 1u : 0u));
-        }
-    }
-    uint _e20 = near;
-    return _e20;
 }
 
 vec3 sh_eval(vec3 c_5[9], vec3 n_5) {
@@ -412,11 +393,11 @@ SurfaceTaps surface_taps(vec2 uv_9) {
 vec3 surface_tile(uint i_2, uint j_1, uint layer, SurfaceTaps t_6) {
     uint _e8 = _group_2_binding_1_cs.shape.z;
     uvec2 o_1 = (uvec2(i_2, j_1) * _e8);
-    int l_7 = int(layer);
-    vec4 q00_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.lo)), l_7), 0);
-    vec4 q10_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.hi.x, t_6.lo.y))), l_7), 0);
-    vec4 q01_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.lo.x, t_6.hi.y))), l_7), 0);
-    vec4 q11_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.hi)), l_7), 0);
+    int l_5 = int(layer);
+    vec4 q00_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.lo)), l_5), 0);
+    vec4 q10_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.hi.x, t_6.lo.y))), l_5), 0);
+    vec4 q01_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.lo.x, t_6.hi.y))), l_5), 0);
+    vec4 q11_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.hi)), l_5), 0);
     vec4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_6.f);
     return _e44.xyz;
 }
@@ -432,14 +413,14 @@ float surface_tile_inv_distance(uint i_3, uint j_2, SurfaceTaps t_7) {
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_4, uint j_3, vec3 b_19, vec3 local_32, SurfaceTaps shared_taps) {
+SurfaceTaps surface_warped_taps(uint i_4, uint j_3, vec3 b_20, vec3 local_32, SurfaceTaps shared_taps) {
     bool local_33 = false;
     bool local_34 = false;
     SurfaceParams sp = _group_2_binding_1_cs;
     float s_4 = ((float(i_4) + 0.5) / float(sp.shape.x));
     float t_9 = ((float(j_3) + 0.5) / float(sp.shape.y));
     vec3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_4)) + (sp.edge_v.xyz * t_9)) + (sp.normal.xyz * sp.corner.w));
-    vec3 d_2 = (probe - b_19);
+    vec3 d_2 = (probe - b_20);
     vec3 ab = vec3(dot(d_2, sp.tangent.xyz), dot(d_2, sp.bitangent.xyz), dot(d_2, sp.normal.xyz));
     float _e48 = surface_tile_inv_distance(i_4, j_3, shared_taps);
     vec3 v_9 = ((local_32 * max(((dot(local_32, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
@@ -474,7 +455,7 @@ vec3 surface_probe(uint i_5, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, floa
 }
 
 vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
-    vec3 b_20 = vec3(0.0);
+    vec3 b_21 = vec3(0.0);
     float lod_2 = 0.0;
     SurfaceTaps t00_ = SurfaceTaps(uvec2(0u), uvec2(0u), vec2(0.0));
     SurfaceTaps t10_ = SurfaceTaps(uvec2(0u), uvec2(0u), vec2(0.0));
@@ -485,12 +466,12 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
         return vec3(0.0);
     }
     SurfaceParams sp_1 = _group_2_binding_1_cs;
-    b_20 = sp_1.corner.xyz;
+    b_21 = sp_1.corner.xyz;
     bool _e15 = finite3_(b_in);
     if (_e15) {
-        b_20 = b_in;
+        b_21 = b_in;
     }
-    vec3 _e16 = b_20;
+    vec3 _e16 = b_21;
     vec3 d_3 = (_e16 - sp_1.corner.xyz);
     SurfaceAxis _e25 = surface_axis(dot(sp_1.dual_u.xyz, d_3), sp_1.shape.x);
     SurfaceAxis _e31 = surface_axis(dot(sp_1.dual_v.xyz, d_3), sp_1.shape.y);
@@ -513,16 +494,16 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     t01_ = _e65;
     t11_ = _e65;
     if (warped) {
-        vec3 _e72 = b_20;
+        vec3 _e72 = b_21;
         SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_35, _e65);
         t00_ = _e73;
-        vec3 _e76 = b_20;
+        vec3 _e76 = b_21;
         SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_35, _e65);
         t10_ = _e77;
-        vec3 _e80 = b_20;
+        vec3 _e80 = b_21;
         SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_35, _e65);
         t01_ = _e81;
-        vec3 _e84 = b_20;
+        vec3 _e84 = b_21;
         SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_35, _e65);
         t11_ = _e85;
     }
@@ -536,21 +517,21 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     SurfaceTaps _e102 = t11_;
     vec3 _e103 = surface_probe(_e25.i1_, _e31.i1_, _e102, m0_1, m1_1, fm_1);
     vec3 bottom = mix(_e99, _e103, _e25.f);
-    vec3 l_8 = mix(top, bottom, _e31.f);
-    bool _e108 = finite3_(l_8);
+    vec3 l_6 = mix(top, bottom, _e31.f);
+    bool _e108 = finite3_(l_6);
     if (_e108) {
-        return max(l_8, vec3(0.0));
+        return max(l_6, vec3(0.0));
     }
     return vec3(0.0);
 }
 
-vec3 surface_specular(vec3 b_21, vec3 dir_12, float roughness_2) {
-    vec3 _e4 = surface_lookup(b_21, dir_12, roughness_2, false);
+vec3 surface_specular(vec3 b_22, vec3 dir_12, float roughness_2) {
+    vec3 _e4 = surface_lookup(b_22, dir_12, roughness_2, false);
     return _e4;
 }
 
-vec3 surface_specular_warped(vec3 b_22, vec3 dir_13, float roughness_3) {
-    vec3 _e4 = surface_lookup(b_22, dir_13, roughness_3, true);
+vec3 surface_specular_warped(vec3 b_23, vec3 dir_13, float roughness_3) {
+    vec3 _e4 = surface_lookup(b_23, dir_13, roughness_3, true);
     return _e4;
 }
 

@@ -50,6 +50,13 @@ struct Aim {
     float k;
     uint p;
 };
+struct Near {
+    Lattice l;
+    uvec3 home_at;
+    uint links;
+    uint count;
+    float sum;
+};
 struct SurfaceParams {
     vec4 corner;
     vec4 edge_u;
@@ -196,9 +203,9 @@ vec4 unit_direction(vec3 v_3) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
     vec3 s_2 = (v_3 / vec3(m_1));
-    float l_5 = length(s_2);
-    if ((l_5 > 0.0)) {
-        bool _e47 = finite(l_5);
+    float l_3 = length(s_2);
+    if ((l_3 > 0.0)) {
+        bool _e47 = finite(l_3);
         local_5 = _e47;
     } else {
         local_5 = false;
@@ -207,7 +214,7 @@ vec4 unit_direction(vec3 v_3) {
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
-    return vec4((s_2 / vec3(l_5)), 1.0);
+    return vec4((s_2 / vec3(l_3)), 1.0);
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
@@ -322,17 +329,17 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1, uint p_1) {
     uint n_10 = max((uint(res0_) >> level_1), 1u);
     Footprint _e19 = footprint(n_10, uv_1);
     ivec2 c_10 = _e19.corner;
-    int l_6 = int(level_1);
+    int l_4 = int(level_1);
     int ni = int(n_10);
     ivec2 at_3 = ivec2((int(p_1) * ni), 0);
     ivec2 _e27 = wrap_texel(ni, c_10);
-    vec4 _e29 = probe_texel(which_1, (at_3 + _e27), l_6);
+    vec4 _e29 = probe_texel(which_1, (at_3 + _e27), l_4);
     ivec2 _e34 = wrap_texel(ni, (c_10 + ivec2(1, 0)));
-    vec4 _e36 = probe_texel(which_1, (at_3 + _e34), l_6);
+    vec4 _e36 = probe_texel(which_1, (at_3 + _e34), l_4);
     ivec2 _e41 = wrap_texel(ni, (c_10 + ivec2(0, 1)));
-    vec4 _e43 = probe_texel(which_1, (at_3 + _e41), l_6);
+    vec4 _e43 = probe_texel(which_1, (at_3 + _e41), l_4);
     ivec2 _e48 = wrap_texel(ni, (c_10 + ivec2(1, 1)));
-    vec4 _e50 = probe_texel(which_1, (at_3 + _e48), l_6);
+    vec4 _e50 = probe_texel(which_1, (at_3 + _e48), l_4);
     vec4 _e52 = blend4_(_e29, _e36, _e43, _e50, _e19.f);
     return _e52;
 }
@@ -636,22 +643,22 @@ vec3 box_fetch(vec3 b_8, vec3 dir_6) {
 Basis orthonormal_basis(vec3 n_3) {
     float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
     float a_3 = (-1.0 / (s_3 + n_3.z));
-    float b_23 = ((n_3.x * n_3.y) * a_3);
-    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_23), (-(s_3) * n_3.x)), vec3(b_23, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+    float b_24 = ((n_3.x * n_3.y) * a_3);
+    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_24), (-(s_3) * n_3.x)), vec3(b_24, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
 }
 
 vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
     bool local_12 = false;
-    float l_7 = length(v_5);
-    if ((l_7 > 0.0)) {
-        bool _e7 = finite(l_7);
+    float l_5 = length(v_5);
+    if ((l_5 > 0.0)) {
+        bool _e7 = finite(l_5);
         local_12 = _e7;
     } else {
         local_12 = false;
     }
     bool _e9 = local_12;
     if (_e9) {
-        return (v_5 / vec3(l_7));
+        return (v_5 / vec3(l_5));
     }
     return fallback_1;
 }
@@ -795,6 +802,28 @@ Lattice face_lattice(vec3 b_12) {
     return Lattice(_e2.base, vec3(_e6, _e9, _e12));
 }
 
+float linked_weight(Lattice l_2, uint corner_3, uvec3 home_at, uint links) {
+    float _e4 = corner_weight(l_2, corner_3);
+    if (!((_e4 > 0.0))) {
+        return 0.0;
+    }
+    uvec3 _e9 = corner_cell(l_2, corner_3);
+    if (all(equal(_e9, home_at))) {
+        return _e4;
+    }
+    ivec3 o_3 = (ivec3(_e9) - ivec3(home_at));
+    if (any(greaterThan(abs(o_3), ivec3(1)))) {
+        return 0.0;
+    }
+    uint bit = uint((((o_3.x + 1) + (3 * (o_3.y + 1))) + (9 * (o_3.z + 1))));
+    return ((((links >> bit) & 1u) != 0u) ? _e4 : 0.0);
+}
+
+float near_weight(Near near, uint corner_4) {
+    float _e5 = linked_weight(near.l, corner_4, near.home_at, near.links);
+    return (_e5 / near.sum);
+}
+
 float mip_roughness(uint m) {
     float _e9 = _group_0_binding_7_cs.mip_roughness[(m / 4u)][(m % 4u)];
     return _e9;
@@ -858,13 +887,13 @@ float distance_ratio(vec3 b_13, vec3 v_6, vec2 uv_8, uint p_7) {
     bool local_20 = false;
     bool local_21 = false;
     bool local_22 = false;
-    float l_8 = length(v_6);
+    float l_6 = length(v_6);
     float _e9 = _group_0_binding_7_cs.probe.w;
     uint _e13 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_7);
     float w_7 = _e14.x;
-    if ((l_8 > 0.0)) {
-        bool _e20 = finite(l_8);
+    if ((l_6 > 0.0)) {
+        bool _e20 = finite(l_6);
         local_19 = _e20;
     } else {
         local_19 = false;
@@ -888,7 +917,7 @@ float distance_ratio(vec3 b_13, vec3 v_6, vec2 uv_8, uint p_7) {
     }
     float d_probe = (1.0 / w_7);
     vec4 _e41 = _group_0_binding_7_cs.probes[p_7];
-    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_8))) - b_13));
+    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_6))) - b_13));
     float k_13 = (d_probe / d_surface);
     bool _e49 = finite(k_13);
     if (_e49) {
@@ -908,32 +937,6 @@ float pseudo_log2_(float k_4) {
     int e_2 = (int(((bits_1 >> 23u) & 255u)) - 127);
     float m_3 = uintBitsToFloat(((bits_1 & 8388607u) | 1065353216u));
     return (float(e_2) + (m_3 - 1.0));
-}
-
-uint near_cells(Lattice l_3) {
-    uint near = 0u;
-    uint corner_4 = 0u;
-    bool loop_init_4 = true;
-    while(true) {
-        if (!loop_init_4) {
-            uint _e18 = corner_4;
-            corner_4 = (_e18 + 1u);
-        }
-        loop_init_4 = false;
-        uint _e5 = corner_4;
-        if ((_e5 < 8u)) {
-        } else {
-            break;
-        }
-        {
-            uint _e8 = near;
-            uint _e11 = corner_4;
-            float _e12 = corner_weight(l_3, _e11);
-            near = (_e8 + ((_e12 > 0.0) ? 1u : 0u));
-        }
-    }
-    uint _e20 = near;
-    return _e20;
 }
 
 vec3 sh_eval(vec3 c_5[9], vec3 n_5) {
@@ -979,13 +982,13 @@ float irradiance_weight(float r_7) {
     }
     float _e17 = blend_node_w(0u);
     w_4 = _e17;
-    bool loop_init_5 = true;
+    bool loop_init_4 = true;
     while(true) {
-        if (!loop_init_5) {
+        if (!loop_init_4) {
             uint _e49 = k_11;
             k_11 = (_e49 + 1u);
         }
-        loop_init_5 = false;
+        loop_init_4 = false;
         uint _e21 = k_11;
         if ((_e21 < n_14)) {
         } else {

@@ -746,7 +746,7 @@ fn face_lattice(b: vec3<f32>) -> Lattice {
 // probe and shift; cells without a map read probe A with no shift, or the relaxed proxy
 // when the grid relaxes), cells with the same probe and shift merged, the radiances
 // blended by the cells' weights.
-fn faces_radiance(l: Lattice, b: vec3<f32>, dir: vec3<f32>, r: f32) -> vec3<f32> {
+fn faces_radiance(near: Near, b: vec3<f32>, dir: vec3<f32>, r: f32) -> vec3<f32> {
     let uv = oct_encode(dir);
     let relax = relaxation_on();
     // (initialised in full: HLSL's zero cast of an array is not portable)
@@ -755,11 +755,11 @@ fn faces_radiance(l: Lattice, b: vec3<f32>, dir: vec3<f32>, r: f32) -> vec3<f32>
     var ds = array<f32, 8>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     var n = 0u;
     for (var corner = 0u; corner < 8u; corner++) {
-        let w = corner_weight(l, corner);
+        let w = near_weight(near, corner);
         if !(w > 0.0) {
             continue;
         }
-        let tiles = cells[cell_index(corner_cell(l, corner))].tiles;
+        let tiles = cells[cell_index(corner_cell(near.l, corner))].tiles;
         var key = 0u;
         var delta = 0.0;
         if tiles.x >= 0 {
@@ -797,26 +797,68 @@ fn faces_radiance(l: Lattice, b: vec3<f32>, dir: vec3<f32>, r: f32) -> vec3<f32>
     return c;
 }
 
-// How many cells the faces blend reads at the point of `face_lattice` l (1 inside a cell).
-fn near_cells(l: Lattice) -> u32 {
-    var near = 0u;
-    for (var corner = 0u; corner < 8u; corner++) {
-        near += select(0u, 1u, corner_weight(l, corner) > 0.0);
+// The cells the faces blend reads at B (`FittedGrid::near_cells`): the corners of
+// `face_lattice` l with a weight, kept where the containing cell (at home_at, its link bits
+// `links`) links to them; `sum` the kept weights, which renormalise them.
+struct Near {
+    l: Lattice,
+    home_at: vec3<u32>,
+    links: u32,
+    count: u32,
+    sum: f32,
+}
+
+// Corner `corner`'s weight in the faces blend before renormalising: its ramped corner
+// weight where it is the containing cell or linked to it, else 0.
+fn linked_weight(l: Lattice, corner: u32, home_at: vec3<u32>, links: u32) -> f32 {
+    let w = corner_weight(l, corner);
+    if !(w > 0.0) {
+        return 0.0;
     }
-    return near;
+    let at = corner_cell(l, corner);
+    if all(at == home_at) {
+        return w;
+    }
+    let o = vec3<i32>(at) - vec3<i32>(home_at);
+    if any(abs(o) > vec3<i32>(1)) {
+        return 0.0;
+    }
+    let bit = u32((o.x + 1) + 3 * (o.y + 1) + 9 * (o.z + 1));
+    return select(0.0, w, ((links >> bit) & 1u) != 0u);
+}
+
+fn near_cells(b: vec3<f32>) -> Near {
+    let l = face_lattice(b);
+    let home_at = cell_of(b, cell_size());
+    let links = cells[cell_index(home_at)].links.x;
+    var count = 0u;
+    var sum = 0.0;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let w = linked_weight(l, corner, home_at, links);
+        if w > 0.0 {
+            count++;
+            sum += w;
+        }
+    }
+    return Near(l, home_at, links, count, sum);
+}
+
+// Near cell `corner`'s share of a faces-blend lookup (0 where it is not read).
+fn near_weight(near: Near, corner: u32) -> f32 {
+    return linked_weight(near.l, corner, near.home_at, near.links) / near.sum;
 }
 
 // A faces-blend lookup near a cell face with its irradiance blend of weight w
 // (`FittedGrid::mix_near`): the near cells' irradiance reads, each as if B lay in it,
 // averaged over those that hold irradiance, blended by w times their share of the weight.
-fn faces_specular(l: Lattice, b: vec3<f32>, dir: vec3<f32>, r: f32, w: f32) -> vec3<f32> {
-    var c = faces_radiance(l, b, dir, r);
+fn faces_specular(near: Near, b: vec3<f32>, dir: vec3<f32>, r: f32, w: f32) -> vec3<f32> {
+    var c = faces_radiance(near, b, dir, r);
     if w > 0.0 {
         var e = vec3<f32>(0.0);
         var share = 0.0;
         for (var corner = 0u; corner < 8u; corner++) {
-            let cw = corner_weight(l, corner);
-            let at = corner_cell(l, corner);
+            let cw = near_weight(near, corner);
+            let at = corner_cell(near.l, corner);
             if cw > 0.0 && cells[cell_index(at)].tiles.y >= 0 {
                 e += cw * sh_read(at, b, dir);
                 share += cw;
@@ -980,9 +1022,9 @@ fn specular(position: vec3<f32>, direction: vec3<f32>, roughness: f32) -> vec3<f
     // probe A is not read
     let w = irradiance_weight(r);
     if blend_mode() == 2u {
-        let l = face_lattice(b);
-        if near_cells(l) > 1u {
-            return clean(faces_specular(l, b, d.xyz, r, w));
+        let near = near_cells(b);
+        if near.count > 1u {
+            return clean(faces_specular(near, b, d.xyz, r, w));
         }
     }
     var home_at = vec3<u32>(0u);

@@ -228,7 +228,7 @@ impl FittedGrid {
             return Vec3::ZERO;
         };
         if self.blend == Blend::Faces {
-            let cells = self.correctives.face_cells(q.b);
+            let cells = self.near_cells(q.b);
             let aims = self.correctives.face_aims_in(cells, &self.warp, q.b, q.dir, q.r);
             if cells.n > 1 {
                 let spec = self.probe_radiance(q, &aims.aims[..aims.n], &aims.weights[..aims.n]);
@@ -278,6 +278,41 @@ impl FittedGrid {
             [aim] => radiance(*aim),
             _ => aims.iter().zip(weights).fold(Vec3::ZERO, |sum, (&aim, &w)| sum + w * radiance(aim)),
         }
+    }
+
+    /// The cells a faces-blend lookup at `b` (finite) reads: `Correctives::face_cells`, kept
+    /// where the containing cell links to them (`IrradianceSh::links`: stored, the two probes
+    /// see each other, their irradiance alike), so no blend reaches through a wall; the kept
+    /// weights renormalised. A containing cell without links reads itself alone.
+    #[inline]
+    fn near_cells(&self, b: Vec3) -> FaceCells {
+        let mut cells = self.correctives.face_cells(b);
+        if cells.n == 1 {
+            return cells;
+        }
+        let geo = &self.correctives.geometry;
+        let home = self.correctives.cell_of(b);
+        let links = self.irradiance_sh.links.get(home).copied().unwrap_or(0);
+        let home_at = geo.cell_coords(home).as_ivec3();
+        let mut kept = 0;
+        let mut sum = 0.0f32;
+        for k in 0..cells.n {
+            let o = geo.cell_coords(cells.cells[k]).as_ivec3() - home_at;
+            let linked = cells.cells[k] == home || (o.abs().max_element() <= 1 && links & link_bit(o) != 0);
+            if linked {
+                (cells.cells[kept], cells.weights[kept]) = (cells.cells[k], cells.weights[k]);
+                sum += cells.weights[k];
+                kept += 1;
+            }
+        }
+        if kept <= 1 || !(sum > 0.0) {
+            return FaceCells { cells: [home; 8], weights: [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], n: 1 };
+        }
+        for w in &mut cells.weights[..kept] {
+            *w /= sum;
+        }
+        cells.n = kept;
+        cells
     }
 
     /// A faces-blend lookup's probe radiance `spec` near a cell face (near cells `cells`)
@@ -366,7 +401,7 @@ impl FittedGrid {
             out
         };
         if self.blend == Blend::Faces {
-            let cells = b.map(|b| self.correctives.face_cells(b));
+            let cells = b.map(|b| self.near_cells(b));
             if cells.iter().any(|c| c.n > 1) {
                 let faces = self.specular_faces_lanes(positions, directions, roughness, &cells);
                 for k in 0..octa::LANES {

@@ -34,7 +34,9 @@
 //! - `Blend::Faces`: the containing cell alone except within [`FACE_MARGIN`] of a cell face,
 //!   where each near cell's own lookup (its shift, its probe) is read and the radiances
 //!   blend, so nothing a lookup reads jumps at a face. Near cells that aim alike (cells
-//!   without a map) share one fetch. (Blending the shifts instead, one fetch, was measured
+//!   without a map) share one fetch. The runtime counts only the near cells the containing
+//!   cell's irradiance links reach (`FittedGrid`'s `near_cells`), so it does not blend
+//!   through walls. (Blending the shifts instead, one fetch, was measured
 //!   too: it aims between two cells' surfaces at whatever lies there, and left more of the
 //!   seams and a higher error; docs/frames.md.)
 //!
@@ -182,6 +184,12 @@ impl Correctives {
     }
 
     /// The cell index of the cell a lookup at `b` reads (the containing cell, clamped).
+    #[inline]
+    #[must_use]
+    pub fn cell_of(&self, b: Vec3) -> usize {
+        self.cell_at(b)
+    }
+
     #[inline]
     fn cell_at(&self, b: Vec3) -> usize {
         self.geometry.cell_index(self.geometry.cell_of_sized(b, self.cell_size))
