@@ -379,12 +379,7 @@ impl FittedGrid {
         let mut out = if r.iter().all(|&r| r == 0.0) {
             // mirror lanes: the fetch vectors alone
             let (v, probe) = self.correctives.fetch_vector_lanes(blend, &self.warp, b, dir);
-            let uv = octa::encode_soa(&v);
-            self.warp.by_probe(
-                &probe,
-                |p| p.radiance.levels[0].bilinear_uv_lanes(&uv),
-                |ps| octa::OctMap::bilinear_uv_lanes_of(&std::array::from_fn(|k| &ps[k].radiance.levels[0]), &uv),
-            )
+            self.mirror_lanes(&probe, &v)
         } else {
             // probe A's part, then the irradiance blend lane by lane (`irradiance_blend`)
             let (v, ratio, probe) = self.correctives.fetch_lanes(blend, &self.warp, b, dir, &r);
@@ -470,13 +465,7 @@ impl FittedGrid {
             }
             let v = octa::soa(&v);
             let radiance = if r.iter().all(|&r| r == 0.0) {
-                // mirror aims: mip 0, as `specular_lanes` reads it
-                let uv = octa::encode_soa(&v);
-                self.warp.by_probe(
-                    &probe,
-                    |p| p.radiance.levels[0].bilinear_uv_lanes(&uv),
-                    |ps| octa::OctMap::bilinear_uv_lanes_of(&std::array::from_fn(|k| &ps[k].radiance.levels[0]), &uv),
-                )
+                self.mirror_lanes(&probe, &v)
             } else {
                 self.warp.by_probe(
                     &probe,
@@ -496,6 +485,18 @@ impl FittedGrid {
             spec[k] = if valid[k] { self.mix_near(q[k], &cells[k], spec[k], self.read) } else { Vec3::ZERO };
         }
         spec
+    }
+
+    /// Mirror radiance of [`octa::LANES`] fetch vectors `v` (as components), lane k read from
+    /// probe `probe[k]`'s mip 0.
+    #[inline(always)]
+    fn mirror_lanes(&self, probe: &[u8; octa::LANES], v: &octa::Soa3) -> [Vec3; octa::LANES] {
+        let uv = octa::encode_soa(v);
+        self.warp.by_probe(
+            probe,
+            |p| p.radiance.levels[0].bilinear_uv_lanes(&uv),
+            |ps| octa::OctMap::bilinear_uv_lanes_of(&std::array::from_fn(|k| &ps[k].radiance.levels[0]), &uv),
+        )
     }
 
     /// The positions and directions of [`octa::LANES`] queries made safe lane by lane
