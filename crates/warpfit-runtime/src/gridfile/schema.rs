@@ -462,11 +462,16 @@ impl GridManifest {
         let rough = self.correctives.as_ref().is_some_and(|c| c.rough_maps.is_some());
         let _ = writeln!(
             s,
-            "correctives: {stored} of {cells} cells store a {map_res}×{map_res} shift map of the proxy `{}`{}; the others read it as it is (depth mip {}, blend {:?})",
+            "correctives: {stored} of {cells} cells store a {map_res}×{map_res} shift map of the proxy `{}`{}; the others read it as it is (depth mip {}); a lookup reads {}",
             self.warp.fallback,
             if rough { " and one for rough lookups" } else { "" },
             self.warp.options.depth_lod,
-            self.warp.blend
+            match self.warp.blend {
+                Blend::Cell => "the containing cell",
+                Blend::Trilinear => "the shifts of the eight cells around it, trilinear",
+                Blend::Faces =>
+                    "the containing cell, and within an eighth of a cell of a face the near cells it links to, blended",
+            }
         );
         let _ = writeln!(
             s,
@@ -493,7 +498,11 @@ impl GridManifest {
                     let _ = writeln!(s, "rough lookups: probe A alone (no irradiance blend)");
                 } else {
                     let w: Vec<String> = nodes.iter().map(|(r, w)| format!("{w:.3} at r {r:.3}")).collect();
-                    let _ = writeln!(s, "rough lookups blend the containing cell's irradiance / π: {}", w.join(", "));
+                    let cells = match self.warp.blend {
+                        Blend::Faces => "the containing cell's irradiance (near a face, the linked near cells')",
+                        _ => "the containing cell's irradiance",
+                    };
+                    let _ = writeln!(s, "rough lookups blend {cells} / π: {}", w.join(", "));
                 }
             }
             None => {
