@@ -41,13 +41,17 @@ fn sampling_does_not_allocate() {
         queries.iter().map(|q| q.1).collect(),
         queries.iter().map(|q| q.2).collect(),
     );
+    // and read with the faces blend (`--blend faces`)
+    let faces = g.clone().with_lookup(|_, blend, _| *blend = warpfit::warp::corrective::Blend::Faces);
     let before = ALLOCATIONS.with(|a| a.get());
     let mut acc = Vec3::ZERO;
-    for &(p, d, r) in &queries {
-        acc += g.specular(p, d, r) + g.irradiance(p, d);
+    for g in [&g, &faces] {
+        for &(p, d, r) in &queries {
+            acc += g.specular(p, d, r) + g.irradiance(p, d);
+        }
+        g.specular_batch(&p, &d, &r, &mut out).unwrap();
+        g.irradiance_batch(&p, &d, &mut out).unwrap();
     }
-    g.specular_batch(&p, &d, &r, &mut out).unwrap();
-    g.irradiance_batch(&p, &d, &mut out).unwrap();
     let after = ALLOCATIONS.with(|a| a.get());
     assert!(acc.is_finite());
     assert_eq!(after - before, 0, "allocations during sampling");
