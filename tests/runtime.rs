@@ -226,7 +226,14 @@ fn roughness_selects_blurrier_mips_and_the_correction_applies() {
 fn documented_edge_cases_stay_finite() {
     fn assert_send_sync<T: Send + Sync>() {}
     assert_send_sync::<FittedGrid>();
-    let g = FittedGrid::load(tiny()).unwrap();
+    let tiny = FittedGrid::load(tiny()).unwrap();
+    // with the containing cell's lookup, and with the faces blend
+    for g in [tiny.clone(), tiny.with_lookup(|_, blend, _| *blend = Blend::Faces)] {
+        edge_cases_stay_finite(&g);
+    }
+}
+
+fn edge_cases_stay_finite(g: &FittedGrid) {
     let a = g.warp().probe.position;
     // zero / non-finite direction: black
     assert_eq!(g.specular(a, Vec3::ZERO, 0.0), Vec3::ZERO);
