@@ -184,13 +184,18 @@ impl FittedGrid {
         }
     }
 
-    /// Fetch vector of probe A for the query (unit `dir`): exactly what the fit evaluated
-    /// (the tool's; not a supported API).
+    /// Fetch vector of probe A for the query (unit `dir`): exactly what the fit evaluated;
+    /// with the faces blend, that of the near cell with the greatest share (the tool's; not
+    /// a supported API).
     #[doc(hidden)]
     #[inline]
     #[must_use]
     pub fn fetch_vector(&self, position: Vec3, dir: Vec3) -> Vec3 {
         let b = if position.is_finite() { position } else { self.warp.probe.position };
+        if self.blend == Blend::Faces {
+            // the cells the lookup reads (`near_cells`), not every near cell
+            return self.correctives.face_aims_in(self.near_cells(b), &self.warp, b, dir, 0.0).main().v;
+        }
         self.correctives.fetch_vector(self.blend, &self.warp, b, dir)
     }
 
@@ -291,7 +296,7 @@ impl FittedGrid {
             return cells;
         }
         let geo = &self.correctives.geometry;
-        let home = self.correctives.cell_of(b);
+        let home = self.correctives.cell_at(b);
         let links = self.irradiance_sh.links.get(home).copied().unwrap_or(0);
         let home_at = geo.cell_coords(home).as_ivec3();
         let mut kept = 0;

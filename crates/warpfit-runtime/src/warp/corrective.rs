@@ -186,12 +186,7 @@ impl Correctives {
     /// The cell index of the cell a lookup at `b` reads (the containing cell, clamped).
     #[inline]
     #[must_use]
-    pub fn cell_of(&self, b: Vec3) -> usize {
-        self.cell_at(b)
-    }
-
-    #[inline]
-    fn cell_at(&self, b: Vec3) -> usize {
+    pub fn cell_at(&self, b: Vec3) -> usize {
         self.geometry.cell_index(self.geometry.cell_of_sized(b, self.cell_size))
     }
 
