@@ -20,7 +20,7 @@ mod common;
 #[path = "../tests/gpu_harness/mod.rs"]
 mod gpu_harness;
 
-use gpu_harness::{Gpu, Lookup, Pipeline};
+use gpu_harness::{Lookup, Pipeline};
 use warpfit::runtime::FittedGrid;
 
 const POSITIONS: u32 = 4096;
@@ -38,7 +38,7 @@ fn queries(g: &FittedGrid, r: f32) -> Vec<[f32; 4]> {
 fn main() {
     // `cargo bench` passes libtest-style flags (`--bench`); a filter argument picks kernels
     let filter: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with('-')).collect();
-    let gpu = Gpu::new().unwrap_or_else(|e| panic!("{e}"));
+    let gpu = gpu_harness::gpu_device().unwrap_or_else(|e| panic!("{e}"));
     // `WARPFIT_BENCH_GRIDS=DIR[,DIR…]`: these fitted grids, each kernel's rows per grid in
     // the same rounds (to compare two grids, say one probe against several, in one run)
     let dirs: Vec<std::path::PathBuf> = match std::env::var("WARPFIT_BENCH_GRIDS") {

@@ -78,6 +78,33 @@ struct SurfaceTaps {
     uvec2 hi;
     vec2 f;
 };
+struct CameraParams {
+    mat4x4 view_proj;
+    vec4 eye;
+    vec4 surface_offset;
+    vec4 shading;
+};
+struct SurfaceVertex {
+    vec3 position;
+    vec3 normal;
+    vec3 albedo;
+    float flags;
+    vec4 sphere;
+};
+struct SurfaceVarying {
+    vec4 clip;
+    vec3 world;
+    vec3 normal;
+    vec3 albedo;
+    float flags;
+    vec4 sphere;
+};
+struct SurfaceOut {
+    vec4 radiance;
+    vec4 query_point;
+    vec4 query_direction;
+    float depth;
+};
 const uint DYNAMIC = 255u;
 const float HUGE = 1e30;
 const float F32_MIN_POSITIVE = 1.1754944e-38;
@@ -143,24 +170,24 @@ bool finite(float x) {
     return ((floatBitsToUint(x) & 2139095040u) != 2139095040u);
 }
 
-bool finite3_(vec3 v_2) {
-    bool local = false;
+bool finite3_(vec3 v_4) {
     bool local_1 = false;
-    bool _e2 = finite(v_2.x);
+    bool local_2 = false;
+    bool _e2 = finite(v_4.x);
     if (_e2) {
-        bool _e6 = finite(v_2.y);
-        local = _e6;
-    } else {
-        local = false;
-    }
-    bool _e8 = local;
-    if (_e8) {
-        bool _e12 = finite(v_2.z);
-        local_1 = _e12;
+        bool _e6 = finite(v_4.y);
+        local_1 = _e6;
     } else {
         local_1 = false;
     }
-    bool _e14 = local_1;
+    bool _e8 = local_1;
+    if (_e8) {
+        bool _e12 = finite(v_4.z);
+        local_2 = _e12;
+    } else {
+        local_2 = false;
+    }
+    bool _e14 = local_2;
     return _e14;
 }
 
@@ -168,49 +195,49 @@ float sign_not_zero(float x_1) {
     return ((x_1 >= 0.0) ? 1.0 : -1.0);
 }
 
-vec4 unit_direction(vec3 v_3) {
-    bool local_2 = false;
+vec4 unit_direction(vec3 v_5) {
     bool local_3 = false;
     bool local_4 = false;
     bool local_5 = false;
-    float l2_ = dot(v_3, v_3);
+    bool local_6 = false;
+    float l2_ = dot(v_5, v_5);
     bool _e2 = finite(l2_);
     if (_e2) {
-        local_2 = (abs((l2_ - 1.0)) <= 4.7683716e-7);
-    } else {
-        local_2 = false;
-    }
-    bool _e11 = local_2;
-    if (_e11) {
-        return vec4(v_3, 1.0);
-    }
-    float m_1 = max(abs(v_3.x), max(abs(v_3.y), abs(v_3.z)));
-    if ((m_1 > 0.0)) {
-        bool _e26 = finite(m_1);
-        local_3 = _e26;
+        local_3 = (abs((l2_ - 1.0)) <= 4.7683716e-7);
     } else {
         local_3 = false;
     }
-    bool _e28 = local_3;
-    if (_e28) {
-        bool _e31 = finite3_(v_3);
-        local_4 = _e31;
+    bool _e11 = local_3;
+    if (_e11) {
+        return vec4(v_5, 1.0);
+    }
+    float m_1 = max(abs(v_5.x), max(abs(v_5.y), abs(v_5.z)));
+    if ((m_1 > 0.0)) {
+        bool _e26 = finite(m_1);
+        local_4 = _e26;
     } else {
         local_4 = false;
     }
-    bool _e33 = local_4;
-    if (!(_e33)) {
-        return vec4(0.0, 0.0, 1.0, 0.0);
-    }
-    vec3 s_2 = (v_3 / vec3(m_1));
-    float l_3 = length(s_2);
-    if ((l_3 > 0.0)) {
-        bool _e47 = finite(l_3);
-        local_5 = _e47;
+    bool _e28 = local_4;
+    if (_e28) {
+        bool _e31 = finite3_(v_5);
+        local_5 = _e31;
     } else {
         local_5 = false;
     }
-    bool _e49 = local_5;
+    bool _e33 = local_5;
+    if (!(_e33)) {
+        return vec4(0.0, 0.0, 1.0, 0.0);
+    }
+    vec3 s_2 = (v_5 / vec3(m_1));
+    float l_3 = length(s_2);
+    if ((l_3 > 0.0)) {
+        bool _e47 = finite(l_3);
+        local_6 = _e47;
+    } else {
+        local_6 = false;
+    }
+    bool _e49 = local_6;
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
@@ -218,93 +245,93 @@ vec4 unit_direction(vec3 v_3) {
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
-    bool local_6 = false;
-    vec3 v_8 = (to - from);
-    float l2_1 = dot(v_8, v_8);
+    bool local_7 = false;
+    vec3 v_10 = (to - from);
+    float l2_1 = dot(v_10, v_10);
     if ((l2_1 > 0.0)) {
         bool _e9 = finite(l2_1);
-        local_6 = _e9;
+        local_7 = _e9;
     } else {
-        local_6 = false;
+        local_7 = false;
     }
-    bool _e11 = local_6;
+    bool _e11 = local_7;
     if (_e11) {
-        return v_8;
+        return v_10;
     }
     return fallback;
 }
 
 vec2 oct_encode(vec3 d) {
-    bool local_7 = false;
-    vec2 p = vec2(0.0);
+    bool local_8 = false;
+    vec2 p_1 = vec2(0.0);
     float l1_ = ((abs(d.x) + abs(d.y)) + abs(d.z));
     if ((l1_ >= F32_MIN_POSITIVE)) {
         bool _e13 = finite(l1_);
-        local_7 = _e13;
+        local_8 = _e13;
     } else {
-        local_7 = false;
+        local_8 = false;
     }
-    bool _e15 = local_7;
+    bool _e15 = local_8;
     if (!(_e15)) {
         return vec2(0.5, 0.5);
     }
     float inv_l1_ = (1.0 / l1_);
-    p = vec2((d.x * inv_l1_), (d.y * inv_l1_));
+    p_1 = vec2((d.x * inv_l1_), (d.y * inv_l1_));
     if ((d.z < 0.0)) {
-        float _e32 = p.y;
-        float _e37 = p.x;
+        float _e32 = p_1.y;
+        float _e37 = p_1.x;
         float _e38 = sign_not_zero(_e37);
-        float _e41 = p.x;
-        float _e46 = p.y;
+        float _e41 = p_1.x;
+        float _e46 = p_1.y;
         float _e47 = sign_not_zero(_e46);
-        p = vec2(((1.0 - abs(_e32)) * _e38), ((1.0 - abs(_e41)) * _e47));
+        p_1 = vec2(((1.0 - abs(_e32)) * _e38), ((1.0 - abs(_e41)) * _e47));
     }
-    vec2 _e50 = p;
+    vec2 _e50 = p_1;
     return clamp(((_e50 * 0.5) + vec2(0.5)), vec2(0.0), vec2(1.0));
 }
 
-ivec2 wrap_texel(int n, ivec2 t) {
+ivec2 wrap_texel(int n_1, ivec2 t_1) {
     int i = 0;
     int j = 0;
-    i = t.x;
-    j = t.y;
+    i = t_1.x;
+    j = t_1.y;
     int _e6 = i;
     if ((_e6 < 0)) {
         int _e9 = i;
         i = (-(_e9) - 1);
         int _e15 = j;
-        j = ((n - 1) - _e15);
+        j = ((n_1 - 1) - _e15);
     } else {
         int _e17 = i;
-        if ((_e17 >= n)) {
+        if ((_e17 >= n_1)) {
             int _e23 = i;
-            i = (((2 * n) - 1) - _e23);
+            i = (((2 * n_1) - 1) - _e23);
             int _e27 = j;
-            j = ((n - 1) - _e27);
+            j = ((n_1 - 1) - _e27);
         }
     }
     int _e29 = j;
     if ((_e29 < 0)) {
         int _e34 = i;
-        i = ((n - 1) - _e34);
+        i = ((n_1 - 1) - _e34);
         int _e36 = j;
         j = (-(_e36) - 1);
     } else {
         int _e40 = j;
-        if ((_e40 >= n)) {
+        if ((_e40 >= n_1)) {
             int _e44 = i;
-            i = ((n - 1) - _e44);
+            i = ((n_1 - 1) - _e44);
             int _e50 = j;
-            j = (((2 * n) - 1) - _e50);
+            j = (((2 * n_1) - 1) - _e50);
         }
     }
     int _e52 = i;
     int _e53 = j;
-    return min(max(ivec2(_e52, _e53), ivec2(0)), ivec2((n - 1)));
+    return min(max(ivec2(_e52, _e53), ivec2(0)), ivec2((n_1 - 1)));
 }
 
-Footprint footprint(uint n_1, vec2 uv) {
-    vec2 x_5 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
+Footprint footprint(uint n_2, vec2 uv) {
+    vec2 x_5 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_2)) - vec2(0.5));
     vec2 x0_ = floor(x_5);
     return Footprint(ivec2(x0_), (x_5 - x0_));
 }
@@ -313,25 +340,25 @@ vec4 blend4_(vec4 q00_, vec4 q10_, vec4 q01_, vec4 q11_, vec2 f) {
     return ((((q00_ * (1.0 - f.x)) + (q10_ * f.x)) * (1.0 - f.y)) + (((q01_ * (1.0 - f.x)) + (q11_ * f.x)) * f.y));
 }
 
-vec4 probe_texel(uint which, ivec2 t_1, int level) {
+vec4 probe_texel(uint which, ivec2 t_2, int level) {
     if ((which == 0u)) {
-        vec4 _e6 = texelFetch(_group_0_binding_0_cs, t_1, level);
+        vec4 _e6 = texelFetch(_group_0_binding_0_cs, t_2, level);
         return _e6;
     }
-    vec4 _e8 = texelFetch(_group_0_binding_1_cs, t_1, level);
+    vec4 _e8 = texelFetch(_group_0_binding_1_cs, t_2, level);
     return _e8;
 }
 
-vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1, uint p_1) {
+vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1, uint p_2) {
     float _e7 = _group_0_binding_7_cs.warp.z;
     float _e11 = _group_0_binding_7_cs.warp.y;
     float res0_ = ((which_1 == 0u) ? _e11 : _e7);
-    uint n_10 = max((uint(res0_) >> level_1), 1u);
-    Footprint _e19 = footprint(n_10, uv_1);
+    uint n_11 = max((uint(res0_) >> level_1), 1u);
+    Footprint _e19 = footprint(n_11, uv_1);
     ivec2 c_10 = _e19.corner;
     int l_4 = int(level_1);
-    int ni = int(n_10);
-    ivec2 at_3 = ivec2((int(p_1) * ni), 0);
+    int ni = int(n_11);
+    ivec2 at_3 = ivec2((int(p_2) * ni), 0);
     ivec2 _e27 = wrap_texel(ni, c_10);
     vec4 _e29 = probe_texel(which_1, (at_3 + _e27), l_4);
     ivec2 _e34 = wrap_texel(ni, (c_10 + ivec2(1, 0)));
@@ -344,9 +371,9 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1, uint p_1) {
     return _e52;
 }
 
-vec4 probe_sample_lod(uint which_2, vec2 uv_2, float lod_in, uint levels, uint p_2) {
+vec4 probe_sample_lod(uint which_2, vec2 uv_2, float lod_in, uint levels, uint p_3) {
     float lod = 0.0;
-    bool local_8 = false;
+    bool local_9 = false;
     float top = float((max(levels, 1u) - 1u));
     bool _e12 = finite(lod_in);
     if (_e12) {
@@ -356,40 +383,40 @@ vec4 probe_sample_lod(uint which_2, vec2 uv_2, float lod_in, uint levels, uint p
     uint l0_ = uint(_e16);
     float _e18 = lod;
     float f_3 = (_e18 - float(l0_));
-    vec4 _e21 = probe_bilinear(which_2, uv_2, l0_, p_2);
+    vec4 _e21 = probe_bilinear(which_2, uv_2, l0_, p_3);
     if (!((f_3 == 0.0))) {
-        local_8 = ((l0_ + 1u) >= levels);
+        local_9 = ((l0_ + 1u) >= levels);
     } else {
-        local_8 = true;
+        local_9 = true;
     }
-    bool _e31 = local_8;
+    bool _e31 = local_9;
     if (_e31) {
         return _e21;
     }
-    vec4 _e34 = probe_bilinear(which_2, uv_2, (l0_ + 1u), p_2);
+    vec4 _e34 = probe_bilinear(which_2, uv_2, (l0_ + 1u), p_3);
     return ((_e21 * (1.0 - f_3)) + (_e34 * f_3));
 }
 
-vec3 radiance_lod(vec2 uv_3, float lod_1, uint p_3) {
+vec3 radiance_lod(vec2 uv_3, float lod_1, uint p_4) {
     uint _e7 = _group_0_binding_7_cs.probe_info.x;
-    vec4 _e8 = probe_sample_lod(0u, uv_3, lod_1, _e7, p_3);
+    vec4 _e8 = probe_sample_lod(0u, uv_3, lod_1, _e7, p_4);
     return _e8.xyz;
 }
 
-float inv_dist(vec3 v_4) {
-    bool local_9 = false;
-    vec2 _e2 = oct_encode(v_4);
+float inv_dist(vec3 v_6) {
+    bool local_10 = false;
+    vec2 _e2 = oct_encode(v_6);
     float _e6 = _group_0_binding_7_cs.probe.w;
     uint _e10 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e12 = probe_sample_lod(1u, _e2, _e6, _e10, 0u);
     float w_6 = _e12.x;
     if ((w_6 > 0.0)) {
         bool _e18 = finite(w_6);
-        local_9 = _e18;
+        local_10 = _e18;
     } else {
-        local_9 = false;
+        local_10 = false;
     }
-    bool _e20 = local_9;
+    bool _e20 = local_10;
     if (_e20) {
         return w_6;
     }
@@ -404,13 +431,13 @@ vec3 cell_size() {
 }
 
 uint cell_index(uvec3 c_2) {
-    uvec4 n_11 = _group_0_binding_7_cs.grid_counts;
-    return (c_2.x + (n_11.x * (c_2.y + (n_11.y * c_2.z))));
+    uvec4 n_12 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_12.x * (c_2.y + (n_12.y * c_2.z))));
 }
 
-uvec3 cell_of(vec3 p_4, vec3 size) {
+uvec3 cell_of(vec3 p_5, vec3 size) {
     vec4 _e4 = _group_0_binding_7_cs.grid_min;
-    vec3 f_4 = floor(((p_4 - _e4.xyz) / size));
+    vec3 f_4 = floor(((p_5 - _e4.xyz) / size));
     uvec4 _e11 = _group_0_binding_7_cs.grid_counts;
     vec3 hi = vec3((_e11.xyz - uvec3(1u)));
     bool _e17 = finite3_(f_4);
@@ -425,10 +452,10 @@ vec3 cell_centre(uvec3 c_3, vec3 size_1) {
     return (_e4.xyz + ((vec3(c_3) + vec3(0.5)) * size_1));
 }
 
-Lattice lattice(vec3 p_5, vec3 size_2) {
+Lattice lattice(vec3 p_6, vec3 size_2) {
     vec3 f_1 = vec3(0.0);
     vec4 _e4 = _group_0_binding_7_cs.grid_min;
-    f_1 = (((p_5 - _e4.xyz) / size_2) - vec3(0.5));
+    f_1 = (((p_6 - _e4.xyz) / size_2) - vec3(0.5));
     uvec4 _e14 = _group_0_binding_7_cs.grid_counts;
     vec3 hi_1 = vec3((_e14.xyz - uvec3(1u)));
     vec3 _e20 = f_1;
@@ -460,7 +487,7 @@ uvec3 corner_cell(Lattice l_1, uint corner_1) {
 }
 
 vec2 warp1_exit(vec3 b_2, vec3 dir) {
-    bool local_10 = false;
+    bool local_11 = false;
     vec4 _e4 = _group_0_binding_7_cs.probe;
     vec3 a_1 = _e4.xyz;
     float _e6 = inv_dist(dir);
@@ -469,24 +496,24 @@ vec2 warp1_exit(vec3 b_2, vec3 dir) {
     }
     vec3 ab = (a_1 - b_2);
     float dir_ab = dot(dir, ab);
-    vec3 v_9 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
-    float _e23 = inv_dist(v_9);
-    float lambda = (length(v_9) * _e23);
+    vec3 v_11 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
+    float _e23 = inv_dist(v_11);
+    float lambda = (length(v_11) * _e23);
     if (!((lambda > 0.0))) {
         return vec2(1e30, 1.0);
     }
-    float t_9 = (max(((dir_ab * lambda) + dot(dir, v_9)), 0.0) / lambda);
-    bool _e37 = finite(t_9);
+    float t_10 = (max(((dir_ab * lambda) + dot(dir, v_11)), 0.0) / lambda);
+    bool _e37 = finite(t_10);
     if (_e37) {
-        local_10 = (t_9 < HUGE);
+        local_11 = (t_10 < HUGE);
     } else {
-        local_10 = false;
+        local_11 = false;
     }
-    bool _e43 = local_10;
+    bool _e43 = local_11;
     if (!(_e43)) {
         return vec2(1e30, 1.0);
     }
-    return vec2(t_9, 1.0);
+    return vec2(t_10, 1.0);
 }
 
 vec3 warp1_(vec3 b_3, vec3 dir_1) {
@@ -498,11 +525,11 @@ vec3 warp1_(vec3 b_3, vec3 dir_1) {
     }
     vec3 ab_1 = (a_2 - b_3);
     float dir_ab_1 = dot(dir_1, ab_1);
-    vec3 v_10 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
-    float _e20 = inv_dist(v_10);
-    float lambda_1 = (length(v_10) * _e20);
-    float t_10 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_10)), 0.0);
-    vec3 f_5 = ((dir_1 * t_10) - (ab_1 * lambda_1));
+    vec3 v_12 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
+    float _e20 = inv_dist(v_12);
+    float lambda_1 = (length(v_12) * _e20);
+    float t_11 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_12)), 0.0);
+    vec3 f_5 = ((dir_1 * t_11) - (ab_1 * lambda_1));
     if ((lambda_1 > 0.0)) {
         vec3 _e34 = fetch_vector(vec3(0.0), f_5, dir_1);
         return _e34;
@@ -511,7 +538,7 @@ vec3 warp1_(vec3 b_3, vec3 dir_1) {
 }
 
 vec2 box_exit(vec3 b_4, vec3 dir_2) {
-    float t_3 = HUGE;
+    float t_4 = HUGE;
     int k = 0;
     vec4 _e4 = _group_0_binding_7_cs.box_x;
     vec4 _e8 = _group_0_binding_7_cs.box_y;
@@ -544,23 +571,23 @@ vec2 box_exit(vec3 b_4, vec3 dir_2) {
                 int _e46 = k;
                 int _e48 = k;
                 float face = ((d_2[_e48] > 0.0) ? h[_e46] : -(h[_e43]));
-                float _e53 = t_3;
+                float _e53 = t_4;
                 int _e54 = k;
                 int _e57 = k;
-                t_3 = min(_e53, ((face - o_2[_e54]) / d_2[_e57]));
+                t_4 = min(_e53, ((face - o_2[_e54]) / d_2[_e57]));
             }
         }
     }
-    float _e64 = t_3;
+    float _e64 = t_4;
     if (!((_e64 < HUGE))) {
         return vec2(0.0, 0.0);
     }
-    float _e71 = t_3;
+    float _e71 = t_4;
     return vec2(max(_e71, 0.0), 1.0);
 }
 
 vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
-    float t_4 = HUGE;
+    float t_5 = HUGE;
     uint k_1 = 0u;
     bool loop_init_1 = true;
     while(true) {
@@ -582,21 +609,21 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
             }
             uint _e21 = k_1;
             vec4 _e23 = _group_0_binding_7_cs.kdop[_e21];
-            vec3 n_12 = _e23.xyz;
+            vec3 n_13 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e27].w;
-            float nb = dot(n_12, b_5);
+            float nb = dot(n_13, b_5);
             if ((nb > h_1)) {
                 return vec2(0.0, 0.0);
             }
-            float nd = dot(n_12, dir_3);
+            float nd = dot(n_13, dir_3);
             if ((nd > 0.0)) {
-                float _e39 = t_4;
-                t_4 = min(_e39, ((h_1 - nb) / nd));
+                float _e39 = t_5;
+                t_5 = min(_e39, ((h_1 - nb) / nd));
             }
         }
     }
-    float _e46 = t_4;
+    float _e46 = t_5;
     return vec2(_e46, 1.0);
 }
 
@@ -619,13 +646,13 @@ vec2 proxy_exit(vec3 b_6, vec3 dir_4) {
 }
 
 vec3 proxy_fetch(vec2 exit, vec3 b_7, vec3 dir_5) {
-    bool local_11 = false;
+    bool local_12 = false;
     if (!((exit.y == 0.0))) {
-        local_11 = !((exit.x < HUGE));
+        local_12 = !((exit.x < HUGE));
     } else {
-        local_11 = true;
+        local_12 = true;
     }
-    bool _e14 = local_11;
+    bool _e14 = local_12;
     if (_e14) {
         return dir_5;
     }
@@ -640,25 +667,25 @@ vec3 box_fetch(vec3 b_8, vec3 dir_6) {
     return _e3;
 }
 
-Basis orthonormal_basis(vec3 n_3) {
-    float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a_3 = (-1.0 / (s_3 + n_3.z));
-    float b_24 = ((n_3.x * n_3.y) * a_3);
-    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_3)), (s_3 * b_24), (-(s_3) * n_3.x)), vec3(b_24, (s_3 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+Basis orthonormal_basis(vec3 n_4) {
+    float s_3 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
+    float a_3 = (-1.0 / (s_3 + n_4.z));
+    float b_24 = ((n_4.x * n_4.y) * a_3);
+    return Basis(vec3((1.0 + (((s_3 * n_4.x) * n_4.x) * a_3)), (s_3 * b_24), (-(s_3) * n_4.x)), vec3(b_24, (s_3 + ((n_4.y * n_4.y) * a_3)), -(n_4.y)));
 }
 
-vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
-    bool local_12 = false;
-    float l_5 = length(v_5);
+vec3 normalize_or(vec3 v_7, vec3 fallback_1) {
+    bool local_13 = false;
+    float l_5 = length(v_7);
     if ((l_5 > 0.0)) {
         bool _e7 = finite(l_5);
-        local_12 = _e7;
+        local_13 = _e7;
     } else {
-        local_12 = false;
+        local_13 = false;
     }
-    bool _e9 = local_12;
+    bool _e9 = local_13;
     if (_e9) {
-        return (v_5 / vec3(l_5));
+        return (v_7 / vec3(l_5));
     }
     return fallback_1;
 }
@@ -677,7 +704,7 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
     float _e18 = _group_0_binding_7_cs.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
     Basis _e20 = orthonormal_basis(dir_7);
-    vec3 t_11 = (_e20.t * angle);
+    vec3 t_12 = (_e20.t * angle);
     vec3 bt = (_e20.b * angle);
     plain = dir_7;
     bool loop_init_2 = true;
@@ -697,11 +724,11 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
             uint _e37 = s;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_7 + t_11));
+                    d_1 = normalize((dir_7 + t_12));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_7 - t_11));
+                    d_1 = normalize((dir_7 - t_12));
                     break;
                 }
                 case 3u: {
@@ -738,20 +765,20 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
     return _e62;
 }
 
-Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_6) {
-    bool local_13 = false;
-    float s_1 = 0.0;
+Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_7) {
     bool local_14 = false;
-    float k_2 = 0.0;
+    float s_1 = 0.0;
     bool local_15 = false;
+    float k_2 = 0.0;
+    bool local_16 = false;
     if (!((exit_1.y == 0.0))) {
-        local_13 = !((exit_1.x < HUGE));
+        local_14 = !((exit_1.x < HUGE));
     } else {
-        local_13 = true;
+        local_14 = true;
     }
-    bool _e16 = local_13;
+    bool _e16 = local_14;
     if (_e16) {
-        return Aim(dir_8, 1.0, p_6);
+        return Aim(dir_8, 1.0, p_7);
     }
     s_1 = (exit_1.x + delta);
     float _e22 = s_1;
@@ -759,34 +786,34 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_6) {
         s_1 = 1e-30;
     }
     float _e27 = s_1;
-    vec4 _e33 = _group_0_binding_7_cs.probes[p_6];
-    vec3 v_11 = ((b_10 + (dir_8 * _e27)) - _e33.xyz);
-    bool _e36 = finite3_(v_11);
+    vec4 _e33 = _group_0_binding_7_cs.probes[p_7];
+    vec3 v_13 = ((b_10 + (dir_8 * _e27)) - _e33.xyz);
+    bool _e36 = finite3_(v_13);
     if (_e36) {
-        local_14 = any(notEqual(v_11, vec3(0.0)));
+        local_15 = any(notEqual(v_13, vec3(0.0)));
     } else {
-        local_14 = false;
+        local_15 = false;
     }
-    bool _e44 = local_14;
+    bool _e44 = local_15;
     if (_e44) {
         float _e46 = s_1;
-        k_2 = (length(v_11) / _e46);
+        k_2 = (length(v_13) / _e46);
         float _e49 = k_2;
         bool _e50 = finite(_e49);
         if (_e50) {
             float _e53 = k_2;
-            local_15 = (_e53 > 0.0);
+            local_16 = (_e53 > 0.0);
         } else {
-            local_15 = false;
+            local_16 = false;
         }
-        bool _e57 = local_15;
+        bool _e57 = local_16;
         if (!(_e57)) {
             k_2 = 1.0;
         }
         float _e60 = k_2;
-        return Aim(v_11, _e60, p_6);
+        return Aim(v_13, _e60, p_7);
     }
-    return Aim(dir_8, 1.0, p_6);
+    return Aim(dir_8, 1.0, p_7);
 }
 
 float face_ramp(float x_2) {
@@ -830,22 +857,22 @@ float mip_roughness(uint m) {
 }
 
 float lod_of_roughness(float r_2) {
-    bool local_18 = false;
+    bool local_19 = false;
     uint below = 0u;
-    uint t_5 = 0u;
+    uint t_6 = 0u;
     float f_2 = 0.0;
-    uint n_13 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_13 < 2u))) {
+    uint n_14 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_14 < 2u))) {
         float _e11 = mip_roughness(0u);
-        local_18 = !((r_2 > _e11));
+        local_19 = !((r_2 > _e11));
     } else {
-        local_18 = true;
+        local_19 = true;
     }
-    bool _e15 = local_18;
+    bool _e15 = local_19;
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_13 - 1u);
+    uint last = (n_14 - 1u);
     float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
@@ -853,18 +880,18 @@ float lod_of_roughness(float r_2) {
     bool loop_init_3 = true;
     while(true) {
         if (!loop_init_3) {
-            uint _e37 = t_5;
-            t_5 = (_e37 + 1u);
+            uint _e37 = t_6;
+            t_6 = (_e37 + 1u);
         }
         loop_init_3 = false;
-        uint _e26 = t_5;
-        if ((_e26 < n_13)) {
+        uint _e26 = t_6;
+        if ((_e26 < n_14)) {
         } else {
             break;
         }
         {
             uint _e28 = below;
-            uint _e31 = t_5;
+            uint _e31 = t_6;
             float _e32 = mip_roughness(_e31);
             below = (_e28 + ((_e32 <= r_2) ? 1u : 0u));
         }
@@ -882,50 +909,50 @@ float lod_of_roughness(float r_2) {
     return (float(i_6) + clamp(_e57, 0.0, 1.0));
 }
 
-float distance_ratio(vec3 b_13, vec3 v_6, vec2 uv_8, uint p_7) {
-    bool local_19 = false;
+float distance_ratio(vec3 b_13, vec3 v_8, vec2 uv_8, uint p_8) {
     bool local_20 = false;
     bool local_21 = false;
     bool local_22 = false;
-    float l_6 = length(v_6);
+    bool local_23 = false;
+    float l_6 = length(v_8);
     float _e9 = _group_0_binding_7_cs.probe.w;
     uint _e13 = _group_0_binding_7_cs.probe_info.y;
-    vec4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_7);
+    vec4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_8);
     float w_7 = _e14.x;
     if ((l_6 > 0.0)) {
         bool _e20 = finite(l_6);
-        local_19 = _e20;
-    } else {
-        local_19 = false;
-    }
-    bool _e22 = local_19;
-    if (_e22) {
-        local_20 = (w_7 > 0.0);
+        local_20 = _e20;
     } else {
         local_20 = false;
     }
-    bool _e28 = local_20;
-    if (_e28) {
-        bool _e31 = finite(w_7);
-        local_21 = _e31;
+    bool _e22 = local_20;
+    if (_e22) {
+        local_21 = (w_7 > 0.0);
     } else {
         local_21 = false;
     }
-    bool _e33 = local_21;
+    bool _e28 = local_21;
+    if (_e28) {
+        bool _e31 = finite(w_7);
+        local_22 = _e31;
+    } else {
+        local_22 = false;
+    }
+    bool _e33 = local_22;
     if (!(_e33)) {
         return 1.0;
     }
     float d_probe = (1.0 / w_7);
-    vec4 _e41 = _group_0_binding_7_cs.probes[p_7];
-    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_6))) - b_13));
+    vec4 _e41 = _group_0_binding_7_cs.probes[p_8];
+    float d_surface = length(((_e41.xyz + (v_8 * (d_probe / l_6))) - b_13));
     float k_13 = (d_probe / d_surface);
     bool _e49 = finite(k_13);
     if (_e49) {
-        local_22 = (k_13 > 0.0);
+        local_23 = (k_13 > 0.0);
     } else {
-        local_22 = false;
+        local_23 = false;
     }
-    bool _e55 = local_22;
+    bool _e55 = local_23;
     if (_e55) {
         return k_13;
     }
@@ -939,10 +966,10 @@ float pseudo_log2_(float k_4) {
     return (float(e_2) + (m_3 - 1.0));
 }
 
-vec3 sh_eval(vec3 c_5[9], vec3 n_5) {
-    float x_6 = n_5.x;
-    float y = n_5.y;
-    float z = n_5.z;
+vec3 sh_eval(vec3 c_5[9], vec3 n_6) {
+    float x_6 = n_6.x;
+    float y = n_6.y;
+    float z = n_6.z;
     vec3 t0_ = (c_5[0] * 0.2820948);
     vec3 t1_ = (c_5[1] * (0.4886025 * y));
     vec3 t2_ = (c_5[2] * (0.4886025 * z));
@@ -967,16 +994,16 @@ float blend_node_w(uint k_10) {
 }
 
 float irradiance_weight(float r_7) {
-    bool local_28 = false;
+    bool local_29 = false;
     float w_4 = 0.0;
     uint k_11 = 1u;
-    uint n_14 = _group_0_binding_7_cs.lut_info.y;
-    if (!((n_14 == 0u))) {
-        local_28 = !((r_7 > 0.0));
+    uint n_15 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_15 == 0u))) {
+        local_29 = !((r_7 > 0.0));
     } else {
-        local_28 = true;
+        local_29 = true;
     }
-    bool _e14 = local_28;
+    bool _e14 = local_29;
     if (_e14) {
         return 0.0;
     }
@@ -990,7 +1017,7 @@ float irradiance_weight(float r_7) {
         }
         loop_init_4 = false;
         uint _e21 = k_11;
-        if ((_e21 < n_14)) {
+        if ((_e21 < n_15)) {
         } else {
             break;
         }
@@ -1000,12 +1027,12 @@ float irradiance_weight(float r_7) {
             if ((r_7 > _e26)) {
                 uint _e29 = k_11;
                 float _e30 = blend_node_r(_e29);
-                float t_12 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                float t_13 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
                 uint _e37 = k_11;
                 float _e40 = blend_node_w((_e37 - 1u));
                 uint _e44 = k_11;
                 float _e45 = blend_node_w(_e44);
-                w_4 = ((_e40 * (1.0 - t_12)) + (_e45 * t_12));
+                w_4 = ((_e40 * (1.0 - t_13)) + (_e45 * t_13));
             }
         }
     }
@@ -1021,35 +1048,35 @@ vec3 clean(vec3 c_8) {
     return vec3(0.0);
 }
 
-vec2 hemi_encode(vec3 v_7) {
-    bool local_31 = false;
-    float z_1 = max(v_7.z, 0.0);
-    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
+vec2 hemi_encode(vec3 v_9) {
+    bool local_32 = false;
+    float z_1 = max(v_9.z, 0.0);
+    float l1_1 = ((abs(v_9.x) + abs(v_9.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_31 = _e14;
+        local_32 = _e14;
     } else {
-        local_31 = false;
+        local_32 = false;
     }
-    bool _e16 = local_31;
+    bool _e16 = local_32;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
-    float px = (v_7.x / l1_1);
-    float py = (v_7.y / l1_1);
+    float px = (v_9.x / l1_1);
+    float py = (v_9.y / l1_1);
     return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_9) {
+SurfaceAxis surface_axis(float x_in, uint n_10) {
     float x_4 = 0.5;
     bool _e4 = finite(x_in);
     if (_e4) {
         x_4 = x_in;
     }
     float _e5 = x_4;
-    float c_11 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
+    float c_11 = clamp(((_e5 * float(n_10)) - 0.5), 0.0, float((n_10 - 1u)));
     uint i0_ = uint(floor(c_11));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_11 - float(i0_)));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_10 - 1u)), (c_11 - float(i0_)));
 }
 
 uint query_count() {

@@ -92,6 +92,37 @@ struct SurfaceTaps {
     float2 f;
 };
 
+struct CameraParams {
+    row_major float4x4 view_proj;
+    float4 eye;
+    float4 surface_offset;
+    float4 shading;
+};
+
+struct SurfaceVertex {
+    float3 position : LOC0;
+    float3 normal : LOC1;
+    float3 albedo : LOC2;
+    float flags : LOC3;
+    float4 sphere : LOC4;
+};
+
+struct SurfaceVarying {
+    float4 clip_ : SV_Position;
+    float3 world : LOC0;
+    nointerpolation float3 normal : LOC1;
+    nointerpolation float3 albedo : LOC2;
+    nointerpolation float flags : LOC3;
+    nointerpolation float4 sphere : LOC4;
+};
+
+struct SurfaceOut {
+    float4 radiance : SV_Target0;
+    float4 query_point : SV_Target1;
+    float4 query_direction : SV_Target2;
+    float depth : SV_Depth;
+};
+
 static const uint DYNAMIC = 255u;
 static const float HUGE = 1e30;
 static const float F32_MIN_POSITIVE = 1.1754944e-38;
@@ -124,6 +155,25 @@ cbuffer surface_params : register(b1, space2) { SurfaceParams surface_params; }
 Texture2D<float4> surface_inv_distance : register(t2, space2);
 ByteAddressBuffer queries : register(t0, space1);
 RWByteAddressBuffer results : register(u1, space1);
+cbuffer camera : register(b0, space3) { CameraParams camera; }
+
+struct VertexOutput_surface_vertex {
+    float3 world : LOC0;
+    nointerpolation float3 normal_1 : LOC1;
+    nointerpolation float3 albedo : LOC2;
+    nointerpolation float flags : LOC3;
+    nointerpolation float4 sphere : LOC4;
+    float4 clip_ : SV_Position;
+};
+
+struct FragmentInput_surface_fragment {
+    float3 world_1 : LOC0;
+    nointerpolation float3 normal_2 : LOC1;
+    nointerpolation float3 albedo_1 : LOC2;
+    nointerpolation float flags_1 : LOC3;
+    nointerpolation float4 sphere_1 : LOC4;
+    float4 clip_1 : SV_Position;
+};
 
 uint fallback_method()
 {
@@ -166,26 +216,26 @@ bool finite(float x)
     return ((asuint(x) & 2139095040u) != 2139095040u);
 }
 
-bool finite3_(float3 v_2)
+bool finite3_(float3 v_4)
 {
-    bool local = (bool)0;
     bool local_1 = (bool)0;
+    bool local_2 = (bool)0;
 
-    const bool _e2 = finite(v_2.x);
+    const bool _e2 = finite(v_4.x);
     if (_e2) {
-        const bool _e6 = finite(v_2.y);
-        local = _e6;
-    } else {
-        local = false;
-    }
-    bool _e8 = local;
-    if (_e8) {
-        const bool _e12 = finite(v_2.z);
-        local_1 = _e12;
+        const bool _e6 = finite(v_4.y);
+        local_1 = _e6;
     } else {
         local_1 = false;
     }
-    bool _e14 = local_1;
+    bool _e8 = local_1;
+    if (_e8) {
+        const bool _e12 = finite(v_4.z);
+        local_2 = _e12;
+    } else {
+        local_2 = false;
+    }
+    bool _e14 = local_2;
     return _e14;
 }
 
@@ -194,51 +244,51 @@ float sign_not_zero(float x_1)
     return ((x_1 >= 0.0) ? 1.0 : -1.0);
 }
 
-float4 unit_direction(float3 v_3)
+float4 unit_direction(float3 v_5)
 {
-    bool local_2 = (bool)0;
     bool local_3 = (bool)0;
     bool local_4 = (bool)0;
     bool local_5 = (bool)0;
+    bool local_6 = (bool)0;
 
-    float l2_ = dot(v_3, v_3);
+    float l2_ = dot(v_5, v_5);
     const bool _e2 = finite(l2_);
     if (_e2) {
-        local_2 = (abs((l2_ - 1.0)) <= 4.7683716e-7);
-    } else {
-        local_2 = false;
-    }
-    bool _e11 = local_2;
-    if (_e11) {
-        return float4(v_3, 1.0);
-    }
-    float m_1 = max(abs(v_3.x), max(abs(v_3.y), abs(v_3.z)));
-    if ((m_1 > 0.0)) {
-        const bool _e26 = finite(m_1);
-        local_3 = _e26;
+        local_3 = (abs((l2_ - 1.0)) <= 4.7683716e-7);
     } else {
         local_3 = false;
     }
-    bool _e28 = local_3;
-    if (_e28) {
-        const bool _e31 = finite3_(v_3);
-        local_4 = _e31;
+    bool _e11 = local_3;
+    if (_e11) {
+        return float4(v_5, 1.0);
+    }
+    float m_1 = max(abs(v_5.x), max(abs(v_5.y), abs(v_5.z)));
+    if ((m_1 > 0.0)) {
+        const bool _e26 = finite(m_1);
+        local_4 = _e26;
     } else {
         local_4 = false;
     }
-    bool _e33 = local_4;
-    if (!(_e33)) {
-        return float4(0.0, 0.0, 1.0, 0.0);
-    }
-    float3 s_2 = (v_3 / (m_1).xxx);
-    float l_3 = length(s_2);
-    if ((l_3 > 0.0)) {
-        const bool _e47 = finite(l_3);
-        local_5 = _e47;
+    bool _e28 = local_4;
+    if (_e28) {
+        const bool _e31 = finite3_(v_5);
+        local_5 = _e31;
     } else {
         local_5 = false;
     }
-    bool _e49 = local_5;
+    bool _e33 = local_5;
+    if (!(_e33)) {
+        return float4(0.0, 0.0, 1.0, 0.0);
+    }
+    float3 s_2 = (v_5 / (m_1).xxx);
+    float l_3 = length(s_2);
+    if ((l_3 > 0.0)) {
+        const bool _e47 = finite(l_3);
+        local_6 = _e47;
+    } else {
+        local_6 = false;
+    }
+    bool _e49 = local_6;
     if (!(_e49)) {
         return float4(0.0, 0.0, 1.0, 0.0);
     }
@@ -247,51 +297,51 @@ float4 unit_direction(float3 v_3)
 
 float3 fetch_vector(float3 from, float3 to, float3 fallback)
 {
-    bool local_6 = (bool)0;
+    bool local_7 = (bool)0;
 
-    float3 v_8 = (to - from);
-    float l2_1 = dot(v_8, v_8);
+    float3 v_10 = (to - from);
+    float l2_1 = dot(v_10, v_10);
     if ((l2_1 > 0.0)) {
         const bool _e9 = finite(l2_1);
-        local_6 = _e9;
+        local_7 = _e9;
     } else {
-        local_6 = false;
+        local_7 = false;
     }
-    bool _e11 = local_6;
+    bool _e11 = local_7;
     if (_e11) {
-        return v_8;
+        return v_10;
     }
     return fallback;
 }
 
 float2 oct_encode(float3 d)
 {
-    bool local_7 = (bool)0;
-    float2 p = (float2)0;
+    bool local_8 = (bool)0;
+    float2 p_1 = (float2)0;
 
     float l1_ = ((abs(d.x) + abs(d.y)) + abs(d.z));
     if ((l1_ >= F32_MIN_POSITIVE)) {
         const bool _e13 = finite(l1_);
-        local_7 = _e13;
+        local_8 = _e13;
     } else {
-        local_7 = false;
+        local_8 = false;
     }
-    bool _e15 = local_7;
+    bool _e15 = local_8;
     if (!(_e15)) {
         return float2(0.5, 0.5);
     }
     float inv_l1_ = (1.0 / l1_);
-    p = float2((d.x * inv_l1_), (d.y * inv_l1_));
+    p_1 = float2((d.x * inv_l1_), (d.y * inv_l1_));
     if ((d.z < 0.0)) {
-        float _e32 = p.y;
-        float _e37 = p.x;
+        float _e32 = p_1.y;
+        float _e37 = p_1.x;
         const float _e38 = sign_not_zero(_e37);
-        float _e41 = p.x;
-        float _e46 = p.y;
+        float _e41 = p_1.x;
+        float _e46 = p_1.y;
         const float _e47 = sign_not_zero(_e46);
-        p = float2(((1.0 - abs(_e32)) * _e38), ((1.0 - abs(_e41)) * _e47));
+        p_1 = float2(((1.0 - abs(_e32)) * _e38), ((1.0 - abs(_e41)) * _e47));
     }
-    float2 _e50 = p;
+    float2 _e50 = p_1;
     return clamp(((_e50 * 0.5) + (0.5).xx), (0.0).xx, (1.0).xx);
 }
 
@@ -299,46 +349,46 @@ int naga_neg(int val) {
     return asint(-asuint(val));
 }
 
-int2 wrap_texel(int n, int2 t)
+int2 wrap_texel(int n_1, int2 t_1)
 {
     int i = (int)0;
     int j = (int)0;
 
-    i = t.x;
-    j = t.y;
+    i = t_1.x;
+    j = t_1.y;
     int _e6 = i;
     if ((_e6 < int(0))) {
         int _e9 = i;
         i = asint(asuint(naga_neg(_e9)) - asuint(int(1)));
         int _e15 = j;
-        j = asint(asuint(asint(asuint(n) - asuint(int(1)))) - asuint(_e15));
+        j = asint(asuint(asint(asuint(n_1) - asuint(int(1)))) - asuint(_e15));
     } else {
         int _e17 = i;
-        if ((_e17 >= n)) {
+        if ((_e17 >= n_1)) {
             int _e23 = i;
-            i = asint(asuint(asint(asuint(asint(asuint(int(2)) * asuint(n))) - asuint(int(1)))) - asuint(_e23));
+            i = asint(asuint(asint(asuint(asint(asuint(int(2)) * asuint(n_1))) - asuint(int(1)))) - asuint(_e23));
             int _e27 = j;
-            j = asint(asuint(asint(asuint(n) - asuint(int(1)))) - asuint(_e27));
+            j = asint(asuint(asint(asuint(n_1) - asuint(int(1)))) - asuint(_e27));
         }
     }
     int _e29 = j;
     if ((_e29 < int(0))) {
         int _e34 = i;
-        i = asint(asuint(asint(asuint(n) - asuint(int(1)))) - asuint(_e34));
+        i = asint(asuint(asint(asuint(n_1) - asuint(int(1)))) - asuint(_e34));
         int _e36 = j;
         j = asint(asuint(naga_neg(_e36)) - asuint(int(1)));
     } else {
         int _e40 = j;
-        if ((_e40 >= n)) {
+        if ((_e40 >= n_1)) {
             int _e44 = i;
-            i = asint(asuint(asint(asuint(n) - asuint(int(1)))) - asuint(_e44));
+            i = asint(asuint(asint(asuint(n_1) - asuint(int(1)))) - asuint(_e44));
             int _e50 = j;
-            j = asint(asuint(asint(asuint(asint(asuint(int(2)) * asuint(n))) - asuint(int(1)))) - asuint(_e50));
+            j = asint(asuint(asint(asuint(asint(asuint(int(2)) * asuint(n_1))) - asuint(int(1)))) - asuint(_e50));
         }
     }
     int _e52 = i;
     int _e53 = j;
-    return clamp(int2(_e52, _e53), (int(0)).xx, (asint(asuint(n) - asuint(int(1)))).xx);
+    return clamp(int2(_e52, _e53), (int(0)).xx, (asint(asuint(n_1) - asuint(int(1)))).xx);
 }
 
 Footprint ConstructFootprint(int2 arg0, float2 arg1) {
@@ -352,9 +402,9 @@ int2 naga_f2i32(float2 value) {
     return int2(clamp(value, -2147483600.0, 2147483500.0));
 }
 
-Footprint footprint(uint n_1, float2 uv)
+Footprint footprint(uint n_2, float2 uv)
 {
-    float2 x_5 = ((clamp(uv, (0.0).xx, (1.0).xx) * float(n_1)) - (0.5).xx);
+    float2 x_5 = ((clamp(uv, (0.0).xx, (1.0).xx) * float(n_2)) - (0.5).xx);
     float2 x0_ = floor(x_5);
     const Footprint footprint_1 = ConstructFootprint(naga_f2i32(x0_), (x_5 - x0_));
     return footprint_1;
@@ -365,13 +415,13 @@ float4 blend4_(float4 q00_, float4 q10_, float4 q01_, float4 q11_, float2 f)
     return ((((q00_ * (1.0 - f.x)) + (q10_ * f.x)) * (1.0 - f.y)) + (((q01_ * (1.0 - f.x)) + (q11_ * f.x)) * f.y));
 }
 
-float4 probe_texel(uint which, int2 t_1, int level)
+float4 probe_texel(uint which, int2 t_2, int level)
 {
     if ((which == 0u)) {
-        float4 _e6 = probe_radiance.Load(int3(t_1, level));
+        float4 _e6 = probe_radiance.Load(int3(t_2, level));
         return _e6;
     }
-    float4 _e8 = probe_inv_distance.Load(int3(t_1, level));
+    float4 _e8 = probe_inv_distance.Load(int3(t_2, level));
     return _e8;
 }
 
@@ -379,17 +429,17 @@ uint naga_f2u32(float value) {
     return uint(clamp(value, 0.0, 4294967000.0));
 }
 
-float4 probe_bilinear(uint which_1, float2 uv_1, uint level_1, uint p_1)
+float4 probe_bilinear(uint which_1, float2 uv_1, uint level_1, uint p_2)
 {
     float _e7 = params.warp.z;
     float _e11 = params.warp.y;
     float res0_ = ((which_1 == 0u) ? _e11 : _e7);
-    uint n_10 = max((naga_f2u32(res0_) >> level_1), 1u);
-    const Footprint _e19 = footprint(n_10, uv_1);
+    uint n_11 = max((naga_f2u32(res0_) >> level_1), 1u);
+    const Footprint _e19 = footprint(n_11, uv_1);
     int2 c_10 = _e19.corner;
     int l_4 = int(level_1);
-    int ni = int(n_10);
-    int2 at_3 = int2(asint(asuint(int(p_1)) * asuint(ni)), int(0));
+    int ni = int(n_11);
+    int2 at_3 = int2(asint(asuint(int(p_2)) * asuint(ni)), int(0));
     const int2 _e27 = wrap_texel(ni, c_10);
     const float4 _e29 = probe_texel(which_1, asint(asuint(at_3) + asuint(_e27)), l_4);
     const int2 _e34 = wrap_texel(ni, asint(asuint(c_10) + asuint(int2(int(1), int(0)))));
@@ -402,10 +452,10 @@ float4 probe_bilinear(uint which_1, float2 uv_1, uint level_1, uint p_1)
     return _e52;
 }
 
-float4 probe_sample_lod(uint which_2, float2 uv_2, float lod_in, uint levels, uint p_2)
+float4 probe_sample_lod(uint which_2, float2 uv_2, float lod_in, uint levels, uint p_3)
 {
     float lod = 0.0;
-    bool local_8 = (bool)0;
+    bool local_9 = (bool)0;
 
     float top = float((max(levels, 1u) - 1u));
     const bool _e12 = finite(lod_in);
@@ -416,66 +466,66 @@ float4 probe_sample_lod(uint which_2, float2 uv_2, float lod_in, uint levels, ui
     uint l0_ = naga_f2u32(_e16);
     float _e18 = lod;
     float f_3 = (_e18 - float(l0_));
-    const float4 _e21 = probe_bilinear(which_2, uv_2, l0_, p_2);
+    const float4 _e21 = probe_bilinear(which_2, uv_2, l0_, p_3);
     if (!((f_3 == 0.0))) {
-        local_8 = ((l0_ + 1u) >= levels);
+        local_9 = ((l0_ + 1u) >= levels);
     } else {
-        local_8 = true;
+        local_9 = true;
     }
-    bool _e31 = local_8;
+    bool _e31 = local_9;
     if (_e31) {
         return _e21;
     }
-    const float4 _e34 = probe_bilinear(which_2, uv_2, (l0_ + 1u), p_2);
+    const float4 _e34 = probe_bilinear(which_2, uv_2, (l0_ + 1u), p_3);
     return ((_e21 * (1.0 - f_3)) + (_e34 * f_3));
 }
 
-float3 radiance_lod(float2 uv_3, float lod_1, uint p_3)
+float3 radiance_lod(float2 uv_3, float lod_1, uint p_4)
 {
     uint _e7 = params.probe_info.x;
-    const float4 _e8 = probe_sample_lod(0u, uv_3, lod_1, _e7, p_3);
+    const float4 _e8 = probe_sample_lod(0u, uv_3, lod_1, _e7, p_4);
     return _e8.xyz;
 }
 
-float inv_dist(float3 v_4)
+float inv_dist(float3 v_6)
 {
-    bool local_9 = (bool)0;
+    bool local_10 = (bool)0;
 
-    const float2 _e2 = oct_encode(v_4);
+    const float2 _e2 = oct_encode(v_6);
     float _e6 = params.probe.w;
     uint _e10 = params.probe_info.y;
     const float4 _e12 = probe_sample_lod(1u, _e2, _e6, _e10, 0u);
     float w_6 = _e12.x;
     if ((w_6 > 0.0)) {
         const bool _e18 = finite(w_6);
-        local_9 = _e18;
+        local_10 = _e18;
     } else {
-        local_9 = false;
+        local_10 = false;
     }
-    bool _e20 = local_9;
+    bool _e20 = local_10;
     if (_e20) {
         return w_6;
     }
     return 0.0;
 }
 
-float4 atlas_texel(uint which_3, int2 t_2)
+float4 atlas_texel(uint which_3, int2 t_3)
 {
     switch(which_3) {
         case 0u: {
-            float4 _e4 = corrective_atlas.Load(int3(t_2, int(0)));
+            float4 _e4 = corrective_atlas.Load(int3(t_3, int(0)));
             return _e4;
         }
         case 1u: {
-            float4 _e7 = irradiance_atlas.Load(int3(t_2, int(0)));
+            float4 _e7 = irradiance_atlas.Load(int3(t_3, int(0)));
             return _e7;
         }
         case 2u: {
-            float4 _e10 = moments_atlas.Load(int3(t_2, int(0)));
+            float4 _e10 = moments_atlas.Load(int3(t_3, int(0)));
             return _e10;
         }
         default: {
-            float4 _e13 = scale_atlas.Load(int3(t_2, int(0)));
+            float4 _e13 = scale_atlas.Load(int3(t_3, int(0)));
             return _e13;
         }
     }
@@ -489,11 +539,11 @@ uint naga_div(uint lhs, uint rhs) {
     return lhs / (rhs == 0u ? 1u : rhs);
 }
 
-float4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, float2 uv_4)
+float4 atlas_bilinear(uint which_4, int tile, uint n_3, uint columns, float2 uv_4)
 {
     uint s_3 = uint(tile);
-    int2 origin = int2((uint2(naga_mod(s_3, columns), naga_div(s_3, columns)) * (n_2 + 2u)));
-    const Footprint _e13 = footprint(n_2, uv_4);
+    int2 origin = int2((uint2(naga_mod(s_3, columns), naga_div(s_3, columns)) * (n_3 + 2u)));
+    const Footprint _e13 = footprint(n_3, uv_4);
     int2 c_11 = asint(asuint(asint(asuint(origin) + asuint(_e13.corner))) + asuint(int2(int(1), int(1))));
     const float4 _e20 = atlas_texel(which_4, c_11);
     const float4 _e25 = atlas_texel(which_4, asint(asuint(c_11) + asuint(int2(int(1), int(0)))));
@@ -513,18 +563,18 @@ float3 cell_size()
 
 uint cell_index(uint3 c_2)
 {
-    uint4 n_11 = params.grid_counts;
-    return (c_2.x + (n_11.x * (c_2.y + (n_11.y * c_2.z))));
+    uint4 n_12 = params.grid_counts;
+    return (c_2.x + (n_12.x * (c_2.y + (n_12.y * c_2.z))));
 }
 
 uint3 naga_f2u32(float3 value) {
     return uint3(clamp(value, 0.0, 4294967000.0));
 }
 
-uint3 cell_of(float3 p_4, float3 size)
+uint3 cell_of(float3 p_5, float3 size)
 {
     float4 _e4 = params.grid_min;
-    float3 f_4 = floor(((p_4 - _e4.xyz) / size));
+    float3 f_4 = floor(((p_5 - _e4.xyz) / size));
     uint4 _e11 = params.grid_counts;
     float3 hi = float3((_e11.xyz - (1u).xxx));
     const bool _e17 = finite3_(f_4);
@@ -547,12 +597,12 @@ Lattice ConstructLattice(uint3 arg0, float3 arg1) {
     return ret;
 }
 
-Lattice lattice(float3 p_5, float3 size_2)
+Lattice lattice(float3 p_6, float3 size_2)
 {
     float3 f_1 = (float3)0;
 
     float4 _e4 = params.grid_min;
-    f_1 = (((p_5 - _e4.xyz) / size_2) - (0.5).xxx);
+    f_1 = (((p_6 - _e4.xyz) / size_2) - (0.5).xxx);
     uint4 _e14 = params.grid_counts;
     float3 hi_1 = float3((_e14.xyz - (1u).xxx));
     float3 _e20 = f_1;
@@ -588,7 +638,7 @@ uint3 corner_cell(Lattice l_1, uint corner_1)
 
 float2 warp1_exit(float3 b_2, float3 dir)
 {
-    bool local_10 = (bool)0;
+    bool local_11 = (bool)0;
 
     float4 _e4 = params.probe;
     float3 a_1 = _e4.xyz;
@@ -598,24 +648,24 @@ float2 warp1_exit(float3 b_2, float3 dir)
     }
     float3 ab = (a_1 - b_2);
     float dir_ab = dot(dir, ab);
-    float3 v_9 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
-    const float _e23 = inv_dist(v_9);
-    float lambda = (length(v_9) * _e23);
+    float3 v_11 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
+    const float _e23 = inv_dist(v_11);
+    float lambda = (length(v_11) * _e23);
     if (!((lambda > 0.0))) {
         return float2(1e30, 1.0);
     }
-    float t_9 = (max(((dir_ab * lambda) + dot(dir, v_9)), 0.0) / lambda);
-    const bool _e37 = finite(t_9);
+    float t_10 = (max(((dir_ab * lambda) + dot(dir, v_11)), 0.0) / lambda);
+    const bool _e37 = finite(t_10);
     if (_e37) {
-        local_10 = (t_9 < HUGE);
+        local_11 = (t_10 < HUGE);
     } else {
-        local_10 = false;
+        local_11 = false;
     }
-    bool _e43 = local_10;
+    bool _e43 = local_11;
     if (!(_e43)) {
         return float2(1e30, 1.0);
     }
-    return float2(t_9, 1.0);
+    return float2(t_10, 1.0);
 }
 
 float3 warp1_(float3 b_3, float3 dir_1)
@@ -628,11 +678,11 @@ float3 warp1_(float3 b_3, float3 dir_1)
     }
     float3 ab_1 = (a_2 - b_3);
     float dir_ab_1 = dot(dir_1, ab_1);
-    float3 v_10 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
-    const float _e20 = inv_dist(v_10);
-    float lambda_1 = (length(v_10) * _e20);
-    float t_10 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_10)), 0.0);
-    float3 f_5 = ((dir_1 * t_10) - (ab_1 * lambda_1));
+    float3 v_12 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
+    const float _e20 = inv_dist(v_12);
+    float lambda_1 = (length(v_12) * _e20);
+    float t_11 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_12)), 0.0);
+    float3 f_5 = ((dir_1 * t_11) - (ab_1 * lambda_1));
     if ((lambda_1 > 0.0)) {
         const float3 _e34 = fetch_vector((0.0).xxx, f_5, dir_1);
         return _e34;
@@ -642,7 +692,7 @@ float3 warp1_(float3 b_3, float3 dir_1)
 
 float2 box_exit(float3 b_4, float3 dir_2)
 {
-    float t_3 = HUGE;
+    float t_4 = HUGE;
     int k = int(0);
 
     float4 _e4 = params.box_x;
@@ -679,24 +729,24 @@ float2 box_exit(float3 b_4, float3 dir_2)
                 int _e46 = k;
                 int _e48 = k;
                 float face = ((d_2[min(uint(_e48), 2u)] > 0.0) ? h[min(uint(_e46), 2u)] : -(h[min(uint(_e43), 2u)]));
-                float _e53 = t_3;
+                float _e53 = t_4;
                 int _e54 = k;
                 int _e57 = k;
-                t_3 = min(_e53, ((face - o_2[min(uint(_e54), 2u)]) / d_2[min(uint(_e57), 2u)]));
+                t_4 = min(_e53, ((face - o_2[min(uint(_e54), 2u)]) / d_2[min(uint(_e57), 2u)]));
             }
         }
     }
-    float _e64 = t_3;
+    float _e64 = t_4;
     if (!((_e64 < HUGE))) {
         return float2(0.0, 0.0);
     }
-    float _e71 = t_3;
+    float _e71 = t_4;
     return float2(max(_e71, 0.0), 1.0);
 }
 
 float2 kdop_exit(float3 b_5, float3 dir_3)
 {
-    float t_4 = HUGE;
+    float t_5 = HUGE;
     uint k_1 = 0u;
 
     uint2 loop_bound_1 = uint2(4294967295u, 4294967295u);
@@ -722,21 +772,21 @@ float2 kdop_exit(float3 b_5, float3 dir_3)
             }
             uint _e21 = k_1;
             float4 _e23 = params.kdop[_e21];
-            float3 n_12 = _e23.xyz;
+            float3 n_13 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = params.kdop[_e27].w;
-            float nb = dot(n_12, b_5);
+            float nb = dot(n_13, b_5);
             if ((nb > h_1)) {
                 return float2(0.0, 0.0);
             }
-            float nd = dot(n_12, dir_3);
+            float nd = dot(n_13, dir_3);
             if ((nd > 0.0)) {
-                float _e39 = t_4;
-                t_4 = min(_e39, ((h_1 - nb) / nd));
+                float _e39 = t_5;
+                t_5 = min(_e39, ((h_1 - nb) / nd));
             }
         }
     }
-    float _e46 = t_4;
+    float _e46 = t_5;
     return float2(_e46, 1.0);
 }
 
@@ -761,14 +811,14 @@ float2 proxy_exit(float3 b_6, float3 dir_4)
 
 float3 proxy_fetch(float2 exit, float3 b_7, float3 dir_5)
 {
-    bool local_11 = (bool)0;
+    bool local_12 = (bool)0;
 
     if (!((exit.y == 0.0))) {
-        local_11 = !((exit.x < HUGE));
+        local_12 = !((exit.x < HUGE));
     } else {
-        local_11 = true;
+        local_12 = true;
     }
-    bool _e14 = local_11;
+    bool _e14 = local_12;
     if (_e14) {
         return dir_5;
     }
@@ -791,29 +841,29 @@ Basis ConstructBasis(float3 arg0, float3 arg1) {
     return ret;
 }
 
-Basis orthonormal_basis(float3 n_3)
+Basis orthonormal_basis(float3 n_4)
 {
-    float s_4 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a_3 = (-1.0 / (s_4 + n_3.z));
-    float b_24 = ((n_3.x * n_3.y) * a_3);
-    const Basis basis = ConstructBasis(float3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_3)), (s_4 * b_24), (-(s_4) * n_3.x)), float3(b_24, (s_4 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+    float s_4 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
+    float a_3 = (-1.0 / (s_4 + n_4.z));
+    float b_24 = ((n_4.x * n_4.y) * a_3);
+    const Basis basis = ConstructBasis(float3((1.0 + (((s_4 * n_4.x) * n_4.x) * a_3)), (s_4 * b_24), (-(s_4) * n_4.x)), float3(b_24, (s_4 + ((n_4.y * n_4.y) * a_3)), -(n_4.y)));
     return basis;
 }
 
-float3 normalize_or(float3 v_5, float3 fallback_1)
+float3 normalize_or(float3 v_7, float3 fallback_1)
 {
-    bool local_12 = (bool)0;
+    bool local_13 = (bool)0;
 
-    float l_5 = length(v_5);
+    float l_5 = length(v_7);
     if ((l_5 > 0.0)) {
         const bool _e7 = finite(l_5);
-        local_12 = _e7;
+        local_13 = _e7;
     } else {
-        local_12 = false;
+        local_13 = false;
     }
-    bool _e9 = local_12;
+    bool _e9 = local_13;
     if (_e9) {
-        return (v_5 / (l_5).xxx);
+        return (v_7 / (l_5).xxx);
     }
     return fallback_1;
 }
@@ -834,7 +884,7 @@ float3 fallback_fetch(float3 b_9, float3 dir_7)
     float _e18 = params.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
     const Basis _e20 = orthonormal_basis(dir_7);
-    float3 t_11 = (_e20.t * angle);
+    float3 t_12 = (_e20.t * angle);
     float3 bt = (_e20.b * angle);
     plain = dir_7;
     uint2 loop_bound_2 = uint2(4294967295u, 4294967295u);
@@ -858,11 +908,11 @@ float3 fallback_fetch(float3 b_9, float3 dir_7)
             bool should_continue = false;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_7 + t_11));
+                    d_1 = normalize((dir_7 + t_12));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_7 - t_11));
+                    d_1 = normalize((dir_7 - t_12));
                     break;
                 }
                 case 3u: {
@@ -907,22 +957,22 @@ Aim ConstructAim(float3 arg0, float arg1, uint arg2) {
     return ret;
 }
 
-Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_8, uint p_6)
+Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_8, uint p_7)
 {
-    bool local_13 = (bool)0;
-    float s_1 = (float)0;
     bool local_14 = (bool)0;
-    float k_2 = (float)0;
+    float s_1 = (float)0;
     bool local_15 = (bool)0;
+    float k_2 = (float)0;
+    bool local_16 = (bool)0;
 
     if (!((exit_1.y == 0.0))) {
-        local_13 = !((exit_1.x < HUGE));
+        local_14 = !((exit_1.x < HUGE));
     } else {
-        local_13 = true;
+        local_14 = true;
     }
-    bool _e16 = local_13;
+    bool _e16 = local_14;
     if (_e16) {
-        const Aim aim_2 = ConstructAim(dir_8, 1.0, p_6);
+        const Aim aim_2 = ConstructAim(dir_8, 1.0, p_7);
         return aim_2;
     }
     s_1 = (exit_1.x + delta);
@@ -931,60 +981,60 @@ Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_8, uint p_6)
         s_1 = 1e-30;
     }
     float _e27 = s_1;
-    float4 _e33 = params.probes[p_6];
-    float3 v_11 = ((b_10 + (dir_8 * _e27)) - _e33.xyz);
-    const bool _e36 = finite3_(v_11);
+    float4 _e33 = params.probes[p_7];
+    float3 v_13 = ((b_10 + (dir_8 * _e27)) - _e33.xyz);
+    const bool _e36 = finite3_(v_13);
     if (_e36) {
-        local_14 = any((v_11 != (0.0).xxx));
+        local_15 = any((v_13 != (0.0).xxx));
     } else {
-        local_14 = false;
+        local_15 = false;
     }
-    bool _e44 = local_14;
+    bool _e44 = local_15;
     if (_e44) {
         float _e46 = s_1;
-        k_2 = (length(v_11) / _e46);
+        k_2 = (length(v_13) / _e46);
         float _e49 = k_2;
         const bool _e50 = finite(_e49);
         if (_e50) {
             float _e53 = k_2;
-            local_15 = (_e53 > 0.0);
+            local_16 = (_e53 > 0.0);
         } else {
-            local_15 = false;
+            local_16 = false;
         }
-        bool _e57 = local_15;
+        bool _e57 = local_16;
         if (!(_e57)) {
             k_2 = 1.0;
         }
         float _e60 = k_2;
-        const Aim aim_3 = ConstructAim(v_11, _e60, p_6);
+        const Aim aim_3 = ConstructAim(v_13, _e60, p_7);
         return aim_3;
     }
-    const Aim aim_4 = ConstructAim(dir_8, 1.0, p_6);
+    const Aim aim_4 = ConstructAim(dir_8, 1.0, p_7);
     return aim_4;
 }
 
 uint probe_of(int tile_1, float2 uv_5)
 {
-    bool local_16 = (bool)0;
+    bool local_17 = (bool)0;
     uint best = 0u;
     uint k_3 = 1u;
 
     if (!((tile_1 < int(0)))) {
         uint _e10 = params.probe_maps.y;
-        local_16 = (_e10 == 0u);
+        local_17 = (_e10 == 0u);
     } else {
-        local_16 = true;
+        local_17 = true;
     }
-    bool _e14 = local_16;
+    bool _e14 = local_17;
     if (_e14) {
         return 0u;
     }
-    uint n_13 = params.atlas_a.x;
+    uint n_14 = params.atlas_a.x;
     uint columns_1 = params.atlas_a.y;
     uint _e28 = params.probe_maps.y;
     uint s_5 = (uint(tile_1) + _e28);
-    int2 origin_1 = int2((uint2(naga_mod(s_5, columns_1), naga_div(s_5, columns_1)) * (n_13 + 2u)));
-    const Footprint _e37 = footprint(n_13, uv_5);
+    int2 origin_1 = int2((uint2(naga_mod(s_5, columns_1), naga_div(s_5, columns_1)) * (n_14 + 2u)));
+    const Footprint _e37 = footprint(n_14, uv_5);
     float2 f_6 = _e37.f;
     float4 w_7 = float4(((1.0 - f_6.x) * (1.0 - f_6.y)), (f_6.x * (1.0 - f_6.y)), ((1.0 - f_6.x) * f_6.y), (f_6.x * f_6.y));
     uint2 loop_bound_3 = uint2(4294967295u, 4294967295u);
@@ -1013,11 +1063,11 @@ uint probe_of(int tile_1, float2 uv_5)
     }
     uint _e82 = best;
     uint _e86 = best;
-    int2 t_12 = asint(asuint(asint(asuint(asint(asuint(origin_1) + asuint(_e37.corner))) + asuint(int2(int(1), int(1))))) + asuint(int2(int((_e82 & 1u)), int((_e86 >> 1u)))));
-    const float4 _e93 = atlas_texel(ATLAS_CORRECTIVE, t_12);
-    uint p_9 = naga_f2u32(_e93.x);
+    int2 t_13 = asint(asuint(asint(asuint(asint(asuint(origin_1) + asuint(_e37.corner))) + asuint(int2(int(1), int(1))))) + asuint(int2(int((_e82 & 1u)), int((_e86 >> 1u)))));
+    const float4 _e93 = atlas_texel(ATLAS_CORRECTIVE, t_13);
+    uint p_11 = naga_f2u32(_e93.x);
     uint _e99 = params.probe_maps.x;
-    return min(p_9, (max(_e99, 1u) - 1u));
+    return min(p_11, (max(_e99, 1u) - 1u));
 }
 
 float map_delta(int tile_2, float2 uv_6)
@@ -1058,7 +1108,7 @@ Aim fetch(float3 b_11, float3 dir_9, float r_1)
     float delta_1 = 0.0;
     bool mapped = false;
     uint corner_2 = 0u;
-    bool local_17 = (bool)0;
+    bool local_18 = (bool)0;
 
     const float2 _e3 = oct_encode(dir_9);
     const float3 _e4 = cell_size();
@@ -1114,11 +1164,11 @@ Aim fetch(float3 b_11, float3 dir_9, float r_1)
     bool _e60 = mapped;
     if (!(_e60)) {
         const bool _e64 = relaxation_on();
-        local_17 = _e64;
+        local_18 = _e64;
     } else {
-        local_17 = false;
+        local_18 = false;
     }
-    bool _e66 = local_17;
+    bool _e66 = local_18;
     if (_e66) {
         const float3 _e67 = fallback_fetch(b_11, dir_9);
         const Aim aim_6 = ConstructAim(_e67, -1.0, 0u);
@@ -1183,23 +1233,23 @@ float mip_roughness(uint m)
 
 float lod_of_roughness(float r_2)
 {
-    bool local_18 = (bool)0;
+    bool local_19 = (bool)0;
     uint below = 0u;
-    uint t_5 = 0u;
+    uint t_6 = 0u;
     float f_2 = 0.0;
 
-    uint n_14 = params.probe_info.x;
-    if (!((n_14 < 2u))) {
+    uint n_15 = params.probe_info.x;
+    if (!((n_15 < 2u))) {
         const float _e11 = mip_roughness(0u);
-        local_18 = !((r_2 > _e11));
+        local_19 = !((r_2 > _e11));
     } else {
-        local_18 = true;
+        local_19 = true;
     }
-    bool _e15 = local_18;
+    bool _e15 = local_19;
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_14 - 1u);
+    uint last = (n_15 - 1u);
     const float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
@@ -1210,18 +1260,18 @@ float lod_of_roughness(float r_2)
         if (all(loop_bound_5 == uint2(0u, 0u))) { break; }
         loop_bound_5 -= uint2(loop_bound_5.y == 0u, 1u);
         if (!loop_init_5) {
-            uint _e37 = t_5;
-            t_5 = (_e37 + 1u);
+            uint _e37 = t_6;
+            t_6 = (_e37 + 1u);
         }
         loop_init_5 = false;
-        uint _e26 = t_5;
-        if ((_e26 < n_14)) {
+        uint _e26 = t_6;
+        if ((_e26 < n_15)) {
         } else {
             break;
         }
         {
             uint _e28 = below;
-            uint _e31 = t_5;
+            uint _e31 = t_6;
             const float _e32 = mip_roughness(_e31);
             below = (_e28 + ((_e32 <= r_2) ? 1u : 0u));
         }
@@ -1239,52 +1289,52 @@ float lod_of_roughness(float r_2)
     return (float(i_6) + clamp(_e57, 0.0, 1.0));
 }
 
-float distance_ratio(float3 b_13, float3 v_6, float2 uv_8, uint p_7)
+float distance_ratio(float3 b_13, float3 v_8, float2 uv_8, uint p_8)
 {
-    bool local_19 = (bool)0;
     bool local_20 = (bool)0;
     bool local_21 = (bool)0;
     bool local_22 = (bool)0;
+    bool local_23 = (bool)0;
 
-    float l_6 = length(v_6);
+    float l_6 = length(v_8);
     float _e9 = params.probe.w;
     uint _e13 = params.probe_info.y;
-    const float4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_7);
+    const float4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_8);
     float w_8 = _e14.x;
     if ((l_6 > 0.0)) {
         const bool _e20 = finite(l_6);
-        local_19 = _e20;
-    } else {
-        local_19 = false;
-    }
-    bool _e22 = local_19;
-    if (_e22) {
-        local_20 = (w_8 > 0.0);
+        local_20 = _e20;
     } else {
         local_20 = false;
     }
-    bool _e28 = local_20;
-    if (_e28) {
-        const bool _e31 = finite(w_8);
-        local_21 = _e31;
+    bool _e22 = local_20;
+    if (_e22) {
+        local_21 = (w_8 > 0.0);
     } else {
         local_21 = false;
     }
-    bool _e33 = local_21;
+    bool _e28 = local_21;
+    if (_e28) {
+        const bool _e31 = finite(w_8);
+        local_22 = _e31;
+    } else {
+        local_22 = false;
+    }
+    bool _e33 = local_22;
     if (!(_e33)) {
         return 1.0;
     }
     float d_probe = (1.0 / w_8);
-    float4 _e41 = params.probes[p_7];
-    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_6))) - b_13));
+    float4 _e41 = params.probes[p_8];
+    float d_surface = length(((_e41.xyz + (v_8 * (d_probe / l_6))) - b_13));
     float k_13 = (d_probe / d_surface);
     const bool _e49 = finite(k_13);
     if (_e49) {
-        local_22 = (k_13 > 0.0);
+        local_23 = (k_13 > 0.0);
     } else {
-        local_22 = false;
+        local_23 = false;
     }
-    bool _e55 = local_22;
+    bool _e55 = local_23;
     if (_e55) {
         return k_13;
     }
@@ -1303,21 +1353,21 @@ float corrected_roughness(float r_3, float k_in)
 {
     float fr = 0.0;
     float k_5 = 1.0;
-    bool local_23 = (bool)0;
+    bool local_24 = (bool)0;
 
-    uint n_15 = params.lut_info.x;
-    float last_1 = float((n_15 - 1u));
+    uint n_16 = params.lut_info.x;
+    float last_1 = float((n_16 - 1u));
     const bool _e11 = finite(r_3);
     if (_e11) {
         fr = clamp((r_3 * last_1), 0.0, last_1);
     }
     const bool _e17 = finite(k_in);
     if (_e17) {
-        local_23 = (k_in > 0.0);
+        local_24 = (k_in > 0.0);
     } else {
-        local_23 = false;
+        local_24 = false;
     }
-    bool _e23 = local_23;
+    bool _e23 = local_24;
     if (_e23) {
         k_5 = k_in;
     }
@@ -1331,8 +1381,8 @@ float corrected_roughness(float r_3, float k_in)
     float _e44 = params.lut.y;
     float fx = clamp(((_e35 - _e39) * _e44), 0.0, last_1);
     float _e48 = fr;
-    uint i_7 = min(naga_f2u32(_e48), (n_15 - 2u));
-    uint j_5 = min(naga_f2u32(fx), (n_15 - 2u));
+    uint i_7 = min(naga_f2u32(_e48), (n_16 - 2u));
+    uint j_5 = min(naga_f2u32(fx), (n_16 - 2u));
     float _e57 = fr;
     float a_4 = (_e57 - float(i_7));
     float b_25 = (fx - float(j_5));
@@ -1392,13 +1442,13 @@ float3 faces_radiance(Near near_1, float3 b_15, float3 dir_10, float r_5)
     uint keys[8] = Constructarray8_uint_(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
     float ws[8] = Constructarray8_float_(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     float ds[8] = Constructarray8_float_(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-    uint n_4 = 0u;
+    uint n_5 = 0u;
     uint corner_5 = 0u;
     uint key = (uint)0;
     float delta_2 = (float)0;
     uint at = (uint)0;
     uint g = (uint)0;
-    bool local_24 = (bool)0;
+    bool local_25 = (bool)0;
     float3 c_4 = (0.0).xxx;
     uint g_1 = 0u;
     Aim aim_1 = (Aim)0;
@@ -1442,7 +1492,7 @@ float3 faces_radiance(Near near_1, float3 b_15, float3 dir_10, float r_5)
                     key = RELAXED;
                 }
             }
-            uint _e67 = n_4;
+            uint _e67 = n_5;
             at = _e67;
             g = 0u;
             uint2 loop_bound_7 = uint2(4294967295u, 4294967295u);
@@ -1456,7 +1506,7 @@ float3 faces_radiance(Near near_1, float3 b_15, float3 dir_10, float r_5)
                 }
                 loop_init_7 = false;
                 uint _e71 = g;
-                uint _e72 = n_4;
+                uint _e72 = n_5;
                 if ((_e71 < _e72)) {
                 } else {
                     break;
@@ -1469,11 +1519,11 @@ float3 faces_radiance(Near near_1, float3 b_15, float3 dir_10, float r_5)
                         uint _e81 = g;
                         float _e83 = ds[min(uint(_e81), 7u)];
                         float _e84 = delta_2;
-                        local_24 = (_e83 == _e84);
+                        local_25 = (_e83 == _e84);
                     } else {
-                        local_24 = false;
+                        local_25 = false;
                     }
-                    bool _e87 = local_24;
+                    bool _e87 = local_25;
                     if (_e87) {
                         uint _e88 = g;
                         at = _e88;
@@ -1482,18 +1532,18 @@ float3 faces_radiance(Near near_1, float3 b_15, float3 dir_10, float r_5)
                 }
             }
             uint _e92 = at;
-            uint _e93 = n_4;
+            uint _e93 = n_5;
             if ((_e92 == _e93)) {
-                uint _e95 = n_4;
+                uint _e95 = n_5;
                 uint _e97 = key;
                 keys[min(uint(_e95), 7u)] = _e97;
-                uint _e98 = n_4;
+                uint _e98 = n_5;
                 ws[min(uint(_e98), 7u)] = 0.0;
-                uint _e101 = n_4;
+                uint _e101 = n_5;
                 float _e103 = delta_2;
                 ds[min(uint(_e101), 7u)] = _e103;
-                uint _e105 = n_4;
-                n_4 = (_e105 + 1u);
+                uint _e105 = n_5;
+                n_5 = (_e105 + 1u);
             }
             uint _e107 = at;
             float _e109 = ws[min(uint(_e107), 7u)];
@@ -1512,7 +1562,7 @@ float3 faces_radiance(Near near_1, float3 b_15, float3 dir_10, float r_5)
         }
         loop_init_8 = false;
         uint _e120 = g_1;
-        uint _e121 = n_4;
+        uint _e121 = n_5;
         if ((_e120 < _e121)) {
         } else {
             break;
@@ -1604,11 +1654,11 @@ Near near_cells(float3 b_16)
     return near_3;
 }
 
-float3 sh_eval(float3 c_5[9], float3 n_5)
+float3 sh_eval(float3 c_5[9], float3 n_6)
 {
-    float x_6 = n_5.x;
-    float y = n_5.y;
-    float z = n_5.z;
+    float x_6 = n_6.x;
+    float y = n_6.y;
+    float z = n_6.z;
     float3 t0_ = (c_5[0] * 0.2820948);
     float3 t1_ = (c_5[1] * (0.4886025 * y));
     float3 t2_ = (c_5[2] * (0.4886025 * z));
@@ -1628,7 +1678,7 @@ ret_Constructarray9_float3_ Constructarray9_float3_(float3 arg0, float3 arg1, fl
     return ret;
 }
 
-float3 cell_sh_irradiance(uint cell, float3 n_6)
+float3 cell_sh_irradiance(uint cell, float3 n_7)
 {
     float4 _e6 = asfloat(cells.Load4(0+32+cell*192));
     float4 _e12 = asfloat(cells.Load4(16+32+cell*192));
@@ -1640,7 +1690,7 @@ float3 cell_sh_irradiance(uint cell, float3 n_6)
     float4 _e48 = asfloat(cells.Load4(112+32+cell*192));
     float4 _e54 = asfloat(cells.Load4(128+32+cell*192));
     float3 c_12[9] = Constructarray9_float3_(_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
-    const float3 _e57 = sh_eval(c_12, n_6);
+    const float3 _e57 = sh_eval(c_12, n_7);
     return _e57;
 }
 
@@ -1660,7 +1710,7 @@ uint NagaBufferLength(ByteAddressBuffer buffer)
     return ret;
 }
 
-float3 sh_read(uint3 home_at_1, float3 b_17, float3 n_7)
+float3 sh_read(uint3 home_at_1, float3 b_17, float3 n_8)
 {
     uint3 base = (uint3)0;
     float3 frac_ = (float3)0;
@@ -1681,8 +1731,8 @@ float3 sh_read(uint3 home_at_1, float3 b_17, float3 n_7)
     uint4 at_2 = (uint4)0;
     uint k_8 = 0u;
     bool kept = (bool)0;
-    bool local_25 = (bool)0;
     bool local_26 = (bool)0;
+    bool local_27 = (bool)0;
 
     const float3 _e3 = cell_size();
     uint4 _e6 = params.grid_counts;
@@ -1694,7 +1744,7 @@ float3 sh_read(uint3 home_at_1, float3 b_17, float3 n_7)
     float3 f0_ = (units - (0.5).xxx);
     const bool _e21 = finite3_(f0_);
     if (!(_e21)) {
-        const float3 _e23 = cell_sh_irradiance(_e17, n_7);
+        const float3 _e23 = cell_sh_irradiance(_e17, n_8);
         return _e23;
     }
     float3 f_7 = clamp(f0_, (0.0).xxx, float3(top_1));
@@ -1706,20 +1756,20 @@ float3 sh_read(uint3 home_at_1, float3 b_17, float3 n_7)
     uint _e42 = a;
     float _e44 = frac_[min(uint(_e42), 2u)];
     if ((_e41 > _e44)) {
-        uint t_13 = a;
+        uint t_14 = a;
         uint _e47 = bx;
         a = _e47;
-        bx = t_13;
+        bx = t_14;
     }
     uint _e48 = c_6;
     float _e50 = frac_[min(uint(_e48), 2u)];
     uint _e51 = bx;
     float _e53 = frac_[min(uint(_e51), 2u)];
     if ((_e50 > _e53)) {
-        uint t_14 = bx;
+        uint t_15 = bx;
         uint _e56 = c_6;
         bx = _e56;
-        c_6 = t_14;
+        c_6 = t_15;
         uint _e57 = bx;
         float _e59 = frac_[min(uint(_e57), 2u)];
         uint _e60 = a;
@@ -1858,17 +1908,17 @@ float3 sh_read(uint3 home_at_1, float3 b_17, float3 n_7)
             if ((_e218 < 27u)) {
                 uint _e223 = k_8;
                 uint _e225 = bits[min(uint(_e223), 3u)];
-                local_25 = (((links_2 >> _e225) & 1u) != 0u);
-            } else {
-                local_25 = false;
-            }
-            bool _e232 = local_25;
-            if (_e232) {
-                local_26 = (ck < count_1);
+                local_26 = (((links_2 >> _e225) & 1u) != 0u);
             } else {
                 local_26 = false;
             }
-            bool _e237 = local_26;
+            bool _e232 = local_26;
+            if (_e232) {
+                local_27 = (ck < count_1);
+            } else {
+                local_27 = false;
+            }
+            bool _e237 = local_27;
             if (_e237) {
                 int _e242 = asint(cells.Load(4+0+ck*192));
                 kept = (_e242 >= int(0));
@@ -1889,7 +1939,7 @@ float3 sh_read(uint3 home_at_1, float3 b_17, float3 n_7)
     float _e262 = w_2.w;
     float wsum_1 = ((_e255 + _e257) + (_e260 + _e262));
     if (!((wsum_1 > 0.0))) {
-        const float3 _e268 = cell_sh_irradiance(_e17, n_7);
+        const float3 _e268 = cell_sh_irradiance(_e17, n_8);
         return _e268;
     }
     uint4 _e269 = at_2;
@@ -1920,7 +1970,7 @@ float3 sh_read(uint3 home_at_1, float3 b_17, float3 n_7)
     float4 _e302 = w_2;
     const float3 _e304 = sh_blend4_(_e301, _e302, 8u);
     float3 acc[9] = Constructarray9_float3_(_e272, _e276, _e280, _e284, _e288, _e292, _e296, _e300, _e304);
-    const float3 _e306 = sh_eval(acc, n_7);
+    const float3 _e306 = sh_eval(acc, n_8);
     return (_e306 / (wsum_1).xxx);
 }
 
@@ -1930,7 +1980,7 @@ float3 faces_specular(Near near_2, float3 b_18, float3 dir_11, float r_6, float 
     float3 e = (0.0).xxx;
     float share = 0.0;
     uint corner_7 = 0u;
-    bool local_27 = (bool)0;
+    bool local_28 = (bool)0;
 
     const float3 _e5 = faces_radiance(near_2, b_18, dir_11, r_6);
     c_7 = _e5;
@@ -1958,11 +2008,11 @@ float3 faces_specular(Near near_2, float3 b_18, float3 dir_11, float r_6, float 
                 if ((_e20 > 0.0)) {
                     const uint _e29 = cell_index(_e23);
                     int _e33 = asint(cells.Load(4+0+_e29*192));
-                    local_27 = (_e33 >= int(0));
+                    local_28 = (_e33 >= int(0));
                 } else {
-                    local_27 = false;
+                    local_28 = false;
                 }
-                bool _e37 = local_27;
+                bool _e37 = local_28;
                 if (_e37) {
                     float3 _e38 = e;
                     const float3 _e39 = sh_read(_e23, b_18, dir_11);
@@ -2000,17 +2050,17 @@ float blend_node_w(uint k_10)
 
 float irradiance_weight(float r_7)
 {
-    bool local_28 = (bool)0;
+    bool local_29 = (bool)0;
     float w_4 = (float)0;
     uint k_11 = 1u;
 
-    uint n_16 = params.lut_info.y;
-    if (!((n_16 == 0u))) {
-        local_28 = !((r_7 > 0.0));
+    uint n_17 = params.lut_info.y;
+    if (!((n_17 == 0u))) {
+        local_29 = !((r_7 > 0.0));
     } else {
-        local_28 = true;
+        local_29 = true;
     }
-    bool _e14 = local_28;
+    bool _e14 = local_29;
     if (_e14) {
         return 0.0;
     }
@@ -2027,7 +2077,7 @@ float irradiance_weight(float r_7)
         }
         loop_init_14 = false;
         uint _e21 = k_11;
-        if ((_e21 < n_16)) {
+        if ((_e21 < n_17)) {
         } else {
             break;
         }
@@ -2037,12 +2087,12 @@ float irradiance_weight(float r_7)
             if ((r_7 > _e26)) {
                 uint _e29 = k_11;
                 const float _e30 = blend_node_r(_e29);
-                float t_15 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                float t_16 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
                 uint _e37 = k_11;
                 const float _e40 = blend_node_w((_e37 - 1u));
                 uint _e44 = k_11;
                 const float _e45 = blend_node_w(_e44);
-                w_4 = ((_e40 * (1.0 - t_15)) + (_e45 * t_15));
+                w_4 = ((_e40 * (1.0 - t_16)) + (_e45 * t_16));
             }
         }
     }
@@ -2065,7 +2115,7 @@ float3 specular(float3 position, float3 direction, float roughness)
     float r_8 = 0.0;
     uint3 home_at_2 = (0u).xxx;
     bool stored = false;
-    bool local_29 = (bool)0;
+    bool local_30 = (bool)0;
     float3 c_9 = (float3)0;
 
     const float4 _e3 = unit_direction(direction);
@@ -2108,11 +2158,11 @@ float3 specular(float3 position, float3 direction, float roughness)
     }
     bool _e55 = stored;
     if (_e55) {
-        local_29 = (_e22 >= 1.0);
+        local_30 = (_e22 >= 1.0);
     } else {
-        local_29 = false;
+        local_30 = false;
     }
-    bool _e61 = local_29;
+    bool _e61 = local_30;
     if (_e61) {
         uint3 _e62 = home_at_2;
         float3 _e63 = b_19;
@@ -2140,44 +2190,44 @@ float3 specular(float3 position, float3 direction, float roughness)
     return _e92;
 }
 
-float3 cell_irradiance(int tile_3, float3 n_8)
+float3 cell_irradiance(int tile_3, float3 n_9)
 {
     uint _e6 = params.atlas_a.z;
     uint _e10 = params.atlas_a.w;
-    const float2 _e11 = oct_encode(n_8);
+    const float2 _e11 = oct_encode(n_9);
     const float4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_3, _e6, _e10, _e11);
     return _e12.xyz;
 }
 
 float3 irradiance(float3 position_1, float3 normal)
 {
-    float3 p_8 = (float3)0;
+    float3 p_9 = (float3)0;
     float3 e_1 = (0.0).xxx;
     float wsum = 0.0;
     uint corner_8 = 0u;
     float w_5 = (float)0;
-    bool local_30 = (bool)0;
+    bool local_31 = (bool)0;
     float k_12 = (float)0;
 
     const float4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
         return (0.0).xxx;
     }
-    float3 n_17 = _e2.xyz;
+    float3 n_18 = _e2.xyz;
     const float3 _e9 = cell_size();
     float4 _e12 = params.grid_min;
     float4 _e16 = params.grid_max;
     float4 _e20 = params.grid_min;
-    p_8 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
+    p_9 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = params.grid_min.w;
-    float3 biased = (position_1 + (n_17 * _e30));
+    float3 biased = (position_1 + (n_18 * _e30));
     const bool _e33 = finite3_(biased);
     if (_e33) {
-        p_8 = biased;
+        p_9 = biased;
     }
-    float3 _e34 = p_8;
+    float3 _e34 = p_9;
     const Lattice _e35 = lattice(_e34, _e9);
-    const float2 _e36 = oct_encode(n_17);
+    const float2 _e36 = oct_encode(n_18);
     uint2 loop_bound_15 = uint2(4294967295u, 4294967295u);
     bool loop_init_15 = true;
     while(true) {
@@ -2206,7 +2256,7 @@ float3 irradiance(float3 position_1, float3 normal)
             if ((tiles_4.y < int(0))) {
                 continue;
             }
-            float3 _e61 = p_8;
+            float3 _e61 = p_9;
             const float3 _e62 = cell_centre(_e52, _e9);
             float4 _e66 = asfloat(cells.Load4(16+_e53*192));
             float3 to_point = (_e61 - (_e62 + _e66.xyz));
@@ -2214,14 +2264,14 @@ float3 irradiance(float3 position_1, float3 normal)
             w_5 = _e48;
             if ((dist > 0.0)) {
                 const bool _e76 = finite(dist);
-                local_30 = _e76;
+                local_31 = _e76;
             } else {
-                local_30 = false;
+                local_31 = false;
             }
-            bool _e78 = local_30;
+            bool _e78 = local_31;
             if (_e78) {
                 float3 u_1 = (to_point / (dist).xxx);
-                float facing = ((dot(n_17, -(u_1)) + 1.0) * 0.5);
+                float facing = ((dot(n_18, -(u_1)) + 1.0) * 0.5);
                 float _e87 = w_5;
                 w_5 = (_e87 * ((facing * facing) + 0.2));
                 uint _e97 = params.atlas_b.x;
@@ -2248,7 +2298,7 @@ float3 irradiance(float3 position_1, float3 normal)
                 k_12 = _e143.x;
             }
             float3 _e145 = e_1;
-            const float3 _e147 = cell_irradiance(tiles_4.y, n_17);
+            const float3 _e147 = cell_irradiance(tiles_4.y, n_18);
             float _e148 = w_5;
             float _e150 = k_12;
             e_1 = (_e145 + ((_e147 * _e148) * _e150));
@@ -2267,24 +2317,24 @@ float3 irradiance(float3 position_1, float3 normal)
     return _e169;
 }
 
-float2 hemi_encode(float3 v_7)
+float2 hemi_encode(float3 v_9)
 {
-    bool local_31 = (bool)0;
+    bool local_32 = (bool)0;
 
-    float z_1 = max(v_7.z, 0.0);
-    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
+    float z_1 = max(v_9.z, 0.0);
+    float l1_1 = ((abs(v_9.x) + abs(v_9.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         const bool _e14 = finite(l1_1);
-        local_31 = _e14;
+        local_32 = _e14;
     } else {
-        local_31 = false;
+        local_32 = false;
     }
-    bool _e16 = local_31;
+    bool _e16 = local_32;
     if (!(_e16)) {
         return float2(0.5, 0.5);
     }
-    float px = (v_7.x / l1_1);
-    float py = (v_7.y / l1_1);
+    float px = (v_9.x / l1_1);
+    float py = (v_9.y / l1_1);
     return clamp(float2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), (0.0).xx, (1.0).xx);
 }
 
@@ -2296,7 +2346,7 @@ SurfaceAxis ConstructSurfaceAxis(uint arg0, uint arg1, float arg2) {
     return ret;
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_9)
+SurfaceAxis surface_axis(float x_in, uint n_10)
 {
     float x_4 = 0.5;
 
@@ -2305,9 +2355,9 @@ SurfaceAxis surface_axis(float x_in, uint n_9)
         x_4 = x_in;
     }
     float _e5 = x_4;
-    float c_13 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
+    float c_13 = clamp(((_e5 * float(n_10)) - 0.5), 0.0, float((n_10 - 1u)));
     uint i0_ = naga_f2u32(floor(c_13));
-    const SurfaceAxis surfaceaxis = ConstructSurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_13 - float(i0_)));
+    const SurfaceAxis surfaceaxis = ConstructSurfaceAxis(i0_, min((i0_ + 1u), (n_10 - 1u)), (c_13 - float(i0_)));
     return surfaceaxis;
 }
 
@@ -2321,70 +2371,70 @@ SurfaceTaps ConstructSurfaceTaps(uint2 arg0, uint2 arg1, float2 arg2) {
 
 SurfaceTaps surface_taps(float2 uv_9)
 {
-    uint n_18 = surface_params.shape.z;
-    float nf = float(n_18);
+    uint n_19 = surface_params.shape.z;
+    float nf = float(n_19);
     float x_8 = clamp(((uv_9.x * nf) - 0.5), 0.0, (nf - 1.0));
     float y_1 = clamp(((uv_9.y * nf) - 0.5), 0.0, (nf - 1.0));
     float x0_1 = floor(x_8);
     float y0_ = floor(y_1);
     uint2 lo = uint2(naga_f2u32(x0_1), naga_f2u32(y0_));
-    const SurfaceTaps surfacetaps = ConstructSurfaceTaps(lo, min((lo + (1u).xx), ((n_18 - 1u)).xx), float2((x_8 - x0_1), (y_1 - y0_)));
+    const SurfaceTaps surfacetaps = ConstructSurfaceTaps(lo, min((lo + (1u).xx), ((n_19 - 1u)).xx), float2((x_8 - x0_1), (y_1 - y0_)));
     return surfacetaps;
 }
 
-float3 surface_tile(uint i_2, uint j_1, uint layer, SurfaceTaps t_6)
+float3 surface_tile(uint i_2, uint j_1, uint layer, SurfaceTaps t_7)
 {
     uint _e8 = surface_params.shape.z;
     uint2 o_4 = (uint2(i_2, j_1) * _e8);
     int l_7 = int(layer);
-    float4 q00_1 = surface_radiance.Load(int4(int2((o_4 + t_6.lo)), l_7, int(0)));
-    float4 q10_1 = surface_radiance.Load(int4(int2((o_4 + uint2(t_6.hi.x, t_6.lo.y))), l_7, int(0)));
-    float4 q01_1 = surface_radiance.Load(int4(int2((o_4 + uint2(t_6.lo.x, t_6.hi.y))), l_7, int(0)));
-    float4 q11_1 = surface_radiance.Load(int4(int2((o_4 + t_6.hi)), l_7, int(0)));
-    const float4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_6.f);
+    float4 q00_1 = surface_radiance.Load(int4(int2((o_4 + t_7.lo)), l_7, int(0)));
+    float4 q10_1 = surface_radiance.Load(int4(int2((o_4 + uint2(t_7.hi.x, t_7.lo.y))), l_7, int(0)));
+    float4 q01_1 = surface_radiance.Load(int4(int2((o_4 + uint2(t_7.lo.x, t_7.hi.y))), l_7, int(0)));
+    float4 q11_1 = surface_radiance.Load(int4(int2((o_4 + t_7.hi)), l_7, int(0)));
+    const float4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_7.f);
     return _e44.xyz;
 }
 
-float surface_tile_inv_distance(uint i_3, uint j_2, SurfaceTaps t_7)
+float surface_tile_inv_distance(uint i_3, uint j_2, SurfaceTaps t_8)
 {
     uint _e7 = surface_params.shape.z;
     uint2 o_5 = (uint2(i_3, j_2) * _e7);
-    float4 q00_2 = surface_inv_distance.Load(int3(int2((o_5 + t_7.lo)), int(0)));
-    float4 q10_2 = surface_inv_distance.Load(int3(int2((o_5 + uint2(t_7.hi.x, t_7.lo.y))), int(0)));
-    float4 q01_2 = surface_inv_distance.Load(int3(int2((o_5 + uint2(t_7.lo.x, t_7.hi.y))), int(0)));
-    float4 q11_2 = surface_inv_distance.Load(int3(int2((o_5 + t_7.hi)), int(0)));
-    const float4 _e42 = blend4_(q00_2, q10_2, q01_2, q11_2, t_7.f);
+    float4 q00_2 = surface_inv_distance.Load(int3(int2((o_5 + t_8.lo)), int(0)));
+    float4 q10_2 = surface_inv_distance.Load(int3(int2((o_5 + uint2(t_8.hi.x, t_8.lo.y))), int(0)));
+    float4 q01_2 = surface_inv_distance.Load(int3(int2((o_5 + uint2(t_8.lo.x, t_8.hi.y))), int(0)));
+    float4 q11_2 = surface_inv_distance.Load(int3(int2((o_5 + t_8.hi)), int(0)));
+    const float4 _e42 = blend4_(q00_2, q10_2, q01_2, q11_2, t_8.f);
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_20, float3 local_32, SurfaceTaps shared_taps)
+SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_20, float3 local_33, SurfaceTaps shared_taps)
 {
-    bool local_33 = (bool)0;
     bool local_34 = (bool)0;
+    bool local_35 = (bool)0;
 
     SurfaceParams sp = surface_params;
     float s_6 = ((float(i_4) + 0.5) / float(sp.shape.x));
-    float t_16 = ((float(j_3) + 0.5) / float(sp.shape.y));
-    float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_6)) + (sp.edge_v.xyz * t_16)) + (sp.normal.xyz * sp.corner.w));
+    float t_17 = ((float(j_3) + 0.5) / float(sp.shape.y));
+    float3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_6)) + (sp.edge_v.xyz * t_17)) + (sp.normal.xyz * sp.corner.w));
     float3 d_3 = (probe - b_20);
     float3 ab_2 = float3(dot(d_3, sp.tangent.xyz), dot(d_3, sp.bitangent.xyz), dot(d_3, sp.normal.xyz));
     const float _e48 = surface_tile_inv_distance(i_4, j_3, shared_taps);
-    float3 v_12 = ((local_32 * max(((dot(local_32, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
+    float3 v_14 = ((local_33 * max(((dot(local_33, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
     if ((_e48 > 0.0)) {
-        const bool _e62 = finite3_(v_12);
-        local_33 = _e62;
-    } else {
-        local_33 = false;
-    }
-    bool _e64 = local_33;
-    if (_e64) {
-        local_34 = (dot(v_12, v_12) > 0.0);
+        const bool _e62 = finite3_(v_14);
+        local_34 = _e62;
     } else {
         local_34 = false;
     }
-    bool _e71 = local_34;
+    bool _e64 = local_34;
+    if (_e64) {
+        local_35 = (dot(v_14, v_14) > 0.0);
+    } else {
+        local_35 = false;
+    }
+    bool _e71 = local_35;
     if (_e71) {
-        const float2 _e72 = hemi_encode(v_12);
+        const float2 _e72 = hemi_encode(v_14);
         const SurfaceTaps _e73 = surface_taps(_e72);
         const SurfaceTaps surfacetaps_1 = _e73;
         return surfacetaps_1;
@@ -2393,11 +2443,11 @@ SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_20, float3 local_32
     return surfacetaps_2;
 }
 
-float3 surface_probe(uint i_5, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, float fm)
+float3 surface_probe(uint i_5, uint j_4, SurfaceTaps t_9, uint m0_, uint m1_, float fm)
 {
-    const float3 _e6 = surface_tile(i_5, j_4, m0_, t_8);
+    const float3 _e6 = surface_tile(i_5, j_4, m0_, t_9);
     if ((fm > 0.0)) {
-        const float3 _e9 = surface_tile(i_5, j_4, m1_, t_8);
+        const float3 _e9 = surface_tile(i_5, j_4, m1_, t_9);
         return lerp(_e6, _e9, fm);
     }
     return _e6;
@@ -2437,8 +2487,8 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
     float3 dir_14 = _e4.xyz;
-    float3 local_35 = float3(dot(dir_14, sp_1.tangent.xyz), dot(dir_14, sp_1.bitangent.xyz), dot(dir_14, sp_1.normal.xyz));
-    const float2 _e64 = hemi_encode(local_35);
+    float3 local_36 = float3(dot(dir_14, sp_1.tangent.xyz), dot(dir_14, sp_1.bitangent.xyz), dot(dir_14, sp_1.normal.xyz));
+    const float2 _e64 = hemi_encode(local_36);
     const SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
@@ -2446,16 +2496,16 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     t11_ = _e65;
     if (warped) {
         float3 _e72 = b_21;
-        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_35, _e65);
+        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_36, _e65);
         t00_ = _e73;
         float3 _e76 = b_21;
-        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_35, _e65);
+        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_36, _e65);
         t10_ = _e77;
         float3 _e80 = b_21;
-        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_35, _e65);
+        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_36, _e65);
         t01_ = _e81;
         float3 _e84 = b_21;
-        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_35, _e65);
+        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_36, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;
@@ -2500,6 +2550,15 @@ uint query_count()
     return ((NagaBufferLengthRW(results) - 0) / 16);
 }
 
+float offset_off_surface(float3 p_10)
+{
+    float4 _e3 = camera.surface_offset;
+    float _e9 = camera.surface_offset.w;
+    float3 pn = abs(((p_10 - _e3.xyz) * _e9));
+    float _e24 = camera.surface_offset.w;
+    return (((max(pn.x, max(pn.y, pn.z)) + 1.0) * 2e-5) / _e24);
+}
+
 [numthreads(64, 1, 1)]
 void specular_queries(uint3 id : SV_DispatchThreadID)
 {
@@ -2508,9 +2567,9 @@ void specular_queries(uint3 id : SV_DispatchThreadID)
     if ((k_14 >= _e2)) {
         return;
     }
-    float4 p_10 = asfloat(queries.Load4((2u * k_14)*16));
+    float4 p_12 = asfloat(queries.Load4((2u * k_14)*16));
     float4 d_5 = asfloat(queries.Load4(((2u * k_14) + 1u)*16));
-    const float3 _e21 = specular(p_10.xyz, d_5.xyz, p_10.w);
+    const float3 _e21 = specular(p_12.xyz, d_5.xyz, p_12.w);
     results.Store4(k_14*16, asuint(float4(_e21, 1.0)));
     return;
 }
@@ -2523,9 +2582,9 @@ void irradiance_queries(uint3 id_1 : SV_DispatchThreadID)
     if ((k_15 >= _e2)) {
         return;
     }
-    float4 p_11 = asfloat(queries.Load4((2u * k_15)*16));
-    float4 n_19 = asfloat(queries.Load4(((2u * k_15) + 1u)*16));
-    const float3 _e20 = irradiance(p_11.xyz, n_19.xyz);
+    float4 p_13 = asfloat(queries.Load4((2u * k_15)*16));
+    float4 n_20 = asfloat(queries.Load4(((2u * k_15) + 1u)*16));
+    const float3 _e20 = irradiance(p_13.xyz, n_20.xyz);
     results.Store4(k_15*16, asuint(float4(_e20, 1.0)));
     return;
 }
@@ -2622,9 +2681,9 @@ void surface_queries(uint3 id_4 : SV_DispatchThreadID)
     if ((k_18 >= _e2)) {
         return;
     }
-    float4 p_12 = asfloat(queries.Load4((2u * k_18)*16));
+    float4 p_14 = asfloat(queries.Load4((2u * k_18)*16));
     float4 d_6 = asfloat(queries.Load4(((2u * k_18) + 1u)*16));
-    const float3 _e21 = surface_specular(p_12.xyz, d_6.xyz, p_12.w);
+    const float3 _e21 = surface_specular(p_14.xyz, d_6.xyz, p_14.w);
     results.Store4(k_18*16, asuint(float4(_e21, 1.0)));
     return;
 }
@@ -2637,9 +2696,121 @@ void surface_warped_queries(uint3 id_5 : SV_DispatchThreadID)
     if ((k_19 >= _e2)) {
         return;
     }
-    float4 p_13 = asfloat(queries.Load4((2u * k_19)*16));
+    float4 p_15 = asfloat(queries.Load4((2u * k_19)*16));
     float4 d_7 = asfloat(queries.Load4(((2u * k_19) + 1u)*16));
-    const float3 _e21 = surface_specular_warped(p_13.xyz, d_7.xyz, p_13.w);
+    const float3 _e21 = surface_specular_warped(p_15.xyz, d_7.xyz, p_15.w);
     results.Store4(k_19*16, asuint(float4(_e21, 1.0)));
     return;
+}
+
+VertexOutput_surface_vertex surface_vertex(SurfaceVertex v_2)
+{
+    SurfaceVarying out_ = (SurfaceVarying)0;
+
+    float4x4 _e5 = camera.view_proj;
+    out_.clip_ = mul(float4(v_2.position, 1.0), _e5);
+    out_.world = v_2.position;
+    out_.normal = v_2.normal;
+    out_.albedo = v_2.albedo;
+    out_.flags = v_2.flags;
+    out_.sphere = v_2.sphere;
+    SurfaceVarying _e20 = out_;
+    const SurfaceVarying surfacevarying = _e20;
+    const VertexOutput_surface_vertex surfacevarying_1 = { surfacevarying.world, surfacevarying.normal, surfacevarying.albedo, surfacevarying.flags, surfacevarying.sphere, surfacevarying.clip_ };
+    return surfacevarying_1;
+}
+
+SurfaceOut surface_fragment(FragmentInput_surface_fragment fragmentinput_surface_fragment)
+{
+    SurfaceVarying v_3 = { fragmentinput_surface_fragment.clip_1, fragmentinput_surface_fragment.world_1, fragmentinput_surface_fragment.normal_2, fragmentinput_surface_fragment.albedo_1, fragmentinput_surface_fragment.flags_1, fragmentinput_surface_fragment.sphere_1 };
+    SurfaceOut out_1 = (SurfaceOut)0;
+    float3 p = (float3)0;
+    float3 n = (float3)0;
+    float t = (float)0;
+    bool local = (bool)0;
+
+    out_1.depth = v_3.clip_.z;
+    float4 _e7 = camera.eye;
+    float3 eye = _e7.xyz;
+    float3 ray = normalize((v_3.world - eye));
+    p = v_3.world;
+    n = v_3.normal;
+    if ((v_3.sphere.w != 0.0)) {
+        float3 oc = (eye - v_3.sphere.xyz);
+        float half_b = dot(oc, ray);
+        float c_14 = (dot(oc, oc) - (v_3.sphere.w * v_3.sphere.w));
+        float disc = ((half_b * half_b) - c_14);
+        if ((disc < 0.0)) {
+            discard;
+        }
+        float s_7 = sqrt(disc);
+        t = (-(half_b) - s_7);
+        float _e39 = t;
+        if ((_e39 <= 0.0)) {
+            t = (-(half_b) + s_7);
+        }
+        float _e44 = t;
+        if ((_e44 <= 0.0)) {
+            discard;
+        }
+        float _e47 = t;
+        p = (eye + (ray * _e47));
+        float3 _e50 = p;
+        n = normalize((_e50 - v_3.sphere.xyz));
+        if ((v_3.sphere.w < 0.0)) {
+            float3 _e59 = n;
+            n = -(_e59);
+        }
+        float4x4 _e63 = camera.view_proj;
+        float3 _e64 = p;
+        float4 clip_2 = mul(float4(_e64, 1.0), _e63);
+        out_1.depth = clamp((clip_2.z / clip_2.w), 0.0, 1.0);
+    }
+    float3 _e75 = n;
+    bool back = (dot(_e75, ray) > 0.0);
+    if (back) {
+        local = ((naga_f2u32(v_3.flags) & 1u) == 0u);
+    } else {
+        local = false;
+    }
+    bool _e88 = local;
+    if (_e88) {
+        out_1.radiance = float4(0.0, 0.0, 0.0, 1.0);
+        float3 _e96 = p;
+        out_1.query_point = float4(_e96, 0.0);
+        out_1.query_direction = (0.0).xxxx;
+        SurfaceOut _e102 = out_1;
+        const SurfaceOut surfaceout = _e102;
+        return surfaceout;
+    }
+    if (back) {
+        float3 _e103 = n;
+        n = -(_e103);
+    }
+    float3 _e105 = p;
+    float3 _e106 = n;
+    float3 _e107 = p;
+    const float _e108 = offset_off_surface(_e107);
+    float3 b_26 = (_e105 + (_e106 * _e108));
+    out_1.query_point = float4(b_26, 1.0);
+    float _e117 = camera.shading.y;
+    if ((_e117 == 1.0)) {
+        float3 _e121 = n;
+        const float3 _e122 = irradiance(b_26, _e121);
+        out_1.radiance = float4(((_e122 * v_3.albedo) * 0.31830987), 1.0);
+        float3 _e130 = n;
+        out_1.query_direction = float4(_e130, 0.0);
+    } else {
+        float3 _e133 = n;
+        float3 _e137 = n;
+        float3 dir_15 = normalize((ray - ((2.0 * dot(ray, _e133)) * _e137)));
+        float _e145 = camera.shading.x;
+        const float3 _e146 = specular(b_26, dir_15, _e145);
+        out_1.radiance = float4(_e146, 1.0);
+        float _e153 = camera.shading.x;
+        out_1.query_direction = float4(dir_15, _e153);
+    }
+    SurfaceOut _e155 = out_1;
+    const SurfaceOut surfaceout_1 = _e155;
+    return surfaceout_1;
 }

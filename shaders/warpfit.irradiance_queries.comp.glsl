@@ -78,6 +78,33 @@ struct SurfaceTaps {
     uvec2 hi;
     vec2 f;
 };
+struct CameraParams {
+    mat4x4 view_proj;
+    vec4 eye;
+    vec4 surface_offset;
+    vec4 shading;
+};
+struct SurfaceVertex {
+    vec3 position;
+    vec3 normal;
+    vec3 albedo;
+    float flags;
+    vec4 sphere;
+};
+struct SurfaceVarying {
+    vec4 clip;
+    vec3 world;
+    vec3 normal;
+    vec3 albedo;
+    float flags;
+    vec4 sphere;
+};
+struct SurfaceOut {
+    vec4 radiance;
+    vec4 query_point;
+    vec4 query_direction;
+    float depth;
+};
 const uint DYNAMIC = 255u;
 const float HUGE = 1e30;
 const float F32_MIN_POSITIVE = 1.1754944e-38;
@@ -149,24 +176,24 @@ bool finite(float x) {
     return ((floatBitsToUint(x) & 2139095040u) != 2139095040u);
 }
 
-bool finite3_(vec3 v_2) {
-    bool local = false;
+bool finite3_(vec3 v_4) {
     bool local_1 = false;
-    bool _e2 = finite(v_2.x);
+    bool local_2 = false;
+    bool _e2 = finite(v_4.x);
     if (_e2) {
-        bool _e6 = finite(v_2.y);
-        local = _e6;
-    } else {
-        local = false;
-    }
-    bool _e8 = local;
-    if (_e8) {
-        bool _e12 = finite(v_2.z);
-        local_1 = _e12;
+        bool _e6 = finite(v_4.y);
+        local_1 = _e6;
     } else {
         local_1 = false;
     }
-    bool _e14 = local_1;
+    bool _e8 = local_1;
+    if (_e8) {
+        bool _e12 = finite(v_4.z);
+        local_2 = _e12;
+    } else {
+        local_2 = false;
+    }
+    bool _e14 = local_2;
     return _e14;
 }
 
@@ -174,49 +201,49 @@ float sign_not_zero(float x_1) {
     return ((x_1 >= 0.0) ? 1.0 : -1.0);
 }
 
-vec4 unit_direction(vec3 v_3) {
-    bool local_2 = false;
+vec4 unit_direction(vec3 v_5) {
     bool local_3 = false;
     bool local_4 = false;
     bool local_5 = false;
-    float l2_ = dot(v_3, v_3);
+    bool local_6 = false;
+    float l2_ = dot(v_5, v_5);
     bool _e2 = finite(l2_);
     if (_e2) {
-        local_2 = (abs((l2_ - 1.0)) <= 4.7683716e-7);
-    } else {
-        local_2 = false;
-    }
-    bool _e11 = local_2;
-    if (_e11) {
-        return vec4(v_3, 1.0);
-    }
-    float m_1 = max(abs(v_3.x), max(abs(v_3.y), abs(v_3.z)));
-    if ((m_1 > 0.0)) {
-        bool _e26 = finite(m_1);
-        local_3 = _e26;
+        local_3 = (abs((l2_ - 1.0)) <= 4.7683716e-7);
     } else {
         local_3 = false;
     }
-    bool _e28 = local_3;
-    if (_e28) {
-        bool _e31 = finite3_(v_3);
-        local_4 = _e31;
+    bool _e11 = local_3;
+    if (_e11) {
+        return vec4(v_5, 1.0);
+    }
+    float m_1 = max(abs(v_5.x), max(abs(v_5.y), abs(v_5.z)));
+    if ((m_1 > 0.0)) {
+        bool _e26 = finite(m_1);
+        local_4 = _e26;
     } else {
         local_4 = false;
     }
-    bool _e33 = local_4;
-    if (!(_e33)) {
-        return vec4(0.0, 0.0, 1.0, 0.0);
-    }
-    vec3 s_2 = (v_3 / vec3(m_1));
-    float l_3 = length(s_2);
-    if ((l_3 > 0.0)) {
-        bool _e47 = finite(l_3);
-        local_5 = _e47;
+    bool _e28 = local_4;
+    if (_e28) {
+        bool _e31 = finite3_(v_5);
+        local_5 = _e31;
     } else {
         local_5 = false;
     }
-    bool _e49 = local_5;
+    bool _e33 = local_5;
+    if (!(_e33)) {
+        return vec4(0.0, 0.0, 1.0, 0.0);
+    }
+    vec3 s_2 = (v_5 / vec3(m_1));
+    float l_3 = length(s_2);
+    if ((l_3 > 0.0)) {
+        bool _e47 = finite(l_3);
+        local_6 = _e47;
+    } else {
+        local_6 = false;
+    }
+    bool _e49 = local_6;
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
@@ -224,93 +251,93 @@ vec4 unit_direction(vec3 v_3) {
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
-    bool local_6 = false;
-    vec3 v_8 = (to - from);
-    float l2_1 = dot(v_8, v_8);
+    bool local_7 = false;
+    vec3 v_10 = (to - from);
+    float l2_1 = dot(v_10, v_10);
     if ((l2_1 > 0.0)) {
         bool _e9 = finite(l2_1);
-        local_6 = _e9;
+        local_7 = _e9;
     } else {
-        local_6 = false;
+        local_7 = false;
     }
-    bool _e11 = local_6;
+    bool _e11 = local_7;
     if (_e11) {
-        return v_8;
+        return v_10;
     }
     return fallback;
 }
 
 vec2 oct_encode(vec3 d) {
-    bool local_7 = false;
-    vec2 p = vec2(0.0);
+    bool local_8 = false;
+    vec2 p_1 = vec2(0.0);
     float l1_ = ((abs(d.x) + abs(d.y)) + abs(d.z));
     if ((l1_ >= F32_MIN_POSITIVE)) {
         bool _e13 = finite(l1_);
-        local_7 = _e13;
+        local_8 = _e13;
     } else {
-        local_7 = false;
+        local_8 = false;
     }
-    bool _e15 = local_7;
+    bool _e15 = local_8;
     if (!(_e15)) {
         return vec2(0.5, 0.5);
     }
     float inv_l1_ = (1.0 / l1_);
-    p = vec2((d.x * inv_l1_), (d.y * inv_l1_));
+    p_1 = vec2((d.x * inv_l1_), (d.y * inv_l1_));
     if ((d.z < 0.0)) {
-        float _e32 = p.y;
-        float _e37 = p.x;
+        float _e32 = p_1.y;
+        float _e37 = p_1.x;
         float _e38 = sign_not_zero(_e37);
-        float _e41 = p.x;
-        float _e46 = p.y;
+        float _e41 = p_1.x;
+        float _e46 = p_1.y;
         float _e47 = sign_not_zero(_e46);
-        p = vec2(((1.0 - abs(_e32)) * _e38), ((1.0 - abs(_e41)) * _e47));
+        p_1 = vec2(((1.0 - abs(_e32)) * _e38), ((1.0 - abs(_e41)) * _e47));
     }
-    vec2 _e50 = p;
+    vec2 _e50 = p_1;
     return clamp(((_e50 * 0.5) + vec2(0.5)), vec2(0.0), vec2(1.0));
 }
 
-ivec2 wrap_texel(int n, ivec2 t) {
+ivec2 wrap_texel(int n_1, ivec2 t_1) {
     int i = 0;
     int j = 0;
-    i = t.x;
-    j = t.y;
+    i = t_1.x;
+    j = t_1.y;
     int _e6 = i;
     if ((_e6 < 0)) {
         int _e9 = i;
         i = (-(_e9) - 1);
         int _e15 = j;
-        j = ((n - 1) - _e15);
+        j = ((n_1 - 1) - _e15);
     } else {
         int _e17 = i;
-        if ((_e17 >= n)) {
+        if ((_e17 >= n_1)) {
             int _e23 = i;
-            i = (((2 * n) - 1) - _e23);
+            i = (((2 * n_1) - 1) - _e23);
             int _e27 = j;
-            j = ((n - 1) - _e27);
+            j = ((n_1 - 1) - _e27);
         }
     }
     int _e29 = j;
     if ((_e29 < 0)) {
         int _e34 = i;
-        i = ((n - 1) - _e34);
+        i = ((n_1 - 1) - _e34);
         int _e36 = j;
         j = (-(_e36) - 1);
     } else {
         int _e40 = j;
-        if ((_e40 >= n)) {
+        if ((_e40 >= n_1)) {
             int _e44 = i;
-            i = ((n - 1) - _e44);
+            i = ((n_1 - 1) - _e44);
             int _e50 = j;
-            j = (((2 * n) - 1) - _e50);
+            j = (((2 * n_1) - 1) - _e50);
         }
     }
     int _e52 = i;
     int _e53 = j;
-    return min(max(ivec2(_e52, _e53), ivec2(0)), ivec2((n - 1)));
+    return min(max(ivec2(_e52, _e53), ivec2(0)), ivec2((n_1 - 1)));
 }
 
-Footprint footprint(uint n_1, vec2 uv) {
-    vec2 x_5 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
+Footprint footprint(uint n_2, vec2 uv) {
+    vec2 x_5 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_2)) - vec2(0.5));
     vec2 x0_ = floor(x_5);
     return Footprint(ivec2(x0_), (x_5 - x0_));
 }
@@ -319,31 +346,31 @@ vec4 blend4_(vec4 q00_, vec4 q10_, vec4 q01_, vec4 q11_, vec2 f) {
     return ((((q00_ * (1.0 - f.x)) + (q10_ * f.x)) * (1.0 - f.y)) + (((q01_ * (1.0 - f.x)) + (q11_ * f.x)) * f.y));
 }
 
-vec4 atlas_texel(uint which_3, ivec2 t_2) {
+vec4 atlas_texel(uint which_3, ivec2 t_3) {
     switch(which_3) {
         case 0u: {
-            vec4 _e4 = texelFetch(_group_0_binding_2_cs, t_2, 0);
+            vec4 _e4 = texelFetch(_group_0_binding_2_cs, t_3, 0);
             return _e4;
         }
         case 1u: {
-            vec4 _e7 = texelFetch(_group_0_binding_3_cs, t_2, 0);
+            vec4 _e7 = texelFetch(_group_0_binding_3_cs, t_3, 0);
             return _e7;
         }
         case 2u: {
-            vec4 _e10 = texelFetch(_group_0_binding_4_cs, t_2, 0);
+            vec4 _e10 = texelFetch(_group_0_binding_4_cs, t_3, 0);
             return _e10;
         }
         default: {
-            vec4 _e13 = texelFetch(_group_0_binding_5_cs, t_2, 0);
+            vec4 _e13 = texelFetch(_group_0_binding_5_cs, t_3, 0);
             return _e13;
         }
     }
 }
 
-vec4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, vec2 uv_4) {
+vec4 atlas_bilinear(uint which_4, int tile, uint n_3, uint columns, vec2 uv_4) {
     uint s_3 = uint(tile);
-    ivec2 origin = ivec2((uvec2((s_3 % columns), (s_3 / columns)) * (n_2 + 2u)));
-    Footprint _e13 = footprint(n_2, uv_4);
+    ivec2 origin = ivec2((uvec2((s_3 % columns), (s_3 / columns)) * (n_3 + 2u)));
+    Footprint _e13 = footprint(n_3, uv_4);
     ivec2 c_10 = ((origin + _e13.corner) + ivec2(1, 1));
     vec4 _e20 = atlas_texel(which_4, c_10);
     vec4 _e25 = atlas_texel(which_4, (c_10 + ivec2(1, 0)));
@@ -361,13 +388,13 @@ vec3 cell_size() {
 }
 
 uint cell_index(uvec3 c_2) {
-    uvec4 n_10 = _group_0_binding_7_cs.grid_counts;
-    return (c_2.x + (n_10.x * (c_2.y + (n_10.y * c_2.z))));
+    uvec4 n_11 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_11.x * (c_2.y + (n_11.y * c_2.z))));
 }
 
-uvec3 cell_of(vec3 p_4, vec3 size) {
+uvec3 cell_of(vec3 p_5, vec3 size) {
     vec4 _e4 = _group_0_binding_7_cs.grid_min;
-    vec3 f_3 = floor(((p_4 - _e4.xyz) / size));
+    vec3 f_3 = floor(((p_5 - _e4.xyz) / size));
     uvec4 _e11 = _group_0_binding_7_cs.grid_counts;
     vec3 hi = vec3((_e11.xyz - uvec3(1u)));
     bool _e17 = finite3_(f_3);
@@ -382,10 +409,10 @@ vec3 cell_centre(uvec3 c_3, vec3 size_1) {
     return (_e4.xyz + ((vec3(c_3) + vec3(0.5)) * size_1));
 }
 
-Lattice lattice(vec3 p_5, vec3 size_2) {
+Lattice lattice(vec3 p_6, vec3 size_2) {
     vec3 f_1 = vec3(0.0);
     vec4 _e4 = _group_0_binding_7_cs.grid_min;
-    f_1 = (((p_5 - _e4.xyz) / size_2) - vec3(0.5));
+    f_1 = (((p_6 - _e4.xyz) / size_2) - vec3(0.5));
     uvec4 _e14 = _group_0_binding_7_cs.grid_counts;
     vec3 hi_1 = vec3((_e14.xyz - uvec3(1u)));
     vec3 _e20 = f_1;
@@ -417,7 +444,7 @@ uvec3 corner_cell(Lattice l_1, uint corner_1) {
 }
 
 vec2 box_exit(vec3 b_4, vec3 dir_2) {
-    float t_3 = HUGE;
+    float t_4 = HUGE;
     int k = 0;
     vec4 _e4 = _group_0_binding_7_cs.box_x;
     vec4 _e8 = _group_0_binding_7_cs.box_y;
@@ -450,23 +477,23 @@ vec2 box_exit(vec3 b_4, vec3 dir_2) {
                 int _e46 = k;
                 int _e48 = k;
                 float face = ((d_2[_e48] > 0.0) ? h[_e46] : -(h[_e43]));
-                float _e53 = t_3;
+                float _e53 = t_4;
                 int _e54 = k;
                 int _e57 = k;
-                t_3 = min(_e53, ((face - o_2[_e54]) / d_2[_e57]));
+                t_4 = min(_e53, ((face - o_2[_e54]) / d_2[_e57]));
             }
         }
     }
-    float _e64 = t_3;
+    float _e64 = t_4;
     if (!((_e64 < HUGE))) {
         return vec2(0.0, 0.0);
     }
-    float _e71 = t_3;
+    float _e71 = t_4;
     return vec2(max(_e71, 0.0), 1.0);
 }
 
 vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
-    float t_4 = HUGE;
+    float t_5 = HUGE;
     uint k_1 = 0u;
     bool loop_init_1 = true;
     while(true) {
@@ -488,32 +515,32 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
             }
             uint _e21 = k_1;
             vec4 _e23 = _group_0_binding_7_cs.kdop[_e21];
-            vec3 n_11 = _e23.xyz;
+            vec3 n_12 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e27].w;
-            float nb = dot(n_11, b_5);
+            float nb = dot(n_12, b_5);
             if ((nb > h_1)) {
                 return vec2(0.0, 0.0);
             }
-            float nd = dot(n_11, dir_3);
+            float nd = dot(n_12, dir_3);
             if ((nd > 0.0)) {
-                float _e39 = t_4;
-                t_4 = min(_e39, ((h_1 - nb) / nd));
+                float _e39 = t_5;
+                t_5 = min(_e39, ((h_1 - nb) / nd));
             }
         }
     }
-    float _e46 = t_4;
+    float _e46 = t_5;
     return vec2(_e46, 1.0);
 }
 
 vec3 proxy_fetch(vec2 exit, vec3 b_7, vec3 dir_5) {
-    bool local_11 = false;
+    bool local_12 = false;
     if (!((exit.y == 0.0))) {
-        local_11 = !((exit.x < HUGE));
+        local_12 = !((exit.x < HUGE));
     } else {
-        local_11 = true;
+        local_12 = true;
     }
-    bool _e14 = local_11;
+    bool _e14 = local_12;
     if (_e14) {
         return dir_5;
     }
@@ -528,43 +555,43 @@ vec3 box_fetch(vec3 b_8, vec3 dir_6) {
     return _e3;
 }
 
-Basis orthonormal_basis(vec3 n_3) {
-    float s_4 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a_1 = (-1.0 / (s_4 + n_3.z));
-    float b_24 = ((n_3.x * n_3.y) * a_1);
-    return Basis(vec3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_1)), (s_4 * b_24), (-(s_4) * n_3.x)), vec3(b_24, (s_4 + ((n_3.y * n_3.y) * a_1)), -(n_3.y)));
+Basis orthonormal_basis(vec3 n_4) {
+    float s_4 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
+    float a_1 = (-1.0 / (s_4 + n_4.z));
+    float b_24 = ((n_4.x * n_4.y) * a_1);
+    return Basis(vec3((1.0 + (((s_4 * n_4.x) * n_4.x) * a_1)), (s_4 * b_24), (-(s_4) * n_4.x)), vec3(b_24, (s_4 + ((n_4.y * n_4.y) * a_1)), -(n_4.y)));
 }
 
-vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
-    bool local_12 = false;
-    float l_4 = length(v_5);
+vec3 normalize_or(vec3 v_7, vec3 fallback_1) {
+    bool local_13 = false;
+    float l_4 = length(v_7);
     if ((l_4 > 0.0)) {
         bool _e7 = finite(l_4);
-        local_12 = _e7;
+        local_13 = _e7;
     } else {
-        local_12 = false;
+        local_13 = false;
     }
-    bool _e9 = local_12;
+    bool _e9 = local_13;
     if (_e9) {
-        return (v_5 / vec3(l_4));
+        return (v_7 / vec3(l_4));
     }
     return fallback_1;
 }
 
-Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_6) {
-    bool local_13 = false;
-    float s_1 = 0.0;
+Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_7) {
     bool local_14 = false;
-    float k_2 = 0.0;
+    float s_1 = 0.0;
     bool local_15 = false;
+    float k_2 = 0.0;
+    bool local_16 = false;
     if (!((exit_1.y == 0.0))) {
-        local_13 = !((exit_1.x < HUGE));
+        local_14 = !((exit_1.x < HUGE));
     } else {
-        local_13 = true;
+        local_14 = true;
     }
-    bool _e16 = local_13;
+    bool _e16 = local_14;
     if (_e16) {
-        return Aim(dir_8, 1.0, p_6);
+        return Aim(dir_8, 1.0, p_7);
     }
     s_1 = (exit_1.x + delta);
     float _e22 = s_1;
@@ -572,56 +599,56 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_6) {
         s_1 = 1e-30;
     }
     float _e27 = s_1;
-    vec4 _e33 = _group_0_binding_7_cs.probes[p_6];
-    vec3 v_9 = ((b_10 + (dir_8 * _e27)) - _e33.xyz);
-    bool _e36 = finite3_(v_9);
+    vec4 _e33 = _group_0_binding_7_cs.probes[p_7];
+    vec3 v_11 = ((b_10 + (dir_8 * _e27)) - _e33.xyz);
+    bool _e36 = finite3_(v_11);
     if (_e36) {
-        local_14 = any(notEqual(v_9, vec3(0.0)));
+        local_15 = any(notEqual(v_11, vec3(0.0)));
     } else {
-        local_14 = false;
+        local_15 = false;
     }
-    bool _e44 = local_14;
+    bool _e44 = local_15;
     if (_e44) {
         float _e46 = s_1;
-        k_2 = (length(v_9) / _e46);
+        k_2 = (length(v_11) / _e46);
         float _e49 = k_2;
         bool _e50 = finite(_e49);
         if (_e50) {
             float _e53 = k_2;
-            local_15 = (_e53 > 0.0);
+            local_16 = (_e53 > 0.0);
         } else {
-            local_15 = false;
+            local_16 = false;
         }
-        bool _e57 = local_15;
+        bool _e57 = local_16;
         if (!(_e57)) {
             k_2 = 1.0;
         }
         float _e60 = k_2;
-        return Aim(v_9, _e60, p_6);
+        return Aim(v_11, _e60, p_7);
     }
-    return Aim(dir_8, 1.0, p_6);
+    return Aim(dir_8, 1.0, p_7);
 }
 
 uint probe_of(int tile_1, vec2 uv_5) {
-    bool local_16 = false;
+    bool local_17 = false;
     uint best = 0u;
     uint k_3 = 1u;
     if (!((tile_1 < 0))) {
         uint _e10 = _group_0_binding_7_cs.probe_maps.y;
-        local_16 = (_e10 == 0u);
+        local_17 = (_e10 == 0u);
     } else {
-        local_16 = true;
+        local_17 = true;
     }
-    bool _e14 = local_16;
+    bool _e14 = local_17;
     if (_e14) {
         return 0u;
     }
-    uint n_12 = _group_0_binding_7_cs.atlas_a.x;
+    uint n_13 = _group_0_binding_7_cs.atlas_a.x;
     uint columns_1 = _group_0_binding_7_cs.atlas_a.y;
     uint _e28 = _group_0_binding_7_cs.probe_maps.y;
     uint s_5 = (uint(tile_1) + _e28);
-    ivec2 origin_1 = ivec2((uvec2((s_5 % columns_1), (s_5 / columns_1)) * (n_12 + 2u)));
-    Footprint _e37 = footprint(n_12, uv_5);
+    ivec2 origin_1 = ivec2((uvec2((s_5 % columns_1), (s_5 / columns_1)) * (n_13 + 2u)));
+    Footprint _e37 = footprint(n_13, uv_5);
     vec2 f_4 = _e37.f;
     vec4 w_6 = vec4(((1.0 - f_4.x) * (1.0 - f_4.y)), (f_4.x * (1.0 - f_4.y)), ((1.0 - f_4.x) * f_4.y), (f_4.x * f_4.y));
     bool loop_init_2 = true;
@@ -647,11 +674,11 @@ uint probe_of(int tile_1, vec2 uv_5) {
     }
     uint _e82 = best;
     uint _e86 = best;
-    ivec2 t_9 = (((origin_1 + _e37.corner) + ivec2(1, 1)) + ivec2(int((_e82 & 1u)), int((_e86 >> 1u))));
-    vec4 _e93 = atlas_texel(ATLAS_CORRECTIVE, t_9);
-    uint p_9 = uint(_e93.x);
+    ivec2 t_10 = (((origin_1 + _e37.corner) + ivec2(1, 1)) + ivec2(int((_e82 & 1u)), int((_e86 >> 1u))));
+    vec4 _e93 = atlas_texel(ATLAS_CORRECTIVE, t_10);
+    uint p_11 = uint(_e93.x);
     uint _e99 = _group_0_binding_7_cs.probe_maps.x;
-    return min(p_9, (max(_e99, 1u) - 1u));
+    return min(p_11, (max(_e99, 1u) - 1u));
 }
 
 float map_delta(int tile_2, vec2 uv_6) {
@@ -725,22 +752,22 @@ float mip_roughness(uint m) {
 }
 
 float lod_of_roughness(float r_2) {
-    bool local_18 = false;
+    bool local_19 = false;
     uint below = 0u;
-    uint t_5 = 0u;
+    uint t_6 = 0u;
     float f_2 = 0.0;
-    uint n_13 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_13 < 2u))) {
+    uint n_14 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_14 < 2u))) {
         float _e11 = mip_roughness(0u);
-        local_18 = !((r_2 > _e11));
+        local_19 = !((r_2 > _e11));
     } else {
-        local_18 = true;
+        local_19 = true;
     }
-    bool _e15 = local_18;
+    bool _e15 = local_19;
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_13 - 1u);
+    uint last = (n_14 - 1u);
     float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
@@ -748,18 +775,18 @@ float lod_of_roughness(float r_2) {
     bool loop_init_3 = true;
     while(true) {
         if (!loop_init_3) {
-            uint _e37 = t_5;
-            t_5 = (_e37 + 1u);
+            uint _e37 = t_6;
+            t_6 = (_e37 + 1u);
         }
         loop_init_3 = false;
-        uint _e26 = t_5;
-        if ((_e26 < n_13)) {
+        uint _e26 = t_6;
+        if ((_e26 < n_14)) {
         } else {
             break;
         }
         {
             uint _e28 = below;
-            uint _e31 = t_5;
+            uint _e31 = t_6;
             float _e32 = mip_roughness(_e31);
             below = (_e28 + ((_e32 <= r_2) ? 1u : 0u));
         }
@@ -821,10 +848,10 @@ Near near_cells(vec3 b_16) {
     return Near(_e1, _e3, links_1, _e31, _e32);
 }
 
-vec3 sh_eval(vec3 c_5[9], vec3 n_5) {
-    float x_6 = n_5.x;
-    float y = n_5.y;
-    float z = n_5.z;
+vec3 sh_eval(vec3 c_5[9], vec3 n_6) {
+    float x_6 = n_6.x;
+    float y = n_6.y;
+    float z = n_6.z;
     vec3 t0_ = (c_5[0] * 0.2820948);
     vec3 t1_ = (c_5[1] * (0.4886025 * y));
     vec3 t2_ = (c_5[2] * (0.4886025 * z));
@@ -838,7 +865,7 @@ vec3 sh_eval(vec3 c_5[9], vec3 n_5) {
     return max(e_3, vec3(0.0));
 }
 
-vec3 cell_sh_irradiance(uint cell, vec3 n_6) {
+vec3 cell_sh_irradiance(uint cell, vec3 n_7) {
     vec4 _e6 = _group_0_binding_8_cs[cell].sh[0];
     vec4 _e12 = _group_0_binding_8_cs[cell].sh[1];
     vec4 _e18 = _group_0_binding_8_cs[cell].sh[2];
@@ -849,7 +876,7 @@ vec3 cell_sh_irradiance(uint cell, vec3 n_6) {
     vec4 _e48 = _group_0_binding_8_cs[cell].sh[7];
     vec4 _e54 = _group_0_binding_8_cs[cell].sh[8];
     vec3 c_11[9] = vec3[9](_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
-    vec3 _e57 = sh_eval(c_11, n_6);
+    vec3 _e57 = sh_eval(c_11, n_7);
     return _e57;
 }
 
@@ -872,16 +899,16 @@ float blend_node_w(uint k_10) {
 }
 
 float irradiance_weight(float r_7) {
-    bool local_28 = false;
+    bool local_29 = false;
     float w_4 = 0.0;
     uint k_11 = 1u;
-    uint n_14 = _group_0_binding_7_cs.lut_info.y;
-    if (!((n_14 == 0u))) {
-        local_28 = !((r_7 > 0.0));
+    uint n_15 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_15 == 0u))) {
+        local_29 = !((r_7 > 0.0));
     } else {
-        local_28 = true;
+        local_29 = true;
     }
-    bool _e14 = local_28;
+    bool _e14 = local_29;
     if (_e14) {
         return 0.0;
     }
@@ -895,7 +922,7 @@ float irradiance_weight(float r_7) {
         }
         loop_init_5 = false;
         uint _e21 = k_11;
-        if ((_e21 < n_14)) {
+        if ((_e21 < n_15)) {
         } else {
             break;
         }
@@ -905,12 +932,12 @@ float irradiance_weight(float r_7) {
             if ((r_7 > _e26)) {
                 uint _e29 = k_11;
                 float _e30 = blend_node_r(_e29);
-                float t_10 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                float t_11 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
                 uint _e37 = k_11;
                 float _e40 = blend_node_w((_e37 - 1u));
                 uint _e44 = k_11;
                 float _e45 = blend_node_w(_e44);
-                w_4 = ((_e40 * (1.0 - t_10)) + (_e45 * t_10));
+                w_4 = ((_e40 * (1.0 - t_11)) + (_e45 * t_11));
             }
         }
     }
@@ -926,41 +953,41 @@ vec3 clean(vec3 c_8) {
     return vec3(0.0);
 }
 
-vec3 cell_irradiance(int tile_3, vec3 n_8) {
+vec3 cell_irradiance(int tile_3, vec3 n_9) {
     uint _e6 = _group_0_binding_7_cs.atlas_a.z;
     uint _e10 = _group_0_binding_7_cs.atlas_a.w;
-    vec2 _e11 = oct_encode(n_8);
+    vec2 _e11 = oct_encode(n_9);
     vec4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_3, _e6, _e10, _e11);
     return _e12.xyz;
 }
 
 vec3 irradiance(vec3 position_1, vec3 normal) {
-    vec3 p_8 = vec3(0.0);
+    vec3 p_9 = vec3(0.0);
     vec3 e_1 = vec3(0.0);
     float wsum = 0.0;
     uint corner_8 = 0u;
     float w_5 = 0.0;
-    bool local_30 = false;
+    bool local_31 = false;
     float k_12 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
         return vec3(0.0);
     }
-    vec3 n_15 = _e2.xyz;
+    vec3 n_16 = _e2.xyz;
     vec3 _e9 = cell_size();
     vec4 _e12 = _group_0_binding_7_cs.grid_min;
     vec4 _e16 = _group_0_binding_7_cs.grid_max;
     vec4 _e20 = _group_0_binding_7_cs.grid_min;
-    p_8 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
+    p_9 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = _group_0_binding_7_cs.grid_min.w;
-    vec3 biased = (position_1 + (n_15 * _e30));
+    vec3 biased = (position_1 + (n_16 * _e30));
     bool _e33 = finite3_(biased);
     if (_e33) {
-        p_8 = biased;
+        p_9 = biased;
     }
-    vec3 _e34 = p_8;
+    vec3 _e34 = p_9;
     Lattice _e35 = lattice(_e34, _e9);
-    vec2 _e36 = oct_encode(n_15);
+    vec2 _e36 = oct_encode(n_16);
     bool loop_init_6 = true;
     while(true) {
         if (!loop_init_6) {
@@ -986,7 +1013,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             if ((tiles_1.y < 0)) {
                 continue;
             }
-            vec3 _e61 = p_8;
+            vec3 _e61 = p_9;
             vec3 _e62 = cell_centre(_e52, _e9);
             vec4 _e66 = _group_0_binding_8_cs[_e53].offset;
             vec3 to_point = (_e61 - (_e62 + _e66.xyz));
@@ -994,14 +1021,14 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             w_5 = _e48;
             if ((dist > 0.0)) {
                 bool _e76 = finite(dist);
-                local_30 = _e76;
+                local_31 = _e76;
             } else {
-                local_30 = false;
+                local_31 = false;
             }
-            bool _e78 = local_30;
+            bool _e78 = local_31;
             if (_e78) {
                 vec3 u = (to_point / vec3(dist));
-                float facing = ((dot(n_15, -(u)) + 1.0) * 0.5);
+                float facing = ((dot(n_16, -(u)) + 1.0) * 0.5);
                 float _e87 = w_5;
                 w_5 = (_e87 * ((facing * facing) + 0.2));
                 uint _e97 = _group_0_binding_7_cs.atlas_b.x;
@@ -1028,7 +1055,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                 k_12 = _e143.x;
             }
             vec3 _e145 = e_1;
-            vec3 _e147 = cell_irradiance(tiles_1.y, n_15);
+            vec3 _e147 = cell_irradiance(tiles_1.y, n_16);
             float _e148 = w_5;
             float _e150 = k_12;
             e_1 = (_e145 + ((_e147 * _e148) * _e150));
@@ -1047,35 +1074,35 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     return _e169;
 }
 
-vec2 hemi_encode(vec3 v_7) {
-    bool local_31 = false;
-    float z_1 = max(v_7.z, 0.0);
-    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
+vec2 hemi_encode(vec3 v_9) {
+    bool local_32 = false;
+    float z_1 = max(v_9.z, 0.0);
+    float l1_1 = ((abs(v_9.x) + abs(v_9.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_31 = _e14;
+        local_32 = _e14;
     } else {
-        local_31 = false;
+        local_32 = false;
     }
-    bool _e16 = local_31;
+    bool _e16 = local_32;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
-    float px = (v_7.x / l1_1);
-    float py = (v_7.y / l1_1);
+    float px = (v_9.x / l1_1);
+    float py = (v_9.y / l1_1);
     return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_9) {
+SurfaceAxis surface_axis(float x_in, uint n_10) {
     float x_4 = 0.5;
     bool _e4 = finite(x_in);
     if (_e4) {
         x_4 = x_in;
     }
     float _e5 = x_4;
-    float c_12 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
+    float c_12 = clamp(((_e5 * float(n_10)) - 0.5), 0.0, float((n_10 - 1u)));
     uint i0_ = uint(floor(c_12));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_12 - float(i0_)));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_10 - 1u)), (c_12 - float(i0_)));
 }
 
 uint query_count() {
@@ -1089,9 +1116,9 @@ void main() {
     if ((k_13 >= _e2)) {
         return;
     }
-    vec4 p_10 = _group_1_binding_0_cs[(2u * k_13)];
-    vec4 n_16 = _group_1_binding_0_cs[((2u * k_13) + 1u)];
-    vec3 _e20 = irradiance(p_10.xyz, n_16.xyz);
+    vec4 p_12 = _group_1_binding_0_cs[(2u * k_13)];
+    vec4 n_17 = _group_1_binding_0_cs[((2u * k_13) + 1u)];
+    vec3 _e20 = irradiance(p_12.xyz, n_17.xyz);
     _group_1_binding_1_cs[k_13] = vec4(_e20, 1.0);
     return;
 }

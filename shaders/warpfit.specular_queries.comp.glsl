@@ -78,6 +78,33 @@ struct SurfaceTaps {
     uvec2 hi;
     vec2 f;
 };
+struct CameraParams {
+    mat4x4 view_proj;
+    vec4 eye;
+    vec4 surface_offset;
+    vec4 shading;
+};
+struct SurfaceVertex {
+    vec3 position;
+    vec3 normal;
+    vec3 albedo;
+    float flags;
+    vec4 sphere;
+};
+struct SurfaceVarying {
+    vec4 clip;
+    vec3 world;
+    vec3 normal;
+    vec3 albedo;
+    float flags;
+    vec4 sphere;
+};
+struct SurfaceOut {
+    vec4 radiance;
+    vec4 query_point;
+    vec4 query_direction;
+    float depth;
+};
 const uint DYNAMIC = 255u;
 const float HUGE = 1e30;
 const float F32_MIN_POSITIVE = 1.1754944e-38;
@@ -155,24 +182,24 @@ bool finite(float x) {
     return ((floatBitsToUint(x) & 2139095040u) != 2139095040u);
 }
 
-bool finite3_(vec3 v_2) {
-    bool local = false;
+bool finite3_(vec3 v_4) {
     bool local_1 = false;
-    bool _e2 = finite(v_2.x);
+    bool local_2 = false;
+    bool _e2 = finite(v_4.x);
     if (_e2) {
-        bool _e6 = finite(v_2.y);
-        local = _e6;
-    } else {
-        local = false;
-    }
-    bool _e8 = local;
-    if (_e8) {
-        bool _e12 = finite(v_2.z);
-        local_1 = _e12;
+        bool _e6 = finite(v_4.y);
+        local_1 = _e6;
     } else {
         local_1 = false;
     }
-    bool _e14 = local_1;
+    bool _e8 = local_1;
+    if (_e8) {
+        bool _e12 = finite(v_4.z);
+        local_2 = _e12;
+    } else {
+        local_2 = false;
+    }
+    bool _e14 = local_2;
     return _e14;
 }
 
@@ -180,49 +207,49 @@ float sign_not_zero(float x_1) {
     return ((x_1 >= 0.0) ? 1.0 : -1.0);
 }
 
-vec4 unit_direction(vec3 v_3) {
-    bool local_2 = false;
+vec4 unit_direction(vec3 v_5) {
     bool local_3 = false;
     bool local_4 = false;
     bool local_5 = false;
-    float l2_ = dot(v_3, v_3);
+    bool local_6 = false;
+    float l2_ = dot(v_5, v_5);
     bool _e2 = finite(l2_);
     if (_e2) {
-        local_2 = (abs((l2_ - 1.0)) <= 4.7683716e-7);
-    } else {
-        local_2 = false;
-    }
-    bool _e11 = local_2;
-    if (_e11) {
-        return vec4(v_3, 1.0);
-    }
-    float m_1 = max(abs(v_3.x), max(abs(v_3.y), abs(v_3.z)));
-    if ((m_1 > 0.0)) {
-        bool _e26 = finite(m_1);
-        local_3 = _e26;
+        local_3 = (abs((l2_ - 1.0)) <= 4.7683716e-7);
     } else {
         local_3 = false;
     }
-    bool _e28 = local_3;
-    if (_e28) {
-        bool _e31 = finite3_(v_3);
-        local_4 = _e31;
+    bool _e11 = local_3;
+    if (_e11) {
+        return vec4(v_5, 1.0);
+    }
+    float m_1 = max(abs(v_5.x), max(abs(v_5.y), abs(v_5.z)));
+    if ((m_1 > 0.0)) {
+        bool _e26 = finite(m_1);
+        local_4 = _e26;
     } else {
         local_4 = false;
     }
-    bool _e33 = local_4;
-    if (!(_e33)) {
-        return vec4(0.0, 0.0, 1.0, 0.0);
-    }
-    vec3 s_2 = (v_3 / vec3(m_1));
-    float l_3 = length(s_2);
-    if ((l_3 > 0.0)) {
-        bool _e47 = finite(l_3);
-        local_5 = _e47;
+    bool _e28 = local_4;
+    if (_e28) {
+        bool _e31 = finite3_(v_5);
+        local_5 = _e31;
     } else {
         local_5 = false;
     }
-    bool _e49 = local_5;
+    bool _e33 = local_5;
+    if (!(_e33)) {
+        return vec4(0.0, 0.0, 1.0, 0.0);
+    }
+    vec3 s_2 = (v_5 / vec3(m_1));
+    float l_3 = length(s_2);
+    if ((l_3 > 0.0)) {
+        bool _e47 = finite(l_3);
+        local_6 = _e47;
+    } else {
+        local_6 = false;
+    }
+    bool _e49 = local_6;
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
@@ -230,93 +257,93 @@ vec4 unit_direction(vec3 v_3) {
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
-    bool local_6 = false;
-    vec3 v_8 = (to - from);
-    float l2_1 = dot(v_8, v_8);
+    bool local_7 = false;
+    vec3 v_10 = (to - from);
+    float l2_1 = dot(v_10, v_10);
     if ((l2_1 > 0.0)) {
         bool _e9 = finite(l2_1);
-        local_6 = _e9;
+        local_7 = _e9;
     } else {
-        local_6 = false;
+        local_7 = false;
     }
-    bool _e11 = local_6;
+    bool _e11 = local_7;
     if (_e11) {
-        return v_8;
+        return v_10;
     }
     return fallback;
 }
 
 vec2 oct_encode(vec3 d) {
-    bool local_7 = false;
-    vec2 p = vec2(0.0);
+    bool local_8 = false;
+    vec2 p_1 = vec2(0.0);
     float l1_ = ((abs(d.x) + abs(d.y)) + abs(d.z));
     if ((l1_ >= F32_MIN_POSITIVE)) {
         bool _e13 = finite(l1_);
-        local_7 = _e13;
+        local_8 = _e13;
     } else {
-        local_7 = false;
+        local_8 = false;
     }
-    bool _e15 = local_7;
+    bool _e15 = local_8;
     if (!(_e15)) {
         return vec2(0.5, 0.5);
     }
     float inv_l1_ = (1.0 / l1_);
-    p = vec2((d.x * inv_l1_), (d.y * inv_l1_));
+    p_1 = vec2((d.x * inv_l1_), (d.y * inv_l1_));
     if ((d.z < 0.0)) {
-        float _e32 = p.y;
-        float _e37 = p.x;
+        float _e32 = p_1.y;
+        float _e37 = p_1.x;
         float _e38 = sign_not_zero(_e37);
-        float _e41 = p.x;
-        float _e46 = p.y;
+        float _e41 = p_1.x;
+        float _e46 = p_1.y;
         float _e47 = sign_not_zero(_e46);
-        p = vec2(((1.0 - abs(_e32)) * _e38), ((1.0 - abs(_e41)) * _e47));
+        p_1 = vec2(((1.0 - abs(_e32)) * _e38), ((1.0 - abs(_e41)) * _e47));
     }
-    vec2 _e50 = p;
+    vec2 _e50 = p_1;
     return clamp(((_e50 * 0.5) + vec2(0.5)), vec2(0.0), vec2(1.0));
 }
 
-ivec2 wrap_texel(int n, ivec2 t) {
+ivec2 wrap_texel(int n_1, ivec2 t_1) {
     int i = 0;
     int j = 0;
-    i = t.x;
-    j = t.y;
+    i = t_1.x;
+    j = t_1.y;
     int _e6 = i;
     if ((_e6 < 0)) {
         int _e9 = i;
         i = (-(_e9) - 1);
         int _e15 = j;
-        j = ((n - 1) - _e15);
+        j = ((n_1 - 1) - _e15);
     } else {
         int _e17 = i;
-        if ((_e17 >= n)) {
+        if ((_e17 >= n_1)) {
             int _e23 = i;
-            i = (((2 * n) - 1) - _e23);
+            i = (((2 * n_1) - 1) - _e23);
             int _e27 = j;
-            j = ((n - 1) - _e27);
+            j = ((n_1 - 1) - _e27);
         }
     }
     int _e29 = j;
     if ((_e29 < 0)) {
         int _e34 = i;
-        i = ((n - 1) - _e34);
+        i = ((n_1 - 1) - _e34);
         int _e36 = j;
         j = (-(_e36) - 1);
     } else {
         int _e40 = j;
-        if ((_e40 >= n)) {
+        if ((_e40 >= n_1)) {
             int _e44 = i;
-            i = ((n - 1) - _e44);
+            i = ((n_1 - 1) - _e44);
             int _e50 = j;
-            j = (((2 * n) - 1) - _e50);
+            j = (((2 * n_1) - 1) - _e50);
         }
     }
     int _e52 = i;
     int _e53 = j;
-    return min(max(ivec2(_e52, _e53), ivec2(0)), ivec2((n - 1)));
+    return min(max(ivec2(_e52, _e53), ivec2(0)), ivec2((n_1 - 1)));
 }
 
-Footprint footprint(uint n_1, vec2 uv) {
-    vec2 x_5 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
+Footprint footprint(uint n_2, vec2 uv) {
+    vec2 x_5 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_2)) - vec2(0.5));
     vec2 x0_ = floor(x_5);
     return Footprint(ivec2(x0_), (x_5 - x0_));
 }
@@ -325,25 +352,25 @@ vec4 blend4_(vec4 q00_, vec4 q10_, vec4 q01_, vec4 q11_, vec2 f) {
     return ((((q00_ * (1.0 - f.x)) + (q10_ * f.x)) * (1.0 - f.y)) + (((q01_ * (1.0 - f.x)) + (q11_ * f.x)) * f.y));
 }
 
-vec4 probe_texel(uint which, ivec2 t_1, int level) {
+vec4 probe_texel(uint which, ivec2 t_2, int level) {
     if ((which == 0u)) {
-        vec4 _e6 = texelFetch(_group_0_binding_0_cs, t_1, level);
+        vec4 _e6 = texelFetch(_group_0_binding_0_cs, t_2, level);
         return _e6;
     }
-    vec4 _e8 = texelFetch(_group_0_binding_1_cs, t_1, level);
+    vec4 _e8 = texelFetch(_group_0_binding_1_cs, t_2, level);
     return _e8;
 }
 
-vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1, uint p_1) {
+vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1, uint p_2) {
     float _e7 = _group_0_binding_7_cs.warp.z;
     float _e11 = _group_0_binding_7_cs.warp.y;
     float res0_ = ((which_1 == 0u) ? _e11 : _e7);
-    uint n_10 = max((uint(res0_) >> level_1), 1u);
-    Footprint _e19 = footprint(n_10, uv_1);
+    uint n_11 = max((uint(res0_) >> level_1), 1u);
+    Footprint _e19 = footprint(n_11, uv_1);
     ivec2 c_10 = _e19.corner;
     int l_4 = int(level_1);
-    int ni = int(n_10);
-    ivec2 at_3 = ivec2((int(p_1) * ni), 0);
+    int ni = int(n_11);
+    ivec2 at_3 = ivec2((int(p_2) * ni), 0);
     ivec2 _e27 = wrap_texel(ni, c_10);
     vec4 _e29 = probe_texel(which_1, (at_3 + _e27), l_4);
     ivec2 _e34 = wrap_texel(ni, (c_10 + ivec2(1, 0)));
@@ -356,9 +383,9 @@ vec4 probe_bilinear(uint which_1, vec2 uv_1, uint level_1, uint p_1) {
     return _e52;
 }
 
-vec4 probe_sample_lod(uint which_2, vec2 uv_2, float lod_in, uint levels, uint p_2) {
+vec4 probe_sample_lod(uint which_2, vec2 uv_2, float lod_in, uint levels, uint p_3) {
     float lod = 0.0;
-    bool local_8 = false;
+    bool local_9 = false;
     float top = float((max(levels, 1u) - 1u));
     bool _e12 = finite(lod_in);
     if (_e12) {
@@ -368,71 +395,71 @@ vec4 probe_sample_lod(uint which_2, vec2 uv_2, float lod_in, uint levels, uint p
     uint l0_ = uint(_e16);
     float _e18 = lod;
     float f_3 = (_e18 - float(l0_));
-    vec4 _e21 = probe_bilinear(which_2, uv_2, l0_, p_2);
+    vec4 _e21 = probe_bilinear(which_2, uv_2, l0_, p_3);
     if (!((f_3 == 0.0))) {
-        local_8 = ((l0_ + 1u) >= levels);
+        local_9 = ((l0_ + 1u) >= levels);
     } else {
-        local_8 = true;
+        local_9 = true;
     }
-    bool _e31 = local_8;
+    bool _e31 = local_9;
     if (_e31) {
         return _e21;
     }
-    vec4 _e34 = probe_bilinear(which_2, uv_2, (l0_ + 1u), p_2);
+    vec4 _e34 = probe_bilinear(which_2, uv_2, (l0_ + 1u), p_3);
     return ((_e21 * (1.0 - f_3)) + (_e34 * f_3));
 }
 
-vec3 radiance_lod(vec2 uv_3, float lod_1, uint p_3) {
+vec3 radiance_lod(vec2 uv_3, float lod_1, uint p_4) {
     uint _e7 = _group_0_binding_7_cs.probe_info.x;
-    vec4 _e8 = probe_sample_lod(0u, uv_3, lod_1, _e7, p_3);
+    vec4 _e8 = probe_sample_lod(0u, uv_3, lod_1, _e7, p_4);
     return _e8.xyz;
 }
 
-float inv_dist(vec3 v_4) {
-    bool local_9 = false;
-    vec2 _e2 = oct_encode(v_4);
+float inv_dist(vec3 v_6) {
+    bool local_10 = false;
+    vec2 _e2 = oct_encode(v_6);
     float _e6 = _group_0_binding_7_cs.probe.w;
     uint _e10 = _group_0_binding_7_cs.probe_info.y;
     vec4 _e12 = probe_sample_lod(1u, _e2, _e6, _e10, 0u);
     float w_6 = _e12.x;
     if ((w_6 > 0.0)) {
         bool _e18 = finite(w_6);
-        local_9 = _e18;
+        local_10 = _e18;
     } else {
-        local_9 = false;
+        local_10 = false;
     }
-    bool _e20 = local_9;
+    bool _e20 = local_10;
     if (_e20) {
         return w_6;
     }
     return 0.0;
 }
 
-vec4 atlas_texel(uint which_3, ivec2 t_2) {
+vec4 atlas_texel(uint which_3, ivec2 t_3) {
     switch(which_3) {
         case 0u: {
-            vec4 _e4 = texelFetch(_group_0_binding_2_cs, t_2, 0);
+            vec4 _e4 = texelFetch(_group_0_binding_2_cs, t_3, 0);
             return _e4;
         }
         case 1u: {
-            vec4 _e7 = texelFetch(_group_0_binding_3_cs, t_2, 0);
+            vec4 _e7 = texelFetch(_group_0_binding_3_cs, t_3, 0);
             return _e7;
         }
         case 2u: {
-            vec4 _e10 = texelFetch(_group_0_binding_4_cs, t_2, 0);
+            vec4 _e10 = texelFetch(_group_0_binding_4_cs, t_3, 0);
             return _e10;
         }
         default: {
-            vec4 _e13 = texelFetch(_group_0_binding_5_cs, t_2, 0);
+            vec4 _e13 = texelFetch(_group_0_binding_5_cs, t_3, 0);
             return _e13;
         }
     }
 }
 
-vec4 atlas_bilinear(uint which_4, int tile, uint n_2, uint columns, vec2 uv_4) {
+vec4 atlas_bilinear(uint which_4, int tile, uint n_3, uint columns, vec2 uv_4) {
     uint s_3 = uint(tile);
-    ivec2 origin = ivec2((uvec2((s_3 % columns), (s_3 / columns)) * (n_2 + 2u)));
-    Footprint _e13 = footprint(n_2, uv_4);
+    ivec2 origin = ivec2((uvec2((s_3 % columns), (s_3 / columns)) * (n_3 + 2u)));
+    Footprint _e13 = footprint(n_3, uv_4);
     ivec2 c_11 = ((origin + _e13.corner) + ivec2(1, 1));
     vec4 _e20 = atlas_texel(which_4, c_11);
     vec4 _e25 = atlas_texel(which_4, (c_11 + ivec2(1, 0)));
@@ -450,13 +477,13 @@ vec3 cell_size() {
 }
 
 uint cell_index(uvec3 c_2) {
-    uvec4 n_11 = _group_0_binding_7_cs.grid_counts;
-    return (c_2.x + (n_11.x * (c_2.y + (n_11.y * c_2.z))));
+    uvec4 n_12 = _group_0_binding_7_cs.grid_counts;
+    return (c_2.x + (n_12.x * (c_2.y + (n_12.y * c_2.z))));
 }
 
-uvec3 cell_of(vec3 p_4, vec3 size) {
+uvec3 cell_of(vec3 p_5, vec3 size) {
     vec4 _e4 = _group_0_binding_7_cs.grid_min;
-    vec3 f_4 = floor(((p_4 - _e4.xyz) / size));
+    vec3 f_4 = floor(((p_5 - _e4.xyz) / size));
     uvec4 _e11 = _group_0_binding_7_cs.grid_counts;
     vec3 hi = vec3((_e11.xyz - uvec3(1u)));
     bool _e17 = finite3_(f_4);
@@ -471,10 +498,10 @@ vec3 cell_centre(uvec3 c_3, vec3 size_1) {
     return (_e4.xyz + ((vec3(c_3) + vec3(0.5)) * size_1));
 }
 
-Lattice lattice(vec3 p_5, vec3 size_2) {
+Lattice lattice(vec3 p_6, vec3 size_2) {
     vec3 f_1 = vec3(0.0);
     vec4 _e4 = _group_0_binding_7_cs.grid_min;
-    f_1 = (((p_5 - _e4.xyz) / size_2) - vec3(0.5));
+    f_1 = (((p_6 - _e4.xyz) / size_2) - vec3(0.5));
     uvec4 _e14 = _group_0_binding_7_cs.grid_counts;
     vec3 hi_1 = vec3((_e14.xyz - uvec3(1u)));
     vec3 _e20 = f_1;
@@ -506,7 +533,7 @@ uvec3 corner_cell(Lattice l_1, uint corner_1) {
 }
 
 vec2 warp1_exit(vec3 b_2, vec3 dir) {
-    bool local_10 = false;
+    bool local_11 = false;
     vec4 _e4 = _group_0_binding_7_cs.probe;
     vec3 a_1 = _e4.xyz;
     float _e6 = inv_dist(dir);
@@ -515,24 +542,24 @@ vec2 warp1_exit(vec3 b_2, vec3 dir) {
     }
     vec3 ab = (a_1 - b_2);
     float dir_ab = dot(dir, ab);
-    vec3 v_9 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
-    float _e23 = inv_dist(v_9);
-    float lambda = (length(v_9) * _e23);
+    vec3 v_11 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
+    float _e23 = inv_dist(v_11);
+    float lambda = (length(v_11) * _e23);
     if (!((lambda > 0.0))) {
         return vec2(1e30, 1.0);
     }
-    float t_9 = (max(((dir_ab * lambda) + dot(dir, v_9)), 0.0) / lambda);
-    bool _e37 = finite(t_9);
+    float t_10 = (max(((dir_ab * lambda) + dot(dir, v_11)), 0.0) / lambda);
+    bool _e37 = finite(t_10);
     if (_e37) {
-        local_10 = (t_9 < HUGE);
+        local_11 = (t_10 < HUGE);
     } else {
-        local_10 = false;
+        local_11 = false;
     }
-    bool _e43 = local_10;
+    bool _e43 = local_11;
     if (!(_e43)) {
         return vec2(1e30, 1.0);
     }
-    return vec2(t_9, 1.0);
+    return vec2(t_10, 1.0);
 }
 
 vec3 warp1_(vec3 b_3, vec3 dir_1) {
@@ -544,11 +571,11 @@ vec3 warp1_(vec3 b_3, vec3 dir_1) {
     }
     vec3 ab_1 = (a_2 - b_3);
     float dir_ab_1 = dot(dir_1, ab_1);
-    vec3 v_10 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
-    float _e20 = inv_dist(v_10);
-    float lambda_1 = (length(v_10) * _e20);
-    float t_10 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_10)), 0.0);
-    vec3 f_5 = ((dir_1 * t_10) - (ab_1 * lambda_1));
+    vec3 v_12 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
+    float _e20 = inv_dist(v_12);
+    float lambda_1 = (length(v_12) * _e20);
+    float t_11 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_12)), 0.0);
+    vec3 f_5 = ((dir_1 * t_11) - (ab_1 * lambda_1));
     if ((lambda_1 > 0.0)) {
         vec3 _e34 = fetch_vector(vec3(0.0), f_5, dir_1);
         return _e34;
@@ -557,7 +584,7 @@ vec3 warp1_(vec3 b_3, vec3 dir_1) {
 }
 
 vec2 box_exit(vec3 b_4, vec3 dir_2) {
-    float t_3 = HUGE;
+    float t_4 = HUGE;
     int k = 0;
     vec4 _e4 = _group_0_binding_7_cs.box_x;
     vec4 _e8 = _group_0_binding_7_cs.box_y;
@@ -590,23 +617,23 @@ vec2 box_exit(vec3 b_4, vec3 dir_2) {
                 int _e46 = k;
                 int _e48 = k;
                 float face = ((d_2[_e48] > 0.0) ? h[_e46] : -(h[_e43]));
-                float _e53 = t_3;
+                float _e53 = t_4;
                 int _e54 = k;
                 int _e57 = k;
-                t_3 = min(_e53, ((face - o_2[_e54]) / d_2[_e57]));
+                t_4 = min(_e53, ((face - o_2[_e54]) / d_2[_e57]));
             }
         }
     }
-    float _e64 = t_3;
+    float _e64 = t_4;
     if (!((_e64 < HUGE))) {
         return vec2(0.0, 0.0);
     }
-    float _e71 = t_3;
+    float _e71 = t_4;
     return vec2(max(_e71, 0.0), 1.0);
 }
 
 vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
-    float t_4 = HUGE;
+    float t_5 = HUGE;
     uint k_1 = 0u;
     bool loop_init_1 = true;
     while(true) {
@@ -628,21 +655,21 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
             }
             uint _e21 = k_1;
             vec4 _e23 = _group_0_binding_7_cs.kdop[_e21];
-            vec3 n_12 = _e23.xyz;
+            vec3 n_13 = _e23.xyz;
             uint _e27 = k_1;
             float h_1 = _group_0_binding_7_cs.kdop[_e27].w;
-            float nb = dot(n_12, b_5);
+            float nb = dot(n_13, b_5);
             if ((nb > h_1)) {
                 return vec2(0.0, 0.0);
             }
-            float nd = dot(n_12, dir_3);
+            float nd = dot(n_13, dir_3);
             if ((nd > 0.0)) {
-                float _e39 = t_4;
-                t_4 = min(_e39, ((h_1 - nb) / nd));
+                float _e39 = t_5;
+                t_5 = min(_e39, ((h_1 - nb) / nd));
             }
         }
     }
-    float _e46 = t_4;
+    float _e46 = t_5;
     return vec2(_e46, 1.0);
 }
 
@@ -665,13 +692,13 @@ vec2 proxy_exit(vec3 b_6, vec3 dir_4) {
 }
 
 vec3 proxy_fetch(vec2 exit, vec3 b_7, vec3 dir_5) {
-    bool local_11 = false;
+    bool local_12 = false;
     if (!((exit.y == 0.0))) {
-        local_11 = !((exit.x < HUGE));
+        local_12 = !((exit.x < HUGE));
     } else {
-        local_11 = true;
+        local_12 = true;
     }
-    bool _e14 = local_11;
+    bool _e14 = local_12;
     if (_e14) {
         return dir_5;
     }
@@ -686,25 +713,25 @@ vec3 box_fetch(vec3 b_8, vec3 dir_6) {
     return _e3;
 }
 
-Basis orthonormal_basis(vec3 n_3) {
-    float s_4 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a_3 = (-1.0 / (s_4 + n_3.z));
-    float b_24 = ((n_3.x * n_3.y) * a_3);
-    return Basis(vec3((1.0 + (((s_4 * n_3.x) * n_3.x) * a_3)), (s_4 * b_24), (-(s_4) * n_3.x)), vec3(b_24, (s_4 + ((n_3.y * n_3.y) * a_3)), -(n_3.y)));
+Basis orthonormal_basis(vec3 n_4) {
+    float s_4 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
+    float a_3 = (-1.0 / (s_4 + n_4.z));
+    float b_24 = ((n_4.x * n_4.y) * a_3);
+    return Basis(vec3((1.0 + (((s_4 * n_4.x) * n_4.x) * a_3)), (s_4 * b_24), (-(s_4) * n_4.x)), vec3(b_24, (s_4 + ((n_4.y * n_4.y) * a_3)), -(n_4.y)));
 }
 
-vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
-    bool local_12 = false;
-    float l_5 = length(v_5);
+vec3 normalize_or(vec3 v_7, vec3 fallback_1) {
+    bool local_13 = false;
+    float l_5 = length(v_7);
     if ((l_5 > 0.0)) {
         bool _e7 = finite(l_5);
-        local_12 = _e7;
+        local_13 = _e7;
     } else {
-        local_12 = false;
+        local_13 = false;
     }
-    bool _e9 = local_12;
+    bool _e9 = local_13;
     if (_e9) {
-        return (v_5 / vec3(l_5));
+        return (v_7 / vec3(l_5));
     }
     return fallback_1;
 }
@@ -723,7 +750,7 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
     float _e18 = _group_0_binding_7_cs.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
     Basis _e20 = orthonormal_basis(dir_7);
-    vec3 t_11 = (_e20.t * angle);
+    vec3 t_12 = (_e20.t * angle);
     vec3 bt = (_e20.b * angle);
     plain = dir_7;
     bool loop_init_2 = true;
@@ -743,11 +770,11 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
             uint _e37 = s;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_7 + t_11));
+                    d_1 = normalize((dir_7 + t_12));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_7 - t_11));
+                    d_1 = normalize((dir_7 - t_12));
                     break;
                 }
                 case 3u: {
@@ -784,20 +811,20 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
     return _e62;
 }
 
-Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_6) {
-    bool local_13 = false;
-    float s_1 = 0.0;
+Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_7) {
     bool local_14 = false;
-    float k_2 = 0.0;
+    float s_1 = 0.0;
     bool local_15 = false;
+    float k_2 = 0.0;
+    bool local_16 = false;
     if (!((exit_1.y == 0.0))) {
-        local_13 = !((exit_1.x < HUGE));
+        local_14 = !((exit_1.x < HUGE));
     } else {
-        local_13 = true;
+        local_14 = true;
     }
-    bool _e16 = local_13;
+    bool _e16 = local_14;
     if (_e16) {
-        return Aim(dir_8, 1.0, p_6);
+        return Aim(dir_8, 1.0, p_7);
     }
     s_1 = (exit_1.x + delta);
     float _e22 = s_1;
@@ -805,56 +832,56 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_6) {
         s_1 = 1e-30;
     }
     float _e27 = s_1;
-    vec4 _e33 = _group_0_binding_7_cs.probes[p_6];
-    vec3 v_11 = ((b_10 + (dir_8 * _e27)) - _e33.xyz);
-    bool _e36 = finite3_(v_11);
+    vec4 _e33 = _group_0_binding_7_cs.probes[p_7];
+    vec3 v_13 = ((b_10 + (dir_8 * _e27)) - _e33.xyz);
+    bool _e36 = finite3_(v_13);
     if (_e36) {
-        local_14 = any(notEqual(v_11, vec3(0.0)));
+        local_15 = any(notEqual(v_13, vec3(0.0)));
     } else {
-        local_14 = false;
+        local_15 = false;
     }
-    bool _e44 = local_14;
+    bool _e44 = local_15;
     if (_e44) {
         float _e46 = s_1;
-        k_2 = (length(v_11) / _e46);
+        k_2 = (length(v_13) / _e46);
         float _e49 = k_2;
         bool _e50 = finite(_e49);
         if (_e50) {
             float _e53 = k_2;
-            local_15 = (_e53 > 0.0);
+            local_16 = (_e53 > 0.0);
         } else {
-            local_15 = false;
+            local_16 = false;
         }
-        bool _e57 = local_15;
+        bool _e57 = local_16;
         if (!(_e57)) {
             k_2 = 1.0;
         }
         float _e60 = k_2;
-        return Aim(v_11, _e60, p_6);
+        return Aim(v_13, _e60, p_7);
     }
-    return Aim(dir_8, 1.0, p_6);
+    return Aim(dir_8, 1.0, p_7);
 }
 
 uint probe_of(int tile_1, vec2 uv_5) {
-    bool local_16 = false;
+    bool local_17 = false;
     uint best = 0u;
     uint k_3 = 1u;
     if (!((tile_1 < 0))) {
         uint _e10 = _group_0_binding_7_cs.probe_maps.y;
-        local_16 = (_e10 == 0u);
+        local_17 = (_e10 == 0u);
     } else {
-        local_16 = true;
+        local_17 = true;
     }
-    bool _e14 = local_16;
+    bool _e14 = local_17;
     if (_e14) {
         return 0u;
     }
-    uint n_13 = _group_0_binding_7_cs.atlas_a.x;
+    uint n_14 = _group_0_binding_7_cs.atlas_a.x;
     uint columns_1 = _group_0_binding_7_cs.atlas_a.y;
     uint _e28 = _group_0_binding_7_cs.probe_maps.y;
     uint s_5 = (uint(tile_1) + _e28);
-    ivec2 origin_1 = ivec2((uvec2((s_5 % columns_1), (s_5 / columns_1)) * (n_13 + 2u)));
-    Footprint _e37 = footprint(n_13, uv_5);
+    ivec2 origin_1 = ivec2((uvec2((s_5 % columns_1), (s_5 / columns_1)) * (n_14 + 2u)));
+    Footprint _e37 = footprint(n_14, uv_5);
     vec2 f_6 = _e37.f;
     vec4 w_7 = vec4(((1.0 - f_6.x) * (1.0 - f_6.y)), (f_6.x * (1.0 - f_6.y)), ((1.0 - f_6.x) * f_6.y), (f_6.x * f_6.y));
     bool loop_init_3 = true;
@@ -880,11 +907,11 @@ uint probe_of(int tile_1, vec2 uv_5) {
     }
     uint _e82 = best;
     uint _e86 = best;
-    ivec2 t_12 = (((origin_1 + _e37.corner) + ivec2(1, 1)) + ivec2(int((_e82 & 1u)), int((_e86 >> 1u))));
-    vec4 _e93 = atlas_texel(ATLAS_CORRECTIVE, t_12);
-    uint p_9 = uint(_e93.x);
+    ivec2 t_13 = (((origin_1 + _e37.corner) + ivec2(1, 1)) + ivec2(int((_e82 & 1u)), int((_e86 >> 1u))));
+    vec4 _e93 = atlas_texel(ATLAS_CORRECTIVE, t_13);
+    uint p_11 = uint(_e93.x);
     uint _e99 = _group_0_binding_7_cs.probe_maps.x;
-    return min(p_9, (max(_e99, 1u) - 1u));
+    return min(p_11, (max(_e99, 1u) - 1u));
 }
 
 float map_delta(int tile_2, vec2 uv_6) {
@@ -921,7 +948,7 @@ Aim fetch(vec3 b_11, vec3 dir_9, float r_1) {
     float delta_1 = 0.0;
     bool mapped = false;
     uint corner_2 = 0u;
-    bool local_17 = false;
+    bool local_18 = false;
     vec2 _e3 = oct_encode(dir_9);
     vec3 _e4 = cell_size();
     uvec3 _e6 = cell_of(b_11, _e4);
@@ -972,11 +999,11 @@ Aim fetch(vec3 b_11, vec3 dir_9, float r_1) {
     bool _e60 = mapped;
     if (!(_e60)) {
         bool _e64 = relaxation_on();
-        local_17 = _e64;
+        local_18 = _e64;
     } else {
-        local_17 = false;
+        local_18 = false;
     }
-    bool _e66 = local_17;
+    bool _e66 = local_18;
     if (_e66) {
         vec3 _e67 = fallback_fetch(b_11, dir_9);
         return Aim(_e67, -1.0, 0u);
@@ -1028,22 +1055,22 @@ float mip_roughness(uint m) {
 }
 
 float lod_of_roughness(float r_2) {
-    bool local_18 = false;
+    bool local_19 = false;
     uint below = 0u;
-    uint t_5 = 0u;
+    uint t_6 = 0u;
     float f_2 = 0.0;
-    uint n_14 = _group_0_binding_7_cs.probe_info.x;
-    if (!((n_14 < 2u))) {
+    uint n_15 = _group_0_binding_7_cs.probe_info.x;
+    if (!((n_15 < 2u))) {
         float _e11 = mip_roughness(0u);
-        local_18 = !((r_2 > _e11));
+        local_19 = !((r_2 > _e11));
     } else {
-        local_18 = true;
+        local_19 = true;
     }
-    bool _e15 = local_18;
+    bool _e15 = local_19;
     if (_e15) {
         return 0.0;
     }
-    uint last = (n_14 - 1u);
+    uint last = (n_15 - 1u);
     float _e19 = mip_roughness(last);
     if ((r_2 >= _e19)) {
         return float(last);
@@ -1051,18 +1078,18 @@ float lod_of_roughness(float r_2) {
     bool loop_init_5 = true;
     while(true) {
         if (!loop_init_5) {
-            uint _e37 = t_5;
-            t_5 = (_e37 + 1u);
+            uint _e37 = t_6;
+            t_6 = (_e37 + 1u);
         }
         loop_init_5 = false;
-        uint _e26 = t_5;
-        if ((_e26 < n_14)) {
+        uint _e26 = t_6;
+        if ((_e26 < n_15)) {
         } else {
             break;
         }
         {
             uint _e28 = below;
-            uint _e31 = t_5;
+            uint _e31 = t_6;
             float _e32 = mip_roughness(_e31);
             below = (_e28 + ((_e32 <= r_2) ? 1u : 0u));
         }
@@ -1080,50 +1107,50 @@ float lod_of_roughness(float r_2) {
     return (float(i_6) + clamp(_e57, 0.0, 1.0));
 }
 
-float distance_ratio(vec3 b_13, vec3 v_6, vec2 uv_8, uint p_7) {
-    bool local_19 = false;
+float distance_ratio(vec3 b_13, vec3 v_8, vec2 uv_8, uint p_8) {
     bool local_20 = false;
     bool local_21 = false;
     bool local_22 = false;
-    float l_6 = length(v_6);
+    bool local_23 = false;
+    float l_6 = length(v_8);
     float _e9 = _group_0_binding_7_cs.probe.w;
     uint _e13 = _group_0_binding_7_cs.probe_info.y;
-    vec4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_7);
+    vec4 _e14 = probe_sample_lod(1u, uv_8, _e9, _e13, p_8);
     float w_8 = _e14.x;
     if ((l_6 > 0.0)) {
         bool _e20 = finite(l_6);
-        local_19 = _e20;
-    } else {
-        local_19 = false;
-    }
-    bool _e22 = local_19;
-    if (_e22) {
-        local_20 = (w_8 > 0.0);
+        local_20 = _e20;
     } else {
         local_20 = false;
     }
-    bool _e28 = local_20;
-    if (_e28) {
-        bool _e31 = finite(w_8);
-        local_21 = _e31;
+    bool _e22 = local_20;
+    if (_e22) {
+        local_21 = (w_8 > 0.0);
     } else {
         local_21 = false;
     }
-    bool _e33 = local_21;
+    bool _e28 = local_21;
+    if (_e28) {
+        bool _e31 = finite(w_8);
+        local_22 = _e31;
+    } else {
+        local_22 = false;
+    }
+    bool _e33 = local_22;
     if (!(_e33)) {
         return 1.0;
     }
     float d_probe = (1.0 / w_8);
-    vec4 _e41 = _group_0_binding_7_cs.probes[p_7];
-    float d_surface = length(((_e41.xyz + (v_6 * (d_probe / l_6))) - b_13));
+    vec4 _e41 = _group_0_binding_7_cs.probes[p_8];
+    float d_surface = length(((_e41.xyz + (v_8 * (d_probe / l_6))) - b_13));
     float k_13 = (d_probe / d_surface);
     bool _e49 = finite(k_13);
     if (_e49) {
-        local_22 = (k_13 > 0.0);
+        local_23 = (k_13 > 0.0);
     } else {
-        local_22 = false;
+        local_23 = false;
     }
-    bool _e55 = local_22;
+    bool _e55 = local_23;
     if (_e55) {
         return k_13;
     }
@@ -1140,20 +1167,20 @@ float pseudo_log2_(float k_4) {
 float corrected_roughness(float r_3, float k_in) {
     float fr = 0.0;
     float k_5 = 1.0;
-    bool local_23 = false;
-    uint n_15 = _group_0_binding_7_cs.lut_info.x;
-    float last_1 = float((n_15 - 1u));
+    bool local_24 = false;
+    uint n_16 = _group_0_binding_7_cs.lut_info.x;
+    float last_1 = float((n_16 - 1u));
     bool _e11 = finite(r_3);
     if (_e11) {
         fr = clamp((r_3 * last_1), 0.0, last_1);
     }
     bool _e17 = finite(k_in);
     if (_e17) {
-        local_23 = (k_in > 0.0);
+        local_24 = (k_in > 0.0);
     } else {
-        local_23 = false;
+        local_24 = false;
     }
-    bool _e23 = local_23;
+    bool _e23 = local_24;
     if (_e23) {
         k_5 = k_in;
     }
@@ -1167,8 +1194,8 @@ float corrected_roughness(float r_3, float k_in) {
     float _e44 = _group_0_binding_7_cs.lut.y;
     float fx = clamp(((_e35 - _e39) * _e44), 0.0, last_1);
     float _e48 = fr;
-    uint i_7 = min(uint(_e48), (n_15 - 2u));
-    uint j_5 = min(uint(fx), (n_15 - 2u));
+    uint i_7 = min(uint(_e48), (n_16 - 2u));
+    uint j_5 = min(uint(fx), (n_16 - 2u));
     float _e57 = fr;
     float a_4 = (_e57 - float(i_7));
     float b_25 = (fx - float(j_5));
@@ -1213,13 +1240,13 @@ vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_10, float r_5) {
     uint keys[8] = uint[8](0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
     float ws[8] = float[8](0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     float ds[8] = float[8](0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-    uint n_4 = 0u;
+    uint n_5 = 0u;
     uint corner_5 = 0u;
     uint key = 0u;
     float delta_2 = 0.0;
     uint at = 0u;
     uint g = 0u;
-    bool local_24 = false;
+    bool local_25 = false;
     vec3 c_4 = vec3(0.0);
     uint g_1 = 0u;
     Aim aim_1 = Aim(vec3(0.0), 0.0, 0u);
@@ -1259,7 +1286,7 @@ vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_10, float r_5) {
                     key = RELAXED;
                 }
             }
-            uint _e67 = n_4;
+            uint _e67 = n_5;
             at = _e67;
             g = 0u;
             bool loop_init_7 = true;
@@ -1270,7 +1297,7 @@ vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_10, float r_5) {
                 }
                 loop_init_7 = false;
                 uint _e71 = g;
-                uint _e72 = n_4;
+                uint _e72 = n_5;
                 if ((_e71 < _e72)) {
                 } else {
                     break;
@@ -1283,11 +1310,11 @@ vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_10, float r_5) {
                         uint _e81 = g;
                         float _e83 = ds[_e81];
                         float _e84 = delta_2;
-                        local_24 = (_e83 == _e84);
+                        local_25 = (_e83 == _e84);
                     } else {
-                        local_24 = false;
+                        local_25 = false;
                     }
-                    bool _e87 = local_24;
+                    bool _e87 = local_25;
                     if (_e87) {
                         uint _e88 = g;
                         at = _e88;
@@ -1296,18 +1323,18 @@ vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_10, float r_5) {
                 }
             }
             uint _e92 = at;
-            uint _e93 = n_4;
+            uint _e93 = n_5;
             if ((_e92 == _e93)) {
-                uint _e95 = n_4;
+                uint _e95 = n_5;
                 uint _e97 = key;
                 keys[_e95] = _e97;
-                uint _e98 = n_4;
+                uint _e98 = n_5;
                 ws[_e98] = 0.0;
-                uint _e101 = n_4;
+                uint _e101 = n_5;
                 float _e103 = delta_2;
                 ds[_e101] = _e103;
-                uint _e105 = n_4;
-                n_4 = (_e105 + 1u);
+                uint _e105 = n_5;
+                n_5 = (_e105 + 1u);
             }
             uint _e107 = at;
             float _e109 = ws[_e107];
@@ -1323,7 +1350,7 @@ vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_10, float r_5) {
         }
         loop_init_8 = false;
         uint _e120 = g_1;
-        uint _e121 = n_4;
+        uint _e121 = n_5;
         if ((_e120 < _e121)) {
         } else {
             break;
@@ -1399,10 +1426,10 @@ Near near_cells(vec3 b_16) {
     return Near(_e1, _e3, links_1, _e31, _e32);
 }
 
-vec3 sh_eval(vec3 c_5[9], vec3 n_5) {
-    float x_6 = n_5.x;
-    float y = n_5.y;
-    float z = n_5.z;
+vec3 sh_eval(vec3 c_5[9], vec3 n_6) {
+    float x_6 = n_6.x;
+    float y = n_6.y;
+    float z = n_6.z;
     vec3 t0_ = (c_5[0] * 0.2820948);
     vec3 t1_ = (c_5[1] * (0.4886025 * y));
     vec3 t2_ = (c_5[2] * (0.4886025 * z));
@@ -1416,7 +1443,7 @@ vec3 sh_eval(vec3 c_5[9], vec3 n_5) {
     return max(e_3, vec3(0.0));
 }
 
-vec3 cell_sh_irradiance(uint cell, vec3 n_6) {
+vec3 cell_sh_irradiance(uint cell, vec3 n_7) {
     vec4 _e6 = _group_0_binding_8_cs[cell].sh[0];
     vec4 _e12 = _group_0_binding_8_cs[cell].sh[1];
     vec4 _e18 = _group_0_binding_8_cs[cell].sh[2];
@@ -1427,7 +1454,7 @@ vec3 cell_sh_irradiance(uint cell, vec3 n_6) {
     vec4 _e48 = _group_0_binding_8_cs[cell].sh[7];
     vec4 _e54 = _group_0_binding_8_cs[cell].sh[8];
     vec3 c_12[9] = vec3[9](_e6.xyz, _e12.xyz, _e18.xyz, _e24.xyz, _e30.xyz, _e36.xyz, _e42.xyz, _e48.xyz, _e54.xyz);
-    vec3 _e57 = sh_eval(c_12, n_6);
+    vec3 _e57 = sh_eval(c_12, n_7);
     return _e57;
 }
 
@@ -1439,7 +1466,7 @@ vec3 sh_blend4_(uvec4 at_1, vec4 w_1, uint i_1) {
     return (((_e8.xyz * w_1.x) + (_e17.xyz * w_1.y)) + ((_e27.xyz * w_1.z) + (_e36.xyz * w_1.w)));
 }
 
-vec3 sh_read(uvec3 home_at_1, vec3 b_17, vec3 n_7) {
+vec3 sh_read(uvec3 home_at_1, vec3 b_17, vec3 n_8) {
     uvec3 base = uvec3(0u);
     vec3 frac = vec3(0.0);
     uint a = 0u;
@@ -1459,8 +1486,8 @@ vec3 sh_read(uvec3 home_at_1, vec3 b_17, vec3 n_7) {
     uvec4 at_2 = uvec4(0u);
     uint k_8 = 0u;
     bool kept = false;
-    bool local_25 = false;
     bool local_26 = false;
+    bool local_27 = false;
     vec3 _e3 = cell_size();
     uvec4 _e6 = _group_0_binding_7_cs.grid_counts;
     uvec3 counts = _e6.xyz;
@@ -1471,7 +1498,7 @@ vec3 sh_read(uvec3 home_at_1, vec3 b_17, vec3 n_7) {
     vec3 f0_ = (units - vec3(0.5));
     bool _e21 = finite3_(f0_);
     if (!(_e21)) {
-        vec3 _e23 = cell_sh_irradiance(_e17, n_7);
+        vec3 _e23 = cell_sh_irradiance(_e17, n_8);
         return _e23;
     }
     vec3 f_7 = clamp(f0_, vec3(0.0), vec3(top_1));
@@ -1483,20 +1510,20 @@ vec3 sh_read(uvec3 home_at_1, vec3 b_17, vec3 n_7) {
     uint _e42 = a;
     float _e44 = frac[_e42];
     if ((_e41 > _e44)) {
-        uint t_13 = a;
+        uint t_14 = a;
         uint _e47 = bx;
         a = _e47;
-        bx = t_13;
+        bx = t_14;
     }
     uint _e48 = c_6;
     float _e50 = frac[_e48];
     uint _e51 = bx;
     float _e53 = frac[_e51];
     if ((_e50 > _e53)) {
-        uint t_14 = bx;
+        uint t_15 = bx;
         uint _e56 = c_6;
         bx = _e56;
-        c_6 = t_14;
+        c_6 = t_15;
         uint _e57 = bx;
         float _e59 = frac[_e57];
         uint _e60 = a;
@@ -1626,17 +1653,17 @@ vec3 sh_read(uvec3 home_at_1, vec3 b_17, vec3 n_7) {
             if ((_e218 < 27u)) {
                 uint _e223 = k_8;
                 uint _e225 = bits[_e223];
-                local_25 = (((links_2 >> _e225) & 1u) != 0u);
-            } else {
-                local_25 = false;
-            }
-            bool _e232 = local_25;
-            if (_e232) {
-                local_26 = (ck < count_1);
+                local_26 = (((links_2 >> _e225) & 1u) != 0u);
             } else {
                 local_26 = false;
             }
-            bool _e237 = local_26;
+            bool _e232 = local_26;
+            if (_e232) {
+                local_27 = (ck < count_1);
+            } else {
+                local_27 = false;
+            }
+            bool _e237 = local_27;
             if (_e237) {
                 int _e242 = _group_0_binding_8_cs[ck].tiles.y;
                 kept = (_e242 >= 0);
@@ -1657,7 +1684,7 @@ vec3 sh_read(uvec3 home_at_1, vec3 b_17, vec3 n_7) {
     float _e262 = w_2.w;
     float wsum_1 = ((_e255 + _e257) + (_e260 + _e262));
     if (!((wsum_1 > 0.0))) {
-        vec3 _e268 = cell_sh_irradiance(_e17, n_7);
+        vec3 _e268 = cell_sh_irradiance(_e17, n_8);
         return _e268;
     }
     uvec4 _e269 = at_2;
@@ -1688,7 +1715,7 @@ vec3 sh_read(uvec3 home_at_1, vec3 b_17, vec3 n_7) {
     vec4 _e302 = w_2;
     vec3 _e304 = sh_blend4_(_e301, _e302, 8u);
     vec3 acc[9] = vec3[9](_e272, _e276, _e280, _e284, _e288, _e292, _e296, _e300, _e304);
-    vec3 _e306 = sh_eval(acc, n_7);
+    vec3 _e306 = sh_eval(acc, n_8);
     return (_e306 / vec3(wsum_1));
 }
 
@@ -1697,7 +1724,7 @@ vec3 faces_specular(Near near_2, vec3 b_18, vec3 dir_11, float r_6, float w_3) {
     vec3 e = vec3(0.0);
     float share = 0.0;
     uint corner_7 = 0u;
-    bool local_27 = false;
+    bool local_28 = false;
     vec3 _e5 = faces_radiance(near_2, b_18, dir_11, r_6);
     c_7 = _e5;
     if ((w_3 > 0.0)) {
@@ -1721,11 +1748,11 @@ vec3 faces_specular(Near near_2, vec3 b_18, vec3 dir_11, float r_6, float w_3) {
                 if ((_e20 > 0.0)) {
                     uint _e29 = cell_index(_e23);
                     int _e33 = _group_0_binding_8_cs[_e29].tiles.y;
-                    local_27 = (_e33 >= 0);
+                    local_28 = (_e33 >= 0);
                 } else {
-                    local_27 = false;
+                    local_28 = false;
                 }
-                bool _e37 = local_27;
+                bool _e37 = local_28;
                 if (_e37) {
                     vec3 _e38 = e;
                     vec3 _e39 = sh_read(_e23, b_18, dir_11);
@@ -1760,16 +1787,16 @@ float blend_node_w(uint k_10) {
 }
 
 float irradiance_weight(float r_7) {
-    bool local_28 = false;
+    bool local_29 = false;
     float w_4 = 0.0;
     uint k_11 = 1u;
-    uint n_16 = _group_0_binding_7_cs.lut_info.y;
-    if (!((n_16 == 0u))) {
-        local_28 = !((r_7 > 0.0));
+    uint n_17 = _group_0_binding_7_cs.lut_info.y;
+    if (!((n_17 == 0u))) {
+        local_29 = !((r_7 > 0.0));
     } else {
-        local_28 = true;
+        local_29 = true;
     }
-    bool _e14 = local_28;
+    bool _e14 = local_29;
     if (_e14) {
         return 0.0;
     }
@@ -1783,7 +1810,7 @@ float irradiance_weight(float r_7) {
         }
         loop_init_14 = false;
         uint _e21 = k_11;
-        if ((_e21 < n_16)) {
+        if ((_e21 < n_17)) {
         } else {
             break;
         }
@@ -1793,12 +1820,12 @@ float irradiance_weight(float r_7) {
             if ((r_7 > _e26)) {
                 uint _e29 = k_11;
                 float _e30 = blend_node_r(_e29);
-                float t_15 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                float t_16 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
                 uint _e37 = k_11;
                 float _e40 = blend_node_w((_e37 - 1u));
                 uint _e44 = k_11;
                 float _e45 = blend_node_w(_e44);
-                w_4 = ((_e40 * (1.0 - t_15)) + (_e45 * t_15));
+                w_4 = ((_e40 * (1.0 - t_16)) + (_e45 * t_16));
             }
         }
     }
@@ -1819,7 +1846,7 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     float r_8 = 0.0;
     uvec3 home_at_2 = uvec3(0u);
     bool stored = false;
-    bool local_29 = false;
+    bool local_30 = false;
     vec3 c_9 = vec3(0.0);
     vec4 _e3 = unit_direction(direction);
     if ((_e3.w == 0.0)) {
@@ -1861,11 +1888,11 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     }
     bool _e55 = stored;
     if (_e55) {
-        local_29 = (_e22 >= 1.0);
+        local_30 = (_e22 >= 1.0);
     } else {
-        local_29 = false;
+        local_30 = false;
     }
-    bool _e61 = local_29;
+    bool _e61 = local_30;
     if (_e61) {
         uvec3 _e62 = home_at_2;
         vec3 _e63 = b_19;
@@ -1893,41 +1920,41 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     return _e92;
 }
 
-vec3 cell_irradiance(int tile_3, vec3 n_8) {
+vec3 cell_irradiance(int tile_3, vec3 n_9) {
     uint _e6 = _group_0_binding_7_cs.atlas_a.z;
     uint _e10 = _group_0_binding_7_cs.atlas_a.w;
-    vec2 _e11 = oct_encode(n_8);
+    vec2 _e11 = oct_encode(n_9);
     vec4 _e12 = atlas_bilinear(ATLAS_IRRADIANCE, tile_3, _e6, _e10, _e11);
     return _e12.xyz;
 }
 
 vec3 irradiance(vec3 position_1, vec3 normal) {
-    vec3 p_8 = vec3(0.0);
+    vec3 p_9 = vec3(0.0);
     vec3 e_1 = vec3(0.0);
     float wsum = 0.0;
     uint corner_8 = 0u;
     float w_5 = 0.0;
-    bool local_30 = false;
+    bool local_31 = false;
     float k_12 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
         return vec3(0.0);
     }
-    vec3 n_17 = _e2.xyz;
+    vec3 n_18 = _e2.xyz;
     vec3 _e9 = cell_size();
     vec4 _e12 = _group_0_binding_7_cs.grid_min;
     vec4 _e16 = _group_0_binding_7_cs.grid_max;
     vec4 _e20 = _group_0_binding_7_cs.grid_min;
-    p_8 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
+    p_9 = (_e12.xyz + ((_e16.xyz - _e20.xyz) * 0.5));
     float _e30 = _group_0_binding_7_cs.grid_min.w;
-    vec3 biased = (position_1 + (n_17 * _e30));
+    vec3 biased = (position_1 + (n_18 * _e30));
     bool _e33 = finite3_(biased);
     if (_e33) {
-        p_8 = biased;
+        p_9 = biased;
     }
-    vec3 _e34 = p_8;
+    vec3 _e34 = p_9;
     Lattice _e35 = lattice(_e34, _e9);
-    vec2 _e36 = oct_encode(n_17);
+    vec2 _e36 = oct_encode(n_18);
     bool loop_init_15 = true;
     while(true) {
         if (!loop_init_15) {
@@ -1953,7 +1980,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             if ((tiles_4.y < 0)) {
                 continue;
             }
-            vec3 _e61 = p_8;
+            vec3 _e61 = p_9;
             vec3 _e62 = cell_centre(_e52, _e9);
             vec4 _e66 = _group_0_binding_8_cs[_e53].offset;
             vec3 to_point = (_e61 - (_e62 + _e66.xyz));
@@ -1961,14 +1988,14 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             w_5 = _e48;
             if ((dist > 0.0)) {
                 bool _e76 = finite(dist);
-                local_30 = _e76;
+                local_31 = _e76;
             } else {
-                local_30 = false;
+                local_31 = false;
             }
-            bool _e78 = local_30;
+            bool _e78 = local_31;
             if (_e78) {
                 vec3 u_1 = (to_point / vec3(dist));
-                float facing = ((dot(n_17, -(u_1)) + 1.0) * 0.5);
+                float facing = ((dot(n_18, -(u_1)) + 1.0) * 0.5);
                 float _e87 = w_5;
                 w_5 = (_e87 * ((facing * facing) + 0.2));
                 uint _e97 = _group_0_binding_7_cs.atlas_b.x;
@@ -1995,7 +2022,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
                 k_12 = _e143.x;
             }
             vec3 _e145 = e_1;
-            vec3 _e147 = cell_irradiance(tiles_4.y, n_17);
+            vec3 _e147 = cell_irradiance(tiles_4.y, n_18);
             float _e148 = w_5;
             float _e150 = k_12;
             e_1 = (_e145 + ((_e147 * _e148) * _e150));
@@ -2014,35 +2041,35 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     return _e169;
 }
 
-vec2 hemi_encode(vec3 v_7) {
-    bool local_31 = false;
-    float z_1 = max(v_7.z, 0.0);
-    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
+vec2 hemi_encode(vec3 v_9) {
+    bool local_32 = false;
+    float z_1 = max(v_9.z, 0.0);
+    float l1_1 = ((abs(v_9.x) + abs(v_9.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_31 = _e14;
+        local_32 = _e14;
     } else {
-        local_31 = false;
+        local_32 = false;
     }
-    bool _e16 = local_31;
+    bool _e16 = local_32;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
-    float px = (v_7.x / l1_1);
-    float py = (v_7.y / l1_1);
+    float px = (v_9.x / l1_1);
+    float py = (v_9.y / l1_1);
     return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_9) {
+SurfaceAxis surface_axis(float x_in, uint n_10) {
     float x_4 = 0.5;
     bool _e4 = finite(x_in);
     if (_e4) {
         x_4 = x_in;
     }
     float _e5 = x_4;
-    float c_13 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
+    float c_13 = clamp(((_e5 * float(n_10)) - 0.5), 0.0, float((n_10 - 1u)));
     uint i0_ = uint(floor(c_13));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_13 - float(i0_)));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_10 - 1u)), (c_13 - float(i0_)));
 }
 
 uint query_count() {
@@ -2056,9 +2083,9 @@ void main() {
     if ((k_14 >= _e2)) {
         return;
     }
-    vec4 p_10 = _group_1_binding_0_cs[(2u * k_14)];
+    vec4 p_12 = _group_1_binding_0_cs[(2u * k_14)];
     vec4 d_3 = _group_1_binding_0_cs[((2u * k_14) + 1u)];
-    vec3 _e21 = specular(p_10.xyz, d_3.xyz, p_10.w);
+    vec3 _e21 = specular(p_12.xyz, d_3.xyz, p_12.w);
     _group_1_binding_1_cs[k_14] = vec4(_e21, 1.0);
     return;
 }

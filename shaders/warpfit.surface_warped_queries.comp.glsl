@@ -78,6 +78,33 @@ struct SurfaceTaps {
     uvec2 hi;
     vec2 f;
 };
+struct CameraParams {
+    mat4x4 view_proj;
+    vec4 eye;
+    vec4 surface_offset;
+    vec4 shading;
+};
+struct SurfaceVertex {
+    vec3 position;
+    vec3 normal;
+    vec3 albedo;
+    float flags;
+    vec4 sphere;
+};
+struct SurfaceVarying {
+    vec4 clip;
+    vec3 world;
+    vec3 normal;
+    vec3 albedo;
+    float flags;
+    vec4 sphere;
+};
+struct SurfaceOut {
+    vec4 radiance;
+    vec4 query_point;
+    vec4 query_direction;
+    float depth;
+};
 const uint DYNAMIC = 255u;
 const float HUGE = 1e30;
 const float F32_MIN_POSITIVE = 1.1754944e-38;
@@ -111,24 +138,24 @@ bool finite(float x) {
     return ((floatBitsToUint(x) & 2139095040u) != 2139095040u);
 }
 
-bool finite3_(vec3 v_2) {
-    bool local = false;
+bool finite3_(vec3 v_4) {
     bool local_1 = false;
-    bool _e2 = finite(v_2.x);
+    bool local_2 = false;
+    bool _e2 = finite(v_4.x);
     if (_e2) {
-        bool _e6 = finite(v_2.y);
-        local = _e6;
-    } else {
-        local = false;
-    }
-    bool _e8 = local;
-    if (_e8) {
-        bool _e12 = finite(v_2.z);
-        local_1 = _e12;
+        bool _e6 = finite(v_4.y);
+        local_1 = _e6;
     } else {
         local_1 = false;
     }
-    bool _e14 = local_1;
+    bool _e8 = local_1;
+    if (_e8) {
+        bool _e12 = finite(v_4.z);
+        local_2 = _e12;
+    } else {
+        local_2 = false;
+    }
+    bool _e14 = local_2;
     return _e14;
 }
 
@@ -136,49 +163,49 @@ float sign_not_zero(float x_1) {
     return ((x_1 >= 0.0) ? 1.0 : -1.0);
 }
 
-vec4 unit_direction(vec3 v_3) {
-    bool local_2 = false;
+vec4 unit_direction(vec3 v_5) {
     bool local_3 = false;
     bool local_4 = false;
     bool local_5 = false;
-    float l2_ = dot(v_3, v_3);
+    bool local_6 = false;
+    float l2_ = dot(v_5, v_5);
     bool _e2 = finite(l2_);
     if (_e2) {
-        local_2 = (abs((l2_ - 1.0)) <= 4.7683716e-7);
-    } else {
-        local_2 = false;
-    }
-    bool _e11 = local_2;
-    if (_e11) {
-        return vec4(v_3, 1.0);
-    }
-    float m_1 = max(abs(v_3.x), max(abs(v_3.y), abs(v_3.z)));
-    if ((m_1 > 0.0)) {
-        bool _e26 = finite(m_1);
-        local_3 = _e26;
+        local_3 = (abs((l2_ - 1.0)) <= 4.7683716e-7);
     } else {
         local_3 = false;
     }
-    bool _e28 = local_3;
-    if (_e28) {
-        bool _e31 = finite3_(v_3);
-        local_4 = _e31;
+    bool _e11 = local_3;
+    if (_e11) {
+        return vec4(v_5, 1.0);
+    }
+    float m_1 = max(abs(v_5.x), max(abs(v_5.y), abs(v_5.z)));
+    if ((m_1 > 0.0)) {
+        bool _e26 = finite(m_1);
+        local_4 = _e26;
     } else {
         local_4 = false;
     }
-    bool _e33 = local_4;
-    if (!(_e33)) {
-        return vec4(0.0, 0.0, 1.0, 0.0);
-    }
-    vec3 s_2 = (v_3 / vec3(m_1));
-    float l_3 = length(s_2);
-    if ((l_3 > 0.0)) {
-        bool _e47 = finite(l_3);
-        local_5 = _e47;
+    bool _e28 = local_4;
+    if (_e28) {
+        bool _e31 = finite3_(v_5);
+        local_5 = _e31;
     } else {
         local_5 = false;
     }
-    bool _e49 = local_5;
+    bool _e33 = local_5;
+    if (!(_e33)) {
+        return vec4(0.0, 0.0, 1.0, 0.0);
+    }
+    vec3 s_2 = (v_5 / vec3(m_1));
+    float l_3 = length(s_2);
+    if ((l_3 > 0.0)) {
+        bool _e47 = finite(l_3);
+        local_6 = _e47;
+    } else {
+        local_6 = false;
+    }
+    bool _e49 = local_6;
     if (!(_e49)) {
         return vec4(0.0, 0.0, 1.0, 0.0);
     }
@@ -186,93 +213,93 @@ vec4 unit_direction(vec3 v_3) {
 }
 
 vec3 fetch_vector(vec3 from, vec3 to, vec3 fallback) {
-    bool local_6 = false;
-    vec3 v_8 = (to - from);
-    float l2_1 = dot(v_8, v_8);
+    bool local_7 = false;
+    vec3 v_10 = (to - from);
+    float l2_1 = dot(v_10, v_10);
     if ((l2_1 > 0.0)) {
         bool _e9 = finite(l2_1);
-        local_6 = _e9;
+        local_7 = _e9;
     } else {
-        local_6 = false;
+        local_7 = false;
     }
-    bool _e11 = local_6;
+    bool _e11 = local_7;
     if (_e11) {
-        return v_8;
+        return v_10;
     }
     return fallback;
 }
 
 vec2 oct_encode(vec3 d) {
-    bool local_7 = false;
-    vec2 p = vec2(0.0);
+    bool local_8 = false;
+    vec2 p_1 = vec2(0.0);
     float l1_ = ((abs(d.x) + abs(d.y)) + abs(d.z));
     if ((l1_ >= F32_MIN_POSITIVE)) {
         bool _e13 = finite(l1_);
-        local_7 = _e13;
+        local_8 = _e13;
     } else {
-        local_7 = false;
+        local_8 = false;
     }
-    bool _e15 = local_7;
+    bool _e15 = local_8;
     if (!(_e15)) {
         return vec2(0.5, 0.5);
     }
     float inv_l1_ = (1.0 / l1_);
-    p = vec2((d.x * inv_l1_), (d.y * inv_l1_));
+    p_1 = vec2((d.x * inv_l1_), (d.y * inv_l1_));
     if ((d.z < 0.0)) {
-        float _e32 = p.y;
-        float _e37 = p.x;
+        float _e32 = p_1.y;
+        float _e37 = p_1.x;
         float _e38 = sign_not_zero(_e37);
-        float _e41 = p.x;
-        float _e46 = p.y;
+        float _e41 = p_1.x;
+        float _e46 = p_1.y;
         float _e47 = sign_not_zero(_e46);
-        p = vec2(((1.0 - abs(_e32)) * _e38), ((1.0 - abs(_e41)) * _e47));
+        p_1 = vec2(((1.0 - abs(_e32)) * _e38), ((1.0 - abs(_e41)) * _e47));
     }
-    vec2 _e50 = p;
+    vec2 _e50 = p_1;
     return clamp(((_e50 * 0.5) + vec2(0.5)), vec2(0.0), vec2(1.0));
 }
 
-ivec2 wrap_texel(int n, ivec2 t) {
+ivec2 wrap_texel(int n_1, ivec2 t_1) {
     int i = 0;
     int j = 0;
-    i = t.x;
-    j = t.y;
+    i = t_1.x;
+    j = t_1.y;
     int _e6 = i;
     if ((_e6 < 0)) {
         int _e9 = i;
         i = (-(_e9) - 1);
         int _e15 = j;
-        j = ((n - 1) - _e15);
+        j = ((n_1 - 1) - _e15);
     } else {
         int _e17 = i;
-        if ((_e17 >= n)) {
+        if ((_e17 >= n_1)) {
             int _e23 = i;
-            i = (((2 * n) - 1) - _e23);
+            i = (((2 * n_1) - 1) - _e23);
             int _e27 = j;
-            j = ((n - 1) - _e27);
+            j = ((n_1 - 1) - _e27);
         }
     }
     int _e29 = j;
     if ((_e29 < 0)) {
         int _e34 = i;
-        i = ((n - 1) - _e34);
+        i = ((n_1 - 1) - _e34);
         int _e36 = j;
         j = (-(_e36) - 1);
     } else {
         int _e40 = j;
-        if ((_e40 >= n)) {
+        if ((_e40 >= n_1)) {
             int _e44 = i;
-            i = ((n - 1) - _e44);
+            i = ((n_1 - 1) - _e44);
             int _e50 = j;
-            j = (((2 * n) - 1) - _e50);
+            j = (((2 * n_1) - 1) - _e50);
         }
     }
     int _e52 = i;
     int _e53 = j;
-    return min(max(ivec2(_e52, _e53), ivec2(0)), ivec2((n - 1)));
+    return min(max(ivec2(_e52, _e53), ivec2(0)), ivec2((n_1 - 1)));
 }
 
-Footprint footprint(uint n_1, vec2 uv) {
-    vec2 x_5 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_1)) - vec2(0.5));
+Footprint footprint(uint n_2, vec2 uv) {
+    vec2 x_5 = ((clamp(uv, vec2(0.0), vec2(1.0)) * float(n_2)) - vec2(0.5));
     vec2 x0_ = floor(x_5);
     return Footprint(ivec2(x0_), (x_5 - x0_));
 }
@@ -289,25 +316,25 @@ float corner_weight(Lattice l, uint corner) {
     return ((wx * wy) * wz);
 }
 
-Basis orthonormal_basis(vec3 n_3) {
-    float s_3 = ((n_3.z >= 0.0) ? 1.0 : -1.0);
-    float a_1 = (-1.0 / (s_3 + n_3.z));
-    float b_24 = ((n_3.x * n_3.y) * a_1);
-    return Basis(vec3((1.0 + (((s_3 * n_3.x) * n_3.x) * a_1)), (s_3 * b_24), (-(s_3) * n_3.x)), vec3(b_24, (s_3 + ((n_3.y * n_3.y) * a_1)), -(n_3.y)));
+Basis orthonormal_basis(vec3 n_4) {
+    float s_3 = ((n_4.z >= 0.0) ? 1.0 : -1.0);
+    float a_1 = (-1.0 / (s_3 + n_4.z));
+    float b_24 = ((n_4.x * n_4.y) * a_1);
+    return Basis(vec3((1.0 + (((s_3 * n_4.x) * n_4.x) * a_1)), (s_3 * b_24), (-(s_3) * n_4.x)), vec3(b_24, (s_3 + ((n_4.y * n_4.y) * a_1)), -(n_4.y)));
 }
 
-vec3 normalize_or(vec3 v_5, vec3 fallback_1) {
-    bool local_12 = false;
-    float l_4 = length(v_5);
+vec3 normalize_or(vec3 v_7, vec3 fallback_1) {
+    bool local_13 = false;
+    float l_4 = length(v_7);
     if ((l_4 > 0.0)) {
         bool _e7 = finite(l_4);
-        local_12 = _e7;
+        local_13 = _e7;
     } else {
-        local_12 = false;
+        local_13 = false;
     }
-    bool _e9 = local_12;
+    bool _e9 = local_13;
     if (_e9) {
-        return (v_5 / vec3(l_4));
+        return (v_7 / vec3(l_4));
     }
     return fallback_1;
 }
@@ -323,10 +350,10 @@ float pseudo_log2_(float k_4) {
     return (float(e_2) + (m_2 - 1.0));
 }
 
-vec3 sh_eval(vec3 c_5[9], vec3 n_5) {
-    float x_6 = n_5.x;
-    float y = n_5.y;
-    float z = n_5.z;
+vec3 sh_eval(vec3 c_5[9], vec3 n_6) {
+    float x_6 = n_6.x;
+    float y = n_6.y;
+    float z = n_6.z;
     vec3 t0_ = (c_5[0] * 0.2820948);
     vec3 t1_ = (c_5[1] * (0.4886025 * y));
     vec3 t2_ = (c_5[2] * (0.4886025 * z));
@@ -348,107 +375,107 @@ vec3 clean(vec3 c_8) {
     return vec3(0.0);
 }
 
-vec2 hemi_encode(vec3 v_7) {
-    bool local_31 = false;
-    float z_1 = max(v_7.z, 0.0);
-    float l1_1 = ((abs(v_7.x) + abs(v_7.y)) + z_1);
+vec2 hemi_encode(vec3 v_9) {
+    bool local_32 = false;
+    float z_1 = max(v_9.z, 0.0);
+    float l1_1 = ((abs(v_9.x) + abs(v_9.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_31 = _e14;
+        local_32 = _e14;
     } else {
-        local_31 = false;
+        local_32 = false;
     }
-    bool _e16 = local_31;
+    bool _e16 = local_32;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
-    float px = (v_7.x / l1_1);
-    float py = (v_7.y / l1_1);
+    float px = (v_9.x / l1_1);
+    float py = (v_9.y / l1_1);
     return clamp(vec2((((px + py) * 0.5) + 0.5), (((px - py) * 0.5) + 0.5)), vec2(0.0), vec2(1.0));
 }
 
-SurfaceAxis surface_axis(float x_in, uint n_9) {
+SurfaceAxis surface_axis(float x_in, uint n_10) {
     float x_4 = 0.5;
     bool _e4 = finite(x_in);
     if (_e4) {
         x_4 = x_in;
     }
     float _e5 = x_4;
-    float c_10 = clamp(((_e5 * float(n_9)) - 0.5), 0.0, float((n_9 - 1u)));
+    float c_10 = clamp(((_e5 * float(n_10)) - 0.5), 0.0, float((n_10 - 1u)));
     uint i0_ = uint(floor(c_10));
-    return SurfaceAxis(i0_, min((i0_ + 1u), (n_9 - 1u)), (c_10 - float(i0_)));
+    return SurfaceAxis(i0_, min((i0_ + 1u), (n_10 - 1u)), (c_10 - float(i0_)));
 }
 
 SurfaceTaps surface_taps(vec2 uv_9) {
-    uint n_10 = _group_2_binding_1_cs.shape.z;
-    float nf = float(n_10);
+    uint n_11 = _group_2_binding_1_cs.shape.z;
+    float nf = float(n_11);
     float x_7 = clamp(((uv_9.x * nf) - 0.5), 0.0, (nf - 1.0));
     float y_1 = clamp(((uv_9.y * nf) - 0.5), 0.0, (nf - 1.0));
     float x0_1 = floor(x_7);
     float y0_ = floor(y_1);
     uvec2 lo = uvec2(uint(x0_1), uint(y0_));
-    return SurfaceTaps(lo, min((lo + uvec2(1u)), uvec2((n_10 - 1u))), vec2((x_7 - x0_1), (y_1 - y0_)));
+    return SurfaceTaps(lo, min((lo + uvec2(1u)), uvec2((n_11 - 1u))), vec2((x_7 - x0_1), (y_1 - y0_)));
 }
 
-vec3 surface_tile(uint i_2, uint j_1, uint layer, SurfaceTaps t_6) {
+vec3 surface_tile(uint i_2, uint j_1, uint layer, SurfaceTaps t_7) {
     uint _e8 = _group_2_binding_1_cs.shape.z;
     uvec2 o_1 = (uvec2(i_2, j_1) * _e8);
     int l_5 = int(layer);
-    vec4 q00_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.lo)), l_5), 0);
-    vec4 q10_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.hi.x, t_6.lo.y))), l_5), 0);
-    vec4 q01_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_6.lo.x, t_6.hi.y))), l_5), 0);
-    vec4 q11_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_6.hi)), l_5), 0);
-    vec4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_6.f);
+    vec4 q00_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_7.lo)), l_5), 0);
+    vec4 q10_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_7.hi.x, t_7.lo.y))), l_5), 0);
+    vec4 q01_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + uvec2(t_7.lo.x, t_7.hi.y))), l_5), 0);
+    vec4 q11_1 = texelFetch(_group_2_binding_0_cs, ivec3(ivec2((o_1 + t_7.hi)), l_5), 0);
+    vec4 _e44 = blend4_(q00_1, q10_1, q01_1, q11_1, t_7.f);
     return _e44.xyz;
 }
 
-float surface_tile_inv_distance(uint i_3, uint j_2, SurfaceTaps t_7) {
+float surface_tile_inv_distance(uint i_3, uint j_2, SurfaceTaps t_8) {
     uint _e7 = _group_2_binding_1_cs.shape.z;
     uvec2 o_2 = (uvec2(i_3, j_2) * _e7);
-    vec4 q00_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + t_7.lo)), 0);
-    vec4 q10_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(t_7.hi.x, t_7.lo.y))), 0);
-    vec4 q01_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(t_7.lo.x, t_7.hi.y))), 0);
-    vec4 q11_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + t_7.hi)), 0);
-    vec4 _e42 = blend4_(q00_2, q10_2, q01_2, q11_2, t_7.f);
+    vec4 q00_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + t_8.lo)), 0);
+    vec4 q10_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(t_8.hi.x, t_8.lo.y))), 0);
+    vec4 q01_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + uvec2(t_8.lo.x, t_8.hi.y))), 0);
+    vec4 q11_2 = texelFetch(_group_2_binding_2_cs, ivec2((o_2 + t_8.hi)), 0);
+    vec4 _e42 = blend4_(q00_2, q10_2, q01_2, q11_2, t_8.f);
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_4, uint j_3, vec3 b_20, vec3 local_32, SurfaceTaps shared_taps) {
-    bool local_33 = false;
+SurfaceTaps surface_warped_taps(uint i_4, uint j_3, vec3 b_20, vec3 local_33, SurfaceTaps shared_taps) {
     bool local_34 = false;
+    bool local_35 = false;
     SurfaceParams sp = _group_2_binding_1_cs;
     float s_4 = ((float(i_4) + 0.5) / float(sp.shape.x));
-    float t_9 = ((float(j_3) + 0.5) / float(sp.shape.y));
-    vec3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_4)) + (sp.edge_v.xyz * t_9)) + (sp.normal.xyz * sp.corner.w));
+    float t_10 = ((float(j_3) + 0.5) / float(sp.shape.y));
+    vec3 probe = (((sp.corner.xyz + (sp.edge_u.xyz * s_4)) + (sp.edge_v.xyz * t_10)) + (sp.normal.xyz * sp.corner.w));
     vec3 d_2 = (probe - b_20);
     vec3 ab = vec3(dot(d_2, sp.tangent.xyz), dot(d_2, sp.bitangent.xyz), dot(d_2, sp.normal.xyz));
     float _e48 = surface_tile_inv_distance(i_4, j_3, shared_taps);
-    vec3 v_9 = ((local_32 * max(((dot(local_32, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
+    vec3 v_11 = ((local_33 * max(((dot(local_33, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
     if ((_e48 > 0.0)) {
-        bool _e62 = finite3_(v_9);
-        local_33 = _e62;
-    } else {
-        local_33 = false;
-    }
-    bool _e64 = local_33;
-    if (_e64) {
-        local_34 = (dot(v_9, v_9) > 0.0);
+        bool _e62 = finite3_(v_11);
+        local_34 = _e62;
     } else {
         local_34 = false;
     }
-    bool _e71 = local_34;
+    bool _e64 = local_34;
+    if (_e64) {
+        local_35 = (dot(v_11, v_11) > 0.0);
+    } else {
+        local_35 = false;
+    }
+    bool _e71 = local_35;
     if (_e71) {
-        vec2 _e72 = hemi_encode(v_9);
+        vec2 _e72 = hemi_encode(v_11);
         SurfaceTaps _e73 = surface_taps(_e72);
         return _e73;
     }
     return shared_taps;
 }
 
-vec3 surface_probe(uint i_5, uint j_4, SurfaceTaps t_8, uint m0_, uint m1_, float fm) {
-    vec3 _e6 = surface_tile(i_5, j_4, m0_, t_8);
+vec3 surface_probe(uint i_5, uint j_4, SurfaceTaps t_9, uint m0_, uint m1_, float fm) {
+    vec3 _e6 = surface_tile(i_5, j_4, m0_, t_9);
     if ((fm > 0.0)) {
-        vec3 _e9 = surface_tile(i_5, j_4, m1_, t_8);
+        vec3 _e9 = surface_tile(i_5, j_4, m1_, t_9);
         return mix(_e6, _e9, fm);
     }
     return _e6;
@@ -486,8 +513,8 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
     vec3 dir_14 = _e4.xyz;
-    vec3 local_35 = vec3(dot(dir_14, sp_1.tangent.xyz), dot(dir_14, sp_1.bitangent.xyz), dot(dir_14, sp_1.normal.xyz));
-    vec2 _e64 = hemi_encode(local_35);
+    vec3 local_36 = vec3(dot(dir_14, sp_1.tangent.xyz), dot(dir_14, sp_1.bitangent.xyz), dot(dir_14, sp_1.normal.xyz));
+    vec2 _e64 = hemi_encode(local_36);
     SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
@@ -495,16 +522,16 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     t11_ = _e65;
     if (warped) {
         vec3 _e72 = b_21;
-        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_35, _e65);
+        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_36, _e65);
         t00_ = _e73;
         vec3 _e76 = b_21;
-        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_35, _e65);
+        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_36, _e65);
         t10_ = _e77;
         vec3 _e80 = b_21;
-        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_35, _e65);
+        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_36, _e65);
         t01_ = _e81;
         vec3 _e84 = b_21;
-        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_35, _e65);
+        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_36, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;
@@ -546,9 +573,9 @@ void main() {
     if ((k_13 >= _e2)) {
         return;
     }
-    vec4 p_9 = _group_1_binding_0_cs[(2u * k_13)];
+    vec4 p_11 = _group_1_binding_0_cs[(2u * k_13)];
     vec4 d_4 = _group_1_binding_0_cs[((2u * k_13) + 1u)];
-    vec3 _e21 = surface_specular_warped(p_9.xyz, d_4.xyz, p_9.w);
+    vec3 _e21 = surface_specular_warped(p_11.xyz, d_4.xyz, p_11.w);
     _group_1_binding_1_cs[k_13] = vec4(_e21, 1.0);
     return;
 }

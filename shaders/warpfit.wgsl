@@ -1529,3 +1529,139 @@ fn surface_warped_queries(@builtin(global_invocation_id) id: vec3<u32>) {
     let d = queries[2u * k + 1u];
     results[k] = vec4<f32>(surface_specular_warped(p.xyz, d.xyz, p.w), 1.0);
 }
+
+// ---- drawing a level: a vertex and a pixel shader ---------------------------------------
+//
+// An engine's own pixel shader calls `specular` and `irradiance` as these two entry points
+// do; they are what `warpfit render` rasterises a level with. Every visible surface is
+// shaded as a glossy reflector of roughness `camera.shading.x` (the view ray reflected
+// about the normal, read by `specular`) or, with `camera.shading.y` = 1, as a diffuse one
+// (`irradiance` × albedo / π). Back faces of one-sided materials are drawn black, as the
+// CPU-drawn views draw them; the sky is not drawn (alpha 0 where no surface is).
+//
+// Group 3:
+//   0 camera  uniform buffer (struct CameraParams)
+// Vertex buffer 0, per vertex (14 f32): position (xyz), the triangle's geometric normal
+// (xyz, the side its corners wind counter-clockwise around), albedo (rgb), flags (bit 0:
+// the material is two-sided), sphere (centre xyz, radius; radius 0: a triangle, negative:
+// a sphere lit from inside). A sphere is drawn as the 36 corners of a box around it and
+// intersected exactly in each pixel.
+
+struct CameraParams {
+    // world to clip space (depth 1 at the near plane, 0 at infinity: reverse Z)
+    view_proj: mat4x4<f32>,
+    // the camera's position (xyz)
+    eye: vec4<f32>,
+    // how far a shaded point moves off its surface, as the tracer moves ray origins:
+    // (max |(p - xyz) · w| + 1) · 2e-5 / w
+    surface_offset: vec4<f32>,
+    // x perceptual roughness, y 0 specular / 1 diffuse, z what location 0 holds (0 the
+    // radiance, 1 the query's direction)
+    shading: vec4<f32>,
+}
+
+@group(3) @binding(0) var<uniform> camera: CameraParams;
+
+struct SurfaceVertex {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) albedo: vec3<f32>,
+    @location(3) flags: f32,
+    @location(4) sphere: vec4<f32>,
+}
+
+struct SurfaceVarying {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) @interpolate(flat) normal: vec3<f32>,
+    @location(2) @interpolate(flat) albedo: vec3<f32>,
+    @location(3) @interpolate(flat) flags: f32,
+    @location(4) @interpolate(flat) sphere: vec4<f32>,
+}
+
+// What a pixel shows (location 0: radiance, alpha 1 wherever a surface is drawn; with
+// `camera.shading.z` = 1 instead the query's direction: the reflected view ray or, diffuse,
+// the normal, w the roughness) and where it asked (location 1: the shaded point, w 1 where
+// shaded, 0 on a back face drawn black). Two RGBA32F targets fit WebGPU's 32 bytes per
+// sample.
+struct SurfaceOut {
+    @location(0) radiance: vec4<f32>,
+    @location(1) query_point: vec4<f32>,
+    @builtin(frag_depth) depth: f32,
+}
+
+@vertex
+fn surface_vertex(v: SurfaceVertex) -> SurfaceVarying {
+    var out: SurfaceVarying;
+    out.clip = camera.view_proj * vec4<f32>(v.position, 1.0);
+    out.world = v.position;
+    out.normal = v.normal;
+    out.albedo = v.albedo;
+    out.flags = v.flags;
+    out.sphere = v.sphere;
+    return out;
+}
+
+fn offset_off_surface(p: vec3<f32>) -> f32 {
+    let pn = abs((p - camera.surface_offset.xyz) * camera.surface_offset.w);
+    return (max(pn.x, max(pn.y, pn.z)) + 1.0) * 2e-5 / camera.surface_offset.w;
+}
+
+@fragment
+fn surface_fragment(v: SurfaceVarying) -> SurfaceOut {
+    var out: SurfaceOut;
+    out.depth = v.clip.z;
+    let eye = camera.eye.xyz;
+    let ray = normalize(v.world - eye);
+    var p = v.world;
+    var n = v.normal;
+    if v.sphere.w != 0.0 {
+        // the nearest intersection in front of the eye with the exact sphere
+        let oc = eye - v.sphere.xyz;
+        let half_b = dot(oc, ray);
+        let c = dot(oc, oc) - v.sphere.w * v.sphere.w;
+        let disc = half_b * half_b - c;
+        if disc < 0.0 {
+            discard;
+        }
+        let s = sqrt(disc);
+        var t = -half_b - s;
+        if t <= 0.0 {
+            t = -half_b + s;
+        }
+        if t <= 0.0 {
+            discard;
+        }
+        p = eye + ray * t;
+        n = normalize(p - v.sphere.xyz);
+        if v.sphere.w < 0.0 {
+            n = -n;
+        }
+        let clip = camera.view_proj * vec4<f32>(p, 1.0);
+        out.depth = clamp(clip.z / clip.w, 0.0, 1.0);
+    }
+    let back = dot(n, ray) > 0.0;
+    if back && (u32(v.flags) & 1u) == 0u {
+        out.radiance = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+        out.query_point = vec4<f32>(p, 0.0);
+        return out;
+    }
+    if back {
+        n = -n;
+    }
+    let b = p + n * offset_off_surface(p);
+    out.query_point = vec4<f32>(b, 1.0);
+    var dir = n;
+    var r = 0.0;
+    if camera.shading.y == 1.0 {
+        out.radiance = vec4<f32>(irradiance(b, n) * v.albedo * 0.31830987, 1.0);
+    } else {
+        dir = normalize(ray - 2.0 * dot(ray, n) * n);
+        r = camera.shading.x;
+        out.radiance = vec4<f32>(specular(b, dir, r), 1.0);
+    }
+    if camera.shading.z == 1.0 {
+        out.radiance = vec4<f32>(dir, r);
+    }
+    return out;
+}

@@ -56,6 +56,7 @@ pub mod partfile;
 pub mod perceptual;
 pub mod preview;
 pub mod progress;
+pub mod render;
 pub mod report;
 pub mod scene;
 pub mod trace;

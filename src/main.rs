@@ -80,5 +80,6 @@ fn run(cli: Cli) -> Result<()> {
         Command::Report { out } => cmd::report(out, &cx),
         Command::Sweep { job } => cmd::sweep(&job, &cx),
         Command::Inspect { fit } => cmd::inspect(&fit),
+        Command::Render { scene, render } => cmd::render(&scene, &render),
     }
 }

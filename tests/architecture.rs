@@ -19,6 +19,7 @@ const FLOORS: &[&[&str]] = &[
     &["bake", "perceptual"],
     &["fit", "eval"],
     &["bakefile", "export", "partfile", "preview"],
+    &["render"],
     &["report"],
     &["jobs"],
     &["cli"],

@@ -28,7 +28,7 @@ use warpfit::sampling::{Sampler, uniform_sphere};
 /// The adapter, or the test's failure (in CI) / skip (elsewhere) with the reason.
 fn gpu() -> Option<&'static Gpu> {
     static G: std::sync::OnceLock<Result<Gpu, String>> = std::sync::OnceLock::new();
-    match G.get_or_init(Gpu::new) {
+    match G.get_or_init(gpu_harness::gpu_device) {
         Ok(g) => Some(g),
         Err(e) => {
             tool_missing("the shader on a graphics API", "a graphics adapter", e);
@@ -318,7 +318,7 @@ fn hardware_bilinear_of_the_exported_atlases_is_the_cpu_seam_aware_bilinear() {
     let n2 = (n * n) as usize;
     let tiles = ir.irradiance.len() / n2;
     let layout = &s.irradiance;
-    let texture = gpu.ktx2_texture(&dir.join(&layout.file));
+    let texture = gpu_harness::ktx2_texture(gpu, &dir.join(&layout.file));
     let (mut coords, mut expected, mut spread) = (Vec::new(), Vec::new(), Vec::new());
     for q in 0..4000u32 {
         let mut smp = Sampler::new(41, 0, q);

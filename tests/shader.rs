@@ -17,6 +17,11 @@ const ENTRY_POINTS: [&str; 6] = [
     "surface_warped_queries",
 ];
 
+/// The vertex and pixel shader a level is drawn with: (entry point, stage, file suffix and
+/// glslang's stage name).
+const DRAW_STAGES: [(&str, naga::ShaderStage, &str); 2] =
+    [("surface_vertex", naga::ShaderStage::Vertex, "vert"), ("surface_fragment", naga::ShaderStage::Fragment, "frag")];
+
 fn module() -> (naga::Module, naga::valid::ModuleInfo) {
     let path = common::repo().join("shaders/warpfit.wgsl");
     let src = std::fs::read_to_string(&path).unwrap();
@@ -41,16 +46,16 @@ fn translations() -> Vec<(String, String)> {
         .write(&module, &info, None)
         .expect("HLSL");
     out.push(("warpfit.hlsl".to_string(), text));
-    for ep in ENTRY_POINTS {
+    let stages = ENTRY_POINTS.iter().map(|&ep| (ep, naga::ShaderStage::Compute, "comp")).chain(DRAW_STAGES);
+    for (ep, shader_stage, suffix) in stages {
         let mut text = String::new();
         let options =
             glsl::Options { version: glsl::Version::Desktop(450), binding_map: gl_bindings(), ..Default::default() };
-        let pipeline =
-            glsl::PipelineOptions { shader_stage: naga::ShaderStage::Compute, entry_point: ep.into(), multiview: None };
+        let pipeline = glsl::PipelineOptions { shader_stage, entry_point: ep.into(), multiview: None };
         glsl::Writer::new(&mut text, &module, &info, &options, &pipeline, Default::default())
             .and_then(|mut w| w.write())
             .unwrap_or_else(|e| panic!("GLSL {ep}: {e}"));
-        out.push((format!("warpfit.{ep}.comp.glsl"), text));
+        out.push((format!("warpfit.{ep}.{suffix}.glsl"), text));
     }
     out
 }
@@ -58,7 +63,8 @@ fn translations() -> Vec<(String, String)> {
 /// OpenGL binding points (textures, uniform and storage buffers count separately): the
 /// textures at units 0–6 (bindings 0–6), `params` at uniform binding 0, `cells`, `queries`
 /// and `results` at storage bindings 0, 1 and 2; a surface atlas (group 2) at texture units
-/// 7 (radiance) and 8 (inverse distance) and uniform binding 1.
+/// 7 (radiance) and 8 (inverse distance) and uniform binding 1; the drawing camera (group
+/// 3) at uniform binding 2.
 fn gl_bindings() -> glsl::BindingMap {
     let rb = |group, binding| naga::ResourceBinding { group, binding };
     let mut map: glsl::BindingMap = (0..7).map(|b| (rb(0, b), b as u8)).collect();
@@ -70,6 +76,7 @@ fn gl_bindings() -> glsl::BindingMap {
         (rb(2, 0), 7),
         (rb(2, 1), 1),
         (rb(2, 2), 8),
+        (rb(3, 0), 2),
     ]);
     map
 }
@@ -145,6 +152,10 @@ fn the_shipped_translations_compile_in_glslang() {
     for ep in ENTRY_POINTS {
         run(&["-G", "-S", "comp", "-o", out], &format!("warpfit.{ep}.comp.glsl"));
         run(&["-D", "-V", "-S", "comp", "-e", ep, "-o", out], "warpfit.hlsl");
+    }
+    for (ep, _, stage) in DRAW_STAGES {
+        run(&["-G", "-S", stage, "-o", out], &format!("warpfit.{ep}.{stage}.glsl"));
+        run(&["-D", "-V", "-S", stage, "-e", ep, "-o", out], "warpfit.hlsl");
     }
 }
 

@@ -138,6 +138,16 @@ pub enum Command {
         #[arg(long, default_value = "blended")]
         read: warpfit::runtime::SpecularRead,
     },
+    /// Draw frames of the level the way an engine does: its triangles rasterised with wgpu
+    /// and every pixel shaded by the exported WGSL over the fitted grid in <out>, each beside
+    /// a traced reference, box projection and the CPU sampler's frame, with ꟻLIP; writes
+    /// <out>/render/ (PNG strips, render.json, render.md, the export drawn from).
+    Render {
+        #[command(flatten)]
+        scene: SceneArgs,
+        #[command(flatten)]
+        render: RenderArgs,
+    },
     /// Summarise a fitted grid: contents, bytes per layer, residuals, what was left out.
     Inspect {
         #[arg(default_value = "fits/torture")]
@@ -211,6 +221,56 @@ pub struct SceneArgs {
     /// reference again instead of reading it back from beside the bake.
     #[arg(long)]
     pub force: bool,
+}
+
+/// What `warpfit render` draws.
+#[derive(clap::Args)]
+pub struct RenderArgs {
+    /// Frame width and height in pixels.
+    #[arg(long, default_value = "320x200", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Comma-separated roughness of the specular frames.
+    #[arg(long, default_value = "0,0.5", value_delimiter = ',')]
+    pub roughness: Vec<f32>,
+    /// No diffuse frames (irradiance × base colour / π).
+    #[arg(long)]
+    pub no_diffuse: bool,
+    /// Cameras placed when the scene sets no [[cameras]].
+    #[arg(long, default_value_t = 2)]
+    pub cameras: u32,
+    /// Samples per reference pixel.
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
+}
+
+impl RenderArgs {
+    /// The options, checked: roughness in [0, 1], at least one sample.
+    pub fn options(&self) -> anyhow::Result<warpfit::render::frames::RenderOptions> {
+        if let Some(r) = self.roughness.iter().find(|r| !(0.0..=1.0).contains(*r)) {
+            anyhow::bail!("--roughness {r}: every roughness must lie in [0, 1]");
+        }
+        if self.spp == 0 {
+            anyhow::bail!("--spp 0: a reference needs at least one sample per pixel");
+        }
+        Ok(warpfit::render::frames::RenderOptions {
+            size: self.size,
+            cameras: self.cameras,
+            roughness: self.roughness.clone(),
+            diffuse: !self.no_diffuse,
+            spp: self.spp,
+            ..Default::default()
+        })
+    }
+}
+
+/// `WxH`, each between 1 and 4096 pixels.
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once('x').ok_or_else(|| format!("{s:?}: expected WIDTHxHEIGHT, e.g. 320x200"))?;
+    let side = |v: &str| match v.trim().parse::<u32>() {
+        Ok(n) if (1..=4096).contains(&n) => Ok(n),
+        _ => Err(format!("{s:?}: each side must be a whole number of pixels from 1 to 4096")),
+    };
+    Ok((side(w)?, side(h)?))
 }
 
 /// A whole job: scene, output folder, fit and eval settings. Shared by `run` and `sweep`.

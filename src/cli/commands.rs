@@ -1,6 +1,6 @@
 //! One function per command: each loads what it needs, calls the library and prints.
 
-use super::args::{EvalArgs, FarmTarget, FitArgs, RunArgs, SampleArgs, SceneArgs, parse_methods};
+use super::args::{EvalArgs, FarmTarget, FitArgs, RenderArgs, RunArgs, SampleArgs, SceneArgs, parse_methods};
 use super::print::{FitLines, print_eval, print_fit};
 use anyhow::{Context as _, Result};
 use std::path::{Path, PathBuf};
@@ -368,6 +368,33 @@ pub fn sweep(RunArgs { scene, eval, fit }: &RunArgs, cx: &Context) -> Result<()>
 }
 
 /// `warpfit inspect`: a summary of a fitted grid.
+/// `warpfit render`: the fitted grid in the run folder exported, and the level's frames
+/// drawn through the export's shader, judged and written to `<out>/render/`.
+pub fn render(scene: &SceneArgs, args: &RenderArgs) -> Result<()> {
+    let opts = args.options()?;
+    let (scene, folder) = job::load_scene(&scene.scene, scene.out.as_deref())?;
+    let _lock = files::staged::FolderLock::acquire(&folder.dir)?;
+    let grid = FittedGrid::load(&folder.dir).with_context(|| {
+        format!(
+            "no fitted grid to draw in {}: run `warpfit fit --scene {}` first",
+            folder.dir.display(),
+            scene.source.display()
+        )
+    })?;
+    let tracer = warpfit::trace::Tracer::new(&scene);
+    let out = warpfit::render::frames::folder(&folder.dir);
+    let export = out.join("export");
+    warpfit::export::export(&grid, &export)?;
+    let r = warpfit::render::frames::render((&scene, &tracer), &grid, &export, &out, &opts)?;
+    print!("{}", warpfit::render::frames::markdown(&r));
+    println!(
+        "wrote {0}/render.json, render.md and {1} PNG strips; the export drawn from is {0}/export",
+        out.display(),
+        r.frames.len()
+    );
+    Ok(())
+}
+
 pub fn inspect(fit: &Path) -> Result<()> {
     let grid = FittedGrid::load(fit)?;
     print!("{}", grid.manifest().describe());

@@ -318,6 +318,25 @@ fn view_references(
     seed: u64,
     exposure: f32,
 ) -> Vec<(Vec<Vec3>, f64)> {
+    view_halves((scene, tracer, store), views, spp, seed)
+        .into_iter()
+        .zip(views)
+        .map(|(px, view)| {
+            let (a, b): (Vec<Vec3>, Vec<Vec3>) = px.iter().copied().unzip();
+            let noise = flip::mean(&flip::flip_hdr(&a, &b, view.width, view.height, exposure));
+            (px.iter().map(|(a, b)| (*a + *b) * 0.5).collect(), noise)
+        })
+        .collect()
+}
+
+/// Each camera view's diffuse reference at white albedo (E/π per surface pixel, the
+/// background as is), as two halves of `spp` samples whose mean is the reference.
+pub fn view_halves(
+    (scene, tracer, store): (&Scene, &Tracer, Option<&ReferenceStore>),
+    views: &[View],
+    spp: u32,
+    seed: u64,
+) -> Vec<Vec<(Vec3, Vec3)>> {
     let renderer = Renderer::new(scene, tracer);
     views
         .iter()
@@ -357,7 +376,7 @@ fn view_references(
                     })
                     .collect()
             };
-            let px = match store {
+            match store {
                 Some(store) => {
                     let (b, n): (Vec<Vec3>, Vec<Vec3>) =
                         surfaces.iter().map(|s| s.map_or_else(|bg| (bg, Vec3::ZERO), |x| x)).unzip();
@@ -367,10 +386,7 @@ fn view_references(
                     store.cached("diffuse-view", key, codec, trace)
                 }
                 None => trace(),
-            };
-            let (a, b): (Vec<Vec3>, Vec<Vec3>) = px.iter().copied().unzip();
-            let noise = flip::mean(&flip::flip_hdr(&a, &b, view.width, view.height, exposure));
-            (px.iter().map(|(a, b)| (*a + *b) * 0.5).collect(), noise)
+            }
         })
         .collect()
 }

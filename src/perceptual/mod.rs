@@ -178,6 +178,41 @@ pub struct CameraPose {
     pub forward: Vec3,
 }
 
+impl CameraPose {
+    /// The unit ray through the centre of each pixel of a `size` image (row-major, row 0
+    /// at the top) with horizontal field of view `fov_deg`: what the CPU-drawn views trace.
+    #[must_use]
+    pub fn rays(&self, fov_deg: f32, size: (u32, u32)) -> Vec<Vec3> {
+        let frame = Frame::new(self, fov_deg, size);
+        (0..size.0 * size.1).map(|p| frame.ray(p)).collect()
+    }
+
+    /// World to clip space for a rasteriser drawing the pixels [`CameraPose::rays`] traces:
+    /// right-handed, depth 1 at distance `near` and 0 at infinity (reverse Z), clip y up
+    /// (row 0 at the top).
+    #[must_use]
+    pub fn view_projection(&self, fov_deg: f32, size: (u32, u32), near: f32) -> glam::Mat4 {
+        use glam::{Mat4, Vec4};
+        let frame = Frame::new(self, fov_deg, size);
+        let (w, h) = (size.0 as f32, size.1 as f32);
+        let projection = Mat4::from_cols(
+            Vec4::new(1.0 / frame.half, 0.0, 0.0, 0.0),
+            Vec4::new(0.0, w / (frame.half * h), 0.0, 0.0),
+            Vec4::new(0.0, 0.0, 0.0, -1.0),
+            Vec4::new(0.0, 0.0, near, 0.0),
+        );
+        // world to camera: right, up and backward as the rows, the eye at the origin
+        let (r, u, b) = (frame.right, frame.up, -frame.forward);
+        let view = Mat4::from_cols(
+            Vec4::new(r.x, u.x, b.x, 0.0),
+            Vec4::new(r.y, u.y, b.y, 0.0),
+            Vec4::new(r.z, u.z, b.z, 0.0),
+            Vec4::new(-r.dot(self.eye), -u.dot(self.eye), -b.dot(self.eye), 1.0),
+        );
+        projection * view
+    }
+}
+
 /// Share of a camera's pixels that must see geometry (a front face or a two-sided surface)
 /// for the evaluation to place it: a view of sky or back faces judges nothing.
 pub const MIN_COVERAGE: f64 = 0.8;
@@ -408,7 +443,7 @@ pub fn views(scene: &Scene, tracer: &Tracer, positions: &[Vec3], probes: &[Vec3]
 
 /// The camera `pose`'s view: every pixel that sees geometry a query (the surface point,
 /// the view ray reflected about its normal), the others the sky or black (a back face).
-fn camera_view(scene: &Scene, tracer: &Tracer, probes: &[Vec3], pose: &CameraPose, s: &RenderSettings) -> View {
+pub fn camera_view(scene: &Scene, tracer: &Tracer, probes: &[Vec3], pose: &CameraPose, s: &RenderSettings) -> View {
     let (w, h) = s.camera;
     let frame = Frame::new(pose, s.fov_deg, s.camera);
     let eye = pose.eye;

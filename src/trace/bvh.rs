@@ -315,6 +315,13 @@ impl Tracer {
         (pn.abs().max_element() + 1.0) * 2e-5 / self.scale
     }
 
+    /// The frame [`Tracer::surface_offset`] measures in: its centre and scale (a shader
+    /// that offsets shaded points as the tracer does needs them).
+    #[must_use]
+    pub fn offset_frame(&self) -> (Vec3, f32) {
+        (self.centre, self.scale)
+    }
+
     /// The ray in the normalised frame. A direction component of −0.0 becomes +0.0: obvhs
     /// takes the ray's octant from `d < 0.0` (false for −0.0) but its inverse from the sign
     /// bit (`signum(−0.0) = −1`), and with the two disagreeing every node test misses, so a

@@ -10,143 +10,29 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 use wgpu::util::DeviceExt as _;
 
-/// A device on the first adapter found.
-pub struct Gpu {
-    pub device: wgpu::Device,
-    pub queue: wgpu::Queue,
-    pub adapter: wgpu::AdapterInfo,
+pub use warpfit::render::gpu::Gpu;
+use warpfit::render::gpu::{GridBindings, buffer_entry as buffer_entry_of, texture_entry as texture_entry_of_stage};
+
+/// The adapter (the library's `render::gpu::Gpu`), or why there is none.
+pub fn gpu_device() -> Result<Gpu, String> {
+    Gpu::new().map_err(|e| e.to_string())
 }
 
-/// How to get an adapter where none exists.
-pub const NO_ADAPTER: &str =
-    "no graphics adapter: install a Vulkan driver (on Debian, Mesa's lavapipe: apt-get install mesa-vulkan-drivers)";
-
-impl Gpu {
-    /// The first adapter of the native backends (Vulkan, Metal, DX12; `WGPU_BACKEND` picks
-    /// another), with `FLOAT32_FILTERABLE` when it has it (the hardware-filter check needs it).
-    pub fn new() -> Result<Gpu, String> {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-        desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
-        let instance = wgpu::Instance::new(desc);
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
-            .map_err(|e| format!("{NO_ADAPTER} ({e})"))?;
-        let features = adapter.features() & wgpu::Features::FLOAT32_FILTERABLE;
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("warpfit"),
-            required_features: features,
-            required_limits: wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits()),
-            ..Default::default()
-        }))
-        .map_err(|e| format!("the adapter {:?} gave no device: {e}", adapter.get_info().name))?;
-        Ok(Gpu { device, queue, adapter: adapter.get_info() })
-    }
-
-    /// A texture from a KTX2 file (every mip and array layer), read with the `ktx2` crate.
-    pub fn ktx2_texture(&self, path: &Path) -> wgpu::Texture {
-        let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        let r = ktx2::Reader::new(bytes.as_slice()).unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
-        let h = r.header();
-        let format = match h.format.map(|f| f.value()) {
-            Some(97) => wgpu::TextureFormat::Rgba16Float,
-            Some(109) => wgpu::TextureFormat::Rgba32Float,
-            Some(100) => wgpu::TextureFormat::R32Float,
-            Some(103) => wgpu::TextureFormat::Rg32Float,
-            f => panic!("{}: unexpected vkFormat {f:?}", path.display()),
-        };
-        let layers = h.layer_count.max(1);
-        assert!(layers == 1 || h.level_count <= 1, "{}: layered textures with mips are not read here", path.display());
-        let data: Vec<u8> = r.levels().flat_map(|l| l.data.iter().copied()).collect();
-        self.device.create_texture_with_data(
-            &self.queue,
-            &wgpu::TextureDescriptor {
-                label: path.file_name().and_then(|n| n.to_str()),
-                size: wgpu::Extent3d { width: h.pixel_width, height: h.pixel_height, depth_or_array_layers: layers },
-                mip_level_count: h.level_count.max(1),
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
-            },
-            wgpu::util::TextureDataOrder::LayerMajor,
-            &data,
-        )
-    }
-
-    /// A 1×1 R32F texture: what an absent file binds.
-    pub fn dummy_texture(&self) -> wgpu::Texture {
-        self.device.create_texture_with_data(
-            &self.queue,
-            &wgpu::TextureDescriptor {
-                label: Some("absent"),
-                size: wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::R32Float,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
-            },
-            wgpu::util::TextureDataOrder::LayerMajor,
-            &[0; 4],
-        )
-    }
-
-    fn wait(&self) {
-        self.device.poll(wgpu::PollType::wait_indefinitely()).expect("the device answers");
-    }
-
-    /// The vec4s in `buffer` (MAP_READ), once the queue has finished.
-    pub fn read_vec4s(&self, buffer: &wgpu::Buffer) -> Vec<[f32; 4]> {
-        let slice = buffer.slice(..);
-        slice.map_async(wgpu::MapMode::Read, |r| r.expect("map"));
-        self.wait();
-        let out = slice
-            .get_mapped_range()
-            .expect("mapped")
-            .chunks_exact(16)
-            .map(|c| std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))
-            .collect();
-        buffer.unmap();
-        out
-    }
+/// A texture from a KTX2 file, read by the library's independent reader.
+pub fn ktx2_texture(gpu: &Gpu, path: &Path) -> wgpu::Texture {
+    gpu.ktx2_texture(path).unwrap_or_else(|e| panic!("{e}"))
 }
-
-/// The texture files of an export, in binding order (absent: `None`).
-pub const TEXTURES: [&str; 7] = [
-    "probe_radiance.ktx2",
-    "probe_inv_distance.ktx2",
-    "correctives.ktx2",
-    "irradiance.ktx2",
-    "moments.ktx2",
-    "irradiance_scale.ktx2",
-    "roughness_lookup.ktx2",
-];
 
 fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     texture_entry_of(binding, wgpu::TextureViewDimension::D2)
 }
 
 fn texture_entry_of(binding: u32, view_dimension: wgpu::TextureViewDimension) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-            view_dimension,
-            multisampled: false,
-        },
-        count: None,
-    }
+    texture_entry_of_stage(binding, view_dimension, wgpu::ShaderStages::COMPUTE)
 }
 
 fn buffer_entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
-        count: None,
-    }
+    buffer_entry_of(binding, ty, wgpu::ShaderStages::COMPUTE)
 }
 
 /// An export folder on the GPU, ready to run the shader's query kernels.
@@ -179,48 +65,15 @@ pub enum Pipeline {
 
 /// The export's specialisation constants (`export.json`'s `shader.constants`).
 pub fn constants(dir: &Path) -> Vec<(String, f64)> {
-    let text = std::fs::read_to_string(dir.join("export.json")).expect("export.json");
-    let v: serde_json::Value = serde_json::from_str(&text).expect("export.json parses");
-    v["shader"]["constants"]
-        .as_object()
-        .expect("shader.constants")
-        .iter()
-        .map(|(k, n)| (k.clone(), n.as_f64().expect("a number")))
-        .collect()
+    warpfit::render::gpu::constants(dir).unwrap_or_else(|e| panic!("{e}"))
 }
 
 impl Lookup {
     pub fn load(gpu: &Gpu, dir: &Path, pipeline: Pipeline) -> Lookup {
         let d = &gpu.device;
-        let textures: Vec<wgpu::Texture> = TEXTURES
-            .iter()
-            .map(|f| if dir.join(f).is_file() { gpu.ktx2_texture(&dir.join(f)) } else { gpu.dummy_texture() })
-            .collect();
-        let views: Vec<wgpu::TextureView> = textures.iter().map(|t| t.create_view(&Default::default())).collect();
-        let file = |name: &str| std::fs::read(dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
-        let params = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("params"),
-            contents: &file("warpfit_params.bin"),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let cells = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("cells"),
-            contents: &file("warpfit_cells.bin"),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
-        let mut entries0: Vec<_> = (0..7).map(texture_entry).collect();
-        entries0.push(buffer_entry(7, wgpu::BufferBindingType::Uniform));
-        entries0.push(buffer_entry(8, wgpu::BufferBindingType::Storage { read_only: true }));
-        let layout0 = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: None, entries: &entries0 });
+        let grid = GridBindings::load(gpu, dir, wgpu::ShaderStages::COMPUTE).unwrap_or_else(|e| panic!("{e}"));
+        let (layout0, group0) = (grid.layout, grid.group);
         let layout1 = queries_layout(d);
-        let mut bind: Vec<wgpu::BindGroupEntry> = views
-            .iter()
-            .enumerate()
-            .map(|(k, v)| wgpu::BindGroupEntry { binding: k as u32, resource: wgpu::BindingResource::TextureView(v) })
-            .collect();
-        bind.push(wgpu::BindGroupEntry { binding: 7, resource: params.as_entire_binding() });
-        bind.push(wgpu::BindGroupEntry { binding: 8, resource: cells.as_entire_binding() });
-        let group0 = d.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout: &layout0, entries: &bind });
         let source = std::fs::read_to_string(dir.join("warpfit.wgsl")).expect("warpfit.wgsl exported");
         let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("warpfit.wgsl"),
@@ -370,12 +223,12 @@ impl SurfaceLookup {
         let text = std::fs::read_to_string(dir.join("export.json")).expect("export.json");
         let v: serde_json::Value = serde_json::from_str(&text).expect("export.json parses");
         let section = &v["surfaces"][k];
-        let radiance = gpu.ktx2_texture(&dir.join(section["radiance"].as_str().expect("surfaces[k].radiance")));
+        let radiance = ktx2_texture(gpu, &dir.join(section["radiance"].as_str().expect("surfaces[k].radiance")));
         let view = radiance.create_view(&wgpu::TextureViewDescriptor {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             ..Default::default()
         });
-        let inv = gpu.ktx2_texture(&dir.join(section["inv_distance"].as_str().expect("surfaces[k].inv_distance")));
+        let inv = ktx2_texture(gpu, &dir.join(section["inv_distance"].as_str().expect("surfaces[k].inv_distance")));
         let inv_view = inv.create_view(&Default::default());
         let params_file = dir.join(section["params"].as_str().expect("surfaces[k].params"));
         let params = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
