@@ -95,6 +95,35 @@ fn report_is_self_contained_complete_and_opens_in_chromium() {
     assert!(md.contains("| roughness | method | ꟻLIP | tone-mapped RMSE | rel RMSE |"), "{md}");
     assert!(md.contains("Diffuse: irradiance at"), "the diffuse table is in the report");
 
+    // once `warpfit render` has drawn frames through the exported shader, they lead
+    match warpfit::render::gpu::Gpu::new() {
+        Err(e) => tool_missing("frames drawn through the shader in the report", "a graphics adapter", &e.to_string()),
+        Ok(_) => {
+            use warpfit::render::frames::{self, RenderOptions};
+            let scene = load("tiny");
+            let tracer = warpfit::trace::Tracer::new(&scene);
+            let grid = warpfit::runtime::FittedGrid::load(&dir).unwrap();
+            let out = frames::folder(&dir);
+            warpfit::export::export(&grid, &out.join("export")).unwrap();
+            let opts = RenderOptions {
+                size: (32, 20),
+                cameras: 1,
+                roughness: vec![0.0],
+                diffuse: false,
+                spp: 4,
+                ..Default::default()
+            };
+            frames::render((&scene, &tracer), &grid, &out.join("export"), &out, &opts).unwrap();
+            let r = warpfit::report::page::write_report(&RunFolder::new(&dir), "test").unwrap();
+            assert_eq!(r.images.first().map(String::as_str), Some("render/frame_c0_r0.png"), "{:?}", r.images);
+            let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+            assert_eq!(html.matches("src=\"data:image/png;base64,").count(), r.images.len());
+            let (frame, flip) = (html.find("render/frame_c0_r0.png").unwrap(), html.find("flip_r0.000.png").unwrap());
+            assert!(frame < flip, "the shader's frames come first");
+            assert!(html.contains("drawn as an engine draws it"));
+        }
+    }
+
     match chromium() {
         None => {
             tool_missing("report opens in a browser", "Chromium", "apt-get install chromium, or WARPFIT_CHROMIUM=path")

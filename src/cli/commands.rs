@@ -392,6 +392,17 @@ pub fn render(scene: &SceneArgs, args: &RenderArgs) -> Result<()> {
         out.display(),
         r.frames.len()
     );
+    // a run's report shows the frames first: written again with them, under the command
+    // that made it
+    if folder.eval_json().is_file() && folder.report_json().is_file() {
+        let made_by = std::fs::read(folder.report_json())
+            .ok()
+            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+            .and_then(|v| v["command"].as_str().map(str::to_string))
+            .unwrap_or_else(command_line);
+        report::page::write_report(&folder, &made_by)?;
+        println!("wrote {}/report.html again, the frames first", folder.dir.display());
+    }
     Ok(())
 }
 

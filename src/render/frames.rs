@@ -21,7 +21,7 @@ use crate::warp::Method;
 use crate::warp::glossy::{MipRule, glossy_radiance};
 use glam::Vec3;
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// What `warpfit render` draws.
@@ -56,7 +56,7 @@ impl Default for RenderOptions {
 }
 
 /// ꟻLIP of one frame's images against its reference.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct FrameFlips {
     /// Drawn through the exported shader.
     pub shader: f64,
@@ -69,7 +69,7 @@ pub struct FrameFlips {
 }
 
 /// How closely the shader's frame equals the CPU-drawn one.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Agreement {
     /// Pixels both show a shaded surface in.
     pub pixels: usize,
@@ -81,7 +81,7 @@ pub struct Agreement {
 }
 
 /// One frame's record in `render.json`.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct FrameRecord {
     pub camera: usize,
     pub eye: [f32; 3],
@@ -99,7 +99,7 @@ pub struct FrameRecord {
 }
 
 /// `render.json`.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct RenderReport {
     pub scene: String,
     pub adapter: String,

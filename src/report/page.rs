@@ -109,6 +109,10 @@ pub struct RunReport {
     /// Where the fitted grid wins and loses, in three plain lines (`super::verdict`).
     #[serde(default)]
     pub verdict: Vec<String>,
+    /// `render/render.json` when `warpfit render` drew frames into the folder: they lead
+    /// the pictures.
+    #[serde(default)]
+    pub frames: Option<crate::render::frames::RenderReport>,
 }
 
 fn optional_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<Option<T>, FileError> {
@@ -128,7 +132,12 @@ pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> 
     let stages = stage_rows(bake.as_ref(), &grid, &eval);
     let (layers, payload_bytes) = layer_rows(&grid);
     let left_out = grid.left_out.iter().map(|l| (l.what.clone(), l.reason.clone(), l.bytes_saved)).collect();
-    let images = report_images(&folder.dir, &eval);
+    let frames: Option<crate::render::frames::RenderReport> =
+        optional_json(&crate::render::frames::folder(&folder.dir).join("render.json"))?;
+    let mut images: Vec<String> =
+        frames.iter().flat_map(|f| &f.frames).map(|f| format!("render/{}", f.image)).collect();
+    images.retain(|f| folder.dir.join(f).is_file());
+    images.extend(report_images(&folder.dir, &eval));
     Ok(RunReport {
         scene: eval.scene.clone(),
         command: command.to_string(),
@@ -156,6 +165,7 @@ pub fn build(folder: &RunFolder, command: &str) -> Result<RunReport, FileError> 
         diffuse: eval.diffuse.clone(),
         surface: eval.surface.clone(),
         verdict: super::verdict(&eval),
+        frames,
     })
 }
 
@@ -314,7 +324,10 @@ fn report_images(dir: &Path, eval: &EvalReport) -> Vec<String> {
 /// Whether figure `file` is shown before the tables (the frames and the error-against-cost
 /// pictures) or after them (the diagnostics).
 fn leading(file: &str) -> bool {
-    file.starts_with("flip_") || file.starts_with("eval_error") || file == "eval_rough.png"
+    file.starts_with("render/")
+        || file.starts_with("flip_")
+        || file.starts_with("eval_error")
+        || file == "eval_rough.png"
 }
 
 /// The report as Markdown: the verdict, the frames and error-against-cost pictures, the
@@ -331,7 +344,7 @@ pub fn markdown(r: &RunReport) -> String {
     }
     let figures = |md: &mut String, lead: bool| {
         for img in r.images.iter().filter(|f| leading(f) == lead) {
-            let _ = writeln!(md, "![{img}]({img})\n\n*{}*\n", caption(img));
+            let _ = writeln!(md, "![{img}]({img})\n\n*{}*\n", caption(r, img));
         }
     };
     let _ = writeln!(md, "## Pictures\n");
@@ -652,14 +665,31 @@ fn figures_html(h: &mut String, r: &RunReport, dir: &Path, lead: bool) -> Result
             h,
             "<figure><img alt=\"{0}\" src=\"data:image/png;base64,{b64}\"><figcaption><b>{0}</b>: {1}</figcaption></figure>",
             escape(img),
-            escape(caption(img))
+            escape(&caption(r, img))
         );
     }
     Ok(())
 }
 
 /// What to look for in figure `file`.
-fn caption(file: &str) -> &'static str {
+fn caption(r: &RunReport, file: &str) -> String {
+    let frame = file.strip_prefix("render/").and_then(|f| r.frames.as_ref()?.frames.iter().find(|x| x.image == f));
+    if let Some(f) = frame {
+        let what = f
+            .roughness
+            .map_or("every surface diffuse".to_string(), |x| format!("every surface a reflector of roughness {x}"));
+        let beside = f.flip.box_projection.map_or(format!("the CPU sampler's frame (ꟻLIP {:.3})", f.flip.cpu), |b| {
+            format!("box projection (ꟻLIP {b:.3})")
+        });
+        return format!(
+            "camera {}, {what}, drawn as an engine draws it (rasterised, shaded by the exported shader): the traced reference | the shader's frame (ꟻLIP {:.3}) | {beside} | the shader's ꟻLIP map. The reference's own noise is ꟻLIP {:.3}; render/render.md has every figure.",
+            f.camera, f.flip.shader, f.flip.reference_noise
+        );
+    }
+    static_caption(file).to_string()
+}
+
+fn static_caption(file: &str) -> &'static str {
     match file {
         "eval_error_vs_cost.png" => {
             "every method's held-out tone-mapped error against its cost per lookup, mirror lookups; the red line is the Pareto front. Look for the fitted grid (fitted = runtime) below and left of the seed methods, and for how far it sits from the oracle bound."
