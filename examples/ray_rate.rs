@@ -7,9 +7,10 @@
 //!     cargo run --release --example ray_rate -- /tmp/rays/atrium 5 portable
 //!
 //! Optional arguments after PASSES: `portable` forces the portable (SSE2) node test instead
-//! of the widest this CPU has; `occluded` times occlusion rays instead (each ray to 90% of
-//! its closest hit, so they walk the tree and find nothing: `cargo run --release --example
-//! ray_rate -- /tmp/rays/atrium 5 occluded`); `packets` times the batch API instead
+//! of the widest this CPU has; `occluded` times occlusion rays instead (each ray to its
+//! reach in CASE.tmax.f32 when that file exists, as `WARPFIT_DUMP_STREAMS` writes shadow
+//! streams; else to 90% of its closest hit, so they walk the tree and find nothing:
+//! `cargo run --release --example ray_rate -- /tmp/rays/atrium 5 occluded`); `packets` times the batch API instead
 //! (`Tracer::closest_hits` on the rays sorted by `coherent_order`, the sort timed, after
 //! checking every ray's hit against `closest_hit`), and with `nosort` on the rays as given;
 //! `write-coherent` writes the rays in that order to CASE_coherent.rays.f32 (for Embree).
@@ -62,10 +63,15 @@ fn main() -> Result<(), String> {
         .collect();
 
     let tracer = Tracer::new(&scene).with_node_test(test);
-    let rays: Vec<(Vec3, Vec3, f32)> = rays
-        .iter()
-        .map(|&(o, d)| (o, d, tracer.closest_hit(o, d, f32::INFINITY).map_or(100.0, |h| h.t * 0.9)))
-        .collect();
+    // a dumped shadow stream carries each ray's reach (CASE.tmax.f32): occlusion at it
+    let given = floats(&format!("{case}.tmax.f32")).ok().filter(|t| t.len() == rays.len());
+    let rays: Vec<(Vec3, Vec3, f32)> = match &given {
+        Some(t) if occluded => rays.iter().zip(t).map(|(&(o, d), &t)| (o, d, t)).collect(),
+        _ => rays
+            .iter()
+            .map(|&(o, d)| (o, d, tracer.closest_hit(o, d, f32::INFINITY).map_or(100.0, |h| h.t * 0.9)))
+            .collect(),
+    };
     // the batch API instead: the rays put in a coherent order (timed with the pass), then
     // walked in packets
     let packets = flag("packets");

@@ -42,7 +42,20 @@ fn main() {
         .with_writer(std::io::stderr)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
-    if let Err(e) = run(cli) {
+    // every ray traced, kept per stream for measuring the tracer on them (trace::streams)
+    let dump = warpfit::trace::streams::start_from_env();
+    let result = run(cli);
+    if let Some(dir) = dump {
+        match warpfit::trace::streams::write(&dir) {
+            Ok(streams) => {
+                for (name, n) in streams {
+                    eprintln!("{}: {n} rays", dir.join(name).display());
+                }
+            }
+            Err(e) => eprintln!("error: writing the ray streams to {}: {e}", dir.display()),
+        }
+    }
+    if let Err(e) = result {
         // The library's errors already quote their source; print each cause only once.
         let mut text = e.to_string();
         for cause in e.chain().skip(1) {

@@ -685,3 +685,46 @@ fn coherent_order_is_a_permutation_of_neighbouring_directions() {
         (mean_step(&mut random.iter().copied()), mean_step(&mut order.iter().map(|&i| random[i as usize])));
     assert!(sorted < given / 10.0, "mean angle between neighbours {sorted} against {given} unsorted");
 }
+
+/// `WARPFIT_DUMP_STREAMS=DIR` keeps the rays a command traces per stage and kind, in the
+/// layout `examples/ray_rate.rs` and the Embree scripts read: the scene's triangles, each
+/// stream's rays (origin, unit direction) and their reach.
+#[test]
+fn the_ray_streams_a_bake_traces_are_dumped_per_stage_and_kind() {
+    let dir = common::tmp_dir("streams");
+    let out = common::tmp_dir("streams-bake");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_warpfit"))
+        .args(["--quiet", "--threads", "1", "bake", "--scene", "data/scenes/tiny.toml", "--out"])
+        .arg(&*out)
+        .env("WARPFIT_DUMP_STREAMS", &*dir)
+        .current_dir(common::repo())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let list = std::fs::read_to_string(dir.join("streams.txt")).unwrap();
+    let streams: Vec<(&str, usize)> =
+        list.lines().map(|l| l.split_once(' ').map(|(a, b)| (a, b.parse().unwrap())).unwrap()).collect();
+    for want in ["probe_bake_primary", "probe_bake_shadow", "grid_bake_primary", "grid_bake_bounce"] {
+        assert!(streams.iter().any(|(n, k)| *n == want && *k > 0), "{want} in {list}");
+    }
+    let floats = |p: std::path::PathBuf| -> Vec<f32> {
+        std::fs::read(&p).unwrap().chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()
+    };
+    let scene = common::load("tiny");
+    assert_eq!(floats(dir.join("scene.tris.f32")).len(), 9 * scene.triangles.len());
+    for (name, n) in streams {
+        let rays = floats(dir.join(format!("{name}.rays.f32")));
+        let tmax = floats(dir.join(format!("{name}.tmax.f32")));
+        assert_eq!((rays.len(), tmax.len()), (6 * n, n), "{name}");
+        assert!(dir.join(format!("{name}.tris.f32")).is_file());
+        for r in rays.chunks_exact(6) {
+            let d = Vec3::new(r[3], r[4], r[5]);
+            assert!((d.length() - 1.0).abs() < 1e-3, "{name}: direction {d}");
+        }
+        assert!(tmax.iter().all(|t| *t > 0.0 && !t.is_nan()), "{name}");
+    }
+    // the probe's first rays all start at probe A, one per texel sample, in texel order
+    let first = floats(dir.join("probe_bake_primary.rays.f32"));
+    let a = Vec3::from_array(scene.config.probe.position);
+    assert!(first.chunks_exact(6).take(100).all(|r| Vec3::new(r[0], r[1], r[2]) == a));
+}

@@ -214,12 +214,14 @@ pub fn shard_cells(scene: &Scene, k: usize, n: usize) -> std::ops::Range<usize> 
 pub fn bake(scene: &Scene, tracer: &Tracer, progress: &Progress) -> Bake {
     let t0 = Instant::now();
     let renderer = Renderer::new(scene, tracer);
+    crate::trace::streams::set_stage(crate::trace::streams::Stage::ProbeBake);
     let (probe, mut probe_rays) = probe::bake_probe(&renderer, &probe_settings(scene), progress);
     let placement = placement::place(&renderer, &grid_settings(scene));
     let (others, other_rays) = bake_others(&renderer, &placement.positions, progress);
     probe_rays += other_rays + placement.rays;
     let probe_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
+    crate::trace::streams::set_stage(crate::trace::streams::Stage::GridBake);
     let (grid, grid_rays) = grid::bake_grid(&renderer, &grid_settings(scene), progress);
     let grid_s = t1.elapsed().as_secs_f64();
     let total_s = t0.elapsed().as_secs_f64();

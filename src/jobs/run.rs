@@ -304,6 +304,7 @@ pub fn fit(
     // correction the grid stores (lobes or fitted to this scene)
     let lobes = fit_lobes(baked);
     let glossy = Glossy { warp, correction: lobes.as_ref() };
+    crate::trace::streams::set_stage(crate::trace::streams::Stage::Fit);
     let fitted = crate::fit::fit(baked, glossy, settings, sets, out.progress);
     let manifest = write_fit(baked, warp, &fitted, store, out)?;
     Ok((fitted, manifest))
@@ -323,6 +324,7 @@ pub fn fit_staged(
     command: &str,
     progress: &Progress,
 ) -> Result<(Fit, GridManifest), FileError> {
+    crate::trace::streams::set_stage(crate::trace::streams::Stage::Fit);
     let lobes = fit_lobes(p.baked());
     let glossy = Glossy { warp, correction: lobes.as_ref() };
     let diffuse = crate::fit::diffuse_stage(p.baked(), glossy, settings);
@@ -464,6 +466,7 @@ pub fn evaluate(
         correction: correction.as_ref(),
     };
     let before = baked.references.map(ReferenceStore::counts).unwrap_or_default();
+    crate::trace::streams::set_stage(crate::trace::streams::Stage::Eval);
     let mut ev = eval::evaluate(subject, settings, out.command, out.progress);
     let after = baked.references.map(ReferenceStore::counts).unwrap_or_default();
     (ev.report.times.reference_sets_traced, ev.report.times.reference_sets_reused) =

@@ -16,6 +16,7 @@
 //!   triangles use the watertight test of Woop, Benthin & Wald (JCGT 2013).
 
 use super::cwbvh::{self, NodeRay, NodeTest};
+use super::streams;
 use crate::scene::Scene;
 use glam::{Vec3, Vec3A, Vec4};
 use obvhs::{BvhBuildParams, aabb::Aabb, cwbvh::CwBvh, ray::Ray, ray::RayHit};
@@ -212,6 +213,7 @@ impl Tracer {
     }
 
     pub fn with_quality(scene: &Scene, quality: BuildQuality) -> Tracer {
+        streams::set_triangles(&scene.triangles.v0, &scene.triangles.v1, &scene.triangles.v2);
         let (lo, hi) = scene.bounds();
         let centre = (lo + hi) * 0.5;
         let extent = (hi - lo).max_element().max(f32::MIN_POSITIVE);
@@ -351,6 +353,14 @@ impl Tracer {
     /// Non-finite inputs return `None`.
     #[inline]
     pub fn closest_hit(&self, origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
+        self.closest_hit_as(streams::Kind::Primary, origin, dir, tmax)
+    }
+
+    /// [`Tracer::closest_hit`], kept as a ray of `kind` when the streams are dumped
+    /// ([`streams`]).
+    #[inline]
+    pub fn closest_hit_as(&self, kind: streams::Kind, origin: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
+        streams::record(kind, origin, dir, tmax);
         if !origin.is_finite() || !dir.is_finite() || dir == Vec3::ZERO {
             return None;
         }
@@ -429,6 +439,7 @@ impl Tracer {
     /// True when something lies along `dir` from `origin` closer than `tmax` (world units).
     #[inline]
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
+        streams::record(streams::Kind::Shadow, origin, dir, tmax);
         if !origin.is_finite() || !dir.is_finite() {
             return true;
         }

@@ -5,6 +5,7 @@ pub mod bvh;
 pub mod cwbvh;
 pub mod radiance;
 pub mod store;
+pub mod streams;
 pub mod truth;
 
 pub use bvh::{BuildQuality, Hit, Tracer, coherent_order};

@@ -336,7 +336,7 @@ impl<'a> Renderer<'a> {
             let d = cosine_hemisphere(sampler.next_2d(), n);
             *rays += 1;
             // Cosine-weighted sampling: the estimator of ∫ albedo/π L cos dω is albedo · L.
-            let hit = self.tracer.closest_hit(origin, d, f32::INFINITY);
+            let hit = self.tracer.closest_hit_as(super::streams::Kind::Bounce, origin, d, f32::INFINITY);
             out += albedo * self.bounce_radiance(hit, d, bounces_left - 1, sampler, rays);
         }
         out
