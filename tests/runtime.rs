@@ -13,6 +13,7 @@ use warpfit::gridfile::{GRID_VERSION, GRID_VERSION_WRITTEN, MANIFEST_FILE};
 use warpfit::jobs::run::{self as job, StoreOptions};
 use warpfit::report::folder::RunFolder;
 use warpfit::runtime::{FittedGrid, IrradianceBlend, LoadError, Precision, SpecularRead};
+use warpfit::warp::Method;
 use warpfit::warp::corrective::Blend;
 
 fn tiny() -> PathBuf {
@@ -276,7 +277,18 @@ fn specular_batch_is_bitwise_the_single_call() {
     // for bit with `specular`, on the committed grid and on a lit torture grid.
     let grids = [FittedGrid::load(tiny()).unwrap(), FittedGrid::load(&fixture().f32_dir).unwrap()];
     let faces = |g: &FittedGrid| g.clone().with_lookup(|_, blend, _| *blend = Blend::Faces);
-    let grids = grids.iter().flat_map(|g| [g.clone(), faces(g)]).chain([faces(&load_tiny_probes())]);
+    // the faces blend's aims are found side by side, for every proxy; one by one with UV
+    // relaxation
+    let variants = |g: &FittedGrid| {
+        let proxies = [Method::Box, Method::Kdop, Method::Warp1]
+            .map(|m| g.clone().with_lookup(|_, blend, c| (*blend, c.fallback) = (Blend::Faces, m)));
+        let relaxed = g.clone().with_lookup(|w, blend, _| (*blend, w.options.relax_texels) = (Blend::Faces, 1.0));
+        proxies.into_iter().chain([relaxed])
+    };
+    let grids = grids
+        .iter()
+        .flat_map(|g| [g.clone(), faces(g)].into_iter().chain(variants(g)))
+        .chain([faces(&load_tiny_probes())]);
     for g in grids.flat_map(|g| SpecularRead::ALL.map(|read| g.clone().with_read(read))) {
         let lanes = warpfit::octa::LANES;
         let n = lanes * 5 + 3;

@@ -424,51 +424,93 @@ impl FittedGrid {
     /// `specular` for the lanes near a face of [`octa::LANES`] queries of a grid read with
     /// `Blend::Faces` (`cells`, each lane's `Correctives::face_cells` at its position made
     /// safe; the other lanes are left black), bit for bit the same values: each query's
-    /// aims are found one by one (`Correctives::face_aims`: up to eight near cells), then
-    /// the probe is read for all the aims side by side, [`octa::LANES`] at a time, and each
-    /// query sums its aims' radiances in order, then blends its irradiance (`mix_near`).
+    /// distinct lookups (`Correctives::face_groups`: up to eight near cells), the proxy's
+    /// exit for all lanes at once, then the aims and the probe reads side by side,
+    /// [`octa::LANES`] at a time, each query summing its aims' radiances in order, then
+    /// blending its irradiance (`mix_near`). With UV relaxation the aims are found one by
+    /// one (`Correctives::face_aims_in`), since cells without a map read the relaxed proxy.
     #[inline]
     fn specular_faces_lanes(
         &self,
         positions: &[Vec3; octa::LANES],
         directions: &[Vec3; octa::LANES],
         roughness: &[f32; octa::LANES],
-        cells: &[crate::warp::corrective::FaceCells; octa::LANES],
+        cells: &[FaceCells; octa::LANES],
     ) -> [Vec3; octa::LANES] {
-        use crate::warp::corrective::FaceAims;
+        use crate::warp::corrective::{AimLanes, FaceAims};
         const L: usize = octa::LANES;
         let placeholder = SpecularQuery { b: self.warp.probe.position, dir: Vec3::Z, r: 0.0 };
         let mut q = [placeholder; L];
         let mut valid = [false; L];
-        let mut aims = [FaceAims::one(Aim::from(Vec3::Z)); L];
-        // every aim of every valid query, as (query, aim) in query order
-        let mut entries = [(0u8, 0u8); 8 * L];
-        let mut count = 0;
         for k in (0..L).filter(|&k| cells[k].n > 1) {
             if let Some(query) = self.specular_query(positions[k], directions[k], roughness[k]) {
                 (q[k], valid[k]) = (query, true);
-                aims[k] = self.correctives.face_aims_in(cells[k], &self.warp, query.b, query.dir, query.r);
-                for a in 0..aims[k].n {
-                    entries[count] = (k as u8, a as u8);
-                    count += 1;
-                }
             }
         }
+        let relaxed = self.warp.options.relax_texels > 0.0;
+        // per query its lookups: (probe, weight, shift) and how many; aims one by one when
+        // relaxed
+        let mut groups = [([(0u8, 0.0f32, 0.0f32); 8], 0usize); L];
+        let mut aims = [FaceAims::one(Aim::from(Vec3::Z)); L];
+        // every lookup of every valid query, as (query, lookup) in query order
+        let mut entries = [(0u8, 0u8); 8 * L];
+        let mut count = 0;
+        for k in (0..L).filter(|&k| valid[k]) {
+            let n = if relaxed {
+                aims[k] = self.correctives.face_aims_in(cells[k], &self.warp, q[k].b, q[k].dir, q[k].r);
+                aims[k].n
+            } else {
+                groups[k] = self.correctives.face_groups(&cells[k], &self.warp, q[k].dir, q[k].r);
+                groups[k].1
+            };
+            for a in 0..n {
+                entries[count] = (k as u8, a as u8);
+                count += 1;
+            }
+        }
+        // the proxy's exit of every query, as `face_aims_in` finds it once per query
+        let (t, has_t) = if relaxed {
+            ([0.0f32; L], [false; L])
+        } else {
+            self.correctives.proxy_exit_lanes(&self.warp, &q.map(|q| q.b), &q.map(|q| q.dir))
+        };
+        let weight = |k: usize, a: usize| if relaxed { aims[k].weights[a] } else { groups[k].0[a].1 };
+        let lookups = |k: usize| if relaxed { aims[k].n } else { groups[k].1 };
         let mut spec = [Vec3::ZERO; L];
         let c = self.roughness.as_ref();
         for start in (0..count).step_by(L) {
             let m = (count - start).min(L);
-            // the group's aims, the last one repeated to fill the lanes
-            let (mut v, mut ratio, mut probe, mut r) = ([Vec3::Z; L], [1.0f32; L], [0u8; L], [0.0f32; L]);
-            for l in 0..L {
+            // the group's lookups, the last one repeated to fill the lanes
+            let pick: [(usize, usize); L] = std::array::from_fn(|l| {
                 let (k, a) = entries[start + l.min(m - 1)];
-                let (query, aim) = (q[k as usize], aims[k as usize].aims[a as usize]);
-                (v[l], probe[l], r[l]) = (aim.v, aim.probe, query.r);
-                if query.r != 0.0 {
-                    ratio[l] = aim.ratio(&self.warp, query.b, octa::encode(aim.v));
+                (k as usize, a as usize)
+            });
+            let r: [f32; L] = std::array::from_fn(|l| q[pick[l].0].r);
+            let (v, ratio, probe) = if relaxed {
+                let (mut v, mut ratio, mut probe) = ([Vec3::Z; L], [1.0f32; L], [0u8; L]);
+                for l in 0..L {
+                    let (k, a) = pick[l];
+                    let aim = aims[k].aims[a];
+                    (v[l], probe[l]) = (aim.v, aim.probe);
+                    if q[k].r != 0.0 {
+                        ratio[l] = aim.ratio(&self.warp, q[k].b, octa::encode(aim.v));
+                    }
                 }
-            }
-            let v = octa::soa(&v);
+                (octa::soa(&v), ratio, probe)
+            } else {
+                let probe: [u8; L] = std::array::from_fn(|l| groups[pick[l].0].0[pick[l].1].0);
+                let delta: [f32; L] = std::array::from_fn(|l| groups[pick[l].0].0[pick[l].1].2);
+                let mut a = [[0.0f32; L]; 3];
+                for l in 0..L {
+                    [a[0][l], a[1][l], a[2][l]] = self.warp.probe_at(probe[l].into()).position.to_array();
+                }
+                let bb = octa::soa(&pick.map(|(k, _)| q[k].b));
+                let d = octa::soa(&pick.map(|(k, _)| q[k].dir));
+                let (tl, hl) = (pick.map(|(k, _)| t[k]), pick.map(|(k, _)| has_t[k]));
+                let aimed = AimLanes::shifted_from(&a, &tl, &hl, &delta, &bb, d).with_probes(probe);
+                let (v, ratio) = aimed.vectors_and_ratios();
+                (v, ratio, probe)
+            };
             let radiance = if r.iter().all(|&r| r == 0.0) {
                 self.mirror_lanes(&probe, &v)
             } else {
@@ -478,12 +520,10 @@ impl FittedGrid {
                     |ps| corrected_lanes_of(ps, c, &r, &v, &ratio),
                 )
             };
-            // each query's sum in its aims' order, as `shade` forms it
+            // each query's sum in its lookups' order, as `shade` forms it
             for l in 0..m {
-                let (k, a) = entries[start + l];
-                let f = &aims[k as usize];
-                let k = k as usize;
-                spec[k] = if f.n == 1 { radiance[l] } else { spec[k] + f.weights[a as usize] * radiance[l] };
+                let (k, a) = pick[l];
+                spec[k] = if lookups(k) == 1 { radiance[l] } else { spec[k] + weight(k, a) * radiance[l] };
             }
         }
         for k in 0..L {

@@ -295,9 +295,31 @@ impl Correctives {
         if cells.n == 1 {
             return FaceAims::one(self.fetch_in(cells.cells[0], Blend::Cell, warp, b, dir, r));
         }
+        let (groups, n) = self.face_groups(&cells, warp, dir, r);
+        let t = warp.base_distance(self.fallback, b, dir);
+        let mut out = FaceAims { aims: [Aim { v: dir, k: Some(1.0), probe: 0 }; 8], weights: [0.0; 8], n };
+        for (k, &(key, w, delta)) in groups[..n].iter().enumerate() {
+            out.weights[k] = w;
+            out.aims[k] = if key == RELAXED {
+                warp.fetch_vector(self.fallback, b, dir).into()
+            } else {
+                let a = warp.probe_at(key.into()).position;
+                let aim =
+                    if b == a { Aim { v: dir, k: Some(1.0), probe: 0 } } else { shifted_aim(a, t, delta, b, dir) };
+                Aim { probe: key, ..aim }
+            };
+        }
+        out
+    }
+
+    /// The distinct lookups of a faces blend over `cells` for direction `dir` at roughness
+    /// `r`: (the probe each reads, or `RELAXED` for a cell without a map that reads the
+    /// relaxed proxy; the cells' summed weight; the shift), in the order the cells first
+    /// name them, and how many. [`face_aims_in`](Self::face_aims_in) aims each.
+    #[inline]
+    pub(crate) fn face_groups(&self, cells: &FaceCells, warp: &Warp, dir: Vec3, r: f32) -> ([(u8, f32, f32); 8], usize) {
         let taps = octa::bilinear_taps(self.map_res, octa::encode(dir));
         let relax = warp.options.relax_texels > 0.0;
-        // (probe or RELAXED, summed weight, shift) per distinct lookup
         let mut groups = [(0u8, 0.0f32, 0.0f32); 8];
         let mut n = 0;
         for k in 0..cells.n {
@@ -316,20 +338,25 @@ impl Correctives {
             };
             groups[at].1 += cells.weights[k];
         }
-        let t = warp.base_distance(self.fallback, b, dir);
-        let mut out = FaceAims { aims: [Aim { v: dir, k: Some(1.0), probe: 0 }; 8], weights: [0.0; 8], n };
-        for (k, &(key, w, delta)) in groups[..n].iter().enumerate() {
-            out.weights[k] = w;
-            out.aims[k] = if key == RELAXED {
-                warp.fetch_vector(self.fallback, b, dir).into()
-            } else {
-                let a = warp.probe_at(key.into()).position;
-                let aim =
-                    if b == a { Aim { v: dir, k: Some(1.0), probe: 0 } } else { shifted_aim(a, t, delta, b, dir) };
-                Aim { probe: key, ..aim }
-            };
+        (groups, n)
+    }
+
+    /// Where the proxy the maps shift lets each of [`LANES`] rays go (`Warp::base_distance`
+    /// lane by lane, the box's for all lanes at once): the distance, and whether there is one.
+    #[inline(always)]
+    pub(crate) fn proxy_exit_lanes(&self, warp: &Warp, b: &[Vec3; LANES], dir: &[Vec3; LANES]) -> ([f32; LANES], [bool; LANES]) {
+        match self.fallback {
+            Method::Box => warp.proxies.aabb.exit_distance_soa(&octa::soa(b), &octa::soa(dir)),
+            method => {
+                let (mut t, mut ok) = ([0.0f32; LANES], [false; LANES]);
+                for k in 0..LANES {
+                    if let Some(x) = warp.base_distance(method, b[k], dir[k]) {
+                        (t[k], ok[k]) = (x, true);
+                    }
+                }
+                (t, ok)
+            }
         }
-        out
     }
 
     /// Fetch vector for the mirror query (B, dir).
@@ -448,18 +475,7 @@ impl Correctives {
         }
         let (bb, d) = (octa::soa(b), octa::soa(dir));
         // the proxy's exit for every lane
-        let (t, has_t) = match self.fallback {
-            Method::Box => warp.proxies.aabb.exit_distance_soa(&bb, &d),
-            method => {
-                let (mut t, mut ok) = ([0.0f32; LANES], [false; LANES]);
-                for k in 0..LANES {
-                    if let Some(x) = warp.base_distance(method, b[k], dir[k]) {
-                        (t[k], ok[k]) = (x, true);
-                    }
-                }
-                (t, ok)
-            }
-        };
+        let (t, has_t) = self.proxy_exit_lanes(warp, b, dir);
         // each lane's shift: its cell's map, bilinear (a gather for the lanes with a map)
         let uv = octa::encode_soa(&d);
         let cells = self.geometry.cell_index_soa(&bb, self.cell_size);
