@@ -379,6 +379,11 @@ impl Tracer {
     #[must_use]
     pub fn closest_hits(&self, rays: &[(Vec3, Vec3)], tmax: f32) -> Vec<Option<Hit>> {
         let mut out = vec![None; rays.len()];
+        if streams::on() {
+            for &(o, d) in rays {
+                streams::record(streams::Kind::Primary, o, d, tmax);
+            }
+        }
         let placeholder = self.normalised_ray(Vec3::ZERO, Vec3::X, 0.0);
         for (batch, out) in rays.chunks(cwbvh::PACKET).zip(out.chunks_mut(cwbvh::PACKET)) {
             let mut node_rays = [placeholder; cwbvh::PACKET];
