@@ -102,7 +102,6 @@ struct SurfaceVarying {
 struct SurfaceOut {
     vec4 radiance;
     vec4 query_point;
-    vec4 query_direction;
     float depth;
 };
 const uint DYNAMIC = 255u;
@@ -486,23 +485,23 @@ uvec3 corner_cell(Lattice l_1, uint corner_1) {
     return min((l_1.base + o_1), (_e17.xyz - uvec3(1u)));
 }
 
-vec2 warp1_exit(vec3 b_2, vec3 dir) {
+vec2 warp1_exit(vec3 b_2, vec3 dir_1) {
     bool local_11 = false;
     vec4 _e4 = _group_0_binding_7_cs.probe;
     vec3 a_1 = _e4.xyz;
-    float _e6 = inv_dist(dir);
+    float _e6 = inv_dist(dir_1);
     if ((_e6 == 0.0)) {
         return vec2(1e30, 1.0);
     }
     vec3 ab = (a_1 - b_2);
-    float dir_ab = dot(dir, ab);
-    vec3 v_11 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
+    float dir_ab = dot(dir_1, ab);
+    vec3 v_11 = ((dir_1 * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
     float _e23 = inv_dist(v_11);
     float lambda = (length(v_11) * _e23);
     if (!((lambda > 0.0))) {
         return vec2(1e30, 1.0);
     }
-    float t_10 = (max(((dir_ab * lambda) + dot(dir, v_11)), 0.0) / lambda);
+    float t_10 = (max(((dir_ab * lambda) + dot(dir_1, v_11)), 0.0) / lambda);
     bool _e37 = finite(t_10);
     if (_e37) {
         local_11 = (t_10 < HUGE);
@@ -516,28 +515,28 @@ vec2 warp1_exit(vec3 b_2, vec3 dir) {
     return vec2(t_10, 1.0);
 }
 
-vec3 warp1_(vec3 b_3, vec3 dir_1) {
+vec3 warp1_(vec3 b_3, vec3 dir_2) {
     vec4 _e4 = _group_0_binding_7_cs.probe;
     vec3 a_2 = _e4.xyz;
-    float _e6 = inv_dist(dir_1);
+    float _e6 = inv_dist(dir_2);
     if ((_e6 == 0.0)) {
-        return dir_1;
+        return dir_2;
     }
     vec3 ab_1 = (a_2 - b_3);
-    float dir_ab_1 = dot(dir_1, ab_1);
-    vec3 v_12 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
+    float dir_ab_1 = dot(dir_2, ab_1);
+    vec3 v_12 = ((dir_2 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
     float _e20 = inv_dist(v_12);
     float lambda_1 = (length(v_12) * _e20);
-    float t_11 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_12)), 0.0);
-    vec3 f_5 = ((dir_1 * t_11) - (ab_1 * lambda_1));
+    float t_11 = max(((dir_ab_1 * lambda_1) + dot(dir_2, v_12)), 0.0);
+    vec3 f_5 = ((dir_2 * t_11) - (ab_1 * lambda_1));
     if ((lambda_1 > 0.0)) {
-        vec3 _e34 = fetch_vector(vec3(0.0), f_5, dir_1);
+        vec3 _e34 = fetch_vector(vec3(0.0), f_5, dir_2);
         return _e34;
     }
-    return dir_1;
+    return dir_2;
 }
 
-vec2 box_exit(vec3 b_4, vec3 dir_2) {
+vec2 box_exit(vec3 b_4, vec3 dir_3) {
     float t_4 = HUGE;
     int k = 0;
     vec4 _e4 = _group_0_binding_7_cs.box_x;
@@ -551,7 +550,7 @@ vec2 box_exit(vec3 b_4, vec3 dir_2) {
     if (any(greaterThan(abs(o_2), h))) {
         return vec2(0.0, 0.0);
     }
-    vec3 d_2 = (m_2 * dir_2);
+    vec3 d_2 = (m_2 * dir_3);
     bool loop_init = true;
     while(true) {
         if (!loop_init) {
@@ -586,7 +585,7 @@ vec2 box_exit(vec3 b_4, vec3 dir_2) {
     return vec2(max(_e71, 0.0), 1.0);
 }
 
-vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
+vec2 kdop_exit(vec3 b_5, vec3 dir_4) {
     float t_5 = HUGE;
     uint k_1 = 0u;
     bool loop_init_1 = true;
@@ -616,7 +615,7 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
             if ((nb > h_1)) {
                 return vec2(0.0, 0.0);
             }
-            float nd = dot(n_13, dir_3);
+            float nd = dot(n_13, dir_4);
             if ((nd > 0.0)) {
                 float _e39 = t_5;
                 t_5 = min(_e39, ((h_1 - nb) / nd));
@@ -627,25 +626,25 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
     return vec2(_e46, 1.0);
 }
 
-vec2 proxy_exit(vec3 b_6, vec3 dir_4) {
+vec2 proxy_exit(vec3 b_6, vec3 dir_5) {
     uint _e2 = fallback_method();
     switch(_e2) {
         case 0u: {
-            vec2 _e3 = warp1_exit(b_6, dir_4);
+            vec2 _e3 = warp1_exit(b_6, dir_5);
             return _e3;
         }
         case 2u: {
-            vec2 _e4 = kdop_exit(b_6, dir_4);
+            vec2 _e4 = kdop_exit(b_6, dir_5);
             return _e4;
         }
         default: {
-            vec2 _e5 = box_exit(b_6, dir_4);
+            vec2 _e5 = box_exit(b_6, dir_5);
             return _e5;
         }
     }
 }
 
-vec3 proxy_fetch(vec2 exit, vec3 b_7, vec3 dir_5) {
+vec3 proxy_fetch(vec2 exit, vec3 b_7, vec3 dir_6) {
     bool local_12 = false;
     if (!((exit.y == 0.0))) {
         local_12 = !((exit.x < HUGE));
@@ -654,16 +653,16 @@ vec3 proxy_fetch(vec2 exit, vec3 b_7, vec3 dir_5) {
     }
     bool _e14 = local_12;
     if (_e14) {
-        return dir_5;
+        return dir_6;
     }
     vec4 _e17 = _group_0_binding_7_cs.probe;
-    vec3 _e22 = fetch_vector(_e17.xyz, (b_7 + (dir_5 * exit.x)), dir_5);
+    vec3 _e22 = fetch_vector(_e17.xyz, (b_7 + (dir_6 * exit.x)), dir_6);
     return _e22;
 }
 
-vec3 box_fetch(vec3 b_8, vec3 dir_6) {
-    vec2 _e2 = box_exit(b_8, dir_6);
-    vec3 _e3 = proxy_fetch(_e2, b_8, dir_6);
+vec3 box_fetch(vec3 b_8, vec3 dir_7) {
+    vec2 _e2 = box_exit(b_8, dir_7);
+    vec3 _e3 = proxy_fetch(_e2, b_8, dir_7);
     return _e3;
 }
 
@@ -690,23 +689,23 @@ vec3 normalize_or(vec3 v_7, vec3 fallback_1) {
     return fallback_1;
 }
 
-vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
+vec3 fallback_fetch(vec3 b_9, vec3 dir_8) {
     vec3 plain = vec3(0.0);
     vec3 sum = vec3(0.0);
     uint s = 0u;
     vec3 d_1 = vec3(0.0);
     vec4 _e4 = _group_0_binding_7_cs.probe;
     if (all(equal(b_9, _e4.xyz))) {
-        return dir_7;
+        return dir_8;
     }
     float relax = _group_0_binding_7_cs.warp.x;
     bool _e12 = relaxation_on();
     float _e18 = _group_0_binding_7_cs.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
-    Basis _e20 = orthonormal_basis(dir_7);
+    Basis _e20 = orthonormal_basis(dir_8);
     vec3 t_12 = (_e20.t * angle);
     vec3 bt = (_e20.b * angle);
-    plain = dir_7;
+    plain = dir_8;
     bool loop_init_2 = true;
     while(true) {
         if (!loop_init_2) {
@@ -720,23 +719,23 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
             break;
         }
         {
-            d_1 = dir_7;
+            d_1 = dir_8;
             uint _e37 = s;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_7 + t_12));
+                    d_1 = normalize((dir_8 + t_12));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_7 - t_12));
+                    d_1 = normalize((dir_8 - t_12));
                     break;
                 }
                 case 3u: {
-                    d_1 = normalize((dir_7 + bt));
+                    d_1 = normalize((dir_8 + bt));
                     break;
                 }
                 case 4u: {
-                    d_1 = normalize((dir_7 - bt));
+                    d_1 = normalize((dir_8 - bt));
                     break;
                 }
                 default: {
@@ -752,7 +751,7 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
                 plain = _e49;
             }
             vec3 _e53 = sum;
-            vec3 _e54 = normalize_or(_e49, dir_7);
+            vec3 _e54 = normalize_or(_e49, dir_8);
             sum = (_e53 + _e54);
         }
     }
@@ -761,11 +760,11 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
         return _e60;
     }
     vec3 _e61 = sum;
-    vec3 _e62 = normalize_or(_e61, dir_7);
+    vec3 _e62 = normalize_or(_e61, dir_8);
     return _e62;
 }
 
-Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_7) {
+Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_9, uint p_7) {
     bool local_14 = false;
     float s_1 = 0.0;
     bool local_15 = false;
@@ -778,7 +777,7 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_7) {
     }
     bool _e16 = local_14;
     if (_e16) {
-        return Aim(dir_8, 1.0, p_7);
+        return Aim(dir_9, 1.0, p_7);
     }
     s_1 = (exit_1.x + delta);
     float _e22 = s_1;
@@ -787,7 +786,7 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_7) {
     }
     float _e27 = s_1;
     vec4 _e33 = _group_0_binding_7_cs.probes[p_7];
-    vec3 v_13 = ((b_10 + (dir_8 * _e27)) - _e33.xyz);
+    vec3 v_13 = ((b_10 + (dir_9 * _e27)) - _e33.xyz);
     bool _e36 = finite3_(v_13);
     if (_e36) {
         local_15 = any(notEqual(v_13, vec3(0.0)));
@@ -813,7 +812,7 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_7) {
         float _e60 = k_2;
         return Aim(v_13, _e60, p_7);
     }
-    return Aim(dir_8, 1.0, p_7);
+    return Aim(dir_9, 1.0, p_7);
 }
 
 float face_ramp(float x_2) {
@@ -856,7 +855,7 @@ float mip_roughness(uint m) {
     return _e9;
 }
 
-float lod_of_roughness(float r_2) {
+float lod_of_roughness(float r_3) {
     bool local_19 = false;
     uint below = 0u;
     uint t_6 = 0u;
@@ -864,7 +863,7 @@ float lod_of_roughness(float r_2) {
     uint n_14 = _group_0_binding_7_cs.probe_info.x;
     if (!((n_14 < 2u))) {
         float _e11 = mip_roughness(0u);
-        local_19 = !((r_2 > _e11));
+        local_19 = !((r_3 > _e11));
     } else {
         local_19 = true;
     }
@@ -874,7 +873,7 @@ float lod_of_roughness(float r_2) {
     }
     uint last = (n_14 - 1u);
     float _e19 = mip_roughness(last);
-    if ((r_2 >= _e19)) {
+    if ((r_3 >= _e19)) {
         return float(last);
     }
     bool loop_init_3 = true;
@@ -893,7 +892,7 @@ float lod_of_roughness(float r_2) {
             uint _e28 = below;
             uint _e31 = t_6;
             float _e32 = mip_roughness(_e31);
-            below = (_e28 + ((_e32 <= r_2) ? 1u : 0u));
+            below = (_e28 + ((_e32 <= r_3) ? 1u : 0u));
         }
     }
     uint _e39 = below;
@@ -903,7 +902,7 @@ float lod_of_roughness(float r_2) {
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
         float _e53 = mip_roughness(i_6);
-        f_2 = ((r_2 - _e53) / span);
+        f_2 = ((r_3 - _e53) / span);
     }
     float _e57 = f_2;
     return (float(i_6) + clamp(_e57, 0.0, 1.0));
@@ -993,13 +992,13 @@ float blend_node_w(uint k_10) {
     return _e9;
 }
 
-float irradiance_weight(float r_7) {
+float irradiance_weight(float r_8) {
     bool local_29 = false;
     float w_4 = 0.0;
     uint k_11 = 1u;
     uint n_15 = _group_0_binding_7_cs.lut_info.y;
     if (!((n_15 == 0u))) {
-        local_29 = !((r_7 > 0.0));
+        local_29 = !((r_8 > 0.0));
     } else {
         local_29 = true;
     }
@@ -1024,10 +1023,10 @@ float irradiance_weight(float r_7) {
         {
             uint _e23 = k_11;
             float _e26 = blend_node_r((_e23 - 1u));
-            if ((r_7 > _e26)) {
+            if ((r_8 > _e26)) {
                 uint _e29 = k_11;
                 float _e30 = blend_node_r(_e29);
-                float t_13 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                float t_13 = min(max(((r_8 - _e26) / (_e30 - _e26)), 0.0), 1.0);
                 uint _e37 = k_11;
                 float _e40 = blend_node_w((_e37 - 1u));
                 uint _e44 = k_11;

@@ -119,7 +119,6 @@ struct SurfaceVarying {
 struct SurfaceOut {
     float4 radiance : SV_Target0;
     float4 query_point : SV_Target1;
-    float4 query_direction : SV_Target2;
     float depth : SV_Depth;
 };
 
@@ -636,25 +635,25 @@ uint3 corner_cell(Lattice l_1, uint corner_1)
     return min((l_1.base + o_1), (_e17.xyz - (1u).xxx));
 }
 
-float2 warp1_exit(float3 b_2, float3 dir)
+float2 warp1_exit(float3 b_2, float3 dir_1)
 {
     bool local_11 = (bool)0;
 
     float4 _e4 = params.probe;
     float3 a_1 = _e4.xyz;
-    const float _e6 = inv_dist(dir);
+    const float _e6 = inv_dist(dir_1);
     if ((_e6 == 0.0)) {
         return float2(1e30, 1.0);
     }
     float3 ab = (a_1 - b_2);
-    float dir_ab = dot(dir, ab);
-    float3 v_11 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
+    float dir_ab = dot(dir_1, ab);
+    float3 v_11 = ((dir_1 * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
     const float _e23 = inv_dist(v_11);
     float lambda = (length(v_11) * _e23);
     if (!((lambda > 0.0))) {
         return float2(1e30, 1.0);
     }
-    float t_10 = (max(((dir_ab * lambda) + dot(dir, v_11)), 0.0) / lambda);
+    float t_10 = (max(((dir_ab * lambda) + dot(dir_1, v_11)), 0.0) / lambda);
     const bool _e37 = finite(t_10);
     if (_e37) {
         local_11 = (t_10 < HUGE);
@@ -668,29 +667,29 @@ float2 warp1_exit(float3 b_2, float3 dir)
     return float2(t_10, 1.0);
 }
 
-float3 warp1_(float3 b_3, float3 dir_1)
+float3 warp1_(float3 b_3, float3 dir_2)
 {
     float4 _e4 = params.probe;
     float3 a_2 = _e4.xyz;
-    const float _e6 = inv_dist(dir_1);
+    const float _e6 = inv_dist(dir_2);
     if ((_e6 == 0.0)) {
-        return dir_1;
+        return dir_2;
     }
     float3 ab_1 = (a_2 - b_3);
-    float dir_ab_1 = dot(dir_1, ab_1);
-    float3 v_12 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
+    float dir_ab_1 = dot(dir_2, ab_1);
+    float3 v_12 = ((dir_2 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
     const float _e20 = inv_dist(v_12);
     float lambda_1 = (length(v_12) * _e20);
-    float t_11 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_12)), 0.0);
-    float3 f_5 = ((dir_1 * t_11) - (ab_1 * lambda_1));
+    float t_11 = max(((dir_ab_1 * lambda_1) + dot(dir_2, v_12)), 0.0);
+    float3 f_5 = ((dir_2 * t_11) - (ab_1 * lambda_1));
     if ((lambda_1 > 0.0)) {
-        const float3 _e34 = fetch_vector((0.0).xxx, f_5, dir_1);
+        const float3 _e34 = fetch_vector((0.0).xxx, f_5, dir_2);
         return _e34;
     }
-    return dir_1;
+    return dir_2;
 }
 
-float2 box_exit(float3 b_4, float3 dir_2)
+float2 box_exit(float3 b_4, float3 dir_3)
 {
     float t_4 = HUGE;
     int k = int(0);
@@ -706,7 +705,7 @@ float2 box_exit(float3 b_4, float3 dir_2)
     if (any((abs(o_2) > h))) {
         return float2(0.0, 0.0);
     }
-    float3 d_2 = mul(dir_2, m_2);
+    float3 d_2 = mul(dir_3, m_2);
     uint2 loop_bound = uint2(4294967295u, 4294967295u);
     bool loop_init = true;
     while(true) {
@@ -744,7 +743,7 @@ float2 box_exit(float3 b_4, float3 dir_2)
     return float2(max(_e71, 0.0), 1.0);
 }
 
-float2 kdop_exit(float3 b_5, float3 dir_3)
+float2 kdop_exit(float3 b_5, float3 dir_4)
 {
     float t_5 = HUGE;
     uint k_1 = 0u;
@@ -779,7 +778,7 @@ float2 kdop_exit(float3 b_5, float3 dir_3)
             if ((nb > h_1)) {
                 return float2(0.0, 0.0);
             }
-            float nd = dot(n_13, dir_3);
+            float nd = dot(n_13, dir_4);
             if ((nd > 0.0)) {
                 float _e39 = t_5;
                 t_5 = min(_e39, ((h_1 - nb) / nd));
@@ -790,26 +789,26 @@ float2 kdop_exit(float3 b_5, float3 dir_3)
     return float2(_e46, 1.0);
 }
 
-float2 proxy_exit(float3 b_6, float3 dir_4)
+float2 proxy_exit(float3 b_6, float3 dir_5)
 {
     const uint _e2 = fallback_method();
     switch(_e2) {
         case 0u: {
-            const float2 _e3 = warp1_exit(b_6, dir_4);
+            const float2 _e3 = warp1_exit(b_6, dir_5);
             return _e3;
         }
         case 2u: {
-            const float2 _e4 = kdop_exit(b_6, dir_4);
+            const float2 _e4 = kdop_exit(b_6, dir_5);
             return _e4;
         }
         default: {
-            const float2 _e5 = box_exit(b_6, dir_4);
+            const float2 _e5 = box_exit(b_6, dir_5);
             return _e5;
         }
     }
 }
 
-float3 proxy_fetch(float2 exit, float3 b_7, float3 dir_5)
+float3 proxy_fetch(float2 exit, float3 b_7, float3 dir_6)
 {
     bool local_12 = (bool)0;
 
@@ -820,17 +819,17 @@ float3 proxy_fetch(float2 exit, float3 b_7, float3 dir_5)
     }
     bool _e14 = local_12;
     if (_e14) {
-        return dir_5;
+        return dir_6;
     }
     float4 _e17 = params.probe;
-    const float3 _e22 = fetch_vector(_e17.xyz, (b_7 + (dir_5 * exit.x)), dir_5);
+    const float3 _e22 = fetch_vector(_e17.xyz, (b_7 + (dir_6 * exit.x)), dir_6);
     return _e22;
 }
 
-float3 box_fetch(float3 b_8, float3 dir_6)
+float3 box_fetch(float3 b_8, float3 dir_7)
 {
-    const float2 _e2 = box_exit(b_8, dir_6);
-    const float3 _e3 = proxy_fetch(_e2, b_8, dir_6);
+    const float2 _e2 = box_exit(b_8, dir_7);
+    const float3 _e3 = proxy_fetch(_e2, b_8, dir_7);
     return _e3;
 }
 
@@ -868,7 +867,7 @@ float3 normalize_or(float3 v_7, float3 fallback_1)
     return fallback_1;
 }
 
-float3 fallback_fetch(float3 b_9, float3 dir_7)
+float3 fallback_fetch(float3 b_9, float3 dir_8)
 {
     float3 plain = (float3)0;
     float3 sum = (0.0).xxx;
@@ -877,16 +876,16 @@ float3 fallback_fetch(float3 b_9, float3 dir_7)
 
     float4 _e4 = params.probe;
     if (all((b_9 == _e4.xyz))) {
-        return dir_7;
+        return dir_8;
     }
     float relax = params.warp.x;
     const bool _e12 = relaxation_on();
     float _e18 = params.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
-    const Basis _e20 = orthonormal_basis(dir_7);
+    const Basis _e20 = orthonormal_basis(dir_8);
     float3 t_12 = (_e20.t * angle);
     float3 bt = (_e20.b * angle);
-    plain = dir_7;
+    plain = dir_8;
     uint2 loop_bound_2 = uint2(4294967295u, 4294967295u);
     bool loop_init_2 = true;
     while(true) {
@@ -903,24 +902,24 @@ float3 fallback_fetch(float3 b_9, float3 dir_7)
             break;
         }
         {
-            d_1 = dir_7;
+            d_1 = dir_8;
             uint _e37 = s;
             bool should_continue = false;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_7 + t_12));
+                    d_1 = normalize((dir_8 + t_12));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_7 - t_12));
+                    d_1 = normalize((dir_8 - t_12));
                     break;
                 }
                 case 3u: {
-                    d_1 = normalize((dir_7 + bt));
+                    d_1 = normalize((dir_8 + bt));
                     break;
                 }
                 case 4u: {
-                    d_1 = normalize((dir_7 - bt));
+                    d_1 = normalize((dir_8 - bt));
                     break;
                 }
                 default: {
@@ -936,7 +935,7 @@ float3 fallback_fetch(float3 b_9, float3 dir_7)
                 plain = _e49;
             }
             float3 _e53 = sum;
-            const float3 _e54 = normalize_or(_e49, dir_7);
+            const float3 _e54 = normalize_or(_e49, dir_8);
             sum = (_e53 + _e54);
         }
     }
@@ -945,7 +944,7 @@ float3 fallback_fetch(float3 b_9, float3 dir_7)
         return _e60;
     }
     float3 _e61 = sum;
-    const float3 _e62 = normalize_or(_e61, dir_7);
+    const float3 _e62 = normalize_or(_e61, dir_8);
     return _e62;
 }
 
@@ -957,7 +956,7 @@ Aim ConstructAim(float3 arg0, float arg1, uint arg2) {
     return ret;
 }
 
-Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_8, uint p_7)
+Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_9, uint p_7)
 {
     bool local_14 = (bool)0;
     float s_1 = (float)0;
@@ -972,7 +971,7 @@ Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_8, uint p_7)
     }
     bool _e16 = local_14;
     if (_e16) {
-        const Aim aim_2 = ConstructAim(dir_8, 1.0, p_7);
+        const Aim aim_2 = ConstructAim(dir_9, 1.0, p_7);
         return aim_2;
     }
     s_1 = (exit_1.x + delta);
@@ -982,7 +981,7 @@ Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_8, uint p_7)
     }
     float _e27 = s_1;
     float4 _e33 = params.probes[p_7];
-    float3 v_13 = ((b_10 + (dir_8 * _e27)) - _e33.xyz);
+    float3 v_13 = ((b_10 + (dir_9 * _e27)) - _e33.xyz);
     const bool _e36 = finite3_(v_13);
     if (_e36) {
         local_15 = any((v_13 != (0.0).xxx));
@@ -1009,7 +1008,7 @@ Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_8, uint p_7)
         const Aim aim_3 = ConstructAim(v_13, _e60, p_7);
         return aim_3;
     }
-    const Aim aim_4 = ConstructAim(dir_8, 1.0, p_7);
+    const Aim aim_4 = ConstructAim(dir_9, 1.0, p_7);
     return aim_4;
 }
 
@@ -1078,7 +1077,7 @@ float map_delta(int tile_2, float2 uv_6)
     return _e11.x;
 }
 
-float cell_delta(int4 tiles, float2 uv_7, float r)
+float cell_delta(int4 tiles, float2 uv_7, float r_1)
 {
     float w = (float)0;
 
@@ -1086,7 +1085,7 @@ float cell_delta(int4 tiles, float2 uv_7, float r)
         const float _e7 = map_delta(tiles.x, uv_7);
         return _e7;
     }
-    w = ((r - ROUGH_MAP_FROM) / 0.25);
+    w = ((r_1 - ROUGH_MAP_FROM) / 0.25);
     float _e13 = w;
     if (!((_e13 > 0.0))) {
         const float _e18 = map_delta(tiles.x, uv_7);
@@ -1103,14 +1102,14 @@ float cell_delta(int4 tiles, float2 uv_7, float r)
     return (_e25 + ((_e27 - _e25) * _e29));
 }
 
-Aim fetch(float3 b_11, float3 dir_9, float r_1)
+Aim fetch(float3 b_11, float3 dir_10, float r_2)
 {
     float delta_1 = 0.0;
     bool mapped = false;
     uint corner_2 = 0u;
     bool local_18 = (bool)0;
 
-    const float2 _e3 = oct_encode(dir_9);
+    const float2 _e3 = oct_encode(dir_10);
     const float3 _e4 = cell_size();
     const uint3 _e6 = cell_of(b_11, _e4);
     const uint _e7 = cell_index(_e6);
@@ -1118,13 +1117,13 @@ Aim fetch(float3 b_11, float3 dir_9, float r_1)
     const uint _e12 = probe_of(tiles_1.x, _e3);
     float4 _e16 = params.probes[_e12];
     if (all((b_11 == _e16.xyz))) {
-        const Aim aim_5 = ConstructAim(dir_9, 1.0, _e12);
+        const Aim aim_5 = ConstructAim(dir_10, 1.0, _e12);
         return aim_5;
     }
     const uint _e26 = blend_mode();
     if ((_e26 != 1u)) {
         if ((tiles_1.x >= int(0))) {
-            const float _e32 = cell_delta(tiles_1, _e3, r_1);
+            const float _e32 = cell_delta(tiles_1, _e3, r_2);
             delta_1 = _e32;
             mapped = true;
         }
@@ -1154,7 +1153,7 @@ Aim fetch(float3 b_11, float3 dir_9, float r_1)
                     float _e50 = delta_1;
                     uint _e51 = corner_2;
                     const float _e52 = corner_weight(_e34, _e51);
-                    const float _e53 = cell_delta(tiles_2, _e3, r_1);
+                    const float _e53 = cell_delta(tiles_2, _e3, r_2);
                     delta_1 = (_e50 + (_e52 * _e53));
                     mapped = true;
                 }
@@ -1170,13 +1169,13 @@ Aim fetch(float3 b_11, float3 dir_9, float r_1)
     }
     bool _e66 = local_18;
     if (_e66) {
-        const float3 _e67 = fallback_fetch(b_11, dir_9);
+        const float3 _e67 = fallback_fetch(b_11, dir_10);
         const Aim aim_6 = ConstructAim(_e67, -1.0, 0u);
         return aim_6;
     }
-    const float2 _e71 = proxy_exit(b_11, dir_9);
+    const float2 _e71 = proxy_exit(b_11, dir_10);
     float _e72 = delta_1;
-    const Aim _e73 = shifted_aim(_e71, _e72, b_11, dir_9, _e12);
+    const Aim _e73 = shifted_aim(_e71, _e72, b_11, dir_10, _e12);
     const Aim aim_7 = _e73;
     return aim_7;
 }
@@ -1231,7 +1230,7 @@ float mip_roughness(uint m)
     return _e9;
 }
 
-float lod_of_roughness(float r_2)
+float lod_of_roughness(float r_3)
 {
     bool local_19 = (bool)0;
     uint below = 0u;
@@ -1241,7 +1240,7 @@ float lod_of_roughness(float r_2)
     uint n_15 = params.probe_info.x;
     if (!((n_15 < 2u))) {
         const float _e11 = mip_roughness(0u);
-        local_19 = !((r_2 > _e11));
+        local_19 = !((r_3 > _e11));
     } else {
         local_19 = true;
     }
@@ -1251,7 +1250,7 @@ float lod_of_roughness(float r_2)
     }
     uint last = (n_15 - 1u);
     const float _e19 = mip_roughness(last);
-    if ((r_2 >= _e19)) {
+    if ((r_3 >= _e19)) {
         return float(last);
     }
     uint2 loop_bound_5 = uint2(4294967295u, 4294967295u);
@@ -1273,7 +1272,7 @@ float lod_of_roughness(float r_2)
             uint _e28 = below;
             uint _e31 = t_6;
             const float _e32 = mip_roughness(_e31);
-            below = (_e28 + ((_e32 <= r_2) ? 1u : 0u));
+            below = (_e28 + ((_e32 <= r_3) ? 1u : 0u));
         }
     }
     uint _e39 = below;
@@ -1283,7 +1282,7 @@ float lod_of_roughness(float r_2)
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
         const float _e53 = mip_roughness(i_6);
-        f_2 = ((r_2 - _e53) / span);
+        f_2 = ((r_3 - _e53) / span);
     }
     float _e57 = f_2;
     return (float(i_6) + clamp(_e57, 0.0, 1.0));
@@ -1349,7 +1348,7 @@ float pseudo_log2_(float k_4)
     return (float(e_2) + (m_3 - 1.0));
 }
 
-float corrected_roughness(float r_3, float k_in)
+float corrected_roughness(float r_4, float k_in)
 {
     float fr = 0.0;
     float k_5 = 1.0;
@@ -1357,9 +1356,9 @@ float corrected_roughness(float r_3, float k_in)
 
     uint n_16 = params.lut_info.x;
     float last_1 = float((n_16 - 1u));
-    const bool _e11 = finite(r_3);
+    const bool _e11 = finite(r_4);
     if (_e11) {
-        fr = clamp((r_3 * last_1), 0.0, last_1);
+        fr = clamp((r_4 * last_1), 0.0, last_1);
     }
     const bool _e17 = finite(k_in);
     if (_e17) {
@@ -1397,18 +1396,18 @@ float corrected_roughness(float r_3, float k_in)
     return ((((v00_ * (1.0 - b_25)) + (v01_ * b_25)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_25)) + (v11_ * b_25)) * a_4));
 }
 
-float3 shade(float3 b_14, Aim aim, float r_4)
+float3 shade(float3 b_14, Aim aim, float r_5)
 {
     float k_6 = (float)0;
 
     const float2 _e4 = oct_encode(aim.v);
-    if ((r_4 == 0.0)) {
+    if ((r_5 == 0.0)) {
         const float3 _e9 = radiance_lod(_e4, 0.0, aim.p);
         return _e9;
     }
     const bool _e10 = roughness_corrected();
     if (!(_e10)) {
-        const float _e12 = lod_of_roughness(r_4);
+        const float _e12 = lod_of_roughness(r_5);
         const float3 _e14 = radiance_lod(_e4, _e12, aim.p);
         return _e14;
     }
@@ -1419,7 +1418,7 @@ float3 shade(float3 b_14, Aim aim, float r_4)
         k_6 = _e22;
     }
     float _e23 = k_6;
-    const float _e24 = corrected_roughness(r_4, _e23);
+    const float _e24 = corrected_roughness(r_5, _e23);
     const float _e25 = lod_of_roughness(_e24);
     const float3 _e27 = radiance_lod(_e4, _e25, aim.p);
     return _e27;
@@ -1437,7 +1436,7 @@ ret_Constructarray8_float_ Constructarray8_float_(float arg0, float arg1, float 
     return ret;
 }
 
-float3 faces_radiance(Near near_1, float3 b_15, float3 dir_10, float r_5)
+float3 faces_radiance(Near near_1, float3 b_15, float3 dir_11, float r_6)
 {
     uint keys[8] = Constructarray8_uint_(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
     float ws[8] = Constructarray8_float_(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
@@ -1453,7 +1452,7 @@ float3 faces_radiance(Near near_1, float3 b_15, float3 dir_10, float r_5)
     uint g_1 = 0u;
     Aim aim_1 = (Aim)0;
 
-    const float2 _e4 = oct_encode(dir_10);
+    const float2 _e4 = oct_encode(dir_11);
     const bool _e5 = relaxation_on();
     uint2 loop_bound_6 = uint2(4294967295u, 4294967295u);
     bool loop_init_6 = true;
@@ -1485,7 +1484,7 @@ float3 faces_radiance(Near near_1, float3 b_15, float3 dir_10, float r_5)
             if ((tiles_3.x >= int(0))) {
                 const uint _e64 = probe_of(tiles_3.x, _e4);
                 key = _e64;
-                const float _e65 = cell_delta(tiles_3, _e4, r_5);
+                const float _e65 = cell_delta(tiles_3, _e4, r_6);
                 delta_2 = _e65;
             } else {
                 if (_e5) {
@@ -1550,7 +1549,7 @@ float3 faces_radiance(Near near_1, float3 b_15, float3 dir_10, float r_5)
             ws[min(uint(_e107), 7u)] = (_e109 + _e44);
         }
     }
-    const float2 _e114 = proxy_exit(b_15, dir_10);
+    const float2 _e114 = proxy_exit(b_15, dir_11);
     uint2 loop_bound_8 = uint2(4294967295u, 4294967295u);
     bool loop_init_8 = true;
     while(true) {
@@ -1570,11 +1569,11 @@ float3 faces_radiance(Near near_1, float3 b_15, float3 dir_10, float r_5)
         {
             uint _e123 = g_1;
             uint _e125 = keys[min(uint(_e123), 7u)];
-            aim_1 = ConstructAim(dir_10, 1.0, _e125);
+            aim_1 = ConstructAim(dir_11, 1.0, _e125);
             uint _e129 = g_1;
             uint _e131 = keys[min(uint(_e129), 7u)];
             if ((_e131 == RELAXED)) {
-                const float3 _e134 = fallback_fetch(b_15, dir_10);
+                const float3 _e134 = fallback_fetch(b_15, dir_11);
                 aim_1 = ConstructAim(_e134, -1.0, 0u);
             } else {
                 uint _e140 = g_1;
@@ -1585,7 +1584,7 @@ float3 faces_radiance(Near near_1, float3 b_15, float3 dir_10, float r_5)
                     float _e150 = ds[min(uint(_e148), 7u)];
                     uint _e151 = g_1;
                     uint _e153 = keys[min(uint(_e151), 7u)];
-                    const Aim _e154 = shifted_aim(_e114, _e150, b_15, dir_10, _e153);
+                    const Aim _e154 = shifted_aim(_e114, _e150, b_15, dir_11, _e153);
                     aim_1 = _e154;
                 }
             }
@@ -1593,7 +1592,7 @@ float3 faces_radiance(Near near_1, float3 b_15, float3 dir_10, float r_5)
             uint _e156 = g_1;
             float _e158 = ws[min(uint(_e156), 7u)];
             Aim _e159 = aim_1;
-            const float3 _e160 = shade(b_15, _e159, r_5);
+            const float3 _e160 = shade(b_15, _e159, r_6);
             c_4 = (_e155 + (_e158 * _e160));
         }
     }
@@ -1974,7 +1973,7 @@ float3 sh_read(uint3 home_at_1, float3 b_17, float3 n_8)
     return (_e306 / (wsum_1).xxx);
 }
 
-float3 faces_specular(Near near_2, float3 b_18, float3 dir_11, float r_6, float w_3)
+float3 faces_specular(Near near_2, float3 b_18, float3 dir_12, float r_7, float w_3)
 {
     float3 c_7 = (float3)0;
     float3 e = (0.0).xxx;
@@ -1982,7 +1981,7 @@ float3 faces_specular(Near near_2, float3 b_18, float3 dir_11, float r_6, float 
     uint corner_7 = 0u;
     bool local_28 = (bool)0;
 
-    const float3 _e5 = faces_radiance(near_2, b_18, dir_11, r_6);
+    const float3 _e5 = faces_radiance(near_2, b_18, dir_12, r_7);
     c_7 = _e5;
     if ((w_3 > 0.0)) {
         uint2 loop_bound_13 = uint2(4294967295u, 4294967295u);
@@ -2015,7 +2014,7 @@ float3 faces_specular(Near near_2, float3 b_18, float3 dir_11, float r_6, float 
                 bool _e37 = local_28;
                 if (_e37) {
                     float3 _e38 = e;
-                    const float3 _e39 = sh_read(_e23, b_18, dir_11);
+                    const float3 _e39 = sh_read(_e23, b_18, dir_12);
                     e = (_e38 + (_e20 * _e39));
                     float _e42 = share;
                     share = (_e42 + _e20);
@@ -2048,7 +2047,7 @@ float blend_node_w(uint k_10)
     return _e9;
 }
 
-float irradiance_weight(float r_7)
+float irradiance_weight(float r_8)
 {
     bool local_29 = (bool)0;
     float w_4 = (float)0;
@@ -2056,7 +2055,7 @@ float irradiance_weight(float r_7)
 
     uint n_17 = params.lut_info.y;
     if (!((n_17 == 0u))) {
-        local_29 = !((r_7 > 0.0));
+        local_29 = !((r_8 > 0.0));
     } else {
         local_29 = true;
     }
@@ -2084,10 +2083,10 @@ float irradiance_weight(float r_7)
         {
             uint _e23 = k_11;
             const float _e26 = blend_node_r((_e23 - 1u));
-            if ((r_7 > _e26)) {
+            if ((r_8 > _e26)) {
                 uint _e29 = k_11;
                 const float _e30 = blend_node_r(_e29);
-                float t_16 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                float t_16 = min(max(((r_8 - _e26) / (_e30 - _e26)), 0.0), 1.0);
                 uint _e37 = k_11;
                 const float _e40 = blend_node_w((_e37 - 1u));
                 uint _e44 = k_11;
@@ -2112,7 +2111,7 @@ float3 clean(float3 c_8)
 float3 specular(float3 position, float3 direction, float roughness)
 {
     float3 b_19 = (float3)0;
-    float r_8 = 0.0;
+    float r_9 = 0.0;
     uint3 home_at_2 = (0u).xxx;
     bool stored = false;
     bool local_30 = (bool)0;
@@ -2130,9 +2129,9 @@ float3 specular(float3 position, float3 direction, float roughness)
     }
     const bool _e17 = finite(roughness);
     if (_e17) {
-        r_8 = clamp(roughness, 0.0, 1.0);
+        r_9 = clamp(roughness, 0.0, 1.0);
     }
-    float _e21 = r_8;
+    float _e21 = r_9;
     const float _e22 = irradiance_weight(_e21);
     const uint _e23 = blend_mode();
     if ((_e23 == 2u)) {
@@ -2140,7 +2139,7 @@ float3 specular(float3 position, float3 direction, float roughness)
         const Near _e27 = near_cells(_e26);
         if ((_e27.count > 1u)) {
             float3 _e31 = b_19;
-            float _e33 = r_8;
+            float _e33 = r_9;
             const float3 _e34 = faces_specular(_e27, _e31, _e3.xyz, _e33, _e22);
             const float3 _e35 = clean(_e34);
             return _e35;
@@ -2172,9 +2171,9 @@ float3 specular(float3 position, float3 direction, float roughness)
     }
     float3 _e70 = b_19;
     float3 _e71 = b_19;
-    float _e73 = r_8;
+    float _e73 = r_9;
     const Aim _e74 = fetch(_e71, _e3.xyz, _e73);
-    float _e75 = r_8;
+    float _e75 = r_9;
     const float3 _e76 = shade(_e70, _e74, _e75);
     c_9 = _e76;
     bool _e78 = stored;
@@ -2486,8 +2485,8 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     uint m1_1 = min((m0_1 + 1u), last_2);
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
-    float3 dir_14 = _e4.xyz;
-    float3 local_36 = float3(dot(dir_14, sp_1.tangent.xyz), dot(dir_14, sp_1.bitangent.xyz), dot(dir_14, sp_1.normal.xyz));
+    float3 dir_15 = _e4.xyz;
+    float3 local_36 = float3(dot(dir_15, sp_1.tangent.xyz), dot(dir_15, sp_1.bitangent.xyz), dot(dir_15, sp_1.normal.xyz));
     const float2 _e64 = hemi_encode(local_36);
     const SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
@@ -2526,15 +2525,15 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     return (0.0).xxx;
 }
 
-float3 surface_specular(float3 b_22, float3 dir_12, float roughness_2)
+float3 surface_specular(float3 b_22, float3 dir_13, float roughness_2)
 {
-    const float3 _e4 = surface_lookup(b_22, dir_12, roughness_2, false);
+    const float3 _e4 = surface_lookup(b_22, dir_13, roughness_2, false);
     return _e4;
 }
 
-float3 surface_specular_warped(float3 b_23, float3 dir_13, float roughness_3)
+float3 surface_specular_warped(float3 b_23, float3 dir_14, float roughness_3)
 {
-    const float3 _e4 = surface_lookup(b_23, dir_13, roughness_3, true);
+    const float3 _e4 = surface_lookup(b_23, dir_14, roughness_3, true);
     return _e4;
 }
 
@@ -2728,6 +2727,8 @@ SurfaceOut surface_fragment(FragmentInput_surface_fragment fragmentinput_surface
     float3 n = (float3)0;
     float t = (float)0;
     bool local = (bool)0;
+    float3 dir = (float3)0;
+    float r = 0.0;
 
     out_1.depth = v_3.clip_.z;
     float4 _e7 = camera.eye;
@@ -2778,39 +2779,45 @@ SurfaceOut surface_fragment(FragmentInput_surface_fragment fragmentinput_surface
         out_1.radiance = float4(0.0, 0.0, 0.0, 1.0);
         float3 _e96 = p;
         out_1.query_point = float4(_e96, 0.0);
-        out_1.query_direction = (0.0).xxxx;
-        SurfaceOut _e102 = out_1;
-        const SurfaceOut surfaceout = _e102;
+        SurfaceOut _e99 = out_1;
+        const SurfaceOut surfaceout = _e99;
         return surfaceout;
     }
     if (back) {
-        float3 _e103 = n;
-        n = -(_e103);
+        float3 _e100 = n;
+        n = -(_e100);
     }
-    float3 _e105 = p;
-    float3 _e106 = n;
-    float3 _e107 = p;
-    const float _e108 = offset_off_surface(_e107);
-    float3 b_26 = (_e105 + (_e106 * _e108));
+    float3 _e102 = p;
+    float3 _e103 = n;
+    float3 _e104 = p;
+    const float _e105 = offset_off_surface(_e104);
+    float3 b_26 = (_e102 + (_e103 * _e105));
     out_1.query_point = float4(b_26, 1.0);
-    float _e117 = camera.shading.y;
-    if ((_e117 == 1.0)) {
-        float3 _e121 = n;
-        const float3 _e122 = irradiance(b_26, _e121);
-        out_1.radiance = float4(((_e122 * v_3.albedo) * 0.31830987), 1.0);
-        float3 _e130 = n;
-        out_1.query_direction = float4(_e130, 0.0);
+    float3 _e111 = n;
+    dir = _e111;
+    float _e118 = camera.shading.y;
+    if ((_e118 == 1.0)) {
+        float3 _e122 = n;
+        const float3 _e123 = irradiance(b_26, _e122);
+        out_1.radiance = float4(((_e123 * v_3.albedo) * 0.31830987), 1.0);
     } else {
-        float3 _e133 = n;
-        float3 _e137 = n;
-        float3 dir_15 = normalize((ray - ((2.0 * dot(ray, _e133)) * _e137)));
-        float _e145 = camera.shading.x;
-        const float3 _e146 = specular(b_26, dir_15, _e145);
-        out_1.radiance = float4(_e146, 1.0);
-        float _e153 = camera.shading.x;
-        out_1.query_direction = float4(dir_15, _e153);
+        float3 _e130 = n;
+        float3 _e134 = n;
+        dir = normalize((ray - ((2.0 * dot(ray, _e130)) * _e134)));
+        float _e141 = camera.shading.x;
+        r = _e141;
+        float3 _e143 = dir;
+        float _e144 = r;
+        const float3 _e145 = specular(b_26, _e143, _e144);
+        out_1.radiance = float4(_e145, 1.0);
     }
-    SurfaceOut _e155 = out_1;
-    const SurfaceOut surfaceout_1 = _e155;
+    float _e151 = camera.shading.z;
+    if ((_e151 == 1.0)) {
+        float3 _e155 = dir;
+        float _e156 = r;
+        out_1.radiance = float4(_e155, _e156);
+    }
+    SurfaceOut _e158 = out_1;
+    const SurfaceOut surfaceout_1 = _e158;
     return surfaceout_1;
 }

@@ -102,7 +102,6 @@ struct SurfaceVarying {
 struct SurfaceOut {
     vec4 radiance;
     vec4 query_point;
-    vec4 query_direction;
     float depth;
 };
 const uint DYNAMIC = 255u;
@@ -443,7 +442,7 @@ uvec3 corner_cell(Lattice l_1, uint corner_1) {
     return min((l_1.base + o_1), (_e17.xyz - uvec3(1u)));
 }
 
-vec2 box_exit(vec3 b_4, vec3 dir_2) {
+vec2 box_exit(vec3 b_4, vec3 dir_3) {
     float t_4 = HUGE;
     int k = 0;
     vec4 _e4 = _group_0_binding_7_cs.box_x;
@@ -457,7 +456,7 @@ vec2 box_exit(vec3 b_4, vec3 dir_2) {
     if (any(greaterThan(abs(o_2), h))) {
         return vec2(0.0, 0.0);
     }
-    vec3 d_2 = (m_2 * dir_2);
+    vec3 d_2 = (m_2 * dir_3);
     bool loop_init = true;
     while(true) {
         if (!loop_init) {
@@ -492,7 +491,7 @@ vec2 box_exit(vec3 b_4, vec3 dir_2) {
     return vec2(max(_e71, 0.0), 1.0);
 }
 
-vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
+vec2 kdop_exit(vec3 b_5, vec3 dir_4) {
     float t_5 = HUGE;
     uint k_1 = 0u;
     bool loop_init_1 = true;
@@ -522,7 +521,7 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
             if ((nb > h_1)) {
                 return vec2(0.0, 0.0);
             }
-            float nd = dot(n_12, dir_3);
+            float nd = dot(n_12, dir_4);
             if ((nd > 0.0)) {
                 float _e39 = t_5;
                 t_5 = min(_e39, ((h_1 - nb) / nd));
@@ -533,7 +532,7 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
     return vec2(_e46, 1.0);
 }
 
-vec3 proxy_fetch(vec2 exit, vec3 b_7, vec3 dir_5) {
+vec3 proxy_fetch(vec2 exit, vec3 b_7, vec3 dir_6) {
     bool local_12 = false;
     if (!((exit.y == 0.0))) {
         local_12 = !((exit.x < HUGE));
@@ -542,16 +541,16 @@ vec3 proxy_fetch(vec2 exit, vec3 b_7, vec3 dir_5) {
     }
     bool _e14 = local_12;
     if (_e14) {
-        return dir_5;
+        return dir_6;
     }
     vec4 _e17 = _group_0_binding_7_cs.probe;
-    vec3 _e22 = fetch_vector(_e17.xyz, (b_7 + (dir_5 * exit.x)), dir_5);
+    vec3 _e22 = fetch_vector(_e17.xyz, (b_7 + (dir_6 * exit.x)), dir_6);
     return _e22;
 }
 
-vec3 box_fetch(vec3 b_8, vec3 dir_6) {
-    vec2 _e2 = box_exit(b_8, dir_6);
-    vec3 _e3 = proxy_fetch(_e2, b_8, dir_6);
+vec3 box_fetch(vec3 b_8, vec3 dir_7) {
+    vec2 _e2 = box_exit(b_8, dir_7);
+    vec3 _e3 = proxy_fetch(_e2, b_8, dir_7);
     return _e3;
 }
 
@@ -578,7 +577,7 @@ vec3 normalize_or(vec3 v_7, vec3 fallback_1) {
     return fallback_1;
 }
 
-Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_7) {
+Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_9, uint p_7) {
     bool local_14 = false;
     float s_1 = 0.0;
     bool local_15 = false;
@@ -591,7 +590,7 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_7) {
     }
     bool _e16 = local_14;
     if (_e16) {
-        return Aim(dir_8, 1.0, p_7);
+        return Aim(dir_9, 1.0, p_7);
     }
     s_1 = (exit_1.x + delta);
     float _e22 = s_1;
@@ -600,7 +599,7 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_7) {
     }
     float _e27 = s_1;
     vec4 _e33 = _group_0_binding_7_cs.probes[p_7];
-    vec3 v_11 = ((b_10 + (dir_8 * _e27)) - _e33.xyz);
+    vec3 v_11 = ((b_10 + (dir_9 * _e27)) - _e33.xyz);
     bool _e36 = finite3_(v_11);
     if (_e36) {
         local_15 = any(notEqual(v_11, vec3(0.0)));
@@ -626,7 +625,7 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_7) {
         float _e60 = k_2;
         return Aim(v_11, _e60, p_7);
     }
-    return Aim(dir_8, 1.0, p_7);
+    return Aim(dir_9, 1.0, p_7);
 }
 
 uint probe_of(int tile_1, vec2 uv_5) {
@@ -688,13 +687,13 @@ float map_delta(int tile_2, vec2 uv_6) {
     return _e11.x;
 }
 
-float cell_delta(ivec4 tiles, vec2 uv_7, float r) {
+float cell_delta(ivec4 tiles, vec2 uv_7, float r_1) {
     float w = 0.0;
     if ((tiles.w < 0)) {
         float _e7 = map_delta(tiles.x, uv_7);
         return _e7;
     }
-    w = ((r - ROUGH_MAP_FROM) / 0.25);
+    w = ((r_1 - ROUGH_MAP_FROM) / 0.25);
     float _e13 = w;
     if (!((_e13 > 0.0))) {
         float _e18 = map_delta(tiles.x, uv_7);
@@ -751,7 +750,7 @@ float mip_roughness(uint m) {
     return _e9;
 }
 
-float lod_of_roughness(float r_2) {
+float lod_of_roughness(float r_3) {
     bool local_19 = false;
     uint below = 0u;
     uint t_6 = 0u;
@@ -759,7 +758,7 @@ float lod_of_roughness(float r_2) {
     uint n_14 = _group_0_binding_7_cs.probe_info.x;
     if (!((n_14 < 2u))) {
         float _e11 = mip_roughness(0u);
-        local_19 = !((r_2 > _e11));
+        local_19 = !((r_3 > _e11));
     } else {
         local_19 = true;
     }
@@ -769,7 +768,7 @@ float lod_of_roughness(float r_2) {
     }
     uint last = (n_14 - 1u);
     float _e19 = mip_roughness(last);
-    if ((r_2 >= _e19)) {
+    if ((r_3 >= _e19)) {
         return float(last);
     }
     bool loop_init_3 = true;
@@ -788,7 +787,7 @@ float lod_of_roughness(float r_2) {
             uint _e28 = below;
             uint _e31 = t_6;
             float _e32 = mip_roughness(_e31);
-            below = (_e28 + ((_e32 <= r_2) ? 1u : 0u));
+            below = (_e28 + ((_e32 <= r_3) ? 1u : 0u));
         }
     }
     uint _e39 = below;
@@ -798,7 +797,7 @@ float lod_of_roughness(float r_2) {
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
         float _e53 = mip_roughness(i_6);
-        f_2 = ((r_2 - _e53) / span);
+        f_2 = ((r_3 - _e53) / span);
     }
     float _e57 = f_2;
     return (float(i_6) + clamp(_e57, 0.0, 1.0));
@@ -898,13 +897,13 @@ float blend_node_w(uint k_10) {
     return _e9;
 }
 
-float irradiance_weight(float r_7) {
+float irradiance_weight(float r_8) {
     bool local_29 = false;
     float w_4 = 0.0;
     uint k_11 = 1u;
     uint n_15 = _group_0_binding_7_cs.lut_info.y;
     if (!((n_15 == 0u))) {
-        local_29 = !((r_7 > 0.0));
+        local_29 = !((r_8 > 0.0));
     } else {
         local_29 = true;
     }
@@ -929,10 +928,10 @@ float irradiance_weight(float r_7) {
         {
             uint _e23 = k_11;
             float _e26 = blend_node_r((_e23 - 1u));
-            if ((r_7 > _e26)) {
+            if ((r_8 > _e26)) {
                 uint _e29 = k_11;
                 float _e30 = blend_node_r(_e29);
-                float t_11 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                float t_11 = min(max(((r_8 - _e26) / (_e30 - _e26)), 0.0), 1.0);
                 uint _e37 = k_11;
                 float _e40 = blend_node_w((_e37 - 1u));
                 uint _e44 = k_11;

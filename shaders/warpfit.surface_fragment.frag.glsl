@@ -99,7 +99,6 @@ struct SurfaceVarying {
 struct SurfaceOut {
     vec4 radiance;
     vec4 query_point;
-    vec4 query_direction;
     float depth;
 };
 const uint DYNAMIC = 255u;
@@ -147,7 +146,6 @@ layout(location = 3) flat in float _vs2fs_location3;
 layout(location = 4) flat in vec4 _vs2fs_location4;
 layout(location = 0) out vec4 _fs2p_location0;
 layout(location = 1) out vec4 _fs2p_location1;
-layout(location = 2) out vec4 _fs2p_location2;
 
 uint fallback_method() {
     if (true) {
@@ -535,23 +533,23 @@ uvec3 corner_cell(Lattice l_1, uint corner_1) {
     return min((l_1.base + o_1), (_e17.xyz - uvec3(1u)));
 }
 
-vec2 warp1_exit(vec3 b_2, vec3 dir) {
+vec2 warp1_exit(vec3 b_2, vec3 dir_1) {
     bool local_11 = false;
     vec4 _e4 = _group_0_binding_7_fs.probe;
     vec3 a_1 = _e4.xyz;
-    float _e6 = inv_dist(dir);
+    float _e6 = inv_dist(dir_1);
     if ((_e6 == 0.0)) {
         return vec2(1e30, 1.0);
     }
     vec3 ab = (a_1 - b_2);
-    float dir_ab = dot(dir, ab);
-    vec3 v_11 = ((dir * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
+    float dir_ab = dot(dir_1, ab);
+    vec3 v_11 = ((dir_1 * max(((dir_ab * _e6) + 1.0), 0.0)) - (ab * _e6));
     float _e23 = inv_dist(v_11);
     float lambda = (length(v_11) * _e23);
     if (!((lambda > 0.0))) {
         return vec2(1e30, 1.0);
     }
-    float t_10 = (max(((dir_ab * lambda) + dot(dir, v_11)), 0.0) / lambda);
+    float t_10 = (max(((dir_ab * lambda) + dot(dir_1, v_11)), 0.0) / lambda);
     bool _e37 = finite(t_10);
     if (_e37) {
         local_11 = (t_10 < HUGE);
@@ -565,28 +563,28 @@ vec2 warp1_exit(vec3 b_2, vec3 dir) {
     return vec2(t_10, 1.0);
 }
 
-vec3 warp1_(vec3 b_3, vec3 dir_1) {
+vec3 warp1_(vec3 b_3, vec3 dir_2) {
     vec4 _e4 = _group_0_binding_7_fs.probe;
     vec3 a_2 = _e4.xyz;
-    float _e6 = inv_dist(dir_1);
+    float _e6 = inv_dist(dir_2);
     if ((_e6 == 0.0)) {
-        return dir_1;
+        return dir_2;
     }
     vec3 ab_1 = (a_2 - b_3);
-    float dir_ab_1 = dot(dir_1, ab_1);
-    vec3 v_12 = ((dir_1 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
+    float dir_ab_1 = dot(dir_2, ab_1);
+    vec3 v_12 = ((dir_2 * max(((dir_ab_1 * _e6) + 1.0), 0.0)) - (ab_1 * _e6));
     float _e20 = inv_dist(v_12);
     float lambda_1 = (length(v_12) * _e20);
-    float t_11 = max(((dir_ab_1 * lambda_1) + dot(dir_1, v_12)), 0.0);
-    vec3 f_5 = ((dir_1 * t_11) - (ab_1 * lambda_1));
+    float t_11 = max(((dir_ab_1 * lambda_1) + dot(dir_2, v_12)), 0.0);
+    vec3 f_5 = ((dir_2 * t_11) - (ab_1 * lambda_1));
     if ((lambda_1 > 0.0)) {
-        vec3 _e34 = fetch_vector(vec3(0.0), f_5, dir_1);
+        vec3 _e34 = fetch_vector(vec3(0.0), f_5, dir_2);
         return _e34;
     }
-    return dir_1;
+    return dir_2;
 }
 
-vec2 box_exit(vec3 b_4, vec3 dir_2) {
+vec2 box_exit(vec3 b_4, vec3 dir_3) {
     float t_4 = HUGE;
     int k = 0;
     vec4 _e4 = _group_0_binding_7_fs.box_x;
@@ -600,7 +598,7 @@ vec2 box_exit(vec3 b_4, vec3 dir_2) {
     if (any(greaterThan(abs(o_2), h))) {
         return vec2(0.0, 0.0);
     }
-    vec3 d_2 = (m_2 * dir_2);
+    vec3 d_2 = (m_2 * dir_3);
     bool loop_init = true;
     while(true) {
         if (!loop_init) {
@@ -635,7 +633,7 @@ vec2 box_exit(vec3 b_4, vec3 dir_2) {
     return vec2(max(_e71, 0.0), 1.0);
 }
 
-vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
+vec2 kdop_exit(vec3 b_5, vec3 dir_4) {
     float t_5 = HUGE;
     uint k_1 = 0u;
     bool loop_init_1 = true;
@@ -665,7 +663,7 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
             if ((nb > h_1)) {
                 return vec2(0.0, 0.0);
             }
-            float nd = dot(n_13, dir_3);
+            float nd = dot(n_13, dir_4);
             if ((nd > 0.0)) {
                 float _e39 = t_5;
                 t_5 = min(_e39, ((h_1 - nb) / nd));
@@ -676,25 +674,25 @@ vec2 kdop_exit(vec3 b_5, vec3 dir_3) {
     return vec2(_e46, 1.0);
 }
 
-vec2 proxy_exit(vec3 b_6, vec3 dir_4) {
+vec2 proxy_exit(vec3 b_6, vec3 dir_5) {
     uint _e2 = fallback_method();
     switch(_e2) {
         case 0u: {
-            vec2 _e3 = warp1_exit(b_6, dir_4);
+            vec2 _e3 = warp1_exit(b_6, dir_5);
             return _e3;
         }
         case 2u: {
-            vec2 _e4 = kdop_exit(b_6, dir_4);
+            vec2 _e4 = kdop_exit(b_6, dir_5);
             return _e4;
         }
         default: {
-            vec2 _e5 = box_exit(b_6, dir_4);
+            vec2 _e5 = box_exit(b_6, dir_5);
             return _e5;
         }
     }
 }
 
-vec3 proxy_fetch(vec2 exit, vec3 b_7, vec3 dir_5) {
+vec3 proxy_fetch(vec2 exit, vec3 b_7, vec3 dir_6) {
     bool local_12 = false;
     if (!((exit.y == 0.0))) {
         local_12 = !((exit.x < HUGE));
@@ -703,16 +701,16 @@ vec3 proxy_fetch(vec2 exit, vec3 b_7, vec3 dir_5) {
     }
     bool _e14 = local_12;
     if (_e14) {
-        return dir_5;
+        return dir_6;
     }
     vec4 _e17 = _group_0_binding_7_fs.probe;
-    vec3 _e22 = fetch_vector(_e17.xyz, (b_7 + (dir_5 * exit.x)), dir_5);
+    vec3 _e22 = fetch_vector(_e17.xyz, (b_7 + (dir_6 * exit.x)), dir_6);
     return _e22;
 }
 
-vec3 box_fetch(vec3 b_8, vec3 dir_6) {
-    vec2 _e2 = box_exit(b_8, dir_6);
-    vec3 _e3 = proxy_fetch(_e2, b_8, dir_6);
+vec3 box_fetch(vec3 b_8, vec3 dir_7) {
+    vec2 _e2 = box_exit(b_8, dir_7);
+    vec3 _e3 = proxy_fetch(_e2, b_8, dir_7);
     return _e3;
 }
 
@@ -739,23 +737,23 @@ vec3 normalize_or(vec3 v_7, vec3 fallback_1) {
     return fallback_1;
 }
 
-vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
+vec3 fallback_fetch(vec3 b_9, vec3 dir_8) {
     vec3 plain = vec3(0.0);
     vec3 sum = vec3(0.0);
     uint s = 0u;
     vec3 d_1 = vec3(0.0);
     vec4 _e4 = _group_0_binding_7_fs.probe;
     if (all(equal(b_9, _e4.xyz))) {
-        return dir_7;
+        return dir_8;
     }
     float relax = _group_0_binding_7_fs.warp.x;
     bool _e12 = relaxation_on();
     float _e18 = _group_0_binding_7_fs.warp.y;
     float angle = ((relax * 3.5449078) / _e18);
-    Basis _e20 = orthonormal_basis(dir_7);
+    Basis _e20 = orthonormal_basis(dir_8);
     vec3 t_12 = (_e20.t * angle);
     vec3 bt = (_e20.b * angle);
-    plain = dir_7;
+    plain = dir_8;
     bool loop_init_2 = true;
     while(true) {
         if (!loop_init_2) {
@@ -769,23 +767,23 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
             break;
         }
         {
-            d_1 = dir_7;
+            d_1 = dir_8;
             uint _e37 = s;
             switch(_e37) {
                 case 1u: {
-                    d_1 = normalize((dir_7 + t_12));
+                    d_1 = normalize((dir_8 + t_12));
                     break;
                 }
                 case 2u: {
-                    d_1 = normalize((dir_7 - t_12));
+                    d_1 = normalize((dir_8 - t_12));
                     break;
                 }
                 case 3u: {
-                    d_1 = normalize((dir_7 + bt));
+                    d_1 = normalize((dir_8 + bt));
                     break;
                 }
                 case 4u: {
-                    d_1 = normalize((dir_7 - bt));
+                    d_1 = normalize((dir_8 - bt));
                     break;
                 }
                 default: {
@@ -801,7 +799,7 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
                 plain = _e49;
             }
             vec3 _e53 = sum;
-            vec3 _e54 = normalize_or(_e49, dir_7);
+            vec3 _e54 = normalize_or(_e49, dir_8);
             sum = (_e53 + _e54);
         }
     }
@@ -810,11 +808,11 @@ vec3 fallback_fetch(vec3 b_9, vec3 dir_7) {
         return _e60;
     }
     vec3 _e61 = sum;
-    vec3 _e62 = normalize_or(_e61, dir_7);
+    vec3 _e62 = normalize_or(_e61, dir_8);
     return _e62;
 }
 
-Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_7) {
+Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_9, uint p_7) {
     bool local_14 = false;
     float s_1 = 0.0;
     bool local_15 = false;
@@ -827,7 +825,7 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_7) {
     }
     bool _e16 = local_14;
     if (_e16) {
-        return Aim(dir_8, 1.0, p_7);
+        return Aim(dir_9, 1.0, p_7);
     }
     s_1 = (exit_1.x + delta);
     float _e22 = s_1;
@@ -836,7 +834,7 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_7) {
     }
     float _e27 = s_1;
     vec4 _e33 = _group_0_binding_7_fs.probes[p_7];
-    vec3 v_13 = ((b_10 + (dir_8 * _e27)) - _e33.xyz);
+    vec3 v_13 = ((b_10 + (dir_9 * _e27)) - _e33.xyz);
     bool _e36 = finite3_(v_13);
     if (_e36) {
         local_15 = any(notEqual(v_13, vec3(0.0)));
@@ -862,7 +860,7 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_8, uint p_7) {
         float _e60 = k_2;
         return Aim(v_13, _e60, p_7);
     }
-    return Aim(dir_8, 1.0, p_7);
+    return Aim(dir_9, 1.0, p_7);
 }
 
 uint probe_of(int tile_1, vec2 uv_5) {
@@ -924,13 +922,13 @@ float map_delta(int tile_2, vec2 uv_6) {
     return _e11.x;
 }
 
-float cell_delta(ivec4 tiles, vec2 uv_7, float r) {
+float cell_delta(ivec4 tiles, vec2 uv_7, float r_1) {
     float w = 0.0;
     if ((tiles.w < 0)) {
         float _e7 = map_delta(tiles.x, uv_7);
         return _e7;
     }
-    w = ((r - ROUGH_MAP_FROM) / 0.25);
+    w = ((r_1 - ROUGH_MAP_FROM) / 0.25);
     float _e13 = w;
     if (!((_e13 > 0.0))) {
         float _e18 = map_delta(tiles.x, uv_7);
@@ -947,12 +945,12 @@ float cell_delta(ivec4 tiles, vec2 uv_7, float r) {
     return (_e25 + ((_e27 - _e25) * _e29));
 }
 
-Aim fetch(vec3 b_11, vec3 dir_9, float r_1) {
+Aim fetch(vec3 b_11, vec3 dir_10, float r_2) {
     float delta_1 = 0.0;
     bool mapped = false;
     uint corner_2 = 0u;
     bool local_18 = false;
-    vec2 _e3 = oct_encode(dir_9);
+    vec2 _e3 = oct_encode(dir_10);
     vec3 _e4 = cell_size();
     uvec3 _e6 = cell_of(b_11, _e4);
     uint _e7 = cell_index(_e6);
@@ -960,12 +958,12 @@ Aim fetch(vec3 b_11, vec3 dir_9, float r_1) {
     uint _e12 = probe_of(tiles_1.x, _e3);
     vec4 _e16 = _group_0_binding_7_fs.probes[_e12];
     if (all(equal(b_11, _e16.xyz))) {
-        return Aim(dir_9, 1.0, _e12);
+        return Aim(dir_10, 1.0, _e12);
     }
     uint _e26 = blend_mode();
     if ((_e26 != 1u)) {
         if ((tiles_1.x >= 0)) {
-            float _e32 = cell_delta(tiles_1, _e3, r_1);
+            float _e32 = cell_delta(tiles_1, _e3, r_2);
             delta_1 = _e32;
             mapped = true;
         }
@@ -992,7 +990,7 @@ Aim fetch(vec3 b_11, vec3 dir_9, float r_1) {
                     float _e50 = delta_1;
                     uint _e51 = corner_2;
                     float _e52 = corner_weight(_e34, _e51);
-                    float _e53 = cell_delta(tiles_2, _e3, r_1);
+                    float _e53 = cell_delta(tiles_2, _e3, r_2);
                     delta_1 = (_e50 + (_e52 * _e53));
                     mapped = true;
                 }
@@ -1008,12 +1006,12 @@ Aim fetch(vec3 b_11, vec3 dir_9, float r_1) {
     }
     bool _e66 = local_18;
     if (_e66) {
-        vec3 _e67 = fallback_fetch(b_11, dir_9);
+        vec3 _e67 = fallback_fetch(b_11, dir_10);
         return Aim(_e67, -1.0, 0u);
     }
-    vec2 _e71 = proxy_exit(b_11, dir_9);
+    vec2 _e71 = proxy_exit(b_11, dir_10);
     float _e72 = delta_1;
-    Aim _e73 = shifted_aim(_e71, _e72, b_11, dir_9, _e12);
+    Aim _e73 = shifted_aim(_e71, _e72, b_11, dir_10, _e12);
     return _e73;
 }
 
@@ -1057,7 +1055,7 @@ float mip_roughness(uint m) {
     return _e9;
 }
 
-float lod_of_roughness(float r_2) {
+float lod_of_roughness(float r_3) {
     bool local_19 = false;
     uint below = 0u;
     uint t_6 = 0u;
@@ -1065,7 +1063,7 @@ float lod_of_roughness(float r_2) {
     uint n_15 = _group_0_binding_7_fs.probe_info.x;
     if (!((n_15 < 2u))) {
         float _e11 = mip_roughness(0u);
-        local_19 = !((r_2 > _e11));
+        local_19 = !((r_3 > _e11));
     } else {
         local_19 = true;
     }
@@ -1075,7 +1073,7 @@ float lod_of_roughness(float r_2) {
     }
     uint last = (n_15 - 1u);
     float _e19 = mip_roughness(last);
-    if ((r_2 >= _e19)) {
+    if ((r_3 >= _e19)) {
         return float(last);
     }
     bool loop_init_5 = true;
@@ -1094,7 +1092,7 @@ float lod_of_roughness(float r_2) {
             uint _e28 = below;
             uint _e31 = t_6;
             float _e32 = mip_roughness(_e31);
-            below = (_e28 + ((_e32 <= r_2) ? 1u : 0u));
+            below = (_e28 + ((_e32 <= r_3) ? 1u : 0u));
         }
     }
     uint _e39 = below;
@@ -1104,7 +1102,7 @@ float lod_of_roughness(float r_2) {
     float span = (_e46 - _e47);
     if ((span > 0.0)) {
         float _e53 = mip_roughness(i_6);
-        f_2 = ((r_2 - _e53) / span);
+        f_2 = ((r_3 - _e53) / span);
     }
     float _e57 = f_2;
     return (float(i_6) + clamp(_e57, 0.0, 1.0));
@@ -1167,15 +1165,15 @@ float pseudo_log2_(float k_4) {
     return (float(e_2) + (m_3 - 1.0));
 }
 
-float corrected_roughness(float r_3, float k_in) {
+float corrected_roughness(float r_4, float k_in) {
     float fr = 0.0;
     float k_5 = 1.0;
     bool local_24 = false;
     uint n_16 = _group_0_binding_7_fs.lut_info.x;
     float last_1 = float((n_16 - 1u));
-    bool _e11 = finite(r_3);
+    bool _e11 = finite(r_4);
     if (_e11) {
-        fr = clamp((r_3 * last_1), 0.0, last_1);
+        fr = clamp((r_4 * last_1), 0.0, last_1);
     }
     bool _e17 = finite(k_in);
     if (_e17) {
@@ -1213,16 +1211,16 @@ float corrected_roughness(float r_3, float k_in) {
     return ((((v00_ * (1.0 - b_25)) + (v01_ * b_25)) * (1.0 - a_4)) + (((v10_ * (1.0 - b_25)) + (v11_ * b_25)) * a_4));
 }
 
-vec3 shade(vec3 b_14, Aim aim, float r_4) {
+vec3 shade(vec3 b_14, Aim aim, float r_5) {
     float k_6 = 0.0;
     vec2 _e4 = oct_encode(aim.v);
-    if ((r_4 == 0.0)) {
+    if ((r_5 == 0.0)) {
         vec3 _e9 = radiance_lod(_e4, 0.0, aim.p);
         return _e9;
     }
     bool _e10 = roughness_corrected();
     if (!(_e10)) {
-        float _e12 = lod_of_roughness(r_4);
+        float _e12 = lod_of_roughness(r_5);
         vec3 _e14 = radiance_lod(_e4, _e12, aim.p);
         return _e14;
     }
@@ -1233,13 +1231,13 @@ vec3 shade(vec3 b_14, Aim aim, float r_4) {
         k_6 = _e22;
     }
     float _e23 = k_6;
-    float _e24 = corrected_roughness(r_4, _e23);
+    float _e24 = corrected_roughness(r_5, _e23);
     float _e25 = lod_of_roughness(_e24);
     vec3 _e27 = radiance_lod(_e4, _e25, aim.p);
     return _e27;
 }
 
-vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_10, float r_5) {
+vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_11, float r_6) {
     uint keys[8] = uint[8](0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
     float ws[8] = float[8](0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     float ds[8] = float[8](0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
@@ -1253,7 +1251,7 @@ vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_10, float r_5) {
     vec3 c_4 = vec3(0.0);
     uint g_1 = 0u;
     Aim aim_1 = Aim(vec3(0.0), 0.0, 0u);
-    vec2 _e4 = oct_encode(dir_10);
+    vec2 _e4 = oct_encode(dir_11);
     bool _e5 = relaxation_on();
     bool loop_init_6 = true;
     while(true) {
@@ -1282,7 +1280,7 @@ vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_10, float r_5) {
             if ((tiles_3.x >= 0)) {
                 uint _e64 = probe_of(tiles_3.x, _e4);
                 key = _e64;
-                float _e65 = cell_delta(tiles_3, _e4, r_5);
+                float _e65 = cell_delta(tiles_3, _e4, r_6);
                 delta_2 = _e65;
             } else {
                 if (_e5) {
@@ -1344,7 +1342,7 @@ vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_10, float r_5) {
             ws[_e107] = (_e109 + _e44);
         }
     }
-    vec2 _e114 = proxy_exit(b_15, dir_10);
+    vec2 _e114 = proxy_exit(b_15, dir_11);
     bool loop_init_8 = true;
     while(true) {
         if (!loop_init_8) {
@@ -1361,11 +1359,11 @@ vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_10, float r_5) {
         {
             uint _e123 = g_1;
             uint _e125 = keys[_e123];
-            aim_1 = Aim(dir_10, 1.0, _e125);
+            aim_1 = Aim(dir_11, 1.0, _e125);
             uint _e129 = g_1;
             uint _e131 = keys[_e129];
             if ((_e131 == RELAXED)) {
-                vec3 _e134 = fallback_fetch(b_15, dir_10);
+                vec3 _e134 = fallback_fetch(b_15, dir_11);
                 aim_1 = Aim(_e134, -1.0, 0u);
             } else {
                 uint _e140 = g_1;
@@ -1376,7 +1374,7 @@ vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_10, float r_5) {
                     float _e150 = ds[_e148];
                     uint _e151 = g_1;
                     uint _e153 = keys[_e151];
-                    Aim _e154 = shifted_aim(_e114, _e150, b_15, dir_10, _e153);
+                    Aim _e154 = shifted_aim(_e114, _e150, b_15, dir_11, _e153);
                     aim_1 = _e154;
                 }
             }
@@ -1384,7 +1382,7 @@ vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_10, float r_5) {
             uint _e156 = g_1;
             float _e158 = ws[_e156];
             Aim _e159 = aim_1;
-            vec3 _e160 = shade(b_15, _e159, r_5);
+            vec3 _e160 = shade(b_15, _e159, r_6);
             c_4 = (_e155 + (_e158 * _e160));
         }
     }
@@ -1722,13 +1720,13 @@ vec3 sh_read(uvec3 home_at_1, vec3 b_17, vec3 n_8) {
     return (_e306 / vec3(wsum_1));
 }
 
-vec3 faces_specular(Near near_2, vec3 b_18, vec3 dir_11, float r_6, float w_3) {
+vec3 faces_specular(Near near_2, vec3 b_18, vec3 dir_12, float r_7, float w_3) {
     vec3 c_7 = vec3(0.0);
     vec3 e = vec3(0.0);
     float share = 0.0;
     uint corner_7 = 0u;
     bool local_28 = false;
-    vec3 _e5 = faces_radiance(near_2, b_18, dir_11, r_6);
+    vec3 _e5 = faces_radiance(near_2, b_18, dir_12, r_7);
     c_7 = _e5;
     if ((w_3 > 0.0)) {
         bool loop_init_13 = true;
@@ -1758,7 +1756,7 @@ vec3 faces_specular(Near near_2, vec3 b_18, vec3 dir_11, float r_6, float w_3) {
                 bool _e37 = local_28;
                 if (_e37) {
                     vec3 _e38 = e;
-                    vec3 _e39 = sh_read(_e23, b_18, dir_11);
+                    vec3 _e39 = sh_read(_e23, b_18, dir_12);
                     e = (_e38 + (_e20 * _e39));
                     float _e42 = share;
                     share = (_e42 + _e20);
@@ -1789,13 +1787,13 @@ float blend_node_w(uint k_10) {
     return _e9;
 }
 
-float irradiance_weight(float r_7) {
+float irradiance_weight(float r_8) {
     bool local_29 = false;
     float w_4 = 0.0;
     uint k_11 = 1u;
     uint n_17 = _group_0_binding_7_fs.lut_info.y;
     if (!((n_17 == 0u))) {
-        local_29 = !((r_7 > 0.0));
+        local_29 = !((r_8 > 0.0));
     } else {
         local_29 = true;
     }
@@ -1820,10 +1818,10 @@ float irradiance_weight(float r_7) {
         {
             uint _e23 = k_11;
             float _e26 = blend_node_r((_e23 - 1u));
-            if ((r_7 > _e26)) {
+            if ((r_8 > _e26)) {
                 uint _e29 = k_11;
                 float _e30 = blend_node_r(_e29);
-                float t_16 = min(max(((r_7 - _e26) / (_e30 - _e26)), 0.0), 1.0);
+                float t_16 = min(max(((r_8 - _e26) / (_e30 - _e26)), 0.0), 1.0);
                 uint _e37 = k_11;
                 float _e40 = blend_node_w((_e37 - 1u));
                 uint _e44 = k_11;
@@ -1846,7 +1844,7 @@ vec3 clean(vec3 c_8) {
 
 vec3 specular(vec3 position, vec3 direction, float roughness) {
     vec3 b_19 = vec3(0.0);
-    float r_8 = 0.0;
+    float r_9 = 0.0;
     uvec3 home_at_2 = uvec3(0u);
     bool stored = false;
     bool local_30 = false;
@@ -1863,9 +1861,9 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     }
     bool _e17 = finite(roughness);
     if (_e17) {
-        r_8 = clamp(roughness, 0.0, 1.0);
+        r_9 = clamp(roughness, 0.0, 1.0);
     }
-    float _e21 = r_8;
+    float _e21 = r_9;
     float _e22 = irradiance_weight(_e21);
     uint _e23 = blend_mode();
     if ((_e23 == 2u)) {
@@ -1873,7 +1871,7 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
         Near _e27 = near_cells(_e26);
         if ((_e27.count > 1u)) {
             vec3 _e31 = b_19;
-            float _e33 = r_8;
+            float _e33 = r_9;
             vec3 _e34 = faces_specular(_e27, _e31, _e3.xyz, _e33, _e22);
             vec3 _e35 = clean(_e34);
             return _e35;
@@ -1905,9 +1903,9 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     }
     vec3 _e70 = b_19;
     vec3 _e71 = b_19;
-    float _e73 = r_8;
+    float _e73 = r_9;
     Aim _e74 = fetch(_e71, _e3.xyz, _e73);
-    float _e75 = r_8;
+    float _e75 = r_9;
     vec3 _e76 = shade(_e70, _e74, _e75);
     c_9 = _e76;
     bool _e78 = stored;
@@ -2085,11 +2083,13 @@ float offset_off_surface(vec3 p_10) {
 
 void main() {
     SurfaceVarying v_3 = SurfaceVarying(gl_FragCoord, _vs2fs_location0, _vs2fs_location1, _vs2fs_location2, _vs2fs_location3, _vs2fs_location4);
-    SurfaceOut out_1 = SurfaceOut(vec4(0.0), vec4(0.0), vec4(0.0), 0.0);
+    SurfaceOut out_1 = SurfaceOut(vec4(0.0), vec4(0.0), 0.0);
     vec3 p = vec3(0.0);
     vec3 n = vec3(0.0);
     float t = 0.0;
     bool local = false;
+    vec3 dir = vec3(0.0);
+    float r = 0.0;
     out_1.depth = v_3.clip.z;
     vec4 _e7 = _group_3_binding_0_fs.eye;
     vec3 eye = _e7.xyz;
@@ -2139,46 +2139,50 @@ void main() {
         out_1.radiance = vec4(0.0, 0.0, 0.0, 1.0);
         vec3 _e96 = p;
         out_1.query_point = vec4(_e96, 0.0);
-        out_1.query_direction = vec4(0.0);
-        SurfaceOut _e102 = out_1;
-        _fs2p_location0 = _e102.radiance;
-        _fs2p_location1 = _e102.query_point;
-        _fs2p_location2 = _e102.query_direction;
-        gl_FragDepth = _e102.depth;
+        SurfaceOut _e99 = out_1;
+        _fs2p_location0 = _e99.radiance;
+        _fs2p_location1 = _e99.query_point;
+        gl_FragDepth = _e99.depth;
         return;
     }
     if (back) {
-        vec3 _e103 = n;
-        n = -(_e103);
+        vec3 _e100 = n;
+        n = -(_e100);
     }
-    vec3 _e105 = p;
-    vec3 _e106 = n;
-    vec3 _e107 = p;
-    float _e108 = offset_off_surface(_e107);
-    vec3 b_26 = (_e105 + (_e106 * _e108));
+    vec3 _e102 = p;
+    vec3 _e103 = n;
+    vec3 _e104 = p;
+    float _e105 = offset_off_surface(_e104);
+    vec3 b_26 = (_e102 + (_e103 * _e105));
     out_1.query_point = vec4(b_26, 1.0);
-    float _e117 = _group_3_binding_0_fs.shading.y;
-    if ((_e117 == 1.0)) {
-        vec3 _e121 = n;
-        vec3 _e122 = irradiance(b_26, _e121);
-        out_1.radiance = vec4(((_e122 * v_3.albedo) * 0.31830987), 1.0);
-        vec3 _e130 = n;
-        out_1.query_direction = vec4(_e130, 0.0);
+    vec3 _e111 = n;
+    dir = _e111;
+    float _e118 = _group_3_binding_0_fs.shading.y;
+    if ((_e118 == 1.0)) {
+        vec3 _e122 = n;
+        vec3 _e123 = irradiance(b_26, _e122);
+        out_1.radiance = vec4(((_e123 * v_3.albedo) * 0.31830987), 1.0);
     } else {
-        vec3 _e133 = n;
-        vec3 _e137 = n;
-        vec3 dir_14 = normalize((ray - ((2.0 * dot(ray, _e133)) * _e137)));
-        float _e145 = _group_3_binding_0_fs.shading.x;
-        vec3 _e146 = specular(b_26, dir_14, _e145);
-        out_1.radiance = vec4(_e146, 1.0);
-        float _e153 = _group_3_binding_0_fs.shading.x;
-        out_1.query_direction = vec4(dir_14, _e153);
+        vec3 _e130 = n;
+        vec3 _e134 = n;
+        dir = normalize((ray - ((2.0 * dot(ray, _e130)) * _e134)));
+        float _e141 = _group_3_binding_0_fs.shading.x;
+        r = _e141;
+        vec3 _e143 = dir;
+        float _e144 = r;
+        vec3 _e145 = specular(b_26, _e143, _e144);
+        out_1.radiance = vec4(_e145, 1.0);
     }
-    SurfaceOut _e155 = out_1;
-    _fs2p_location0 = _e155.radiance;
-    _fs2p_location1 = _e155.query_point;
-    _fs2p_location2 = _e155.query_direction;
-    gl_FragDepth = _e155.depth;
+    float _e151 = _group_3_binding_0_fs.shading.z;
+    if ((_e151 == 1.0)) {
+        vec3 _e155 = dir;
+        float _e156 = r;
+        out_1.radiance = vec4(_e155, _e156);
+    }
+    SurfaceOut _e158 = out_1;
+    _fs2p_location0 = _e158.radiance;
+    _fs2p_location1 = _e158.query_point;
+    gl_FragDepth = _e158.depth;
     return;
 }
 

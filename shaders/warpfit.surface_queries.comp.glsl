@@ -102,7 +102,6 @@ struct SurfaceVarying {
 struct SurfaceOut {
     vec4 radiance;
     vec4 query_point;
-    vec4 query_direction;
     float depth;
 };
 const uint DYNAMIC = 255u;
@@ -512,8 +511,8 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     uint m1_1 = min((m0_1 + 1u), last);
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
-    vec3 dir_14 = _e4.xyz;
-    vec3 local_36 = vec3(dot(dir_14, sp_1.tangent.xyz), dot(dir_14, sp_1.bitangent.xyz), dot(dir_14, sp_1.normal.xyz));
+    vec3 dir_15 = _e4.xyz;
+    vec3 local_36 = vec3(dot(dir_15, sp_1.tangent.xyz), dot(dir_15, sp_1.bitangent.xyz), dot(dir_15, sp_1.normal.xyz));
     vec2 _e64 = hemi_encode(local_36);
     SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
@@ -552,13 +551,13 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     return vec3(0.0);
 }
 
-vec3 surface_specular(vec3 b_22, vec3 dir_12, float roughness_2) {
-    vec3 _e4 = surface_lookup(b_22, dir_12, roughness_2, false);
+vec3 surface_specular(vec3 b_22, vec3 dir_13, float roughness_2) {
+    vec3 _e4 = surface_lookup(b_22, dir_13, roughness_2, false);
     return _e4;
 }
 
-vec3 surface_specular_warped(vec3 b_23, vec3 dir_13, float roughness_3) {
-    vec3 _e4 = surface_lookup(b_23, dir_13, roughness_3, true);
+vec3 surface_specular_warped(vec3 b_23, vec3 dir_14, float roughness_3) {
+    vec3 _e4 = surface_lookup(b_23, dir_14, roughness_3, true);
     return _e4;
 }
 

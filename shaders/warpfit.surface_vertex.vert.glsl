@@ -98,7 +98,6 @@ struct SurfaceVarying {
 struct SurfaceOut {
     vec4 radiance;
     vec4 query_point;
-    vec4 query_direction;
     float depth;
 };
 const uint DYNAMIC = 255u;
