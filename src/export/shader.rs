@@ -10,7 +10,7 @@ use glam::Vec3;
 
 /// `shaders/warpfit.wgsl`, and naga's translations of it (regenerated and compared by
 /// `tests/shader.rs`): (file name, text).
-pub const SHADER_FILES: [(&str, &str); 10] = [
+pub const SHADER_FILES: [(&str, &str); 11] = [
     ("warpfit.wgsl", include_str!("../../shaders/warpfit.wgsl")),
     ("warpfit.hlsl", include_str!("../../shaders/warpfit.hlsl")),
     ("warpfit.specular_queries.comp.glsl", include_str!("../../shaders/warpfit.specular_queries.comp.glsl")),
@@ -24,6 +24,7 @@ pub const SHADER_FILES: [(&str, &str); 10] = [
     ),
     ("warpfit.surface_vertex.vert.glsl", include_str!("../../shaders/warpfit.surface_vertex.vert.glsl")),
     ("warpfit.surface_fragment.frag.glsl", include_str!("../../shaders/warpfit.surface_fragment.frag.glsl")),
+    ("warpfit.include.glsl", include_str!("../../shaders/warpfit.include.glsl")),
 ];
 
 /// Bytes of the WGSL `Params` struct: 59 vec4s.
