@@ -317,7 +317,13 @@ impl Correctives {
     /// relaxed proxy; the cells' summed weight; the shift), in the order the cells first
     /// name them, and how many. [`face_aims_in`](Self::face_aims_in) aims each.
     #[inline]
-    pub(crate) fn face_groups(&self, cells: &FaceCells, warp: &Warp, dir: Vec3, r: f32) -> ([(u8, f32, f32); 8], usize) {
+    pub(crate) fn face_groups(
+        &self,
+        cells: &FaceCells,
+        warp: &Warp,
+        dir: Vec3,
+        r: f32,
+    ) -> ([(u8, f32, f32); 8], usize) {
         let taps = octa::bilinear_taps(self.map_res, octa::encode(dir));
         let relax = warp.options.relax_texels > 0.0;
         let mut groups = [(0u8, 0.0f32, 0.0f32); 8];
@@ -344,7 +350,12 @@ impl Correctives {
     /// Where the proxy the maps shift lets each of [`LANES`] rays go (`Warp::base_distance`
     /// lane by lane, the box's for all lanes at once): the distance, and whether there is one.
     #[inline(always)]
-    pub(crate) fn proxy_exit_lanes(&self, warp: &Warp, b: &[Vec3; LANES], dir: &[Vec3; LANES]) -> ([f32; LANES], [bool; LANES]) {
+    pub(crate) fn proxy_exit_lanes(
+        &self,
+        warp: &Warp,
+        b: &[Vec3; LANES],
+        dir: &[Vec3; LANES],
+    ) -> ([f32; LANES], [bool; LANES]) {
         match self.fallback {
             Method::Box => warp.proxies.aabb.exit_distance_soa(&octa::soa(b), &octa::soa(dir)),
             method => {
