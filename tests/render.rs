@@ -87,8 +87,14 @@ fn every_shaded_pixel_answers_its_query_as_the_cpu_sampler_does() {
         for shading in [Shading::Specular(0.0), Shading::Specular(0.4), Shading::Specular(1.0), Shading::Diffuse] {
             let frame = raster.draw(&white, &camera, shading);
             assert_eq!(frame.radiance.len(), 64 * 40);
+            let queries = raster.queries(&camera, shading);
+            assert_eq!(
+                queries.iter().map(|q| q.map(|q| q.0)).collect::<Vec<_>>(),
+                frame.points,
+                "the query draw shades the frame's points"
+            );
             let mut shaded = 0;
-            for (p, q) in frame.queries.iter().enumerate() {
+            for (p, q) in queries.iter().enumerate() {
                 let c = frame.radiance[p];
                 assert!(c.is_finite() && c.min_element() >= 0.0, "{shading:?} pixel {p}: {c}");
                 let Some((b, dir)) = *q else {
@@ -132,12 +138,12 @@ fn the_rasterised_pixels_are_the_cpu_drawn_views() {
             perceptual::RenderSettings { camera: size, fov_deg: camera.fov_deg, ..perceptual::RenderSettings::quick() };
         let view = perceptual::camera_view(scene, tracer, &f.grid.warp().probe_positions(), &camera.pose, &settings);
         let (points, dirs) = view.queries();
-        let frame = raster.draw(scene, &camera, Shading::Specular(0.0));
+        let frame = raster.queries(&camera, Shading::Specular(0.0));
         // the same surface point and reflected ray, but where a pixel's centre grazes an
         // edge or a silhouette (the rasteriser's coverage rule and the tracer's watertight
         // test may pick the other side)
         let (mut both, mut same) = (0, 0);
-        for (p, q) in frame.queries.iter().enumerate() {
+        for (p, q) in frame.iter().enumerate() {
             if let (Some((b, d)), true) = (q, dirs[p] != Vec3::ZERO) {
                 both += 1;
                 if (*b - points[p]).length() <= 1e-4 * diagonal && d.dot(dirs[p]) >= 1.0 - 1e-4 {

@@ -291,7 +291,7 @@ fn albedos(scene: &Scene, tracer: &Tracer, pose: &CameraPose, fov_deg: f32, size
 /// The shader's frame against the CPU-drawn one on the pixels both shade.
 fn agreement(drawn: &Frame, cpu: &[Vec3], surfaces: &[Result<(Vec3, Vec3), Vec3>]) -> Agreement {
     let both: Vec<usize> =
-        (0..cpu.len()).filter(|&p| surfaces[p].is_ok() && drawn.queries.get(p).is_some_and(Option::is_some)).collect();
+        (0..cpu.len()).filter(|&p| surfaces[p].is_ok() && drawn.points.get(p).is_some_and(Option::is_some)).collect();
     let mean = both.iter().map(|&p| cpu[p].max_element()).sum::<f32>() / both.len().max(1) as f32;
     let floor = (1e-3 * mean).max(f32::MIN_POSITIVE);
     let rel: Vec<f32> = both

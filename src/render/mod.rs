@@ -58,10 +58,15 @@ pub struct Frame {
     /// Radiance of each pixel: the shaded surface, black on a back face of a one-sided
     /// material, the sky where nothing is drawn.
     pub radiance: Vec<Vec3>,
-    /// Per pixel, the query the shader answered: the shaded point (off the surface as the
-    /// tracer offsets it) and the unit direction (the reflected view ray; diffuse: the
-    /// normal); `None` where the pixel shows sky or a back face.
-    pub queries: Vec<Option<(Vec3, Vec3)>>,
+    /// Per pixel, the point the shader shaded (off the surface as the tracer offsets it);
+    /// `None` where the pixel shows sky or a back face. [`Rasteriser::queries`] adds each
+    /// pixel's direction.
+    pub points: Vec<Option<Vec3>>,
+}
+
+/// A shaded point (xyz, w 1 where shaded) as read back.
+fn shaded_point(p: &[f32; 4]) -> Option<Vec3> {
+    (p[3] > 0.0).then(|| Vec3::new(p[0], p[1], p[2]))
 }
 
 /// Floats per vertex of the shader's vertex buffer 0.
@@ -206,18 +211,22 @@ impl<'a> Rasteriser<'a> {
         let (colour, points) = self.pass(camera, shading, false);
         let (w, h) = camera.size;
         let rays = camera.pose.rays(camera.fov_deg, camera.size);
-        let directions = self.pass(camera, shading, true).0;
         let radiance = colour
             .iter()
             .zip(&rays)
             .map(|(c, ray)| if c[3] > 0.0 { Vec3::new(c[0], c[1], c[2]) } else { scene.sky.radiance(*ray) })
             .collect();
-        let queries = points
-            .iter()
-            .zip(&directions)
-            .map(|(p, d)| (p[3] > 0.0).then(|| (Vec3::new(p[0], p[1], p[2]), Vec3::new(d[0], d[1], d[2]))))
-            .collect();
-        Frame { width: w, height: h, radiance, queries }
+        Frame { width: w, height: h, radiance, points: points.iter().map(shaded_point).collect() }
+    }
+
+    /// Per pixel of [`Rasteriser::draw`], the query the shader answers: the shaded point and
+    /// the unit direction (the reflected view ray; diffuse: the normal), `None` where the
+    /// pixel shows sky or a back face. One more draw, with the shader writing directions
+    /// instead of radiance: for checking the shader against the CPU.
+    #[must_use]
+    pub fn queries(&self, camera: &Camera, shading: Shading) -> Vec<Option<(Vec3, Vec3)>> {
+        let (directions, points) = self.pass(camera, shading, true);
+        points.iter().zip(&directions).map(|(p, d)| Some((shaded_point(p)?, Vec3::new(d[0], d[1], d[2])))).collect()
     }
 
     /// One draw: location 0 (radiance, or with `directions` the queries' directions) and

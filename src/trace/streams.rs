@@ -108,7 +108,10 @@ pub fn write(dir: &Path) -> std::io::Result<Vec<(String, usize)>> {
     let mut out = Vec::new();
     for (k, rays) in streams.iter().enumerate().filter(|(_, r)| !r.is_empty()) {
         let name = format!("{}_{}", STAGES[k / KINDS.len()], KINDS[k % KINDS.len()]);
-        std::fs::write(dir.join(format!("{name}.rays.f32")), bytes(&mut rays.iter().flat_map(|r| r[..6].to_vec())))?;
+        std::fs::write(
+            dir.join(format!("{name}.rays.f32")),
+            bytes(&mut rays.iter().flat_map(|r| r.iter().take(6).copied())),
+        )?;
         let tmax = bytes(&mut rays.iter().map(|r| r[6].min(f32::MAX)));
         std::fs::write(dir.join(format!("{name}.tmax.f32")), tmax)?;
         let linked = dir.join(format!("{name}.tris.f32"));
