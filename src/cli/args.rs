@@ -357,6 +357,10 @@ pub struct FitArgs {
     /// (0) to the grid's raytraced distances (1).
     #[arg(long, default_value_t = FitSettings::standard().depth_prior)]
     pub depth_prior: f64,
+    /// Weight of the aim pull: each mirror training query's aim drawn towards its true hit
+    /// where the probe it reads sees it (≥ 0; 0: the pointwise error alone).
+    #[arg(long, default_value_t = FitSettings::standard().aim_pull)]
+    pub aim_pull: f64,
     /// Store one map per cell for every roughness, as version-4 grids did, instead of a
     /// map and a rough map.
     #[arg(long)]
@@ -425,6 +429,7 @@ impl FitArgs {
             format!("--selection-margin={}", self.selection_margin),
             format!("--size-weight={}", self.size_weight),
             format!("--depth-prior={}", self.depth_prior),
+            format!("--aim-pull={}", self.aim_pull),
             format!("--rough-depth-prior={}", self.rough_depth_prior),
             format!("--rough-fraction={}", self.rough_fraction),
             format!("--surface-fraction={}", self.surface_fraction),
@@ -457,6 +462,7 @@ impl FitArgs {
         );
         anyhow::ensure!(self.size_weight.is_finite() && self.size_weight >= 0.0, "--size-weight must be ≥ 0");
         anyhow::ensure!((0.0..=1.0).contains(&self.depth_prior), "--depth-prior must be in [0, 1]");
+        anyhow::ensure!(self.aim_pull.is_finite() && self.aim_pull >= 0.0, "--aim-pull must be ≥ 0");
         anyhow::ensure!((0.0..=1.0).contains(&self.rough_depth_prior), "--rough-depth-prior must be in [0, 1]");
         anyhow::ensure!((0.0..=1.0).contains(&self.rough_fraction), "--rough-fraction must be in [0, 1]");
         anyhow::ensure!((0.0..=1.0).contains(&self.surface_fraction), "--surface-fraction must be in [0, 1]");
@@ -477,6 +483,7 @@ impl FitArgs {
             selection_margin: self.selection_margin,
             size_weight: self.size_weight,
             depth_prior: self.depth_prior,
+            aim_pull: self.aim_pull,
             rough_map: !self.one_map,
             rough_depth_prior: self.rough_depth_prior,
             rough_fraction: self.rough_fraction,

@@ -123,6 +123,11 @@ pub struct FitSettings {
     /// them. 0: never. Fits written before it existed added none.
     #[serde(default)]
     pub extra_check_positions: u32,
+    /// Weight of the aim pull on the mirror training queries (`CellProblem::with_aim_pull`):
+    /// each query's aim drawn towards its true hit where the probe it reads sees it. 0:
+    /// none (fits written before it existed had none).
+    #[serde(default)]
+    pub aim_pull: f64,
 }
 
 fn default_margin() -> f64 {
@@ -163,6 +168,7 @@ impl FitSettings {
             surface_fraction: 0.5,
             proxy: proxy::ProxyChoice::Measured,
             extra_check_positions: 48,
+            aim_pull: 0.0,
         }
     }
 
@@ -722,15 +728,17 @@ pub fn fit_cells(
             // the map's origin: the cell probe's position (its centre unless relocated)
             let origin = g.cell_centre(cell) + grid.probe_offset[cell];
             // with several probes, which one each texel reads (from the training queries' hits)
-            let probe_map = if warp.probe_count() > 1 {
-                let hits = true_hits(baked, &train);
-                probes::choose(warp, origin, s.map_res, &distance, &hits)
-            } else {
-                Vec::new()
+            let hits = (warp.probe_count() > 1 || s.aim_pull > 0.0).then(|| true_hits(baked, &train));
+            let probe_map = match &hits {
+                Some(hits) if warp.probe_count() > 1 => probes::choose(warp, origin, s.map_res, &distance, hits),
+                _ => Vec::new(),
             };
-            let trace_seconds = tt.elapsed().as_secs_f64();
             let check_dirs = check.dirs_per_position;
-            let (train, check) = (samples(&train), samples(&check));
+            let (mut train, check) = (samples(&train), samples(&check));
+            if let Some(hits) = hits.filter(|_| s.aim_pull > 0.0) {
+                set_targets(baked, warp, (s.map_res, &probe_map), &hits, &mut train);
+            }
+            let trace_seconds = tt.elapsed().as_secs_f64();
             let ctx = CellContext { glossy, exposure, proxy, origin, res: s.map_res, probe_map: &probe_map };
             let n2 = (s.map_res * s.map_res) as usize;
             let level1_train: Vec<_> = if s.level1 { train.iter().step_by(4).copied().collect() } else { Vec::new() };
@@ -905,6 +913,27 @@ fn true_hits(baked: Baked, q: &truth::TracedQueries) -> Vec<probes::Hit> {
         .collect()
 }
 
+/// The aim pull's targets of a cell's mirror training queries: each query's true hit
+/// (`hits`, in query order) where the probe its texel of a `res`² map reads (`probe_map`;
+/// empty: probe A) sees it. One shadow ray per mirror query with a hit.
+fn set_targets(baked: Baked, warp: &Warp, (res, probe_map): (u32, &[u8]), hits: &[probes::Hit], train: &mut [Sample]) {
+    for (q, h) in train.iter_mut().zip(hits) {
+        if q.roughness != 0.0 || !h.t.is_finite() {
+            continue;
+        }
+        let p = if probe_map.is_empty() {
+            0
+        } else {
+            probe_map[crate::warp::corrective::nearest_tap(&crate::octa::bilinear_taps(res, crate::octa::encode(q.dir)))
+                as usize]
+        };
+        let hit = h.b + h.dir * h.t;
+        if truth::sees(baked.scene, baked.tracer, warp.probe_at(p.into()).position, hit) {
+            q.target = Some((p, hit));
+        }
+    }
+}
+
 /// Whether a fit stores a rough map per cell: asked for, and the probe has rough mips.
 fn two_maps(glossy: &Glossy, s: &FitSettings) -> bool {
     s.rough_map && rough_fraction(glossy, s) > 0.0
@@ -949,7 +978,8 @@ fn refine(
     let mut problem = CellProblem::new(ctx, vec![0.0; n2], train)
         .with_weights(s.smooth_weight, s.size_weight)
         .with_anchor(anchor)
-        .with_robust_scale(s.robust_scale);
+        .with_robust_scale(s.robust_scale)
+        .with_aim_pull(s.aim_pull);
     let start = if !sees_only_sky && problem.cost(&celldepth_start) < problem.cost(&vec![0.0; n2]) {
         problem.set_start(celldepth_start.clone());
         Start::Celldepth

@@ -80,13 +80,16 @@ pub struct Sample {
     pub taps: [(u32, f32); 4],
     /// Where the ray leaves the proxy (set by [`CellProblem::new`]): no map changes it.
     pub t_proxy: Option<f32>,
+    /// The true hit of the query ray and the probe that sees it (set by the fit for the
+    /// aim pull, [`CellProblem::with_aim_pull`]; `None`: no pull on this query).
+    pub target: Option<(u8, Vec3)>,
 }
 
 impl Sample {
     /// A query with its reference; the problem fills in the rest.
     #[must_use]
     pub fn new(b: Vec3, dir: Vec3, roughness: f32, reference: Vec3) -> Sample {
-        Sample { b, dir, roughness, reference, taps: [(0, 0.0); 4], t_proxy: None }
+        Sample { b, dir, roughness, reference, taps: [(0, 0.0); 4], t_proxy: None, target: None }
     }
 }
 
@@ -169,6 +172,9 @@ pub struct CellProblem<'a> {
     size_weight: f64,
     /// The log-scales the size term pulls towards.
     anchor: Vec<f64>,
+    /// Weight of the aim pull in the training objective (0: none; see
+    /// [`CellProblem::with_aim_pull`]).
+    aim_weight: f64,
     evaluations: Cell<u64>,
     /// The errors of the sum being formed (one buffer for every evaluation).
     scratch: RefCell<Vec<f64>>,
@@ -305,6 +311,7 @@ impl<'a> CellProblem<'a> {
             smooth_weight: 0.0,
             size_weight: 0.0,
             anchor: vec![0.0; n2],
+            aim_weight: 0.0,
             evaluations: Cell::new(0),
             scratch: RefCell::new(Vec::new()),
         };
@@ -350,6 +357,17 @@ impl<'a> CellProblem<'a> {
     pub fn with_anchor(mut self, anchor: Vec<f64>) -> Self {
         debug_assert_eq!(anchor.len(), self.anchor.len());
         self.anchor = anchor;
+        self
+    }
+
+    /// Pulls each training query's aim towards its true hit (`Sample::target`) where the
+    /// probe the query reads sees it: the query's error in the training objective (not in
+    /// the held-out errors) gains `weight` × the mean tone-mapped reference per
+    /// [`AIM_ANGLE_SCALE`] of angle between the aimed point and the hit as the probe sees
+    /// them. A pointwise error alone rewards an aim that averages two surfaces (it halves
+    /// the error at an edge); the pull keeps the edge where it is.
+    pub fn with_aim_pull(mut self, weight: f64) -> Self {
+        self.aim_weight = weight.max(0.0);
         self
     }
 
@@ -433,19 +451,20 @@ impl<'a> CellProblem<'a> {
     #[cfg(test)]
     fn errors(&self, set: &QuerySet, map: &[f32]) -> Vec<f64> {
         let mut out = Vec::new();
-        self.errors_by(set, |q: &Sample| sample_map(map, &q.taps), &mut out);
+        self.errors_by(set, |q: &Sample| sample_map(map, &q.taps), false, &mut out);
         out
     }
 
     /// The errors of the queries of `set` into `out` (in the set's order), each query's
     /// shift given by `delta`; the lookups are made [`LANES`] at a time in the set's lane
     /// order (its mirror queries together), each query's error the same in any group.
-    fn errors_by(&self, set: &QuerySet, delta: impl Fn(&Sample) -> f32, out: &mut Vec<f64>) {
+    /// `pull`: add the aim pull ([`Self::with_aim_pull`]), as the training objective does.
+    fn errors_by(&self, set: &QuerySet, delta: impl Fn(&Sample) -> f32, pull: bool, out: &mut Vec<f64>) {
         out.clear();
         out.resize(set.idx.len(), 0.0);
         for group in set.lanes.chunks(LANES) {
             let ids: [u32; LANES] = std::array::from_fn(|l| set.idx[group[l.min(group.len() - 1)] as usize]);
-            let e = self.errors_lanes(&ids, &delta);
+            let e = self.errors_lanes(&ids, &delta, pull && self.aim_weight > 0.0);
             for (l, &p) in group.iter().enumerate() {
                 out[p as usize] = e[l];
             }
@@ -457,7 +476,7 @@ impl<'a> CellProblem<'a> {
     /// together (a mirror group at mip 0, otherwise `glossy::corrected_lanes`): the
     /// runtime's batch lookup.
     #[inline]
-    fn errors_lanes(&self, ids: &[u32; LANES], delta_of: impl Fn(&Sample) -> f32) -> [f64; LANES] {
+    fn errors_lanes(&self, ids: &[u32; LANES], delta_of: impl Fn(&Sample) -> f32, pull: bool) -> [f64; LANES] {
         let idx = ids.map(|i| i as usize);
         let warp = self.glossy.warp;
         let (mut b, mut d, mut a) = ([[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3]);
@@ -500,7 +519,36 @@ impl<'a> CellProblem<'a> {
             let d = [0, 1, 2].map(|c| reinhard_channel(est_c[c][l], self.exposure) - ref_c[c][l]);
             e[l] = ((d[0].abs() + d[1].abs() + d[2].abs()) / 3.0) as f64;
         }
+        if pull {
+            let v = aims.vectors();
+            let scale = self.aim_weight * self.mean_reference / AIM_ANGLE_SCALE;
+            for l in 0..LANES {
+                if let Some((p, hit)) = self.samples[idx[l]].target
+                    && p == probe[l]
+                {
+                    let u = hit - Vec3::new(a[0][l], a[1][l], a[2][l]);
+                    e[l] += scale * angle_between(Vec3::new(v[0][l], v[1][l], v[2][l]), u);
+                }
+            }
+        }
         e
+    }
+
+    /// The mean angle in radians, as each query's probe sees them, between the point a
+    /// query aims at under `map` and its true hit, over the queries with a target
+    /// (`Sample::target`) whose probe is the one they read; 0 without any.
+    #[must_use]
+    pub fn mean_aim_angle(&self, map: &[f32]) -> f64 {
+        let (mut sum, mut n) = (0.0, 0usize);
+        for (i, q) in self.samples.iter().enumerate() {
+            let probe = self.probe_of(i);
+            let Some((p, hit)) = q.target.filter(|&(p, _)| p == probe) else { continue };
+            let a = self.glossy.warp.probe_at(p.into()).position;
+            let aim = shifted_aim(a, q.t_proxy, sample_map(map, &q.taps), q.b, q.dir);
+            sum += angle_between(aim.v, hit - a);
+            n += 1;
+        }
+        if n == 0 { 0.0 } else { sum / n as f64 }
     }
 
     /// Each query's linear absolute error (mean over RGB) under `map` and the rough map
@@ -513,7 +561,7 @@ impl<'a> CellProblem<'a> {
     fn data_over(&self, set: &QuerySet, map: &[f32]) -> f64 {
         let n = self.samples.len().max(1) as f64;
         let mut e = self.scratch.borrow_mut();
-        self.errors_by(set, |q: &Sample| sample_map(map, &q.taps), &mut e);
+        self.errors_by(set, |q: &Sample| sample_map(map, &q.taps), true, &mut e);
         // the losses in a pass of their own (it vectorises), then their sum in order
         let eps = self.eps;
         for x in e.iter_mut() {
@@ -554,7 +602,7 @@ impl<'a> CellProblem<'a> {
     pub fn relative_error_maps(&self, mirror: &[f32], rough: &[f32]) -> f64 {
         let delta = |q: &Sample| sample_maps(mirror, rough, &q.taps, q.roughness);
         let mut e = self.scratch.borrow_mut();
-        self.errors_by(&self.all, delta, &mut e);
+        self.errors_by(&self.all, delta, false, &mut e);
         self.rms(e.iter().copied()) / self.mean_reference
     }
 
@@ -569,7 +617,7 @@ impl<'a> CellProblem<'a> {
     pub fn position_square_errors(&self, mirror: &[f32], rough: &[f32], per: usize) -> Vec<f64> {
         let delta = |q: &Sample| sample_maps(mirror, rough, &q.taps, q.roughness);
         let mut e = Vec::new();
-        self.errors_by(&self.all, delta, &mut e);
+        self.errors_by(&self.all, delta, false, &mut e);
         let sq: Vec<f64> = e.iter().map(|e| e.powi(2)).collect();
         sq.chunks(per.max(1)).map(|c| c.iter().sum()).collect()
     }
@@ -791,6 +839,19 @@ impl<'a> CellProblem<'a> {
             Err(_) => (0.0, at_zero),
         }
     }
+}
+
+/// The angle of the aim pull ([`CellProblem::with_aim_pull`]) that costs its weight × the
+/// mean reference: 0.1 rad, about 6°, the size of an edge that moved in a reflection.
+pub const AIM_ANGLE_SCALE: f64 = 0.1;
+
+/// The angle between two vectors in radians (0 where either is zero or not finite), with
+/// `libm`'s `atan2` so that every machine forms the same value.
+#[inline]
+fn angle_between(v: Vec3, u: Vec3) -> f64 {
+    let (v, u) = (v.as_dvec3(), u.as_dvec3());
+    let a = libm::atan2(v.cross(u).length(), v.dot(u));
+    if a.is_finite() { a } else { 0.0 }
 }
 
 /// The Charbonnier loss `√(e² + ε²) − ε` of an error `e`.
@@ -1038,6 +1099,43 @@ mod tests {
         assert!(off > free.len() / 2, "without the pull only {off} of {} texels leave the anchor", free.len());
     }
 
+    /// The aim pull draws aims towards the true hits where the data cannot tell: with
+    /// references that the proxy's own lookups answer exactly, the solve without the pull
+    /// keeps the proxy, and with it the aims come close to the wall's true hits.
+    #[test]
+    fn the_aim_pull_draws_aims_towards_the_true_hits() {
+        let warp = wall_warp(1.0, 64);
+        let w = wall_problem(&warp, 1.0, 300);
+        let z = 5.0;
+        let at_proxy = CellProblem::new(w.ctx, vec![0.0; 64], w.samples.clone());
+        let zero = vec![0.0f32; 64];
+        let samples: Vec<Sample> = w
+            .samples
+            .iter()
+            .enumerate()
+            .map(|(i, q)| Sample {
+                reference: at_proxy.lookup(i, &zero, &[]),
+                target: Some((0, q.b + q.dir * ((z - q.b.z) / q.dir.z))),
+                ..*q
+            })
+            .collect();
+        let solve = |weight: f64| {
+            let mut cell = CellProblem::new(w.ctx, vec![0.0; 64], samples.clone())
+                .with_weights(1e-4, 0.0)
+                .with_robust_scale(0.05)
+                .with_aim_pull(weight);
+            let out = cell.solve(Solver::Brent, 2);
+            let map = cell.map_with_relax(&out.params, out.relax);
+            (cell.mean_aim_angle(&zero), cell.mean_aim_angle(&map), cell.mean_aim_angle(&w.truth))
+        };
+        let (proxy, unpulled, truth) = solve(0.0);
+        assert!(proxy > 0.02, "the proxy's aims are {proxy} rad off: the fixture tests nothing");
+        assert!((unpulled - proxy).abs() < 1e-9, "without the pull the solve left the proxy: {unpulled} vs {proxy}");
+        let (_, pulled, _) = solve(1.0);
+        assert!(pulled < 0.5 * proxy, "pulled aims {pulled} rad off, the proxy's {proxy}");
+        assert!(pulled < truth + 0.5 * (proxy - truth), "pulled {pulled}, true map {truth}, proxy {proxy}");
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
         /// Coordinate descent is only right if a texel's 1-D problem changes exactly as the
@@ -1048,13 +1146,18 @@ mod tests {
             seed in 0u32..1000, k in 0usize..64, x1 in -3.5f64..3.5, x2 in -3.5f64..3.5,
         ) {
             let warp = wall_warp(1.0, 64);
-            let w = wall_problem(&warp, 1.0, 300);
+            let mut w = wall_problem(&warp, 1.0, 300);
+            // every third query pulled towards its true hit on the wall
+            for q in w.samples.iter_mut().step_by(3) {
+                q.target = Some((0, q.b + q.dir * ((5.0 - q.b.z) / q.dir.z)));
+            }
             let start = w.ctx.log_scales_of(&w.distance).iter().map(|s| s * 1.3).collect();
             let anchor = (0..64).map(|i| ((i * 13 % 7) as f64 - 3.0) / 4.0).collect();
             let cell = CellProblem::new(w.ctx, start, w.samples)
                 .with_weights(1e-3, 1e-4)
                 .with_anchor(anchor)
-                .with_robust_scale(0.05);
+                .with_robust_scale(0.05)
+                .with_aim_pull(0.5);
             let s: Vec<f64> = (0..64)
                 .map(|i| (((i as u32).wrapping_mul(2654435761) ^ seed) % 1000) as f64 / 500.0 - 1.0)
                 .collect();
