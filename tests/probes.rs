@@ -172,24 +172,29 @@ fn a_multi_probe_grid_reads_the_probe_each_texel_chose_and_beats_probe_a_alone()
         (rough_error(warpfit::runtime::SpecularRead::Blended), rough_error(warpfit::runtime::SpecularRead::ProbeOnly));
     assert!(blended <= 1.05 * alone, "blended {blended} against the probes alone {alone}");
 
-    // `fitted-faces`: inside a cell, the containing cell's lookup bit for bit; across a cell
-    // face (x = −1.3, in the warm room), continuous where the containing cell's jumps
+    // `fitted-faces`: inside a cell, the containing cell's lookup bit for bit; across the
+    // cell face of the warm room where the containing cell's lookup jumps most (x = −2.6 or
+    // −1.3), continuous
     let shading = warpfit::warp::glossy::Glossy { warp: several.warp(), correction: None };
     let rule = warpfit::warp::glossy::MipRule::Plain;
     let (c, warp) = (several.correctives(), several.warp());
     let cell = |p: Vec3, dir: Vec3| shading.radiance(rule, p, dir, c.fetch(Blend::Cell, warp, p, dir, 0.0), 0.0);
     let faces = |p: Vec3, dir: Vec3| face_blend(shading, rule, c, (p, dir, 0.0));
-    let (mut jump_cell, mut jump_faces) = (0.0f32, 0.0f32);
-    for k in 0..256u32 {
-        let mut s = warpfit::sampling::Sampler::new(9, 0xFACE, k);
-        let dir = warpfit::sampling::uniform_sphere(s.next_2d());
-        let (y, z) = (0.4 + 0.5 * s.next_1d(), -0.3 + 0.6 * s.next_1d());
-        let centre = c.geometry.cell_centre(c.geometry.cell_index(c.geometry.cell_of(Vec3::new(-2.0, y, z))));
-        assert_eq!(faces(centre, dir).to_array().map(f32::to_bits), cell(centre, dir).to_array().map(f32::to_bits));
-        let (below, above) = (Vec3::new(-1.3 - 1e-4, y, z), Vec3::new(-1.3 + 1e-4, y, z));
-        jump_cell = jump_cell.max((tm(cell(below, dir)) - tm(cell(above, dir))).abs().max_element());
-        jump_faces = jump_faces.max((tm(faces(below, dir)) - tm(faces(above, dir))).abs().max_element());
-    }
+    let jumps = |x: f32| {
+        let (mut jump_cell, mut jump_faces) = (0.0f32, 0.0f32);
+        for k in 0..256u32 {
+            let mut s = warpfit::sampling::Sampler::new(9, 0xFACE, k);
+            let dir = warpfit::sampling::uniform_sphere(s.next_2d());
+            let (y, z) = (0.4 + 0.5 * s.next_1d(), -0.3 + 0.6 * s.next_1d());
+            let centre = c.geometry.cell_centre(c.geometry.cell_index(c.geometry.cell_of(Vec3::new(x - 0.65, y, z))));
+            assert_eq!(faces(centre, dir).to_array().map(f32::to_bits), cell(centre, dir).to_array().map(f32::to_bits));
+            let (below, above) = (Vec3::new(x - 1e-4, y, z), Vec3::new(x + 1e-4, y, z));
+            jump_cell = jump_cell.max((tm(cell(below, dir)) - tm(cell(above, dir))).abs().max_element());
+            jump_faces = jump_faces.max((tm(faces(below, dir)) - tm(faces(above, dir))).abs().max_element());
+        }
+        (jump_cell, jump_faces)
+    };
+    let (jump_cell, jump_faces) = [jumps(-2.6), jumps(-1.3)].into_iter().max_by(|a, b| a.0.total_cmp(&b.0)).unwrap();
     assert!(jump_cell > 0.05 && jump_faces < 0.25 * jump_cell && jump_faces < 0.02, "{jump_cell} {jump_faces}");
 }
 

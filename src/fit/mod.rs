@@ -145,7 +145,7 @@ impl FitSettings {
     /// The defaults of `warpfit fit` (chosen by measurement; see docs/architecture.md).
     pub const fn standard() -> Self {
         FitSettings {
-            map_res: 8,
+            map_res: 16,
             train_positions: 16,
             train_dirs: 128,
             check_positions: 16,
@@ -168,7 +168,7 @@ impl FitSettings {
             surface_fraction: 0.5,
             proxy: proxy::ProxyChoice::Measured,
             extra_check_positions: 48,
-            aim_pull: 0.0,
+            aim_pull: 0.5,
         }
     }
 

@@ -26,6 +26,13 @@
 //!   what a viewer sees first: docs/architecture.md), but a texel the data leaves free then
 //!   falls back to a surface that is not there, which rough lookups, averaging many
 //!   texels, show; halfway between, both hold (measured: docs/architecture.md).
+//! - the aim pull (`FitSettings::aim_pull`, [`CellProblem::with_aim_pull`]): each mirror
+//!   training query whose true hit the probe it reads sees adds, to its error, the angle
+//!   between the point it aims at and that hit, as the probe sees them. A pointwise error
+//!   rewards an aim that averages two surfaces (it halves the error at an edge, so the
+//!   edge smears or moves); a viewer sees edges, and the pull keeps them where they are
+//!   (measured: docs/frames.md, "A fit that keeps structure"). Held-out errors, and so
+//!   model selection, do not include it.
 //!
 //! Solvers (chosen by measurement, see docs/architecture.md): Brent's method per texel in
 //! coordinate-descent sweeps (each texel only touches the queries in its bilinear
