@@ -728,15 +728,15 @@ pub fn fit_cells(
             // the map's origin: the cell probe's position (its centre unless relocated)
             let origin = g.cell_centre(cell) + grid.probe_offset[cell];
             // with several probes, which one each texel reads (from the training queries' hits)
-            let hits = (warp.probe_count() > 1 || s.aim_pull > 0.0).then(|| true_hits(baked, &train));
+            let hits = (warp.probe_count() > 1).then(|| true_hits(baked, &train));
             let probe_map = match &hits {
-                Some(hits) if warp.probe_count() > 1 => probes::choose(warp, origin, s.map_res, &distance, hits),
-                _ => Vec::new(),
+                Some(hits) => probes::choose(warp, origin, s.map_res, &distance, hits),
+                None => Vec::new(),
             };
             let check_dirs = check.dirs_per_position;
             let (mut train, check) = (samples(&train), samples(&check));
-            if let Some(hits) = hits.filter(|_| s.aim_pull > 0.0) {
-                set_targets(baked, warp, (s.map_res, &probe_map), &hits, &mut train);
+            if s.aim_pull > 0.0 {
+                set_targets(baked, warp, (s.map_res, &probe_map), hits.as_deref(), &mut train);
             }
             let trace_seconds = tt.elapsed().as_secs_f64();
             let ctx = CellContext { glossy, exposure, proxy, origin, res: s.map_res, probe_map: &probe_map };
@@ -914,11 +914,22 @@ fn true_hits(baked: Baked, q: &truth::TracedQueries) -> Vec<probes::Hit> {
 }
 
 /// The aim pull's targets of a cell's mirror training queries: each query's true hit
-/// (`hits`, in query order) where the probe its texel of a `res`² map reads (`probe_map`;
+/// (from `hits`, in query order, where the probe choice traced them; else traced here, one
+/// ray per mirror query) where the probe its texel of a `res`² map reads (`probe_map`;
 /// empty: probe A) sees it. One shadow ray per mirror query with a hit.
-fn set_targets(baked: Baked, warp: &Warp, (res, probe_map): (u32, &[u8]), hits: &[probes::Hit], train: &mut [Sample]) {
-    for (q, h) in train.iter_mut().zip(hits) {
-        if q.roughness != 0.0 || !h.t.is_finite() {
+fn set_targets(
+    baked: Baked,
+    warp: &Warp,
+    (res, probe_map): (u32, &[u8]),
+    hits: Option<&[probes::Hit]>,
+    train: &mut [Sample],
+) {
+    for (k, q) in train.iter_mut().enumerate() {
+        if q.roughness != 0.0 {
+            continue;
+        }
+        let t = hits.map_or_else(|| truth::first_visible(baked.scene, baked.tracer, q.b, q.dir), |h| h[k].t);
+        if !t.is_finite() {
             continue;
         }
         let p = if probe_map.is_empty() {
@@ -927,7 +938,7 @@ fn set_targets(baked: Baked, warp: &Warp, (res, probe_map): (u32, &[u8]), hits: 
             probe_map[crate::warp::corrective::nearest_tap(&crate::octa::bilinear_taps(res, crate::octa::encode(q.dir)))
                 as usize]
         };
-        let hit = h.b + h.dir * h.t;
+        let hit = q.b + q.dir * t;
         if truth::sees(baked.scene, baked.tracer, warp.probe_at(p.into()).position, hit) {
             q.target = Some((p, hit));
         }
