@@ -41,7 +41,7 @@ fn gpu() -> Option<&'static Gpu> {
 fn torture_fit() -> &'static Path {
     static D: std::sync::OnceLock<TestDir> = std::sync::OnceLock::new();
     D.get_or_init(|| {
-        let dir = tmp_dir("gpu-torture");
+        let dir = fixture_dir("gpu-torture");
         SmallTorture::fit_into(&dir);
         dir
     })

@@ -40,10 +40,10 @@ struct Fitted {
 fn fitted() -> &'static Fitted {
     static F: std::sync::OnceLock<Fitted> = std::sync::OnceLock::new();
     F.get_or_init(|| {
-        let dir = tmp_dir("render-torture");
+        let dir = fixture_dir("render-torture");
         let torture = SmallTorture::fit_into(&dir);
         let grid = FittedGrid::load(&dir).unwrap();
-        let export = tmp_dir("render-export");
+        let export = fixture_dir("render-export");
         warpfit::export::export(&grid, &export).unwrap();
         Fitted { torture, grid, export, _dir: dir }
     })

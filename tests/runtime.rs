@@ -102,9 +102,9 @@ impl std::ops::Deref for Fixture {
 fn fixture() -> &'static Fixture {
     static F: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
     F.get_or_init(|| {
-        let f32_dir = tmp_dir("runtime-f32");
+        let f32_dir = fixture_dir("runtime-f32");
         let torture = SmallTorture::fit_into(&f32_dir);
-        let f16_dir = tmp_dir("runtime-f16");
+        let f16_dir = fixture_dir("runtime-f16");
         let f16 = StoreOptions { precision: Precision::F16, ..Default::default() };
         job::write_grid(torture.baked(), &torture.warp, &torture.fit, f16, &RunFolder::new(&f16_dir)).unwrap();
         Fixture { torture, f32_dir, f16_dir }

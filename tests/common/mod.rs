@@ -81,6 +81,31 @@ pub fn tmp_dir(tag: &str) -> TestDir {
     TestDir(d)
 }
 
+/// The scratch folder of a fixture kept for the whole test process (a `static`, which is
+/// never dropped, so [`TestDir`]'s clean-up never runs): under cargo's per-target scratch
+/// folder, and the folders of the same tag left by earlier processes (no longer running)
+/// are removed first, so repeated runs keep one.
+pub fn fixture_dir(tag: &str) -> TestDir {
+    let root = Path::new(env!("CARGO_TARGET_TMPDIR"));
+    let prefix = format!("warpfit-fixture-{tag}-");
+    if let Ok(entries) = std::fs::read_dir(root) {
+        for e in entries.flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            let stale = name
+                .strip_prefix(&prefix)
+                .and_then(|pid| pid.parse::<u32>().ok())
+                .is_some_and(|pid| pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists());
+            if stale {
+                let _ = std::fs::remove_dir_all(e.path());
+            }
+        }
+    }
+    let d = root.join(format!("{prefix}{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    TestDir(d)
+}
+
 pub fn exists(p: &Path) -> bool {
     p.exists()
 }
