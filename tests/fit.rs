@@ -282,3 +282,39 @@ fn level_one_and_map_resolutions_are_measured_against_the_stored_model_when_aske
         assert!(row.bytes <= n * f64::from(res[res.len() - 1].pow(2)) * 4.0);
     }
 }
+
+/// The in-sample bound: the maps refitted on the evaluation's own mirror queries answer
+/// those queries closer than the fit's maps (trained on queries of their own) do, each
+/// query looked up through its cell's map as the runtime does; hit counts that do not fit
+/// the grid give no bound.
+#[test]
+fn the_in_sample_maps_answer_their_own_queries_closer_than_the_fitted_ones() {
+    use warpfit::eval::{self, EvalSettings};
+    use warpfit::tonemap::reinhard;
+    use warpfit::warp::corrective::{Blend, Correctives};
+    use warpfit::warp::glossy::{Glossy, MipRule};
+    let dir = tmp_dir("in-sample");
+    let t = SmallTorture::fit_into(&dir);
+    let settings = EvalSettings { positions: 32, dirs_per_position: 32, reference_spp: 2, ..EvalSettings::default() };
+    let set = eval::validation_set(&t.scene, &t.tracer, &t.grid, &[t.probe.position], &settings, None);
+    let in_sample = fit::in_sample(&t.grid, &t.grid.hits, &t.warp, &t.fit, &set).expect("the fit kept its maps");
+    let fitted_all = &t.fit.unfitted.as_ref().expect("kept").fitted_all;
+    assert!(in_sample.stored_cells() > 0);
+    let glossy = Glossy { warp: &t.warp, correction: None };
+    let exposure = t.warp.probe.key_exposure();
+    let error = |c: &Correctives| {
+        let sum: f64 = (0..set.dirs.len())
+            .map(|k| {
+                let (b, dir) = (set.position_of(k), set.dirs[k]);
+                let aim = c.fetch(Blend::Cell, &t.warp, b, dir, 0.0);
+                let d = reinhard(glossy.radiance(MipRule::Corrected, b, dir, aim, 0.0), exposure)
+                    - reinhard(set.reference[k], exposure);
+                f64::from((d.x.abs() + d.y.abs() + d.z.abs()) / 3.0)
+            })
+            .sum();
+        sum / set.dirs.len() as f64
+    };
+    let (bound, fitted) = (error(&in_sample), error(fitted_all));
+    assert!(bound < 0.95 * fitted, "in-sample {bound} against the fitted maps' {fitted}");
+    assert!(fit::in_sample(&t.grid, &[], &t.warp, &t.fit, &set).is_none());
+}

@@ -133,7 +133,7 @@ pub fn print_eval(r: &warpfit::eval::EvalReport, folder: &RunFolder) {
     }
     let t = &r.times;
     println!(
-        "time: {:.1} s in all: mirror references {:.1} s, rough references {:.1} s, views and their references {:.1} s, rows {:.1} s, their views' ꟻLIP {:.1} s, bucket summaries {:.1} s, diffuse and surfaces {:.1} s",
+        "time: {:.1} s in all: mirror references {:.1} s, rough references {:.1} s, views and their references {:.1} s, rows {:.1} s, their views' ꟻLIP {:.1} s, bucket summaries {:.1} s, diffuse and surfaces {:.1} s, the in-sample bound's maps {:.1} s",
         r.seconds,
         t.mirror_references,
         t.rough_references,
@@ -141,7 +141,8 @@ pub fn print_eval(r: &warpfit::eval::EvalReport, folder: &RunFolder) {
         t.rows,
         t.flip,
         t.summaries,
-        t.diffuse_and_surfaces
+        t.diffuse_and_surfaces,
+        t.in_sample
     );
     if t.reference_sets_traced + t.reference_sets_reused > 0 {
         println!(

@@ -232,6 +232,9 @@ pub enum CorrectiveVariant {
     /// The fitted grid as stored, each lookup's radiance blended over the cells whose
     /// faces are near (each cell's own shift and probe; [`face_blend`]).
     FittedFaces,
+    /// A bound: every cell's map refitted on the evaluation's own mirror queries
+    /// (`fit::in_sample`), what a per-cell map could reach on them; mirror bucket only.
+    InSample,
 }
 
 /// The `fitted-faces` radiance of query (B, dir, r): the runtime's faces blend
@@ -244,13 +247,14 @@ pub fn face_blend(shading: Glossy, rule: MipRule, c: &Correctives, (b, dir, r): 
 }
 
 impl CorrectiveVariant {
-    pub const ALL: [CorrectiveVariant; 6] = [
+    pub const ALL: [CorrectiveVariant; 7] = [
         CorrectiveVariant::Celldepth,
         CorrectiveVariant::Fitted,
         CorrectiveVariant::FittedL2All,
         CorrectiveVariant::FittedTrilinear,
         CorrectiveVariant::PerCell,
         CorrectiveVariant::FittedFaces,
+        CorrectiveVariant::InSample,
     ];
 
     pub fn name(self) -> &'static str {
@@ -261,6 +265,7 @@ impl CorrectiveVariant {
             CorrectiveVariant::FittedTrilinear => "fitted-trilinear",
             CorrectiveVariant::PerCell => "per-cell",
             CorrectiveVariant::FittedFaces => "fitted-faces",
+            CorrectiveVariant::InSample => "in-sample",
         }
     }
 
@@ -277,6 +282,9 @@ impl CorrectiveVariant {
             }
             CorrectiveVariant::PerCell => {
                 "a shift map in every active cell fitted with one probe for the cell (the probe most of its texels chose), containing cell"
+            }
+            CorrectiveVariant::InSample => {
+                "bound: each cell's map refitted on these queries themselves (in-sample), the fit's probe per texel, containing cell"
             }
         }
     }
@@ -462,7 +470,8 @@ pub fn rows<'a>(
             out.extend(rules.iter().map(|&r| Row { fetch: Fetch::OracleProbes, rule: rule_of(r), renorm: None }));
         }
     }
-    for &g in grids {
+    // (the in-sample bound is fitted on the mirror queries: it bounds nothing rough)
+    for &g in grids.iter().filter(|g| !(rough && g.variant == CorrectiveVariant::InSample)) {
         out.extend(rules.iter().map(|&r| Row { fetch: Fetch::Grid(g), rule: rule_of(r), renorm: None }));
     }
     let tier = |read| runtime.map(|g| Row { fetch: Fetch::Runtime(g, read), rule: None, renorm: None });

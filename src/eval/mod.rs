@@ -192,6 +192,11 @@ pub struct EvalTimes {
     pub summaries: f64,
     /// The diffuse table (its references and views) and the surface probes.
     pub diffuse_and_surfaces: f64,
+    /// The `in-sample` bound's maps refitted on the mirror validation set (made before the
+    /// evaluation, when the fit kept its maps; its references then count in
+    /// `mirror_references`).
+    #[serde(default)]
+    pub in_sample: f64,
     /// Sets of references traced by this run, and read back from an earlier run's
     /// (`crate::trace::store::ReferenceStore`; both 0 without a store).
     #[serde(default)]
@@ -342,6 +347,9 @@ pub struct Subject<'a> {
     pub runtime: Option<&'a FittedGrid>,
     /// The correction the `Corrected` mip rule applies (the fitted grid's).
     pub correction: Option<&'a RoughnessCorrection>,
+    /// The validation set when the caller already made it (with these settings), else
+    /// `evaluate` makes it.
+    pub mirror: Option<&'a ValidationSet>,
 }
 
 /// A figure of one roughness bucket's camera view: the reference, then a few rows' images
@@ -374,7 +382,7 @@ pub struct Evaluation {
 /// Evaluates the subject on its scene's validation set, every row on every roughness
 /// bucket. `subject.warp` must carry `settings.options`.
 pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progress: &Progress) -> Evaluation {
-    let Subject { baked, warp, methods, corrective_rows, runtime, correction } = subject;
+    let Subject { baked, warp, methods, corrective_rows, runtime, correction, mirror } = subject;
     let references = baked.references;
     let Baked { scene, tracer, grid, .. } = baked;
     let t0 = std::time::Instant::now();
@@ -394,7 +402,14 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     bar.set_message("eval: references");
     let mut times = EvalTimes::default();
     let mut laps = Laps(std::time::Instant::now());
-    let mirror = validation_set(scene, tracer, grid, &warp.probe_positions(), settings, references);
+    let made;
+    let mirror = match mirror {
+        Some(set) => set,
+        None => {
+            made = validation_set(scene, tracer, grid, &warp.probe_positions(), settings, references);
+            &made
+        }
+    };
     let mut reference_rays = mirror.rays;
     laps.lap(&mut times.mirror_references);
     bar.inc(1);
@@ -422,7 +437,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         // the rough bucket's queries, traced with `spp`-sample references
         let size = (settings.rough_positions as usize, settings.rough_dirs as usize);
         let trace_rough = |spp: u32| {
-            validation::rough_set((scene, tracer, references), &mirror, (r, bucket as u64), size, spp, settings.seed)
+            validation::rough_set((scene, tracer, references), mirror, (r, bucket as u64), size, spp, settings.seed)
         };
         let set = if r == 0.0 {
             None
@@ -432,7 +447,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
             Some(s)
         };
         laps.lap(&mut times.rough_references);
-        let set = set.as_ref().unwrap_or(&mirror);
+        let set = set.as_ref().unwrap_or(mirror);
         let view_refs = view_references((baked, references), &views, (r, bucket), settings, exposure);
         laps.lap(&mut times.view_references);
         bar.inc(1);
@@ -488,10 +503,10 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     let fitted_levels = corrective_rows
         .iter()
         .find(|r| r.variant == CorrectiveVariant::Fitted)
-        .map(|r| metrics::level_errors(warp, &mirror, r.correctives, exposure))
+        .map(|r| metrics::level_errors(warp, mirror, r.correctives, exposure))
         .unwrap_or_default();
     bar.set_message("eval: warp1 options");
-    let warp1_sweep = options::warp1_options(warp, &mirror, exposure);
+    let warp1_sweep = options::warp1_options(warp, mirror, exposure);
     laps.lap(&mut times.rows);
     bar.inc(1);
     bar.set_message("eval: diffuse");
@@ -513,7 +528,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         lookups: mirror.dirs.len(),
         hidden_fraction: mirror.hidden_fraction(),
         hidden_fraction_all: (warp.probe_count() > 1).then(|| (mirror.hidden_fraction_all(), warp.probe_count())),
-        reference_ns_per_ray: timing::time_reference(&renderer, &mirror, 4096),
+        reference_ns_per_ray: timing::time_reference(&renderer, mirror, 4096),
         methods: rows_out,
         buckets: summaries,
         exposure,
@@ -527,7 +542,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         times,
         reference_rays,
     };
-    let views = views::views(scene, tracer, warp, &mirror, settings.reference_spp, settings.seed, corrective_rows);
+    let views = views::views(scene, tracer, warp, mirror, settings.reference_spp, settings.seed, corrective_rows);
     Evaluation { report, surface_atlases, views, flip_figures }
 }
 

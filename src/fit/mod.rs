@@ -1003,6 +1003,79 @@ fn refine(
     Refined { start, outcome, fitted, init }
 }
 
+/// The in-sample bound of the model class: each cell's map refitted (as the fit refits one,
+/// [`refine`], its texels reading the probes the fit chose) on the queries `q` that fall in
+/// it, as the runtime finds a query's cell. With `q` the evaluation's own mirror queries,
+/// the error of these maps on `q` is what a per-cell shift map could reach on them: a
+/// bound, not a model, since nothing held out judges it. `hits`: the grid's hit counts
+/// (`ProbeGrid::hits`, which a staged fit drops). `None` when `f` did not keep its maps
+/// before model selection (the fit's probe maps are read from them) or `hits` does not
+/// fit the grid.
+pub fn in_sample(
+    grid: &crate::bake::ProbeGrid,
+    hits: &[u8],
+    warp: &Warp,
+    f: &Fit,
+    q: &TracedQueries,
+) -> Option<Correctives> {
+    let all = &f.unfitted.as_ref()?.fitted_all;
+    if hits.len() != grid.depth_mean.len() {
+        return None;
+    }
+    let s = &f.settings;
+    let g = grid.geometry;
+    let n2 = (s.map_res * s.map_res) as usize;
+    let d2 = (grid.depth_resolution * grid.depth_resolution) as usize;
+    let glossy = Glossy { warp, correction: f.roughness.as_ref() };
+    let mut by_cell: Vec<Vec<Sample>> = vec![Vec::new(); g.cell_count()];
+    for k in 0..q.dirs.len() {
+        let b = q.position_of(k);
+        by_cell[all.cell_at(b)].push(Sample::new(b, q.dirs[k], q.roughness[k], q.reference[k]));
+    }
+    let cells: Vec<usize> = (0..g.cell_count()).filter(|&c| !by_cell[c].is_empty() && !grid.inside[c]).collect();
+    let probe_map_of = |cell: usize| -> Vec<u8> {
+        match all.slot_of(cell) {
+            Some(slot) if !all.probe_maps.is_empty() => all.probe_maps[slot as usize * n2..][..n2].to_vec(),
+            _ if warp.probe_count() > 1 => vec![0; n2],
+            _ => Vec::new(),
+        }
+    };
+    let maps: Vec<(Vec<f32>, Vec<u8>)> = cells
+        .par_iter()
+        .map(|&cell| {
+            let distance = model::celldepth_distances(
+                grid.depth_resolution,
+                &grid.depth_mean[cell * d2..(cell + 1) * d2],
+                &hits[cell * d2..(cell + 1) * d2],
+                grid.depth_samples,
+                grid.far_distance,
+                s.map_res,
+            );
+            let sees_only_sky = distance.iter().all(|d| !d.is_finite());
+            let probe_map = probe_map_of(cell);
+            let origin = g.cell_centre(cell) + grid.probe_offset[cell];
+            let ctx = CellContext {
+                glossy,
+                exposure: exposure_of(warp),
+                proxy: f.proxy.method,
+                origin,
+                res: s.map_res,
+                probe_map: &probe_map,
+            };
+            let map = refine(ctx, by_cell[cell].clone(), &distance, sees_only_sky, s.depth_prior, s).fitted;
+            (map, probe_map)
+        })
+        .collect();
+    let mut slot = vec![NO_MAP; g.cell_count()];
+    let (mut flat, mut probes) = (Vec::with_capacity(cells.len() * n2), Vec::new());
+    for (k, (&cell, (map, probe_map))) in cells.iter().zip(&maps).enumerate() {
+        slot[cell] = k as u32;
+        flat.extend_from_slice(map);
+        probes.extend_from_slice(probe_map);
+    }
+    Some(Correctives::new(g, s.map_res, slot, flat, all.fallback).with_probe_maps(probes))
+}
+
 /// The check queries of even and odd positions (`dirs` queries a position, in order).
 fn check_halves(check: &[Sample], dirs: usize) -> [Vec<Sample>; 2] {
     let mut halves = [Vec::new(), Vec::new()];

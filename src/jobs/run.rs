@@ -430,6 +430,8 @@ pub fn corrective_rows(f: &Fit) -> Vec<CorrectiveRow<'_>> {
                 }
                 CorrectiveVariant::FittedL2All => &f.unfitted.as_ref()?.fitted_all,
                 CorrectiveVariant::PerCell => f.unfitted.as_ref()?.per_cell.as_ref()?,
+                // (fitted on the evaluation's own queries: `evaluate` adds it)
+                CorrectiveVariant::InSample => return None,
             };
             Some(CorrectiveRow { variant, correctives })
         })
@@ -447,7 +449,32 @@ pub fn evaluate(
     fit: Option<&Fit>,
     out: Output,
 ) -> Result<EvalReport, FileError> {
-    let rows = fit.map(corrective_rows).unwrap_or_default();
+    let before = baked.references.map(ReferenceStore::counts).unwrap_or_default();
+    crate::trace::streams::set_stage(crate::trace::streams::Stage::Eval);
+    // the in-sample bound: the fit's maps refitted on the evaluation's own mirror queries
+    // (the validation set made here once, for both)
+    let t0 = std::time::Instant::now();
+    let mirror = fit.filter(|f| f.unfitted.is_some()).map(|_| {
+        let probes = warp.probe_positions();
+        eval::validation_set(baked.scene, baked.tracer, baked.grid, &probes, settings, baked.references)
+    });
+    let mirror_seconds = t0.elapsed().as_secs_f64();
+    let in_sample = fit.zip(mirror.as_ref()).and_then(|(f, set)| {
+        // (a staged fit dropped the hit counts: read them again)
+        let read;
+        let hits = if baked.grid.holds_hits() {
+            &baked.grid.hits
+        } else {
+            read = bakefile::read_hits(&out.folder.bake(), &baked.scene.content_key(), baked.grid).ok()?;
+            &read
+        };
+        crate::fit::in_sample(baked.grid, hits, warp, f, set)
+    });
+    let in_sample_seconds = t0.elapsed().as_secs_f64() - mirror_seconds;
+    let mut rows = fit.map(corrective_rows).unwrap_or_default();
+    rows.extend(
+        in_sample.as_ref().map(|correctives| CorrectiveRow { variant: CorrectiveVariant::InSample, correctives }),
+    );
     let runtime = match fit {
         Some(_) => Some(FittedGrid::load(&out.folder.dir)?),
         None => None,
@@ -464,10 +491,12 @@ pub fn evaluate(
         corrective_rows: &rows,
         runtime: runtime.as_ref(),
         correction: correction.as_ref(),
+        mirror: mirror.as_ref(),
     };
-    let before = baked.references.map(ReferenceStore::counts).unwrap_or_default();
-    crate::trace::streams::set_stage(crate::trace::streams::Stage::Eval);
     let mut ev = eval::evaluate(subject, settings, out.command, out.progress);
+    ev.report.times.mirror_references += mirror_seconds;
+    ev.report.times.in_sample = in_sample_seconds;
+    ev.report.seconds += mirror_seconds + in_sample_seconds;
     let after = baked.references.map(ReferenceStore::counts).unwrap_or_default();
     (ev.report.times.reference_sets_traced, ev.report.times.reference_sets_reused) =
         (after.0 - before.0, after.1 - before.1);
