@@ -183,12 +183,17 @@ impl RowId {
         matches!(self.kind, RowKind::Runtime(_))
     }
 
-    /// A bound rather than a method (`oracle`, `best-fetch`, `best-aim`).
+    /// A bound rather than a method (`oracle`, `oracle-probes`, `best-fetch`, `best-aim`,
+    /// `in-sample`).
     #[must_use]
     pub fn is_bound(self) -> bool {
         matches!(
             self.kind,
-            RowKind::Method(Method::Oracle) | RowKind::OracleProbes | RowKind::BestFetch | RowKind::BestAim
+            RowKind::Method(Method::Oracle)
+                | RowKind::OracleProbes
+                | RowKind::BestFetch
+                | RowKind::BestAim
+                | RowKind::Grid(CorrectiveVariant::InSample)
         )
     }
 }

@@ -111,7 +111,7 @@ pub fn is_runtime(name: &str) -> bool {
 }
 
 /// Whether a row (by name or label) is a bound rather than a method (`oracle`, `best-fetch`,
-/// `best-aim`): never on the Pareto front, never "the best other row".
+/// `best-aim`, `in-sample`, …): never on the Pareto front, never "the best other row".
 #[must_use]
 pub fn is_bound(name: &str) -> bool {
     RowId::parse(name).is_some_and(RowId::is_bound)
@@ -1190,6 +1190,6 @@ mod tests {
         assert_eq!(RowId::parse("reproject"), Some(RowId::method(Method::Reproject)));
         assert_eq!(RowId::parse("no-such-row"), None);
         assert!(is_runtime("runtime-probe-only") && is_runtime("runtime+renorm") && !is_runtime("box"));
-        assert!(is_bound("oracle/plain") && is_bound("best-aim") && !is_bound("fitted"));
+        assert!(is_bound("oracle/plain") && is_bound("best-aim") && is_bound("in-sample") && !is_bound("fitted"));
     }
 }
