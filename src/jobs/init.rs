@@ -258,36 +258,8 @@ pub fn init(mesh: &Path, mesh_as_written: &Path, cell_size: Option<f32>) -> Resu
     // probe A: the most open candidate at a player's eye height that is not inside geometry
     let diag = extent.length();
     let eps = 1e-4 * diag;
-    let threshold = scene.config.grid.inside_backface_fraction;
     let n = CANDIDATES_PER_AXIS;
-    let mut seen = std::collections::HashSet::new();
-    let mut scored: Vec<Candidate> = Vec::new();
-    for k in 0..n * n * n {
-        let f = Vec3::new((k % n) as f32, ((k / n) % n) as f32, (k / (n * n)) as f32);
-        let lattice = gmin + (gmax - gmin) * (f + 0.5) / n as f32;
-        let (p, eye) = match at_eye_height(&tracer, lattice, eps) {
-            Some(q) if (lo.y..=hi.y).contains(&q.y) => (q, true),
-            _ => (lattice, false),
-        };
-        if !seen.insert(p.to_array().map(f32::to_bits))
-            || truth::is_inside(&scene, &tracer, p, threshold, |j| Sampler::new(7, k as u64, j))
-        {
-            continue;
-        }
-        // rays that escape count nothing: probe A belongs inside the level, not in its doorways
-        let (mut free, mut hit_sum, mut hits) = (0.0f32, 0.0f32, 0u32);
-        for j in 0..SCORE_DIRECTIONS {
-            let d = uniform_sphere(Sampler::new(8, 0, j).next_2d());
-            if let Some(h) = tracer.closest_hit(p, d, f32::INFINITY) {
-                free += h.t.min(diag);
-                hit_sum += h.t.min(diag);
-                hits += 1;
-            }
-        }
-        let escape = 1.0 - hits as f32 / SCORE_DIRECTIONS as f32;
-        let mean_hit = if hits > 0 { hit_sum / hits as f32 } else { diag };
-        scored.push(Candidate { p, eye, score: free / SCORE_DIRECTIONS as f32, escape, mean_hit });
-    }
+    let scored = candidates(&scene, &tracer, (lo, hi), (gmin, gmax), eps);
     // at eye height where any candidate is: a player stands on floors, not in the air above
     let any_eye = scored.iter().any(|c| c.eye);
     let best = scored.iter().filter(|c| c.eye || !any_eye).max_by(|a, b| a.score.total_cmp(&b.score));
@@ -318,10 +290,6 @@ pub fn init(mesh: &Path, mesh_as_written: &Path, cell_size: Option<f32>) -> Resu
             mesh.display()
         ));
     }
-    let has_lights = !scene.lights.sphere_lights.is_empty()
-        || scene.lights.sun.is_some()
-        || scene.materials.iter().any(|m| m.emission.max_element() > 0.0);
-
     let mut t = String::new();
     let _ = writeln!(t, "# Scene for {} written by `warpfit init` (edit freely).", mesh.display());
     let _ = writeln!(t, "# Paths are relative to this file: save it in the folder `init` ran from.");
@@ -357,6 +325,69 @@ pub fn init(mesh: &Path, mesh_as_written: &Path, cell_size: Option<f32>) -> Resu
     t += &probe_text(probe, gmin, gmax, counts);
     t += "\n";
     t += &placed_probes(&scene, &tracer, probe, (gmin, gmax, counts), eps);
+    t += &lights_text(&scene, &tracer, (probe, &best), (typical, eps));
+    t += &geometry_entry(mesh_as_written, kind);
+    Ok(Init { text: t, name, probe, counts, cell_size: size, warnings })
+}
+
+/// Probe A's candidates, scored: a lattice of [`CANDIDATES_PER_AXIS`]³ points over the grid
+/// `(gmin, gmax)` of a level within `(lo, hi)`, each brought down to eye height where a
+/// floor is beneath it, without repeats or points inside geometry; each scored by its mean
+/// distance to what [`SCORE_DIRECTIONS`] rays hit (escaping rays count zero).
+fn candidates(
+    scene: &Scene,
+    tracer: &Tracer,
+    (lo, hi): (Vec3, Vec3),
+    (gmin, gmax): (Vec3, Vec3),
+    eps: f32,
+) -> Vec<Candidate> {
+    let diag = (hi - lo).length();
+    let threshold = scene.config.grid.inside_backface_fraction;
+    let n = CANDIDATES_PER_AXIS;
+    let mut seen = std::collections::HashSet::new();
+    let mut scored: Vec<Candidate> = Vec::new();
+    for k in 0..n * n * n {
+        let f = Vec3::new((k % n) as f32, ((k / n) % n) as f32, (k / (n * n)) as f32);
+        let lattice = gmin + (gmax - gmin) * (f + 0.5) / n as f32;
+        let (p, eye) = match at_eye_height(tracer, lattice, eps) {
+            Some(q) if (lo.y..=hi.y).contains(&q.y) => (q, true),
+            _ => (lattice, false),
+        };
+        if !seen.insert(p.to_array().map(f32::to_bits))
+            || truth::is_inside(scene, tracer, p, threshold, |j| Sampler::new(7, k as u64, j))
+        {
+            continue;
+        }
+        // rays that escape count nothing: probe A belongs inside the level, not in its doorways
+        let (mut free, mut hit_sum, mut hits) = (0.0f32, 0.0f32, 0u32);
+        for j in 0..SCORE_DIRECTIONS {
+            let d = uniform_sphere(Sampler::new(8, 0, j).next_2d());
+            if let Some(h) = tracer.closest_hit(p, d, f32::INFINITY) {
+                free += h.t.min(diag);
+                hit_sum += h.t.min(diag);
+                hits += 1;
+            }
+        }
+        let escape = 1.0 - hits as f32 / SCORE_DIRECTIONS as f32;
+        let mean_hit = if hits > 0 { hit_sum / hits as f32 } else { diag };
+        scored.push(Candidate { p, eye, score: free / SCORE_DIRECTIONS as f32, escape, mean_hit });
+    }
+    scored
+}
+
+/// The scene text's lights: the level's own with a dim sky, or (none in the file) a daylight
+/// sky and sun, and a lamp above probe A (at `probe`, scored `best`) when the level is
+/// mostly closed; `typical`: the level's scale, `eps` its ray offset.
+fn lights_text(
+    scene: &Scene,
+    tracer: &Tracer,
+    (probe, best): (Vec3, &Candidate),
+    (typical, eps): (f32, f32),
+) -> String {
+    let has_lights = !scene.lights.sphere_lights.is_empty()
+        || scene.lights.sun.is_some()
+        || scene.materials.iter().any(|m| m.emission.max_element() > 0.0);
+    let mut t = String::new();
     if has_lights {
         let _ = writeln!(
             t,
@@ -394,8 +425,7 @@ pub fn init(mesh: &Path, mesh_as_written: &Path, cell_size: Option<f32>) -> Resu
             );
         }
     }
-    t += &geometry_entry(mesh_as_written, kind);
-    Ok(Init { text: t, name, probe, counts, cell_size: size, warnings })
+    t
 }
 
 /// A candidate for probe A, scored.
