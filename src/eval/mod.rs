@@ -192,9 +192,8 @@ pub struct EvalTimes {
     pub summaries: f64,
     /// The diffuse table (its references and views) and the surface probes.
     pub diffuse_and_surfaces: f64,
-    /// The `in-sample` bound's maps refitted on the mirror validation set (made before the
-    /// evaluation, when the fit kept its maps; its references then count in
-    /// `mirror_references`).
+    /// The `in-sample` bound's maps refitted on the mirror validation set (when the fit
+    /// kept its maps).
     #[serde(default)]
     pub in_sample: f64,
     /// Sets of references traced by this run, and read back from an earlier run's
@@ -347,9 +346,9 @@ pub struct Subject<'a> {
     pub runtime: Option<&'a FittedGrid>,
     /// The correction the `Corrected` mip rule applies (the fitted grid's).
     pub correction: Option<&'a RoughnessCorrection>,
-    /// The validation set when the caller already made it (with these settings), else
-    /// `evaluate` makes it.
-    pub mirror: Option<&'a ValidationSet>,
+    /// The mirror validation set ([`validation_set`] with the same settings and
+    /// references), made by the caller, who may judge more on it (the in-sample bound).
+    pub mirror: &'a ValidationSet,
 }
 
 /// A figure of one roughness bucket's camera view: the reference, then a few rows' images
@@ -383,8 +382,7 @@ pub struct Evaluation {
 /// bucket. `subject.warp` must carry `settings.options`.
 pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progress: &Progress) -> Evaluation {
     let Subject { baked, warp, methods, corrective_rows, runtime, correction, mirror } = subject;
-    let references = baked.references;
-    let Baked { scene, tracer, grid, .. } = baked;
+    let Baked { scene, tracer, grid, references, .. } = baked;
     let t0 = std::time::Instant::now();
     let shading = Glossy { warp, correction };
     let exposure = warp.probe.key_exposure();
@@ -402,16 +400,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     bar.set_message("eval: references");
     let mut times = EvalTimes::default();
     let mut laps = Laps(std::time::Instant::now());
-    let made;
-    let mirror = match mirror {
-        Some(set) => set,
-        None => {
-            made = validation_set(scene, tracer, grid, &warp.probe_positions(), settings, references);
-            &made
-        }
-    };
     let mut reference_rays = mirror.rays;
-    laps.lap(&mut times.mirror_references);
     bar.inc(1);
     let views = settings
         .renders
@@ -500,11 +489,7 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
         rows_out.extend(results);
         laps.lap(&mut times.summaries);
     }
-    let fitted_levels = corrective_rows
-        .iter()
-        .find(|r| r.variant == CorrectiveVariant::Fitted)
-        .map(|r| metrics::level_errors(warp, mirror, r.correctives, exposure))
-        .unwrap_or_default();
+    let fitted_levels = fitted_level_errors(corrective_rows, warp, mirror, exposure);
     bar.set_message("eval: warp1 options");
     let warp1_sweep = options::warp1_options(warp, mirror, exposure);
     laps.lap(&mut times.rows);
@@ -544,6 +529,20 @@ pub fn evaluate(subject: Subject, settings: &EvalSettings, command: &str, progre
     };
     let views = views::views(scene, tracer, warp, mirror, settings.reference_spp, settings.seed, corrective_rows);
     Evaluation { report, surface_atlases, views, flip_figures }
+}
+
+/// The stored fitted grid's errors by level on the mirror set (`metrics::level_errors`), when
+/// the evaluation judges one.
+fn fitted_level_errors(
+    rows: &[CorrectiveRow],
+    warp: &Warp,
+    mirror: &ValidationSet,
+    exposure: f32,
+) -> Vec<metrics::LevelEval> {
+    rows.iter()
+        .find(|r| r.variant == CorrectiveVariant::Fitted)
+        .map(|r| metrics::level_errors(warp, mirror, r.correctives, exposure))
+        .unwrap_or_default()
 }
 
 /// Probe A's emitted part as every row reads it (the linear error with the emitters apart):

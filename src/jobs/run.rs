@@ -454,12 +454,10 @@ pub fn evaluate(
     // the in-sample bound: the fit's maps refitted on the evaluation's own mirror queries
     // (the validation set made here once, for both)
     let t0 = std::time::Instant::now();
-    let mirror = fit.filter(|f| f.unfitted.is_some()).map(|_| {
-        let probes = warp.probe_positions();
-        eval::validation_set(baked.scene, baked.tracer, baked.grid, &probes, settings, baked.references)
-    });
+    let probes = warp.probe_positions();
+    let mirror = eval::validation_set(baked.scene, baked.tracer, baked.grid, &probes, settings, baked.references);
     let mirror_seconds = t0.elapsed().as_secs_f64();
-    let in_sample = fit.zip(mirror.as_ref()).and_then(|(f, set)| {
+    let in_sample = fit.filter(|f| f.unfitted.is_some()).and_then(|f| {
         // (a staged fit dropped the hit counts: read them again)
         let read;
         let hits = if baked.grid.holds_hits() {
@@ -468,7 +466,7 @@ pub fn evaluate(
             read = bakefile::read_hits(&out.folder.bake(), &baked.scene.content_key(), baked.grid).ok()?;
             &read
         };
-        crate::fit::in_sample(baked.grid, hits, warp, f, set)
+        crate::fit::in_sample(baked.grid, hits, warp, f, &mirror)
     });
     let in_sample_seconds = t0.elapsed().as_secs_f64() - mirror_seconds;
     let mut rows = fit.map(corrective_rows).unwrap_or_default();
@@ -491,10 +489,10 @@ pub fn evaluate(
         corrective_rows: &rows,
         runtime: runtime.as_ref(),
         correction: correction.as_ref(),
-        mirror: mirror.as_ref(),
+        mirror: &mirror,
     };
     let mut ev = eval::evaluate(subject, settings, out.command, out.progress);
-    ev.report.times.mirror_references += mirror_seconds;
+    ev.report.times.mirror_references = mirror_seconds;
     ev.report.times.in_sample = in_sample_seconds;
     ev.report.seconds += mirror_seconds + in_sample_seconds;
     let after = baked.references.map(ReferenceStore::counts).unwrap_or_default();
