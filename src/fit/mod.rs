@@ -1004,7 +1004,7 @@ fn refine(
 }
 
 /// The in-sample bound of the model class: each cell's map refitted (as the fit refits one,
-/// [`refine`], its texels reading the probes the fit chose) on the queries `q` that fall in
+/// `refine`, its texels reading the probes the fit chose) on the queries `q` that fall in
 /// it, as the runtime finds a query's cell. With `q` the evaluation's own mirror queries,
 /// the error of these maps on `q` is what a per-cell shift map could reach on them: a
 /// bound, not a model, since nothing held out judges it. `hits`: the grid's hit counts
