@@ -688,7 +688,6 @@ pub fn fit_cells(
     let rough_fraction = rough_fraction(&glossy, s);
     let renderer = Renderer::new(scene, tracer);
     let g = grid.geometry;
-    let d2 = (grid.depth_resolution * grid.depth_resolution) as usize;
     assert!(
         grid.holds_hits(),
         "fit_cells: the grid's hit counts are not loaded (a bake read with `bakefile::Hits::Later` needs `bakefile::read_hits` first)"
@@ -708,16 +707,7 @@ pub fn fit_cells(
         .map(|&cell| {
             let tc = Instant::now();
             // the grid's raytraced distances at a map resolution
-            let depth_at = |res: u32| {
-                model::celldepth_distances(
-                    grid.depth_resolution,
-                    &grid.depth_mean[cell * d2..(cell + 1) * d2],
-                    &grid.hits[cell * d2..(cell + 1) * d2],
-                    grid.depth_samples,
-                    grid.far_distance,
-                    res,
-                )
-            };
+            let depth_at = |res: u32| cell_distances(grid, &grid.hits, cell, res);
             let distance = depth_at(s.map_res);
             let sees_only_sky = distance.iter().all(|d| !d.is_finite());
             let tt = Instant::now();
@@ -729,10 +719,8 @@ pub fn fit_cells(
             let origin = g.cell_centre(cell) + grid.probe_offset[cell];
             // with several probes, which one each texel reads (from the training queries' hits)
             let hits = (warp.probe_count() > 1).then(|| true_hits(baked, &train));
-            let probe_map = match &hits {
-                Some(hits) => probes::choose(warp, origin, s.map_res, &distance, hits),
-                None => Vec::new(),
-            };
+            let probe_map =
+                hits.as_ref().map_or_else(Vec::new, |h| probes::choose(warp, origin, s.map_res, &distance, h));
             let check_dirs = check.dirs_per_position;
             let (mut train, check) = (samples(&train), samples(&check));
             if s.aim_pull > 0.0 {
@@ -746,16 +734,8 @@ pub fn fit_cells(
             let study = s.resolution_study.then(|| (train.clone(), check_halves(&check, check_dirs)));
             let (train, rough_train) = split_rough(train, two_maps);
             // the evaluation's per-cell row: the same refinement with one probe for the cell
-            let per_cell = (sets == MapSets::WithUnfitted && !probe_map.is_empty()).then(|| {
-                let p = probes::per_cell(&probe_map);
-                let one = vec![p; probe_map.len()];
-                let ctx = CellContext { probe_map: &one, ..ctx };
-                let map = refine(ctx, train.clone(), &distance, sees_only_sky, s.depth_prior, s).fitted;
-                let rough = rough_train.as_ref().map_or_else(Vec::new, |t| {
-                    refine(ctx, t.clone(), &distance, sees_only_sky, s.rough_depth_prior, s).fitted
-                });
-                (map, rough, p)
-            });
+            let per_cell = (sets == MapSets::WithUnfitted && !probe_map.is_empty())
+                .then(|| per_cell_maps(ctx, (&train, rough_train.as_deref()), (&distance, sees_only_sky), s));
             let Refined { start, outcome, fitted, init } =
                 refine(ctx, train, &distance, sees_only_sky, s.depth_prior, s);
             let rough = rough_train.map(|t| refine(ctx, t, &distance, sees_only_sky, s.rough_depth_prior, s));
@@ -789,16 +769,9 @@ pub fn fit_cells(
                 check_problem = CellProblem::new(ctx, vec![0.0; n2], check);
                 extra_seconds = te.elapsed().as_secs_f64();
             }
-            let [warp1, boxed_err, kdop] =
-                [Method::Warp1, Method::Box, Method::Kdop].map(|m| check_problem.relative_error_method(m));
-            check_problem.set_probe_map(&[]);
-            let fallback = check_problem.relative_error_map(&no_map);
-            check_problem.set_probe_map(&probe_map);
-            let celldepth = check_problem.relative_error_map(&init);
-            let fitted_err = match &rough {
-                Some(r) => check_problem.relative_error_maps(&fitted, &r.fitted),
-                None => check_problem.relative_error_map(&fitted),
-            };
+            let rough_map = rough.as_ref().map(|r| r.fitted.as_slice());
+            let [warp1, boxed_err, kdop, fallback, celldepth, fitted_err] =
+                check_errors(&mut check_problem, &probe_map, (&init, &fitted, rough_map));
             let selection = if sees_only_sky {
                 Selection::SeesOnlySky
             } else {
@@ -833,13 +806,7 @@ pub fn fit_cells(
                 trace_seconds: trace_seconds + extra_seconds,
                 check_positions,
                 curve: outcome.curve.clone(),
-                rough_map: rough.as_ref().map(|r| RoughMapFit {
-                    start: r.start,
-                    train_cost_start: r.outcome.cost_start,
-                    train_cost_end: r.outcome.cost_end,
-                    relax: r.outcome.relax,
-                    evaluations: r.outcome.evaluations,
-                }),
+                rough_map: rough.as_ref().map(RoughMapFit::of),
                 hidden_fraction: hidden,
                 level1,
                 resolutions,
@@ -854,6 +821,72 @@ pub fn fit_cells(
         .collect();
     bar.finish_and_clear();
     results
+}
+
+/// The held-out errors a cell's model selection compares (`CellProblem::relative_error_map`
+/// on its check problem `p`, whose texels read `probe_map`): `warp1`, the box and the 18-DOP,
+/// the fallback (the proxy unshifted, reading probe A), the unfitted map `init`, and the
+/// fitted map with its rough map when it has one.
+fn check_errors(
+    p: &mut CellProblem,
+    probe_map: &[u8],
+    (init, fitted, rough): (&[f32], &[f32], Option<&[f32]>),
+) -> [f64; 6] {
+    let [warp1, boxed, kdop] = [Method::Warp1, Method::Box, Method::Kdop].map(|m| p.relative_error_method(m));
+    p.set_probe_map(&[]);
+    let fallback = p.relative_error_map(&vec![0.0f32; fitted.len()]);
+    p.set_probe_map(probe_map);
+    let celldepth = p.relative_error_map(init);
+    let fitted = match rough {
+        Some(r) => p.relative_error_maps(fitted, r),
+        None => p.relative_error_map(fitted),
+    };
+    [warp1, boxed, kdop, fallback, celldepth, fitted]
+}
+
+/// Cell `cell`'s raytraced distances (`ProbeGrid::depth_mean`, with its hit counts `hits`)
+/// at a `res`² map: what a map's start and prior are made from.
+fn cell_distances(grid: &crate::bake::ProbeGrid, hits: &[u8], cell: usize, res: u32) -> Vec<f32> {
+    let d2 = (grid.depth_resolution * grid.depth_resolution) as usize;
+    model::celldepth_distances(
+        grid.depth_resolution,
+        &grid.depth_mean[cell * d2..(cell + 1) * d2],
+        &hits[cell * d2..(cell + 1) * d2],
+        grid.depth_samples,
+        grid.far_distance,
+        res,
+    )
+}
+
+/// The evaluation's `per-cell` row of a cell: its map (and rough map, with `rough_train`)
+/// refined as the fit refines them, every texel reading the one probe most of the cell's
+/// texels chose (`ctx.probe_map`), and that probe.
+fn per_cell_maps(
+    ctx: CellContext,
+    (train, rough_train): (&[Sample], Option<&[Sample]>),
+    (distance, sees_only_sky): (&[f32], bool),
+    s: &FitSettings,
+) -> (Vec<f32>, Vec<f32>, u8) {
+    let p = probes::per_cell(ctx.probe_map);
+    let one = vec![p; ctx.probe_map.len()];
+    let ctx = CellContext { probe_map: &one, ..ctx };
+    let map = refine(ctx, train.to_vec(), distance, sees_only_sky, s.depth_prior, s).fitted;
+    let rough = rough_train
+        .map_or_else(Vec::new, |t| refine(ctx, t.to_vec(), distance, sees_only_sky, s.rough_depth_prior, s).fitted);
+    (map, rough, p)
+}
+
+impl RoughMapFit {
+    /// The record of a refined rough map.
+    fn of(r: &Refined) -> RoughMapFit {
+        RoughMapFit {
+            start: r.start,
+            train_cost_start: r.outcome.cost_start,
+            train_cost_end: r.outcome.cost_end,
+            relax: r.outcome.relax,
+            evaluations: r.outcome.evaluations,
+        }
+    }
 }
 
 /// A cell's level-1 corrective (one origin offset, depth mip and relaxation), fitted on
@@ -1025,7 +1058,6 @@ pub fn in_sample(
     let s = &f.settings;
     let g = grid.geometry;
     let n2 = (s.map_res * s.map_res) as usize;
-    let d2 = (grid.depth_resolution * grid.depth_resolution) as usize;
     let glossy = Glossy { warp, correction: f.roughness.as_ref() };
     let mut by_cell: Vec<Vec<Sample>> = vec![Vec::new(); g.cell_count()];
     for k in 0..q.dirs.len() {
@@ -1043,14 +1075,7 @@ pub fn in_sample(
     let maps: Vec<(Vec<f32>, Vec<u8>)> = cells
         .par_iter()
         .map(|&cell| {
-            let distance = model::celldepth_distances(
-                grid.depth_resolution,
-                &grid.depth_mean[cell * d2..(cell + 1) * d2],
-                &hits[cell * d2..(cell + 1) * d2],
-                grid.depth_samples,
-                grid.far_distance,
-                s.map_res,
-            );
+            let distance = cell_distances(grid, hits, cell, s.map_res);
             let sees_only_sky = distance.iter().all(|d| !d.is_finite());
             let probe_map = probe_map_of(cell);
             let origin = g.cell_centre(cell) + grid.probe_offset[cell];
