@@ -771,7 +771,7 @@ pub fn fit_cells(
             }
             let rough_map = rough.as_ref().map(|r| r.fitted.as_slice());
             let [warp1, boxed_err, kdop, fallback, celldepth, fitted_err] =
-                check_errors(&mut check_problem, &probe_map, (&init, &fitted, rough_map));
+                check_errors(&mut check_problem, &probe_map, (&no_map, &init), (&fitted, rough_map));
             let selection = if sees_only_sky {
                 Selection::SeesOnlySky
             } else {
@@ -825,16 +825,17 @@ pub fn fit_cells(
 
 /// The held-out errors a cell's model selection compares (`CellProblem::relative_error_map`
 /// on its check problem `p`, whose texels read `probe_map`): `warp1`, the box and the 18-DOP,
-/// the fallback (the proxy unshifted, reading probe A), the unfitted map `init`, and the
-/// fitted map with its rough map when it has one.
+/// the fallback (`no_map`, the proxy unshifted, reading probe A), the unfitted map `init`,
+/// and the fitted map with its rough map when it has one.
 fn check_errors(
     p: &mut CellProblem,
     probe_map: &[u8],
-    (init, fitted, rough): (&[f32], &[f32], Option<&[f32]>),
+    (no_map, init): (&[f32], &[f32]),
+    (fitted, rough): (&[f32], Option<&[f32]>),
 ) -> [f64; 6] {
     let [warp1, boxed, kdop] = [Method::Warp1, Method::Box, Method::Kdop].map(|m| p.relative_error_method(m));
     p.set_probe_map(&[]);
-    let fallback = p.relative_error_map(&vec![0.0f32; fitted.len()]);
+    let fallback = p.relative_error_map(no_map);
     p.set_probe_map(probe_map);
     let celldepth = p.relative_error_map(init);
     let fitted = match rough {
@@ -1058,13 +1059,14 @@ pub fn in_sample(
     let s = &f.settings;
     let g = grid.geometry;
     let n2 = (s.map_res * s.map_res) as usize;
-    let glossy = Glossy { warp, correction: f.roughness.as_ref() };
+    let (glossy, exposure) = (Glossy { warp, correction: f.roughness.as_ref() }, exposure_of(warp));
     let mut by_cell: Vec<Vec<Sample>> = vec![Vec::new(); g.cell_count()];
     for k in 0..q.dirs.len() {
         let b = q.position_of(k);
         by_cell[all.cell_at(b)].push(Sample::new(b, q.dirs[k], q.roughness[k], q.reference[k]));
     }
-    let cells: Vec<usize> = (0..g.cell_count()).filter(|&c| !by_cell[c].is_empty() && !grid.inside[c]).collect();
+    let cells: Vec<(usize, Vec<Sample>)> =
+        by_cell.into_iter().enumerate().filter(|(c, q)| !q.is_empty() && !grid.inside[*c]).collect();
     let probe_map_of = |cell: usize| -> Vec<u8> {
         match all.slot_of(cell) {
             Some(slot) if !all.probe_maps.is_empty() => all.probe_maps[slot as usize * n2..][..n2].to_vec(),
@@ -1074,27 +1076,22 @@ pub fn in_sample(
     };
     let maps: Vec<(Vec<f32>, Vec<u8>)> = cells
         .par_iter()
-        .map(|&cell| {
+        .map(|(cell, queries)| {
+            let cell = *cell;
             let distance = cell_distances(grid, hits, cell, s.map_res);
             let sees_only_sky = distance.iter().all(|d| !d.is_finite());
             let probe_map = probe_map_of(cell);
             let origin = g.cell_centre(cell) + grid.probe_offset[cell];
-            let ctx = CellContext {
-                glossy,
-                exposure: exposure_of(warp),
-                proxy: f.proxy.method,
-                origin,
-                res: s.map_res,
-                probe_map: &probe_map,
-            };
-            let map = refine(ctx, by_cell[cell].clone(), &distance, sees_only_sky, s.depth_prior, s).fitted;
+            let ctx =
+                CellContext { glossy, exposure, proxy: f.proxy.method, origin, res: s.map_res, probe_map: &probe_map };
+            let map = refine(ctx, queries.clone(), &distance, sees_only_sky, s.depth_prior, s).fitted;
             (map, probe_map)
         })
         .collect();
     let mut slot = vec![NO_MAP; g.cell_count()];
     let (mut flat, mut probes) = (Vec::with_capacity(cells.len() * n2), Vec::new());
-    for (k, (&cell, (map, probe_map))) in cells.iter().zip(&maps).enumerate() {
-        slot[cell] = k as u32;
+    for (k, ((cell, _), (map, probe_map))) in cells.iter().zip(&maps).enumerate() {
+        slot[*cell] = k as u32;
         flat.extend_from_slice(map);
         probes.extend_from_slice(probe_map);
     }

@@ -457,17 +457,15 @@ pub fn evaluate(
     let probes = warp.probe_positions();
     let mirror = eval::validation_set(baked.scene, baked.tracer, baked.grid, &probes, settings, baked.references);
     let mirror_seconds = t0.elapsed().as_secs_f64();
-    let in_sample = fit.filter(|f| f.unfitted.is_some()).and_then(|f| {
-        // (a staged fit dropped the hit counts: read them again)
-        let read;
-        let hits = if baked.grid.holds_hits() {
-            &baked.grid.hits
-        } else {
-            read = bakefile::read_hits(&out.folder.bake(), &baked.scene.content_key(), baked.grid).ok()?;
-            &read
-        };
-        crate::fit::in_sample(baked.grid, hits, warp, f, &mirror)
-    });
+    let in_sample = match fit.filter(|f| f.unfitted.is_some()) {
+        // (a staged fit dropped the hit counts: they are read again)
+        Some(f) if baked.grid.holds_hits() => crate::fit::in_sample(baked.grid, &baked.grid.hits, warp, f, &mirror),
+        Some(f) => {
+            let hits = bakefile::read_hits(&out.folder.bake(), &baked.scene.content_key(), baked.grid)?;
+            crate::fit::in_sample(baked.grid, &hits, warp, f, &mirror)
+        }
+        None => None,
+    };
     let in_sample_seconds = t0.elapsed().as_secs_f64() - mirror_seconds;
     let mut rows = fit.map(corrective_rows).unwrap_or_default();
     rows.extend(
