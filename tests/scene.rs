@@ -15,7 +15,7 @@ fn err_text(r: Result<Scene, SceneError>) -> String {
 
 #[test]
 fn builtin_scenes_load() {
-    for name in ["torture", "cornell", "courtyard", "sphere", "gallery", "hall", "atrium"] {
+    for name in ["torture", "cornell", "courtyard", "sphere", "gallery", "hall", "atrium", "town"] {
         let s = load(name);
         assert!(s.triangles.len() + s.spheres.len() > 0, "{name}");
         assert_eq!(s.degenerate_skipped, 0, "{name} has degenerate triangles");
@@ -23,6 +23,12 @@ fn builtin_scenes_load() {
     // the level-sized scene the fit is timed on is the size it says
     let atrium = load("atrium").triangles.len();
     assert!((100_000..110_000).contains(&atrium), "atrium: {atrium} triangles");
+    // the open level: 400 × 400 m, at most 20 m tall, its grid box 3.2M cells at 1 m
+    let town = load("town");
+    let (lo, hi) = town.bounds();
+    assert!((hi - lo).x >= 400.0 && (hi - lo).z >= 400.0 && hi.y <= 20.0, "town: {lo} – {hi}");
+    let g = warpfit::bake::grid_settings(&town).geometry;
+    assert!((g.max - g.min).round().element_product() >= 3.0e6, "town's grid box: {:?} – {:?}", g.min, g.max);
 }
 
 #[test]
