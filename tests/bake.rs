@@ -326,3 +326,95 @@ fn the_emitted_irradiance_is_the_grids_lamp_and_nothing_else() {
     assert_eq!(emitted.len(), grid.irradiance.len());
     assert!(emitted.iter().all(|&e| e == Vec3::ZERO));
 }
+
+/// A scene of `geometry` (TOML `[[geometry]]` tables) under a sky, its grid the 12 m cube
+/// or the 36 × 12 × 36 m slab the brick plans cover.
+fn brick_scene(geometry: &str) -> Scene {
+    let text = format!(
+        r#"
+seed = 1
+[probe]
+position = [1.0, 1.0, 1.0]
+[grid]
+min = [0.0, 0.0, 0.0]
+max = [12.0, 12.0, 12.0]
+counts = [12, 12, 12]
+[sky]
+zenith = [0.3, 0.5, 1.0]
+horizon = [0.8, 0.9, 1.0]
+ground = [0.2, 0.2, 0.2]
+{geometry}
+"#
+    );
+    Scene::parse(&text, std::path::Path::new("bricks.toml")).unwrap()
+}
+
+fn brick_plan(scene: &Scene, max: Vec3, rule: bake::bricks::Rule, threads: usize) -> bake::bricks::BrickPlan {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    pool.install(|| {
+        let tracer = Tracer::new(scene);
+        bake::bricks::plan(scene, &tracer, (Vec3::ZERO, max), 1.0, 2, rule, 0.25)
+    })
+}
+
+#[test]
+fn sparse_bricks_keep_the_cells_by_surfaces_and_drop_a_solid_core() {
+    // a 12 m room round a solid 7 m cube: of the 27 bricks of 4 m, the middle one lies in
+    // the cube more than a cell from its faces, every other touches a wall or the cube
+    let scene = brick_scene(
+        r#"
+[[geometry]]
+type = "room"
+min = [0.0, 0.0, 0.0]
+max = [12.0, 12.0, 12.0]
+[[geometry]]
+type = "box"
+min = [2.5, 2.5, 2.5]
+max = [9.5, 9.5, 9.5]
+"#,
+    );
+    for rule in [bake::bricks::Rule::NearGeometry, bake::bricks::Rule::CHECK] {
+        let p = brick_plan(&scene, Vec3::splat(12.0), rule, 2);
+        assert_eq!((p.kept.clone(), p.solid.clone()), (vec![26, 0], vec![1, 0]), "{rule:?}");
+        assert_eq!((p.cells(), p.uniform_cells), (26 * 64, 12 * 12 * 12));
+        assert_eq!(p, brick_plan(&scene, Vec3::splat(12.0), rule, 1), "{rule:?} at 1 thread");
+    }
+}
+
+#[test]
+fn open_ground_splits_by_the_geometry_rule_and_stays_coarse_by_the_distance_rule() {
+    // a ground slab far wider than the volume, under the sky: the near-geometry rule splits
+    // every 12 m brick (its bottom touches the ground) and keeps all 27 children; the
+    // seen-distance rule sees the sky in half the directions and keeps the 9 coarse bricks
+    let scene = brick_scene(
+        r#"
+[[geometry]]
+type = "box"
+min = [-1000.0, -1.0, -1000.0]
+max = [1000.0, 0.0, 1000.0]
+"#,
+    );
+    let max = Vec3::new(36.0, 12.0, 36.0);
+    let near = brick_plan(&scene, max, bake::bricks::Rule::NearGeometry, 2);
+    assert_eq!((near.kept, near.solid), (vec![243, 0], vec![0, 0]));
+    let seen = brick_plan(&scene, max, bake::bricks::Rule::CHECK, 2);
+    assert_eq!((seen.kept, seen.solid), (vec![0, 9], vec![0, 0]));
+    assert_eq!(seen.uniform_cells, 36 * 12 * 36);
+}
+
+#[test]
+fn a_brick_plan_of_a_degenerate_box_or_cell_is_empty() {
+    let scene = brick_scene("[[geometry]]\ntype = \"box\"\nmin = [1.0, 1.0, 1.0]\nmax = [2.0, 2.0, 2.0]\n");
+    let tracer = Tracer::new(&scene);
+    for (max, finest, levels) in [
+        (Vec3::ZERO, 1.0, 2),
+        (Vec3::splat(f32::NAN), 1.0, 2),
+        (Vec3::ONE, 0.0, 2),
+        (Vec3::ONE, f32::INFINITY, 2),
+        (Vec3::ONE, 1.0, 0),
+        (Vec3::ONE, 1.0, 5),
+    ] {
+        let p = bake::bricks::plan(&scene, &tracer, (Vec3::ZERO, max), finest, levels, bake::bricks::Rule::CHECK, 0.25);
+        assert_eq!(p.cells() + p.uniform_cells, 0, "{max} {finest} {levels}");
+    }
+}

@@ -1,6 +1,7 @@
 //! Baking: from a scene to the specular probe A and the dense probe grid. Pure computation;
 //! writing files is `bakefile`.
 
+pub mod bricks;
 pub mod grid;
 pub mod placement;
 pub mod probe;

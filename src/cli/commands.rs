@@ -25,7 +25,10 @@ pub struct Context {
 pub fn check(scene: &Path) -> Result<()> {
     let scene = warpfit::scene::Scene::load(scene)?;
     let tracer = warpfit::trace::Tracer::new(&scene);
-    let c = warpfit::jobs::check::check(&scene, &tracer);
+    let mut c = warpfit::jobs::check::check(&scene, &tracer);
+    if c.ok() {
+        c.facts.push(warpfit::jobs::check::bricks(&scene, &tracer));
+    }
     println!("{}: {}", scene.source.display(), c.facts.join("; "));
     for w in &c.warnings {
         println!("warning: {w}");

@@ -71,8 +71,30 @@ pub fn check(scene: &Scene, tracer: &Tracer) -> Check {
             100.0 * p.hidden
         ));
         if p.hidden > 0.05 {
+            let probes = &cfg.probes;
+            let cure = if !probes.auto {
+                "add [probes] positions, or set [probes] auto = true".to_string()
+            } else if p.positions.len() >= probes.max as usize {
+                if probes.max >= crate::scene::config::MAX_PROBES {
+                    format!(
+                        "the automatic placement stopped at [probes] max = {}, the most a grid holds; reflections of what they miss will be wrong",
+                        probes.max
+                    )
+                } else {
+                    format!(
+                        "the automatic placement stopped at [probes] max = {}: raise it (at most {})",
+                        probes.max,
+                        crate::scene::config::MAX_PROBES
+                    )
+                }
+            } else {
+                format!(
+                    "the automatic placement stopped where the next probe would see less than [probes] min_gain = {}: lower it, or add [probes] positions",
+                    probes.min_gain
+                )
+            };
             c.warnings.push(format!(
-                "{file}: {:.0}% of the sampled reflection hits are hidden from every probe: add [probes] positions, or set auto = true (or raise max / lower min_gain)",
+                "{file}: {:.0}% of the sampled reflection hits are hidden from every probe: {cure}",
                 100.0 * p.hidden
             ));
         }
@@ -121,6 +143,39 @@ pub fn check(scene: &Scene, tracer: &Tracer) -> Check {
         c.warnings.push(format!("{file}: {} duplicate triangle(s) dropped", scene.duplicates_skipped));
     }
     c
+}
+
+/// Levels of sparse bricks [`bricks`] plans with: cells of the grid's size, 3× and 9×.
+pub const BRICK_LEVELS: u32 = 3;
+
+/// How many of the grid's cells sparse bricks would keep ([`crate::bake::bricks`], the
+/// seen-distance rule, [`BRICK_LEVELS`] levels, the finest cell the grid's smallest side),
+/// as a fact line: what nested volumes and sparse bricks would save on this level. Traces
+/// about 1,700 rays per brick it visits, so `warpfit check` prints it and the stages that
+/// check a scene first do not.
+pub fn bricks(scene: &Scene, tracer: &Tracer) -> String {
+    let settings = crate::bake::grid_settings(scene);
+    let g = settings.geometry;
+    let finest = g.cell_size().min_element();
+    let p = crate::bake::bricks::plan(
+        scene,
+        tracer,
+        (g.min, g.max),
+        finest,
+        BRICK_LEVELS,
+        crate::bake::bricks::Rule::CHECK,
+        settings.inside_backface_fraction,
+    );
+    let kept: Vec<String> = p.kept.iter().map(u64::to_string).collect();
+    format!(
+        "sparse bricks of {}³ cells at {finest:.3} and coarser (×3, ×9, split where a cell is over half the distance its air sees) would keep {} of {} cells ({:.1}%): {} bricks per level, finest first, {} inside geometry dropped",
+        crate::bake::bricks::BRICK_CELLS,
+        p.cells(),
+        p.uniform_cells,
+        100.0 * p.share(),
+        kept.join(" / "),
+        p.solid.iter().sum::<u64>()
+    )
 }
 
 /// Whether light reaches the grid's cells, and whether the cells are small enough for the
