@@ -1012,29 +1012,26 @@ Aim shifted_aim(float2 exit_1, float delta, float3 b_10, float3 dir_9, uint p_7)
     return aim_4;
 }
 
-uint probe_of(int tile_1, float2 uv_5)
+uint probe_of(int tile_1, uint unmapped, float2 uv_5)
 {
-    bool local_17 = (bool)0;
     uint best = 0u;
     uint k_3 = 1u;
 
-    if (!((tile_1 < int(0)))) {
-        uint _e10 = params.probe_maps.y;
-        local_17 = (_e10 == 0u);
-    } else {
-        local_17 = true;
+    if ((tile_1 < int(0))) {
+        uint _e8 = params.probe_maps.x;
+        return min(unmapped, (max(_e8, 1u) - 1u));
     }
-    bool _e14 = local_17;
-    if (_e14) {
+    uint _e17 = params.probe_maps.y;
+    if ((_e17 == 0u)) {
         return 0u;
     }
     uint n_14 = params.atlas_a.x;
     uint columns_1 = params.atlas_a.y;
-    uint _e28 = params.probe_maps.y;
-    uint s_5 = (uint(tile_1) + _e28);
+    uint _e33 = params.probe_maps.y;
+    uint s_5 = (uint(tile_1) + _e33);
     int2 origin_1 = int2((uint2(naga_mod(s_5, columns_1), naga_div(s_5, columns_1)) * (n_14 + 2u)));
-    const Footprint _e37 = footprint(n_14, uv_5);
-    float2 f_6 = _e37.f;
+    const Footprint _e42 = footprint(n_14, uv_5);
+    float2 f_6 = _e42.f;
     float4 w_7 = float4(((1.0 - f_6.x) * (1.0 - f_6.y)), (f_6.x * (1.0 - f_6.y)), ((1.0 - f_6.x) * f_6.y), (f_6.x * f_6.y));
     uint2 loop_bound_3 = uint2(4294967295u, 4294967295u);
     bool loop_init_3 = true;
@@ -1042,31 +1039,31 @@ uint probe_of(int tile_1, float2 uv_5)
         if (all(loop_bound_3 == uint2(0u, 0u))) { break; }
         loop_bound_3 -= uint2(loop_bound_3.y == 0u, 1u);
         if (!loop_init_3) {
-            uint _e74 = k_3;
-            k_3 = (_e74 + 1u);
+            uint _e79 = k_3;
+            k_3 = (_e79 + 1u);
         }
         loop_init_3 = false;
-        uint _e64 = k_3;
-        if ((_e64 < 4u)) {
+        uint _e69 = k_3;
+        if ((_e69 < 4u)) {
         } else {
             break;
         }
         {
-            uint _e67 = k_3;
-            uint _e69 = best;
-            if ((w_7[min(uint(_e67), 3u)] > w_7[min(uint(_e69), 3u)])) {
-                uint _e72 = k_3;
-                best = _e72;
+            uint _e72 = k_3;
+            uint _e74 = best;
+            if ((w_7[min(uint(_e72), 3u)] > w_7[min(uint(_e74), 3u)])) {
+                uint _e77 = k_3;
+                best = _e77;
             }
         }
     }
-    uint _e82 = best;
-    uint _e86 = best;
-    int2 t_13 = asint(asuint(asint(asuint(asint(asuint(origin_1) + asuint(_e37.corner))) + asuint(int2(int(1), int(1))))) + asuint(int2(int((_e82 & 1u)), int((_e86 >> 1u)))));
-    const float4 _e93 = atlas_texel(ATLAS_CORRECTIVE, t_13);
-    uint p_11 = naga_f2u32(_e93.x);
-    uint _e99 = params.probe_maps.x;
-    return min(p_11, (max(_e99, 1u) - 1u));
+    uint _e87 = best;
+    uint _e91 = best;
+    int2 t_13 = asint(asuint(asint(asuint(asint(asuint(origin_1) + asuint(_e42.corner))) + asuint(int2(int(1), int(1))))) + asuint(int2(int((_e87 & 1u)), int((_e91 >> 1u)))));
+    const float4 _e98 = atlas_texel(ATLAS_CORRECTIVE, t_13);
+    uint p_11 = naga_f2u32(_e98.x);
+    uint _e104 = params.probe_maps.x;
+    return min(p_11, (max(_e104, 1u) - 1u));
 }
 
 float map_delta(int tile_2, float2 uv_6)
@@ -1102,81 +1099,104 @@ float cell_delta(int4 tiles, float2 uv_7, float r_1)
     return (_e25 + ((_e27 - _e25) * _e29));
 }
 
+typedef float4 ret_Constructarray9_float4_[9];
+ret_Constructarray9_float4_ Constructarray9_float4_(float4 arg0, float4 arg1, float4 arg2, float4 arg3, float4 arg4, float4 arg5, float4 arg6, float4 arg7, float4 arg8) {
+    float4 ret[9] = { arg0, arg1, arg2, arg3, arg4, arg5, arg6, arg7, arg8 };
+    return ret;
+}
+
+Cell ConstructCell(int4 arg0, float4 arg1, float4 arg2[9], uint4 arg3) {
+    Cell ret = (Cell)0;
+    ret.tiles = arg0;
+    ret.offset = arg1;
+    ret.sh = arg2;
+    ret.links = arg3;
+    return ret;
+}
+
 Aim fetch(float3 b_11, float3 dir_10, float r_2)
 {
     float delta_1 = 0.0;
     bool mapped = false;
     uint corner_2 = 0u;
+    bool local_17 = (bool)0;
     bool local_18 = (bool)0;
 
     const float2 _e3 = oct_encode(dir_10);
     const float3 _e4 = cell_size();
     const uint3 _e6 = cell_of(b_11, _e4);
     const uint _e7 = cell_index(_e6);
-    int4 tiles_1 = asint(cells.Load4(0+_e7*192));
-    const uint _e12 = probe_of(tiles_1.x, _e3);
-    float4 _e16 = params.probes[_e12];
-    if (all((b_11 == _e16.xyz))) {
-        const Aim aim_5 = ConstructAim(dir_10, 1.0, _e12);
+    Cell home_cell = ConstructCell(asint(cells.Load4(_e7*192+0)), asfloat(cells.Load4(_e7*192+16)), Constructarray9_float4_(asfloat(cells.Load4(_e7*192+32+0)), asfloat(cells.Load4(_e7*192+32+16)), asfloat(cells.Load4(_e7*192+32+32)), asfloat(cells.Load4(_e7*192+32+48)), asfloat(cells.Load4(_e7*192+32+64)), asfloat(cells.Load4(_e7*192+32+80)), asfloat(cells.Load4(_e7*192+32+96)), asfloat(cells.Load4(_e7*192+32+112)), asfloat(cells.Load4(_e7*192+32+128))), asuint(cells.Load4(_e7*192+176)));
+    int4 tiles_1 = home_cell.tiles;
+    const uint _e14 = probe_of(tiles_1.x, home_cell.links.y, _e3);
+    float4 _e18 = params.probes[_e14];
+    if (all((b_11 == _e18.xyz))) {
+        const Aim aim_5 = ConstructAim(dir_10, 1.0, _e14);
         return aim_5;
     }
-    const uint _e26 = blend_mode();
-    if ((_e26 != 1u)) {
+    const uint _e28 = blend_mode();
+    if ((_e28 != 1u)) {
         if ((tiles_1.x >= int(0))) {
-            const float _e32 = cell_delta(tiles_1, _e3, r_2);
-            delta_1 = _e32;
+            const float _e34 = cell_delta(tiles_1, _e3, r_2);
+            delta_1 = _e34;
             mapped = true;
         }
     } else {
-        const Lattice _e34 = lattice(b_11, _e4);
+        const Lattice _e36 = lattice(b_11, _e4);
         uint2 loop_bound_4 = uint2(4294967295u, 4294967295u);
         bool loop_init_4 = true;
         while(true) {
             if (all(loop_bound_4 == uint2(0u, 0u))) { break; }
             loop_bound_4 -= uint2(loop_bound_4.y == 0u, 1u);
             if (!loop_init_4) {
-                uint _e58 = corner_2;
-                corner_2 = (_e58 + 1u);
+                uint _e60 = corner_2;
+                corner_2 = (_e60 + 1u);
             }
             loop_init_4 = false;
-            uint _e37 = corner_2;
-            if ((_e37 < 8u)) {
+            uint _e39 = corner_2;
+            if ((_e39 < 8u)) {
             } else {
                 break;
             }
             {
-                uint _e41 = corner_2;
-                const uint3 _e42 = corner_cell(_e34, _e41);
-                const uint _e43 = cell_index(_e42);
-                int4 tiles_2 = asint(cells.Load4(0+_e43*192));
+                uint _e43 = corner_2;
+                const uint3 _e44 = corner_cell(_e36, _e43);
+                const uint _e45 = cell_index(_e44);
+                int4 tiles_2 = asint(cells.Load4(0+_e45*192));
                 if ((tiles_2.x >= int(0))) {
-                    float _e50 = delta_1;
-                    uint _e51 = corner_2;
-                    const float _e52 = corner_weight(_e34, _e51);
-                    const float _e53 = cell_delta(tiles_2, _e3, r_2);
-                    delta_1 = (_e50 + (_e52 * _e53));
+                    float _e52 = delta_1;
+                    uint _e53 = corner_2;
+                    const float _e54 = corner_weight(_e36, _e53);
+                    const float _e55 = cell_delta(tiles_2, _e3, r_2);
+                    delta_1 = (_e52 + (_e54 * _e55));
                     mapped = true;
                 }
             }
         }
     }
-    bool _e60 = mapped;
-    if (!(_e60)) {
-        const bool _e64 = relaxation_on();
-        local_18 = _e64;
+    bool _e62 = mapped;
+    if (!(_e62)) {
+        const bool _e66 = relaxation_on();
+        local_17 = _e66;
+    } else {
+        local_17 = false;
+    }
+    bool _e68 = local_17;
+    if (_e68) {
+        local_18 = (_e14 == 0u);
     } else {
         local_18 = false;
     }
-    bool _e66 = local_18;
-    if (_e66) {
-        const float3 _e67 = fallback_fetch(b_11, dir_10);
-        const Aim aim_6 = ConstructAim(_e67, -1.0, 0u);
+    bool _e74 = local_18;
+    if (_e74) {
+        const float3 _e75 = fallback_fetch(b_11, dir_10);
+        const Aim aim_6 = ConstructAim(_e75, -1.0, 0u);
         return aim_6;
     }
-    const float2 _e71 = proxy_exit(b_11, dir_10);
-    float _e72 = delta_1;
-    const Aim _e73 = shifted_aim(_e71, _e72, b_11, dir_10, _e12);
-    const Aim aim_7 = _e73;
+    const float2 _e79 = proxy_exit(b_11, dir_10);
+    float _e80 = delta_1;
+    const Aim _e81 = shifted_aim(_e79, _e80, b_11, dir_10, _e14);
+    const Aim aim_7 = _e81;
     return aim_7;
 }
 
@@ -1445,9 +1465,10 @@ float3 faces_radiance(Near near_1, float3 b_15, float3 dir_11, float r_6)
     uint corner_5 = 0u;
     uint key = (uint)0;
     float delta_2 = (float)0;
+    bool local_25 = (bool)0;
     uint at = (uint)0;
     uint g = (uint)0;
-    bool local_25 = (bool)0;
+    bool local_26 = (bool)0;
     float3 c_4 = (0.0).xxx;
     uint g_1 = 0u;
     Aim aim_1 = (Aim)0;
@@ -1460,8 +1481,8 @@ float3 faces_radiance(Near near_1, float3 b_15, float3 dir_11, float r_6)
         if (all(loop_bound_6 == uint2(0u, 0u))) { break; }
         loop_bound_6 -= uint2(loop_bound_6.y == 0u, 1u);
         if (!loop_init_6) {
-            uint _e112 = corner_5;
-            corner_5 = (_e112 + 1u);
+            uint _e120 = corner_5;
+            corner_5 = (_e120 + 1u);
         }
         loop_init_6 = false;
         uint _e40 = corner_5;
@@ -1478,21 +1499,28 @@ float3 faces_radiance(Near near_1, float3 b_15, float3 dir_11, float r_6)
             uint _e50 = corner_5;
             const uint3 _e51 = corner_cell(near_1.l, _e50);
             const uint _e52 = cell_index(_e51);
-            int4 tiles_3 = asint(cells.Load4(0+_e52*192));
-            key = 0u;
+            Cell cell_1 = ConstructCell(asint(cells.Load4(_e52*192+0)), asfloat(cells.Load4(_e52*192+16)), Constructarray9_float4_(asfloat(cells.Load4(_e52*192+32+0)), asfloat(cells.Load4(_e52*192+32+16)), asfloat(cells.Load4(_e52*192+32+32)), asfloat(cells.Load4(_e52*192+32+48)), asfloat(cells.Load4(_e52*192+32+64)), asfloat(cells.Load4(_e52*192+32+80)), asfloat(cells.Load4(_e52*192+32+96)), asfloat(cells.Load4(_e52*192+32+112)), asfloat(cells.Load4(_e52*192+32+128))), asuint(cells.Load4(_e52*192+176)));
+            int4 tiles_3 = cell_1.tiles;
+            const uint _e59 = probe_of(tiles_3.x, cell_1.links.y, _e4);
+            key = _e59;
             delta_2 = 0.0;
             if ((tiles_3.x >= int(0))) {
-                const uint _e64 = probe_of(tiles_3.x, _e4);
-                key = _e64;
-                const float _e65 = cell_delta(tiles_3, _e4, r_6);
-                delta_2 = _e65;
+                const float _e66 = cell_delta(tiles_3, _e4, r_6);
+                delta_2 = _e66;
             } else {
                 if (_e5) {
+                    uint _e69 = key;
+                    local_25 = (_e69 == 0u);
+                } else {
+                    local_25 = false;
+                }
+                bool _e73 = local_25;
+                if (_e73) {
                     key = RELAXED;
                 }
             }
-            uint _e67 = n_5;
-            at = _e67;
+            uint _e75 = n_5;
+            at = _e75;
             g = 0u;
             uint2 loop_bound_7 = uint2(4294967295u, 4294967295u);
             bool loop_init_7 = true;
@@ -1500,104 +1528,104 @@ float3 faces_radiance(Near near_1, float3 b_15, float3 dir_11, float r_6)
                 if (all(loop_bound_7 == uint2(0u, 0u))) { break; }
                 loop_bound_7 -= uint2(loop_bound_7.y == 0u, 1u);
                 if (!loop_init_7) {
-                    uint _e90 = g;
-                    g = (_e90 + 1u);
+                    uint _e98 = g;
+                    g = (_e98 + 1u);
                 }
                 loop_init_7 = false;
-                uint _e71 = g;
-                uint _e72 = n_5;
-                if ((_e71 < _e72)) {
+                uint _e79 = g;
+                uint _e80 = n_5;
+                if ((_e79 < _e80)) {
                 } else {
                     break;
                 }
                 {
-                    uint _e74 = g;
-                    uint _e76 = keys[min(uint(_e74), 7u)];
-                    uint _e77 = key;
-                    if ((_e76 == _e77)) {
-                        uint _e81 = g;
-                        float _e83 = ds[min(uint(_e81), 7u)];
-                        float _e84 = delta_2;
-                        local_25 = (_e83 == _e84);
+                    uint _e82 = g;
+                    uint _e84 = keys[min(uint(_e82), 7u)];
+                    uint _e85 = key;
+                    if ((_e84 == _e85)) {
+                        uint _e89 = g;
+                        float _e91 = ds[min(uint(_e89), 7u)];
+                        float _e92 = delta_2;
+                        local_26 = (_e91 == _e92);
                     } else {
-                        local_25 = false;
+                        local_26 = false;
                     }
-                    bool _e87 = local_25;
-                    if (_e87) {
-                        uint _e88 = g;
-                        at = _e88;
+                    bool _e95 = local_26;
+                    if (_e95) {
+                        uint _e96 = g;
+                        at = _e96;
                         break;
                     }
                 }
             }
-            uint _e92 = at;
-            uint _e93 = n_5;
-            if ((_e92 == _e93)) {
-                uint _e95 = n_5;
-                uint _e97 = key;
-                keys[min(uint(_e95), 7u)] = _e97;
-                uint _e98 = n_5;
-                ws[min(uint(_e98), 7u)] = 0.0;
-                uint _e101 = n_5;
-                float _e103 = delta_2;
-                ds[min(uint(_e101), 7u)] = _e103;
-                uint _e105 = n_5;
-                n_5 = (_e105 + 1u);
+            uint _e100 = at;
+            uint _e101 = n_5;
+            if ((_e100 == _e101)) {
+                uint _e103 = n_5;
+                uint _e105 = key;
+                keys[min(uint(_e103), 7u)] = _e105;
+                uint _e106 = n_5;
+                ws[min(uint(_e106), 7u)] = 0.0;
+                uint _e109 = n_5;
+                float _e111 = delta_2;
+                ds[min(uint(_e109), 7u)] = _e111;
+                uint _e113 = n_5;
+                n_5 = (_e113 + 1u);
             }
-            uint _e107 = at;
-            float _e109 = ws[min(uint(_e107), 7u)];
-            ws[min(uint(_e107), 7u)] = (_e109 + _e44);
+            uint _e115 = at;
+            float _e117 = ws[min(uint(_e115), 7u)];
+            ws[min(uint(_e115), 7u)] = (_e117 + _e44);
         }
     }
-    const float2 _e114 = proxy_exit(b_15, dir_11);
+    const float2 _e122 = proxy_exit(b_15, dir_11);
     uint2 loop_bound_8 = uint2(4294967295u, 4294967295u);
     bool loop_init_8 = true;
     while(true) {
         if (all(loop_bound_8 == uint2(0u, 0u))) { break; }
         loop_bound_8 -= uint2(loop_bound_8.y == 0u, 1u);
         if (!loop_init_8) {
-            uint _e164 = g_1;
-            g_1 = (_e164 + 1u);
+            uint _e172 = g_1;
+            g_1 = (_e172 + 1u);
         }
         loop_init_8 = false;
-        uint _e120 = g_1;
-        uint _e121 = n_5;
-        if ((_e120 < _e121)) {
+        uint _e128 = g_1;
+        uint _e129 = n_5;
+        if ((_e128 < _e129)) {
         } else {
             break;
         }
         {
-            uint _e123 = g_1;
-            uint _e125 = keys[min(uint(_e123), 7u)];
-            aim_1 = ConstructAim(dir_11, 1.0, _e125);
-            uint _e129 = g_1;
-            uint _e131 = keys[min(uint(_e129), 7u)];
-            if ((_e131 == RELAXED)) {
-                const float3 _e134 = fallback_fetch(b_15, dir_11);
-                aim_1 = ConstructAim(_e134, -1.0, 0u);
+            uint _e131 = g_1;
+            uint _e133 = keys[min(uint(_e131), 7u)];
+            aim_1 = ConstructAim(dir_11, 1.0, _e133);
+            uint _e137 = g_1;
+            uint _e139 = keys[min(uint(_e137), 7u)];
+            if ((_e139 == RELAXED)) {
+                const float3 _e142 = fallback_fetch(b_15, dir_11);
+                aim_1 = ConstructAim(_e142, -1.0, 0u);
             } else {
-                uint _e140 = g_1;
-                uint _e142 = keys[min(uint(_e140), 7u)];
-                float4 _e144 = params.probes[_e142];
-                if (any((b_15 != _e144.xyz))) {
-                    uint _e148 = g_1;
-                    float _e150 = ds[min(uint(_e148), 7u)];
-                    uint _e151 = g_1;
-                    uint _e153 = keys[min(uint(_e151), 7u)];
-                    const Aim _e154 = shifted_aim(_e114, _e150, b_15, dir_11, _e153);
-                    aim_1 = _e154;
+                uint _e148 = g_1;
+                uint _e150 = keys[min(uint(_e148), 7u)];
+                float4 _e152 = params.probes[_e150];
+                if (any((b_15 != _e152.xyz))) {
+                    uint _e156 = g_1;
+                    float _e158 = ds[min(uint(_e156), 7u)];
+                    uint _e159 = g_1;
+                    uint _e161 = keys[min(uint(_e159), 7u)];
+                    const Aim _e162 = shifted_aim(_e122, _e158, b_15, dir_11, _e161);
+                    aim_1 = _e162;
                 }
             }
-            float3 _e155 = c_4;
-            uint _e156 = g_1;
-            float _e158 = ws[min(uint(_e156), 7u)];
-            Aim _e159 = aim_1;
-            const float3 _e160 = shade(b_15, _e159, r_6);
-            c_4 = (_e155 + (_e158 * _e160));
+            float3 _e163 = c_4;
+            uint _e164 = g_1;
+            float _e166 = ws[min(uint(_e164), 7u)];
+            Aim _e167 = aim_1;
+            const float3 _e168 = shade(b_15, _e167, r_6);
+            c_4 = (_e163 + (_e166 * _e168));
         }
     }
-    float3 _e166 = c_4;
-    return _e166;
+    float3 _e174 = c_4;
+    return _e174;
 }
 
 Near ConstructNear(Lattice arg0, uint3 arg1, uint arg2, uint arg3, float arg4) {
@@ -1730,8 +1758,8 @@ float3 sh_read(uint3 home_at_1, float3 b_17, float3 n_8)
     uint4 at_2 = (uint4)0;
     uint k_8 = 0u;
     bool kept = (bool)0;
-    bool local_26 = (bool)0;
     bool local_27 = (bool)0;
+    bool local_28 = (bool)0;
 
     const float3 _e3 = cell_size();
     uint4 _e6 = params.grid_counts;
@@ -1907,17 +1935,17 @@ float3 sh_read(uint3 home_at_1, float3 b_17, float3 n_8)
             if ((_e218 < 27u)) {
                 uint _e223 = k_8;
                 uint _e225 = bits[min(uint(_e223), 3u)];
-                local_26 = (((links_2 >> _e225) & 1u) != 0u);
-            } else {
-                local_26 = false;
-            }
-            bool _e232 = local_26;
-            if (_e232) {
-                local_27 = (ck < count_1);
+                local_27 = (((links_2 >> _e225) & 1u) != 0u);
             } else {
                 local_27 = false;
             }
-            bool _e237 = local_27;
+            bool _e232 = local_27;
+            if (_e232) {
+                local_28 = (ck < count_1);
+            } else {
+                local_28 = false;
+            }
+            bool _e237 = local_28;
             if (_e237) {
                 int _e242 = asint(cells.Load(4+0+ck*192));
                 kept = (_e242 >= int(0));
@@ -1979,7 +2007,7 @@ float3 faces_specular(Near near_2, float3 b_18, float3 dir_12, float r_7, float 
     float3 e = (0.0).xxx;
     float share = 0.0;
     uint corner_7 = 0u;
-    bool local_28 = (bool)0;
+    bool local_29 = (bool)0;
 
     const float3 _e5 = faces_radiance(near_2, b_18, dir_12, r_7);
     c_7 = _e5;
@@ -2007,11 +2035,11 @@ float3 faces_specular(Near near_2, float3 b_18, float3 dir_12, float r_7, float 
                 if ((_e20 > 0.0)) {
                     const uint _e29 = cell_index(_e23);
                     int _e33 = asint(cells.Load(4+0+_e29*192));
-                    local_28 = (_e33 >= int(0));
+                    local_29 = (_e33 >= int(0));
                 } else {
-                    local_28 = false;
+                    local_29 = false;
                 }
-                bool _e37 = local_28;
+                bool _e37 = local_29;
                 if (_e37) {
                     float3 _e38 = e;
                     const float3 _e39 = sh_read(_e23, b_18, dir_12);
@@ -2049,17 +2077,17 @@ float blend_node_w(uint k_10)
 
 float irradiance_weight(float r_8)
 {
-    bool local_29 = (bool)0;
+    bool local_30 = (bool)0;
     float w_4 = (float)0;
     uint k_11 = 1u;
 
     uint n_17 = params.lut_info.y;
     if (!((n_17 == 0u))) {
-        local_29 = !((r_8 > 0.0));
+        local_30 = !((r_8 > 0.0));
     } else {
-        local_29 = true;
+        local_30 = true;
     }
-    bool _e14 = local_29;
+    bool _e14 = local_30;
     if (_e14) {
         return 0.0;
     }
@@ -2114,7 +2142,7 @@ float3 specular(float3 position, float3 direction, float roughness)
     float r_9 = 0.0;
     uint3 home_at_2 = (0u).xxx;
     bool stored = false;
-    bool local_30 = (bool)0;
+    bool local_31 = (bool)0;
     float3 c_9 = (float3)0;
 
     const float4 _e3 = unit_direction(direction);
@@ -2157,11 +2185,11 @@ float3 specular(float3 position, float3 direction, float roughness)
     }
     bool _e55 = stored;
     if (_e55) {
-        local_30 = (_e22 >= 1.0);
+        local_31 = (_e22 >= 1.0);
     } else {
-        local_30 = false;
+        local_31 = false;
     }
-    bool _e61 = local_30;
+    bool _e61 = local_31;
     if (_e61) {
         uint3 _e62 = home_at_2;
         float3 _e63 = b_19;
@@ -2205,7 +2233,7 @@ float3 irradiance(float3 position_1, float3 normal)
     float wsum = 0.0;
     uint corner_8 = 0u;
     float w_5 = (float)0;
-    bool local_31 = (bool)0;
+    bool local_32 = (bool)0;
     float k_12 = (float)0;
 
     const float4 _e2 = unit_direction(normal);
@@ -2263,11 +2291,11 @@ float3 irradiance(float3 position_1, float3 normal)
             w_5 = _e48;
             if ((dist > 0.0)) {
                 const bool _e76 = finite(dist);
-                local_31 = _e76;
+                local_32 = _e76;
             } else {
-                local_31 = false;
+                local_32 = false;
             }
-            bool _e78 = local_31;
+            bool _e78 = local_32;
             if (_e78) {
                 float3 u_1 = (to_point / (dist).xxx);
                 float facing = ((dot(n_18, -(u_1)) + 1.0) * 0.5);
@@ -2318,17 +2346,17 @@ float3 irradiance(float3 position_1, float3 normal)
 
 float2 hemi_encode(float3 v_9)
 {
-    bool local_32 = (bool)0;
+    bool local_33 = (bool)0;
 
     float z_1 = max(v_9.z, 0.0);
     float l1_1 = ((abs(v_9.x) + abs(v_9.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         const bool _e14 = finite(l1_1);
-        local_32 = _e14;
+        local_33 = _e14;
     } else {
-        local_32 = false;
+        local_33 = false;
     }
-    bool _e16 = local_32;
+    bool _e16 = local_33;
     if (!(_e16)) {
         return float2(0.5, 0.5);
     }
@@ -2406,10 +2434,10 @@ float surface_tile_inv_distance(uint i_3, uint j_2, SurfaceTaps t_8)
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_20, float3 local_33, SurfaceTaps shared_taps)
+SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_20, float3 local_34, SurfaceTaps shared_taps)
 {
-    bool local_34 = (bool)0;
     bool local_35 = (bool)0;
+    bool local_36 = (bool)0;
 
     SurfaceParams sp = surface_params;
     float s_6 = ((float(i_4) + 0.5) / float(sp.shape.x));
@@ -2418,20 +2446,20 @@ SurfaceTaps surface_warped_taps(uint i_4, uint j_3, float3 b_20, float3 local_33
     float3 d_3 = (probe - b_20);
     float3 ab_2 = float3(dot(d_3, sp.tangent.xyz), dot(d_3, sp.bitangent.xyz), dot(d_3, sp.normal.xyz));
     const float _e48 = surface_tile_inv_distance(i_4, j_3, shared_taps);
-    float3 v_14 = ((local_33 * max(((dot(local_33, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
+    float3 v_14 = ((local_34 * max(((dot(local_34, ab_2) * _e48) + 1.0), 0.0)) - (ab_2 * _e48));
     if ((_e48 > 0.0)) {
         const bool _e62 = finite3_(v_14);
-        local_34 = _e62;
-    } else {
-        local_34 = false;
-    }
-    bool _e64 = local_34;
-    if (_e64) {
-        local_35 = (dot(v_14, v_14) > 0.0);
+        local_35 = _e62;
     } else {
         local_35 = false;
     }
-    bool _e71 = local_35;
+    bool _e64 = local_35;
+    if (_e64) {
+        local_36 = (dot(v_14, v_14) > 0.0);
+    } else {
+        local_36 = false;
+    }
+    bool _e71 = local_36;
     if (_e71) {
         const float2 _e72 = hemi_encode(v_14);
         const SurfaceTaps _e73 = surface_taps(_e72);
@@ -2486,8 +2514,8 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
     float3 dir_15 = _e4.xyz;
-    float3 local_36 = float3(dot(dir_15, sp_1.tangent.xyz), dot(dir_15, sp_1.bitangent.xyz), dot(dir_15, sp_1.normal.xyz));
-    const float2 _e64 = hemi_encode(local_36);
+    float3 local_37 = float3(dot(dir_15, sp_1.tangent.xyz), dot(dir_15, sp_1.bitangent.xyz), dot(dir_15, sp_1.normal.xyz));
+    const float2 _e64 = hemi_encode(local_37);
     const SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
@@ -2495,16 +2523,16 @@ float3 surface_lookup(float3 b_in, float3 dir_in, float roughness_1, bool warped
     t11_ = _e65;
     if (warped) {
         float3 _e72 = b_21;
-        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_36, _e65);
+        const SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_37, _e65);
         t00_ = _e73;
         float3 _e76 = b_21;
-        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_36, _e65);
+        const SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_37, _e65);
         t10_ = _e77;
         float3 _e80 = b_21;
-        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_36, _e65);
+        const SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_37, _e65);
         t01_ = _e81;
         float3 _e84 = b_21;
-        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_36, _e65);
+        const SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_37, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;

@@ -628,56 +628,53 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_9, uint p_7) {
     return Aim(dir_9, 1.0, p_7);
 }
 
-uint probe_of(int tile_1, vec2 uv_5) {
-    bool local_17 = false;
+uint probe_of(int tile_1, uint unmapped, vec2 uv_5) {
     uint best = 0u;
     uint k_3 = 1u;
-    if (!((tile_1 < 0))) {
-        uint _e10 = _group_0_binding_7_cs.probe_maps.y;
-        local_17 = (_e10 == 0u);
-    } else {
-        local_17 = true;
+    if ((tile_1 < 0)) {
+        uint _e8 = _group_0_binding_7_cs.probe_maps.x;
+        return min(unmapped, (max(_e8, 1u) - 1u));
     }
-    bool _e14 = local_17;
-    if (_e14) {
+    uint _e17 = _group_0_binding_7_cs.probe_maps.y;
+    if ((_e17 == 0u)) {
         return 0u;
     }
     uint n_13 = _group_0_binding_7_cs.atlas_a.x;
     uint columns_1 = _group_0_binding_7_cs.atlas_a.y;
-    uint _e28 = _group_0_binding_7_cs.probe_maps.y;
-    uint s_5 = (uint(tile_1) + _e28);
+    uint _e33 = _group_0_binding_7_cs.probe_maps.y;
+    uint s_5 = (uint(tile_1) + _e33);
     ivec2 origin_1 = ivec2((uvec2((s_5 % columns_1), (s_5 / columns_1)) * (n_13 + 2u)));
-    Footprint _e37 = footprint(n_13, uv_5);
-    vec2 f_4 = _e37.f;
+    Footprint _e42 = footprint(n_13, uv_5);
+    vec2 f_4 = _e42.f;
     vec4 w_6 = vec4(((1.0 - f_4.x) * (1.0 - f_4.y)), (f_4.x * (1.0 - f_4.y)), ((1.0 - f_4.x) * f_4.y), (f_4.x * f_4.y));
     bool loop_init_2 = true;
     while(true) {
         if (!loop_init_2) {
-            uint _e74 = k_3;
-            k_3 = (_e74 + 1u);
+            uint _e79 = k_3;
+            k_3 = (_e79 + 1u);
         }
         loop_init_2 = false;
-        uint _e64 = k_3;
-        if ((_e64 < 4u)) {
+        uint _e69 = k_3;
+        if ((_e69 < 4u)) {
         } else {
             break;
         }
         {
-            uint _e67 = k_3;
-            uint _e69 = best;
-            if ((w_6[_e67] > w_6[_e69])) {
-                uint _e72 = k_3;
-                best = _e72;
+            uint _e72 = k_3;
+            uint _e74 = best;
+            if ((w_6[_e72] > w_6[_e74])) {
+                uint _e77 = k_3;
+                best = _e77;
             }
         }
     }
-    uint _e82 = best;
-    uint _e86 = best;
-    ivec2 t_10 = (((origin_1 + _e37.corner) + ivec2(1, 1)) + ivec2(int((_e82 & 1u)), int((_e86 >> 1u))));
-    vec4 _e93 = atlas_texel(ATLAS_CORRECTIVE, t_10);
-    uint p_11 = uint(_e93.x);
-    uint _e99 = _group_0_binding_7_cs.probe_maps.x;
-    return min(p_11, (max(_e99, 1u) - 1u));
+    uint _e87 = best;
+    uint _e91 = best;
+    ivec2 t_10 = (((origin_1 + _e42.corner) + ivec2(1, 1)) + ivec2(int((_e87 & 1u)), int((_e91 >> 1u))));
+    vec4 _e98 = atlas_texel(ATLAS_CORRECTIVE, t_10);
+    uint p_11 = uint(_e98.x);
+    uint _e104 = _group_0_binding_7_cs.probe_maps.x;
+    return min(p_11, (max(_e104, 1u) - 1u));
 }
 
 float map_delta(int tile_2, vec2 uv_6) {
@@ -898,16 +895,16 @@ float blend_node_w(uint k_10) {
 }
 
 float irradiance_weight(float r_8) {
-    bool local_29 = false;
+    bool local_30 = false;
     float w_4 = 0.0;
     uint k_11 = 1u;
     uint n_15 = _group_0_binding_7_cs.lut_info.y;
     if (!((n_15 == 0u))) {
-        local_29 = !((r_8 > 0.0));
+        local_30 = !((r_8 > 0.0));
     } else {
-        local_29 = true;
+        local_30 = true;
     }
-    bool _e14 = local_29;
+    bool _e14 = local_30;
     if (_e14) {
         return 0.0;
     }
@@ -966,7 +963,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     float wsum = 0.0;
     uint corner_8 = 0u;
     float w_5 = 0.0;
-    bool local_31 = false;
+    bool local_32 = false;
     float k_12 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
@@ -1020,11 +1017,11 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             w_5 = _e48;
             if ((dist > 0.0)) {
                 bool _e76 = finite(dist);
-                local_31 = _e76;
+                local_32 = _e76;
             } else {
-                local_31 = false;
+                local_32 = false;
             }
-            bool _e78 = local_31;
+            bool _e78 = local_32;
             if (_e78) {
                 vec3 u = (to_point / vec3(dist));
                 float facing = ((dot(n_16, -(u)) + 1.0) * 0.5);
@@ -1074,16 +1071,16 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
 }
 
 vec2 hemi_encode(vec3 v_9) {
-    bool local_32 = false;
+    bool local_33 = false;
     float z_1 = max(v_9.z, 0.0);
     float l1_1 = ((abs(v_9.x) + abs(v_9.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_32 = _e14;
+        local_33 = _e14;
     } else {
-        local_32 = false;
+        local_33 = false;
     }
-    bool _e16 = local_32;
+    bool _e16 = local_33;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }

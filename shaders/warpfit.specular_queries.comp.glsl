@@ -861,56 +861,53 @@ Aim shifted_aim(vec2 exit_1, float delta, vec3 b_10, vec3 dir_9, uint p_7) {
     return Aim(dir_9, 1.0, p_7);
 }
 
-uint probe_of(int tile_1, vec2 uv_5) {
-    bool local_17 = false;
+uint probe_of(int tile_1, uint unmapped, vec2 uv_5) {
     uint best = 0u;
     uint k_3 = 1u;
-    if (!((tile_1 < 0))) {
-        uint _e10 = _group_0_binding_7_cs.probe_maps.y;
-        local_17 = (_e10 == 0u);
-    } else {
-        local_17 = true;
+    if ((tile_1 < 0)) {
+        uint _e8 = _group_0_binding_7_cs.probe_maps.x;
+        return min(unmapped, (max(_e8, 1u) - 1u));
     }
-    bool _e14 = local_17;
-    if (_e14) {
+    uint _e17 = _group_0_binding_7_cs.probe_maps.y;
+    if ((_e17 == 0u)) {
         return 0u;
     }
     uint n_14 = _group_0_binding_7_cs.atlas_a.x;
     uint columns_1 = _group_0_binding_7_cs.atlas_a.y;
-    uint _e28 = _group_0_binding_7_cs.probe_maps.y;
-    uint s_5 = (uint(tile_1) + _e28);
+    uint _e33 = _group_0_binding_7_cs.probe_maps.y;
+    uint s_5 = (uint(tile_1) + _e33);
     ivec2 origin_1 = ivec2((uvec2((s_5 % columns_1), (s_5 / columns_1)) * (n_14 + 2u)));
-    Footprint _e37 = footprint(n_14, uv_5);
-    vec2 f_6 = _e37.f;
+    Footprint _e42 = footprint(n_14, uv_5);
+    vec2 f_6 = _e42.f;
     vec4 w_7 = vec4(((1.0 - f_6.x) * (1.0 - f_6.y)), (f_6.x * (1.0 - f_6.y)), ((1.0 - f_6.x) * f_6.y), (f_6.x * f_6.y));
     bool loop_init_3 = true;
     while(true) {
         if (!loop_init_3) {
-            uint _e74 = k_3;
-            k_3 = (_e74 + 1u);
+            uint _e79 = k_3;
+            k_3 = (_e79 + 1u);
         }
         loop_init_3 = false;
-        uint _e64 = k_3;
-        if ((_e64 < 4u)) {
+        uint _e69 = k_3;
+        if ((_e69 < 4u)) {
         } else {
             break;
         }
         {
-            uint _e67 = k_3;
-            uint _e69 = best;
-            if ((w_7[_e67] > w_7[_e69])) {
-                uint _e72 = k_3;
-                best = _e72;
+            uint _e72 = k_3;
+            uint _e74 = best;
+            if ((w_7[_e72] > w_7[_e74])) {
+                uint _e77 = k_3;
+                best = _e77;
             }
         }
     }
-    uint _e82 = best;
-    uint _e86 = best;
-    ivec2 t_13 = (((origin_1 + _e37.corner) + ivec2(1, 1)) + ivec2(int((_e82 & 1u)), int((_e86 >> 1u))));
-    vec4 _e93 = atlas_texel(ATLAS_CORRECTIVE, t_13);
-    uint p_11 = uint(_e93.x);
-    uint _e99 = _group_0_binding_7_cs.probe_maps.x;
-    return min(p_11, (max(_e99, 1u) - 1u));
+    uint _e87 = best;
+    uint _e91 = best;
+    ivec2 t_13 = (((origin_1 + _e42.corner) + ivec2(1, 1)) + ivec2(int((_e87 & 1u)), int((_e91 >> 1u))));
+    vec4 _e98 = atlas_texel(ATLAS_CORRECTIVE, t_13);
+    uint p_11 = uint(_e98.x);
+    uint _e104 = _group_0_binding_7_cs.probe_maps.x;
+    return min(p_11, (max(_e104, 1u) - 1u));
 }
 
 float map_delta(int tile_2, vec2 uv_6) {
@@ -947,70 +944,78 @@ Aim fetch(vec3 b_11, vec3 dir_10, float r_2) {
     float delta_1 = 0.0;
     bool mapped = false;
     uint corner_2 = 0u;
+    bool local_17 = false;
     bool local_18 = false;
     vec2 _e3 = oct_encode(dir_10);
     vec3 _e4 = cell_size();
     uvec3 _e6 = cell_of(b_11, _e4);
     uint _e7 = cell_index(_e6);
-    ivec4 tiles_1 = _group_0_binding_8_cs[_e7].tiles;
-    uint _e12 = probe_of(tiles_1.x, _e3);
-    vec4 _e16 = _group_0_binding_7_cs.probes[_e12];
-    if (all(equal(b_11, _e16.xyz))) {
-        return Aim(dir_10, 1.0, _e12);
+    Cell home_cell = _group_0_binding_8_cs[_e7];
+    ivec4 tiles_1 = home_cell.tiles;
+    uint _e14 = probe_of(tiles_1.x, home_cell.links.y, _e3);
+    vec4 _e18 = _group_0_binding_7_cs.probes[_e14];
+    if (all(equal(b_11, _e18.xyz))) {
+        return Aim(dir_10, 1.0, _e14);
     }
-    uint _e26 = blend_mode();
-    if ((_e26 != 1u)) {
+    uint _e28 = blend_mode();
+    if ((_e28 != 1u)) {
         if ((tiles_1.x >= 0)) {
-            float _e32 = cell_delta(tiles_1, _e3, r_2);
-            delta_1 = _e32;
+            float _e34 = cell_delta(tiles_1, _e3, r_2);
+            delta_1 = _e34;
             mapped = true;
         }
     } else {
-        Lattice _e34 = lattice(b_11, _e4);
+        Lattice _e36 = lattice(b_11, _e4);
         bool loop_init_4 = true;
         while(true) {
             if (!loop_init_4) {
-                uint _e58 = corner_2;
-                corner_2 = (_e58 + 1u);
+                uint _e60 = corner_2;
+                corner_2 = (_e60 + 1u);
             }
             loop_init_4 = false;
-            uint _e37 = corner_2;
-            if ((_e37 < 8u)) {
+            uint _e39 = corner_2;
+            if ((_e39 < 8u)) {
             } else {
                 break;
             }
             {
-                uint _e41 = corner_2;
-                uvec3 _e42 = corner_cell(_e34, _e41);
-                uint _e43 = cell_index(_e42);
-                ivec4 tiles_2 = _group_0_binding_8_cs[_e43].tiles;
+                uint _e43 = corner_2;
+                uvec3 _e44 = corner_cell(_e36, _e43);
+                uint _e45 = cell_index(_e44);
+                ivec4 tiles_2 = _group_0_binding_8_cs[_e45].tiles;
                 if ((tiles_2.x >= 0)) {
-                    float _e50 = delta_1;
-                    uint _e51 = corner_2;
-                    float _e52 = corner_weight(_e34, _e51);
-                    float _e53 = cell_delta(tiles_2, _e3, r_2);
-                    delta_1 = (_e50 + (_e52 * _e53));
+                    float _e52 = delta_1;
+                    uint _e53 = corner_2;
+                    float _e54 = corner_weight(_e36, _e53);
+                    float _e55 = cell_delta(tiles_2, _e3, r_2);
+                    delta_1 = (_e52 + (_e54 * _e55));
                     mapped = true;
                 }
             }
         }
     }
-    bool _e60 = mapped;
-    if (!(_e60)) {
-        bool _e64 = relaxation_on();
-        local_18 = _e64;
+    bool _e62 = mapped;
+    if (!(_e62)) {
+        bool _e66 = relaxation_on();
+        local_17 = _e66;
+    } else {
+        local_17 = false;
+    }
+    bool _e68 = local_17;
+    if (_e68) {
+        local_18 = (_e14 == 0u);
     } else {
         local_18 = false;
     }
-    bool _e66 = local_18;
-    if (_e66) {
-        vec3 _e67 = fallback_fetch(b_11, dir_10);
-        return Aim(_e67, -1.0, 0u);
+    bool _e74 = local_18;
+    if (_e74) {
+        vec3 _e75 = fallback_fetch(b_11, dir_10);
+        return Aim(_e75, -1.0, 0u);
     }
-    vec2 _e71 = proxy_exit(b_11, dir_10);
-    float _e72 = delta_1;
-    Aim _e73 = shifted_aim(_e71, _e72, b_11, dir_10, _e12);
-    return _e73;
+    vec2 _e79 = proxy_exit(b_11, dir_10);
+    float _e80 = delta_1;
+    Aim _e81 = shifted_aim(_e79, _e80, b_11, dir_10, _e14);
+    return _e81;
 }
 
 float face_ramp(float x_2) {
@@ -1243,9 +1248,10 @@ vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_11, float r_6) {
     uint corner_5 = 0u;
     uint key = 0u;
     float delta_2 = 0.0;
+    bool local_25 = false;
     uint at = 0u;
     uint g = 0u;
-    bool local_25 = false;
+    bool local_26 = false;
     vec3 c_4 = vec3(0.0);
     uint g_1 = 0u;
     Aim aim_1 = Aim(vec3(0.0), 0.0, 0u);
@@ -1254,8 +1260,8 @@ vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_11, float r_6) {
     bool loop_init_6 = true;
     while(true) {
         if (!loop_init_6) {
-            uint _e112 = corner_5;
-            corner_5 = (_e112 + 1u);
+            uint _e120 = corner_5;
+            corner_5 = (_e120 + 1u);
         }
         loop_init_6 = false;
         uint _e40 = corner_5;
@@ -1272,120 +1278,127 @@ vec3 faces_radiance(Near near_1, vec3 b_15, vec3 dir_11, float r_6) {
             uint _e50 = corner_5;
             uvec3 _e51 = corner_cell(near_1.l, _e50);
             uint _e52 = cell_index(_e51);
-            ivec4 tiles_3 = _group_0_binding_8_cs[_e52].tiles;
-            key = 0u;
+            Cell cell_1 = _group_0_binding_8_cs[_e52];
+            ivec4 tiles_3 = cell_1.tiles;
+            uint _e59 = probe_of(tiles_3.x, cell_1.links.y, _e4);
+            key = _e59;
             delta_2 = 0.0;
             if ((tiles_3.x >= 0)) {
-                uint _e64 = probe_of(tiles_3.x, _e4);
-                key = _e64;
-                float _e65 = cell_delta(tiles_3, _e4, r_6);
-                delta_2 = _e65;
+                float _e66 = cell_delta(tiles_3, _e4, r_6);
+                delta_2 = _e66;
             } else {
                 if (_e5) {
+                    uint _e69 = key;
+                    local_25 = (_e69 == 0u);
+                } else {
+                    local_25 = false;
+                }
+                bool _e73 = local_25;
+                if (_e73) {
                     key = RELAXED;
                 }
             }
-            uint _e67 = n_5;
-            at = _e67;
+            uint _e75 = n_5;
+            at = _e75;
             g = 0u;
             bool loop_init_7 = true;
             while(true) {
                 if (!loop_init_7) {
-                    uint _e90 = g;
-                    g = (_e90 + 1u);
+                    uint _e98 = g;
+                    g = (_e98 + 1u);
                 }
                 loop_init_7 = false;
-                uint _e71 = g;
-                uint _e72 = n_5;
-                if ((_e71 < _e72)) {
+                uint _e79 = g;
+                uint _e80 = n_5;
+                if ((_e79 < _e80)) {
                 } else {
                     break;
                 }
                 {
-                    uint _e74 = g;
-                    uint _e76 = keys[_e74];
-                    uint _e77 = key;
-                    if ((_e76 == _e77)) {
-                        uint _e81 = g;
-                        float _e83 = ds[_e81];
-                        float _e84 = delta_2;
-                        local_25 = (_e83 == _e84);
+                    uint _e82 = g;
+                    uint _e84 = keys[_e82];
+                    uint _e85 = key;
+                    if ((_e84 == _e85)) {
+                        uint _e89 = g;
+                        float _e91 = ds[_e89];
+                        float _e92 = delta_2;
+                        local_26 = (_e91 == _e92);
                     } else {
-                        local_25 = false;
+                        local_26 = false;
                     }
-                    bool _e87 = local_25;
-                    if (_e87) {
-                        uint _e88 = g;
-                        at = _e88;
+                    bool _e95 = local_26;
+                    if (_e95) {
+                        uint _e96 = g;
+                        at = _e96;
                         break;
                     }
                 }
             }
-            uint _e92 = at;
-            uint _e93 = n_5;
-            if ((_e92 == _e93)) {
-                uint _e95 = n_5;
-                uint _e97 = key;
-                keys[_e95] = _e97;
-                uint _e98 = n_5;
-                ws[_e98] = 0.0;
-                uint _e101 = n_5;
-                float _e103 = delta_2;
-                ds[_e101] = _e103;
-                uint _e105 = n_5;
-                n_5 = (_e105 + 1u);
+            uint _e100 = at;
+            uint _e101 = n_5;
+            if ((_e100 == _e101)) {
+                uint _e103 = n_5;
+                uint _e105 = key;
+                keys[_e103] = _e105;
+                uint _e106 = n_5;
+                ws[_e106] = 0.0;
+                uint _e109 = n_5;
+                float _e111 = delta_2;
+                ds[_e109] = _e111;
+                uint _e113 = n_5;
+                n_5 = (_e113 + 1u);
             }
-            uint _e107 = at;
-            float _e109 = ws[_e107];
-            ws[_e107] = (_e109 + _e44);
+            uint _e115 = at;
+            float _e117 = ws[_e115];
+            ws[_e115] = (_e117 + _e44);
         }
     }
-    vec2 _e114 = proxy_exit(b_15, dir_11);
+    vec2 _e122 = proxy_exit(b_15, dir_11);
     bool loop_init_8 = true;
     while(true) {
         if (!loop_init_8) {
-            uint _e164 = g_1;
-            g_1 = (_e164 + 1u);
+            uint _e172 = g_1;
+            g_1 = (_e172 + 1u);
         }
         loop_init_8 = false;
-        uint _e120 = g_1;
-        uint _e121 = n_5;
-        if ((_e120 < _e121)) {
+        uint _e128 = g_1;
+        uint _e129 = n_5;
+        if ((_e128 < _e129)) {
         } else {
             break;
         }
         {
-            uint _e123 = g_1;
-            uint _e125 = keys[_e123];
-            aim_1 = Aim(dir_11, 1.0, _e125);
-            uint _e129 = g_1;
-            uint _e131 = keys[_e129];
-            if ((_e131 == RELAXED)) {
-                vec3 _e134 = fallback_fetch(b_15, dir_11);
-                aim_1 = Aim(_e134, -1.0, 0u);
+            uint _e131 = g_1;
+            uint _e133 = keys[_e131];
+            aim_1 = Aim(dir_11, 1.0, _e133);
+            uint _e137 = g_1;
+            uint _e139 = keys[_e137];
+            if ((_e139 == RELAXED)) {
+                vec3 _e142 = fallback_fetch(b_15, dir_11);
+                aim_1 = Aim(_e142, -1.0, 0u);
             } else {
-                uint _e140 = g_1;
-                uint _e142 = keys[_e140];
-                vec4 _e144 = _group_0_binding_7_cs.probes[_e142];
-                if (any(notEqual(b_15, _e144.xyz))) {
-                    uint _e148 = g_1;
-                    float _e150 = ds[_e148];
-                    uint _e151 = g_1;
-                    uint _e153 = keys[_e151];
-                    Aim _e154 = shifted_aim(_e114, _e150, b_15, dir_11, _e153);
-                    aim_1 = _e154;
+                uint _e148 = g_1;
+                uint _e150 = keys[_e148];
+                vec4 _e152 = _group_0_binding_7_cs.probes[_e150];
+                if (any(notEqual(b_15, _e152.xyz))) {
+                    uint _e156 = g_1;
+                    float _e158 = ds[_e156];
+                    uint _e159 = g_1;
+                    uint _e161 = keys[_e159];
+                    Aim _e162 = shifted_aim(_e122, _e158, b_15, dir_11, _e161);
+                    aim_1 = _e162;
                 }
             }
-            vec3 _e155 = c_4;
-            uint _e156 = g_1;
-            float _e158 = ws[_e156];
-            Aim _e159 = aim_1;
-            vec3 _e160 = shade(b_15, _e159, r_6);
-            c_4 = (_e155 + (_e158 * _e160));
+            vec3 _e163 = c_4;
+            uint _e164 = g_1;
+            float _e166 = ws[_e164];
+            Aim _e167 = aim_1;
+            vec3 _e168 = shade(b_15, _e167, r_6);
+            c_4 = (_e163 + (_e166 * _e168));
         }
     }
-    vec3 _e166 = c_4;
-    return _e166;
+    vec3 _e174 = c_4;
+    return _e174;
 }
 
 Near near_cells(vec3 b_16) {
@@ -1485,8 +1498,8 @@ vec3 sh_read(uvec3 home_at_1, vec3 b_17, vec3 n_8) {
     uvec4 at_2 = uvec4(0u);
     uint k_8 = 0u;
     bool kept = false;
-    bool local_26 = false;
     bool local_27 = false;
+    bool local_28 = false;
     vec3 _e3 = cell_size();
     uvec4 _e6 = _group_0_binding_7_cs.grid_counts;
     uvec3 counts = _e6.xyz;
@@ -1652,17 +1665,17 @@ vec3 sh_read(uvec3 home_at_1, vec3 b_17, vec3 n_8) {
             if ((_e218 < 27u)) {
                 uint _e223 = k_8;
                 uint _e225 = bits[_e223];
-                local_26 = (((links_2 >> _e225) & 1u) != 0u);
-            } else {
-                local_26 = false;
-            }
-            bool _e232 = local_26;
-            if (_e232) {
-                local_27 = (ck < count_1);
+                local_27 = (((links_2 >> _e225) & 1u) != 0u);
             } else {
                 local_27 = false;
             }
-            bool _e237 = local_27;
+            bool _e232 = local_27;
+            if (_e232) {
+                local_28 = (ck < count_1);
+            } else {
+                local_28 = false;
+            }
+            bool _e237 = local_28;
             if (_e237) {
                 int _e242 = _group_0_binding_8_cs[ck].tiles.y;
                 kept = (_e242 >= 0);
@@ -1723,7 +1736,7 @@ vec3 faces_specular(Near near_2, vec3 b_18, vec3 dir_12, float r_7, float w_3) {
     vec3 e = vec3(0.0);
     float share = 0.0;
     uint corner_7 = 0u;
-    bool local_28 = false;
+    bool local_29 = false;
     vec3 _e5 = faces_radiance(near_2, b_18, dir_12, r_7);
     c_7 = _e5;
     if ((w_3 > 0.0)) {
@@ -1747,11 +1760,11 @@ vec3 faces_specular(Near near_2, vec3 b_18, vec3 dir_12, float r_7, float w_3) {
                 if ((_e20 > 0.0)) {
                     uint _e29 = cell_index(_e23);
                     int _e33 = _group_0_binding_8_cs[_e29].tiles.y;
-                    local_28 = (_e33 >= 0);
+                    local_29 = (_e33 >= 0);
                 } else {
-                    local_28 = false;
+                    local_29 = false;
                 }
-                bool _e37 = local_28;
+                bool _e37 = local_29;
                 if (_e37) {
                     vec3 _e38 = e;
                     vec3 _e39 = sh_read(_e23, b_18, dir_12);
@@ -1786,16 +1799,16 @@ float blend_node_w(uint k_10) {
 }
 
 float irradiance_weight(float r_8) {
-    bool local_29 = false;
+    bool local_30 = false;
     float w_4 = 0.0;
     uint k_11 = 1u;
     uint n_17 = _group_0_binding_7_cs.lut_info.y;
     if (!((n_17 == 0u))) {
-        local_29 = !((r_8 > 0.0));
+        local_30 = !((r_8 > 0.0));
     } else {
-        local_29 = true;
+        local_30 = true;
     }
-    bool _e14 = local_29;
+    bool _e14 = local_30;
     if (_e14) {
         return 0.0;
     }
@@ -1845,7 +1858,7 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     float r_9 = 0.0;
     uvec3 home_at_2 = uvec3(0u);
     bool stored = false;
-    bool local_30 = false;
+    bool local_31 = false;
     vec3 c_9 = vec3(0.0);
     vec4 _e3 = unit_direction(direction);
     if ((_e3.w == 0.0)) {
@@ -1887,11 +1900,11 @@ vec3 specular(vec3 position, vec3 direction, float roughness) {
     }
     bool _e55 = stored;
     if (_e55) {
-        local_30 = (_e22 >= 1.0);
+        local_31 = (_e22 >= 1.0);
     } else {
-        local_30 = false;
+        local_31 = false;
     }
-    bool _e61 = local_30;
+    bool _e61 = local_31;
     if (_e61) {
         uvec3 _e62 = home_at_2;
         vec3 _e63 = b_19;
@@ -1933,7 +1946,7 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
     float wsum = 0.0;
     uint corner_8 = 0u;
     float w_5 = 0.0;
-    bool local_31 = false;
+    bool local_32 = false;
     float k_12 = 0.0;
     vec4 _e2 = unit_direction(normal);
     if ((_e2.w == 0.0)) {
@@ -1987,11 +2000,11 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
             w_5 = _e48;
             if ((dist > 0.0)) {
                 bool _e76 = finite(dist);
-                local_31 = _e76;
+                local_32 = _e76;
             } else {
-                local_31 = false;
+                local_32 = false;
             }
-            bool _e78 = local_31;
+            bool _e78 = local_32;
             if (_e78) {
                 vec3 u_1 = (to_point / vec3(dist));
                 float facing = ((dot(n_18, -(u_1)) + 1.0) * 0.5);
@@ -2041,16 +2054,16 @@ vec3 irradiance(vec3 position_1, vec3 normal) {
 }
 
 vec2 hemi_encode(vec3 v_9) {
-    bool local_32 = false;
+    bool local_33 = false;
     float z_1 = max(v_9.z, 0.0);
     float l1_1 = ((abs(v_9.x) + abs(v_9.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_32 = _e14;
+        local_33 = _e14;
     } else {
-        local_32 = false;
+        local_33 = false;
     }
-    bool _e16 = local_32;
+    bool _e16 = local_33;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }

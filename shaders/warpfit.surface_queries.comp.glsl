@@ -375,16 +375,16 @@ vec3 clean(vec3 c_8) {
 }
 
 vec2 hemi_encode(vec3 v_9) {
-    bool local_32 = false;
+    bool local_33 = false;
     float z_1 = max(v_9.z, 0.0);
     float l1_1 = ((abs(v_9.x) + abs(v_9.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_32 = _e14;
+        local_33 = _e14;
     } else {
-        local_32 = false;
+        local_33 = false;
     }
-    bool _e16 = local_32;
+    bool _e16 = local_33;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }
@@ -439,9 +439,9 @@ float surface_tile_inv_distance(uint i_3, uint j_2, SurfaceTaps t_8) {
     return _e42.x;
 }
 
-SurfaceTaps surface_warped_taps(uint i_4, uint j_3, vec3 b_20, vec3 local_33, SurfaceTaps shared_taps) {
-    bool local_34 = false;
+SurfaceTaps surface_warped_taps(uint i_4, uint j_3, vec3 b_20, vec3 local_34, SurfaceTaps shared_taps) {
     bool local_35 = false;
+    bool local_36 = false;
     SurfaceParams sp = _group_2_binding_1_cs;
     float s_4 = ((float(i_4) + 0.5) / float(sp.shape.x));
     float t_10 = ((float(j_3) + 0.5) / float(sp.shape.y));
@@ -449,20 +449,20 @@ SurfaceTaps surface_warped_taps(uint i_4, uint j_3, vec3 b_20, vec3 local_33, Su
     vec3 d_2 = (probe - b_20);
     vec3 ab = vec3(dot(d_2, sp.tangent.xyz), dot(d_2, sp.bitangent.xyz), dot(d_2, sp.normal.xyz));
     float _e48 = surface_tile_inv_distance(i_4, j_3, shared_taps);
-    vec3 v_11 = ((local_33 * max(((dot(local_33, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
+    vec3 v_11 = ((local_34 * max(((dot(local_34, ab) * _e48) + 1.0), 0.0)) - (ab * _e48));
     if ((_e48 > 0.0)) {
         bool _e62 = finite3_(v_11);
-        local_34 = _e62;
-    } else {
-        local_34 = false;
-    }
-    bool _e64 = local_34;
-    if (_e64) {
-        local_35 = (dot(v_11, v_11) > 0.0);
+        local_35 = _e62;
     } else {
         local_35 = false;
     }
-    bool _e71 = local_35;
+    bool _e64 = local_35;
+    if (_e64) {
+        local_36 = (dot(v_11, v_11) > 0.0);
+    } else {
+        local_36 = false;
+    }
+    bool _e71 = local_36;
     if (_e71) {
         vec2 _e72 = hemi_encode(v_11);
         SurfaceTaps _e73 = surface_taps(_e72);
@@ -512,8 +512,8 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     float _e50 = lod_2;
     float fm_1 = (_e50 - float(m0_1));
     vec3 dir_15 = _e4.xyz;
-    vec3 local_36 = vec3(dot(dir_15, sp_1.tangent.xyz), dot(dir_15, sp_1.bitangent.xyz), dot(dir_15, sp_1.normal.xyz));
-    vec2 _e64 = hemi_encode(local_36);
+    vec3 local_37 = vec3(dot(dir_15, sp_1.tangent.xyz), dot(dir_15, sp_1.bitangent.xyz), dot(dir_15, sp_1.normal.xyz));
+    vec2 _e64 = hemi_encode(local_37);
     SurfaceTaps _e65 = surface_taps(_e64);
     t00_ = _e65;
     t10_ = _e65;
@@ -521,16 +521,16 @@ vec3 surface_lookup(vec3 b_in, vec3 dir_in, float roughness_1, bool warped) {
     t11_ = _e65;
     if (warped) {
         vec3 _e72 = b_21;
-        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_36, _e65);
+        SurfaceTaps _e73 = surface_warped_taps(_e25.i0_, _e31.i0_, _e72, local_37, _e65);
         t00_ = _e73;
         vec3 _e76 = b_21;
-        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_36, _e65);
+        SurfaceTaps _e77 = surface_warped_taps(_e25.i1_, _e31.i0_, _e76, local_37, _e65);
         t10_ = _e77;
         vec3 _e80 = b_21;
-        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_36, _e65);
+        SurfaceTaps _e81 = surface_warped_taps(_e25.i0_, _e31.i1_, _e80, local_37, _e65);
         t01_ = _e81;
         vec3 _e84 = b_21;
-        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_36, _e65);
+        SurfaceTaps _e85 = surface_warped_taps(_e25.i1_, _e31.i1_, _e84, local_37, _e65);
         t11_ = _e85;
     }
     SurfaceTaps _e88 = t00_;

@@ -993,16 +993,16 @@ float blend_node_w(uint k_10) {
 }
 
 float irradiance_weight(float r_8) {
-    bool local_29 = false;
+    bool local_30 = false;
     float w_4 = 0.0;
     uint k_11 = 1u;
     uint n_15 = _group_0_binding_7_cs.lut_info.y;
     if (!((n_15 == 0u))) {
-        local_29 = !((r_8 > 0.0));
+        local_30 = !((r_8 > 0.0));
     } else {
-        local_29 = true;
+        local_30 = true;
     }
-    bool _e14 = local_29;
+    bool _e14 = local_30;
     if (_e14) {
         return 0.0;
     }
@@ -1048,16 +1048,16 @@ vec3 clean(vec3 c_8) {
 }
 
 vec2 hemi_encode(vec3 v_9) {
-    bool local_32 = false;
+    bool local_33 = false;
     float z_1 = max(v_9.z, 0.0);
     float l1_1 = ((abs(v_9.x) + abs(v_9.y)) + z_1);
     if ((l1_1 >= F32_MIN_POSITIVE)) {
         bool _e14 = finite(l1_1);
-        local_32 = _e14;
+        local_33 = _e14;
     } else {
-        local_32 = false;
+        local_33 = false;
     }
-    bool _e16 = local_32;
+    bool _e16 = local_33;
     if (!(_e16)) {
         return vec2(0.5, 0.5);
     }

@@ -93,7 +93,8 @@ struct Params {
 // the cell centre (xyz) and its irradiance as nine spherical-harmonic coefficients (rgb;
 // zero where y is -1: `IrradianceSh`), what rough lookups blend in, and (links.x) the
 // neighbours a rough lookup's read blends it with: bit (ox+1) + 3(oy+1) + 9(oz+1) for
-// the cell at offset o in {-1, 0, 1}^3 (`IrradianceSh::links`).
+// the cell at offset o in {-1, 0, 1}^3 (`IrradianceSh::links`); links.y is the probe the cell
+// reads where it stores no map (`Correctives::cell_probes`; 0 probe A).
 struct Cell {
     tiles: vec4<i32>,
     offset: vec4<f32>,
@@ -634,9 +635,13 @@ fn shifted_aim(exit: vec2<f32>, delta: f32, b: vec3<f32>, dir: vec3<f32>, p: u32
 // The probe a lookup along the direction of uv reads in a cell whose shift map is tile
 // `tile` (< 0: none): the probe map's texel with the greatest bilinear weight (the first
 // of equals, in the order of `blend4`'s corners), as `corrective::nearest_tap` picks it;
-// probe A without a map or without probe maps.
-fn probe_of(tile: i32, uv: vec2<f32>) -> u32 {
-    if tile < 0 || params.probe_maps.y == 0u {
+// without a map the cell's own probe `unmapped` (`Correctives::cell_probe`), without probe
+// maps probe A.
+fn probe_of(tile: i32, unmapped: u32, uv: vec2<f32>) -> u32 {
+    if tile < 0 {
+        return min(unmapped, max(params.probe_maps.x, 1u) - 1u);
+    }
+    if params.probe_maps.y == 0u {
         return 0u;
     }
     let n = params.atlas_a.x;
@@ -692,9 +697,10 @@ fn cell_delta(tiles: vec4<i32>, uv: vec2<f32>, r: f32) -> f32 {
 fn fetch(b: vec3<f32>, dir: vec3<f32>, r: f32) -> Aim {
     let uv = oct_encode(dir);
     let size = cell_size();
-    // the containing cell's probe map says which probe (probe A without one)
-    let home = cells[cell_index(cell_of(b, size))].tiles;
-    let p = probe_of(home.x, uv);
+    // the containing cell's probe map says which probe (its own probe without one)
+    let home_cell = cells[cell_index(cell_of(b, size))];
+    let home = home_cell.tiles;
+    let p = probe_of(home.x, home_cell.links.y, uv);
     if all(b == params.probes[p].xyz) {
         return Aim(dir, 1.0, p);
     }
@@ -716,7 +722,8 @@ fn fetch(b: vec3<f32>, dir: vec3<f32>, r: f32) -> Aim {
             }
         }
     }
-    if !mapped && relaxation_on() {
+    // (the relaxed proxy is probe A's: a cell reading another probe reads it unrelaxed)
+    if !mapped && relaxation_on() && p == 0u {
         return Aim(fallback_fetch(b, dir), -1.0, 0u);
     }
     return shifted_aim(proxy_exit(b, dir), delta, b, dir, p);
@@ -743,8 +750,8 @@ fn face_lattice(b: vec3<f32>) -> Lattice {
 
 // Probe radiance of a faces-blend lookup of (B, unit dir, roughness r) near cell faces
 // (`Correctives::face_aims`, then `FittedGrid::shade`): each near cell's own lookup (its
-// probe and shift; cells without a map read probe A with no shift, or the relaxed proxy
-// when the grid relaxes), cells with the same probe and shift merged, the radiances
+// probe and shift; cells without a map read their own probe with no shift, or, reading
+// probe A, the relaxed proxy when the grid relaxes), cells with the same probe and shift merged, the radiances
 // blended by the cells' weights.
 fn faces_radiance(near: Near, b: vec3<f32>, dir: vec3<f32>, r: f32) -> vec3<f32> {
     let uv = oct_encode(dir);
@@ -759,13 +766,13 @@ fn faces_radiance(near: Near, b: vec3<f32>, dir: vec3<f32>, r: f32) -> vec3<f32>
         if !(w > 0.0) {
             continue;
         }
-        let tiles = cells[cell_index(corner_cell(near.l, corner))].tiles;
-        var key = 0u;
+        let cell = cells[cell_index(corner_cell(near.l, corner))];
+        let tiles = cell.tiles;
+        var key = probe_of(tiles.x, cell.links.y, uv);
         var delta = 0.0;
         if tiles.x >= 0 {
-            key = probe_of(tiles.x, uv);
             delta = cell_delta(tiles, uv, r);
-        } else if relax {
+        } else if relax && key == 0u {
             key = RELAXED;
         }
         var at = n;

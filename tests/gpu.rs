@@ -161,8 +161,19 @@ fn the_shader_reads_the_probe_each_texel_chose_as_the_cpu_sampler_does() {
     assert!(g.correctives().probe_maps.contains(&1), "some texels read the second probe");
     check_grid("tiny_probes", &g);
     // blended near cell faces: where the near cells read different probes, both are read
-    let faces = g.with_lookup(|_, blend, _| *blend = warpfit::warp::corrective::Blend::Faces);
+    let faces = g.clone().with_lookup(|_, blend, _| *blend = warpfit::warp::corrective::Blend::Faces);
     check_grid("tiny_probes-faces", &faces);
+    // every other cell without its map, reading probe 1 through the proxy (`cell_probes`)
+    let unmapped = g.with_lookup(|_, _, c| {
+        let n = c.slot.len();
+        c.cell_probes = (0..n).map(|k| (k % 2) as u8).collect();
+        for k in (1..n).step_by(2) {
+            c.slot[k] = warpfit::warp::corrective::NO_MAP;
+        }
+    });
+    check_grid("tiny_probes-cell-probes", &unmapped);
+    let faces = unmapped.with_lookup(|_, blend, _| *blend = warpfit::warp::corrective::Blend::Faces);
+    check_grid("tiny_probes-cell-probes-faces", &faces);
 }
 
 #[test]

@@ -121,8 +121,9 @@ fn a_multi_probe_grid_reads_the_probe_each_texel_chose_and_beats_probe_a_alone()
     let several = fit_into(bake.baked(&scene, &tracer), "several");
     let alone = fit_into(job::Baked { others: &[], ..bake.baked(&scene, &tracer) }, "alone");
     assert_eq!(several.warp().probe_count(), 1 + bake.others.len());
-    assert_eq!(several.manifest().version, warpfit::gridfile::GRID_VERSION_WRITTEN);
     let c = several.correctives();
+    let version = if c.cell_probes.is_empty() { warpfit::gridfile::GRID_VERSION_WRITTEN } else { 8 };
+    assert_eq!(several.manifest().version, version);
     assert_eq!(c.probe_maps.len(), c.maps.len(), "a probe index per stored texel");
     assert!(c.probe_maps.iter().any(|&p| p > 0), "some texels read another probe than A");
     assert!(alone.correctives().probe_maps.is_empty() && alone.warp().probe_count() == 1);
@@ -232,6 +233,28 @@ fn several_probes_are_refused_when_a_file_or_field_is_wrong() {
     assert!(e.contains("other_probes[0]") && e.contains("probe A's resolution"), "{e}");
     let e = edit(&|m| m.version = 5);
     assert!(e.contains("other_probes") && e.contains("version 6"), "{e}");
+    // the cells without a map that read probe 1: a value the writer cannot produce, named
+    let stored = serde_json::from_str::<warpfit::gridfile::GridManifest>(&original)
+        .unwrap()
+        .correctives
+        .map_or_else(Vec::new, |c| c.stored_cells);
+    let cells: u32 = scene.config.grid.counts.iter().product();
+    let unmapped: Vec<u32> = (0..cells).filter(|c| stored.binary_search(c).is_err()).take(2).collect();
+    let (a, b) = (unmapped[0], unmapped[1]);
+    for (cell_probes, version, says) in [
+        (vec![(a, 1u8)], 7, "version 8"),
+        (vec![(a, 0)], 8, "not a probe other than A"),
+        (vec![(a, 2)], 8, "not a probe other than A"),
+        (vec![(b, 1), (a, 1)], 8, "sorted and unique"),
+        (vec![(cells, 1)], 8, "out of range"),
+    ] {
+        let e = edit(&|m| (m.cell_probes, m.version) = (cell_probes.clone(), version));
+        assert!(e.contains("cell_probes") && e.contains(says), "{e}");
+    }
+    if let Some(&c) = stored.first() {
+        let e = edit(&|m| (m.cell_probes, m.version) = (vec![(c, 1)], 8));
+        assert!(e.contains("cell_probes") && e.contains("stores a map"), "{e}");
+    }
     std::fs::write(&manifest_path, &original).unwrap();
     std::fs::remove_file(dir.join("probe_1.exr")).unwrap();
     let e = FittedGrid::load(&*dir).unwrap_err().to_string();
@@ -275,4 +298,50 @@ fn the_export_lays_several_probes_side_by_side_and_names_them() {
     let h = reader.header();
     let n = grid.warp().probe.inv_depth.levels[0].res;
     assert_eq!((h.pixel_width, h.pixel_height), (2 * n, n));
+}
+
+#[test]
+fn a_cell_without_a_map_reads_its_own_probe_through_the_proxy_on_every_path() {
+    // the committed two-probe grid with every map dropped, each cell reading probe 1
+    let grid = FittedGrid::load(repo().join("fits/tiny_probes")).unwrap();
+    let cells = grid.correctives().geometry.cell_count();
+    let unmapped = |probe: u8, blend: Blend| {
+        grid.clone().with_lookup(|_, b, c| {
+            *b = blend;
+            c.slot = vec![warpfit::warp::corrective::NO_MAP; cells];
+            c.cell_probes = vec![probe; cells];
+        })
+    };
+    let (one, faces, probe_a) = (unmapped(1, Blend::Cell), unmapped(1, Blend::Faces), unmapped(0, Blend::Cell));
+    let (warp, c) = (one.warp(), one.correctives());
+    let shading = warpfit::warp::glossy::Glossy { warp, correction: None };
+    let (lo, hi) = grid.bounds();
+    let (mut b, mut d) = (Vec::new(), Vec::new());
+    for k in 0..64u32 {
+        let mut s = warpfit::sampling::Sampler::new(5, 0xCE11, k);
+        b.push(lo + (hi - lo) * Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()));
+        d.push(warpfit::sampling::uniform_sphere(s.next_2d()));
+    }
+    let mut batch = vec![Vec3::ZERO; b.len()];
+    one.specular_batch(&b, &d, &vec![0.0; b.len()], &mut batch).unwrap();
+    let mut differs = 0;
+    for k in 0..b.len() {
+        // the aim: probe 1 fetched towards the proxy's surface, unshifted
+        let aim = c.fetch(Blend::Cell, warp, b[k], d[k], 0.0);
+        assert_eq!(aim.probe, 1, "query {k}");
+        let t = warp.base_distance(c.fallback, b[k], d[k]);
+        let expected = warpfit::warp::corrective::shifted_aim(warp.probe_at(1).position, t, 0.0, b[k], d[k]);
+        assert_eq!(aim.v.to_array().map(f32::to_bits), expected.v.to_array().map(f32::to_bits), "query {k}");
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        let single = one.specular(b[k], d[k], 0.0);
+        assert_eq!(bits(single), bits(batch[k]), "batch, query {k}");
+        let centre = c.geometry.cell_centre(c.cell_at(b[k]));
+        assert_eq!(bits(one.specular(centre, d[k], 0.0)), bits(faces.specular(centre, d[k], 0.0)), "faces, query {k}");
+        let rule = warpfit::warp::glossy::MipRule::Plain;
+        assert!(shading.radiance(rule, b[k], d[k], aim, 0.0).is_finite());
+        if bits(single) != bits(probe_a.specular(b[k], d[k], 0.0)) {
+            differs += 1;
+        }
+    }
+    assert!(differs > b.len() / 4, "reading probe 1 differs from probe A on {differs} of {} queries", b.len());
 }

@@ -32,7 +32,8 @@ pub const PARAMS_BYTES: usize = 59 * 16;
 /// Probes `Params::probes` holds (the grid format's most).
 pub const MAX_PROBES: usize = 16;
 /// Bytes of one WGSL `Cell`: tiles (`vec4<i32>`), offset (`vec4<f32>`), nine harmonic
-/// coefficients (`array<vec4<f32>, 9>`, rgb) and its links (`vec4<u32>`, x).
+/// coefficients (`array<vec4<f32>, 9>`, rgb), its links (`vec4<u32>`, x) and the probe it
+/// reads without a map (y).
 pub const CELL_BYTES: usize = 32 + 9 * 16 + 16;
 /// Bytes of the WGSL `SurfaceParams` struct (one surface-probe atlas): 9 vec4s.
 pub const SURFACE_PARAMS_BYTES: usize = 9 * 16;
@@ -210,8 +211,8 @@ pub fn params(grid: &FittedGrid, atlases: &Atlases, probe_tile_offset: u32) -> R
 
 /// The `array<Cell>`: per grid cell (`x + nx·(y + ny·z)`) its shift-map, irradiance and
 /// irradiance-scale tiles (−1: none), its irradiance probe's offset from the cell centre,
-/// its irradiance harmonics (`FittedGrid::irradiance_sh`; zero where none is stored) and
-/// their links.
+/// its irradiance harmonics (`FittedGrid::irradiance_sh`; zero where none is stored),
+/// their links and the probe the cell reads where it stores no map.
 #[must_use]
 pub fn cells(grid: &FittedGrid) -> Vec<u8> {
     let c = &grid.correctives();
@@ -230,7 +231,7 @@ pub fn cells(grid: &FittedGrid) -> Vec<u8> {
         for k in 0..crate::sh::COEFFS {
             out.f(sh.map_or([0.0; 4], |c| c[k].extend(0.0).to_array()));
         }
-        out.u([grid.irradiance_sh().links.get(cell).copied().unwrap_or(0), 0, 0, 0]);
+        out.u([grid.irradiance_sh().links.get(cell).copied().unwrap_or(0), c.cell_probe(cell).into(), 0, 0]);
     }
     out.0
 }

@@ -586,6 +586,10 @@ pub struct CellOutcome {
     /// its rough map and that probe: the evaluation's `per-cell` row, never stored.
     #[serde(default)]
     pub per_cell: Option<(Vec<f32>, Vec<f32>, u8)>,
+    /// The probe the cell reads without a map (through the proxy): the one most of its
+    /// texels chose ([`probes::per_cell`]); probe A with one probe.
+    #[serde(default)]
+    pub cell_probe: u8,
     /// Reference rays traced for the cell's training and check queries.
     pub rays: u64,
 }
@@ -721,6 +725,10 @@ pub fn fit_cells(
             let hits = (warp.probe_count() > 1).then(|| true_hits(baked, &train));
             let probe_map =
                 hits.as_ref().map_or_else(Vec::new, |h| probes::choose(warp, origin, s.map_res, &distance, h));
+            // without a map the cell reads the probe most of its texels chose, through the proxy
+            let cell_probe = probes::per_cell(&probe_map);
+            let unmapped =
+                if cell_probe == 0 { Vec::new() } else { vec![cell_probe; (s.map_res * s.map_res) as usize] };
             let check_dirs = check.dirs_per_position;
             let (mut train, check) = (samples(&train), samples(&check));
             if s.aim_pull > 0.0 {
@@ -746,9 +754,9 @@ pub fn fit_cells(
             // them on more positions (a stream of their own)
             let (mut extra_rays, mut extra_seconds, mut check_positions) = (0, 0.0, s.check_positions);
             let rough_fitted = rough.as_ref().map_or(&[][..], |r| r.fitted.as_slice());
-            // (the fallback, a cell without a map, reads probe A)
+            // (the fallback, a cell without a map, reads the cell's probe)
             let fallback_errors = |p: &mut CellProblem| {
-                p.set_probe_map(&[]);
+                p.set_probe_map(&unmapped);
                 let e = p.position_square_errors(&no_map, &[], check_dirs);
                 p.set_probe_map(&probe_map);
                 e
@@ -771,7 +779,7 @@ pub fn fit_cells(
             }
             let rough_map = rough.as_ref().map(|r| r.fitted.as_slice());
             let [warp1, boxed_err, kdop, fallback, celldepth, fitted_err] =
-                check_errors(&mut check_problem, &probe_map, (&no_map, &init), (&fitted, rough_map));
+                check_errors(&mut check_problem, (&probe_map, &unmapped), (&no_map, &init), (&fitted, rough_map));
             let selection = if sees_only_sky {
                 Selection::SeesOnlySky
             } else {
@@ -815,6 +823,7 @@ pub fn fit_cells(
             if !outcome.fitted.is_empty() {
                 outcome.probes = probe_map;
             }
+            outcome.cell_probe = cell_probe;
             outcome.per_cell = per_cell;
             outcome
         })
@@ -825,16 +834,17 @@ pub fn fit_cells(
 
 /// The held-out errors a cell's model selection compares (`CellProblem::relative_error_map`
 /// on its check problem `p`, whose texels read `probe_map`): `warp1`, the box and the 18-DOP,
-/// the fallback (`no_map`, the proxy unshifted, reading probe A), the unfitted map `init`,
+/// the fallback (`no_map`, the proxy unshifted, its texels reading `unmapped`: the cell's
+/// probe, or probe A when empty), the unfitted map `init`,
 /// and the fitted map with its rough map when it has one.
 fn check_errors(
     p: &mut CellProblem,
-    probe_map: &[u8],
+    (probe_map, unmapped): (&[u8], &[u8]),
     (no_map, init): (&[f32], &[f32]),
     (fitted, rough): (&[f32], Option<&[f32]>),
 ) -> [f64; 6] {
     let [warp1, boxed, kdop] = [Method::Warp1, Method::Box, Method::Kdop].map(|m| p.relative_error_method(m));
-    p.set_probe_map(&[]);
+    p.set_probe_map(unmapped);
     let fallback = p.relative_error_map(no_map);
     p.set_probe_map(probe_map);
     let celldepth = p.relative_error_map(init);
@@ -934,7 +944,7 @@ fn outcome_keeping(
     let fitted_rough = fitted_rough.filter(|_| keep).unwrap_or_default();
     let fitted = if keep { fitted } else { Vec::new() };
     let init = if keep_all { init } else { Vec::new() };
-    CellOutcome { fit, fitted, fitted_rough, init, probes: Vec::new(), per_cell: None, rays }
+    CellOutcome { fit, fitted, fitted_rough, init, probes: Vec::new(), per_cell: None, cell_probe: 0, rays }
 }
 
 /// The true hits of a cell's queries (`fit::probes`): one ray each.
@@ -1217,7 +1227,11 @@ fn assemble_cells(
     let mut reference_rays = 0;
     let cells: Vec<CellFit> = results
         .into_iter()
-        .map(|CellOutcome { fit, fitted, fitted_rough, probes, rays, .. }| {
+        .map(|CellOutcome { fit, fitted, fitted_rough, probes, cell_probe, rays, .. }| {
+            if cell_probe != 0 && fit.level != Level::Map {
+                correctives.cell_probes.resize(g.cell_count(), 0);
+                correctives.cell_probes[fit.cell as usize] = cell_probe;
+            }
             if fit.level == Level::Map {
                 correctives.slot[fit.cell as usize] = (correctives.maps.len() / n2) as u32;
                 correctives.maps.extend_from_slice(&fitted);

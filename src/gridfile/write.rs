@@ -163,10 +163,22 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
         });
     }
 
+    // the cells without a map that read a probe other than A
+    let c = g.correctives;
+    let cell_probes: Vec<(u32, u8)> = (0..c.geometry.cell_count())
+        .filter(|&cell| !c.stores_map(cell) && c.cell_probe(cell) != 0)
+        .map(|cell| (cell as u32, c.cell_probe(cell)))
+        .collect();
     let manifest = GridManifest {
         format: GRID_FORMAT.into(),
         // the oldest version that reads the grid
-        version: if g.blend == Blend::Faces { GRID_VERSION } else { GRID_VERSION_WRITTEN },
+        version: if !cell_probes.is_empty() {
+            GRID_VERSION
+        } else if g.blend == Blend::Faces {
+            7
+        } else {
+            GRID_VERSION_WRITTEN
+        },
         octahedral_convention: octa::CONVENTION.into(),
         units: "scene units (positions, distances); radiance in the scene's linear RGB units".into(),
         up_axis: "+Y".into(),
@@ -179,6 +191,7 @@ pub fn write(dir: &Path, g: &GridContents) -> Result<GridManifest, FileError> {
         },
         probe,
         other_probes,
+        cell_probes,
         warp: warp_section(g),
         correctives,
         irradiance,

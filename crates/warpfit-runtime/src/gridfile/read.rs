@@ -288,6 +288,7 @@ fn expected_payloads(
     if m.warp.blend == crate::warp::corrective::Blend::Faces && m.version < 7 {
         return Err(invalid(mp, "warp.blend", "the faces blend needs format version 7"));
     }
+    check_cell_probes(m, mp, cells)?;
     for (k, p) in m.other_probes.iter().enumerate() {
         let field = format!("other_probes[{k}]");
         let same = p.resolution == m.probe.resolution
@@ -308,6 +309,46 @@ fn expected_payloads(
     }
     check_listing(m, mp, &out)?;
     Ok(out)
+}
+
+/// The cells without a map that read another probe ([`GridManifest::cell_probes`]): version
+/// 8, sorted unique cells in range that store no map, probes other than A that the grid has.
+fn check_cell_probes(m: &GridManifest, mp: &Path, cells: usize) -> Result<(), FileError> {
+    const FIELD: &str = "cell_probes";
+    if m.cell_probes.is_empty() {
+        return Ok(());
+    }
+    if m.version < 8 {
+        return Err(invalid(mp, FIELD, "cells reading another probe without a map need format version 8"));
+    }
+    let list: Vec<u32> = m.cell_probes.iter().map(|&(c, _)| c).collect();
+    cells_ok(&list, FIELD, cells, mp)?;
+    let probes = m.other_probes.len() + 1;
+    if let Some(&(c, p)) = m.cell_probes.iter().find(|&&(_, p)| p == 0 || usize::from(p) >= probes) {
+        return Err(invalid(
+            mp,
+            FIELD,
+            format!("cell {c} reads probe {p}: not a probe other than A of the grid's {probes}"),
+        ));
+    }
+    let stored = m.correctives.as_ref().map_or(&[][..], |c| c.stored_cells.as_slice());
+    if let Some(&(c, _)) = m.cell_probes.iter().find(|&&(c, _)| stored.binary_search(&c).is_ok()) {
+        return Err(invalid(mp, FIELD, format!("cell {c} stores a map: its texels say which probe it reads")));
+    }
+    Ok(())
+}
+
+/// Per cell, the probe it reads without a map ([`check_cell_probes`]); empty when every
+/// such cell reads probe A.
+fn cell_probes(m: &GridManifest, cells: usize) -> Vec<u8> {
+    if m.cell_probes.is_empty() {
+        return Vec::new();
+    }
+    let mut out = vec![0u8; cells];
+    for &(c, p) in &m.cell_probes {
+        out[c as usize] = p;
+    }
+    out
 }
 
 /// Whether `r` is a tile resolution a reader accepts.
@@ -889,7 +930,8 @@ pub fn read(dir: &Path) -> Result<GridData, FileError> {
         others.push(read_probe(dir, (&m, mp), (file, p, &field), expected_of(&expected, file))?);
     }
     let correctives =
-        read_correctives(dir, (&m, mp), expected_of(&expected, CORRECTIVES_FILE), (geometry, cells), fallback)?;
+        read_correctives(dir, (&m, mp), expected_of(&expected, CORRECTIVES_FILE), (geometry, cells), fallback)?
+            .with_cell_probes(cell_probes(&m, cells));
     let irradiance = read_irradiance(
         dir,
         (&m, mp),

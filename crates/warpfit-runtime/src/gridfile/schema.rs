@@ -24,7 +24,9 @@ pub const GRID_FORMAT: &str = "warpfit-grid";
 /// 7: the faces blend (`warp.blend` = `Faces`: near a cell face the near cells' lookups
 /// blend). A grid is written at the oldest version that reads it, and at least 6: version 7
 /// only with the faces blend, so a reader of version 6 keeps reading every other grid.
-pub const GRID_VERSION: u32 = 7;
+/// 8: a cell without a map may read a probe other than probe A (`cell_probes`); written
+/// only when some cell does.
+pub const GRID_VERSION: u32 = 8;
 /// The version every grid is written at unless it needs a newer one ([`GRID_VERSION`]).
 pub const GRID_VERSION_WRITTEN: u32 = 6;
 /// The oldest version this build reads.
@@ -90,6 +92,11 @@ pub struct GridManifest {
     /// A's layout, resolution and mip chain); absent: probe A alone.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub other_probes: Vec<ProbeSection>,
+    /// The cells without a shift map that read a probe other than probe A through the proxy
+    /// (version 8): (cell index, probe index ≥ 1), cells increasing; every other cell
+    /// without a map reads probe A.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub cell_probes: Vec<(u32, u8)>,
     pub warp: WarpSection,
     /// Absent when no cell stores a shift map.
     pub correctives: Option<CorrectiveSection>,

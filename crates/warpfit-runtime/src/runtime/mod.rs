@@ -782,6 +782,8 @@ impl FittedGrid {
         probe
             + (c.maps.len() + c.rough_maps.len()) * 4
             + c.slot.len() * 4
+            + c.probe_maps.len()
+            + c.cell_probes.len()
             + g.irradiance.len() * 12
             + (g.depth_mean.len() + g.depth_mean_sq.len()) * 4
             + g.slot.len() * 4

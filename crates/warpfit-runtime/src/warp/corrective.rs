@@ -6,7 +6,8 @@
 //! at distance `t_proxy(B, dir)` (`Warp::base_distance`), and A is fetched towards that
 //! point.
 //!
-//! - Level 0: nothing stored; the proxy as it is.
+//! - Level 0: nothing stored; the proxy as it is. With several probes the cell reads the
+//!   probe its fit chose for it (`cell_probes`; probe A unless stored).
 //! - Level 2: a per-cell octahedral *shift map*. Per texel it holds Δ, how far along the
 //!   lookup direction the proxy's surface must move to pass through what the cell's probe
 //!   sees: `Δ = d − t_proxy(origin, dir)` (scene units; negative: nearer than the proxy).
@@ -126,8 +127,11 @@ pub struct Correctives {
     pub rough_maps: Vec<f32>,
     /// Empty (every lookup reads probe A), or per stored cell and texel (as `maps`) the
     /// probe a lookup reads (`Warp::probe_at`): the texel nearest the lookup direction's
-    /// decides ([`nearest_tap`]); cells without a map read probe A.
+    /// decides ([`nearest_tap`]); cells without a map read `cell_probes`.
     pub probe_maps: Vec<u8>,
+    /// Empty (cells without a map read probe A), or per grid cell the probe a cell without
+    /// a map reads through the proxy (ignored where the cell stores a map).
+    pub cell_probes: Vec<u8>,
     /// The proxy every lookup reads through (`Method::Box`, `Method::Kdop` or
     /// `Method::Warp1`): as it is in cells without a map.
     pub fallback: Method,
@@ -147,6 +151,7 @@ impl Correctives {
             maps,
             rough_maps: Vec::new(),
             probe_maps: Vec::new(),
+            cell_probes: Vec::new(),
             fallback,
             cell_size: geometry.cell_size(),
         }
@@ -157,6 +162,21 @@ impl Correctives {
     pub fn with_probe_maps(mut self, probe_maps: Vec<u8>) -> Self {
         self.probe_maps = probe_maps;
         self
+    }
+
+    /// The same correctives with the probe each cell without a map reads (`cell_probes`,
+    /// one per grid cell; empty: probe A).
+    #[must_use]
+    pub fn with_cell_probes(mut self, cell_probes: Vec<u8>) -> Self {
+        self.cell_probes = cell_probes;
+        self
+    }
+
+    /// The probe a lookup in cell `cell` reads where the cell stores no map.
+    #[inline]
+    #[must_use]
+    pub fn cell_probe(&self, cell: usize) -> u8 {
+        self.cell_probes.get(cell).copied().unwrap_or(0)
     }
 
     /// The probe a lookup in stored slot `slot` with bilinear `taps` reads.
@@ -281,7 +301,8 @@ impl Correctives {
     /// Where a [`Blend::Faces`] lookup of (B, dir, r) reads ([`FaceAims`]): inside a cell
     /// [`fetch`](Self::fetch) with `Blend::Cell` bit for bit; near a face, each near cell's
     /// own lookup, as `fetch_in` that cell with `Blend::Cell` (its probe and shift; cells
-    /// without a map read probe A with Δ = 0, or the relaxed proxy when the grid relaxes),
+    /// without a map read their own probe with Δ = 0, or, reading probe A, the relaxed proxy
+    /// when the grid relaxes),
     /// the proxy's distance found once, and cells with the same probe and shift merged.
     #[must_use]
     pub fn face_aims(&self, warp: &Warp, b: Vec3, dir: Vec3, r: f32) -> FaceAims {
@@ -329,10 +350,12 @@ impl Correctives {
         let mut groups = [(0u8, 0.0f32, 0.0f32); 8];
         let mut n = 0;
         for k in 0..cells.n {
-            let (key, delta) = match self.slot_of(cells.cells[k]) {
+            let cell = cells.cells[k];
+            let (key, delta) = match self.slot_of(cell) {
                 Some(slot) => (self.probe_of(slot, &taps), self.map_delta(slot, &taps, r)),
-                None if relax => (RELAXED, 0.0),
-                None => (0, 0.0),
+                // (the relaxed proxy is probe A's: a cell reading another probe reads it unrelaxed)
+                None if relax && self.cell_probe(cell) == 0 => (RELAXED, 0.0),
+                None => (self.cell_probe(cell), 0.0),
             };
             let at = match groups[..n].iter().position(|g| g.0 == key && g.2.to_bits() == delta.to_bits()) {
                 Some(at) => at,
@@ -400,7 +423,7 @@ impl Correctives {
             let taps = octa::bilinear_taps(self.map_res, octa::encode(dir));
             (slot, taps, self.probe_of(slot, &taps))
         });
-        let probe = own.map_or(0, |o| o.2);
+        let probe = own.map_or_else(|| self.cell_probe(cell), |o| o.2);
         let a = warp.probe_at(probe.into()).position;
         if b == a {
             return Aim { v: dir, k: Some(1.0), probe };
@@ -411,7 +434,7 @@ impl Correctives {
         };
         let aim = match delta {
             Some(delta) => shifted_aim(a, warp.base_distance(self.fallback, b, dir), delta, b, dir),
-            None if warp.options.relax_texels > 0.0 => warp.fetch_vector(self.fallback, b, dir).into(),
+            None if warp.options.relax_texels > 0.0 && probe == 0 => warp.fetch_vector(self.fallback, b, dir).into(),
             None => shifted_aim(a, warp.base_distance(self.fallback, b, dir), 0.0, b, dir),
         };
         Aim { probe, ..aim }
@@ -508,7 +531,9 @@ impl Correctives {
         let mut probe = [0u8; LANES];
         for k in 0..LANES {
             let slot = self.slot[cells[k]];
-            if slot != NO_MAP {
+            if slot == NO_MAP {
+                probe[k] = self.cell_probe(cells[k]);
+            } else {
                 let taps = octa::footprint_taps(self.map_res, foot.0[k], foot.1[k], foot.2[k], foot.3[k]);
                 probe[k] = self.probe_of(slot, &taps);
                 let at = slot as usize * n2;
