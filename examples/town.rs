@@ -2,8 +2,8 @@
 //! tall at most, on an 8 × 8 street grid (40 m blocks, 10 m streets), its four middle
 //! blocks a plaza with a covered market (a roof on 15 columns over market stalls), four
 //! enterable buildings facing the plaza (walls 0.3 m thick, a door, a window, a partition
-//! with a doorway, a lamp in each room), and 216 closed buildings of 4–20 m on the other
-//! blocks' lots, under sun and sky.
+//! with a doorway, a lamp in each room), and on the other blocks' lots 204 closed buildings
+//! of 4–20 m and 32 hedged parks, under sun and sky.
 //!
 //!     cargo run --release --example town > data/scenes/town.toml
 //!

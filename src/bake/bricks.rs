@@ -178,7 +178,9 @@ impl Ctx<'_> {
             // the rule needs no distances: a brick by a surface splits without tracing
             Rule::NearGeometry if surfaces && level > 0 => true,
             rule => {
-                let mut seen = self.sample_points(lo, side, rule);
+                // (a finest brick cannot split: its points need only the inside test)
+                let traced = if level == 0 { Rule::NearGeometry } else { rule };
+                let mut seen = self.sample_points(lo, side, traced);
                 if seen.is_empty() {
                     c.solid[level as usize] += 1;
                     return;
